@@ -1,0 +1,45 @@
+# The two commands of the README live here: `make demo` and `make test`.
+# Both create (or refresh) .venv themselves from pyproject.toml.
+
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+UHRISIM := $(VENV)/bin/uhrisim
+OUT ?= out
+# Extras the test suite needs: every optional part is tested for real.
+TEST_EXTRAS := dev,ros2,viewer
+
+.PHONY: demo test bench lint clean venv-core venv-test
+
+$(VENV)/.python-ok:
+	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "uhrisim needs Python 3.11 or newer, found " + sys.version.split()[0])'
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	@touch $@
+
+$(VENV)/.core-installed: $(VENV)/.python-ok pyproject.toml
+	$(PY) -m pip install -q -e .
+	@touch $@
+
+$(VENV)/.test-installed: $(VENV)/.python-ok pyproject.toml
+	$(PY) -m pip install -q -e '.[$(TEST_EXTRAS)]'
+	@touch $@ $(VENV)/.core-installed
+
+venv-core: $(VENV)/.core-installed
+venv-test: $(VENV)/.test-installed
+
+demo: venv-core
+	$(UHRISIM) demo --out $(OUT)/demo
+
+test: venv-test
+	$(PY) -m ruff check src tests benchmarks
+	$(PY) -m pytest -n 2 -q
+
+bench: venv-core
+	$(UHRISIM) bench all
+
+lint: venv-test
+	$(PY) -m ruff check src tests benchmarks
+
+clean:
+	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache

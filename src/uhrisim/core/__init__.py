@@ -1,0 +1,1 @@
+"""Frames, errors, seeded randomness: the pieces every other subpackage uses."""
