@@ -20,4 +20,5 @@ def component_rng(root_seed: int, name: str) -> np.random.Generator:
     """Generator for the component called ``name`` (e.g. "videoray/sonar") under ``root_seed``."""
     if root_seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {root_seed}")
-    return np.random.Generator(np.random.PCG64(np.random.SeedSequence([root_seed, *_name_key(name)])))
+    sequence = np.random.SeedSequence([root_seed, *_name_key(name)])
+    return np.random.Generator(np.random.PCG64(sequence))

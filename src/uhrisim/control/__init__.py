@@ -1,0 +1,1 @@
+"""Controllers: turn DESIRED_HEADING/SPEED/DEPTH into actuator inputs of each model."""

@@ -1,0 +1,86 @@
+"""The paper's proportional depth/heading/speed controller with weighted mixing (eqs 5-9).
+
+    e_h = wrap_180(desired_heading - heading)        (degrees, the short way round)
+    e_s = desired_speed - u                          (m/s, surge)
+    u_port = w_h ( K_h e_h) + w_s (K_s e_s + ff)
+    u_star = w_h (-K_h e_h) + w_s (K_s e_s + ff)
+    u_vert = -K_d (desired_depth - depth)            (a depth deficit dives)
+
+all saturated at +-150. A positive heading error (target clockwise of the bow) needs
+more port thrust (docs/conventions.md). ``ff`` is an optional speed feed-forward: the
+thruster input whose thrust balances the drag at the desired speed. The paper's
+controller has none (``speed_feedforward=False``); without it a P speed loop settles
+well below the target against the VideoRay's drag.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from uhrisim.core.frames import heading_deg_from_yaw, wrap_180
+from uhrisim.dynamics.videoray import VideoRayParams
+
+
+@dataclass(frozen=True)
+class PGains:
+    """Proportional gains: K_h per degree, K_s per m/s, K_d per metre; mixing weights."""
+
+    heading: float = 1.0
+    speed: float = 10.0
+    depth: float = 50.0
+    heading_weight: float = 0.5
+    speed_weight: float = 0.5
+    speed_feedforward: bool = False
+
+    def __post_init__(self) -> None:
+        for name in ("heading", "speed", "depth", "heading_weight", "speed_weight"):
+            if getattr(self, name) < 0.0:
+                raise ValueError(f"PGains.{name} must be >= 0")
+
+
+# Gains found in the authors' code (reference note): the ROS control node (K_h 1, the value
+# it actually ran with; an earlier revision had 0.01), and the Octave simulation.
+GAIN_PRESETS: dict[str, PGains] = {
+    "ros-node": PGains(heading=1.0, speed=10.0, depth=50.0),
+    "ros-node-early": PGains(heading=0.01, speed=10.0, depth=50.0),
+    "octave": PGains(heading=100.0, speed=100.0, depth=100.0),
+    # Not from the paper: ros-node gains plus drag feed-forward, used by the mission so the
+    # ROV can keep up with a swimming diver.
+    "mission": PGains(heading=2.0, speed=40.0, depth=50.0, speed_feedforward=True),
+}
+
+
+def feedforward_input(speed: float, params: VideoRayParams) -> float:
+    """Per-thruster input whose two-thruster thrust balances surge drag at ``speed``."""
+    drag = -(params.Xu * speed + params.Xuu * abs(speed) * speed)
+    per_thruster = 0.5 * drag
+    if params.thrust_map == "linear":
+        return per_thruster / params.ct_linear
+    ct = params.ct_forward_quadratic if per_thruster >= 0 else params.ct_reverse_quadratic
+    return float(np.copysign(np.sqrt(abs(per_thruster) / ct), per_thruster))
+
+
+@dataclass(frozen=True)
+class VideoRayPController:
+    """Stateless controller: ``inputs(x, desired) -> [port, star, vert]``."""
+
+    gains: PGains
+    params: VideoRayParams
+
+    def inputs(self, x: NDArray, desired_heading_deg: float, desired_speed: float,
+               desired_depth: float) -> NDArray:
+        g = self.gains
+        heading_error = float(wrap_180(desired_heading_deg - heading_deg_from_yaw(x[3])))
+        speed_term = g.speed * (desired_speed - x[4])
+        if g.speed_feedforward:
+            speed_term += feedforward_input(desired_speed, self.params)
+        heading_term = g.heading * heading_error
+        port = g.heading_weight * heading_term + g.speed_weight * speed_term
+        star = -g.heading_weight * heading_term + g.speed_weight * speed_term
+        vert = -g.depth * (desired_depth - x[2])
+        limit = self.params.input_limit
+        return np.clip(np.array([port, star, vert]), -limit, limit)
+

@@ -1,0 +1,110 @@
+"""Uniform wrappers ("plants") around the vehicle models so the simulation can step any
+of them: ``step(t, x, u) -> x`` over one physics step and ``nav(x) -> NavState``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from uhrisim.dynamics import diver, kinematic, videoray
+from uhrisim.dynamics.integrators import FixedStepIntegrator
+
+
+@dataclass(frozen=True)
+class NavState:
+    """Navigation truth of one body: NED position (m), yaw (rad), FRD velocity (m/s), r (rad/s)."""
+
+    position_ned: NDArray
+    yaw: float
+    velocity_body: NDArray
+    yaw_rate: float
+
+    @property
+    def speed(self) -> float:
+        """Horizontal speed through the water (m/s), what MOOS calls NAV_SPEED."""
+        return float(np.hypot(self.velocity_body[0], self.velocity_body[1]))
+
+
+@dataclass(frozen=True)
+class VideoRayPlant:
+    """The hydrodynamic VideoRay model integrated by sub-stepped RK4."""
+
+    params: videoray.VideoRayParams
+    dt: float
+    name: str = "videoray"
+    substeps: int | None = None
+    integrator: FixedStepIntegrator = field(init=False)
+    kind = "videoray"
+    state_size = videoray.STATE_SIZE
+    input_size = videoray.INPUT_SIZE
+
+    def __post_init__(self) -> None:
+        integrator = FixedStepIntegrator.for_model(
+            videoray.xdot, self.dt, videoray.stiffest_eigenvalue(self.params),
+            substeps=self.substeps, name=self.name)
+        object.__setattr__(self, "integrator", integrator)
+
+    def initial_state(self, position_ned: NDArray, yaw: float, speed: float = 0.0) -> NDArray:
+        return np.array([*position_ned, yaw, speed, 0.0, 0.0, 0.0])
+
+    def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
+        return self.integrator.step(t, x, u, self.params)
+
+    def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:
+        del u  # velocities are part of the state
+        return NavState(x[0:3].copy(), float(x[3]), x[4:7].copy(), float(x[7]))
+
+
+@dataclass(frozen=True)
+class DiverPlant:
+    """The paper's differential-drive diver integrated by RK4 (not stiff)."""
+
+    params: diver.DiverParams
+    dt: float
+    name: str = "diver"
+    integrator: FixedStepIntegrator = field(init=False)
+    kind = "diver"
+    state_size = diver.STATE_SIZE
+    input_size = 3
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "integrator",
+                           FixedStepIntegrator.for_model(diver.xdot, self.dt, None, name=self.name))
+
+    def initial_state(self, position_ned: NDArray, yaw: float, speed: float = 0.0) -> NDArray:
+        del speed  # a kinematic diver has no velocity state
+        return np.array([*position_ned, yaw])
+
+    def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
+        return self.integrator.step(t, x, u, self.params)
+
+    def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:
+        rates = diver.body_rates(u, self.params) if u is not None else np.zeros(3)
+        return NavState(x[0:3].copy(), float(x[3]), np.array([rates[0], 0.0, rates[2]]),
+                        float(rates[1]))
+
+
+@dataclass(frozen=True)
+class KinematicPlant:
+    """uSimMarine-like kinematic vehicle (discrete update)."""
+
+    params: kinematic.KinematicParams
+    dt: float
+    name: str = "vehicle"
+    kind = "kinematic"
+    state_size = kinematic.STATE_SIZE
+    input_size = 3
+
+    def initial_state(self, position_ned: NDArray, yaw: float, speed: float = 0.0) -> NDArray:
+        return np.array([*position_ned, yaw, speed])
+
+    def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
+        del t
+        return kinematic.kinematic_step(x, u, self.params, self.dt)
+
+    def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:
+        del u
+        return NavState(x[0:3].copy(), float(x[3]), np.array([x[4], 0.0, 0.0]), 0.0)

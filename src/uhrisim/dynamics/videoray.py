@@ -1,0 +1,173 @@
+"""VideoRay Pro 4 ROV: the paper's 4-DOF hydrodynamic model (eqs 1-4) and thruster map.
+
+State layout (docs/conventions.md): ``x = [x_north, y_east, z_down, psi, u, v, w, r]``
+(NED metres, yaw rad = compass heading, FRD body velocities m/s, yaw rate rad/s).
+Inputs: ``[port, starboard, vertical]`` dimensionless thruster commands, saturated at
++-150. All functions accept a batch: ``x`` of shape ``(..., 8)`` and ``u`` of ``(..., 3)``.
+
+Coefficients: W. Wang, MASc thesis, Univ. of Waterloo 2006, p. 19 (VideoRay Pro III),
+used by DeMarco et al. for their Pro 4; see shared/reference/vehicles-and-control.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+STATE_NAMES = ("x", "y", "z", "psi", "u", "v", "w", "r")
+INPUT_NAMES = ("port", "starboard", "vertical")
+STATE_SIZE = 8
+INPUT_SIZE = 3
+
+
+@dataclass(frozen=True)
+class VideoRayParams:
+    """Rigid-body + added-mass inertia, damping and thruster constants (SI units).
+
+    Source: Wang 2006 table (reference note); ``J`` defaults to 0.0118 kg m^2 (the
+    authors' ROS node used 0.1; an older script 0.5). ``moment_arm`` = 1 m reproduces
+    the authors' code, which had no arm.
+    """
+
+    m11: float = 1.94  # kg, surge inertia
+    m22: float = 6.05  # kg, sway inertia
+    m33: float = 3.95  # kg, heave inertia
+    J: float = 0.0118  # kg m^2, yaw inertia
+    Xu: float = -0.95  # N s/m
+    Yv: float = -5.87  # N s/m
+    Zw: float = -3.70  # N s/m
+    Nr: float = -0.023  # N m s
+    Xuu: float = -6.04  # N s^2/m^2
+    Yvv: float = -30.73  # N s^2/m^2
+    Zww: float = -26.36  # N s^2/m^2
+    Nrr: float = -0.45  # N m s^2
+    thrust_map: Literal["linear", "quadratic"] = "linear"
+    ct_linear: float = 4.0 / 150.0  # N per input unit, horizontal (authors' code: 4 N at 150)
+    ct_vertical_linear: float = 4.0 / 150.0  # N per input unit, vertical
+    ct_forward_quadratic: float = 2.59e-4  # N per unit^2, T = Ct u|u| (Wang thesis)
+    ct_reverse_quadratic: float = 1.01e-4
+    ct_vertical_up_quadratic: float = 1.19e-4
+    ct_vertical_down_quadratic: float = 7.53e-5
+    moment_arm: float = 1.0  # m, lever of the horizontal thrusters about the yaw axis
+    input_limit: float = 150.0
+    coupling: Literal["paper", "rigid-body"] = "paper"
+
+    def __post_init__(self) -> None:
+        for name in ("m11", "m22", "m33", "J", "ct_linear", "ct_vertical_linear", "input_limit"):
+            if not getattr(self, name) > 0.0:
+                value = getattr(self, name)
+                raise ValueError(f"VideoRayParams.{name} must be positive, got {value}")
+        for name in ("Xu", "Yv", "Zw", "Nr", "Xuu", "Yvv", "Zww", "Nrr"):
+            if getattr(self, name) > 0.0:
+                raise ValueError(f"VideoRayParams.{name} is a damping term and must be <= 0")
+        if self.thrust_map not in ("linear", "quadratic"):
+            raise ValueError(f"thrust_map must be 'linear' or 'quadratic', got {self.thrust_map!r}")
+        if self.coupling not in ("paper", "rigid-body"):
+            raise ValueError(f"coupling must be 'paper' or 'rigid-body', got {self.coupling!r}")
+
+
+def thruster_forces(u: ArrayLike, params: VideoRayParams) -> NDArray[np.float64]:
+    """Thrust of each thruster (N) for commands ``u = [port, star, vert]`` (saturated).
+
+    Positive port/starboard thrust pushes forward; positive vertical thrust pushes UP
+    (a negative vertical command dives, paper Fig. 7).
+    """
+    cmd = np.clip(np.asarray(u, dtype=float), -params.input_limit, params.input_limit)
+    if params.thrust_map == "linear":
+        return cmd * np.array([params.ct_linear, params.ct_linear, params.ct_vertical_linear])
+    square = cmd * np.abs(cmd)
+    horizontal_ct = np.where(cmd[..., :2] >= 0.0, params.ct_forward_quadratic,
+                             params.ct_reverse_quadratic)
+    vertical_ct = np.where(cmd[..., 2:] >= 0.0, params.ct_vertical_up_quadratic,
+                           params.ct_vertical_down_quadratic)
+    return square * np.concatenate([horizontal_ct, vertical_ct], axis=-1)
+
+
+def generalized_forces(u: ArrayLike, params: VideoRayParams) -> NDArray[np.float64]:
+    """Body forces ``[X, Z, N]``: surge (N, forward), heave (N, down), yaw moment (N m).
+
+    ``N = arm * (T_port - T_star)``: more starboard thrust turns counter-clockwise seen
+    from above (paper Fig. 5); ``Z = -T_vert`` because FRD z points down.
+    """
+    thrust = thruster_forces(u, params)
+    surge = thrust[..., 0] + thrust[..., 1]
+    heave = -thrust[..., 2]
+    yaw = params.moment_arm * (thrust[..., 0] - thrust[..., 1])
+    return np.stack([surge, heave, yaw], axis=-1)
+
+
+def xdot(t: float, x: ArrayLike, u: ArrayLike, params: VideoRayParams) -> NDArray[np.float64]:
+    """Time derivative of the state (paper eqs 1-4 + NED kinematics). Pure; batch-aware.
+
+    ``coupling="paper"`` uses the Coriolis signs exactly as printed in the paper and the
+    authors' Octave model (``m11 du/dt = -m22 v r ...``, ``m22 dv/dt = m11 u r ...``, no
+    Munk moment in yaw). ``coupling="rigid-body"`` uses the standard 3-DOF form
+    (Fossen 2011: ``+m22 v r``, ``-m11 u r`` and ``(m11 - m22) u v`` in yaw), whose
+    coupling terms do no work.
+    """
+    del t  # time-invariant model
+    x = np.asarray(x, dtype=float)
+    psi, uu, v, w, r = x[..., 3], x[..., 4], x[..., 5], x[..., 6], x[..., 7]
+    forces = generalized_forces(u, params)
+    surge_force, heave_force, yaw_moment = forces[..., 0], forces[..., 1], forces[..., 2]
+    p = params
+    sign = -1.0 if p.coupling == "paper" else 1.0
+    munk = 0.0 if p.coupling == "paper" else (p.m11 - p.m22) * uu * v
+    du = (sign * p.m22 * v * r + p.Xu * uu + p.Xuu * np.abs(uu) * uu + surge_force) / p.m11
+    dv = (-sign * p.m11 * uu * r + p.Yv * v + p.Yvv * np.abs(v) * v) / p.m22
+    dw = (p.Zw * w + p.Zww * np.abs(w) * w + heave_force) / p.m33
+    dr = (munk + p.Nr * r + p.Nrr * np.abs(r) * r + yaw_moment) / p.J
+    cos_psi, sin_psi = np.cos(psi), np.sin(psi)
+    dx_north = uu * cos_psi - v * sin_psi
+    dy_east = uu * sin_psi + v * cos_psi
+    return np.stack([dx_north, dy_east, w, r, du, dv, dw, dr], axis=-1)
+
+
+def kinetic_energy(x: ArrayLike, params: VideoRayParams) -> NDArray[np.float64] | float:
+    """Kinetic energy (J) with the model's total (rigid-body + added) inertia."""
+    x = np.asarray(x, dtype=float)
+    p = params
+    energy = 0.5 * (p.m11 * x[..., 4] ** 2 + p.m22 * x[..., 5] ** 2 + p.m33 * x[..., 6] ** 2
+                    + p.J * x[..., 7] ** 2)
+    return float(energy) if np.ndim(energy) == 0 else energy
+
+
+def steady_speed(force: float, linear: float, quadratic: float) -> float:
+    """Speed at which ``force + linear*s + quadratic*|s|*s = 0`` (thrust-drag balance)."""
+    if force == 0.0:
+        return 0.0
+    a, b, c = -quadratic, -linear, abs(force)  # a s^2 + b s - c = 0 for s > 0
+    speed = (-b + np.sqrt(b * b + 4.0 * a * c)) / (2.0 * a) if a > 0.0 else c / b
+    return float(np.copysign(speed, force))
+
+
+def max_yaw_rate(params: VideoRayParams) -> float:
+    """Largest steady yaw rate (rad/s): full differential thrust against yaw damping."""
+    full = np.array([params.input_limit, -params.input_limit, 0.0])
+    moment = float(generalized_forces(full, params)[2])
+    return abs(steady_speed(moment, params.Nr, params.Nrr))
+
+
+def stiffest_eigenvalue(params: VideoRayParams) -> float:
+    """Magnitude (1/s) of the fastest decay rate of the velocity equations.
+
+    The Jacobian of the damping ``(lin + quad |s| s)/m`` is ``-(lin_abs + 2 quad_abs |s|)/m``;
+    it is largest in yaw at the highest reachable yaw rate (about 320 1/s with J=0.0118).
+    """
+    p = params
+    full_forward = np.array([p.input_limit, p.input_limit, p.input_limit])
+    forces = generalized_forces(full_forward, p)
+    u_max = abs(steady_speed(float(forces[0]), p.Xu, p.Xuu))
+    w_max = abs(steady_speed(float(forces[1]), p.Zw, p.Zww))
+    r_max = max_yaw_rate(p)
+    v_max = u_max  # sway is never driven harder than surge
+    rates = [
+        (abs(p.Xu) + 2.0 * abs(p.Xuu) * u_max) / p.m11,
+        (abs(p.Yv) + 2.0 * abs(p.Yvv) * v_max) / p.m22,
+        (abs(p.Zw) + 2.0 * abs(p.Zww) * w_max) / p.m33,
+        (abs(p.Nr) + 2.0 * abs(p.Nrr) * r_max) / p.J,
+    ]
+    return float(max(rates))
