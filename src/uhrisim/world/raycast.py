@@ -1,0 +1,445 @@
+"""Ray casting against a :class:`~uhrisim.world.scene.Scene`: Embree and a numpy reference.
+
+Both back ends answer the same question — for each ray (origin, unit direction, NED
+metres) the first surface within ``max_range`` — and return a :class:`RayHits`.
+
+* ``"embree"`` (:class:`EmbreeRayCaster`): Intel Embree through ``embreex``. Static
+  geometry lives in one Embree scene (built once, in float32 about the centre of the
+  static bounds). Every rigid part of every dynamic body has its own small Embree scene
+  built once in the part's rest frame; a cast transforms the rays into each part's frame
+  (so poses and kick phases set through ``Scene.set_pose`` are seen without any BVH
+  rebuild), culls them against the part's bounding sphere and keeps the nearest hit.
+  Embree works in float32; the hit distance is then recomputed in float64 against the
+  hit triangle's plane, so results agree with the reference to ~1e-9 m.
+* ``"reference"`` (:class:`ReferenceRayCaster`): Möller–Trumbore in numpy against every
+  triangle of the posed world (float64), chunked to bound memory. Slow and obviously
+  correct; the tests hold the Embree caster to it.
+
+Conventions: a hit at distance exactly ``max_range`` counts; a ray starting on a surface
+hits it at distance 0; triangles are two-sided (no back-face culling).
+"""
+
+from __future__ import annotations
+
+import logging
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from uhrisim.core.errors import ConfigError
+
+if TYPE_CHECKING:
+    from uhrisim.world.scene import Scene
+
+log = logging.getLogger(__name__)
+
+_UNIT_TOL = 1e-5  # allowed | |d| - 1 |
+_EMBREE_FAR = 1e30  # stands in for an infinite max_range in float32
+
+
+@dataclass(frozen=True)
+class RayHits:
+    """First-hit results for N rays (all arrays have N rows).
+
+    Attributes:
+        distance: (N,) float64 metres along the ray; ``np.inf`` on a miss or beyond range.
+        label: (N,) int32 index into ``Scene.labels``; -1 on a miss.
+        normal: (N, 3) float64 unit surface normal in world NED, turned to face the ray
+            origin (``normal · direction <= 0``); zeros on a miss.
+        reflectivity: (N,) float64 Lambert μ of the surface hit; 0 on a miss.
+        body: (N,) int32 index into ``Scene.body_names`` of the dynamic body hit; -1 for
+            static geometry or a miss.
+    """
+
+    distance: NDArray[np.float64]
+    label: NDArray[np.int32]
+    normal: NDArray[np.float64]
+    reflectivity: NDArray[np.float64]
+    body: NDArray[np.int32]
+
+    @property
+    def hit(self) -> NDArray[np.bool_]:
+        """(N,) True where the ray hit something within range."""
+        return np.isfinite(self.distance)
+
+    def points(self, origins: ArrayLike, directions: ArrayLike) -> NDArray[np.float64]:
+        """(N, 3) hit points in NED (NaN on a miss)."""
+        o = np.asarray(origins, dtype=float)
+        d = np.asarray(directions, dtype=float)
+        t = np.where(self.hit, self.distance, np.nan)
+        return o + d * t[:, None]
+
+    @staticmethod
+    def empty(n: int) -> RayHits:
+        """All-miss result for ``n`` rays."""
+        return RayHits(
+            distance=np.full(n, np.inf),
+            label=np.full(n, -1, dtype=np.int32),
+            normal=np.zeros((n, 3)),
+            reflectivity=np.zeros(n),
+            body=np.full(n, -1, dtype=np.int32),
+        )
+
+
+def validate_rays(
+    origins: ArrayLike, directions: ArrayLike, max_range: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """Check and convert ray inputs; raises ConfigError naming the bad field."""
+    o = np.asarray(origins, dtype=np.float64)
+    d = np.asarray(directions, dtype=np.float64)
+    if o.ndim != 2 or o.shape[1] != 3:
+        raise ConfigError(f"must have shape (N, 3), got {o.shape}", where="RayCaster.cast.origins")
+    if d.shape != o.shape:
+        raise ConfigError(
+            f"shape {d.shape} does not match origins {o.shape}", where="RayCaster.cast.directions"
+        )
+    try:
+        r = float(max_range)
+    except (TypeError, ValueError):
+        raise ConfigError(
+            f"must be a positive number of metres, got {max_range!r}",
+            where="RayCaster.cast.max_range",
+        ) from None
+    if not r > 0.0:  # also rejects NaN
+        raise ConfigError(
+            f"must be a positive number of metres, got {max_range!r}",
+            where="RayCaster.cast.max_range",
+        )
+    if not np.all(np.isfinite(o)):
+        raise ConfigError("contains NaN or inf", where="RayCaster.cast.origins")
+    if not np.all(np.isfinite(d)):
+        raise ConfigError("contains NaN or inf", where="RayCaster.cast.directions")
+    if len(d):
+        norms = np.sqrt(np.einsum("ij,ij->i", d, d))
+        bad = np.abs(norms - 1.0) > _UNIT_TOL
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise ConfigError(
+                f"must be unit vectors; row {i} has length {norms[i]:.6g}",
+                where="RayCaster.cast.directions",
+            )
+    return o, d, r
+
+
+def _unit_normals(tri: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(F, 3) unit normals of (F, 3, 3) triangles (right-hand rule v0→v1→v2)."""
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return n / np.where(length > 0.0, length, 1.0)
+
+
+def _face_to_ray(normal: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Flip rows of ``normal`` that point along ``d`` so they face the ray origin."""
+    s = np.einsum("ij,ij->i", normal, d)
+    return normal * np.where(s > 0.0, -1.0, 1.0)[:, None]
+
+
+class RayCaster(ABC):
+    """Casts rays into a scene; created once, reused every tick (sees later set_pose calls)."""
+
+    backend: str = ""
+
+    def __init__(self, scene: Scene) -> None:
+        self._scene = scene
+
+    @property
+    def scene(self) -> Scene:
+        return self._scene
+
+    def cast(
+        self,
+        origins: ArrayLike,
+        directions: ArrayLike,
+        max_range: float,
+        exclude: frozenset[str] = frozenset(),
+    ) -> RayHits:
+        """First hit of each ray within ``max_range`` metres.
+
+        Args:
+            origins: (N, 3) ray origins, world NED metres.
+            directions: (N, 3) unit directions, world NED (|d| within 1e-5 of 1).
+            max_range: positive range limit in metres (``np.inf`` allowed).
+            exclude: names of dynamic bodies to ignore (e.g. the sensor's own vehicle).
+                Names that are not bodies of the scene are ignored.
+
+        Raises:
+            ConfigError: bad shapes, NaN/inf, non-unit directions, max_range <= 0.
+        """
+        o, d, r = validate_rays(origins, directions, max_range)
+        if len(o) == 0:
+            return RayHits.empty(0)
+        unknown = set(exclude) - set(self._scene.body_names)
+        if unknown:
+            log.debug("exclude names not in the scene (ignored): %s", sorted(unknown))
+        return self._cast(o, d, r, frozenset(exclude))
+
+    @abstractmethod
+    def _cast(
+        self,
+        o: NDArray[np.float64],
+        d: NDArray[np.float64],
+        max_range: float,
+        exclude: frozenset[str],
+    ) -> RayHits: ...
+
+
+# --------------------------------------------------------------------------- reference
+
+
+class ReferenceRayCaster(RayCaster):
+    """Möller–Trumbore against every triangle, float64, chunked (slow, obviously correct)."""
+
+    backend = "reference"
+
+    def __init__(self, scene: Scene, max_pairs: int = 1 << 20) -> None:
+        super().__init__(scene)
+        self._max_pairs = int(max_pairs)
+
+    def world_triangles(
+        self, exclude: frozenset[str] = frozenset()
+    ) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.float64], NDArray[np.int32]]:
+        """All posed triangles (F, 3, 3) in NED with per-face label, reflectivity, body."""
+        tris, labels, refl, body = [], [], [], []
+        for obj in self._scene.static_objects:
+            t = obj.mesh.vertices.view(np.ndarray)[obj.mesh.faces]
+            tris.append(t)
+            labels.append(np.full(len(t), obj.label_id, dtype=np.int32))
+            refl.append(np.full(len(t), obj.material.reflectivity))
+            body.append(np.full(len(t), -1, dtype=np.int32))
+        for bi, b in enumerate(self._scene.bodies):
+            if b.name in exclude:
+                continue
+            t = b.geometry.triangles_at(b.kick_phase, b.pose_matrix())
+            tris.append(t)
+            labels.append(np.full(len(t), b.label_id, dtype=np.int32))
+            refl.append(b.face_reflectivity)
+            body.append(np.full(len(t), bi, dtype=np.int32))
+        if not tris:
+            z = np.zeros((0, 3, 3))
+            return z, np.zeros(0, np.int32), np.zeros(0), np.zeros(0, np.int32)
+        return (
+            np.concatenate(tris),
+            np.concatenate(labels),
+            np.concatenate(refl),
+            np.concatenate(body),
+        )
+
+    def _cast(self, o, d, max_range, exclude):  # type: ignore[no-untyped-def]
+        n = len(o)
+        tri, lab, refl, body = self.world_triangles(exclude)
+        out = RayHits.empty(n)
+        if len(tri) == 0:
+            return out
+        v0 = tri[:, 0]
+        e1 = tri[:, 1] - v0
+        e2 = tri[:, 2] - v0
+        best_t = np.full(n, np.inf)
+        best_f = np.full(n, -1, dtype=np.int64)
+        chunk = max(1, self._max_pairs // len(tri))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for a in range(0, n, chunk):
+                oc, dc = o[a : a + chunk], d[a : a + chunk]
+                # Möller & Trumbore (1997), "Fast, minimum storage ray/triangle intersection".
+                p = np.cross(dc[:, None, :], e2[None, :, :])  # (R, F, 3)
+                det = np.einsum("fk,rfk->rf", e1, p)
+                inv = 1.0 / det
+                s = oc[:, None, :] - v0[None, :, :]
+                u = np.einsum("rfk,rfk->rf", s, p) * inv
+                q = np.cross(s, e1[None, :, :])
+                v = np.einsum("rk,rfk->rf", dc, q) * inv
+                t = np.einsum("fk,rfk->rf", e2, q) * inv
+                ok = (
+                    (det != 0.0)
+                    & (u >= 0.0)
+                    & (v >= 0.0)
+                    & (u + v <= 1.0)
+                    & (t >= 0.0)
+                    & (t <= max_range)
+                )
+                t = np.where(ok, t, np.inf)
+                f = np.argmin(t, axis=1)
+                tmin = t[np.arange(len(oc)), f]
+                best_t[a : a + chunk] = tmin
+                best_f[a : a + chunk] = np.where(np.isfinite(tmin), f, -1)
+        hit = best_f >= 0
+        fi = best_f[hit]
+        normals = np.zeros((n, 3))
+        normals[hit] = _face_to_ray(_unit_normals(tri[fi]), d[hit])
+        return RayHits(
+            distance=best_t,
+            label=np.where(hit, lab[np.maximum(best_f, 0)], -1).astype(np.int32),
+            normal=normals,
+            reflectivity=np.where(hit, refl[np.maximum(best_f, 0)], 0.0),
+            body=np.where(hit, body[np.maximum(best_f, 0)], -1).astype(np.int32),
+        )
+
+
+# --------------------------------------------------------------------------- embree
+
+
+class _EmbreeMesh:
+    """One Embree scene over triangles given in a local frame, plus float64 face data."""
+
+    def __init__(self, device: object, tris_local: list[NDArray[np.float64]]) -> None:
+        from embreex import rtcore_scene
+        from embreex.mesh_construction import TriangleMesh
+
+        allv = np.concatenate([t.reshape(-1, 3) for t in tris_local])
+        lo, hi = allv.min(axis=0), allv.max(axis=0)
+        self.shift = 0.5 * (lo + hi)  # float32 precision about the centre
+        self.scene = rtcore_scene.EmbreeScene(device)
+        self.offsets = np.concatenate([[0], np.cumsum([len(t) for t in tris_local])])
+        for t in tris_local:  # geomID = position in the list
+            v = np.ascontiguousarray((t - self.shift).reshape(-1, 3), dtype=np.float32)
+            idx = np.arange(len(v), dtype=np.int32).reshape(-1, 3)
+            TriangleMesh(scene=self.scene, vertices=v, indices=idx)
+        tri = np.concatenate(tris_local)
+        self.v0 = np.ascontiguousarray(tri[:, 0])
+        self.normal = _unit_normals(tri)
+        centre = 0.5 * (lo + hi)
+        self.centre = centre
+        self.radius = float(np.max(np.linalg.norm(allv - centre, axis=1))) if len(allv) else 0.0
+
+    def intersect(
+        self, o: NDArray[np.float64], d: NDArray[np.float64], tfar: NDArray[np.float64]
+    ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+        """Rays in the local frame → (face index or -1, float64 distance, local face normal)."""
+        o32 = np.ascontiguousarray(o - self.shift, dtype=np.float32)
+        d32 = np.ascontiguousarray(d, dtype=np.float32)
+        far = np.minimum(tfar * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR).astype(np.float32)
+        res = self.scene.run(o32, d32, dists=far, output=1)
+        geom = res["geomID"].astype(np.int64)
+        hit = geom >= 0
+        face = np.where(hit, self.offsets[np.maximum(geom, 0)] + res["primID"], -1)
+        fh = face[hit]
+        t = np.full(len(o), np.inf)
+        n = self.normal[fh]
+        # Refine in float64 against the hit triangle's plane: t = (v0 - o)·n / (d·n).
+        dn = np.einsum("ij,ij->i", d[hit], n)
+        num = np.einsum("ij,ij->i", self.v0[fh] - o[hit], n)
+        tf = res["tfar"][hit].astype(np.float64)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tr = num / dn
+        good = np.abs(dn) > 1e-9
+        t[hit] = np.where(good, tr, tf)
+        normals = np.zeros((len(o), 3))
+        normals[hit] = n
+        return face, t, normals
+
+
+class EmbreeRayCaster(RayCaster):
+    """Embree-backed caster: static BVH built once, per-part BVHs for dynamic bodies."""
+
+    backend = "embree"
+
+    def __init__(self, scene: Scene) -> None:
+        super().__init__(scene)
+        try:
+            from embreex import rtcore
+        except ImportError as exc:  # pragma: no cover - embreex is a core dependency
+            raise ConfigError(
+                f"embreex is not installed ({exc})", where="Scene.raycaster(backend='embree')"
+            ) from None
+        self._device = rtcore.EmbreeDevice()
+        self._static: _EmbreeMesh | None = None
+        self._static_version = -1
+        self._static_label = np.zeros(0, dtype=np.int32)
+        self._static_refl = np.zeros(0)
+        self._parts: dict[str, list[_EmbreeMesh]] = {}
+        self._sync()
+
+    def _sync(self) -> None:
+        """Build what the scene gained since the last cast (never on a pose change)."""
+        sc = self._scene
+        if self._static_version != sc.static_version:
+            objs = sc.static_objects
+            if objs:
+                tris = [o.mesh.vertices.view(np.ndarray)[o.mesh.faces] for o in objs]
+                self._static = _EmbreeMesh(self._device, tris)
+                self._static_label = np.concatenate(
+                    [np.full(len(t), o.label_id, np.int32) for t, o in zip(tris, objs, strict=True)]
+                )
+                self._static_refl = np.concatenate(
+                    [
+                        np.full(len(t), o.material.reflectivity)
+                        for t, o in zip(tris, objs, strict=True)
+                    ]
+                )
+            else:
+                self._static = None
+            self._static_version = sc.static_version
+        for b in sc.bodies:
+            if b.name not in self._parts:
+                self._parts[b.name] = [
+                    _EmbreeMesh(self._device, [p.mesh.vertices.view(np.ndarray)[p.mesh.faces]])
+                    for p in b.geometry.parts
+                ]
+
+    def _cast(self, o, d, max_range, exclude):  # type: ignore[no-untyped-def]
+        self._sync()
+        n = len(o)
+        best = np.full(n, np.inf)
+        label = np.full(n, -1, dtype=np.int32)
+        normal = np.zeros((n, 3))
+        refl = np.zeros(n)
+        body = np.full(n, -1, dtype=np.int32)
+        far = np.full(n, max_range)
+        if self._static is not None:
+            face, t, nrm = self._static.intersect(o, d, far)
+            ok = (face >= 0) & (t <= max_range)
+            best[ok] = np.maximum(t[ok], 0.0)
+            fo = face[ok]
+            label[ok] = self._static_label[fo]
+            refl[ok] = self._static_refl[fo]
+            normal[ok] = nrm[ok]
+        for bi, b in enumerate(self._scene.bodies):
+            if b.name in exclude:
+                continue
+            pose = b.pose_matrix()
+            offsets = b.geometry.face_offsets
+            for pi, (part, tpart) in enumerate(
+                zip(self._parts[b.name], b.part_transforms, strict=True)
+            ):
+                m = pose @ tpart  # part rest frame → NED
+                rot, trans = m[:3, :3], m[:3, 3]
+                # Cull with the part's bounding sphere (world centre, same radius).
+                c = rot @ part.centre + trans
+                limit = np.minimum(best, max_range)
+                oc = c - o
+                tca = np.einsum("ij,ij->i", oc, d)
+                d2 = np.einsum("ij,ij->i", oc, oc) - tca * tca
+                r = part.radius * (1.0 + 1e-9) + 1e-9
+                cand = (d2 <= r * r) & (tca + r >= 0.0) & (tca - r <= limit)
+                idx = np.flatnonzero(cand)
+                if len(idx) == 0:
+                    continue
+                ol = (o[idx] - trans) @ rot  # R^T (o - t), row form
+                dl = d[idx] @ rot
+                face, t, nrm = part.intersect(ol, dl, limit[idx])
+                ok = (face >= 0) & (t < best[idx]) & (t <= max_range)
+                if not np.any(ok):
+                    continue
+                sel = idx[ok]
+                best[sel] = np.maximum(t[ok], 0.0)
+                label[sel] = b.label_id
+                refl[sel] = b.face_reflectivity[offsets[pi] + face[ok]]
+                normal[sel] = nrm[ok] @ rot.T
+                body[sel] = bi
+        hit = np.isfinite(best)
+        normal[hit] = _face_to_ray(normal[hit], d[hit])
+        return RayHits(distance=best, label=label, normal=normal, reflectivity=refl, body=body)
+
+
+def make_raycaster(scene: Scene, backend: str = "embree") -> RayCaster:
+    """Ray caster of the named back end ("embree" or "reference") over ``scene``."""
+    if backend == "embree":
+        return EmbreeRayCaster(scene)
+    if backend == "reference":
+        return ReferenceRayCaster(scene)
+    raise ConfigError(
+        f"unknown backend {backend!r}; expected 'embree' or 'reference'",
+        where="Scene.raycaster.backend",
+    )

@@ -1,0 +1,330 @@
+"""The world: static geometry (sea floor, pilings, meshes) and posed dynamic bodies.
+
+Everything is in world NED metres (``docs/conventions.md``). Static objects are fixed
+once added; dynamic bodies (ROV, diver) carry a pose — position (NED) and a body(FRD)→NED
+rotation — and, for articulated bodies, a kick phase. ``set_pose`` only stores numbers:
+ray casters keep static and dynamic geometry apart and never rebuild the static BVH on a
+pose change (see :mod:`uhrisim.world.raycast`).
+
+Every object has a *label* (``Scene.labels`` holds the distinct strings; ids index that
+list, so all pilings can share ``"piling"``) and a :class:`~uhrisim.world.materials.Material`.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+from numpy.typing import ArrayLike, NDArray
+
+from uhrisim.core.errors import ConfigError
+from uhrisim.world.bodies import ArticulatedMesh
+from uhrisim.world.materials import Material
+from uhrisim.world.raycast import RayCaster, RayHits, make_raycaster
+from uhrisim.world.seafloor import SeaFloor
+
+__all__ = ["DynamicBody", "RayCaster", "RayHits", "Scene", "StaticObject"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class StaticObject:
+    """A fixed mesh in NED with its label id and material."""
+
+    mesh: trimesh.Trimesh
+    label: str
+    label_id: int
+    material: Material
+
+
+class DynamicBody:
+    """A movable body: geometry in its body frame (FRD) plus the current pose.
+
+    Mutated only through :meth:`Scene.set_pose`; read the pose with :meth:`Scene.pose`.
+    """
+
+    def __init__(
+        self, name: str, geometry: ArticulatedMesh, label: str, label_id: int, material: Material
+    ) -> None:
+        self.name = name
+        self.geometry = geometry
+        self.label = label
+        self.label_id = label_id
+        self.material = material
+        self.face_reflectivity = geometry.face_reflectivity(material)
+        self.face_reflectivity.setflags(write=False)
+        self.position = np.zeros(3)
+        self.rotation = np.eye(3)
+        self.kick_phase = 0.0
+        self.part_transforms = geometry.part_transforms(0.0)
+
+    def pose_matrix(self) -> NDArray[np.float64]:
+        """4x4 body(FRD)→NED transform."""
+        m = np.eye(4)
+        m[:3, :3] = self.rotation
+        m[:3, 3] = self.position
+        return m
+
+    def mesh_world(self) -> trimesh.Trimesh:
+        """The posed body as one Trimesh in NED (for plotting and export; not a hot path)."""
+        mesh = self.geometry.mesh_at(self.kick_phase)
+        mesh.apply_transform(self.pose_matrix())
+        return mesh
+
+
+def _check_label(label: str, where: str) -> str:
+    if not isinstance(label, str) or not label:
+        raise ConfigError(f"must be a non-empty string, got {label!r}", where=where)
+    return label
+
+
+def _clean_mesh(mesh: trimesh.Trimesh, where: str) -> trimesh.Trimesh:
+    """Copy of ``mesh`` without zero-area faces; ConfigError if nothing is left."""
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise ConfigError(f"expected a trimesh.Trimesh, got {type(mesh).__name__}", where=where)
+    v = np.asarray(mesh.vertices, dtype=float)
+    f = np.asarray(mesh.faces, dtype=np.int64)
+    if len(f) and not np.all(np.isfinite(v)):
+        raise ConfigError("mesh has NaN/inf vertices", where=where)
+    if len(f):
+        area2 = np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
+        f = f[area2 > 1e-14]
+    if len(f) == 0:
+        raise ConfigError("mesh has no (non-degenerate) triangles", where=where)
+    return trimesh.Trimesh(v.copy(), f, process=False, validate=False)
+
+
+class Scene:
+    """Static geometry and dynamic bodies, with labels and materials."""
+
+    def __init__(self) -> None:
+        self._static: list[StaticObject] = []
+        self._bodies: list[DynamicBody] = []
+        self._body_index: dict[str, int] = {}
+        self._labels: list[str] = []
+        self._static_version = 0
+        self._seafloor: SeaFloor | None = None
+        self._collision_caster: RayCaster | None = None
+
+    # ------------------------------------------------------------------ building
+    def _label_id(self, label: str) -> int:
+        if label not in self._labels:
+            self._labels.append(label)
+        return self._labels.index(label)
+
+    def add_static(self, mesh: trimesh.Trimesh | SeaFloor, label: str, material: Material) -> None:
+        """Add fixed geometry in NED. A :class:`SeaFloor` is also kept for ``depth_at``."""
+        _check_label(label, "Scene.add_static.label")
+        if not isinstance(material, Material):
+            raise ConfigError(f"expected a Material, got {material!r}", where="Scene.add_static")
+        if isinstance(mesh, SeaFloor):
+            if self._seafloor is not None:
+                log.warning("scene already has a sea floor; depth_at keeps using the first one")
+            else:
+                self._seafloor = mesh
+            mesh = mesh.mesh
+        clean = _clean_mesh(mesh, f"Scene.add_static({label!r})")
+        self._static.append(StaticObject(clean, label, self._label_id(label), material))
+        self._static_version += 1
+
+    def add_dynamic(
+        self,
+        name: str,
+        mesh_or_parts: object,
+        label: str,
+        material: Material,
+        position_ned: ArrayLike = (0.0, 0.0, 0.0),
+        rotation: ArrayLike | None = None,
+        kick_phase: float = 0.0,
+    ) -> None:
+        """Add a movable body given in its body frame (FRD, metres, origin at its centre).
+
+        ``mesh_or_parts``: a Trimesh, a sequence of Trimesh/:class:`~uhrisim.world.bodies.Part`,
+        or an :class:`~uhrisim.world.bodies.ArticulatedMesh` (e.g. ``assets.diver_parts()``).
+        """
+        if not isinstance(name, str) or not name:
+            raise ConfigError(
+                f"must be a non-empty string, got {name!r}", where="Scene.add_dynamic.name"
+            )
+        if name in self._body_index:
+            raise ConfigError(
+                f"a body named {name!r} already exists", where="Scene.add_dynamic.name"
+            )
+        _check_label(label, "Scene.add_dynamic.label")
+        if not isinstance(material, Material):
+            raise ConfigError(f"expected a Material, got {material!r}", where="Scene.add_dynamic")
+        geometry = ArticulatedMesh.from_any(mesh_or_parts, name)
+        body = DynamicBody(name, geometry, label, self._label_id(label), material)
+        self._body_index[name] = len(self._bodies)
+        self._bodies.append(body)
+        self.set_pose(name, position_ned, np.eye(3) if rotation is None else rotation, kick_phase)
+
+    def set_pose(
+        self,
+        name: str,
+        position_ned: ArrayLike,
+        rotation: ArrayLike,
+        kick_phase: float | None = None,
+    ) -> None:
+        """Move body ``name``: position (3,) NED metres, rotation (3, 3) body→NED.
+
+        ``kick_phase`` (radians) re-poses an articulated body's parts; None keeps it.
+        Cheap: stores the pose, rebuilds nothing.
+        """
+        i = self._body_index.get(name)
+        if i is None:
+            raise ConfigError(
+                f"no dynamic body named {name!r} (have {sorted(self._body_index)})",
+                where="Scene.set_pose",
+            )
+        p = np.array(position_ned, dtype=float).reshape(-1)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise ConfigError(
+                f"must be 3 finite numbers, got {position_ned!r}",
+                where=f"Scene.set_pose({name!r}).position_ned",
+            )
+        r = np.array(rotation, dtype=float)
+        if (
+            r.shape != (3, 3)
+            or not np.all(np.isfinite(r))
+            or not np.allclose(r @ r.T, np.eye(3), atol=1e-6)
+            or np.linalg.det(r) < 0.0
+        ):
+            raise ConfigError(
+                "must be a proper 3x3 rotation matrix", where=f"Scene.set_pose({name!r}).rotation"
+            )
+        b = self._bodies[i]
+        b.position = p
+        b.rotation = r
+        if kick_phase is not None:
+            k = float(kick_phase)
+            if not np.isfinite(k):
+                raise ConfigError(
+                    f"must be finite, got {kick_phase!r}",
+                    where=f"Scene.set_pose({name!r}).kick_phase",
+                )
+            if k != b.kick_phase:
+                b.kick_phase = k
+                b.part_transforms = b.geometry.part_transforms(k)
+
+    # ------------------------------------------------------------------ queries
+    @property
+    def labels(self) -> list[str]:
+        """Distinct label strings; label ids in :class:`RayHits` index this list (a copy)."""
+        return list(self._labels)
+
+    def label_id(self, label: str) -> int:
+        """Id of ``label``; ConfigError if no object carries it."""
+        if label not in self._labels:
+            raise ConfigError(
+                f"unknown label {label!r} (have {self._labels})", where="Scene.label_id"
+            )
+        return self._labels.index(label)
+
+    @property
+    def body_names(self) -> list[str]:
+        """Dynamic body names; body ids in :class:`RayHits` index this list (a copy)."""
+        return [b.name for b in self._bodies]
+
+    @property
+    def bodies(self) -> tuple[DynamicBody, ...]:
+        return tuple(self._bodies)
+
+    @property
+    def static_objects(self) -> tuple[StaticObject, ...]:
+        return tuple(self._static)
+
+    @property
+    def static_version(self) -> int:
+        """Increments on every add_static (ray casters rebuild their static BVH lazily)."""
+        return self._static_version
+
+    @property
+    def seafloor(self) -> SeaFloor | None:
+        return self._seafloor
+
+    def pose(self, name: str) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+        """(position NED, rotation body→NED, kick phase) of body ``name`` (copies)."""
+        i = self._body_index.get(name)
+        if i is None:
+            raise ConfigError(f"no dynamic body named {name!r}", where="Scene.pose")
+        b = self._bodies[i]
+        return b.position.copy(), b.rotation.copy(), b.kick_phase
+
+    def depth_at(self, x_north: ArrayLike, y_east: ArrayLike) -> NDArray[np.float64] | float:
+        """Sea-floor depth (m) at NED (north, east); NaN outside it or without a sea floor."""
+        if self._seafloor is None:
+            x, _ = np.broadcast_arrays(np.asarray(x_north, float), np.asarray(y_east, float))
+            out = np.full(x.shape, np.nan)
+            return float(out) if out.ndim == 0 else out
+        return self._seafloor.depth_at(x_north, y_east)
+
+    def bounds(self) -> NDArray[np.float64]:
+        """(2, 3) NED axis-aligned bounds of all static and posed dynamic geometry."""
+        boxes = [o.mesh.bounds for o in self._static]
+        for b in self._bodies:
+            tri = b.geometry.triangles_at(b.kick_phase, b.pose_matrix()).reshape(-1, 3)
+            boxes.append(np.array([tri.min(axis=0), tri.max(axis=0)]))
+        if not boxes:
+            raise ConfigError("scene is empty", where="Scene.bounds")
+        stack = np.array(boxes)
+        return np.array([stack[:, 0].min(axis=0), stack[:, 1].max(axis=0)])
+
+    def raycaster(self, backend: str = "embree") -> RayCaster:
+        """A ray caster over this scene ("embree" or "reference"); create once, reuse."""
+        return make_raycaster(self, backend)
+
+    def segment_clear(
+        self,
+        start_ned: ArrayLike,
+        end_ned: ArrayLike,
+        radius: float,
+        exclude: frozenset[str] = frozenset(),
+        n_ring: int = 12,
+    ) -> float:
+        """Fraction (0..1) of the straight move start→end a sphere of ``radius`` can make.
+
+        Approximation (a bundle of parallel rays along the motion): rays start on the
+        sphere's leading hemisphere — its front point, a ring of ``n_ring`` points on the
+        equator (perpendicular to the motion) and an inner ring of ``n_ring // 2`` points at
+        0.6·radius — and the first contact of any of them limits the move. Obstacles thinner
+        than the gaps between the rays (about 2π·radius/n_ring) can slip through, and a
+        sphere that already overlaps geometry is not detected. Exclude the moving body
+        itself via ``exclude``. Uses a cached Embree caster.
+
+        Returns 1.0 for a zero-length move, 0.0 when already touching.
+        """
+        s = np.asarray(start_ned, dtype=float).reshape(3)
+        e = np.asarray(end_ned, dtype=float).reshape(3)
+        r = float(radius)
+        if not np.isfinite(r) or r < 0.0:
+            raise ConfigError(
+                f"must be >= 0 metres, got {radius!r}", where="Scene.segment_clear.radius"
+            )
+        if not (np.all(np.isfinite(s)) and np.all(np.isfinite(e))):
+            raise ConfigError("start/end must be finite", where="Scene.segment_clear")
+        length = float(np.linalg.norm(e - s))
+        if length == 0.0:
+            return 1.0
+        d = (e - s) / length
+        helper = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        u = np.cross(d, helper)
+        u /= np.linalg.norm(u)
+        v = np.cross(d, u)
+        offsets = [np.zeros(3) + r * d]
+        if r > 0.0:
+            k = max(int(n_ring), 3)
+            for rho, count, shift in ((r, k, 0.0), (0.6 * r, max(k // 2, 3), 0.5)):
+                ang = 2.0 * np.pi * (np.arange(count) + shift) / count
+                ring = rho * (np.cos(ang)[:, None] * u + np.sin(ang)[:, None] * v)
+                offsets.extend(ring + np.sqrt(max(r * r - rho * rho, 0.0)) * d)
+        origins = s + np.array(offsets)
+        dirs = np.tile(d, (len(origins), 1))
+        if self._collision_caster is None:
+            self._collision_caster = self.raycaster("embree")
+        hits = self._collision_caster.cast(origins, dirs, length, exclude)
+        travel = float(np.min(hits.distance))
+        return 1.0 if not np.isfinite(travel) else min(max(travel / length, 0.0), 1.0)
