@@ -1,0 +1,46 @@
+"""ROS 2 bridge: simulation state out to ROS 2 topics, external commands in.
+
+Needs the ``ros2`` extra (``pip install "uhrisim[ros2]"``) for :class:`Ros2Bridge`;
+the specs, the pure conversions and :class:`Pacer` import without ROS. See
+docs/bridges-ros2.md for topics, frames, units, rates and QoS.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from .pacing import Pacer, PacerStats
+from .spec import (
+    COMMAND_GROUPS,
+    ENV_DEFAULTS,
+    AgentBridgeSpec,
+    AgentCommands,
+    apply_env_defaults,
+)
+
+if TYPE_CHECKING:
+    from .bridge import Ros2Bridge
+
+__all__ = [
+    "COMMAND_GROUPS",
+    "ENV_DEFAULTS",
+    "AgentBridgeSpec",
+    "AgentCommands",
+    "Pacer",
+    "PacerStats",
+    "Ros2Bridge",
+    "apply_env_defaults",
+]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "Ros2Bridge":
+        try:
+            from .bridge import Ros2Bridge
+        except ImportError as exc:
+            raise ImportError(
+                f"uhrisim.bridges.ros2.Ros2Bridge needs ROS 2 (rclpy and message packages): "
+                f'pip install "uhrisim[ros2]" ({exc})'
+            ) from exc
+        return Ros2Bridge
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

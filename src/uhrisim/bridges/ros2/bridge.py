@@ -1,0 +1,655 @@
+"""The ROS 2 bridge: a read-only publish hook plus an external command input.
+
+``Ros2Bridge`` owns one rclpy ``Context`` (never the global default one), one node
+and a background executor thread that only serves the command subscriptions. The
+simulation thread calls the ``publish_*`` methods (they serialize and hand the message
+to DDS, and return; no call waits for a subscriber) and ``commands()`` (a lock-guarded
+read of the latest values). Topics, frames, units, rates and QoS are documented in
+docs/bridges-ros2.md; frame conversions happen only in :mod:`.convert`.
+
+Time: every ``header.stamp`` is the simulation time ``t_sim``. With ``publish_clock``
+the bridge also publishes ``/clock`` (rosgraph_msgs/Clock) so ROS nodes can run with
+``use_sim_time:=true``.
+"""
+
+from __future__ import annotations
+
+import array
+import logging
+import math
+import threading
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+import rclpy
+from geometry_msgs.msg import Point, PoseStamped
+from nav_msgs.msg import Odometry
+from numpy.typing import ArrayLike
+from rclpy.context import Context
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import Image, PointCloud2, PointField
+from std_msgs.msg import Float64, Float64MultiArray, String
+from visualization_msgs.msg import Marker, MarkerArray
+
+from uhrisim.core.errors import BridgeError, ConfigError
+from uhrisim.core.frames import enu_from_ned, wrap_360
+
+from .convert import (
+    CLOUD_FIELDS,
+    CLOUD_POINT_STEP,
+    RateGate,
+    cloud_bytes_from_frd,
+    odom_fields_from_ned,
+    pose_enu_from_ned,
+    stamp_from_sim_time,
+)
+from .spec import (
+    THRUSTER_LIMIT,
+    AgentBridgeSpec,
+    AgentCommands,
+    apply_env_defaults,
+    check_domain_id,
+)
+
+log = logging.getLogger(__name__)
+
+#: World frame of every pose and marker (REP-105 "map", ENU).
+WORLD_FRAME = "map"
+
+#: Odometry, pose, helm and scene: reliable, keep the last 10, volatile. A reliable
+#: publisher matches reliable and best-effort subscribers alike; keep-last means a slow
+#: or dead subscriber only loses old samples, the publisher never waits.
+QOS_STATE = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=10,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+#: Sonar images and point clouds: the ROS "sensor data" convention, best effort, keep
+#: the last 2. Subscribers must ask for best effort (``qos_profile_sensor_data``);
+#: ``Ros2Bridge(reliable_sensors=True)`` switches to reliable keep-last-2 for tools that
+#: only subscribe reliably.
+QOS_SENSOR = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=2,
+    reliability=ReliabilityPolicy.BEST_EFFORT,
+    durability=DurabilityPolicy.VOLATILE,
+)
+QOS_SENSOR_RELIABLE = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=2,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+#: Scene markers: reliable, transient-local, keep the last 1, so a viewer that starts
+#: late still receives the static scene.
+QOS_SCENE = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
+#: /clock: best effort, keep the last 1 (what rclpy's TimeSource subscribes with).
+QOS_CLOCK = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.BEST_EFFORT,
+    durability=DurabilityPolicy.VOLATILE,
+)
+#: Command subscriptions: best effort, keep the last 10. A best-effort subscriber
+#: matches both reliable and best-effort publishers; commands are latest-value and must
+#: be re-sent faster than the timeout anyway, so a lost sample costs nothing.
+QOS_COMMAND = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=10,
+    reliability=ReliabilityPolicy.BEST_EFFORT,
+    durability=DurabilityPolicy.VOLATILE,
+)
+
+_MARKER_TYPES: dict[str, int] = {
+    "box": Marker.CUBE,
+    "sphere": Marker.SPHERE,
+    "cylinder": Marker.CYLINDER,
+    "line_strip": Marker.LINE_STRIP,
+}
+
+_CMD_KEYS_DESIRED = ("desired_heading", "desired_speed", "desired_depth")
+_CMD_KEY_THRUSTERS = "thrusters"
+
+
+@dataclass
+class _Slot:
+    """One received command value with its receipt times (mutable, bridge-private)."""
+
+    value: Any
+    t_sim: float
+    t_wall: float
+
+
+class _AgentIO:
+    """Publishers, rate gates and command slots of one agent (bridge-private)."""
+
+    def __init__(self, spec: AgentBridgeSpec) -> None:
+        self.spec = spec
+        self.nav_gate = RateGate(spec.odom_rate_hz)
+        self.sonar_gate = RateGate(spec.sonar_rate_hz)
+        self.pubs: dict[str, Any] = {}
+        self.slots: dict[str, _Slot] = {}
+
+
+def _set_stamp(header: Any, t_sim: float, frame_id: str) -> None:
+    sec, nanosec = stamp_from_sim_time(t_sim)
+    header.stamp.sec = sec
+    header.stamp.nanosec = nanosec
+    header.frame_id = frame_id
+
+
+def _image_msg(img: np.ndarray, t_sim: float, frame_id: str, where: str) -> Image:
+    a = np.asarray(img)
+    if a.dtype != np.uint8 or a.ndim != 2:
+        raise ConfigError(f"expected a 2-D uint8 image, got {a.dtype} {a.shape}", where)
+    a = np.ascontiguousarray(a)
+    msg = Image()
+    _set_stamp(msg.header, t_sim, frame_id)
+    msg.height, msg.width = int(a.shape[0]), int(a.shape[1])
+    msg.encoding = "mono8"
+    msg.is_bigendian = 0
+    msg.step = int(a.shape[1])
+    data = array.array("B")
+    data.frombytes(memoryview(a).cast("B"))
+    msg.data = data
+    return msg
+
+
+class Ros2Bridge:
+    """Publishes simulation state to ROS 2 and collects external commands.
+
+    Parameters
+    ----------
+    agents:
+        One :class:`AgentBridgeSpec` per agent (a ROS namespace ``/<name>``).
+    node_name:
+        Name of the bridge's ROS node.
+    domain_id:
+        ROS domain id (0-232); ``None`` uses ``ROS_DOMAIN_ID`` (or 0).
+    command_timeout_s:
+        Commands older than this are dropped from :meth:`commands` (and make ``stale``
+        True once all are older).
+    timeout_clock:
+        ``"sim"`` (default): a command's age is simulation time since its receipt,
+        where "receipt" is the newest ``t_sim`` the simulation had passed to the bridge
+        when the message arrived; right for paced runs and deterministic in lockstep.
+        ``"wall"``: monotonic wall seconds since receipt; right when the simulation
+        runs much faster than real time and commands come from a real-time node.
+    publish_clock:
+        Publish ``/clock`` whenever simulation time advances in a ``publish_*`` call.
+    reliable_sensors:
+        Publish sonar images/clouds reliably instead of best effort (see QoS).
+    """
+
+    def __init__(
+        self,
+        agents: Sequence[AgentBridgeSpec],
+        node_name: str = "uhrisim",
+        domain_id: int | None = None,
+        command_timeout_s: float = 1.0,
+        *,
+        timeout_clock: Literal["sim", "wall"] = "sim",
+        publish_clock: bool = True,
+        reliable_sensors: bool = False,
+    ) -> None:
+        specs = list(agents)
+        names = [s.name for s in specs]
+        if len(set(names)) != len(names):
+            raise ConfigError(f"agent names must be unique, got {names}", "Ros2Bridge.agents")
+        if not all(isinstance(s, AgentBridgeSpec) for s in specs):
+            raise ConfigError("each agent must be an AgentBridgeSpec", "Ros2Bridge.agents")
+        if not (isinstance(command_timeout_s, int | float) and command_timeout_s > 0.0
+                and math.isfinite(command_timeout_s)):
+            raise ConfigError(
+                f"must be a positive number of seconds, got {command_timeout_s!r}",
+                "Ros2Bridge.command_timeout_s",
+            )
+        if timeout_clock not in ("sim", "wall"):
+            raise ConfigError(
+                f"must be 'sim' or 'wall', got {timeout_clock!r}", "Ros2Bridge.timeout_clock"
+            )
+        self._node_name = node_name
+        self._domain_id = check_domain_id(domain_id)
+        self._timeout = float(command_timeout_s)
+        self._timeout_clock = timeout_clock
+        self._publish_clock = publish_clock
+        self._sensor_qos = QOS_SENSOR_RELIABLE if reliable_sensors else QOS_SENSOR
+        self._agents = {s.name: _AgentIO(s) for s in specs}
+        self._lock = threading.Lock()
+        self._t_sim_latest = 0.0
+        self._t_clock_published: float | None = None
+        self._counts: dict[str, int] = {}
+        self._rejected = 0
+        self._context: Context | None = None
+        self._node: Any = None
+        self._executor: SingleThreadedExecutor | None = None
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._closed = False
+        self._pub_clock: Any = None
+        self._pub_scene: Any = None
+
+    # ----------------------------------------------------------------- lifecycle
+    @property
+    def started(self) -> bool:
+        """True between :meth:`start` and :meth:`close`."""
+        return self._node is not None and not self._closed
+
+    @property
+    def agents(self) -> tuple[AgentBridgeSpec, ...]:
+        """The agent specs, in the order given."""
+        return tuple(io.spec for io in self._agents.values())
+
+    def start(self) -> None:
+        """Create the context, node, publishers, subscriptions and the executor thread.
+
+        Applies :data:`~uhrisim.bridges.ros2.spec.ENV_DEFAULTS` to ``os.environ`` first
+        (discovery on localhost unless the user chose otherwise). Installs no signal
+        handlers.
+        """
+        if self._closed:
+            raise BridgeError("Ros2Bridge: cannot start a closed bridge; make a new one")
+        if self._node is not None:
+            return
+        applied = apply_env_defaults()
+        if applied:
+            log.info("ROS 2 environment defaults applied: %s", applied)
+        ctx = Context()
+        try:
+            rclpy.init(
+                context=ctx,
+                domain_id=self._domain_id,
+                signal_handler_options=SignalHandlerOptions.NO,
+            )
+            node = rclpy.create_node(
+                self._node_name, context=ctx, start_parameter_services=False
+            )
+        except Exception as exc:
+            ctx.try_shutdown()
+            raise BridgeError(f"Ros2Bridge: could not start ROS 2 node: {exc}") from exc
+        self._context, self._node = ctx, node
+        if self._publish_clock:
+            self._pub_clock = node.create_publisher(Clock, "/clock", QOS_CLOCK)
+        self._pub_scene = node.create_publisher(MarkerArray, "/scene/markers", QOS_SCENE)
+        for name, io in self._agents.items():
+            p = io.pubs
+            p["odom"] = node.create_publisher(Odometry, f"/{name}/odom", QOS_STATE)
+            p["pose"] = node.create_publisher(PoseStamped, f"/{name}/pose", QOS_STATE)
+            if io.spec.publish_sonar:
+                q = self._sensor_qos
+                p["polar"] = node.create_publisher(Image, f"/{name}/sonar/polar", q)
+                p["fan"] = node.create_publisher(Image, f"/{name}/sonar/fan", q)
+                p["points"] = node.create_publisher(PointCloud2, f"/{name}/sonar/points", q)
+            for key in ("desired_heading", "desired_speed", "desired_depth"):
+                p[f"helm_{key}"] = node.create_publisher(
+                    Float64, f"/{name}/helm/{key}", QOS_STATE
+                )
+            p["helm_mode"] = node.create_publisher(String, f"/{name}/helm/mode", QOS_STATE)
+            if "desired" in io.spec.accept:
+                for key in _CMD_KEYS_DESIRED:
+                    node.create_subscription(
+                        Float64, f"/{name}/cmd/{key}", self._make_float_cb(name, key),
+                        QOS_COMMAND,
+                    )
+            if "thrusters" in io.spec.accept:
+                node.create_subscription(
+                    Float64MultiArray, f"/{name}/cmd/thrusters", self._make_thruster_cb(name),
+                    QOS_COMMAND,
+                )
+        self._executor = SingleThreadedExecutor(context=ctx)
+        self._executor.add_node(node)
+        self._stop.clear()
+        self._thread = threading.Thread(
+            target=self._spin, name=f"uhrisim-ros2-{self._node_name}", daemon=True
+        )
+        self._thread.start()
+        log.info(
+            "ROS 2 bridge %r started: domain %s, agents %s",
+            self._node_name, self._domain_id, list(self._agents),
+        )
+
+    def _spin(self) -> None:
+        ex = self._executor
+        assert ex is not None
+        while not self._stop.is_set():
+            try:
+                ex.spin_once(timeout_sec=0.1)
+            except ExternalShutdownException:
+                break
+            except Exception:  # a failing callback must not kill the command path
+                if self._stop.is_set():
+                    break
+                log.exception("ROS 2 bridge executor error")
+
+    def close(self) -> None:
+        """Stop the executor thread and shut the context down. Safe to call twice."""
+        if self._closed:
+            return
+        self._closed = True
+        self._stop.set()
+        if self._executor is not None:
+            self._executor.wake()
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
+            if self._thread.is_alive():
+                log.warning("ROS 2 bridge executor thread did not stop within 5 s")
+        if self._executor is not None:
+            self._executor.shutdown(timeout_sec=1.0)
+        if self._node is not None:
+            self._node.destroy_node()
+        if self._context is not None:
+            self._context.try_shutdown()
+        log.info("ROS 2 bridge %r closed", self._node_name)
+
+    def __enter__(self) -> Ros2Bridge:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ----------------------------------------------------------------- helpers
+    def _io(self, agent: str, where: str) -> _AgentIO:
+        if not self.started:
+            raise BridgeError(f"Ros2Bridge.{where}: bridge is not running (call start())")
+        io = self._agents.get(agent)
+        if io is None:
+            raise ConfigError(
+                f"unknown agent {agent!r}; known: {list(self._agents)}", f"Ros2Bridge.{where}"
+            )
+        return io
+
+    def _advance(self, t_sim: float) -> None:
+        t = float(t_sim)
+        with self._lock:
+            self._t_sim_latest = t
+        if self._pub_clock is not None and (
+            self._t_clock_published is None or t != self._t_clock_published
+        ):
+            msg = Clock()
+            msg.clock.sec, msg.clock.nanosec = stamp_from_sim_time(t)
+            self._publish(self._pub_clock, msg, "/clock")
+            self._t_clock_published = t
+
+    def _publish(self, pub: Any, msg: Any, key: str) -> None:
+        try:
+            pub.publish(msg)
+        except Exception as exc:
+            raise BridgeError(f"Ros2Bridge: publishing {key} failed: {exc}") from exc
+        self._counts[key] = self._counts.get(key, 0) + 1
+
+    # ----------------------------------------------------------------- publishing
+    def publish_nav(
+        self,
+        agent: str,
+        t_sim: float,
+        position_ned: ArrayLike,
+        yaw_rad: float,
+        velocity_body_frd: ArrayLike,
+        yaw_rate: float,
+    ) -> bool:
+        """Publish ``/<agent>/odom`` (nav_msgs/Odometry) and ``/<agent>/pose``
+        (geometry_msgs/PoseStamped) if the agent's odometry rate gate is due.
+
+        Inputs in uhrisim frames: ``position_ned`` (m), ``yaw_rad`` (compass, rad),
+        ``velocity_body_frd`` (m/s), ``yaw_rate`` (rad/s, clockwise positive). Out:
+        pose in ``"map"`` (ENU), twist in ``"<agent>/base_link"`` (FLU). Returns True
+        when messages went out.
+        """
+        io = self._io(agent, "publish_nav")
+        self._advance(t_sim)
+        if not io.nav_gate.due(t_sim):
+            return False
+        f = odom_fields_from_ned(position_ned, yaw_rad, velocity_body_frd, yaw_rate)
+        odom = Odometry()
+        _set_stamp(odom.header, t_sim, WORLD_FRAME)
+        odom.child_frame_id = f"{agent}/base_link"
+        pp = odom.pose.pose
+        pp.position.x, pp.position.y, pp.position.z = f.position_enu
+        o = pp.orientation
+        o.x, o.y, o.z, o.w = f.orientation_xyzw
+        tw = odom.twist.twist
+        tw.linear.x, tw.linear.y, tw.linear.z = f.linear_flu
+        tw.angular.x, tw.angular.y, tw.angular.z = f.angular_flu
+        pose = PoseStamped()
+        pose.header = odom.header
+        pose.pose = pp
+        self._publish(io.pubs["odom"], odom, f"/{agent}/odom")
+        self._publish(io.pubs["pose"], pose, f"/{agent}/pose")
+        return True
+
+    def publish_sonar(
+        self,
+        agent: str,
+        t_sim: float,
+        polar_u8: np.ndarray | None,
+        fan_u8: np.ndarray | None,
+        points_sonar_frd: ArrayLike | None = None,
+        intensity: ArrayLike | None = None,
+    ) -> bool:
+        """Publish the sonar products if the agent's sonar rate gate is due.
+
+        ``polar_u8``: 2-D uint8, rows = range bins, columns = beams, as the sonar model
+        forms it -> ``/<agent>/sonar/polar``; ``fan_u8``: 2-D uint8 scan-converted image
+        -> ``/<agent>/sonar/fan`` (both sensor_msgs/Image mono8, frame
+        ``"<agent>/sonar"``). ``points_sonar_frd``: ``(N, 3)`` hits in the sonar's FRD
+        frame (m), with optional ``(N,)`` ``intensity`` -> ``/<agent>/sonar/points``
+        (sensor_msgs/PointCloud2, x y z intensity float32, sonar FLU frame). Any
+        ``None`` product is skipped. Returns True when the gate was due.
+        """
+        io = self._io(agent, "publish_sonar")
+        if not io.spec.publish_sonar:
+            raise ConfigError(
+                f"agent {agent!r} was configured with publish_sonar=False",
+                "Ros2Bridge.publish_sonar",
+            )
+        self._advance(t_sim)
+        if not io.sonar_gate.due(t_sim):
+            return False
+        frame = f"{agent}/sonar"
+        if polar_u8 is not None:
+            msg = _image_msg(polar_u8, t_sim, frame, "Ros2Bridge.publish_sonar.polar_u8")
+            self._publish(io.pubs["polar"], msg, f"/{agent}/sonar/polar")
+        if fan_u8 is not None:
+            msg = _image_msg(fan_u8, t_sim, frame, "Ros2Bridge.publish_sonar.fan_u8")
+            self._publish(io.pubs["fan"], msg, f"/{agent}/sonar/fan")
+        if points_sonar_frd is not None:
+            n, raw = cloud_bytes_from_frd(points_sonar_frd, intensity)
+            cloud = PointCloud2()
+            _set_stamp(cloud.header, t_sim, frame)
+            cloud.height, cloud.width = 1, n
+            cloud.fields = [
+                PointField(name=name, offset=off, datatype=PointField.FLOAT32, count=1)
+                for name, off in CLOUD_FIELDS
+            ]
+            cloud.is_bigendian = False
+            cloud.point_step = CLOUD_POINT_STEP
+            cloud.row_step = CLOUD_POINT_STEP * n
+            cloud.is_dense = True
+            data = array.array("B")
+            data.frombytes(raw)
+            cloud.data = data
+            self._publish(io.pubs["points"], cloud, f"/{agent}/sonar/points")
+        return True
+
+    def publish_helm(
+        self,
+        agent: str,
+        t_sim: float,
+        heading_deg: float | None,
+        speed: float | None,
+        depth: float | None,
+        mode: str,
+    ) -> None:
+        """Publish the helm's decision: ``/<agent>/helm/desired_heading`` (compass deg),
+        ``/<agent>/helm/desired_speed`` (m/s), ``/<agent>/helm/desired_depth`` (m, down)
+        as std_msgs/Float64 (each skipped when ``None``) and ``/<agent>/helm/mode``
+        (std_msgs/String, e.g. ``"MODE@ACTIVE:TRAIL"``). Not rate-gated: the helm's own
+        rate applies.
+        """
+        io = self._io(agent, "publish_helm")
+        self._advance(t_sim)
+        for key, value in (
+            ("desired_heading", heading_deg),
+            ("desired_speed", speed),
+            ("desired_depth", depth),
+        ):
+            if value is not None:
+                self._publish(
+                    io.pubs[f"helm_{key}"], Float64(data=float(value)), f"/{agent}/helm/{key}"
+                )
+        self._publish(io.pubs["helm_mode"], String(data=str(mode)), f"/{agent}/helm/mode")
+
+    def publish_scene(self, t_sim: float, markers: Sequence[Mapping[str, Any]]) -> None:
+        """Publish ``/scene/markers`` (visualization_msgs/MarkerArray, frame ``"map"``).
+
+        Each marker is a mapping with ``ns`` (str), ``id`` (int), ``type`` (``"box"``,
+        ``"cylinder"``, ``"sphere"``, ``"line_strip"``), ``position_ned`` (3,) m,
+        optional ``rotation`` (3x3, object frame -> NED), ``scale`` (3,) m (full sizes
+        along the object's axes; for ``line_strip`` only ``scale[0]``, the line width),
+        ``color`` (r, g, b, a in 0..1) and, for ``line_strip``, ``points_ned`` (N, 3) m
+        in the world frame.
+        """
+        if not self.started:
+            raise BridgeError("Ros2Bridge.publish_scene: bridge is not running (call start())")
+        self._advance(t_sim)
+        arr = MarkerArray()
+        arr.markers = [self._marker(t_sim, i, m) for i, m in enumerate(markers)]
+        self._publish(self._pub_scene, arr, "/scene/markers")
+
+    @staticmethod
+    def _marker(t_sim: float, i: int, spec: Mapping[str, Any]) -> Marker:
+        where = f"Ros2Bridge.publish_scene.markers[{i}]"
+        try:
+            kind = spec["type"]
+            if kind not in _MARKER_TYPES:
+                raise ConfigError(
+                    f"type {kind!r} not one of {sorted(_MARKER_TYPES)}", f"{where}.type"
+                )
+            m = Marker()
+            _set_stamp(m.header, t_sim, WORLD_FRAME)
+            m.ns = str(spec.get("ns", ""))
+            m.id = int(spec["id"])
+            m.type = _MARKER_TYPES[kind]
+            m.action = Marker.ADD
+            if kind == "line_strip":
+                pts = np.asarray(spec["points_ned"], dtype=float)
+                if pts.ndim != 2 or pts.shape[1] != 3:
+                    raise ConfigError(f"expected (N, 3), got {pts.shape}", f"{where}.points_ned")
+                pos, quat = pose_enu_from_ned(np.zeros(3))
+                m.points = [_point(p) for p in enu_from_ned(pts)]
+            else:
+                pos, quat = pose_enu_from_ned(spec["position_ned"], spec.get("rotation"))
+            m.pose.position.x, m.pose.position.y, m.pose.position.z = pos
+            o = m.pose.orientation
+            o.x, o.y, o.z, o.w = quat
+            scale = np.broadcast_to(np.asarray(spec.get("scale", 1.0), dtype=float), (3,))
+            m.scale.x, m.scale.y, m.scale.z = (float(s) for s in scale)
+            rgba = [float(c) for c in spec.get("color", (0.7, 0.7, 0.7, 1.0))]
+            if len(rgba) != 4:
+                raise ConfigError(f"color needs 4 values (rgba), got {len(rgba)}", where)
+            m.color.r, m.color.g, m.color.b, m.color.a = rgba
+        except KeyError as exc:
+            raise ConfigError(f"missing key {exc.args[0]!r}", where) from exc
+        except ConfigError:
+            raise
+        except (TypeError, ValueError) as exc:
+            raise ConfigError(f"bad value: {exc}", where) from exc
+        return m
+
+    # ----------------------------------------------------------------- commands
+    def _store(self, agent: str, key: str, value: Any) -> None:
+        with self._lock:
+            slot = _Slot(value, self._t_sim_latest, time.monotonic())
+            self._agents[agent].slots[key] = slot
+
+    def _reject(self, agent: str, key: str, why: str) -> None:
+        with self._lock:
+            self._rejected += 1
+            first = self._rejected == 1
+        (log.warning if first else log.debug)(
+            "ROS 2 bridge rejected /%s/cmd/%s: %s", agent, key, why
+        )
+
+    def _make_float_cb(self, agent: str, key: str) -> Any:
+        def cb(msg: Float64) -> None:
+            v = float(msg.data)
+            if not math.isfinite(v):
+                self._reject(agent, key, f"not finite ({v})")
+                return
+            if key == "desired_heading":
+                v = float(wrap_360(v))
+            elif key == "desired_depth" and v < 0.0:
+                v = 0.0  # above the surface is not reachable: hold at the surface
+            self._store(agent, key, v)
+
+        return cb
+
+    def _make_thruster_cb(self, agent: str) -> Any:
+        def cb(msg: Float64MultiArray) -> None:
+            vals = [float(x) for x in msg.data]
+            if len(vals) != 3 or not all(math.isfinite(x) for x in vals):
+                self._reject(agent, _CMD_KEY_THRUSTERS, f"need 3 finite values, got {vals}")
+                return
+            lim = THRUSTER_LIMIT
+            clipped = tuple(min(lim, max(-lim, x)) for x in vals)
+            self._store(agent, _CMD_KEY_THRUSTERS, clipped)
+
+        return cb
+
+    def commands(self, agent: str, t_sim: float) -> AgentCommands:
+        """The fresh commands for ``agent`` at simulation time ``t_sim`` (s).
+
+        See :class:`AgentCommands` for the meaning of ``None`` and ``stale``. Also records
+        ``t_sim`` as the bridge's current simulation time (the receipt time of commands
+        that arrive next, with ``timeout_clock="sim"``).
+        """
+        io = self._io(agent, "commands")
+        t = float(t_sim)
+        now_wall = time.monotonic()
+        with self._lock:
+            self._t_sim_latest = t
+            slots = dict(io.slots)
+        ages = {
+            k: (t - s.t_sim) if self._timeout_clock == "sim" else (now_wall - s.t_wall)
+            for k, s in slots.items()
+        }
+        fresh = {k: slots[k].value for k, age in ages.items() if age <= self._timeout}
+        newest = min(ages.values()) if ages else None
+        return AgentCommands(
+            desired_heading_deg=fresh.get("desired_heading"),
+            desired_speed=fresh.get("desired_speed"),
+            desired_depth=fresh.get("desired_depth"),
+            thrusters=fresh.get(_CMD_KEY_THRUSTERS),
+            stale=bool(slots) and not fresh,
+            age_s=newest,
+        )
+
+    # ----------------------------------------------------------------- introspection
+    def stats(self) -> dict[str, Any]:
+        """Messages published per topic and command messages rejected (a copy)."""
+        with self._lock:
+            rejected = self._rejected
+        return {"published": dict(self._counts), "rejected_commands": rejected}
+
+    def subscriber_count(self, topic: str) -> int:
+        """How many subscriptions the ROS graph shows on ``topic`` (for tests/tools)."""
+        if not self.started:
+            raise BridgeError("Ros2Bridge.subscriber_count: bridge is not running")
+        return int(self._node.count_subscribers(topic))
+
+
+def _point(p: np.ndarray) -> Point:
+    return Point(x=float(p[0]), y=float(p[1]), z=float(p[2]))

@@ -1,0 +1,195 @@
+"""Pure conversions from uhrisim's frames and time to what ROS 2 messages carry.
+
+No rclpy here: these are plain numpy functions, tested on their own, so the
+conventions of the ROS 2 bridge can be checked without a ROS installation.
+
+Frames (docs/conventions.md, REP-103/REP-105):
+
+* uhrisim world NED (x north, y east, z down) -> ROS world ENU, frame ``"map"``
+  (x east, y north, z up);
+* uhrisim body FRD (x forward, y starboard, z down) -> ROS body FLU,
+  frame ``"<agent>/base_link"`` (x forward, y port, z up);
+* uhrisim yaw psi (compass heading, 0 north, clockwise positive) -> ENU yaw
+  ``pi/2 - psi`` (0 east, counter-clockwise positive), carried as a quaternion.
+
+Every conversion goes through :mod:`uhrisim.core.frames`; nothing else in the
+bridge rotates a vector.
+
+Time: ``header.stamp`` is the simulation time (seconds since the start of the run),
+split into whole seconds and nanoseconds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from uhrisim.core.errors import ConfigError, NumericalError
+from uhrisim.core.frames import (
+    enu_from_ned,
+    enu_rotation_from_ned,
+    flu_from_frd,
+    quaternion_from_matrix,
+    rot_z,
+)
+
+_NS_PER_S = 1_000_000_000
+
+
+def stamp_from_sim_time(t_sim: float) -> tuple[int, int]:
+    """``(sec, nanosec)`` of a ``builtin_interfaces/Time`` for simulation time ``t_sim`` (s).
+
+    Rounded to the nearest nanosecond; ``nanosec`` is always in ``[0, 1e9)``.
+    """
+    t = float(t_sim)
+    if not math.isfinite(t):
+        raise NumericalError(f"simulation time {t_sim!r} is not finite (ROS 2 stamp)")
+    sec, nanosec = divmod(round(t * _NS_PER_S), _NS_PER_S)
+    return int(sec), int(nanosec)
+
+
+@dataclass(frozen=True)
+class OdomFields:
+    """The numbers of a ``nav_msgs/Odometry`` in ROS frames (REP-103/105).
+
+    ``position_enu`` (m) and ``orientation_xyzw`` (body FLU -> world ENU) are in
+    the ``"map"`` frame; ``linear_flu`` (m/s) and ``angular_flu`` (rad/s) are the body
+    twist in the child frame ``"<agent>/base_link"``, as nav_msgs/Odometry specifies.
+    """
+
+    position_enu: tuple[float, float, float]
+    orientation_xyzw: tuple[float, float, float, float]
+    linear_flu: tuple[float, float, float]
+    angular_flu: tuple[float, float, float]
+
+
+def _vec3(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    v = np.asarray(value, dtype=float)
+    if v.shape != (3,):
+        raise ConfigError(f"expected shape (3,), got {v.shape}", where=name)
+    if not np.all(np.isfinite(v)):
+        raise NumericalError(f"{name} is not finite: {v.tolist()}")
+    return v
+
+
+def odom_fields_from_ned(
+    position_ned: ArrayLike,
+    yaw_rad: float,
+    velocity_body_frd: ArrayLike,
+    yaw_rate: float,
+) -> OdomFields:
+    """Odometry numbers in ENU/FLU from a NED position (m), compass yaw (rad),
+    FRD body velocity (m/s) and yaw rate (rad/s, clockwise from above positive).
+
+    Roll and pitch are zero (docs/conventions.md). Example: north 3, east 4, depth 2,
+    heading 90 deg gives position (4, 3, -2) and the identity quaternion (the vehicle
+    faces east, which is ENU yaw 0); a starboard turn (r > 0) is a negative ENU
+    angular z.
+    """
+    p = _vec3(position_ned, "position_ned")
+    v = _vec3(velocity_body_frd, "velocity_body_frd")
+    psi = float(yaw_rad)
+    r = float(yaw_rate)
+    if not (math.isfinite(psi) and math.isfinite(r)):
+        raise NumericalError(f"yaw {yaw_rad!r} or yaw rate {yaw_rate!r} is not finite")
+    pos = enu_from_ned(p)
+    quat = quaternion_from_matrix(enu_rotation_from_ned(rot_z(psi)))
+    lin = flu_from_frd(v)
+    ang = flu_from_frd(np.array([0.0, 0.0, r]))
+    return OdomFields(
+        position_enu=(float(pos[0]), float(pos[1]), float(pos[2])),
+        orientation_xyzw=(float(quat[0]), float(quat[1]), float(quat[2]), float(quat[3])),
+        linear_flu=(float(lin[0]), float(lin[1]), float(lin[2])),
+        angular_flu=(float(ang[0]), float(ang[1]), float(ang[2])),
+    )
+
+
+def pose_enu_from_ned(
+    position_ned: ArrayLike, rotation_ned: ArrayLike | None = None
+) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+    """``(position_enu, orientation_xyzw)`` of an object placed in the NED world.
+
+    ``rotation_ned`` is the 3x3 rotation from the object's own frame (treated as FRD)
+    to NED; ``None`` means identity. The object frame becomes FLU in ROS, so a box's
+    half-extents along its own axes are unchanged (only signs of axes flip).
+    """
+    p = _vec3(position_ned, "position_ned")
+    r = np.eye(3) if rotation_ned is None else np.asarray(rotation_ned, dtype=float)
+    if r.shape != (3, 3):
+        raise ConfigError(f"expected a 3x3 rotation, got shape {r.shape}", where="rotation")
+    if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0.0:
+        raise ConfigError("matrix is not a proper rotation", where="rotation")
+    pos = enu_from_ned(p)
+    q = quaternion_from_matrix(enu_rotation_from_ned(r))
+    return (
+        (float(pos[0]), float(pos[1]), float(pos[2])),
+        (float(q[0]), float(q[1]), float(q[2]), float(q[3])),
+    )
+
+
+#: ``sensor_msgs/PointCloud2`` layout written by :func:`cloud_bytes_from_frd`:
+#: (name, byte offset) of four FLOAT32 fields, 16 bytes per point, little-endian.
+CLOUD_FIELDS: tuple[tuple[str, int], ...] = (("x", 0), ("y", 4), ("z", 8), ("intensity", 12))
+CLOUD_POINT_STEP = 16
+
+
+def cloud_bytes_from_frd(
+    points_frd: ArrayLike, intensity: ArrayLike | None = None
+) -> tuple[int, bytes | memoryview]:
+    """Point count and packed little-endian float32 ``x, y, z, intensity`` rows (FLU).
+
+    ``points_frd`` is ``(N, 3)`` in the sensor's FRD frame (m); it is converted to the
+    sensor's FLU frame (y and z negated). ``intensity`` is ``(N,)`` (any unit the sonar
+    model uses, float32 on the wire), or ``None`` for zeros.
+    """
+    pts = np.asarray(points_frd, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise ConfigError(f"expected shape (N, 3), got {pts.shape}", where="points_sonar_frd")
+    n = pts.shape[0]
+    packed = np.empty((n, 4), dtype="<f4")
+    packed[:, :3] = flu_from_frd(pts)
+    if intensity is None:
+        packed[:, 3] = 0.0
+    else:
+        inten = np.asarray(intensity, dtype=float).reshape(-1)
+        if inten.shape[0] != n:
+            raise ConfigError(f"{inten.shape[0]} intensities for {n} points", where="intensity")
+        packed[:, 3] = inten
+    return n, memoryview(packed).cast("B")
+
+
+class RateGate:
+    """Decides, in simulation time, whether a topic at ``rate_hz`` is due.
+
+    Call :meth:`due` with every tick's ``t_sim``; it answers True at most once per
+    period and keeps the long-run average rate exact on a tick grid (a 15 Hz topic on
+    a 100 Hz tick publishes at intervals 0.07, 0.07, 0.06 s ...). ``rate_hz=None``
+    answers True on every call. A time that goes backwards (a reset run) restarts it.
+    """
+
+    def __init__(self, rate_hz: float | None) -> None:
+        if rate_hz is not None and not (math.isfinite(rate_hz) and rate_hz > 0.0):
+            raise ConfigError(f"rate must be a positive number of Hz, got {rate_hz!r}", "rate_hz")
+        self._period = None if rate_hz is None else 1.0 / float(rate_hz)
+        self._next: float | None = None
+        self._last: float | None = None
+
+    def due(self, t_sim: float) -> bool:
+        """True when a message stamped ``t_sim`` (s) should go out."""
+        t = float(t_sim)
+        if self._last is not None and t < self._last:
+            self._next = None
+        self._last = t
+        if self._period is None:
+            return True
+        eps = 1e-9 * max(1.0, abs(t))
+        if self._next is None or t >= self._next - eps:
+            if self._next is None or t - self._next >= self._period:
+                self._next = t + self._period  # first call, or fell behind: re-anchor
+            else:
+                self._next += self._period
+            return True
+        return False

@@ -1,0 +1,134 @@
+"""Typed configuration and results of the ROS 2 bridge (no rclpy needed to import).
+
+Topic names, types, frames and QoS are documented in docs/bridges-ros2.md.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import MutableMapping
+from dataclasses import dataclass
+
+from uhrisim.core.errors import ConfigError
+
+#: Command groups an agent may accept from ROS 2: ``"desired"`` = the three
+#: ``/<agent>/cmd/desired_*`` topics (what the built-in helm would produce),
+#: ``"thrusters"`` = ``/<agent>/cmd/thrusters`` (raw [port, starboard, vertical]).
+COMMAND_GROUPS: tuple[str, ...] = ("desired", "thrusters")
+
+#: VideoRay thruster command range (docs/conventions.md): dimensionless, saturated here.
+THRUSTER_LIMIT = 150.0
+
+_ROS_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+
+def _check_rate(value: float | None, where: str) -> None:
+    if value is not None and not (isinstance(value, int | float) and math.isfinite(value)
+                                  and value > 0.0):
+        raise ConfigError(f"must be a positive rate in Hz or None, got {value!r}", where)
+
+
+@dataclass(frozen=True)
+class AgentBridgeSpec:
+    """What the bridge publishes and accepts for one agent (a ROS namespace ``/<name>``).
+
+    ``odom_rate_hz`` / ``sonar_rate_hz`` throttle publishing in *simulation* time
+    (``None``: every call publishes). ``accept`` lists the command groups subscribed
+    (:data:`COMMAND_GROUPS`); ``()`` makes the agent publish-only (e.g. the diver's
+    ground truth).
+    """
+
+    name: str
+    publish_sonar: bool = True
+    accept: tuple[str, ...] = COMMAND_GROUPS
+    sonar_rate_hz: float | None = None
+    odom_rate_hz: float | None = None
+
+    def __post_init__(self) -> None:
+        where = f"AgentBridgeSpec({self.name!r})"
+        if not isinstance(self.name, str) or not _ROS_NAME.match(self.name):
+            raise ConfigError(
+                "agent name must be a ROS name token (letter, then letters/digits/_)",
+                where=f"{where}.name",
+            )
+        accept = tuple(self.accept)
+        unknown = [a for a in accept if a not in COMMAND_GROUPS]
+        if unknown:
+            raise ConfigError(
+                f"unknown command group(s) {unknown}; choose from {list(COMMAND_GROUPS)}",
+                where=f"{where}.accept",
+            )
+        object.__setattr__(self, "accept", accept)
+        _check_rate(self.sonar_rate_hz, f"{where}.sonar_rate_hz")
+        _check_rate(self.odom_rate_hz, f"{where}.odom_rate_hz")
+
+
+@dataclass(frozen=True)
+class AgentCommands:
+    """The latest commands received from ROS 2 for one agent, as of ``t_sim``.
+
+    A field is ``None`` when nothing was received on its topic within the bridge's
+    ``command_timeout_s`` (or never). The caller treats ``None`` as "no command":
+    zero speed, hold the current depth, zero thrusters.
+
+    ``stale`` is True when commands *were* received for this agent but every one of
+    them is now older than the timeout: the peer went silent, perform a safe stop.
+    It is False when no command was ever received (the agent is not under external
+    control; the built-in helm keeps the vehicle) and while any command is fresh.
+    ``age_s`` is the age of the newest command (in the timeout's clock, s), or ``None``.
+
+    Units: ``desired_heading_deg`` compass degrees [0, 360); ``desired_speed`` m/s;
+    ``desired_depth`` m, positive down; ``thrusters`` ``(port, starboard, vertical)``,
+    dimensionless in [-150, 150].
+    """
+
+    desired_heading_deg: float | None = None
+    desired_speed: float | None = None
+    desired_depth: float | None = None
+    thrusters: tuple[float, float, float] | None = None
+    stale: bool = False
+    age_s: float | None = None
+
+    @property
+    def received(self) -> bool:
+        """True once any command has been received for this agent."""
+        return self.age_s is not None
+
+    @property
+    def has_desired(self) -> bool:
+        """True when at least one fresh ``desired_*`` value is present."""
+        return any(
+            v is not None
+            for v in (self.desired_heading_deg, self.desired_speed, self.desired_depth)
+        )
+
+
+#: Environment defaults the bridge applies when the user has not set them.
+#: ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` keeps DDS discovery on loopback; the old
+#: ``ROS_LOCALHOST_ONLY`` is ignored by ROS 2 Kilted and is never set here.
+ENV_DEFAULTS: dict[str, str] = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
+
+
+def apply_env_defaults(environ: MutableMapping[str, str] | None = None) -> dict[str, str]:
+    """Set each of :data:`ENV_DEFAULTS` that is missing from ``environ`` (default
+    ``os.environ``, which rcl reads when a context starts); return those it set."""
+    env = os.environ if environ is None else environ
+    applied: dict[str, str] = {}
+    for key, value in ENV_DEFAULTS.items():
+        if not env.get(key):
+            env[key] = value
+            applied[key] = value
+    return applied
+
+
+def check_domain_id(domain_id: int | None) -> int | None:
+    """Validate a ROS domain id (0-232; 0-101 are safe on every OS) or None."""
+    if domain_id is None:
+        return None
+    if isinstance(domain_id, bool) or not isinstance(domain_id, int) or not (
+        0 <= domain_id <= 232
+    ):
+        raise ConfigError(f"must be an integer in 0..232, got {domain_id!r}", "domain_id")
+    return domain_id
