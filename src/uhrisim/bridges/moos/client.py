@@ -1,0 +1,438 @@
+"""A pure-Python asynchronous MOOS v10 client on a background thread.
+
+What it does, in MOOS terms (MOOSAsyncCommClient): it connects to a MOOSDB over TCP, sends
+the 32-byte handshake and an ``i`` message with key ``asynchronous`` and its name, waits
+for ``W`` (welcome) or ``K`` (poison), then both sides write whenever they like. Every
+``timing_period_s`` it sends an ``_async_timing`` ``T`` message as v10 clients do; the
+DB's ``T`` replies are read and ignored. Notifications (``N``) the DB pushes land in a
+thread-safe inbox that the caller empties with :meth:`MoosClient.drain`.
+
+Never blocking the caller: :meth:`notify`, :meth:`register` and :meth:`drain` only take a
+short lock and poke a wake-up socket; all network I/O happens on the client's own
+thread. When the DB goes away the thread reconnects with exponential backoff
+(``reconnect_min_s`` doubling up to ``reconnect_max_s``), performs the handshake again and
+re-registers every variable.
+
+Notifications while disconnected: the **latest value per variable** is kept (older ones
+are replaced) and sent, after the re-registrations, once the client is connected again.
+While connected, the outgoing queue is bounded (``max_outbox`` messages; the oldest are
+dropped and counted in :attr:`dropped_out`); a DB that stops reading for more than
+``max_send_buffer`` bytes is treated as dead (the connection is dropped and re-made).
+
+MOOS time (``MOOSLocalTime`` in MOOS v10 ``MOOSUtilityFunctions.cpp``) is
+``wall-clock seconds since the epoch x MOOSTimeWarp`` (+ the DB's skew estimate when
+``apply_skew`` is set). Every process of a warped MOOS community uses this definition,
+so notification times, NODE_REPORT TIME and the helm's clock agree.
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import logging
+import selectors
+import socket
+import threading
+import time
+from collections.abc import Callable, Iterable
+
+from uhrisim.bridges.moos.wire import (
+    HANDSHAKE,
+    MoosMessage,
+    MoosProtocolError,
+    MoosStreamParser,
+    encode_packet,
+)
+from uhrisim.core.errors import BridgeError
+
+__all__ = ["MoosClient"]
+
+log = logging.getLogger(__name__)
+
+#: Largest accepted MOOSTimeWarp (a sanity bound; MOOS itself only requires warp > 0).
+_MAX_WARP = 1000.0
+
+
+class MoosClient:
+    """Asynchronous MOOS client. Create, :meth:`connect`, then notify/register/drain.
+
+    Parameters
+    ----------
+    time_warp:
+        MOOSTimeWarp of the community (> 0). MOOS time = wall clock x warp.
+    apply_skew:
+        Add the DB's clock-skew estimate (welcome message dval) to MOOS time, as C++ MOOS
+        clients do with local time correction on. Off by default: on one machine the
+        "skew" is only the handshake latency.
+    reconnect_min_s, reconnect_max_s:
+        Reconnection backoff (wall-clock seconds), doubling from min to max.
+    connect_timeout_s:
+        TCP connect + welcome wait per attempt (wall-clock seconds).
+    timing_period_s:
+        Period of ``_async_timing`` messages (wall-clock seconds).
+    max_outbox, max_inbox:
+        Bounds of the outgoing and incoming queues (messages); the oldest are dropped.
+    max_send_buffer:
+        Bytes written but not taken by the DB before the connection is declared dead.
+    wall_clock:
+        Seconds since the Unix epoch (injectable for tests).
+    """
+
+    def __init__(
+        self,
+        *,
+        time_warp: float = 1.0,
+        apply_skew: bool = False,
+        reconnect_min_s: float = 0.05,
+        reconnect_max_s: float = 1.0,
+        connect_timeout_s: float = 1.0,
+        timing_period_s: float = 1.0,
+        max_outbox: int = 100_000,
+        max_inbox: int = 100_000,
+        max_send_buffer: int = 16 * 1024 * 1024,
+        wall_clock: Callable[[], float] = time.time,
+    ) -> None:
+        if not (0.0 < time_warp <= _MAX_WARP):
+            raise BridgeError(f"MOOS client: time_warp {time_warp} not in (0, {_MAX_WARP}]")
+        self.time_warp = float(time_warp)
+        self.apply_skew = apply_skew
+        self._rmin = reconnect_min_s
+        self._rmax = reconnect_max_s
+        self._ctimeout = connect_timeout_s
+        self._timing_period = timing_period_s
+        self._max_send_buffer = max_send_buffer
+        self._wall = wall_clock
+
+        self.host = "127.0.0.1"
+        self.port = 9000
+        self.name = "uhrisim"
+
+        self._lock = threading.Lock()
+        self._outbox: collections.deque[MoosMessage] = collections.deque(maxlen=max_outbox)
+        self._latest_down: dict[str, MoosMessage] = {}
+        self._inbox: collections.deque[MoosMessage] = collections.deque(maxlen=max_inbox)
+        self._registrations: dict[str, float] = {}
+        self._next_id = 0
+        self._wake_pending = False
+        self._wake_r, self._wake_w = socket.socketpair()
+        self._wake_r.setblocking(False)
+        self._wake_w.setblocking(False)
+
+        self._stop = threading.Event()
+        self._connected_evt = threading.Event()
+        self._attempted_evt = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._parser = MoosStreamParser()
+
+        self._connected = False
+        self.community: str | None = None
+        self.skew = 0.0
+        self.last_error: str | None = None
+        self._status = "not started"
+        self.n_connects = 0
+        self.dropped_out = 0
+        self.dropped_in = 0
+        self.n_sent = 0
+        self.n_received = 0
+
+    # -- state ------------------------------------------------------------------------
+    @property
+    def connected(self) -> bool:
+        """True while a welcomed connection to the DB is up."""
+        return self._connected
+
+    @property
+    def status(self) -> str:
+        """One line: connection state, and the last error if there is one."""
+        s = self._status
+        return f"{s} (last error: {self.last_error})" if self.last_error else s
+
+    def moos_time(self) -> float:
+        """MOOS time now: wall-clock epoch seconds x time warp (+ skew if applied)."""
+        return self._wall() * self.time_warp + (self.skew if self.apply_skew else 0.0)
+
+    # -- lifecycle --------------------------------------------------------------------
+    def connect(
+        self,
+        host: str = "127.0.0.1",
+        port: int = 9000,
+        name: str = "uhrisim",
+        *,
+        strict: bool = False,
+        timeout_s: float = 3.0,
+    ) -> None:
+        """Start the client thread, connecting to ``host:port`` as ``name``.
+
+        Non-strict (default): returns at once; the thread keeps trying (with backoff) and
+        logs. Strict: waits until connected, or until the first attempt fails, or
+        ``timeout_s``; raises :class:`BridgeError` (and stops the thread) if not connected.
+        """
+        if self._thread is not None:
+            raise BridgeError(f"MOOS client {self.name!r}: connect() called twice")
+        if not name or any(ch.isspace() for ch in name):
+            raise BridgeError(f"MOOS client: invalid name {name!r} (non-empty, no spaces)")
+        self.host, self.port, self.name = host, int(port), name
+        self._status = f"connecting to {host}:{port}"
+        self._thread = threading.Thread(target=self._run, name=f"moos-{name}", daemon=True)
+        self._thread.start()
+        if strict:
+            deadline = time.monotonic() + timeout_s
+            while time.monotonic() < deadline and not self._connected_evt.is_set():
+                if self._attempted_evt.wait(0.01) and not self._connected_evt.is_set():
+                    break
+            if not self._connected_evt.is_set():
+                err = self.last_error or f"no welcome within {timeout_s:.1f} s"
+                self.close()
+                raise BridgeError(
+                    f"MOOS: cannot connect to MOOSDB at {host}:{port} as {name!r}: {err}")
+
+    def wait_connected(self, timeout_s: float) -> bool:
+        """Block up to ``timeout_s`` for a connection (for scripts and tests)."""
+        return self._connected_evt.wait(timeout_s)
+
+    def close(self) -> None:
+        """Stop the thread and close the connection (idempotent)."""
+        self._stop.set()
+        self._wake()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(5.0)
+        self._connected = False
+        self._status = "closed"
+        for s in (self._wake_r, self._wake_w):
+            with contextlib.suppress(OSError):
+                s.close()
+
+    def __enter__(self) -> MoosClient:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- caller API (never blocks on I/O) -----------------------------------------------
+    def register(self, var: str, interval: float = 0.0) -> None:
+        """Subscribe to ``var`` (minimum interval ``interval`` s; 0 = every change).
+
+        Remembered: re-sent after every reconnection.
+        """
+        with self._lock:
+            self._registrations[var] = float(interval)
+            if self._connected:
+                self._outbox.append(self._make_register(var, float(interval)))
+        self._wake()
+
+    def unregister(self, var: str) -> None:
+        with self._lock:
+            self._registrations.pop(var, None)
+            if self._connected:
+                self._outbox.append(MoosMessage(self._new_id(), "U", "D", self.name, "", "",
+                                                var, self.moos_time(), 0.0, -1.0))
+        self._wake()
+
+    def notify(self, var: str, value: float | str | bytes, time: float | None = None) -> bool:
+        """Post ``var = value`` stamped with MOOS ``time`` (default: :meth:`moos_time`).
+
+        Returns True if queued for sending now, False if the client is disconnected (the
+        value then replaces any older one of ``var`` and is sent after reconnection).
+        """
+        return self.notify_many([(var, value)], time)
+
+    def notify_many(
+        self, items: Iterable[tuple[str, float | str | bytes]], time: float | None = None
+    ) -> bool:
+        """Post several variables with one time stamp, one lock and one wake-up."""
+        t = self.moos_time() if time is None else float(time)
+        with self._lock:
+            msgs = [MoosMessage.notify(k, v, t, self.name, msg_id=self._new_id())
+                    for k, v in items]
+            up = self._connected
+            if up:
+                free = self._outbox.maxlen - len(self._outbox)  # type: ignore[operator]
+                if len(msgs) > free:
+                    self.dropped_out += len(msgs) - free
+                self._outbox.extend(msgs)
+            else:
+                for m in msgs:
+                    self._latest_down[m.key] = m
+        if up:
+            self._wake()
+        return up
+
+    def drain(self) -> list[MoosMessage]:
+        """Return and clear every notification received since the last call (oldest first)."""
+        with self._lock:
+            out = list(self._inbox)
+            self._inbox.clear()
+        return out
+
+    # -- internals ------------------------------------------------------------------------
+    def _new_id(self) -> int:
+        i = self._next_id
+        self._next_id = (i + 1) & 0x7FFFFFFF
+        return i
+
+    def _make_register(self, var: str, interval: float) -> MoosMessage:
+        return MoosMessage.register(var, interval, self.moos_time(), self.name,
+                                    msg_id=self._new_id())
+
+    def _wake(self) -> None:
+        if self._wake_pending:
+            return
+        self._wake_pending = True
+        with contextlib.suppress(OSError):
+            self._wake_w.send(b"\x00")
+
+    def _run(self) -> None:
+        backoff = self._rmin
+        first_failure_logged = False
+        while not self._stop.is_set():
+            sock: socket.socket | None = None
+            try:
+                sock = self._handshake()
+                backoff = self._rmin
+                first_failure_logged = False
+                self._serve(sock)
+            except (OSError, BridgeError) as exc:
+                self.last_error = f"{type(exc).__name__}: {exc}"
+                if self._connected:
+                    log.warning("MOOS client %r: connection to %s:%d lost: %s",
+                                self.name, self.host, self.port, exc)
+                elif not first_failure_logged:
+                    log.warning("MOOS client %r: cannot reach MOOSDB at %s:%d (%s); "
+                                "retrying", self.name, self.host, self.port, exc)
+                    first_failure_logged = True
+                else:
+                    log.debug("MOOS client %r: retry failed: %s", self.name, exc)
+            finally:
+                with self._lock:
+                    self._connected = False
+                    # unsent notifications: keep the latest per variable for the reconnect
+                    for m in self._outbox:
+                        if m.msg_type == "N":
+                            self._latest_down[m.key] = m
+                    self._outbox.clear()
+                self._connected_evt.clear()
+                self._attempted_evt.set()
+                if sock is not None:
+                    with contextlib.suppress(OSError):
+                        sock.close()
+            if self._stop.is_set():
+                break
+            self._status = f"disconnected; retrying {self.host}:{self.port} in {backoff:.2f} s"
+            self._stop.wait(backoff)
+            backoff = min(self._rmax, backoff * 2.0)
+
+    def _handshake(self) -> socket.socket:
+        sock = socket.create_connection((self.host, self.port), timeout=self._ctimeout)
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        hello = MoosMessage(-1, "i", "S", "", "", "", "asynchronous", self.moos_time(),
+                            -1.0, -1.0, self.name.encode())
+        sock.sendall(HANDSHAKE + encode_packet([hello]))
+        parser = MoosStreamParser()
+        deadline = time.monotonic() + self._ctimeout
+        packets = []
+        while not packets:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise BridgeError("MOOSDB sent no welcome within the connect timeout")
+            sock.settimeout(remaining)
+            data = sock.recv(65536)
+            if not data:
+                raise BridgeError("MOOSDB closed the connection during the handshake")
+            packets = parser.feed(data)
+        first = packets[0].messages[0] if packets[0].messages else None
+        if first is None or first.msg_type == "K":
+            reason = first.string if first is not None else "empty reply"
+            raise BridgeError(f"MOOSDB refused {self.name!r}: {reason}")
+        if first.msg_type != "W":
+            raise MoosProtocolError(f"MOOS handshake: expected W or K, got {first.msg_type!r}")
+        if first.string != "asynchronous":
+            raise BridgeError("MOOSDB does not support asynchronous clients (MOOS < v10)")
+        self.community = first.community
+        self.skew = first.dval
+        sock.setblocking(False)
+        with self._lock:
+            self._connected = True
+            self.n_connects += 1
+            # registrations first, then the latest values posted while we were away
+            pending = [self._make_register(v, i) for v, i in self._registrations.items()]
+            pending.extend(self._latest_down.values())
+            self._latest_down.clear()
+            self._outbox.extendleft(reversed(pending))
+        self.last_error = None
+        self._status = (f"connected to {self.host}:{self.port} as {self.name!r} "
+                        f"(community {self.community!r})")
+        self._connected_evt.set()
+        self._attempted_evt.set()
+        log.info("MOOS client %r: %s", self.name, self._status)
+        # packets that arrived together with the welcome
+        for p in packets[1:]:
+            self._on_messages(p.messages)
+        self._parser = parser
+        return sock
+
+    def _on_messages(self, msgs: tuple[MoosMessage, ...]) -> None:
+        notes = [m for m in msgs if m.msg_type == "N"]
+        for m in msgs:
+            if m.msg_type == "K":
+                raise BridgeError(f"MOOSDB sent poison: {m.string}")
+            if m.msg_type == "^":
+                raise BridgeError("MOOSDB asked us to terminate")
+        if notes:
+            with self._lock:
+                free = self._inbox.maxlen - len(self._inbox)  # type: ignore[operator]
+                if len(notes) > free:
+                    self.dropped_in += len(notes) - free
+                self._inbox.extend(notes)
+                self.n_received += len(notes)
+
+    def _serve(self, sock: socket.socket) -> None:
+        sel = selectors.DefaultSelector()
+        parser = self._parser
+        sendbuf = bytearray()
+        next_timing = time.monotonic()
+        try:
+            sel.register(sock, selectors.EVENT_READ)
+            sel.register(self._wake_r, selectors.EVENT_READ)
+            want_write = False
+            while not self._stop.is_set():
+                now = time.monotonic()
+                if now >= next_timing:
+                    sendbuf += encode_packet([MoosMessage(
+                        -1, "T", "D", "", "", "", "_async_timing", self.moos_time(), 0.0, -1.0)])
+                    next_timing = now + self._timing_period
+                # collect outgoing mail
+                with self._lock:
+                    self._wake_pending = False
+                    out = list(self._outbox)
+                    self._outbox.clear()
+                if out:
+                    sendbuf += encode_packet(out)
+                    self.n_sent += len(out)
+                if sendbuf:
+                    try:
+                        n = sock.send(sendbuf)
+                        del sendbuf[:n]
+                    except (BlockingIOError, InterruptedError):
+                        pass
+                    if len(sendbuf) > self._max_send_buffer:
+                        raise BridgeError(
+                            f"MOOSDB is not reading ({len(sendbuf)} bytes backed up)")
+                if bool(sendbuf) != want_write:
+                    want_write = bool(sendbuf)
+                    sel.modify(sock, selectors.EVENT_READ
+                               | (selectors.EVENT_WRITE if want_write else 0))
+                for key, _mask in sel.select(max(0.0, next_timing - time.monotonic())):
+                    if key.fileobj is self._wake_r:
+                        with contextlib.suppress(BlockingIOError, InterruptedError):
+                            self._wake_r.recv(4096)
+                    elif _mask & selectors.EVENT_READ:
+                        try:
+                            data = sock.recv(1 << 16)
+                        except (BlockingIOError, InterruptedError):
+                            continue
+                        if not data:
+                            raise BridgeError("MOOSDB closed the connection")
+                        for p in parser.feed(data):
+                            self._on_messages(p.messages)
+        finally:
+            sel.close()
