@@ -1,0 +1,850 @@
+// uhrisim web viewer: top-down map (pMarineViewer-like), sonar fan, 3-D view, live plots.
+// All positions arrive in NED metres (north, east, depth), headings in compass degrees.
+// The page keeps its state in window.uhri (read by the tests and handy in the console).
+
+const $ = (id) => document.getElementById(id);
+const DEG = Math.PI / 180;
+const PLOT_WINDOW = 60; // s of plot history shown
+const TRAIL_MAX = 4000; // points per agent kept for live trails
+const TRAIL_MIN_DT = 0.25; // s between live trail points
+
+const KIND_COLORS = { rov: "#f5c518", diver: "#ff7a45", vehicle: "#4fd1ff" };
+const EXTRA_COLORS = ["#9be564", "#d783ff", "#ff5c8a", "#5ce1e6", "#ffd6a5"];
+
+const state = {
+  connected: false,
+  mode: "live",
+  scene: null,
+  buttons: [],
+  frame: null,
+  agents: {}, // name -> last agent record
+  colors: {},
+  trails: {}, // name -> [[t, n, e, d], ...]
+  tracks: null, // replay: name -> {t:[], n:[], e:[], d:[]}
+  replay: null,
+  selected: null,
+  sonar: {}, // agent -> {t, fov_deg, max_range, img}
+  plots: { range: [], depth: {}, speed: {} },
+  framesReceived: 0,
+  sonarsReceived: 0,
+  commandsSent: 0,
+  view: { cn: 0, ce: 0, scale: 10, fitted: false }, // map centre (north, east), px per metre
+  gl: false,
+  errors: [],
+};
+window.uhri = state;
+
+// ------------------------------------------------------------------ connection
+let ws = null;
+let retryDelay = 500;
+
+function setConn(text, cls) {
+  const el = $("conn");
+  el.textContent = text;
+  el.className = "conn " + cls;
+}
+
+function connect() {
+  const proto = location.protocol === "https:" ? "wss:" : "ws:";
+  setConn("connecting…", "conn-wait");
+  ws = new WebSocket(`${proto}//${location.host}/ws`);
+  ws.onopen = () => {
+    retryDelay = 500;
+    state.connected = true;
+  };
+  ws.onmessage = (ev) => {
+    let msg;
+    try {
+      msg = JSON.parse(ev.data);
+    } catch (e) {
+      state.errors.push("bad JSON from server");
+      return;
+    }
+    if (msg.type === "hello") onHello(msg);
+    else if (msg.type === "frame") onFrame(msg);
+    else if (msg.type === "sonar") onSonar(msg);
+  };
+  ws.onclose = () => {
+    state.connected = false;
+    const secs = (retryDelay / 1000).toFixed(1);
+    setConn(`disconnected — retrying in ${secs} s`, "conn-bad");
+    setTimeout(connect, retryDelay);
+    retryDelay = Math.min(retryDelay * 2, 5000);
+  };
+}
+
+function send(obj) {
+  if (ws && ws.readyState === WebSocket.OPEN) {
+    ws.send(JSON.stringify(obj));
+    state.commandsSent += 1;
+    return true;
+  }
+  return false;
+}
+
+function command(kind, extra = {}) {
+  return send({ type: "command", kind, agent: null, name: null, value: null, ...extra });
+}
+
+// ------------------------------------------------------------------ messages
+function agentColor(name, kind) {
+  if (!state.colors[name]) {
+    const used = Object.values(state.colors);
+    let c = KIND_COLORS[kind] || KIND_COLORS.vehicle;
+    if (used.includes(c)) c = EXTRA_COLORS[used.length % EXTRA_COLORS.length];
+    state.colors[name] = c;
+  }
+  return state.colors[name];
+}
+
+function onHello(msg) {
+  state.mode = msg.mode;
+  state.scene = msg.scene || { objects: [] };
+  state.buttons = msg.buttons || [];
+  state.replay = msg.replay || null;
+  state.tracks = msg.tracks || null;
+  state.trails = {};
+  for (const [name, pts] of Object.entries(msg.history || {})) state.trails[name] = pts.slice();
+  setConn(msg.mode === "replay" ? "replay" : "live", "conn-ok");
+  buildButtons();
+  $("replay-group").classList.toggle("hidden", msg.mode !== "replay");
+  if (state.replay) {
+    const s = $("slider");
+    s.min = state.replay.t_start;
+    s.max = state.replay.t_end;
+    s.step = Math.max((state.replay.t_end - state.replay.t_start) / 2000, 0.001);
+    $("replay-end").textContent = `/ ${state.replay.t_end.toFixed(1)} s`;
+  }
+  if (!state.view.fitted) fitView();
+  view3d.setScene(state.scene);
+  dirty.map = dirty.plots = true;
+}
+
+function onFrame(f) {
+  const prevT = state.frame ? state.frame.t : -Infinity;
+  if (f.t < prevT) resetHistories(); // replay seek or a new run
+  state.frame = f;
+  state.framesReceived += 1;
+  for (const a of f.agents || []) {
+    state.agents[a.name] = a;
+    agentColor(a.name, a.kind);
+    if (state.mode !== "replay") {
+      const tr = state.trails[a.name] || (state.trails[a.name] = []);
+      const last = tr[tr.length - 1];
+      if (!last || f.t - last[0] >= TRAIL_MIN_DT) {
+        tr.push([f.t, a.north, a.east, a.depth]);
+        if (tr.length > TRAIL_MAX) tr.splice(0, tr.length - TRAIL_MAX);
+      }
+    }
+  }
+  if (!state.selected && f.agents && f.agents.length) {
+    const rov = f.agents.find((a) => a.kind === "rov") || f.agents[0];
+    state.selected = rov.name;
+  }
+  if (!state.view.fitted) fitView();
+  pushPlots(f);
+  updateBar(f);
+  dirty.map = dirty.plots = dirty.view3d = true;
+}
+
+function onSonar(s) {
+  state.sonarsReceived += 1;
+  const img = new Image();
+  img.onload = () => {
+    state.sonar[s.agent] = { t: s.t, fov_deg: s.fov_deg, max_range: s.max_range, img };
+    dirty.sonar = dirty.view3d = true;
+  };
+  img.src = "data:image/png;base64," + s.fan_png_b64;
+}
+
+function resetHistories() {
+  state.plots = { range: [], depth: {}, speed: {} };
+  if (state.mode !== "replay") state.trails = {};
+}
+
+function pushPlots(f) {
+  const p = f.plots || {};
+  const t = f.t;
+  const cut = (arr) => {
+    while (arr.length && arr[0][0] < t - PLOT_WINDOW) arr.shift();
+  };
+  if (p.range_to_diver !== undefined && p.range_to_diver !== null) {
+    state.plots.range.push([t, p.range_to_diver]);
+  }
+  cut(state.plots.range);
+  for (const key of ["depth", "speed"]) {
+    for (const [name, v] of Object.entries(p[key] || {})) {
+      if (v === null) continue;
+      const arr = state.plots[key][name] || (state.plots[key][name] = []);
+      arr.push([t, v]);
+      cut(arr);
+    }
+  }
+}
+
+let sliderDragging = false;
+function updateBar(f) {
+  $("clock").textContent = `t = ${f.t.toFixed(1)} s`;
+  const rtf = f.rtf === null || f.rtf === undefined ? "–" : f.rtf.toFixed(2);
+  $("rtf").textContent = `RTF ${rtf}`;
+  $("btn-pause").textContent = f.paused ? "Resume" : "Pause";
+  $("btn-step").disabled = !f.paused;
+  if (state.mode === "replay" && !sliderDragging) $("slider").value = f.t;
+}
+
+// ------------------------------------------------------------------ controls
+function buildButtons() {
+  const box = $("buttons");
+  box.textContent = "";
+  for (const b of state.buttons) {
+    const el = document.createElement("button");
+    el.type = "button";
+    el.className = "post";
+    el.textContent = b.label;
+    el.dataset.var = b.var;
+    el.dataset.agent = b.agent;
+    el.title = `post ${b.var}=${b.value} to ${b.agent}`;
+    el.onclick = () => command("post", { agent: b.agent, name: b.var, value: b.value });
+    box.appendChild(el);
+  }
+}
+
+function togglePause() {
+  const paused = state.frame ? state.frame.paused : false;
+  command(paused ? "resume" : "pause");
+}
+
+$("btn-pause").onclick = togglePause;
+$("btn-step").onclick = () => command("step", { value: 1 });
+$("speed").onchange = (ev) => {
+  const v = ev.target.value;
+  command("speed", { value: v === "max" ? "max" : parseFloat(v) });
+};
+$("slider").addEventListener("input", (ev) => {
+  sliderDragging = true;
+  send({ type: "seek", t: parseFloat(ev.target.value) });
+});
+$("slider").addEventListener("change", () => {
+  sliderDragging = false;
+});
+window.addEventListener("keydown", (ev) => {
+  if (ev.target.tagName === "INPUT" || ev.target.tagName === "SELECT") return;
+  if (ev.key === " ") {
+    togglePause();
+    ev.preventDefault();
+  } else if (ev.key === "s") command("step", { value: 1 });
+  else if (ev.key === "f") fitView();
+});
+
+// ------------------------------------------------------------------ canvases
+const dirty = { map: true, sonar: true, plots: true, view3d: true };
+
+function sizeCanvas(c) {
+  const dpr = window.devicePixelRatio || 1;
+  const w = Math.max(1, Math.round(c.clientWidth * dpr));
+  const h = Math.max(1, Math.round(c.clientHeight * dpr));
+  if (c.width !== w || c.height !== h) {
+    c.width = w;
+    c.height = h;
+  }
+  return dpr;
+}
+
+// ---------- map (north up, east right)
+const mapCanvas = $("map");
+
+function worldToScreen(n, e) {
+  const v = state.view;
+  const w = mapCanvas.clientWidth;
+  const h = mapCanvas.clientHeight;
+  return [w / 2 + (e - v.ce) * v.scale, h / 2 - (n - v.cn) * v.scale];
+}
+function screenToWorld(x, y) {
+  const v = state.view;
+  const w = mapCanvas.clientWidth;
+  const h = mapCanvas.clientHeight;
+  return [v.cn - (y - h / 2) / v.scale, v.ce + (x - w / 2) / v.scale];
+}
+state.worldToScreen = worldToScreen; // for tests: CSS pixels inside the map canvas
+
+function fitView() {
+  let nmin = Infinity, nmax = -Infinity, emin = Infinity, emax = -Infinity;
+  const add = (n, e) => {
+    nmin = Math.min(nmin, n); nmax = Math.max(nmax, n);
+    emin = Math.min(emin, e); emax = Math.max(emax, e);
+  };
+  const b = state.scene && state.scene.bounds;
+  if (b) { add(b[0][0], b[0][1]); add(b[1][0], b[1][1]); }
+  for (const a of Object.values(state.agents)) add(a.north, a.east);
+  if (state.tracks) {
+    for (const tr of Object.values(state.tracks)) {
+      for (let i = 0; i < tr.n.length; i += 10) add(tr.n[i], tr.e[i]);
+    }
+  }
+  if (!isFinite(nmin)) return;
+  const w = mapCanvas.clientWidth || 800, h = mapCanvas.clientHeight || 600;
+  const span = Math.max(nmax - nmin, emax - emin, 10) * 1.15;
+  state.view.cn = (nmin + nmax) / 2;
+  state.view.ce = (emin + emax) / 2;
+  state.view.scale = Math.min(w, h) / span;
+  state.view.fitted = true;
+  dirty.map = true;
+}
+
+let drag = null;
+mapCanvas.addEventListener("mousedown", (ev) => {
+  drag = { x: ev.offsetX, y: ev.offsetY, cn: state.view.cn, ce: state.view.ce, moved: false };
+});
+window.addEventListener("mousemove", (ev) => {
+  if (!drag) return;
+  const r = mapCanvas.getBoundingClientRect();
+  const dx = ev.clientX - r.left - drag.x, dy = ev.clientY - r.top - drag.y;
+  if (Math.abs(dx) + Math.abs(dy) > 3) drag.moved = true;
+  state.view.ce = drag.ce - dx / state.view.scale;
+  state.view.cn = drag.cn + dy / state.view.scale;
+  dirty.map = true;
+});
+window.addEventListener("mouseup", (ev) => {
+  if (drag && !drag.moved) pickAgent(ev);
+  drag = null;
+});
+mapCanvas.addEventListener("wheel", (ev) => {
+  ev.preventDefault();
+  const [n, e] = screenToWorld(ev.offsetX, ev.offsetY);
+  const k = Math.exp(-ev.deltaY * 0.0015);
+  state.view.scale = Math.min(Math.max(state.view.scale * k, 0.05), 2000);
+  const [n2, e2] = screenToWorld(ev.offsetX, ev.offsetY);
+  state.view.cn += n - n2;
+  state.view.ce += e - e2;
+  dirty.map = true;
+}, { passive: false });
+mapCanvas.addEventListener("dblclick", fitView);
+
+function pickAgent(ev) {
+  const r = mapCanvas.getBoundingClientRect();
+  const x = ev.clientX - r.left, y = ev.clientY - r.top;
+  let best = null, bestD = 18;
+  for (const a of Object.values(state.agents)) {
+    const [sx, sy] = worldToScreen(a.north, a.east);
+    const d = Math.hypot(sx - x, sy - y);
+    if (d < bestD) { best = a.name; bestD = d; }
+  }
+  if (best) {
+    state.selected = best;
+    command("select", { agent: best });
+    dirty.map = dirty.sonar = dirty.view3d = true;
+  }
+}
+
+function niceStep(x) {
+  const p = Math.pow(10, Math.floor(Math.log10(x)));
+  for (const m of [1, 2, 5, 10]) if (m * p >= x) return m * p;
+  return 10 * p;
+}
+
+// Vehicle outlines in body units (forward = -y on screen before rotation), length 1.
+const SHAPES = {
+  rov: [[0, -0.5], [0.35, -0.3], [0.4, 0.5], [-0.4, 0.5], [-0.35, -0.3]],
+  diver: [[0, -0.5], [0.18, -0.3], [0.12, 0.1], [0.3, 0.5], [0, 0.3], [-0.3, 0.5], [-0.12, 0.1], [-0.18, -0.3]],
+  vehicle: [[0, -0.5], [0.25, 0.5], [0, 0.3], [-0.25, 0.5]],
+};
+const REAL_LENGTH = { rov: 0.37, diver: 1.8, vehicle: 4.0 };
+
+function drawMap() {
+  const c = mapCanvas;
+  const dpr = sizeCanvas(c);
+  const ctx = c.getContext("2d");
+  ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+  const w = c.clientWidth, h = c.clientHeight;
+  ctx.fillStyle = "#0a2a44";
+  ctx.fillRect(0, 0, w, h);
+
+  // grid (hash marks in metres)
+  const step = niceStep(80 / state.view.scale);
+  const [nTop, eLeft] = screenToWorld(0, 0);
+  const [nBot, eRight] = screenToWorld(w, h);
+  ctx.strokeStyle = "rgba(120,170,210,0.12)";
+  ctx.lineWidth = 1;
+  ctx.beginPath();
+  for (let e = Math.ceil(eLeft / step) * step; e <= eRight; e += step) {
+    const [x] = worldToScreen(0, e);
+    ctx.moveTo(x, 0); ctx.lineTo(x, h);
+  }
+  for (let n = Math.ceil(nBot / step) * step; n <= nTop; n += step) {
+    const [, y] = worldToScreen(n, 0);
+    ctx.moveTo(0, y); ctx.lineTo(w, y);
+  }
+  ctx.stroke();
+
+  // static scene footprint (objects as small squares, labels)
+  if (state.scene) {
+    ctx.fillStyle = "rgba(190,170,130,0.55)";
+    for (const o of state.scene.objects || []) {
+      if (!o.position_ned) continue;
+      const [x, y] = worldToScreen(o.position_ned[0], o.position_ned[1]);
+      const r = Math.max(2, objRadius(o) * state.view.scale);
+      ctx.beginPath();
+      ctx.arc(x, y, r, 0, 2 * Math.PI);
+      ctx.fill();
+    }
+  }
+
+  const f = state.frame;
+  const ov = (f && f.overlays) || {};
+  // trails
+  const tNow = f ? f.t : Infinity;
+  for (const [name, tr] of Object.entries(trailsFor(tNow))) {
+    ctx.fillStyle = state.colors[name] || "#ccc";
+    ctx.globalAlpha = 0.7;
+    for (const p of tr) {
+      const [x, y] = worldToScreen(p[1], p[2]);
+      ctx.fillRect(x - 1, y - 1, 2, 2);
+    }
+    ctx.globalAlpha = 1;
+  }
+  // polygons (loiter etc.)
+  for (const poly of ov.polygons || []) {
+    if (!poly.points || poly.points.length < 2) continue;
+    ctx.strokeStyle = "#e8e8e8";
+    ctx.setLineDash([]);
+    ctx.lineWidth = 1.2;
+    ctx.beginPath();
+    poly.points.forEach((p, i) => {
+      const [x, y] = worldToScreen(p[0], p[1]);
+      if (i === 0) ctx.moveTo(x, y); else ctx.lineTo(x, y);
+    });
+    ctx.closePath();
+    ctx.stroke();
+    ctx.fillStyle = "#e8e8e8";
+    for (const p of poly.points) {
+      const [x, y] = worldToScreen(p[0], p[1]);
+      ctx.fillRect(x - 2, y - 2, 4, 4);
+    }
+    if (poly.label) {
+      const [x, y] = worldToScreen(poly.points[0][0], poly.points[0][1]);
+      label(ctx, poly.label, x + 5, y - 5, "#bbb");
+    }
+  }
+  // circles around agents (contact / alert ranges)
+  for (const cir of ov.circles || []) {
+    const a = state.agents[cir.agent];
+    if (!a || !(cir.radius > 0)) continue;
+    const [x, y] = worldToScreen(a.north, a.east);
+    ctx.strokeStyle = state.colors[cir.agent] || "#aaa";
+    ctx.globalAlpha = 0.6;
+    ctx.setLineDash([6, 4]);
+    ctx.beginPath();
+    ctx.arc(x, y, cir.radius * state.view.scale, 0, 2 * Math.PI);
+    ctx.stroke();
+    ctx.setLineDash([]);
+    ctx.globalAlpha = 1;
+    if (cir.label) label(ctx, cir.label, x + cir.radius * state.view.scale * 0.71 + 3,
+      y - cir.radius * state.view.scale * 0.71, "#999");
+  }
+  // points (trail point, waypoints)
+  for (const pt of ov.points || []) {
+    const [x, y] = worldToScreen(pt.north, pt.east);
+    ctx.strokeStyle = state.colors[pt.agent] || "#fff";
+    ctx.lineWidth = 1.5;
+    ctx.beginPath();
+    ctx.moveTo(x - 5, y - 5); ctx.lineTo(x + 5, y + 5);
+    ctx.moveTo(x + 5, y - 5); ctx.lineTo(x - 5, y + 5);
+    ctx.stroke();
+    if (pt.label) label(ctx, pt.label, x + 7, y + 4, "#aaa");
+  }
+  // vehicles
+  for (const a of Object.values(state.agents)) {
+    const [x, y] = worldToScreen(a.north, a.east);
+    const kind = SHAPES[a.kind] ? a.kind : "vehicle";
+    const len = Math.max(REAL_LENGTH[kind] * state.view.scale, 18);
+    ctx.save();
+    ctx.translate(x, y);
+    ctx.rotate(a.heading_deg * DEG);
+    ctx.scale(len, len);
+    ctx.beginPath();
+    SHAPES[kind].forEach((p, i) => (i === 0 ? ctx.moveTo(p[0], p[1]) : ctx.lineTo(p[0], p[1])));
+    ctx.closePath();
+    ctx.fillStyle = state.colors[a.name] || "#fff";
+    ctx.fill();
+    ctx.lineWidth = (a.name === state.selected ? 2.5 : 1) / len;
+    ctx.strokeStyle = a.name === state.selected ? "#ffffff" : "#000000";
+    ctx.stroke();
+    ctx.restore();
+    const mode = a.mode ? ` ${a.mode}` : "";
+    label(ctx, `${a.name}  d=${a.depth.toFixed(1)} m${mode}`, x + len * 0.6, y + len * 0.6,
+      state.colors[a.name] || "#fff");
+  }
+  // scale bar
+  const barM = niceStep(120 / state.view.scale);
+  const barPx = barM * state.view.scale;
+  ctx.strokeStyle = "#fff";
+  ctx.lineWidth = 2;
+  ctx.beginPath();
+  ctx.moveTo(16, h - 18); ctx.lineTo(16 + barPx, h - 18);
+  ctx.moveTo(16, h - 23); ctx.lineTo(16, h - 13);
+  ctx.moveTo(16 + barPx, h - 23); ctx.lineTo(16 + barPx, h - 13);
+  ctx.stroke();
+  label(ctx, `${barM} m`, 16 + barPx / 2 - 10, h - 26, "#fff");
+  // north arrow
+  ctx.fillStyle = "#fff";
+  ctx.beginPath();
+  ctx.moveTo(w - 24, 28); ctx.lineTo(w - 30, 44); ctx.lineTo(w - 18, 44);
+  ctx.closePath();
+  ctx.fill();
+  label(ctx, "N", w - 28, 58, "#fff");
+}
+
+function label(ctx, text, x, y, color) {
+  ctx.font = "12px system-ui, 'DejaVu Sans', sans-serif";
+  ctx.fillStyle = "rgba(0,0,0,0.55)";
+  ctx.fillText(text, x + 1, y + 1);
+  ctx.fillStyle = color;
+  ctx.fillText(text, x, y);
+}
+
+function objRadius(o) {
+  if (o.radius) return o.radius;
+  if (Array.isArray(o.size)) return Math.max(o.size[0], o.size[1] || 0) / 2;
+  if (typeof o.size === "number") return o.size / 2;
+  return 0.5;
+}
+
+// Trail points to draw at time t: replay uses the recorded track up to t.
+function trailsFor(t) {
+  if (state.mode !== "replay" || !state.tracks) return state.trails;
+  const out = {};
+  for (const [name, tr] of Object.entries(state.tracks)) {
+    let lo = 0, hi = tr.t.length;
+    while (lo < hi) { const mid = (lo + hi) >> 1; if (tr.t[mid] <= t) lo = mid + 1; else hi = mid; }
+    const pts = [];
+    for (let i = 0; i < lo; i++) pts.push([tr.t[i], tr.n[i], tr.e[i], tr.d[i]]);
+    out[name] = pts;
+  }
+  return out;
+}
+
+// ---------- sonar panel
+function drawSonar() {
+  const c = $("sonar");
+  const dpr = sizeCanvas(c);
+  const ctx = c.getContext("2d");
+  ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+  const w = c.clientWidth, h = c.clientHeight;
+  ctx.fillStyle = "#000";
+  ctx.fillRect(0, 0, w, h);
+  let name = state.selected;
+  if (!state.sonar[name]) name = Object.keys(state.sonar)[0];
+  const s = state.sonar[name];
+  if (!s) {
+    label(ctx, "no sonar image yet", 10, 20, "#777");
+    $("sonar-caption").textContent = "";
+    return;
+  }
+  const k = Math.min(w / s.img.width, h / s.img.height);
+  const dw = s.img.width * k, dh = s.img.height * k;
+  ctx.imageSmoothingEnabled = true;
+  ctx.drawImage(s.img, (w - dw) / 2, (h - dh) / 2, dw, dh);
+  $("sonar-caption").textContent =
+    `${name} · t=${s.t.toFixed(1)} s · ${s.fov_deg.toFixed(0)}° · ${s.max_range.toFixed(0)} m`;
+}
+
+// ---------- plots
+function drawPlots() {
+  const c = $("plots");
+  const dpr = sizeCanvas(c);
+  const ctx = c.getContext("2d");
+  ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+  const w = c.clientWidth, h = c.clientHeight;
+  ctx.fillStyle = "#071a2b";
+  ctx.fillRect(0, 0, w, h);
+  const t1 = state.frame ? state.frame.t : 0;
+  const t0 = t1 - PLOT_WINDOW;
+  const rows = [
+    { title: "range to diver (m)", series: { range: state.plots.range }, invert: false },
+    { title: "depth (m)", series: state.plots.depth, invert: true },
+    { title: "speed (m/s)", series: state.plots.speed, invert: false },
+  ];
+  const rh = h / rows.length;
+  rows.forEach((row, i) => {
+    const y0 = i * rh + 14, y1 = (i + 1) * rh - 4, x0 = 40, x1 = w - 6;
+    let vmin = Infinity, vmax = -Infinity;
+    for (const arr of Object.values(row.series)) for (const p of arr) {
+      vmin = Math.min(vmin, p[1]); vmax = Math.max(vmax, p[1]);
+    }
+    label(ctx, row.title, 4, i * rh + 11, "#8fb");
+    ctx.strokeStyle = "#24435e";
+    ctx.strokeRect(x0, y0, x1 - x0, y1 - y0);
+    if (!isFinite(vmin)) return;
+    if (vmax - vmin < 1e-6) { vmin -= 0.5; vmax += 0.5; }
+    const pad = (vmax - vmin) * 0.08;
+    vmin -= pad; vmax += pad;
+    const ty = (v) => (row.invert ? y0 + ((v - vmin) / (vmax - vmin)) * (y1 - y0)
+      : y1 - ((v - vmin) / (vmax - vmin)) * (y1 - y0));
+    const tx = (t) => x0 + ((t - t0) / PLOT_WINDOW) * (x1 - x0);
+    ctx.font = "10px system-ui, sans-serif";
+    ctx.fillStyle = "#7f98ad";
+    ctx.fillText((row.invert ? vmin : vmax).toFixed(1), 2, y0 + 8);
+    ctx.fillText((row.invert ? vmax : vmin).toFixed(1), 2, y1);
+    for (const [name, arr] of Object.entries(row.series)) {
+      if (arr.length < 2) continue;
+      ctx.strokeStyle = name === "range" ? "#8fb" : state.colors[name] || "#ccc";
+      ctx.lineWidth = 1.5;
+      ctx.beginPath();
+      arr.forEach((p, j) => (j === 0 ? ctx.moveTo(tx(p[0]), ty(p[1])) : ctx.lineTo(tx(p[0]), ty(p[1]))));
+      ctx.stroke();
+    }
+  });
+}
+
+// ------------------------------------------------------------------ 3-D view
+const view3d = {
+  THREE: null,
+  renderer: null,
+  scene: null,
+  camera: null,
+  staticGroup: null,
+  agentObjs: {},
+  orbit: { az: -0.6, el: 0.55, dist: 45 },
+  target: [0, 0, 0],
+  pendingScene: null,
+
+  async init() {
+    const host = $("view3d");
+    const probe = document.createElement("canvas");
+    let ok = false;
+    try {
+      ok = !!(probe.getContext("webgl2") || probe.getContext("webgl"));
+    } catch (e) {
+      ok = false;
+    }
+    if (!ok) {
+      host.innerHTML = '<div class="nogl">3-D view unavailable: this browser has no WebGL.</div>';
+      return;
+    }
+    const THREE = (this.THREE = await import("./three.module.min.js"));
+    this.renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+    this.renderer.setPixelRatio(window.devicePixelRatio || 1);
+    host.appendChild(this.renderer.domElement);
+    this.scene = new THREE.Scene();
+    this.scene.background = new THREE.Color(0x06304a);
+    this.scene.fog = new THREE.Fog(0x06304a, 60, 220);
+    this.camera = new THREE.PerspectiveCamera(50, 1, 0.1, 2000);
+    this.scene.add(new THREE.HemisphereLight(0xbfe3ff, 0x303020, 1.6));
+    const sun = new THREE.DirectionalLight(0xffffff, 1.4);
+    sun.position.set(20, 60, 10);
+    this.scene.add(sun);
+    state.gl = true;
+    this.bindOrbit(this.renderer.domElement);
+    if (this.pendingScene) this.setScene(this.pendingScene);
+  },
+
+  // NED (north, east, down) -> three.js (x = east, y = up, z = south)
+  v(n, e, d) {
+    return new this.THREE.Vector3(e, -d, -n);
+  },
+
+  setScene(scene) {
+    if (!this.renderer) {
+      this.pendingScene = scene;
+      return;
+    }
+    const THREE = this.THREE;
+    if (this.staticGroup) this.scene.remove(this.staticGroup);
+    const g = (this.staticGroup = new THREE.Group());
+    const mat = (color, opts = {}) => new THREE.MeshLambertMaterial({ color, ...opts });
+    if (scene.seafloor && scene.seafloor.vertices && scene.seafloor.vertices.length) {
+      g.add(this.meshFrom(scene.seafloor.vertices, scene.seafloor.faces,
+        mat(0x8a7a55, { side: THREE.DoubleSide })));
+    }
+    for (const o of scene.objects || []) {
+      const obj = this.objectFrom(o, mat);
+      if (obj) g.add(obj);
+    }
+    // sea surface as a faint grid
+    const b = scene.bounds || [[-50, -50, 0], [50, 50, 20]];
+    const size = Math.max(b[1][0] - b[0][0], b[1][1] - b[0][1], 20);
+    const grid = new THREE.GridHelper(size, 20, 0x3a7ca5, 0x1d5275);
+    grid.position.copy(this.v((b[0][0] + b[1][0]) / 2, (b[0][1] + b[1][1]) / 2, 0));
+    g.add(grid);
+    this.scene.add(g);
+    const c = [(b[0][0] + b[1][0]) / 2, (b[0][1] + b[1][1]) / 2, (b[0][2] + b[1][2]) / 2];
+    this.target = c;
+    this.orbit.dist = size * 0.9;
+    dirty.view3d = true;
+  },
+
+  meshFrom(vertices, faces, material) {
+    const THREE = this.THREE;
+    const pos = new Float32Array(vertices.length * 3);
+    vertices.forEach((p, i) => {
+      pos[3 * i] = p[1]; pos[3 * i + 1] = -p[2]; pos[3 * i + 2] = -p[0];
+    });
+    const geo = new THREE.BufferGeometry();
+    geo.setAttribute("position", new THREE.BufferAttribute(pos, 3));
+    geo.setIndex(faces.flat());
+    geo.computeVertexNormals();
+    return new THREE.Mesh(geo, material);
+  },
+
+  // Primitive in its own NED-like frame (x fwd/north, y east, z down), rotated by the 3x3
+  // "rotation" (object -> world NED) and placed at position_ned.
+  objectFrom(o, mat) {
+    const THREE = this.THREE;
+    if (o.kind === "mesh") {
+      if (!o.vertices || !o.faces) return null;
+      return this.meshFrom(o.vertices, o.faces, mat(0x9aa5a8, { side: THREE.DoubleSide }));
+    }
+    const size = Array.isArray(o.size) ? o.size : null;
+    let geo;
+    if (o.kind === "box") {
+      const s = size || [1, 1, 1];
+      geo = new THREE.BoxGeometry(s[1], s[2], s[0]); // three: x=east, y=down(-), z=north(-)
+    } else if (o.kind === "cylinder") {
+      const r = o.radius ?? (size ? size[0] : 0.5);
+      const hgt = o.height ?? (size ? size[1] : 1);
+      geo = new THREE.CylinderGeometry(r, r, hgt, 24); // along local z (down) = three y
+    } else if (o.kind === "sphere") {
+      geo = new THREE.SphereGeometry(o.radius ?? (size ? size[0] : 0.5), 24, 16);
+    } else if (o.kind === "torus") {
+      const r = o.radius ?? (size ? size[0] : 1);
+      const tube = o.tube ?? (size ? size[1] : 0.1);
+      geo = new THREE.TorusGeometry(r, tube, 12, 40);
+      geo.rotateX(Math.PI / 2); // axis along local z (down)
+    } else {
+      return null;
+    }
+    const mesh = new THREE.Mesh(geo, mat(o.color ? new THREE.Color(o.color) : 0x9aa5a8));
+    if (o.rotation) {
+      // M_three = P R P^T with P: (n, e, d) -> (e, -d, -n)
+      const R = o.rotation;
+      const P = [[0, 1, 0], [0, 0, -1], [-1, 0, 0]];
+      const M = [[0, 0, 0], [0, 0, 0], [0, 0, 0]];
+      for (let i = 0; i < 3; i++) for (let j = 0; j < 3; j++) {
+        let s = 0;
+        for (let k = 0; k < 3; k++) for (let l = 0; l < 3; l++) s += P[i][k] * R[k][l] * P[j][l];
+        M[i][j] = s;
+      }
+      const m4 = new THREE.Matrix4().set(
+        M[0][0], M[0][1], M[0][2], 0, M[1][0], M[1][1], M[1][2], 0, M[2][0], M[2][1], M[2][2], 0, 0, 0, 0, 1);
+      mesh.quaternion.setFromRotationMatrix(m4);
+    }
+    const p = o.position_ned || [0, 0, 0];
+    mesh.position.copy(this.v(p[0], p[1], p[2]));
+    return mesh;
+  },
+
+  agentObject(a) {
+    const THREE = this.THREE;
+    const g = new THREE.Group();
+    const color = new THREE.Color(state.colors[a.name] || "#ffffff");
+    const m = new THREE.MeshLambertMaterial({ color });
+    if (a.kind === "rov") {
+      const body = new THREE.Mesh(new THREE.BoxGeometry(0.29, 0.22, 0.37), m);
+      g.add(body);
+    } else if (a.kind === "diver") {
+      const torso = new THREE.Mesh(new THREE.CylinderGeometry(0.18, 0.14, 1.5, 12), m);
+      torso.rotation.x = Math.PI / 2; // lie horizontally, head forward (-z)
+      g.add(torso);
+      const head = new THREE.Mesh(new THREE.SphereGeometry(0.14, 12, 8), m);
+      head.position.set(0, 0, -0.85);
+      g.add(head);
+      const tank = new THREE.Mesh(new THREE.CylinderGeometry(0.09, 0.09, 0.6, 10),
+        new THREE.MeshLambertMaterial({ color: 0x888888 }));
+      tank.rotation.x = Math.PI / 2;
+      tank.position.set(0, 0.2, -0.2);
+      g.add(tank);
+    } else {
+      const hull = new THREE.Mesh(new THREE.ConeGeometry(0.4, 3, 12), m);
+      hull.rotation.x = -Math.PI / 2;
+      g.add(hull);
+    }
+    this.scene.add(g);
+    return { group: g, wedge: null, wedgeKey: "" };
+  },
+
+  // Translucent horizontal fan: apex at the vehicle, ±fov/2 about forward, radius max_range.
+  wedge(fovDeg, maxRange) {
+    const THREE = this.THREE;
+    const half = (fovDeg * DEG) / 2;
+    const geo = new THREE.CircleGeometry(maxRange, 48, Math.PI / 2 - half, 2 * half);
+    geo.rotateX(-Math.PI / 2); // circle plane (x,y) -> horizontal (x,z); +y (forward) -> -z
+    const mat = new THREE.MeshBasicMaterial({ color: 0x6ff0ff, transparent: true, opacity: 0.18,
+      side: THREE.DoubleSide, depthWrite: false });
+    return new THREE.Mesh(geo, mat);
+  },
+
+  update() {
+    if (!this.renderer) return;
+    const host = $("view3d");
+    const w = Math.max(1, host.clientWidth), h = Math.max(1, host.clientHeight);
+    const size = this.renderer.getSize(new this.THREE.Vector2());
+    if (size.x !== w || size.y !== h) {
+      this.renderer.setSize(w, h, false);
+      this.camera.aspect = w / h;
+      this.camera.updateProjectionMatrix();
+    }
+    for (const a of Object.values(state.agents)) {
+      const obj = this.agentObjs[a.name] || (this.agentObjs[a.name] = this.agentObject(a));
+      obj.group.position.copy(this.v(a.north, a.east, a.depth));
+      obj.group.rotation.y = -a.heading_deg * DEG;
+      const s = state.sonar[a.name];
+      if (s) {
+        const key = `${s.fov_deg}/${s.max_range}`;
+        if (obj.wedgeKey !== key) {
+          if (obj.wedge) obj.group.remove(obj.wedge);
+          obj.wedge = this.wedge(s.fov_deg, s.max_range);
+          obj.wedgeKey = key;
+          obj.group.add(obj.wedge);
+        }
+      }
+    }
+    const sel = state.agents[state.selected];
+    const t = sel ? [sel.north, sel.east, sel.depth] : this.target;
+    const o = this.orbit;
+    const target = this.v(t[0], t[1], t[2]);
+    this.camera.position.set(
+      target.x + o.dist * Math.cos(o.el) * Math.sin(o.az),
+      target.y + o.dist * Math.sin(o.el),
+      target.z + o.dist * Math.cos(o.el) * Math.cos(o.az));
+    this.camera.lookAt(target);
+    this.renderer.render(this.scene, this.camera);
+  },
+
+  bindOrbit(el) {
+    let d = null;
+    el.addEventListener("mousedown", (ev) => { d = { x: ev.clientX, y: ev.clientY }; });
+    window.addEventListener("mouseup", () => { d = null; });
+    window.addEventListener("mousemove", (ev) => {
+      if (!d) return;
+      this.orbit.az -= (ev.clientX - d.x) * 0.01;
+      this.orbit.el = Math.min(Math.max(this.orbit.el + (ev.clientY - d.y) * 0.01, -1.4), 1.5);
+      d = { x: ev.clientX, y: ev.clientY };
+      dirty.view3d = true;
+    });
+    el.addEventListener("wheel", (ev) => {
+      ev.preventDefault();
+      this.orbit.dist = Math.min(Math.max(this.orbit.dist * Math.exp(ev.deltaY * 0.0015), 1), 1500);
+      dirty.view3d = true;
+    }, { passive: false });
+  },
+};
+
+// ------------------------------------------------------------------ render loop
+let lastDraw = 0;
+state.drawCount = 0;
+function loop(now) {
+  if (dirty.map) { dirty.map = false; drawMap(); state.drawCount += 1; }
+  if (dirty.sonar) { dirty.sonar = false; drawSonar(); }
+  if (dirty.plots && now - lastDraw > 90) { dirty.plots = false; lastDraw = now; drawPlots(); }
+  if (dirty.view3d) { dirty.view3d = false; view3d.update(); }
+  requestAnimationFrame(loop);
+}
+new ResizeObserver(() => { dirty.map = dirty.sonar = dirty.plots = dirty.view3d = true; })
+  .observe(document.body);
+
+view3d.init().catch((e) => {
+  state.errors.push(String(e));
+  $("view3d").innerHTML = '<div class="nogl">3-D view failed to start.</div>';
+});
+connect();
+requestAnimationFrame(loop);

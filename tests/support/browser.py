@@ -1,0 +1,105 @@
+"""Headless Chromium for viewer tests: Debian's ``/usr/bin/chromium`` driven by Playwright.
+
+Never calls ``playwright install`` (no downloads here): it launches the system Chromium
+with a throw-away profile and the flags the house rules ask for. ``chromium_unavailable()``
+returns the reason a test should skip (None when a browser can run).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+CHROMIUM_CANDIDATES = ("/usr/bin/chromium", "/usr/bin/chromium-browser", "/usr/bin/google-chrome")
+
+CHROMIUM_FLAGS = (
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+    # WebGL in software (SwiftShader) so the 3-D panel renders without a GPU.
+    "--enable-unsafe-swiftshader",
+    "--use-angle=swiftshader",
+)
+
+
+def chromium_path() -> str | None:
+    """Path of a system Chromium, honouring ``$UHRISIM_CHROMIUM``; None if none is found."""
+    env = os.environ.get("UHRISIM_CHROMIUM")
+    if env:
+        return env if os.path.exists(env) else None
+    for p in CHROMIUM_CANDIDATES:
+        if os.path.exists(p):
+            return p
+    return shutil.which("chromium")
+
+
+def chromium_unavailable() -> str | None:
+    """Why a browser test cannot run here, or None if it can."""
+    try:
+        import playwright.sync_api  # noqa: F401
+    except ImportError:
+        return "playwright (Python) is not installed: pip install playwright"
+    if chromium_path() is None:
+        return "no system Chromium: apt-get install -y chromium (never `playwright install`)"
+    return None
+
+
+@dataclass
+class BrowserPage:
+    """A Playwright page plus everything the page logged."""
+
+    page: Any
+    console: list[tuple[str, str]] = field(default_factory=list)
+    page_errors: list[str] = field(default_factory=list)
+    failed_requests: list[str] = field(default_factory=list)
+
+    def errors(self) -> list[str]:
+        """Console errors, uncaught exceptions and failed requests, as text."""
+        out = [f"console.{kind}: {text}" for kind, text in self.console if kind == "error"]
+        out += [f"pageerror: {e}" for e in self.page_errors]
+        out += [f"requestfailed: {u}" for u in self.failed_requests]
+        return out
+
+
+@contextlib.contextmanager
+def headless_page(
+    width: int = 1400, height: int = 860, device_scale_factor: float = 1.0
+) -> Iterator[BrowserPage]:
+    """A fresh headless Chromium page (temporary profile), closed on exit."""
+    from playwright.sync_api import sync_playwright
+
+    exe = chromium_path()
+    if exe is None:  # pragma: no cover - callers check chromium_unavailable() first
+        raise RuntimeError("no system Chromium found")
+    profile = tempfile.mkdtemp(prefix="uhrisim-chromium-")
+    try:
+        with sync_playwright() as pw:
+            ctx = pw.chromium.launch_persistent_context(
+                profile,
+                executable_path=exe,
+                headless=True,
+                args=list(CHROMIUM_FLAGS),
+                viewport={"width": width, "height": height},
+                device_scale_factor=device_scale_factor,
+                env={**os.environ, "HOME": profile},
+            )
+            try:
+                page = ctx.pages[0] if ctx.pages else ctx.new_page()
+                bp = BrowserPage(page)
+                page.on("console", lambda m: bp.console.append((m.type, m.text)))
+                page.on("pageerror", lambda e: bp.page_errors.append(str(e)))
+                page.on("requestfailed", lambda r: bp.failed_requests.append(r.url))
+                yield bp
+            finally:
+                ctx.close()
+    finally:
+        shutil.rmtree(profile, ignore_errors=True)
