@@ -97,7 +97,9 @@ def parse_command(msg: Any) -> Command:
             try:
                 value = float(raw)
             except (TypeError, ValueError):
-                raise ConfigError(f"speed value must be a number or 'max', got {raw!r}", where)
+                raise ConfigError(
+                    f"speed value must be a number or 'max', got {raw!r}", where
+                ) from None
             if not value > 0.0:
                 raise ConfigError(f"speed value must be > 0, got {value}", where)
     elif kind == "step":
@@ -107,7 +109,9 @@ def parse_command(msg: Any) -> Command:
             try:
                 value = float(raw)
             except (TypeError, ValueError):
-                raise ConfigError(f"step value must be a number of ticks, got {raw!r}", where)
+                raise ConfigError(
+                    f"step value must be a number of ticks, got {raw!r}", where
+                ) from None
             if not (math.isfinite(value) and value >= 1 and value == int(value)):
                 raise ConfigError(f"step value must be a whole number >= 1, got {raw!r}", where)
     elif kind == "post":
@@ -133,7 +137,7 @@ def parse_command(msg: Any) -> Command:
 
 
 def validate_buttons(buttons: list[dict[str, Any]]) -> list[dict[str, str]]:
-    """Check the scenario's buttons ``[{"label", "agent", "var", "value"}]``; return clean copies."""
+    """Check scenario buttons ``[{"label", "agent", "var", "value"}]``; return clean copies."""
     out: list[dict[str, str]] = []
     for i, b in enumerate(buttons):
         where = f"viewer buttons[{i}]"

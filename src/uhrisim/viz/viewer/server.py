@@ -443,7 +443,8 @@ class ViewerServer:
         seen_gen = -1
         while True:
             async with self._cond:
-                await self._cond.wait_for(lambda: self._generation != seen_gen)
+                while self._generation == seen_gen:
+                    await self._cond.wait()
                 seen_gen = self._generation
             if self._frame_seq != sent_frame and self._frame_text is not None:
                 sent_frame = self._frame_seq
