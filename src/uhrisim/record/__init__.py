@@ -1,1 +1,29 @@
-"""record subpackage."""
+"""Recording runs: MCAP files with ROS 2 message schemas, and reading them back.
+
+``McapRecorder`` is the simulation's read-only recording hook; ``reader`` reads the
+files back (tolerating a run killed half-way). Frames: ROS REP-103 (ENU world, FLU
+body) inside the files, converted from uhrisim's NED/FRD at the recorder only.
+"""
+
+from uhrisim.record.mcap_recorder import MARKER_TYPES, McapRecorder
+from uhrisim.record.reader import (
+    DecodedMessage,
+    OdometryTrack,
+    RecordingSummary,
+    iter_messages,
+    iter_raw_messages,
+    read_odometry,
+    summarize,
+)
+
+__all__ = [
+    "MARKER_TYPES",
+    "DecodedMessage",
+    "McapRecorder",
+    "OdometryTrack",
+    "RecordingSummary",
+    "iter_messages",
+    "iter_raw_messages",
+    "read_odometry",
+    "summarize",
+]
