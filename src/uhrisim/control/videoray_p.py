@@ -2,8 +2,8 @@
 
     e_h = wrap_180(desired_heading - heading)        (degrees, the short way round)
     e_s = desired_speed - u                          (m/s, surge)
-    u_port = w_h ( K_h e_h) + w_s (K_s e_s + ff)
-    u_star = w_h (-K_h e_h) + w_s (K_s e_s + ff)
+    u_port = w_h ( K_h e_h) + w_s K_s e_s + ff
+    u_star = w_h (-K_h e_h) + w_s K_s e_s + ff
     u_vert = -K_d (desired_depth - depth)            (a depth deficit dives)
 
 all saturated at +-150. A positive heading error (target clockwise of the bow) needs
@@ -74,12 +74,12 @@ class VideoRayPController:
                desired_depth: float) -> NDArray:
         g = self.gains
         heading_error = float(wrap_180(desired_heading_deg - heading_deg_from_yaw(x[3])))
-        speed_term = g.speed * (desired_speed - x[4])
+        speed_term = g.speed_weight * g.speed * (desired_speed - x[4])
         if g.speed_feedforward:
             speed_term += feedforward_input(desired_speed, self.params)
-        heading_term = g.heading * heading_error
-        port = g.heading_weight * heading_term + g.speed_weight * speed_term
-        star = -g.heading_weight * heading_term + g.speed_weight * speed_term
+        heading_term = g.heading_weight * g.heading * heading_error
+        port = heading_term + speed_term
+        star = -heading_term + speed_term
         vert = -g.depth * (desired_depth - x[2])
         limit = self.params.input_limit
         return np.clip(np.array([port, star, vert]), -limit, limit)

@@ -76,8 +76,9 @@ class FixedStepIntegrator:
     def step(self, t: float, x: NDArray, u: NDArray, params: Any) -> NDArray:
         """Advance ``x`` from ``t`` to ``t + dt``; raise ``NumericalError`` on NaN/inf."""
         h = self.dt / self.substeps
-        for k in range(self.substeps):
-            x = rk4_step(self.f, t + k * h, x, u, params, h)
+        with np.errstate(over="ignore", invalid="ignore"):  # reported below, by name
+            for k in range(self.substeps):
+                x = rk4_step(self.f, t + k * h, x, u, params, h)
         if not np.all(np.isfinite(x)):
             raise NumericalError("state became NaN/inf during integration",
                                  vehicle=self.name, t=t + self.dt)

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from uhrisim.core.errors import NumericalError
 from uhrisim.dynamics import diver, kinematic, videoray
 from uhrisim.dynamics.integrators import FixedStepIntegrator
 
@@ -51,7 +52,15 @@ class VideoRayPlant:
         return np.array([*position_ned, yaw, speed, 0.0, 0.0, 0.0])
 
     def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
-        return self.integrator.step(t, x, u, self.params)
+        """One physics step; a single vehicle takes the float fast path, a batch numpy."""
+        if np.ndim(x) > 1:
+            return self.integrator.step(t, x, u, self.params)
+        n = self.integrator.substeps
+        x_next = videoray.rk4_single(x, u, self.params, self.dt / n, n)
+        if not np.all(np.isfinite(x_next)):
+            raise NumericalError("state became NaN/inf during integration", vehicle=self.name,
+                                 t=t + self.dt)
+        return x_next
 
     def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:
         del u  # velocities are part of the state

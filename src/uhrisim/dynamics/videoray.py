@@ -11,6 +11,7 @@ used by DeMarco et al. for their Pro 4; see shared/reference/vehicles-and-contro
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
 
@@ -171,3 +172,42 @@ def stiffest_eigenvalue(params: VideoRayParams) -> float:
         (abs(p.Nr) + 2.0 * abs(p.Nrr) * r_max) / p.J,
     ]
     return float(max(rates))
+
+
+def _xdot_floats(s: list[float], surge: float, heave: float, yaw: float, p: VideoRayParams,
+                 sign: float, munk_on: float) -> list[float]:
+    """:func:`xdot` for one vehicle on plain floats (the hot path; tests hold it to xdot)."""
+    psi, uu, v, w, r = s[3], s[4], s[5], s[6], s[7]
+    c, sn = math.cos(psi), math.sin(psi)
+    return [
+        uu * c - v * sn,
+        uu * sn + v * c,
+        w,
+        r,
+        (sign * p.m22 * v * r + p.Xu * uu + p.Xuu * abs(uu) * uu + surge) / p.m11,
+        (-sign * p.m11 * uu * r + p.Yv * v + p.Yvv * abs(v) * v) / p.m22,
+        (p.Zw * w + p.Zww * abs(w) * w + heave) / p.m33,
+        (munk_on * (p.m11 - p.m22) * uu * v + p.Nr * r + p.Nrr * abs(r) * r + yaw) / p.J,
+    ]
+
+
+def rk4_single(x: ArrayLike, u: ArrayLike, params: VideoRayParams, h: float,
+               substeps: int) -> NDArray[np.float64]:
+    """``substeps`` RK4 steps of size ``h`` for ONE vehicle with inputs held: a fast path
+    equal (to rounding) to :func:`uhrisim.dynamics.integrators.rk4_step` on :func:`xdot`."""
+    surge, heave, yaw = (float(f) for f in generalized_forces(u, params))
+    sign = -1.0 if params.coupling == "paper" else 1.0
+    munk_on = 0.0 if params.coupling == "paper" else 1.0
+    s = [float(value) for value in x]
+    half, sixth = 0.5 * h, h / 6.0
+    for _ in range(substeps):
+        k1 = _xdot_floats(s, surge, heave, yaw, params, sign, munk_on)
+        k2 = _xdot_floats([a + half * b for a, b in zip(s, k1, strict=True)], surge, heave, yaw,
+                          params, sign, munk_on)
+        k3 = _xdot_floats([a + half * b for a, b in zip(s, k2, strict=True)], surge, heave, yaw,
+                          params, sign, munk_on)
+        k4 = _xdot_floats([a + h * b for a, b in zip(s, k3, strict=True)], surge, heave, yaw,
+                          params, sign, munk_on)
+        s = [a + sixth * (b1 + 2.0 * b2 + 2.0 * b3 + b4)
+             for a, b1, b2, b3, b4 in zip(s, k1, k2, k3, k4, strict=True)]
+    return np.array(s)

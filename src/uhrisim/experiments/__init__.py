@@ -1,0 +1,1 @@
+"""Reproductions of the paper's experiments (open loop, Figs 5-8)."""
