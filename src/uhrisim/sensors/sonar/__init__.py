@@ -1,0 +1,32 @@
+"""Forward-looking imaging sonar: presets, acoustics, config, image formation.
+
+Public API::
+
+    from uhrisim.sensors.sonar import ImagingSonar, SonarConfig, SonarPing, PRESETS
+    sonar = ImagingSonar(SonarConfig(preset="P900-45"), component_rng(seed, "rov/sonar"))
+    ping = sonar.ping(scene.raycaster(), position_ned, rotation_body_to_ned, t,
+                      exclude=frozenset({"videoray"}))
+"""
+
+from uhrisim.sensors.sonar.config import COLORMAPS, SonarConfig
+from uhrisim.sensors.sonar.presets import PRESETS, SonarSpec, get_preset
+from uhrisim.sensors.sonar.sonar import (
+    ImagingSonar,
+    SonarCloud,
+    SonarPing,
+    image_2013,
+    mount_rotation,
+)
+
+__all__ = [
+    "COLORMAPS",
+    "PRESETS",
+    "ImagingSonar",
+    "SonarCloud",
+    "SonarConfig",
+    "SonarPing",
+    "SonarSpec",
+    "get_preset",
+    "image_2013",
+    "mount_rotation",
+]

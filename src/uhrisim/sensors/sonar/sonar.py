@@ -1,0 +1,641 @@
+"""The forward-looking imaging sonar: rays → polar image → fan image, per ping.
+
+Frames (``docs/conventions.md``): the **sonar frame** is FRD-like — x along the sonar axis,
+y to starboard, z down. A ray at beam angle θ (> 0 starboard) and elevation φ (> 0 down)
+has direction (cos φ cos θ, cos φ sin θ, sin φ) there. The mount rotates the sonar frame
+into the vehicle body frame FRD by yaw (about z) after a downward tilt (a pitch of −tilt);
+the vehicle rotation then takes it to world NED.
+
+Physical image formation (``mode="physical"``), per ray that hits at slant range R with
+incidence β on a surface of Lambert coefficient μ (``shared/reference/sonar.md``):
+
+    EL = SL − 2·TL(R) + TS,     TL = 20 log10 R + αR,     TS = 10 log10(μ·cos²β·A)
+
+A ray stands for the solid angle ΔΩ = cos φ·δθ·δφ, i.e. a surface patch A = R²ΔΩ/cos β,
+so its echo intensity (re SL) is ``b_v(φ)²·μ·cos β·ΔΩ·R⁻²·10^(−2αR/10)`` with b_v the
+vertical (elevation) power pattern, two-way. Echoes are summed into (range bin, beam)
+cells — rays stop at the first hit, so shadows come only from the geometry. The
+horizontal beam pattern (sinc², ~1° over ~0.18° spacing) is a convolution along the
+beam axis, the pulse length a convolution along range. Then the noise floor is added,
+Rayleigh speckle multiplies the intensity (unit exponential), TVG
+(+40 log R + 2αR by default) and gain are applied and the level is log-compressed:
+``polar = clip(1 + (L − display_top_db)/dynamic_range_db, 0, 1)``.
+
+2013 mode (``mode="2013"``, DeMarco et al. 2013): hit points projected onto the sonar's
+x–y plane, ×10 px/m, apex at the top-left pixel, Gaussian blur, white fan boundary lines.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from uhrisim.core.errors import ConfigError
+from uhrisim.sensors.sonar.acoustics import (
+    beam_pattern_gaussian,
+    horizontal_beam_kernel,
+    range_blur_kernel,
+)
+from uhrisim.sensors.sonar.config import COLORMAPS, SonarConfig
+
+log = logging.getLogger(__name__)
+
+#: A ping is refused (ConfigError) when more than this fraction of rays hit closer than
+#: :data:`INSIDE_GEOMETRY_RANGE_M`: the sonar sits inside (or flush against) geometry.
+INSIDE_GEOMETRY_FRACTION = 0.5
+INSIDE_GEOMETRY_RANGE_M = 0.02
+
+#: Cap on tan β when spreading a ray's echo over its range footprint (β ≈ 85°).
+MAX_FOOTPRINT_TAN = 12.0
+
+_LN10_OVER_10 = math.log(10.0) / 10.0
+
+
+class RayCaster(Protocol):
+    """What the sonar needs from a ray caster (``uhrisim.world.scene.Scene.raycaster()``)."""
+
+    def cast(
+        self,
+        origins: NDArray[np.float64],
+        directions: NDArray[np.float64],
+        max_range: float,
+        exclude: frozenset[str] = ...,
+    ) -> Any:
+        """Return hits with ``distance`` (N,) inf on miss, ``label`` (N,) int −1 on miss,
+        ``normal`` (N, 3) unit, ``reflectivity`` (N,) Lambert μ."""
+        ...
+
+
+@dataclass(frozen=True)
+class SonarCloud:
+    """The paper's ``sonar_cloud`` message: all rays of one ping, plane-major.
+
+    Plane i is the elevation angle ``-vert_height/2 + i·vert_resolution`` (plane 0 is the
+    uppermost); within a plane, points go from ``angle_min`` (port) to ``angle_max``
+    (starboard) in steps of ``angle_increment``. x, y, z are in the sonar frame (metres);
+    rays that hit nothing inside the window are NaN. ``intensity`` is each ray's own echo
+    level on the display scale 0…1 (0 for misses). Angles in radians, ranges in metres.
+    """
+
+    num_planes: int
+    num_points_per_plane: int
+    angle_min: float
+    angle_max: float
+    angle_increment: float
+    range_min: float
+    range_max: float
+    vert_height: float
+    vert_resolution: float
+    x: NDArray[np.float32]
+    y: NDArray[np.float32]
+    z: NDArray[np.float32]
+    intensity: NDArray[np.float32]
+
+
+@dataclass(frozen=True)
+class SonarPing:
+    """One ping.
+
+    Attributes:
+        t: simulation time of the ping, s.
+        position_ned: sonar origin in world NED, m.
+        rotation_ned_from_sonar: 3×3 rotation taking sonar-frame vectors to NED.
+        beam_angles_rad: (n_beams,) beam centre angles, > 0 starboard.
+        bin_ranges_m: (n_bins,) range-bin centres, m.
+        polar: (n_bins, n_beams) float32 display intensity 0…1 (row 0 = nearest bin);
+            physical mode: after beam pattern, speckle, noise, TVG and log compression;
+            2013 mode: hit occupancy (1 where a ray hit in the cell).
+        polar_u8: ``polar`` as uint8 0…255.
+        fan_u8: Cartesian image. Physical mode: apex at the bottom centre, forward up,
+            starboard right, black outside the fan. 2013 mode: the paper's image.
+        fan_px_per_m: pixels per metre of ``fan_u8``.
+        fan_apex_px: (column, row) of the apex in ``fan_u8`` (pixel-centre coordinates).
+        fan_rgb: colour-mapped ``fan_u8`` (H, W, 3) BGR, when ``config.colormap`` is set.
+        label_polar: (n_bins, n_beams) int16: the scene label of the strongest return in
+            each cell, −1 where no ray hit.
+        label_fan: label image aligned with ``fan_u8`` (−1 none).
+        cloud: the paper's ``sonar_cloud`` with intensities.
+        hit_points_sonar, hit_points_ned: (M, 3) hit points of the rays that hit inside the
+            window, sonar frame and NED, m.
+        hit_labels: (M,) int32 scene labels of those hits.
+        mode: ``"physical"`` or ``"2013"``.
+    """
+
+    t: float
+    position_ned: NDArray[np.float64]
+    rotation_ned_from_sonar: NDArray[np.float64]
+    beam_angles_rad: NDArray[np.float64]
+    bin_ranges_m: NDArray[np.float64]
+    polar: NDArray[np.float32]
+    polar_u8: NDArray[np.uint8]
+    fan_u8: NDArray[np.uint8]
+    fan_px_per_m: float
+    fan_apex_px: tuple[float, float]
+    label_polar: NDArray[np.int16]
+    label_fan: NDArray[np.int16]
+    cloud: SonarCloud
+    hit_points_sonar: NDArray[np.float64]
+    hit_points_ned: NDArray[np.float64]
+    hit_labels: NDArray[np.int32]
+    mode: str = "physical"
+    fan_rgb: NDArray[np.uint8] | None = field(default=None)
+
+
+def mount_rotation(tilt_deg: float, yaw_deg: float) -> NDArray[np.float64]:
+    """Rotation sonar frame → vehicle body FRD: yaw (about z, > 0 starboard) after a tilt
+    (pitch −tilt about y, so tilt > 0 points the sonar axis down)."""
+    p = -math.radians(tilt_deg)
+    y = math.radians(yaw_deg)
+    ry = np.array(
+        [[math.cos(p), 0.0, math.sin(p)], [0.0, 1.0, 0.0], [-math.sin(p), 0.0, math.cos(p)]]
+    )
+    rz = np.array(
+        [[math.cos(y), -math.sin(y), 0.0], [math.sin(y), math.cos(y), 0.0], [0.0, 0.0, 1.0]]
+    )
+    return rz @ ry
+
+
+@dataclass(frozen=True)
+class _Geometry:
+    """Everything precomputed once per config (ray fan, weights, kernels, maps)."""
+
+    beam_angles: NDArray[np.float64]
+    ray_az: NDArray[np.float64]
+    ray_el: NDArray[np.float64]
+    dirs_sonar: NDArray[np.float64]
+    ray_beam: NDArray[np.int64]
+    ray_weight: NDArray[np.float64]
+    dphi: float
+    bin_centres: NDArray[np.float64]
+    beam_kernel: NDArray[np.float32]
+    range_kernel: NDArray[np.float32]
+    signal_gain: NDArray[np.float32]  # (n_bins, 1) intensity re SL → display units
+    noise_disp: NDArray[np.float32]  # (n_bins, 1) noise in display units
+    map_x: NDArray[np.float32]
+    map_y: NDArray[np.float32]
+    fan_mask: NDArray[np.bool_]
+    fan_scale: float
+    fan_apex: tuple[float, float]
+    speckle_lut: NDArray[np.float32]
+
+
+def _speckle_lut(bits: int = 16) -> NDArray[np.float32]:
+    """Inverse CDF of the unit exponential at the 2^bits mid-quantiles (sum-normalised to
+    mean 1): a uniform ``bits``-bit integer → an exponential draw, exactly reproducible."""
+    n = 1 << bits
+    u = (np.arange(n, dtype=np.float64) + 0.5) / n
+    e = -np.log1p(-u)
+    return (e / e.mean()).astype(np.float32)
+
+
+class ImagingSonar:
+    """A forward-looking imaging sonar bound to a config and a random Generator.
+
+    ``ping(raycaster, position_ned, rotation_body_to_ned, t)`` casts the ray fan from the
+    mount and forms the image. Everything that depends only on the config (ray
+    directions, elevation weights, kernels, TVG curve, scan-conversion maps) is computed
+    once here. The Generator is the only state that changes between pings (speckle).
+    """
+
+    def __init__(self, config: SonarConfig, rng: np.random.Generator) -> None:
+        if not isinstance(config, SonarConfig):
+            raise ConfigError(f"expected a SonarConfig, got {type(config).__name__}", "config")
+        if not isinstance(rng, np.random.Generator):
+            raise ConfigError(f"expected a numpy Generator, got {type(rng).__name__}", "rng")
+        self.config = config
+        self.rng = rng
+        self.mount_rotation = mount_rotation(config.tilt_deg, config.yaw_deg)
+        self.mount_position = np.asarray(config.mount_position_frd, dtype=float)
+        self.geometry = self._precompute()
+
+    # -- precomputation --------------------------------------------------------------------
+    def _precompute(self) -> _Geometry:
+        cfg = self.config
+        spec = cfg.sonar_spec
+        n_beams = spec.n_beams
+        half_fov = math.radians(spec.fov_h_deg) / 2.0
+        beam_angles = np.linspace(-half_fov, half_fov, n_beams)
+        dtheta = beam_angles[1] - beam_angles[0]
+        sub = cfg.rays_per_beam_azimuth
+        offsets = ((np.arange(sub) + 0.5) / sub - 0.5) * dtheta
+        ray_az_plane = (beam_angles[:, None] + offsets[None, :]).ravel()
+        beam_of_az = np.repeat(np.arange(n_beams), sub)
+        span = math.radians(spec.beam_width_v_deg) * cfg.elevation_span
+        n_el = cfg.rays_per_beam
+        el = np.linspace(-span / 2.0, span / 2.0, n_el)
+        dphi = span / (n_el - 1)
+        ray_el = np.repeat(el, ray_az_plane.size)
+        ray_az = np.tile(ray_az_plane, n_el)
+        ray_beam = np.tile(beam_of_az, n_el).astype(np.int64)
+        ce = np.cos(ray_el)
+        dirs = np.stack([ce * np.cos(ray_az), ce * np.sin(ray_az), np.sin(ray_el)], axis=1)
+        b_v = beam_pattern_gaussian(ray_el, math.radians(spec.beam_width_v_deg))
+        solid_angle = ce * (dtheta / sub) * dphi
+        ray_weight = b_v * b_v * solid_angle
+
+        n_bins = cfg.n_bins
+        bin_centres = cfg.range_min_m + (np.arange(n_bins) + 0.5) * cfg.bin_m
+        beam_kernel = horizontal_beam_kernel(
+            dtheta, math.radians(spec.beam_width_h_deg), sidelobe_db=cfg.sidelobe_db
+        )
+        rk = range_blur_kernel(cfg.bin_m, cfg.pulse_m)
+        if rk.size > 1:  # drop negligible tails (keeps the convolution short)
+            keep = rk >= 1e-3 * rk.max()
+            nz = np.flatnonzero(keep)
+            trim = min(int(nz[0]), rk.size - 1 - int(nz[-1]))
+            rk = rk[trim : rk.size - trim]
+            rk = (rk / rk.sum()).astype(np.float32)
+
+        alpha = cfg.alpha_db_per_m
+        r = np.maximum(bin_centres, 0.5 * cfg.bin_m)
+        if cfg.tvg:
+            tvg_db = cfg.tvg_spreading_db_per_decade * np.log10(r) + 2.0 * alpha * r
+        else:
+            tvg_db = np.zeros_like(r)
+        base = cfg.gain_db - cfg.display_top_db + tvg_db
+        signal_gain = (10.0 ** ((base + cfg.source_level_db) / 10.0)).astype(np.float32)[:, None]
+        noise_disp = (10.0 ** ((base + cfg.noise_floor_db) / 10.0)).astype(np.float32)[:, None]
+
+        # Scan conversion map (fan pixel → fractional (beam, bin) in the polar image).
+        r_max = cfg.range_max_m
+        width_m = 2.0 * r_max * math.sin(half_fov)
+        height_m = r_max
+        scale = cfg.fan_size_px / max(width_m, height_m)
+        W = max(2, math.ceil(width_m * scale))
+        H = max(2, math.ceil(height_m * scale))
+        cols = (np.arange(W, dtype=np.float64) + 0.5 - W / 2.0) / scale  # starboard, m
+        rows = (H - (np.arange(H, dtype=np.float64) + 0.5)) / scale  # forward, m
+        xs, ys = np.meshgrid(cols, rows)
+        rr = np.hypot(xs, ys)
+        th = np.arctan2(xs, ys)
+        fx = (th - beam_angles[0]) / dtheta
+        fy = (rr - cfg.range_min_m) / cfg.bin_m - 0.5
+        inside = (np.abs(th) <= half_fov + 0.5 * dtheta) & (rr >= cfg.range_min_m) & (rr <= r_max)
+        map_x = np.where(inside, fx, -10.0).astype(np.float32)
+        map_y = np.where(inside, fy, -10.0).astype(np.float32)
+        apex = (W / 2.0 - 0.5, H - 0.5)
+
+        return _Geometry(
+            beam_angles=beam_angles,
+            ray_az=ray_az,
+            ray_el=ray_el,
+            dirs_sonar=dirs,
+            ray_beam=ray_beam,
+            ray_weight=ray_weight,
+            dphi=dphi,
+            bin_centres=bin_centres,
+            beam_kernel=beam_kernel,
+            range_kernel=rk,
+            signal_gain=signal_gain,
+            noise_disp=noise_disp,
+            map_x=map_x,
+            map_y=map_y,
+            fan_mask=inside,
+            fan_scale=scale,
+            fan_apex=apex,
+            speckle_lut=_speckle_lut(),
+        )
+
+    # -- properties ------------------------------------------------------------------------
+    @property
+    def n_rays(self) -> int:
+        """Rays cast per ping."""
+        return int(self.geometry.dirs_sonar.shape[0])
+
+    @property
+    def polar_shape(self) -> tuple[int, int]:
+        """(n_bins, n_beams)."""
+        return self.config.n_bins, self.config.sonar_spec.n_beams
+
+    def sonar_pose(
+        self, position_ned: NDArray[np.float64], rotation_body_to_ned: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Sonar origin (NED, m) and rotation sonar → NED for a vehicle pose."""
+        p = np.asarray(position_ned, dtype=float).reshape(3)
+        R = np.asarray(rotation_body_to_ned, dtype=float).reshape(3, 3)
+        return p + R @ self.mount_position, R @ self.mount_rotation
+
+    # -- the ping --------------------------------------------------------------------------
+    def ping(
+        self,
+        raycaster: RayCaster,
+        position_ned: NDArray[np.float64],
+        rotation_body_to_ned: NDArray[np.float64],
+        t: float,
+        exclude: frozenset[str] = frozenset(),
+    ) -> SonarPing:
+        """Cast the fan from the mount on a vehicle at ``position_ned`` (m, NED) with
+        ``rotation_body_to_ned`` (vehicle FRD → NED) and form the image.
+
+        Raises ConfigError if the sonar sits inside geometry (most rays hit at ~0 m).
+        """
+        g = self.geometry
+        cfg = self.config
+        p_s, R_s = self.sonar_pose(position_ned, rotation_body_to_ned)
+        dirs = g.dirs_sonar @ R_s.T
+        origins = np.empty_like(dirs)
+        origins[:] = p_s
+        hits = raycaster.cast(origins, dirs, cfg.range_max_m, exclude=exclude)
+        distance = np.asarray(hits.distance, dtype=np.float64)
+        near = np.count_nonzero(distance < INSIDE_GEOMETRY_RANGE_M)
+        if near > INSIDE_GEOMETRY_FRACTION * distance.size:
+            raise ConfigError(
+                f"sonar at NED {np.round(p_s, 3).tolist()} is inside geometry: "
+                f"{near}/{distance.size} rays hit closer than {INSIDE_GEOMETRY_RANGE_M} m",
+                where="SonarConfig.mount_position_frd",
+            )
+        valid = (distance >= cfg.range_min_m) & (distance < cfg.range_max_m)
+        idx = np.flatnonzero(valid)
+        r = distance[idx]
+        normals = np.asarray(hits.normal, dtype=np.float64)[idx]
+        cos_inc = np.abs(np.einsum("ij,ij->i", normals, dirs[idx]))
+        mu = np.asarray(hits.reflectivity, dtype=np.float64)[idx]
+        labels = np.asarray(hits.label)[idx].astype(np.int32)
+        return self.form_image(t, p_s, R_s, idx, r, cos_inc, mu, labels)
+
+    def ray_intensity(
+        self,
+        idx: NDArray[np.int64],
+        r: NDArray[np.float64],
+        cos_inc: NDArray[np.float64],
+        mu: NDArray[np.float64],
+    ) -> NDArray[np.float64]:
+        """Echo intensity of each hit ray relative to the source level (linear):
+        ``w_ray·μ·cosβ·R⁻²·10^(−2αR/10)``, w_ray = b_v(φ)²·ΔΩ (see the module docstring)."""
+        a = 2.0 * self.config.alpha_db_per_m * _LN10_OVER_10
+        rr = np.maximum(r, 1e-3)
+        return self.geometry.ray_weight[idx] * mu * cos_inc * np.exp(-a * rr) / (rr * rr)
+
+    def form_image(
+        self,
+        t: float,
+        position_ned: NDArray[np.float64],
+        rotation_ned_from_sonar: NDArray[np.float64],
+        idx: NDArray[np.int64],
+        r: NDArray[np.float64],
+        cos_inc: NDArray[np.float64],
+        mu: NDArray[np.float64],
+        labels: NDArray[np.int32],
+    ) -> SonarPing:
+        """Form a ping from the hits of rays ``idx`` (indices into the ray fan) at slant
+        ranges ``r`` (m, inside the window) with |cos incidence| ``cos_inc``, Lambert μ
+        ``mu`` and scene ``labels``. Pure apart from drawing speckle from ``self.rng``."""
+        g = self.geometry
+        cfg = self.config
+        n_bins, n_beams = self.polar_shape
+        n_cells = n_bins * n_beams
+        bins = ((r - cfg.range_min_m) / cfg.bin_m).astype(np.int64)
+        np.clip(bins, 0, n_bins - 1, out=bins)
+        cell = bins * n_beams + g.ray_beam[idx]
+        e = self.ray_intensity(idx, r, cos_inc, mu)
+
+        # Strongest return per cell → label.
+        label_polar = np.full(n_cells, -1, dtype=np.int16)
+        if idx.size:
+            cmax = np.zeros(n_cells)
+            np.maximum.at(cmax, cell, e)
+            win = e >= cmax[cell]
+            label_polar[cell[win]] = labels[win]
+        label_polar = label_polar.reshape(n_bins, n_beams)
+
+        if cfg.mode == "physical":
+            raw = self._accumulate(idx, r, cos_inc, e)
+            polar = self._physical_polar(raw)
+        else:
+            polar = np.zeros((n_bins, n_beams), dtype=np.float32)
+            polar.reshape(-1)[cell] = 1.0
+        polar_u8 = cv2.convertScaleAbs(polar, alpha=255.0)
+
+        # Ray-level echo on the display scale, for the cloud's intensity.
+        ray_disp = np.zeros(self.n_rays, dtype=np.float32)
+        if idx.size:
+            lvl = e * g.signal_gain[bins, 0]
+            ray_disp[idx] = np.clip(
+                1.0 + np.log10(np.maximum(lvl, 1e-30)) * (10.0 / cfg.dynamic_range_db), 0.0, 1.0
+            )
+
+        pts_sonar = g.dirs_sonar[idx] * r[:, None]
+        pts_ned = position_ned + pts_sonar @ rotation_ned_from_sonar.T
+        cloud = self._cloud(idx, pts_sonar, ray_disp)
+
+        if cfg.mode == "physical":
+            fan = cv2.remap(
+                polar_u8,
+                g.map_x,
+                g.map_y,
+                cv2.INTER_LINEAR,
+                borderMode=cv2.BORDER_CONSTANT,
+                borderValue=0,
+            )
+            fan[~g.fan_mask] = 0
+            label_fan = self._label_fan(label_polar, pts_sonar, e, labels)
+            scale, apex = g.fan_scale, g.fan_apex
+        else:
+            fan, label_fan, apex = image_2013(pts_sonar, labels, cfg)
+            scale = cfg.px_per_m_2013
+        fan_rgb = None
+        if cfg.colormap is not None:
+            fan_rgb = cv2.applyColorMap(fan, COLORMAPS[cfg.colormap])
+            if cfg.mode == "physical":
+                fan_rgb[~g.fan_mask] = 0
+
+        return SonarPing(
+            t=float(t),
+            position_ned=np.asarray(position_ned, dtype=float),
+            rotation_ned_from_sonar=np.asarray(rotation_ned_from_sonar, dtype=float),
+            beam_angles_rad=g.beam_angles,
+            bin_ranges_m=g.bin_centres,
+            polar=polar,
+            polar_u8=polar_u8,
+            fan_u8=fan,
+            fan_px_per_m=float(scale),
+            fan_apex_px=(float(apex[0]), float(apex[1])),
+            label_polar=label_polar,
+            label_fan=label_fan,
+            cloud=cloud,
+            hit_points_sonar=pts_sonar,
+            hit_points_ned=pts_ned,
+            hit_labels=labels,
+            mode=cfg.mode,
+            fan_rgb=fan_rgb,
+        )
+
+    # -- pieces ------------------------------------------------------------------------------
+    def footprint_bins(
+        self, r: NDArray[np.float64], cos_inc: NDArray[np.float64]
+    ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """First and last range bin covered by each ray's footprint.
+
+        A ray stands for an elevation interval δφ; on a surface seen at incidence β that
+        interval spans ΔR = R·δφ·tan β in range (a flat floor at height h: ΔR ≈ R²δφ/h).
+        Spreading each echo over its footprint keeps the sea floor continuous however
+        few rays are cast (tan β is capped at :data:`MAX_FOOTPRINT_TAN`).
+        """
+        cfg = self.config
+        c = np.clip(cos_inc, 1.0 / math.sqrt(1.0 + MAX_FOOTPRINT_TAN**2), 1.0)
+        tan_b = np.sqrt(1.0 - c * c) / c
+        half = 0.5 * r * self.geometry.dphi * tan_b
+        n_bins = cfg.n_bins
+        lo = np.floor((r - half - cfg.range_min_m) / cfg.bin_m).astype(np.int64)
+        hi = np.floor((r + half - cfg.range_min_m) / cfg.bin_m).astype(np.int64)
+        np.clip(lo, 0, n_bins - 1, out=lo)
+        np.clip(hi, 0, n_bins - 1, out=hi)
+        return lo, hi
+
+    def _accumulate(
+        self,
+        idx: NDArray[np.int64],
+        r: NDArray[np.float64],
+        cos_inc: NDArray[np.float64],
+        e: NDArray[np.float64],
+    ) -> NDArray[np.float32]:
+        """Sum ray echoes into (bin, beam) cells, each spread evenly over its footprint
+        bins (difference image + cumulative sum along range: O(rays + cells))."""
+        g = self.geometry
+        n_bins, n_beams = self.polar_shape
+        lo, hi = self.footprint_bins(r, cos_inc)
+        w = e / (hi - lo + 1)
+        beam = g.ray_beam[idx]
+        where = np.concatenate([lo * n_beams + beam, (hi + 1) * n_beams + beam])
+        diff = np.bincount(
+            where, weights=np.concatenate([w, -w]), minlength=(n_bins + 1) * n_beams
+        ).reshape(n_bins + 1, n_beams)
+        raw = np.cumsum(diff[:n_bins], axis=0, dtype=np.float64)
+        np.maximum(raw, 0.0, out=raw)  # cumulative-sum round-off
+        return raw.astype(np.float32)
+
+    def _physical_polar(self, raw: NDArray[np.float32]) -> NDArray[np.float32]:
+        """Beam pattern + pulse blur, gain/TVG, noise, speckle, log compression → 0…1."""
+        g = self.geometry
+        cfg = self.config
+        img = cv2.sepFilter2D(
+            raw, cv2.CV_32F, g.beam_kernel, g.range_kernel, borderType=cv2.BORDER_CONSTANT
+        )
+        img *= g.signal_gain
+        img += g.noise_disp
+        if cfg.speckle:
+            u = np.frombuffer(self.rng.bytes(2 * img.size), dtype=np.uint16)
+            img *= g.speckle_lut[u].reshape(img.shape)
+        np.maximum(img, np.float32(1e-30), out=img)
+        cv2.log(img, img)
+        k = np.float32(10.0 / math.log(10.0) / cfg.dynamic_range_db)
+        img *= k
+        img += np.float32(1.0)
+        np.clip(img, 0.0, 1.0, out=img)
+        return img
+
+    def _label_fan(
+        self,
+        label_polar: NDArray[np.int16],
+        pts_sonar: NDArray[np.float64],
+        e: NDArray[np.float64],
+        labels: NDArray[np.int32],
+    ) -> NDArray[np.int16]:
+        """Nearest-neighbour scan conversion of the polar labels, then each hit splatted at
+        its own fan pixel (strongest wins), so thin returns survive the down-sampling."""
+        g = self.geometry
+        out = cv2.remap(
+            label_polar,
+            np.round(g.map_x),
+            np.round(g.map_y),
+            cv2.INTER_NEAREST,
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=-1,
+        )
+        out[~g.fan_mask] = -1
+        if e.size:
+            H, W = out.shape
+            col = np.floor(g.fan_apex[0] + 0.5 + pts_sonar[:, 1] * g.fan_scale).astype(np.int64)
+            row = np.floor(g.fan_apex[1] + 0.5 - pts_sonar[:, 0] * g.fan_scale).astype(np.int64)
+            ok = (col >= 0) & (col < W) & (row >= 0) & (row < H)
+            pix = row[ok] * W + col[ok]
+            ee = e[ok]
+            pmax = np.zeros(H * W)
+            np.maximum.at(pmax, pix, ee)
+            win = ee >= pmax[pix]
+            out.reshape(-1)[pix[win]] = labels[ok][win]
+        return out
+
+    def _cloud(
+        self, idx: NDArray[np.int64], pts: NDArray[np.float64], ray_disp: NDArray[np.float32]
+    ) -> SonarCloud:
+        g = self.geometry
+        cfg = self.config
+        n = self.n_rays
+        xyz = np.full((n, 3), np.nan, dtype=np.float32)
+        xyz[idx] = pts
+        n_planes = cfg.rays_per_beam
+        per_plane = n // n_planes
+        az = g.ray_az[:per_plane]
+        el = g.ray_el[::per_plane]
+        return SonarCloud(
+            num_planes=n_planes,
+            num_points_per_plane=per_plane,
+            angle_min=float(az[0]),
+            angle_max=float(az[-1]),
+            angle_increment=float(az[1] - az[0]) if per_plane > 1 else 0.0,
+            range_min=float(cfg.range_min_m),
+            range_max=float(cfg.range_max_m),
+            vert_height=float(el[-1] - el[0]),
+            vert_resolution=float(el[1] - el[0]),
+            x=xyz[:, 0].copy(),
+            y=xyz[:, 1].copy(),
+            z=xyz[:, 2].copy(),
+            intensity=ray_disp,
+        )
+
+
+def image_2013(
+    pts_sonar: NDArray[np.float64], labels: NDArray[np.int32], cfg: SonarConfig
+) -> tuple[NDArray[np.uint8], NDArray[np.int16], tuple[float, float]]:
+    """The paper's image (DeMarco et al. 2013, §sonar): drop z, scale x and y by
+    ``px_per_m_2013`` (10 px/m), draw the points with the apex at the top-left pixel,
+    Gaussian-blur, then draw the fan boundaries in white.
+
+    ``layout_2013="port-edge"`` (default) measures bearings from the port edge of the fan
+    (θ' = θ + fov/2) so the whole fan (fov ≤ 90°) lies in the image: column = s·r·cos θ',
+    row = s·r·sin θ'. ``"literal"``: column = s·x, row = s·y, as the projection reads;
+    the port half (y < 0) falls outside the image. Returns (image, labels, apex (col, row)).
+    """
+    spec = cfg.sonar_spec
+    s = cfg.px_per_m_2013
+    half = math.radians(spec.fov_h_deg) / 2.0
+    R = cfg.range_max_m
+    x = pts_sonar[:, 0]
+    y = pts_sonar[:, 1]
+    if cfg.layout_2013 == "port-edge":
+        c, sn = math.cos(half), math.sin(half)
+        u = s * (x * c - y * sn)  # rotate by +half: port edge onto the image x axis
+        v = s * (x * sn + y * c)
+        fov = 2.0 * half
+        W = math.ceil(s * R) + 1
+        H = math.ceil(s * R * (math.sin(fov) if fov < math.pi / 2 else 1.0)) + 1
+        edge_ends = [(s * R, 0.0), (s * R * math.cos(fov), s * R * math.sin(fov))]
+    else:
+        u = s * x
+        v = s * y
+        W = math.ceil(s * R) + 1
+        H = math.ceil(s * R * math.sin(half)) + 1
+        edge_ends = [
+            (s * R * math.cos(half), -s * R * math.sin(half)),
+            (s * R * math.cos(half), s * R * math.sin(half)),
+        ]
+    img = np.zeros((H, W), dtype=np.uint8)
+    lab = np.full((H, W), -1, dtype=np.int16)
+    col = np.round(u).astype(np.int64)
+    row = np.round(v).astype(np.int64)
+    ok = (col >= 0) & (col < W) & (row >= 0) & (row < H)
+    img[row[ok], col[ok]] = 255
+    lab[row[ok], col[ok]] = labels[ok]
+    k = cfg.blur_ksize_2013
+    if k > 1:
+        img = cv2.GaussianBlur(img, (k, k), cfg.blur_sigma_2013)
+    for ex, ey in edge_ends:
+        cv2.line(img, (0, 0), (round(ex), round(ey)), 255, 1, lineType=cv2.LINE_8)
+    return img, lab, (0.0, 0.0)
