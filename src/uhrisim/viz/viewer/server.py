@@ -146,6 +146,8 @@ class ViewerServer:
         # hooks for replay: called in the server thread once per producer cycle
         self._tick_hook: Callable[[float], None] | None = None
         self._command_hook: Callable[[Command | dict[str, Any]], bool] | None = None
+        #: the ReplayPlayer driving this server in replay mode (None when live)
+        self.player: Any = None
         # counters (read by the benchmark and tests)
         self.frames_encoded = 0
         self.frames_sent = 0
@@ -183,17 +185,19 @@ class ViewerServer:
         afterwards; build a fresh dict each tick). A ``frame["sonar"]`` entry may carry
         the fan image as ``"fan"`` (uint8 array, H×W or H×W×3) instead of
         ``"fan_png_b64"``: it is copied here (cheap) and PNG-encoded in the server thread,
-        once per ping, only while a page is connected.
+        once per ping, only while a page is connected. ``frame["sonar"]`` may also be a
+        list of such dicts (several agents pinged in the same tick).
         """
         sonar = frame.get("sonar")
         self._seq += 1
         seq = self._seq
         if sonar is not None:
-            fan = sonar.get("fan")
-            if fan is not None:
-                sonar = {**sonar, "fan": np.array(fan, copy=True)}
-            with self._sonar_lock:
-                self._sonar[str(sonar.get("agent", ""))] = (seq, sonar)
+            for ping in sonar if isinstance(sonar, list) else (sonar,):
+                fan = ping.get("fan")
+                if fan is not None:
+                    ping = {**ping, "fan": np.array(fan, copy=True)}
+                with self._sonar_lock:
+                    self._sonar[str(ping.get("agent", ""))] = (seq, ping)
         self._latest = (seq, frame)
 
     def drain_commands(self) -> list[Command]:

@@ -1,0 +1,488 @@
+"""Replay an MCAP recording in the web viewer, with a time slider.
+
+The recording is the one ``uhrisim.record.McapRecorder`` writes (topics in its module
+docstring): ``/<agent>/odom`` (nav_msgs/Odometry, ENU/FLU), ``/<agent>/sonar/fan``
+(sensor_msgs/Image mono8), ``/<agent>/vars`` (uhrisim_msgs/Variable) and
+``/scene/markers`` (visualization_msgs/MarkerArray, ENU). Odometry is read with
+``uhrisim.record.reader.read_odometry`` (ENU/FLU → NED/FRD); the rest is decoded from
+the same file with ``uhrisim.record.reader.iter_messages`` and converted back to NED here
+with ``uhrisim.core.frames``. The page receives exactly the live frame schema, so the
+same page shows live runs and replays.
+
+Display-only assumptions, stated once: the fan image's apex is at the bottom centre and
+it spans the full field of view, so ``fov = 2 asin(width / (2 height))`` unless a
+``SONAR_FOV_DEG`` variable was recorded; the fan's range is ``SONAR_MAX_RANGE`` (or
+``SONAR_RANGE``) if recorded, else ``default_sonar_range`` — it only sizes the 3-D wedge.
+"""
+
+from __future__ import annotations
+
+import bisect
+import contextlib
+import logging
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from uhrisim.core.errors import AssetError
+from uhrisim.core.frames import enu_from_ned, enu_rotation_from_ned
+from uhrisim.viz.viewer.protocol import Command
+from uhrisim.viz.viewer.server import ViewerServer
+
+log = logging.getLogger(__name__)
+
+#: Memory budget for decoded sonar fans kept for scrubbing; beyond it pings are thinned.
+SONAR_BUDGET_BYTES = 256 * 1024 * 1024
+#: Points per agent sent to the page for replay trails.
+TRACK_POINTS_MAX = 5000
+#: Playback rate used for speed "max" (× real time).
+MAX_PLAYBACK_SPEED = 100.0
+
+_MARKER_BOX, _MARKER_SPHERE, _MARKER_CYLINDER, _MARKER_TRIANGLES = 1, 2, 3, 11
+_MARKER_DELETE, _MARKER_DELETEALL = 2, 3
+_ODOM = re.compile(r"^/([^/]+)/odom$")
+_FAN = re.compile(r"^/([^/]+)/sonar/fan$")
+_VARS = re.compile(r"^/([^/]+)/vars$")
+
+
+@dataclass
+class _Pings:
+    """Decoded fan images of one agent, thinned online to stay within a byte budget."""
+
+    t: list[float] = field(default_factory=list)
+    images: list[np.ndarray] = field(default_factory=list)
+    stride: int = 1
+    seen: int = 0
+
+    def add(self, t: float, img: np.ndarray) -> None:
+        if self.seen % self.stride == 0:
+            self.t.append(t)
+            self.images.append(img)
+        self.seen += 1
+
+    def nbytes(self) -> int:
+        return sum(i.nbytes for i in self.images)
+
+    def thin(self) -> None:
+        self.t = self.t[::2]
+        self.images = self.images[::2]
+        self.stride *= 2
+
+
+@dataclass(frozen=True)
+class ReplayData:
+    """A recording, in viewer terms (NED metres, compass degrees, seconds)."""
+
+    tracks: dict[str, dict[str, np.ndarray]]  # t, north, east, depth, heading_deg, speed
+    kinds: dict[str, str]
+    pings: dict[str, tuple[np.ndarray, list[np.ndarray]]]
+    variables: dict[str, dict[str, tuple[list[float], list[float | str]]]]
+    scene: dict[str, Any]
+    t_start: float
+    t_end: float
+    sonar_fov_deg: dict[str, float]
+    sonar_range: dict[str, float]
+
+
+def _image_u8(msg: Any) -> np.ndarray | None:
+    enc = str(msg.encoding).lower()
+    if enc not in ("mono8", "8uc1"):
+        log.warning("replay: sonar image encoding %r not supported (want mono8)", enc)
+        return None
+    h, w, step = int(msg.height), int(msg.width), int(msg.step)
+    buf = np.frombuffer(bytes(msg.data), dtype=np.uint8)
+    if buf.size < h * step:
+        return None
+    return buf[: h * step].reshape(h, step)[:, :w].copy()
+
+
+def _marker_object(m: Any) -> dict[str, Any] | None:
+    """visualization_msgs/Marker (ENU/FLU) → viewer scene object (NED/FRD)."""
+    p, o, s, c = m.pose.position, m.pose.orientation, m.scale, m.color
+    pos_ned = enu_from_ned(np.array([p.x, p.y, p.z], dtype=float))
+    x, y, z, w = o.x, o.y, o.z, o.w
+    n = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
+    x, y, z, w = x / n, y / n, z / n, w / n
+    r_enu = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+    r_ned = enu_rotation_from_ned(r_enu)  # the FLU/ENU ↔ FRD/NED map is an involution
+    color = "#{:02x}{:02x}{:02x}".format(*(round(255 * min(max(v, 0.0), 1.0))
+                                           for v in (c.r, c.g, c.b)))
+    base = {
+        "label": f"{m.ns}/{m.id}" if not m.text else str(m.text),
+        "position_ned": pos_ned.tolist(),
+        "rotation": r_ned.tolist(),
+        "color": color,
+    }
+    if m.type == _MARKER_BOX:
+        return {**base, "kind": "box", "size": [s.x, s.y, s.z]}
+    if m.type == _MARKER_SPHERE:
+        return {**base, "kind": "sphere", "radius": s.x / 2.0}
+    if m.type == _MARKER_CYLINDER:
+        return {**base, "kind": "cylinder", "radius": s.x / 2.0, "height": s.z}
+    if m.type == _MARKER_TRIANGLES and m.points:
+        local = np.array([[q.x, q.y, q.z] for q in m.points], dtype=float)
+        world_enu = local @ r_enu.T + enu_from_ned(pos_ned)
+        verts = enu_from_ned(world_enu)
+        nf = len(verts) // 3
+        return {
+            "label": base["label"],
+            "kind": "mesh",
+            "color": color,
+            "vertices": verts[: 3 * nf].tolist(),
+            "faces": np.arange(3 * nf).reshape(nf, 3).tolist(),
+        }
+    log.debug("replay: marker %s/%s of type %s not shown", m.ns, m.id, m.type)
+    return None
+
+
+def _kind_of(name: str, has_sonar: bool) -> str:
+    low = name.lower()
+    if "diver" in low:
+        return "diver"
+    if has_sonar or "rov" in low or "videoray" in low:
+        return "rov"
+    return "vehicle"
+
+
+def load_replay(
+    recording: Path | str, default_sonar_range: float = 20.0
+) -> ReplayData:
+    """Read a uhrisim MCAP recording into :class:`ReplayData` (tolerates truncated files)."""
+    from uhrisim.record.reader import iter_messages, read_odometry
+
+    path = Path(recording)
+    if not path.is_file():
+        raise AssetError(f"{path}: recording not found")
+    odo = read_odometry(path)
+    if not odo:
+        raise AssetError(f"{path}: no /<agent>/odom topic, nothing to replay")
+    tracks: dict[str, dict[str, np.ndarray]] = {}
+    for agent, tr in odo.items():
+        tracks[agent] = {
+            "t": np.asarray(tr.t, dtype=float),
+            "north": np.asarray(tr.x_north, dtype=float),
+            "east": np.asarray(tr.y_east, dtype=float),
+            "depth": np.asarray(tr.depth, dtype=float),
+            "heading_deg": np.degrees(np.asarray(tr.yaw)) % 360.0,
+            "speed": np.sqrt(np.asarray(tr.u) ** 2 + np.asarray(tr.v) ** 2
+                             + np.asarray(tr.w) ** 2),
+        }
+
+    pings: dict[str, _Pings] = {}
+    variables: dict[str, dict[str, tuple[list[float], list[float | str]]]] = {}
+    markers: dict[tuple[str, int], dict[str, Any]] = {}
+    from uhrisim.record.reader import summarize
+
+    topics = [
+        t for t in summarize(path).topics
+        if _FAN.match(t) or _VARS.match(t) or t == "/scene/markers"
+    ]
+    total = 0
+    for dm in iter_messages(path, topics) if topics else ():
+        t = dm.log_time_ns * 1e-9
+        if (m := _FAN.match(dm.topic)) is not None:
+            img = _image_u8(dm.message)
+            if img is None:
+                continue
+            p = pings.setdefault(m.group(1), _Pings())
+            before = len(p.images)
+            p.add(t, img)
+            if len(p.images) > before:
+                total += img.nbytes
+            while total > SONAR_BUDGET_BYTES:
+                big = max(pings.values(), key=lambda q: q.nbytes())
+                big.thin()
+                total = sum(q.nbytes() for q in pings.values())
+        elif (m := _VARS.match(dm.topic)) is not None:
+            v = dm.message
+            value: float | str = v.string_value if v.kind == 1 else float(v.double_value)
+            ts, vs = variables.setdefault(m.group(1), {}).setdefault(str(v.name), ([], []))
+            ts.append(t)
+            vs.append(value)
+        elif dm.topic == "/scene/markers":
+            for mk in dm.message.markers:
+                if mk.action == _MARKER_DELETEALL:
+                    markers.clear()
+                elif mk.action == _MARKER_DELETE:
+                    markers.pop((mk.ns, mk.id), None)
+                else:
+                    obj = _marker_object(mk)
+                    if obj is not None:
+                        markers[(mk.ns, mk.id)] = obj
+
+    t_start = min(float(tr["t"][0]) for tr in tracks.values())
+    t_end = max(float(tr["t"][-1]) for tr in tracks.values())
+    pts = np.concatenate(
+        [np.column_stack([tr["north"], tr["east"], tr["depth"]]) for tr in tracks.values()]
+    )
+    objects = list(markers.values())
+    for o in objects:
+        if "position_ned" in o:
+            pts = np.vstack([pts, np.asarray(o["position_ned"])[None, :]])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    lo[2] = min(lo[2], 0.0)
+    scene = {"objects": objects, "bounds": [lo.tolist(), hi.tolist()]}
+
+    fov: dict[str, float] = {}
+    rng: dict[str, float] = {}
+    for agent, p in pings.items():
+        av = variables.get(agent, {})
+        if "SONAR_FOV_DEG" in av:
+            fov[agent] = float(av["SONAR_FOV_DEG"][1][-1])
+        else:
+            h, w = p.images[0].shape if p.images else (1, 1)
+            fov[agent] = math.degrees(2 * math.asin(min(w / (2.0 * h), 1.0)))
+        rng[agent] = default_sonar_range
+        for key in ("SONAR_MAX_RANGE", "SONAR_RANGE"):
+            if key in av:
+                rng[agent] = float(av[key][1][-1])
+                break
+    kinds = {a: _kind_of(a, a in pings) for a in tracks}
+    return ReplayData(
+        tracks=tracks,
+        kinds=kinds,
+        pings={a: (np.asarray(p.t), p.images) for a, p in pings.items()},
+        variables=variables,
+        scene=scene,
+        t_start=t_start,
+        t_end=t_end,
+        sonar_fov_deg=fov,
+        sonar_range=rng,
+    )
+
+
+def _interp_heading(t: float, ts: np.ndarray, hd: np.ndarray, i: int) -> float:
+    """Heading (deg) at t between samples i-1 and i, the short way round."""
+    t0, t1 = ts[i - 1], ts[i]
+    a = (t - t0) / (t1 - t0) if t1 > t0 else 1.0
+    d = (hd[i] - hd[i - 1] + 180.0) % 360.0 - 180.0
+    return float((hd[i - 1] + a * d) % 360.0)
+
+
+def _parse_moos_fields(text: str) -> dict[str, str]:
+    """``"x=1,y=2,label=a"`` → dict; a ``pts={...}`` field is kept whole."""
+    out: dict[str, str] = {}
+    m = re.search(r"pts\s*=\s*\{([^}]*)\}", text)
+    if m:
+        out["pts"] = m.group(1)
+        text = text[: m.start()] + text[m.end():]
+    for part in text.split(","):
+        if "=" in part:
+            k, v = part.split("=", 1)
+            out[k.strip().lower()] = v.strip()
+    return out
+
+
+class ReplayPlayer:
+    """Plays :class:`ReplayData` into a :class:`ViewerServer` (runs in the server thread)."""
+
+    def __init__(self, data: ReplayData, server: ViewerServer) -> None:
+        self.data = data
+        self.server = server
+        self.t = data.t_start
+        self.playing = True
+        self.speed = 1.0
+        self._last_wall: float | None = None
+        self._dirty = True
+        self._sent_ping: dict[str, int] = {}
+        dts = [np.median(np.diff(tr["t"])) for tr in data.tracks.values() if len(tr["t"]) > 1]
+        self.step_s = float(min(dts)) if dts else 0.1
+        rovs = [a for a, k in data.kinds.items() if k == "rov"]
+        divers = [a for a, k in data.kinds.items() if k == "diver"]
+        self._pair = (rovs[0], divers[0]) if rovs and divers else None
+
+    # -------------------------------------------------------------- control
+    def on_message(self, msg: Command | dict[str, Any]) -> bool:
+        """Apply a page command to playback; True when it was consumed here."""
+        if isinstance(msg, dict):
+            if msg.get("type") != "seek":
+                return False
+            try:
+                t = float(msg["t"])
+            except (KeyError, TypeError, ValueError):
+                log.warning("replay: bad seek message dropped")
+                return True
+            if math.isfinite(t):
+                self.seek(t)
+            return True
+        if msg.kind == "pause":
+            self.playing = False
+        elif msg.kind == "resume":
+            if self.t >= self.data.t_end:
+                self.seek(self.data.t_start)
+            self.playing = True
+        elif msg.kind == "speed":
+            v = float(msg.value) if msg.value is not None else 1.0
+            self.speed = MAX_PLAYBACK_SPEED if math.isinf(v) else v
+        elif msg.kind == "step":
+            self.playing = False
+            n = float(msg.value) if isinstance(msg.value, float) else 1.0
+            self.seek(self.t + n * self.step_s)
+        else:
+            return False  # select / post: nothing to do in a replay
+        self._dirty = True
+        return True
+
+    def seek(self, t: float) -> None:
+        self.t = min(max(t, self.data.t_start), self.data.t_end)
+        self._sent_ping.clear()
+        self._dirty = True
+
+    def tick(self, wall: float) -> None:
+        """Advance playback to wall-clock ``wall`` (s) and publish a frame if time moved."""
+        if self.playing and self._last_wall is not None:
+            self.t += (wall - self._last_wall) * self.speed
+            if self.t >= self.data.t_end:
+                self.t = self.data.t_end
+                self.playing = False
+            self._dirty = True
+        self._last_wall = wall
+        if self._dirty:
+            self._dirty = False
+            self.server.publish(self.frame_at(self.t))
+
+    # -------------------------------------------------------------- frames
+    def _var_at(self, agent: str, name: str, t: float) -> float | str | None:
+        entry = self.data.variables.get(agent, {}).get(name)
+        if entry is None:
+            return None
+        i = bisect.bisect_right(entry[0], t) - 1
+        return entry[1][i] if i >= 0 else None
+
+    def frame_at(self, t: float) -> dict[str, Any]:
+        """The live-schema frame at recording time ``t`` (s): positions interpolated."""
+        agents = []
+        pos: dict[str, tuple[float, float, float]] = {}
+        for name, tr in self.data.tracks.items():
+            ts = tr["t"]
+            i = int(np.searchsorted(ts, t, side="left"))
+            if i <= 0 or len(ts) == 1:
+                j = 0
+                vals = {k: float(tr[k][j]) for k in ("north", "east", "depth", "speed")}
+                hd = float(tr["heading_deg"][j])
+            elif i >= len(ts):
+                vals = {k: float(tr[k][-1]) for k in ("north", "east", "depth", "speed")}
+                hd = float(tr["heading_deg"][-1])
+            else:
+                a = (t - ts[i - 1]) / (ts[i] - ts[i - 1]) if ts[i] > ts[i - 1] else 1.0
+                vals = {k: float(tr[k][i - 1] + a * (tr[k][i] - tr[k][i - 1]))
+                        for k in ("north", "east", "depth", "speed")}
+                hd = _interp_heading(t, ts, tr["heading_deg"], i)
+            mode = self._var_at(name, "MODE", t)
+            agents.append({
+                "name": name, "kind": self.data.kinds[name], "heading_deg": hd,
+                "mode": "" if mode is None else str(mode), **vals,
+            })
+            pos[name] = (vals["north"], vals["east"], vals["depth"])
+        sonars = []
+        for name, (ts, images) in self.data.pings.items():
+            i = int(np.searchsorted(ts, t, side="right")) - 1
+            if i < 0 or self._sent_ping.get(name) == i:
+                continue
+            self._sent_ping[name] = i
+            sonars.append({
+                "agent": name, "t": float(ts[i]), "fan": images[i],
+                "fov_deg": self.data.sonar_fov_deg[name],
+                "max_range": self.data.sonar_range[name],
+            })
+        rng = None
+        if self._pair is not None:
+            a, b = pos[self._pair[0]], pos[self._pair[1]]
+            rng = math.dist(a, b)
+        return {
+            "t": float(t),
+            "paused": not self.playing,
+            "speed_factor": self.speed,
+            "rtf": self.speed if self.playing else 0.0,
+            "agents": agents,
+            "overlays": self._overlays(t),
+            "sonar": sonars or None,
+            "plots": {
+                "range_to_diver": rng,
+                "depth": {n: p[2] for n, p in pos.items()},
+                "speed": {a["name"]: a["speed"] for a in agents},
+            },
+        }
+
+    def _overlays(self, t: float) -> dict[str, list[dict[str, Any]]]:
+        """pMarineViewer-style VIEW_POLYGON / VIEW_POINT postings (MOOS x east, y north)."""
+        polys, points = [], []
+        for agent in self.data.variables:
+            poly = self._var_at(agent, "VIEW_POLYGON", t)
+            if isinstance(poly, str):
+                f = _parse_moos_fields(poly)
+                xy = []
+                for pair in f.get("pts", "").split(":"):
+                    try:
+                        x, y = (float(v) for v in pair.split(","))
+                    except ValueError:
+                        continue
+                    xy.append([y, x])  # MOOS (x east, y north) → (north, east)
+                if len(xy) >= 2:
+                    polys.append({"agent": agent, "label": f.get("label", ""), "points": xy})
+            pt = self._var_at(agent, "VIEW_POINT", t)
+            if isinstance(pt, str):
+                f = _parse_moos_fields(pt)
+                with contextlib.suppress(KeyError, ValueError):
+                    points.append({"agent": agent, "label": f.get("label", ""),
+                                   "north": float(f["y"]), "east": float(f["x"])})
+        return {"polygons": polys, "points": points, "circles": []}
+
+    def hello_extra(self) -> dict[str, Any]:
+        """Replay range and decimated tracks (for trails), added to the hello message."""
+        tracks = {}
+        for name, tr in self.data.tracks.items():
+            stride = max(1, math.ceil(len(tr["t"]) / TRACK_POINTS_MAX))
+            tracks[name] = {
+                "t": tr["t"][::stride].tolist(),
+                "n": tr["north"][::stride].tolist(),
+                "e": tr["east"][::stride].tolist(),
+                "d": tr["depth"][::stride].tolist(),
+            }
+        return {
+            "replay": {"t_start": self.data.t_start, "t_end": self.data.t_end},
+            "tracks": tracks,
+        }
+
+
+def serve_replay(
+    recording: Path | str,
+    host: str = "127.0.0.1",
+    port: int = 8765,
+    *,
+    max_fps: float = 20.0,
+    start: bool = True,
+    default_sonar_range: float = 20.0,
+) -> ViewerServer:
+    """Serve the viewer over an MCAP recording; the page gets a time slider.
+
+    Returns the (started, unless ``start=False``) :class:`ViewerServer`; ``server.url``
+    is the page address, ``server.start()`` is idempotent. Playback starts at the first
+    odometry sample at ×1; the page's pause / resume / speed / step act on playback, the
+    slider seeks.
+    """
+    data = load_replay(recording, default_sonar_range=default_sonar_range)
+    server = ViewerServer(data.scene, [], host=host, port=port, max_fps=max_fps)
+    player = ReplayPlayer(data, server)
+    server.mode = "replay"
+    server._hello_extra = player.hello_extra()
+    server._tick_hook = player.tick
+    server._command_hook = player.on_message
+    server.player = player
+    if start:
+        server.start()
+    log.info("replaying %s (%.1f s to %.1f s)", recording, data.t_start, data.t_end)
+    return server
+
+
+__all__ = ["ReplayData", "ReplayPlayer", "load_replay", "serve_replay"]
