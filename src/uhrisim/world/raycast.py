@@ -108,17 +108,16 @@ def validate_rays(
             f"must be a positive number of metres, got {max_range!r}",
             where="RayCaster.cast.max_range",
         )
-    if not np.all(np.isfinite(o)):
+    # Cheap NaN/inf screens: a sum is finite iff every term is (for sane magnitudes).
+    if not np.isfinite(np.sum(o)):
         raise ConfigError("contains NaN or inf", where="RayCaster.cast.origins")
-    if not np.all(np.isfinite(d)):
-        raise ConfigError("contains NaN or inf", where="RayCaster.cast.directions")
     if len(d):
-        norms = np.sqrt(np.einsum("ij,ij->i", d, d))
-        bad = np.abs(norms - 1.0) > _UNIT_TOL
-        if np.any(bad):
-            i = int(np.argmax(bad))
+        norms2 = np.einsum("ij,ij->i", d, d)
+        ok = np.abs(norms2 - 1.0) <= 2.0 * _UNIT_TOL  # NaN compares False
+        if not np.all(ok):
+            i = int(np.argmin(ok))
             raise ConfigError(
-                f"must be unit vectors; row {i} has length {norms[i]:.6g}",
+                f"must be finite unit vectors; row {i} has length {np.sqrt(norms2[i]):.6g}",
                 where="RayCaster.cast.directions",
             )
     return o, d, r
@@ -297,8 +296,9 @@ class _EmbreeMesh:
             idx = np.arange(len(v), dtype=np.int32).reshape(-1, 3)
             TriangleMesh(scene=self.scene, vertices=v, indices=idx)
         tri = np.concatenate(tris_local)
-        self.v0 = np.ascontiguousarray(tri[:, 0])
-        self.normal = _unit_normals(tri)
+        normal = _unit_normals(tri)
+        # Per face: unit normal and n·v0 (the plane), float64, for the distance refinement.
+        self.plane = np.column_stack([normal, np.einsum("ij,ij->i", normal, tri[:, 0])])
         centre = 0.5 * (lo + hi)
         self.centre = centre
         self.radius = float(np.max(np.linalg.norm(allv - centre, axis=1))) if len(allv) else 0.0
@@ -306,28 +306,31 @@ class _EmbreeMesh:
     def intersect(
         self, o: NDArray[np.float64], d: NDArray[np.float64], tfar: NDArray[np.float64]
     ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
-        """Rays in the local frame → (face index or -1, float64 distance, local face normal)."""
+        """Rays in the local frame → (face index or -1, float64 distance or inf, normal).
+
+        Normals are unit, in the local frame, turned to face the ray origin; the rows of
+        missed rays are meaningless (callers mask them).
+        """
         o32 = np.ascontiguousarray(o - self.shift, dtype=np.float32)
         d32 = np.ascontiguousarray(d, dtype=np.float32)
         far = np.minimum(tfar * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR).astype(np.float32)
         res = self.scene.run(o32, d32, dists=far, output=1)
-        geom = res["geomID"].astype(np.int64)
-        hit = geom >= 0
-        face = np.where(hit, self.offsets[np.maximum(geom, 0)] + res["primID"], -1)
-        fh = face[hit]
-        t = np.full(len(o), np.inf)
-        n = self.normal[fh]
-        # Refine in float64 against the hit triangle's plane: t = (v0 - o)·n / (d·n).
-        dn = np.einsum("ij,ij->i", d[hit], n)
-        num = np.einsum("ij,ij->i", self.v0[fh] - o[hit], n)
-        tf = res["tfar"][hit].astype(np.float64)
+        prim = res["primID"].astype(np.int64)
+        if len(self.offsets) == 2:
+            face = prim  # one geometry: primID is the face index, -1 on a miss
+        else:
+            geom = res["geomID"]
+            face = np.where(geom >= 0, self.offsets[geom] + prim, -1)
+        pl = np.take(self.plane, np.maximum(face, 0), axis=0)  # (N, 4): n, n·v0
+        nrm = pl[:, :3]
+        # Refine in float64 against the hit triangle's plane: t = (n·v0 − n·o) / (n·d).
+        dn = np.einsum("ij,ij->i", d, nrm)
+        num = pl[:, 3] - np.einsum("ij,ij->i", o, nrm)
         with np.errstate(divide="ignore", invalid="ignore"):
-            tr = num / dn
-        good = np.abs(dn) > 1e-9
-        t[hit] = np.where(good, tr, tf)
-        normals = np.zeros((len(o), 3))
-        normals[hit] = n
-        return face, t, normals
+            t = np.where(np.abs(dn) > 1e-9, num / dn, res["tfar"])
+        t = np.where(face >= 0, t, np.inf)
+        nrm = nrm * np.where(dn > 0.0, -1.0, 1.0)[:, None]  # face the ray origin
+        return face, t, nrm
 
 
 class EmbreeRayCaster(RayCaster):
@@ -389,36 +392,44 @@ class EmbreeRayCaster(RayCaster):
         far = np.full(n, max_range)
         if self._static is not None:
             face, t, nrm = self._static.intersect(o, d, far)
-            ok = (face >= 0) & (t <= max_range)
-            best[ok] = np.maximum(t[ok], 0.0)
-            fo = face[ok]
-            label[ok] = self._static_label[fo]
-            refl[ok] = self._static_refl[fo]
-            normal[ok] = nrm[ok]
+            ok = t <= max_range
+            fi = np.maximum(face, 0)
+            best = np.where(ok, np.maximum(t, 0.0), np.inf)
+            label = np.where(ok, self._static_label[fi], np.int32(-1)).astype(np.int32)
+            refl = np.where(ok, self._static_refl[fi], 0.0)
+            normal = np.where(ok[:, None], nrm, 0.0)
         for bi, b in enumerate(self._scene.bodies):
             if b.name in exclude:
                 continue
             pose = b.pose_matrix()
             offsets = b.geometry.face_offsets
-            for pi, (part, tpart) in enumerate(
-                zip(self._parts[b.name], b.part_transforms, strict=True)
-            ):
-                m = pose @ tpart  # part rest frame → NED
+            parts = self._parts[b.name]
+            frames = [pose @ tpart for tpart in b.part_transforms]  # part rest frame → NED
+            centres = np.array(
+                [m[:3, :3] @ p.centre + m[:3, 3] for m, p in zip(frames, parts, strict=True)]
+            )
+            radii = np.array([p.radius for p in parts])
+            # Whole-body bounding sphere (encloses every posed part's sphere) culls first.
+            bc = 0.5 * (centres.min(axis=0) + centres.max(axis=0))
+            br = float(np.max(np.linalg.norm(centres - bc, axis=1) + radii))
+            body_idx = _sphere_candidates(o, d, np.minimum(best, max_range), bc, br)
+            if len(body_idx) == 0:
+                continue
+            ob, db = o[body_idx], d[body_idx]
+            for pi, (part, m) in enumerate(zip(parts, frames, strict=True)):
                 rot, trans = m[:3, :3], m[:3, 3]
-                # Cull with the part's bounding sphere (world centre, same radius).
-                c = rot @ part.centre + trans
-                limit = np.minimum(best, max_range)
-                oc = c - o
-                tca = np.einsum("ij,ij->i", oc, d)
-                d2 = np.einsum("ij,ij->i", oc, oc) - tca * tca
-                r = part.radius * (1.0 + 1e-9) + 1e-9
-                cand = (d2 <= r * r) & (tca + r >= 0.0) & (tca - r <= limit)
-                idx = np.flatnonzero(cand)
-                if len(idx) == 0:
-                    continue
+                limit = np.minimum(best[body_idx], max_range)
+                if len(parts) == 1:
+                    idx = body_idx
+                else:
+                    sub = _sphere_candidates(ob, db, limit, centres[pi], radii[pi])
+                    if len(sub) == 0:
+                        continue
+                    idx = body_idx[sub]
+                    limit = limit[sub]
                 ol = (o[idx] - trans) @ rot  # R^T (o - t), row form
                 dl = d[idx] @ rot
-                face, t, nrm = part.intersect(ol, dl, limit[idx])
+                face, t, nrm = part.intersect(ol, dl, limit)
                 ok = (face >= 0) & (t < best[idx]) & (t <= max_range)
                 if not np.any(ok):
                     continue
@@ -428,9 +439,22 @@ class EmbreeRayCaster(RayCaster):
                 refl[sel] = b.face_reflectivity[offsets[pi] + face[ok]]
                 normal[sel] = nrm[ok] @ rot.T
                 body[sel] = bi
-        hit = np.isfinite(best)
-        normal[hit] = _face_to_ray(normal[hit], d[hit])
         return RayHits(distance=best, label=label, normal=normal, reflectivity=refl, body=body)
+
+
+def _sphere_candidates(
+    o: NDArray[np.float64],
+    d: NDArray[np.float64],
+    limit: NDArray[np.float64],
+    centre: NDArray[np.float64],
+    radius: float,
+) -> NDArray[np.intp]:
+    """Indices of rays (unit d) whose segment [0, limit] may touch the sphere (conservative)."""
+    oc = centre - o
+    tca = np.einsum("ij,ij->i", oc, d)
+    d2 = np.einsum("ij,ij->i", oc, oc) - tca * tca
+    r = radius * (1.0 + 1e-6) + 1e-6
+    return np.flatnonzero((d2 <= r * r) & (tca + r >= 0.0) & (tca - r <= limit))
 
 
 def make_raycaster(scene: Scene, backend: str = "embree") -> RayCaster:
