@@ -162,7 +162,7 @@ def _image_msg(img: np.ndarray, t_sim: float, frame_id: str, where: str) -> Imag
     msg.is_bigendian = 0
     msg.step = int(a.shape[1])
     data = array.array("B")
-    data.frombytes(memoryview(a).cast("B"))
+    data.frombytes(memoryview(a.reshape(-1)))
     msg.data = data
     return msg
 

@@ -158,7 +158,7 @@ def cloud_bytes_from_frd(
         if inten.shape[0] != n:
             raise ConfigError(f"{inten.shape[0]} intensities for {n} points", where="intensity")
         packed[:, 3] = inten
-    return n, memoryview(packed).cast("B")
+    return n, memoryview(packed.reshape(-1).view(np.uint8))
 
 
 class RateGate:
