@@ -1,0 +1,79 @@
+"""Build the static scene of a scenario: sea floor, primitives and imported meshes."""
+
+from __future__ import annotations
+
+import difflib
+import math
+
+from uhrisim.core.errors import ConfigError
+from uhrisim.scenario.load import ScenarioFile
+from uhrisim.scenario.schema import (
+    BoxObject,
+    CapsuleObject,
+    CylinderObject,
+    FlatFloor,
+    GridFloor,
+    MeshObject,
+    ProceduralFloor,
+    SceneObject,
+    SlopedFloor,
+    SphereObject,
+    TorusObject,
+)
+from uhrisim.world import meshes, seafloor
+from uhrisim.world import primitives as prim
+from uhrisim.world.materials import DEFAULT_MATERIALS, SAND, Material
+from uhrisim.world.scene import Scene
+
+
+def material_named(name: str, where: str) -> Material:
+    """A default material by name, or a ConfigError with a did-you-mean."""
+    try:
+        return DEFAULT_MATERIALS[name]
+    except KeyError:
+        close = difflib.get_close_matches(name, sorted(DEFAULT_MATERIALS), n=1)
+        hint = f"did you mean {close[0]!r}?" if close else \
+            f"known: {', '.join(sorted(DEFAULT_MATERIALS))}"
+        raise ConfigError(f"unknown material {name!r}; {hint}", where=where) from None
+
+
+def object_mesh(obj: SceneObject, source: ScenarioFile, where: str):
+    """The trimesh of one scenario object, posed in NED."""
+    position = obj.position.as_list()
+    yaw = math.radians(obj.heading_deg)
+    if isinstance(obj, BoxObject):
+        return prim.box(obj.size, position, yaw=yaw)
+    if isinstance(obj, CylinderObject):
+        return prim.cylinder(obj.radius, obj.height, position, yaw=yaw)
+    if isinstance(obj, SphereObject):
+        return prim.sphere(obj.radius, position)
+    if isinstance(obj, TorusObject):
+        return prim.torus(obj.major_radius, obj.minor_radius, position, yaw=yaw)
+    if isinstance(obj, CapsuleObject):
+        return prim.capsule(obj.radius, obj.height, position, yaw=yaw)
+    if isinstance(obj, MeshObject):
+        return meshes.load_mesh(source.resolve(obj.file), obj.scale, position, yaw=yaw)
+    raise ConfigError(f"unsupported object type {type(obj).__name__}", where=where)
+
+
+def build_static_scene(source: ScenarioFile) -> Scene:
+    """Scene with the scenario's sea floor and objects (dynamic bodies are added later)."""
+    world = source.scenario.world
+    scene = Scene()
+    floor = world.seafloor
+    if isinstance(floor, FlatFloor):
+        scene.add_static(seafloor.flat(floor.depth, floor.extent), "seafloor", SAND)
+    elif isinstance(floor, SlopedFloor):
+        scene.add_static(seafloor.sloped(floor.depth, floor.slope, floor.direction_deg,
+                                         floor.extent), "seafloor", SAND)
+    elif isinstance(floor, GridFloor):
+        scene.add_static(seafloor.from_height_grid(source.resolve(floor.file), floor.spacing),
+                         "seafloor", SAND)
+    elif isinstance(floor, ProceduralFloor):
+        scene.add_static(seafloor.procedural(floor.seed, floor.extent, floor.depth,
+                                             floor.roughness), "seafloor", SAND)
+    for index, obj in enumerate(world.objects):
+        where = source.where("world", "objects", index)
+        scene.add_static(object_mesh(obj, source, where), obj.label,
+                         material_named(obj.material, where))
+    return scene

@@ -1,0 +1,388 @@
+"""The scenario file format: strict, typed, frozen (DESIGN.md habit 6).
+
+Every default lives here. Unknown keys are errors with a did-you-mean; values out of
+range fail with the field path (the loader adds the file line). Positions are NED
+(``north``, ``east``, ``depth``), headings compass degrees, everything else SI.
+"""
+
+from __future__ import annotations
+
+import difflib
+from typing import Annotated, Any, Literal
+
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PositiveFloat,
+    field_validator,
+    model_validator,
+)
+from pydantic_core import PydanticCustomError
+
+NonNegativeFloat = Annotated[float, Field(ge=0.0)]
+HeadingDeg = Annotated[float, Field(ge=-360.0, le=360.0)]
+
+
+class Strict(BaseModel):
+    """Base of every scenario section: frozen, and unknown keys are errors with a hint."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _reject_unknown_keys(cls, data: Any) -> Any:
+        if isinstance(data, dict):
+            known = set(cls.model_fields)
+            known |= {f.alias for f in cls.model_fields.values() if f.alias}
+            for key in data:
+                if key not in known:
+                    close = difflib.get_close_matches(str(key), sorted(known), n=1)
+                    hint = (f"did you mean {close[0]!r}?" if close
+                            else f"known keys: {', '.join(sorted(known))}")
+                    raise PydanticCustomError("unknown_key", "unknown key '{key}'; {hint}",
+                                              {"key": key, "hint": hint})
+        return data
+
+
+class Vec3(Strict):
+    """A point in world NED (m)."""
+
+    north: float = 0.0
+    east: float = 0.0
+    depth: float = 0.0
+
+    def as_list(self) -> list[float]:
+        return [self.north, self.east, self.depth]
+
+
+class Pose(Vec3):
+    """A NED position plus compass heading (deg)."""
+
+    heading_deg: HeadingDeg = 0.0
+
+
+class Water(Strict):
+    """Water properties: sound speed and absorption inputs (Francois-Garrison)."""
+
+    temperature_c: Annotated[float, Field(ge=-2.0, le=40.0)] = 15.0
+    salinity_psu: Annotated[float, Field(ge=0.0, le=45.0)] = 35.0
+    ph: Annotated[float, Field(ge=6.0, le=9.0)] = 8.0
+    sound_speed: Annotated[float, Field(ge=1300.0, le=1700.0)] = 1500.0
+
+
+class FlatFloor(Strict):
+    type: Literal["flat"]
+    depth: PositiveFloat = 10.0
+    extent: PositiveFloat = 200.0
+
+
+class SlopedFloor(Strict):
+    type: Literal["sloped"]
+    depth: PositiveFloat = 10.0
+    slope: Annotated[float, Field(ge=-1.0, le=1.0)] = 0.05
+    direction_deg: HeadingDeg = 0.0
+    extent: PositiveFloat = 200.0
+
+
+class GridFloor(Strict):
+    type: Literal["grid"]
+    file: str
+    spacing: PositiveFloat = 1.0
+
+
+class ProceduralFloor(Strict):
+    type: Literal["procedural"]
+    depth: PositiveFloat = 10.0
+    roughness: NonNegativeFloat = 1.0
+    extent: PositiveFloat = 200.0
+    seed: Annotated[int, Field(ge=0)] = 0
+
+
+SeaFloor = Annotated[FlatFloor | SlopedFloor | GridFloor | ProceduralFloor,
+                     Field(discriminator="type")]
+
+
+class ObjectBase(Strict):
+    label: str
+    material: str = "concrete"
+    position: Vec3 = Vec3()
+    heading_deg: HeadingDeg = 0.0
+
+
+class BoxObject(ObjectBase):
+    type: Literal["box"]
+    size: tuple[PositiveFloat, PositiveFloat, PositiveFloat]
+
+
+class CylinderObject(ObjectBase):
+    type: Literal["cylinder"]
+    radius: PositiveFloat
+    height: PositiveFloat
+
+
+class SphereObject(ObjectBase):
+    type: Literal["sphere"]
+    radius: PositiveFloat
+
+
+class TorusObject(ObjectBase):
+    type: Literal["torus"]
+    major_radius: PositiveFloat
+    minor_radius: PositiveFloat
+
+
+class CapsuleObject(ObjectBase):
+    type: Literal["capsule"]
+    radius: PositiveFloat
+    height: PositiveFloat
+
+
+class MeshObject(ObjectBase):
+    type: Literal["mesh"]
+    file: str
+    scale: PositiveFloat = 1.0
+
+
+SceneObject = Annotated[
+    BoxObject | CylinderObject | SphereObject | TorusObject | CapsuleObject | MeshObject,
+    Field(discriminator="type"),
+]
+
+
+class World(Strict):
+    water: Water = Water()
+    seafloor: SeaFloor | None = None
+    objects: tuple[SceneObject, ...] = ()
+
+
+class SonarMount(Strict):
+    """Sonar pose on the vehicle: body FRD position (m), tilt (deg, > 0 down), yaw (deg)."""
+
+    position: tuple[float, float, float] = (0.15, 0.0, 0.0)
+    tilt_deg: Annotated[float, Field(ge=-90.0, le=90.0)] = 10.0
+    yaw_deg: HeadingDeg = 0.0
+
+
+class SonarSensor(Strict):
+    type: Literal["sonar"] = "sonar"
+    preset: str = "P900-45"
+    rate_hz: PositiveFloat = 15.0
+    min_range: NonNegativeFloat = 0.5
+    max_range: PositiveFloat = 30.0
+    rays_per_beam: Annotated[int, Field(ge=1, le=512)] = 32
+    mode: Literal["physical", "2013"] = "physical"
+    speckle: bool = True
+    fan_width_px: Annotated[int, Field(ge=64, le=4096)] = 512
+    mount: SonarMount = SonarMount()
+
+
+class VideoRayModelConfig(Strict):
+    J: PositiveFloat = 0.0118
+    moment_arm: PositiveFloat = 1.0
+    thrust_map: Literal["linear", "quadratic"] = "linear"
+    coupling: Literal["paper", "rigid-body"] = "paper"
+
+
+class ControllerConfig(Strict):
+    """P controller of the paper (eqs 5-9); ``preset`` then explicit gains override it."""
+
+    preset: Literal["ros-node", "ros-node-early", "octave", "mission"] = "mission"
+    heading: NonNegativeFloat | None = None
+    speed: NonNegativeFloat | None = None
+    depth: NonNegativeFloat | None = None
+    heading_weight: NonNegativeFloat | None = None
+    speed_weight: NonNegativeFloat | None = None
+    speed_feedforward: bool | None = None
+
+
+class DiverLimits(Strict):
+    max_speed: PositiveFloat = 1.0
+    max_turn_rate_deg: PositiveFloat = 30.0
+    max_vertical_rate: PositiveFloat = 0.3
+
+
+class HelmSection(Strict):
+    """Behaviors inline (MOOS-IvP vocabulary) or from a ``.bhv`` file beside the scenario."""
+
+    rate_hz: PositiveFloat = 4.0
+    bhv_file: str | None = None
+    initialize: dict[str, str | float | bool] = Field(default_factory=dict)
+    modes: tuple[str, ...] = ()
+    behaviors: tuple[dict[str, Any], ...] = ()
+    domain: dict[str, Any] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _one_source(self) -> HelmSection:
+        if self.bhv_file and self.behaviors:
+            raise ValueError("give either bhv_file or inline behaviors, not both")
+        return self
+
+
+class ScriptLeg(Strict):
+    """One leg of a scripted diver: from time ``t`` hold heading/speed/depth, or go to a point."""
+
+    t: NonNegativeFloat
+    heading_deg: HeadingDeg | None = None
+    speed: NonNegativeFloat = 0.5
+    depth: NonNegativeFloat | None = None
+    goto: Vec3 | None = None
+
+    @model_validator(mode="after")
+    def _heading_or_goto(self) -> ScriptLeg:
+        if (self.heading_deg is None) == (self.goto is None):
+            raise ValueError("a script leg needs exactly one of heading_deg or goto")
+        return self
+
+
+class AlertConfig(Strict):
+    """A contact-manager alert (MOOS pContactMgrV20 style)."""
+
+    var: str = "TRAIL_INFO"
+    pattern: str = "name=$[VNAME] # contact=$[VNAME]"
+    alert_range: PositiveFloat = 40.0
+    cpa_range: PositiveFloat = 50.0
+
+
+class ContactsConfig(Strict):
+    """Where contact reports come from: simulation truth (as in the paper), degraded."""
+
+    source: Literal["truth"] = "truth"
+    rate_hz: PositiveFloat = 4.0
+    position_noise_std: NonNegativeFloat = 0.0
+    latency: NonNegativeFloat = 0.0
+    dropout: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.0
+    alerts: tuple[AlertConfig, ...] = ()
+
+
+class AgentConfig(Strict):
+    name: Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")]
+    model: Literal["videoray", "diver", "kinematic"]
+    start: Pose = Pose()
+    driver: Literal["helm", "script", "external", "none"] = "helm"
+    videoray: VideoRayModelConfig = VideoRayModelConfig()
+    controller: ControllerConfig = ControllerConfig()
+    diver_limits: DiverLimits = DiverLimits()
+    helm: HelmSection | None = None
+    script: tuple[ScriptLeg, ...] = ()
+    contacts: ContactsConfig = ContactsConfig()
+    sensors: tuple[SonarSensor, ...] = ()
+    material: str | None = None
+    vehicle_type: str | None = None
+    length: PositiveFloat | None = None
+
+    @model_validator(mode="after")
+    def _driver_matches(self) -> AgentConfig:
+        if self.driver == "helm" and self.helm is None:
+            raise ValueError(f"agent {self.name!r} is driven by its helm but has no 'helm' section")
+        if self.driver == "script" and not self.script:
+            raise ValueError(f"agent {self.name!r} is driven by a script but has no 'script' legs")
+        return self
+
+
+class PostAction(Strict):
+    agent: str
+    var: str
+    value: str | float | bool
+
+
+class MoveAction(Strict):
+    label: str
+    position: Vec3
+
+
+class EventConfig(Strict):
+    """A scripted event outside the agents: at a time, or once when a condition holds."""
+
+    at: NonNegativeFloat | None = None
+    when: str | None = None
+    post: PostAction | None = None
+    move_object: MoveAction | None = None
+    add_object: SceneObject | None = None
+    script: tuple[ScriptLeg, ...] | None = None
+    agent: str | None = None
+
+    @model_validator(mode="after")
+    def _trigger_and_action(self) -> EventConfig:
+        if (self.at is None) == (self.when is None):
+            raise ValueError("an event needs exactly one trigger: 'at' (s) or 'when' (condition)")
+        actions = [self.post, self.move_object, self.add_object, self.script]
+        if sum(a is not None for a in actions) != 1:
+            raise ValueError("an event needs exactly one action: post, move_object, "
+                             "add_object or script")
+        if (self.script is not None or self.when is not None) and self.agent is None:
+            raise ValueError("a 'script' or 'when' event must name its 'agent' (the community "
+                             "whose variables the condition reads, or the diver to re-plan)")
+        return self
+
+
+class RecordingConfig(Strict):
+    enabled: bool = True
+    odometry_rate_hz: PositiveFloat = 10.0
+    sonar: bool = True
+    sonar_every: Annotated[int, Field(ge=1)] = 1
+    chunk_kib: Annotated[int, Field(ge=16, le=65536)] = 512
+
+
+class TrailMetricConfig(Strict):
+    """Which pair the mission metrics measure, and the trail geometry they expect."""
+
+    follower: str
+    target: str
+    range: PositiveFloat = 2.0
+    angle_deg: HeadingDeg = 180.0
+    acquire_range_tolerance: PositiveFloat = 1.0
+    acquire_bearing_tolerance_deg: PositiveFloat = 30.0
+    acquire_hold_s: PositiveFloat = 10.0
+
+
+class ButtonConfig(Strict):
+    label: str
+    agent: str
+    var: str
+    value: str | float | bool
+
+
+class Scenario(Strict):
+    """A whole mission: world, agents, events, recording, timing and seed."""
+
+    name: str
+    description: str = ""
+    seed: Annotated[int, Field(ge=0)] = 0
+    duration: PositiveFloat = 600.0
+    physics_step: Annotated[float, Field(gt=0.0, le=0.1)] = 0.01
+    lat_origin: Annotated[float, Field(ge=-90.0, le=90.0)] = 43.8253
+    long_origin: Annotated[float, Field(ge=-180.0, le=180.0)] = -70.3304
+    world: World = World()
+    agents: tuple[AgentConfig, ...]
+    events: tuple[EventConfig, ...] = ()
+    recording: RecordingConfig = RecordingConfig()
+    metrics: TrailMetricConfig | None = None
+    buttons: tuple[ButtonConfig, ...] = ()
+
+    @field_validator("agents")
+    @classmethod
+    def _unique_agents(cls, agents: tuple[AgentConfig, ...]) -> tuple[AgentConfig, ...]:
+        if not agents:
+            raise ValueError("a scenario needs at least one agent")
+        names = [a.name for a in agents]
+        duplicates = sorted({n for n in names if names.count(n) > 1})
+        if duplicates:
+            raise ValueError(f"agent names must be unique; repeated: {', '.join(duplicates)}")
+        return agents
+
+    @model_validator(mode="after")
+    def _references_exist(self) -> Scenario:
+        names = {a.name for a in self.agents}
+        refs = [(e.post.agent, "events.post.agent") for e in self.events if e.post]
+        refs += [(e.agent, "events.agent") for e in self.events if e.agent]
+        refs += [(b.agent, "buttons.agent") for b in self.buttons]
+        if self.metrics:
+            refs += [(self.metrics.follower, "metrics.follower"),
+                     (self.metrics.target, "metrics.target")]
+        for name, field in refs:
+            if name not in names:
+                close = difflib.get_close_matches(name, sorted(names), n=1)
+                hint = f"; did you mean {close[0]!r}?" if close else ""
+                raise ValueError(f"{field} names unknown agent {name!r}{hint}")
+        return self

@@ -1,0 +1,77 @@
+"""A MOOS-like community: one variable store per agent, with per-reader mailboxes.
+
+Every component of an agent (helm, controller, contact manager, bridges, recorder) reads
+and writes variables here in the MOOS vocabulary (NAV_X east, NAV_Y north, NAV_HEADING
+compass degrees, DESIRED_*, NODE_REPORT, mode variables such as DEPLOY).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+Value = str | float
+
+
+@dataclass(frozen=True)
+class Post:
+    """One posting: variable, value, simulation time (s), and who posted it."""
+
+    community: str
+    var: str
+    value: Value
+    t: float
+    source: str
+
+
+class Mailbox:
+    """Variables changed since the reader last drained (latest value wins per variable)."""
+
+    def __init__(self) -> None:
+        self._pending: dict[str, Value] = {}
+
+    def deliver(self, var: str, value: Value) -> None:
+        self._pending[var] = value
+
+    def drain(self) -> dict[str, Value]:
+        mail, self._pending = self._pending, {}
+        return mail
+
+
+class Community:
+    """Variable store of one agent. ``post`` reaches every mailbox and the post log."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self._values: dict[str, Value] = {}
+        self._mailboxes: list[Mailbox] = []
+        self._log: list[Post] = []
+
+    def mailbox(self) -> Mailbox:
+        """A new reader that will see every later post (and the current values)."""
+        box = Mailbox()
+        for var, value in self._values.items():
+            box.deliver(var, value)
+        self._mailboxes.append(box)
+        return box
+
+    def post(self, var: str, value: Value, t: float, source: str) -> None:
+        if isinstance(value, bool):
+            value = "true" if value else "false"
+        elif isinstance(value, int):
+            value = float(value)
+        self._values[var] = value
+        for box in self._mailboxes:
+            box.deliver(var, value)
+        self._log.append(Post(self.name, var, value, t, source))
+
+    def get(self, var: str, default: Value | None = None) -> Value | None:
+        return self._values.get(var, default)
+
+    def values(self) -> dict[str, Value]:
+        """A copy of every variable's latest value."""
+        return dict(self._values)
+
+    def take_log(self) -> list[Post]:
+        """Posts since the last call (for hooks that record or forward them)."""
+        log, self._log = self._log, []
+        return log
