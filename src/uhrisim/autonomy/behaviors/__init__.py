@@ -1,0 +1,49 @@
+"""IvP behaviors: ConstantDepth, Loiter, Trail, AvoidCollision, Waypoint, StationKeep."""
+
+from __future__ import annotations
+
+from uhrisim.autonomy.behaviors.avoid_collision import AvoidCollision
+from uhrisim.autonomy.behaviors.base import (
+    Behavior,
+    BehaviorContext,
+    CommonParams,
+    ContactInfo,
+    OwnNav,
+)
+from uhrisim.autonomy.behaviors.constant_depth import ConstantDepth
+from uhrisim.autonomy.behaviors.loiter import Loiter
+from uhrisim.autonomy.behaviors.station_keep import StationKeep
+from uhrisim.autonomy.behaviors.trail import Trail
+from uhrisim.autonomy.behaviors.waypoint import Waypoint
+from uhrisim.core.errors import ConfigError
+
+REGISTRY: dict[str, type[Behavior]] = {
+    cls.KIND: cls for cls in (ConstantDepth, Loiter, Trail, AvoidCollision, Waypoint, StationKeep)
+}
+
+
+def behavior_class(kind: str, where: str = "behavior") -> type[Behavior]:
+    """Class for ``BHV_Loiter`` / ``Loiter`` (case-insensitive); unknown -> ConfigError."""
+    k = str(kind).strip().lower()
+    k = k if k.startswith("bhv_") else "bhv_" + k
+    for name, cls in REGISTRY.items():
+        if name.lower() == k:
+            return cls
+    raise ConfigError(f"unknown behavior {kind!r} (known: {', '.join(sorted(REGISTRY))})", where)
+
+
+__all__ = [
+    "REGISTRY",
+    "AvoidCollision",
+    "Behavior",
+    "BehaviorContext",
+    "CommonParams",
+    "ConstantDepth",
+    "ContactInfo",
+    "Loiter",
+    "OwnNav",
+    "StationKeep",
+    "Trail",
+    "Waypoint",
+    "behavior_class",
+]

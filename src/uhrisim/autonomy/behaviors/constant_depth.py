@@ -1,0 +1,39 @@
+"""BHV_ConstantDepth: hold a depth (subdomain: depth).
+
+Objective: ZAIC peak at ``depth`` with IvP defaults peakwidth 3 m, basewidth 100 m,
+summitdelta 50 (reference/helm.md). The depth can follow another vehicle through
+``updates`` postings such as ``depth=3.2``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext
+from uhrisim.autonomy.domain import Objective
+from uhrisim.autonomy.params import setter, to_float
+from uhrisim.autonomy.zaic import zaic_peak_on_axis
+
+
+@dataclass(frozen=True)
+class ConstantDepthParams:
+    depth: float = 0.0
+    peakwidth: float = 3.0
+    basewidth: float = 100.0
+    summitdelta: float = 50.0
+
+
+class ConstantDepth(Behavior):
+    KIND = "BHV_ConstantDepth"
+    Params = ConstantDepthParams
+    HANDLERS: ClassVar[dict] = {
+        k: setter(k, to_float) for k in ("depth", "peakwidth", "basewidth", "summitdelta")
+    }
+
+    def on_run(self, ctx: BehaviorContext) -> Objective | None:
+        p: ConstantDepthParams = self.params
+        u = zaic_peak_on_axis(
+            ctx.domain.axis("depth"), p.depth, p.peakwidth, p.basewidth, p.summitdelta
+        )
+        return Objective.over(ctx.domain, ("depth",), u)

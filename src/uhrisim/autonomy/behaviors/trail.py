@@ -1,0 +1,111 @@
+"""BHV_Trail: keep station at ``trail_range`` from a contact at ``trail_angle``.
+
+reference/helm.md. The trail point P is ``trail_range`` from the (dead-reckoned) contact
+at ``trail_angle`` relative to the contact's heading (180 = straight behind;
+``trail_angle_type = absolute`` makes it a compass bearing). With D = own distance to P:
+
+* D > nm_radius: intercept - utility 100 (1 - cpa/D), clipped to 0..100, where cpa is the
+  CPA to a virtual contact at P moving with the contact's heading and speed over
+  ``time_on_leg`` (60 s);
+* radius < D <= nm_radius: course ZAIC (pw 30, bw 150, delta 50, wrap) at the bearing to
+  the point nm_radius ahead of P along the contact heading, speed ZAIC (pw 0.1, bw 2.0,
+  delta 50) at v_c (1 - 0.5 ahead_by / nm_radius), never negative (ahead_by = own
+  position ahead of P along the contact heading); coupled 50/50;
+* D <= radius: the same ZAICs at the contact's heading and speed (match the contact).
+
+Defaults (IvP): trail_range 50, trail_angle 180 relative, radius 5, nm_radius 20,
+max_range 0 (no limit). The authors' mission used trail_range 5, radius 5, nm_radius 15;
+the paper's text 2 m behind.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from uhrisim.autonomy.behaviors.base import BehaviorContext
+from uhrisim.autonomy.behaviors.contact_base import CONTACT_HANDLERS, ContactBehavior
+from uhrisim.autonomy.coupler import couple
+from uhrisim.autonomy.cpa import cpa_distance
+from uhrisim.autonomy.domain import Objective
+from uhrisim.autonomy.geometry import bearing_deg, distance
+from uhrisim.autonomy.params import setter, to_float, to_str
+from uhrisim.autonomy.zaic import zaic_peak_on_axis
+from uhrisim.core.errors import ConfigError
+
+
+def _angle_type(v: object, key: str, where: str) -> str:
+    s = to_str(v, key, where).lower()
+    if s not in ("relative", "absolute"):
+        raise ConfigError(f"{key} must be relative or absolute, got {v!r}", where)
+    return s
+
+
+@dataclass(frozen=True)
+class TrailParams:
+    contact: str = ""
+    extrapolate: bool = True
+    decay: tuple[float, float] = (5.0, 10.0)
+    on_no_contact_ok: bool = True
+    trail_range: float = 50.0
+    trail_angle: float = 180.0
+    trail_angle_type: str = "relative"
+    radius: float = 5.0
+    nm_radius: float = 20.0
+    max_range: float = 0.0
+    time_on_leg: float = 60.0
+
+
+class Trail(ContactBehavior):
+    KIND = "BHV_Trail"
+    Params = TrailParams
+    HANDLERS: ClassVar[dict] = {
+        **CONTACT_HANDLERS,
+        **{
+            k: setter(k, to_float)
+            for k in ("trail_range", "trail_angle", "radius", "nm_radius", "max_range")
+        },
+        "time_on_leg": setter("time_on_leg", to_float),
+        "trail_angle_type": setter("trail_angle_type", _angle_type),
+    }
+
+    def trail_point(self, cx: float, cy: float, ch: float) -> tuple[float, float]:
+        """Trail point (x east, y north) for a contact at (cx, cy) heading ``ch`` deg."""
+        p: TrailParams = self.params
+        a = p.trail_angle + (ch if p.trail_angle_type == "relative" else 0.0)
+        r = math.radians(a)
+        return cx + p.trail_range * math.sin(r), cy + p.trail_range * math.cos(r)
+
+    def on_run(self, ctx: BehaviorContext) -> Objective | None:
+        p: TrailParams = self.params
+        own = ctx.own
+        tr = self.track(ctx)
+        if own is None or tr is None:
+            return None
+        if p.max_range > 0 and distance(own.x, own.y, tr.x, tr.y) > p.max_range:
+            return None
+        ch, cv = tr.info.heading, tr.info.speed
+        px, py = self.trail_point(tr.x, tr.y, ch)
+        dist = distance(own.x, own.y, px, py)
+        crs_axis, spd_axis = ctx.domain.axis("course"), ctx.domain.axis("speed")
+        if dist > p.nm_radius:
+            cpa = cpa_distance(
+                own.x, own.y, crs_axis.values[:, None], spd_axis.values[None, :],
+                px, py, ch, cv, p.time_on_leg,
+            )  # fmt: skip
+            u = np.clip(100.0 * (1.0 - cpa / dist), 0.0, 100.0)
+            return Objective.over(ctx.domain, ("course", "speed"), u)
+        if dist > p.radius:
+            hx, hy = math.sin(math.radians(ch)), math.cos(math.radians(ch))
+            ax, ay = px + p.nm_radius * hx, py + p.nm_radius * hy
+            crs = bearing_deg(own.x, own.y, ax, ay)
+            ahead_by = (own.x - px) * hx + (own.y - py) * hy
+            spd = max(0.0, cv * (1.0 - 0.5 * ahead_by / p.nm_radius))
+        else:
+            crs, spd = ch, cv
+        fc = zaic_peak_on_axis(crs_axis, crs, 30.0, 150.0, 50.0)
+        fs = zaic_peak_on_axis(spd_axis, spd, 0.1, 2.0, 50.0)
+        return Objective.over(ctx.domain, ("course", "speed"), couple(fc, fs))

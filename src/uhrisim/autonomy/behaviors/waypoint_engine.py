@@ -1,0 +1,43 @@
+"""Arrival logic shared by Waypoint and Loiter (IvP ``WaypointEngine``).
+
+A point is reached when the distance is within ``capture_radius``, or by "slip": the
+closest distance seen so far is within ``slip_radius`` and the distance has begun to grow
+(reference/helm.md, Loiter).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass
+class ArrivalTracker:
+    """Mutable closest-approach memory for the current target point."""
+
+    capture_radius: float
+    slip_radius: float
+    closest: float = math.inf
+
+    def reset(self) -> None:
+        self.closest = math.inf
+
+    def arrived(self, dist: float) -> bool:
+        """Update with the current distance (m); True when the point counts as reached."""
+        if dist <= self.capture_radius:
+            return True
+        slipped = self.closest <= self.slip_radius and dist > self.closest + 1e-9
+        self.closest = min(self.closest, dist)
+        return slipped
+
+
+def course_speed_objective(ctx, course_deg: float, speed: float, speed_zaic: tuple):
+    """IvP waypoint-style function: course ZAIC (pw 0, bw 180, wrap) coupled 50/50 with a
+    speed ZAIC ``speed_zaic = (peakwidth, basewidth, summitdelta)``."""
+    from uhrisim.autonomy.coupler import couple
+    from uhrisim.autonomy.domain import Objective
+    from uhrisim.autonomy.zaic import zaic_peak_on_axis
+
+    fc = zaic_peak_on_axis(ctx.domain.axis("course"), course_deg, 0.0, 180.0, 0.0)
+    fs = zaic_peak_on_axis(ctx.domain.axis("speed"), speed, *speed_zaic)
+    return Objective.over(ctx.domain, ("course", "speed"), couple(fc, fs))

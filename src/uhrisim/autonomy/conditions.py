@@ -1,0 +1,225 @@
+"""Logic conditions of MOOS-IvP behaviors and mode entries (IvP ``LogicCondition``).
+
+Grammar::
+
+    expr     := and_expr (("or" | "||") and_expr)*
+    and_expr := not_expr (("and" | "&&") not_expr)*
+    not_expr := ("!" | "not") not_expr | "(" expr ")" | relation
+    relation := VARIABLE op LITERAL          op in  == = != < > <= >=
+
+``=`` means ``==``. A literal is a number, a quoted string, or a bare word (``true``,
+``STATION-KEEPING``). Evaluation against an info buffer (variable -> str | float):
+
+* an unknown variable makes its relation false (IvP: conditions on unposted variables fail);
+* numbers compare numerically (a numeric string value is read as a number);
+* strings compare case-insensitively (``DEPLOY = true`` matches ``"TRUE"``); ordering
+  operators between strings compare lexically (case-insensitive);
+* for a hierarchical mode variable (``MODE = "ACTIVE:TRAILING"``), ``MODE == X`` holds when
+  X is the whole value or any ``:``-separated component of it (IvP mode semantics).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Collection, Mapping
+from dataclasses import dataclass, field
+
+from uhrisim.core.errors import ConfigError
+
+__all__ = ["And", "Condition", "Not", "Or", "Relation", "literal", "parse_condition"]
+
+Value = str | float
+
+
+def literal(text: str) -> Value:
+    """A MOOS value from text: float when numeric, else the string with quotes removed."""
+    s = text.strip()
+    if len(s) >= 2 and s[0] == s[-1] and s[0] in "\"'":
+        return s[1:-1]
+    try:
+        return float(s)
+    except ValueError:
+        return s
+
+
+def _as_number(v: object) -> float | None:
+    if isinstance(v, bool):
+        return None
+    if isinstance(v, int | float):
+        return float(v)
+    if isinstance(v, str):
+        try:
+            return float(v)
+        except ValueError:
+            return None
+    return None
+
+
+@dataclass(frozen=True)
+class Relation:
+    var: str
+    op: str
+    value: Value
+
+    def evaluate(self, info: Mapping[str, object], mode_vars: Collection[str] = ()) -> bool:
+        if self.var not in info:
+            return False
+        have = info[self.var]
+        if self.var in mode_vars and self.op in ("==", "!=") and isinstance(self.value, str):
+            parts = str(have).lower().split(":")
+            hit = self.value.lower() in parts or self.value.lower() == str(have).lower()
+            return hit if self.op == "==" else not hit
+        a, b = _as_number(have), _as_number(self.value)
+        if a is not None and b is not None:
+            x: object
+            y: object
+            x, y = a, b
+        elif isinstance(self.value, str) and a is None:
+            x, y = str(have).lower(), self.value.lower()
+        else:
+            return self.op == "!="
+        return _OPS[self.op](x, y)
+
+    def variables(self) -> set[str]:
+        return {self.var}
+
+
+@dataclass(frozen=True)
+class And:
+    items: tuple[Condition, ...]
+
+    def evaluate(self, info: Mapping[str, object], mode_vars: Collection[str] = ()) -> bool:
+        return all(c.evaluate(info, mode_vars) for c in self.items)
+
+    def variables(self) -> set[str]:
+        return set().union(*(c.variables() for c in self.items))
+
+
+@dataclass(frozen=True)
+class Or:
+    items: tuple[Condition, ...]
+
+    def evaluate(self, info: Mapping[str, object], mode_vars: Collection[str] = ()) -> bool:
+        return any(c.evaluate(info, mode_vars) for c in self.items)
+
+    def variables(self) -> set[str]:
+        return set().union(*(c.variables() for c in self.items))
+
+
+@dataclass(frozen=True)
+class Not:
+    item: Condition
+
+    def evaluate(self, info: Mapping[str, object], mode_vars: Collection[str] = ()) -> bool:
+        return not self.item.evaluate(info, mode_vars)
+
+    def variables(self) -> set[str]:
+        return self.item.variables()
+
+
+Condition = Relation | And | Or | Not
+
+_OPS: dict[str, Callable[[object, object], bool]] = {
+    "==": lambda a, b: a == b,
+    "!=": lambda a, b: a != b,
+    "<": lambda a, b: a < b,  # type: ignore[operator]
+    ">": lambda a, b: a > b,  # type: ignore[operator]
+    "<=": lambda a, b: a <= b,  # type: ignore[operator]
+    ">=": lambda a, b: a >= b,  # type: ignore[operator]
+}
+
+_TOKEN = re.compile(
+    r"""\s*(?:
+        (?P<str>"[^"]*"|'[^']*')
+      | (?P<op>==|!=|<=|>=|=|<|>)
+      | (?P<lp>\()|(?P<rp>\))
+      | (?P<andop>&&)|(?P<orop>\|\|)|(?P<bang>!)
+      | (?P<word>[^\s()=!<>"']+)
+    )""",
+    re.VERBOSE,
+)
+
+
+@dataclass
+class _Parser:
+    text: str
+    where: str
+    tokens: list[tuple[str, str]] = field(default_factory=list)
+    pos: int = 0
+
+    def __post_init__(self) -> None:
+        i, s = 0, self.text
+        while i < len(s):
+            if s[i:].strip() == "":
+                break
+            m = _TOKEN.match(s, i)
+            if not m or m.end() == i:
+                raise ConfigError(f"cannot read condition {s!r} at {s[i:]!r}", self.where)
+            kind = m.lastgroup or ""
+            tok = m.group(kind)
+            if kind == "word" and tok.lower() in ("and", "or", "not"):
+                kind = {"and": "andop", "or": "orop", "not": "bang"}[tok.lower()]
+            self.tokens.append((kind, tok))
+            i = m.end()
+
+    def peek(self) -> str | None:
+        return self.tokens[self.pos][0] if self.pos < len(self.tokens) else None
+
+    def take(self) -> tuple[str, str]:
+        if self.pos >= len(self.tokens):
+            raise ConfigError(f"condition {self.text!r} ends too early", self.where)
+        tok = self.tokens[self.pos]
+        self.pos += 1
+        return tok
+
+    def expr(self) -> Condition:
+        items = [self.and_expr()]
+        while self.peek() == "orop":
+            self.take()
+            items.append(self.and_expr())
+        return items[0] if len(items) == 1 else Or(tuple(items))
+
+    def and_expr(self) -> Condition:
+        items = [self.not_expr()]
+        while self.peek() == "andop":
+            self.take()
+            items.append(self.not_expr())
+        return items[0] if len(items) == 1 else And(tuple(items))
+
+    def not_expr(self) -> Condition:
+        kind = self.peek()
+        if kind == "bang":
+            self.take()
+            return Not(self.not_expr())
+        if kind == "lp":
+            self.take()
+            inner = self.expr()
+            if self.take()[0] != "rp":
+                raise ConfigError(f"missing ')' in condition {self.text!r}", self.where)
+            return inner
+        return self.relation()
+
+    def relation(self) -> Relation:
+        kind, var = self.take()
+        if kind != "word":
+            raise ConfigError(f"expected a variable in condition {self.text!r}", self.where)
+        kind, op = self.take()
+        if kind != "op":
+            raise ConfigError(
+                f"expected a comparison after {var!r} in condition {self.text!r}", self.where
+            )
+        kind, lit = self.take()
+        if kind not in ("word", "str"):
+            raise ConfigError(f"expected a value after {var}{op} in {self.text!r}", self.where)
+        return Relation(var, "==" if op == "=" else op, literal(lit))
+
+
+def parse_condition(text: str, where: str = "condition") -> Condition:
+    """Parse one condition line into a frozen, comparable expression tree."""
+    p = _Parser(str(text), where)
+    if not p.tokens:
+        raise ConfigError("empty condition", where)
+    cond = p.expr()
+    if p.pos != len(p.tokens):
+        raise ConfigError(f"unexpected {p.tokens[p.pos][1]!r} in condition {text!r}", where)
+    return cond

@@ -1,0 +1,384 @@
+"""Node reports and the contact manager (pBasicContactMgr semantics).
+
+NODE_REPORT (reference/helm.md): one comma-separated ``KEY=value`` string, e.g.
+``NAME=videoray,X=12.30,Y=-4.10,SPD=1.20,HDG=87.00,DEP=1.50,TYPE=UUV,TIME=12.25,LENGTH=1``.
+Keys are case-insensitive; aliases SPEED/SPD, HEADING/HDG, DEPTH/DEP, LONG/LON; unknown
+keys are kept (in order) and written back by :func:`format_node_report`. Frame: x east,
+y north (m), heading compass degrees, speed m/s, depth m (positive down). ``TIME`` must
+be on the same clock as the helm's ``t`` (simulation seconds, or an epoch offset of it).
+
+The contact manager keeps one record per contact (latest report, dead-reckoned by a
+linear extrapolator with decay) and posts each configured alert once per contact when
+the contact comes within ``alert_range`` of own ship, or within ``cpa_range`` with a
+projected CPA (both on current course and speed, over ``cpa_time`` s) inside
+``alert_range``. Alert values are patterns with ``$[VNAME]``, ``$[X]``, ``$[Y]``,
+``$[HDG]``, ``$[SPD]``, ``$[DEP]``, ``$[VTYPE]``, ``$[UTIME]``. It also posts
+``CONTACTS_LIST``, ``CONTACTS_ALERTED``, ``CONTACTS_RETIRED`` when they change. Contacts not
+heard from for ``contact_max_age`` s are retired.
+"""
+
+from __future__ import annotations
+
+import difflib
+import logging
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from uhrisim.autonomy.behaviors.base import OwnNav
+from uhrisim.autonomy.cpa import cpa_distance
+from uhrisim.autonomy.extrapolator import LinearExtrapolator
+from uhrisim.autonomy.params import to_float, to_str
+from uhrisim.core.errors import ConfigError
+
+__all__ = [
+    "AlertSpec",
+    "ContactManager",
+    "ContactManagerConfig",
+    "ContactRecord",
+    "NodeReport",
+    "format_node_report",
+    "parse_node_report",
+]
+
+log = logging.getLogger(__name__)
+
+_ALIASES = {
+    "SPD": "SPD",
+    "SPEED": "SPD",
+    "HDG": "HDG",
+    "HEADING": "HDG",
+    "DEP": "DEP",
+    "DEPTH": "DEP",
+    "LON": "LON",
+    "LONG": "LON",
+}
+_NUMERIC = ("X", "Y", "SPD", "HDG", "DEP", "LAT", "LON", "TIME", "LENGTH")
+
+
+@dataclass(frozen=True)
+class NodeReport:
+    """A parsed NODE_REPORT (MOOS frame: x east, y north, compass heading)."""
+
+    name: str
+    x: float
+    y: float
+    speed: float = 0.0
+    heading: float = 0.0
+    depth: float = 0.0
+    time: float | None = None
+    type: str = ""
+    mode: str = ""
+    lat: float | None = None
+    lon: float | None = None
+    length: float | None = None
+    extra: tuple[tuple[str, str], ...] = ()
+
+
+def parse_node_report(text: str) -> NodeReport:
+    """Parse a NODE_REPORT string; malformed input -> ConfigError (a ValueError)."""
+    if not isinstance(text, str) or not text.strip():
+        raise ConfigError("empty node report", "NODE_REPORT")
+    fields: dict[str, str] = {}
+    extra: list[tuple[str, str]] = []
+    for part in text.split(","):
+        if not part.strip():
+            continue
+        if "=" not in part:
+            raise ConfigError(f"field {part.strip()!r} is not KEY=value", "NODE_REPORT")
+        k, v = part.split("=", 1)
+        key = k.strip().upper()
+        key = _ALIASES.get(key, key)
+        if key in ("NAME", "TYPE", "MODE", *_NUMERIC):
+            fields[key] = v.strip()
+        else:
+            extra.append((k.strip(), v.strip()))
+    for need in ("NAME", "X", "Y"):
+        if need not in fields or not fields[need]:
+            raise ConfigError(f"node report lacks {need}=: {text!r}", "NODE_REPORT")
+    num: dict[str, float] = {}
+    for key in _NUMERIC:
+        if key in fields:
+            try:
+                num[key] = float(fields[key])
+            except ValueError:
+                raise ConfigError(f"{key}={fields[key]!r} is not a number", "NODE_REPORT") from None
+            if not math.isfinite(num[key]):
+                raise ConfigError(f"{key}={fields[key]!r} is not finite", "NODE_REPORT")
+    return NodeReport(
+        name=fields["NAME"],
+        x=num["X"],
+        y=num["Y"],
+        speed=num.get("SPD", 0.0),
+        heading=num.get("HDG", 0.0) % 360.0,
+        depth=num.get("DEP", 0.0),
+        time=num.get("TIME"),
+        type=fields.get("TYPE", ""),
+        mode=fields.get("MODE", ""),
+        lat=num.get("LAT"),
+        lon=num.get("LON"),
+        length=num.get("LENGTH"),
+        extra=tuple(extra),
+    )
+
+
+def _f(v: float, nd: int) -> str:
+    s = f"{v:.{nd}f}".rstrip("0").rstrip(".")
+    return "0" if s in ("-0", "") else s
+
+
+def format_node_report(r: NodeReport) -> str:
+    """NODE_REPORT string (X/Y/SPD/DEP to 1 mm or 1 mm/s, HDG 0.01 deg, TIME 1 ms)."""
+    parts = [f"NAME={r.name}", f"X={_f(r.x, 3)}", f"Y={_f(r.y, 3)}", f"SPD={_f(r.speed, 3)}"]
+    parts += [f"HDG={_f(r.heading, 2)}", f"DEP={_f(r.depth, 3)}"]
+    if r.lat is not None:
+        parts.append(f"LAT={_f(r.lat, 8)}")
+    if r.lon is not None:
+        parts.append(f"LON={_f(r.lon, 8)}")
+    if r.type:
+        parts.append(f"TYPE={r.type}")
+    if r.mode:
+        parts.append(f"MODE={r.mode}")
+    if r.time is not None:
+        parts.append(f"TIME={_f(r.time, 3)}")
+    if r.length is not None:
+        parts.append(f"LENGTH={_f(r.length, 3)}")
+    parts += [f"{k}={v}" for k, v in r.extra]
+    return ",".join(parts)
+
+
+@dataclass(frozen=True)
+class AlertSpec:
+    """One alert (pBasicContactMgr ``alert = id=.., var=.., val=.., alert_range=..``)."""
+
+    id: str
+    var: str
+    pattern: str = "name=$[VNAME] # contact=$[VNAME]"
+    alert_range: float = 1000.0
+    cpa_range: float = 0.0
+    cpa_time: float = 60.0
+    match_type: tuple[str, ...] = ()
+    ignore_type: tuple[str, ...] = ()
+
+    def applies_to(self, vtype: str) -> bool:
+        t = vtype.lower()
+        if self.match_type and t not in self.match_type:
+            return False
+        return t not in self.ignore_type
+
+
+def _types(v: object, key: str, where: str) -> tuple[str, ...]:
+    vals = v if isinstance(v, list | tuple) else str(v).split(",")
+    return tuple(sorted({str(x).strip().lower() for x in vals if str(x).strip()}))
+
+
+_ALERT_KEYS = {
+    "id": to_str,
+    "var": to_str,
+    "val": to_str,
+    "pattern": to_str,
+    "alert_range": to_float,
+    "cpa_range": to_float,
+    "cpa_time": to_float,
+    "match_type": _types,
+    "ignore_type": _types,
+}
+
+
+def parse_alert(v: object, where: str) -> AlertSpec:
+    """Alert from a mapping or the MOOS string ``id=trail, var=TRAIL_INFO, val="..", ...``."""
+    if isinstance(v, Mapping):
+        items = list(v.items())
+    else:
+        s = str(v)
+        items = []
+        for part in _split_outside_quotes(s):
+            if "=" not in part:
+                raise ConfigError(f"alert field {part.strip()!r} is not key=value", where)
+            k, val = part.split("=", 1)
+            items.append((k.strip(), val.strip()))
+    got: dict[str, Any] = {}
+    for k, val in items:
+        key = str(k).lower()
+        if key not in _ALERT_KEYS:
+            hint = difflib.get_close_matches(key, list(_ALERT_KEYS), n=1)
+            extra = f" (did you mean {hint[0]!r}?)" if hint else ""
+            raise ConfigError(f"unknown alert field {k!r}{extra}", where)
+        got["pattern" if key == "val" else key] = _ALERT_KEYS[key](val, key, where)
+    if "var" not in got:
+        raise ConfigError("alert needs var=", where)
+    got.setdefault("id", got["var"].lower())
+    return AlertSpec(**got)
+
+
+def _split_outside_quotes(s: str) -> list[str]:
+    out, cur, quote = [], [], ""
+    for ch in s:
+        if quote:
+            quote = "" if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch == ",":
+            out.append("".join(cur))
+            cur = []
+            continue
+        cur.append(ch)
+    out.append("".join(cur))
+    return [p for p in out if p.strip()]
+
+
+@dataclass(frozen=True)
+class ContactManagerConfig:
+    """Alerts and bookkeeping. ``decay`` (s) feeds the dead reckoning of contacts."""
+
+    alerts: tuple[AlertSpec, ...] = ()
+    contact_max_age: float = 600.0
+    decay: tuple[float, float] = (30.0, 60.0)
+
+    @property
+    def alert_vars(self) -> tuple[str, ...]:
+        """Variables the manager posts as alerts (give them to HelmConfig validation)."""
+        return tuple(dict.fromkeys(a.var for a in self.alerts))
+
+    @classmethod
+    def from_mapping(cls, m: Mapping[str, Any], where: str = "contacts") -> ContactManagerConfig:
+        allowed = ("alerts", "contact_max_age", "decay")
+        for k in m:
+            if k not in allowed:
+                raise ConfigError(f"unknown key {k!r} (known: {', '.join(allowed)})", where)
+        alerts = tuple(
+            parse_alert(a, f"{where}.alerts[{i}]") for i, a in enumerate(m.get("alerts", []))
+        )
+        decay = m.get("decay", (30.0, 60.0))
+        parts = decay if isinstance(decay, list | tuple) else str(decay).split(",")
+        if len(parts) != 2:
+            raise ConfigError("decay must be 'start,end'", f"{where}.decay")
+        d = (to_float(parts[0], "decay", where), to_float(parts[1], "decay", where))
+        LinearExtrapolator(*d)
+        age = to_float(m.get("contact_max_age", 600.0), "contact_max_age", where)
+        return cls(alerts, age, d)
+
+
+@dataclass
+class ContactRecord:
+    """Latest knowledge of one contact (positions MOOS x east / y north)."""
+
+    name: str
+    report: NodeReport
+    t_report: float
+    t_received: float
+    x: float = 0.0
+    y: float = 0.0
+    range: float = math.inf
+    decay_maxed: bool = False
+    alerted: set[str] = field(default_factory=set)
+
+
+def _own(own_nav: OwnNav | Mapping[str, Any]) -> OwnNav:
+    if isinstance(own_nav, OwnNav):
+        return own_nav
+    g = own_nav.get
+    return OwnNav(
+        float(g("NAV_X", g("x", 0.0))),
+        float(g("NAV_Y", g("y", 0.0))),
+        float(g("NAV_HEADING", g("heading", 0.0))),
+        float(g("NAV_SPEED", g("speed", 0.0))),
+        float(g("NAV_DEPTH", g("depth", 0.0))),
+    )
+
+
+class ContactManager:
+    """Per-vehicle contact bookkeeping and alerts (see module docstring)."""
+
+    def __init__(self, config: ContactManagerConfig, own_name: str) -> None:
+        self.config = config
+        self.own_name = own_name
+        self.contacts: dict[str, ContactRecord] = {}
+        self.retired: list[str] = []
+        self._extrap = LinearExtrapolator(*config.decay)
+        self._last_posted: dict[str, str] = {}
+
+    def on_node_report(self, report: str | NodeReport, t: float) -> ContactRecord | None:
+        """Take one report received at ``t``; own reports are ignored (returns None)."""
+        r = parse_node_report(report) if isinstance(report, str) else report
+        if r.name.lower() == self.own_name.lower():
+            return None
+        key = r.name.lower()
+        t_rep = r.time if r.time is not None else t
+        rec = self.contacts.get(key)
+        if rec is None:
+            rec = ContactRecord(r.name, r, t_rep, t, r.x, r.y)
+            self.contacts[key] = rec
+            if r.name in self.retired:
+                self.retired.remove(r.name)
+        elif t_rep >= rec.t_report:
+            rec.report, rec.t_report, rec.t_received = r, t_rep, t
+        return rec
+
+    def step(
+        self, t: float, own_nav: OwnNav | Mapping[str, Any], reports: Iterable[str] = ()
+    ) -> list[tuple[str, str]]:
+        """Update records at ``t`` and return the posts (alerts once per contact, lists)."""
+        for rep in reports:
+            self.on_node_report(rep, t)
+        own = _own(own_nav)
+        posts: list[tuple[str, str]] = []
+        for key in list(self.contacts):
+            rec = self.contacts[key]
+            if t - rec.t_received > self.config.contact_max_age:
+                del self.contacts[key]
+                self.retired.append(rec.name)
+                continue
+            r = rec.report
+            ex = self._extrap.extrapolate(r.x, r.y, r.heading, r.speed, rec.t_report, t)
+            rec.x, rec.y, rec.decay_maxed = ex.x, ex.y, ex.decay_maxed
+            rec.range = math.hypot(rec.x - own.x, rec.y - own.y)
+            for a in self.config.alerts:
+                if a.id in rec.alerted or not a.applies_to(r.type):
+                    continue
+                if self._triggers(a, rec, own):
+                    rec.alerted.add(a.id)
+                    posts.append((a.var, self._expand(a.pattern, rec, t)))
+                    log.debug("alert %s for contact %s at t=%.2f", a.id, rec.name, t)
+        lists = {
+            "CONTACTS_LIST": ",".join(c.name for c in self.contacts.values()),
+            "CONTACTS_ALERTED": ",".join(
+                f"({c.name},{a})" for c in self.contacts.values() for a in sorted(c.alerted)
+            ),
+            "CONTACTS_RETIRED": ",".join(self.retired),
+        }
+        for var, val in lists.items():
+            if self._last_posted.get(var) != val:
+                posts.append((var, val))
+                self._last_posted[var] = val
+        return posts
+
+    def _triggers(self, a: AlertSpec, rec: ContactRecord, own: OwnNav) -> bool:
+        if rec.range <= a.alert_range:
+            return True
+        if a.cpa_range > 0 and rec.range <= a.cpa_range:
+            r = rec.report
+            cpa = cpa_distance(
+                own.x, own.y, own.heading, own.speed, rec.x, rec.y, r.heading, r.speed, a.cpa_time
+            )
+            return float(cpa) <= a.alert_range
+        return False
+
+    @staticmethod
+    def _expand(pattern: str, rec: ContactRecord, t: float) -> str:
+        r = rec.report
+        subs = {
+            "VNAME": r.name,
+            "X": _f(rec.x, 2),
+            "Y": _f(rec.y, 2),
+            "HDG": _f(r.heading, 2),
+            "SPD": _f(r.speed, 2),
+            "DEP": _f(r.depth, 2),
+            "VTYPE": r.type,
+            "UTIME": _f(t, 2),
+        }
+        out = pattern
+        for k, v in subs.items():
+            out = out.replace(f"$[{k}]", v)
+        return out

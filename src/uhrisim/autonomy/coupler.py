@@ -1,0 +1,41 @@
+"""Coupling two 1-D functions into one over (course, speed) (IvP ``OF_Coupler``).
+
+reference/helm.md: each function is rescaled to 0..w (w = 50 by default) and the two are
+added, F(c, v) = f_c(c) + f_v(v); the behavior then normalises F to 0..100.
+
+A constant input (no preference) rescales to its top value ``w``: "indifferent" counts as
+fully satisfied. Constants never change an argmax, so the choice only shows in audits.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["couple", "rescale"]
+
+
+def rescale(f: ArrayLike, low: float, high: float) -> NDArray[np.float64]:
+    """Affinely map the range [min f, max f] onto [low, high] (constant -> high)."""
+    a = np.asarray(f, dtype=float)
+    fmin, fmax = float(a.min()), float(a.max())
+    if fmax - fmin <= 0.0:
+        return np.full_like(a, high)
+    return low + (a - fmin) * ((high - low) / (fmax - fmin))
+
+
+def couple(
+    f_course: ArrayLike,
+    f_speed: ArrayLike,
+    course_weight: float = 50.0,
+    speed_weight: float = 50.0,
+    normalize: bool = True,
+) -> NDArray[np.float64]:
+    """F[i, j] = rescale(f_course, 0, wc)[i] + rescale(f_speed, 0, ws)[j], normalised 0..100.
+
+    Shapes: ``f_course`` (n_course,), ``f_speed`` (n_speed,) -> (n_course, n_speed).
+    """
+    fc = rescale(f_course, 0.0, course_weight)
+    fs = rescale(f_speed, 0.0, speed_weight)
+    F = fc[:, None] + fs[None, :]
+    return rescale(F, 0.0, 100.0) if normalize else F

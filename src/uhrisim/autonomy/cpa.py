@@ -1,0 +1,88 @@
+"""Closest point of approach (CPA) between own ship and a contact on straight legs.
+
+Frame: MOOS local (x east, y north, metres); headings in compass degrees (velocity
+components vx = v sin(h), vy = v cos(h)). Both ships hold course and speed for
+t in [0, T] (T = time on leg); the CPA distance is min over that interval of their range.
+
+Closed form: with relative position r0 = p_own - p_cn and relative velocity
+w = v_own - v_cn, range(t) = |r0 + w t| is minimised at t* = -(r0.w)/|w|^2 clipped to
+[0, T]. :func:`cpa_distance` evaluates this for whole arrays of candidate (course, speed);
+:func:`cpa_distance_reference` samples time densely (slow, obviously correct).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["cpa_distance", "cpa_distance_reference", "cpa_time", "velocity_xy"]
+
+
+def velocity_xy(heading_deg: ArrayLike, speed: ArrayLike) -> tuple[NDArray, NDArray]:
+    """(vx east, vy north) in m/s from compass heading (deg) and speed (m/s)."""
+    h = np.radians(np.asarray(heading_deg, dtype=float))
+    s = np.asarray(speed, dtype=float)
+    return s * np.sin(h), s * np.cos(h)
+
+
+def cpa_time(
+    osx: float,
+    osy: float,
+    courses_deg: ArrayLike,
+    speeds: ArrayLike,
+    cnx: float,
+    cny: float,
+    cnh_deg: float,
+    cnv: float,
+    horizon: float,
+) -> NDArray[np.float64]:
+    """Time (s) of closest approach in [0, horizon], broadcast over courses and speeds."""
+    vx, vy = velocity_xy(courses_deg, speeds)
+    cvx, cvy = velocity_xy(cnh_deg, cnv)
+    wx, wy = vx - cvx, vy - cvy
+    dx, dy = osx - cnx, osy - cny
+    a = wx * wx + wy * wy
+    b = dx * wx + dy * wy
+    t = np.divide(-b, a, out=np.zeros(np.broadcast(a, b).shape), where=a > 1e-12)
+    return np.clip(t, 0.0, max(horizon, 0.0))
+
+
+def cpa_distance(
+    osx: float,
+    osy: float,
+    courses_deg: ArrayLike,
+    speeds: ArrayLike,
+    cnx: float,
+    cny: float,
+    cnh_deg: float,
+    cnv: float,
+    horizon: float,
+) -> NDArray[np.float64]:
+    """CPA distance (m) over [0, horizon] for own course/speed candidates (broadcast).
+
+    Pass ``courses[:, None]`` and ``speeds[None, :]`` to get the full (n_course, n_speed) grid.
+    """
+    vx, vy = velocity_xy(courses_deg, speeds)
+    cvx, cvy = velocity_xy(cnh_deg, cnv)
+    t = cpa_time(osx, osy, courses_deg, speeds, cnx, cny, cnh_deg, cnv, horizon)
+    return np.hypot(osx - cnx + (vx - cvx) * t, osy - cny + (vy - cvy) * t)
+
+
+def cpa_distance_reference(
+    osx: float,
+    osy: float,
+    course_deg: float,
+    speed: float,
+    cnx: float,
+    cny: float,
+    cnh_deg: float,
+    cnv: float,
+    horizon: float,
+    n_samples: int = 20001,
+) -> float:
+    """Slow reference: minimum range over ``n_samples`` equally spaced times in [0, horizon]."""
+    t = np.linspace(0.0, horizon, n_samples)
+    vx, vy = velocity_xy(course_deg, speed)
+    cvx, cvy = velocity_xy(cnh_deg, cnv)
+    r = np.hypot(osx + vx * t - (cnx + cvx * t), osy + vy * t - (cny + cvy * t))
+    return float(r.min())

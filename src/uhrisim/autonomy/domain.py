@@ -1,0 +1,138 @@
+"""The helm's discrete decision domain and objective functions over it.
+
+Conventions (MOOS-IvP, reference/helm.md): ``course`` in compass degrees (0 = north,
+clockwise), ``speed`` in m/s, ``depth`` in metres positive down. The paper's mission uses
+course 0..359 (360 points), speed 0..5 m/s (26 points, 0.2 m/s apart) and an optional
+depth 0..100 m (101 points).
+
+An :class:`Objective` is a utility table over a subset of the domain's axes (in domain
+order); a function over fewer variables is constant along the others.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import NDArray
+
+from uhrisim.core.errors import ConfigError
+
+__all__ = ["Domain", "DomainAxis", "Objective"]
+
+
+@dataclass(frozen=True)
+class DomainAxis:
+    """One decision variable: ``npts`` evenly spaced values from ``low`` to ``high``.
+
+    ``optional`` axes (MOOS ``depth:0:100:101:optional``) may go undecided without an
+    all-stop. ``wrap`` marks a circular variable (course): its period is ``npts * delta``.
+    """
+
+    name: str
+    low: float
+    high: float
+    npts: int
+    optional: bool = False
+    wrap: bool = False
+
+    def __post_init__(self) -> None:
+        if self.npts < 1:
+            raise ConfigError(f"axis {self.name!r} needs npts >= 1, got {self.npts}", "domain")
+        if self.npts > 1 and not self.high > self.low:
+            raise ConfigError(f"axis {self.name!r} needs high > low", "domain")
+
+    @property
+    def delta(self) -> float:
+        """Spacing between grid values (0 for a single-point axis)."""
+        return (self.high - self.low) / (self.npts - 1) if self.npts > 1 else 0.0
+
+    @property
+    def period(self) -> float:
+        """Period of a wrapping axis (360 for course 0..359 by 1)."""
+        return self.npts * self.delta
+
+    @cached_property
+    def values(self) -> NDArray[np.float64]:
+        """The grid values (read-only)."""
+        v = np.linspace(self.low, self.high, self.npts)
+        v.flags.writeable = False
+        return v
+
+    def index_of(self, value: float) -> int:
+        """Index of the grid value nearest ``value`` (circular for a wrapping axis)."""
+        if self.npts == 1:
+            return 0
+        if self.wrap:
+            d = np.abs(self.values - value) % self.period
+            d = np.minimum(d, self.period - d)
+            return int(np.argmin(d))
+        return int(np.clip(round((value - self.low) / self.delta), 0, self.npts - 1))
+
+
+@dataclass(frozen=True)
+class Domain:
+    """An ordered set of decision axes (MOOS pHelmIvP ``domain = ...`` lines)."""
+
+    axes: tuple[DomainAxis, ...]
+
+    def __post_init__(self) -> None:
+        names = [a.name for a in self.axes]
+        if len(set(names)) != len(names):
+            raise ConfigError(f"duplicate domain axis in {names}", "domain")
+
+    @classmethod
+    def paper(cls, with_depth: bool = True) -> Domain:
+        """Paper mission: course 0..359/360, speed 0..5/26, depth 0..100/101 (optional)."""
+        axes = [
+            DomainAxis("course", 0.0, 359.0, 360, wrap=True),
+            DomainAxis("speed", 0.0, 5.0, 26),
+        ]
+        if with_depth:
+            axes.append(DomainAxis("depth", 0.0, 100.0, 101, optional=True))
+        return cls(tuple(axes))
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(a.name for a in self.axes)
+
+    def has(self, name: str) -> bool:
+        return name in self.names
+
+    def axis(self, name: str) -> DomainAxis:
+        for a in self.axes:
+            if a.name == name:
+                return a
+        raise ConfigError(f"decision domain has no axis {name!r}", "domain")
+
+    def order(self, names: tuple[str, ...] | list[str]) -> tuple[str, ...]:
+        """``names`` sorted into domain order."""
+        return tuple(n for n in self.names if n in names)
+
+
+@dataclass(frozen=True, eq=False)
+class Objective:
+    """A utility table over ``axes`` (domain order); ``values.shape`` = their ``npts``.
+
+    Behaviors normalise their functions to 0..100 (IvP convention); the helm multiplies by
+    the behavior's priority weight.
+    """
+
+    axes: tuple[str, ...]
+    values: NDArray[np.float64]
+
+    @classmethod
+    def over(cls, domain: Domain, axes: tuple[str, ...], values: NDArray) -> Objective:
+        """Build after checking that ``axes`` are in domain order and the shape matches."""
+        if tuple(axes) != domain.order(axes) or len(set(axes)) != len(axes):
+            raise ConfigError(f"objective axes {axes} not in domain order {domain.names}", "helm")
+        shape = tuple(domain.axis(a).npts for a in axes)
+        arr = np.asarray(values, dtype=float)
+        if arr.shape != shape:
+            raise ConfigError(f"objective over {axes} has shape {arr.shape}, want {shape}", "helm")
+        return cls(tuple(axes), arr)
+
+    def at(self, indices: dict[str, int]) -> float:
+        """Value at a decision given as axis-name -> grid index."""
+        return float(self.values[tuple(indices[a] for a in self.axes)])

@@ -1,0 +1,136 @@
+"""Plane geometry in MOOS local coordinates (x east, y north, metres; compass degrees).
+
+Polygons are stored as vertex tuples in clockwise order seen from above (compass order).
+Specifications accepted (MOOS-IvP ``XYPolygon`` strings):
+
+* ``format=radial, x=10, y=-20, radius=20, pts=8 [, snap=0.1] [, label=..]`` - a regular
+  polygon; vertex k at compass bearing 180/pts + k*360/pts from the centre (the paper's
+  octagon: 22.5 + k*45 deg);
+* ``x1,y1 : x2,y2 : ...`` or ``pts={x1,y1:x2,y2:...}``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from uhrisim.autonomy.params import to_float, to_points
+from uhrisim.core.errors import ConfigError
+
+__all__ = [
+    "bearing_deg",
+    "dist_to_polygon",
+    "distance",
+    "is_convex",
+    "parse_polygon",
+    "point_in_polygon",
+    "signed_area",
+]
+
+Point = tuple[float, float]
+
+
+def bearing_deg(x0: float, y0: float, x1: float, y1: float) -> float:
+    """Compass bearing (deg, [0, 360)) from (x0, y0) to (x1, y1)."""
+    return math.degrees(math.atan2(x1 - x0, y1 - y0)) % 360.0
+
+
+def distance(x0: float, y0: float, x1: float, y1: float) -> float:
+    return math.hypot(x1 - x0, y1 - y0)
+
+
+def signed_area(pts: tuple[Point, ...]) -> float:
+    """Shoelace area: > 0 counter-clockwise, < 0 clockwise (x east, y north)."""
+    n = len(pts)
+    return 0.5 * sum(
+        pts[i][0] * pts[(i + 1) % n][1] - pts[(i + 1) % n][0] * pts[i][1] for i in range(n)
+    )
+
+
+def is_convex(pts: tuple[Point, ...], tol: float = 1e-9) -> bool:
+    """True for a simple convex polygon (collinear vertices allowed), >= 3 vertices."""
+    n = len(pts)
+    if n < 3 or abs(signed_area(pts)) <= tol:
+        return False
+    sign = 0
+    turning = 0.0
+    for i in range(n):
+        (ax, ay), (bx, by), (cx, cy) = pts[i], pts[(i + 1) % n], pts[(i + 2) % n]
+        cross = (bx - ax) * (cy - by) - (by - ay) * (cx - bx)
+        if abs(cross) > tol:
+            s = 1 if cross > 0 else -1
+            if sign and s != sign:
+                return False
+            sign = s
+        turning += math.atan2(cross, (bx - ax) * (cx - bx) + (by - ay) * (cy - by))
+    return abs(abs(turning) - 2.0 * math.pi) < 1e-6
+
+
+def point_in_polygon(x: float, y: float, pts: tuple[Point, ...]) -> bool:
+    """Even-odd rule containment test."""
+    inside = False
+    n = len(pts)
+    for i in range(n):
+        (ax, ay), (bx, by) = pts[i], pts[(i + 1) % n]
+        if (ay > y) != (by > y) and x < ax + (y - ay) * (bx - ax) / (by - ay):
+            inside = not inside
+    return inside
+
+
+def _dist_to_segment(x: float, y: float, a: Point, b: Point) -> float:
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    L2 = dx * dx + dy * dy
+    t = 0.0 if L2 == 0 else max(0.0, min(1.0, ((x - a[0]) * dx + (y - a[1]) * dy) / L2))
+    return math.hypot(x - a[0] - t * dx, y - a[1] - t * dy)
+
+
+def dist_to_polygon(x: float, y: float, pts: tuple[Point, ...]) -> float:
+    """0 inside the polygon, else the distance to its boundary."""
+    if point_in_polygon(x, y, pts):
+        return 0.0
+    n = len(pts)
+    return min(_dist_to_segment(x, y, pts[i], pts[(i + 1) % n]) for i in range(n))
+
+
+def _radial(spec: str, key: str, where: str) -> tuple[Point, ...]:
+    fields: dict[str, str] = {}
+    for part in spec.split(","):
+        if "=" not in part:
+            raise ConfigError(f"{key}: radial polygon part {part.strip()!r} is not k=v", where)
+        k, v = part.split("=", 1)
+        fields[k.strip().lower()] = v.strip()
+    unknown = set(fields) - {"format", "x", "y", "radius", "pts", "snap", "label"}
+    if unknown:
+        raise ConfigError(f"{key}: unknown radial polygon field(s) {sorted(unknown)}", where)
+    try:
+        cx, cy = to_float(fields["x"], key, where), to_float(fields["y"], key, where)
+        radius = to_float(fields["radius"], key, where)
+        n = int(to_float(fields["pts"], key, where))
+    except KeyError as e:
+        raise ConfigError(f"{key}: radial polygon needs {e.args[0]}=", where) from None
+    if radius <= 0 or n < 3:
+        raise ConfigError(f"{key}: radial polygon needs radius > 0 and pts >= 3", where)
+    snap = to_float(fields.get("snap", 0), key, where)
+    pts = []
+    for k in range(n):
+        b = math.radians(180.0 / n + k * 360.0 / n)
+        px, py = cx + radius * math.sin(b), cy + radius * math.cos(b)
+        if snap > 0:
+            px, py = round(px / snap) * snap, round(py / snap) * snap
+        pts.append((px, py))
+    return tuple(pts)
+
+
+def parse_polygon(v: object, key: str = "polygon", where: str = "polygon") -> tuple[Point, ...]:
+    """Polygon spec -> clockwise vertex tuple; a non-convex polygon is a ConfigError."""
+    s = v if isinstance(v, list | tuple) else str(v).strip()
+    if isinstance(s, str) and "format" in s.lower() and "radial" in s.lower():
+        pts = _radial(s, key, where)
+    else:
+        if isinstance(s, str):
+            s = ":".join(p for p in s.split(":") if not p.strip().lower().startswith("label"))
+        pts = to_points(s, key, where)
+    if not is_convex(pts):
+        raise ConfigError(f"{key} is not a convex polygon: {v!r}", where)
+    if signed_area(pts) > 0:
+        pts = (pts[0], *reversed(pts[1:]))
+    return pts

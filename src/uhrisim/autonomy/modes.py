@@ -1,0 +1,84 @@
+"""Hierarchical mode declarations (pHelmIvP ``set MODE = VALUE { conditions } ELSEVALUE``).
+
+Example (the authors' ``meta_vehicle.bhv``)::
+
+    set MODE = ACTIVE {
+      DEPLOY = true
+    } INACTIVE
+
+    set MODE = TRAILING {
+      MODE = ACTIVE
+      TRAIL = true
+    } LOITERING
+
+Entries are evaluated in file order every helm tick, building each mode variable afresh.
+An entry's conditions on its own mode variable are its *parent gate*; they are evaluated
+against the last ``:``-component of the value built so far (so ``MODE = ACTIVE`` holds for
+"ACTIVE" but no longer once a sibling made it "ACTIVE:RETURNING": the first matching
+sibling wins). If the gate holds: the value (conditions true) or else-value (conditions
+false) is appended as a child ("ACTIVE:TRAILING"); an entry with no gate sets the value
+outright. Behavior conditions then test the mode with component semantics
+(``MODE == TRAILING`` holds for "ACTIVE:TRAILING", see :mod:`conditions`).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from uhrisim.autonomy.conditions import Condition, Value, parse_condition
+from uhrisim.core.errors import ConfigError
+
+__all__ = ["ModeEntry", "evaluate_modes", "parse_mode_entry"]
+
+_ENTRY = re.compile(
+    r"^\s*(?:set\s+)?(?P<var>[A-Za-z_][\w\-]*)\s*=\s*(?P<val>[^\s{}]+)\s*"
+    r"(?:\{(?P<body>[^{}]*)\}\s*(?P<else>[^\s{}]*)\s*)?$",
+    re.IGNORECASE | re.DOTALL,
+)
+
+
+@dataclass(frozen=True)
+class ModeEntry:
+    """One ``set VAR = VALUE { conditions } ELSEVALUE`` declaration."""
+
+    var: str
+    value: str
+    conditions: tuple[Condition, ...] = ()
+    else_value: str | None = None
+    where: str = field(default="", compare=False)
+
+    def variables(self) -> set[str]:
+        return set().union(*(c.variables() for c in self.conditions)) if self.conditions else set()
+
+
+def parse_mode_entry(text: str, where: str = "modes") -> ModeEntry:
+    """Parse one mode declaration; conditions in braces are separated by newlines or ';'."""
+    m = _ENTRY.match(str(text))
+    if not m:
+        raise ConfigError(f"cannot read mode declaration {' '.join(str(text).split())!r}", where)
+    body = m.group("body") or ""
+    conds = tuple(parse_condition(c, where) for c in re.split(r"[;\n]", body) if c.strip())
+    return ModeEntry(m.group("var"), m.group("val"), conds, m.group("else") or None, where)
+
+
+def evaluate_modes(entries: tuple[ModeEntry, ...], info: Mapping[str, Value]) -> dict[str, str]:
+    """Mode variable values for this tick (see module docstring)."""
+    built: dict[str, str] = {}
+    for e in entries:
+        gate = [c for c in e.conditions if e.var in c.variables()]
+        rest = [c for c in e.conditions if e.var not in c.variables()]
+        env = {k: v for k, v in info.items() if k not in built and k != e.var}
+        env.update(built)
+        if e.var in built:
+            env[e.var] = built[e.var].split(":")[-1]
+        if gate and e.var not in built:
+            continue
+        if not all(c.evaluate(env) for c in gate):
+            continue
+        value = e.value if all(c.evaluate(env) for c in rest) else e.else_value
+        if value is None:
+            continue
+        built[e.var] = f"{built[e.var]}:{value}" if gate else value
+    return built

@@ -1,0 +1,136 @@
+"""Parsing of behavior parameter values (strings from ``.bhv`` files or YAML scalars).
+
+Every value goes through one of these converters whether it comes from a ``.bhv`` line, a
+scenario mapping or a run-time ``updates`` posting, so the three produce identical typed
+parameters. Errors are :class:`ConfigError` naming the parameter and where it came from.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+from uhrisim.autonomy.conditions import Value, literal
+from uhrisim.core.errors import ConfigError
+
+__all__ = [
+    "Flag",
+    "moos_value",
+    "parse_flag",
+    "parse_updates",
+    "setter",
+    "to_bool",
+    "to_float",
+    "to_point",
+    "to_points",
+    "to_str",
+]
+
+Flag = tuple[str, Value]
+
+
+def moos_value(v: object) -> Value:
+    """Normalise a Python scalar to a MOOS value: bool -> "true"/"false", numbers -> float."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int | float):
+        return float(v)
+    if isinstance(v, str):
+        return literal(v)
+    raise ConfigError(f"expected a string or number, got {type(v).__name__}")
+
+
+def to_float(v: object, key: str, where: str) -> float:
+    if isinstance(v, bool):
+        raise ConfigError(f"{key} must be a number, got {v!r}", where)
+    try:
+        x = float(v)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ConfigError(f"{key} must be a number, got {v!r}", where) from None
+    if not math.isfinite(x):
+        raise ConfigError(f"{key} must be finite, got {v!r}", where)
+    return x
+
+
+def to_bool(v: object, key: str, where: str) -> bool:
+    if isinstance(v, bool):
+        return v
+    s = str(v).strip().lower()
+    if s in ("true", "1", "yes", "on"):
+        return True
+    if s in ("false", "0", "no", "off"):
+        return False
+    raise ConfigError(f"{key} must be true or false, got {v!r}", where)
+
+
+def to_str(v: object, key: str, where: str) -> str:
+    if isinstance(v, list | dict | tuple):
+        raise ConfigError(f"{key} must be a single value, got {v!r}", where)
+    s = str(v).strip()
+    if len(s) >= 2 and s[0] == s[-1] and s[0] in "\"'":
+        s = s[1:-1]
+    return s
+
+
+def to_point(v: object, key: str, where: str) -> tuple[float, float]:
+    """ "x,y" (or a 2-sequence) -> (x east, y north)."""
+    parts = list(v) if isinstance(v, list | tuple) else str(v).replace("=", ",").split(",")
+    parts = [p for p in (str(p).strip() for p in parts) if p and p not in ("x", "y")]
+    if len(parts) != 2:
+        raise ConfigError(f"{key} must be a point 'x,y', got {v!r}", where)
+    return (to_float(parts[0], key, where), to_float(parts[1], key, where))
+
+
+def to_points(v: object, key: str, where: str) -> tuple[tuple[float, float], ...]:
+    """ "x1,y1 : x2,y2 : ..." or "pts={x1,y1:x2,y2}" (or a list of pairs) -> points."""
+    if isinstance(v, list | tuple):
+        return tuple(to_point(p, key, where) for p in v)
+    s = str(v).strip()
+    if s.lower().startswith("pts"):
+        s = s.split("=", 1)[1].strip() if "=" in s else ""
+    s = s.strip().strip("{}")
+    pts = tuple(to_point(p, key, where) for p in s.split(":") if p.strip())
+    if not pts:
+        raise ConfigError(f"{key} has no points: {v!r}", where)
+    return pts
+
+
+def parse_flag(v: object, key: str, where: str) -> Flag:
+    """ "VAR = value" -> (VAR, value) with the value as a MOOS string/number."""
+    if isinstance(v, dict) and len(v) == 1:
+        ((var, val),) = v.items()
+        return (str(var).strip(), moos_value(val))
+    s = str(v)
+    if "=" not in s:
+        raise ConfigError(f"{key} must read 'VARIABLE = value', got {v!r}", where)
+    var, val = s.split("=", 1)
+    var = var.strip()
+    if not var or any(c.isspace() for c in var):
+        raise ConfigError(f"{key} has a bad variable name {var!r}", where)
+    return (var, literal(val))
+
+
+def parse_updates(text: str) -> list[tuple[str, str]]:
+    """An ``updates`` posting "param=value # param=value" -> [(param, value), ...]."""
+    out = []
+    for part in str(text).split("#"):
+        if not part.strip():
+            continue
+        if "=" not in part:
+            raise ConfigError(f"update {part.strip()!r} is not 'param=value'", "updates")
+        k, val = part.split("=", 1)
+        out.append((k.strip().lower(), val.strip()))
+    return out
+
+
+def setter(
+    field: str, conv: Callable[[object, str, str], Any]
+) -> Callable[[Any, object, str, str], Any]:
+    """A parameter handler: (params, value, key, where) -> params with ``field`` replaced."""
+
+    def apply(params: Any, value: object, key: str, where: str) -> Any:
+        return replace(params, **{field: conv(value, key, where)})
+
+    return apply

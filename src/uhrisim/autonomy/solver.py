@@ -1,0 +1,110 @@
+"""Behavior fusion: decision = argmax over the grid of sum_i priority_i * f_i (IvP solver).
+
+The C++ helm uses branch and bound over piecewise-linear boxes; here every function is a
+table on the discrete grid, so the argmax is exact on the grid (reference/helm.md, step 4).
+
+Separability: axes are grouped into connected components (two axes are connected when
+some function spans both). The sum over independent components separates, so each
+component is maximised on its own sub-grid (exactly the same argmax, far less work than
+the full course x speed x depth grid).
+
+Tie rule (documented, deterministic): among grid points with the same total, the FIRST in
+C order of the domain axes wins - lowest course index, then lowest speed index, then
+lowest depth index (``numpy.argmax`` on the flattened component grid).
+
+All-stop: no functions at all, or a non-optional axis that no function covers, gives no
+decision and a reason string.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from uhrisim.autonomy.domain import Domain, Objective
+
+__all__ = ["SolveResult", "WeightedObjective", "solve"]
+
+
+@dataclass(frozen=True)
+class WeightedObjective:
+    """A behavior's function and its priority weight (weight <= 0 is dropped by the solver)."""
+
+    name: str
+    priority: float
+    objective: Objective
+
+
+@dataclass(frozen=True)
+class SolveResult:
+    """Decision (axis -> value, or None for all-stop) with the audit of contributions.
+
+    ``contributions[name] = priority * f(decision)`` for every function that took part and
+    ``total = sum(contributions)`` - the maximised objective value.
+    """
+
+    decision: dict[str, float] | None
+    indices: dict[str, int] = field(default_factory=dict)
+    total: float = 0.0
+    contributions: dict[str, float] = field(default_factory=dict)
+    all_stop_reason: str | None = None
+
+
+def _components(domain: Domain, objs: list[WeightedObjective]) -> list[tuple[str, ...]]:
+    parent = {n: n for n in domain.names}
+
+    def find(a: str) -> str:
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    covered: set[str] = set()
+    for w in objs:
+        covered.update(w.objective.axes)
+        first = w.objective.axes[0]
+        for other in w.objective.axes[1:]:
+            parent[find(other)] = find(first)
+    groups: dict[str, list[str]] = {}
+    for n in domain.names:
+        if n in covered:
+            groups.setdefault(find(n), []).append(n)
+    return [domain.order(g) for g in groups.values()]
+
+
+def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
+    """Fuse weighted objectives and return the argmax decision (see module docstring)."""
+    objs = [w for w in objectives if w.priority > 0.0 and w.objective.axes]
+    if not objs:
+        return SolveResult(None, all_stop_reason="no active behaviors (no objective functions)")
+    decision: dict[str, float] = {}
+    indices: dict[str, int] = {}
+    for comp in _components(domain, objs):
+        shape = tuple(domain.axis(a).npts for a in comp)
+        acc = np.zeros(shape)
+        for w in objs:
+            if w.objective.axes[0] not in comp:
+                continue
+            view_shape = [1] * len(comp)
+            for a, n in zip(w.objective.axes, w.objective.values.shape, strict=True):
+                view_shape[comp.index(a)] = n
+            acc += w.priority * w.objective.values.reshape(view_shape)
+        best = np.unravel_index(int(np.argmax(acc)), shape)
+        for a, i in zip(comp, best, strict=True):
+            indices[a] = int(i)
+            decision[a] = float(domain.axis(a).values[i])
+    missing = [a.name for a in domain.axes if not a.optional and a.name not in indices]
+    contributions = {w.name: 0.0 for w in objs}
+    for w in objs:
+        contributions[w.name] += w.priority * w.objective.at(indices)
+    total = float(sum(contributions.values()))
+    if missing:
+        return SolveResult(
+            None,
+            indices,
+            total,
+            contributions,
+            all_stop_reason=f"no decision for non-optional variable(s) {', '.join(missing)}",
+        )
+    return SolveResult(decision, indices, total, contributions)
