@@ -297,7 +297,7 @@ class MoosClient:
                     log.warning("MOOS client %r: connection to %s:%d lost: %s",
                                 self.name, self.host, self.port, exc)
                 elif not first_failure_logged:
-                    log.warning("MOOS client %r: cannot reach MOOSDB at %s:%d (%s); "
+                    log.warning("MOOS client %r: cannot connect to MOOSDB at %s:%d (%s); "
                                 "retrying", self.name, self.host, self.port, exc)
                     first_failure_logged = True
                 else:

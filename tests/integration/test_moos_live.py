@@ -1,0 +1,307 @@
+"""The MOOS bridge against a real-protocol MOOSDB in another process (127.0.0.1 only).
+
+The DB is :mod:`uhrisim.bridges.moos.testdb` in a child process. The independent peer is
+``pymoos2`` (a separate pure-Python MOOS implementation from PyPI, synchronous client), run
+in its own process; our own :class:`MoosClient` serves as a second observer.
+
+Provenance of the expected numbers: the simulator state posted here (north 10, east -3,
+depth 2, heading 370 deg -> 10 deg, speed 1.2) maps to MOOS x = east = -3, y = north = 10
+(docs/conventions.md); DESIRED_* values are those the other process posts.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from uhrisim.bridges.moos.bridge import MoosAgentBridge, parse_node_report
+from uhrisim.bridges.moos.client import MoosClient
+from uhrisim.bridges.moos.testdb import spawn
+from uhrisim.bridges.moos.wire import (
+    HANDSHAKE,
+    MoosMessage,
+    MoosStreamParser,
+    encode_packet,
+)
+from uhrisim.core.errors import BridgeError
+
+SRC = str(Path(__file__).resolve().parents[2] / "src")
+NAV_VARS = ("NAV_X", "NAV_Y", "NAV_DEPTH", "NAV_HEADING", "NAV_SPEED", "NAV_LAT", "NAV_LONG",
+            "NODE_REPORT")
+
+
+def wait_until(pred, timeout_s: float, period_s: float = 0.01) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if pred():
+            return True
+        time.sleep(period_s)
+    return bool(pred())
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def db():
+    with spawn(community="vehicle") as proc:
+        yield proc
+
+
+# A pymoos2 "helm" in its own process: posts DESIRED_* and reports the NAV_* it received.
+_PYMOOS2_HELM = r"""
+import json, sys, time
+from pymoos2.core.MOOSCommClient import MOOSCommClient
+port = int(sys.argv[1])
+c = MOOSCommClient("127.0.0.1", port, "pHelmStandIn", comm_tick=50)
+c.start()
+assert c.wait_until_connected(5.0)
+for v in sys.argv[2].split(","):
+    c.register(v)
+got = {}
+deadline = time.time() + 8.0
+while time.time() < deadline and "NODE_REPORT" not in got:
+    c.notify("DESIRED_HEADING", 123.5)
+    c.notify("DESIRED_SPEED", 1.5)
+    c.notify("DESIRED_DEPTH", 2.0)
+    time.sleep(0.05)
+    for m in c.fetch():
+        got[m.key] = [m.val if m.is_double() else m.string(), m.src, m.community]
+print(json.dumps(got))
+c.stop()
+"""
+
+
+def test_pymoos2_process_and_bridge_exchange_nav_and_desired(db):
+    pytest.importorskip("pymoos2", reason="pymoos2 (PyPI) is the independent MOOS peer")
+    bridge = MoosAgentBridge("videoray", port=db.port, community="vehicle", strict=True,
+                             lat_origin=42.358456, long_origin=-71.087589)
+    try:
+        env = dict(os.environ, PYTHONPATH=SRC)
+        helm = subprocess.Popen([sys.executable, "-c", _PYMOOS2_HELM, str(db.port),
+                                 ",".join(NAV_VARS)],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                env=env)
+        t0 = time.monotonic()
+        while helm.poll() is None and time.monotonic() - t0 < 15.0:
+            bridge.publish_nav(time.monotonic() - t0, x_north=10.0, y_east=-3.0, depth=2.0,
+                               heading_deg=370.0, speed_mps=1.2)
+            time.sleep(0.02)
+        out, err = helm.communicate(timeout=5.0)
+        assert helm.returncode == 0, err
+        got = json.loads(out)
+        assert got["NAV_X"][0] == -3.0 and got["NAV_Y"][0] == 10.0  # x east, y north
+        assert got["NAV_DEPTH"][0] == 2.0 and got["NAV_SPEED"][0] == 1.2
+        assert got["NAV_HEADING"][0] == 10.0
+        assert got["NAV_X"][1] == "uhrisim_videoray" and got["NAV_X"][2] == "vehicle"
+        rep = parse_node_report(got["NODE_REPORT"][0])
+        assert (float(rep["X"]), float(rep["Y"]), float(rep["HDG"])) == (-3.0, 10.0, 10.0)
+        assert rep["NAME"] == "videoray" and rep["TYPE"] == "UUV"
+        assert float(rep["LAT"]) == pytest.approx(got["NAV_LAT"][0], abs=1e-8)
+        # and the bridge obeyed what the other process posted
+        assert wait_until(lambda: len(bridge.received()) == 3, 2.0)
+        heading, speed, depth = bridge.desired()
+        assert (heading, speed, depth) == (123.5, 1.5, 2.0)
+    finally:
+        bridge.close()
+
+
+def test_our_client_observes_bridge_and_posts_desired(db):
+    bridge = MoosAgentBridge("diver", port=db.port, strict=True, extra_vars=("DEPLOY",),
+                             time_warp=4.0)
+    obs = MoosClient(time_warp=4.0)
+    try:
+        obs.connect("127.0.0.1", db.port, "observer", strict=True)
+        for v in NAV_VARS:
+            obs.register(v)
+        assert wait_until(lambda: obs.n_sent >= len(NAV_VARS), 2.0)
+        seen: dict[str, MoosMessage] = {}
+
+        def pump() -> bool:
+            bridge.publish_nav(0.0, x_north=-7.5, y_east=2.25, depth=1.0, heading_deg=45.0,
+                               speed_mps=0.5)
+            # the shared DB also replays other tests' last values: keep only the diver's
+            seen.update({m.key: m for m in obs.drain() if m.source == "uhrisim_diver"})
+            return set(NAV_VARS) <= set(seen)
+
+        assert wait_until(pump, 3.0, 0.02)
+        assert seen["NAV_X"].value == 2.25 and seen["NAV_Y"].value == -7.5
+        # MOOS time with MOOSTimeWarp 4: wall clock x 4 (MOOSLocalTime)
+        assert seen["NAV_X"].time == pytest.approx(4.0 * time.time(), abs=4.0 * 2.0)
+        obs.notify("DESIRED_SPEED", 0.75)
+        obs.notify("DEPLOY", "true")
+        obs.notify("UNRELATED", 1.0)
+        assert wait_until(lambda: "DEPLOY" in bridge.received(), 2.0)
+        r = bridge.received()
+        assert r["DESIRED_SPEED"][0] == 0.75 and r["DEPLOY"][0] == "true"
+        assert "UNRELATED" not in r
+    finally:
+        obs.close()
+        bridge.close()
+
+
+def test_wildcard_registration_and_duplicate_name_poison(db):
+    pytest.importorskip("pymoos2")
+    from pymoos2.core.MOOSCommClient import MOOSCommClient
+
+    watcher = MOOSCommClient("127.0.0.1", db.port, "wildwatch", comm_tick=50)
+    watcher.start()
+    poster = MoosClient()
+    try:
+        assert watcher.wait_until_connected(5.0)
+        watcher.wildcard_register("WILD_*", "poster")
+        poster.connect("127.0.0.1", db.port, "poster", strict=True)
+        got = []
+
+        def pump() -> bool:
+            poster.notify("WILD_A", 1.0)
+            poster.notify("TAME_B", 2.0)
+            got.extend(watcher.fetch())
+            return any(m.key == "WILD_A" for m in got)
+
+        assert wait_until(pump, 3.0, 0.05)
+        assert {m.key for m in got} == {"WILD_A"}
+        # a second client with the same name is refused with a K (poison) message
+        twin = MoosClient()
+        with pytest.raises(BridgeError, match="already connected"):
+            twin.connect("127.0.0.1", db.port, "poster", strict=True)
+    finally:
+        watcher.stop()
+        poster.close()
+
+
+def test_strict_connect_to_nothing_raises_and_lax_connect_waits(db):
+    port = free_port()
+    t0 = time.monotonic()
+    with pytest.raises(BridgeError, match=rf"127\.0\.0\.1:{port}.*refused"):
+        MoosAgentBridge("rov", port=port, strict=True)
+    assert time.monotonic() - t0 < 2.0  # the first refusal is reported, not the timeout
+    # lax: returns at once, retries in the background, connects when a DB appears
+    bridge = MoosAgentBridge("rov", port=port)
+    try:
+        assert not bridge.connected
+        assert bridge.publish_nav(0.0, 1.0, 2.0, 0.0, 0.0, 0.0) is False  # kept for later
+        assert wait_until(lambda: "retrying" in bridge.status, 2.0)
+        with spawn(port=port) as late_db:
+            assert late_db.port == port
+            assert bridge.client.wait_connected(5.0)
+            assert bridge.connected
+    finally:
+        bridge.close()
+
+
+def test_db_killed_and_restarted_is_survived_without_blocking():
+    first = spawn()
+    port = first.port
+    bridge = MoosAgentBridge("videoray", port=port, strict=True)
+    obs = MoosClient(reconnect_max_s=0.2)
+    obs.connect("127.0.0.1", port, "observer", strict=True)
+    obs.register("NAV_X")
+    second = None
+    worst = 0.0
+    try:
+        def step(i: int) -> None:
+            nonlocal worst
+            t = time.perf_counter()
+            bridge.publish_nav(i * 0.02, x_north=0.0, y_east=float(i), depth=0.0,
+                               heading_deg=0.0, speed_mps=0.0)
+            bridge.received()
+            worst = max(worst, time.perf_counter() - t)
+
+        i = 0
+        while not any(m.key == "NAV_X" for m in obs.drain()):
+            step(i := i + 1)
+            assert i < 200, "no NAV_X before the kill"
+            time.sleep(0.01)
+        first.kill()  # SIGKILL: sockets die without a goodbye
+        assert wait_until(lambda: not bridge.connected, 2.0)
+        for _ in range(25):  # the simulation keeps stepping while the DB is gone
+            step(i := i + 1)
+            time.sleep(0.01)
+        assert "retrying" in bridge.status and "last error" in bridge.status
+        second = spawn(port=port)
+        values: list[float] = []
+
+        def resumed() -> bool:
+            nonlocal i
+            step(i := i + 1)
+            values.extend(m.value for m in obs.drain() if m.key == "NAV_X")
+            return bool(values) and values[-1] > 30
+        assert wait_until(resumed, 8.0, 0.02), bridge.status
+        assert bridge.client.n_connects == 2 and obs.n_connects == 2
+        # re-registration after the restart: DESIRED_HEADING reaches the bridge again
+        obs.notify("DESIRED_HEADING", 271.0)
+        assert wait_until(lambda: bridge.desired()[0] == 271.0, 3.0)
+        assert worst < 0.05, f"a bridge call blocked for {worst * 1e3:.1f} ms"
+    finally:
+        bridge.close()
+        obs.close()
+        first.kill()
+        if second is not None:
+            second.terminate()
+
+
+def test_db_drops_a_client_sending_garbage_and_keeps_serving(db):
+    with socket.create_connection(("127.0.0.1", db.port), timeout=2.0) as s:
+        hello = MoosMessage(-1, "i", "S", "", "", "", "asynchronous", time.time(), -1.0, -1.0,
+                            b"vandal")
+        s.sendall(HANDSHAKE + encode_packet([hello]))
+        assert MoosStreamParser().feed(s.recv(4096))[0].messages[0].msg_type == "W"
+        s.sendall(b"\xff\xff\xff\x7f" + bytes(60))  # absurd packet size
+        assert s.recv(4096) == b""  # dropped
+    c = MoosClient()
+    try:
+        c.connect("127.0.0.1", db.port, "vandal", strict=True)  # the name is free again
+    finally:
+        c.close()
+
+
+def test_client_survives_a_server_speaking_garbage():
+    """A peer that welcomes us and then sends nonsense: typed error, drop, reconnect."""
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(4)
+    srv.settimeout(5.0)
+    port = srv.getsockname()[1]
+    served = []
+
+    def serve() -> None:
+        for _ in range(2):
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                return
+            with conn:
+                conn.recv(4096)
+                welcome = MoosMessage(-1, "W", "D", "", "", "evil", "", time.time(), 0.0, -1.0,
+                                      b"asynchronous")
+                conn.sendall(encode_packet([welcome]))
+                time.sleep(0.05)  # connected now; then a packet with a 10-byte "size"
+                conn.sendall(b"\x0a\x00\x00\x00" + bytes(20))
+                served.append(1)
+                time.sleep(0.2)
+
+    th = threading.Thread(target=serve, daemon=True)
+    th.start()
+    c = MoosClient(reconnect_min_s=0.01)
+    try:
+        c.connect("127.0.0.1", port, "victim")
+        assert wait_until(lambda: len(served) == 2 and c.n_connects >= 2, 5.0)
+        assert wait_until(lambda: c.last_error is not None and "MoosProtocolError" in
+                          c.last_error, 2.0), c.status
+        assert c.drain() == []
+    finally:
+        c.close()
+        srv.close()
+        th.join(2.0)

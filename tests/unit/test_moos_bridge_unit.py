@@ -1,0 +1,125 @@
+"""MOOS bridge pieces without a network: geodesy, NODE_REPORT, MOOS time, frame mapping.
+
+Provenance: the geodesy numbers are computed here from first principles (arc length on
+a sphere of radius R: 1 m north = 1/R rad; at the equator CMOOSGeodesy's R is the WGS-84
+semi-major axis 6378137 m); MOOS time = wall clock x MOOSTimeWarp (MOOS v10
+MOOSLocalTime); the NODE_REPORT layout is reference/helm.md's.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from uhrisim.bridges.moos.bridge import (
+    MoosAgentBridge,
+    format_node_report,
+    parse_node_report,
+)
+from uhrisim.bridges.moos.client import MoosClient
+from uhrisim.bridges.moos.geodesy import latlon_from_local, local_from_latlon, moos_grid_radius
+from uhrisim.core.errors import BridgeError
+
+
+def test_grid_radius_limits():
+    assert moos_grid_radius(0.0) == pytest.approx(6378137.0, abs=1e-6)  # a at the equator
+    assert moos_grid_radius(89.9999) == pytest.approx(6356752.0, abs=1.0)  # -> b at the pole
+    # geocentric radius of the ellipsoid: 1/R^2 = cos^2/a^2 + sin^2/b^2
+    lat = math.radians(42.358456)
+    r = 1.0 / math.sqrt(math.cos(lat) ** 2 / 6378137.0**2 + math.sin(lat) ** 2 / 6356752.0**2)
+    assert moos_grid_radius(42.358456) == pytest.approx(r, rel=1e-12)
+
+
+def test_latlon_first_principles():
+    # equator: 1000 m north is 1000/a rad of latitude, 1000 m east is 1000/a rad of longitude
+    lat, lon = latlon_from_local(1000.0, 1000.0, 0.0, 10.0)
+    assert lat == pytest.approx(math.degrees(math.asin(1000.0 / 6378137.0)), rel=1e-12)
+    assert lon == pytest.approx(10.0 + math.degrees(math.asin(1000.0 / 6378137.0)), rel=1e-12)
+    # at 60 N a metre east spans twice the longitude (cos 60 = 1/2)
+    lat0 = 60.0
+    r = moos_grid_radius(lat0)
+    _, lon = latlon_from_local(10.0, 0.0, lat0, 0.0)
+    assert lon == pytest.approx(math.degrees(10.0 / (r * 0.5)), rel=1e-9)
+    assert latlon_from_local(0.0, 0.0, 42.0, -71.0) == (42.0, -71.0)
+
+
+@pytest.mark.parametrize("lat0", [-33.9, 0.0, 42.358456, 60.0])
+def test_geodesy_roundtrip_within_documented_error(lat0):
+    r = moos_grid_radius(lat0)
+    for x, y in [(100.0, 100.0), (-250.0, 40.0), (1000.0, -1000.0)]:
+        la, lo = latlon_from_local(x, y, lat0, -71.0)
+        x2, y2 = local_from_latlon(la, lo, lat0, -71.0)
+        assert y2 == pytest.approx(y, abs=1e-6)
+        # MOOS's pair is not an exact inverse: x2 = x cos(lat)/cos(lat0) exactly ...
+        assert x2 == pytest.approx(x * math.cos(math.radians(la)) / math.cos(
+            math.radians(lat0)), rel=1e-9)
+        # ... i.e. about x*y*tan(lat0)/R (+ x(y/R)^2/2), the error documented in geodesy.py
+        bound = abs(x * y * math.tan(math.radians(lat0)) / r) * 1.01 + abs(x) * (y / r) ** 2
+        assert abs(x2 - x) <= bound
+
+
+def test_node_report_format_and_parse():
+    s = format_node_report("videoray", 12.3, -4.1, 1.2, 87.0, 1.5, 42.1, -71.2, "UUV",
+                           "MODE@ACTIVE:TRAILING", 1374600000.123, 1.0)
+    assert s == ("NAME=videoray,X=12.30,Y=-4.10,SPD=1.20,HDG=87.00,DEP=1.50,LAT=42.10000000,"
+                 "LON=-71.20000000,TYPE=UUV,MODE=MODE@ACTIVE:TRAILING,TIME=1374600000.12,"
+                 "LENGTH=1")
+    d = parse_node_report(s)
+    assert d["NAME"] == "videoray" and float(d["X"]) == 12.3 and float(d["HDG"]) == 87.0
+    # keys case-insensitive, aliases folded (helm.md)
+    d2 = parse_node_report("name=diver,x=1,y=2,speed=0.5,heading=90,depth=3,long=-71")
+    assert d2 == {"NAME": "diver", "X": "1", "Y": "2", "SPD": "0.5", "HDG": "90",
+                  "DEP": "3", "LON": "-71"}
+    with pytest.raises(BridgeError, match="may not contain"):
+        format_node_report("a,b", 0, 0, 0, 0, 0, 0, 0, "UUV", "M", 0, 1)
+
+
+def test_moos_time_is_wallclock_times_warp():
+    c = MoosClient(time_warp=10.0, wall_clock=lambda: 1_700_000_000.5)
+    assert c.moos_time() == 17_000_000_005.0
+    c.skew = 0.25
+    assert c.moos_time() == 17_000_000_005.0  # skew not applied by default
+    c.apply_skew = True
+    assert c.moos_time() == 17_000_000_005.25
+    with pytest.raises(BridgeError, match="time_warp"):
+        MoosClient(time_warp=0.0)
+
+
+class _RecordingClient(MoosClient):
+    """A MoosClient that never touches the network and records what would be posted."""
+
+    def __init__(self) -> None:
+        super().__init__(wall_clock=lambda: 1000.0)
+        self.posts: list[tuple[list, float | None]] = []
+
+    def connect(self, host="127.0.0.1", port=9000, name="x", *, strict=False, timeout_s=3.0):
+        self.name = name
+
+    def notify_many(self, items, time=None):
+        self.posts.append((list(items), time))
+        return True
+
+
+def test_publish_nav_maps_ned_to_moos_frame_and_units():
+    c = _RecordingClient()
+    b = MoosAgentBridge("videoray", lat_origin=42.0, long_origin=-71.0, client=c,
+                        time_source="sim")
+    assert c.name == "uhrisim_videoray"
+    assert set(c._registrations) == {"DESIRED_HEADING", "DESIRED_SPEED", "DESIRED_DEPTH"}
+    b.publish_nav(2.5, x_north=10.0, y_east=-3.0, depth=2.0, heading_deg=-90.0, speed_mps=1.2)
+    items, t = c.posts[-1]
+    vals = dict(items)
+    assert vals["NAV_X"] == -3.0 and vals["NAV_Y"] == 10.0  # x east, y north
+    assert vals["NAV_DEPTH"] == 2.0 and vals["NAV_SPEED"] == 1.2
+    assert vals["NAV_HEADING"] == 270.0  # compass degrees in [0, 360)
+    lat, lon = latlon_from_local(-3.0, 10.0, 42.0, -71.0)
+    assert (vals["NAV_LAT"], vals["NAV_LONG"]) == (lat, lon)
+    assert lat > 42.0 and lon < -71.0  # north and west of the origin
+    assert t == 1000.0 + 2.5  # sim time source: MOOS time at creation + t_sim
+    rep = parse_node_report(vals["NODE_REPORT"])
+    assert (rep["X"], rep["Y"], rep["HDG"], rep["DEP"], rep["SPD"]) == (
+        "-3.00", "10.00", "270.00", "2.00", "1.20")
+    assert rep["TIME"] == "1002.50" and rep["TYPE"] == "UUV" and rep["NAME"] == "videoray"
+    with pytest.raises(BridgeError, match="non-finite"):
+        b.publish_nav(3.0, math.nan, 0.0, 0.0, 0.0, 0.0)
