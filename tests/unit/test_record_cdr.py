@@ -120,3 +120,14 @@ def test_cdr_header_and_string_layout_by_hand() -> None:
     b.u8(7)
     b.f64s([1.0])
     assert b.getvalue() == b"\x00\x01\x00\x00\x07" + b"\x00" * 7 + np.float64(1.0).tobytes()
+
+
+@settings(max_examples=60, deadline=None)
+@given(stamps, frame_ids, frame_ids, st.lists(finite, min_size=13, max_size=13))
+def test_precompiled_odometry_and_tf_encoders_match(stamp, frame, child, v) -> None:
+    sec, nsec = stamp
+    odom = cdr.OdometryEncoder(frame, child)(sec, nsec, v[0:3], v[3:7], v[7:10], v[10:13])
+    assert odom == cdr.encode_odometry(sec, nsec, frame, child, v[0:3], v[3:7], v[7:10],
+                                       v[10:13])
+    tf = cdr.TransformEncoder(frame, child)(sec, nsec, v[0:3], v[3:7])
+    assert tf == cdr.encode_tf_message([(sec, nsec, frame, child, v[0:3], v[3:7])])

@@ -145,7 +145,7 @@ def _stamp_ns(t: float, where: str) -> int:
 
 def _vec(value: Any, n: int, name: str, where: str) -> np.ndarray:
     arr = np.asarray(value, dtype=float)
-    if arr.shape != (n,) or not np.all(np.isfinite(arr)):
+    if arr.shape != (n,) or not np.isfinite(arr).all():
         raise ConfigError(f"{name} must be {n} finite numbers, got {value!r}", where=where)
     return arr
 
@@ -251,6 +251,7 @@ class McapRecorder:
         self._channels: dict[str, int] = {}
         self._sequence: dict[int, int] = {}
         self._dynamic: dict[str, Any] = {}
+        self._odom_encoders: dict[str, tuple[cdr.OdometryEncoder, cdr.TransformEncoder]] = {}
         self._counts: dict[str, int] = {}
         self._last_flush_ns = 0
         self._closed = False
@@ -348,23 +349,23 @@ class McapRecorder:
         v_flu = flu_from_frd(v_frd)
         w_flu = flu_from_frd((0.0, 0.0, r))
         sec, nanosec = divmod(t_ns, 1_000_000_000)
-        child = f"{agent}/base_link"
+        encoders = self._odom_encoders.get(agent)
+        if encoders is None:
+            child = f"{agent}/base_link"
+            encoders = (
+                cdr.OdometryEncoder(self.world_frame, child),
+                cdr.TransformEncoder(self.world_frame, child),
+            )
+            self._odom_encoders[agent] = encoders
         p = p_enu.tolist()
         qq = q.tolist()
         self._write(
             f"/{agent}/odom",
             "nav_msgs/msg/Odometry",
             t_ns,
-            cdr.encode_odometry(
-                sec, nanosec, self.world_frame, child, p, qq, v_flu.tolist(), w_flu.tolist()
-            ),
+            encoders[0](sec, nanosec, p, qq, v_flu.tolist(), w_flu.tolist()),
         )
-        self._write(
-            "/tf",
-            "tf2_msgs/msg/TFMessage",
-            t_ns,
-            cdr.encode_tf_message([(sec, nanosec, self.world_frame, child, p, qq)]),
-        )
+        self._write("/tf", "tf2_msgs/msg/TFMessage", t_ns, encoders[1](sec, nanosec, p, qq))
 
     def write_sonar(
         self,
