@@ -50,10 +50,13 @@ class SonarConfig:
         range_min_m, range_max_m: the range window, metres (0 ≤ min < max ≤ spec max).
         range_resolution_m: range-bin size, metres (default: the spec's resolution).
         rays_per_beam: rays cast in elevation per beam across the vertical aperture — the
-            fidelity knob, independent of the beam count. Adjacent rays are
-            ``beam_width_v/(rays_per_beam-1)`` apart; for every range bin on a flat floor to
-            be hit out to range R from height h, the spacing must keep the footprint step
-            R²·δφ/h below a bin (see ``SonarConfig.floor_bin_coverage_range_m``).
+            fidelity knob, independent of the beam count. Each ray is the centre of one of
+            ``rays_per_beam`` equal elevation slices δφ = span/rays_per_beam; its echo is
+            spread over the range footprint of its slice (R·δφ·tan β), so the sea floor
+            stays continuous, but detail finer than a slice (a diver's fin, the top edge of
+            a piling) is resolved only where R·δφ is below the detail's size. On a flat floor
+            at height h, one slice covers less than one bin out to the range given by
+            ``SonarConfig.floor_bin_coverage_range_m``.
         rays_per_beam_azimuth: sub-rays per beam in azimuth (1 = one ray on the beam axis);
             raise it to resolve objects narrower than the beam spacing.
         elevation_span: the rays cover ±``elevation_span``·(beam_width_v/2) (1 = the -3 dB
@@ -279,7 +282,6 @@ class SonarConfig:
         Near grazing, a ray at slant range R meets the floor at R ≈ h/sin φ, so
         dR/dφ ≈ R²/h; adjacent rays are δφ apart, and every bin is hit while R²·δφ/h < Δr.
         """
-        n = self.rays_per_beam
         span = math.radians(self.sonar_spec.beam_width_v_deg) * self.elevation_span
-        dphi = span / (n - 1)
+        dphi = span / self.rays_per_beam
         return math.sqrt(self.bin_m * height_m / dphi)

@@ -76,10 +76,11 @@ class RayCaster(Protocol):
 class SonarCloud:
     """The paper's ``sonar_cloud`` message: all rays of one ping, plane-major.
 
-    Plane i is the elevation angle ``-vert_height/2 + i·vert_resolution`` (plane 0 is the
-    uppermost); within a plane, points go from ``angle_min`` (port) to ``angle_max``
-    (starboard) in steps of ``angle_increment``. x, y, z are in the sonar frame (metres);
-    rays that hit nothing inside the window are NaN. ``intensity`` is each ray's own echo
+    Plane i is the elevation angle ``-vert_height/2 + (i + 0.5)·vert_resolution`` (each
+    plane is the centre of an equal elevation slice; plane 0 is the uppermost). Within a
+    plane, points go from ``angle_min`` (port) to ``angle_max`` (starboard) in steps of
+    ``angle_increment``. x, y, z are in the sonar frame (metres); rays that hit nothing
+    inside the window are NaN. ``intensity`` is each ray's own echo
     level on the display scale 0…1 (0 for misses). Angles in radians, ranges in metres.
     """
 
@@ -228,8 +229,8 @@ class ImagingSonar:
         beam_of_az = np.repeat(np.arange(n_beams), sub)
         span = math.radians(spec.beam_width_v_deg) * cfg.elevation_span
         n_el = cfg.rays_per_beam
-        el = np.linspace(-span / 2.0, span / 2.0, n_el)
-        dphi = span / (n_el - 1)
+        dphi = span / n_el  # each ray is the centre of an equal elevation slice
+        el = -span / 2.0 + (np.arange(n_el) + 0.5) * dphi
         ray_el = np.repeat(el, ray_az_plane.size)
         ray_az = np.tile(ray_az_plane, n_el)
         ray_beam = np.tile(beam_of_az, n_el).astype(np.int64)
@@ -467,26 +468,22 @@ class ImagingSonar:
         )
 
     # -- pieces ------------------------------------------------------------------------------
-    def footprint_bins(
+    def footprint(
         self, r: NDArray[np.float64], cos_inc: NDArray[np.float64]
-    ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-        """First and last range bin covered by each ray's footprint.
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Range footprint of each ray in bin units: (start, length).
 
-        A ray stands for an elevation interval δφ; on a surface seen at incidence β that
-        interval spans ΔR = R·δφ·tan β in range (a flat floor at height h: ΔR ≈ R²δφ/h).
-        Spreading each echo over its footprint keeps the sea floor continuous however
-        few rays are cast (tan β is capped at :data:`MAX_FOOTPRINT_TAN`).
+        A ray stands for an elevation slice δφ; on a surface seen at incidence β that slice
+        spans ΔR = R·δφ·tan β in range, centred on the ray's hit (a flat floor at height h:
+        ΔR ≈ R²δφ/h). Spreading each echo evenly over its footprint keeps the sea floor
+        continuous however few rays are cast (tan β is capped at
+        :data:`MAX_FOOTPRINT_TAN`). Returned in fractional bins from ``range_min_m``.
         """
         cfg = self.config
         c = np.clip(cos_inc, 1.0 / math.sqrt(1.0 + MAX_FOOTPRINT_TAN**2), 1.0)
-        tan_b = np.sqrt(1.0 - c * c) / c
-        half = 0.5 * r * self.geometry.dphi * tan_b
-        n_bins = cfg.n_bins
-        lo = np.floor((r - half - cfg.range_min_m) / cfg.bin_m).astype(np.int64)
-        hi = np.floor((r + half - cfg.range_min_m) / cfg.bin_m).astype(np.int64)
-        np.clip(lo, 0, n_bins - 1, out=lo)
-        np.clip(hi, 0, n_bins - 1, out=hi)
-        return lo, hi
+        length = r * (self.geometry.dphi / cfg.bin_m) * (np.sqrt(1.0 - c * c) / c)
+        start = (r - cfg.range_min_m) / cfg.bin_m - 0.5 * length
+        return start, length
 
     def _accumulate(
         self,
@@ -496,17 +493,36 @@ class ImagingSonar:
         e: NDArray[np.float64],
     ) -> NDArray[np.float32]:
         """Sum ray echoes into (bin, beam) cells, each spread evenly over its footprint
-        bins (difference image + cumulative sum along range: O(rays + cells))."""
+        [a, b) (fractional bins): the end bins get their overlap, the bins in between
+        e/(b − a) each (difference image + cumulative sum along range: O(rays + cells))."""
         g = self.geometry
         n_bins, n_beams = self.polar_shape
-        lo, hi = self.footprint_bins(r, cos_inc)
-        w = e / (hi - lo + 1)
+        a, length = self.footprint(r, cos_inc)
+        length = np.maximum(length, 1e-9)
+        b = a + length
+        top = n_bins * (1.0 - 1e-12)
+        a_c = np.clip(a, 0.0, top)
+        b_c = np.clip(b, 0.0, top)
+        lo = a_c.astype(np.int64)
+        hi = b_c.astype(np.int64)
+        dens = e / length  # echo per bin inside the footprint
+        same = lo == hi
+        w_lo = np.where(same, dens * (b_c - a_c), dens * (lo + 1 - a_c))
+        w_hi = np.where(same, 0.0, dens * (b_c - hi))
+        inner = np.where(hi > lo + 1, dens, 0.0)  # bins lo+1 … hi−1
         beam = g.ray_beam[idx]
-        where = np.concatenate([lo * n_beams + beam, (hi + 1) * n_beams + beam])
+        n_cells = n_bins * n_beams
         diff = np.bincount(
-            where, weights=np.concatenate([w, -w]), minlength=(n_bins + 1) * n_beams
-        ).reshape(n_bins + 1, n_beams)
-        raw = np.cumsum(diff[:n_bins], axis=0, dtype=np.float64)
+            np.concatenate([(lo + 1) * n_beams + beam, hi * n_beams + beam]),
+            weights=np.concatenate([inner, -inner]),
+            minlength=n_cells + n_beams,
+        )[:n_cells].reshape(n_bins, n_beams)
+        raw = np.cumsum(diff, axis=0)
+        raw += np.bincount(
+            np.concatenate([lo * n_beams + beam, hi * n_beams + beam]),
+            weights=np.concatenate([w_lo, w_hi]),
+            minlength=n_cells,
+        ).reshape(n_bins, n_beams)
         np.maximum(raw, 0.0, out=raw)  # cumulative-sum round-off
         return raw.astype(np.float32)
 
@@ -573,7 +589,6 @@ class ImagingSonar:
         n_planes = cfg.rays_per_beam
         per_plane = n // n_planes
         az = g.ray_az[:per_plane]
-        el = g.ray_el[::per_plane]
         return SonarCloud(
             num_planes=n_planes,
             num_points_per_plane=per_plane,
@@ -582,8 +597,8 @@ class ImagingSonar:
             angle_increment=float(az[1] - az[0]) if per_plane > 1 else 0.0,
             range_min=float(cfg.range_min_m),
             range_max=float(cfg.range_max_m),
-            vert_height=float(el[-1] - el[0]),
-            vert_resolution=float(el[1] - el[0]),
+            vert_height=float(g.dphi * n_planes),
+            vert_resolution=float(g.dphi),
             x=xyz[:, 0].copy(),
             y=xyz[:, 1].copy(),
             z=xyz[:, 2].copy(),

@@ -1,0 +1,307 @@
+"""Image formation of the imaging sonar on analytic scenes (no mesh ray caster needed).
+
+The scenes here are closed-form: a flat floor and a square plate facing the sonar, so
+every expected number is computed in the test from the geometry.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from uhrisim.core.errors import ConfigError
+from uhrisim.sensors.sonar import ImagingSonar, SonarConfig, SonarSpec
+from uhrisim.sensors.sonar.reference import reference_polar
+
+FLOOR, PLATE = 0, 1
+
+
+@dataclass(frozen=True)
+class Hits:
+    distance: np.ndarray
+    label: np.ndarray
+    normal: np.ndarray
+    reflectivity: np.ndarray
+    body: np.ndarray
+
+
+@dataclass(frozen=True)
+class AnalyticCaster:
+    """Flat floor at depth ``floor_z`` (NED) and an optional square plate of half-size
+    ``plate_half`` facing north at north = ``plate_north`` centred on (east 0, depth
+    ``plate_z``). Closed-form first hits."""
+
+    floor_z: float | None = 8.0
+    floor_mu: float = 0.02
+    plate_north: float | None = None
+    plate_half: float = 0.05
+    plate_z: float = 4.0
+    plate_mu: float = 0.2
+
+    def cast(self, origins, directions, max_range, exclude=frozenset()):
+        o = np.asarray(origins, float)
+        d = np.asarray(directions, float)
+        n = len(o)
+        dist = np.full(n, np.inf)
+        lab = np.full(n, -1, np.int32)
+        nrm = np.zeros((n, 3))
+        mu = np.zeros(n)
+        if self.floor_z is not None:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = (self.floor_z - o[:, 2]) / d[:, 2]
+            ok = (d[:, 2] > 0) & (t > 0) & (t < dist)
+            dist[ok], lab[ok], mu[ok] = t[ok], FLOOR, self.floor_mu
+            nrm[ok] = (0.0, 0.0, -1.0)
+        if self.plate_north is not None:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = (self.plate_north - o[:, 0]) / d[:, 0]
+            p = o + t[:, None] * d
+            ok = (
+                (d[:, 0] > 0)
+                & (np.abs(p[:, 1]) <= self.plate_half)
+                & (np.abs(p[:, 2] - self.plate_z) <= self.plate_half)
+                & (t < dist)
+            )
+            dist[ok], lab[ok], mu[ok] = t[ok], PLATE, self.plate_mu
+            nrm[ok] = (-1.0, 0.0, 0.0)
+        dist[dist > max_range] = np.inf
+        miss = ~np.isfinite(dist)
+        lab[miss] = -1
+        mu[miss] = 0.0
+        return Hits(dist, lab, nrm, mu, np.full(n, -1, np.int32))
+
+
+LEVEL = np.eye(3)
+ORIGIN = np.array([0.0, 0.0, 4.0])
+
+
+def linear_display(polar: np.ndarray, cfg: SonarConfig) -> np.ndarray:
+    """Invert the log compression: display-scale intensity (unclipped cells only)."""
+    return 10.0 ** ((polar.astype(np.float64) - 1.0) * cfg.dynamic_range_db / 10.0)
+
+
+def small_cfg(**kw) -> SonarConfig:
+    spec = SonarSpec(
+        "tiny", 900e3, 8.0, 12, 1.0, 20.0, 100.0, 0.1, 15.0, source="test: small P900-like"
+    )
+    base = dict(
+        spec=spec, range_min_m=8.0, range_max_m=14.0, rays_per_beam=16, tilt_deg=15.0,
+        mount_position_frd=(0.0, 0.0, 0.0), speckle=False, rate_hz=10.0,
+    )  # fmt: skip
+    base.update(kw)
+    return SonarConfig(**base)
+
+
+def test_fast_path_matches_reference() -> None:
+    cfg = small_cfg()
+    sonar = ImagingSonar(cfg, np.random.default_rng(0))
+    caster = AnalyticCaster(plate_north=10.0, plate_half=0.3, plate_z=5.5)
+    ping = sonar.ping(caster, ORIGIN, LEVEL, 0.0)
+    # Recreate the hits the ping used and run the slow reference on them.
+    p_s, R_s = sonar.sonar_pose(ORIGIN, LEVEL)
+    dirs = sonar.geometry.dirs_sonar @ R_s.T
+    hits = caster.cast(np.broadcast_to(p_s, dirs.shape), dirs, cfg.range_max_m)
+    idx = np.flatnonzero((hits.distance >= cfg.range_min_m) & (hits.distance < cfg.range_max_m))
+    cos_inc = np.abs(np.einsum("ij,ij->i", hits.normal[idx], dirs[idx]))
+    ref = reference_polar(sonar, idx, hits.distance[idx], cos_inc, hits.reflectivity[idx])
+    assert {FLOOR, PLATE} <= set(np.unique(ping.label_polar).tolist())
+    assert ref.max() > 0.5  # the comparison covers lit cells, not just the noise floor
+    np.testing.assert_allclose(ping.polar, ref, atol=2e-5)
+
+
+def test_same_seed_same_image_different_seed_different_speckle() -> None:
+    cfg = small_cfg(speckle=True)
+    caster = AnalyticCaster(plate_north=10.0, plate_half=0.3, plate_z=5.5)
+    a = ImagingSonar(cfg, np.random.default_rng(7)).ping(caster, ORIGIN, LEVEL, 0.0)
+    b = ImagingSonar(cfg, np.random.default_rng(7)).ping(caster, ORIGIN, LEVEL, 0.0)
+    c = ImagingSonar(cfg, np.random.default_rng(8)).ping(caster, ORIGIN, LEVEL, 0.0)
+    assert np.array_equal(a.polar, b.polar) and np.array_equal(a.fan_u8, b.fan_u8)
+    assert np.array_equal(a.label_fan, b.label_fan)
+    assert not np.array_equal(a.polar, c.polar)
+    # Speckle changes intensities, never geometry: labels are seed-independent.
+    assert np.array_equal(a.label_polar, c.label_polar)
+    # Two pings from one Generator differ (the stream advances).
+    s = ImagingSonar(cfg, np.random.default_rng(7))
+    p1, p2 = s.ping(caster, ORIGIN, LEVEL, 0.0), s.ping(caster, ORIGIN, LEVEL, 0.1)
+    assert np.array_equal(p1.polar, a.polar) and not np.array_equal(p1.polar, p2.polar)
+
+
+def test_speckle_is_rayleigh_on_homogeneous_floor() -> None:
+    # Flat floor, 4 m below a sonar tilted 20°: lit from 4/sin(30°) = 8 m on.
+    kw = dict(
+        range_min_m=9.0, range_max_m=13.0, tilt_deg=20.0, dynamic_range_db=150.0,
+        noise_floor_db=-50.0, rays_per_beam=64, mount_position_frd=(0.0, 0.0, 0.0),
+    )  # fmt: skip
+    clean_cfg = SonarConfig(speckle=False, **kw)
+    speck_cfg = SonarConfig(speckle=True, **kw)
+    caster = AnalyticCaster(floor_z=8.0)
+    clean = ImagingSonar(clean_cfg, np.random.default_rng(1)).ping(caster, ORIGIN, LEVEL, 0)
+    noisy = ImagingSonar(speck_cfg, np.random.default_rng(1)).ping(caster, ORIGIN, LEVEL, 0)
+    i0 = linear_display(clean.polar, clean_cfg)
+    i1 = linear_display(noisy.polar, speck_cfg)
+    assert clean.polar.min() > 0.0 and noisy.polar.max() < 1.0  # nothing clipped
+    # A patch (40 bins × 40 central beams) that is homogeneous without speckle (±5 %)...
+    patch = (slice(60, 100), slice(108, 148))
+    assert i0[patch].std() / i0[patch].mean() < 0.05
+    amp = np.sqrt(i1[patch])
+    # ...has Rayleigh amplitude statistics with speckle: std/mean = sqrt(4/π − 1) = 0.5227.
+    rayleigh = math.sqrt(4.0 / math.pi - 1.0)
+    assert amp.std() / amp.mean() == pytest.approx(rayleigh, abs=0.03)
+    # Intensity is unbiased: mean speckle factor 1 (1600 draws: ±2.5 % at 1σ).
+    assert (i1[patch] / i0[patch]).mean() == pytest.approx(1.0, abs=0.08)
+
+
+@pytest.mark.parametrize("tvg", [True, False])
+def test_tvg_makes_target_peak_range_independent(tvg: bool) -> None:
+    # A 10 cm square Lambert plate (μ = 0.2) facing a level sonar, no floor, no speckle.
+    # Its target strength is TS = 10 log10(μ·A) = 10 log10(0.2·0.01) = −27 dB at any range;
+    # after 40 log R + 2αR TVG the echo level SL + TS does not depend on range.
+    spec = SonarSpec("narrow", 900e3, 6.0, 35, 1.0, 20.0, 100.0, 0.0254, 15.0, source="test")
+    cfg = SonarConfig(
+        spec=spec, range_max_m=45.0, rays_per_beam=1024, rays_per_beam_azimuth=16,
+        tilt_deg=0.0, mount_position_frd=(0.0, 0.0, 0.0), speckle=False, tvg=tvg,
+        noise_floor_db=-100.0, dynamic_range_db=300.0, display_top_db=250.0, rate_hz=10.0,
+    )  # fmt: skip
+    sonar = ImagingSonar(cfg, np.random.default_rng(0))
+    peaks = {}
+    for k in (393, 787, 1574):  # bins centred at 10, 20, 40 m
+        d = (k + 0.5) * cfg.bin_m
+        caster = AnalyticCaster(floor_z=None, plate_north=d, plate_half=0.05, plate_z=4.0)
+        ping = sonar.ping(caster, ORIGIN, LEVEL, 0.0)
+        level_db = (ping.polar.astype(float) - 1.0) * cfg.dynamic_range_db + cfg.display_top_db
+        b, j = np.unravel_index(np.argmax(level_db), level_db.shape)
+        assert b == k and j == 17  # the plate's bin and the centre beam
+        peaks[d] = level_db.max()
+    ranges = sorted(peaks)
+    if tvg:
+        ts = 10 * math.log10(0.2 * 0.1 * 0.1)
+        for d in ranges:
+            # Within 1 dB of SL + TS (the beam pattern over a target < 1 beam wide and the
+            # finite ray sampling account for the rest).
+            assert peaks[d] == pytest.approx(cfg.source_level_db + ts, abs=1.0)
+        assert max(peaks.values()) - min(peaks.values()) < 0.6
+    else:
+        # Without TVG the peak falls by the two-way loss: 40 log(2) + 2α·Δr per doubling.
+        alpha = cfg.alpha_db_per_m
+        for r1, r2 in itertools.pairwise(ranges):
+            expected = 40 * math.log10(r2 / r1) + 2 * alpha * (r2 - r1)
+            assert peaks[r1] - peaks[r2] == pytest.approx(expected, abs=0.6)
+
+
+def test_mount_inside_geometry_is_rejected() -> None:
+    # Sonar 1 cm above the floor, pointing straight down: every ray hits at ~1 cm.
+    cfg = SonarConfig(tilt_deg=80.0, mount_position_frd=(0.0, 0.0, 0.0), rays_per_beam=8)
+    sonar = ImagingSonar(cfg, np.random.default_rng(0))
+    with pytest.raises(ConfigError, match="inside geometry") as err:
+        sonar.ping(AnalyticCaster(floor_z=4.01), ORIGIN, LEVEL, 0.0)
+    assert err.value.where == "SonarConfig.mount_position_frd"
+
+
+def test_constructor_checks_types() -> None:
+    with pytest.raises(ConfigError, match="SonarConfig"):
+        ImagingSonar({"range_max_m": 10}, np.random.default_rng(0))  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="Generator"):
+        ImagingSonar(SonarConfig(), 42)  # type: ignore[arg-type]
+
+
+def test_mount_pose_and_cloud_layout() -> None:
+    cfg = small_cfg(mount_position_frd=(0.5, 0.1, -0.2), tilt_deg=15.0, yaw_deg=0.0)
+    sonar = ImagingSonar(cfg, np.random.default_rng(0))
+    yaw = math.radians(90.0)  # vehicle heading east
+    R = np.array([[math.cos(yaw), -math.sin(yaw), 0], [math.sin(yaw), math.cos(yaw), 0], [0, 0, 1]])
+    ping = sonar.ping(AnalyticCaster(floor_z=8.0), ORIGIN, R, 1.5)
+    # Mount (0.5 fwd, 0.1 stbd, 0.2 up) on an east-facing vehicle → NED offset (−0.1, 0.5, −0.2).
+    np.testing.assert_allclose(ping.position_ned, ORIGIN + np.array([-0.1, 0.5, -0.2]), atol=1e-12)
+    # Sonar axis: east and 15° down.
+    axis = ping.rotation_ned_from_sonar @ [1.0, 0.0, 0.0]
+    t = math.radians(15.0)
+    np.testing.assert_allclose(axis, [0.0, math.cos(t), math.sin(t)], atol=1e-12)
+    # Hit points lie on the floor (NED z = 8) and agree between frames.
+    assert np.allclose(ping.hit_points_ned[:, 2], 8.0)
+    back = ping.position_ned + ping.hit_points_sonar @ ping.rotation_ned_from_sonar.T
+    np.testing.assert_allclose(back, ping.hit_points_ned, atol=1e-9)
+    c = ping.cloud
+    assert c.num_planes == 16 and c.num_points_per_plane == 12
+    assert c.x.shape == (16 * 12,)
+    assert c.angle_min == pytest.approx(-math.radians(4.0))
+    assert c.angle_increment == pytest.approx(math.radians(8.0) / 11)
+    assert c.vert_height == pytest.approx(math.radians(20.0))
+    assert c.vert_resolution == pytest.approx(math.radians(20.0) / 16)
+    # Plane-major: point (plane i, beam j) at index i·12 + j has elevation of plane i.
+    hit = np.isfinite(c.x)
+    i, j = 15, 3  # lowest plane (most downward) hits the floor
+    k = i * 12 + j
+    assert hit[k]
+    rng = math.sqrt(c.x[k] ** 2 + c.y[k] ** 2 + c.z[k] ** 2)
+    el = -c.vert_height / 2 + (i + 0.5) * c.vert_resolution
+    assert math.asin(c.z[k] / rng) == pytest.approx(el, abs=1e-5)
+    assert math.atan2(c.y[k], c.x[k]) == pytest.approx(c.angle_min + j * c.angle_increment, 1e-5)
+    assert (c.intensity[~hit] == 0).all() and (c.intensity[hit] > 0).any()
+
+
+def test_2013_mode_geometry_and_white_boundaries() -> None:
+    # 2013 mode, literal layout: a point at sonar (x, y) lands at column 10x, row 10y.
+    cfg = small_cfg(mode="2013", layout_2013="literal", tilt_deg=0.0, range_min_m=0.0)
+    sonar = ImagingSonar(cfg, np.random.default_rng(0))
+    caster = AnalyticCaster(floor_z=None, plate_north=10.0, plate_half=0.3, plate_z=4.0)
+    ping = sonar.ping(caster, ORIGIN, LEVEL, 0.0)
+    assert ping.fan_px_per_m == 10.0 and ping.fan_apex_px == (0.0, 0.0)
+    pts = ping.hit_points_sonar
+    assert len(pts) > 0
+    img = ping.fan_u8
+    # The plate spans east 0…0.3 on the starboard side → rows 0…3, column 100 (x = 10 m).
+    stbd = pts[pts[:, 1] >= 0]
+    cols = np.round(10 * stbd[:, 0]).astype(int)
+    rows = np.round(10 * stbd[:, 1]).astype(int)
+    assert set(cols.tolist()) == {100}
+    assert (ping.label_fan[rows, cols] == PLATE).all()
+    # After the blur each drawn point is still the brightest around it (blurred blob).
+    assert img[rows, cols].min() > 0
+    # Boundary lines drawn after the blur are pure white from the apex (top-left) out.
+    half = math.radians(4.0)
+    for r in (2.0, 7.0, 13.0):
+        c, rr = round(10 * r * math.cos(half)), round(10 * r * math.sin(half))
+        assert img[rr, c] == 255
+    assert img[0, 0] == 255
+
+    # Port-edge layout: bearings from the port edge, so the whole fan is in the image.
+    cfg2 = small_cfg(mode="2013", tilt_deg=0.0, range_min_m=0.0, blur_ksize_2013=1)
+    p2 = ImagingSonar(cfg2, np.random.default_rng(0)).ping(caster, ORIGIN, LEVEL, 0.0)
+    th = np.arctan2(p2.hit_points_sonar[:, 1], p2.hit_points_sonar[:, 0]) + half
+    rr = np.hypot(p2.hit_points_sonar[:, 0], p2.hit_points_sonar[:, 1])
+    cols = np.round(10 * rr * np.cos(th)).astype(int)
+    rows = np.round(10 * rr * np.sin(th)).astype(int)
+    assert (p2.fan_u8[rows, cols] == 255).all()  # no blur: drawn points are white
+    assert (p2.label_fan[rows, cols] == PLATE).sum() == len(rows)
+    assert p2.fan_u8[0, 10 * 13] == 255  # port boundary along the top row
+
+
+def test_fan_geometry_and_labels() -> None:
+    cfg = SonarConfig(
+        range_max_m=20.0, tilt_deg=0.0, mount_position_frd=(0.0, 0.0, 0.0), speckle=False,
+        fan_size_px=400, colormap="bone",
+    )  # fmt: skip
+    sonar = ImagingSonar(cfg, np.random.default_rng(0))
+    caster = AnalyticCaster(floor_z=None, plate_north=12.0, plate_half=0.5, plate_z=4.0)
+    ping = sonar.ping(caster, ORIGIN, LEVEL, 0.0)
+    H, W = ping.fan_u8.shape
+    assert H == 400  # the fan is taller (20 m) than wide (2·20·sin 22.5° = 15.3 m)
+    width_px = math.ceil(2 * 20 * math.sin(math.radians(22.5)) * 20)
+    assert width_px == W
+    assert ping.fan_px_per_m == pytest.approx(20.0)
+    # The plate (12 m ahead) shows at the fan pixel 12 m above the apex, centre column.
+    col, row = ping.fan_apex_px
+    r = round(row - 12.0 * ping.fan_px_per_m)
+    c = round(col)
+    assert ping.fan_u8[r - 1 : r + 2, c - 1 : c + 2].max() > 200
+    assert ping.label_fan[r - 2 : r + 3, c - 2 : c + 3].max() == PLATE
+    # Outside the fan: black and unlabelled.
+    assert ping.fan_u8[0, 0] == 0 and ping.label_fan[0, 0] == -1
+    assert ping.fan_rgb is not None and ping.fan_rgb.shape == (H, W, 3)
+    assert (ping.fan_rgb[0, 0] == 0).all()
+    assert ping.polar_u8.dtype == np.uint8 and ping.label_polar.dtype == np.int16
+    assert ping.bin_ranges_m[0] == pytest.approx(0.0127)
