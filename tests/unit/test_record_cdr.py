@@ -131,3 +131,21 @@ def test_precompiled_odometry_and_tf_encoders_match(stamp, frame, child, v) -> N
                                        v[10:13])
     tf = cdr.TransformEncoder(frame, child)(sec, nsec, v[0:3], v[3:7])
     assert tf == cdr.encode_tf_message([(sec, nsec, frame, child, v[0:3], v[3:7])])
+
+
+@settings(max_examples=60, deadline=None)
+@given(stamps, frame_ids, frame_ids, st.lists(finite, min_size=13, max_size=13))
+def test_fast_odometry_decoder_agrees_with_mcap_ros2_decoder(stamp, frame, child, v) -> None:
+    from mcap_ros2._dynamic import generate_dynamic
+
+    sec, nsec = stamp
+    data = cdr.encode_odometry(sec, nsec, frame, child, v[0:3], v[3:7], v[7:10], v[10:13])
+    typename = "nav_msgs/msg/Odometry"
+    m = generate_dynamic(typename, schema_text(typename))[typename](data)
+    p, o = m.pose.pose.position, m.pose.pose.orientation
+    lin, ang = m.twist.twist.linear, m.twist.twist.angular
+    expected = (m.header.stamp.sec, m.header.stamp.nanosec, m.header.frame_id,
+                m.child_frame_id,
+                (p.x, p.y, p.z, o.x, o.y, o.z, o.w, lin.x, lin.y, lin.z, ang.x, ang.y, ang.z))
+    assert cdr.decode_odometry(data) == expected
+    assert expected[4] == tuple(v)

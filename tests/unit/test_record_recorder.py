@@ -214,6 +214,8 @@ def test_helm_variable_event_and_markers(tmp_path: Path) -> None:
         rec.write_helm_decision("rov", 1.0, 270.0, 0.8, None, {"trail": 60.5, "avoid": 12.25},
                                 "TRAIL", ["trail", "avoid"])
         rec.write_helm_decision("rov", 2.0, 10.0, 0.0, 4.5, {}, "IDLE", [])
+        rec.write_helm_decision("rov", 3.0, None, None, None, {"a": 1.0}, "STOP", [],
+                                total=0.5, all_stop_reason="no decision")
         rec.write_variable("rov", 1.0, "DEPLOY", True, "pMarineViewer")
         rec.write_variable("rov", 1.0, "MODE", "ACTIVE:TRAIL", "helm")
         rec.write_event(1.25, "collision", "rov/piling_1")
@@ -229,8 +231,11 @@ def test_helm_variable_event_and_markers(tmp_path: Path) -> None:
     with AnyReader([path]) as reader:
         for c, _t, raw in reader.messages():
             got.setdefault(c.topic, []).append(reader.deserialize(raw, c.msgtype))
-    d0, d1 = got["/rov/helm/decision"]
+    d0, d1, d2 = got["/rov/helm/decision"]
     assert (d0.heading_deg, d0.speed, d0.has_depth, d0.mode) == (270.0, 0.8, False, "TRAIL")
+    assert (d0.has_heading, d0.has_speed, d0.all_stop_reason) == (True, True, "")
+    assert (d2.has_heading, d2.has_speed, d2.has_depth) == (False, False, False)
+    assert (d2.total, d2.all_stop_reason) == (0.5, "no decision")
     assert [(c.name, c.value) for c in d0.contributions] == [("trail", 60.5), ("avoid", 12.25)]
     assert d0.total == 72.75 and list(d0.active_behaviors) == ["trail", "avoid"]
     assert (d1.has_depth, d1.depth, d1.total, d1.contributions) == (True, 4.5, 0.0, [])

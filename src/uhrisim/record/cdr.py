@@ -252,3 +252,27 @@ def encode_pointcloud2(
     b.u8_seq(_byte_view(pts))
     b.u8(1)  # is_dense: no NaN points
     return b.getvalue()
+
+
+def decode_odometry(data: bytes | memoryview) -> tuple[int, int, str, str, tuple[float, ...]]:
+    """Parse a little-endian CDR nav_msgs/msg/Odometry (the inverse of the encoders).
+
+    Returns ``(sec, nanosec, frame_id, child_frame_id, values)`` with the 13 values
+    position (3), orientation xyzw (4), linear (3), angular (3); covariances skipped.
+    Raises ``ValueError`` for anything but CDR little endian (use mcap_ros2 then).
+    """
+    buf = bytes(data[:4])
+    if buf != CDR_LE_HEADER:
+        raise ValueError(f"not little-endian CDR (encapsulation {buf.hex()})")
+    sec, nanosec = struct.unpack_from("<iI", data, 4)
+    o = 8  # offsets relative to the end of the encapsulation header
+    strings = []
+    for _ in range(2):
+        o += -o % 4
+        (n,) = struct.unpack_from("<I", data, 4 + o)
+        strings.append(bytes(data[8 + o : 8 + o + n - 1]).decode("utf-8"))
+        o += 4 + n
+    o += -o % 8
+    pose = struct.unpack_from("<7d", data, 4 + o)
+    twist = struct.unpack_from("<6d", data, 4 + o + 56 + 288)
+    return sec, nanosec, strings[0], strings[1], pose + twist

@@ -464,41 +464,48 @@ class McapRecorder:
         self,
         agent: str,
         t: float,
-        heading_deg: float,
-        speed: float,
+        heading_deg: float | None,
+        speed: float | None,
         depth: float | None,
         contributions: Mapping[str, float],
         mode: str,
         active: Iterable[str],
+        *,
+        total: float | None = None,
+        all_stop_reason: str = "",
     ) -> None:
         """One helm cycle on ``/<agent>/helm/decision`` (uhrisim_msgs/msg/HelmDecision).
 
         ``heading_deg`` compass degrees (MOOS/helm convention, kept as is), ``speed``
-        m/s, ``depth`` m (``None``: the helm does not decide depth; ``has_depth`` false),
-        ``contributions`` each behavior's objective value at the decision (their sum is
-        written as ``total``), ``mode`` the helm mode string, ``active`` the behaviors
-        that produced an objective this cycle.
+        m/s, ``depth`` m; each may be ``None`` (not decided, e.g. all-stop: its
+        ``has_*`` flag is false and the value 0). ``contributions`` is each behavior's
+        objective value at the decision, ``total`` the helm's total (default: their
+        sum), ``mode`` the helm mode string, ``active`` the behaviors that produced an
+        objective this cycle, ``all_stop_reason`` why the helm stopped ("" if it did not).
         """
         where = "McapRecorder.write_helm_decision"
         self._check_open("write_helm_decision")
         _check_name(agent, "agent", where)
         t_ns = _stamp_ns(t, where)
-        values = [float(heading_deg), float(speed), 0.0 if depth is None else float(depth)]
+        decided = [None if x is None else float(x) for x in (heading_deg, speed, depth)]
         contrib = [{"name": str(k), "value": float(v)} for k, v in contributions.items()]
-        if not all(math.isfinite(x) for x in values) or not all(
-            math.isfinite(c["value"]) for c in contrib
-        ):
+        tot = math.fsum(c["value"] for c in contrib) if total is None else float(total)
+        numbers_ = [x for x in decided if x is not None] + [c["value"] for c in contrib]
+        if not all(math.isfinite(x) for x in [*numbers_, tot]):
             raise ConfigError("decision values and contributions must be finite", where=where)
         msg = {
             "header": self._header(t_ns, ""),
-            "heading_deg": values[0],
-            "speed": values[1],
-            "has_depth": depth is not None,
-            "depth": values[2],
+            "has_heading": decided[0] is not None,
+            "heading_deg": decided[0] or 0.0,
+            "has_speed": decided[1] is not None,
+            "speed": decided[1] or 0.0,
+            "has_depth": decided[2] is not None,
+            "depth": decided[2] or 0.0,
             "mode": str(mode),
             "active_behaviors": [str(a) for a in active],
             "contributions": contrib,
-            "total": math.fsum(c["value"] for c in contrib),
+            "total": tot,
+            "all_stop_reason": str(all_stop_reason),
         }
         self._write(
             f"/{agent}/helm/decision",

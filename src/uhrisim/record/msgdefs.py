@@ -132,11 +132,14 @@ _OWN: dict[str, str] = {
     # --- uhrisim_msgs: our own types -----------------------------------------------
     # One behavior's share of the helm's objective at the chosen decision.
     "uhrisim_msgs/msg/BehaviorContribution": "string name\nfloat64 value\n",
-    # One helm cycle: the decision (compass heading, speed, optional depth), the helm
-    # mode, the active behaviors and each behavior's contribution (DESIGN.md habit 8).
+    # One helm cycle: the decision (compass heading, speed, depth; each may be absent,
+    # e.g. all-stop), the helm mode, the active behaviors and each behavior's
+    # contribution with their total (DESIGN.md habit 8).
     "uhrisim_msgs/msg/HelmDecision": (
         "std_msgs/Header header\n"
+        "bool has_heading\n"
         "float64 heading_deg\n"
+        "bool has_speed\n"
         "float64 speed\n"
         "bool has_depth\n"
         "float64 depth\n"
@@ -144,6 +147,7 @@ _OWN: dict[str, str] = {
         "string[] active_behaviors\n"
         "uhrisim_msgs/BehaviorContribution[] contributions\n"
         "float64 total\n"
+        "string all_stop_reason\n"
     ),
     # A community variable posting (MOOS-like): numeric or string, with its source.
     "uhrisim_msgs/msg/Variable": (

@@ -33,6 +33,7 @@ from mcap_ros2.decoder import DecoderFactory
 
 from uhrisim.core.errors import AssetError
 from uhrisim.core.frames import enu_from_ned, enu_rotation_from_ned, flu_from_frd
+from uhrisim.record import cdr
 
 logger = logging.getLogger(__name__)
 
@@ -248,19 +249,23 @@ def read_odometry(path: Path | str) -> dict[str, OdometryTrack]:
     same ``uhrisim.core.frames`` maps the recorder used (each is its own inverse).
     """
     rows: dict[str, list[tuple[float, ...]]] = {}
-    for dm in iter_messages(path):
-        if dm.typename != "nav_msgs/msg/Odometry":
+    slow = DecoderFactory()
+    for schema, channel, message in iter_raw_messages(path):
+        if schema is None or schema.name != "nav_msgs/msg/Odometry":
             continue
-        parts = dm.topic.split("/")
+        parts = channel.topic.split("/")
         if len(parts) != 3 or parts[0] != "" or parts[2] != "odom":
             continue
-        m = dm.message
-        p, o = m.pose.pose.position, m.pose.pose.orientation
-        lin, ang = m.twist.twist.linear, m.twist.twist.angular
-        t = m.header.stamp.sec + m.header.stamp.nanosec * 1e-9
-        rows.setdefault(parts[1], []).append(
-            (t, p.x, p.y, p.z, o.x, o.y, o.z, o.w, lin.x, lin.y, lin.z, ang.x, ang.y, ang.z)
-        )
+        try:
+            sec, nanosec, _frame, _child, values = cdr.decode_odometry(message.data)
+        except ValueError:  # not CDR little endian: let mcap_ros2 do it
+            m = slow.decoder_for(channel.message_encoding, schema)(message.data)
+            p, o = m.pose.pose.position, m.pose.pose.orientation
+            lin, ang = m.twist.twist.linear, m.twist.twist.angular
+            sec, nanosec = m.header.stamp.sec, m.header.stamp.nanosec
+            values = (p.x, p.y, p.z, o.x, o.y, o.z, o.w, lin.x, lin.y, lin.z, ang.x, ang.y,
+                      ang.z)
+        rows.setdefault(parts[1], []).append((sec + nanosec * 1e-9, *values))
     out: dict[str, OdometryTrack] = {}
     for agent, data in rows.items():
         a = np.asarray(data, dtype=float)
