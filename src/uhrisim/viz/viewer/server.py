@@ -264,6 +264,7 @@ class ViewerServer:
             process_request=self._http,
             compression=None,
             max_size=1 << 16,
+            close_timeout=1.0,
             logger=logging.getLogger(__name__ + ".ws"),
         ) as server:
             port = next(iter(server.sockets)).getsockname()[1]
@@ -276,9 +277,12 @@ class ViewerServer:
             producer.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await producer
-            for ws in list(self._clients):
-                with contextlib.suppress(Exception):
-                    await ws.close(1001, "viewer closing")
+            closing = [ws.close(1001, "viewer closing") for ws in list(self._clients)]
+            if closing:
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(
+                        asyncio.gather(*closing, return_exceptions=True), timeout=2.0
+                    )
 
     def _http(self, connection: ServerConnection, request: Request) -> Response | None:
         from websockets.datastructures import Headers
