@@ -226,6 +226,8 @@ def test_helm_variable_event_and_markers(tmp_path: Path) -> None:
              "points_ned": [[0.0, 0.0, 1.0], [3.0, 4.0, 2.0]], "position_ned": (1, 1, 1),
              "rotation": rotation_zyx(0.0, 0.0, 0.7)},
             {"ns": "rov", "id": 3, "type": "mesh", "mesh_resource": "package://uhrisim/rov.stl"},
+            {"ns": "rock", "id": 4, "type": "triangle_list", "position_ned": (5, 5, 5),
+             "points_ned": [[5, 5, 5], [6, 5, 5], [5, 6, 5]]},
         ])
     got: dict[str, list] = {}
     with AnyReader([path]) as reader:
@@ -244,7 +246,7 @@ def test_helm_variable_event_and_markers(tmp_path: Path) -> None:
     assert (v1.kind, v1.string_value) == (1, "ACTIVE:TRAIL")
     (ev,) = got["/events"]
     assert (ev.kind, ev.detail, ev.header.stamp.nanosec) == ("collision", "rov/piling_1", 250e6)
-    box, line, mesh = got["/scene/markers"][0].markers
+    box, line, mesh, tri = got["/scene/markers"][0].markers
     assert (box.type, box.header.frame_id) == (1, "map")
     assert (box.pose.position.x, box.pose.position.y, box.pose.position.z) == (20, 10, -5)
     # identity FRD→NED: body x north ⇒ ENU yaw +90°
@@ -256,6 +258,10 @@ def test_helm_variable_event_and_markers(tmp_path: Path) -> None:
              + rotate(line.pose.orientation, [p.x, p.y, p.z]) for p in line.points]
     np.testing.assert_allclose(world, [[0, 0, -1], [4, 3, -2]], atol=1e-12)
     assert (mesh.type, mesh.mesh_resource) == (10, "package://uhrisim/rov.stl")
+    # triangle vertices relative to the marker origin, in its FLU frame (x north → ENU y)
+    assert tri.type == 11
+    local = [(p.x, p.y, p.z) for p in tri.points]
+    np.testing.assert_allclose(local, [[0, 0, 0], [1, 0, 0], [0, -1, 0]], atol=1e-12)
 
 
 def test_same_calls_give_byte_identical_files(tmp_path: Path) -> None:
@@ -303,6 +309,8 @@ def test_close_is_idempotent_and_writes_after_close_fail(tmp_path: Path) -> None
          "unknown keys"),
         (lambda r: r.write_scene_markers(0, [{"ns": "a", "id": 1, "type": "line_strip"}]),
          "needs points_ned"),
+        (lambda r: r.write_scene_markers(0, [{"ns": "a", "id": 1, "type": "triangle_list",
+                                              "points_ned": [[0, 0, 0], [1, 0, 0]]}]), "3k"),
     ],
 )
 def test_bad_input_raises_config_error(tmp_path: Path, call, match: str) -> None:

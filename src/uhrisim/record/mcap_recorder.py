@@ -83,6 +83,7 @@ MARKER_TYPES: dict[str, int] = {
     "cylinder": 3,  # CYLINDER
     "line_strip": 4,  # LINE_STRIP
     "mesh": 10,  # MESH_RESOURCE
+    "triangle_list": 11,  # TRIANGLE_LIST
 }
 _MARKER_ACTIONS = {"add": 0, "delete": 2, "deleteall": 3}
 _MARKER_KEYS = frozenset(
@@ -586,8 +587,12 @@ class McapRecorder:
             # Marker points live in the marker's own frame: world ENU → local FLU.
             local = (enu_from_ned(pts) - pos_enu) @ rot_enu
             points = [{"x": x, "y": y, "z": z} for x, y, z in local.tolist()]
-        elif kind == "line_strip":
-            raise ConfigError("a line_strip marker needs points_ned", where=where)
+            if kind == "triangle_list" and len(points) % 3:
+                raise ConfigError(
+                    f"a triangle_list needs 3k points, got {len(points)}", where=where
+                )
+        elif kind in ("line_strip", "triangle_list"):
+            raise ConfigError(f"a {kind} marker needs points_ned", where=where)
         if kind == "mesh" and "mesh_resource" not in spec:
             raise ConfigError("a mesh marker needs mesh_resource (a URI)", where=where)
         return {
@@ -619,12 +624,16 @@ class McapRecorder:
         """The scene as ``/scene/markers`` (visualization_msgs/msg/MarkerArray, ENU).
 
         Each marker is a dict: ``ns`` (str), ``id`` (int), ``type`` (``"box"``,
-        ``"cylinder"``, ``"sphere"``, ``"mesh"``, ``"line_strip"``), ``position_ned``
+        ``"cylinder"``, ``"sphere"``, ``"mesh"``, ``"line_strip"``, ``"triangle_list"``),
+        ``position_ned``
         (m, default origin), ``rotation`` (3x3 body FRD → NED, default identity),
         ``scale`` (m, full extents along the body axes), ``color`` (r, g, b, a in 0..1),
-        ``points_ned`` ((N, 3) world NED, for ``line_strip``), ``mesh_resource`` (URI,
-        for ``mesh``), optional ``action`` (``"add"``, ``"delete"``, ``"deleteall"``)
-        and ``text``. Unknown keys are errors.
+        ``points_ned`` ((N, 3) world NED, for ``line_strip``, and for ``triangle_list``
+        with three vertices per triangle — the way to ship an arbitrary mesh inside
+        the file), ``mesh_resource`` (URI, for ``mesh``; ROS renders it in the marker's
+        FLU frame, so the mesh file must be authored in ROS axes), optional ``action``
+        (``"add"``, ``"delete"``, ``"deleteall"``) and ``text``. Unknown keys are
+        errors. Points are written in the marker's own frame (world ENU → local FLU).
         """
         where = "McapRecorder.write_scene_markers"
         self._check_open("write_scene_markers")
