@@ -119,7 +119,8 @@ class SonarPing:
         fan_apex_px: (column, row) of the apex in ``fan_u8`` (pixel-centre coordinates).
         fan_rgb: colour-mapped ``fan_u8`` (H, W, 3) BGR, when ``config.colormap`` is set.
         label_polar: (n_bins, n_beams) int16: the scene label of the strongest return in
-            each cell, −1 where no ray hit.
+            each cell (cells reached only by a ray's range footprint take the label of the
+            nearest ray centre along range), −1 where no echo arrived.
         label_fan: label image aligned with ``fan_u8`` (−1 none).
         cloud: the paper's ``sonar_cloud`` with intensities.
         hit_points_sonar, hit_points_ned: (M, 3) hit points of the rays that hit inside the
@@ -407,6 +408,7 @@ class ImagingSonar:
 
         if cfg.mode == "physical":
             raw = self._accumulate(idx, r, cos_inc, e)
+            _fill_footprint_labels(label_polar, raw)
             polar = self._physical_polar(raw)
         else:
             polar = np.zeros((n_bins, n_beams), dtype=np.float32)
@@ -604,6 +606,26 @@ class ImagingSonar:
             z=xyz[:, 2].copy(),
             intensity=ray_disp,
         )
+
+
+def _fill_footprint_labels(label_polar: NDArray[np.int16], raw: NDArray[np.float32]) -> None:
+    """Give cells that hold echo energy spread from a footprint (but no ray centre) the
+    label of the nearest labelled cell along range in the same beam (in place)."""
+    has = label_polar >= 0
+    need = (raw > 0.0) & ~has
+    if not need.any():
+        return
+    n_bins = label_polar.shape[0]
+    rows = np.arange(n_bins, dtype=np.int32)[:, None]
+    fwd = np.where(has, rows, np.int32(-(1 << 30)))
+    np.maximum.accumulate(fwd, axis=0, out=fwd)
+    bwd = np.where(has, rows, np.int32(1 << 30))[::-1]
+    bwd = np.minimum.accumulate(bwd, axis=0)[::-1]
+    src = np.where(rows - fwd <= bwd - rows, fwd, bwd)
+    rr, cc = np.nonzero(need)
+    srow = src[rr, cc]
+    ok = (srow >= 0) & (srow < n_bins)
+    label_polar[rr[ok], cc[ok]] = label_polar[srow[ok], cc[ok]]
 
 
 def image_2013(
