@@ -28,6 +28,7 @@ from uhrisim.bridges.moos.wire import (
     decode_message,
     decode_packet,
     encode_message,
+    encode_notify,
     encode_packet,
 )
 from uhrisim.core.errors import BridgeError
@@ -288,3 +289,12 @@ def test_roundtrip_random_messages_any_chunking(msgs, chunk):
     p = MoosStreamParser()
     got = [pk for i in range(0, len(data), chunk) for pk in p.feed(data[i:i + chunk])]
     assert [pk.messages for pk in got] == [tuple(msgs)] * 2
+
+
+@settings(max_examples=200, deadline=None)
+@given(_text, st.one_of(st.floats(allow_nan=False), st.integers(-10**6, 10**6), _text,
+                        st.binary(max_size=30)),
+       st.floats(allow_nan=False), _text, st.integers(-(2**31), 2**31 - 1))
+def test_fast_notify_encoding_equals_the_dataclass_path(key, value, t, source, msg_id):
+    assert encode_notify(key, value, t, source, msg_id) == encode_message(
+        MoosMessage.notify(key, value, t, source, msg_id=msg_id))

@@ -41,7 +41,10 @@ from uhrisim.bridges.moos.wire import (
     MoosMessage,
     MoosProtocolError,
     MoosStreamParser,
+    encode_message,
+    encode_notify,
     encode_packet,
+    encode_packet_raw,
 )
 from uhrisim.core.errors import BridgeError
 
@@ -108,8 +111,10 @@ class MoosClient:
         self.name = "uhrisim"
 
         self._lock = threading.Lock()
-        self._outbox: collections.deque[MoosMessage] = collections.deque(maxlen=max_outbox)
-        self._latest_down: dict[str, MoosMessage] = {}
+        # outgoing messages, already serialised: (variable for notifications else None, bytes)
+        self._outbox: collections.deque[tuple[str | None, bytes]] = collections.deque(
+            maxlen=max_outbox)
+        self._latest_down: dict[str, bytes] = {}
         self._inbox: collections.deque[MoosMessage] = collections.deque(maxlen=max_inbox)
         self._registrations: dict[str, float] = {}
         self._next_id = 0
@@ -217,15 +222,16 @@ class MoosClient:
         with self._lock:
             self._registrations[var] = float(interval)
             if self._connected:
-                self._outbox.append(self._make_register(var, float(interval)))
+                self._outbox.append((None, self._make_register(var, float(interval))))
         self._wake()
 
     def unregister(self, var: str) -> None:
         with self._lock:
             self._registrations.pop(var, None)
             if self._connected:
-                self._outbox.append(MoosMessage(self._new_id(), "U", "D", self.name, "", "",
-                                                var, self.moos_time(), 0.0, -1.0))
+                self._outbox.append((None, encode_message(MoosMessage(
+                    self._new_id(), "U", "D", self.name, "", "", var, self.moos_time(), 0.0,
+                    -1.0))))
         self._wake()
 
     def notify(self, var: str, value: float | str | bytes, time: float | None = None) -> bool:
@@ -242,8 +248,8 @@ class MoosClient:
         """Post several variables with one time stamp, one lock and one wake-up."""
         t = self.moos_time() if time is None else float(time)
         with self._lock:
-            msgs = [MoosMessage.notify(k, v, t, self.name, msg_id=self._new_id())
-                    for k, v in items]
+            name = self.name
+            msgs = [(k, encode_notify(k, v, t, name, self._new_id())) for k, v in items]
             up = self._connected
             if up:
                 free = self._outbox.maxlen - len(self._outbox)  # type: ignore[operator]
@@ -251,8 +257,7 @@ class MoosClient:
                     self.dropped_out += len(msgs) - free
                 self._outbox.extend(msgs)
             else:
-                for m in msgs:
-                    self._latest_down[m.key] = m
+                self._latest_down.update(msgs)
         if up:
             self._wake()
         return up
@@ -270,9 +275,9 @@ class MoosClient:
         self._next_id = (i + 1) & 0x7FFFFFFF
         return i
 
-    def _make_register(self, var: str, interval: float) -> MoosMessage:
-        return MoosMessage.register(var, interval, self.moos_time(), self.name,
-                                    msg_id=self._new_id())
+    def _make_register(self, var: str, interval: float) -> bytes:
+        return encode_message(MoosMessage.register(var, interval, self.moos_time(), self.name,
+                                                   msg_id=self._new_id()))
 
     def _wake(self) -> None:
         if self._wake_pending:
@@ -306,9 +311,9 @@ class MoosClient:
                 with self._lock:
                     self._connected = False
                     # unsent notifications: keep the latest per variable for the reconnect
-                    for m in self._outbox:
-                        if m.msg_type == "N":
-                            self._latest_down[m.key] = m
+                    for key, data in self._outbox:
+                        if key is not None:
+                            self._latest_down[key] = data
                     self._outbox.clear()
                 self._connected_evt.clear()
                 self._attempted_evt.set()
@@ -354,8 +359,9 @@ class MoosClient:
             self._connected = True
             self.n_connects += 1
             # registrations first, then the latest values posted while we were away
-            pending = [self._make_register(v, i) for v, i in self._registrations.items()]
-            pending.extend(self._latest_down.values())
+            pending: list[tuple[str | None, bytes]] = [
+                (None, self._make_register(v, i)) for v, i in self._registrations.items()]
+            pending.extend(self._latest_down.items())
             self._latest_down.clear()
             self._outbox.extendleft(reversed(pending))
         self.last_error = None
@@ -403,10 +409,10 @@ class MoosClient:
                 # collect outgoing mail
                 with self._lock:
                     self._wake_pending = False
-                    out = list(self._outbox)
+                    out = [data for _, data in self._outbox]
                     self._outbox.clear()
                 if out:
-                    sendbuf += encode_packet(out)
+                    sendbuf += encode_packet_raw(out)
                     self.n_sent += len(out)
                 if sendbuf:
                     try:

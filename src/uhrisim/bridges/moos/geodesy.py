@@ -45,6 +45,9 @@ def latlon_from_local(
 ) -> tuple[NDArray[np.float64] | float, NDArray[np.float64] | float]:
     """(lat, lon) in degrees of MOOS local (x east, y north) metres, LocalGrid2LatLong."""
     r = moos_grid_radius(lat0_deg)
+    if isinstance(x_east, float | int) and isinstance(y_north, float | int):  # scalar fast path
+        return (lat0_deg + math.degrees(math.asin(y_north / r)),
+                lon0_deg + math.degrees(math.asin(x_east / (r * math.cos(math.radians(lat0_deg))))))
     lat = lat0_deg + np.degrees(np.arcsin(np.asarray(y_north, dtype=float) / r))
     lon = lon0_deg + np.degrees(
         np.arcsin(np.asarray(x_east, dtype=float) / (r * math.cos(math.radians(lat0_deg)))))

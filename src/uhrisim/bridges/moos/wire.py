@@ -46,7 +46,9 @@ __all__ = [
     "decode_packet",
     "encode_handshake",
     "encode_message",
+    "encode_notify",
     "encode_packet",
+    "encode_packet_raw",
 ]
 
 
@@ -218,8 +220,42 @@ def encode_message(msg: MoosMessage) -> bytes:
 
 def encode_packet(messages: list[MoosMessage] | tuple[MoosMessage, ...]) -> bytes:
     """Serialise messages into one packet (CMOOSCommPkt::Serialize, uncompressed)."""
-    body = b"".join(encode_message(m) for m in messages)
-    return _HDR.pack(PACKET_HEADER_LEN + len(body), len(messages), 0) + body
+    return encode_packet_raw([encode_message(m) for m in messages])
+
+
+def encode_packet_raw(encoded: list[bytes]) -> bytes:
+    """One packet from already-serialised messages (see :func:`encode_notify`)."""
+    body = b"".join(encoded)
+    return _HDR.pack(PACKET_HEADER_LEN + len(body), len(encoded), 0) + body
+
+
+_NOTIFY_D = struct.Struct("<iicci")
+
+
+def encode_notify(key: str, value: float | str | bytes, time: float, source: str,
+                  msg_id: int) -> bytes:
+    """Fast path: the bytes of ``encode_message(MoosMessage.notify(key, value, time,
+    source, msg_id=msg_id))`` without building the dataclass (the hot path of a bridge
+    posting many variables per tick; equality is tested)."""
+    s = _text(source)
+    k = _text(key)
+    if isinstance(value, bool | int | float):
+        dtype, dval, v = b"D", float(value), b""
+    elif isinstance(value, str):
+        dtype, dval, v = b"S", -1.0, _text(value)
+    elif isinstance(value, bytes | bytearray | memoryview):
+        dtype, dval, v = b"B", -1.0, bytes(value)
+    else:
+        raise TypeError(f"MOOS notify {key!r}: value must be float, str or bytes, "
+                        f"not {type(value).__name__}")
+    length = MESSAGE_MIN_LEN + len(s) + len(k) + len(v)
+    return b"".join((
+        _NOTIFY_D.pack(length, msg_id, b"N", dtype, len(s)), s,
+        b"\x00\x00\x00\x00\x00\x00\x00\x00",  # empty source_aux and community
+        _I32.pack(len(k)), k,
+        _DOUBLES.pack(float(time), dval, -1.0),
+        _I32.pack(len(v)), v,
+    ))
 
 
 def encode_handshake() -> bytes:
