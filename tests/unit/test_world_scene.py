@@ -325,3 +325,17 @@ def test_torus_scene_ring_and_hole() -> None:
     h = rc.cast([[10.0, 0.0, 0.0]], down, 50.0)  # through the hole onto the floor
     assert ps.scene.labels[h.label[0]] == "seafloor"
     assert h.distance[0] == pytest.approx(8.0)
+
+
+def test_scene_pickles_for_batch_runs() -> None:
+    import pickle
+
+    scene = _separation_scene()
+    scene.segment_clear((0.0, 0.0, 4.0), (3.0, 0.0, 4.0), 0.3)  # caches an Embree caster
+    scene.set_pose("ball", (6.0, 1.0, 4.0), rot_z(0.5))
+    clone = pickle.loads(pickle.dumps(scene))
+    o, d = _fan(16, 4)
+    a = scene.raycaster().cast(o, d, 40.0)
+    b = clone.raycaster().cast(o, d, 40.0)
+    np.testing.assert_array_equal(a.distance, b.distance)
+    np.testing.assert_array_equal(a.body, b.body)

@@ -109,6 +109,12 @@ class Scene:
         self._seafloor: SeaFloor | None = None
         self._collision_caster: RayCaster | None = None
 
+    def __getstate__(self) -> dict:
+        # The cached collision caster holds Embree handles, which do not pickle.
+        state = self.__dict__.copy()
+        state["_collision_caster"] = None
+        return state
+
     # ------------------------------------------------------------------ building
     def _label_id(self, label: str) -> int:
         if label not in self._labels:
