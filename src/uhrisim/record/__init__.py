@@ -5,6 +5,7 @@ files back (tolerating a run killed half-way). Frames: ROS REP-103 (ENU world, F
 body) inside the files, converted from uhrisim's NED/FRD at the recorder only.
 """
 
+from uhrisim.record.hook import McapRecordingHook, ros_name, scene_markers
 from uhrisim.record.mcap_recorder import MARKER_TYPES, McapRecorder
 from uhrisim.record.reader import (
     DecodedMessage,
@@ -20,10 +21,13 @@ __all__ = [
     "MARKER_TYPES",
     "DecodedMessage",
     "McapRecorder",
+    "McapRecordingHook",
     "OdometryTrack",
     "RecordingSummary",
     "iter_messages",
     "iter_raw_messages",
     "read_odometry",
+    "ros_name",
+    "scene_markers",
     "summarize",
 ]

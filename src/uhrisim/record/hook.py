@@ -1,0 +1,216 @@
+"""The recorder as a simulation publish hook (``uhrisim.sim.hooks.Hook``).
+
+:class:`McapRecordingHook` turns each :class:`~uhrisim.sim.hooks.TickFrame` into
+:class:`~uhrisim.record.McapRecorder` calls: agent odometry (every ``odom_every``
+ticks), sonar pings, helm decisions, community posts and events; at start it writes
+the static scene as triangle-list markers and the run's seed/step as MCAP metadata;
+at the end it closes the file (recording an ``error`` event if the run failed).
+
+It only reads what it is handed (DESIGN.md: hooks are read-only) and touches the
+simulation object only in ``on_start``/``on_end`` for ``seed``, ``dt``, ``t`` and
+``scene``, by attribute, so it stays importable without the simulation package.
+"""
+
+from __future__ import annotations
+
+import logging
+import numbers
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from uhrisim.core.errors import ConfigError
+from uhrisim.record.mcap_recorder import McapRecorder
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["McapRecordingHook", "ros_name", "scene_markers"]
+
+_NOT_NAME = re.compile(r"[^A-Za-z0-9_]")
+# Marker colours by material name (r, g, b, a); others get the default.
+_MATERIAL_RGBA = {
+    "sand": (0.76, 0.70, 0.50, 1.0),
+    "mud": (0.45, 0.38, 0.30, 1.0),
+    "rock": (0.50, 0.50, 0.50, 1.0),
+    "concrete": (0.70, 0.70, 0.68, 1.0),
+    "steel": (0.55, 0.57, 0.60, 1.0),
+    "wood": (0.55, 0.40, 0.25, 1.0),
+}
+_DEFAULT_RGBA = (0.6, 0.6, 0.6, 1.0)
+
+
+def ros_name(name: str) -> str:
+    """A ROS-name-safe version of an agent name: other characters become ``_``.
+
+    Names already valid (letter first, then letters, digits, ``_``) are unchanged.
+    """
+    out = _NOT_NAME.sub("_", str(name))
+    return out if out[:1].isalpha() else f"a_{out}"
+
+
+def scene_markers(scene: Any, max_triangles: int = 200_000) -> list[dict[str, Any]]:
+    """The scene's static meshes as ``triangle_list`` marker specs (world NED).
+
+    ``scene.static_objects`` items carry a trimesh ``mesh`` in world NED, a ``label``,
+    a ``label_id`` and a ``material`` (its ``name`` picks the colour). Meshes past
+    ``max_triangles`` in total are left out (logged), to keep the file small.
+    """
+    markers: list[dict[str, Any]] = []
+    used = 0
+    for obj in getattr(scene, "static_objects", ()):
+        faces = np.asarray(obj.mesh.faces)
+        if used + len(faces) > max_triangles:
+            logger.warning(
+                "scene object %r (%d triangles) not recorded: over the %d-triangle budget",
+                obj.label, len(faces), max_triangles,
+            )
+            continue
+        used += len(faces)
+        verts = np.asarray(obj.mesh.vertices, dtype=float)[faces.reshape(-1)]
+        markers.append({
+            "ns": "scene",
+            "id": int(obj.label_id),
+            "type": "triangle_list",
+            "points_ned": verts,
+            "color": _MATERIAL_RGBA.get(getattr(obj.material, "name", ""), _DEFAULT_RGBA),
+            "text": str(obj.label),
+        })
+    return markers
+
+
+class McapRecordingHook:
+    """Record a simulation run to ``path`` (see :mod:`uhrisim.record.mcap_recorder`).
+
+    Parameters
+    ----------
+    path:
+        Output ``.mcap`` file.
+    odom_every:
+        Record odometry every this many ticks (1: every physics tick).
+    record_images, record_points:
+        Whether sonar pings write their polar/fan images and hit points.
+    record_scene:
+        Write the static scene as markers at start (``scene_markers``).
+    chunk_size, flush_period_s:
+        Passed to :class:`McapRecorder`; by default a chunk is also closed at least every
+        simulated second, so a killed run loses at most about one second.
+    """
+
+    def __init__(
+        self,
+        path: Path | str,
+        *,
+        odom_every: int = 1,
+        record_images: bool = True,
+        record_points: bool = True,
+        record_scene: bool = True,
+        chunk_size: int = 256 * 1024,
+        flush_period_s: float | None = 1.0,
+    ) -> None:
+        if int(odom_every) < 1:
+            raise ConfigError(f"odom_every must be >= 1, got {odom_every}",
+                              where="McapRecordingHook")
+        self.path = Path(path)
+        self.odom_every = int(odom_every)
+        self.record_images = record_images
+        self.record_points = record_points
+        self.record_scene = record_scene
+        self._chunk_size = chunk_size
+        self._flush_period_s = flush_period_s
+        self._rec: McapRecorder | None = None
+        self._names: dict[str, str] = {}
+
+    @property
+    def recorder(self) -> McapRecorder | None:
+        return self._rec
+
+    def _name(self, agent: str) -> str:
+        name = self._names.get(agent)
+        if name is None:
+            name = ros_name(agent)
+            if name != agent:
+                logger.info("recording agent %r as %r (ROS name rules)", agent, name)
+            self._names[agent] = name
+        return name
+
+    def on_start(self, sim: Any) -> None:
+        meta = {"seed": str(getattr(sim, "seed", "")), "dt": repr(getattr(sim, "dt", ""))}
+        scenario = getattr(sim, "scenario", None)
+        if scenario is not None and getattr(scenario, "name", None):
+            meta["scenario"] = str(scenario.name)
+        self._rec = McapRecorder(
+            self.path, chunk_size=self._chunk_size, flush_period_s=self._flush_period_s,
+            metadata={"uhrisim": meta},
+        )
+        if self.record_scene and getattr(sim, "scene", None) is not None:
+            markers = scene_markers(sim.scene)
+            if markers:
+                self._rec.write_scene_markers(float(getattr(sim, "t", 0.0)), markers)
+
+    def on_tick(self, frame: Any) -> None:
+        rec = self._rec
+        if rec is None:
+            return
+        t = float(frame.t)
+        if frame.tick % self.odom_every == 0:
+            for agent, snap in frame.agents.items():
+                nav = snap.nav
+                rec.write_odometry(self._name(agent), t, nav.position_ned, nav.yaw,
+                                   nav.velocity_body, nav.yaw_rate)
+        for agent, ping in frame.pings.items():
+            self._write_ping(rec, self._name(agent), ping)
+        for agent, h in frame.helm.items():
+            rec.write_helm_decision(
+                self._name(agent), t, h.heading_deg, h.speed, h.depth, h.contributions,
+                h.mode, h.active, total=h.total, all_stop_reason=h.all_stop_reason or "",
+            )
+        for post in frame.posts:
+            value = post.value
+            if not isinstance(value, (str, numbers.Real)):
+                value = str(value)
+            rec.write_variable(self._name(post.community), float(post.t), str(post.var),
+                               value, str(post.source))
+        for ev in frame.events:
+            rec.write_event(float(ev.t), str(ev.kind), str(ev.detail))
+
+    def _write_ping(self, rec: McapRecorder, agent: str, ping: Any) -> None:
+        points = intensity = None
+        if self.record_points:
+            cloud = getattr(ping, "cloud", None)
+            if cloud is not None:
+                xyz = np.stack([np.ravel(cloud.x), np.ravel(cloud.y), np.ravel(cloud.z)], -1)
+                keep = np.isfinite(xyz).all(axis=1)
+                points = xyz[keep].astype(float)
+                intensity = np.ravel(cloud.intensity)[keep].astype(float)
+            else:
+                points = np.asarray(ping.hit_points_sonar, dtype=float).reshape(-1, 3)
+        rec.write_sonar(
+            agent,
+            float(ping.t),
+            ping.polar_u8 if self.record_images else None,
+            ping.fan_u8 if self.record_images else None,
+            points,
+            intensity,
+            f"{agent}/sonar",
+            (ping.position_ned, ping.rotation_ned_from_sonar),
+        )
+
+    def on_end(self, sim: Any, error: BaseException | None) -> None:
+        rec = self._rec
+        if rec is None:
+            return
+        if error is not None and not rec.closed:
+            rec.write_event(float(getattr(sim, "t", 0.0)), "error",
+                            f"{type(error).__name__}: {error}")
+        rec.close()
+
+    def summary(self) -> dict[str, Any]:
+        rec = self._rec
+        if rec is None:
+            return {"path": str(self.path), "messages": 0}
+        counts = rec.message_counts
+        return {"path": str(self.path), "messages": sum(counts.values()),
+                "topics": counts, "bytes": rec.bytes_written}
+
