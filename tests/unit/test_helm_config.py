@@ -101,27 +101,71 @@ META_YAML = {
         "MODE = ACTIVE { DEPLOY = true } INACTIVE",
         "set MODE = STATION-KEEPING { MODE = ACTIVE ; STATION_KEEP = true }",
         {"var": "MODE", "value": "RETURNING", "conditions": ["MODE = ACTIVE", "RETURN = true"]},
-        {"var": "MODE", "value": "TRAILING", "conditions": ["MODE=ACTIVE", "TRAIL=true"],
-         "else": "LOITERING"},
-    ],  # fmt: skip
+        {
+            "var": "MODE",
+            "value": "TRAILING",
+            "conditions": ["MODE=ACTIVE", "TRAIL=true"],
+            "else": "LOITERING",
+        },
+    ],
     "behaviors": [
-        {"type": "ConstantDepth", "name": "const_depth", "pwt": 100, "condition": "DEPLOY=true",
-         "updates": "DEPTH_UPDATES", "depth": 1.5},
-        {"type": "Loiter", "name": "loiter", "priority": 100, "condition": "MODE==LOITERING",
-         "polygon": "format=radial, x=10, y=-20, radius=20, pts=8", "speed": 0.5,
-         "clockwise": True},
-        {"type": "BHV_Waypoint", "name": "waypt_return", "condition": ["MODE==RETURNING"],
-         "endflag": ["STATION_KEEP = true", "RETURN = false"], "speed": 1, "points": [[0, 0]]},
-        {"type": "StationKeep", "name": "station-keep", "condition": "MODE==STATION-KEEPING",
-         "center_activate": "true"},
-        {"type": "Trail", "name": "trail_", "pwt": 300, "condition": "MODE==TRAILING",
-         "templating": "spawn", "updates": "TRAIL_INFO", "trail_range": 2, "trail_angle": 180,
-         "radius": 5, "nm_radius": 15},
-        {"type": "AvoidCollision", "name": "avd_", "pwt": 200,
-         "condition": "(DEPLOY = true) and (MODE != INACTIVE)", "templating": "spawn",
-         "updates": "CONTACT_INFO", "pwt_outer_dist": 50, "pwt_inner_dist": 20,
-         "completed_dist": 75, "min_util_cpa_dist": 8, "max_util_cpa_dist": 25},
-    ],  # fmt: skip
+        {
+            "type": "ConstantDepth",
+            "name": "const_depth",
+            "pwt": 100,
+            "condition": "DEPLOY=true",
+            "updates": "DEPTH_UPDATES",
+            "depth": 1.5,
+        },
+        {
+            "type": "Loiter",
+            "name": "loiter",
+            "priority": 100,
+            "condition": "MODE==LOITERING",
+            "polygon": "format=radial, x=10, y=-20, radius=20, pts=8",
+            "speed": 0.5,
+            "clockwise": True,
+        },
+        {
+            "type": "BHV_Waypoint",
+            "name": "waypt_return",
+            "condition": ["MODE==RETURNING"],
+            "endflag": ["STATION_KEEP = true", "RETURN = false"],
+            "speed": 1,
+            "points": [[0, 0]],
+        },
+        {
+            "type": "StationKeep",
+            "name": "station-keep",
+            "condition": "MODE==STATION-KEEPING",
+            "center_activate": "true",
+        },
+        {
+            "type": "Trail",
+            "name": "trail_",
+            "pwt": 300,
+            "condition": "MODE==TRAILING",
+            "templating": "spawn",
+            "updates": "TRAIL_INFO",
+            "trail_range": 2,
+            "trail_angle": 180,
+            "radius": 5,
+            "nm_radius": 15,
+        },
+        {
+            "type": "AvoidCollision",
+            "name": "avd_",
+            "pwt": 200,
+            "condition": "(DEPLOY = true) and (MODE != INACTIVE)",
+            "templating": "spawn",
+            "updates": "CONTACT_INFO",
+            "pwt_outer_dist": 50,
+            "pwt_inner_dist": 20,
+            "completed_dist": 75,
+            "min_util_cpa_dist": 8,
+            "max_util_cpa_dist": 25,
+        },
+    ],
 }
 
 
@@ -132,17 +176,26 @@ def test_meta_vehicle_bhv_equals_yaml_twin(tmp_path):
     b = HelmConfig.from_mapping(META_YAML, "scenario.yaml:helm", known_vars=KNOWN)
     assert a == b
     assert [s.kind for s in a.behaviors] == [
-        "BHV_ConstantDepth", "BHV_Loiter", "BHV_Waypoint", "BHV_StationKeep", "BHV_Trail",
+        "BHV_ConstantDepth",
+        "BHV_Loiter",
+        "BHV_Waypoint",
+        "BHV_StationKeep",
+        "BHV_Trail",
         "BHV_AvoidCollision",
-    ]  # fmt: skip
+    ]
     assert [s.name for s in a.behaviors if s.is_template] == ["trail_", "avd_"]
     assert a.initialize == (
-        ("DEPLOY", "false"), ("RETURN", "false"), ("STATION_KEEP", "false"), ("TRAIL", "true")
-    )  # fmt: skip
+        ("DEPLOY", "false"),
+        ("RETURN", "false"),
+        ("STATION_KEEP", "false"),
+        ("TRAIL", "true"),
+    )
     trail = a.behaviors[4]
     assert (trail.common.priority, trail.params.trail_range, trail.params.nm_radius) == (
-        300.0, 2.0, 15.0,
-    )  # fmt: skip
+        300.0,
+        2.0,
+        15.0,
+    )
     # IvP defaults where the file is silent (ConstantDepth ZAIC pw 3, bw 100, delta 50)
     cd = a.behaviors[0].params
     assert (cd.peakwidth, cd.basewidth, cd.summitdelta) == (3.0, 100.0, 50.0)
@@ -184,16 +237,24 @@ def test_bad_input_names_file_and_line(tmp_path):
     e = _err(ok_head + "\nBehavior = BHV_Teleport\n{\n  name = x\n}\n", tmp_path)
     assert e.where.endswith("bad.bhv:3") and "unknown behavior 'BHV_Teleport'" in str(e)
 
-    e = _err(ok_head + "Behavior = BHV_Loiter\n{\n name = l\n polygon = 0,0:9,0:9,9\n"
-             " sped = 1\n}\n", tmp_path)  # fmt: skip
+    e = _err(
+        ok_head + "Behavior = BHV_Loiter\n{\n name = l\n polygon = 0,0:9,0:9,9\n sped = 1\n}\n",
+        tmp_path,
+    )
     assert e.where.endswith("bad.bhv:6") and "'sped'" in str(e) and "speed" in str(e)
 
-    e = _err(ok_head + "Behavior = BHV_Loiter\n{\n name = l\n"
-             " polygon = 0,0 : 10,0 : 5,2 : 10,10 : 0,10\n}\n", tmp_path)  # fmt: skip
+    e = _err(
+        ok_head + "Behavior = BHV_Loiter\n{\n name = l\n"
+        " polygon = 0,0 : 10,0 : 5,2 : 10,10 : 0,10\n}\n",
+        tmp_path,
+    )
     assert e.where.endswith("bad.bhv:5") and "convex" in str(e)
 
-    e = _err(ok_head + "Behavior = BHV_ConstantDepth\n{\n name = d\n condition = DEPLOY = true\n"
-             " condition = DEPLOYED = true\n depth = 2\n}\n", tmp_path)  # fmt: skip
+    e = _err(
+        ok_head + "Behavior = BHV_ConstantDepth\n{\n name = d\n condition = DEPLOY = true\n"
+        " condition = DEPLOYED = true\n depth = 2\n}\n",
+        tmp_path,
+    )
     assert e.where.endswith("bad.bhv:6") and "'DEPLOYED'" in str(e)
 
     e = _err("set MODE = ACTIVE {\n  GO = true\n} INACTIVE\n", tmp_path)
@@ -211,8 +272,11 @@ def test_bad_input_names_file_and_line(tmp_path):
     e = _err("ProcessConfig = pHelmIvP\n", tmp_path)
     assert e.where.endswith("bad.bhv:1") and "cannot read line" in str(e)
 
-    e = _err("Behavior = BHV_ConstantDepth\n{\n name = d\n}\n"
-             "Behavior = BHV_ConstantDepth\n{\n name = d\n}\n", tmp_path)  # fmt: skip
+    e = _err(
+        "Behavior = BHV_ConstantDepth\n{\n name = d\n}\n"
+        "Behavior = BHV_ConstantDepth\n{\n name = d\n}\n",
+        tmp_path,
+    )
     assert "duplicate behavior name 'd'" in str(e)
 
 

@@ -107,7 +107,7 @@ def test_coupler_scaling():
     # a constant ("indifferent") function rescales to its top value
     assert rescale(np.full(4, 3.0), 0.0, 50.0) == pytest.approx([50.0] * 4)
     F4 = couple(np.array([0.0, 100.0]), np.full(3, 9.0), normalize=False)
-    assert F4 == pytest.approx(np.array([[50.0] * 3, [100.0] * 3]))
+    assert pytest.approx(np.array([[50.0] * 3, [100.0] * 3])) == F4
 
 
 # ---------------------------------------------------------------------------- CPA
@@ -116,7 +116,9 @@ def test_cpa_crossing_tracks():
     assert float(cpa_distance(0, 0, 0.0, 1.0, 10, 10, 270.0, 1.0, 60)) == pytest.approx(0, abs=1e-9)
     # contact 2 m further north: r0 = (-10,-12), w = (1,1), t* = 22/2 = 11, r = (1,-1)
     assert float(cpa_time(0, 0, 0.0, 1.0, 10, 12, 270.0, 1.0, 60)) == pytest.approx(11.0)
-    assert float(cpa_distance(0, 0, 0.0, 1.0, 10, 12, 270.0, 1.0, 60)) == pytest.approx(math.sqrt(2))
+    assert float(cpa_distance(0, 0, 0.0, 1.0, 10, 12, 270.0, 1.0, 60)) == pytest.approx(
+        math.sqrt(2)
+    )
 
 
 def test_cpa_head_on_parallel_and_receding():
@@ -127,7 +129,9 @@ def test_cpa_head_on_parallel_and_receding():
     # overtaking a slower parallel contact 5 m abeam, 10 m ahead: closes 0.5 m/s, t*=20 -> 5
     assert float(cpa_distance(0, 0, 0.0, 1.0, 5, 10, 0.0, 0.5, 60)) == pytest.approx(5.0)
     # ... but with a 10 s horizon it only closes to (-5, -5): 5*sqrt(2)
-    assert float(cpa_distance(0, 0, 0.0, 1.0, 5, 10, 0.0, 0.5, 10)) == pytest.approx(5 * math.sqrt(2))
+    assert float(cpa_distance(0, 0, 0.0, 1.0, 5, 10, 0.0, 0.5, 10)) == pytest.approx(
+        5 * math.sqrt(2)
+    )
     # receding: contact 10 m astern going south, own north -> CPA is now, 10 m
     assert float(cpa_distance(0, 0, 0.0, 1.0, 0, -10, 180.0, 1.0, 60)) == pytest.approx(10.0)
     assert float(cpa_time(0, 0, 0.0, 1.0, 0, -10, 180.0, 1.0, 60)) == 0.0
@@ -176,8 +180,11 @@ def _random_objs(rng):
     cs = Objective.over(D, ("course", "speed"), rng.uniform(0, 100, (360, 26)))
     c = Objective.over(D, ("course",), rng.uniform(0, 100, 360))
     d = Objective.over(D, ("depth",), rng.uniform(0, 100, 101))
-    return [WeightedObjective("cs", 2.0, cs), WeightedObjective("c", 0.5, c),
-            WeightedObjective("d", 1.5, d)]  # fmt: skip
+    return [
+        WeightedObjective("cs", 2.0, cs),
+        WeightedObjective("c", 0.5, c),
+        WeightedObjective("d", 1.5, d),
+    ]
 
 
 def test_solver_matches_brute_force_and_audit_adds_up():

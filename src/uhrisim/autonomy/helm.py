@@ -73,6 +73,7 @@ class HelmOutput:
     completed: tuple[str, ...]
     helm_state: str = "DRIVE"
     solve: SolveResult | None = field(default=None, repr=False)
+    objectives: tuple[WeightedObjective, ...] = field(default=(), repr=False)
 
     def post_dict(self) -> dict[str, Value]:
         """Posts as a dict (the last value of a variable posted twice wins)."""
@@ -251,7 +252,7 @@ class Helm:
         posts.extend(ctx.posts)
         self.slots = [s for s in self.slots if not (s.spawned and s.status == "completed")]
         result = solve(self.domain, weighted)
-        return self._finish(t, posts, result, result.all_stop_reason, mode)
+        return self._finish(t, posts, result, result.all_stop_reason, mode, tuple(weighted))
 
     def _run_slot(self, s: _Slot, ctx: BehaviorContext, weighted: list) -> None:
         b = s.bhv
@@ -320,6 +321,7 @@ class Helm:
         result: SolveResult | None,
         reason: str | None,
         mode: str,
+        weighted: tuple[WeightedObjective, ...] = (),
     ) -> HelmOutput:
         decision = None
         if result is not None and result.decision is not None:
@@ -360,6 +362,7 @@ class Helm:
             completed=by["completed"],
             helm_state="PARK" if result is None else "DRIVE",
             solve=result,
+            objectives=weighted,
         )
         self.last_output = out
         return out

@@ -1,0 +1,138 @@
+"""Node reports and the contact manager."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from uhrisim.autonomy import (
+    ContactManager,
+    ContactManagerConfig,
+    NodeReport,
+    OwnNav,
+    format_node_report,
+    parse_node_report,
+)
+from uhrisim.core.errors import ConfigError
+
+PAPER_EXAMPLE = (
+    "NAME=videoray,X=12.30,Y=-4.10,SPD=1.20,HDG=87.00,DEP=1.50,LAT=43.8,LON=-70.3,"
+    "TYPE=UUV,MODE=ACTIVE:TRAILING,TIME=1374600000.12,LENGTH=1"
+)
+
+
+def test_parse_reference_example():
+    r = parse_node_report(PAPER_EXAMPLE)
+    assert (r.name, r.x, r.y, r.speed, r.heading, r.depth) == (
+        "videoray",
+        12.3,
+        -4.1,
+        1.2,
+        87.0,
+        1.5,
+    )
+    assert (r.type, r.mode, r.time, r.length) == ("UUV", "ACTIVE:TRAILING", 1374600000.12, 1.0)
+    assert (r.lat, r.lon) == (43.8, -70.3)
+
+
+def test_keys_case_insensitive_aliases_and_unknown_kept():
+    r = parse_node_report("name=diver, x=1, y=2, Speed=0.5, heading=370, depth=3, COLOR=red")
+    assert (r.name, r.speed, r.heading, r.depth) == ("diver", 0.5, 10.0, 3.0)  # 370 -> 10
+    assert r.extra == (("COLOR", "red"),)
+    assert parse_node_report("NAME=a,X=0,Y=0,SPEED=2,HDG=5,DEPTH=1").speed == 2.0
+    assert "COLOR=red" in format_node_report(r)
+
+
+def test_round_trip():
+    r = NodeReport(
+        "diver", 10.125, -3.5, 0.25, 181.5, 2.0, time=12.75, type="DIVER", extra=(("ID", "7"),)
+    )
+    assert parse_node_report(format_node_report(r)) == r
+    s = format_node_report(NodeReport("rov", 0.0, -0.0004, 0.0, 0.0))
+    assert s == "NAME=rov,X=0,Y=0,SPD=0,HDG=0,DEP=0"
+
+
+@pytest.mark.parametrize(
+    "bad",
+    ["", "NAME=a,X=1", "X=1,Y=2", "NAME=a,X=one,Y=2", "NAME=a,X=1,Y=2,SPD", "NAME=a,X=nan,Y=0"],
+)
+def test_malformed_reports(bad):
+    with pytest.raises(ConfigError) as e:
+        parse_node_report(bad)
+    assert isinstance(e.value, ValueError) and "NODE_REPORT" in str(e.value)
+
+
+def _cm(**alert):
+    spec = {"id": "trail", "var": "TRAIL_INFO", "alert_range": 20.0}
+    spec.update(alert)
+    cfg = ContactManagerConfig.from_mapping(
+        {
+            "alerts": [
+                spec,
+                'id=avd, var=CONTACT_INFO, val="name=$[VNAME] # contact=$[VNAME]", alert_range=10',
+            ],
+            "decay": "5,10",
+        }
+    )
+    return ContactManager(cfg, "videoray")
+
+
+def test_alert_posted_once_per_contact_when_in_range():
+    cm = _cm()
+    own = OwnNav(0.0, 0.0, 0.0, 0.0)
+    cm.on_node_report("NAME=diver,X=30,Y=0,SPD=0,HDG=270,TIME=0", 0.0)
+    cm.on_node_report("NAME=videoray,X=0,Y=0,SPD=0,HDG=0,TIME=0", 0.0)  # own: ignored
+    posts = dict(cm.step(0.0, own))
+    assert "TRAIL_INFO" not in posts and posts["CONTACTS_LIST"] == "diver"
+    cm.on_node_report("NAME=diver,X=15,Y=0,SPD=0,HDG=270,TIME=1", 1.0)
+    posts = cm.step(1.0, own)
+    assert ("TRAIL_INFO", "name=diver # contact=diver") in posts
+    assert not any(v == "CONTACT_INFO" for v, _ in posts)  # 15 m > 10 m
+    cm.on_node_report("NAME=diver,X=5,Y=0,SPD=0,HDG=270,TIME=2", 2.0)
+    posts = cm.step(2.0, own)
+    assert [v for v, _ in posts if v.endswith("_INFO")] == ["CONTACT_INFO"]  # trail not again
+    assert dict(posts)["CONTACTS_ALERTED"] == "(diver,avd),(diver,trail)"
+    assert cm.step(3.0, own) == []  # nothing changed, nothing posted
+
+
+def test_dead_reckoned_positions_and_cpa_alert():
+    cm = _cm(alert_range=5.0, cpa_range=40.0, cpa_time=60.0)
+    own = OwnNav(0.0, 0.0, 0.0, 0.0)
+    # diver 30 m east going west at 1 m/s: reported at t=0, seen at t=4 (no decay yet)
+    cm.on_node_report("NAME=diver,X=30,Y=0.5,SPD=1,HDG=270,TIME=0", 4.0)
+    posts = dict(cm.step(4.0, own))
+    rec = cm.contacts["diver"]
+    assert (rec.x, rec.y) == pytest.approx((26.0, 0.5)) and not rec.decay_maxed
+    assert rec.range == pytest.approx(math.hypot(26.0, 0.5))
+    # 26 m > alert 5 m, but within cpa_range 40 and its CPA (0.5 m) is inside 5 m
+    assert posts["TRAIL_INFO"] == "name=diver # contact=diver"
+    # at t=20 the decay (5, 10) has maxed: travelled 5 + 5/2 = 7.5 m
+    cm.step(20.0, own)
+    assert (rec.x, rec.decay_maxed) == (pytest.approx(22.5), True)
+
+
+def test_type_filters_and_retirement():
+    cfg = ContactManagerConfig.from_mapping(
+        {
+            "alerts": [{"var": "TRAIL_INFO", "alert_range": 50, "match_type": "diver"}],
+            "contact_max_age": 30,
+        }
+    )
+    cm = ContactManager(cfg, "videoray")
+    own = {"NAV_X": 0, "NAV_Y": 0, "NAV_HEADING": 0, "NAV_SPEED": 0}
+    posts = cm.step(0.0, own, ["NAME=boat,X=1,Y=1,TYPE=kayak", "NAME=bob,X=2,Y=2,TYPE=DIVER"])
+    assert [v for v, _ in posts if v == "TRAIL_INFO"] == ["TRAIL_INFO"]
+    assert dict(posts)["TRAIL_INFO"] == "name=bob # contact=bob"
+    posts = dict(cm.step(31.0, own))
+    assert posts["CONTACTS_RETIRED"] == "boat,bob" and posts["CONTACTS_LIST"] == ""
+
+
+def test_config_errors():
+    with pytest.raises(ConfigError, match=r"unknown alert field 'rang'"):
+        ContactManagerConfig.from_mapping({"alerts": [{"var": "X", "rang": 3}]})
+    with pytest.raises(ConfigError, match="needs var"):
+        ContactManagerConfig.from_mapping({"alerts": ["id=a, alert_range=3"]})
+    with pytest.raises(ConfigError, match="unknown key"):
+        ContactManagerConfig.from_mapping({"alert": []})
+    assert _cm().config.alert_vars == ("TRAIL_INFO", "CONTACT_INFO")

@@ -1,0 +1,155 @@
+"""Helm iteration: spawning, updates, flags, durations, audit, all-stop (no vehicle)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from uhrisim.autonomy import Helm, HelmConfig, load_bhv
+from uhrisim.autonomy.zaic import zaic_peak
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "helm"
+KNOWN = ("TRAIL_INFO", "CONTACT_INFO", "DEPTH_UPDATES", "LOITER_UPDATES")
+NAV = {"NAV_X": 0.0, "NAV_Y": 0.0, "NAV_HEADING": 180.0, "NAV_SPEED": 0.0, "NAV_DEPTH": 0.0}
+
+
+def meta_helm() -> Helm:
+    return Helm(load_bhv(DATA / "meta_vehicle.bhv", known_vars=KNOWN), "videoray")
+
+
+def test_inactive_until_deploy_then_spawn_per_contact():
+    h = meta_helm()
+    out = h.step(0.0, NAV)
+    assert out.mode == "INACTIVE" and out.decision is None
+    assert "no active behaviors" in out.all_stop_reason
+    assert out.post_dict()["DESIRED_SPEED"] == 0.0 and out.post_dict()["DEPLOY"] == "false"
+    report = "NAME=diver,X=10,Y=0,SPD=0.5,HDG=180,DEP=2,TIME=0.25"
+    spawn = "name=diver # contact=diver"
+    out = h.step(
+        0.25, {"DEPLOY": "true", "NODE_REPORT": report, "TRAIL_INFO": spawn, "CONTACT_INFO": spawn}
+    )
+    assert out.mode == "ACTIVE:TRAILING"
+    assert set(h.behavior_names) >= {"trail_diver", "avd_diver"}
+    assert h.behavior("trail_diver").params.contact == "diver"
+    assert out.active == ("const_depth", "trail_diver")  # avd: diver beyond pwt_outer_dist
+    assert "avd_diver" in out.running and out.decision is not None
+    assert h.info["DIVER_NAV_DEPTH"] == 2.0 and h.info["DIVER_NAV_UTC"] == 0.25
+    # a second alert for the same contact does not duplicate it; a list = several postings
+    h.step(0.5, {"TRAIL_INFO": [spawn, "name=bob # contact=bob"]})
+    assert h.behavior_names.count("trail_diver") == 1 and "trail_bob" in h.behavior_names
+    out = h.step(0.75, {"TRAIL": "false"})
+    assert out.mode == "ACTIVE:LOITERING" and "loiter" in out.active
+    assert "trail_diver" in out.idle
+
+
+def test_audit_contributions_add_up_to_the_maximum():
+    h = meta_helm()
+    h.step(0.0, NAV)
+    spawn = "name=diver # contact=diver"
+    out = h.step(
+        0.25,
+        {
+            "DEPLOY": "true",
+            "TRAIL_INFO": spawn,
+            "CONTACT_INFO": spawn,
+            "NODE_REPORT": "NAME=diver,X=3,Y=-1,SPD=0.4,HDG=200,DEP=2,TIME=0.25",
+        },
+    )
+
+    assert set(out.contributions) == {"const_depth", "trail_diver", "avd_diver"}
+    assert sum(out.contributions.values()) == pytest.approx(out.total)
+    assert 0.0 < h.behavior("avd_diver").priority_scale < 1.0  # relevance-weighted
+    # brute force over the full course x speed x depth grid
+    full = np.zeros((360, 26, 101))
+    shapes = {("course", "speed"): (360, 26, 1), ("depth",): (1, 1, 101)}
+    for w in out.objectives:
+        full += w.priority * w.objective.values.reshape(shapes[w.objective.axes])
+    assert out.total == pytest.approx(full.max())
+    i, j, k = np.unravel_index(np.argmax(full), full.shape)
+    assert (out.decision.heading_deg, out.decision.speed, out.decision.depth) == pytest.approx(
+        (float(i), 0.2 * j, float(k))
+    )
+    # depth: ConstantDepth alone on its axis; summit 1.5 falls between 1 and 2 -> tie, lower
+    dep = zaic_peak(np.arange(101.0), 1.5, 3.0, 100.0, 50.0)
+    assert dep[1] == dep[2] and out.decision.depth == 1.0
+    assert out.contributions["const_depth"] == pytest.approx(100.0 * dep[1])
+
+
+def test_updates_change_parameters_at_run_time():
+    h = meta_helm()
+    h.step(0.0, NAV)
+    out = h.step(0.25, {"DEPLOY": "true"})
+    assert out.decision is None  # trailing mode but no contact yet -> only depth: all-stop
+    assert "course" in out.all_stop_reason and out.contributions.keys() == {"const_depth"}
+    h.step(0.5, {"DEPTH_UPDATES": "depth=4"})
+    assert h.behavior("const_depth").params.depth == 4.0
+    out = h.step(0.75, {"TRAIL": "false"})
+    assert out.decision.depth == 4.0 and out.mode == "ACTIVE:LOITERING"
+    out = h.step(1.0, {"DEPTH_UPDATES": "depth=deep", "LOITER_UPDATES": "speed=0.8"})
+    assert ("BHV_WARNING" in out.post_dict()) and h.behavior("const_depth").params.depth == 4.0
+    assert h.behavior("loiter").params.speed == 0.8
+
+
+def test_flags_durations_and_perpetual():
+    cfg = HelmConfig.from_mapping(
+        {
+            "initialize": {"GO": "false"},
+            "behaviors": [
+                {
+                    "type": "ConstantDepth",
+                    "name": "a",
+                    "depth": 2,
+                    "condition": "GO = true",
+                    "runflag": "A_RUN = 1",
+                    "idleflag": "A_IDLE = 1",
+                    "activeflag": "A_ACT = 1",
+                    "inactiveflag": "A_INACT = 1",
+                    "endflag": ["A_DONE = true"],
+                    "duration": 1.0,
+                },
+                {
+                    "type": "ConstantDepth",
+                    "name": "b",
+                    "depth": 5,
+                    "condition": "A_DONE = true",
+                    "duration": 0.5,
+                    "perpetual": True,
+                    "endflag": "B_END = $(nothing)",
+                    "duration_idle_decay": False,
+                },
+            ],
+        }
+    )
+    h = Helm(cfg, "v")
+    posts = h.step(0.0, NAV).post_dict()
+    assert posts["A_IDLE"] == 1.0 and "A_RUN" not in posts
+    posts = h.step(0.25, {"GO": "true"}).post_dict()
+    assert posts["A_RUN"] == 1.0 and posts["A_ACT"] == 1.0
+    assert "A_RUN" not in h.step(0.5, {}).post_dict()  # flags on transitions only
+    h.step(1.0, {})
+    out = h.step(1.25, {})  # 1.0 s after it started running: completes, endflag posted
+    assert out.post_dict()["A_DONE"] == "true" and out.completed == ("a",)
+    out = h.step(1.5, {})  # b runs (A_DONE came back through the info buffer)
+    assert out.active == ("b",) and out.decision is None  # depth only -> all-stop
+    out = h.step(2.0, {})
+    assert out.post_dict()["B_END"] == "$(nothing)"
+    assert "b" not in out.completed  # perpetual: reset, not completed
+    out = h.step(2.25, {})
+    assert out.active == ("b",)
+
+
+def test_manual_override_parks_the_helm():
+    h = meta_helm()
+    out = h.step(0.0, {**NAV, "MOOS_MANUAL_OVERRIDE": "true", "DEPLOY": "true"})
+    assert out.helm_state == "PARK" and out.decision is None
+    assert "DESIRED_SPEED" not in out.post_dict() and out.post_dict()["IVPHELM_STATE"] == "PARK"
+    out = h.step(0.25, {"MOOS_MANUAL_OVERRIDE": "false"})
+    assert out.helm_state == "DRIVE" and out.post_dict()["IVPHELM_STATE"] == "DRIVE"
+
+
+def test_bad_node_report_is_reported_not_fatal():
+    h = meta_helm()
+    out = h.step(0.0, {**NAV, "NODE_REPORT": "NAME=diver,X=oops,Y=1"})
+    assert "bad NODE_REPORT" in out.post_dict()["BHV_WARNING"]
