@@ -7,6 +7,7 @@ from uhrisim.control.diver import DiverController, DiverGains
 from uhrisim.control.marine_pid import MarinePidController, MarinePidGains
 from uhrisim.core.frames import heading_deg_from_yaw, wrap_180
 from uhrisim.dynamics import diver
+from uhrisim.dynamics.integrators import rk4_step
 from uhrisim.dynamics.kinematic import KinematicParams, kinematic_step
 from uhrisim.dynamics.plants import DiverPlant, KinematicPlant
 
@@ -32,6 +33,17 @@ def test_limits_saturate():
 def test_leg_inputs_invert_body_rates():
     legs = diver.leg_inputs(0.4, 0.2, -0.1, DIVER)
     np.testing.assert_allclose(diver.body_rates(legs, DIVER), [0.4, 0.2, -0.1])
+
+
+def test_exact_arc_step_matches_fine_rk4_on_the_paper_equations():
+    rng = np.random.default_rng(2)
+    for _ in range(20):
+        x0 = np.array([*rng.normal(size=3), rng.uniform(-np.pi, np.pi)])
+        u = rng.uniform(-0.6, 0.8, 3)
+        reference = x0.copy()
+        for k in range(1000):
+            reference = rk4_step(diver.xdot, k * 1e-3, reference, u, DIVER, 1e-3)
+        np.testing.assert_allclose(diver.step_exact(x0, u, DIVER, 1.0), reference, atol=1e-10)
 
 
 def test_neutral_buoyancy_and_straight_swim():

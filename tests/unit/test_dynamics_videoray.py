@@ -108,8 +108,8 @@ def test_fast_single_vehicle_path_matches_numpy_rk4():
     rng = np.random.default_rng(3)
     plant = VideoRayPlant(PARAMS, 0.01)
     h = plant.dt / plant.integrator.substeps
-    for coupling in ("paper", "rigid-body"):
-        params = vr.VideoRayParams(coupling=coupling)
+    for coupling, thrust_map in [("paper", "linear"), ("rigid-body", "quadratic")]:
+        params = vr.VideoRayParams(coupling=coupling, thrust_map=thrust_map)
         for _ in range(10):
             x = rng.normal(size=8)
             u = rng.uniform(-200, 200, 3)
@@ -118,6 +118,15 @@ def test_fast_single_vehicle_path_matches_numpy_rk4():
                 slow = rk4_step(vr.xdot, k * h, slow, u, params, h)
             fast = vr.rk4_single(x, u, params, h, plant.integrator.substeps)
             np.testing.assert_allclose(fast, slow, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("thrust_map", ["linear", "quadratic"])
+def test_fast_path_forces_match_numpy_forces(thrust_map):
+    params = vr.VideoRayParams(thrust_map=thrust_map)
+    rng = np.random.default_rng(11)
+    for u in rng.uniform(-300, 300, (50, 3)):
+        np.testing.assert_allclose(vr._generalized_forces_single(u, params),
+                                   vr.generalized_forces(u, params), rtol=1e-14, atol=1e-15)
 
 
 def test_batch_step_equals_single_steps():

@@ -14,6 +14,7 @@ u_z. Speed, turn rate and vertical rate saturate at human limits.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,10 +48,12 @@ def body_rates(u: ArrayLike, params: DiverParams) -> NDArray:
     """``[forward speed, yaw rate, vertical rate]`` from leg inputs, after saturation."""
     u = np.asarray(u, dtype=float)
     r, L = params.wheel_radius, params.track
-    speed = np.clip(0.5 * r * (u[..., 0] + u[..., 1]), -params.max_reverse_speed, params.max_speed)
-    yaw_rate = np.clip(r / L * (u[..., 0] - u[..., 1]), -params.max_turn_rate,
-                       params.max_turn_rate)
-    vertical = np.clip(u[..., 2], -params.max_vertical_rate, params.max_vertical_rate)
+    speed = np.minimum(np.maximum(0.5 * r * (u[..., 0] + u[..., 1]),
+                                  -params.max_reverse_speed), params.max_speed)
+    yaw_rate = np.minimum(np.maximum(r / L * (u[..., 0] - u[..., 1]), -params.max_turn_rate),
+                          params.max_turn_rate)
+    vertical = np.minimum(np.maximum(u[..., 2], -params.max_vertical_rate),
+                          params.max_vertical_rate)
     return np.stack([speed, yaw_rate, vertical], axis=-1)
 
 
@@ -72,3 +75,24 @@ def xdot(t: float, x: ArrayLike, u: ArrayLike, params: DiverParams) -> NDArray:
     psi = x[..., 3]
     return np.stack([rates[..., 0] * np.cos(psi), rates[..., 0] * np.sin(psi), rates[..., 2],
                      rates[..., 1]], axis=-1)
+
+
+def step_exact(x: ArrayLike, u: ArrayLike, params: DiverParams, dt: float) -> NDArray:
+    """Exact solution of :func:`xdot` over ``dt`` with ``u`` held (a circular arc).
+
+    With speed s, yaw rate w and vertical rate v constant: psi(t) = psi0 + w t and
+    north += (s/w)(sin psi(t) - sin psi0), east -= (s/w)(cos psi(t) - cos psi0); a
+    straight line when w = 0. Tests hold it to RK4 on :func:`xdot`.
+    """
+    north, east, depth, psi = (float(v) for v in x)
+    speed, yaw_rate, vertical = (float(v) for v in body_rates(u, params))
+    new_psi = psi + yaw_rate * dt
+    if abs(yaw_rate) * dt > 1e-9:
+        radius = speed / yaw_rate
+        north += radius * (math.sin(new_psi) - math.sin(psi))
+        east -= radius * (math.cos(new_psi) - math.cos(psi))
+    else:
+        mid = psi + 0.5 * yaw_rate * dt
+        north += speed * dt * math.cos(mid)
+        east += speed * dt * math.sin(mid)
+    return np.array([north, east, depth + vertical * dt, new_psi])

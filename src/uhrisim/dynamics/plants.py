@@ -69,26 +69,24 @@ class VideoRayPlant:
 
 @dataclass(frozen=True)
 class DiverPlant:
-    """The paper's differential-drive diver integrated by RK4 (not stiff)."""
+    """The paper's differential-drive diver, stepped by its exact zero-order-hold solution."""
 
     params: diver.DiverParams
     dt: float
     name: str = "diver"
-    integrator: FixedStepIntegrator = field(init=False)
     kind = "diver"
     state_size = diver.STATE_SIZE
     input_size = 3
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "integrator",
-                           FixedStepIntegrator.for_model(diver.xdot, self.dt, None, name=self.name))
 
     def initial_state(self, position_ned: NDArray, yaw: float, speed: float = 0.0) -> NDArray:
         del speed  # a kinematic diver has no velocity state
         return np.array([*position_ned, yaw])
 
     def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
-        return self.integrator.step(t, x, u, self.params)
+        x_next = diver.step_exact(x, u, self.params, self.dt)
+        if not np.all(np.isfinite(x_next)):
+            raise NumericalError("state became NaN/inf", vehicle=self.name, t=t + self.dt)
+        return x_next
 
     def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:
         rates = diver.body_rates(u, self.params) if u is not None else np.zeros(3)

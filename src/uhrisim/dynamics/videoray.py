@@ -174,40 +174,68 @@ def stiffest_eigenvalue(params: VideoRayParams) -> float:
     return float(max(rates))
 
 
-def _xdot_floats(s: list[float], surge: float, heave: float, yaw: float, p: VideoRayParams,
-                 sign: float, munk_on: float) -> list[float]:
-    """:func:`xdot` for one vehicle on plain floats (the hot path; tests hold it to xdot)."""
-    psi, uu, v, w, r = s[3], s[4], s[5], s[6], s[7]
-    c, sn = math.cos(psi), math.sin(psi)
-    return [
-        uu * c - v * sn,
-        uu * sn + v * c,
-        w,
-        r,
-        (sign * p.m22 * v * r + p.Xu * uu + p.Xuu * abs(uu) * uu + surge) / p.m11,
-        (-sign * p.m11 * uu * r + p.Yv * v + p.Yvv * abs(v) * v) / p.m22,
-        (p.Zw * w + p.Zww * abs(w) * w + heave) / p.m33,
-        (munk_on * (p.m11 - p.m22) * uu * v + p.Nr * r + p.Nrr * abs(r) * r + yaw) / p.J,
-    ]
+def _thrust_single(command: float, limit: float, linear_ct: float, quadratic: bool,
+                   ct_positive: float, ct_negative: float) -> float:
+    """Float twin of :func:`thruster_forces` for one thruster (held to it by the tests)."""
+    cmd = min(max(command, -limit), limit)
+    if not quadratic:
+        return cmd * linear_ct
+    return cmd * abs(cmd) * (ct_positive if cmd >= 0.0 else ct_negative)
+
+
+def _generalized_forces_single(u: ArrayLike, p: VideoRayParams) -> tuple[float, float, float]:
+    """Float twin of :func:`generalized_forces` for one vehicle: ``(X, Z, N)``."""
+    port_cmd, star_cmd, vert_cmd = (float(v) for v in u)
+    quadratic = p.thrust_map == "quadratic"
+    port = _thrust_single(port_cmd, p.input_limit, p.ct_linear, quadratic,
+                          p.ct_forward_quadratic, p.ct_reverse_quadratic)
+    star = _thrust_single(star_cmd, p.input_limit, p.ct_linear, quadratic,
+                          p.ct_forward_quadratic, p.ct_reverse_quadratic)
+    vert = _thrust_single(vert_cmd, p.input_limit, p.ct_vertical_linear, quadratic,
+                          p.ct_vertical_up_quadratic, p.ct_vertical_down_quadratic)
+    return port + star, -vert, p.moment_arm * (port - star)
 
 
 def rk4_single(x: ArrayLike, u: ArrayLike, params: VideoRayParams, h: float,
                substeps: int) -> NDArray[np.float64]:
     """``substeps`` RK4 steps of size ``h`` for ONE vehicle with inputs held: a fast path
-    equal (to rounding) to :func:`uhrisim.dynamics.integrators.rk4_step` on :func:`xdot`."""
-    surge, heave, yaw = (float(f) for f in generalized_forces(u, params))
-    sign = -1.0 if params.coupling == "paper" else 1.0
-    munk_on = 0.0 if params.coupling == "paper" else 1.0
-    s = [float(value) for value in x]
+    on plain floats, equal (to rounding) to :func:`uhrisim.dynamics.integrators.rk4_step`
+    on :func:`xdot` (a test holds it to that reference)."""
+    p = params
+    surge, heave, yaw_moment = _generalized_forces_single(u, p)
+    sign = -1.0 if p.coupling == "paper" else 1.0
+    munk = 0.0 if p.coupling == "paper" else (p.m11 - p.m22)
+    # Coefficients divided by inertia once: d(vel)/dt = a*coupling + b*vel + c*|vel|*vel + f.
+    cu, cv, cr = sign * p.m22 / p.m11, -sign * p.m11 / p.m22, munk / p.J
+    bu, bv, bw, br = p.Xu / p.m11, p.Yv / p.m22, p.Zw / p.m33, p.Nr / p.J
+    qu, qv, qw, qr = p.Xuu / p.m11, p.Yvv / p.m22, p.Zww / p.m33, p.Nrr / p.J
+    fu, fw, fr = surge / p.m11, heave / p.m33, yaw_moment / p.J
+    north, east, depth, psi, su, sv, sw, sr = (float(v) for v in x)
+    cos, sin = math.cos, math.sin
+
+    def rates(psi: float, uu: float, v: float, w: float, r: float) -> tuple[float, ...]:
+        c, s_ = cos(psi), sin(psi)
+        return (uu * c - v * s_, uu * s_ + v * c, w, r,
+                cu * v * r + bu * uu + qu * abs(uu) * uu + fu,
+                cv * uu * r + bv * v + qv * abs(v) * v,
+                bw * w + qw * abs(w) * w + fw,
+                cr * uu * v + br * r + qr * abs(r) * r + fr)
+
     half, sixth = 0.5 * h, h / 6.0
     for _ in range(substeps):
-        k1 = _xdot_floats(s, surge, heave, yaw, params, sign, munk_on)
-        k2 = _xdot_floats([a + half * b for a, b in zip(s, k1, strict=True)], surge, heave, yaw,
-                          params, sign, munk_on)
-        k3 = _xdot_floats([a + half * b for a, b in zip(s, k2, strict=True)], surge, heave, yaw,
-                          params, sign, munk_on)
-        k4 = _xdot_floats([a + h * b for a, b in zip(s, k3, strict=True)], surge, heave, yaw,
-                          params, sign, munk_on)
-        s = [a + sixth * (b1 + 2.0 * b2 + 2.0 * b3 + b4)
-             for a, b1, b2, b3, b4 in zip(s, k1, k2, k3, k4, strict=True)]
-    return np.array(s)
+        a1, b1, c1, d1, e1, f1, g1, k1 = rates(psi, su, sv, sw, sr)
+        a2, b2, c2, d2, e2, f2, g2, k2 = rates(psi + half * d1, su + half * e1, sv + half * f1,
+                                               sw + half * g1, sr + half * k1)
+        a3, b3, c3, d3, e3, f3, g3, k3 = rates(psi + half * d2, su + half * e2, sv + half * f2,
+                                               sw + half * g2, sr + half * k2)
+        a4, b4, c4, d4, e4, f4, g4, k4 = rates(psi + h * d3, su + h * e3, sv + h * f3,
+                                               sw + h * g3, sr + h * k3)
+        north += sixth * (a1 + 2.0 * (a2 + a3) + a4)
+        east += sixth * (b1 + 2.0 * (b2 + b3) + b4)
+        depth += sixth * (c1 + 2.0 * (c2 + c3) + c4)
+        psi += sixth * (d1 + 2.0 * (d2 + d3) + d4)
+        su += sixth * (e1 + 2.0 * (e2 + e3) + e4)
+        sv += sixth * (f1 + 2.0 * (f2 + f3) + f4)
+        sw += sixth * (g1 + 2.0 * (g2 + g3) + g4)
+        sr += sixth * (k1 + 2.0 * (k2 + k3) + k4)
+    return np.array([north, east, depth, psi, su, sv, sw, sr])

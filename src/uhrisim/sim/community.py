@@ -23,16 +23,24 @@ class Post:
     source: str
 
 
+#: Variables whose every posting matters (one per contact): mailboxes keep them all, in
+#: order, as a list; for every other variable the latest value wins.
+ACCUMULATED_VARS = frozenset({"NODE_REPORT"})
+
+
 class Mailbox:
-    """Variables changed since the reader last drained (latest value wins per variable)."""
+    """Variables changed since the reader last drained."""
 
     def __init__(self) -> None:
-        self._pending: dict[str, Value] = {}
+        self._pending: dict[str, Value | list[Value]] = {}
 
     def deliver(self, var: str, value: Value) -> None:
-        self._pending[var] = value
+        if var in ACCUMULATED_VARS:
+            self._pending.setdefault(var, []).append(value)  # type: ignore[union-attr]
+        else:
+            self._pending[var] = value
 
-    def drain(self) -> dict[str, Value]:
+    def drain(self) -> dict[str, Value | list[Value]]:
         mail, self._pending = self._pending, {}
         return mail
 

@@ -1,0 +1,209 @@
+"""Turn a validated scenario into live agents and scheduled events."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from uhrisim.autonomy.conditions import parse_condition
+from uhrisim.autonomy.config import HelmConfig, parse_domain
+from uhrisim.autonomy.contacts import AlertSpec, ContactManager, ContactManagerConfig
+from uhrisim.autonomy.helm import Helm
+from uhrisim.control.diver import DiverController, DiverGains
+from uhrisim.control.marine_pid import MarinePidController, MarinePidGains
+from uhrisim.control.videoray_p import GAIN_PRESETS, VideoRayPController
+from uhrisim.core.errors import ConfigError
+from uhrisim.core.frames import rot_z
+from uhrisim.dynamics.diver import DiverParams
+from uhrisim.dynamics.kinematic import KinematicParams
+from uhrisim.dynamics.plants import DiverPlant, KinematicPlant, VideoRayPlant
+from uhrisim.dynamics.videoray import VideoRayParams
+from uhrisim.scenario.build_world import material_named, object_mesh
+from uhrisim.scenario.schema import AgentConfig, SonarSensor
+from uhrisim.sim.community import Community
+from uhrisim.sim.drivers import HelmDriver, ScriptedDriver
+from uhrisim.sim.script import ScriptDriver
+from uhrisim.world.assets import diver_parts, videoray_mesh
+from uhrisim.world.materials import NEOPRENE, ROV_PLASTIC
+
+if TYPE_CHECKING:
+    from uhrisim.sim.simulation import Agent, ScheduledEvent, Simulation
+
+#: Collision spheres (m): VideoRay hull ~0.38 x 0.29 x 0.22 m; a prone diver with fins is
+#: ~2.3 m long, a 0.6 m sphere covers the torso and tank where contact matters.
+COLLISION_RADIUS = {"videoray": 0.25, "diver": 0.6, "kinematic": 0.5}
+SCENE_LABEL = {"videoray": "rov", "diver": "diver", "kinematic": "vehicle"}
+
+
+def _plant(cfg: AgentConfig, dt: float):
+    if cfg.model == "videoray":
+        v = cfg.videoray
+        params = VideoRayParams(J=v.J, moment_arm=v.moment_arm, thrust_map=v.thrust_map,
+                                coupling=v.coupling)
+        return VideoRayPlant(params, dt, name=cfg.name)
+    if cfg.model == "diver":
+        limits = cfg.diver_limits
+        params = DiverParams(max_speed=limits.max_speed,
+                             max_turn_rate=math.radians(limits.max_turn_rate_deg),
+                             max_vertical_rate=limits.max_vertical_rate)
+        return DiverPlant(params, dt, name=cfg.name)
+    return KinematicPlant(KinematicParams(), dt, name=cfg.name)
+
+
+def _controller(cfg: AgentConfig, plant):
+    if cfg.model == "videoray":
+        c = cfg.controller
+        overrides = {k: v for k, v in c.model_dump().items() if k != "preset" and v is not None}
+        gains = dataclasses.replace(GAIN_PRESETS[c.preset], **overrides)
+        return VideoRayPController(gains, plant.params)
+    if cfg.model == "diver":
+        return DiverController(DiverGains(), plant.params)
+    return MarinePidController(MarinePidGains())
+
+
+def _sonar(sim: Simulation, cfg: AgentConfig, index: int, sensor: SonarSensor):
+    from uhrisim.sensors.sonar.config import SonarConfig
+    from uhrisim.sensors.sonar.sonar import ImagingSonar
+    from uhrisim.sim.simulation import SonarSlot, ticks_for_rate
+
+    water = sim.scenario.world.water
+    where = sim.source.where("agents", _agent_index(sim, cfg.name), "sensors", index)
+    try:
+        config = SonarConfig(
+            preset=sensor.preset, range_min_m=sensor.min_range, range_max_m=sensor.max_range,
+            rays_per_beam=sensor.rays_per_beam, mount_position_frd=sensor.mount.position,
+            tilt_deg=sensor.mount.tilt_deg, yaw_deg=sensor.mount.yaw_deg,
+            rate_hz=sensor.rate_hz, mode=sensor.mode, speckle=sensor.speckle,
+            fan_size_px=sensor.fan_width_px, water_temperature_c=water.temperature_c,
+            salinity_psu=water.salinity_psu, ph=water.ph)
+    except ConfigError as error:
+        raise ConfigError(str(error), where=where) from None
+    if config.effective_rate_hz < sensor.rate_hz - 1e-9:
+        period = math.ceil(1.0 / (config.effective_rate_hz * sim.dt) - 1e-9)
+    else:
+        period = ticks_for_rate(sensor.rate_hz, sim.dt, f"{where}: rate_hz")
+    name = f"sonar{index}"
+    sonar = ImagingSonar(config, sim.rng(f"{cfg.name}/{name}"))
+    return SonarSlot(name, sonar, period)
+
+
+def _agent_index(sim: Simulation, name: str) -> int:
+    return [a.name for a in sim.scenario.agents].index(name)
+
+
+def known_external_vars(sim: Simulation, agent_name: str) -> set[str]:
+    """Variables posted into this agent's community from outside its helm."""
+    s = sim.scenario
+    known = {b.var for b in s.buttons if b.agent == agent_name}
+    known |= {e.post.var for e in s.events if e.post and e.post.agent == agent_name}
+    known |= {"NODE_REPORT", "MOOS_MANUAL_OVERRIDE"}
+    return known
+
+
+def _helm_driver(sim: Simulation, cfg: AgentConfig, community: Community) -> HelmDriver:
+    index = _agent_index(sim, cfg.name)
+    section = cfg.helm
+    alerts = tuple(AlertSpec(id=a.var.lower(), var=a.var, pattern=a.pattern,
+                             alert_range=a.alert_range, cpa_range=a.cpa_range)
+                   for a in cfg.contacts.alerts)
+    known = known_external_vars(sim, cfg.name) | {a.var for a in alerts}
+    if section.bhv_file:
+        domain = parse_domain(dict(section.domain), sim.source.where(
+            "agents", index, "helm", "domain")) if section.domain else None
+        helm_config = HelmConfig.from_bhv_file(str(sim.source.resolve(section.bhv_file)),
+                                               known_vars=known, domain=domain)
+    else:
+        mapping = {"initialize": dict(section.initialize), "modes": list(section.modes),
+                   "behaviors": [dict(b) for b in section.behaviors]}
+        if section.domain:
+            mapping["domain"] = dict(section.domain)
+        helm_config = HelmConfig.from_mapping(
+            mapping, where=sim.source.where("agents", index, "helm"), known_vars=known)
+    manager = ContactManager(ContactManagerConfig(alerts=alerts), cfg.name) if alerts else None
+    return HelmDriver(Helm(helm_config, cfg.name), manager, community.mailbox())
+
+
+def _add_body(sim: Simulation, cfg: AgentConfig, state) -> None:
+    position, rotation = state[:3], rot_z(state[3])
+    material = material_named(cfg.material, f"agents.{cfg.name}.material") \
+        if cfg.material else None
+    if cfg.model == "diver":
+        sim.scene.add_dynamic(cfg.name, diver_parts(material or NEOPRENE), "diver",
+                              material or NEOPRENE, position, rotation, 0.0)
+    else:
+        sim.scene.add_dynamic(cfg.name, videoray_mesh(), SCENE_LABEL[cfg.model],
+                              material or ROV_PLASTIC, position, rotation)
+
+
+def build_agents(sim: Simulation, sonar_enabled: bool) -> dict[str, Agent]:
+    from uhrisim.sim.simulation import Agent, ticks_for_rate
+
+    agents: dict[str, Agent] = {}
+    for index, cfg in enumerate(sim.scenario.agents):
+        plant = _plant(cfg, sim.dt)
+        start = cfg.start
+        state = plant.initial_state(np.array([start.north, start.east, start.depth]),
+                                    math.radians(start.heading_deg))
+        community = Community(cfg.name)
+        agent = Agent(config=cfg, plant=plant, controller=_controller(cfg, plant),
+                      community=community, state=state, inputs=np.zeros(plant.input_size),
+                      radius=COLLISION_RADIUS[cfg.model])
+        _add_body(sim, cfg, state)
+        if cfg.driver == "helm":
+            agent.driver = _helm_driver(sim, cfg, community)
+            agent.driver_period = ticks_for_rate(
+                cfg.helm.rate_hz, sim.dt, sim.source.where("agents", index, "helm", "rate_hz"))
+        elif cfg.driver == "script":
+            agent.driver = ScriptedDriver(ScriptDriver(cfg.script))
+            agent.driver_period = ticks_for_rate(4.0, sim.dt, f"agents.{cfg.name}.script")
+        if sonar_enabled:
+            agent.sonars = [_sonar(sim, cfg, i, s) for i, s in enumerate(cfg.sensors)]
+        agents[cfg.name] = agent
+    return agents
+
+
+def build_events(sim: Simulation) -> list[ScheduledEvent]:
+    from uhrisim.sim.simulation import ScheduledEvent
+
+    events = []
+    for index, cfg in enumerate(sim.scenario.events):
+        condition = None
+        if cfg.when is not None:
+            condition = parse_condition(cfg.when, sim.source.where("events", index, "when"))
+        events.append(ScheduledEvent(cfg, index, condition))
+    return events
+
+
+def apply_event_action(sim: Simulation, event: ScheduledEvent) -> None:
+    """Carry out a scripted event's action and log it."""
+    cfg = event.config
+    if cfg.post is not None:
+        sim.agents[cfg.post.agent].community.post(cfg.post.var, cfg.post.value, sim.t, "event")
+        sim.record_event("event", f"posted {cfg.post.var}={cfg.post.value} to {cfg.post.agent}")
+    elif cfg.add_object is not None:
+        where = sim.source.where("events", event.index, "add_object")
+        obj = cfg.add_object
+        sim.scene.add_static(object_mesh(obj, sim.source, where), obj.label,
+                             material_named(obj.material, where))
+        sim.refresh_static_obstacles()
+        sim.record_event("event", f"added object {obj.label!r}")
+    elif cfg.move_object is not None:
+        move = cfg.move_object
+        if move.label not in sim.scene.body_names:
+            raise ConfigError(f"move_object: no movable body named {move.label!r}; movable: "
+                              f"{', '.join(sim.scene.body_names)}",
+                              where=sim.source.where("events", event.index, "move_object"))
+        _, rotation, _ = sim.scene.pose(move.label)
+        sim.scene.set_pose(move.label, np.array(move.position.as_list()), rotation)
+        sim.record_event("event", f"moved {move.label!r} to {move.position.as_list()}")
+    elif cfg.script is not None:
+        agent = sim.agents[cfg.agent]
+        if isinstance(agent.driver, ScriptedDriver):
+            agent.driver.script.replace(cfg.script)
+        else:
+            agent.driver = ScriptedDriver(ScriptDriver(cfg.script))
+            agent.driver_period = max(1, round(0.25 / sim.dt))
+        sim.record_event("event", f"new script for {cfg.agent} ({len(cfg.script)} legs)")

@@ -1,0 +1,88 @@
+"""Contact reports from simulation truth (as in the paper), optionally degraded.
+
+Each observing agent receives, at its contacts rate, a NODE_REPORT of every other agent
+(MOOS frame: x east, y north, compass heading), with Gaussian position noise, a fixed
+latency and random dropout drawn from the observer's own random stream. A sonar-based
+tracker can replace this class: anything with ``step(sim, t)`` that posts NODE_REPORTs
+into the observers' communities will do.
+"""
+
+from __future__ import annotations
+
+import heapq
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from uhrisim.autonomy.contacts import NodeReport, format_node_report
+from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned
+
+if TYPE_CHECKING:
+    from uhrisim.sim.simulation import Agent, Simulation
+
+VEHICLE_TYPES = {"videoray": "UUV", "diver": "DIVER", "kinematic": "UUV"}
+VEHICLE_LENGTHS = {"videoray": 0.38, "diver": 2.3, "kinematic": 1.0}  # m
+
+
+def node_report_of(agent: Agent, t: float, position_noise: np.ndarray | None = None) -> str:
+    """The NODE_REPORT string of ``agent`` at time ``t`` (truth plus optional noise, m)."""
+    nav = agent.nav()
+    north, east = nav.position_ned[0], nav.position_ned[1]
+    if position_noise is not None:
+        north, east = north + position_noise[0], east + position_noise[1]
+    x_east, y_north = moos_xy_from_ned(north, east)
+    cfg = agent.config
+    report = NodeReport(
+        name=agent.name, x=round(float(x_east), 3), y=round(float(y_north), 3),
+        speed=round(nav.speed, 3), heading=round(float(heading_deg_from_yaw(nav.yaw)), 2),
+        depth=round(float(nav.position_ned[2]), 3), time=round(t, 3),
+        type=cfg.vehicle_type or VEHICLE_TYPES[cfg.model],
+        mode=str(agent.community.get("MODE", "")),
+        length=cfg.length or VEHICLE_LENGTHS[cfg.model])
+    return format_node_report(report)
+
+
+@dataclass(order=True)
+class _Queued:
+    deliver_at: float
+    sequence: int
+    observer: str
+    report: str
+
+
+class TruthContacts:
+    """Delivers truth NODE_REPORTs to every helm-driven agent."""
+
+    def __init__(self, sim: Simulation) -> None:
+        from uhrisim.sim.simulation import ticks_for_rate
+
+        self._observers = [a for a in sim.agents.values() if a.config.driver == "helm"]
+        self._periods = {
+            a.name: ticks_for_rate(a.config.contacts.rate_hz, sim.dt,
+                                   f"agents.{a.name}.contacts.rate_hz")
+            for a in self._observers}
+        self._rngs = {a.name: sim.rng(f"{a.name}/contacts") for a in self._observers}
+        self._queue: list[_Queued] = []
+        self._sequence = 0
+
+    def step(self, sim: Simulation, t: float) -> None:
+        for observer in self._observers:
+            if sim.tick % self._periods[observer.name]:
+                continue
+            cfg = observer.config.contacts
+            rng = self._rngs[observer.name]
+            for target in sim.agents.values():
+                if target is observer:
+                    continue
+                dropped = rng.random() < cfg.dropout
+                noise = rng.normal(0.0, cfg.position_noise_std, 2)
+                if dropped:
+                    continue
+                report = node_report_of(target, t, noise if cfg.position_noise_std else None)
+                self._sequence += 1
+                heapq.heappush(self._queue, _Queued(t + cfg.latency, self._sequence,
+                                                    observer.name, report))
+        while self._queue and self._queue[0].deliver_at <= t + 1e-9:
+            item = heapq.heappop(self._queue)
+            sim.agents[item.observer].community.post("NODE_REPORT", item.report, t, "contacts")

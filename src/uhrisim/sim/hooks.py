@@ -1,0 +1,95 @@
+"""What the simulation hands to its read-only publish hooks each tick.
+
+Hooks (recorder, metrics, viewer, ROS 2 and MOOS bridges) get copies and immutable
+snapshots; they never mutate simulation state. Commands from outside enter through
+:meth:`uhrisim.sim.simulation.Simulation.post` / ``set_actuators`` instead.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Protocol
+
+from uhrisim.dynamics.plants import NavState
+from uhrisim.sim.community import Post
+
+if TYPE_CHECKING:
+    from uhrisim.sensors.sonar.sonar import SonarPing
+    from uhrisim.sim.simulation import Simulation
+
+
+@dataclass(frozen=True)
+class AgentSnapshot:
+    """One agent at one tick: truth navigation, actuator inputs, desired values, helm mode."""
+
+    name: str
+    model: str
+    nav: NavState
+    inputs: tuple[float, ...]
+    desired_heading_deg: float
+    desired_speed: float
+    desired_depth: float
+    mode: str
+
+
+@dataclass(frozen=True)
+class HelmRecord:
+    """A helm decision for the audit trail (MOOS vocabulary: compass deg, m/s, m)."""
+
+    heading_deg: float | None
+    speed: float | None
+    depth: float | None
+    contributions: Mapping[str, float]
+    total: float
+    mode: str
+    active: tuple[str, ...]
+    all_stop_reason: str | None = None
+
+
+@dataclass(frozen=True)
+class SimEvent:
+    """Something noteworthy: a collision, a scripted event firing, a bridge going down."""
+
+    t: float
+    kind: str
+    detail: str
+
+
+@dataclass(frozen=True)
+class TickFrame:
+    """Everything new at one tick; ``pings``/``helm`` hold only this tick's outputs."""
+
+    tick: int
+    t: float
+    agents: Mapping[str, AgentSnapshot]
+    pings: Mapping[str, SonarPing] = field(default_factory=dict)
+    helm: Mapping[str, HelmRecord] = field(default_factory=dict)
+    posts: tuple[Post, ...] = ()
+    events: tuple[SimEvent, ...] = ()
+
+
+class Hook(Protocol):
+    """A read-only observer of the simulation."""
+
+    def on_start(self, sim: Simulation) -> None: ...
+
+    def on_tick(self, frame: TickFrame) -> None: ...
+
+    def on_end(self, sim: Simulation, error: BaseException | None) -> None: ...
+
+
+class BaseHook:
+    """Convenience base: every callback does nothing."""
+
+    def on_start(self, sim: Simulation) -> None:
+        del sim
+
+    def on_tick(self, frame: TickFrame) -> None:
+        del frame
+
+    def on_end(self, sim: Simulation, error: BaseException | None) -> None:
+        del sim, error
+
+    def summary(self) -> dict[str, Any]:
+        return {}

@@ -1,0 +1,409 @@
+"""The simulation loop: integer ticks, one documented update order, read-only hooks.
+
+One tick of the physics step ``dt`` does, in this order (DESIGN.md, "data flows one way"):
+
+1. **inputs from outside** queued through :meth:`Simulation.post` (bridges, viewer buttons)
+   are posted into the agents' communities;
+2. **scripted events** that are due (time reached, or condition true) fire once;
+3. **dynamics**: every agent's model advances one step with the actuator inputs chosen at
+   the end of the previous tick; collisions stop the move; body poses go to the scene;
+4. **navigation**: NAV_* are posted (at each agent's helm rate);
+5. **contacts**: node reports from simulation truth (degraded as configured) reach the
+   other agents' contact managers at the contact rate;
+6. **sensors**: sonars that are due ping the scene;
+7. **autonomy**: helms and scripts that are due post DESIRED_*;
+8. **control**: controllers turn DESIRED_* into actuator inputs for the next tick;
+9. **hooks** receive a :class:`~uhrisim.sim.hooks.TickFrame`.
+
+Every rate is a whole number of ticks, checked when the simulation is built.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from uhrisim.core.errors import ConfigError
+from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned, rot_z
+from uhrisim.core.rng import component_rng
+from uhrisim.dynamics.plants import NavState
+from uhrisim.scenario.load import ScenarioFile
+from uhrisim.scenario.schema import AgentConfig, EventConfig
+from uhrisim.sim.community import Community, Value
+from uhrisim.sim.hooks import AgentSnapshot, HelmRecord, Hook, SimEvent, TickFrame
+from uhrisim.world.assets import diver_kick_phase_rate
+from uhrisim.world.scene import Scene
+
+log = logging.getLogger(__name__)
+
+SURFACE_DEPTH = 0.0  # m; bodies cannot leave the water
+
+
+def ticks_for_rate(rate_hz: float, dt: float, where: str) -> int:
+    """Whole number of physics steps per period of ``rate_hz``; ConfigError otherwise."""
+    ticks = 1.0 / (rate_hz * dt)
+    whole = round(ticks)
+    if whole < 1 or abs(ticks - whole) > 1e-6 * max(1.0, ticks):
+        raise ConfigError(
+            f"rate {rate_hz:g} Hz is not a whole number of physics steps of {dt:g} s "
+            f"({ticks:.4g} steps); choose a rate that divides the physics rate "
+            f"{1.0 / dt:g} Hz", where=where)
+    return whole
+
+
+@dataclass
+class SonarSlot:
+    """A sonar on an agent with its tick period."""
+
+    name: str
+    sonar: Any  # uhrisim.sensors.sonar.sonar.ImagingSonar
+    period: int
+
+
+@dataclass
+class Agent:
+    """Mutable per-agent state owned by the Simulation (hand out snapshots, not this)."""
+
+    config: AgentConfig
+    plant: Any
+    controller: Any
+    community: Community
+    state: NDArray
+    inputs: NDArray
+    radius: float
+    driver: Any = None
+    driver_period: int = 1
+    control_period: int = 1
+    sonars: list[SonarSlot] = field(default_factory=list)
+    kick_phase: float = 0.0
+    actuator_override: NDArray | None = None
+    actuator_override_until: float = -1.0
+    last_helm: HelmRecord | None = None
+
+    @property
+    def name(self) -> str:
+        return self.config.name
+
+    def nav(self) -> NavState:
+        return self.plant.nav(self.state, self.inputs)
+
+    def desired(self) -> tuple[float, float, float]:
+        c = self.community
+        start = self.config.start
+        return (float(c.get("DESIRED_HEADING", start.heading_deg % 360.0)),
+                float(c.get("DESIRED_SPEED", 0.0)),
+                float(c.get("DESIRED_DEPTH", start.depth)))
+
+
+@dataclass
+class ScheduledEvent:
+    config: EventConfig
+    index: int
+    condition: Any = None
+    fired: bool = False
+
+
+class Simulation:
+    """Owns all mutable state; advance it with :meth:`step` or :meth:`run`."""
+
+    def __init__(self, source: ScenarioFile, *, seed: int | None = None,
+                 sonar_enabled: bool = True, hooks: Sequence[Hook] = ()) -> None:
+        from uhrisim.sim.build import build_agents, build_events  # avoids an import cycle
+
+        self.source = source
+        self.scenario = source.scenario
+        self.seed = self.scenario.seed if seed is None else seed
+        self.dt = 1.0 / self.scenario.physics_rate_hz
+        self.tick = 0
+        self.sonar_enabled = sonar_enabled
+        self.hooks: list[Hook] = list(hooks)
+        self.collisions = 0
+        self.events_log: list[SimEvent] = []
+        self._pending_events: list[SimEvent] = []
+        self._inbox: list[tuple[str, str, Value, str]] = []
+        self._inbox_lock = threading.Lock()
+        self.scene: Scene = build_agents_scene(source)
+        self.agents: dict[str, Agent] = build_agents(self, sonar_enabled)
+        self.contacts = build_contacts(self)
+        self.events: list[ScheduledEvent] = build_events(self)
+        self.raycaster = self.scene.raycaster("embree") if any(
+            a.sonars for a in self.agents.values()) else None
+        self._static_boxes = static_obstacle_boxes(self.scene)
+        floor = self.scene.seafloor
+        self._shallowest_floor = float(np.min(floor.depth)) if floor is not None else np.inf
+        self._scene_dirty = False
+        self._started = False
+        self.wall_time = 0.0
+
+    # -- time -----------------------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        """Simulation time (s) = ticks x physics step."""
+        return self.tick * self.dt
+
+    def rng(self, component: str) -> np.random.Generator:
+        """The named random stream of a component (same seed + name => same stream)."""
+        return component_rng(self.seed, component)
+
+    # -- inputs from outside ---------------------------------------------------------------
+    def post(self, agent: str, var: str, value: Value, source: str = "external") -> None:
+        """Queue a variable for an agent's community (thread-safe; applied next tick)."""
+        if agent not in self.agents:
+            raise ConfigError(f"unknown agent {agent!r}; agents: {', '.join(self.agents)}")
+        with self._inbox_lock:
+            self._inbox.append((agent, var, value, source))
+
+    def set_actuators(self, agent: str, inputs: Sequence[float], hold_s: float = 1.0) -> None:
+        """Drive an agent's actuators directly (an external controller), for ``hold_s``
+        simulated seconds; then its own controller takes over again (a safe fallback)."""
+        target = self.agents[agent]
+        values = np.asarray(inputs, dtype=float)
+        if values.shape != target.inputs.shape or not np.all(np.isfinite(values)):
+            raise ConfigError(f"actuator inputs for {agent!r} must be {target.inputs.size} "
+                              f"finite numbers, got {list(inputs)!r}")
+        target.actuator_override = values
+        target.actuator_override_until = self.t + hold_s
+
+    def refresh_static_obstacles(self) -> None:
+        """Recompute the collision broad phase after static geometry changed."""
+        self._static_boxes = static_obstacle_boxes(self.scene)
+
+    def record_event(self, kind: str, detail: str) -> None:
+        event = SimEvent(self.t, kind, detail)
+        self.events_log.append(event)
+        self._pending_events.append(event)
+        log.info("t=%.2f %s: %s", event.t, kind, detail)
+
+    # -- the loop -------------------------------------------------------------------------
+    def start(self) -> None:
+        if self._started:
+            return
+        self._started = True
+        for agent in self.agents.values():
+            self._post_nav(agent)
+            self._control(agent)
+        for hook in self.hooks:
+            hook.on_start(self)
+
+    def step(self) -> TickFrame:
+        """Advance one physics step and return what happened (also given to the hooks)."""
+        self.start()
+        self._apply_inbox()
+        self._fire_events()
+        for agent in self.agents.values():
+            self._advance(agent)
+        self.tick += 1
+        t = self.t
+        for agent in self.agents.values():
+            if self.tick % agent.driver_period == 0:
+                self._post_nav(agent)
+        self.contacts.step(self, t)
+        pings = self._sense() if self.raycaster is not None else {}
+        helm: dict[str, HelmRecord] = {}
+        for agent in self.agents.values():
+            if agent.driver is not None and self.tick % agent.driver_period == 0:
+                record = agent.driver.tick(t, agent)
+                if record is not None:
+                    agent.last_helm = record
+                    helm[agent.name] = record
+            if self.tick % agent.control_period == 0:
+                self._control(agent)
+        posts = tuple(p for a in self.agents.values() for p in a.community.take_log())
+        frame = TickFrame(self.tick, t, {n: self.snapshot(a) for n, a in self.agents.items()},
+                          pings, helm, posts, tuple(self._pending_events))
+        self._pending_events.clear()
+        for hook in self.hooks:
+            hook.on_tick(frame)
+        return frame
+
+    def run(self, duration: float | None = None,
+            progress: Callable[[float], None] | None = None,
+            should_stop: Callable[[], bool] | None = None) -> None:
+        """Run ``duration`` simulated seconds (default: the scenario's); hooks always end."""
+        duration = self.scenario.duration if duration is None else duration
+        end_tick = self.tick + round(duration / self.dt)
+        error: BaseException | None = None
+        wall_start = time.perf_counter()
+        try:
+            self.start()
+            while self.tick < end_tick:
+                self.step()
+                if progress is not None and self.tick % 100 == 0:
+                    progress(self.t)
+                if should_stop is not None and should_stop():
+                    break
+        except BaseException as exc:
+            error = exc
+            raise
+        finally:
+            self.wall_time += time.perf_counter() - wall_start
+            for hook in self.hooks:
+                hook.on_end(self, error)
+
+    # -- tick stages ----------------------------------------------------------------------
+    def _apply_inbox(self) -> None:
+        with self._inbox_lock:
+            inbox, self._inbox = self._inbox, []
+        for agent, var, value, source in inbox:
+            self.agents[agent].community.post(var, value, self.t, source)
+
+    def _fire_events(self) -> None:
+        from uhrisim.sim.build import apply_event_action
+
+        for event in self.events:
+            if event.fired:
+                continue
+            cfg = event.config
+            due = (cfg.at is not None and self.t >= cfg.at - 1e-9) or (
+                event.condition is not None
+                and event.condition.evaluate(self.agents[cfg.agent].community.values()))
+            if due:
+                event.fired = True
+                apply_event_action(self, event)
+
+    def _advance(self, agent: Agent) -> None:
+        start = agent.state[:3].copy()
+        new_state = agent.plant.step(self.t, agent.state, agent.inputs)
+        if new_state[2] < SURFACE_DEPTH:  # cannot fly out of the water
+            new_state[2] = SURFACE_DEPTH
+            if agent.config.model == "videoray":
+                new_state[6] = max(new_state[6], 0.0)  # no upward heave through the surface
+        end = new_state[:3]
+        fraction = self._clear_fraction(agent, start, end)
+        if fraction < 1.0:
+            self.collisions += 1
+            new_state[:3] = start + (end - start) * max(0.0, fraction - 1e-3)
+            if agent.config.model == "videoray":
+                new_state[4:7] = 0.0  # inelastic stop against the obstacle
+            elif agent.config.model == "kinematic":
+                new_state[4] = 0.0
+        agent.state = new_state
+        if agent.config.model == "diver":
+            speed = abs(agent.nav().speed)
+            agent.kick_phase += diver_kick_phase_rate(speed) * self.dt
+        self._scene_dirty = True
+
+    def _sync_scene(self) -> None:
+        """Move the bodies in the scene to the agents' poses (lazily: only the sonar and
+        the collision narrow phase look at the scene)."""
+        if not self._scene_dirty:
+            return
+        for agent in self.agents.values():
+            nav = agent.nav()
+            self.scene.set_pose(agent.name, nav.position_ned, rot_z(nav.yaw),
+                                agent.kick_phase if agent.config.model == "diver" else None)
+        self._scene_dirty = False
+
+    def _clear_fraction(self, agent: Agent, start: NDArray, end: NDArray) -> float:
+        """Fraction of the move start->end free of other agents and static geometry."""
+        fraction = 1.0
+        for other in self.agents.values():
+            if other is agent:
+                continue
+            gap = np.linalg.norm(end - other.state[:3]) - (agent.radius + other.radius)
+            if gap < 0.0 and np.linalg.norm(start - other.state[:3]) > np.linalg.norm(
+                    end - other.state[:3]):
+                fraction = 0.0
+                self.record_event("collision", f"{agent.name} touched {other.name}")
+        if fraction > 0.0 and self._near_static(agent, end):
+            self._sync_scene()
+            free = self.scene.segment_clear(start, end, agent.radius,
+                                            exclude=frozenset(self.agents))
+            if free < 1.0:
+                fraction = min(fraction, free)
+                self.record_event("collision", f"{agent.name} touched the scene at NED "
+                                  f"{np.round(end, 2).tolist()}")
+        return fraction
+
+    def _near_static(self, agent: Agent, point: NDArray) -> bool:
+        """Cheap broad phase: is ``point`` within reach of any static geometry?"""
+        margin = agent.radius + 0.5
+        if point[2] + margin >= self._shallowest_floor and point[2] + margin >= float(
+                self.scene.depth_at(point[0], point[1])):
+            return True
+        lows, highs = self._static_boxes
+        if lows.size == 0:
+            return False
+        inside = np.all((point >= lows - margin) & (point <= highs + margin), axis=1)
+        return bool(np.any(inside))
+
+    def _post_nav(self, agent: Agent) -> None:
+        nav = agent.nav()
+        x_east, y_north = moos_xy_from_ned(nav.position_ned[0], nav.position_ned[1])
+        c, t, me = agent.community, self.t, "uhrisim"
+        c.post("NAV_X", float(x_east), t, me)
+        c.post("NAV_Y", float(y_north), t, me)
+        c.post("NAV_DEPTH", float(nav.position_ned[2]), t, me)
+        c.post("NAV_HEADING", float(heading_deg_from_yaw(nav.yaw)), t, me)
+        c.post("NAV_SPEED", float(nav.speed), t, me)
+
+    def _sense(self) -> dict[str, Any]:
+        pings = {}
+        for agent in self.agents.values():
+            for slot in agent.sonars:
+                if self.tick % slot.period:
+                    continue
+                self._sync_scene()
+                nav = agent.nav()
+                pings[agent.name] = slot.sonar.ping(
+                    self.raycaster, nav.position_ned, rot_z(nav.yaw), self.t,
+                    exclude=frozenset({agent.name}))
+        return pings
+
+    def _control(self, agent: Agent) -> None:
+        if agent.actuator_override is not None:
+            if self.t <= agent.actuator_override_until:
+                agent.inputs = agent.actuator_override
+                return
+            agent.actuator_override = None
+            self.record_event("actuators", f"{agent.name}: external thruster commands went "
+                              "stale; own controller resumed")
+        heading, speed, depth = agent.desired()
+        agent.inputs = agent.controller.inputs(agent.state, heading, speed, depth)
+
+    # -- read-only views ------------------------------------------------------------------
+    def snapshot(self, agent: Agent) -> AgentSnapshot:
+        heading, speed, depth = agent.desired()
+        return AgentSnapshot(agent.name, agent.config.model, agent.nav(),
+                             tuple(float(v) for v in agent.inputs), heading, speed, depth,
+                             str(agent.community.get("MODE", "")))
+
+    def snapshots(self) -> dict[str, AgentSnapshot]:
+        return {name: self.snapshot(agent) for name, agent in self.agents.items()}
+
+    def close(self) -> None:
+        """Release resources (nothing to do yet; hooks are closed by ``run``)."""
+
+
+def build_agents_scene(source: ScenarioFile) -> Scene:
+    from uhrisim.scenario.build_world import build_static_scene
+
+    return build_static_scene(source)
+
+
+def build_contacts(sim: Simulation):
+    from uhrisim.sim.contacts import TruthContacts
+
+    return TruthContacts(sim)
+
+
+def static_obstacle_boxes(scene: Scene) -> tuple[NDArray, NDArray]:
+    """Axis-aligned bounds (NED) of every static object except the sea floor."""
+    lows, highs = [], []
+    for obj in scene.static_objects:
+        if obj.label == "seafloor":
+            continue
+        bounds = np.asarray(obj.mesh.bounds)
+        lows.append(bounds[0])
+        highs.append(bounds[1])
+    if not lows:
+        return np.empty((0, 3)), np.empty((0, 3))
+    return np.array(lows), np.array(highs)
+
