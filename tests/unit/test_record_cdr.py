@@ -149,3 +149,52 @@ def test_fast_odometry_decoder_agrees_with_mcap_ros2_decoder(stamp, frame, child
                 (p.x, p.y, p.z, o.x, o.y, o.z, o.w, lin.x, lin.y, lin.z, ang.x, ang.y, ang.z))
     assert cdr.decode_odometry(data) == expected
     assert expected[4] == tuple(v)
+
+
+def marker_dict(m: dict) -> dict:
+    """The same marker in mcap_ros2's nested-dict form (all defaults spelled out)."""
+    return {
+        "header": header(m["sec"], m["nanosec"], m["frame_id"]),
+        "ns": m["ns"], "id": m["id"], "type": m["type"], "action": m["action"],
+        "pose": {"position": dict(zip("xyz", m["pose"][:3], strict=True)),
+                 "orientation": dict(zip("xyzw", m["pose"][3:], strict=True))},
+        "scale": dict(zip("xyz", m["scale"], strict=True)),
+        "color": dict(zip("rgba", m["color"], strict=True)),
+        "lifetime": {"sec": 0, "nanosec": 0}, "frame_locked": False,
+        "points": [dict(zip("xyz", p, strict=True)) for p in np.asarray(m["points"]).tolist()],
+        "colors": [dict(zip("rgba", c, strict=True)) for c in np.asarray(m["colors"]).tolist()],
+        "texture_resource": "",
+        "texture": {"header": header(0, 0, ""), "format": "", "data": b""},
+        "uv_coordinates": [], "text": m["text"], "mesh_resource": m["mesh_resource"],
+        "mesh_file": {"filename": "", "data": b""}, "mesh_use_embedded_materials": False,
+    }
+
+
+f32 = st.floats(-1e3, 1e3, allow_nan=False, width=32)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.fixed_dictionaries({
+    "stamp": stamps, "frame_id": frame_ids, "ns": frame_ids, "text": frame_ids,
+    "mesh_resource": frame_ids, "id": st.integers(-2**31, 2**31 - 1),
+    "type": st.integers(0, 12), "action": st.sampled_from([0, 2, 3]),
+    "pose": st.lists(finite, min_size=7, max_size=7),
+    "scale": st.lists(finite, min_size=3, max_size=3),
+    "color": st.lists(f32, min_size=4, max_size=4),
+    "n_points": st.integers(0, 7), "n_colors": st.integers(0, 3), "seed": st.integers(0, 99),
+}), max_size=3))
+def test_marker_array_matches_reference(specs) -> None:
+    markers = []
+    for s in specs:
+        rng = np.random.default_rng(s["seed"])
+        markers.append({
+            "sec": s["stamp"][0], "nanosec": s["stamp"][1], "frame_id": s["frame_id"],
+            "ns": s["ns"], "id": s["id"], "type": s["type"], "action": s["action"],
+            "pose": tuple(s["pose"]), "scale": tuple(s["scale"]), "color": tuple(s["color"]),
+            "points": rng.normal(size=(s["n_points"], 3)),
+            "colors": rng.uniform(size=(s["n_colors"], 4)).astype(np.float32),
+            "text": s["text"], "mesh_resource": s["mesh_resource"],
+        })
+    msg = {"markers": [marker_dict(m) for m in markers]}
+    fast = cdr.encode_marker_array(markers)
+    assert fast == reference("visualization_msgs/msg/MarkerArray", msg)

@@ -579,14 +579,13 @@ class McapRecorder:
         pos_enu = enu_from_ned(pos_ned)
         rot_enu = enu_rotation_from_ned(rot_ned)
         q = quaternion_from_matrix(rot_enu)
-        points: list[dict[str, float]] = []
+        points = np.zeros((0, 3))
         if "points_ned" in spec:
             pts = np.asarray(spec["points_ned"], dtype=float)
             if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):
                 raise ConfigError("points_ned must be finite with shape (N, 3)", where=where)
             # Marker points live in the marker's own frame: world ENU → local FLU.
-            local = (enu_from_ned(pts) - pos_enu) @ rot_enu
-            points = [{"x": x, "y": y, "z": z} for x, y, z in local.tolist()]
+            points = (enu_from_ned(pts) - pos_enu) @ rot_enu
             if kind == "triangle_list" and len(points) % 3:
                 raise ConfigError(
                     f"a triangle_list needs 3k points, got {len(points)}", where=where
@@ -595,29 +594,22 @@ class McapRecorder:
             raise ConfigError(f"a {kind} marker needs points_ned", where=where)
         if kind == "mesh" and "mesh_resource" not in spec:
             raise ConfigError("a mesh marker needs mesh_resource (a URI)", where=where)
+        sec, nanosec = divmod(t_ns, 1_000_000_000)
         return {
-            "header": self._header(t_ns, self.world_frame),
+            "sec": sec,
+            "nanosec": nanosec,
+            "frame_id": self.world_frame,
             "ns": str(spec["ns"]),
             "id": int(spec["id"]),
             "type": MARKER_TYPES[kind],
             "action": _MARKER_ACTIONS[action],
-            "pose": {
-                "position": dict(zip("xyz", pos_enu.tolist(), strict=True)),
-                "orientation": dict(zip("xyzw", q.tolist(), strict=True)),
-            },
-            "scale": dict(zip("xyz", scale.tolist(), strict=True)),
-            "color": dict(zip("rgba", color.tolist(), strict=True)),
-            "lifetime": {"sec": 0, "nanosec": 0},
-            "frame_locked": False,
+            "pose": (*pos_enu.tolist(), *q.tolist()),
+            "scale": tuple(scale.tolist()),
+            "color": tuple(color.tolist()),
             "points": points,
-            "colors": [],
-            "texture_resource": "",
-            "texture": {"header": self._header(0, ""), "format": "", "data": b""},
-            "uv_coordinates": [],
+            "colors": np.zeros((0, 4)),
             "text": str(spec.get("text", "")),
             "mesh_resource": str(spec.get("mesh_resource", "")),
-            "mesh_file": {"filename": "", "data": b""},
-            "mesh_use_embedded_materials": False,
         }
 
     def write_scene_markers(self, t: float, markers: Sequence[Mapping[str, Any]]) -> None:
@@ -638,12 +630,12 @@ class McapRecorder:
         where = "McapRecorder.write_scene_markers"
         self._check_open("write_scene_markers")
         t_ns = _stamp_ns(t, where)
-        msg = {"markers": [self._marker(t_ns, m, i) for i, m in enumerate(markers)]}
+        specs = [self._marker(t_ns, m, i) for i, m in enumerate(markers)]
         self._write(
             "/scene/markers",
             "visualization_msgs/msg/MarkerArray",
             t_ns,
-            self._encode_dynamic("visualization_msgs/msg/MarkerArray", msg),
+            cdr.encode_marker_array(specs),
         )
 
     def write_event(self, t: float, kind: str, detail: str) -> None:
