@@ -397,20 +397,14 @@ class ImagingSonar:
         cell = bins * n_beams + g.ray_beam[idx]
         e = self.ray_intensity(idx, r, cos_inc, mu)
 
-        # Strongest return per cell → label.
-        label_polar = np.full(n_cells, -1, dtype=np.int16)
-        if idx.size:
-            cmax = np.zeros(n_cells)
-            np.maximum.at(cmax, cell, e)
-            win = e >= cmax[cell]
-            label_polar[cell[win]] = labels[win]
-        label_polar = label_polar.reshape(n_bins, n_beams)
-
         if cfg.mode == "physical":
-            raw = self._accumulate(idx, r, cos_inc, e)
-            _fill_footprint_labels(label_polar, raw)
+            raw, label_polar = self._accumulate(idx, r, cos_inc, e, labels if cfg.labels else None)
             polar = self._physical_polar(raw)
         else:
+            # 2013 mode: occupancy of the cell each ray's hit falls in; its label.
+            label_polar = np.full(n_cells, -1, dtype=np.int16)
+            label_polar[cell] = labels  # no intensities: any hit of the cell will do
+            label_polar = label_polar.reshape(n_bins, n_beams)
             polar = np.zeros((n_bins, n_beams), dtype=np.float32)
             polar.reshape(-1)[cell] = 1.0
         polar_u8 = cv2.convertScaleAbs(polar, alpha=255.0)
@@ -437,7 +431,10 @@ class ImagingSonar:
                 borderValue=0,
             )
             fan[~g.fan_mask] = 0
-            label_fan = self._label_fan(label_polar, pts_sonar, e, labels)
+            if cfg.labels:
+                label_fan = self._label_fan(label_polar, pts_sonar, e, labels)
+            else:
+                label_fan = np.full(fan.shape, -1, dtype=np.int16)
             scale, apex = g.fan_scale, g.fan_apex
         else:
             fan, label_fan, apex = image_2013(pts_sonar, labels, cfg)
@@ -487,46 +484,69 @@ class ImagingSonar:
         start = (r - cfg.range_min_m) / cfg.bin_m - 0.5 * length
         return start, length
 
+    def _expand(
+        self, r: NDArray[np.float64], cos_inc: NDArray[np.float64], e: NDArray[np.float64]
+    ) -> tuple[NDArray[np.int32], NDArray[np.int64], NDArray[np.float64]]:
+        """Expand every hit ray into the range bins of its footprint [a, b) (fractional
+        bins, clipped to the window), each bin getting the ray's echo × overlap / length.
+
+        Returns (ray number, bin, echo in that bin) per (ray, bin) pair.
+        """
+        n_bins = self.config.n_bins
+        a, length = self.footprint(r, cos_inc)
+        length = np.maximum(length, 1e-9)
+        dens = e / length
+        top = n_bins * (1.0 - 1e-12)
+        b = np.clip(a + length, 0.0, top)
+        a = np.clip(a, 0.0, top)
+        lo = a.astype(np.int64)
+        n_c = b.astype(np.int64) - lo + 1
+        ray_of = np.repeat(np.arange(r.size, dtype=np.int32), n_c)
+        first = np.cumsum(n_c) - n_c
+        row = np.arange(ray_of.size, dtype=np.int64) - np.repeat(first - lo, n_c)
+        overlap = np.minimum(b[ray_of], row + 1.0)
+        overlap -= np.maximum(a[ray_of], row)
+        overlap *= dens[ray_of]
+        if np.any(n_c == 1):  # a footprint inside one bin holds all of the echo
+            single = n_c[ray_of] == 1
+            overlap[single] = e[ray_of[single]]
+        return ray_of, row, overlap
+
     def _accumulate(
         self,
         idx: NDArray[np.int64],
         r: NDArray[np.float64],
         cos_inc: NDArray[np.float64],
         e: NDArray[np.float64],
-    ) -> NDArray[np.float32]:
-        """Sum ray echoes into (bin, beam) cells, each spread evenly over its footprint
-        [a, b) (fractional bins): the end bins get their overlap, the bins in between
-        e/(b − a) each (difference image + cumulative sum along range: O(rays + cells))."""
+        labels: NDArray[np.int32] | None = None,
+    ) -> tuple[NDArray[np.float32], NDArray[np.int16]]:
+        """Sum ray echoes into (bin, beam) cells, each spread evenly over its range
+        footprint, and label each cell with the scene label of the ray that put the most
+        echo into it (−1: none; all −1 when ``labels`` is None).
+
+        One np.bincount for the sums; one np.maximum.at over (echo, label) pairs packed
+        into int64 keys for the strongest ray per cell.
+        """
         g = self.geometry
         n_bins, n_beams = self.polar_shape
-        a, length = self.footprint(r, cos_inc)
-        length = np.maximum(length, 1e-9)
-        b = a + length
-        top = n_bins * (1.0 - 1e-12)
-        a_c = np.clip(a, 0.0, top)
-        b_c = np.clip(b, 0.0, top)
-        lo = a_c.astype(np.int64)
-        hi = b_c.astype(np.int64)
-        dens = e / length  # echo per bin inside the footprint
-        same = lo == hi
-        w_lo = np.where(same, dens * (b_c - a_c), dens * (lo + 1 - a_c))
-        w_hi = np.where(same, 0.0, dens * (b_c - hi))
-        inner = np.where(hi > lo + 1, dens, 0.0)  # bins lo+1 … hi−1
-        beam = g.ray_beam[idx]
         n_cells = n_bins * n_beams
-        diff = np.bincount(
-            np.concatenate([(lo + 1) * n_beams + beam, hi * n_beams + beam]),
-            weights=np.concatenate([inner, -inner]),
-            minlength=n_cells + n_beams,
-        )[:n_cells].reshape(n_bins, n_beams)
-        raw = np.cumsum(diff, axis=0)
-        raw += np.bincount(
-            np.concatenate([lo * n_beams + beam, hi * n_beams + beam]),
-            weights=np.concatenate([w_lo, w_hi]),
-            minlength=n_cells,
-        ).reshape(n_bins, n_beams)
-        np.maximum(raw, 0.0, out=raw)  # cumulative-sum round-off
-        return raw.astype(np.float32)
+        label_polar = np.full(n_cells, -1, dtype=np.int16)
+        if idx.size == 0:
+            return np.zeros((n_bins, n_beams), np.float32), label_polar.reshape(n_bins, n_beams)
+        ray_of, row, w = self._expand(r, cos_inc, e)
+        cell = row * n_beams
+        cell += g.ray_beam[idx][ray_of]
+        raw = np.bincount(cell, weights=w, minlength=n_cells).astype(np.float32)
+        if labels is not None:
+            # Pack (log2 echo in 2^-16 steps, label + 1) into one int64; max = strongest.
+            key = (np.log2(np.maximum(w, 1e-300)) * 65536.0 + 2.0**40).astype(np.int64)
+            key <<= 16
+            key |= (labels.astype(np.int64)[ray_of] + 1) & 0xFFFF
+            best = np.zeros(n_cells, dtype=np.int64)
+            np.maximum.at(best, cell, key)
+            hit = best > 0
+            label_polar[hit] = (best[hit] & 0xFFFF) - 1
+        return raw.reshape(n_bins, n_beams), label_polar.reshape(n_bins, n_beams)
 
     def _physical_polar(self, raw: NDArray[np.float32]) -> NDArray[np.float32]:
         """Beam pattern + pulse blur, gain/TVG, noise, speckle, log compression → 0…1."""
@@ -606,26 +626,6 @@ class ImagingSonar:
             z=xyz[:, 2].copy(),
             intensity=ray_disp,
         )
-
-
-def _fill_footprint_labels(label_polar: NDArray[np.int16], raw: NDArray[np.float32]) -> None:
-    """Give cells that hold echo energy spread from a footprint (but no ray centre) the
-    label of the nearest labelled cell along range in the same beam (in place)."""
-    has = label_polar >= 0
-    need = (raw > 0.0) & ~has
-    if not need.any():
-        return
-    n_bins = label_polar.shape[0]
-    rows = np.arange(n_bins, dtype=np.int32)[:, None]
-    fwd = np.where(has, rows, np.int32(-(1 << 30)))
-    np.maximum.accumulate(fwd, axis=0, out=fwd)
-    bwd = np.where(has, rows, np.int32(1 << 30))[::-1]
-    bwd = np.minimum.accumulate(bwd, axis=0)[::-1]
-    src = np.where(rows - fwd <= bwd - rows, fwd, bwd)
-    rr, cc = np.nonzero(need)
-    srow = src[rr, cc]
-    ok = (srow >= 0) & (srow < n_bins)
-    label_polar[rr[ok], cc[ok]] = label_polar[srow[ok], cc[ok]]
 
 
 def image_2013(
