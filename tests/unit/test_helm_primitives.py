@@ -113,7 +113,8 @@ def test_coupler_scaling():
 # ---------------------------------------------------------------------------- CPA
 def test_cpa_crossing_tracks():
     # own (0,0) north at 1; contact (10,10) west at 1: both at (0,10) at t=10 -> 0
-    assert float(cpa_distance(0, 0, 0.0, 1.0, 10, 10, 270.0, 1.0, 60)) == pytest.approx(0, abs=1e-9)
+    # (sqrt of a rounding-level r^2 + 2bt + at^2 ~ 1e-14 m^2: sub-micron, hence abs=1e-6)
+    assert float(cpa_distance(0, 0, 0.0, 1.0, 10, 10, 270.0, 1.0, 60)) == pytest.approx(0, abs=1e-6)
     # contact 2 m further north: r0 = (-10,-12), w = (1,1), t* = 22/2 = 11, r = (1,-1)
     assert float(cpa_time(0, 0, 0.0, 1.0, 10, 12, 270.0, 1.0, 60)) == pytest.approx(11.0)
     assert float(cpa_distance(0, 0, 0.0, 1.0, 10, 12, 270.0, 1.0, 60)) == pytest.approx(

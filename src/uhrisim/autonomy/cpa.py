@@ -25,6 +25,39 @@ def velocity_xy(heading_deg: ArrayLike, speed: ArrayLike) -> tuple[NDArray, NDAr
     return s * np.sin(h), s * np.cos(h)
 
 
+def _relative(
+    osx: float,
+    osy: float,
+    courses_deg: ArrayLike,
+    speeds: ArrayLike,
+    cnx: float,
+    cny: float,
+    cnh_deg: float,
+    cnv: float,
+    horizon: float,
+) -> tuple[NDArray, NDArray, NDArray, float]:
+    """(a = |w|^2, b = r0.w, t* clipped, |r0|^2) broadcast over courses x speeds."""
+    c = np.radians(np.asarray(courses_deg, dtype=float))
+    s = np.asarray(speeds, dtype=float)
+    h = np.radians(cnh_deg)
+    shape = np.broadcast_shapes(c.shape, s.shape)
+    wx = (s * np.sin(c)).reshape(-1)  # flat working copies (always real arrays)
+    wx -= cnv * np.sin(h)
+    wy = (s * np.cos(c)).reshape(-1)
+    wy -= cnv * np.cos(h)
+    dx, dy = osx - cnx, osy - cny
+    a = wx * wx
+    a += wy * wy
+    wx *= dx
+    wy *= dy
+    b = np.add(wx, wy, out=wx)
+    # a == 0 only when w == 0, where b == 0 too: t = 0 (no relative motion)
+    t = np.divide(b, a + 1e-300)
+    np.negative(t, out=t)
+    np.clip(t, 0.0, max(horizon, 0.0), out=t)
+    return a.reshape(shape), b.reshape(shape), t.reshape(shape), dx * dx + dy * dy
+
+
 def cpa_time(
     osx: float,
     osy: float,
@@ -37,14 +70,7 @@ def cpa_time(
     horizon: float,
 ) -> NDArray[np.float64]:
     """Time (s) of closest approach in [0, horizon], broadcast over courses and speeds."""
-    vx, vy = velocity_xy(courses_deg, speeds)
-    cvx, cvy = velocity_xy(cnh_deg, cnv)
-    wx, wy = vx - cvx, vy - cvy
-    dx, dy = osx - cnx, osy - cny
-    a = wx * wx + wy * wy
-    b = dx * wx + dy * wy
-    t = np.divide(-b, a, out=np.zeros(np.broadcast(a, b).shape), where=a > 1e-12)
-    return np.clip(t, 0.0, max(horizon, 0.0))
+    return _relative(osx, osy, courses_deg, speeds, cnx, cny, cnh_deg, cnv, horizon)[2]
 
 
 def cpa_distance(
@@ -60,12 +86,17 @@ def cpa_distance(
 ) -> NDArray[np.float64]:
     """CPA distance (m) over [0, horizon] for own course/speed candidates (broadcast).
 
-    Pass ``courses[:, None]`` and ``speeds[None, :]`` to get the full (n_course, n_speed) grid.
+    Pass ``courses[:, None]`` and ``speeds[None, :]`` to get the full (n_course, n_speed)
+    grid. range(t)^2 = |r0|^2 + 2 b t + a t^2 evaluated at the clipped t*.
     """
-    vx, vy = velocity_xy(courses_deg, speeds)
-    cvx, cvy = velocity_xy(cnh_deg, cnv)
-    t = cpa_time(osx, osy, courses_deg, speeds, cnx, cny, cnh_deg, cnv, horizon)
-    return np.hypot(osx - cnx + (vx - cvx) * t, osy - cny + (vy - cvy) * t)
+    a, b, t, r2 = _relative(osx, osy, courses_deg, speeds, cnx, cny, cnh_deg, cnv, horizon)
+    a *= t
+    b *= 2.0
+    a += b
+    a *= t
+    a += r2
+    np.maximum(a, 0.0, out=a)
+    return np.sqrt(a, out=a)
 
 
 def cpa_distance_reference(

@@ -48,8 +48,12 @@ def relevance(range_m: float, outer: float, inner: float, grade: str) -> float:
 def cpa_utility(cpa: np.ndarray, min_util: float, max_util: float) -> np.ndarray:
     """0 below ``min_util``, 100 above ``max_util``, 25 -> 100 linearly between."""
     span = max(max_util - min_util, 1e-9)
-    mid = 25.0 + 75.0 * (cpa - min_util) / span
-    return np.where(cpa <= min_util, 0.0, np.where(cpa >= max_util, 100.0, mid))
+    u = cpa - min_util
+    u *= 75.0 / span
+    u += 25.0
+    np.clip(u, 25.0, 100.0, out=u)
+    u[cpa <= min_util] = 0.0
+    return u
 
 
 @dataclass(frozen=True)

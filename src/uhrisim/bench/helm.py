@@ -1,0 +1,97 @@
+"""Benchmark: helm decisions per second with 1, 3 and 10 active behaviors.
+
+Each decision is a full :meth:`Helm.step` (mail handling, modes, conditions, every
+behavior's objective over the paper's course x speed grid 360 x 26 (+ depth 101 for
+ConstantDepth), fusion and argmax). Target (task brief): the paper's 4 Hz helm costs well
+under 1 % of one core, i.e. ``4 * seconds_per_decision < 0.01``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+from uhrisim.autonomy import Helm, HelmConfig, NodeReport, format_node_report
+
+HELM_HZ = 4.0
+TARGET_CORE_FRACTION = 0.01
+
+_CONTACTS = ("diver", "boat", "kayak")
+
+
+def _behaviors(n: int) -> list[dict]:
+    pool = [
+        {"type": "Loiter", "name": "loiter", "speed": 1.0,
+         "polygon": "format=radial, x=10, y=-20, radius=20, pts=8"},
+        {"type": "Trail", "name": "trail_diver", "contact": "diver", "pwt": 300,
+         "trail_range": 2, "radius": 0.5, "nm_radius": 15},
+        {"type": "AvoidCollision", "name": "avd_diver", "contact": "diver", "pwt": 200,
+         "pwt_outer_dist": 200, "pwt_inner_dist": 20},
+        {"type": "ConstantDepth", "name": "depth", "depth": 3},
+        {"type": "Waypoint", "name": "wpt", "points": "0,100:50,50", "speed": 1.0},
+        {"type": "StationKeep", "name": "sk", "station_pt": "30,30"},
+        {"type": "AvoidCollision", "name": "avd_boat", "contact": "boat",
+         "pwt_outer_dist": 200, "pwt_inner_dist": 20},
+        {"type": "AvoidCollision", "name": "avd_kayak", "contact": "kayak",
+         "pwt_outer_dist": 200, "pwt_inner_dist": 20},
+        {"type": "Trail", "name": "trail_boat", "contact": "boat", "trail_range": 10},
+        {"type": "Trail", "name": "trail_kayak", "contact": "kayak", "trail_range": 10},
+    ]  # fmt: skip
+    return pool[:n]
+
+
+def _mail(t: float) -> dict:
+    reports = [
+        format_node_report(
+            NodeReport(name, 20.0 * math.cos(0.05 * t + k), 20.0 * math.sin(0.05 * t + k),
+                       0.5, (90.0 * k + 3.0 * t) % 360.0, 2.0, time=t)
+        )
+        for k, name in enumerate(_CONTACTS)
+    ]  # fmt: skip
+    return {"NAV_X": 0.5 * t, "NAV_Y": 1.0, "NAV_HEADING": 45.0, "NAV_SPEED": 1.0,
+            "NAV_DEPTH": 2.0, "NODE_REPORT": reports}  # fmt: skip
+
+
+def _measure(n_behaviors: int, n_steps: int) -> dict:
+    cfg = HelmConfig.from_mapping({"behaviors": _behaviors(n_behaviors)})
+    helm = Helm(cfg, "videoray")
+    mails = [_mail(0.25 * i) for i in range(n_steps + 5)]
+    for i in range(5):
+        helm.step(0.25 * i, mails[i])
+    active = len(helm.last_output.active) if helm.last_output else 0
+    t0 = time.perf_counter()
+    for i in range(5, n_steps + 5):
+        helm.step(0.25 * i, mails[i])
+    dt = (time.perf_counter() - t0) / n_steps
+    frac = HELM_HZ * dt
+    return {
+        "behaviors": n_behaviors,
+        "active_behaviors": active,
+        "decisions_per_s": 1.0 / dt,
+        "ms_per_decision": 1e3 * dt,
+        "core_fraction_at_4hz": frac,
+        "meets_target": frac < TARGET_CORE_FRACTION,
+    }
+
+
+def run(quick: bool = False) -> dict:
+    """Measure helm cost; ``quick`` uses few iterations (smoke test)."""
+    n_steps = 20 if quick else 400
+    cases = [_measure(n, n_steps) for n in (1, 3, 10)]
+    return {
+        "config": {
+            "grid": "course 0..359 x 360, speed 0..5 x 26, depth 0..100 x 101 (optional)",
+            "helm_hz": HELM_HZ,
+            "steps_per_case": n_steps,
+            "contacts": len(_CONTACTS),
+        },
+        "target": {"core_fraction_at_4hz_below": TARGET_CORE_FRACTION},
+        "cases": {f"{c['behaviors']}_behaviors": c for c in cases},
+        "meets_target": all(c["meets_target"] for c in cases),
+    }
+
+
+if __name__ == "__main__":  # pragma: no cover
+    import json
+
+    print(json.dumps(run(), indent=2))
