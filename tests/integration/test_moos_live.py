@@ -243,7 +243,9 @@ def test_db_killed_and_restarted_is_survived_without_blocking():
         # re-registration after the restart: DESIRED_HEADING reaches the bridge again
         obs.notify("DESIRED_HEADING", 271.0)
         assert wait_until(lambda: bridge.desired()[0] == 271.0, 3.0)
-        assert worst < 0.05, f"a bridge call blocked for {worst * 1e3:.1f} ms"
+        # a call that waited on the network would wait out the 1 s connect timeout; the
+        # generous bound leaves room for a loaded CI machine
+        assert worst < 0.25, f"a bridge call blocked for {worst * 1e3:.1f} ms"
     finally:
         bridge.close()
         obs.close()

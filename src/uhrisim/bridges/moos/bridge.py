@@ -225,9 +225,16 @@ class MoosAgentBridge:
 
         Non-blocking: takes whatever the client thread has collected since the last call.
         """
-        for m in self.client.drain():
-            self._latest[m.key] = (m.value, m.time)
+        self.poll()
         return dict(self._latest)
+
+    def poll(self) -> list[tuple[str, float | str | bytes, float]]:
+        """New ``(var, value, moos_time)`` arrivals since the last call, oldest first
+        (also folded into :meth:`received`). Non-blocking."""
+        new = [(m.key, m.value, m.time) for m in self.client.drain()]
+        for key, value, t in new:
+            self._latest[key] = (value, t)
+        return new
 
     def desired(self) -> tuple[float | None, float | None, float | None]:
         """(DESIRED_HEADING deg, DESIRED_SPEED m/s, DESIRED_DEPTH m), None where unheard."""

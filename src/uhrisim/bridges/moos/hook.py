@@ -1,0 +1,144 @@
+"""A simulation hook that attaches agents to MOOS communities (``uhrisim run FILE --moos``).
+
+Each tick the hook (a read-only observer, like the recorder) posts the linked agents'
+navigation to their MOOS community at ``nav_rate_hz`` (simulated time) and feeds what the
+community posts back (DESIRED_*, mode variables, ...) into the agent's own community
+through :meth:`Simulation.post` - the typed input path every outside command uses, applied
+at the start of the next tick. Connection changes are recorded as ``bridge`` events.
+
+The hook does not pace the loop: to run in step with a live community, pace the
+simulation at MOOSTimeWarp x real time (e.g. ``uhrisim.bridges.ros2.pacing.Pacer``), and
+switch off the agent's built-in helm so that the MOOS helm's DESIRED_* are obeyed.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from uhrisim.bridges.moos.bridge import MoosAgentBridge
+from uhrisim.core.errors import ConfigError
+from uhrisim.core.frames import heading_deg_from_yaw
+from uhrisim.sim.hooks import BaseHook, TickFrame
+
+if TYPE_CHECKING:
+    from uhrisim.sim.simulation import Simulation
+
+__all__ = ["MoosAgentLink", "MoosBridgeHook"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class MoosAgentLink:
+    """How one simulated agent meets its MOOS community.
+
+    ``nav_rate_hz``: NAV_*/NODE_REPORT posting rate in simulated time (uSimMarine posts
+    every AppTick, typically 10 Hz). ``subscribe``/``extra_vars``: variables taken back
+    and posted into the agent's community. ``vehicle_type``/``length``: NODE_REPORT
+    TYPE and LENGTH (m).
+    """
+
+    agent: str
+    port: int = 9000
+    host: str = "127.0.0.1"
+    community: str | None = None
+    nav_rate_hz: float = 10.0
+    subscribe: tuple[str, ...] = ("DESIRED_HEADING", "DESIRED_SPEED", "DESIRED_DEPTH")
+    extra_vars: tuple[str, ...] = ()
+    vehicle_type: str = "UUV"
+    length: float = 1.0
+
+
+class MoosBridgeHook(BaseHook):
+    """One :class:`MoosAgentBridge` per link, driven by the simulation's ticks.
+
+    ``lat_origin``/``long_origin`` default to the scenario's. ``strict=True`` makes an
+    unreachable MOOSDB an error at start; otherwise the bridges keep retrying.
+    """
+
+    def __init__(
+        self,
+        links: Sequence[MoosAgentLink],
+        *,
+        lat_origin: float | None = None,
+        long_origin: float | None = None,
+        time_warp: float = 1.0,
+        time_source: str = "moos",
+        strict: bool = False,
+        bridge_factory: Callable[..., MoosAgentBridge] = MoosAgentBridge,
+    ) -> None:
+        names = [link.agent for link in links]
+        if len(set(names)) != len(names):
+            raise ConfigError(f"MOOS links: an agent is linked twice: {names}")
+        self.links = tuple(links)
+        self._origin = (lat_origin, long_origin)
+        self._time_warp = time_warp
+        self._time_source = time_source
+        self._strict = strict
+        self._factory = bridge_factory
+        self.bridges: dict[str, MoosAgentBridge] = {}
+        self._periods: dict[str, int] = {}
+        self._was_connected: dict[str, bool] = {}
+        self._sim: Simulation | None = None
+        self.n_in = 0
+
+    def on_start(self, sim: Simulation) -> None:
+        self._sim = sim
+        lat0 = self._origin[0] if self._origin[0] is not None else sim.scenario.lat_origin
+        lon0 = self._origin[1] if self._origin[1] is not None else sim.scenario.long_origin
+        for link in self.links:
+            if link.agent not in sim.agents:
+                raise ConfigError(f"MOOS link names unknown agent {link.agent!r}; agents: "
+                                  f"{', '.join(sim.agents)}")
+            if link.nav_rate_hz <= 0:
+                raise ConfigError(f"MOOS link {link.agent!r}: nav_rate_hz must be > 0")
+            self._periods[link.agent] = max(1, round(1.0 / (link.nav_rate_hz * sim.dt)))
+            self.bridges[link.agent] = self._factory(
+                link.agent, link.host, link.port, link.community, lat0, lon0,
+                self._time_warp, link.subscribe, link.extra_vars,
+                time_source=self._time_source, strict=self._strict)
+            self._was_connected[link.agent] = False
+
+    def on_tick(self, frame: TickFrame) -> None:
+        sim = self._sim
+        if sim is None:
+            return
+        for link in self.links:
+            name = link.agent
+            bridge = self.bridges[name]
+            snap = frame.agents.get(name)
+            if snap is not None and frame.tick % self._periods[name] == 0:
+                nav = snap.nav
+                bridge.publish_nav(frame.t, float(nav.position_ned[0]),
+                                   float(nav.position_ned[1]), float(nav.position_ned[2]),
+                                   float(heading_deg_from_yaw(nav.yaw)), nav.speed,
+                                   link.vehicle_type, link.length, _mode(snap.mode))
+            for var, value, _t in bridge.poll():
+                if isinstance(value, bytes):
+                    continue  # binary MOOS data has no place in the community store
+                sim.post(name, var, value, source="moos")
+                self.n_in += 1
+            up = bridge.connected
+            if up != self._was_connected[name]:
+                self._was_connected[name] = up
+                sim.record_event("bridge", f"moos {name}: {bridge.status}")
+
+    def on_end(self, sim: Simulation, error: BaseException | None) -> None:
+        del sim, error
+        for bridge in self.bridges.values():
+            bridge.close()
+
+    def summary(self) -> dict[str, Any]:
+        return {"moos": {name: {"connected": b.connected, "status": b.status,
+                                "sent": b.client.n_sent, "received": b.client.n_received,
+                                "reconnects": max(0, b.client.n_connects - 1)}
+                         for name, b in self.bridges.items()}}
+
+
+def _mode(mode: str) -> str:
+    """A helm mode as a NODE_REPORT MODE value (no ',' or '=')."""
+    text = str(mode).replace(",", ";").replace("=", ":")
+    return text or "NONE"
