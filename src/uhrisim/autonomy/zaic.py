@@ -53,12 +53,12 @@ def zaic_peak(
     else:
         in_peak = np.full_like(d, maxutil)
         edge = maxutil
-    u = np.full_like(d, minutil)
     if bw > 0.0:
-        frac = np.clip((d - pw) / bw, 0.0, 1.0)
-        u = np.where((d > pw) & (d <= pw + bw), edge - (edge - minutil) * frac, u)
-    u = np.where(d <= pw, in_peak, u)
-    return u
+        # linear from edge at d = pw to min at d = pw + bw, clamped at min beyond
+        base = np.maximum(edge - (edge - minutil) / bw * (d - pw), minutil)
+    else:
+        base = np.full_like(d, minutil)
+    return np.where(d <= pw, in_peak, base)
 
 
 def zaic_peak_on_axis(
