@@ -136,3 +136,17 @@ def test_config_errors():
     with pytest.raises(ConfigError, match="unknown key"):
         ContactManagerConfig.from_mapping({"alert": []})
     assert _cm().config.alert_vars == ("TRAIL_INFO", "CONTACT_INFO")
+
+
+def test_relay_follows_the_diver_depth():
+    cfg = ContactManagerConfig.from_mapping(
+        {"relays": [{"var": "DEPTH_UPDATES", "pattern": "depth=$[DEP]", "contact": "Diver"}]}
+    )
+    assert cfg.alert_vars == ("DEPTH_UPDATES",)
+    cm = ContactManager(cfg, "videoray")
+    own = OwnNav(0.0, 0.0, 0.0, 0.0)
+    assert dict(cm.step(0.0, own, ["NAME=diver,X=1,Y=1,DEP=2.5"]))["DEPTH_UPDATES"] == "depth=2.5"
+    assert "DEPTH_UPDATES" not in dict(cm.step(0.25, own, ["NAME=diver,X=2,Y=1,DEP=2.5"]))
+    assert dict(cm.step(0.5, own, ["NAME=diver,X=2,Y=1,DEP=3"]))["DEPTH_UPDATES"] == "depth=3"
+    with pytest.raises(ConfigError, match="relay needs"):
+        ContactManagerConfig.from_mapping({"relays": [{"var": "X", "pattern": "p"}]})

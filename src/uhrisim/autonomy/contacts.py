@@ -15,6 +15,11 @@ projected CPA (both on current course and speed, over ``cpa_time`` s) inside
 ``$[HDG]``, ``$[SPD]``, ``$[DEP]``, ``$[VTYPE]``, ``$[UTIME]``. It also posts
 ``CONTACTS_LIST``, ``CONTACTS_ALERTED``, ``CONTACTS_RETIRED`` when they change. Contacts not
 heard from for ``contact_max_age`` s are retired.
+
+Relays (a uhrisim extension, not in pBasicContactMgr): ``relays`` post a pattern (same
+substitutions) every time a named contact's report changes the expanded text, e.g.
+``{var: DEPTH_UPDATES, pattern: "depth=$[DEP]", contact: diver}`` makes the ROV's
+ConstantDepth (``updates = DEPTH_UPDATES``) follow the diver's depth, as in the paper.
 """
 
 from __future__ import annotations
@@ -38,6 +43,7 @@ __all__ = [
     "ContactManagerConfig",
     "ContactRecord",
     "NodeReport",
+    "RelaySpec",
     "format_node_report",
     "parse_node_report",
 ]
@@ -229,21 +235,42 @@ def _split_outside_quotes(s: str) -> list[str]:
 
 
 @dataclass(frozen=True)
+class RelaySpec:
+    """Post ``pattern`` expanded for ``contact`` to ``var`` whenever the text changes."""
+
+    var: str
+    pattern: str
+    contact: str
+
+
+def parse_relay(v: object, where: str) -> RelaySpec:
+    if not isinstance(v, Mapping):
+        raise ConfigError("a relay must be a mapping {var, pattern, contact}", where)
+    unknown = set(v) - {"var", "pattern", "contact"}
+    if unknown or not {"var", "pattern", "contact"} <= set(v):
+        raise ConfigError(
+            f"a relay needs exactly var, pattern, contact (got {sorted(map(str, v))})", where
+        )
+    return RelaySpec(str(v["var"]), str(v["pattern"]), str(v["contact"]))
+
+
+@dataclass(frozen=True)
 class ContactManagerConfig:
     """Alerts and bookkeeping. ``decay`` (s) feeds the dead reckoning of contacts."""
 
     alerts: tuple[AlertSpec, ...] = ()
     contact_max_age: float = 600.0
     decay: tuple[float, float] = (30.0, 60.0)
+    relays: tuple[RelaySpec, ...] = ()
 
     @property
     def alert_vars(self) -> tuple[str, ...]:
-        """Variables the manager posts as alerts (give them to HelmConfig validation)."""
-        return tuple(dict.fromkeys(a.var for a in self.alerts))
+        """Variables the manager posts (alerts and relays): give them to HelmConfig checks."""
+        return tuple(dict.fromkeys([a.var for a in self.alerts] + [r.var for r in self.relays]))
 
     @classmethod
     def from_mapping(cls, m: Mapping[str, Any], where: str = "contacts") -> ContactManagerConfig:
-        allowed = ("alerts", "contact_max_age", "decay")
+        allowed = ("alerts", "contact_max_age", "decay", "relays")
         for k in m:
             if k not in allowed:
                 raise ConfigError(f"unknown key {k!r} (known: {', '.join(allowed)})", where)
@@ -257,7 +284,10 @@ class ContactManagerConfig:
         d = (to_float(parts[0], "decay", where), to_float(parts[1], "decay", where))
         LinearExtrapolator(*d)
         age = to_float(m.get("contact_max_age", 600.0), "contact_max_age", where)
-        return cls(alerts, age, d)
+        relays = tuple(
+            parse_relay(r, f"{where}.relays[{i}]") for i, r in enumerate(m.get("relays", []))
+        )
+        return cls(alerts, age, d, relays)
 
 
 @dataclass
@@ -341,6 +371,15 @@ class ContactManager:
                     rec.alerted.add(a.id)
                     posts.append((a.var, self._expand(a.pattern, rec, t)))
                     log.debug("alert %s for contact %s at t=%.2f", a.id, rec.name, t)
+        for rl in self.config.relays:
+            rec = self.contacts.get(rl.contact.lower())
+            if rec is None:
+                continue
+            text = self._expand(rl.pattern, rec, t)
+            key = f"relay:{rl.var}:{rl.contact.lower()}"
+            if self._last_posted.get(key) != text:
+                posts.append((rl.var, text))
+                self._last_posted[key] = text
         lists = {
             "CONTACTS_LIST": ",".join(c.name for c in self.contacts.values()),
             "CONTACTS_ALERTED": ",".join(
