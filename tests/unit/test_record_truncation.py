@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 from pathlib import Path
 
+import numpy as np
 import pytest
 from mcap.reader import NonSeekingReader, make_reader
 
@@ -70,3 +71,25 @@ def test_flush_period_bounds_what_a_crash_loses(tmp_path: Path) -> None:
     assert counts["/rov/odom"][1] == 31  # everything up to and including t = 3.0 s
     rec.close()
     assert summarize(path).topics["/rov/odom"][1] == 35
+
+
+def test_recover_makes_a_truncated_file_readable_by_rosbags(tmp_path: Path) -> None:
+    from rosbags.highlevel import AnyReader
+
+    from uhrisim.record import read_odometry, recover
+
+    full = tmp_path / "full.mcap"
+    with McapRecorder(full, chunk_size=2000) as rec:
+        for i in range(100):
+            rec.write_odometry("rov", 0.1 * i, (0.1 * i, 0, 1), 0.0, (1, 0, 0), 0.0)
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(full.read_bytes()[: full.stat().st_size // 2])
+    # (rosbags 0.11 refuses ``cut`` itself: "File end magic is invalid".)
+    fixed = tmp_path / "fixed.mcap"
+    n = recover(cut, fixed)
+    assert n == sum(c for _, c in summarize(cut).topics.values()) > 0
+    with AnyReader([fixed]) as reader:
+        got = [(c.topic, t) for c, t, _raw in reader.messages()]
+    assert got == [(c.topic, m.log_time) for _s, c, m in iter_raw_messages(cut)]
+    np.testing.assert_array_equal(read_odometry(fixed)["rov"].t, read_odometry(cut)["rov"].t)
+    assert not summarize(fixed).truncated

@@ -16,6 +16,7 @@ from uhrisim.record.reader import (
     read_odometry,
     summarize,
 )
+from uhrisim.record.recover import recover
 
 __all__ = [
     "MARKER_TYPES",
@@ -27,6 +28,7 @@ __all__ = [
     "iter_messages",
     "iter_raw_messages",
     "read_odometry",
+    "recover",
     "ros_name",
     "scene_markers",
     "summarize",

@@ -1,0 +1,63 @@
+"""Turn a recording cut short by a crash into a complete, indexed MCAP file.
+
+A killed run leaves an MCAP file without summary and footer (see
+:mod:`uhrisim.record.reader`). Foxglove can stream such a file, but ``rosbags``
+("File end magic is invalid"), ``ros2 bag`` and ``mcap``'s seeking reader refuse it.
+:func:`recover` copies every message of every complete chunk — bytes untouched, same
+schemas, channels, times and sequence numbers — into a new, finished file.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+from mcap.records import Channel, Schema
+from mcap.writer import CompressionType
+from mcap.writer import Writer as McapWriter
+
+from uhrisim.core.errors import UhrisimError
+from uhrisim.record.reader import _scan, _ScanState
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["recover"]
+
+
+def recover(src: Path | str, dst: Path | str, chunk_size: int = 1024 * 1024) -> int:
+    """Copy the readable messages of ``src`` into a complete MCAP file ``dst``.
+
+    Returns the number of messages copied. ``src`` and ``dst`` must differ. The header
+    profile is ``ros2``; schema and channel ids may be renumbered (in order of first use).
+    """
+    src, dst = Path(src), Path(dst)
+    if src.resolve() == dst.resolve():
+        raise UhrisimError(f"recover: {src}: source and destination are the same file")
+    state = _ScanState()
+    count = 0
+    schema_ids: dict[int, int] = {}
+    channel_ids: dict[int, int] = {}
+    with dst.open("wb") as out:
+        writer = McapWriter(out, chunk_size=chunk_size, compression=CompressionType.ZSTD)
+        writer.start(profile="ros2", library="uhrisim recover")
+        for schema, channel, message in _scan(src, state):
+            cid = channel_ids.get(channel.id)
+            if cid is None:
+                sid = 0
+                if isinstance(schema, Schema):
+                    sid = schema_ids.get(schema.id, 0)
+                    if not sid:
+                        sid = writer.register_schema(schema.name, schema.encoding, schema.data)
+                        schema_ids[schema.id] = sid
+                assert isinstance(channel, Channel)
+                cid = writer.register_channel(
+                    channel.topic, channel.message_encoding, sid, dict(channel.metadata)
+                )
+                channel_ids[channel.id] = cid
+            writer.add_message(cid, message.log_time, message.data, message.publish_time,
+                               message.sequence)
+            count += 1
+        writer.finish()
+    logger.info("recovered %d messages from %s (%s) into %s", count, src,
+                "truncated" if state.truncated else "complete", dst)
+    return count
