@@ -1,8 +1,12 @@
 """MOOS-IvP bridge: the MOOS v10 wire protocol, a pure-Python client and the agent bridge.
 
-No MOOS installation is needed. See ``docs/bridges-moos.md``.
+No MOOS installation is needed. See ``docs/bridges-moos.md``. The simulation hook lives
+in :mod:`uhrisim.bridges.moos.hook` (imported on demand: it pulls in the simulator).
 """
 
+from uhrisim.bridges.moos.bridge import MoosAgentBridge, format_node_report, parse_node_report
+from uhrisim.bridges.moos.client import MoosClient
+from uhrisim.bridges.moos.geodesy import latlon_from_local, local_from_latlon
 from uhrisim.bridges.moos.wire import (
     MoosMessage,
     MoosPacket,
@@ -15,6 +19,8 @@ from uhrisim.bridges.moos.wire import (
 )
 
 __all__ = [
+    "MoosAgentBridge",
+    "MoosClient",
     "MoosMessage",
     "MoosPacket",
     "MoosProtocolError",
@@ -23,4 +29,8 @@ __all__ = [
     "decode_packet",
     "encode_message",
     "encode_packet",
+    "format_node_report",
+    "latlon_from_local",
+    "local_from_latlon",
+    "parse_node_report",
 ]
