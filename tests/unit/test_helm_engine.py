@@ -9,6 +9,7 @@ import pytest
 
 from uhrisim.autonomy import Helm, HelmConfig, load_bhv
 from uhrisim.autonomy.zaic import zaic_peak
+from uhrisim.core.errors import ConfigError
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "helm"
 KNOWN = ("TRAIL_INFO", "CONTACT_INFO", "DEPTH_UPDATES", "LOITER_UPDATES")
@@ -37,7 +38,10 @@ def test_inactive_until_deploy_then_spawn_per_contact():
     assert "avd_diver" in out.running and out.decision is not None
     assert h.info["DIVER_NAV_DEPTH"] == 2.0 and h.info["DIVER_NAV_UTC"] == 0.25
     # a second alert for the same contact does not duplicate it; a list = several postings
-    h.step(0.5, {"TRAIL_INFO": [spawn, "name=bob # contact=bob"]})
+    out = h.step(0.5, {"TRAIL_INFO": [spawn, "contact=bob # name=bob"]})
+    assert "BHV_WARNING" not in out.post_dict()
+    assert h.behavior("trail_diver").params.contact == "diver"  # untouched by bob's alert
+    assert h.behavior("trail_bob").params.contact == "bob"
     assert h.behavior_names.count("trail_diver") == 1 and "trail_bob" in h.behavior_names
     out = h.step(0.75, {"TRAIL": "false"})
     assert out.mode == "ACTIVE:LOITERING" and "loiter" in out.active
@@ -138,6 +142,22 @@ def test_flags_durations_and_perpetual():
     assert "b" not in out.completed  # perpetual: reset, not completed
     out = h.step(2.25, {})
     assert out.active == ("b",)
+
+
+def test_mode_variable_empties_when_no_entry_matches():
+    cfg = HelmConfig.from_mapping(
+        {
+            "initialize": {"DEPLOY": "true"},
+            "modes": ["MODE = ACTIVE { DEPLOY = true }"],
+            "behaviors": [{"type": "ConstantDepth", "name": "d", "condition": "MODE==ACTIVE"}],
+        }
+    )
+    h = Helm(cfg, "v")
+    assert h.step(0.0, NAV).mode == "ACTIVE"
+    out = h.step(0.25, {"DEPLOY": "false"})
+    assert out.mode == "" and out.post_dict()["MODE"] == "" and out.idle == ("d",)
+    with pytest.raises(ConfigError, match="non-optional 'speed'"):
+        HelmConfig.from_mapping({"domain": {"course": [0, 359, 360]}})
 
 
 def test_manual_override_parks_the_helm():

@@ -201,6 +201,9 @@ class HelmConfig:
         ``known_vars``: variables posted from outside (contact-manager alert variables,
         viewer buttons, the simulation). Returns self; raises ConfigError with the location.
         """
+        for a in ("course", "speed"):
+            if not self.domain.has(a) or self.domain.axis(a).optional:
+                raise ConfigError(f"the helm domain needs a non-optional {a!r} axis", "domain")
         names: dict[str, str] = {}
         for b in self.behaviors:
             if b.name in names:

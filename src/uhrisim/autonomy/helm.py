@@ -196,6 +196,8 @@ class Helm:
         for s in self.slots:
             if s.bhv.common.updates != var or s.status == "completed":
                 continue
+            if s.spawned and var in self.templates:
+                continue  # spawned instances are updated through _spawn (by name)
             try:
                 for k, v in parse_updates(text):
                     if k in ("name", "templating"):
@@ -235,7 +237,9 @@ class Helm:
         if self._last_lists.get("IVPHELM_STATE") != state:
             posts.append(("IVPHELM_STATE", state))
             self._last_lists["IVPHELM_STATE"] = state
-        for var, value in evaluate_modes(self.config.modes, self.info).items():
+        built = evaluate_modes(self.config.modes, self.info)
+        for var in self.config.mode_vars:
+            value = built.get(var, "")  # no entry matched: the mode variable is empty
             if self.info.get(var) != value or self._first:
                 posts.append((var, value))
             self.info[var] = value
