@@ -9,6 +9,15 @@ then raises on the cut. This module walks the records itself — MCAP framing is
 incomplete one, so everything up to the last complete chunk comes back. Messages are
 decoded with ``mcap_ros2.decoder.DecoderFactory`` from the schemas in the file.
 
+What other readers do with a truncated file (checked with mcap 1.6, rosbags 0.11.9):
+
+* ``mcap.reader.make_reader`` on a seekable file picks the seeking reader, which looks
+  for the footer and fails (``RecordLengthLimitExceeded`` or similar);
+* ``mcap.reader.NonSeekingReader`` yields every message of the complete chunks, then
+  raises ``EndOfFile`` (tests hold our reader to exactly that prefix);
+* ``rosbags`` refuses the file ("File end magic is invalid");
+* :func:`uhrisim.record.recover` writes a complete copy that all of them open.
+
 The inverse of the recorder's frame conversion (ENU/FLU → NED/FRD) is done here too,
 for :func:`read_odometry`.
 """
