@@ -50,6 +50,8 @@ def test_hook_posts_nav_and_feeds_variables_back():
                     east_at[round(frame.t, 6)] = float(
                         frame.agents["videoray"].nav.position_ned[1])
             obs.notify("RETURN", "true")
+            obs.notify("DESIRED_SPEED", "not a number")  # dropped, must not reach the store
+            obs.notify("DESIRED_DEPTH", float("nan"))  # dropped too
             deadline = time.monotonic() + 5.0
             nav = []
             while time.monotonic() < deadline:
@@ -59,6 +61,12 @@ def test_hook_posts_nav_and_feeds_variables_back():
                     break
                 time.sleep(0.005)
             assert sim.agents["videoray"].community.get("RETURN") == "true"
+            deadline = time.monotonic() + 2.0
+            while hook.n_rejected < 2 and time.monotonic() < deadline:
+                sim.step()
+                time.sleep(0.005)
+            assert hook.n_rejected == 2
+            assert isinstance(sim.agents["videoray"].community.get("DESIRED_SPEED", 0.0), float)
             t0 = hook.bridges["videoray"]._t0  # time_source="sim": stamp = t0 + t_sim
             checked = 0
             for m in nav:

@@ -14,6 +14,7 @@ switch off the agent's built-in helm so that the MOOS helm's DESIRED_* are obeye
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -37,8 +38,9 @@ class MoosAgentLink:
 
     ``nav_rate_hz``: NAV_*/NODE_REPORT posting rate in simulated time (uSimMarine posts
     every AppTick, typically 10 Hz). ``subscribe``/``extra_vars``: variables taken back
-    and posted into the agent's community. ``vehicle_type``/``length``: NODE_REPORT
-    TYPE and LENGTH (m).
+    and posted into the agent's community (``subscribe`` ones must be finite numbers;
+    anything else is dropped with a warning so a stray post cannot crash the run).
+    ``vehicle_type``/``length``: NODE_REPORT TYPE and LENGTH (m).
     """
 
     agent: str
@@ -84,6 +86,7 @@ class MoosBridgeHook(BaseHook):
         self._was_connected: dict[str, bool] = {}
         self._sim: Simulation | None = None
         self.n_in = 0
+        self.n_rejected = 0
 
     def on_start(self, sim: Simulation) -> None:
         self._sim = sim
@@ -117,9 +120,13 @@ class MoosBridgeHook(BaseHook):
                                    float(heading_deg_from_yaw(nav.yaw)), nav.speed,
                                    link.vehicle_type, link.length, _mode(snap.mode))
             for var, value, _t in bridge.poll():
-                if isinstance(value, bytes):
-                    continue  # binary MOOS data has no place in the community store
-                sim.post(name, var, value, source="moos")
+                accepted = _accept(var, value, numeric=var in link.subscribe)
+                if accepted is None:
+                    self.n_rejected += 1
+                    log.warning("MOOS %s: ignoring %s = %r (not a finite number)", name, var,
+                                value)
+                    continue
+                sim.post(name, var, accepted, source="moos")
                 self.n_in += 1
             up = bridge.connected
             if up != self._was_connected[name]:
@@ -136,6 +143,21 @@ class MoosBridgeHook(BaseHook):
                                 "sent": b.client.n_sent, "received": b.client.n_received,
                                 "reconnects": max(0, b.client.n_connects - 1)}
                          for name, b in self.bridges.items()}}
+
+
+def _accept(var: str, value: float | str | bytes, numeric: bool) -> float | str | None:
+    """What may enter the community store: the subscribed DESIRED_* must be finite numbers
+    (a string that parses as one is accepted, as MOOS apps do); binary data never enters."""
+    del var
+    if isinstance(value, bytes):
+        return None
+    if not numeric:
+        return value
+    try:
+        number = float(value)
+    except ValueError:
+        return None
+    return number if math.isfinite(number) else None
 
 
 def _mode(mode: str) -> str:
