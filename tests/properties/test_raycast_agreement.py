@@ -170,3 +170,27 @@ def test_posed_diver_agrees_property(yaw, pitch, roll, phase, seed) -> None:
     d = _surface_points(posed, 200, seed) - o
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     assert_agree(scene, o, d, 20.0, min_hits=190)
+
+
+def test_sonar_fan_from_one_origin_agrees() -> None:
+    # A ping: every ray starts at the sonar (the caster's shared-origin culling path), the
+    # diver kicking 6 m ahead and the sonar's own ROV excluded.
+    scene = _dynamic_scene()
+    scene.set_pose("videoray", (0.0, 0.0, 3.0), np.eye(3))
+    scene.set_pose("diver", (6.0, 0.3, 3.6), rotation_zyx(0.0, 0.0, 0.4), kick_phase=2.0)
+    az = np.radians(np.linspace(-22.5, 22.5, 96))
+    el = np.radians(np.linspace(0.0, 20.0, 12))
+    a, e = np.meshgrid(az, el)
+    d = np.stack([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)], -1).reshape(-1, 3)
+    o = np.tile([0.3, 0.0, 3.0], (len(d), 1))
+    e_hits, _ = assert_agree(scene, o, d, 30.0, exclude=frozenset({"videoray"}), min_hits=500)
+    assert np.sum(e_hits.body == 1) > 20
+    assert set(np.unique(e_hits.label[e_hits.hit])) == {
+        scene.label_id("seafloor"),
+        scene.label_id("piling"),
+        scene.label_id("diver"),
+    }
+    # Without excluding it, rays starting inside the ROV's hull (x ±0.15 m, z -0.02..0.11 m
+    # about its centre) hit the hull's front face first.
+    inside = scene.raycaster().cast(np.tile([0.1, 0.0, 3.05], (len(d), 1)), d, 30.0)
+    assert np.all(inside.body == 0) and np.all(inside.distance < 0.06)

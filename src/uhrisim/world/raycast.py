@@ -32,12 +32,14 @@ from numpy.typing import ArrayLike, NDArray
 from uhrisim.core.errors import ConfigError
 
 if TYPE_CHECKING:
+    from uhrisim.world.bodies import ArticulatedMesh
     from uhrisim.world.scene import Scene
 
 log = logging.getLogger(__name__)
 
 _UNIT_TOL = 1e-5  # allowed | |d| - 1 |
 _EMBREE_FAR = 1e30  # stands in for an infinite max_range in float32
+_SHIFT_BEYOND_M = 1000.0  # geometry farther than this from its origin is shifted for float32
 
 
 @dataclass(frozen=True)
@@ -280,57 +282,86 @@ class ReferenceRayCaster(RayCaster):
 
 
 class _EmbreeMesh:
-    """One Embree scene over triangles given in a local frame, plus float64 face data."""
+    """One Embree scene over triangles in a local frame, plus float64 per-face planes.
+
+    All triangles go into a single Embree geometry, so Embree's primitive id is the face
+    index into the concatenated ``tris_local``. Coordinates are handed to Embree in
+    float32, shifted by ``shift`` (the bounds centre) only when the geometry lies more than
+    ``_SHIFT_BEYOND_M`` from the local origin; Embree only has to pick the triangle, the
+    distance is recomputed in float64.
+    """
 
     def __init__(self, device: object, tris_local: list[NDArray[np.float64]]) -> None:
         from embreex import rtcore_scene
         from embreex.mesh_construction import TriangleMesh
 
-        allv = np.concatenate([t.reshape(-1, 3) for t in tris_local])
-        lo, hi = allv.min(axis=0), allv.max(axis=0)
-        self.shift = 0.5 * (lo + hi)  # float32 precision about the centre
-        self.scene = rtcore_scene.EmbreeScene(device)
-        self.offsets = np.concatenate([[0], np.cumsum([len(t) for t in tris_local])])
-        for t in tris_local:  # geomID = position in the list
-            v = np.ascontiguousarray((t - self.shift).reshape(-1, 3), dtype=np.float32)
-            idx = np.arange(len(v), dtype=np.int32).reshape(-1, 3)
-            TriangleMesh(scene=self.scene, vertices=v, indices=idx)
         tri = np.concatenate(tris_local)
-        normal = _unit_normals(tri)
-        # Per face: unit normal and n·v0 (the plane), float64, for the distance refinement.
-        self.plane = np.column_stack([normal, np.einsum("ij,ij->i", normal, tri[:, 0])])
+        allv = tri.reshape(-1, 3)
+        lo, hi = allv.min(axis=0), allv.max(axis=0)
         centre = 0.5 * (lo + hi)
+        far_away = float(np.max(np.abs(np.concatenate([lo, hi])))) > _SHIFT_BEYOND_M
+        self.shift: NDArray[np.float64] | None = centre if far_away else None
+        self.scene = rtcore_scene.EmbreeScene(device)
+        v = allv - centre if far_away else allv
+        TriangleMesh(
+            scene=self.scene,
+            vertices=np.ascontiguousarray(v, dtype=np.float32),
+            indices=np.arange(len(v), dtype=np.int32).reshape(-1, 3),
+        )
+        normal = _unit_normals(tri)
+        # Per face: unit normal and n·v0 (the plane), float64, for the distance refinement;
+        # a last all-zero row answers index -1 (a miss) with a zero normal.
+        plane = np.column_stack([normal, np.einsum("ij,ij->i", normal, tri[:, 0])])
+        self.plane = np.vstack([plane, np.zeros((1, 4))])
         self.centre = centre
-        self.radius = float(np.max(np.linalg.norm(allv - centre, axis=1))) if len(allv) else 0.0
+        self.radius = float(np.max(np.linalg.norm(allv - centre, axis=1)))
 
     def intersect(
-        self, o: NDArray[np.float64], d: NDArray[np.float64], tfar: NDArray[np.float64]
+        self, o: NDArray[np.float64], d: NDArray[np.float64], tfar: NDArray[np.float64] | float
     ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
-        """Rays in the local frame → (face index or -1, float64 distance or inf, normal).
+        """First hits within ``tfar`` of rays given in the local frame.
 
-        Normals are unit, in the local frame, turned to face the ray origin; the rows of
-        missed rays are meaningless (callers mask them).
+        Returns (face index or -1, float64 distance or inf, unit normal in the local frame
+        turned to face the ray origin, zero on a miss).
         """
-        o32 = np.ascontiguousarray(o - self.shift, dtype=np.float32)
-        d32 = np.ascontiguousarray(d, dtype=np.float32)
-        far = np.minimum(tfar * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR).astype(np.float32)
-        res = self.scene.run(o32, d32, dists=far, output=1)
-        prim = res["primID"].astype(np.int64)
-        if len(self.offsets) == 2:
-            face = prim  # one geometry: primID is the face index, -1 on a miss
+        n = len(o)
+        o32 = (o - self.shift if self.shift is not None else o).astype(np.float32)
+        d32 = d.astype(np.float32)
+        if np.ndim(tfar) == 0:
+            lim = float(tfar)
+            far = np.full(n, min(lim * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR), dtype=np.float32)
         else:
-            geom = res["geomID"]
-            face = np.where(geom >= 0, self.offsets[geom] + prim, -1)
-        pl = np.take(self.plane, np.maximum(face, 0), axis=0)  # (N, 4): n, n·v0
+            lim = np.asarray(tfar)
+            far = np.minimum(lim * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR).astype(np.float32)
+        face = self.scene.run(o32, d32, dists=far).astype(np.int64)  # primID, -1 on a miss
+        pl = np.take(self.plane, face, axis=0)  # -1 → the zero row
         nrm = pl[:, :3]
         # Refine in float64 against the hit triangle's plane: t = (n·v0 − n·o) / (n·d).
         dn = np.einsum("ij,ij->i", d, nrm)
         num = pl[:, 3] - np.einsum("ij,ij->i", o, nrm)
         with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.where(np.abs(dn) > 1e-9, num / dn, res["tfar"])
-        t = np.where(face >= 0, t, np.inf)
-        nrm = nrm * np.where(dn > 0.0, -1.0, 1.0)[:, None]  # face the ray origin
-        return face, t, nrm
+            t = num / dn
+        grazing = np.flatnonzero((np.abs(dn) <= 1e-9) & (face >= 0))
+        if len(grazing):  # ray (nearly) in the triangle's plane: keep Embree's distance
+            res = self.scene.run(o32[grazing], d32[grazing], dists=far[grazing], output=1)
+            t[grazing] = res["tfar"]
+        t[face < 0] = np.inf
+        beyond = np.flatnonzero(t > lim)  # refined past the limit: a miss
+        if len(beyond):
+            t[beyond] = np.inf
+            face[beyond] = -1
+            pl[beyond] = 0.0
+        # Face the ray origin; a fresh contiguous (N, 3) array (zero rows for misses).
+        return face, t, nrm * np.where(dn > 0.0, -1.0, 1.0)[:, None]
+
+
+@dataclass(frozen=True)
+class _PartGroup:
+    """Parts of a body that share a joint chain: one Embree scene in their rest frame."""
+
+    mesh: _EmbreeMesh
+    part: int  # index of a member part (its transform moves the whole group)
+    face_map: NDArray[np.int64]  # group face index → body face index
 
 
 class EmbreeRayCaster(RayCaster):
@@ -351,7 +382,7 @@ class EmbreeRayCaster(RayCaster):
         self._static_version = -1
         self._static_label = np.zeros(0, dtype=np.int32)
         self._static_refl = np.zeros(0)
-        self._parts: dict[str, list[_EmbreeMesh]] = {}
+        self._parts: dict[str, list[_PartGroup]] = {}
         self._sync()
 
     def _sync(self) -> None:
@@ -362,99 +393,135 @@ class EmbreeRayCaster(RayCaster):
             if objs:
                 tris = [o.mesh.vertices.view(np.ndarray)[o.mesh.faces] for o in objs]
                 self._static = _EmbreeMesh(self._device, tris)
+                # Per-face label and μ, with a sentinel last entry that face -1 (miss) reads.
+                pairs = zip(tris, objs, strict=True)
                 self._static_label = np.concatenate(
-                    [np.full(len(t), o.label_id, np.int32) for t, o in zip(tris, objs, strict=True)]
-                )
+                    [np.full(len(t), o.label_id, np.int32) for t, o in pairs] + [[-1]]
+                ).astype(np.int32)
                 self._static_refl = np.concatenate(
                     [
                         np.full(len(t), o.material.reflectivity)
                         for t, o in zip(tris, objs, strict=True)
                     ]
+                    + [[0.0]]
                 )
             else:
                 self._static = None
             self._static_version = sc.static_version
         for b in sc.bodies:
             if b.name not in self._parts:
-                self._parts[b.name] = [
-                    _EmbreeMesh(self._device, [p.mesh.vertices.view(np.ndarray)[p.mesh.faces]])
-                    for p in b.geometry.parts
-                ]
+                self._parts[b.name] = self._build_groups(b.geometry)
+
+    def _build_groups(self, geometry: ArticulatedMesh) -> list[_PartGroup]:
+        """One Embree scene per set of parts that move together (identical joint chains)."""
+        chains: dict[tuple, list[int]] = {}
+        for i, p in enumerate(geometry.parts):
+            chains.setdefault(p.chain, []).append(i)
+        groups = []
+        offsets = geometry.face_offsets
+        for members in chains.values():
+            parts = [geometry.parts[i] for i in members]
+            tris = [p.mesh.vertices.view(np.ndarray)[p.mesh.faces] for p in parts]
+            face_map = np.concatenate([np.arange(offsets[i], offsets[i + 1]) for i in members])
+            groups.append(_PartGroup(_EmbreeMesh(self._device, tris), members[0], face_map))
+        return groups
 
     def _cast(self, o, d, max_range, exclude):  # type: ignore[no-untyped-def]
         self._sync()
         n = len(o)
-        best = np.full(n, np.inf)
-        label = np.full(n, -1, dtype=np.int32)
-        normal = np.zeros((n, 3))
-        refl = np.zeros(n)
-        body = np.full(n, -1, dtype=np.int32)
-        far = np.full(n, max_range)
         if self._static is not None:
-            face, t, nrm = self._static.intersect(o, d, far)
-            ok = t <= max_range
-            fi = np.maximum(face, 0)
-            best = np.where(ok, np.maximum(t, 0.0), np.inf)
-            label = np.where(ok, self._static_label[fi], np.int32(-1)).astype(np.int32)
-            refl = np.where(ok, self._static_refl[fi], 0.0)
-            normal = np.where(ok[:, None], nrm, 0.0)
-        for bi, b in enumerate(self._scene.bodies):
-            if b.name in exclude:
-                continue
+            face, t, normal = self._static.intersect(o, d, max_range)
+            best = np.maximum(t, 0.0)
+            label = np.take(self._static_label, face)  # -1 → the -1 sentinel at the end
+            refl = np.take(self._static_refl, face)
+        else:
+            best = np.full(n, np.inf)
+            label = np.full(n, -1, dtype=np.int32)
+            normal = np.zeros((n, 3))
+            refl = np.zeros(n)
+        body = np.full(n, -1, dtype=np.int32)
+        active = [(bi, b) for bi, b in enumerate(self._scene.bodies) if b.name not in exclude]
+        cull = _RayCuller(o, d) if active else None
+        for bi, b in active:
+            assert cull is not None
             pose = b.pose_matrix()
-            offsets = b.geometry.face_offsets
-            parts = self._parts[b.name]
-            frames = [pose @ tpart for tpart in b.part_transforms]  # part rest frame → NED
+            groups = self._parts[b.name]
+            frames = [pose @ b.part_transforms[g.part] for g in groups]  # rest frame → NED
             centres = np.array(
-                [m[:3, :3] @ p.centre + m[:3, 3] for m, p in zip(frames, parts, strict=True)]
+                [m[:3, :3] @ g.mesh.centre + m[:3, 3] for m, g in zip(frames, groups, strict=True)]
             )
-            radii = np.array([p.radius for p in parts])
-            # Whole-body bounding sphere (encloses every posed part's sphere) culls first.
+            radii = np.array([g.mesh.radius for g in groups])
+            # Whole-body bounding sphere (encloses every posed group's sphere) culls first.
             bc = 0.5 * (centres.min(axis=0) + centres.max(axis=0))
             br = float(np.max(np.linalg.norm(centres - bc, axis=1) + radii))
-            body_idx = _sphere_candidates(o, d, np.minimum(best, max_range), bc, br)
+            limit_all = np.minimum(best, max_range)
+            body_idx = cull.candidates(limit_all, bc, br)
             if len(body_idx) == 0:
                 continue
-            ob, db = o[body_idx], d[body_idx]
-            for pi, (part, m) in enumerate(zip(parts, frames, strict=True)):
+            sub_cull = cull.subset(body_idx) if len(groups) > 1 else cull
+            for gi, (group, m) in enumerate(zip(groups, frames, strict=True)):
                 rot, trans = m[:3, :3], m[:3, 3]
                 limit = np.minimum(best[body_idx], max_range)
-                if len(parts) == 1:
+                if len(groups) == 1:
                     idx = body_idx
                 else:
-                    sub = _sphere_candidates(ob, db, limit, centres[pi], radii[pi])
+                    sub = sub_cull.candidates(limit, centres[gi], radii[gi])
                     if len(sub) == 0:
                         continue
                     idx = body_idx[sub]
                     limit = limit[sub]
                 ol = (o[idx] - trans) @ rot  # R^T (o - t), row form
                 dl = d[idx] @ rot
-                face, t, nrm = part.intersect(ol, dl, limit)
+                face, t, nrm = group.mesh.intersect(ol, dl, limit)
                 ok = (face >= 0) & (t < best[idx]) & (t <= max_range)
                 if not np.any(ok):
                     continue
                 sel = idx[ok]
                 best[sel] = np.maximum(t[ok], 0.0)
                 label[sel] = b.label_id
-                refl[sel] = b.face_reflectivity[offsets[pi] + face[ok]]
+                refl[sel] = b.face_reflectivity[group.face_map[face[ok]]]
                 normal[sel] = nrm[ok] @ rot.T
                 body[sel] = bi
         return RayHits(distance=best, label=label, normal=normal, reflectivity=refl, body=body)
 
 
-def _sphere_candidates(
-    o: NDArray[np.float64],
-    d: NDArray[np.float64],
-    limit: NDArray[np.float64],
-    centre: NDArray[np.float64],
-    radius: float,
-) -> NDArray[np.intp]:
-    """Indices of rays (unit d) whose segment [0, limit] may touch the sphere (conservative)."""
-    oc = centre - o
-    tca = np.einsum("ij,ij->i", oc, d)
-    d2 = np.einsum("ij,ij->i", oc, oc) - tca * tca
-    r = radius * (1.0 + 1e-6) + 1e-6
-    return np.flatnonzero((d2 <= r * r) & (tca + r >= 0.0) & (tca - r <= limit))
+class _RayCuller:
+    """Conservative ray/bounding-sphere tests for a batch of rays (unit directions).
+
+    For a sphere (centre c, radius r) a ray may touch it within ``limit`` when its miss
+    distance² |c − o|² − t_ca² ≤ r² with t_ca = (c − o)·d, and −r ≤ t_ca ≤ limit + r.
+    When every ray starts at the same point (a sonar ping) only ``d @ (c − o)`` is needed;
+    otherwise o·o and o·d are computed once and reused for every sphere.
+    """
+
+    def __init__(self, o: NDArray[np.float64], d: NDArray[np.float64]) -> None:
+        self.o, self.d = o, d
+        self.o0: NDArray[np.float64] | None = o[0] if bool(np.all(o == o[0])) else None
+        if self.o0 is None:
+            self.oo = np.einsum("ij,ij->i", o, o)
+            self.od = np.einsum("ij,ij->i", o, d)
+
+    def subset(self, idx: NDArray[np.intp]) -> _RayCuller:
+        sub = object.__new__(_RayCuller)
+        sub.o, sub.d, sub.o0 = self.o[idx], self.d[idx], self.o0
+        if self.o0 is None:
+            sub.oo, sub.od = self.oo[idx], self.od[idx]
+        return sub
+
+    def candidates(
+        self, limit: NDArray[np.float64], centre: NDArray[np.float64], radius: float
+    ) -> NDArray[np.intp]:
+        """Indices of rays whose segment [0, limit] may touch the sphere."""
+        c = np.asarray(centre, dtype=float)
+        if self.o0 is not None:
+            v = c - self.o0
+            tca = self.d @ v
+            d2 = float(v @ v) - tca * tca
+        else:
+            tca = self.d @ c - self.od
+            d2 = (float(c @ c) - 2.0 * (self.o @ c) + self.oo) - tca * tca
+        r = radius * (1.0 + 1e-6) + 1e-6
+        return np.flatnonzero((d2 <= r * r) & (tca + r >= 0.0) & (tca - r <= limit))
 
 
 def make_raycaster(scene: Scene, backend: str = "embree") -> RayCaster:
