@@ -307,3 +307,64 @@ def test_client_survives_a_server_speaking_garbage():
         c.close()
         srv.close()
         th.join(2.0)
+
+
+def _trace_streams() -> dict[tuple[int, str], bytes]:
+    env = os.environ.get("UHRISIM_REFERENCE_DIR")
+    base = Path(env) if env else Path(__file__).resolve().parents[3] / "shared" / "reference"
+    path = base / "moos-trace.jsonl"
+    if not path.is_file():
+        pytest.fail(f"MOOS reference trace not found at {path} (set UHRISIM_REFERENCE_DIR)")
+    out: dict[tuple[int, str], bytes] = {}
+    for line in path.read_text().splitlines():
+        if line.strip():
+            rec = json.loads(line)
+            key = (rec["conn"], rec["dir"])
+            out[key] = out.get(key, b"") + bytes.fromhex(rec["hex"])
+    return out
+
+
+def test_client_talks_like_the_real_client_to_a_replayed_real_db():
+    """Replay the real MOOSDB's welcome (trace, conn 2) to our client; what our client sends
+    back must have the real client's shape, message by message (times and ids aside)."""
+    streams = _trace_streams()
+    real_c2s = [m for p in MoosStreamParser(expect_handshake=True).feed(streams[(2, "c2s")])
+                for m in p.messages]
+    real_s2c = MoosStreamParser().feed(streams[(2, "s2c")])
+    welcome_bytes = encode_packet(real_s2c[0].messages)
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(1)
+    srv.settimeout(5.0)
+    c = MoosClient()
+    try:
+        c.connect("127.0.0.1", srv.getsockname()[1], "uPokeDB")
+        conn, _ = srv.accept()
+        with conn:
+            conn.settimeout(5.0)
+            parser = MoosStreamParser(expect_handshake=True)
+            ours: list[MoosMessage] = []
+            ours += [m for p in parser.feed(conn.recv(65536)) for m in p.messages]
+            conn.sendall(welcome_bytes)  # the real DB's bytes
+            assert c.wait_connected(2.0) and c.community == "trace"
+            c.register("NAV_X")
+            assert c.notify("NAV_X", 42.25) is True
+            deadline = time.monotonic() + 3.0
+            while sum(m.msg_type == "N" for m in ours) < 1 and time.monotonic() < deadline:
+                ours += [m for p in parser.feed(conn.recv(65536)) for m in p.messages]
+        assert parser.handshake == "ELKS CAN'T DANCE 2/8/10"
+
+        def shape(m: MoosMessage) -> tuple:
+            return (m.msg_type, m.data_type, m.source, m.source_aux, m.community, m.key,
+                    m.dval, m.dval2, m.sval)
+
+        def first(msgs, msg_type, key=None):
+            return next(m for m in msgs if m.msg_type == msg_type and key in (None, m.key))
+
+        for msg_type, key in (("i", None), ("T", None), ("R", "NAV_X"), ("N", "NAV_X")):
+            assert shape(first(ours, msg_type, key)) == shape(first(real_c2s, msg_type, key))
+        assert first(ours, "i").msg_id == first(real_c2s, "i").msg_id == -1
+        assert first(ours, "T").msg_id == -1
+    finally:
+        c.close()
+        srv.close()
