@@ -8,10 +8,18 @@ See docs/viewer.md for the frame and scene schemas.
 
 from __future__ import annotations
 
+from uhrisim.viz.viewer.adapt import FrameBuilder
 from uhrisim.viz.viewer.protocol import SPEED_CHOICES, Command, parse_command
 from uhrisim.viz.viewer.server import ViewerServer
 
-__all__ = ["SPEED_CHOICES", "Command", "ViewerServer", "parse_command", "serve_replay"]
+__all__ = [
+    "SPEED_CHOICES",
+    "Command",
+    "FrameBuilder",
+    "ViewerServer",
+    "parse_command",
+    "serve_replay",
+]
 
 
 def __getattr__(name: str):  # lazy: replay pulls in mcap readers only when used

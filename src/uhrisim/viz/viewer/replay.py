@@ -18,7 +18,6 @@ it spans the full field of view, so ``fov = 2 asin(width / (2 height))`` unless 
 from __future__ import annotations
 
 import bisect
-import contextlib
 import logging
 import math
 import re
@@ -30,6 +29,7 @@ import numpy as np
 
 from uhrisim.core.errors import AssetError
 from uhrisim.core.frames import enu_from_ned, enu_rotation_from_ned
+from uhrisim.viz.viewer.adapt import agent_kind, point_from_moos, polygon_from_moos
 from uhrisim.viz.viewer.protocol import Command
 from uhrisim.viz.viewer.server import ViewerServer
 
@@ -146,12 +146,8 @@ def _marker_object(m: Any) -> dict[str, Any] | None:
 
 
 def _kind_of(name: str, has_sonar: bool) -> str:
-    low = name.lower()
-    if "diver" in low:
-        return "diver"
-    if has_sonar or "rov" in low or "videoray" in low:
-        return "rov"
-    return "vehicle"
+    kind = agent_kind("", name)
+    return "rov" if kind == "vehicle" and has_sonar else kind
 
 
 def load_replay(
@@ -267,20 +263,6 @@ def _interp_heading(t: float, ts: np.ndarray, hd: np.ndarray, i: int) -> float:
     a = (t - t0) / (t1 - t0) if t1 > t0 else 1.0
     d = (hd[i] - hd[i - 1] + 180.0) % 360.0 - 180.0
     return float((hd[i - 1] + a * d) % 360.0)
-
-
-def _parse_moos_fields(text: str) -> dict[str, str]:
-    """``"x=1,y=2,label=a"`` → dict; a ``pts={...}`` field is kept whole."""
-    out: dict[str, str] = {}
-    m = re.search(r"pts\s*=\s*\{([^}]*)\}", text)
-    if m:
-        out["pts"] = m.group(1)
-        text = text[: m.start()] + text[m.end():]
-    for part in text.split(","):
-        if "=" in part:
-            k, v = part.split("=", 1)
-            out[k.strip().lower()] = v.strip()
-    return out
 
 
 class ReplayPlayer:
@@ -418,24 +400,14 @@ class ReplayPlayer:
         """pMarineViewer-style VIEW_POLYGON / VIEW_POINT postings (MOOS x east, y north)."""
         polys, points = [], []
         for agent in self.data.variables:
-            poly = self._var_at(agent, "VIEW_POLYGON", t)
-            if isinstance(poly, str):
-                f = _parse_moos_fields(poly)
-                xy = []
-                for pair in f.get("pts", "").split(":"):
-                    try:
-                        x, y = (float(v) for v in pair.split(","))
-                    except ValueError:
-                        continue
-                    xy.append([y, x])  # MOOS (x east, y north) → (north, east)
-                if len(xy) >= 2:
-                    polys.append({"agent": agent, "label": f.get("label", ""), "points": xy})
-            pt = self._var_at(agent, "VIEW_POINT", t)
-            if isinstance(pt, str):
-                f = _parse_moos_fields(pt)
-                with contextlib.suppress(KeyError, ValueError):
-                    points.append({"agent": agent, "label": f.get("label", ""),
-                                   "north": float(f["y"]), "east": float(f["x"])})
+            text = self._var_at(agent, "VIEW_POLYGON", t)
+            poly = polygon_from_moos(text) if isinstance(text, str) else None
+            if poly is not None and poly[2] and len(poly[1]) >= 2:
+                polys.append({"agent": agent, "label": poly[0], "points": poly[1]})
+            text = self._var_at(agent, "VIEW_POINT", t)
+            pt = point_from_moos(text) if isinstance(text, str) else None
+            if pt is not None and pt[3]:
+                points.append({"agent": agent, "label": pt[0], "north": pt[1], "east": pt[2]})
         return {"polygons": polys, "points": points, "circles": []}
 
     def hello_extra(self) -> dict[str, Any]:

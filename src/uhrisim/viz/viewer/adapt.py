@@ -1,0 +1,222 @@
+"""Turn the simulation's per-tick output into viewer frames (docs/viewer.md schema).
+
+:class:`FrameBuilder` is what a publish hook calls: ``builder.observe(tick_frame)`` on
+every tick, and ``server.publish(builder.build(tick_frame, paused=..., speed_factor=...,
+rtf=...))`` on the ticks it wants to show (every tick is fine too: publish is O(1)).
+It reads the simulation's ``TickFrame`` by duck typing (``t``, ``agents`` mapping of
+snapshots with ``name``, ``model``, ``mode`` and ``nav`` — ``position_ned`` (m),
+``yaw`` (rad, compass), ``speed`` (m/s) — and ``pings`` / ``posts``), so the viewer
+does not import the simulation.
+
+Overlays come from two places: fixed ones given at construction (e.g. contact and
+alert range circles from the scenario), and pMarineViewer-style postings seen in
+``posts`` — ``VIEW_POLYGON`` (``"pts={x,y:x,y:...},label=..."``) and ``VIEW_POINT``
+(``"x=..,y=..,label=.."``) in MOOS local coordinates (x east, y north;
+docs/conventions.md), converted here to (north, east). The latest posting per
+(agent, label) wins; ``active=false`` removes it, as in MOOS.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+_PTS = re.compile(r"pts\s*=\s*\{([^}]*)\}")
+
+
+def agent_kind(model: str, name: str = "") -> str:
+    """Viewer drawing kind of an agent: ``"rov"``, ``"diver"`` or ``"vehicle"``."""
+    text = f"{model} {name}".lower()
+    if "diver" in text:
+        return "diver"
+    if "videoray" in text or "rov" in text:
+        return "rov"
+    return "vehicle"
+
+
+def parse_moos_fields(text: str) -> dict[str, str]:
+    """``"x=1,y=2,label=a"`` → ``{"x": "1", ...}``; a ``pts={...}`` field is kept whole."""
+    out: dict[str, str] = {}
+    m = _PTS.search(text)
+    if m:
+        out["pts"] = m.group(1)
+        text = text[: m.start()] + text[m.end():]
+    for part in text.split(","):
+        if "=" in part:
+            k, v = part.split("=", 1)
+            out[k.strip().lower()] = v.strip()
+    return out
+
+
+def polygon_from_moos(text: str) -> tuple[str, list[list[float]], bool] | None:
+    """``VIEW_POLYGON`` string → (label, [[north, east], ...], active); None if unusable."""
+    f = parse_moos_fields(text)
+    pts: list[list[float]] = []
+    for pair in f.get("pts", "").split(":"):
+        xy = pair.split(",")
+        if len(xy) < 2:
+            continue
+        try:
+            x, y = float(xy[0]), float(xy[1])
+        except ValueError:
+            continue
+        pts.append([y, x])  # MOOS (x east, y north) → (north, east)
+    active = f.get("active", "true").lower() != "false"
+    if not pts and active:
+        return None
+    return f.get("label", ""), pts, active
+
+
+def point_from_moos(text: str) -> tuple[str, float, float, bool] | None:
+    """``VIEW_POINT`` string → (label, north, east, active); None if unusable."""
+    f = parse_moos_fields(text)
+    active = f.get("active", "true").lower() != "false"
+    try:
+        return f.get("label", ""), float(f["y"]), float(f["x"]), active
+    except (KeyError, ValueError):
+        return (f.get("label", ""), math.nan, math.nan, False) if not active else None
+
+
+def sonar_entry(agent: str, ping: Any) -> dict[str, Any]:
+    """A frame's ``sonar`` entry from a ``SonarPing``: fan image, fov (deg), range (m).
+
+    Uses the colour-mapped ``fan_rgb`` (BGR in the ping, RGB here) when present, else the
+    grey ``fan_u8``. The arrays are referenced, not copied: ``ViewerServer.publish``
+    copies them.
+    """
+    rgb = getattr(ping, "fan_rgb", None)
+    fan = rgb[:, :, ::-1] if rgb is not None else ping.fan_u8
+    beams = np.asarray(ping.beam_angles_rad, dtype=float)
+    bins = np.asarray(ping.bin_ranges_m, dtype=float)
+    return {
+        "agent": agent,
+        "t": float(ping.t),
+        "fan": fan,
+        "fov_deg": float(np.degrees(beams.max() - beams.min())) if beams.size else 0.0,
+        "max_range": float(bins.max()) if bins.size else 0.0,
+    }
+
+
+class FrameBuilder:
+    """Builds viewer frames from simulation ticks; keeps the overlays posted so far.
+
+    Parameters
+    ----------
+    circles:
+        Fixed range circles ``[{"agent", "label", "radius"}]`` (m), e.g. the contact
+        manager's alert and contact ranges.
+    kinds:
+        Optional ``{agent: "rov"|"diver"|"vehicle"}``; otherwise :func:`agent_kind`.
+    range_pair:
+        ``(rov, diver)`` agent names for the range plot; default: the first ROV and the
+        first diver seen.
+    """
+
+    def __init__(
+        self,
+        circles: Sequence[Mapping[str, Any]] = (),
+        kinds: Mapping[str, str] | None = None,
+        range_pair: tuple[str, str] | None = None,
+    ) -> None:
+        self._circles = [dict(c) for c in circles]
+        self._kinds = dict(kinds or {})
+        self._pair = range_pair
+        self._polygons: dict[tuple[str, str], list[list[float]]] = {}
+        self._points: dict[tuple[str, str], tuple[float, float]] = {}
+        self._pending_pings: dict[str, Any] = {}
+
+    def _take_posts(self, posts: Sequence[Any]) -> None:
+        for p in posts:
+            if not isinstance(p.value, str):
+                continue
+            if p.var == "VIEW_POLYGON":
+                poly = polygon_from_moos(p.value)
+                if poly is not None:
+                    label, pts, active = poly
+                    if active:
+                        self._polygons[(p.community, label)] = pts
+                    else:
+                        self._polygons.pop((p.community, label), None)
+            elif p.var == "VIEW_POINT":
+                pt = point_from_moos(p.value)
+                if pt is not None:
+                    label, n, e, active = pt
+                    if active:
+                        self._points[(p.community, label)] = (n, e)
+                    else:
+                        self._points.pop((p.community, label), None)
+
+    def observe(self, tick: Any) -> None:
+        """Take note of a tick's postings and pings without building a frame (cheap).
+
+        Call it on every tick you do not :meth:`build`, so no overlay posting or sonar
+        ping is missed when frames are built at the viewer's rate only.
+        """
+        self._take_posts(getattr(tick, "posts", ()))
+        for agent, ping in (getattr(tick, "pings", None) or {}).items():
+            self._pending_pings[agent] = ping
+
+    def build(
+        self,
+        tick: Any,
+        *,
+        paused: bool = False,
+        speed_factor: float = 1.0,
+        rtf: float | None = None,
+    ) -> dict[str, Any]:
+        """The frame for ``tick`` (a ``TickFrame``), with every ping observed since the
+        last build (the newest per agent)."""
+        self.observe(tick)
+        agents = []
+        pos: dict[str, np.ndarray] = {}
+        kinds: dict[str, str] = {}
+        for name, snap in tick.agents.items():
+            nav = snap.nav
+            p = np.asarray(nav.position_ned, dtype=float)
+            kind = self._kinds.get(name) or agent_kind(getattr(snap, "model", ""), name)
+            kinds[name] = kind
+            pos[name] = p
+            agents.append({
+                "name": name,
+                "kind": kind,
+                "north": float(p[0]),
+                "east": float(p[1]),
+                "depth": float(p[2]),
+                "heading_deg": math.degrees(float(nav.yaw)) % 360.0,
+                "speed": float(nav.speed),
+                "mode": str(getattr(snap, "mode", "") or ""),
+            })
+        pair = self._pair
+        if pair is None:
+            rovs = [a for a, k in kinds.items() if k == "rov"]
+            divers = [a for a, k in kinds.items() if k == "diver"]
+            pair = (rovs[0], divers[0]) if rovs and divers else None
+        rng = None
+        if pair is not None and pair[0] in pos and pair[1] in pos:
+            rng = float(np.linalg.norm(pos[pair[0]] - pos[pair[1]]))
+        sonar = [sonar_entry(a, ping) for a, ping in self._pending_pings.items()]
+        self._pending_pings = {}
+        return {
+            "t": float(tick.t),
+            "paused": bool(paused),
+            "speed_factor": float(speed_factor),
+            "rtf": None if rtf is None else float(rtf),
+            "agents": agents,
+            "overlays": {
+                "polygons": [{"agent": a, "label": lab, "points": pts}
+                             for (a, lab), pts in self._polygons.items()],
+                "points": [{"agent": a, "label": lab, "north": n, "east": e}
+                           for (a, lab), (n, e) in self._points.items()],
+                "circles": list(self._circles),
+            },
+            "sonar": sonar or None,
+            "plots": {
+                "range_to_diver": rng,
+                "depth": {a["name"]: a["depth"] for a in agents},
+                "speed": {a["name"]: a["speed"] for a in agents},
+            },
+        }
