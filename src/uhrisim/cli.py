@@ -119,15 +119,99 @@ def bench(
         _print_tree(result, f"uhrisim bench {bench_name}")
 
 
+def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: int | None,
+                       sonar: bool, quiet: bool = False, **bridges: Any) -> Any:
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from uhrisim.scenario.load import load_scenario
+    from uhrisim.sim.runner import run_scenario
+
+    source = load_scenario(scenario)
+    total = source.scenario.duration if duration is None else duration
+    columns = (TextColumn("[bold]{task.description}"), BarColumn(),
+               TextColumn("{task.completed:>6.0f}/{task.total:.0f} s simulated"),
+               TimeElapsedColumn())
+    with Progress(*columns, console=err_console, disable=quiet, transient=False) as bar:
+        task = bar.add_task(source.scenario.name, total=total)
+        return run_scenario(source, out, duration=duration, seed=seed, sonar=sonar,
+                            progress=lambda t: bar.update(task, completed=t), **bridges)
+
+
+def _print_metrics(result: Any) -> None:
+    m = result.metrics or {}
+    table = Table(title="mission metrics", show_header=False)
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    rows = [("simulated", f"{m.get('simulated_s', 0):.0f} s"),
+            ("real-time factor", f"{m.get('real_time_factor') or 0:.1f}x")]
+    if "acquired" in m:
+        acquire = m["time_to_acquire_s"]
+        rows += [
+            ("trail acquired after", "never" if acquire is None else f"{acquire:.1f} s"),
+            ("range error RMS", _fmt(m["range_error_m"]["rms"], "m")),
+            ("bearing error RMS", _fmt(m["bearing_error_deg"]["rms"], "deg")),
+            ("depth error RMS", _fmt(m["depth_error_m"]["rms"], "m")),
+            ("minimum separation", _fmt(m["min_separation_m"], "m")),
+        ]
+    rows.append(("collisions", str(m.get("collisions", 0))))
+    for name, value in rows:
+        table.add_row(name, value)
+    console.print(table)
+    for path in result.files:
+        console.print(f"  wrote {path}")
+
+
+def _fmt(value: float | None, unit: str) -> str:
+    return "n/a" if value is None else f"{value:.2f} {unit}"
+
+
+@app.command()
+@friendly_errors
+def run(
+    scenario: Annotated[Path, typer.Argument(help="scenario YAML file")],
+    out: Annotated[Path | None, typer.Option("--out", "-o",
+                                             help="output folder (default out/<name>)")] = None,
+    duration: Annotated[float | None, typer.Option(help="simulated seconds")] = None,
+    seed: Annotated[int | None, typer.Option(help="root random seed")] = None,
+    no_sonar: Annotated[bool, typer.Option("--no-sonar", help="switch sonars off")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")] = False,
+) -> None:
+    """Run a scenario: recording.mcap, metrics.json and figures go to OUT."""
+    out = out or Path("out") / scenario.stem
+    result = _run_with_progress(scenario, out, duration, seed, not no_sonar, quiet)
+    _print_metrics(result)
+
+
+@app.command()
+@friendly_errors
+def validate(scenario: Annotated[Path, typer.Argument(help="scenario YAML file")]) -> None:
+    """Check a scenario file (and the behavior files it names) without running it."""
+    from uhrisim.scenario.load import load_scenario
+    from uhrisim.sim.simulation import Simulation
+
+    source = load_scenario(scenario)
+    Simulation(source, sonar_enabled=True)  # builds helms, sonars, scene: every check
+    s = source.scenario
+    console.print(f"{scenario}: OK — {len(s.agents)} agents "
+                  f"({', '.join(a.name for a in s.agents)}), {s.duration:g} s at "
+                  f"{s.physics_rate_hz:g} Hz physics")
+
+
+DEMO_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
+
+
 @app.command()
 @friendly_errors
 def demo(
     out: Annotated[Path, typer.Option("--out", "-o", help="output folder")] = Path("out/demo"),
+    duration: Annotated[float, typer.Option(help="simulated seconds")] = 600.0,
 ) -> None:
-    """Run the paper's experiment headless and say where the outputs went."""
-    paths = _resolve(FIGURES["openloop"][0])(out)
-    console.print("[bold]Open-loop VideoRay experiment (paper Figs 5-8)[/]")
-    for path in paths:
+    """The paper's track-and-trail mission (Fig. 19), headless, plus Figs 5-8."""
+    console.print("[bold]uhrisim demo:[/] the VideoRay tracks and trails a loitering diver "
+                  f"for {duration:g} simulated seconds (DeMarco et al. 2013, Fig. 19)")
+    result = _run_with_progress(DEMO_SCENARIO, out, duration, None, True)
+    _print_metrics(result)
+    for path in _resolve(FIGURES["openloop"][0])(out / "openloop"):
         console.print(f"  wrote {path}")
 
 

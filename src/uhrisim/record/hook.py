@@ -93,6 +93,8 @@ class McapRecordingHook:
         Whether sonar pings write their polar/fan images and hit points.
     record_scene:
         Write the static scene as markers at start (``scene_markers``).
+    sonar_every:
+        Record every this-many-th ping of each sonar (1: all; images are large).
     chunk_size, flush_period_s:
         Passed to :class:`McapRecorder`; by default a chunk is also closed at least every
         simulated second, so a killed run loses at most about one second.
@@ -106,6 +108,7 @@ class McapRecordingHook:
         record_images: bool = True,
         record_points: bool = True,
         record_scene: bool = True,
+        sonar_every: int = 1,
         chunk_size: int = 256 * 1024,
         flush_period_s: float | None = 1.0,
     ) -> None:
@@ -117,6 +120,11 @@ class McapRecordingHook:
         self.record_images = record_images
         self.record_points = record_points
         self.record_scene = record_scene
+        if int(sonar_every) < 1:
+            raise ConfigError(f"sonar_every must be >= 1, got {sonar_every}",
+                              where="McapRecordingHook")
+        self.sonar_every = int(sonar_every)
+        self._pings_seen: dict[str, int] = {}
         self._chunk_size = chunk_size
         self._flush_period_s = flush_period_s
         self._rec: McapRecorder | None = None
@@ -160,7 +168,10 @@ class McapRecordingHook:
                 rec.write_odometry(self._name(agent), t, nav.position_ned, nav.yaw,
                                    nav.velocity_body, nav.yaw_rate)
         for agent, ping in frame.pings.items():
-            self._write_ping(rec, self._name(agent), ping)
+            seen = self._pings_seen.get(agent, 0)
+            self._pings_seen[agent] = seen + 1
+            if seen % self.sonar_every == 0:
+                self._write_ping(rec, self._name(agent), ping)
         for agent, h in frame.helm.items():
             rec.write_helm_decision(
                 self._name(agent), t, h.heading_deg, h.speed, h.depth, h.contributions,

@@ -320,7 +320,7 @@ class RecordingConfig(Strict):
     enabled: bool = True
     odometry_rate_hz: PositiveFloat = 10.0
     sonar: bool = True
-    sonar_every: Annotated[int, Field(ge=1)] = 1
+    sonar_every: Annotated[int, Field(ge=1)] = 1  # every N-th ping (~300 MB/min at 15 Hz)
     chunk_kib: Annotated[int, Field(ge=16, le=65536)] = 512
 
 

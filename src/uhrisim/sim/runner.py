@@ -1,0 +1,118 @@
+"""Run a scenario file end to end and write its outputs into a folder.
+
+Outputs: ``recording.mcap`` (if recording is on), ``metrics.json`` and the figures
+``trajectory.png``, ``range_bearing.png`` (if the scenario names a trail pair) and
+``sonar_strip.png`` (if a sonar ran). A run that fails still closes its recording and
+writes what it measured, marked ``"completed": false``.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from uhrisim.record.hook import McapRecordingHook
+from uhrisim.scenario.load import ScenarioFile, load_scenario
+from uhrisim.sim.hooks import BaseHook, Hook, TickFrame
+from uhrisim.sim.metrics import TrailMetrics
+from uhrisim.sim.simulation import Simulation
+
+SONAR_STRIP_FRAMES = 6
+
+
+class SonarStripHook(BaseHook):
+    """Keeps a few fan images spread over the run, for the sonar strip figure."""
+
+    def __init__(self, agent: str, duration: float, count: int = SONAR_STRIP_FRAMES) -> None:
+        self.agent = agent
+        self.times = list(np.linspace(0.0, duration, count + 1)[1:] - duration / (2 * count))
+        self.frames: list[tuple[float, np.ndarray]] = []
+
+    def on_tick(self, frame: TickFrame) -> None:
+        ping = frame.pings.get(self.agent)
+        if ping is not None and self.times and frame.t >= self.times[0]:
+            self.times.pop(0)
+            self.frames.append((frame.t, ping.fan_u8.copy()))
+
+
+@dataclass
+class RunResult:
+    """What a run produced."""
+
+    out_dir: Path
+    metrics: dict[str, Any] | None
+    files: list[Path] = field(default_factory=list)
+    completed: bool = True
+
+
+def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
+                 duration: float | None = None, seed: int | None = None, sonar: bool = True,
+                 extra_hooks: Sequence[Hook] = (),
+                 progress: Callable[[float], None] | None = None,
+                 should_stop: Callable[[], bool] | None = None,
+                 configure: Callable[[Simulation], None] | None = None) -> RunResult:
+    """Build the simulation, run it, and write recording, metrics and figures."""
+    if not isinstance(source, ScenarioFile):
+        source = load_scenario(source)
+    scenario = source.scenario
+    duration = scenario.duration if duration is None else duration
+    out_dir.mkdir(parents=True, exist_ok=True)
+    hooks: list[Hook] = []
+    files: list[Path] = []
+    if scenario.recording.enabled:
+        rec = scenario.recording
+        hooks.append(McapRecordingHook(
+            out_dir / "recording.mcap", record_images=rec.sonar, sonar_every=rec.sonar_every,
+            chunk_size=rec.chunk_kib * 1024,
+            odom_every=max(1, round(scenario.physics_rate_hz / rec.odometry_rate_hz))))
+        files.append(out_dir / "recording.mcap")
+    metrics = TrailMetrics(scenario.metrics) if scenario.metrics else None
+    if metrics:
+        hooks.append(metrics)
+    sonar_agents = [a.name for a in scenario.agents if a.sensors]
+    strip = SonarStripHook(sonar_agents[0], duration) if sonar and sonar_agents else None
+    if strip:
+        hooks.append(strip)
+    hooks.extend(extra_hooks)
+    sim = Simulation(source, seed=seed, sonar_enabled=sonar, hooks=hooks)
+    if configure is not None:
+        configure(sim)
+    completed = False
+    try:
+        sim.run(duration, progress=progress, should_stop=should_stop)
+        completed = True
+    finally:
+        summary = _write_outputs(sim, out_dir, metrics, strip, files, completed)
+    return RunResult(out_dir, summary, files, completed)
+
+
+def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
+                   strip: SonarStripHook | None, files: list[Path],
+                   completed: bool) -> dict[str, Any]:
+    from uhrisim.viz import mission_figures as figs
+
+    summary: dict[str, Any] = {"scenario": sim.scenario.name, "seed": sim.seed,
+                               "completed": completed, "simulated_s": sim.t,
+                               "collisions": sim.collisions,
+                               "real_time_factor": sim.t / sim.wall_time if sim.wall_time
+                               else None}
+    if metrics is not None and sim.tick > 0:
+        summary |= metrics.summary()
+        series = metrics.series()
+        acquired = summary["time_to_acquire_s"]
+        acquired_at = None if acquired is None else float(series["t"][0] + acquired)
+        files.append(figs.plot_tracks(series, metrics.config.follower, metrics.config.target,
+                                      out_dir / "trajectory.png", acquired_at))
+        files.append(figs.plot_range_bearing(series, metrics.config.range,
+                                             out_dir / "range_bearing.png", acquired_at))
+    if strip is not None and strip.frames:
+        files.append(figs.plot_sonar_strip(strip.frames, out_dir / "sonar_strip.png"))
+    path = out_dir / "metrics.json"
+    path.write_text(json.dumps(summary, indent=2) + "\n")
+    files.append(path)
+    return summary
