@@ -118,6 +118,8 @@ class SonarPing:
         fan_px_per_m: pixels per metre of ``fan_u8``.
         fan_apex_px: (column, row) of the apex in ``fan_u8`` (pixel-centre coordinates).
         fan_rgb: colour-mapped ``fan_u8`` (H, W, 3) BGR, when ``config.colormap`` is set.
+        fan_layout: ``"bottom-centre"`` (physical), ``"port-edge"`` or ``"literal"`` (2013).
+        fan_half_fov_rad: half the horizontal field of view (for the 2013 layouts).
         label_polar: (n_bins, n_beams) int16: the scene label of the strongest return in
             each cell (cells reached only by a ray's range footprint take the label of the
             nearest ray centre along range), −1 where no echo arrived.
@@ -147,6 +149,29 @@ class SonarPing:
     hit_labels: NDArray[np.int32]
     mode: str = "physical"
     fan_rgb: NDArray[np.uint8] | None = field(default=None)
+    fan_layout: str = "bottom-centre"
+    fan_half_fov_rad: float = 0.0
+
+    def fan_pixels_to_sonar(self, px: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Sonar-frame points (N, 3), metres, for fan pixel coordinates ``px`` (N, 2) as
+        (column, row). Imaging sonars do not measure elevation: the points are placed in
+        the sonar's x–y plane (z = 0)."""
+        p = np.asarray(px, dtype=float).reshape(-1, 2)
+        s = self.fan_px_per_m
+        u = p[:, 0] - self.fan_apex_px[0]
+        v = p[:, 1] - self.fan_apex_px[1]
+        if self.fan_layout == "bottom-centre":
+            x, y = -v / s, u / s
+        elif self.fan_layout == "port-edge":
+            c, sn = math.cos(self.fan_half_fov_rad), math.sin(self.fan_half_fov_rad)
+            x, y = (u * c + v * sn) / s, (-u * sn + v * c) / s
+        else:  # "literal"
+            x, y = u / s, v / s
+        return np.stack([x, y, np.zeros_like(x)], axis=1)
+
+    def sonar_to_ned(self, pts_sonar: NDArray[np.float64]) -> NDArray[np.float64]:
+        """World NED points for sonar-frame points (N, 3)."""
+        return self.position_ned + np.asarray(pts_sonar, float) @ self.rotation_ned_from_sonar.T
 
 
 def mount_rotation(tilt_deg: float, yaw_deg: float) -> NDArray[np.float64]:
@@ -473,6 +498,8 @@ class ImagingSonar:
             hit_labels=labels,
             mode=cfg.mode,
             fan_rgb=fan_rgb,
+            fan_layout="bottom-centre" if cfg.mode == "physical" else cfg.layout_2013,
+            fan_half_fov_rad=math.radians(cfg.sonar_spec.fov_h_deg) / 2.0,
         )
 
     # -- pieces ------------------------------------------------------------------------------
