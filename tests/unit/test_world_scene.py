@@ -339,3 +339,14 @@ def test_scene_pickles_for_batch_runs() -> None:
     b = clone.raycaster().cast(o, d, 40.0)
     np.testing.assert_array_equal(a.distance, b.distance)
     np.testing.assert_array_equal(a.body, b.body)
+
+
+def test_threaded_embree_matches_single_thread() -> None:
+    ps = pier_scene(with_diver=True)
+    o, d = _fan(128, 64, origin=(0.0, 0.0, 3.0))  # 8192 rays: split across 2 threads
+    one = ps.scene.raycaster("embree").cast(o, d, 30.0)
+    two = ps.scene.raycaster("embree", threads=2).cast(o, d, 30.0)
+    for field in ("distance", "label", "normal", "reflectivity", "body"):
+        np.testing.assert_array_equal(getattr(one, field), getattr(two, field))
+    with pytest.raises(ConfigError, match="threads"):
+        ps.scene.raycaster("embree", threads=0)

@@ -85,6 +85,10 @@ def run(quick: bool = False) -> dict[str, Any]:
     calls = 20 if quick else 300
     static_cpu = _cpu_ms(lambda: rc_static.cast(o, d, max_range), calls)
     dyn_cpu = _cpu_ms(moving_ping, calls)
+    rc_threads = full.scene.raycaster("embree", threads=2)
+    threaded_rate = best_rate(
+        lambda: rc_threads.cast(o, d, max_range, exclude), repeats=5, min_time=min_time
+    )
     hits = rc_full.cast(o, d, max_range, exclude)
     labels = full.scene.labels
     hit_counts = {labels[i]: int(np.sum(hits.label == i)) for i in range(len(labels))}
@@ -133,6 +137,11 @@ def run(quick: bool = False) -> dict[str, Any]:
             "wall_ms_per_ping_best": 1e3 / dyn_rate,
             "rays_per_s_best": dyn_rate * n,
             "hits_by_label": hit_counts,
+        },
+        "embree_with_diver_and_rov_2_threads": {
+            "wall_ms_per_ping_best": 1e3 / threaded_rate,
+            "rays_per_s_best": threaded_rate * n,
+            "note": "Scene.raycaster(threads=2): static query split across 2 threads",
         },
         "embreex_raw_call_static": {
             "cpu_ms_per_ping_median": raw_cpu,

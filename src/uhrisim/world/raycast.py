@@ -21,8 +21,11 @@ hits it at distance 0; triangles are two-sided (no back-face culling).
 
 from __future__ import annotations
 
+import itertools
 import logging
+import weakref
 from abc import ABC, abstractmethod
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -39,6 +42,7 @@ log = logging.getLogger(__name__)
 
 _UNIT_TOL = 1e-5  # allowed | |d| - 1 |
 _EMBREE_FAR = 1e30  # stands in for an infinite max_range in float32
+_MIN_RAYS_PER_THREAD = 2048  # smaller batches are not worth a thread hand-off
 _SHIFT_BEYOND_M = 1000.0  # geometry farther than this from its origin is shifted for float32
 
 
@@ -114,10 +118,10 @@ def validate_rays(
     if not np.isfinite(np.sum(o)):
         raise ConfigError("contains NaN or inf", where="RayCaster.cast.origins")
     if len(d):
-        norms2 = np.einsum("ij,ij->i", d, d)
-        ok = np.abs(norms2 - 1.0) <= 2.0 * _UNIT_TOL  # NaN compares False
-        if not np.all(ok):
-            i = int(np.argmin(ok))
+        dev = np.einsum("ij,ij->i", d, d) - 1.0  # |d|² − 1
+        if not (dev.max() <= 2.0 * _UNIT_TOL and dev.min() >= -2.0 * _UNIT_TOL):  # NaN fails
+            norms2 = dev + 1.0
+            i = int(np.argmax(~(np.abs(dev) <= 2.0 * _UNIT_TOL)))
             raise ConfigError(
                 f"must be finite unit vectors; row {i} has length {np.sqrt(norms2[i]):.6g}",
                 where="RayCaster.cast.directions",
@@ -308,16 +312,24 @@ class _EmbreeMesh:
             vertices=np.ascontiguousarray(v, dtype=np.float32),
             indices=np.arange(len(v), dtype=np.int32).reshape(-1, 3),
         )
+        # Commit (build the BVH) now, so that later queries may run from several threads.
+        one = np.zeros((1, 3), dtype=np.float32)
+        self.scene.run(one, one + np.float32(1.0), dists=np.ones(1, dtype=np.float32))
         normal = _unit_normals(tri)
         # Per face: unit normal and n·v0 (the plane), float64, for the distance refinement;
         # a last all-zero row answers index -1 (a miss) with a zero normal.
-        plane = np.column_stack([normal, np.einsum("ij,ij->i", normal, tri[:, 0])])
-        self.plane = np.vstack([plane, np.zeros((1, 4))])
+        self.normal = np.vstack([normal, np.zeros((1, 3))])
+        self.plane_w = np.append(np.einsum("ij,ij->i", normal, tri[:, 0]), 0.0)
         self.centre = centre
         self.radius = float(np.max(np.linalg.norm(allv - centre, axis=1)))
 
     def intersect(
-        self, o: NDArray[np.float64], d: NDArray[np.float64], tfar: NDArray[np.float64] | float
+        self,
+        o: NDArray[np.float64],
+        d: NDArray[np.float64],
+        tfar: NDArray[np.float64] | float,
+        pool: ThreadPoolExecutor | None = None,
+        threads: int = 1,
     ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
         """First hits within ``tfar`` of rays given in the local frame.
 
@@ -333,12 +345,20 @@ class _EmbreeMesh:
         else:
             lim = np.asarray(tfar)
             far = np.minimum(lim * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR).astype(np.float32)
-        face = self.scene.run(o32, d32, dists=far).astype(np.int64)  # primID, -1 on a miss
-        pl = np.take(self.plane, face, axis=0)  # -1 → the zero row
-        nrm = pl[:, :3]
+        if pool is not None and threads > 1 and n >= _MIN_RAYS_PER_THREAD * 2:
+            # Embree queries are thread-safe and embreex releases the GIL while tracing.
+            cuts = np.linspace(0, n, threads + 1).astype(int)
+            jobs = [
+                pool.submit(self.scene.run, o32[a:b], d32[a:b], dists=far[a:b])
+                for a, b in itertools.pairwise(cuts)
+            ]
+            face = np.concatenate([j.result() for j in jobs]).astype(np.int64)
+        else:
+            face = self.scene.run(o32, d32, dists=far).astype(np.int64)  # primID; -1 = miss
+        nrm = np.take(self.normal, face, axis=0)  # -1 → the zero row
         # Refine in float64 against the hit triangle's plane: t = (n·v0 − n·o) / (n·d).
         dn = np.einsum("ij,ij->i", d, nrm)
-        num = pl[:, 3] - np.einsum("ij,ij->i", o, nrm)
+        num = np.take(self.plane_w, face) - np.einsum("ij,ij->i", o, nrm)
         with np.errstate(divide="ignore", invalid="ignore"):
             t = num / dn
         grazing = np.flatnonzero((np.abs(dn) <= 1e-9) & (face >= 0))
@@ -350,9 +370,10 @@ class _EmbreeMesh:
         if len(beyond):
             t[beyond] = np.inf
             face[beyond] = -1
-            pl[beyond] = 0.0
-        # Face the ray origin; a fresh contiguous (N, 3) array (zero rows for misses).
-        return face, t, nrm * np.where(dn > 0.0, -1.0, 1.0)[:, None]
+            nrm[beyond] = 0.0
+        # Turn to face the ray origin (n·d < 0); miss rows stay zero.
+        nrm *= np.copysign(1.0, -dn)[:, None]
+        return face, t, nrm
 
 
 @dataclass(frozen=True)
@@ -369,8 +390,17 @@ class EmbreeRayCaster(RayCaster):
 
     backend = "embree"
 
-    def __init__(self, scene: Scene) -> None:
+    def __init__(self, scene: Scene, threads: int = 1) -> None:
         super().__init__(scene)
+        if not isinstance(threads, int) or threads < 1:
+            raise ConfigError(
+                f"must be a positive integer, got {threads!r}", where="Scene.raycaster.threads"
+            )
+        self.threads = threads
+        self._pool: ThreadPoolExecutor | None = None
+        if threads > 1:
+            self._pool = ThreadPoolExecutor(threads, thread_name_prefix="uhrisim-embree")
+            weakref.finalize(self, self._pool.shutdown, wait=False)
         try:
             from embreex import rtcore
         except ImportError as exc:  # pragma: no cover - embreex is a core dependency
@@ -430,7 +460,7 @@ class EmbreeRayCaster(RayCaster):
         self._sync()
         n = len(o)
         if self._static is not None:
-            face, t, normal = self._static.intersect(o, d, max_range)
+            face, t, normal = self._static.intersect(o, d, max_range, self._pool, self.threads)
             best = np.maximum(t, 0.0)
             label = np.take(self._static_label, face)  # -1 → the -1 sentinel at the end
             refl = np.take(self._static_refl, face)
@@ -524,10 +554,14 @@ class _RayCuller:
         return np.flatnonzero((d2 <= r * r) & (tca + r >= 0.0) & (tca - r <= limit))
 
 
-def make_raycaster(scene: Scene, backend: str = "embree") -> RayCaster:
-    """Ray caster of the named back end ("embree" or "reference") over ``scene``."""
+def make_raycaster(scene: Scene, backend: str = "embree", threads: int = 1) -> RayCaster:
+    """Ray caster of the named back end ("embree" or "reference") over ``scene``.
+
+    ``threads`` > 1 splits the static-geometry Embree query of large batches across that
+    many threads (Embree releases the GIL); results are identical to ``threads=1``.
+    """
     if backend == "embree":
-        return EmbreeRayCaster(scene)
+        return EmbreeRayCaster(scene, threads)
     if backend == "reference":
         return ReferenceRayCaster(scene)
     raise ConfigError(

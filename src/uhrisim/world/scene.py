@@ -279,9 +279,13 @@ class Scene:
         stack = np.array(boxes)
         return np.array([stack[:, 0].min(axis=0), stack[:, 1].max(axis=0)])
 
-    def raycaster(self, backend: str = "embree") -> RayCaster:
-        """A ray caster over this scene ("embree" or "reference"); create once, reuse."""
-        return make_raycaster(self, backend)
+    def raycaster(self, backend: str = "embree", threads: int = 1) -> RayCaster:
+        """A ray caster over this scene ("embree" or "reference"); create once, reuse.
+
+        ``threads`` > 1 (Embree only) traces large batches against the static geometry on
+        that many threads; results are identical.
+        """
+        return make_raycaster(self, backend, threads)
 
     def segment_clear(
         self,
