@@ -5,6 +5,7 @@ simulation time) and the error paths."""
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import random
@@ -252,3 +253,34 @@ def test_start_applies_localhost_default(ros_env: int, monkeypatch: pytest.Monke
     with Ros2Bridge([AgentBridgeSpec(f"e_{secrets.token_hex(3)}", publish_sonar=False)],
                     domain_id=ros_env):
         assert os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
+
+
+def test_clock_follows_sim_time_and_can_be_throttled(ros_env: int) -> None:
+    """/clock goes out once per new simulation time; with clock_rate_hz=10 over 1.00 s
+    of 0.01 s ticks the rate gate lets through t = 0.0, 0.1, ..., 1.0: 11 messages."""
+    name = f"c_{secrets.token_hex(3)}"
+    with Ros2Bridge([AgentBridgeSpec(name, publish_sonar=False)], domain_id=ros_env,
+                    clock_rate_hz=10.0) as b:
+        for k in range(101):
+            b.publish_clock(k * 0.01)
+            b.publish_clock(k * 0.01)  # same time again: nothing new
+        assert b.stats()["published"]["/clock"] == 11
+    with Ros2Bridge([AgentBridgeSpec(name, publish_sonar=False)], domain_id=ros_env) as b:
+        for k in range(50):
+            b.publish_nav(name, k * 0.01, [0, 0, 0], 0.0, [0, 0, 0], 0.0)
+            b.publish_helm(name, k * 0.01, 10.0, 0.5, 1.0, "M")
+        assert b.stats()["published"]["/clock"] == 50
+
+
+def test_bench_quick_is_consistent(ros_env: int) -> None:
+    """The quick benchmark runs and its overhead figure is 15 x sonar + 10 x nav cost."""
+    from uhrisim.bench import ros2 as bench
+
+    r = bench.run(quick=True)
+    json.dumps(r)  # JSON-serialisable
+    ws = r["without_subscriber"]
+    expected = (15.0 * ws["publish_sonar"]["mean_us"] + 10.0 * ws["publish_nav"]["mean_us"]) * 1e-6
+    assert r["loop_overhead"]["fraction_of_one_core"] == pytest.approx(expected)
+    assert isinstance(r["meets_target"], bool)
+    assert ws["publish_nav_throttled_tick"]["median_us"] < ws["publish_nav"]["median_us"]
+    assert r["config"]["sonar_set_bytes"] == 2000 * 256 + 600 * 1000 + 16 * 4096

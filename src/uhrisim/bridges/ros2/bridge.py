@@ -188,7 +188,11 @@ class Ros2Bridge:
         ``"wall"``: monotonic wall seconds since receipt; right when the simulation
         runs much faster than real time and commands come from a real-time node.
     publish_clock:
-        Publish ``/clock`` whenever simulation time advances in a ``publish_*`` call.
+        Publish ``/clock`` whenever simulation time changes in a ``publish_*`` call (or
+        on :meth:`publish_clock`).
+    clock_rate_hz:
+        Throttle ``/clock`` to this rate in simulation time (``None``: every change).
+        Worth setting when the loop runs free at thousands of ticks per second.
     reliable_sensors:
         Publish sonar images/clouds reliably instead of best effort (see QoS).
     """
@@ -202,6 +206,7 @@ class Ros2Bridge:
         *,
         timeout_clock: Literal["sim", "wall"] = "sim",
         publish_clock: bool = True,
+        clock_rate_hz: float | None = None,
         reliable_sensors: bool = False,
     ) -> None:
         specs = list(agents)
@@ -225,6 +230,7 @@ class Ros2Bridge:
         self._timeout = float(command_timeout_s)
         self._timeout_clock = timeout_clock
         self._publish_clock = publish_clock
+        self._clock_gate = RateGate(clock_rate_hz)
         self._sensor_qos = QOS_SENSOR_RELIABLE if reliable_sensors else QOS_SENSOR
         self._agents = {s.name: _AgentIO(s) for s in specs}
         self._lock = threading.Lock()
@@ -375,8 +381,10 @@ class Ros2Bridge:
         t = float(t_sim)
         with self._lock:
             self._t_sim_latest = t
-        if self._pub_clock is not None and (
-            self._t_clock_published is None or t != self._t_clock_published
+        if (
+            self._pub_clock is not None
+            and (self._t_clock_published is None or t != self._t_clock_published)
+            and self._clock_gate.due(t)
         ):
             msg = Clock()
             msg.clock.sec, msg.clock.nanosec = stamp_from_sim_time(t)
@@ -391,6 +399,13 @@ class Ros2Bridge:
         self._counts[key] = self._counts.get(key, 0) + 1
 
     # ----------------------------------------------------------------- publishing
+    def publish_clock(self, t_sim: float) -> None:
+        """Publish ``/clock`` at ``t_sim`` (s) if it changed (every ``publish_*`` call
+        does this too); for loops that tick without publishing anything else."""
+        if not self.started:
+            raise BridgeError("Ros2Bridge.publish_clock: bridge is not running (call start())")
+        self._advance(t_sim)
+
     def publish_nav(
         self,
         agent: str,
