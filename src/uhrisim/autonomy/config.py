@@ -64,7 +64,16 @@ HELM_POSTED_VARS = frozenset(
 )
 _CONTACT_VAR = re.compile(r"^[A-Za-z0-9_\-]+_NAV_(X|Y|HEADING|SPEED|DEPTH|UTC)$")
 REPEATABLE = frozenset(
-    {"condition", "endflag", "runflag", "idleflag", "activeflag", "inactiveflag"}
+    {
+        "condition",
+        "endflag",
+        "runflag",
+        "idleflag",
+        "activeflag",
+        "inactiveflag",
+        "wptflag",
+        "cycleflag",
+    }
 )
 
 
@@ -96,6 +105,7 @@ class BehaviorSpec:
     def posted_vars(self) -> set[str]:
         c = self.common
         flags = c.endflags + c.runflags + c.idleflags + c.activeflags + c.inactiveflags
+        flags += getattr(self.params, "wptflags", ()) + getattr(self.params, "cycleflags", ())
         return {v for v, _ in flags}
 
 

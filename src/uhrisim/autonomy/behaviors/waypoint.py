@@ -8,8 +8,10 @@ Parameters (IvP names): points ("x1,y1:x2,y2", "pts={...}"), point (one point), 
 capture_radius (3), slip_radius (15), lead (-1 = off: steer at the point; > 0: steer at
 the point ``lead`` metres ahead of the vehicle's projection on the track line from the
 previous point, never past the next point), repeat (0: extra passes over the list),
-order (normal | reverse). When the last point is reached (after ``repeat`` extra passes)
-the behavior completes (endflags); ``perpetual = true`` starts over. Posts WPT_INDEX.
+order (normal | reverse), wptflag (posted on each point reached), cycleflag (posted at
+the end of each pass over the list). When the last point is reached (after ``repeat``
+extra passes) the behavior completes (endflags); ``perpetual = true`` starts over.
+Posts WPT_INDEX.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext
 from uhrisim.autonomy.behaviors.waypoint_engine import ArrivalTracker, course_speed_objective
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import bearing_deg, distance
-from uhrisim.autonomy.params import setter, to_float, to_point, to_points, to_str
+from uhrisim.autonomy.params import Flag, parse_flag, setter, to_float, to_point, to_points, to_str
 from uhrisim.core.errors import ConfigError
 
 Point = tuple[float, float]
@@ -42,6 +44,15 @@ def _repeat(v: object, key: str, where: str) -> int:
     return int(x)
 
 
+def _add_flag(field: str):
+    def apply(p: WaypointParams, v: object, key: str, where: str) -> WaypointParams:
+        vals = v if isinstance(v, list | tuple) else [v]
+        new = tuple(parse_flag(x, key, where) for x in vals)
+        return replace(p, **{field: getattr(p, field) + new})
+
+    return apply
+
+
 def _point(p: WaypointParams, v: object, key: str, where: str) -> WaypointParams:
     return replace(p, points=(to_point(v, key, where),))
 
@@ -55,6 +66,8 @@ class WaypointParams:
     lead: float = -1.0
     repeat: int = 0
     order: str = "normal"
+    wptflags: tuple[Flag, ...] = ()
+    cycleflags: tuple[Flag, ...] = ()
 
 
 class Waypoint(Behavior):
@@ -70,6 +83,8 @@ class Waypoint(Behavior):
         "lead": setter("lead", to_float),
         "repeat": setter("repeat", _repeat),
         "order": setter("order", _order),
+        "wptflag": _add_flag("wptflags"),
+        "cycleflag": _add_flag("cycleflags"),
     }
 
     def reset(self) -> None:
@@ -124,9 +139,14 @@ class Waypoint(Behavior):
                 break
             self.previous = (tx, ty)
             self.arrival.reset()
+            for f in p.wptflags:
+                ctx.post(*f)
             if self.index + 1 < len(self.route):
                 self.index += 1
-            elif self.passes < p.repeat:
+                continue
+            for f in p.cycleflags:
+                ctx.post(*f)
+            if self.passes < p.repeat:
                 self.passes += 1
                 self.index = 0
             else:

@@ -1,0 +1,154 @@
+"""Each behavior's objective function at hand-computed states (no vehicle, no helm loop)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from uhrisim.autonomy.behaviors import BehaviorContext, OwnNav
+from uhrisim.autonomy.behaviors.avoid_collision import cpa_utility, relevance
+from uhrisim.autonomy.config import build_behavior_spec
+from uhrisim.autonomy.domain import Domain
+
+D = Domain.paper()
+SPD = D.axis("speed").values
+
+
+def make(kind: str, **params):
+    items = [(k, v, "test") for k, v in {"name": "b", **params}.items()]
+    return build_behavior_spec(kind, items, "test").instantiate()
+
+
+def ctx(own: OwnNav, t: float = 0.0, **contacts) -> BehaviorContext:
+    info: dict = {}
+    for name, (x, y, h, v) in contacts.items():
+        k = name.upper()
+        info.update({f"{k}_NAV_X": x, f"{k}_NAV_Y": y, f"{k}_NAV_HEADING": h,
+                     f"{k}_NAV_SPEED": v, f"{k}_NAV_DEPTH": 0.0, f"{k}_NAV_UTC": 0.0})  # fmt: skip
+    return BehaviorContext(t, D, info, own)
+
+
+def argmax_cs(obj) -> tuple[float, float]:
+    i, j = np.unravel_index(np.argmax(obj.values), obj.values.shape)
+    return float(i), float(SPD[j])
+
+
+def test_trail_regimes():
+    b = make("Trail", contact="diver", trail_range=2, radius=1, nm_radius=5)
+    diver = (0.0, 0.0, 0.0, 1.0)  # at the origin, heading north at 1 m/s -> P = (0, -2)
+    assert b.trail_point(0.0, 0.0, 0.0) == pytest.approx((0.0, -2.0))
+    # middle regime: own (3, -4), D = sqrt(13) = 3.61; aim at A = P + 5 north = (0, 3):
+    # bearing atan2(-3, 7) = -23.2 deg -> 336.8 -> grid 337; ahead_by = -2 -> 1*(1+0.2)
+    obj = b.on_run(ctx(OwnNav(3.0, -4.0, 0.0, 1.0), diver=diver))
+    assert obj.axes == ("course", "speed") and obj.values.max() == pytest.approx(100.0)
+    assert argmax_cs(obj) == (337.0, pytest.approx(1.2))
+    # inside radius: match the contact's heading and speed
+    obj = b.on_run(ctx(OwnNav(0.3, -2.0, 90.0, 0.0), diver=diver))
+    assert argmax_cs(obj) == (0.0, pytest.approx(1.0))
+    # far regime (D = 30 > 5): 100 (1 - cpa/D) against a virtual contact at P
+    obj = b.on_run(ctx(OwnNav(30.0, -2.0, 0.0, 0.0), diver=diver))
+    assert np.allclose(obj.values[:, 0], 0.0)  # standing still: cpa = D (abeam, t* = 0)
+    # west at 1 m/s: r0 = (30, 0), w = (-1, -1), t* = 15, cpa = |(15, -15)| = 21.21
+    assert obj.values[270, 5] == pytest.approx(100.0 * (1.0 - math.sqrt(450.0) / 30.0))
+    assert obj.values.max() > 99.0
+    # relative vs absolute trail angle
+    b2 = make("Trail", contact="diver", trail_range=2, trail_angle=90, trail_angle_type="absolute")
+    assert b2.trail_point(0.0, 0.0, 45.0) == pytest.approx((2.0, 0.0))
+    # no contact information: nothing to say (on_no_contact_ok defaults to true)
+    c = ctx(OwnNav(0, 0, 0, 0))
+    assert b.on_run(c) is None and c.posts == []
+    b3 = make("Trail", contact="diver", on_no_contact_ok="false")
+    c = ctx(OwnNav(0, 0, 0, 0))
+    assert b3.on_run(c) is None and c.posts[0][0] == "BHV_ERROR"
+    # a stale report (decay 5,10 maxed at dt = 11 s) is dropped with a warning
+    c = ctx(OwnNav(3.0, -4.0, 0.0, 1.0), t=11.0, diver=diver)
+    assert b.on_run(c) is None and c.posts[0][0] == "BHV_WARNING"
+
+
+def test_avoid_collision_relevance_and_utility():
+    assert relevance(35.0, 50.0, 20.0, "linear") == pytest.approx(0.5)
+    assert relevance(35.0, 50.0, 20.0, "quadratic") == pytest.approx(0.25)
+    assert relevance(35.0, 50.0, 20.0, "quasi") == pytest.approx(0.5**1.5)
+    assert relevance(60.0, 50.0, 20.0, "linear") == 0.0
+    assert relevance(10.0, 50.0, 20.0, "quasi") == 1.0
+    u = cpa_utility(np.array([4.0, 8.0, 16.5, 25.0, 30.0]), 8.0, 25.0)
+    assert u == pytest.approx([0.0, 0.0, 62.5, 100.0, 100.0])  # 25 + 75 * 8.5/17 = 62.5
+
+
+def test_avoid_collision_objective_head_on():
+    b = make("AvoidCollision", contact="boat", pwt_outer_dist=50, pwt_inner_dist=20,
+             completed_dist=75, min_util_cpa_dist=8, max_util_cpa_dist=25)  # fmt: skip
+    boat = (0.0, 10.0, 180.0, 1.0)  # 10 m ahead, coming straight at us
+    obj = b.on_run(ctx(OwnNav(0.0, 0.0, 0.0, 1.0), boat=boat))
+    assert b.priority_scale == 1.0  # range 10 <= inner 20
+    assert obj.values[0, 5] == 0.0  # north at 1 m/s: cpa 0
+    # east at 5 m/s: w = (5, 1), r0 = (0, -10), t* = 10/26, r = (1.923, -9.615), cpa 9.806
+    cpa = math.hypot(5 * 10 / 26, -10 + 10 / 26)
+    assert obj.values[90, 25] == pytest.approx(25 + 75 * (cpa - 8) / 17)
+    # range already inside min_util_cpa_dist (6 < 8): min becomes range/2 = 3
+    obj = b.on_run(ctx(OwnNav(0.0, 0.0, 0.0, 0.0), boat=(0.0, 6.0, 0.0, 0.0)))
+    assert obj.values[180, 0] == pytest.approx(25 + 75 * (6 - 3) / 22)  # stay: cpa = 6
+    # beyond completed_dist: completes, no function
+    c = ctx(OwnNav(0.0, 0.0, 0.0, 0.0), boat=(0.0, 80.0, 0.0, 0.0))
+    assert b.on_run(c) is None and b.complete_requested
+
+
+def test_constant_depth_function():
+    b = make("ConstantDepth", depth=3)
+    obj = b.on_run(ctx(OwnNav(0, 0, 0, 0)))
+    assert obj.axes == ("depth",)
+    # pw 3, bw 100, delta 50: d=2 -> 100 - 50/3*2; d=47 -> 50 - 50*44/100
+    assert obj.values[[3, 5, 50]] == pytest.approx([100.0, 100 - 100 / 3, 28.0])
+
+
+def test_waypoint_lead_and_station_keep_speeds():
+    w = make("Waypoint", points="0,100", speed=1.0, lead=5)
+    w.previous = (0.0, 0.0)
+    # own (3, 10): projection 10 m along the track, steer at (0, 15): atan2(-3, 5) -> 329.04
+    assert w.steer_point(3.0, 10.0) == pytest.approx((0.0, 15.0))
+    obj = w.on_run(ctx(OwnNav(3.0, 10.0, 0.0, 1.0)))
+    assert argmax_cs(obj) == (329.0, pytest.approx(1.0))
+    assert w.steer_point(0.0, 98.0) == (0.0, 100.0)  # never past the point
+    s = make("StationKeep", station_pt="0,0", inner_radius=4, outer_radius=15)
+    assert [s.desired_speed(d) for d in (3.0, 9.5, 20.0)] == pytest.approx([0.0, 0.6, 2.0])
+    obj = s.on_run(ctx(OwnNav(0.0, 9.5, 90.0, 0.0)))
+    assert argmax_cs(obj) == (180.0, pytest.approx(0.6))  # head back south at 1.2*5.5/11
+
+
+def test_loiter_function_points_at_the_current_vertex():
+    b = make("Loiter", polygon="0,0 : 0,20 : 20,20 : 20,0", speed=1.4, acquire_dist=5)
+    c = ctx(OwnNav(10.0, -30.0, 0.0, 1.0))  # 30 m south of the square: acquire mode
+    obj = b.on_run(c)
+    assert b.acquire_mode and ("LOITER_ACQUIRE", "true") in c.posts
+    tx, ty = b.vertices[b.index]
+    brg = math.degrees(math.atan2(tx - 10.0, ty + 30.0)) % 360.0
+    assert argmax_cs(obj) == (float(round(brg)), pytest.approx(1.4))
+    # clockwise acquisition from the south: approach vector to (0, 0) is (-10, 30), mostly
+    # north, and its clockwise onward edge runs north up the west side (cos = 0.95); the
+    # south-east corner's onward edge runs west, against the approach (cos = -0.32)
+    assert (tx, ty) == (0.0, 0.0)
+    assert b.vertices[(b.index + b.direction) % 4] == (0.0, 20.0)
+    # counter-clockwise: (20, 0) now continues north up the east side -> chosen instead
+    b2 = make("Loiter", polygon="0,0 : 0,20 : 20,20 : 20,0", speed=1.4, clockwise="false")
+    b2.on_run(ctx(OwnNav(10.0, -30.0, 0.0, 1.0)))
+    assert b2.vertices[b2.index] == (20.0, 0.0) and b2.direction == -1
+
+
+def test_waypoint_flags_repeat_and_completion():
+    w = make("Waypoint", points="0,10 : 0,20", speed=1, repeat=1, wptflag="HIT = 1",
+             cycleflag=["LAP = true"])  # fmt: skip
+    seen = []
+    for y in (0.0, 9.0, 19.0, 9.5, 19.5):
+        c = ctx(OwnNav(0.0, y, 0.0, 1.0))
+        obj = w.on_run(c)
+        seen.append(([v for v, _ in c.posts if v in ("HIT", "LAP")], w.index, obj is None))
+    assert seen == [
+        ([], 0, False),
+        (["HIT"], 1, False),  # (0, 10) within capture radius 3
+        (["HIT", "LAP"], 0, False),  # end of the first pass: repeat once
+        (["HIT"], 1, False),
+        (["HIT", "LAP"], 1, True),  # second pass done: complete, no function
+    ]
+    assert w.complete_requested and w.finished
