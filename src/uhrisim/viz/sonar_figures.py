@@ -1,0 +1,173 @@
+"""Sonar figures of the paper's scenes: the pier (Figs 12-14) and the torus (Figs 15-16).
+
+Each ``make_*`` writes, into ``out_dir``:
+
+* ``*_scene_top.png`` — the 3-D scene seen from above (sea-floor depth, structures, the
+  sonar and its 45° fan, the ray hits of one ping);
+* ``*_2013.png`` — the paper's image (2013 mode: points ×10 px/m, apex top-left, blur,
+  white fan boundary lines);
+* ``*_fan.png`` — the physically formed fan image (apex bottom-centre, colour-mapped);
+* ``*_labels.png`` — which object produced each fan pixel's strongest return;
+* ``*_panel.png`` — polar image, fan with metric axes and the 2013 image side by side;
+* ``*_polar.npy`` — the polar image (n_bins, n_beams) float32, display scale 0…1.
+
+Axes: the top view shows east to the right and north up (metres, NED).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import cv2
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.collections import PolyCollection
+
+from uhrisim.core.rng import component_rng
+from uhrisim.sensors.sonar import ImagingSonar, SonarConfig, SonarPing
+
+SEED = 2013
+
+
+def _pings(paper, pose_name: str, range_max_m: float) -> tuple[SonarPing, SonarPing]:
+    pose = paper.sonar_poses[pose_name]
+    rc = paper.scene.raycaster("embree")
+    common = dict(
+        tilt_deg=pose.tilt_deg, mount_position_frd=(0.0, 0.0, 0.0), range_max_m=range_max_m,
+    )  # fmt: skip
+    phys = ImagingSonar(
+        SonarConfig(colormap="bone", fan_size_px=600, **common),
+        component_rng(SEED, "figure/sonar"),
+    ).ping(rc, pose.position_ned, pose.rotation, 0.0)
+    paper_mode = ImagingSonar(
+        SonarConfig(mode="2013", rays_per_beam=32, **common), component_rng(SEED, "figure/2013")
+    ).ping(rc, pose.position_ned, pose.rotation, 0.0)
+    return phys, paper_mode
+
+
+def _top_view(paper, ping: SonarPing, range_max_m: float, title: str, path: Path) -> None:
+    scene = paper.scene
+    fig, ax = plt.subplots(figsize=(7.0, 7.0))
+    floor = scene.seafloor
+    if floor is not None:
+        im = ax.pcolormesh(floor.east, floor.north, floor.depth, cmap="Blues", shading="auto")
+        fig.colorbar(im, ax=ax, shrink=0.7, label="sea-floor depth (m)")
+    seen: set[str] = set()
+    for obj in scene.static_objects:
+        if obj.label == "seafloor":
+            continue
+        name = obj.label if obj.label not in seen else None
+        seen.add(obj.label)
+        tri = obj.mesh.triangles[:, :, :2]  # (n, 3, [north, east])
+        polys = tri[:, :, ::-1]  # plot east → x, north → y
+        ax.add_collection(PolyCollection(polys, facecolor="0.35", edgecolor="none", label=name))
+    p = ping.position_ned
+    axis = ping.rotation_ned_from_sonar[:, 0]
+    heading = math.atan2(axis[1], axis[0])
+    half = ping.fan_half_fov_rad
+    arc = np.linspace(heading - half, heading + half, 50)
+    fan_n = np.concatenate([[p[0]], p[0] + range_max_m * np.cos(arc), [p[0]]])
+    fan_e = np.concatenate([[p[1]], p[1] + range_max_m * np.sin(arc), [p[1]]])
+    ax.plot(fan_e, fan_n, color="tab:orange", lw=1.2, label="sonar fan")
+    hits = ping.hit_points_ned[:: max(1, len(ping.hit_points_ned) // 4000)]
+    ax.scatter(hits[:, 1], hits[:, 0], s=0.5, color="tab:red", alpha=0.5, label="ray hits")
+    ax.plot(p[1], p[0], "k^", ms=8, label="sonar")
+    bounds = scene.bounds()
+    ax.set_xlim(max(bounds[0, 1], p[1] - range_max_m), min(bounds[1, 1], p[1] + range_max_m))
+    ax.set_ylim(max(bounds[0, 0], p[0] - 2.0), min(bounds[1, 0], p[0] + range_max_m + 2.0))
+    ax.set_aspect("equal")
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
+    ax.set_title(title)
+    ax.legend(loc="lower right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _label_image(ping: SonarPing, names: list[str]) -> np.ndarray:
+    colours = np.array(
+        [[40, 90, 160], [40, 200, 240], [80, 220, 80], [230, 120, 40], [200, 60, 200]],
+        dtype=np.uint8,
+    )  # BGR per label id (cycled)
+    out = np.zeros((*ping.label_fan.shape, 3), dtype=np.uint8)
+    lab = ping.label_fan
+    hit = lab >= 0
+    out[hit] = colours[lab[hit] % len(colours)]
+    for i, name in enumerate(names):
+        cv2.putText(out, name, (8, 20 + 18 * i), cv2.FONT_HERSHEY_SIMPLEX, 0.5,
+                    tuple(int(c) for c in colours[i % len(colours)]), 1)  # fmt: skip
+    return out
+
+
+def _panel(phys: SonarPing, paper_mode: SonarPing, title: str, path: Path) -> None:
+    fig, axes = plt.subplots(1, 3, figsize=(15.0, 5.5))
+    r = phys.bin_ranges_m
+    th = np.degrees(phys.beam_angles_rad)
+    axes[0].imshow(
+        phys.polar, origin="lower", aspect="auto", cmap="bone",
+        extent=(th[0], th[-1], r[0], r[-1]),
+    )  # fmt: skip
+    axes[0].set_xlabel("beam angle (deg, + starboard)")
+    axes[0].set_ylabel("range (m)")
+    axes[0].set_title("polar image (beams × range bins)")
+    H, W = phys.fan_u8.shape
+    s = phys.fan_px_per_m
+    c0, r0 = phys.fan_apex_px
+    axes[1].imshow(
+        phys.fan_u8, cmap="bone",
+        extent=((-0.5 - c0) / s, (W - 0.5 - c0) / s, (r0 - H + 0.5) / s, (r0 + 0.5) / s),
+    )  # fmt: skip
+    axes[1].set_xlabel("starboard (m)")
+    axes[1].set_ylabel("forward (m)")
+    axes[1].set_title("physical fan (apex bottom-centre)")
+    axes[2].imshow(paper_mode.fan_u8, cmap="gray")
+    axes[2].set_xlabel("column (px, 10 px/m)")
+    axes[2].set_ylabel("row (px)")
+    axes[2].set_title("2013 mode (apex top-left)")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def _write(paper, pose_name: str, range_max_m: float, stem: str, title: str,
+           out_dir: Path) -> list[Path]:  # fmt: skip
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    phys, paper_mode = _pings(paper, pose_name, range_max_m)
+    paths = [
+        out / f"{stem}_scene_top.png",
+        out / f"{stem}_2013.png",
+        out / f"{stem}_fan.png",
+        out / f"{stem}_labels.png",
+        out / f"{stem}_panel.png",
+        out / f"{stem}_polar.npy",
+    ]
+    _top_view(paper, phys, range_max_m, f"{title}: scene from above", paths[0])
+    cv2.imwrite(str(paths[1]), paper_mode.fan_u8)
+    cv2.imwrite(str(paths[2]), phys.fan_rgb if phys.fan_rgb is not None else phys.fan_u8)
+    cv2.imwrite(str(paths[3]), _label_image(phys, paper.scene.labels))
+    _panel(phys, paper_mode, title, paths[4])
+    np.save(paths[5], phys.polar)
+    return paths
+
+
+def make_sonar_pier(out_dir: Path) -> list[Path]:
+    """Pier support beams over bathymetry (paper Figs 12-14); see the module docstring."""
+    from uhrisim.world.paper_scenes import pier_scene
+
+    return _write(pier_scene(), "approach", 30.0, "sonar_pier", "Pier (paper Figs 12-14)",
+                  out_dir)  # fmt: skip
+
+
+def make_sonar_torus(out_dir: Path) -> list[Path]:
+    """Torus on the sea floor (paper Figs 15-16); see the module docstring."""
+    from uhrisim.world.paper_scenes import torus_scene
+
+    return _write(torus_scene(), "front", 20.0, "sonar_torus", "Torus (paper Figs 15-16)",
+                  out_dir)  # fmt: skip

@@ -1,0 +1,27 @@
+"""Sonar figure builders write the promised files with the right content."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from uhrisim.viz.sonar_figures import make_sonar_torus
+
+
+def test_make_sonar_torus(tmp_path: Path) -> None:
+    paths = make_sonar_torus(tmp_path)
+    names = sorted(p.name for p in paths)
+    assert names == sorted(
+        f"sonar_torus_{s}"
+        for s in ("scene_top.png", "2013.png", "fan.png", "labels.png", "panel.png", "polar.npy")
+    )
+    assert all(p.exists() and p.stat().st_size > 0 for p in paths)
+    polar = np.load(tmp_path / "sonar_torus_polar.npy")
+    # 20 m window at 2.54 cm bins (ceil(20/0.0254) = 788) × 256 beams, display scale 0…1.
+    assert polar.shape == (788, 256) and polar.dtype == np.float32
+    assert polar.min() >= 0.0 and polar.max() <= 1.0
+    img = cv2.imread(str(tmp_path / "sonar_torus_2013.png"), cv2.IMREAD_GRAYSCALE)
+    # 2013 image: 10 px/m over 20 m, apex top-left with a white boundary line from it.
+    assert img.shape[1] == 201 and img[0, 0] == 255
