@@ -44,8 +44,9 @@ def zaic_peak(
     """ZAIC peak utility at points ``x`` (same unit as the summit); see module docstring."""
     xa = np.asarray(x, dtype=float)
     d = _distance(xa, float(summit), wrap_period)
-    pw = max(float(peakwidth), 0.0)
-    bw = max(float(basewidth), 0.0)
+    # widths below 1e-9 (of the axis unit) are zero: avoids overflow on subnormal widths
+    pw = float(peakwidth) if peakwidth > 1e-9 else 0.0
+    bw = float(basewidth) if basewidth > 1e-9 else 0.0
     delta = float(np.clip(summitdelta, 0.0, maxutil - minutil))
     if pw > 0.0 and delta > 0.0:
         in_peak = maxutil - (delta / pw) * d
