@@ -194,3 +194,23 @@ def test_sonar_fan_from_one_origin_agrees() -> None:
     # about its centre) hit the hull's front face first.
     inside = scene.raycaster().cast(np.tile([0.1, 0.0, 3.05], (len(d), 1)), d, 30.0)
     assert np.all(inside.body == 0) and np.all(inside.distance < 0.06)
+
+
+def test_far_from_origin_geometry_agrees() -> None:
+    # 5 km from the world origin float32 has ~0.5 mm resolution: the caster shifts the
+    # static geometry to its own centre and refines distances in float64.
+    offset = np.array([5000.0, -3000.0, 0.0])
+    scene = Scene()
+    scene.add_static(sf.flat(8.0, (4980.0, 5020.0, -3020.0, -2980.0)), "seafloor", SAND)
+    piling = prim.box((0.4, 0.4, 9.0), offset + np.array([6.0, 0.0, 4.0]))
+    scene.add_static(piling, "piling", CONCRETE)
+    scene.add_dynamic("diver", diver_parts(), "diver", NEOPRENE, offset + np.array([4.0, 1.0, 5.0]))
+    pts = np.vstack(
+        [_surface_points(piling, 300, 8), _surface_points(scene.bodies[0].mesh_world(), 300, 9)]
+    )
+    o, d = _rays(pts, offset + np.array([0.0, 0.0, 4.0]), 1.0, 1000, 10)
+    e, _ = assert_agree(scene, o, d, 40.0, min_hits=600)
+    assert np.sum(e.body == 0) > 100
+    # The closed form holds to float64 precision: horizontal ray onto the piling's face.
+    h = scene.raycaster().cast([offset + np.array([0.0, 0.0, 4.0])], [[1.0, 0.0, 0.0]], 40.0)
+    assert h.distance[0] == pytest.approx(5.8, abs=1e-9)

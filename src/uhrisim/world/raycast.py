@@ -199,7 +199,7 @@ class ReferenceRayCaster(RayCaster):
 
     backend = "reference"
 
-    def __init__(self, scene: Scene, max_pairs: int = 1 << 20) -> None:
+    def __init__(self, scene: Scene, max_pairs: int = 1 << 18) -> None:
         super().__init__(scene)
         self._max_pairs = int(max_pairs)
 
@@ -488,18 +488,19 @@ class EmbreeRayCaster(RayCaster):
             body_idx = cull.candidates(limit_all, bc, br)
             if len(body_idx) == 0:
                 continue
-            sub_cull = cull.subset(body_idx) if len(groups) > 1 else cull
+            if len(groups) > 1:  # every group's sphere against the body's candidates at once
+                masks = cull.subset(body_idx).candidates_many(
+                    np.minimum(best[body_idx], max_range), centres, radii
+                )
             for gi, (group, m) in enumerate(zip(groups, frames, strict=True)):
                 rot, trans = m[:3, :3], m[:3, 3]
-                limit = np.minimum(best[body_idx], max_range)
                 if len(groups) == 1:
                     idx = body_idx
                 else:
-                    sub = sub_cull.candidates(limit, centres[gi], radii[gi])
-                    if len(sub) == 0:
+                    idx = body_idx[np.flatnonzero(masks[:, gi])]
+                    if len(idx) == 0:
                         continue
-                    idx = body_idx[sub]
-                    limit = limit[sub]
+                limit = np.minimum(best[idx], max_range)  # earlier groups may have tightened it
                 ol = (o[idx] - trans) @ rot  # R^T (o - t), row form
                 dl = d[idx] @ rot
                 face, t, nrm = group.mesh.intersect(ol, dl, limit)
@@ -537,6 +538,22 @@ class _RayCuller:
         if self.o0 is None:
             sub.oo, sub.od = self.oo[idx], self.od[idx]
         return sub
+
+    def candidates_many(
+        self, limit: NDArray[np.float64], centres: NDArray[np.float64], radii: NDArray[np.float64]
+    ) -> NDArray[np.bool_]:
+        """(N, G) mask: may ray i touch sphere g (centres (G, 3), radii (G,)) within limit."""
+        c = np.asarray(centres, dtype=float)
+        if self.o0 is not None:
+            v = c - self.o0
+            tca = self.d @ v.T
+            d2 = np.einsum("ij,ij->i", v, v)[None, :] - tca * tca
+        else:
+            tca = self.d @ c.T - self.od[:, None]
+            cc = np.einsum("ij,ij->i", c, c)[None, :]
+            d2 = (cc - 2.0 * (self.o @ c.T) + self.oo[:, None]) - tca * tca
+        r = np.asarray(radii, dtype=float) * (1.0 + 1e-6) + 1e-6
+        return (d2 <= r * r) & (tca + r >= 0.0) & (tca - r <= limit[:, None])
 
     def candidates(
         self, limit: NDArray[np.float64], centre: NDArray[np.float64], radius: float
