@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uhrisim.autonomy import Helm, HelmConfig, load_bhv
+from uhrisim.autonomy import Helm, HelmConfig, NodeReport, load_bhv
 from uhrisim.autonomy.zaic import zaic_peak
 from uhrisim.core.errors import ConfigError
 
@@ -167,6 +167,23 @@ def test_manual_override_parks_the_helm():
     assert "DESIRED_SPEED" not in out.post_dict() and out.post_dict()["IVPHELM_STATE"] == "PARK"
     out = h.step(0.25, {"MOOS_MANUAL_OVERRIDE": "false"})
     assert out.helm_state == "DRIVE" and out.post_dict()["IVPHELM_STATE"] == "DRIVE"
+
+
+def test_numpy_scalars_and_report_objects_in_mail():
+    h = meta_helm()
+    out = h.step(
+        0.0,
+        {
+            "NAV_X": np.float32(1.5),
+            "NAV_Y": np.int64(2),
+            "NAV_HEADING": 90.0,
+            "DEPLOY": np.bool_(True),
+            "NODE_REPORT": NodeReport("diver", 4.0, 5.0, 0.5, 90.0, 2.0, time=0.0),
+        },
+    )
+    assert "BHV_WARNING" not in out.post_dict()
+    assert (h.info["NAV_X"], h.info["NAV_Y"], h.info["DEPLOY"]) == (1.5, 2.0, "true")
+    assert h.info["DIVER_NAV_X"] == 4.0 and out.mode == "ACTIVE:TRAILING"
 
 
 def test_bad_node_report_is_reported_not_fatal():

@@ -6,12 +6,14 @@ NAV_HEADING (compass deg), NAV_SPEED (m/s), NAV_DEPTH (m, down); out come DESIRE
 boundary. One call of :meth:`Helm.step` is one helm iteration (4 Hz in the paper):
 
 1. mail (variables changed since the last step) enters the info buffer. ``NODE_REPORT``
-   values (a string or a list of strings) become ``<NAME>_NAV_X/_Y/_HEADING/_SPEED/
-   _DEPTH/_UTC`` entries (name upper-cased; own reports ignored). A posting to a spawn
-   template's ``updates`` variable containing ``name=X`` spawns behavior ``<template
-   name><X>`` (IvP concatenation) with the other ``param=value`` pairs applied, or updates
-   it if it already exists; postings to a behavior's ``updates`` variable set parameters.
-   A list value means several postings of that variable, applied in order.
+   values (a string, a :class:`NodeReport`, or a list of them) become
+   ``<NAME>_NAV_X/_Y/_HEADING/_SPEED/_DEPTH/_UTC`` entries (name upper-cased; own
+   reports ignored). A posting to a spawn template's ``updates`` variable containing
+   ``name=X`` spawns behavior ``<template name><X>`` (IvP concatenation) with the other
+   ``param=value`` pairs applied, or updates it if it already exists; postings to a
+   behavior's ``updates`` variable set parameters. A list value means several postings
+   of that variable, applied in order. The ``initialize`` values are applied (and
+   posted) before the first mail;
 2. mode variables are evaluated (:mod:`modes`), posted when they change;
 3. each behavior's conditions decide idle/running; durations expire; running behaviors
    produce objectives; flags are posted on transitions (runflag: idle -> running,
@@ -36,7 +38,7 @@ from dataclasses import dataclass, field
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext, OwnNav
 from uhrisim.autonomy.conditions import Value
 from uhrisim.autonomy.config import BehaviorSpec, HelmConfig
-from uhrisim.autonomy.contacts import parse_node_report
+from uhrisim.autonomy.contacts import NodeReport, parse_node_report
 from uhrisim.autonomy.modes import evaluate_modes
 from uhrisim.autonomy.params import moos_value, parse_updates
 from uhrisim.autonomy.solver import SolveResult, WeightedObjective, solve
@@ -146,7 +148,7 @@ class Helm:
 
     def _node_report(self, text: object, t: float, posts: list) -> None:
         try:
-            r = parse_node_report(str(text))
+            r = text if isinstance(text, NodeReport) else parse_node_report(str(text))
         except ConfigError as e:
             self._warn(posts, f"bad NODE_REPORT ignored: {e}")
             return
@@ -228,8 +230,9 @@ class Helm:
     def step(self, t: float, mail: Mapping[str, object] | None = None) -> HelmOutput:
         """One helm iteration at time ``t`` (s) with the variables changed since the last."""
         posts: list[tuple[str, Value]] = []
-        if self._first:
-            posts.extend(self.config.initialize)
+        self._init_posts: tuple[tuple[str, Value], ...] = ()
+        if self._first:  # posted once, and applied before the first mail (mail wins)
+            self._init_posts = self.config.initialize
             self.info.update(dict(self.config.initialize))
         self._take_mail(t, mail or {}, posts)
         parked = str(self.info.get("MOOS_MANUAL_OVERRIDE", "false")).lower() == "true"
@@ -343,6 +346,7 @@ class Helm:
             "IVPHELM_BHV_ACTIVE": ",".join(by["active"]),
             "IVPHELM_BHV_RUNNING": ",".join(by["running"]),
             "IVPHELM_BHV_IDLE": ",".join(by["idle"]),
+            "IVPHELM_BHV_COMPLETED": ",".join(by["completed"]),
         }
         for var, val in lists.items():
             if self._last_lists.get(var) != val:
@@ -356,7 +360,7 @@ class Helm:
             t=t,
             decision=decision,
             all_stop_reason=None if decision is not None else reason,
-            posts=tuple(posts),
+            posts=self._init_posts + tuple(posts),
             contributions=dict(result.contributions) if result else {},
             total=result.total if result else 0.0,
             mode=mode,

@@ -8,9 +8,12 @@ parameters. Errors are :class:`ConfigError` naming the parameter and where it ca
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
+
+import numpy as np
 
 from uhrisim.autonomy.conditions import Value, literal
 from uhrisim.core.errors import ConfigError
@@ -33,9 +36,9 @@ Flag = tuple[str, Value]
 
 def moos_value(v: object) -> Value:
     """Normalise a Python scalar to a MOOS value: bool -> "true"/"false", numbers -> float."""
-    if isinstance(v, bool):
+    if isinstance(v, bool | np.bool_):
         return "true" if v else "false"
-    if isinstance(v, int | float):
+    if isinstance(v, numbers.Real):
         return float(v)
     if isinstance(v, str):
         return literal(v)
