@@ -194,3 +194,116 @@ def write_demo_recording(path: Path | str, duration: float = 60.0, dt: float = 0
             if k == 0:
                 rec.write_variable("videoray", t, "MODE", "TRAIL", "demo")
                 rec.write_variable("diver", t, "MODE", "LOITER", "demo")
+
+
+class DemoRun:
+    """The stand-in mission played live into a :class:`ViewerServer`, obeying its commands.
+
+    A background thread advances simulated time by ``dt`` per tick at ``rate_hz`` ticks per
+    wall second times the speed factor, publishes :func:`demo_frame` each tick and a sonar
+    fan every ``sonar_every`` ticks, and applies pause / resume / step / speed commands
+    as the real loop does. ``post`` and ``select`` commands are logged and kept in
+    :attr:`posts`. Meant for trying the page without a simulation and for screenshots.
+    """
+
+    def __init__(self, server: Any, *, dt: float = 0.05, rate_hz: float = 20.0,
+                 sonar_every: int = 4, t0: float = 0.0, seed: int = 0,
+                 params: DemoParams = DemoParams()) -> None:
+        import threading
+
+        from uhrisim.core.rng import component_rng
+
+        self.server = server
+        self.dt = dt
+        self.rate_hz = rate_hz
+        self.sonar_every = sonar_every
+        self.params = params
+        self.t = t0
+        self.paused = False
+        self.speed = 1.0
+        self.posts: list[Any] = []
+        self._rng = component_rng(seed, "viewer-demo/sonar")
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="uhrisim-viewer-demo",
+                                        daemon=True)
+
+    def start(self) -> DemoRun:
+        self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(5)
+
+    def _apply(self, cmd: Any) -> int:
+        steps = 0
+        if cmd.kind == "pause":
+            self.paused = True
+        elif cmd.kind == "resume":
+            self.paused = False
+        elif cmd.kind == "step" and self.paused:
+            steps = int(cmd.value or 1)
+        elif cmd.kind == "speed":
+            self.speed = float(cmd.value)
+        else:
+            self.posts.append(cmd)
+        return steps
+
+    def _run(self) -> None:
+        import logging
+        import time
+
+        log = logging.getLogger(__name__)
+        k = 0
+        last = time.perf_counter()
+        while not self._stop.is_set():
+            steps = sum(self._apply(c) for c in self.server.drain_commands())
+            now = time.perf_counter()
+            wall = now - last
+            last = now
+            advance = steps * self.dt
+            rtf = 0.0
+            if not self.paused:
+                speed = self.speed if math.isfinite(self.speed) else 50.0
+                advance += wall * speed
+                rtf = speed
+            self.t += advance
+            sonar = None
+            if k % self.sonar_every == 0:
+                sonar = demo_fan(self.t, self.params, size=(240, 200), rng=self._rng)
+            self.server.publish(demo_frame(self.t, self.params, paused=self.paused,
+                                           speed_factor=self.speed, rtf=rtf, sonar=sonar))
+            k += 1
+            time.sleep(1.0 / self.rate_hz)
+        log.debug("demo run stopped at t=%.1f s", self.t)
+
+
+def main(argv: list[str] | None = None) -> None:  # pragma: no cover - manual tool
+    """``python -m uhrisim.viz.viewer.demo [--port N]``: serve the stand-in mission."""
+    import argparse
+    import logging
+    import time
+
+    from uhrisim.viz.viewer.server import ViewerServer
+
+    ap = argparse.ArgumentParser(description="Serve the viewer with a stand-in mission.")
+    ap.add_argument("--port", type=int, default=8765)
+    args = ap.parse_args(argv)
+    logging.basicConfig(level=logging.INFO)
+    server = ViewerServer(demo_scene(), DEMO_BUTTONS, port=args.port)
+    url = server.start()
+    logging.getLogger(__name__).info("open %s (Ctrl-C to stop)", url)
+    run = DemoRun(server).start()
+    try:
+        while True:
+            time.sleep(1)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        run.stop()
+        server.close()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

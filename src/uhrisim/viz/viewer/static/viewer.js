@@ -391,17 +391,7 @@ function drawMap() {
 
   const f = state.frame;
   const ov = (f && f.overlays) || {};
-  // trails
-  const tNow = f ? f.t : Infinity;
-  for (const [name, tr] of Object.entries(trailsFor(tNow))) {
-    ctx.fillStyle = state.colors[name] || "#ccc";
-    ctx.globalAlpha = 0.7;
-    for (const p of tr) {
-      const [x, y] = worldToScreen(p[1], p[2]);
-      ctx.fillRect(x - 1, y - 1, 2, 2);
-    }
-    ctx.globalAlpha = 1;
-  }
+  const queued = []; // secondary labels, placed after the vehicles' so they give way
   // polygons (loiter etc.)
   for (const poly of ov.polygons || []) {
     if (!poly.points || poly.points.length < 2) continue;
@@ -422,8 +412,19 @@ function drawMap() {
     }
     if (poly.label) {
       const [x, y] = worldToScreen(poly.points[0][0], poly.points[0][1]);
-      label(ctx, poly.label, x + 5, y - 5, "#bbb");
+      queued.push({ text: poly.label, x: x + 5, y: y - 5, color: "#bbb" });
     }
+  }
+  // trails
+  const tNow = f ? f.t : Infinity;
+  for (const [name, tr] of Object.entries(trailsFor(tNow))) {
+    ctx.fillStyle = state.colors[name] || "#ccc";
+    ctx.globalAlpha = 0.7;
+    for (const p of tr) {
+      const [x, y] = worldToScreen(p[1], p[2]);
+      ctx.fillRect(x - 1.5, y - 1.5, 3, 3);
+    }
+    ctx.globalAlpha = 1;
   }
   // circles around agents (contact / alert ranges)
   for (const cir of ov.circles || []) {
@@ -438,8 +439,8 @@ function drawMap() {
     ctx.stroke();
     ctx.setLineDash([]);
     ctx.globalAlpha = 1;
-    if (cir.label) label(ctx, cir.label, x + cir.radius * state.view.scale * 0.71 + 3,
-      y - cir.radius * state.view.scale * 0.71, "#999");
+    if (cir.label) queued.push({ text: cir.label, x: x + cir.radius * state.view.scale * 0.71 + 3,
+      y: y - cir.radius * state.view.scale * 0.71, color: "#999" });
   }
   // points (trail point, waypoints)
   for (const pt of ov.points || []) {
@@ -450,13 +451,35 @@ function drawMap() {
     ctx.moveTo(x - 5, y - 5); ctx.lineTo(x + 5, y + 5);
     ctx.moveTo(x + 5, y - 5); ctx.lineTo(x - 5, y + 5);
     ctx.stroke();
-    if (pt.label) label(ctx, pt.label, x + 7, y + 4, "#aaa");
+    if (pt.label) queued.push({ text: pt.label, x: x + 7, y: y + 4, color: "#aaa" });
   }
-  // vehicles
-  for (const a of Object.values(state.agents)) {
+  // labels first (nudged down so they don't overlap), then the vehicles on top of them
+  const agents = Object.values(state.agents);
+  const size = (a) => Math.max(REAL_LENGTH[SHAPES[a.kind] ? a.kind : "vehicle"] * state.view.scale, 18);
+  const labels = agents.map((a) => {
+    const [x, y] = worldToScreen(a.north, a.east);
+    const len = size(a);
+    const mode = a.mode ? ` ${a.mode}` : "";
+    return { text: `${a.name}  d=${a.depth.toFixed(1)} m${mode}`, x: x + len * 0.6,
+      y: y + len * 0.6, color: state.colors[a.name] || "#fff" };
+  });
+  ctx.font = "12px system-ui, 'DejaVu Sans', sans-serif";
+  const placed = [];
+  for (const l of [...labels, ...queued]) {
+    const w = ctx.measureText(l.text).width;
+    let y = l.y;
+    for (let tries = 0; tries < 8; tries++) {
+      const hit = placed.find((p) => l.x < p.x + p.w && p.x < l.x + w && Math.abs(y - p.y) < 14);
+      if (!hit) break;
+      y = hit.y + 14;
+    }
+    placed.push({ x: l.x, y, w });
+    label(ctx, l.text, l.x, y, l.color);
+  }
+  for (const a of agents) {
     const [x, y] = worldToScreen(a.north, a.east);
     const kind = SHAPES[a.kind] ? a.kind : "vehicle";
-    const len = Math.max(REAL_LENGTH[kind] * state.view.scale, 18);
+    const len = size(a);
     ctx.save();
     ctx.translate(x, y);
     ctx.rotate(a.heading_deg * DEG);
@@ -470,9 +493,6 @@ function drawMap() {
     ctx.strokeStyle = a.name === state.selected ? "#ffffff" : "#000000";
     ctx.stroke();
     ctx.restore();
-    const mode = a.mode ? ` ${a.mode}` : "";
-    label(ctx, `${a.name}  d=${a.depth.toFixed(1)} m${mode}`, x + len * 0.6, y + len * 0.6,
-      state.colors[a.name] || "#fff");
   }
   // scale bar
   const barM = niceStep(120 / state.view.scale);
@@ -669,7 +689,7 @@ const view3d = {
     this.scene.add(g);
     const c = [(b[0][0] + b[1][0]) / 2, (b[0][1] + b[1][1]) / 2, (b[0][2] + b[1][2]) / 2];
     this.target = c;
-    this.orbit.dist = size * 0.9;
+    this.orbit.dist = Math.min(size * 0.9, 30);
     dirty.view3d = true;
   },
 
