@@ -305,3 +305,42 @@ def test_fan_geometry_and_labels() -> None:
     assert (ping.fan_rgb[0, 0] == 0).all()
     assert ping.polar_u8.dtype == np.uint8 and ping.label_polar.dtype == np.int16
     assert ping.bin_ranges_m[0] == pytest.approx(0.0127)
+
+
+@dataclass(frozen=True)
+class ThreeLabelCaster:
+    """Floor (label 0) with two plates: label 1 at 10 m, label 2 further out at 11 m."""
+
+    def cast(self, origins, directions, max_range, exclude=frozenset()):
+        floor_plate = AnalyticCaster(floor_z=8.0, plate_north=10.0, plate_half=0.4, plate_z=5.8)
+        h1 = floor_plate.cast(origins, directions, max_range)
+        plate2 = AnalyticCaster(floor_z=None, plate_north=11.0, plate_half=0.6, plate_z=6.6)
+        h2 = plate2.cast(origins, directions, max_range)
+        take = h2.distance < h1.distance
+        lab = np.where(take, 2, h1.label).astype(np.int32)
+        return Hits(
+            np.where(take, h2.distance, h1.distance), lab,
+            np.where(take[:, None], h2.normal, h1.normal),
+            np.where(take, 0.5, h1.reflectivity), h1.body,
+        )  # fmt: skip
+
+
+@pytest.mark.parametrize("caster", [AnalyticCaster(plate_north=10.0, plate_half=0.3, plate_z=5.5),
+                                    ThreeLabelCaster()])  # fmt: skip
+def test_labels_match_reference(caster) -> None:
+    from uhrisim.sensors.sonar.reference import reference_labels
+
+    cfg = small_cfg()
+    sonar = ImagingSonar(cfg, np.random.default_rng(0))
+    ping = sonar.ping(caster, ORIGIN, LEVEL, 0.0)
+    p_s, R_s = sonar.sonar_pose(ORIGIN, LEVEL)
+    dirs = sonar.geometry.dirs_sonar @ R_s.T
+    hits = caster.cast(np.broadcast_to(p_s, dirs.shape), dirs, cfg.range_max_m)
+    idx = np.flatnonzero((hits.distance >= cfg.range_min_m) & (hits.distance < cfg.range_max_m))
+    cos_inc = np.abs(np.einsum("ij,ij->i", hits.normal[idx], dirs[idx]))
+    ref = reference_labels(
+        sonar, idx, hits.distance[idx], cos_inc, hits.reflectivity[idx], hits.label[idx]
+    )
+    present = set(np.unique(hits.label[idx]).tolist())
+    assert set(np.unique(ref).tolist()) - {-1} == present
+    np.testing.assert_array_equal(ping.label_polar, ref)

@@ -86,3 +86,36 @@ def reference_polar(
                 max(1.0 + (level - cfg.display_top_db) / cfg.dynamic_range_db, 0.0), 1.0
             )
     return out
+
+
+def reference_labels(
+    sonar: ImagingSonar,
+    idx: NDArray[np.int64],
+    r: NDArray[np.float64],
+    cos_inc: NDArray[np.float64],
+    mu: NDArray[np.float64],
+    labels: NDArray[np.int32],
+) -> NDArray[np.int16]:
+    """Per cell, the scene label whose rays put the most echo into it (−1: none), by
+    dictionaries of per-label sums (same echo and footprint model as the image)."""
+    g = sonar.geometry
+    n_bins, n_beams = sonar.polar_shape
+    e = sonar.ray_intensity(idx, r, cos_inc, mu)
+    start, length = sonar.footprint(r, cos_inc)
+    sums: dict[tuple[int, int], dict[int, float]] = {}
+    for k in range(len(idx)):
+        a = float(start[k])
+        bnd = a + float(length[k])
+        beam = int(g.ray_beam[int(idx[k])])
+        for b in range(n_bins):
+            if length[k] < 1e-9:
+                frac = 1.0 if b <= a < b + 1 or (b == n_bins - 1 and a >= n_bins) else 0.0
+            else:
+                frac = max(min(bnd, b + 1.0) - max(a, float(b)), 0.0) / float(length[k])
+            if frac > 0.0:
+                cell = sums.setdefault((b, beam), {})
+                cell[int(labels[k])] = cell.get(int(labels[k]), 0.0) + float(e[k]) * frac
+    out = np.full((n_bins, n_beams), -1, dtype=np.int16)
+    for (b, j), per_label in sums.items():
+        out[b, j] = max(per_label.items(), key=lambda kv: kv[1])[0]
+    return out

@@ -247,6 +247,16 @@ class ImagingSonar:
         self.mount_rotation = mount_rotation(config.tilt_deg, config.yaw_deg)
         self.mount_position = np.asarray(config.mount_position_frd, dtype=float)
         self.geometry = self._precompute()
+        n_bins, n_beams = self.polar_shape
+        # Per-instance scratch buffers, reused every ping (a ping is not re-entrant).
+        self._scratch = {
+            "raw": np.zeros((n_bins, n_beams), np.float32),
+            "diff": np.zeros((n_bins + 1, n_beams), np.float64),
+            "integ": np.zeros((n_bins + 1, n_beams + 1), np.float64),
+            "img": np.zeros((n_bins, n_beams), np.float32),
+            "u8": np.zeros((n_bins, n_beams), np.uint8),
+            "speckle": np.zeros((n_bins, n_beams), np.float32),
+        }
 
     # -- precomputation --------------------------------------------------------------------
     def _precompute(self) -> _Geometry:
@@ -553,43 +563,45 @@ class ImagingSonar:
         (usually the sea floor) is the background; the rays of every other label are
         expanded into their footprint cells and their echo summed per label; a cell takes
         the label with the most echo, the background's being the rest of the cell's sum.
+        The returned raw image is a scratch buffer of this instance (valid until the next
+        ping); the labels are a new array.
         """
         g = self.geometry
         n_bins, n_beams = self.polar_shape
-        n_cells = n_bins * n_beams
+        buf = self._scratch
         label_polar = np.full((n_bins, n_beams), -1, dtype=np.int16)
+        raw = buf["raw"]
         if idx.size == 0:
-            return np.zeros((n_bins, n_beams), np.float32), label_polar
+            raw.fill(0.0)
+            return raw, label_polar
         a, b, lo, hi, dens = self._footprint_bins(r, cos_inc, e)
         same = lo == hi
-        w_lo = np.where(same, e, dens * (lo + 1 - a))
-        w_hi = np.where(same, 0.0, dens * (b - hi))
-        inner = np.where(hi > lo + 1, dens, 0.0)  # bins lo+1 … hi−1
         beam = g.ray_beam[idx]
-        m = idx.size
-        where = np.empty(2 * m, dtype=np.int64)
-        np.multiply(lo + 1, n_beams, out=where[:m])
-        np.multiply(hi, n_beams, out=where[m:])
-        where[:m] += beam
-        where[m:] += beam
-        diff = np.bincount(where, np.concatenate([inner, -inner]), minlength=n_cells + n_beams)[
-            :n_cells
-        ].reshape(n_bins, n_beams)
+        # Interior runs lo+1 … hi−1 (density each) as +/- steps in a difference image.
+        run = hi > lo + 1
+        diff = buf["diff"]
+        diff.fill(0.0)
+        flat = diff.reshape(-1)
+        np.add.at(flat, (lo[run] + 1) * n_beams + beam[run], dens[run])
+        np.add.at(flat, hi[run] * n_beams + beam[run], -dens[run])
         # Cumulative sum along range = column differences of the integral image.
-        integ = cv2.integral(diff, sdepth=cv2.CV_64F)
-        raw = np.subtract(integ[1:, 1:], integ[1:, :-1])
-        where[:m] -= n_beams
-        raw += np.bincount(where, np.concatenate([w_lo, w_hi]), minlength=n_cells).reshape(
-            n_bins, n_beams
-        )
+        integ = cv2.integral(diff[:n_bins], sum=buf["integ"], sdepth=cv2.CV_64F)
+        np.subtract(integ[1:, 1:], integ[1:, :-1], out=raw, casting="unsafe")
+        # End bins get their overlap; a footprint inside one bin puts all its echo there.
+        rflat = raw.reshape(-1)
+        w_lo = np.where(same, e, dens * (lo + 1 - a)).astype(np.float32)
+        np.add.at(rflat, lo * n_beams + beam, w_lo)
+        two = ~same
+        w_hi = (dens[two] * (b[two] - hi[two])).astype(np.float32)
+        np.add.at(rflat, hi[two] * n_beams + beam[two], w_hi)
         np.maximum(raw, 0.0, out=raw)  # cumulative-sum round-off
         if labels is not None:
             self._label_cells(raw, label_polar, labels, a, b, lo, hi, dens, e, beam)
-        return raw.astype(np.float32), label_polar
+        return raw, label_polar
 
     def _label_cells(
         self,
-        raw: NDArray[np.float64],
+        raw: NDArray[np.float32],
         out: NDArray[np.int16],
         labels: NDArray[np.int32],
         a: NDArray[np.float64],
@@ -605,13 +617,16 @@ class ImagingSonar:
         n_beams = raw.shape[1]
         present = np.bincount(labels + 1)
         background = int(np.argmax(present)) - 1
-        lit = raw > 0.0
-        out[lit] = background
+        np.copyto(out, np.int16(background), where=raw > 0.0)
         others = [int(v) - 1 for v in np.flatnonzero(present) if int(v) - 1 != background]
         if not others:
             return
-        blocks = []
-        rest = raw.copy()
+        n_cells = raw.size
+        oflat = out.reshape(-1)
+        rflat = raw.reshape(-1)
+        fg_sum = np.zeros(n_cells) if len(others) > 1 else None
+        best = np.zeros(n_cells) if len(others) > 1 else None
+        best_lab = np.full(n_cells, -1, np.int16) if len(others) > 1 else None
         for lab in others:
             sel = np.flatnonzero(labels == lab)
             n_c = hi[sel] - lo[sel] + 1
@@ -620,39 +635,45 @@ class ImagingSonar:
             row = np.arange(ray_of.size, dtype=np.int64) - np.repeat(first - lo[sel], n_c)
             w = np.minimum(b[ray_of], row + 1.0) - np.maximum(a[ray_of], row)
             w *= dens[ray_of]
-            single = n_c[np.repeat(np.arange(sel.size), n_c)] == 1
+            single = np.repeat(n_c == 1, n_c)
             w[single] = e[ray_of[single]]
-            r0, r1 = int(row.min()), int(row.max()) + 1
-            energy = np.bincount(
-                (row - r0) * n_beams + beam[ray_of], w, minlength=(r1 - r0) * n_beams
-            ).reshape(r1 - r0, n_beams)
-            rest[r0:r1] -= energy
-            blocks.append((lab, r0, r1, energy))
-        best = np.where(lit, rest, -1.0)
-        for lab, r0, r1, energy in blocks:
-            win = (energy > best[r0:r1]) & (energy > 0.0)
-            best[r0:r1][win] = energy[win]
-            out[r0:r1][win] = lab
+            cells = row * n_beams + beam[ray_of]
+            energy = np.bincount(cells, w, minlength=n_cells)
+            if fg_sum is None:
+                # One foreground label: it wins where it holds more than half the echo.
+                win = cells[2.0 * energy[cells] > rflat[cells]]
+                oflat[win] = lab
+                return
+            fg_sum += energy
+            win = energy > best
+            best[win] = energy[win]
+            best_lab[win] = lab
+        nz = np.flatnonzero(fg_sum)
+        win = nz[best[nz] > rflat[nz] - fg_sum[nz]]
+        oflat[win] = best_lab[win]
 
     def _physical_polar(self, raw: NDArray[np.float32]) -> NDArray[np.float32]:
-        """Beam pattern + pulse blur, gain/TVG, noise, speckle, log compression → 0…1."""
+        """Beam pattern + pulse blur, gain/TVG, noise, speckle, log compression → 0…1
+        (a new array)."""
         g = self.geometry
         cfg = self.config
-        img = cv2.sepFilter2D(
-            raw, cv2.CV_32F, g.beam_kernel, g.range_kernel, borderType=cv2.BORDER_CONSTANT
-        )
+        img = self._scratch["img"]
+        cv2.sepFilter2D(
+            raw, cv2.CV_32F, g.beam_kernel, g.range_kernel, dst=img,
+            borderType=cv2.BORDER_CONSTANT,
+        )  # fmt: skip
         img *= g.signal_gain
         img += g.noise_disp
         if cfg.speckle:
-            u = np.frombuffer(self.rng.bytes(img.size), dtype=np.uint8).reshape(img.shape)
-            img *= cv2.LUT(u, g.speckle_lut)
+            u = self._scratch["u8"]
+            u.reshape(-1)[:] = np.frombuffer(self.rng.bytes(img.size), dtype=np.uint8)
+            img *= cv2.LUT(u, g.speckle_lut, dst=self._scratch["speckle"])
         np.maximum(img, np.float32(1e-30), out=img)
         cv2.log(img, img)
         k = np.float32(10.0 / math.log(10.0) / cfg.dynamic_range_db)
         img *= k
         img += np.float32(1.0)
-        np.clip(img, 0.0, 1.0, out=img)
-        return img
+        return np.clip(img, 0.0, 1.0)
 
     def _label_fan(
         self,
