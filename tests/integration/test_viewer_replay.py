@@ -86,7 +86,9 @@ def test_player_interpolates_and_obeys_commands(recording):
         assert a["heading_deg"] == pytest.approx(hd, abs=1e-7)
     assert f["plots"]["range_to_diver"] == pytest.approx(
         math.dist(demo_state(3.05)["diver"][:3], demo_state(3.05)["videoray"][:3]))
+    # modes: the ROV's from its helm decisions (DEPLOYING until 1 s), the diver's from MODE
     assert [a["mode"] for a in f["agents"]] == ["LOITER", "TRAIL"]
+    assert [a["mode"] for a in p.frame_at(0.5)["agents"]] == ["LOITER", "DEPLOYING"]
     poly = f["overlays"]["polygons"][0]["points"]  # VIEW_POLYGON, MOOS x/y → north/east
     np.testing.assert_allclose(poly, octagon(), atol=1e-3)
     assert f["sonar"][0]["t"] == pytest.approx(3.0)  # the latest ping at or before 3.05 s

@@ -167,7 +167,8 @@ def demo_frame(t: float, params: DemoParams = DemoParams(), *, paused: bool = Fa
 
 def write_demo_recording(path: Path | str, duration: float = 60.0, dt: float = 0.1,
                          sonar_period: float = 0.5, params: DemoParams = DemoParams()) -> None:
-    """Record the stand-in run with ``uhrisim.record.McapRecorder`` (odom, fan, vars, scene)."""
+    """Record the stand-in run with ``uhrisim.record.McapRecorder``: odometry, sonar fans,
+    1 Hz helm decisions (mode DEPLOYING, then TRAIL from t = 1 s), variables, scene."""
     from uhrisim.core.frames import rot_z
     from uhrisim.record.mcap_recorder import McapRecorder
 
@@ -191,8 +192,11 @@ def write_demo_recording(path: Path | str, duration: float = 60.0, dt: float = 0
                 rn, re_, rd, rh, _ = st["videoray"]
                 rec.write_sonar("videoray", t, None, demo_fan(t, params), None, None,
                                 "videoray/sonar", ((rn, re_, rd), rot_z(math.radians(rh))))
+            if k % round(1.0 / dt) == 0:  # 1 Hz helm decisions; DEPLOYING for the first second
+                _, _, _, rh, rv = st["videoray"]
+                rec.write_helm_decision("videoray", t, rh, rv, params.rov_depth, {"trail": 100.0},
+                                        "DEPLOYING" if t < 1.0 else "TRAIL", ["trail"])
             if k == 0:
-                rec.write_variable("videoray", t, "MODE", "TRAIL", "demo")
                 rec.write_variable("diver", t, "MODE", "LOITER", "demo")
 
 

@@ -3,7 +3,8 @@
 The recording is the one ``uhrisim.record.McapRecorder`` writes (topics in its module
 docstring): ``/<agent>/odom`` (nav_msgs/Odometry, ENU/FLU), ``/<agent>/sonar/fan``
 (sensor_msgs/Image mono8), ``/<agent>/vars`` (uhrisim_msgs/Variable) and
-``/scene/markers`` (visualization_msgs/MarkerArray, ENU). Odometry is read with
+``/scene/markers`` (visualization_msgs/MarkerArray, ENU), and the helm's mode from
+``/<agent>/helm/decision`` (else a ``MODE`` variable). Odometry is read with
 ``uhrisim.record.reader.read_odometry`` (ENU/FLU → NED/FRD); the rest is decoded from
 the same file with ``uhrisim.record.reader.iter_messages`` and converted back to NED here
 with ``uhrisim.core.frames``. The page receives exactly the live frame schema, so the
@@ -47,6 +48,8 @@ _MARKER_DELETE, _MARKER_DELETEALL = 2, 3
 _ODOM = re.compile(r"^/([^/]+)/odom$")
 _FAN = re.compile(r"^/([^/]+)/sonar/fan$")
 _VARS = re.compile(r"^/([^/]+)/vars$")
+_HELM = re.compile(r"^/([^/]+)/helm/decision$")
+_HELM_MODE = "__helm_mode"  # key under which helm decisions' modes are kept
 
 
 @dataclass
@@ -170,8 +173,8 @@ def load_replay(
             "east": np.asarray(tr.y_east, dtype=float),
             "depth": np.asarray(tr.depth, dtype=float),
             "heading_deg": np.degrees(np.asarray(tr.yaw)) % 360.0,
-            "speed": np.sqrt(np.asarray(tr.u) ** 2 + np.asarray(tr.v) ** 2
-                             + np.asarray(tr.w) ** 2),
+            # horizontal speed through the water, as NavState.speed (MOOS NAV_SPEED)
+            "speed": np.hypot(np.asarray(tr.u), np.asarray(tr.v)),
         }
 
     pings: dict[str, _Pings] = {}
@@ -181,7 +184,7 @@ def load_replay(
 
     topics = [
         t for t in summarize(path).topics
-        if _FAN.match(t) or _VARS.match(t) or t == "/scene/markers"
+        if _FAN.match(t) or _VARS.match(t) or _HELM.match(t) or t == "/scene/markers"
     ]
     total = 0
     for dm in iter_messages(path, topics) if topics else ():
@@ -205,6 +208,10 @@ def load_replay(
             ts, vs = variables.setdefault(m.group(1), {}).setdefault(str(v.name), ([], []))
             ts.append(t)
             vs.append(value)
+        elif (m := _HELM.match(dm.topic)) is not None:
+            ts, vs = variables.setdefault(m.group(1), {}).setdefault(_HELM_MODE, ([], []))
+            ts.append(t)
+            vs.append(str(dm.message.mode))
         elif dm.topic == "/scene/markers":
             for mk in dm.message.markers:
                 if mk.action == _MARKER_DELETEALL:
@@ -360,7 +367,9 @@ class ReplayPlayer:
                 vals = {k: float(tr[k][i - 1] + a * (tr[k][i] - tr[k][i - 1]))
                         for k in ("north", "east", "depth", "speed")}
                 hd = _interp_heading(t, ts, tr["heading_deg"], i)
-            mode = self._var_at(name, "MODE", t)
+            mode = self._var_at(name, _HELM_MODE, t)
+            if mode is None:
+                mode = self._var_at(name, "MODE", t)
             agents.append({
                 "name": name, "kind": self.data.kinds[name], "heading_deg": hd,
                 "mode": "" if mode is None else str(mode), **vals,
