@@ -24,48 +24,19 @@ from uhrisim.autonomy import (
     format_node_report,
 )
 from uhrisim.autonomy.behaviors import Trail
+from uhrisim.autonomy.missions import paper_diver_helm, paper_rov_contacts, paper_rov_helm
 
 from .test_helm_behaviors import Kinematic
 
-DIVER = {
-    "initialize": {"DEPLOY": "true"},
-    "behaviors": [
-        {"type": "ConstantDepth", "name": "depth", "depth": 3, "condition": "DEPLOY = true"},
-        {"type": "Loiter", "name": "loiter", "speed": 0.5, "condition": "DEPLOY = true",
-         "polygon": "format=radial, x=10, y=-20, radius=20, pts=8", "slip_radius": 4},
-    ],
-}  # fmt: skip
+DIVER = paper_diver_helm()
+ROV = paper_rov_helm()
+ROV_CM = paper_rov_contacts()
 # Speed-grid dead band of Trail: inside nm_radius the desired speed is
 # v_c (1 - 0.5 ahead_by / nm_radius) and the helm picks the nearest grid speed, so an
 # along-track error below (dv/2) nm_radius / (0.5 v_c) is never corrected. With the paper's
 # 0.2 m/s grid, a 0.4 m/s diver and nm_radius 5 that is 2.5 m - as large as the trail range
-# itself. The ROV therefore uses a 0.02 m/s grid (dead band 0.25 m), a scenario knob like
-# the scaled-down avoidance distances.
-ROV_DOMAIN = {"course": [0, 359, 360], "speed": [0, 2, 101], "depth": [0, 100, 101, "optional"]}
-ROV = {
-    "domain": ROV_DOMAIN,
-    "initialize": {"DEPLOY": "true", "TRAIL": "true"},
-    "modes": ["MODE = ACTIVE { DEPLOY = true } INACTIVE",
-              "MODE = TRAILING { MODE = ACTIVE ; TRAIL = true } LOITERING"],
-    "behaviors": [
-        {"type": "ConstantDepth", "name": "depth", "depth": 0, "condition": "MODE == ACTIVE",
-         "updates": "DEPTH_UPDATES"},
-        {"type": "Trail", "name": "trail_", "pwt": 300, "condition": "MODE == TRAILING",
-         "templating": "spawn", "updates": "TRAIL_INFO", "trail_range": 2, "trail_angle": 180,
-         "radius": 0.2, "nm_radius": 5},
-        {"type": "AvoidCollision", "name": "avd_", "pwt": 200, "condition": "MODE == ACTIVE",
-         "templating": "spawn", "updates": "CONTACT_INFO", "pwt_outer_dist": 3,
-         "pwt_inner_dist": 1, "completed_dist": 40, "min_util_cpa_dist": 0.8,
-         "max_util_cpa_dist": 1.5},
-    ],
-}  # fmt: skip
-ROV_CM = {
-    "alerts": [
-        {"id": "trail", "var": "TRAIL_INFO", "alert_range": 100},
-        {"id": "avd", "var": "CONTACT_INFO", "alert_range": 20},
-    ],
-    "relays": [{"var": "DEPTH_UPDATES", "pattern": "depth=$[DEP]", "contact": "diver"}],
-}
+# itself. The ROV mission therefore uses a 0.02 m/s grid (dead band 0.25 m).
+assert ROV["domain"]["speed"] == [0, 2, 101]
 
 
 def _report(name: str, v: Kinematic, t: float) -> str:

@@ -41,7 +41,9 @@ def test_trail_regimes():
     assert b.trail_point(0.0, 0.0, 0.0) == pytest.approx((0.0, -2.0))
     # middle regime: own (3, -4), D = sqrt(13) = 3.61; aim at A = P + 5 north = (0, 3):
     # bearing atan2(-3, 7) = -23.2 deg -> 336.8 -> grid 337; ahead_by = -2 -> 1*(1+0.2)
-    obj = b.on_run(ctx(OwnNav(3.0, -4.0, 0.0, 1.0), diver=diver))
+    c = ctx(OwnNav(3.0, -4.0, 0.0, 1.0), diver=diver)
+    obj = b.on_run(c)
+    assert c.posts == [("VIEW_POINT", "x=0.00,y=-2.00,label=b")]
     assert obj.axes == ("course", "speed") and obj.values.max() == pytest.approx(100.0)
     assert argmax_cs(obj) == (337.0, pytest.approx(1.2))
     # inside radius: match the contact's heading and speed
@@ -122,6 +124,8 @@ def test_loiter_function_points_at_the_current_vertex():
     c = ctx(OwnNav(10.0, -30.0, 0.0, 1.0))  # 30 m south of the square: acquire mode
     obj = b.on_run(c)
     assert b.acquire_mode and ("LOITER_ACQUIRE", "true") in c.posts
+    view = dict(c.posts)["VIEW_POLYGON"]  # pMarineViewer-style, clockwise vertices
+    assert view == "pts={0.00,0.00:0.00,20.00:20.00,20.00:20.00,0.00},label=b"
     tx, ty = b.vertices[b.index]
     brg = math.degrees(math.atan2(tx - 10.0, ty + 30.0)) % 360.0
     assert argmax_cs(obj) == (float(round(brg)), pytest.approx(1.4))

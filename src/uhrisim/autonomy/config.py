@@ -58,6 +58,9 @@ HELM_POSTED_VARS = frozenset(
         "LOITER_INDEX",
         "LOITER_ACQUIRE",
         "WPT_INDEX",
+        "VIEW_POLYGON",
+        "VIEW_SEGLIST",
+        "VIEW_POINT",
         "MOOS_MANUAL_OVERRIDE",
         "NODE_REPORT",
     }

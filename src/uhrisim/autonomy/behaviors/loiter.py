@@ -15,7 +15,8 @@ between a and own heading: close vertices whose onward edge continues the approa
 Parameters (IvP names): polygon, speed, clockwise (true), capture_radius (3), slip_radius
 (15), acquire_dist (10), center_activate (false: on becoming running, move the polygon's
 centre to the vehicle), center_assign ("x,y" or "present_position"), xcenter_assign,
-ycenter_assign. Posts LOITER_INDEX and LOITER_ACQUIRE on change.
+ycenter_assign. Posts LOITER_INDEX and LOITER_ACQUIRE on change, and the polygon as
+VIEW_POLYGON (``pts={x,y:...},label=<name>``, pMarineViewer style) when it changes.
 """
 
 from __future__ import annotations
@@ -112,6 +113,7 @@ class Loiter(Behavior):
         self.laps = 0
         self._pending_center_here = p.center_assign == "present_position"
         self._posted: tuple[int | None, bool] | None = None
+        self._posted_poly: tuple[Point, ...] | None = None
 
     def on_params_changed(self, key: str) -> None:
         p: LoiterParams = self.params
@@ -172,6 +174,10 @@ class Loiter(Behavior):
             self.arrival.reset()
             tx, ty = self.vertices[self.index]
             self.arrival.arrived(distance(own.x, own.y, tx, ty))
+        if self._posted_poly != self.vertices:
+            pts = ":".join(f"{x:.2f},{y:.2f}" for x, y in self.vertices)
+            ctx.post("VIEW_POLYGON", f"pts={{{pts}}},label={self.name}")
+            self._posted_poly = self.vertices
         state = (self.index, self.acquire_mode)
         if state != self._posted:
             ctx.post("LOITER_INDEX", float(self.index))

@@ -15,7 +15,8 @@ at ``trail_angle`` relative to the contact's heading (180 = straight behind;
 
 Defaults (IvP): trail_range 50, trail_angle 180 relative, radius 5, nm_radius 20,
 max_range 0 (no limit). The authors' mission used trail_range 5, radius 5, nm_radius 15;
-the paper's text 2 m behind.
+the paper's text 2 m behind. Each active tick posts the trail point as VIEW_POINT
+(``x=..,y=..,label=<name>``, pMarineViewer style).
 """
 
 from __future__ import annotations
@@ -89,6 +90,7 @@ class Trail(ContactBehavior):
             return None
         ch, cv = tr.info.heading, tr.info.speed
         px, py = self.trail_point(tr.x, tr.y, ch)
+        ctx.post("VIEW_POINT", f"x={px:.2f},y={py:.2f},label={self.name}")
         dist = distance(own.x, own.y, px, py)
         crs_axis, spd_axis = ctx.domain.axis("course"), ctx.domain.axis("speed")
         if dist > p.nm_radius:

@@ -11,7 +11,7 @@ previous point, never past the next point), repeat (0: extra passes over the lis
 order (normal | reverse), wptflag (posted on each point reached), cycleflag (posted at
 the end of each pass over the list). When the last point is reached (after ``repeat``
 extra passes) the behavior completes (endflags); ``perpetual = true`` starts over.
-Posts WPT_INDEX.
+Posts WPT_INDEX, and the route as VIEW_SEGLIST (``pts={x,y:...},label=<name>``).
 """
 
 from __future__ import annotations
@@ -153,6 +153,9 @@ class Waypoint(Behavior):
                 self.finished = True
                 self.complete()
                 return None
+        if self._posted is None:
+            pts = ":".join(f"{x:.2f},{y:.2f}" for x, y in self.route)
+            ctx.post("VIEW_SEGLIST", f"pts={{{pts}}},label={self.name}")
         if self.index != self._posted:
             ctx.post("WPT_INDEX", float(self.index))
             self._posted = self.index
