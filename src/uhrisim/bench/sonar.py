@@ -3,22 +3,42 @@
 Target (issue 3): P900-45, 256 beams × 64 elevation rays, 30 m window at 2.54 cm bins,
 512 px fan, the paper's pier scene: ≥ 150 pings/s on one core (10× the real 15 Hz).
 Also reported: the 100 m / 128-ray case, the split between ray casting and image
-formation, and the resident memory (RSS) over many pings (it must stay flat).
+formation, the cost of the label images, and the resident memory (RSS) over many pings
+(it must stay flat).
+
+Rates are given per wall-clock second and per CPU second of this process. On a shared
+machine the wall rate drops with the load; the CPU-time rate is what one core delivers,
+and the target is judged on it.
 """
 
 from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 from typing import Any
 
 import cv2
 import numpy as np
 
-from uhrisim.bench import best_rate
 from uhrisim.sensors.sonar import PRESETS, ImagingSonar, SonarConfig
 
 TARGET_PINGS_PER_S = 150.0
+
+
+def _rates(work: Callable[[], object], repeats: int, min_time: float) -> tuple[float, float]:
+    """(calls per wall second, calls per CPU second): best of timed batches of ``repeats``."""
+    best_wall = best_cpu = 0.0
+    deadline = time.perf_counter() + max(min_time, 0.0)
+    while True:
+        w0, c0 = time.perf_counter(), time.process_time()
+        for _ in range(repeats):
+            work()
+        w1, c1 = time.perf_counter(), time.process_time()
+        best_wall = max(best_wall, repeats / max(w1 - w0, 1e-12))
+        best_cpu = max(best_cpu, repeats / max(c1 - c0, 1e-12))
+        if time.perf_counter() >= deadline:
+            return best_wall, best_cpu
 
 
 def _rss_mib() -> float:
@@ -47,34 +67,33 @@ def _case(paper, preset: str, range_m: float, rays: int, quick: bool, labels: bo
     rc = paper.scene.raycaster("embree")
     p, R = pose.position_ned, pose.rotation
     sonar.ping(rc, p, R, 0.0)  # warm-up (caches, BVH)
-    min_time = 0.3 if quick else 2.0
-    repeats = 3 if quick else 20
-    full = best_rate(lambda: sonar.ping(rc, p, R, 0.0), repeats, min_time)
+    min_time = 0.02 if quick else 2.0
+    repeats = 2 if quick else 20
+    full, full_cpu = _rates(lambda: sonar.ping(rc, p, R, 0.0), repeats, min_time)
     p_s, R_s = sonar.sonar_pose(p, R)
     dirs = sonar.geometry.dirs_sonar @ R_s.T
     origins = np.broadcast_to(p_s, dirs.shape).copy()
-    cast = best_rate(lambda: rc.cast(origins, dirs, range_m), repeats, min_time)
+    cast, cast_cpu = _rates(lambda: rc.cast(origins, dirs, range_m), repeats, min_time)
     n_bins, n_beams = sonar.polar_shape
-    form_s = max(1.0 / full - 1.0 / cast, 1e-9)
-    return (
-        sonar,
-        rc,
-        {
-            "preset": preset,
-            "beams": n_beams,
-            "rays_per_beam": rays,
-            "range_max_m": range_m,
-            "bins": n_bins,
-            "rays_per_ping": sonar.n_rays,
-            "fan_px": list(sonar.geometry.fan_mask.shape),
-            "labels": labels,
-            "pings_per_s": full,
-            "rays_per_s": full * sonar.n_rays,
-            "cast_only_pings_per_s": cast,
-            "image_formation_ms": form_s * 1e3,
-            "cast_ms": 1e3 / cast,
-        },
-    )
+    result = {
+        "preset": preset,
+        "beams": n_beams,
+        "rays_per_beam": rays,
+        "range_max_m": range_m,
+        "bins": n_bins,
+        "rays_per_ping": sonar.n_rays,
+        "fan_px": list(sonar.geometry.fan_mask.shape),
+        "labels": labels,
+        "pings_per_s": full,
+        "pings_per_cpu_s": full_cpu,
+        "rays_per_s": full * sonar.n_rays,
+        "rays_per_cpu_s": full_cpu * sonar.n_rays,
+        "cast_only_pings_per_s": cast,
+        "cast_only_pings_per_cpu_s": cast_cpu,
+        "cast_ms_cpu": 1e3 / cast_cpu,
+        "image_formation_ms_cpu": max(1e3 / full_cpu - 1e3 / cast_cpu, 0.0),
+    }
+    return sonar, rc, result
 
 
 def run(quick: bool = False) -> dict[str, Any]:
@@ -95,15 +114,15 @@ def run(quick: bool = False) -> dict[str, Any]:
         cases["P900-45/100m/128rays"] = _case(paper, "P900-45", 100.0, 128, quick)[2]
 
         # Memory over many pings: RSS after a warm-up vs at the end.
-        n = 200 if quick else 10_000
+        n = 30 if quick else 10_000
         pose = paper.sonar_poses["approach"]
-        for i in range(20):
+        for i in range(5 if quick else 50):
             main_sonar.ping(main_rc, pose.position_ned, pose.rotation, i * 0.1)
         rss0 = _rss_mib()
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         for i in range(n):
             main_sonar.ping(main_rc, pose.position_ned, pose.rotation, i / 15.0)
-        elapsed = time.perf_counter() - t0
+        elapsed, cpu = time.perf_counter() - t0, time.process_time() - c0
         rss1 = _rss_mib()
     finally:
         cv2.setNumThreads(threads)
@@ -112,8 +131,10 @@ def run(quick: bool = False) -> dict[str, Any]:
     return {
         "config": {
             "scene": "pier_scene(), pose 'approach' (3 m deep, tilt 10 deg)",
-            "threads": "cv2.setNumThreads(1); numpy/Embree single-threaded calls",
+            "threads": "cv2.setNumThreads(1); numpy and Embree calls single-threaded",
             "fan_size_px": 512,
+            "cpu_count": os.cpu_count(),
+            "load_average_1min": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
         },
         "cases": cases,
         "memory": {
@@ -122,13 +143,16 @@ def run(quick: bool = False) -> dict[str, Any]:
             "rss_end_mib": rss1,
             "rss_growth_mib": rss1 - rss0,
             "sustained_pings_per_s": n / elapsed,
+            "sustained_pings_per_cpu_s": n / max(cpu, 1e-12),
             "flat": (rss1 - rss0) < 20.0,
         },
         "target": {
             "description": "P900-45, 256 beams x 64 rays, 30 m at 2.54 cm, 512 px fan, pier: "
-            ">= 150 pings/s on one core",
+            ">= 150 pings/s on one core (judged on this process's CPU time; the wall-clock "
+            "rate, which drops on a shared machine, is reported beside it)",
             "target_pings_per_s": TARGET_PINGS_PER_S,
+            "measured_pings_per_cpu_s": main["pings_per_cpu_s"],
             "measured_pings_per_s": main["pings_per_s"],
-            "meets_target": bool(main["pings_per_s"] >= TARGET_PINGS_PER_S),
+            "meets_target": bool(main["pings_per_cpu_s"] >= TARGET_PINGS_PER_S),
         },
     }
