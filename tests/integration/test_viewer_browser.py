@@ -87,7 +87,7 @@ class _StandInSim:
             k += 1
             time.sleep(0.02)
 
-    def wait_command(self, pred, timeout: float = 5.0) -> Command:
+    def wait_command(self, pred, timeout: float = 15.0) -> Command:
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             for c in list(self.commands):
@@ -102,7 +102,7 @@ def _png(buf: bytes) -> np.ndarray:
     return cv2.imdecode(np.frombuffer(buf, np.uint8), cv2.IMREAD_COLOR)[:, :, ::-1]  # RGB
 
 
-def _wait_js(page, expr: str, timeout: float = 10.0):
+def _wait_js(page, expr: str, timeout: float = 20.0):
     page.wait_for_function(expr, timeout=timeout * 1000)
     return page.evaluate(expr)
 

@@ -124,7 +124,7 @@ def test_replay_page_shows_the_recorded_tracks(recording):
             page = bp.page
             page.goto(server.url)
             page.wait_for_function("window.uhri && window.uhri.tracks && "
-                                   "window.uhri.framesReceived > 0", timeout=10_000)
+                                   "window.uhri.framesReceived > 0", timeout=20_000)
             assert page.locator("#conn").inner_text() == "replay"
             assert page.locator("#slider").is_visible()
             # the page holds exactly the recorded tracks (JSON floats round-trip exactly)
@@ -136,9 +136,9 @@ def test_replay_page_shows_the_recorded_tracks(recording):
                 assert tracks[name]["e"] == tr["east"].tolist()
             # pause, then scrub to 12.3 s: agents sit at the recorded positions
             page.click("#btn-pause")
-            page.wait_for_function("window.uhri.frame.paused === true", timeout=5000)
+            page.wait_for_function("window.uhri.frame.paused === true", timeout=15_000)
             page.locator("#slider").fill("12.3")
-            page.wait_for_function("Math.abs(window.uhri.frame.t - 12.3) < 1e-9", timeout=5000)
+            page.wait_for_function("Math.abs(window.uhri.frame.t - 12.3) < 1e-9", timeout=15_000)
             st = page.evaluate("""() => {
                 const r = window.uhri.agents.videoray;
                 return {agents: window.uhri.agents, xy: window.uhri.worldToScreen(r.north, r.east),
@@ -160,7 +160,7 @@ def test_replay_page_shows_the_recorded_tracks(recording):
             # the fan of the last ping before 12.3 s (12.0 s) is on screen
             page.wait_for_function("window.uhri.sonar.videoray && "
                                    "Math.abs(window.uhri.sonar.videoray.t - 12.0) < 1e-9",
-                                   timeout=5000)
+                                   timeout=15_000)
             assert bp.errors() == []
     finally:
         server.close()

@@ -225,8 +225,8 @@ def test_frame_rate_is_capped_per_client():
         if th.is_alive():
             th.join()
         s.close()
-    # at most max_fps·elapsed (+1 for the frame already pending at connect)
-    assert len(seqs) <= 10 * elapsed + 2
+    # at most max_fps·elapsed (+ the frame pending at connect, + one in flight at each end)
+    assert len(seqs) <= 10 * elapsed + 3
     assert seqs == sorted(set(seqs)), "frames are newest-first, never repeated"
     assert seqs[-1] - seqs[0] > 10 * len(seqs), "intermediate frames skipped"
 
@@ -304,10 +304,11 @@ def test_late_client_gets_trail_history():
     s = ViewerServer({}, [], port=0, max_fps=50, history_period=0.5)
     s.start()
     try:
-        for k in range(21):  # t = 0 … 10 s, one frame per 0.5 s, paced past the producer
+        for k in range(21):  # t = 0 … 10 s, one frame per 0.5 s, each taken in by the server
             s.publish(demo_frame(k * 0.5))
-            time.sleep(0.03)
-        time.sleep(0.1)
+            deadline = time.monotonic() + 10
+            while s.processed_seq != k + 1 and time.monotonic() < deadline:
+                time.sleep(0.002)
         with connect(_ws_url(s.url)) as ws:
             hello = json.loads(ws.recv(timeout=5))
     finally:

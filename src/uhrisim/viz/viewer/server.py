@@ -161,6 +161,9 @@ class ViewerServer:
         #: the ReplayPlayer driving this server in replay mode (None when live)
         self.player: Any = None
         # counters (read by the benchmark and tests)
+        #: number of the latest published frame the server thread has taken in (publish()
+        #: numbers frames 1, 2, …); frames published in between were skipped
+        self.processed_seq = 0
         self.frames_encoded = 0
         self.frames_sent = 0
         self.sonars_encoded = 0
@@ -390,6 +393,7 @@ class ViewerServer:
             if latest is not None and latest[0] != self._frame_seq:
                 seq, frame = latest
                 self._record_history(frame)
+                self.processed_seq = seq
                 if self._clients:
                     msg = {"type": "frame", "seq": seq}
                     msg.update((k, v) for k, v in frame.items() if k != "sonar")
