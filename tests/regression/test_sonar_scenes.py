@@ -132,3 +132,24 @@ def test_torus_inner_ring_shadow() -> None:
     assert outer_shadow < 0.1 * lit_behind
     torus = paper.scene.label_id("torus")
     assert (ping.label_polar[:, cols] == torus).any()
+
+
+def test_sonar_inside_piling_or_below_floor_is_rejected() -> None:
+    from uhrisim.core.errors import ConfigError
+
+    paper = single_piling_scene(12.0, 0.0, width=1.0)
+    rc = paper.scene.raycaster("embree")
+    sonar = ImagingSonar(cfg_for(0.0), np.random.default_rng(0))
+    with pytest.raises(ConfigError, match="inside a 'piling' mesh") as err:
+        sonar.ping(rc, np.array([12.0, 0.0, 4.0]), np.eye(3), 0.0)  # in the piling
+    assert err.value.where == "SonarConfig.mount_position_frd"
+    with pytest.raises(ConfigError, match="below the sea floor"):
+        sonar.ping(rc, np.array([3.0, 0.0, 8.5]), np.eye(3), 0.0)  # floor is 8 m deep
+    # The mount offset counts: a vehicle 0.3 m behind the piling face with the sonar
+    # mounted 0.5 m forward puts the sonar inside it.
+    mounted = ImagingSonar(
+        cfg_for(0.0, mount_position_frd=(0.5, 0.0, 0.0)), np.random.default_rng(0)
+    )
+    with pytest.raises(ConfigError, match="inside"):
+        mounted.ping(rc, np.array([11.2, 0.0, 4.0]), np.eye(3), 0.0)
+    mounted.ping(rc, np.array([10.0, 0.0, 4.0]), np.eye(3), 0.0)  # 1 m clear: fine

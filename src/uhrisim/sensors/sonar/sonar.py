@@ -380,7 +380,9 @@ class ImagingSonar:
         """Cast the fan from the mount on a vehicle at ``position_ned`` (m, NED) with
         ``rotation_body_to_ned`` (vehicle FRD → NED) and form the image.
 
-        Raises ConfigError if the sonar sits inside geometry (most rays hit at ~0 m).
+        Raises ConfigError (naming ``SonarConfig.mount_position_frd``) if the sonar sits
+        inside geometry: below the sea floor or inside a watertight static mesh of the
+        caster's scene, or, for any caster, when most rays hit at ~0 m.
         """
         g = self.geometry
         cfg = self.config
@@ -388,6 +390,12 @@ class ImagingSonar:
         dirs = g.dirs_sonar @ R_s.T
         origins = np.empty_like(dirs)
         origins[:] = p_s
+        inside = _inside_scene_geometry(raycaster, p_s)
+        if inside is not None:
+            raise ConfigError(
+                f"sonar at NED {np.round(p_s, 3).tolist()} is inside geometry ({inside})",
+                where="SonarConfig.mount_position_frd",
+            )
         hits = raycaster.cast(origins, dirs, cfg.range_max_m, exclude=exclude)
         distance = np.asarray(hits.distance, dtype=np.float64)
         near = np.count_nonzero(distance < INSIDE_GEOMETRY_RANGE_M)
@@ -732,6 +740,27 @@ class ImagingSonar:
             z=xyz[:, 2].copy(),
             intensity=ray_disp,
         )
+
+
+def _inside_scene_geometry(raycaster: RayCaster, p: NDArray[np.float64]) -> str | None:
+    """Why the point ``p`` (NED) is inside the scene's solid geometry, or None.
+
+    Uses the caster's ``scene`` when it has one (``uhrisim.world``): below the sea floor,
+    or inside a watertight static mesh whose bounding box holds the point. Dynamic bodies
+    are not checked (the sonar's own vehicle is excluded from its rays anyway).
+    """
+    scene = getattr(raycaster, "scene", None)
+    if scene is None or not hasattr(scene, "static_objects"):
+        return None
+    depth = float(scene.depth_at(p[0], p[1]))
+    if math.isfinite(depth) and p[2] > depth + 1e-6:
+        return f"{p[2] - depth:.3f} m below the sea floor"
+    for obj in scene.static_objects:
+        lo, hi = obj.mesh.bounds
+        in_box = bool(np.all(p >= lo) and np.all(p <= hi))
+        if in_box and obj.mesh.is_watertight and bool(obj.mesh.contains(p.reshape(1, 3))[0]):
+            return f"inside a {obj.label!r} mesh"
+    return None
 
 
 def image_2013(
