@@ -214,6 +214,3 @@ def demo(
     for path in _resolve(FIGURES["openloop"][0])(out / "openloop"):
         console.print(f"  wrote {path}")
 
-
-def main() -> None:  # pragma: no cover - console entry point
-    app()

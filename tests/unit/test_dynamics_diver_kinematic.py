@@ -30,6 +30,13 @@ def test_limits_saturate():
     assert rates[2] == -DIVER.max_vertical_rate
 
 
+def test_float_body_rates_match_the_numpy_reference():
+    rng = np.random.default_rng(9)
+    for u in rng.uniform(-2, 2, (100, 3)):
+        np.testing.assert_allclose(diver.body_rates_single(u, DIVER), diver.body_rates(u, DIVER),
+                                   rtol=0, atol=1e-15)
+
+
 def test_leg_inputs_invert_body_rates():
     legs = diver.leg_inputs(0.4, 0.2, -0.1, DIVER)
     np.testing.assert_allclose(diver.body_rates(legs, DIVER), [0.4, 0.2, -0.1])

@@ -57,6 +57,16 @@ def body_rates(u: ArrayLike, params: DiverParams) -> NDArray:
     return np.stack([speed, yaw_rate, vertical], axis=-1)
 
 
+def body_rates_single(u: ArrayLike, params: DiverParams) -> tuple[float, float, float]:
+    """Float twin of :func:`body_rates` for one diver (the hot path; tests hold them equal)."""
+    left, right, vertical = (float(v) for v in u)
+    r, L = params.wheel_radius, params.track
+    speed = min(max(0.5 * r * (left + right), -params.max_reverse_speed), params.max_speed)
+    yaw_rate = min(max(r / L * (left - right), -params.max_turn_rate), params.max_turn_rate)
+    vertical = min(max(vertical, -params.max_vertical_rate), params.max_vertical_rate)
+    return speed, yaw_rate, vertical
+
+
 def leg_inputs(speed: ArrayLike, yaw_rate: ArrayLike, vertical_rate: ArrayLike,
                params: DiverParams) -> NDArray:
     """Inverse of :func:`body_rates` (before saturation): ``[u_l, u_r, u_z]``."""
@@ -85,7 +95,7 @@ def step_exact(x: ArrayLike, u: ArrayLike, params: DiverParams, dt: float) -> ND
     straight line when w = 0. Tests hold it to RK4 on :func:`xdot`.
     """
     north, east, depth, psi = (float(v) for v in x)
-    speed, yaw_rate, vertical = (float(v) for v in body_rates(u, params))
+    speed, yaw_rate, vertical = body_rates_single(u, params)
     new_psi = psi + yaw_rate * dt
     if abs(yaw_rate) * dt > 1e-9:
         radius = speed / yaw_rate

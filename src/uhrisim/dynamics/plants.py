@@ -89,9 +89,9 @@ class DiverPlant:
         return x_next
 
     def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:
-        rates = diver.body_rates(u, self.params) if u is not None else np.zeros(3)
-        return NavState(x[0:3].copy(), float(x[3]), np.array([rates[0], 0.0, rates[2]]),
-                        float(rates[1]))
+        speed, yaw_rate, vertical = (diver.body_rates_single(u, self.params) if u is not None
+                                     else (0.0, 0.0, 0.0))
+        return NavState(x[0:3].copy(), float(x[3]), np.array([speed, 0.0, vertical]), yaw_rate)
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,7 @@ Every rate is a whole number of ticks, checked when the simulation is built.
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -307,9 +308,10 @@ class Simulation:
         for other in self.agents.values():
             if other is agent:
                 continue
-            gap = np.linalg.norm(end - other.state[:3]) - (agent.radius + other.radius)
-            if gap < 0.0 and np.linalg.norm(start - other.state[:3]) > np.linalg.norm(
-                    end - other.state[:3]):
+            centre = other.state[:3]
+            end_distance = math.dist(end, centre)
+            approaching = end_distance < math.dist(start, centre)
+            if approaching and end_distance < agent.radius + other.radius:
                 fraction = 0.0
                 self.record_event("collision", f"{agent.name} touched {other.name}")
         if fraction > 0.0 and self._near_static(agent, end):

@@ -1,0 +1,35 @@
+"""Real-time factor of the paper's track-and-trail mission, with and without the sonar.
+
+Targets on one core (issue 5): >= 10x real time with the P900-45 at 15 Hz, >= 100x
+without sonar. The loop runs without hooks (no recording), after a 2 s warm-up.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+from uhrisim.scenario.load import load_scenario
+from uhrisim.sim.simulation import Simulation
+
+SCENARIO = Path(__file__).resolve().parents[3] / "scenarios" / "track_and_trail.yaml"
+TARGETS = {"with_sonar": 10.0, "without_sonar": 100.0}
+
+
+def _rtf(sonar: bool, seconds: float) -> dict[str, Any]:
+    sim = Simulation(load_scenario(SCENARIO), sonar_enabled=sonar)
+    sim.run(2.0)  # warm-up: caches, first pings
+    start = time.perf_counter()
+    sim.run(seconds)
+    wall = time.perf_counter() - start
+    rtf = seconds / wall
+    key = "with_sonar" if sonar else "without_sonar"
+    return {"simulated_s": seconds, "wall_s": wall, "real_time_factor": rtf,
+            "target": TARGETS[key], "meets_target": rtf >= TARGETS[key]}
+
+
+def run(quick: bool = False) -> dict[str, Any]:
+    seconds = 5.0 if quick else 60.0
+    return {"scenario": SCENARIO.name, "physics_rate_hz": 60,
+            "with_sonar": _rtf(True, seconds), "without_sonar": _rtf(False, seconds)}

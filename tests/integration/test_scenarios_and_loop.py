@@ -1,0 +1,228 @@
+"""Scenario files, the loop's rules (whole-tick rates, events, collisions), and crashes."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from uhrisim.core.errors import ConfigError
+from uhrisim.record.reader import summarize
+from uhrisim.scenario.load import load_scenario, validate_data
+from uhrisim.sim.simulation import Simulation
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENARIOS = sorted((ROOT / "scenarios").glob("*.yaml"))
+
+
+def write(tmp_path: Path, text: str, name: str = "s.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=[p.stem for p in SCENARIOS])
+def test_every_shipped_scenario_validates_and_runs_without_warnings_or_nan(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim = Simulation(load_scenario(path))
+        for _ in range(round(3.0 / sim.dt)):
+            frame = sim.step()
+    for snap in frame.agents.values():
+        assert np.all(np.isfinite(snap.nav.position_ned)) and np.isfinite(snap.nav.yaw)
+
+
+def test_typo_names_the_key_and_line(tmp_path):
+    path = write(tmp_path, "name: x\nagents:\n  - name: rov\n    model: videoray\n"
+                 "    driver: none\n    strat: {north: 1}\n")
+    with pytest.raises(ConfigError) as info:
+        load_scenario(path)
+    message = str(info.value)
+    assert f"{path}:6" in message and "'strat'" in message and "did you mean 'start'" in message
+
+
+def test_out_of_range_value_names_the_field_path_and_line(tmp_path):
+    path = write(tmp_path, "name: x\nagents:\n  - name: rov\n    model: videoray\n"
+                 "    driver: none\n    sensors:\n      - {preset: P900-45, max_range: -3}\n")
+    with pytest.raises(ConfigError, match=r"s\.yaml:7: agents\[0\]\.sensors\[0\]\.max_range"):
+        load_scenario(path)
+
+
+def test_unknown_agent_reference_gets_a_did_you_mean():
+    data = {"name": "x", "agents": [{"name": "videoray", "model": "videoray", "driver": "none"}],
+            "buttons": [{"label": "GO", "agent": "videoray1", "var": "DEPLOY", "value": "true"}]}
+    with pytest.raises(ConfigError, match="did you mean 'videoray'"):
+        validate_data(data, "inline")
+
+
+def test_rates_must_be_whole_numbers_of_physics_steps(tmp_path):
+    path = write(tmp_path, """
+name: x
+physics_rate_hz: 50
+agents:
+  - name: diver
+    model: diver
+    helm:
+      rate_hz: 3
+      behaviors: [{type: ConstantDepth, name: d, depth: 2}]
+""")
+    with pytest.raises(ConfigError, match=r"3 Hz is not a whole number of physics steps"):
+        Simulation(load_scenario(path))
+
+
+SCRIPTED = """
+name: scripted
+physics_rate_hz: 60
+world: {seafloor: {type: flat, depth: 10}}
+agents:
+  - name: diver
+    model: diver
+    driver: script
+    start: {north: 0, east: 0, depth: 2, heading_deg: 0}
+    script:
+      - {t: 0, heading_deg: 90, speed: 0.5, depth: 2}
+      - {t: 20, goto: {north: 0, east: 0, depth: 3}, speed: 0.6}
+  - name: rov
+    model: videoray
+    driver: none
+    start: {north: -5, east: 0, depth: 1, heading_deg: 0}
+events:
+  - {at: 5, post: {agent: rov, var: DEPLOY, value: "true"}}
+  - {when: "DEPLOY = true", agent: rov, post: {agent: rov, var: SEEN_DEPLOY, value: 1}}
+  - {at: 60, agent: diver, script: [{t: 60, heading_deg: 180, speed: 0.4}]}
+"""
+
+
+def test_scripted_diver_and_events(tmp_path):
+    sim = Simulation(load_scenario(write(tmp_path, SCRIPTED)))
+    sim.run(19.0)
+    nav = sim.agents["diver"].nav()
+    assert np.degrees(nav.yaw) % 360 == pytest.approx(90.0, abs=1.0)  # first leg: east
+    assert nav.position_ned[1] > 7.0
+    assert sim.agents["rov"].community.get("DEPLOY") == "true"
+    assert sim.agents["rov"].community.get("SEEN_DEPLOY") == 1.0  # the 'when' event fired
+    sim.run(40.0)  # second leg: back to the origin at 3 m
+    nav = sim.agents["diver"].nav()
+    assert np.hypot(*nav.position_ned[:2]) < 1.0
+    assert nav.position_ned[2] == pytest.approx(3.0, abs=0.05)
+    sim.run(10.0)  # the event at 60 s changed the plan: heading south
+    assert np.degrees(sim.agents["diver"].nav().yaw) % 360 == pytest.approx(180.0, abs=2.0)
+    kinds = [e.kind for e in sim.events_log]
+    assert kinds.count("event") == 3
+
+
+COLLIDE = """
+name: collide
+physics_rate_hz: 60
+world:
+  seafloor: {type: flat, depth: 10}
+  objects:
+    - {type: cylinder, label: piling, radius: 0.3, height: 12, position: {north: 8, east: 0, depth: 5}}
+agents:
+  - name: rov
+    model: videoray
+    driver: external
+    start: {north: 0, east: 0, depth: 3, heading_deg: 0}
+"""
+
+
+def test_vehicles_never_pass_through_the_scene(tmp_path):
+    sim = Simulation(load_scenario(write(tmp_path, COLLIDE)))
+    for _ in range(round(30.0 / sim.dt)):  # full ahead into the piling for 30 s
+        sim.set_actuators("rov", [150.0, 150.0, 0.0])
+        sim.step()
+    north = sim.agents["rov"].nav().position_ned[0]
+    # Piling surface at 8 - 0.3 m; the ROV's collision sphere has radius 0.25 m.
+    assert north < 8.0 - 0.3 - 0.25 + 0.05
+    assert north > 6.5  # it did get there
+    assert sim.collisions > 0
+    assert any(e.kind == "collision" for e in sim.events_log)
+
+
+def test_stale_external_thrusters_fall_back_to_the_controller(tmp_path):
+    sim = Simulation(load_scenario(write(tmp_path, COLLIDE)))
+    sim.set_actuators("rov", [100.0, 100.0, 0.0], hold_s=1.0)
+    sim.run(0.5)
+    assert sim.agents["rov"].inputs[0] == 100.0
+    sim.run(1.0)
+    assert sim.agents["rov"].inputs[0] != 100.0
+    assert any("stale" in e.detail for e in sim.events_log)
+
+
+def test_contacts_from_truth_with_noise_latency_and_dropout_are_deterministic(tmp_path):
+    text = (ROOT / "scenarios" / "track_and_trail.yaml").read_text().replace(
+        "      rate_hz: 4\n      alerts:",
+        "      rate_hz: 4\n      position_noise_std: 0.5\n      latency: 1.0\n"
+        "      dropout: 0.2\n      alerts:")
+    path = write(tmp_path, text)
+    (tmp_path / "videoray_trail.bhv").write_text(
+        (ROOT / "scenarios" / "videoray_trail.bhv").read_text())
+    reports = []
+    for _ in range(2):
+        sim = Simulation(load_scenario(path), sonar_enabled=False)
+        box = sim.agents["videoray"].community.mailbox()
+        got = []
+        for _ in range(round(20.0 / sim.dt)):
+            sim.step()
+            got += box.drain().get("NODE_REPORT", [])
+        reports.append(got)
+    assert reports[0] == reports[1]
+    # 4 Hz for ~19 s with 20 % dropout: clearly fewer than 80, clearly more than 40.
+    assert 45 < len(reports[0]) < 75
+    times = np.array([float(r.split("TIME=")[1].split(",")[0]) for r in reports[0]])
+    np.testing.assert_allclose(times % 0.25, 0.0, atol=1e-9)  # measured on the 4 Hz ticks
+    assert times.max() <= 19.0 + 1e-9  # 1 s latency: nothing measured later reached it
+
+
+def test_run_killed_with_sigkill_leaves_a_readable_recording(tmp_path):
+    out = tmp_path / "killed"
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "uhrisim", "run", str(ROOT / "scenarios" /
+         "track_and_trail.yaml"), "--out", str(out), "--no-sonar", "-q"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, cwd=ROOT)
+    recording = out / "recording.mcap"
+
+    def odometry_chunks_on_disk() -> int:
+        if not recording.exists():
+            return 0
+        return summarize(recording).topics.get("/videoray/odom", ("", 0))[1]
+
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and odometry_chunks_on_disk() < 50:
+        assert proc.poll() is None, "the run ended before it could be killed"
+        time.sleep(0.3)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=30)
+    assert proc.returncode == -signal.SIGKILL
+    summary = summarize(recording)
+    assert summary.truncated
+    odom = summary.topics["/videoray/odom"][1]
+    assert odom > 50
+    assert not (out / "metrics.json").exists()
+
+
+def test_metrics_json_of_a_failed_run_says_so(tmp_path):
+    from uhrisim.sim.runner import run_scenario
+
+    calls = []
+
+    def stop_after_two_seconds() -> bool:
+        calls.append(1)
+        if len(calls) > 120:
+            raise KeyboardInterrupt
+        return False
+
+    with pytest.raises(KeyboardInterrupt):
+        run_scenario(ROOT / "scenarios" / "track_and_trail.yaml", tmp_path, sonar=False,
+                     should_stop=stop_after_two_seconds)
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    assert metrics["completed"] is False
+    assert metrics["simulated_s"] == pytest.approx(2.0)
+    assert summarize(tmp_path / "recording.mcap").topics["/videoray/odom"][1] == 20
