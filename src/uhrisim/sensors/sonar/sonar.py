@@ -248,6 +248,7 @@ class ImagingSonar:
         self.mount_position = np.asarray(config.mount_position_frd, dtype=float)
         self.geometry = self._precompute()
         n_bins, n_beams = self.polar_shape
+        self._noise_positive = bool(np.all(self.geometry.noise_disp > 0.0))
         # Per-instance scratch buffers, reused every ping (a ping is not re-entrant).
         self._scratch = {
             "raw": np.zeros((n_bins, n_beams), np.float32),
@@ -676,7 +677,8 @@ class ImagingSonar:
             u = self._scratch["u8"]
             u.reshape(-1)[:] = np.frombuffer(self.rng.bytes(img.size), dtype=np.uint8)
             img *= cv2.LUT(u, g.speckle_lut, dst=self._scratch["speckle"])
-        np.maximum(img, np.float32(1e-30), out=img)
+        if not self._noise_positive:  # log(0) → −inf clips to 0 below; keep it finite
+            np.maximum(img, np.float32(1e-30), out=img)
         cv2.log(img, img)
         k = np.float32(10.0 / math.log(10.0) / cfg.dynamic_range_db)
         img *= k
