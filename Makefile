@@ -8,8 +8,9 @@ UHRISIM := $(VENV)/bin/uhrisim
 OUT ?= out
 # Extras the test suite needs: every optional part is tested for real.
 TEST_EXTRAS := dev,ros2,viewer
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: demo test bench lint clean venv-core venv-test
+.PHONY: demo test bench lint clean venv-core venv-test browser
 
 $(VENV)/.python-ok:
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "uhrisim needs Python 3.11 or newer, found " + sys.version.split()[0])'
@@ -31,15 +32,21 @@ venv-test: $(VENV)/.test-installed
 demo: venv-core
 	$(UHRISIM) demo --out $(OUT)/demo
 
-test: venv-test
-	$(PY) -m ruff check src tests benchmarks
+# The viewer's tests drive a real headless Chromium (Debian's package).
+browser:
+	@command -v chromium >/dev/null 2>&1 || { \
+	  echo "installing Debian chromium for the viewer tests"; \
+	  $(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq chromium >/dev/null; }
+
+test: venv-test browser
+	$(PY) -m ruff check src tests
 	$(PY) -m pytest -n 2 -q
 
 bench: venv-core
 	$(UHRISIM) bench all
 
 lint: venv-test
-	$(PY) -m ruff check src tests benchmarks
+	$(PY) -m ruff check src tests
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache
