@@ -220,3 +220,60 @@ class FrameBuilder:
                 "speed": {a["name"]: a["speed"] for a in agents},
             },
         }
+
+
+def _round(a: np.ndarray, decimals: int = 3) -> list[Any]:
+    return np.round(np.asarray(a, dtype=float), decimals).tolist()
+
+
+def scene_from_world(scene: Any, *, seafloor_cells: int = 100,
+                     mesh_max_faces: int = 20_000) -> dict[str, Any]:
+    """The viewer's scene dict (docs/viewer.md) from a ``uhrisim.world.scene.Scene``.
+
+    The sea floor (a depth grid) is resampled to at most ``seafloor_cells`` cells a side
+    (every k-th grid line, the last one kept), triangulated like the world's mesh. Other
+    static objects become ``"mesh"`` objects (NED vertices, mm precision); a mesh with
+    more than ``mesh_max_faces`` faces keeps every k-th face (display only). Dynamic
+    bodies (ROV, diver) are left out: the page draws agents from the frames.
+    """
+    out: dict[str, Any] = {"objects": []}
+    floor = getattr(scene, "seafloor", None)
+    floor_faces = -1
+    if floor is not None:
+        n, e, d = np.asarray(floor.north), np.asarray(floor.east), np.asarray(floor.depth)
+        floor_faces = 2 * (len(n) - 1) * (len(e) - 1)
+
+        def idx(m: int) -> np.ndarray:
+            k = max(1, math.ceil((m - 1) / seafloor_cells))
+            i = np.arange(0, m, k)
+            return i if i[-1] == m - 1 else np.append(i, m - 1)
+
+        ii, jj = idx(len(n)), idx(len(e))
+        nn, ee = np.meshgrid(n[ii], e[jj], indexing="ij")
+        verts = np.column_stack([nn.ravel(), ee.ravel(), d[np.ix_(ii, jj)].ravel()])
+        cols = len(jj)
+        a = (np.arange(len(ii) - 1)[:, None] * cols + np.arange(cols - 1)[None, :]).ravel()
+        faces = np.concatenate([np.column_stack([a, a + cols, a + cols + 1]),
+                                np.column_stack([a, a + cols + 1, a + 1])])
+        out["seafloor"] = {"vertices": _round(verts), "faces": faces.tolist()}
+    for obj in getattr(scene, "static_objects", ()):
+        mesh = obj.mesh
+        if len(mesh.faces) == floor_faces and floor is not None:
+            continue  # the sea floor's own full-resolution mesh
+        faces = np.asarray(mesh.faces)
+        if len(faces) > mesh_max_faces:
+            faces = faces[:: math.ceil(len(faces) / mesh_max_faces)]
+        used, inverse = np.unique(faces, return_inverse=True)
+        out["objects"].append({
+            "label": str(obj.label),
+            "kind": "mesh",
+            "vertices": _round(np.asarray(mesh.vertices)[used]),
+            "faces": inverse.reshape(-1, 3).tolist(),
+        })
+    try:
+        b = np.asarray(scene.bounds(), dtype=float)
+        b[0, 2] = min(b[0, 2], 0.0)
+        out["bounds"] = _round(b)
+    except Exception:  # an empty scene has no bounds: the page fits to the agents
+        pass
+    return out
