@@ -153,3 +153,35 @@ def test_sonar_inside_piling_or_below_floor_is_rejected() -> None:
     with pytest.raises(ConfigError, match="inside"):
         mounted.ping(rc, np.array([11.2, 0.0, 4.0]), np.eye(3), 0.0)
     mounted.ping(rc, np.array([10.0, 0.0, 4.0]), np.eye(3), 0.0)  # 1 m clear: fine
+
+
+def test_diver_in_the_pier_scene() -> None:
+    # Pier scene with the diver 10 m ahead at 4 m depth (sonar 3 m deep, tilted 10°,
+    # mounted 0.35 m forward on the VideoRay, whose own hull is excluded from the rays).
+    from uhrisim.world.paper_scenes import pier_scene
+
+    paper = pier_scene(with_diver=True, with_rov=True)
+    cfg = cfg_for(10.0, mount_position_frd=(0.35, 0.0, -0.1), range_max_m=20.0)
+    sonar = ImagingSonar(cfg, np.random.default_rng(0))
+    rc = paper.scene.raycaster("embree")
+    pose = paper.sonar_poses["approach"]
+    own = frozenset({"videoray"})
+    ping = sonar.ping(rc, pose.position_ned, pose.rotation, 0.0, exclude=own)
+    diver = paper.scene.label_id("diver")
+    assert paper.scene.label_id("rov") not in set(np.unique(ping.label_polar).tolist())
+    b, j = np.nonzero(ping.label_polar == diver)
+    assert len(b) > 50
+    # Where the geometry says: about 10 m ahead (the body spans ~2 m along the line of
+    # sight: head to fins), straight ahead (the diver is ~0.6 m wide: ±2° at 9 m).
+    ranges = ping.bin_ranges_m[b]
+    assert ranges.min() > 8.0 and ranges.max() < 11.5
+    assert np.abs(np.degrees(ping.beam_angles_rad[j])).max() < 2.5
+    # Bright against the water around it (no floor there: the beam meets it at 14.6 m).
+    img = linear(ping, cfg)
+    water = img[np.ix_(bins_between(ping, 8.0, 11.5), beams_near(ping, 12.0, 4.0))].mean()
+    assert img[b, j].mean() > 100.0 * water
+    # The fins kick: another kick phase changes the echo (the flicker of real divers).
+    p, R, _ = paper.scene.pose("diver")
+    paper.scene.set_pose("diver", p, R, kick_phase=0.5 * math.pi)
+    kicked = sonar.ping(rc, pose.position_ned, pose.rotation, 0.1, exclude=own)
+    assert not np.array_equal(kicked.label_polar == diver, ping.label_polar == diver)
