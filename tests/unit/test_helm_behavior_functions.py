@@ -106,13 +106,31 @@ def test_constant_depth_function():
 
 
 def test_waypoint_lead_and_station_keep_speeds():
-    w = make("Waypoint", points="0,100", speed=1.0, lead=5)
-    w.previous = (0.0, 0.0)
-    # own (3, 10): projection 10 m along the track, steer at (0, 15): atan2(-3, 5) -> 329.04
+    w = make("Waypoint", points="0,100", speed=1.0, lead=5, lead_to_start=True)
+    w.start_mark = (0.0, 0.0)  # where the behavior started: the first track line's anchor
+    # own (3, 10): perpendicular foot (0, 10), steer 5 m further: (0, 15) -> atan2(-3, 5)
     assert w.steer_point(3.0, 10.0) == pytest.approx((0.0, 15.0))
     obj = w.on_run(ctx(OwnNav(3.0, 10.0, 0.0, 1.0)))
-    assert argmax_cs(obj) == (329.0, pytest.approx(1.0))
+    assert argmax_cs(obj) == (329.0, pytest.approx(1.0))  # 360 - 30.96 -> 329
     assert w.steer_point(0.0, 98.0) == (0.0, 100.0)  # never past the point
+    # without lead_to_start there is no track line before the first point
+    w2 = make("Waypoint", points="0,100", speed=1.0, lead=5)
+    w2.start_mark = (0.0, 0.0)
+    assert w2.steer_point(3.0, 10.0) == (0.0, 100.0)
+    # lead_damper 4: 1 m off the line -> lead * (1 + 2 * (1 - 1/4)) = 5 * 2.5 = 12.5 m
+    w3 = make("Waypoint", points="0,100", speed=1.0, lead=5, lead_damper=4, lead_to_start=1)
+    w3.start_mark = (0.0, 0.0)
+    assert w3.steer_point(1.0, 10.0) == pytest.approx((0.0, 22.5))
+    # speed ZAIC (pw speed/2, bw 1.6, delta 20) and the heading-hold course component
+    c = ctx(OwnNav(0.0, 50.0, 90.0, 1.0))
+    obj = w2.on_run(c)
+    assert argmax_cs(obj) == (0.0, pytest.approx(1.0))
+    assert obj.values[0, 5] > obj.values[0, 7] > obj.values[0, 3] - 1e-9  # 1.0 > 1.4 vs 0.6
+    # heading-hold component: own heading 170, point due north. Courses 170 and 190 are
+    # equally bad for the point (100 (1 - 170/180) = 5.6) but 170 holds the heading (20)
+    # while 190 is 20 deg off it (20 - 5 * 20/30 = 16.7)
+    obj = w2.on_run(ctx(OwnNav(0.0, 50.0, 170.0, 1.0)))
+    assert obj.values[170, 5] > obj.values[190, 5]
     s = make("StationKeep", station_pt="0,0", inner_radius=4, outer_radius=15)
     assert [s.desired_speed(d) for d in (3.0, 9.5, 20.0)] == pytest.approx([0.0, 0.6, 2.0])
     obj = s.on_run(ctx(OwnNav(0.0, 9.5, 90.0, 0.0)))
@@ -141,7 +159,7 @@ def test_loiter_function_points_at_the_current_vertex():
 
 
 def test_waypoint_flags_repeat_and_completion():
-    w = make("Waypoint", points="0,10 : 0,20", speed=1, repeat=1, wptflag="HIT = 1",
+    w = make("Waypoint", points="0,10 : 0,20", speed=1, repeat=1, wptflag="HIT = $[X],$[Y]",
              cycleflag=["LAP = true"])  # fmt: skip
     seen = []
     for y in (0.0, 9.0, 19.0, 9.5, 19.5):
@@ -156,3 +174,7 @@ def test_waypoint_flags_repeat_and_completion():
         (["HIT", "LAP"], 1, True),  # second pass done: complete, no function
     ]
     assert w.complete_requested and w.finished
+    c = ctx(OwnNav(0.0, 9.0, 0.0, 1.0))
+    w.reset()
+    w.on_run(c)
+    assert dict(c.posts)["HIT"] == "0.00,10.00"

@@ -59,6 +59,7 @@ HELM_POSTED_VARS = frozenset(
         "LOITER_ACQUIRE",
         "WPT_INDEX",
         "VIEW_POLYGON",
+        "PSKEEP_MODE",
         "VIEW_SEGLIST",
         "VIEW_POINT",
         "MOOS_MANUAL_OVERRIDE",
@@ -289,9 +290,13 @@ class HelmConfig:
 
     @classmethod
     def from_bhv_file(
-        cls, path: str, known_vars: Iterable[str] = (), domain: Domain | None = None
+        cls,
+        path: str,
+        known_vars: Iterable[str] = (),
+        domain: Domain | None = None,
+        macros: Mapping[str, object] | None = None,
     ) -> HelmConfig:
         """Load a MOOS-IvP ``.bhv`` file (see :mod:`uhrisim.autonomy.bhv`)."""
         from uhrisim.autonomy.bhv import load_bhv
 
-        return load_bhv(path, known_vars=known_vars, domain=domain)
+        return load_bhv(path, known_vars=known_vars, domain=domain, macros=macros)

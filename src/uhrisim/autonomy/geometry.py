@@ -3,9 +3,11 @@
 Polygons are stored as vertex tuples in clockwise order seen from above (compass order).
 Specifications accepted (MOOS-IvP ``XYPolygon`` strings):
 
-* ``format=radial, x=10, y=-20, radius=20, pts=8 [, snap=0.1] [, label=..]`` - a regular
-  polygon; vertex k at compass bearing 180/pts + k*360/pts from the centre (the paper's
-  octagon: 22.5 + k*45 deg);
+* ``format=radial, x=10, y=-20, radius=20, pts=8 [, snap=0.1] [, label=..]`` or the older
+  ``radial:: x=10, y=-20, radius=20, pts=8`` (also ``radial:: 10,-20, radius=20, pts=8``)
+  - a regular polygon; vertex k at compass bearing 180/pts + k*360/pts from the centre
+  (the paper's octagon: 22.5 + k*45 deg). Display-only fields (label, colours, sizes,
+  active, source, msg) are accepted and do not change the vertices;
 * ``x1,y1 : x2,y2 : ...`` or ``pts={x1,y1:x2,y2:...}``.
 """
 
@@ -91,14 +93,29 @@ def dist_to_polygon(x: float, y: float, pts: tuple[Point, ...]) -> float:
     return min(_dist_to_segment(x, y, pts[i], pts[(i + 1) % n]) for i in range(n))
 
 
+_DISPLAY_FIELDS = {
+    "label", "label_color", "edge_color", "vertex_color", "edge_size", "vertex_size",
+    "active", "source", "msg", "fill_color", "fill_transparency", "duration", "time",
+}  # fmt: skip
+
+
 def _radial(spec: str, key: str, where: str) -> tuple[Point, ...]:
+    body = spec.split("::", 1)[1] if "::" in spec else spec
     fields: dict[str, str] = {}
-    for part in spec.split(","):
+    bare: list[str] = []
+    for part in body.split(","):
+        if not part.strip():
+            continue
         if "=" not in part:
-            raise ConfigError(f"{key}: radial polygon part {part.strip()!r} is not k=v", where)
+            bare.append(part.strip())
+            continue
         k, v = part.split("=", 1)
         fields[k.strip().lower()] = v.strip()
-    unknown = set(fields) - {"format", "x", "y", "radius", "pts", "snap", "label"}
+    if bare:  # "radial:: 10,-20, radius=..": the first two bare numbers are the centre
+        if len(bare) != 2 or "x" in fields or "y" in fields:
+            raise ConfigError(f"{key}: cannot read radial polygon {spec!r}", where)
+        fields["x"], fields["y"] = bare
+    unknown = set(fields) - {"format", "x", "y", "radius", "pts", "snap"} - _DISPLAY_FIELDS
     if unknown:
         raise ConfigError(f"{key}: unknown radial polygon field(s) {sorted(unknown)}", where)
     try:
@@ -123,7 +140,9 @@ def _radial(spec: str, key: str, where: str) -> tuple[Point, ...]:
 def parse_polygon(v: object, key: str = "polygon", where: str = "polygon") -> tuple[Point, ...]:
     """Polygon spec -> clockwise vertex tuple; a non-convex polygon is a ConfigError."""
     s = v if isinstance(v, list | tuple) else str(v).strip()
-    if isinstance(s, str) and "format" in s.lower() and "radial" in s.lower():
+    if isinstance(s, str) and (
+        s.lower().startswith("radial::") or ("format" in s.lower() and "radial" in s.lower())
+    ):
         pts = _radial(s, key, where)
     else:
         if isinstance(s, str):

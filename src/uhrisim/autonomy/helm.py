@@ -261,6 +261,17 @@ class Helm:
         result = solve(self.domain, weighted)
         return self._finish(t, posts, result, result.all_stop_reason, mode, tuple(weighted))
 
+    def _flag(self, ctx: BehaviorContext, b: Behavior, flag: tuple[str, Value]) -> None:
+        """Post a flag, expanding $[CONTACT], $[OWNSHIP], $[BHVNAME] in string values."""
+        var, val = flag
+        if isinstance(val, str) and "$[" in val:
+            val = (
+                val.replace("$[CONTACT]", str(getattr(b.params, "contact", "")))
+                .replace("$[OWNSHIP]", self.vehicle_name)
+                .replace("$[BHVNAME]", b.name)
+            )
+        ctx.post(var, val)
+
     def _run_slot(self, s: _Slot, ctx: BehaviorContext, weighted: list) -> None:
         b = s.bhv
         c = b.common
@@ -282,17 +293,17 @@ class Helm:
         if not running:
             if prev in ("", "running", "active"):
                 for f in c.idleflags:
-                    ctx.post(*f)
+                    self._flag(ctx, b, f)
             if prev == "active":
                 for f in c.inactiveflags:
-                    ctx.post(*f)
+                    self._flag(ctx, b, f)
             s.status = "idle"
             b.on_idle(ctx)
             return
         if prev in ("", "idle"):
             b.on_run_start(ctx)
             for f in c.runflags:
-                ctx.post(*f)
+                self._flag(ctx, b, f)
         obj = b.on_run(ctx)
         priority = c.priority * b.priority_scale
         active = obj is not None and priority > 0.0
@@ -300,10 +311,10 @@ class Helm:
             weighted.append(WeightedObjective(b.name, priority, obj))
             if prev != "active":
                 for f in c.activeflags:
-                    ctx.post(*f)
+                    self._flag(ctx, b, f)
         elif prev == "active":
             for f in c.inactiveflags:
-                ctx.post(*f)
+                self._flag(ctx, b, f)
         s.status = "active" if active else "running"
         if b.complete_requested:
             self._complete(s, ctx)
@@ -311,8 +322,8 @@ class Helm:
     def _complete(self, s: _Slot, ctx: BehaviorContext) -> None:
         b = s.bhv
         for f in b.common.endflags:
-            ctx.post(*f)
-        if b.common.perpetual and not s.spawned:
+            self._flag(ctx, b, f)
+        if b.common.perpetual:
             b.reset()
             b.complete_requested = False
             s.dur_start, s.dur_accum, s.last_t = None, 0.0, None

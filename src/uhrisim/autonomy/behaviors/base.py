@@ -6,6 +6,9 @@ Common parameters (IvP ``IvPBehavior::setParam``): ``name``, ``pwt``/``priority`
 "param=value # ..." postings update the behavior at run time), ``duration`` (s, -1 = none),
 ``duration_idle_decay`` (default true: the clock runs while idle too), ``perpetual``
 (default false: completion ends the behavior for good), ``templating = spawn``.
+``duration = no-time-limit`` means -1. Display-only parameters (``visual_hints``,
+``bearing_line_config``, ``bearing_lines``) are kept in ``display`` and do not affect
+decisions. Flag values may use ``$[CONTACT]``, ``$[OWNSHIP]``, ``$[BHVNAME]``.
 
 States (IvP): *idle* (conditions false), *running* (conditions true), *active* (running and
 producing an objective), *completed*.
@@ -51,6 +54,7 @@ class CommonParams:
     duration_idle_decay: bool = True
     perpetual: bool = False
     templating: str = ""
+    display: tuple[tuple[str, str], ...] = ()
 
 
 def _append(field_name: str, conv: Callable[[object, str, str], Any]) -> Callable:
@@ -76,6 +80,17 @@ def _templating(v: object, key: str, where: str) -> str:
     return "spawn" if s == "spawn" else ""
 
 
+def _duration(v: object, key: str, where: str) -> float:
+    if isinstance(v, str) and v.strip().lower() == "no-time-limit":
+        return -1.0
+    return to_float(v, key, where)
+
+
+def _display(p: CommonParams, v: object, key: str, where: str) -> CommonParams:
+    vals = v if isinstance(v, list | tuple) else [v]
+    return replace(p, display=p.display + tuple((key, to_str(x, key, where)) for x in vals))
+
+
 def _cond(v: object, key: str, where: str) -> Condition:
     return parse_condition(str(v), where)
 
@@ -98,10 +113,14 @@ COMMON_HANDLERS: dict[str, Callable] = {
     "activeflag": _append("activeflags", parse_flag),
     "inactiveflag": _append("inactiveflags", parse_flag),
     "updates": _set("updates", to_str),
-    "duration": _set("duration", to_float),
+    "duration": _set("duration", _duration),
     "duration_idle_decay": _set("duration_idle_decay", to_bool),
     "perpetual": _set("perpetual", to_bool),
     "templating": _set("templating", _templating),
+    # display-only (pMarineViewer rendering): kept in the config, no effect on decisions
+    "visual_hints": _display,
+    "bearing_line_config": _display,
+    "bearing_lines": _display,
 }
 
 

@@ -12,11 +12,13 @@ and, for ``best``, the direction minimising ``|a| (1 + (1 - cos e) + 0.5 (1 - co
 where a = own->vertex, e = angle between a and the onward edge from vertex k, h = angle
 between a and own heading: close vertices whose onward edge continues the approach.
 
-Parameters (IvP names): polygon, speed, clockwise (true), capture_radius (3), slip_radius
-(15), acquire_dist (10), center_activate (false: on becoming running, move the polygon's
-centre to the vehicle), center_assign ("x,y" or "present_position"), xcenter_assign,
-ycenter_assign. Posts LOITER_INDEX and LOITER_ACQUIRE on change, and the polygon as
-VIEW_POLYGON (``pts={x,y:...},label=<name>``, pMarineViewer style) when it changes.
+Parameters (IvP names): polygon, speed, clockwise (true), capture_radius (3; alias
+``radius``), slip_radius (15; alias ``nm_radius``), acquire_dist (10), post_suffix
+(appended as ``_SUFFIX`` to the variables it posts), center_activate (false: on becoming
+running, move the polygon's centre to the vehicle), center_assign ("x,y" or
+"present_position"), xcenter_assign, ycenter_assign. Posts LOITER_INDEX and
+LOITER_ACQUIRE on change, and the polygon as VIEW_POLYGON
+(``pts={x,y:...},label=<name>``, pMarineViewer style) when it changes.
 """
 
 from __future__ import annotations
@@ -68,6 +70,7 @@ class LoiterParams:
     acquire_dist: float = 10.0
     center_activate: bool = False
     center_assign: Point | str | None = None
+    post_suffix: str = ""
 
 
 def _polygon(v: object, key: str, where: str) -> tuple[Point, ...]:
@@ -93,7 +96,10 @@ class Loiter(Behavior):
         "speed": setter("speed", to_float),
         "clockwise": setter("clockwise", _clockwise),
         "capture_radius": setter("capture_radius", to_float),
+        "radius": setter("capture_radius", to_float),
         "slip_radius": setter("slip_radius", to_float),
+        "nm_radius": setter("slip_radius", to_float),
+        "post_suffix": setter("post_suffix", to_str),
         "acquire_dist": setter("acquire_dist", to_float),
         "center_activate": setter("center_activate", to_bool),
         "center_assign": setter("center_assign", _center),
@@ -119,7 +125,7 @@ class Loiter(Behavior):
         p: LoiterParams = self.params
         if key in ("polygon", "center_assign", "xcenter_assign", "ycenter_assign", "clockwise"):
             self.reset()
-        elif key in ("capture_radius", "slip_radius"):
+        elif key in ("capture_radius", "slip_radius", "radius", "nm_radius"):
             self.arrival = ArrivalTracker(p.capture_radius, p.slip_radius)
 
     def on_run_start(self, ctx: BehaviorContext) -> None:
@@ -180,8 +186,9 @@ class Loiter(Behavior):
             self._posted_poly = self.vertices
         state = (self.index, self.acquire_mode)
         if state != self._posted:
-            ctx.post("LOITER_INDEX", float(self.index))
-            ctx.post("LOITER_ACQUIRE", "true" if self.acquire_mode else "false")
+            sfx = f"_{p.post_suffix.upper()}" if p.post_suffix else ""
+            ctx.post(f"LOITER_INDEX{sfx}", float(self.index))
+            ctx.post(f"LOITER_ACQUIRE{sfx}", "true" if self.acquire_mode else "false")
             self._posted = state
         crs = bearing_deg(own.x, own.y, tx, ty)
         return course_speed_objective(ctx, crs, p.speed, (0.0, 0.3, 0.0))

@@ -2,12 +2,17 @@
 
 Desired speed with d = distance to ``station_pt``: 0 inside ``inner_radius``; growing
 linearly to ``outer_speed`` at ``outer_radius``; ``transit_speed`` beyond. Course: ZAIC
-peak at the bearing to the station (pw 0, bw 180, wrap); speed: ZAIC peak (pw 0, bw 1.0,
-our choice) at the desired speed; coupled 50/50, normalised 0..100.
+peak at the bearing to the station (pw 0, bw 180, wrap); speed: ZAIC peak (pw 0, bw 0.4,
+delta 0, as in IvP); coupled 50/50, normalised 0..100.
 
 Parameters (IvP names and defaults): station_pt ("x,y" or "present_position"),
-center_activate (false: on becoming running, hold the vehicle's position), inner_radius
-(4), outer_radius (15), outer_speed (1.2), transit_speed (2.0).
+center_activate (false: on becoming running, hold the vehicle's position), swing_time
+(0 s: with center_activate, the station keeps following the vehicle for this long after
+activation, so it is set where the vehicle has swung to), inner_radius (4), outer_radius
+(15), outer_speed (1.2), transit_speed (2.0), hibernation_radius (-1 = off; when on, the
+behavior hibernates - desired speed 0 - once inside inner_radius, and seeks the station
+again only after drifting beyond hibernation_radius; IvP's extra "progress" test is not
+modelled). Posts PSKEEP_MODE (DISABLED / HIBERNATING / SEEKING_STATION) on change.
 """
 
 from __future__ import annotations
@@ -33,6 +38,8 @@ class StationKeepParams:
     outer_radius: float = 15.0
     outer_speed: float = 1.2
     transit_speed: float = 2.0
+    swing_time: float = 0.0
+    hibernation_radius: float = -1.0
 
 
 class StationKeep(Behavior):
@@ -43,13 +50,23 @@ class StationKeep(Behavior):
         "center_activate": setter("center_activate", to_bool),
         **{
             k: setter(k, to_float)
-            for k in ("inner_radius", "outer_radius", "outer_speed", "transit_speed")
+            for k in (
+                "inner_radius",
+                "outer_radius",
+                "outer_speed",
+                "transit_speed",
+                "swing_time",
+                "hibernation_radius",
+            )
         },
     }
 
     def reset(self) -> None:
         sp = self.params.station_pt
         self.station: Point | None = sp if isinstance(sp, tuple) else None
+        self.swing_until: float | None = None
+        self.state = "seeking_station"
+        self._posted_state: str | None = None
 
     def on_params_changed(self, key: str) -> None:
         if key == "station_pt":
@@ -60,6 +77,8 @@ class StationKeep(Behavior):
             ctx.own is not None
         ):
             self.station = (ctx.own.x, ctx.own.y)
+            self.swing_until = ctx.t + self.params.swing_time
+            self.state = "hibernating"
 
     def desired_speed(self, d: float) -> float:
         p: StationKeepParams = self.params
@@ -70,12 +89,30 @@ class StationKeep(Behavior):
         return p.transit_speed
 
     def on_run(self, ctx: BehaviorContext) -> Objective | None:
+        p: StationKeepParams = self.params
         own = ctx.own
         if own is None:
             return None
         if self.station is None:
             self.station = (own.x, own.y)
+        if self.swing_until is not None:
+            if ctx.t < self.swing_until:
+                self.station = (own.x, own.y)
+            else:
+                self.swing_until = None
         sx, sy = self.station
         d = distance(own.x, own.y, sx, sy)
+        speed = self.desired_speed(d)
+        if p.hibernation_radius > 0:
+            if self.state == "hibernating" and d > p.hibernation_radius:
+                self.state = "seeking_station"
+            elif self.state == "seeking_station" and d <= p.inner_radius:
+                self.state = "hibernating"
+            if self.state == "hibernating":
+                speed = 0.0
+        mode = self.state.upper() if p.hibernation_radius > 0 else "DISABLED"
+        if mode != self._posted_state:
+            ctx.post("PSKEEP_MODE", mode)
+            self._posted_state = mode
         crs = bearing_deg(own.x, own.y, sx, sy) if d > 1e-9 else own.heading
-        return course_speed_objective(ctx, crs, self.desired_speed(d), (0.0, 1.0, 0.0))
+        return course_speed_objective(ctx, crs, speed, (0.0, 0.4, 0.0))

@@ -14,9 +14,9 @@ at ``trail_angle`` relative to the contact's heading (180 = straight behind;
 * D <= radius: the same ZAICs at the contact's heading and speed (match the contact).
 
 Defaults (IvP): trail_range 50, trail_angle 180 relative, radius 5, nm_radius 20,
-max_range 0 (no limit). The authors' mission used trail_range 5, radius 5, nm_radius 15;
-the paper's text 2 m behind. Each active tick posts the trail point as VIEW_POINT
-(``x=..,y=..,label=<name>``, pMarineViewer style).
+max_range 0 (no limit; alias ``pwt_outer_dist``). The authors' mission used trail_range
+5, radius 5, nm_radius 15; the paper's text 2 m behind. Each active tick posts the trail
+point as VIEW_POINT (``x=..,y=..,label=<name>``, pMarineViewer style).
 """
 
 from __future__ import annotations
@@ -69,6 +69,7 @@ class Trail(ContactBehavior):
             k: setter(k, to_float)
             for k in ("trail_range", "trail_angle", "radius", "nm_radius", "max_range")
         },
+        "pwt_outer_dist": setter("max_range", to_float),  # IvP's preferred name
         "time_on_leg": setter("time_on_leg", to_float),
         "trail_angle_type": setter("trail_angle_type", _angle_type),
     }

@@ -1,17 +1,23 @@
 """BHV_Waypoint: visit a list of points.
 
-Course: ZAIC peak at the bearing to the steering point (pw 0, bw 180, wrap); speed: ZAIC
-peak at ``speed`` with IvP's waypoint shape (pw 0.5, bw 1.0, summitdelta 0.8, as recalled
-from IvP BHV_Waypoint; not in the reference note); coupled 50/50, normalised 0..100.
+Objective (IvP ``BHV_Waypoint::buildOF``, zaic method, as in the MOOS-IvP copy in
+mjbays/ROS-IvP-Native; the reference note is silent): course = max of two ZAIC peaks -
+at the bearing to the steering point (pw 0, bw 180, max 100, wrap) and a small
+heading-hold component at the current heading (pw 30, bw 180, delta 5, max 20); speed =
+ZAIC peak at ``speed`` (pw speed/2, bw 1.6, delta 20); coupled 50/50, normalised 0..100.
 
 Parameters (IvP names): points ("x1,y1:x2,y2", "pts={...}"), point (one point), speed,
-capture_radius (3), slip_radius (15), lead (-1 = off: steer at the point; > 0: steer at
-the point ``lead`` metres ahead of the vehicle's projection on the track line from the
-previous point, never past the next point), repeat (0: extra passes over the list),
-order (normal | reverse), wptflag (posted on each point reached), cycleflag (posted at
-the end of each pass over the list). When the last point is reached (after ``repeat``
-extra passes) the behavior completes (endflags); ``perpetual = true`` starts over.
-Posts WPT_INDEX, and the route as VIEW_SEGLIST (``pts={x,y:...},label=<name>``).
+capture_radius (3; alias ``radius``), slip_radius (15; alias ``nm_radius``), lead (-1 =
+off; >= 0: steer at the point ``lead`` metres along the track line beyond the vehicle's
+perpendicular foot on it, never past the next point; the track line runs from the
+previous point, or the last point after a full pass, or the position where the behavior
+started when ``lead_to_start = true``), lead_damper (-1 = off; > 0: the lead distance
+grows up to 3x as the vehicle closes within lead_damper of the track line), repeat (0:
+extra passes over the list), order (normal | reverse), wptflag (posted on each point
+reached; $[X], $[Y] expand to it), cycleflag (posted at the end of each pass),
+post_suffix. When the last point is reached (after ``repeat`` extra passes) the behavior
+completes (endflags); ``perpetual = true`` starts over. Posts WPT_INDEX, and the route as
+VIEW_SEGLIST (``pts={x,y:...},label=<name>``).
 """
 
 from __future__ import annotations
@@ -20,11 +26,24 @@ import math
 from dataclasses import dataclass, replace
 from typing import ClassVar
 
+import numpy as np
+
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext
-from uhrisim.autonomy.behaviors.waypoint_engine import ArrivalTracker, course_speed_objective
+from uhrisim.autonomy.behaviors.waypoint_engine import ArrivalTracker
+from uhrisim.autonomy.coupler import couple
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import bearing_deg, distance
-from uhrisim.autonomy.params import Flag, parse_flag, setter, to_float, to_point, to_points, to_str
+from uhrisim.autonomy.params import (
+    Flag,
+    parse_flag,
+    setter,
+    to_bool,
+    to_float,
+    to_point,
+    to_points,
+    to_str,
+)
+from uhrisim.autonomy.zaic import zaic_peak_on_axis
 from uhrisim.core.errors import ConfigError
 
 Point = tuple[float, float]
@@ -64,8 +83,11 @@ class WaypointParams:
     capture_radius: float = 3.0
     slip_radius: float = 15.0
     lead: float = -1.0
+    lead_damper: float = -1.0
+    lead_to_start: bool = False
     repeat: int = 0
     order: str = "normal"
+    post_suffix: str = ""
     wptflags: tuple[Flag, ...] = ()
     cycleflags: tuple[Flag, ...] = ()
 
@@ -79,8 +101,13 @@ class Waypoint(Behavior):
         "point": _point,
         "speed": setter("speed", to_float),
         "capture_radius": setter("capture_radius", to_float),
+        "radius": setter("capture_radius", to_float),
         "slip_radius": setter("slip_radius", to_float),
+        "nm_radius": setter("slip_radius", to_float),
+        "post_suffix": setter("post_suffix", to_str),
         "lead": setter("lead", to_float),
+        "lead_damper": setter("lead_damper", to_float),
+        "lead_to_start": setter("lead_to_start", to_bool),
         "repeat": setter("repeat", _repeat),
         "order": setter("order", _order),
         "wptflag": _add_flag("wptflags"),
@@ -92,34 +119,50 @@ class Waypoint(Behavior):
         self.route = tuple(reversed(p.points)) if p.order == "reverse" else p.points
         self.index = 0
         self.passes = 0
-        self.previous: Point | None = None
+        self.start_mark: Point | None = None
         self.arrival = ArrivalTracker(p.capture_radius, p.slip_radius)
         self.finished = False
         self._posted: int | None = None
 
     def on_params_changed(self, key: str) -> None:
-        if key in ("points", "point", "order", "capture_radius", "slip_radius"):
+        if key in ("points", "point", "order", "capture_radius", "slip_radius", "radius",
+                   "nm_radius"):  # fmt: skip
             self.reset()
 
     def on_run_start(self, ctx: BehaviorContext) -> None:
-        if self.previous is None and ctx.own is not None:
-            self.previous = (ctx.own.x, ctx.own.y)
+        if self.start_mark is None and ctx.own is not None:
+            self.start_mark = (ctx.own.x, ctx.own.y)
+
+    def anchor(self) -> Point | None:
+        """Start of the current track line (None: no track line, steer at the point)."""
+        if self.index > 0:
+            return self.route[self.index - 1]
+        if self.passes > 0:
+            return self.route[-1]
+        return self.start_mark if self.params.lead_to_start else None
 
     def steer_point(self, x: float, y: float) -> Point:
-        """Point to steer at: the waypoint, or the track-line lead point (``lead`` > 0)."""
+        """Point to steer at: the waypoint, or the track-line lead point (``lead`` >= 0)."""
         p: WaypointParams = self.params
         tx, ty = self.route[self.index]
-        if p.lead <= 0 or self.previous is None:
+        anchor = self.anchor()
+        if p.lead < 0 or anchor is None:
             return tx, ty
-        ax, ay = self.previous
+        ax, ay = anchor
         dx, dy = tx - ax, ty - ay
         L = math.hypot(dx, dy)
         if L < 1e-9:
             return tx, ty
-        s = ((x - ax) * dx + (y - ay) * dy) / L + p.lead
-        if s >= L:
-            return tx, ty
-        return ax + dx * s / L, ay + dy * s / L
+        ux, uy = dx / L, dy / L
+        s_along = min(max((x - ax) * ux + (y - ay) * uy, 0.0), L)
+        fx, fy = ax + s_along * ux, ay + s_along * uy  # perpendicular foot on the segment
+        damper = 1.0
+        if p.lead_damper > 0:
+            off = math.hypot(x - fx, y - fy)
+            if off < p.lead_damper:
+                damper += 2.0 * (1.0 - off / p.lead_damper)
+        step = min(L - s_along, p.lead * damper)
+        return fx + step * ux, fy + step * uy
 
     def on_run(self, ctx: BehaviorContext) -> Objective | None:
         p: WaypointParams = self.params
@@ -130,17 +173,17 @@ class Waypoint(Behavior):
             if not self.common.perpetual:
                 return None
             self.reset()
-            self.previous = (own.x, own.y)
-        if self.previous is None:
-            self.previous = (own.x, own.y)
+        if self.start_mark is None:
+            self.start_mark = (own.x, own.y)
         while True:
             tx, ty = self.route[self.index]
             if not self.arrival.arrived(distance(own.x, own.y, tx, ty)):
                 break
-            self.previous = (tx, ty)
             self.arrival.reset()
-            for f in p.wptflags:
-                ctx.post(*f)
+            for var, val in p.wptflags:
+                if isinstance(val, str):
+                    val = val.replace("$[X]", f"{tx:.2f}").replace("$[Y]", f"{ty:.2f}")
+                ctx.post(var, val)
             if self.index + 1 < len(self.route):
                 self.index += 1
                 continue
@@ -157,8 +200,14 @@ class Waypoint(Behavior):
             pts = ":".join(f"{x:.2f},{y:.2f}" for x, y in self.route)
             ctx.post("VIEW_SEGLIST", f"pts={{{pts}}},label={self.name}")
         if self.index != self._posted:
-            ctx.post("WPT_INDEX", float(self.index))
+            sfx = f"_{p.post_suffix.upper()}" if p.post_suffix else ""
+            ctx.post(f"WPT_INDEX{sfx}", float(self.index))
             self._posted = self.index
         sx, sy = self.steer_point(own.x, own.y)
-        return course_speed_objective(ctx, bearing_deg(own.x, own.y, sx, sy), p.speed,
-                                      (0.5, 1.0, 0.8))  # fmt: skip
+        crs = ctx.domain.axis("course")
+        fc = np.maximum(
+            zaic_peak_on_axis(crs, bearing_deg(own.x, own.y, sx, sy), 0.0, 180.0, 50.0),
+            zaic_peak_on_axis(crs, own.heading, 30.0, 180.0, 5.0, 0.0, 20.0),
+        )
+        fs = zaic_peak_on_axis(ctx.domain.axis("speed"), p.speed, p.speed / 2.0, 1.6, 20.0)
+        return Objective.over(ctx.domain, ("course", "speed"), couple(fc, fs))
