@@ -35,6 +35,7 @@ class _Loop:
         self.paused = False
         self.last = None
         self.posts = []
+        self.applied: list[tuple] = []  # postings the simulation applied from the viewer
         self.error: BaseException | None = None
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
@@ -54,6 +55,8 @@ class _Loop:
                     continue
                 tick = self.sim.step()
                 self.last = tick
+                self.applied += [(p.community, p.var, p.value) for p in tick.posts
+                                 if p.source == "viewer"]
                 if self.sim.tick % 3 == 0:
                     self.server.publish(self.builder.build(tick))
                 else:
@@ -92,7 +95,7 @@ def test_page_shows_the_real_simulation():
             # a scenario button → Command → Simulation.post → the community variable
             page.click("#buttons button[data-var='RETURN']")
             deadline = time.monotonic() + 20
-            while sim.agents["videoray"].community.get("RETURN") != "true":
+            while ("videoray", "RETURN", "true") not in loop.applied:
                 assert time.monotonic() < deadline, "RETURN never reached the community"
                 time.sleep(0.02)
             # freeze the run, then the page must show exactly the last simulated state

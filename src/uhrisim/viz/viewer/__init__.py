@@ -8,7 +8,8 @@ See docs/viewer.md for the frame and scene schemas.
 
 from __future__ import annotations
 
-from uhrisim.viz.viewer.adapt import FrameBuilder
+from uhrisim.viz.viewer.adapt import FrameBuilder, scene_from_world
+from uhrisim.viz.viewer.hook import ViewerHook
 from uhrisim.viz.viewer.protocol import SPEED_CHOICES, Command, parse_command
 from uhrisim.viz.viewer.server import ViewerServer
 
@@ -16,8 +17,10 @@ __all__ = [
     "SPEED_CHOICES",
     "Command",
     "FrameBuilder",
+    "ViewerHook",
     "ViewerServer",
     "parse_command",
+    "scene_from_world",
     "serve_replay",
 ]
 
