@@ -225,10 +225,7 @@ def _make_bridge(domain: int, reliable_sensors: bool = False) -> tuple[Ros2Bridg
 
 
 def _wait_for_subscribers(bridge: Ros2Bridge, topics: list[str], timeout: float = 20.0) -> None:
-    end = time.monotonic() + timeout
-    while not all(bridge.subscriber_count(t) > 0 for t in topics):
-        assert time.monotonic() < end, f"no subscriber on {topics}"
-        time.sleep(0.02)
+    assert bridge.wait_for_subscribers(topics, timeout), f"no subscriber on {topics}"
     time.sleep(0.3)  # let the writers match the readers the graph already shows
 
 

@@ -396,7 +396,8 @@ class Ros2Bridge:
             pub.publish(msg)
         except Exception as exc:
             raise BridgeError(f"Ros2Bridge: publishing {key} failed: {exc}") from exc
-        self._counts[key] = self._counts.get(key, 0) + 1
+        with self._lock:
+            self._counts[key] = self._counts.get(key, 0) + 1
 
     # ----------------------------------------------------------------- publishing
     def publish_clock(self, t_sim: float) -> None:
@@ -656,14 +657,24 @@ class Ros2Bridge:
     def stats(self) -> dict[str, Any]:
         """Messages published per topic and command messages rejected (a copy)."""
         with self._lock:
-            rejected = self._rejected
-        return {"published": dict(self._counts), "rejected_commands": rejected}
+            return {"published": dict(self._counts), "rejected_commands": self._rejected}
 
     def subscriber_count(self, topic: str) -> int:
         """How many subscriptions the ROS graph shows on ``topic`` (for tests/tools)."""
         if not self.started:
             raise BridgeError("Ros2Bridge.subscriber_count: bridge is not running")
         return int(self._node.count_subscribers(topic))
+
+    def wait_for_subscribers(self, topics: Sequence[str], timeout_s: float = 10.0) -> bool:
+        """Block (wall clock) until every topic in ``topics`` has a subscriber, or the
+        timeout passes; True on success. For tests and tools, not for the sim loop.
+        DDS discovery of a new node takes from ~0.1 s to a few seconds."""
+        end = time.monotonic() + timeout_s
+        while not all(self.subscriber_count(t) > 0 for t in topics):
+            if time.monotonic() > end:
+                return False
+            time.sleep(0.02)
+        return True
 
 
 def _point(p: np.ndarray) -> Point:
