@@ -99,8 +99,8 @@ def validate_rays(
     origins: ArrayLike, directions: ArrayLike, max_range: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """Check and convert ray inputs; raises ConfigError naming the bad field."""
-    o = np.asarray(origins, dtype=np.float64)
-    d = np.asarray(directions, dtype=np.float64)
+    o = np.ascontiguousarray(origins, dtype=np.float64)
+    d = np.ascontiguousarray(directions, dtype=np.float64)
     if o.ndim != 2 or o.shape[1] != 3:
         raise ConfigError(f"must have shape (N, 3), got {o.shape}", where="RayCaster.cast.origins")
     if d.shape != o.shape:
@@ -381,13 +381,37 @@ class _EmbreeMesh:
         return face, t, nrm
 
 
-@dataclass(frozen=True)
-class _PartGroup:
-    """Parts of a body that share a joint chain: one Embree scene in their rest frame."""
+class _BodyBVH:
+    """A dynamic body for Embree: one scene per group of rigid parts that move together
+    (identical joint chains), built once in the rest pose, and float64 face tables
+    concatenated over the groups so that one batch of numpy work serves all of them."""
 
-    mesh: _EmbreeMesh
-    part: int  # index of a member part (its transform moves the whole group)
-    face_map: NDArray[np.int64]  # group face index → body face index
+    def __init__(self, device: object, geometry: ArticulatedMesh) -> None:
+        chains: dict[tuple, list[int]] = {}
+        for i, p in enumerate(geometry.parts):
+            chains.setdefault(p.chain, []).append(i)
+        offsets = geometry.face_offsets
+        self.groups: list[_EmbreeMesh] = []
+        group_part, face_maps = [], []
+        for members in chains.values():
+            tris = [
+                geometry.parts[i].mesh.vertices.view(np.ndarray)[geometry.parts[i].mesh.faces]
+                for i in members
+            ]
+            self.groups.append(_EmbreeMesh(device, tris))
+            group_part.append(members[0])  # its transform moves the whole group
+            face_maps.append(
+                np.concatenate([np.arange(offsets[i], offsets[i + 1]) for i in members])
+            )
+        self.group_part = group_part
+        counts = [len(g.normal) - 1 for g in self.groups]
+        self.face_offset = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+        # Concatenated per-face tables with a final sentinel row for "no hit" (index -1).
+        self.normal = np.vstack([g.normal[:-1] for g in self.groups] + [np.zeros((1, 3))])
+        self.plane_w = np.concatenate([g.plane_w[:-1] for g in self.groups] + [[0.0]])
+        self.face_map = np.concatenate([*face_maps, [0]]).astype(np.int64)
+        self.centres = np.array([g.centre for g in self.groups])
+        self.radii = np.array([g.radius for g in self.groups])
 
 
 class EmbreeRayCaster(RayCaster):
@@ -417,7 +441,7 @@ class EmbreeRayCaster(RayCaster):
         self._static_version = -1
         self._static_label = np.zeros(0, dtype=np.int32)
         self._static_refl = np.zeros(0)
-        self._parts: dict[str, list[_PartGroup]] = {}
+        self._parts: dict[str, _BodyBVH] = {}
         self._sync()
 
     def _sync(self) -> None:
@@ -445,21 +469,55 @@ class EmbreeRayCaster(RayCaster):
             self._static_version = sc.static_version
         for b in sc.bodies:
             if b.name not in self._parts:
-                self._parts[b.name] = self._build_groups(b.geometry)
+                self._parts[b.name] = _BodyBVH(self._device, b.geometry)
 
-    def _build_groups(self, geometry: ArticulatedMesh) -> list[_PartGroup]:
-        """One Embree scene per set of parts that move together (identical joint chains)."""
-        chains: dict[tuple, list[int]] = {}
-        for i, p in enumerate(geometry.parts):
-            chains.setdefault(p.chain, []).append(i)
-        groups = []
-        offsets = geometry.face_offsets
-        for members in chains.values():
-            parts = [geometry.parts[i] for i in members]
-            tris = [p.mesh.vertices.view(np.ndarray)[p.mesh.faces] for p in parts]
-            face_map = np.concatenate([np.arange(offsets[i], offsets[i + 1]) for i in members])
-            groups.append(_PartGroup(_EmbreeMesh(self._device, tris), members[0], face_map))
-        return groups
+    @staticmethod
+    def _trace_pairs(
+        bvh: _BodyBVH,
+        gi: NDArray[np.intp],
+        o: NDArray[np.float64],
+        d: NDArray[np.float64],
+        rots: NDArray[np.float64],
+        trans: NDArray[np.float64],
+        limit: NDArray[np.float64],
+    ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+        """Trace (ray, group) pairs sorted by group: one Embree call per group, then one
+        float64 refinement for all pairs. Returns (body-table face or -1, distance or inf,
+        normal in the group frame facing the ray, zero on a miss)."""
+        n = len(gi)
+        ol, dl = np.empty((n, 3)), np.empty((n, 3))
+        o32, d32 = np.empty((n, 3), dtype=np.float32), np.empty((n, 3), dtype=np.float32)
+        far = np.minimum(limit * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR).astype(np.float32)
+        local = np.empty(n, dtype=np.int64)
+        cuts = np.searchsorted(gi, np.arange(len(bvh.groups) + 1))
+        for g, (a, b) in enumerate(itertools.pairwise(cuts)):
+            if a == b:
+                continue
+            mesh = bvh.groups[g]
+            np.matmul(o[a:b] - trans[g], rots[g], out=ol[a:b])  # rows of R^T (o - t)
+            np.matmul(d[a:b], rots[g], out=dl[a:b])
+            o32[a:b] = ol[a:b] if mesh.shift is None else ol[a:b] - mesh.shift
+            d32[a:b] = dl[a:b]
+            local[a:b] = mesh.scene.run(o32[a:b], d32[a:b], dists=far[a:b])
+        face = np.where(local >= 0, local + bvh.face_offset[gi], -1)
+        nrm = np.take(bvh.normal, face, axis=0)  # -1 → the zero row
+        # Refine in float64 against the hit triangle's plane: t = (n·v0 − n·o) / (n·d).
+        dn = np.einsum("ij,ij->i", dl, nrm)
+        num = np.take(bvh.plane_w, face) - np.einsum("ij,ij->i", ol, nrm)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = num / dn
+        for p in np.flatnonzero((np.abs(dn) <= 1e-9) & (face >= 0)):  # grazing: rare
+            mesh = bvh.groups[gi[p]]
+            res = mesh.scene.run(o32[p : p + 1], d32[p : p + 1], dists=far[p : p + 1], output=1)
+            t[p] = res["tfar"][0]
+        t[face < 0] = np.inf
+        beyond = np.flatnonzero(t > limit)
+        if len(beyond):
+            t[beyond] = np.inf
+            face[beyond] = -1
+            nrm[beyond] = 0.0
+        nrm *= np.copysign(1.0, -dn)[:, None]
+        return face, t, nrm
 
     def _cast(self, o, d, max_range, exclude):  # type: ignore[no-untyped-def]
         self._sync()
@@ -479,45 +537,43 @@ class EmbreeRayCaster(RayCaster):
         cull = _RayCuller(o, d) if active else None
         for bi, b in active:
             assert cull is not None
+            bvh = self._parts[b.name]
             pose = b.pose_matrix()
-            groups = self._parts[b.name]
-            frames = [pose @ b.part_transforms[g.part] for g in groups]  # rest frame → NED
-            centres = np.array(
-                [m[:3, :3] @ g.mesh.centre + m[:3, 3] for m, g in zip(frames, groups, strict=True)]
-            )
-            radii = np.array([g.mesh.radius for g in groups])
+            frames = np.array([pose @ b.part_transforms[i] for i in bvh.group_part])  # → NED
+            rots, trans = frames[:, :3, :3], frames[:, :3, 3]
+            centres = np.einsum("gij,gj->gi", rots, bvh.centres) + trans
             # Whole-body bounding sphere (encloses every posed group's sphere) culls first.
             bc = 0.5 * (centres.min(axis=0) + centres.max(axis=0))
-            br = float(np.max(np.linalg.norm(centres - bc, axis=1) + radii))
-            limit_all = np.minimum(best, max_range)
-            body_idx = cull.candidates(limit_all, bc, br)
+            br = float(np.max(np.linalg.norm(centres - bc, axis=1) + bvh.radii))
+            body_idx = cull.candidates(np.minimum(best, max_range), bc, br)
             if len(body_idx) == 0:
                 continue
-            if len(groups) > 1:  # every group's sphere against the body's candidates at once
-                masks = cull.subset(body_idx).candidates_many(
-                    np.minimum(best[body_idx], max_range), centres, radii
-                )
-            for gi, (group, m) in enumerate(zip(groups, frames, strict=True)):
-                rot, trans = m[:3, :3], m[:3, 3]
-                if len(groups) == 1:
-                    idx = body_idx
-                else:
-                    idx = body_idx[np.flatnonzero(masks[:, gi])]
-                    if len(idx) == 0:
-                        continue
-                limit = np.minimum(best[idx], max_range)  # earlier groups may have tightened it
-                ol = (o[idx] - trans) @ rot  # R^T (o - t), row form
-                dl = d[idx] @ rot
-                face, t, nrm = group.mesh.intersect(ol, dl, limit)
-                ok = (face >= 0) & (t < best[idx]) & (t <= max_range)
-                if not np.any(ok):
-                    continue
-                sel = idx[ok]
-                best[sel] = np.maximum(t[ok], 0.0)
-                label[sel] = b.label_id
-                refl[sel] = b.face_reflectivity[group.face_map[face[ok]]]
-                normal[sel] = nrm[ok] @ rot.T
-                body[sel] = bi
+            # (ray, group) pairs whose group sphere the ray may touch, grouped by group.
+            masks = cull.subset(body_idx).candidates_many(
+                np.minimum(best[body_idx], max_range), centres, bvh.radii
+            )
+            gi, ri = np.nonzero(masks)  # sorted by group
+            if len(gi) == 0:
+                continue
+            rays = body_idx[ri]
+            limit = np.minimum(best[rays], max_range)
+            face, t, nrm = self._trace_pairs(
+                bvh, gi, np.take(o, rays, axis=0), np.take(d, rays, axis=0), rots, trans, limit
+            )
+            hit = np.flatnonzero(face >= 0)
+            if len(hit) == 0:
+                continue
+            # Nearest group per ray: sort the hits by (ray, distance), keep each ray's first.
+            order = hit[np.lexsort((t[hit], rays[hit]))]
+            _, first = np.unique(rays[order], return_index=True)
+            win = order[first]
+            win = win[t[win] < best[rays[win]]]
+            sel = rays[win]
+            best[sel] = np.maximum(t[win], 0.0)
+            label[sel] = b.label_id
+            refl[sel] = b.face_reflectivity[bvh.face_map[face[win]]]
+            normal[sel] = np.einsum("pij,pj->pi", rots[gi[win]], nrm[win])
+            body[sel] = bi
         return RayHits(distance=best, label=label, normal=normal, reflectivity=refl, body=body)
 
 
@@ -532,33 +588,36 @@ class _RayCuller:
 
     def __init__(self, o: NDArray[np.float64], d: NDArray[np.float64]) -> None:
         self.o, self.d = o, d
-        self.o0: NDArray[np.float64] | None = o[0] if bool(np.all(o == o[0])) else None
+        flat = o.ravel()  # o is C-contiguous: every row equals the previous one?
+        same = bool(np.array_equal(flat[3:], flat[:-3]))
+        self.o0: NDArray[np.float64] | None = o[0] if same else None
         if self.o0 is None:
             self.oo = np.einsum("ij,ij->i", o, o)
             self.od = np.einsum("ij,ij->i", o, d)
 
     def subset(self, idx: NDArray[np.intp]) -> _RayCuller:
         sub = object.__new__(_RayCuller)
-        sub.o, sub.d, sub.o0 = self.o[idx], self.d[idx], self.o0
+        sub.d, sub.o0 = np.take(self.d, idx, axis=0), self.o0  # take: faster than d[idx]
         if self.o0 is None:
-            sub.oo, sub.od = self.oo[idx], self.od[idx]
+            sub.o = np.take(self.o, idx, axis=0)
+            sub.oo, sub.od = np.take(self.oo, idx), np.take(self.od, idx)
         return sub
 
     def candidates_many(
         self, limit: NDArray[np.float64], centres: NDArray[np.float64], radii: NDArray[np.float64]
     ) -> NDArray[np.bool_]:
-        """(N, G) mask: may ray i touch sphere g (centres (G, 3), radii (G,)) within limit."""
+        """(G, N) mask: may ray i touch sphere g (centres (G, 3), radii (G,)) within limit."""
         c = np.asarray(centres, dtype=float)
         if self.o0 is not None:
             v = c - self.o0
-            tca = self.d @ v.T
-            d2 = np.einsum("ij,ij->i", v, v)[None, :] - tca * tca
+            tca = v @ self.d.T
+            d2 = np.einsum("ij,ij->i", v, v)[:, None] - tca * tca
         else:
-            tca = self.d @ c.T - self.od[:, None]
-            cc = np.einsum("ij,ij->i", c, c)[None, :]
-            d2 = (cc - 2.0 * (self.o @ c.T) + self.oo[:, None]) - tca * tca
-        r = np.asarray(radii, dtype=float) * (1.0 + 1e-6) + 1e-6
-        return (d2 <= r * r) & (tca + r >= 0.0) & (tca - r <= limit[:, None])
+            tca = c @ self.d.T - self.od
+            cc = np.einsum("ij,ij->i", c, c)[:, None]
+            d2 = (cc - 2.0 * (c @ self.o.T) + self.oo) - tca * tca
+        r = (np.asarray(radii, dtype=float) * (1.0 + 1e-6) + 1e-6)[:, None]
+        return (d2 <= r * r) & (tca >= -r) & (tca - r <= limit)
 
     def candidates(
         self, limit: NDArray[np.float64], centre: NDArray[np.float64], radius: float
