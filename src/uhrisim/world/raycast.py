@@ -20,8 +20,9 @@ metres) the first surface within ``max_range`` — and return a :class:`RayHits`
   triangle of the posed world (float64), chunked to bound memory. Slow and obviously
   correct; the tests hold the Embree caster to it.
 
-Conventions: a hit at distance exactly ``max_range`` counts; a ray starting on a surface
-hits it at distance 0; triangles are two-sided (no back-face culling).
+Conventions: a hit at distance exactly ``max_range`` counts; triangles are two-sided (no
+back-face culling); a ray that starts exactly on a surface may or may not report that
+surface at distance ~0 (float32 inside Embree), so start rays a hair off surfaces.
 """
 
 from __future__ import annotations
@@ -415,7 +416,7 @@ class _BodyBVH:
 
 
 class EmbreeRayCaster(RayCaster):
-    """Embree-backed caster: static BVH built once, per-part BVHs for dynamic bodies."""
+    """Embree-backed caster: static BVH built once, one BVH per rigid group of each body."""
 
     backend = "embree"
 
