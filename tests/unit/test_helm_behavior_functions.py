@@ -178,3 +178,23 @@ def test_waypoint_flags_repeat_and_completion():
     w.reset()
     w.on_run(c)
     assert dict(c.posts)["HIT"] == "0.00,10.00"
+
+
+def test_station_keep_swing_and_hibernation():
+    s = make("StationKeep", center_activate=True, swing_time=3, hibernation_radius=8,
+             inner_radius=2, outer_radius=6, outer_speed=0.6, transit_speed=1.0)  # fmt: skip
+    s.on_run_start(ctx(OwnNav(0.0, 0.0, 0.0, 0.5), t=0.0))
+    s.on_run(ctx(OwnNav(1.0, 0.0, 0.0, 0.5), t=1.0))  # still swinging: station follows
+    assert s.station == (1.0, 0.0)
+    steps = []
+    for t, x in ((4.0, 2.0), (5.0, 10.0), (6.0, 5.2), (7.0, 2.5)):
+        c = ctx(OwnNav(x, 0.0, 90.0, 0.5), t=t)
+        obj = s.on_run(c)
+        steps.append((s.state, argmax_cs(obj)[1], dict(c.posts).get("PSKEEP_MODE")))
+    assert s.station == (1.0, 0.0)  # fixed once the swing time is over
+    assert steps == [
+        ("hibernating", 0.0, None),  # d = 1: inside, speed 0 (mode posted at t = 1)
+        ("seeking_station", pytest.approx(1.0), "SEEKING_STATION"),  # d = 9 > 8: transit
+        ("seeking_station", pytest.approx(0.4), None),  # d = 4.2: 0.6*2.2/4 = 0.33 -> 0.4
+        ("hibernating", 0.0, "HIBERNATING"),  # d = 1.5 <= inner radius 2
+    ]

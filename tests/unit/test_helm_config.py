@@ -363,3 +363,48 @@ def test_parse_bhv_domain_and_comments():
         " name = d // the name\n depth = 4\n}\n"
     )
     assert cfg.behaviors[0].params.depth == 4.0 and cfg.behaviors[0].where == "<bhv>:2"
+
+
+MACROS = {"VNAME": "videoray", "HOME": "0,0", "LOITER_CENTER": "x=10,y=-20",
+          "TRAIL_ENABLED": "yes"}  # fmt: skip
+
+
+def test_mission_style_file_with_nsplug_macros_and_ivp_aliases():
+    cfg = load_bhv(DATA / "rov_nsplug.bhv", known_vars=KNOWN, macros=MACROS)
+    by = {b.name: b for b in cfg.behaviors}
+    assert [m.value for m in cfg.modes] == [
+        "ACTIVE", "STATION-KEEPING", "RETURNING", "TRAILING", "LOITERING",
+    ]  # fmt: skip
+    assert dict(cfg.initialize)["TRAIL"] == "true"
+    assert by["hold_depth"].common.duration == -1.0  # no-time-limit
+    orbit = by["orbit"].params
+    assert (orbit.capture_radius, orbit.slip_radius, orbit.post_suffix) == (2.0, 6.0, "rov")
+    assert orbit.polygon == parse_polygon("format=radial, x=10, y=-20, radius=15, pts=8, snap=0.5")
+    assert ("visual_hints", "nextpt_color=white, edge_color=orange") in by["orbit"].common.display
+    assert by["follow_"].params.max_range == 500.0  # pwt_outer_dist is Trail's max_range
+    assert by["go_home"].params.points == ((0.0, 0.0),) and by["go_home"].params.lead == 4.0
+    sk = by["hold_station"].params
+    assert (sk.swing_time, sk.hibernation_radius) == (3.0, 8.0)
+    # without TRAIL_ENABLED the #else branches are taken; a missing macro is an error
+    other = load_bhv(DATA / "rov_nsplug.bhv", known_vars=KNOWN,
+                     macros={k: v for k, v in MACROS.items() if k != "TRAIL_ENABLED"})  # fmt: skip
+    assert dict(other.initialize)["TRAIL"] == "false"
+    assert [m.value for m in other.modes][-1] == "LOITERING" and len(other.modes) == 4
+    with pytest.raises(ConfigError, match=r"macro \$\(HOME\) is not defined") as e:
+        load_bhv(
+            DATA / "rov_nsplug.bhv", known_vars=KNOWN, macros={"LOITER_CENTER": "1,2", "VNAME": "v"}
+        )
+    assert e.value.where.endswith("rov_nsplug.bhv:107")
+
+
+def test_preprocessor_errors(tmp_path):
+    for text, msg, line in (
+        ("#ifdef A\ninitialize X = 1\n", "never closed", 1),
+        ("#endif\n", "without #ifdef", 1),
+        ("initialize X = 1\n#include other.bhv\n", "unsupported directive", 2),
+    ):
+        e = _err(text, tmp_path)
+        assert msg in str(e) and e.where.endswith(f"bad.bhv:{line}")
+    f = tmp_path / "def.bhv"
+    f.write_text("#define D 7\n#ifndef E\ninitialize X = $(D)\n#endif\n")
+    assert load_bhv(f).initialize == (("X", 7.0),)

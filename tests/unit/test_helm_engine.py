@@ -190,3 +190,25 @@ def test_bad_node_report_is_reported_not_fatal():
     h = meta_helm()
     out = h.step(0.0, {**NAV, "NODE_REPORT": "NAME=diver,X=oops,Y=1"})
     assert "bad NODE_REPORT" in out.post_dict()["BHV_WARNING"]
+
+
+def test_mission_style_file_runtime_flags_suffix_and_spawn_completion():
+    macros = {"VNAME": "videoray", "HOME": "0,0", "LOITER_CENTER": "x=10,y=-20",
+              "TRAIL_ENABLED": "yes"}  # fmt: skip
+    h = Helm(load_bhv(DATA / "rov_nsplug.bhv", known_vars=KNOWN, macros=macros), "videoray")
+    h.step(0.0, NAV)
+    near = "NAME=diver,X=0,Y=-5,SPD=0,HDG=0,DEP=2,TIME=0.25"
+    out = h.step(0.25, {"DEPLOY": "true", "CONTACT_INFO": "name=diver # contact=diver",
+                        "NODE_REPORT": near, "TRAIL": "false"})  # fmt: skip
+    assert out.mode == "ACTIVE:LOITERING" and "avoid_diver" in h.behavior_names
+    posts = out.post_dict()
+    assert posts["UNDERWAY"] == "true"  # Loiter runflag
+    assert "LOITER_INDEX_ROV" in posts and "LOITER_ACQUIRE_ROV" in posts  # post_suffix
+    # the diver moves beyond completed_dist (12 m): the spawned avoidance completes,
+    # posts its endflag with $[CONTACT] expanded, and is removed
+    out = h.step(0.5, {"NODE_REPORT": "NAME=diver,X=0,Y=-20,SPD=0,HDG=0,DEP=2,TIME=0.5"})
+    assert out.post_dict()["CONTACT_RESOLVED"] == "diver"
+    assert "avoid_diver" not in h.behavior_names and out.completed == ()
+    # a later alert spawns a fresh one (which lives while the diver is within 12 m)
+    h.step(0.75, {"CONTACT_INFO": "name=diver # contact=diver", "NODE_REPORT": near})
+    assert "avoid_diver" in h.behavior_names
