@@ -21,6 +21,7 @@ from uhrisim.autonomy import (
     Helm,
     HelmConfig,
     NodeReport,
+    as_mail,
     format_node_report,
 )
 from uhrisim.autonomy.behaviors import Trail
@@ -64,13 +65,8 @@ def test_rov_transits_to_the_diver_then_trails_it_around_the_loiter():
             reports = {n: _report(n, v, t) for n, v in veh.items()}
             # ROV community: contact manager first; its posts reach the helm this tick
             cm_posts = cm.step(t, veh["videoray"].nav(), [reports["diver"]])
-            mail_rov = veh["videoray"].nav()
-            mail_rov["NODE_REPORT"] = reports["diver"]
-            for var, val in cm_posts:
-                mail_rov.setdefault(var, [])
-                if not isinstance(mail_rov[var], list):
-                    mail_rov[var] = [mail_rov[var]]
-                mail_rov[var].append(val)
+            mail_rov = as_mail(cm_posts, base={**veh["videoray"].nav(),
+                                               "NODE_REPORT": reports["diver"]})  # fmt: skip
             mail = {"diver": veh["diver"].nav(), "videoray": mail_rov}
             for name, helm in helms.items():
                 out = helm.step(t, mail[name])

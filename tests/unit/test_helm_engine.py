@@ -212,3 +212,10 @@ def test_mission_style_file_runtime_flags_suffix_and_spawn_completion():
     # a later alert spawns a fresh one (which lives while the diver is within 12 m)
     h.step(0.75, {"CONTACT_INFO": "name=diver # contact=diver", "NODE_REPORT": near})
     assert "avoid_diver" in h.behavior_names
+
+
+def test_as_mail_groups_repeated_postings_in_order():
+    from uhrisim.autonomy import as_mail
+
+    mail = as_mail([("A", 1), ("B", "x"), ("A", 2), ("A", 3)], base={"NAV_X": 0.0, "B": "w"})
+    assert mail == {"NAV_X": 0.0, "B": ["w", "x"], "A": [1, 2, 3]}

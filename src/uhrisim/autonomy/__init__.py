@@ -1,11 +1,21 @@
 """Autonomy: a MOOS-IvP style behavior-fusion helm, contact manager and ``.bhv`` loader.
 
 Vocabulary and frames are MOOS's (x east, y north, compass degrees, depth down); see
-reference/helm.md and docs/conventions.md. Typical use::
+reference/helm.md and docs/conventions.md. One community per vehicle, each helm tick::
 
+    cm_cfg = ContactManagerConfig.from_mapping({"alerts": [...], "relays": [...]})
     cfg = HelmConfig.from_bhv_file("meta_vehicle.bhv", known_vars=cm_cfg.alert_vars)
-    helm = Helm(cfg, "videoray")
-    out = helm.step(t, {"NAV_X": 0.0, "NAV_Y": 0.0, "NAV_HEADING": 180.0, ...})
+    #  or HelmConfig.from_mapping(scenario["helm"], "scenario.yaml:helm", cm_cfg.alert_vars)
+    helm, cm = Helm(cfg, "videoray"), ContactManager(cm_cfg, "videoray")
+
+    alerts = cm.step(t, own_nav, node_reports_of_others)        # [(var, value), ...]
+    nav = {"NAV_X": x_east, "NAV_Y": y_north, "NAV_HEADING": hdg_deg, "NAV_SPEED": v,
+           "NAV_DEPTH": z, "NODE_REPORT": node_reports_of_others}
+    mail = as_mail(alerts, base=nav)   # repeated variables become lists, applied in order
+    out = helm.step(t, mail)   # out.decision (heading_deg, speed, depth|None) or None
+                               # out.posts, out.contributions, out.total, out.mode, ...
+
+:mod:`uhrisim.autonomy.missions` holds the paper's diver and ROV helms in mapping form.
 """
 
 from __future__ import annotations
@@ -23,7 +33,7 @@ from uhrisim.autonomy.contacts import (
     parse_node_report,
 )
 from uhrisim.autonomy.domain import Domain, DomainAxis, Objective
-from uhrisim.autonomy.helm import Decision, Helm, HelmOutput
+from uhrisim.autonomy.helm import Decision, Helm, HelmOutput, as_mail
 
 __all__ = [
     "AlertSpec",
@@ -40,6 +50,7 @@ __all__ = [
     "NodeReport",
     "Objective",
     "OwnNav",
+    "as_mail",
     "format_node_report",
     "load_bhv",
     "parse_bhv",

@@ -32,7 +32,7 @@ behaviors run, nothing DESIRED_* is posted).
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext, OwnNav
@@ -44,9 +44,27 @@ from uhrisim.autonomy.params import moos_value, parse_updates
 from uhrisim.autonomy.solver import SolveResult, WeightedObjective, solve
 from uhrisim.core.errors import ConfigError
 
-__all__ = ["Decision", "Helm", "HelmOutput"]
+__all__ = ["Decision", "Helm", "HelmOutput", "as_mail"]
 
 log = logging.getLogger(__name__)
+
+
+def as_mail(
+    posts: Iterable[tuple[str, object]], base: Mapping[str, object] | None = None
+) -> dict[str, object]:
+    """Mail for :meth:`Helm.step` from ``(variable, value)`` postings, in order.
+
+    A variable posted more than once becomes a list (each value is applied in order);
+    ``base`` entries come first (e.g. the NAV_* values).
+    """
+    mail: dict[str, object] = dict(base or {})
+    for var, val in posts:
+        if var in mail:
+            prev = mail[var]
+            mail[var] = [*(prev if isinstance(prev, list) else [prev]), val]
+        else:
+            mail[var] = val
+    return mail
 
 
 @dataclass(frozen=True)
