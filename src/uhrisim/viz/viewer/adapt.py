@@ -232,8 +232,8 @@ def scene_from_world(scene: Any, *, seafloor_cells: int = 100,
 
     The sea floor (a depth grid) is resampled to at most ``seafloor_cells`` cells a side
     (every k-th grid line, the last one kept), triangulated like the world's mesh. Other
-    static objects become ``"mesh"`` objects (NED vertices, mm precision); a mesh with
-    more than ``mesh_max_faces`` faces keeps every k-th face (display only). Dynamic
+    static objects become ``"mesh"`` objects (NED vertices, mm precision), decimated
+    to ``mesh_max_faces`` by :func:`decimate_mesh` (display only). Dynamic
     bodies (ROV, diver) are left out: the page draws agents from the frames.
     """
     out: dict[str, Any] = {"objects": []}
@@ -260,14 +260,12 @@ def scene_from_world(scene: Any, *, seafloor_cells: int = 100,
         mesh = obj.mesh
         if len(mesh.faces) == floor_faces and floor is not None:
             continue  # the sea floor's own full-resolution mesh
-        faces = np.asarray(mesh.faces)
-        if len(faces) > mesh_max_faces:
-            faces = faces[:: math.ceil(len(faces) / mesh_max_faces)]
+        verts, faces = decimate_mesh(mesh.vertices, mesh.faces, mesh_max_faces)
         used, inverse = np.unique(faces, return_inverse=True)
         out["objects"].append({
             "label": str(obj.label),
             "kind": "mesh",
-            "vertices": _round(np.asarray(mesh.vertices)[used]),
+            "vertices": _round(verts[used]),
             "faces": inverse.reshape(-1, 3).tolist(),
         })
     try:
@@ -277,3 +275,39 @@ def scene_from_world(scene: Any, *, seafloor_cells: int = 100,
     except Exception:  # an empty scene has no bounds: the page fits to the agents
         pass
     return out
+
+
+def decimate_mesh(vertices: Any, faces: Any, max_faces: int = 20_000,
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Vertex-clustering decimation for display: at most ``max_faces`` triangles.
+
+    Vertices are binned in a cubic grid; each occupied cell becomes one vertex (the mean
+    of its members); triangles that collapse are dropped, duplicates removed. The cell
+    starts at ``sqrt(A / (max_faces / 2))`` with ``A`` the product of the two largest
+    bounding-box extents (a terrain of ``max_faces / 2`` cells) and grows by 25 % until
+    the budget is met. Units are those of ``vertices`` (here NED metres). Returns
+    ``(vertices (M, 3), faces (K, 3))``; meshes within budget come back unchanged.
+    """
+    v = np.asarray(vertices, dtype=float).reshape(-1, 3)
+    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    if len(f) <= max_faces:
+        return v, f
+    lo = v.min(axis=0)
+    ext = np.sort(v.max(axis=0) - lo)
+    cell = math.sqrt(max(ext[1] * ext[2], 1e-12) / (max_faces / 2.0))
+    for _ in range(40):
+        key = np.floor((v - lo) / cell).astype(np.int64)
+        _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+        inverse = inverse.reshape(-1)
+        nv = np.column_stack([np.bincount(inverse, weights=v[:, k]) for k in range(3)])
+        nv /= counts[:, None]
+        nf = inverse[f]
+        ok = (nf[:, 0] != nf[:, 1]) & (nf[:, 1] != nf[:, 2]) & (nf[:, 0] != nf[:, 2])
+        nf = nf[ok]
+        _, first = np.unique(np.sort(nf, axis=1), axis=0, return_index=True)
+        nf = nf[np.sort(first)]
+        if len(nf) <= max_faces:
+            used, remap = np.unique(nf, return_inverse=True)
+            return nv[used], remap.reshape(-1, 3)
+        cell *= 1.25
+    raise ValueError(f"could not decimate a mesh of {len(f)} faces to {max_faces}")

@@ -30,7 +30,12 @@ import numpy as np
 
 from uhrisim.core.errors import AssetError
 from uhrisim.core.frames import enu_from_ned, enu_rotation_from_ned
-from uhrisim.viz.viewer.adapt import agent_kind, point_from_moos, polygon_from_moos
+from uhrisim.viz.viewer.adapt import (
+    agent_kind,
+    decimate_mesh,
+    point_from_moos,
+    polygon_from_moos,
+)
 from uhrisim.viz.viewer.protocol import Command
 from uhrisim.viz.viewer.server import ViewerServer
 
@@ -103,8 +108,9 @@ def _image_u8(msg: Any) -> np.ndarray | None:
     return buf[: h * step].reshape(h, step)[:, :w].copy()
 
 
-def _marker_object(m: Any) -> dict[str, Any] | None:
-    """visualization_msgs/Marker (ENU/FLU) → viewer scene object (NED/FRD)."""
+def _marker_object(m: Any, max_faces: int = 20_000) -> dict[str, Any] | None:
+    """visualization_msgs/Marker (ENU/FLU) → viewer scene object (NED/FRD); triangle
+    lists are welded and decimated to ``max_faces`` for display."""
     p, o, s, c = m.pose.position, m.pose.orientation, m.scale, m.color
     pos_ned = enu_from_ned(np.array([p.x, p.y, p.z], dtype=float))
     x, y, z, w = o.x, o.y, o.z, o.w
@@ -133,16 +139,21 @@ def _marker_object(m: Any) -> dict[str, Any] | None:
     if m.type == _MARKER_CYLINDER:
         return {**base, "kind": "cylinder", "radius": s.x / 2.0, "height": s.z}
     if m.type == _MARKER_TRIANGLES and m.points:
-        local = np.array([[q.x, q.y, q.z] for q in m.points], dtype=float)
+        pts = m.points
+        local = np.fromiter((c for q in pts for c in (q.x, q.y, q.z)), dtype=float,
+                            count=3 * len(pts)).reshape(-1, 3)
         world_enu = local @ r_enu.T + enu_from_ned(pos_ned)
-        verts = enu_from_ned(world_enu)
-        nf = len(verts) // 3
+        nf = len(world_enu) // 3
+        # a triangle list repeats shared corners: weld them, then decimate for display
+        verts, inverse = np.unique(np.round(enu_from_ned(world_enu[: 3 * nf]), 4), axis=0,
+                                   return_inverse=True)
+        verts, faces = decimate_mesh(verts, inverse.reshape(nf, 3), max_faces)
         return {
             "label": base["label"],
             "kind": "mesh",
             "color": color,
-            "vertices": verts[: 3 * nf].tolist(),
-            "faces": np.arange(3 * nf).reshape(nf, 3).tolist(),
+            "vertices": np.round(verts, 3).tolist(),
+            "faces": faces.tolist(),
         }
     log.debug("replay: marker %s/%s of type %s not shown", m.ns, m.id, m.type)
     return None
@@ -225,15 +236,16 @@ def load_replay(
 
     t_start = min(float(tr["t"][0]) for tr in tracks.values())
     t_end = max(float(tr["t"][-1]) for tr in tracks.values())
+    # initial view: where the agents went, 10 m around (a 240 m sea floor would dwarf it)
     pts = np.concatenate(
         [np.column_stack([tr["north"], tr["east"], tr["depth"]]) for tr in tracks.values()]
     )
+    lo, hi = pts.min(axis=0) - 10.0, pts.max(axis=0) + 10.0
     objects = list(markers.values())
     for o in objects:
-        if "position_ned" in o:
-            pts = np.vstack([pts, np.asarray(o["position_ned"])[None, :]])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    lo[2] = min(lo[2], 0.0)
+        zs = [o["position_ned"][2]] if "position_ned" in o else [v[2] for v in o["vertices"]]
+        hi[2] = max(hi[2], max(zs, default=hi[2]))
+    lo[2] = 0.0
     scene = {"objects": objects, "bounds": [lo.tolist(), hi.tolist()]}
 
     fov: dict[str, float] = {}

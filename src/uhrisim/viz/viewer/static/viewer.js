@@ -28,7 +28,7 @@ const state = {
   framesReceived: 0,
   sonarsReceived: 0,
   commandsSent: 0,
-  view: { cn: 0, ce: 0, scale: 10, fitted: false }, // map centre (north, east), px per metre
+  view: { cn: 0, ce: 0, scale: 10, fitted: "" }, // map centre (north, east), px per metre
   gl: false,
   errors: [],
 };
@@ -141,7 +141,7 @@ function onFrame(f) {
     const rov = f.agents.find((a) => a.kind === "rov") || f.agents[0];
     state.selected = rov.name;
   }
-  if (!state.view.fitted) fitView();
+  if (state.view.fitted !== "agents" && !drag) fitView();
   pushPlots(f);
   updateBar(f);
   dirty.map = dirty.plots = dirty.view3d = true;
@@ -267,27 +267,36 @@ function screenToWorld(x, y) {
 }
 state.worldToScreen = worldToScreen; // for tests: CSS pixels inside the map canvas
 
+// Fit the map to what matters: agents, their tracks and polygons (40 m at least);
+// the scene's bounds only until agents are known. view.fitted: "" | "bounds" | "agents".
 function fitView() {
   let nmin = Infinity, nmax = -Infinity, emin = Infinity, emax = -Infinity;
   const add = (n, e) => {
     nmin = Math.min(nmin, n); nmax = Math.max(nmax, n);
     emin = Math.min(emin, e); emax = Math.max(emax, e);
   };
-  const b = state.scene && state.scene.bounds;
-  if (b) { add(b[0][0], b[0][1]); add(b[1][0], b[1][1]); }
   for (const a of Object.values(state.agents)) add(a.north, a.east);
   if (state.tracks) {
     for (const tr of Object.values(state.tracks)) {
       for (let i = 0; i < tr.n.length; i += 10) add(tr.n[i], tr.e[i]);
     }
   }
-  if (!isFinite(nmin)) return;
+  const ov = state.frame && state.frame.overlays;
+  for (const poly of (ov && ov.polygons) || []) for (const p of poly.points) add(p[0], p[1]);
+  let what = "agents", minSpan = 40;
+  if (!isFinite(nmin)) {
+    const b = state.scene && state.scene.bounds;
+    if (!b) return;
+    add(b[0][0], b[0][1]); add(b[1][0], b[1][1]);
+    what = "bounds";
+    minSpan = 10;
+  }
   const w = mapCanvas.clientWidth || 800, h = mapCanvas.clientHeight || 600;
-  const span = Math.max(nmax - nmin, emax - emin, 10) * 1.15;
+  const span = Math.max(nmax - nmin, emax - emin, minSpan) * 1.15;
   state.view.cn = (nmin + nmax) / 2;
   state.view.ce = (emin + emax) / 2;
   state.view.scale = Math.min(w, h) / span;
-  state.view.fitted = true;
+  state.view.fitted = what;
   dirty.map = true;
 }
 
