@@ -198,3 +198,21 @@ def test_station_keep_swing_and_hibernation():
         ("seeking_station", pytest.approx(0.4), None),  # d = 4.2: 0.6*2.2/4 = 0.33 -> 0.4
         ("hibernating", 0.0, "HIBERNATING"),  # d = 1.5 <= inner radius 2
     ]
+
+
+def test_loiter_acquisition_rules():
+    sq = "0,0 : 0,20 : 20,20 : 20,0"  # clockwise order as stored
+    b = make("Loiter", polygon=sq, speed=1.0)
+    # outside, south: only the two south corners are visible from (10, -30)
+    assert [b._visible(10.0, -30.0, k) for k in range(4)] == [True, False, False, True]
+    # turns onto the onward clockwise edge: (0,0): 341.6 -> 0 = +18.4; (20,0): 18.4 -> 270
+    assert b._turn(10.0, -30.0, 0, 1) == pytest.approx(18.435, abs=1e-3)
+    assert b._turn(10.0, -30.0, 3, 1) == pytest.approx(-108.435, abs=1e-3)
+    assert b.acquire(10.0, -30.0, 0.0) == (0, 1)  # clockwise: the largest turn
+    # best: heading 350 is 8.4 deg from the clockwise entry (341.6) and 28.4 from 18.4
+    best = make("Loiter", polygon=sq, speed=1.0, clockwise="best")
+    assert best.acquire(10.0, -30.0, 350.0) == (0, 1)
+    assert best.acquire(10.0, -30.0, 30.0) == (3, -1)
+    # inside at the centre: every vertex needs a 135 deg turn; the one ahead (heading 45,
+    # vertex (20, 20)) wins with the 2 deg spiral bonus
+    assert b.acquire(10.0, 10.0, 45.0) == (2, 1)

@@ -7,10 +7,17 @@ coupled 50/50 and normalised to 0..100. Vertices advance on ``capture_radius`` o
 (distance to its boundary, 0 inside) it is in *acquire mode*: each tick it re-picks the
 vertex to approach (below). ``clockwise = true | false | best``.
 
-Acquire vertex (our rule, IvP's LoiterEngine is not in the reference note): the vertex k
-and, for ``best``, the direction minimising ``|a| (1 + (1 - cos e) + 0.5 (1 - cos h))``
-where a = own->vertex, e = angle between a and the onward edge from vertex k, h = angle
-between a and own heading: close vertices whose onward edge continues the approach.
+Acquire vertex (IvP ``LoiterEngine`` semantics, re-implemented; the reference note is
+silent). With turn(k) = the signed turn (deg, right/clockwise positive) from the approach
+own -> vertex k onto the onward edge k -> k+dir:
+
+* outside the polygon: among the vertices visible from the vehicle (the sight line
+  crosses no edge), clockwise takes the largest turn(k), counter-clockwise the smallest
+  (the gentle entry onto the onward edge);
+* inside: the smallest |turn(k)|, with a 2 deg bonus for the vertex nearest the current
+  heading (IvP's default spiral factor);
+* ``clockwise = best`` (outside only): the direction whose acquired vertex needs the
+  smaller turn from the current heading.
 
 Parameters (IvP names): polygon, speed, clockwise (true), capture_radius (3; alias
 ``radius``), slip_radius (15; alias ``nm_radius``), acquire_dist (10), post_suffix
@@ -23,16 +30,22 @@ LOITER_ACQUIRE on change, and the polygon as VIEW_POLYGON
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from typing import ClassVar
 
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext
 from uhrisim.autonomy.behaviors.waypoint_engine import ArrivalTracker, course_speed_objective
 from uhrisim.autonomy.domain import Objective
-from uhrisim.autonomy.geometry import bearing_deg, dist_to_polygon, distance, parse_polygon
+from uhrisim.autonomy.geometry import (
+    bearing_deg,
+    dist_to_polygon,
+    distance,
+    parse_polygon,
+    point_in_polygon,
+)
 from uhrisim.autonomy.params import setter, to_bool, to_float, to_point, to_str
 from uhrisim.core.errors import ConfigError
+from uhrisim.core.frames import wrap_180
 
 Point = tuple[float, float]
 
@@ -49,6 +62,20 @@ def _center(v: object, key: str, where: str) -> Point | str:
     if isinstance(s, str) and s.lower() == "present_position":
         return "present_position"
     return to_point(s, key, where)
+
+
+def _segments_cross(p1: Point, p2: Point, q1: Point, q2: Point) -> bool:
+    """True when segments p1-p2 and q1-q2 properly intersect (touching does not count)."""
+
+    def orient(a: Point, b: Point, c: Point) -> float:
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+    d1, d2 = orient(q1, q2, p1), orient(q1, q2, p2)
+    d3, d4 = orient(p1, p2, q1), orient(p1, p2, q2)
+    eps = 1e-9
+    return ((d1 > eps and d2 < -eps) or (d1 < -eps and d2 > eps)) and (
+        (d3 > eps and d4 < -eps) or (d3 < -eps and d4 > eps)
+    )
 
 
 def centroid(pts: tuple[Point, ...]) -> Point:
@@ -132,28 +159,43 @@ class Loiter(Behavior):
         if self.params.center_activate:
             self._pending_center_here = True
 
+    def _turn(self, x: float, y: float, k: int, d: int) -> float:
+        vs = self.vertices
+        (vx, vy), (wx, wy) = vs[k], vs[(k + d) % len(vs)]
+        approach = bearing_deg(x, y, vx, vy)
+        return float(wrap_180(bearing_deg(vx, vy, wx, wy) - approach))
+
+    def _visible(self, x: float, y: float, k: int) -> bool:
+        vs, n = self.vertices, len(self.vertices)
+        for i in range(n):
+            j = (i + 1) % n
+            if k in (i, j):
+                continue
+            if _segments_cross((x, y), vs[k], vs[i], vs[j]):
+                return False
+        return True
+
     def acquire(self, x: float, y: float, heading: float) -> tuple[int, int]:
         """(vertex index, direction +1 clockwise / -1 counter-clockwise) to approach."""
         p: LoiterParams = self.params
-        dirs = [1, -1] if p.clockwise == "best" else [self.direction]
         vs, n = self.vertices, len(self.vertices)
-        hx, hy = math.sin(math.radians(heading)), math.cos(math.radians(heading))
-        best: tuple[float, int, int] | None = None
-        for d in dirs:
-            for k in range(n):
-                ax, ay = vs[k][0] - x, vs[k][1] - y
-                L = math.hypot(ax, ay)
-                if L < 1e-9:
-                    cost = 0.0
-                else:
-                    ex, ey = vs[(k + d) % n][0] - vs[k][0], vs[(k + d) % n][1] - vs[k][1]
-                    cos_e = (ax * ex + ay * ey) / (L * max(math.hypot(ex, ey), 1e-12))
-                    cos_h = (ax * hx + ay * hy) / L
-                    cost = L * (1.0 + (1.0 - cos_e) + 0.5 * (1.0 - cos_h))
-                if best is None or cost < best[0] - 1e-9:
-                    best = (cost, k, d)
-        assert best is not None
-        return best[1], best[2]
+        if point_in_polygon(x, y, vs):
+            d = self.direction
+            near = min(range(n), key=lambda k: abs(wrap_180(heading - bearing_deg(x, y, *vs[k]))))
+            score = [abs(self._turn(x, y, k, d)) - (2.0 if k == near else 0.0) for k in range(n)]
+            return min(range(n), key=lambda k: score[k]), d
+
+        def out(d: int) -> int:
+            seen = [k for k in range(n) if self._visible(x, y, k)] or list(range(n))
+            pick = max if d == 1 else min
+            return pick(seen, key=lambda k: self._turn(x, y, k, d))
+
+        if p.clockwise != "best":
+            return out(self.direction), self.direction
+        cw, ccw = out(1), out(-1)
+        dcw = abs(wrap_180(heading - bearing_deg(x, y, *vs[cw])))
+        dccw = abs(wrap_180(heading - bearing_deg(x, y, *vs[ccw])))
+        return (cw, 1) if dcw < dccw else (ccw, -1)
 
     def on_run(self, ctx: BehaviorContext) -> Objective | None:
         p: LoiterParams = self.params
