@@ -123,7 +123,8 @@ physics_rate_hz: 60
 world:
   seafloor: {type: flat, depth: 10}
   objects:
-    - {type: cylinder, label: piling, radius: 0.3, height: 12, position: {north: 8, east: 0, depth: 5}}
+    - {type: cylinder, label: piling, radius: 0.3, height: 12,
+       position: {north: 8, east: 0, depth: 5}}
 agents:
   - name: rov
     model: videoray
@@ -143,6 +144,26 @@ def test_vehicles_never_pass_through_the_scene(tmp_path):
     assert north > 6.5  # it did get there
     assert sim.collisions > 0
     assert any(e.kind == "collision" for e in sim.events_log)
+
+
+def test_events_add_and_move_objects_that_vehicles_then_meet(tmp_path):
+    gate = ("    - {type: box, label: gate, movable: true, size: [0.5, 4, 4],\n"
+            "       position: {north: 30, east: 0, depth: 3}}\n")
+    text = COLLIDE.replace("  objects:\n", "  objects:\n" + gate) + """
+events:
+  - {at: 1, move_object: {label: gate, position: {north: 4, east: 0, depth: 3}}}
+  - {at: 2, add_object: {type: sphere, label: buoy, radius: 0.5,
+                         position: {north: 0, east: 5, depth: 3}}}
+"""
+    sim = Simulation(load_scenario(write(tmp_path, text)))
+    for _ in range(round(20.0 / sim.dt)):
+        sim.set_actuators("rov", [150.0, 150.0, 0.0])
+        sim.step()
+    north = sim.agents["rov"].nav().position_ned[0]
+    assert north < 4.0 - 0.25 - 0.25 + 0.05  # stopped by the moved gate (half-width 0.25 m)
+    assert "buoy" in sim.scene.labels
+    assert [e.detail for e in sim.events_log if e.kind == "event"] == [
+        "moved 'gate' to [4.0, 0.0, 3.0]", "added object 'buoy'"]
 
 
 def test_stale_external_thrusters_fall_back_to_the_controller(tmp_path):

@@ -6,6 +6,7 @@ import difflib
 import math
 
 from uhrisim.core.errors import ConfigError
+from uhrisim.core.frames import rot_z
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import (
     BoxObject,
@@ -37,10 +38,10 @@ def material_named(name: str, where: str) -> Material:
         raise ConfigError(f"unknown material {name!r}; {hint}", where=where) from None
 
 
-def object_mesh(obj: SceneObject, source: ScenarioFile, where: str):
-    """The trimesh of one scenario object, posed in NED."""
-    position = obj.position.as_list()
-    yaw = math.radians(obj.heading_deg)
+def object_mesh(obj: SceneObject, source: ScenarioFile, where: str, posed: bool = True):
+    """The trimesh of one scenario object, posed in NED (or at the origin, unrotated)."""
+    position = obj.position.as_list() if posed else [0.0, 0.0, 0.0]
+    yaw = math.radians(obj.heading_deg) if posed else 0.0
     if isinstance(obj, BoxObject):
         return prim.box(obj.size, position, yaw=yaw)
     if isinstance(obj, CylinderObject):
@@ -73,7 +74,15 @@ def build_static_scene(source: ScenarioFile) -> Scene:
         scene.add_static(seafloor.procedural(floor.seed, floor.extent, floor.depth,
                                              floor.roughness), "seafloor", SAND)
     for index, obj in enumerate(world.objects):
-        where = source.where("world", "objects", index)
-        scene.add_static(object_mesh(obj, source, where), obj.label,
-                         material_named(obj.material, where))
+        add_object(scene, obj, source, source.where("world", "objects", index))
     return scene
+
+
+def add_object(scene: Scene, obj: SceneObject, source: ScenarioFile, where: str) -> None:
+    """Add a scenario object: static geometry, or a dynamic body if ``movable``."""
+    material = material_named(obj.material, where)
+    if obj.movable:
+        scene.add_dynamic(obj.label, object_mesh(obj, source, where, posed=False), obj.label,
+                          material, obj.position.as_list(), rot_z(math.radians(obj.heading_deg)))
+    else:
+        scene.add_static(object_mesh(obj, source, where), obj.label, material)

@@ -104,10 +104,14 @@ SeaFloor = Annotated[FlatFloor | SlopedFloor | GridFloor | ProceduralFloor,
 
 
 class ObjectBase(Strict):
+    """A scene object. ``movable`` objects are dynamic bodies named by their label, which
+    scripted events can move (``move_object``); the rest are static geometry."""
+
     label: str
     material: str = "concrete"
     position: Vec3 = Vec3()
     heading_deg: HeadingDeg = 0.0
+    movable: bool = False
 
 
 class BoxObject(ObjectBase):

@@ -21,7 +21,7 @@ from uhrisim.dynamics.diver import DiverParams
 from uhrisim.dynamics.kinematic import KinematicParams
 from uhrisim.dynamics.plants import DiverPlant, KinematicPlant, VideoRayPlant
 from uhrisim.dynamics.videoray import VideoRayParams
-from uhrisim.scenario.build_world import material_named, object_mesh
+from uhrisim.scenario.build_world import add_object, material_named
 from uhrisim.scenario.schema import AgentConfig, SonarSensor
 from uhrisim.sim.community import Community
 from uhrisim.sim.drivers import HelmDriver, ScriptedDriver
@@ -186,8 +186,7 @@ def apply_event_action(sim: Simulation, event: ScheduledEvent) -> None:
     elif cfg.add_object is not None:
         where = sim.source.where("events", event.index, "add_object")
         obj = cfg.add_object
-        sim.scene.add_static(object_mesh(obj, sim.source, where), obj.label,
-                             material_named(obj.material, where))
+        add_object(sim.scene, obj, sim.source, where)
         sim.refresh_static_obstacles()
         sim.record_event("event", f"added object {obj.label!r}")
     elif cfg.move_object is not None:

@@ -136,7 +136,7 @@ class Simulation:
         self.events: list[ScheduledEvent] = build_events(self)
         self.raycaster = self.scene.raycaster("embree") if any(
             a.sonars for a in self.agents.values()) else None
-        self._static_boxes = static_obstacle_boxes(self.scene)
+        self.refresh_static_obstacles()
         floor = self.scene.seafloor
         self._shallowest_floor = float(np.min(floor.depth)) if floor is not None else np.inf
         self._scene_dirty = False
@@ -173,8 +173,9 @@ class Simulation:
         target.actuator_override_until = self.t + hold_s
 
     def refresh_static_obstacles(self) -> None:
-        """Recompute the collision broad phase after static geometry changed."""
+        """Recompute the collision broad phase after the scene's geometry changed."""
         self._static_boxes = static_obstacle_boxes(self.scene)
+        self._has_movable_objects = any(n not in self.agents for n in self.scene.body_names)
 
     def record_event(self, kind: str, detail: str) -> None:
         event = SimEvent(self.t, kind, detail)
@@ -326,6 +327,8 @@ class Simulation:
 
     def _near_static(self, agent: Agent, point: NDArray) -> bool:
         """Cheap broad phase: is ``point`` within reach of any static geometry?"""
+        if self._has_movable_objects:
+            return True  # movable objects have no precomputed bounds: always look closely
         margin = agent.radius + 0.5
         if point[2] + margin >= self._shallowest_floor and point[2] + margin >= float(
                 self.scene.depth_at(point[0], point[1])):
