@@ -28,7 +28,8 @@ const state = {
   framesReceived: 0,
   sonarsReceived: 0,
   commandsSent: 0,
-  view: { cn: 0, ce: 0, scale: 10, fitted: "" }, // map centre (north, east), px per metre
+  // map centre (north, east), px per metre; how it was last fitted; whether the user moved it
+  view: { cn: 0, ce: 0, scale: 10, fitted: "", userMoved: false },
   gl: false,
   errors: [],
 };
@@ -141,7 +142,10 @@ function onFrame(f) {
     const rov = f.agents.find((a) => a.kind === "rov") || f.agents[0];
     state.selected = rov.name;
   }
-  if (state.view.fitted !== "agents" && !drag) fitView();
+  // fit on the first frames (agents and overlays arrive with them) until the user pans/zooms
+  if (!state.view.userMoved && !drag && (state.view.fitted !== "agents" || state.framesReceived <= 3)) {
+    fitView();
+  }
   pushPlots(f);
   updateBar(f);
   dirty.map = dirty.plots = dirty.view3d = true;
@@ -308,7 +312,7 @@ window.addEventListener("mousemove", (ev) => {
   if (!drag) return;
   const r = mapCanvas.getBoundingClientRect();
   const dx = ev.clientX - r.left - drag.x, dy = ev.clientY - r.top - drag.y;
-  if (Math.abs(dx) + Math.abs(dy) > 3) drag.moved = true;
+  if (Math.abs(dx) + Math.abs(dy) > 3) drag.moved = state.view.userMoved = true;
   state.view.ce = drag.ce - dx / state.view.scale;
   state.view.cn = drag.cn + dy / state.view.scale;
   dirty.map = true;
@@ -322,6 +326,7 @@ mapCanvas.addEventListener("wheel", (ev) => {
   const [n, e] = screenToWorld(ev.offsetX, ev.offsetY);
   const k = Math.exp(-ev.deltaY * 0.0015);
   state.view.scale = Math.min(Math.max(state.view.scale * k, 0.05), 2000);
+  state.view.userMoved = true;
   const [n2, e2] = screenToWorld(ev.offsetX, ev.offsetY);
   state.view.cn += n - n2;
   state.view.ce += e - e2;
@@ -721,7 +726,9 @@ const view3d = {
     const THREE = this.THREE;
     if (o.kind === "mesh") {
       if (!o.vertices || !o.faces) return null;
-      return this.meshFrom(o.vertices, o.faces, mat(0x9aa5a8, { side: THREE.DoubleSide }));
+      const floor = /floor|seabed|bottom/i.test(o.label || "");
+      const color = floor ? 0x8a7a55 : o.color ? new THREE.Color(o.color) : 0x9aa5a8;
+      return this.meshFrom(o.vertices, o.faces, mat(color, { side: THREE.DoubleSide }));
     }
     const size = Array.isArray(o.size) ? o.size : null;
     let geo;
