@@ -156,3 +156,19 @@ def test_kick_rate_rises_with_speed() -> None:
     assert diver_kick_phase_rate(5.0) == pytest.approx(2 * math.pi * 1.5)
     with pytest.raises(ConfigError):
         diver_kick_phase_rate(float("nan"))
+
+
+def test_joint_transform_is_a_rotation_about_its_pivot() -> None:
+    from uhrisim.world.bodies import Joint
+
+    j = Joint((0.2, -0.1, 0.3), (0.3, 1.0, -0.2), amplitude_rad=0.4, phase_offset_rad=0.7)
+    axis = np.asarray(j.axis)
+    for phase in (0.0, 1.3, 4.0):
+        m = j.transform(phase)
+        rot = m[:3, :3]
+        np.testing.assert_allclose(rot @ rot.T, np.eye(3), atol=1e-14)
+        np.testing.assert_allclose(m[:3, :3] @ j.pivot + m[:3, 3], j.pivot, atol=1e-14)
+        np.testing.assert_allclose(rot @ axis, axis, atol=1e-14)  # the axis stays put
+        # The rotation angle: trace(R) = 1 + 2 cos(a), a = A sin(phase + offset).
+        a = 0.4 * math.sin(phase + 0.7)
+        assert np.trace(rot) == pytest.approx(1.0 + 2.0 * math.cos(a), abs=1e-14)

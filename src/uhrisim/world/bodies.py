@@ -12,6 +12,7 @@ therefore costs a few 4x4 products, never a BVH rebuild.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -62,13 +63,22 @@ class Joint:
         return self.bias_rad + self.amplitude_rad * float(np.sin(phase + self.phase_offset_rad))
 
     def transform(self, phase: float) -> NDArray[np.float64]:
-        """4x4 rotation about the pivot at ``phase``."""
-        rot = _axis_angle_matrix(np.asarray(self.axis), self.angle(phase))
-        p = np.asarray(self.pivot)
-        m = np.eye(4)
-        m[:3, :3] = rot
-        m[:3, 3] = p - rot @ p
-        return m
+        """4x4 rotation about the pivot at ``phase`` (Rodrigues, in plain floats: cheap)."""
+        x, y, z = self.axis
+        px, py, pz = self.pivot
+        a = self.angle(phase)
+        c, s = math.cos(a), math.sin(a)
+        k = 1.0 - c
+        r = (
+            (c + k * x * x, k * x * y - s * z, k * x * z + s * y),
+            (k * x * y + s * z, c + k * y * y, k * y * z - s * x),
+            (k * x * z - s * y, k * y * z + s * x, c + k * z * z),
+        )
+        t = [
+            p - (row[0] * px + row[1] * py + row[2] * pz)
+            for p, row in zip(self.pivot, r, strict=True)
+        ]
+        return np.array([[*r[0], t[0]], [*r[1], t[1]], [*r[2], t[2]], [0.0, 0.0, 0.0, 1.0]])
 
 
 @dataclass(frozen=True)
@@ -148,7 +158,13 @@ class ArticulatedMesh:
 
     def part_transforms(self, phase: float) -> list[NDArray[np.float64]]:
         """Rest→posed 4x4 transform of every part at ``phase``."""
-        return [p.transform(phase) for p in self.parts]
+        cache: dict[tuple[Joint, ...], NDArray[np.float64]] = {}
+        out = []
+        for p in self.parts:  # parts sharing a chain (a leg's pieces) share the product
+            if p.chain not in cache:
+                cache[p.chain] = p.transform(phase)
+            out.append(cache[p.chain])
+        return out
 
     def triangles_at(self, phase: float, pose: ArrayLike | None = None) -> NDArray[np.float64]:
         """(F, 3, 3) posed triangles; in the body frame, or through the 4x4 ``pose``."""
