@@ -26,6 +26,7 @@ __all__ = [
     "parse_polygon",
     "point_in_polygon",
     "signed_area",
+    "signed_dist_to_polygon",
 ]
 
 Point = tuple[float, float]
@@ -87,10 +88,14 @@ def _dist_to_segment(x: float, y: float, a: Point, b: Point) -> float:
 
 def dist_to_polygon(x: float, y: float, pts: tuple[Point, ...]) -> float:
     """0 inside the polygon, else the distance to its boundary."""
-    if point_in_polygon(x, y, pts):
-        return 0.0
+    return max(signed_dist_to_polygon(x, y, pts), 0.0)
+
+
+def signed_dist_to_polygon(x: float, y: float, pts: tuple[Point, ...]) -> float:
+    """Distance to the boundary, negative inside (IvP Loiter's inner/outer test)."""
     n = len(pts)
-    return min(_dist_to_segment(x, y, pts[i], pts[(i + 1) % n]) for i in range(n))
+    d = min(_dist_to_segment(x, y, pts[i], pts[(i + 1) % n]) for i in range(n))
+    return -d if point_in_polygon(x, y, pts) else d
 
 
 _DISPLAY_FIELDS = {

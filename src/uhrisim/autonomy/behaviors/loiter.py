@@ -3,9 +3,10 @@
 reference/helm.md. Course: ZAIC peak at the bearing to the next vertex (pw 0, bw 180,
 wrap: linear to zero at +-180 deg); speed: peak at ``speed`` (pw 0, bw 0.3, a triangle);
 coupled 50/50 and normalised to 0..100. Vertices advance on ``capture_radius`` or by slip
-(``slip_radius``). When the vehicle is farther than ``acquire_dist`` from the polygon
-(distance to its boundary, 0 inside) it is in *acquire mode*: each tick it re-picks the
-vertex to approach (below). ``clockwise = true | false | best``.
+(``slip_radius``). When the vehicle is farther than ``acquire_dist`` from the polygon's
+boundary - outside, or deep inside (IvP's outer/inner positions) - it is in *acquire
+mode*: each tick it re-picks the vertex to approach (below). ``clockwise = true | false
+| best``.
 
 Acquire vertex (IvP ``LoiterEngine`` semantics, re-implemented; the reference note is
 silent). With turn(k) = the signed turn (deg, right/clockwise positive) from the approach
@@ -38,10 +39,10 @@ from uhrisim.autonomy.behaviors.waypoint_engine import ArrivalTracker, course_sp
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import (
     bearing_deg,
-    dist_to_polygon,
     distance,
     parse_polygon,
     point_in_polygon,
+    signed_dist_to_polygon,
 )
 from uhrisim.autonomy.params import setter, to_bool, to_float, to_point, to_str
 from uhrisim.core.errors import ConfigError
@@ -207,7 +208,7 @@ class Loiter(Behavior):
             self._pending_center_here = False
             self.index = None
         n = len(self.vertices)
-        acquire = dist_to_polygon(own.x, own.y, self.vertices) > p.acquire_dist
+        acquire = abs(signed_dist_to_polygon(own.x, own.y, self.vertices)) > p.acquire_dist
         if acquire or self.index is None:
             k, d = self.acquire(own.x, own.y, own.heading)
             if k != self.index:
