@@ -352,3 +352,16 @@ def test_threaded_embree_matches_single_thread() -> None:
         np.testing.assert_array_equal(getattr(one, field), getattr(two, field))
     with pytest.raises(ConfigError, match="threads"):
         ps.scene.raycaster("embree", threads=0)
+
+
+def test_hit_points_and_depth_queries() -> None:
+    scene = Scene()
+    assert math.isnan(scene.depth_at(0.0, 0.0))  # no sea floor yet
+    scene.add_static(sf.sloped(6.0, 0.1, 0.0, 20.0), "seafloor", SAND)
+    o = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
+    d = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+    h = scene.raycaster().cast(o, d, 20.0)
+    p = h.points(o, d)
+    np.testing.assert_allclose(p[0], [0.0, 0.0, 6.0])  # straight down onto 6 m
+    assert np.all(np.isnan(p[1]))  # straight up: nothing
+    np.testing.assert_allclose(scene.depth_at([0.0, 10.0], [3.0, 3.0]), [6.0, 7.0])
