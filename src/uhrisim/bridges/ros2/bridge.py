@@ -117,7 +117,12 @@ _MARKER_TYPES: dict[str, int] = {
     "sphere": Marker.SPHERE,
     "cylinder": Marker.CYLINDER,
     "line_strip": Marker.LINE_STRIP,
+    "line_list": Marker.LINE_LIST,
+    "points": Marker.POINTS,
+    "triangle_list": Marker.TRIANGLE_LIST,
 }
+#: Marker types whose geometry is a list of world points (``points_ned``).
+_POINT_MARKERS = frozenset({"line_strip", "line_list", "points", "triangle_list"})
 
 _CMD_KEYS_DESIRED = ("desired_heading", "desired_speed", "desired_depth")
 _CMD_KEY_THRUSTERS = "thrusters"
@@ -141,6 +146,7 @@ class _AgentIO:
         self.sonar_gate = RateGate(spec.sonar_rate_hz)
         self.pubs: dict[str, Any] = {}
         self.slots: dict[str, _Slot] = {}
+        self.received = 0  # command messages accepted so far
 
 
 def _set_stamp(header: Any, t_sim: float, frame_id: str) -> None:
@@ -298,6 +304,9 @@ class Ros2Bridge:
                 p["polar"] = node.create_publisher(Image, f"/{name}/sonar/polar", q)
                 p["fan"] = node.create_publisher(Image, f"/{name}/sonar/fan", q)
                 p["points"] = node.create_publisher(PointCloud2, f"/{name}/sonar/points", q)
+                p["sonar_pose"] = node.create_publisher(
+                    PoseStamped, f"/{name}/sonar/pose", QOS_STATE
+                )
             for key in ("desired_heading", "desired_speed", "desired_depth"):
                 p[f"helm_{key}"] = node.create_publisher(
                     Float64, f"/{name}/helm/{key}", QOS_STATE
@@ -454,6 +463,7 @@ class Ros2Bridge:
         fan_u8: np.ndarray | None,
         points_sonar_frd: ArrayLike | None = None,
         intensity: ArrayLike | None = None,
+        sonar_pose_ned: tuple[ArrayLike, ArrayLike] | None = None,
     ) -> bool:
         """Publish the sonar products if the agent's sonar rate gate is due.
 
@@ -462,8 +472,11 @@ class Ros2Bridge:
         -> ``/<agent>/sonar/fan`` (both sensor_msgs/Image mono8, frame
         ``"<agent>/sonar"``). ``points_sonar_frd``: ``(N, 3)`` hits in the sonar's FRD
         frame (m), with optional ``(N,)`` ``intensity`` -> ``/<agent>/sonar/points``
-        (sensor_msgs/PointCloud2, x y z intensity float32, sonar FLU frame). Any
-        ``None`` product is skipped. Returns True when the gate was due.
+        (sensor_msgs/PointCloud2, x y z intensity float32, sonar FLU frame).
+        ``sonar_pose_ned``: ``(position_ned (3,), rotation (3x3) sonar FRD -> NED)`` ->
+        ``/<agent>/sonar/pose`` (geometry_msgs/PoseStamped in ``"map"``: where the
+        ``"<agent>/sonar"`` frame is, since there is no /tf). Any ``None`` product is
+        skipped. Returns True when the gate was due.
         """
         io = self._io(agent, "publish_sonar")
         if not io.spec.publish_sonar:
@@ -498,6 +511,14 @@ class Ros2Bridge:
             data.frombytes(raw)
             cloud.data = data
             self._publish(io.pubs["points"], cloud, f"/{agent}/sonar/points")
+        if sonar_pose_ned is not None:
+            pos, quat = pose_enu_from_ned(sonar_pose_ned[0], sonar_pose_ned[1])
+            ps = PoseStamped()
+            _set_stamp(ps.header, t_sim, WORLD_FRAME)
+            ps.pose.position.x, ps.pose.position.y, ps.pose.position.z = pos
+            o = ps.pose.orientation
+            o.x, o.y, o.z, o.w = quat
+            self._publish(io.pubs["sonar_pose"], ps, f"/{agent}/sonar/pose")
         return True
 
     def publish_helm(
@@ -532,11 +553,13 @@ class Ros2Bridge:
         """Publish ``/scene/markers`` (visualization_msgs/MarkerArray, frame ``"map"``).
 
         Each marker is a mapping with ``ns`` (str), ``id`` (int), ``type`` (``"box"``,
-        ``"cylinder"``, ``"sphere"``, ``"line_strip"``), ``position_ned`` (3,) m,
-        optional ``rotation`` (3x3, object frame -> NED), ``scale`` (3,) m (full sizes
-        along the object's axes; for ``line_strip`` only ``scale[0]``, the line width),
-        ``color`` (r, g, b, a in 0..1) and, for ``line_strip``, ``points_ned`` (N, 3) m
-        in the world frame.
+        ``"cylinder"``, ``"sphere"``; or, with ``points_ned`` (N, 3) m in the world frame,
+        ``"line_strip"``, ``"line_list"``, ``"points"``, ``"triangle_list"`` — what
+        :func:`uhrisim.record.hook.scene_markers` makes of the scene's meshes),
+        ``position_ned`` (3,) m and optional ``rotation`` (3x3, object frame -> NED) for
+        the solids, ``scale`` (3,) (solids: full sizes in m along the object's axes;
+        lines: ``scale[0]`` = width; points: ``scale[0:2]`` = size; triangle lists: 1),
+        ``color`` (r, g, b, a in 0..1) and an optional ``text`` label.
         """
         if not self.started:
             raise BridgeError("Ros2Bridge.publish_scene: bridge is not running (call start())")
@@ -560,17 +583,20 @@ class Ros2Bridge:
             m.id = int(spec["id"])
             m.type = _MARKER_TYPES[kind]
             m.action = Marker.ADD
-            if kind == "line_strip":
+            if kind in _POINT_MARKERS:
                 pts = np.asarray(spec["points_ned"], dtype=float)
                 if pts.ndim != 2 or pts.shape[1] != 3:
                     raise ConfigError(f"expected (N, 3), got {pts.shape}", f"{where}.points_ned")
-                pos, quat = pose_enu_from_ned(np.zeros(3))
-                m.points = [_point(p) for p in enu_from_ned(pts)]
+                # points are world coordinates: the marker pose is the ENU identity
+                pos, quat = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)
+                m.points = [Point(x=x, y=y, z=z) for x, y, z in enu_from_ned(pts).tolist()]
             else:
                 pos, quat = pose_enu_from_ned(spec["position_ned"], spec.get("rotation"))
             m.pose.position.x, m.pose.position.y, m.pose.position.z = pos
             o = m.pose.orientation
             o.x, o.y, o.z, o.w = quat
+            if "text" in spec:
+                m.text = str(spec["text"])
             scale = np.broadcast_to(np.asarray(spec.get("scale", 1.0), dtype=float), (3,))
             m.scale.x, m.scale.y, m.scale.z = (float(s) for s in scale)
             rgba = [float(c) for c in spec.get("color", (0.7, 0.7, 0.7, 1.0))]
@@ -588,8 +614,9 @@ class Ros2Bridge:
     # ----------------------------------------------------------------- commands
     def _store(self, agent: str, key: str, value: Any) -> None:
         with self._lock:
-            slot = _Slot(value, self._t_sim_latest, time.monotonic())
-            self._agents[agent].slots[key] = slot
+            io = self._agents[agent]
+            io.slots[key] = _Slot(value, self._t_sim_latest, time.monotonic())
+            io.received += 1
 
     def _reject(self, agent: str, key: str, why: str) -> None:
         with self._lock:
@@ -638,6 +665,7 @@ class Ros2Bridge:
         with self._lock:
             self._t_sim_latest = t
             slots = dict(io.slots)
+            received = io.received
         ages = {
             k: (t - s.t_sim) if self._timeout_clock == "sim" else (now_wall - s.t_wall)
             for k, s in slots.items()
@@ -651,6 +679,7 @@ class Ros2Bridge:
             thrusters=fresh.get(_CMD_KEY_THRUSTERS),
             stale=bool(slots) and not fresh,
             age_s=newest,
+            received_count=received,
         )
 
     # ----------------------------------------------------------------- introspection
@@ -675,7 +704,3 @@ class Ros2Bridge:
                 return False
             time.sleep(0.02)
         return True
-
-
-def _point(p: np.ndarray) -> Point:
-    return Point(x=float(p[0]), y=float(p[1]), z=float(p[2]))

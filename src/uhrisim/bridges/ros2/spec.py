@@ -78,6 +78,8 @@ class AgentCommands:
     It is False when no command was ever received (the agent is not under external
     control; the built-in helm keeps the vehicle) and while any command is fresh.
     ``age_s`` is the age of the newest command (in the timeout's clock, s), or ``None``.
+    ``received_count`` counts every command message accepted for the agent so far (it
+    changes when something new arrived, e.g. to forward each one exactly once).
 
     Units: ``desired_heading_deg`` compass degrees [0, 360); ``desired_speed`` m/s;
     ``desired_depth`` m, positive down; ``thrusters`` ``(port, starboard, vertical)``,
@@ -90,6 +92,7 @@ class AgentCommands:
     thrusters: tuple[float, float, float] | None = None
     stale: bool = False
     age_s: float | None = None
+    received_count: int = 0
 
     @property
     def received(self) -> bool:

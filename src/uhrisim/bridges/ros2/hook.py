@@ -1,0 +1,226 @@
+"""A simulation hook that attaches a running simulation to ROS 2 (``Ros2Bridge``).
+
+Each tick the hook (a read-only observer, like the recorder) publishes every linked
+agent's odometry (gated to ``odom_rate_hz`` in simulated time), each new sonar ping and
+helm decision, and ``/clock``; at start it publishes the static scene as markers.
+Commands received from ROS 2 enter the simulation through the typed input paths every
+outside command uses:
+
+* ``/<agent>/cmd/desired_*`` -> :meth:`Simulation.post` of ``DESIRED_HEADING`` /
+  ``DESIRED_SPEED`` / ``DESIRED_DEPTH`` (source ``"ros2"``), once per received message,
+  applied at the start of the next tick. Switch the agent's built-in helm off
+  (``driver: none``) or its own DESIRED_* will overwrite them.
+* ``/<agent>/cmd/thrusters`` -> :meth:`Simulation.set_actuators` with
+  ``hold_s = command_timeout_s``: the simulation falls back to the agent's own
+  controller when no new thruster command arrives in time.
+* When commands stop (all older than ``command_timeout_s``, see
+  :class:`~uhrisim.bridges.ros2.spec.AgentCommands`) the hook performs the safe stop
+  once: ``DESIRED_SPEED = 0`` and ``DESIRED_DEPTH`` = the current depth, and records a
+  ``bridge`` event; another event marks commands becoming active again.
+
+The hook does not pace the loop: to run in step with live ROS nodes, pace the simulation
+at real time (``uhrisim.bridges.ros2.pacing.Pacer``) or let nodes use ``/clock``
+(``use_sim_time:=true``).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+
+from uhrisim.core.errors import ConfigError
+from uhrisim.sim.hooks import BaseHook, TickFrame
+
+from .spec import COMMAND_GROUPS, AgentBridgeSpec, AgentCommands
+
+if TYPE_CHECKING:
+    from uhrisim.sim.simulation import Simulation
+
+    from .bridge import Ros2Bridge
+
+__all__ = ["Ros2BridgeHook", "decimate_triangle_markers"]
+
+log = logging.getLogger(__name__)
+
+#: Triangles per scene object sent to ROS viewers; larger meshes (a fine sea floor) are
+#: thinned, every k-th triangle kept, to keep the one-off scene message small and fast.
+SCENE_MAX_TRIANGLES_PER_OBJECT = 20_000
+
+_DESIRED_VARS = (
+    ("desired_heading_deg", "DESIRED_HEADING"),
+    ("desired_speed", "DESIRED_SPEED"),
+    ("desired_depth", "DESIRED_DEPTH"),
+)
+
+
+def decimate_triangle_markers(
+    markers: Sequence[dict[str, Any]], max_triangles: int = SCENE_MAX_TRIANGLES_PER_OBJECT
+) -> list[dict[str, Any]]:
+    """Copies of ``markers`` whose ``triangle_list`` point lists hold at most
+    ``max_triangles`` triangles (every k-th triangle kept, for display only)."""
+    out = []
+    for m in markers:
+        if m.get("type") == "triangle_list":
+            pts = np.asarray(m["points_ned"], dtype=float).reshape(-1, 3, 3)
+            if len(pts) > max_triangles:
+                step = int(np.ceil(len(pts) / max_triangles))
+                m = {**m, "points_ned": pts[::step].reshape(-1, 3)}
+        out.append(m)
+    return out
+
+
+class Ros2BridgeHook(BaseHook):
+    """One :class:`~uhrisim.bridges.ros2.bridge.Ros2Bridge` for the linked agents.
+
+    ``agents``: the agents to bridge (default: all). Agent names must be ROS name tokens.
+    ``accept``: command groups taken from ROS for every linked agent
+    (:data:`~uhrisim.bridges.ros2.spec.COMMAND_GROUPS`; ``()`` = publish only).
+    ``odom_rate_hz``: odometry rate in simulated time (``None``: every tick);
+    ``sonar_rate_hz``: ``None`` publishes every ping the simulation makes.
+    ``publish_scene``: send the static scene as ``/scene/markers`` at start.
+    Other arguments go to :class:`Ros2Bridge`.
+    """
+
+    def __init__(
+        self,
+        agents: Sequence[str] | None = None,
+        *,
+        accept: Sequence[str] = COMMAND_GROUPS,
+        odom_rate_hz: float | None = 10.0,
+        sonar_rate_hz: float | None = None,
+        publish_scene: bool = True,
+        node_name: str = "uhrisim",
+        domain_id: int | None = None,
+        command_timeout_s: float = 1.0,
+        timeout_clock: Literal["sim", "wall"] = "sim",
+        clock_rate_hz: float | None = None,
+        reliable_sensors: bool = False,
+    ) -> None:
+        self._names = None if agents is None else tuple(agents)
+        self._accept = tuple(accept)
+        self._odom_rate = odom_rate_hz
+        self._sonar_rate = sonar_rate_hz
+        self._publish_scene = publish_scene
+        self._bridge_kw: dict[str, Any] = {
+            "node_name": node_name,
+            "domain_id": domain_id,
+            "command_timeout_s": command_timeout_s,
+            "timeout_clock": timeout_clock,
+            "clock_rate_hz": clock_rate_hz,
+            "reliable_sensors": reliable_sensors,
+        }
+        self._timeout = command_timeout_s
+        self.bridge: Ros2Bridge | None = None
+        self._sim: Simulation | None = None
+        self._seen: dict[str, int] = {}
+        self._active: dict[str, bool] = {}
+        self.n_posted = 0
+        self.n_rejected = 0
+
+    def on_start(self, sim: Simulation) -> None:
+        from .bridge import Ros2Bridge
+
+        names = list(sim.agents) if self._names is None else list(self._names)
+        unknown = [n for n in names if n not in sim.agents]
+        if unknown:
+            raise ConfigError(
+                f"ROS 2 hook names unknown agent(s) {unknown}; agents: {', '.join(sim.agents)}"
+            )
+        specs = [
+            AgentBridgeSpec(
+                name,
+                publish_sonar=bool(getattr(sim.agents[name], "sonars", ())),
+                accept=self._accept,
+                sonar_rate_hz=self._sonar_rate,
+                odom_rate_hz=self._odom_rate,
+            )
+            for name in names
+        ]
+        self._sim = sim
+        self.bridge = Ros2Bridge(specs, **self._bridge_kw)
+        self.bridge.start()
+        self._seen = dict.fromkeys(names, 0)
+        self._active = dict.fromkeys(names, False)
+        if self._publish_scene and getattr(sim, "scene", None) is not None:
+            from uhrisim.record.hook import scene_markers
+
+            markers = decimate_triangle_markers(scene_markers(sim.scene))
+            if markers:
+                self.bridge.publish_scene(float(sim.t), markers)
+
+    def on_tick(self, frame: TickFrame) -> None:
+        bridge, sim = self.bridge, self._sim
+        if bridge is None or sim is None:
+            return
+        t = float(frame.t)
+        bridge.publish_clock(t)
+        for spec in bridge.agents:
+            name = spec.name
+            snap = frame.agents.get(name)
+            if snap is not None:
+                nav = snap.nav
+                bridge.publish_nav(name, t, nav.position_ned, nav.yaw, nav.velocity_body,
+                                   nav.yaw_rate)
+            ping = frame.pings.get(name)
+            if ping is not None and spec.publish_sonar:
+                self._publish_ping(bridge, name, ping)
+            h = frame.helm.get(name)
+            if h is not None:
+                bridge.publish_helm(name, t, h.heading_deg, h.speed, h.depth, h.mode)
+            if spec.accept:
+                self._take_commands(sim, name, bridge.commands(name, t), snap)
+
+    @staticmethod
+    def _publish_ping(bridge: Ros2Bridge, name: str, ping: Any) -> None:
+        cloud = getattr(ping, "cloud", None)
+        if cloud is not None:
+            xyz = np.stack([np.ravel(cloud.x), np.ravel(cloud.y), np.ravel(cloud.z)], -1)
+            keep = np.isfinite(xyz).all(axis=1)
+            points, intensity = xyz[keep], np.ravel(cloud.intensity)[keep]
+        else:
+            points = np.asarray(ping.hit_points_sonar, dtype=float).reshape(-1, 3)
+            intensity = None
+        bridge.publish_sonar(name, float(ping.t), ping.polar_u8, ping.fan_u8, points, intensity,
+                             sonar_pose_ned=(ping.position_ned, ping.rotation_ned_from_sonar))
+
+    def _take_commands(self, sim: Simulation, name: str, cmd: AgentCommands,
+                       snap: Any) -> None:
+        if cmd.received_count != self._seen[name]:
+            self._seen[name] = cmd.received_count
+            for field, var in _DESIRED_VARS:
+                value = getattr(cmd, field)
+                if value is not None:
+                    sim.post(name, var, float(value), source="ros2")
+                    self.n_posted += 1
+            if cmd.thrusters is not None:
+                try:
+                    sim.set_actuators(name, cmd.thrusters, hold_s=self._timeout)
+                except ConfigError as exc:
+                    self.n_rejected += 1
+                    log.warning("ROS 2 %s: thruster command rejected: %s", name, exc)
+        active = cmd.received and not cmd.stale
+        if active != self._active[name]:
+            self._active[name] = active
+            if active:
+                sim.record_event("bridge", f"ros2 {name}: external commands active")
+            else:
+                depth = float(snap.nav.position_ned[2]) if snap is not None else 0.0
+                sim.post(name, "DESIRED_SPEED", 0.0, source="ros2")
+                sim.post(name, "DESIRED_DEPTH", depth, source="ros2")
+                sim.record_event(
+                    "bridge",
+                    f"ros2 {name}: commands stale for {self._timeout:g} s: safe stop "
+                    f"(speed 0, hold depth {depth:.2f} m)",
+                )
+
+    def on_end(self, sim: Simulation, error: BaseException | None) -> None:
+        del sim, error
+        if self.bridge is not None:
+            self.bridge.close()
+
+    def summary(self) -> dict[str, Any]:
+        stats = self.bridge.stats() if self.bridge is not None else {}
+        return {"ros2": {**stats, "posted": self.n_posted, "rejected": self.n_rejected}}
