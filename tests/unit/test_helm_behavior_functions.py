@@ -76,7 +76,7 @@ def test_avoid_collision_relevance_and_utility():
     assert relevance(60.0, 50.0, 20.0, "linear") == 0.0
     assert relevance(10.0, 50.0, 20.0, "quasi") == 1.0
     u = cpa_utility(np.array([4.0, 8.0, 16.5, 25.0, 30.0]), 8.0, 25.0)
-    assert u == pytest.approx([0.0, 0.0, 62.5, 100.0, 100.0])  # 25 + 75 * 8.5/17 = 62.5
+    assert u == pytest.approx([0.0, 25.0, 62.5, 100.0, 100.0])  # 25 + 75 * 8.5/17 = 62.5
 
 
 def test_avoid_collision_objective_head_on():

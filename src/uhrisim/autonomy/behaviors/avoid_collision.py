@@ -4,7 +4,7 @@ reference/helm.md. Relevance r grades from 0 at ``pwt_outer_dist`` to 1 at
 ``pwt_inner_dist`` (pct = (outer - range)/(outer - inner); linear: pct, quadratic: pct^2,
 quasi: pct^1.5); the helm weight this tick is ``priority * r`` (dropped at 0). Utility from
 the CPA over ``time_on_leg`` (120 s) for each candidate course x speed: 0 for
-cpa <= min_util_cpa_dist, 100 for cpa >= max_util_cpa_dist, 25 -> 100 linearly between;
+cpa < min_util_cpa_dist, 100 for cpa >= max_util_cpa_dist, 25 -> 100 linearly between;
 if the current range is already inside min_util_cpa_dist, range/2 is used as the min.
 Completed (endflags; a spawned instance is removed) beyond ``completed_dist``.
 
@@ -46,13 +46,14 @@ def relevance(range_m: float, outer: float, inner: float, grade: str) -> float:
 
 
 def cpa_utility(cpa: np.ndarray, min_util: float, max_util: float) -> np.ndarray:
-    """0 below ``min_util``, 100 above ``max_util``, 25 -> 100 linearly between."""
+    """0 below ``min_util``, 100 above ``max_util``, 25 -> 100 linearly from min to max
+    (IvP ``AOF_AvoidCollision::metric``: exactly at min the value is 25)."""
     span = max(max_util - min_util, 1e-9)
     u = cpa - min_util
     u *= 75.0 / span
     u += 25.0
     np.clip(u, 25.0, 100.0, out=u)
-    u[cpa <= min_util] = 0.0
+    u[cpa < min_util] = 0.0
     return u
 
 
