@@ -20,6 +20,7 @@ from .spec import (
 
 if TYPE_CHECKING:
     from .bridge import Ros2Bridge
+    from .hook import Ros2BridgeHook
 
 __all__ = [
     "COMMAND_GROUPS",
@@ -29,18 +30,23 @@ __all__ = [
     "Pacer",
     "PacerStats",
     "Ros2Bridge",
+    "Ros2BridgeHook",
     "apply_env_defaults",
 ]
 
 
 def __getattr__(name: str) -> Any:
-    if name == "Ros2Bridge":
+    if name in ("Ros2Bridge", "Ros2BridgeHook"):
         try:
             from .bridge import Ros2Bridge
         except ImportError as exc:
             raise ImportError(
-                f"uhrisim.bridges.ros2.Ros2Bridge needs ROS 2 (rclpy and message packages): "
+                f"uhrisim.bridges.ros2.{name} needs ROS 2 (rclpy and message packages): "
                 f'pip install "uhrisim[ros2]" ({exc})'
             ) from exc
+        if name == "Ros2BridgeHook":
+            from .hook import Ros2BridgeHook
+
+            return Ros2BridgeHook
         return Ros2Bridge
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
