@@ -234,7 +234,12 @@ class ImagingSonar:
     ``ping(raycaster, position_ned, rotation_body_to_ned, t)`` casts the ray fan from the
     mount and forms the image. Everything that depends only on the config (ray
     directions, elevation weights, kernels, TVG curve, scan-conversion maps) is computed
-    once here. The Generator is the only state that changes between pings (speckle).
+    once here. The Generator is the only state that changes between pings (speckle);
+    scratch buffers are reused between pings, so one instance must not ping from two
+    threads at once (make one instance per thread). Arrays in a returned SonarPing are
+    its own (never the scratch buffers).
+
+    Cost per ping is O(rays + range bins × beams); see ``uhrisim bench sonar``.
     """
 
     def __init__(self, config: SonarConfig, rng: np.random.Generator) -> None:
@@ -399,6 +404,7 @@ class ImagingSonar:
             )
         hits = raycaster.cast(origins, dirs, cfg.range_max_m, exclude=exclude)
         distance = np.asarray(hits.distance, dtype=np.float64)
+        cos_all = np.abs(np.einsum("ij,ij->i", np.asarray(hits.normal, np.float64), dirs))
         near = np.count_nonzero(distance < INSIDE_GEOMETRY_RANGE_M)
         if near > INSIDE_GEOMETRY_FRACTION * distance.size:
             raise ConfigError(
@@ -409,8 +415,7 @@ class ImagingSonar:
         valid = (distance >= cfg.range_min_m) & (distance < cfg.range_max_m)
         idx = np.flatnonzero(valid)
         r = distance[idx]
-        normals = np.asarray(hits.normal, dtype=np.float64)[idx]
-        cos_inc = np.abs(np.einsum("ij,ij->i", normals, dirs[idx]))
+        cos_inc = cos_all[idx]
         mu = np.asarray(hits.reflectivity, dtype=np.float64)[idx]
         labels = np.asarray(hits.label)[idx].astype(np.int32)
         return self.form_image(t, p_s, R_s, idx, r, cos_inc, mu, labels)
