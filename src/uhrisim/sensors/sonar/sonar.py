@@ -13,11 +13,13 @@ incidence β on a surface of Lambert coefficient μ (``shared/reference/sonar.md
 
 A ray stands for the solid angle ΔΩ = cos φ·δθ·δφ, i.e. a surface patch A = R²ΔΩ/cos β,
 so its echo intensity (re SL) is ``b_v(φ)²·μ·cos β·ΔΩ·R⁻²·10^(−2αR/10)`` with b_v the
-vertical (elevation) power pattern, two-way. Echoes are summed into (range bin, beam)
-cells — rays stop at the first hit, so shadows come only from the geometry. The
+vertical (elevation) power pattern, two-way. Each echo is spread evenly over the range
+footprint of its elevation slice, R·δφ·tan β (so a floor stays continuous however few
+rays are cast), and summed into (range bin, beam) cells — rays stop at the first hit, so
+shadows come only from the geometry. The
 horizontal beam pattern (sinc², ~1° over ~0.18° spacing) is a convolution along the
 beam axis, the pulse length a convolution along range. Then the noise floor is added,
-Rayleigh speckle multiplies the intensity (unit exponential), TVG
+Rayleigh speckle multiplies the intensity (unit exponential draws: Rayleigh amplitude), TVG
 (+40 log R + 2αR by default) and gain are applied and the level is log-compressed:
 ``polar = clip(1 + (L − display_top_db)/dynamic_range_db, 0, 1)``.
 
