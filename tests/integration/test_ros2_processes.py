@@ -15,7 +15,7 @@ a private random domain id. Expected numbers:
 
 from __future__ import annotations
 
-import fcntl
+import importlib.util
 import json
 import math
 import os
@@ -50,53 +50,16 @@ PTS_FRD = np.array([[5.0, 1.0, 0.5], [6.0, -2.0, 0.25]] * 100)
 INTENSITY = np.linspace(0.0, 1.0, 200)
 
 
-SHM = Path("/dev/shm")
+def _support(name: str):
+    """A module from tests/support (plain scripts there are not a package)."""
+    spec = importlib.util.spec_from_file_location(name, SUPPORT / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
 
 
-def _shm_fastdds() -> set[str]:
-    try:
-        return {n for n in os.listdir(SHM) if "fastdds" in n}
-    except FileNotFoundError:
-        return set()
-
-
-def _owner_alive(el_path: Path) -> bool:
-    """Fast DDS keeps an flock on ``<name>_el`` while the owner of ``<name>`` lives."""
-    try:
-        fd = os.open(el_path, os.O_RDWR)
-    except OSError:
-        return False
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        return True
-    finally:
-        os.close(fd)  # closing drops our lock
-    return False
-
-
-def clean_zombie_shm(before: set[str]) -> list[str]:
-    """Remove Fast DDS shared-memory files created since ``before`` whose owner is dead
-    (a SIGKILLed child cannot clean up): a segment or port whose ``_el`` lock nobody
-    holds, and a port file left without any ``_el``. Returns the names removed."""
-    new = _shm_fastdds() - before
-    doomed: set[str] = set()
-    for name in new:
-        if name.endswith("_el") and not _owner_alive(SHM / name):
-            base = name[: -len("_el")]
-            doomed |= {name, base, f"sem.{base}_mutex"}
-        elif name.startswith("fastdds_port") and not name.endswith("_el") and (
-            f"{name}_el" not in new and not (SHM / f"{name}_el").exists()
-        ):
-            doomed |= {name, f"sem.{name}_mutex"}
-    removed = []
-    for name in sorted(doomed & new):
-        try:
-            (SHM / name).unlink()
-            removed.append(name)
-        except OSError:
-            pass
-    return removed
+ros2_shm = _support("ros2_shm")
 
 
 @pytest.fixture(scope="module")
@@ -104,7 +67,7 @@ def ros_env(tmp_path_factory: pytest.TempPathFactory):
     """Loopback discovery, a private random domain id (1-101), logs in a temp folder;
     afterwards, remove the Fast DDS shared-memory files this module's killed children
     left (new since the start, owner dead)."""
-    before = _shm_fastdds()
+    before = ros2_shm.shm_snapshot()
     mp = pytest.MonkeyPatch()
     domain = random.SystemRandom().randint(1, 101)
     mp.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -113,7 +76,7 @@ def ros_env(tmp_path_factory: pytest.TempPathFactory):
     mp.delenv("ROS_LOCALHOST_ONLY", raising=False)
     yield domain
     mp.undo()
-    clean_zombie_shm(before)
+    ros2_shm.clean_zombie_shm(before)
 
 
 class Child:
