@@ -194,7 +194,7 @@ class ViewerServer:
         return self._url
 
     def publish(self, frame: dict[str, Any]) -> None:
-        """Hand the latest frame to the viewer. Non-blocking, O(1).
+        """Hand the latest frame to the viewer. Non-blocking, O(1); call it from one thread.
 
         The viewer keeps a reference to ``frame`` (the caller must not mutate it
         afterwards; build a fresh dict each tick). A ``frame["sonar"]`` entry may carry
