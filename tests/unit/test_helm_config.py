@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from uhrisim.autonomy import HelmConfig, load_bhv, parse_bhv
-from uhrisim.autonomy.conditions import And, Relation, parse_condition
+from uhrisim.autonomy.conditions import And, Relation, VarRef, parse_condition
 from uhrisim.autonomy.geometry import is_convex, parse_polygon
 from uhrisim.autonomy.modes import evaluate_modes, parse_mode_entry
 from uhrisim.core.errors import ConfigError
@@ -312,19 +312,38 @@ def test_mapping_errors_name_the_field():
 
 def test_conditions_parse_and_evaluate():
     c = parse_condition("(DEPLOY = true) and (RETURN != true) or MODE==STATION-KEEPING")
-    assert c == parse_condition("DEPLOY==true && RETURN!=true || MODE == STATION-KEEPING")
-    assert c.evaluate({"DEPLOY": "TRUE", "RETURN": "false"})  # strings case-insensitive
+    assert c == parse_condition("DEPLOY=true && RETURN!=true || (MODE == STATION-KEEPING)")
+    assert c != parse_condition("DEPLOY==true && RETURN!=true || MODE == STATION-KEEPING")
+    assert c.evaluate({"DEPLOY": "true", "RETURN": "false"})
     assert not c.evaluate({"DEPLOY": "true", "RETURN": "true"})
-    assert c.evaluate({"MODE": "ACTIVE:STATION-KEEPING"}, {"MODE"})  # mode component rule
-    assert not c.evaluate({"MODE": "ACTIVE:STATION-KEEPING"})  # ... only for mode variables
+    assert not c.evaluate({"DEPLOY": "TRUE", "RETURN": "false"})  # IvP: case-sensitive
+    # '==' is IvP's field match, '=' exact equality
+    assert c.evaluate({"MODE": "ACTIVE:STATION-KEEPING"})
+    assert not parse_condition("MODE = STATION-KEEPING").evaluate(
+        {"MODE": "ACTIVE:STATION-KEEPING"}
+    )
+    assert parse_condition("MODE == ACTIVE:SURVEY").evaluate({"MODE": "ACTIVE:SURVEY:DEEP"})
+    assert not parse_condition("MODE == TIVE").evaluate({"MODE": "ACTIVE:SURVEY"})
     assert not parse_condition("X < 3").evaluate({})  # unknown variable: false
-    assert parse_condition("X < 3.5").evaluate({"X": "2"})  # numeric string compared as number
+    assert not parse_condition("X != 3").evaluate({})  # ... whatever the operator
+    assert parse_condition("X < 3.5").evaluate({"X": "2"})  # numeric string vs number
+    assert not parse_condition("X != 3").evaluate({"X": "abc"})  # non-numeric vs number
+    assert not parse_condition("X != abc").evaluate({"X": 3.0})
     assert parse_condition("X >= 2").evaluate({"X": 2.0})
+    assert parse_condition("X == 2").evaluate({"X": 2.0})
     assert not parse_condition("X > 2").evaluate({"X": 2.0})
     assert parse_condition("X <= -1e3").evaluate({"X": -1000.0})
-    assert parse_condition('NAME == "a b"') == Relation("NAME", "==", "a b")
+    assert parse_condition("NAME < bob").evaluate({"NAME": "alice"})  # lexical
+    assert parse_condition('NAME = "a b"') == Relation("NAME", "=", "a b")
     assert parse_condition("not (A = 1)").evaluate({"A": 2.0})
-    assert parse_condition("!A = 1").evaluate({"A": "x"})  # string vs number: not equal
+    # right-hand variables: $(VAR)
+    r = parse_condition("DEPTH > $(MIN_DEPTH)")
+    assert r == Relation("DEPTH", ">", VarRef("MIN_DEPTH")) and r.variables() == {
+        "DEPTH",
+        "MIN_DEPTH",
+    }
+    assert r.evaluate({"DEPTH": 3.0, "MIN_DEPTH": 2.0})
+    assert not r.evaluate({"DEPTH": 3.0})
     assert isinstance(parse_condition("A=1 and B=2 and C=3"), And)
     for bad in ("A ==", "== 3", "(A = 1", "A = 1 B = 2", ""):
         with pytest.raises(ConfigError):

@@ -5,28 +5,42 @@ Grammar::
     expr     := and_expr (("or" | "||") and_expr)*
     and_expr := not_expr (("and" | "&&") not_expr)*
     not_expr := ("!" | "not") not_expr | "(" expr ")" | relation
-    relation := VARIABLE op LITERAL          op in  == = != < > <= >=
+    relation := VARIABLE op VALUE            op in  = == != < > <= >=
 
-``=`` means ``==``. A literal is a number, a quoted string, or a bare word (``true``,
-``STATION-KEEPING``). Evaluation against an info buffer (variable -> str | float):
+A VALUE is a number, a quoted string, a bare word (``true``, ``STATION-KEEPING``) or
+``$(OTHER_VARIABLE)``. (IvP insists on parentheses around ``and``/``or`` operands; we
+accept them without.) Evaluation against an info buffer (variable -> str | float)
+follows IvP's ``ParseNode``:
 
-* an unknown variable makes its relation false (IvP: conditions on unposted variables fail);
-* numbers compare numerically (a numeric string value is read as a number);
-* strings compare case-insensitively (``DEPLOY = true`` matches ``"TRUE"``); ordering
-  operators between strings compare lexically (case-insensitive);
-* for a hierarchical mode variable (``MODE = "ACTIVE:TRAILING"``), ``MODE == X`` holds when
-  X is the whole value or any ``:``-separated component of it (IvP mode semantics).
+* a relation on a variable nobody has posted is false (whatever the operator);
+* number vs number compares numerically (``=`` and ``==`` alike);
+* a string vs a number compares numerically if the string reads as a number, else the
+  relation is false (``!=`` included);
+* string vs string is case-sensitive: ``=`` is exact equality, ``==`` is a *field match*
+  (one side equals a ``:``-separated run of components of the other, so
+  ``MODE == TRAILING`` holds for "ACTIVE:TRAILING" while ``MODE = TRAILING`` does not),
+  ``!=`` is exact inequality, ``< > <= >=`` compare lexically.
 """
 
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Collection, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 from uhrisim.core.errors import ConfigError
 
-__all__ = ["And", "Condition", "Not", "Or", "Relation", "literal", "parse_condition"]
+__all__ = [
+    "And",
+    "Condition",
+    "Not",
+    "Or",
+    "Relation",
+    "VarRef",
+    "field_match",
+    "literal",
+    "parse_condition",
+]
 
 Value = str | float
 
@@ -56,40 +70,59 @@ def _as_number(v: object) -> float | None:
 
 
 @dataclass(frozen=True)
+class VarRef:
+    """A ``$(VARIABLE)`` on the right-hand side of a relation."""
+
+    name: str
+
+
+def field_match(a: str, b: str) -> bool:
+    """IvP ``strFieldMatch``: the shorter ``:``-list is a contiguous run of the longer."""
+    fa, fb = a.split(":"), b.split(":")
+    short, long_ = (fa, fb) if len(fa) <= len(fb) else (fb, fa)
+    n = len(short)
+    return any(long_[i : i + n] == short for i in range(len(long_) - n + 1))
+
+
+@dataclass(frozen=True)
 class Relation:
     var: str
     op: str
-    value: Value
+    value: Value | VarRef
 
-    def evaluate(self, info: Mapping[str, object], mode_vars: Collection[str] = ()) -> bool:
+    def evaluate(self, info: Mapping[str, object]) -> bool:
         if self.var not in info:
             return False
-        have = info[self.var]
-        if self.var in mode_vars and self.op in ("==", "!=") and isinstance(self.value, str):
-            parts = str(have).lower().split(":")
-            hit = self.value.lower() in parts or self.value.lower() == str(have).lower()
-            return hit if self.op == "==" else not hit
-        a, b = _as_number(have), _as_number(self.value)
-        if a is not None and b is not None:
-            x: object
-            y: object
-            x, y = a, b
-        elif isinstance(self.value, str) and a is None:
-            x, y = str(have).lower(), self.value.lower()
-        else:
-            return self.op == "!="
-        return _OPS[self.op](x, y)
+        left = info[self.var]
+        right: object = self.value
+        if isinstance(right, VarRef):
+            if right.name not in info:
+                return False
+            right = info[right.name]
+        ln, rn = _as_number(left), _as_number(right)
+        l_is_num = isinstance(left, int | float) and not isinstance(left, bool)
+        r_is_num = isinstance(right, int | float) and not isinstance(right, bool)
+        if l_is_num or r_is_num:
+            if ln is None or rn is None:
+                return False
+            return _OPS["==" if self.op == "=" else self.op](ln, rn)
+        ls, rs = str(left), str(right)
+        if self.op == "=":
+            return ls == rs
+        if self.op == "==":
+            return field_match(ls, rs)
+        return _OPS[self.op](ls, rs)
 
     def variables(self) -> set[str]:
-        return {self.var}
+        return {self.var} | ({self.value.name} if isinstance(self.value, VarRef) else set())
 
 
 @dataclass(frozen=True)
 class And:
     items: tuple[Condition, ...]
 
-    def evaluate(self, info: Mapping[str, object], mode_vars: Collection[str] = ()) -> bool:
-        return all(c.evaluate(info, mode_vars) for c in self.items)
+    def evaluate(self, info: Mapping[str, object]) -> bool:
+        return all(c.evaluate(info) for c in self.items)
 
     def variables(self) -> set[str]:
         return set().union(*(c.variables() for c in self.items))
@@ -99,8 +132,8 @@ class And:
 class Or:
     items: tuple[Condition, ...]
 
-    def evaluate(self, info: Mapping[str, object], mode_vars: Collection[str] = ()) -> bool:
-        return any(c.evaluate(info, mode_vars) for c in self.items)
+    def evaluate(self, info: Mapping[str, object]) -> bool:
+        return any(c.evaluate(info) for c in self.items)
 
     def variables(self) -> set[str]:
         return set().union(*(c.variables() for c in self.items))
@@ -110,8 +143,8 @@ class Or:
 class Not:
     item: Condition
 
-    def evaluate(self, info: Mapping[str, object], mode_vars: Collection[str] = ()) -> bool:
-        return not self.item.evaluate(info, mode_vars)
+    def evaluate(self, info: Mapping[str, object]) -> bool:
+        return not self.item.evaluate(info)
 
     def variables(self) -> set[str]:
         return self.item.variables()
@@ -130,7 +163,8 @@ _OPS: dict[str, Callable[[object, object], bool]] = {
 
 _TOKEN = re.compile(
     r"""\s*(?:
-        (?P<str>"[^"]*"|'[^']*')
+        (?P<var>\$\([A-Za-z_][A-Za-z0-9_]*\))
+      | (?P<str>"[^"]*"|'[^']*')
       | (?P<op>==|!=|<=|>=|=|<|>)
       | (?P<lp>\()|(?P<rp>\))
       | (?P<andop>&&)|(?P<orop>\|\|)|(?P<bang>!)
@@ -209,9 +243,11 @@ class _Parser:
                 f"expected a comparison after {var!r} in condition {self.text!r}", self.where
             )
         kind, lit = self.take()
+        if kind == "var":
+            return Relation(var, op, VarRef(lit[2:-1]))
         if kind not in ("word", "str"):
             raise ConfigError(f"expected a value after {var}{op} in {self.text!r}", self.where)
-        return Relation(var, "==" if op == "=" else op, literal(lit))
+        return Relation(var, op, literal(lit))
 
 
 def parse_condition(text: str, where: str = "condition") -> Condition:

@@ -294,7 +294,7 @@ class Helm:
         b = s.bhv
         c = b.common
         b.priority_scale, b.complete_requested = 1.0, False
-        running = all(cond.evaluate(self.info, self.mode_vars) for cond in c.conditions)
+        running = all(cond.evaluate(self.info) for cond in c.conditions)
         prev = s.status
         t = ctx.t
         if c.duration > 0:

@@ -12,12 +12,13 @@ Example (the authors' ``meta_vehicle.bhv``)::
     } LOITERING
 
 Entries are evaluated in file order every helm tick, building each mode variable afresh.
-An entry's conditions on its own mode variable are its *parent gate*; they are evaluated
-against the last ``:``-component of the value built so far (so ``MODE = ACTIVE`` holds for
-"ACTIVE" but no longer once a sibling made it "ACTIVE:RETURNING": the first matching
-sibling wins). If the gate holds: the value (conditions true) or else-value (conditions
-false) is appended as a child ("ACTIVE:TRAILING"); an entry with no gate sets the value
-outright. Behavior conditions then test the mode with component semantics
+An entry's conditions on its own mode variable are its *parent gate* (IvP's mode prefix);
+like every condition they compare with the value built so far this tick - ``MODE =
+ACTIVE`` is exact, so it holds for "ACTIVE" but no longer once a sibling made it
+"ACTIVE:RETURNING": the first matching sibling wins (IvP ``ModeSet::evaluate``). If all
+conditions hold the value is set, prefixed by the parent ("ACTIVE:TRAILING"); if only the
+gate holds the else-value is (also prefixed); an entry with no gate sets the value
+outright. Behavior conditions then usually test the mode with ``==``, IvP's field match
 (``MODE == TRAILING`` holds for "ACTIVE:TRAILING", see :mod:`conditions`).
 """
 
@@ -71,8 +72,6 @@ def evaluate_modes(entries: tuple[ModeEntry, ...], info: Mapping[str, Value]) ->
         rest = [c for c in e.conditions if e.var not in c.variables()]
         env = {k: v for k, v in info.items() if k not in built and k != e.var}
         env.update(built)
-        if e.var in built:
-            env[e.var] = built[e.var].split(":")[-1]
         if gate and e.var not in built:
             continue
         if not all(c.evaluate(env) for c in gate):
