@@ -10,6 +10,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from uhrisim.autonomy.behaviors.base import BehaviorContext
+from uhrisim.autonomy.coupler import couple
+from uhrisim.autonomy.domain import Objective
+from uhrisim.autonomy.zaic import zaic_peak_on_axis
+
 
 @dataclass
 class ArrivalTracker:
@@ -31,13 +36,11 @@ class ArrivalTracker:
         return slipped
 
 
-def course_speed_objective(ctx, course_deg: float, speed: float, speed_zaic: tuple):
-    """IvP waypoint-style function: course ZAIC (pw 0, bw 180, wrap) coupled 50/50 with a
-    speed ZAIC ``speed_zaic = (peakwidth, basewidth, summitdelta)``."""
-    from uhrisim.autonomy.coupler import couple
-    from uhrisim.autonomy.domain import Objective
-    from uhrisim.autonomy.zaic import zaic_peak_on_axis
-
+def course_speed_objective(
+    ctx: BehaviorContext, course_deg: float, speed: float, speed_zaic: tuple[float, float, float]
+) -> Objective:
+    """Loiter/StationKeep function: course ZAIC (pw 0, bw 180, wrap) coupled 50/50 with a
+    speed ZAIC ``speed_zaic = (peakwidth, basewidth, summitdelta)``, normalised 0..100."""
     fc = zaic_peak_on_axis(ctx.domain.axis("course"), course_deg, 0.0, 180.0, 0.0)
     fs = zaic_peak_on_axis(ctx.domain.axis("speed"), speed, *speed_zaic)
     return Objective.over(ctx.domain, ("course", "speed"), couple(fc, fs))
