@@ -317,3 +317,24 @@ def test_late_client_gets_trail_history():
     assert [round(p[0], 6) for p in hist] == [k * 0.5 for k in range(21)]
     exp = demo_frame(10.0)["agents"][0]
     assert hist[-1][1:] == pytest.approx([exp["north"], exp["east"], exp["depth"]])
+
+
+def test_foreign_origins_and_hosts_are_refused(server):
+    # another web site open in the user's browser must not steer the simulation
+    from websockets.exceptions import InvalidStatus
+
+    with pytest.raises(InvalidStatus) as e:
+        connect(_ws_url(server.url), origin="http://evil.example")
+    assert e.value.response.status_code == 403
+    for ok in (f"http://127.0.0.1:{server.port}", "http://localhost:9000"):
+        with connect(_ws_url(server.url), origin=ok) as ws:
+            assert json.loads(ws.recv(timeout=5))["type"] == "hello"
+    # DNS rebinding: a request for our port under another host name
+    req = urllib.request.Request(server.url, headers={"Host": "evil.example:80"})
+    with pytest.raises(urllib.error.HTTPError) as e2:
+        urllib.request.urlopen(req)
+    assert e2.value.code == 403
+    e2.value.close()
+    req = urllib.request.Request(server.url, headers={"Host": "[::1]:8765"})
+    with urllib.request.urlopen(req) as r:
+        assert r.status == 200

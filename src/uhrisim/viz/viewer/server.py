@@ -59,6 +59,23 @@ _CONTENT_TYPES = {
 }
 
 
+def _host_of(authority: str) -> str:
+    """Host name of ``host[:port]`` / ``[v6]:port`` (lower case, brackets removed)."""
+    a = authority.strip().lower()
+    if a.startswith("["):
+        return a[1 : a.find("]")] if "]" in a else a
+    return a.rsplit(":", 1)[0] if a.count(":") == 1 else a
+
+
+def _is_loopback_authority(authority: str) -> bool:
+    return _host_of(authority) in LOOPBACK_HOSTS
+
+
+def _is_loopback_origin(origin: str) -> bool:
+    scheme, _, rest = origin.partition("://")
+    return scheme in ("http", "https") and _is_loopback_authority(rest.split("/", 1)[0])
+
+
 def _load_static() -> dict[str, tuple[bytes, str]]:
     """Read the page assets shipped in ``uhrisim/viz/viewer/static`` (name → bytes, type)."""
     out: dict[str, tuple[bytes, str]] = {}
@@ -304,7 +321,16 @@ class ViewerServer:
         from websockets.http11 import Response
 
         path = request.path.split("?", 1)[0]
+        # Only pages served from loopback may talk to us: a Host header naming another
+        # machine means DNS rebinding; a foreign Origin on /ws means another web site
+        # trying to steer the simulation from the user's browser.
+        if not _is_loopback_authority(request.headers.get("Host", "")):
+            return connection.respond(HTTPStatus.FORBIDDEN, "host not allowed\n")
         if path == "/ws":
+            origin = request.headers.get("Origin")
+            if origin is not None and not _is_loopback_origin(origin):
+                log.warning("viewer: refused a websocket from origin %r", origin)
+                return connection.respond(HTTPStatus.FORBIDDEN, "origin not allowed\n")
             return None  # go on with the websocket handshake
         name = "index.html" if path in ("/", "/index.html") else path.removeprefix("/static/")
         if name == "/favicon.ico":
