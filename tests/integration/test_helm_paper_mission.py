@@ -16,12 +16,11 @@ import math
 import numpy as np
 
 from uhrisim.autonomy import (
-    ContactManager,
     ContactManagerConfig,
-    Helm,
     HelmConfig,
     NodeReport,
-    as_mail,
+    OwnNav,
+    VehicleAutonomy,
     format_node_report,
 )
 from uhrisim.autonomy.behaviors import Trail
@@ -46,11 +45,12 @@ def _report(name: str, v: Kinematic, t: float) -> str:
 
 def test_rov_transits_to_the_diver_then_trails_it_around_the_loiter():
     cm_cfg = ContactManagerConfig.from_mapping(ROV_CM)
-    helms = {
-        "diver": Helm(HelmConfig.from_mapping(DIVER), "diver"),
-        "videoray": Helm(HelmConfig.from_mapping(ROV, known_vars=cm_cfg.alert_vars), "videoray"),
+    stacks = {
+        "diver": VehicleAutonomy("diver", HelmConfig.from_mapping(DIVER)),
+        "videoray": VehicleAutonomy(
+            "videoray", HelmConfig.from_mapping(ROV, known_vars=cm_cfg.alert_vars), cm_cfg
+        ),
     }
-    cm = ContactManager(cm_cfg, "videoray")
     veh = {
         "diver": Kinematic(10.0, 0.0, 180.0, turn_rate=20.0, v_max=1.0, dive_rate=0.3),
         "videoray": Kinematic(0.0, 0.0, 180.0, turn_rate=30.0, v_max=1.5),
@@ -63,20 +63,19 @@ def test_rov_transits_to_the_diver_then_trails_it_around_the_loiter():
         if slot != last_slot:
             last_slot = slot
             reports = {n: _report(n, v, t) for n, v in veh.items()}
-            # ROV community: contact manager first; its posts reach the helm this tick
-            cm_posts = cm.step(t, veh["videoray"].nav(), [reports["diver"]])
-            mail_rov = as_mail(cm_posts, base={**veh["videoray"].nav(),
-                                               "NODE_REPORT": reports["diver"]})  # fmt: skip
-            mail = {"diver": veh["diver"].nav(), "videoray": mail_rov}
-            for name, helm in helms.items():
-                out = helm.step(t, mail[name])
-                veh[name].desired.update({v: x for v, x in out.posts if v.startswith("DESIRED_")})
-            trail = helms["videoray"].behavior("trail_diver")
+            for name, stack in stacks.items():
+                v = veh[name]
+                nav = OwnNav(v.x, v.y, v.heading, v.speed, v.depth)
+                others = [r for n, r in reports.items() if n != name]
+                out = stack.step(t, nav, others)
+                v.desired.update({var: x for var, x in out.posts if var.startswith("DESIRED_")})
+            trail = stacks["videoray"].helm.behavior("trail_diver")
             d, r = veh["diver"], veh["videoray"]
             tp = trail.trail_point(d.x, d.y, d.heading) if isinstance(trail, Trail) else None
             log.append((t, d.x, d.y, d.depth, r.x, r.y, r.depth, tp))
         for v in veh.values():
             v.step(0.1)
+    helms = {n: s.helm for n, s in stacks.items()}
 
     arr = np.array([row[:7] for row in log])
     t, dx, dy, dd, rx, ry, rd = arr.T

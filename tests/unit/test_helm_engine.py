@@ -219,3 +219,16 @@ def test_as_mail_groups_repeated_postings_in_order():
 
     mail = as_mail([("A", 1), ("B", "x"), ("A", 2), ("A", 3)], base={"NAV_X": 0.0, "B": "w"})
     assert mail == {"NAV_X": 0.0, "B": ["w", "x"], "A": [1, 2, 3]}
+
+
+def test_ned_adapters():
+    from uhrisim.autonomy import Decision, OwnNav
+
+    # NED north 3, east 4, depth 2, yaw -pi/2 (west) -> MOOS x 4, y 3, heading 270
+    nav = OwnNav.from_ned(3.0, 4.0, 2.0, -np.pi / 2, 0.5)
+    assert (nav.x, nav.y, nav.heading, nav.speed, nav.depth) == pytest.approx(
+        (4.0, 3.0, 270.0, 0.5, 2.0)
+    )
+    assert nav.mail()["NAV_HEADING"] == pytest.approx(270.0)
+    assert Decision(270.0, 1.0).yaw_rad == pytest.approx(-np.pi / 2)
+    assert Decision(90.0, 1.0).yaw_rad == pytest.approx(np.pi / 2)

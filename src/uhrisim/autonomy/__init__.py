@@ -15,6 +15,8 @@ reference/helm.md and docs/conventions.md. One community per vehicle, each helm 
     out = helm.step(t, mail)   # out.decision (heading_deg, speed, depth|None) or None
                                # out.posts, out.contributions, out.total, out.mode, ...
 
+:class:`VehicleAutonomy` does exactly this in one call: ``out = auto.step(t,
+OwnNav.from_ned(north, east, down, yaw, speed), reports)``; ``out.decision.yaw_rad``.
 :mod:`uhrisim.autonomy.missions` holds the paper's diver and ROV helms in mapping form.
 """
 
@@ -22,6 +24,7 @@ from __future__ import annotations
 
 from uhrisim.autonomy.behaviors import OwnNav
 from uhrisim.autonomy.bhv import load_bhv, parse_bhv
+from uhrisim.autonomy.community import VehicleAutonomy
 from uhrisim.autonomy.config import BehaviorSpec, HelmConfig
 from uhrisim.autonomy.contacts import (
     AlertSpec,
@@ -50,6 +53,7 @@ __all__ = [
     "NodeReport",
     "Objective",
     "OwnNav",
+    "VehicleAutonomy",
     "as_mail",
     "format_node_report",
     "load_bhv",

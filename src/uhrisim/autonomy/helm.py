@@ -43,6 +43,7 @@ from uhrisim.autonomy.modes import evaluate_modes
 from uhrisim.autonomy.params import moos_value, parse_updates
 from uhrisim.autonomy.solver import SolveResult, WeightedObjective, solve
 from uhrisim.core.errors import ConfigError
+from uhrisim.core.frames import yaw_from_heading_deg
 
 __all__ = ["Decision", "Helm", "HelmOutput", "as_mail"]
 
@@ -74,6 +75,11 @@ class Decision:
     heading_deg: float
     speed: float
     depth: float | None = None
+
+    @property
+    def yaw_rad(self) -> float:
+        """Desired NED yaw (rad, [-pi, pi)) - the compass heading (docs/conventions.md)."""
+        return float(yaw_from_heading_deg(self.heading_deg))
 
 
 @dataclass(frozen=True)

@@ -26,6 +26,7 @@ from uhrisim.autonomy.domain import Domain, Objective
 from uhrisim.autonomy.extrapolator import Extrapolated, LinearExtrapolator
 from uhrisim.autonomy.params import Flag, parse_flag, to_bool, to_float, to_str
 from uhrisim.core.errors import ConfigError
+from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned
 
 __all__ = [
     "COMMON_HANDLERS",
@@ -133,6 +134,24 @@ class OwnNav:
     heading: float
     speed: float
     depth: float = 0.0
+
+    @classmethod
+    def from_ned(
+        cls, north: float, east: float, down: float, yaw_rad: float, speed: float
+    ) -> OwnNav:
+        """From the simulator's NED state (docs/conventions.md): yaw is the compass heading."""
+        x, y = moos_xy_from_ned(north, east)
+        return cls(float(x), float(y), float(heading_deg_from_yaw(yaw_rad)), speed, down)
+
+    def mail(self) -> dict[str, float]:
+        """The NAV_* variables a helm reads."""
+        return {
+            "NAV_X": self.x,
+            "NAV_Y": self.y,
+            "NAV_HEADING": self.heading,
+            "NAV_SPEED": self.speed,
+            "NAV_DEPTH": self.depth,
+        }
 
 
 @dataclass(frozen=True)

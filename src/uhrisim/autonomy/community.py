@@ -1,0 +1,55 @@
+"""One vehicle's autonomy stack: contact manager + helm, stepped together.
+
+Order inside a step (as in a MOOS community where pBasicContactMgr and pHelmIvP share a
+MOOSDB, with the manager's postings delivered to the helm in the same tick): node
+reports -> contact manager (alerts, relays) -> helm mail (NAV_*, NODE_REPORTs, the
+manager's postings, any extra mail such as viewer buttons) -> helm iteration.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+
+from uhrisim.autonomy.behaviors.base import OwnNav
+from uhrisim.autonomy.config import HelmConfig
+from uhrisim.autonomy.contacts import ContactManager, ContactManagerConfig, NodeReport
+from uhrisim.autonomy.helm import Helm, HelmOutput, as_mail
+
+__all__ = ["VehicleAutonomy"]
+
+
+class VehicleAutonomy:
+    """Helm and contact manager of the vehicle ``name`` (MOOS frame, see helm.py)."""
+
+    def __init__(
+        self,
+        name: str,
+        helm_config: HelmConfig,
+        contact_config: ContactManagerConfig | None = None,
+    ) -> None:
+        self.name = name
+        self.helm = Helm(helm_config, name)
+        self.contacts = ContactManager(contact_config or ContactManagerConfig(), name)
+        self.last_contact_posts: list[tuple[str, str]] = []
+
+    def step(
+        self,
+        t: float,
+        nav: OwnNav,
+        node_reports: Sequence[str | NodeReport] = (),
+        extra_mail: Mapping[str, object] | Iterable[tuple[str, object]] | None = None,
+    ) -> HelmOutput:
+        """One helm tick at ``t`` (s): returns the helm's output; the contact manager's
+        postings of this tick are in ``last_contact_posts``."""
+        reports = list(node_reports)
+        for r in reports:
+            self.contacts.on_node_report(r, t)
+        self.last_contact_posts = self.contacts.step(t, nav)
+        base: dict[str, object] = nav.mail()
+        if reports:
+            base["NODE_REPORT"] = reports
+        mail = as_mail(self.last_contact_posts, base=base)
+        if extra_mail:
+            items = extra_mail.items() if isinstance(extra_mail, Mapping) else extra_mail
+            mail = as_mail(list(items), base=mail)
+        return self.helm.step(t, mail)
