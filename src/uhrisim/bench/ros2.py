@@ -180,10 +180,14 @@ def _run(quick: bool, domain: int, agent: str, Ros2Bridge, AgentBridgeSpec) -> d
         def nav_throttled(k: int) -> None:  # 1 kHz ticks, 10 Hz gate: mostly not due
             gated.publish_nav(f"{agent}_g", k * 1e-3, pos, 0.1, vel, 0.0)
 
+        def clock(k: int) -> None:  # a new simulation time every call
+            bridge.publish_clock(1e3 + k * 1e-3)
+
         no_sub = {
             "publish_nav": _time_calls(nav, n_nav),
             "publish_sonar": _time_calls(sonar, n_sonar),
             "publish_nav_throttled_tick": _time_calls(nav_throttled, n_nav),
+            "publish_clock": _time_calls(clock, n_nav),
         }
         out["without_subscriber"] = no_sub
         with_sub: dict[str, Any] | None = None

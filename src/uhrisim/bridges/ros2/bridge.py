@@ -156,7 +156,9 @@ def _set_stamp(header: Any, t_sim: float, frame_id: str) -> None:
     header.frame_id = frame_id
 
 
-def _image_msg(img: np.ndarray, t_sim: float, frame_id: str, where: str) -> Image:
+def image_msg(img: np.ndarray, t_sim: float, frame_id: str, where: str = "image") -> Image:
+    """sensor_msgs/Image ``mono8`` of a 2-D uint8 array (row-major, step = width),
+    stamped with simulation time ``t_sim`` (s)."""
     a = np.asarray(img)
     if a.dtype != np.uint8 or a.ndim != 2:
         raise ConfigError(f"expected a 2-D uint8 image, got {a.dtype} {a.shape}", where)
@@ -171,6 +173,53 @@ def _image_msg(img: np.ndarray, t_sim: float, frame_id: str, where: str) -> Imag
     data.frombytes(memoryview(a.reshape(-1)))
     msg.data = data
     return msg
+
+
+def odometry_msg(
+    agent: str,
+    t_sim: float,
+    position_ned: ArrayLike,
+    yaw_rad: float,
+    velocity_body_frd: ArrayLike,
+    yaw_rate: float,
+) -> Odometry:
+    """nav_msgs/Odometry (``"map"`` -> ``"<agent>/base_link"``, REP-103) from NED/FRD
+    truth; see :func:`~uhrisim.bridges.ros2.convert.odom_fields_from_ned`."""
+    f = odom_fields_from_ned(position_ned, yaw_rad, velocity_body_frd, yaw_rate)
+    odom = Odometry()
+    _set_stamp(odom.header, t_sim, WORLD_FRAME)
+    odom.child_frame_id = f"{agent}/base_link"
+    pp = odom.pose.pose
+    pp.position.x, pp.position.y, pp.position.z = f.position_enu
+    o = pp.orientation
+    o.x, o.y, o.z, o.w = f.orientation_xyzw
+    tw = odom.twist.twist
+    tw.linear.x, tw.linear.y, tw.linear.z = f.linear_flu
+    tw.angular.x, tw.angular.y, tw.angular.z = f.angular_flu
+    return odom
+
+
+def pointcloud_msg(
+    t_sim: float, frame_id: str, points_frd: ArrayLike, intensity: ArrayLike | None = None
+) -> PointCloud2:
+    """sensor_msgs/PointCloud2 (height 1; x, y, z, intensity float32 LE, 16 bytes a
+    point) of ``(N, 3)`` sensor-frame FRD points, written in the sensor's FLU frame."""
+    n, raw = cloud_bytes_from_frd(points_frd, intensity)
+    cloud = PointCloud2()
+    _set_stamp(cloud.header, t_sim, frame_id)
+    cloud.height, cloud.width = 1, n
+    cloud.fields = [
+        PointField(name=name, offset=off, datatype=PointField.FLOAT32, count=1)
+        for name, off in CLOUD_FIELDS
+    ]
+    cloud.is_bigendian = False
+    cloud.point_step = CLOUD_POINT_STEP
+    cloud.row_step = CLOUD_POINT_STEP * n
+    cloud.is_dense = True
+    data = array.array("B")
+    data.frombytes(raw)
+    cloud.data = data
+    return cloud
 
 
 class Ros2Bridge:
@@ -437,17 +486,8 @@ class Ros2Bridge:
         self._advance(t_sim)
         if not io.nav_gate.due(t_sim):
             return False
-        f = odom_fields_from_ned(position_ned, yaw_rad, velocity_body_frd, yaw_rate)
-        odom = Odometry()
-        _set_stamp(odom.header, t_sim, WORLD_FRAME)
-        odom.child_frame_id = f"{agent}/base_link"
+        odom = odometry_msg(agent, t_sim, position_ned, yaw_rad, velocity_body_frd, yaw_rate)
         pp = odom.pose.pose
-        pp.position.x, pp.position.y, pp.position.z = f.position_enu
-        o = pp.orientation
-        o.x, o.y, o.z, o.w = f.orientation_xyzw
-        tw = odom.twist.twist
-        tw.linear.x, tw.linear.y, tw.linear.z = f.linear_flu
-        tw.angular.x, tw.angular.y, tw.angular.z = f.angular_flu
         pose = PoseStamped()
         pose.header = odom.header
         pose.pose = pp
@@ -489,27 +529,13 @@ class Ros2Bridge:
             return False
         frame = f"{agent}/sonar"
         if polar_u8 is not None:
-            msg = _image_msg(polar_u8, t_sim, frame, "Ros2Bridge.publish_sonar.polar_u8")
+            msg = image_msg(polar_u8, t_sim, frame, "Ros2Bridge.publish_sonar.polar_u8")
             self._publish(io.pubs["polar"], msg, f"/{agent}/sonar/polar")
         if fan_u8 is not None:
-            msg = _image_msg(fan_u8, t_sim, frame, "Ros2Bridge.publish_sonar.fan_u8")
+            msg = image_msg(fan_u8, t_sim, frame, "Ros2Bridge.publish_sonar.fan_u8")
             self._publish(io.pubs["fan"], msg, f"/{agent}/sonar/fan")
         if points_sonar_frd is not None:
-            n, raw = cloud_bytes_from_frd(points_sonar_frd, intensity)
-            cloud = PointCloud2()
-            _set_stamp(cloud.header, t_sim, frame)
-            cloud.height, cloud.width = 1, n
-            cloud.fields = [
-                PointField(name=name, offset=off, datatype=PointField.FLOAT32, count=1)
-                for name, off in CLOUD_FIELDS
-            ]
-            cloud.is_bigendian = False
-            cloud.point_step = CLOUD_POINT_STEP
-            cloud.row_step = CLOUD_POINT_STEP * n
-            cloud.is_dense = True
-            data = array.array("B")
-            data.frombytes(raw)
-            cloud.data = data
+            cloud = pointcloud_msg(t_sim, frame, points_sonar_frd, intensity)
             self._publish(io.pubs["points"], cloud, f"/{agent}/sonar/points")
         if sonar_pose_ned is not None:
             pos, quat = pose_enu_from_ned(sonar_pose_ned[0], sonar_pose_ned[1])
