@@ -29,6 +29,9 @@ __all__ = ["DynamicBody", "RayCaster", "RayHits", "Scene", "StaticObject"]
 
 log = logging.getLogger(__name__)
 
+_EYE3 = np.eye(3)
+_EYE3.setflags(write=False)
+
 
 @dataclass(frozen=True)
 class StaticObject:
@@ -193,12 +196,8 @@ class Scene:
                 where=f"Scene.set_pose({name!r}).position_ned",
             )
         r = np.array(rotation, dtype=float)
-        if (
-            r.shape != (3, 3)
-            or not np.all(np.isfinite(r))
-            or not np.allclose(r @ r.T, np.eye(3), atol=1e-6)
-            or np.linalg.det(r) < 0.0
-        ):
+        # Orthonormal (NaN fails the comparison) and proper (det = +1).
+        if r.shape != (3, 3) or not np.abs(r @ r.T - _EYE3).max() <= 1e-6 or np.linalg.det(r) < 0.0:
             raise ConfigError(
                 "must be a proper 3x3 rotation matrix", where=f"Scene.set_pose({name!r}).rotation"
             )
