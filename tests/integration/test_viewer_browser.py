@@ -201,26 +201,68 @@ def test_live_page_shows_moving_vehicles_and_sends_commands(live):
         assert bp.errors() == []
 
 
-def test_page_reconnects_after_server_restart():
+def _heading_frame(k: int, heading_deg: float) -> dict:
+    return {"t": float(k), "paused": True, "speed_factor": 1.0, "rtf": 0.0,
+            "agents": [{"name": "rov", "kind": "rov", "north": 0.0, "east": 0.0,
+                        "depth": 2.0, "heading_deg": heading_deg, "speed": 0.0, "mode": ""}],
+            "overlays": {"polygons": [], "points": [], "circles": []}, "sonar": None,
+            "plots": {"range_to_diver": None, "depth": {}, "speed": {}}}
+
+
+def test_headings_are_drawn_clockwise_from_north_and_page_reconnects():
+    """(1) The ROV outline is narrow at the nose and wide at the stern (viewer.js
+    SHAPES.rov): 0.4 body lengths ahead of the centre, 0.3 lengths to the side is water;
+    the same point astern is hull. Compass heading ψ must point the nose at screen
+    (sin ψ, −cos ψ): north up, clockwise. (2) The page reconnects by itself after the
+    server restarts on the same port."""
     server = ViewerServer({}, [], port=0, max_fps=20)
     url = server.start()
     port = server.port
-    server.publish(demo_frame(1.0))
-    with headless_page() as bp:
-        page = bp.page
-        page.goto(url)
-        _wait_js(page, "window.uhri.framesReceived > 0")
+    try:
+        with headless_page() as bp:
+            page = bp.page
+            server.publish(_heading_frame(0, 0.0))
+            page.goto(url)
+            _wait_js(page, "window.uhri.framesReceived > 0")
+            page.evaluate("""() => { const v = window.uhri.view;
+                v.cn = 0; v.ce = 0; v.scale = 200; v.userMoved = true; }""")
+            for k, heading_deg in enumerate([0.0, 90.0, 200.0, 315.0], start=1):
+                server.publish(_heading_frame(k, heading_deg))
+                _wait_js(page, f"window.uhri.frame.t === {k}")
+                page.evaluate("window.uhri.redraw()")
+                page.wait_for_timeout(200)
+                img = _png(page.locator("#map").screenshot()).astype(int)
+                cx, cy = page.evaluate("window.uhri.worldToScreen(0, 0)")
+                length = 0.37 * 200  # REAL_LENGTH.rov × px per metre
+                psi = math.radians(heading_deg)
+                fwd = np.array([math.sin(psi), -math.cos(psi)])  # screen x right, y down
+                side = np.array([math.cos(psi), math.sin(psi)])  # starboard on screen
+
+                def is_rov(along: float, across: float, img=img, cx=cx, cy=cy,
+                           fwd=fwd, side=side, length=length) -> bool:
+                    x, y = np.array([cx, cy]) + length * (along * fwd + across * side)
+                    return bool(np.all(np.abs(img[round(y), round(x)] - ROV_RGB) <= 12))
+
+                assert is_rov(0.0, 0.0) and is_rov(0.4, 0.0), heading_deg
+                assert is_rov(-0.4, 0.3) and is_rov(-0.4, -0.3), f"stern wide at {heading_deg}"
+                assert not is_rov(0.4, 0.3), f"nose narrow at {heading_deg}"
+                assert not is_rov(0.4, -0.3), f"nose narrow at {heading_deg}"
+            assert bp.errors() == []
+
+            # --- reconnect
+            server.close()
+            _wait_js(page, "window.uhri.connected === false")
+            assert page.locator("#conn").inner_text().startswith("disconnected")
+            server2 = ViewerServer({}, [], port=port, max_fps=20)
+            server2.start()
+            try:
+                server2.publish(_heading_frame(99, 0.0))
+                _wait_js(page, "window.uhri.connected && window.uhri.frame.t === 99", timeout=30)
+                assert page.locator("#conn").inner_text() == "live"
+            finally:
+                server2.close()
+            # the only errors allowed are the refused reconnect attempts while it was down
+            others = [e for e in bp.errors() if "WebSocket" not in e and "ERR_CONNECTION" not in e]
+            assert others == []
+    finally:
         server.close()
-        _wait_js(page, "window.uhri.connected === false")
-        assert page.locator("#conn").inner_text().startswith("disconnected")
-        server2 = ViewerServer({}, [], port=port, max_fps=20)
-        server2.start()
-        try:
-            server2.publish(demo_frame(2.0))
-            _wait_js(page, "window.uhri.connected && window.uhri.frame.t === 2", timeout=15)
-            assert page.locator("#conn").inner_text() == "live"
-        finally:
-            server2.close()
-        # the only errors allowed are the refused reconnect attempts while it was down
-        others = [e for e in bp.errors() if "WebSocket" not in e and "ERR_CONNECTION" not in e]
-        assert others == []

@@ -242,6 +242,7 @@ window.addEventListener("keydown", (ev) => {
 
 // ------------------------------------------------------------------ canvases
 const dirty = { map: true, sonar: true, plots: true, view3d: true };
+state.redraw = () => { dirty.map = dirty.sonar = dirty.plots = dirty.view3d = true; };
 
 function sizeCanvas(c) {
   const dpr = window.devicePixelRatio || 1;
