@@ -134,7 +134,7 @@ class _Subscriber:
 
 def run(quick: bool = False) -> dict[str, Any]:
     """Measure the bridge; see the module docstring. Returns a JSON-serialisable dict."""
-    from uhrisim.bridges.ros2 import AgentBridgeSpec, Ros2Bridge, apply_env_defaults
+    from uhrisim.bridges.ros2 import apply_env_defaults
 
     apply_env_defaults()  # what Ros2Bridge.start() does too: loopback discovery
     domain = random.SystemRandom().randint(1, 101)
@@ -143,13 +143,15 @@ def run(quick: bool = False) -> dict[str, Any]:
         saved = os.environ.get("ROS_LOG_DIR")
         os.environ["ROS_LOG_DIR"] = saved or log_dir  # no log files in the home folder
         try:
-            return _run(quick, domain, agent, Ros2Bridge, AgentBridgeSpec)
+            return _run(quick, domain, agent)
         finally:
             if saved is None:
                 os.environ.pop("ROS_LOG_DIR", None)
 
 
-def _run(quick: bool, domain: int, agent: str, Ros2Bridge, AgentBridgeSpec) -> dict[str, Any]:
+def _run(quick: bool, domain: int, agent: str) -> dict[str, Any]:
+    from uhrisim.bridges.ros2 import AgentBridgeSpec, Ros2Bridge
+
 
     rng = np.random.default_rng(0)
     polar = rng.integers(0, 256, POLAR_SHAPE, dtype=np.uint8)
