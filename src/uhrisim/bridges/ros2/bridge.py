@@ -265,11 +265,11 @@ class Ros2Bridge:
         reliable_sensors: bool = False,
     ) -> None:
         specs = list(agents)
+        if not all(isinstance(s, AgentBridgeSpec) for s in specs):
+            raise ConfigError("each agent must be an AgentBridgeSpec", "Ros2Bridge.agents")
         names = [s.name for s in specs]
         if len(set(names)) != len(names):
             raise ConfigError(f"agent names must be unique, got {names}", "Ros2Bridge.agents")
-        if not all(isinstance(s, AgentBridgeSpec) for s in specs):
-            raise ConfigError("each agent must be an AgentBridgeSpec", "Ros2Bridge.agents")
         if not (isinstance(command_timeout_s, int | float) and command_timeout_s > 0.0
                 and math.isfinite(command_timeout_s)):
             raise ConfigError(
