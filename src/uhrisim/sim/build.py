@@ -8,10 +8,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from uhrisim.autonomy.community import VehicleAutonomy
 from uhrisim.autonomy.conditions import parse_condition
 from uhrisim.autonomy.config import HelmConfig, parse_domain
-from uhrisim.autonomy.contacts import AlertSpec, ContactManager, ContactManagerConfig
-from uhrisim.autonomy.helm import Helm
+from uhrisim.autonomy.contacts import AlertSpec, ContactManagerConfig
 from uhrisim.control.diver import DiverController, DiverGains
 from uhrisim.control.marine_pid import MarinePidController, MarinePidGains
 from uhrisim.control.videoray_p import GAIN_PRESETS, VideoRayPController
@@ -122,8 +122,8 @@ def _helm_driver(sim: Simulation, cfg: AgentConfig, community: Community) -> Hel
             mapping["domain"] = dict(section.domain)
         helm_config = HelmConfig.from_mapping(
             mapping, where=sim.source.where("agents", index, "helm"), known_vars=known)
-    manager = ContactManager(ContactManagerConfig(alerts=alerts), cfg.name) if alerts else None
-    return HelmDriver(Helm(helm_config, cfg.name), manager, community.mailbox())
+    autonomy = VehicleAutonomy(cfg.name, helm_config, ContactManagerConfig(alerts=alerts))
+    return HelmDriver(autonomy, community.mailbox())
 
 
 def _add_body(sim: Simulation, cfg: AgentConfig, state) -> None:

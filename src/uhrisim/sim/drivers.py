@@ -5,9 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from uhrisim.autonomy.behaviors.base import OwnNav
-from uhrisim.autonomy.contacts import ContactManager
-from uhrisim.autonomy.helm import Helm
-from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned
+from uhrisim.autonomy.community import VehicleAutonomy
 from uhrisim.sim.community import Mailbox
 from uhrisim.sim.hooks import HelmRecord
 from uhrisim.sim.script import ScriptDriver
@@ -16,33 +14,25 @@ if TYPE_CHECKING:
     from uhrisim.sim.simulation import Agent
 
 
-def own_nav(agent: Agent) -> OwnNav:
-    nav = agent.nav()
-    x_east, y_north = moos_xy_from_ned(nav.position_ned[0], nav.position_ned[1])
-    return OwnNav(float(x_east), float(y_north), float(heading_deg_from_yaw(nav.yaw)),
-                  nav.speed, float(nav.position_ned[2]))
-
-
 class HelmDriver:
-    """The behavior-fusion helm plus the agent's contact manager (pHelmIvP + contact mgr)."""
+    """The agent's contact manager + behavior-fusion helm (pBasicContactMgr + pHelmIvP)."""
 
-    def __init__(self, helm: Helm, contact_manager: ContactManager | None,
-                 mailbox: Mailbox) -> None:
-        self.helm = helm
-        self.contact_manager = contact_manager
+    def __init__(self, autonomy: VehicleAutonomy, mailbox: Mailbox) -> None:
+        self.autonomy = autonomy
         self.mailbox = mailbox
 
     def tick(self, t: float, agent: Agent) -> HelmRecord:
         community = agent.community
         mail = self.mailbox.drain()
-        if self.contact_manager is not None:
-            reports = mail.get("NODE_REPORT", [])
-            for var, value in self.contact_manager.step(t, own_nav(agent), reports):
-                community.post(var, value, t, "contact_mgr")
-            mail.update(self.mailbox.drain())  # alerts spawn behaviors in this same step
-        out = self.helm.step(t, mail)
+        reports = mail.pop("NODE_REPORT", [])
+        nav = agent.nav()
+        own = OwnNav.from_ned(*nav.position_ned, nav.yaw, nav.speed)
+        out = self.autonomy.step(t, own, reports, extra_mail=mail)
+        for var, value in self.autonomy.last_contact_posts:
+            community.post(var, value, t, "contact_mgr")
         for var, value in out.posts:
             community.post(var, value, t, "helm")
+        self.mailbox.drain()  # our own posts: the helm already applied them
         decision = out.decision
         return HelmRecord(
             heading_deg=decision.heading_deg if decision else None,
