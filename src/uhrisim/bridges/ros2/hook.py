@@ -75,7 +75,8 @@ def decimate_triangle_markers(
 class Ros2BridgeHook(BaseHook):
     """One :class:`~uhrisim.bridges.ros2.bridge.Ros2Bridge` for the linked agents.
 
-    ``agents``: the agents to bridge (default: all). Agent names must be ROS name tokens.
+    ``agents``: the agents to bridge (default: all). Each is published under the ROS name
+    the recorder uses (:func:`uhrisim.record.hook.ros_name`; usually the agent's name).
     ``accept``: command groups taken from ROS for every linked agent
     (:data:`~uhrisim.bridges.ros2.spec.COMMAND_GROUPS`; ``()`` = publish only).
     ``odom_rate_hz``: odometry rate in simulated time (``None``: every tick);
@@ -115,6 +116,7 @@ class Ros2BridgeHook(BaseHook):
         self._timeout = command_timeout_s
         self.bridge: Ros2Bridge | None = None
         self._sim: Simulation | None = None
+        self._ros: dict[str, str] = {}  # simulation agent name -> ROS namespace
         self._seen: dict[str, int] = {}
         self._active: dict[str, bool] = {}
         self.n_posted = 0
@@ -129,9 +131,17 @@ class Ros2BridgeHook(BaseHook):
             raise ConfigError(
                 f"ROS 2 hook names unknown agent(s) {unknown}; agents: {', '.join(sim.agents)}"
             )
+        from uhrisim.record.hook import ros_name
+
+        self._ros = {name: ros_name(name) for name in names}  # same names as recordings
+        if len(set(self._ros.values())) != len(names):
+            raise ConfigError(f"ROS 2 hook: agent names collide as ROS names: {self._ros}")
+        for name, ros in self._ros.items():
+            if ros != name:
+                log.info("ROS 2 hook: agent %r is published as /%s", name, ros)
         specs = [
             AgentBridgeSpec(
-                name,
+                self._ros[name],
                 publish_sonar=bool(getattr(sim.agents[name], "sonars", ())),
                 accept=self._accept,
                 sonar_rate_hz=self._sonar_rate,
@@ -157,21 +167,21 @@ class Ros2BridgeHook(BaseHook):
             return
         t = float(frame.t)
         bridge.publish_clock(t)
-        for spec in bridge.agents:
-            name = spec.name
+        for spec, name in zip(bridge.agents, self._ros, strict=True):
+            ros = spec.name
             snap = frame.agents.get(name)
             if snap is not None:
                 nav = snap.nav
-                bridge.publish_nav(name, t, nav.position_ned, nav.yaw, nav.velocity_body,
+                bridge.publish_nav(ros, t, nav.position_ned, nav.yaw, nav.velocity_body,
                                    nav.yaw_rate)
             ping = frame.pings.get(name)
             if ping is not None and spec.publish_sonar:
-                self._publish_ping(bridge, name, ping)
+                self._publish_ping(bridge, ros, ping)
             h = frame.helm.get(name)
             if h is not None:
-                bridge.publish_helm(name, t, h.heading_deg, h.speed, h.depth, h.mode)
+                bridge.publish_helm(ros, t, h.heading_deg, h.speed, h.depth, h.mode)
             if spec.accept:
-                self._take_commands(sim, name, bridge.commands(name, t), snap)
+                self._take_commands(sim, name, bridge.commands(ros, t), snap)
 
     @staticmethod
     def _publish_ping(bridge: Ros2Bridge, name: str, ping: Any) -> None:
