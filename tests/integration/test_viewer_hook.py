@@ -146,19 +146,21 @@ def test_real_simulation_pauses_steps_and_takes_buttons():
     from websockets.sync.client import connect
 
     from uhrisim.scenario.load import load_scenario
-    from uhrisim.viz.viewer import ViewerServer, scene_from_world
+    from uhrisim.viz.viewer import attach_viewer
 
     source = load_scenario(SCENARIO)
     sim = sim_mod.Simulation(source, sonar_enabled=False)
-    server = ViewerServer(scene_from_world(sim.scene), [], port=0, max_fps=20)
-    server.start()
-    hook = ViewerHook(server, speed=math.inf)
-    sim.hooks.append(hook)
+    server, hook = attach_viewer(sim, port=0, speed=math.inf)
+    assert sim.hooks[-1] is hook
     stop = threading.Event()
     th = threading.Thread(target=lambda: sim.run(600.0, should_stop=stop.is_set), daemon=True)
     try:
         with connect(server.url.replace("http://", "ws://") + "ws") as ws:
-            ws.recv(timeout=5)
+            hello = json.loads(ws.recv(timeout=5))
+            # the scenario's four buttons and its sea floor come with the page
+            assert [b["label"] for b in hello["buttons"]] == ["DEPLOY", "RETURN", "TRAIL",
+                                                              "LOITER"]
+            assert len(hello["scene"]["seafloor"]["faces"]) > 1000
             th.start()
 
             def send(**kw):
@@ -172,7 +174,13 @@ def test_real_simulation_pauses_steps_and_takes_buttons():
                         return m
                 raise AssertionError("no such frame")
 
-            frame_where(lambda m: m["t"] > 0.5)
+            first = frame_where(lambda m: m["t"] > 0.5)
+            # both contact-manager alerts of the scenario (60 m) as circles on the ROV
+            assert first["overlays"]["circles"] == [
+                {"agent": "videoray", "label": "TRAIL_INFO 60 m", "radius": 60.0},
+            ]
+            assert {a["name"]: a["kind"] for a in first["agents"]} == {
+                "diver": "diver", "videoray": "rov"}
             send(kind="pause")
             paused = frame_where(lambda m: m["paused"])
             tick = sim.tick

@@ -9,7 +9,7 @@ See docs/viewer.md for the frame and scene schemas.
 from __future__ import annotations
 
 from uhrisim.viz.viewer.adapt import FrameBuilder, scene_from_world
-from uhrisim.viz.viewer.hook import ViewerHook
+from uhrisim.viz.viewer.hook import ViewerHook, attach_viewer
 from uhrisim.viz.viewer.protocol import SPEED_CHOICES, Command, parse_command
 from uhrisim.viz.viewer.server import ViewerServer
 
@@ -19,6 +19,7 @@ __all__ = [
     "FrameBuilder",
     "ViewerHook",
     "ViewerServer",
+    "attach_viewer",
     "parse_command",
     "scene_from_world",
     "serve_replay",

@@ -184,3 +184,51 @@ class ViewerHook:
         if now - w0 >= self._rtf_window:
             self.rtf = (t - t0) / (now - w0)
             self._rtf_mark = (now, t)
+
+
+_MODEL_KINDS = {"videoray": "rov", "diver": "diver", "kinematic": "vehicle"}
+
+
+def attach_viewer(
+    sim: Any,
+    *,
+    host: str = "127.0.0.1",
+    port: int = 8765,
+    max_fps: float = 20.0,
+    speed: float = 1.0,
+    paused: bool = False,
+) -> tuple[Any, ViewerHook]:
+    """Serve ``sim`` (a ``Simulation``) in the viewer: start a server, attach a hook.
+
+    Reads from the simulation's scenario: the scene (:func:`scene_from_world`), the
+    buttons (``scenario.buttons``), the agents' kinds (``model``) and, as map circles,
+    every contact-manager alert range (``agents[].contacts.alerts[].alert_range``, m).
+    Returns ``(server, hook)``; ``server.url`` is the page; call ``server.close()`` after
+    the run (and ``hook.release()`` first from another thread to end a paused run).
+    """
+    from uhrisim.viz.viewer.adapt import scene_from_world
+    from uhrisim.viz.viewer.server import ViewerServer
+
+    scenario = sim.scenario
+    buttons = [{"label": b.label, "agent": b.agent, "var": b.var, "value": b.value}
+               for b in getattr(scenario, "buttons", ())]
+    circles: list[dict[str, Any]] = []
+    kinds: dict[str, str] = {}
+    for a in getattr(scenario, "agents", ()):
+        kinds[a.name] = _MODEL_KINDS.get(getattr(a, "model", ""), "vehicle")
+        seen: set[float] = set()
+        for alert in getattr(getattr(a, "contacts", None), "alerts", ()):
+            r = float(alert.alert_range)
+            if r not in seen:
+                seen.add(r)
+                circles.append({"agent": a.name, "label": f"{alert.var} {r:g} m", "radius": r})
+    server = ViewerServer(scene_from_world(sim.scene), buttons, host=host, port=port,
+                          max_fps=max_fps)
+    server.start()
+    hook = ViewerHook(server, FrameBuilder(circles=circles, kinds=kinds), speed=speed,
+                      paused=paused)
+    sim.hooks.append(hook)
+    if getattr(sim, "_started", False):
+        hook.on_start(sim)
+    log.info("viewer at %s", server.url)
+    return server, hook
