@@ -22,7 +22,8 @@ from pathlib import Path
 
 import pytest
 
-from uhrisim.bridges.moos.bridge import MoosAgentBridge, parse_node_report
+from uhrisim.autonomy.contacts import parse_node_report
+from uhrisim.bridges.moos.bridge import MoosAgentBridge
 from uhrisim.bridges.moos.client import MoosClient
 from uhrisim.bridges.moos.testdb import spawn
 from uhrisim.bridges.moos.wire import (
@@ -106,9 +107,9 @@ def test_pymoos2_process_and_bridge_exchange_nav_and_desired(db):
         assert got["NAV_HEADING"][0] == 10.0
         assert got["NAV_X"][1] == "uhrisim_videoray" and got["NAV_X"][2] == "vehicle"
         rep = parse_node_report(got["NODE_REPORT"][0])
-        assert (float(rep["X"]), float(rep["Y"]), float(rep["HDG"])) == (-3.0, 10.0, 10.0)
-        assert rep["NAME"] == "videoray" and rep["TYPE"] == "UUV"
-        assert float(rep["LAT"]) == pytest.approx(got["NAV_LAT"][0], abs=1e-8)
+        assert (rep.x, rep.y, rep.heading) == (-3.0, 10.0, 10.0)
+        assert rep.name == "videoray" and rep.type == "UUV"
+        assert rep.lat == pytest.approx(got["NAV_LAT"][0], abs=1e-8)
         # and the bridge obeyed what the other process posted
         assert wait_until(lambda: len(bridge.received()) == 3, 2.0)
         heading, speed, depth = bridge.desired()

@@ -12,11 +12,8 @@ import math
 
 import pytest
 
-from uhrisim.bridges.moos.bridge import (
-    MoosAgentBridge,
-    format_node_report,
-    parse_node_report,
-)
+from uhrisim.autonomy.contacts import parse_node_report
+from uhrisim.bridges.moos.bridge import MoosAgentBridge
 from uhrisim.bridges.moos.client import MoosClient
 from uhrisim.bridges.moos.geodesy import latlon_from_local, local_from_latlon, moos_grid_radius
 from uhrisim.core.errors import BridgeError
@@ -57,22 +54,6 @@ def test_geodesy_roundtrip_within_documented_error(lat0):
         # ... i.e. about x*y*tan(lat0)/R (+ x(y/R)^2/2), the error documented in geodesy.py
         bound = abs(x * y * math.tan(math.radians(lat0)) / r) * 1.01 + abs(x) * (y / r) ** 2
         assert abs(x2 - x) <= bound
-
-
-def test_node_report_format_and_parse():
-    s = format_node_report("videoray", 12.3, -4.1, 1.2, 87.0, 1.5, 42.1, -71.2, "UUV",
-                           "MODE@ACTIVE:TRAILING", 1374600000.123, 1.0)
-    assert s == ("NAME=videoray,X=12.30,Y=-4.10,SPD=1.20,HDG=87.00,DEP=1.50,LAT=42.10000000,"
-                 "LON=-71.20000000,TYPE=UUV,MODE=MODE@ACTIVE:TRAILING,TIME=1374600000.12,"
-                 "LENGTH=1")
-    d = parse_node_report(s)
-    assert d["NAME"] == "videoray" and float(d["X"]) == 12.3 and float(d["HDG"]) == 87.0
-    # keys case-insensitive, aliases folded (helm.md)
-    d2 = parse_node_report("name=diver,x=1,y=2,speed=0.5,heading=90,depth=3,long=-71")
-    assert d2 == {"NAME": "diver", "X": "1", "Y": "2", "SPD": "0.5", "HDG": "90",
-                  "DEP": "3", "LON": "-71"}
-    with pytest.raises(BridgeError, match="may not contain"):
-        format_node_report("a,b", 0, 0, 0, 0, 0, 0, 0, "UUV", "M", 0, 1)
 
 
 def test_moos_time_is_wallclock_times_warp():
@@ -118,8 +99,8 @@ def test_publish_nav_maps_ned_to_moos_frame_and_units():
     assert lat > 42.0 and lon < -71.0  # north and west of the origin
     assert t == 1000.0 + 2.5  # sim time source: MOOS time at creation + t_sim
     rep = parse_node_report(vals["NODE_REPORT"])
-    assert (rep["X"], rep["Y"], rep["HDG"], rep["DEP"], rep["SPD"]) == (
-        "-3.00", "10.00", "270.00", "2.00", "1.20")
-    assert rep["TIME"] == "1002.50" and rep["TYPE"] == "UUV" and rep["NAME"] == "videoray"
+    assert (rep.x, rep.y, rep.heading, rep.depth, rep.speed) == (-3.0, 10.0, 270.0, 2.0, 1.2)
+    assert rep.time == 1002.5 and rep.type == "UUV" and rep.name == "videoray"
+    assert (rep.lat, rep.lon) == pytest.approx((lat, lon), abs=1e-8)
     with pytest.raises(BridgeError, match="non-finite"):
         b.publish_nav(3.0, math.nan, 0.0, 0.0, 0.0, 0.0)

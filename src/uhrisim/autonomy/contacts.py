@@ -136,6 +136,10 @@ def _f(v: float, nd: int) -> str:
 
 def format_node_report(r: NodeReport) -> str:
     """NODE_REPORT string (X/Y/SPD/DEP to 1 mm or 1 mm/s, HDG 0.01 deg, TIME 1 ms)."""
+    for label, text in (("name", r.name), ("type", r.type), ("mode", r.mode)):
+        if "," in text or "=" in text:
+            raise ConfigError(f"NODE_REPORT {label} {text!r} may not contain ',' or '='",
+                              "NODE_REPORT")
     parts = [f"NAME={r.name}", f"X={_f(r.x, 3)}", f"Y={_f(r.y, 3)}", f"SPD={_f(r.speed, 3)}"]
     parts += [f"HDG={_f(r.heading, 2)}", f"DEP={_f(r.depth, 3)}"]
     if r.lat is not None:

@@ -4,7 +4,7 @@ No MOOS installation is needed. See ``docs/bridges-moos.md``. The simulation hoo
 in :mod:`uhrisim.bridges.moos.hook` (imported on demand: it pulls in the simulator).
 """
 
-from uhrisim.bridges.moos.bridge import MoosAgentBridge, format_node_report, parse_node_report
+from uhrisim.bridges.moos.bridge import MoosAgentBridge
 from uhrisim.bridges.moos.client import MoosClient
 from uhrisim.bridges.moos.geodesy import latlon_from_local, local_from_latlon
 from uhrisim.bridges.moos.wire import (
@@ -29,8 +29,6 @@ __all__ = [
     "decode_packet",
     "encode_message",
     "encode_packet",
-    "format_node_report",
     "latlon_from_local",
     "local_from_latlon",
-    "parse_node_report",
 ]

@@ -34,6 +34,7 @@ import logging
 import math
 from collections.abc import Iterable, Mapping
 
+from uhrisim.autonomy.contacts import NodeReport, format_node_report
 from uhrisim.bridges.moos.client import MoosClient
 from uhrisim.bridges.moos.geodesy import latlon_from_local
 from uhrisim.core.errors import BridgeError
@@ -42,8 +43,6 @@ __all__ = [
     "DEFAULT_LAT_ORIGIN",
     "DEFAULT_LONG_ORIGIN",
     "MoosAgentBridge",
-    "format_node_report",
-    "parse_node_report",
 ]
 
 log = logging.getLogger(__name__)
@@ -51,46 +50,6 @@ log = logging.getLogger(__name__)
 #: MIT Sailing Pavilion, the LatOrigin/LongOrigin of the MOOS-IvP example missions.
 DEFAULT_LAT_ORIGIN = 42.358456
 DEFAULT_LONG_ORIGIN = -71.087589
-
-_NODE_REPORT_ALIASES = {"SPEED": "SPD", "HEADING": "HDG", "DEPTH": "DEP", "LONG": "LON"}
-
-
-def format_node_report(
-    name: str,
-    x_east: float,
-    y_north: float,
-    speed_mps: float,
-    heading_deg: float,
-    depth: float,
-    lat_deg: float,
-    lon_deg: float,
-    vehicle_type: str,
-    mode: str,
-    time: float,
-    length: float,
-) -> str:
-    """A NODE_REPORT string (reference/helm.md; pNodeReporter's keys and precisions:
-    positions/speeds to 0.01, lat/lon to 1e-8 degrees, time to 0.01 s)."""
-    for label, text in (("name", name), ("type", vehicle_type), ("mode", mode)):
-        if "," in text or "=" in text:
-            raise BridgeError(f"NODE_REPORT {label} {text!r} may not contain ',' or '='")
-    return (f"NAME={name},X={x_east:.2f},Y={y_north:.2f},SPD={speed_mps:.2f},"
-            f"HDG={heading_deg:.2f},DEP={depth:.2f},LAT={lat_deg:.8f},LON={lon_deg:.8f},"
-            f"TYPE={vehicle_type},MODE={mode},TIME={time:.2f},LENGTH={length:g}")
-
-
-def parse_node_report(report: str) -> dict[str, str]:
-    """Split a NODE_REPORT into ``{KEY: value}`` with upper-case keys and aliases folded
-    (SPEED->SPD, HEADING->HDG, DEPTH->DEP, LONG->LON), as reference/helm.md states."""
-    out: dict[str, str] = {}
-    for part in report.split(","):
-        key, sep, val = part.partition("=")
-        if not sep:
-            continue
-        k = key.strip().upper()
-        out[_NODE_REPORT_ALIASES.get(k, k)] = val.strip()
-    return out
-
 
 class MoosAgentBridge:
     """Connects one agent to a MOOS community, in place of uSimMarine.
@@ -206,8 +165,10 @@ class MoosAgentBridge:
         x_e, y_n = float(y_east), float(x_north)  # MOOS local: x east, y north
         lat, lon = latlon_from_local(x_e, y_n, self.lat_origin, self.long_origin)
         t = self.moos_time(t_sim)
-        report = format_node_report(self.agent_name, x_e, y_n, speed_mps, hdg, depth, lat, lon,
-                                    vehicle_type, mode, t, length)
+        report = format_node_report(NodeReport(
+            name=self.agent_name, x=x_e, y=y_n, speed=float(speed_mps), heading=hdg,
+            depth=float(depth), lat=lat, lon=lon, type=vehicle_type, mode=mode, time=t,
+            length=length))
         return self.client.notify_many((
             ("NAV_X", x_e), ("NAV_Y", y_n), ("NAV_DEPTH", float(depth)),
             ("NAV_HEADING", hdg), ("NAV_SPEED", float(speed_mps)),
