@@ -192,6 +192,12 @@ function updateBar(f) {
   const rtf = f.rtf === null || f.rtf === undefined ? "–" : f.rtf.toFixed(2);
   $("rtf").textContent = `RTF ${rtf}`;
   $("btn-pause").textContent = f.paused ? "Resume" : "Pause";
+  // show the run's speed (null = infinite = "max") unless the user is choosing one
+  const sel = $("speed");
+  if (document.activeElement !== sel && f.speed_factor !== undefined) {
+    const want = f.speed_factor === null ? "max" : String(f.speed_factor);
+    if ([...sel.options].some((o) => o.value === want)) sel.value = want;
+  }
   $("btn-step").disabled = !f.paused;
   if (state.mode === "replay" && !sliderDragging) $("slider").value = f.t;
 }
@@ -607,6 +613,15 @@ function drawPlots() {
       vmin = Math.min(vmin, p[1]); vmax = Math.max(vmax, p[1]);
     }
     label(ctx, row.title, 4, i * rh + 11, "#8fb");
+    if (row.series !== null && !("range" in row.series)) {  // legend: agent names in colour
+      let lx = w - 6;
+      ctx.font = "10px system-ui, sans-serif";
+      for (const name of Object.keys(row.series).reverse()) {
+        lx -= ctx.measureText(name).width + 8;
+        ctx.fillStyle = state.colors[name] || "#ccc";
+        ctx.fillText(name, lx, i * rh + 11);
+      }
+    }
     ctx.strokeStyle = "#24435e";
     ctx.strokeRect(x0, y0, x1 - x0, y1 - y0);
     if (!isFinite(vmin)) return;
@@ -704,7 +719,7 @@ const view3d = {
     this.scene.add(g);
     const c = [(b[0][0] + b[1][0]) / 2, (b[0][1] + b[1][1]) / 2, (b[0][2] + b[1][2]) / 2];
     this.target = c;
-    this.orbit.dist = Math.min(size * 0.9, 30);
+    this.orbit.dist = Math.min(size * 0.9, 14);
     dirty.view3d = true;
   },
 
