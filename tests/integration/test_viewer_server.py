@@ -25,7 +25,7 @@ pytest.importorskip("websockets")
 
 from websockets.sync.client import connect
 
-from uhrisim.core.errors import ConfigError
+from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.viz.viewer import Command, ViewerServer, parse_command
 from uhrisim.viz.viewer.demo import DEMO_BUTTONS, demo_fan, demo_frame, demo_scene
 from uhrisim.viz.viewer.protocol import encode_json, encode_png_b64
@@ -123,6 +123,17 @@ def test_port_in_use_is_a_config_error(server):
     other = ViewerServer({}, [], port=server.port)
     with pytest.raises(ConfigError, match="cannot listen"):
         other.start()
+
+
+def test_start_is_idempotent_and_close_is_final():
+    s = ViewerServer({}, [], port=0)
+    url = s.start()
+    assert s.start() == url
+    s.close()
+    s.close()
+    assert s.url is None
+    with pytest.raises(UhrisimError, match="make a new one"):
+        s.start()
 
 
 # ---------------------------------------------------------------- HTTP

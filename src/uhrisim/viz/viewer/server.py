@@ -195,6 +195,8 @@ class ViewerServer:
         """Start the background thread and return the page URL (idempotent)."""
         if self._url is not None:
             return self._url
+        if self._started.is_set():
+            raise UhrisimError("viewer server was closed or failed to start; make a new one")
         self._thread = threading.Thread(target=self._run, name="uhrisim-viewer", daemon=True)
         self._thread.start()
         if not self._started.wait(timeout):
