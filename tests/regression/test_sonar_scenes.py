@@ -185,3 +185,15 @@ def test_diver_in_the_pier_scene() -> None:
     paper.scene.set_pose("diver", p, R, kick_phase=0.5 * math.pi)
     kicked = sonar.ping(rc, pose.position_ned, pose.rotation, 0.1, exclude=own)
     assert not np.array_equal(kicked.label_polar == diver, ping.label_polar == diver)
+
+
+def test_shadow_cells_carry_no_label() -> None:
+    # Behind the 1 m piling no ray reaches the floor: those cells hold no echo and no label.
+    paper = single_piling_scene(15.0, 0.0, width=1.0)
+    cfg = cfg_for(10.0)
+    _, ping = ping_scene(paper, "origin", cfg)
+    rows = bins_between(ping, 17.0, 28.0)
+    cols = beams_near(ping, 0.0, 0.8)
+    assert (ping.label_polar[np.ix_(rows, cols)] == -1).all()
+    beside = beams_near(ping, 10.0, 0.8)
+    assert (ping.label_polar[np.ix_(rows, beside)] == paper.scene.label_id("seafloor")).all()

@@ -610,7 +610,11 @@ class ImagingSonar:
         two = ~same
         w_hi = (dens[two] * (b[two] - hi[two])).astype(np.float32)
         np.add.at(rflat, hi[two] * n_beams + beam[two], w_hi)
-        np.maximum(raw, 0.0, out=raw)  # cumulative-sum round-off
+        # Round-off of the integral image (~1e-16 of a row sum, itself ≤ the ping's total
+        # echo) must not count as echo (it would label shadows): zero everything below
+        # 1e-12 of the total echo (−120 dB: far below any noise floor).
+        tiny = 1e-12 * float(e.sum()) + float(np.finfo(np.float32).tiny)
+        cv2.threshold(raw, tiny, 0.0, cv2.THRESH_TOZERO, dst=raw)
         if labels is not None:
             self._label_cells(raw, label_polar, labels, a, b, lo, hi, dens, e, beam)
         return raw, label_polar
