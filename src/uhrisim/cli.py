@@ -120,13 +120,16 @@ def bench(
 
 
 def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: int | None,
-                       sonar: bool, quiet: bool = False, **bridges: Any) -> Any:
+                       sonar: bool, quiet: bool = False, ros2: bool = False,
+                       moos: bool = False, rtf: float | None = None) -> Any:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from uhrisim.scenario.load import load_scenario
+    from uhrisim.sim.live import live_hooks
     from uhrisim.sim.runner import run_scenario
 
     source = load_scenario(scenario)
+    hooks = live_hooks(source.scenario, ros2=ros2, moos=moos, real_time_factor=rtf)
     total = source.scenario.duration if duration is None else duration
     columns = (TextColumn("[bold]{task.description}"), BarColumn(),
                TextColumn("{task.completed:>6.0f}/{task.total:.0f} s simulated"),
@@ -134,7 +137,7 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
     with Progress(*columns, console=err_console, disable=quiet, transient=False) as bar:
         task = bar.add_task(source.scenario.name, total=total)
         return run_scenario(source, out, duration=duration, seed=seed, sonar=sonar,
-                            progress=lambda t: bar.update(task, completed=t), **bridges)
+                            extra_hooks=hooks, progress=lambda t: bar.update(task, completed=t))
 
 
 def _print_metrics(result: Any) -> None:
@@ -175,10 +178,15 @@ def run(
     seed: Annotated[int | None, typer.Option(help="root random seed")] = None,
     no_sonar: Annotated[bool, typer.Option("--no-sonar", help="switch sonars off")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")] = False,
+    ros2: Annotated[bool, typer.Option("--ros2", help="bridge to ROS 2 (loopback only)")] = False,
+    moos: Annotated[bool, typer.Option("--moos", help="bridge to MOOSDB(s) on 127.0.0.1")] = False,
+    rtf: Annotated[float | None, typer.Option(
+        "--rtf", help="with a bridge: pace to wall clock x RTF (0 = run free)")] = None,
 ) -> None:
     """Run a scenario: recording.mcap, metrics.json and figures go to OUT."""
     out = out or Path("out") / scenario.stem
-    result = _run_with_progress(scenario, out, duration, seed, not no_sonar, quiet)
+    result = _run_with_progress(scenario, out, duration, seed, not no_sonar, quiet,
+                                ros2=ros2, moos=moos, rtf=rtf)
     _print_metrics(result)
 
 

@@ -10,8 +10,6 @@ safe stop once ``command_timeout_s`` of simulated time has passed.
 
 from __future__ import annotations
 
-import importlib.util
-import random
 import time
 from pathlib import Path
 
@@ -39,31 +37,6 @@ from uhrisim.core.frames import enu_from_ned  # noqa: E402
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
 
 
-SUPPORT = Path(__file__).resolve().parents[1] / "support"
-
-
-def _support(name: str):
-    """A module from tests/support (plain scripts there are not a package)."""
-    spec = importlib.util.spec_from_file_location(name, SUPPORT / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-ros2_shm = _support("ros2_shm")
-
-
-@pytest.fixture
-def ros_env(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
-    domain = random.SystemRandom().randint(1, 101)
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
-    monkeypatch.setenv("ROS_LOG_DIR", str(tmp_path / "roslog"))
-    monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
-    before = ros2_shm.shm_snapshot()
-    yield domain
-    ros2_shm.clean_zombie_shm(before)
 
 
 def test_hook_on_real_simulation(ros_env: int) -> None:

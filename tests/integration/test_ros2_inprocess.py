@@ -5,11 +5,9 @@ simulation time) and the error paths."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 import os
-import random
 import secrets
 import time
 from collections.abc import Callable
@@ -31,35 +29,6 @@ from visualization_msgs.msg import Marker, MarkerArray  # noqa: E402
 
 from uhrisim.bridges.ros2 import AgentBridgeSpec, Ros2Bridge  # noqa: E402
 from uhrisim.core.errors import BridgeError, ConfigError  # noqa: E402
-
-SUPPORT = Path(__file__).resolve().parents[1] / "support"
-
-
-def _support(name: str):
-    """A module from tests/support (plain scripts there are not a package)."""
-    spec = importlib.util.spec_from_file_location(name, SUPPORT / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-ros2_shm = _support("ros2_shm")
-
-
-@pytest.fixture(scope="module")
-def ros_env(tmp_path_factory: pytest.TempPathFactory):
-    """Loopback discovery, a private random domain id (1-101), logs in a temp folder."""
-    mp = pytest.MonkeyPatch()
-    domain = random.SystemRandom().randint(1, 101)
-    mp.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    mp.setenv("ROS_DOMAIN_ID", str(domain))
-    mp.setenv("ROS_LOG_DIR", str(tmp_path_factory.mktemp("roslog")))
-    mp.delenv("ROS_LOCALHOST_ONLY", raising=False)
-    before = ros2_shm.shm_snapshot()
-    yield domain
-    mp.undo()
-    ros2_shm.clean_zombie_shm(before)
 
 
 @pytest.fixture(scope="module")

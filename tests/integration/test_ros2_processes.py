@@ -15,17 +15,11 @@ a private random domain id. Expected numbers:
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 import os
-import queue
-import random
 import secrets
 import signal
-import subprocess
-import sys
-import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,9 +29,9 @@ import pytest
 
 pytest.importorskip("rclpy")
 
+from tests.support.children import Child
 from uhrisim.bridges.ros2 import AgentBridgeSpec, Pacer, Ros2Bridge
 
-SUPPORT = Path(__file__).resolve().parents[1] / "support"
 DT = 0.01  # stand-in physics tick (s)
 ODOM_HZ, SONAR_HZ = 10.0, 15.0
 POS_NED = np.array([3.0, 4.0, 2.0])
@@ -48,100 +42,6 @@ POLAR = (np.arange(512 * 256, dtype=np.int64) % 253).astype(np.uint8).reshape(51
 FAN = np.full((300, 400), 7, dtype=np.uint8)
 PTS_FRD = np.array([[5.0, 1.0, 0.5], [6.0, -2.0, 0.25]] * 100)
 INTENSITY = np.linspace(0.0, 1.0, 200)
-
-
-def _support(name: str):
-    """A module from tests/support (plain scripts there are not a package)."""
-    spec = importlib.util.spec_from_file_location(name, SUPPORT / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-ros2_shm = _support("ros2_shm")
-
-
-@pytest.fixture(scope="module")
-def ros_env(tmp_path_factory: pytest.TempPathFactory):
-    """Loopback discovery, a private random domain id (1-101), logs in a temp folder;
-    afterwards, remove the Fast DDS shared-memory files this module's killed children
-    left (new since the start, owner dead)."""
-    before = ros2_shm.shm_snapshot()
-    mp = pytest.MonkeyPatch()
-    domain = random.SystemRandom().randint(1, 101)
-    mp.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    mp.setenv("ROS_DOMAIN_ID", str(domain))
-    mp.setenv("ROS_LOG_DIR", str(tmp_path_factory.mktemp("roslog")))
-    mp.delenv("ROS_LOCALHOST_ONLY", raising=False)
-    yield domain
-    mp.undo()
-    ros2_shm.clean_zombie_shm(before)
-
-
-class Child:
-    """A helper script in its own process, its stdout read line by line on a thread."""
-
-    def __init__(self, script: str, args: list[str], log_dir: Path) -> None:
-        self.stderr_path = log_dir / f"{script}.{secrets.token_hex(3)}.stderr"
-        self._stderr = open(self.stderr_path, "w")  # noqa: SIM115 - closed in finish()
-        self.proc = subprocess.Popen(
-            [sys.executable, str(SUPPORT / script), *args],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            stderr=self._stderr,
-            text=True,
-            env=dict(os.environ),
-        )
-        self.lines: queue.Queue[str | None] = queue.Queue()
-        threading.Thread(target=self._read, daemon=True).start()
-
-    def _read(self) -> None:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            self.lines.put(line.rstrip("\n"))
-        self.lines.put(None)
-
-    def expect(self, prefix: str, timeout: float = 20.0) -> str:
-        end = time.monotonic() + timeout
-        while True:
-            try:
-                line = self.lines.get(timeout=max(0.01, end - time.monotonic()))
-            except queue.Empty:
-                line = None
-                if time.monotonic() < end:
-                    continue
-            if line is None:
-                self.finish()
-                raise AssertionError(
-                    f"no {prefix!r} line; stderr: {self.stderr_path.read_text()[-2000:]}"
-                )
-            if line.startswith(prefix):
-                return line[len(prefix):].strip()
-
-    def poll_line(self, prefix: str) -> str | None:
-        """A line starting with ``prefix`` if one is waiting (non-blocking)."""
-        while True:
-            try:
-                line = self.lines.get_nowait()
-            except queue.Empty:
-                return None
-            if line is not None and line.startswith(prefix):
-                return line[len(prefix):].strip()
-
-    def send(self, text: str) -> None:
-        assert self.proc.stdin is not None
-        self.proc.stdin.write(text + "\n")
-        self.proc.stdin.flush()
-
-    def finish(self, timeout: float = 10.0) -> int:
-        try:
-            rc = self.proc.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            rc = self.proc.wait()
-        self._stderr.close()
-        return rc
 
 
 @dataclass

@@ -328,6 +328,53 @@ class RecordingConfig(Strict):
     chunk_kib: Annotated[int, Field(ge=16, le=65536)] = 512
 
 
+DESIRED_VARS = ("DESIRED_HEADING", "DESIRED_SPEED", "DESIRED_DEPTH")
+
+
+class Ros2Link(Strict):
+    """One agent on ROS 2: what it publishes and which commands it accepts."""
+
+    agent: str
+    accept: tuple[Literal["desired", "thrusters"], ...] = ("desired", "thrusters")
+
+
+class Ros2Section(Strict):
+    """ROS 2 bridge (docs/bridges-ros2.md); ``uhrisim run --ros2`` switches it on."""
+
+    enabled: bool = False
+    links: tuple[Ros2Link, ...] = ()  # empty: every agent, accepting every command
+    odom_rate_hz: PositiveFloat = 10.0
+    domain_id: Annotated[int, Field(ge=0, le=232)] | None = None
+    command_timeout_s: PositiveFloat = 1.0
+
+
+class MoosLink(Strict):
+    """One agent in a MOOS community (docs/bridges-moos.md)."""
+
+    agent: str
+    host: str = "127.0.0.1"
+    port: Annotated[int, Field(ge=1, le=65535)] = 9000
+    community: str | None = None
+    nav_rate_hz: PositiveFloat = 10.0
+    subscribe: tuple[str, ...] = DESIRED_VARS
+    extra_vars: tuple[str, ...] = ()
+
+
+class MoosSection(Strict):
+    """MOOS-IvP bridge; ``uhrisim run --moos`` switches it on."""
+
+    enabled: bool = False
+    time_warp: PositiveFloat = 1.0  # MOOSTimeWarp of the community: the run is paced to it
+    links: tuple[MoosLink, ...] = ()  # empty: every agent, ports 9000, 9001, ...
+
+
+class BridgesConfig(Strict):
+    ros2: Ros2Section = Ros2Section()
+    moos: MoosSection = MoosSection()
+    # Live bridges pace the run to wall clock x this factor; null runs free (lockstep).
+    real_time_factor: PositiveFloat | None = 1.0
+
+
 class TrailMetricConfig(Strict):
     """Which pair the mission metrics measure, and the trail geometry they expect."""
 
@@ -365,6 +412,7 @@ class Scenario(Strict):
     recording: RecordingConfig = RecordingConfig()
     metrics: TrailMetricConfig | None = None
     buttons: tuple[ButtonConfig, ...] = ()
+    bridges: BridgesConfig = BridgesConfig()
 
     @field_validator("agents")
     @classmethod
@@ -383,6 +431,8 @@ class Scenario(Strict):
         refs = [(e.post.agent, "events.post.agent") for e in self.events if e.post]
         refs += [(e.agent, "events.agent") for e in self.events if e.agent]
         refs += [(b.agent, "buttons.agent") for b in self.buttons]
+        refs += [(link.agent, "bridges.ros2.links.agent") for link in self.bridges.ros2.links]
+        refs += [(link.agent, "bridges.moos.links.agent") for link in self.bridges.moos.links]
         if self.metrics:
             refs += [(self.metrics.follower, "metrics.follower"),
                      (self.metrics.target, "metrics.target")]

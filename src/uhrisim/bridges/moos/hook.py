@@ -7,7 +7,7 @@ through :meth:`Simulation.post` - the typed input path every outside command use
 at the start of the next tick. Connection changes are recorded as ``bridge`` events.
 
 The hook does not pace the loop: to run in step with a live community, pace the
-simulation at MOOSTimeWarp x real time (e.g. ``uhrisim.bridges.ros2.pacing.Pacer``), and
+simulation at MOOSTimeWarp x real time (e.g. ``uhrisim.sim.pacing.Pacer``), and
 switch off the agent's built-in helm so that the MOOS helm's DESIRED_* are obeyed.
 """
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from .pacing import Pacer, PacerStats
+from uhrisim.sim.pacing import Pacer, PacerStats
 from .spec import (
     COMMAND_GROUPS,
     ENV_DEFAULTS,

@@ -19,7 +19,7 @@ outside command uses:
   ``bridge`` event; another event marks commands becoming active again.
 
 The hook does not pace the loop: to run in step with live ROS nodes, pace the simulation
-at real time (``uhrisim.bridges.ros2.pacing.Pacer``) or let nodes use ``/clock``
+at real time (``uhrisim.sim.pacing.Pacer``) or let nodes use ``/clock``
 (``use_sim_time:=true``).
 """
 

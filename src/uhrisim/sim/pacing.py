@@ -130,3 +130,19 @@ class Pacer:
     def stats(self) -> PacerStats:
         """A snapshot of the pacing statistics."""
         return PacerStats(self._lag, self._slept, self._slips, self._waits)
+
+
+class PacingHook:
+    """Paces a simulation to ``real_time_factor`` x wall time (for live bridges)."""
+
+    def __init__(self, real_time_factor: float | None) -> None:
+        self.pacer = Pacer(real_time_factor)
+
+    def on_start(self, sim) -> None:
+        self.pacer.reset(sim.t)
+
+    def on_tick(self, frame) -> None:
+        self.pacer.wait(frame.t)
+
+    def on_end(self, sim, error) -> None:
+        del sim, error

@@ -1,0 +1,75 @@
+"""Hooks that connect a run to the outside world: ROS 2, MOOS-IvP, wall-clock pacing.
+
+Built from the scenario's ``bridges`` section; the command line can switch a bridge on
+(``--ros2``, ``--moos``) without editing the file. An agent that an outside planner
+drives should have ``driver: external`` (or ``none``), or its own helm will keep
+overwriting the DESIRED_* the bridge delivers.
+"""
+
+from __future__ import annotations
+
+import logging
+
+from uhrisim.scenario.schema import Scenario
+from uhrisim.sim.hooks import Hook
+from uhrisim.sim.pacing import PacingHook
+
+log = logging.getLogger(__name__)
+
+
+def ros2_hook(scenario: Scenario) -> Hook:
+    from uhrisim.bridges.ros2 import Ros2BridgeHook
+
+    section = scenario.bridges.ros2
+    links = section.links
+    agents = [link.agent for link in links] if links else None
+    accept = sorted({group for link in links for group in link.accept}) if links \
+        else ("desired", "thrusters")
+    return Ros2BridgeHook(agents, accept=accept, odom_rate_hz=section.odom_rate_hz,
+                          domain_id=section.domain_id,
+                          command_timeout_s=section.command_timeout_s)
+
+
+def moos_hook(scenario: Scenario) -> Hook:
+    from uhrisim.bridges.moos.hook import MoosAgentLink, MoosBridgeHook
+
+    section = scenario.bridges.moos
+    if section.links:
+        links = [MoosAgentLink(agent=link.agent, port=link.port, host=link.host,
+                               community=link.community, nav_rate_hz=link.nav_rate_hz,
+                               subscribe=link.subscribe, extra_vars=link.extra_vars)
+                 for link in section.links]
+    else:
+        links = [MoosAgentLink(agent=agent.name, port=9000 + index)
+                 for index, agent in enumerate(scenario.agents)]
+    for link in links:
+        agent = next(a for a in scenario.agents if a.name == link.agent)
+        if agent.driver == "helm" and set(link.subscribe) & {"DESIRED_HEADING", "DESIRED_SPEED"}:
+            log.warning("agent %r has its own helm and also takes DESIRED_* from MOOS; its "
+                        "helm will overwrite them (set driver: external)", agent.name)
+    return MoosBridgeHook(links, lat_origin=scenario.lat_origin,
+                          long_origin=scenario.long_origin, time_warp=section.time_warp)
+
+
+def live_hooks(scenario: Scenario, *, ros2: bool = False, moos: bool = False,
+               real_time_factor: float | None = None, paced_elsewhere: bool = False
+               ) -> list[Hook]:
+    """The bridge hooks the scenario (or the command line) asks for, plus pacing.
+
+    ``real_time_factor`` overrides the scenario's; with MOOS on, the default pace is its
+    MOOSTimeWarp. ``paced_elsewhere``: the viewer paces the run itself.
+    """
+    bridges = scenario.bridges
+    hooks: list[Hook] = []
+    use_ros2 = ros2 or bridges.ros2.enabled
+    use_moos = moos or bridges.moos.enabled
+    if use_ros2:
+        hooks.append(ros2_hook(scenario))
+    if use_moos:
+        hooks.append(moos_hook(scenario))
+    if (use_ros2 or use_moos) and not paced_elsewhere:
+        factor = real_time_factor if real_time_factor is not None else (
+            bridges.moos.time_warp if use_moos else bridges.real_time_factor)
+        if factor is not None and factor > 0:
+            hooks.append(PacingHook(factor))
+    return hooks

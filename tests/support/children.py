@@ -1,0 +1,79 @@
+"""Helper scripts of tests/support run as child processes, their output read line by line."""
+
+from __future__ import annotations
+
+import os
+import queue
+import secrets
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+SUPPORT = Path(__file__).resolve().parent
+
+
+class Child:
+    """A helper script in its own process, its stdout read line by line on a thread."""
+
+    def __init__(self, script: str, args: list[str], log_dir: Path) -> None:
+        self.stderr_path = log_dir / f"{script}.{secrets.token_hex(3)}.stderr"
+        self._stderr = open(self.stderr_path, "w")  # noqa: SIM115 - closed in finish()
+        self.proc = subprocess.Popen(
+            [sys.executable, str(SUPPORT / script), *args],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=self._stderr,
+            text=True,
+            env=dict(os.environ),
+        )
+        self.lines: queue.Queue[str | None] = queue.Queue()
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            self.lines.put(line.rstrip("\n"))
+        self.lines.put(None)
+
+    def expect(self, prefix: str, timeout: float = 20.0) -> str:
+        end = time.monotonic() + timeout
+        while True:
+            try:
+                line = self.lines.get(timeout=max(0.01, end - time.monotonic()))
+            except queue.Empty:
+                line = None
+                if time.monotonic() < end:
+                    continue
+            if line is None:
+                self.finish()
+                raise AssertionError(
+                    f"no {prefix!r} line; stderr: {self.stderr_path.read_text()[-2000:]}"
+                )
+            if line.startswith(prefix):
+                return line[len(prefix):].strip()
+
+    def poll_line(self, prefix: str) -> str | None:
+        """A line starting with ``prefix`` if one is waiting (non-blocking)."""
+        while True:
+            try:
+                line = self.lines.get_nowait()
+            except queue.Empty:
+                return None
+            if line is not None and line.startswith(prefix):
+                return line[len(prefix):].strip()
+
+    def send(self, text: str) -> None:
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(text + "\n")
+        self.proc.stdin.flush()
+
+    def finish(self, timeout: float = 10.0) -> int:
+        try:
+            rc = self.proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            rc = self.proc.wait()
+        self._stderr.close()
+        return rc
