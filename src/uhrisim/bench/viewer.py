@@ -16,7 +16,9 @@ PNG-encodes at most ``max_sonar_fps`` = 10 of them per second):
   connected throughout; frames + sonar published every tick in the "with" blocks), so
   that load from other processes hits both alike: overhead = 1 − median rate_with /
   median rate_without; and the same loop paced at 1 kHz with the viewer, reporting the
-  tick rate it achieves. ``no_server`` is the flat-out rate with no viewer at all.
+  tick rate it achieves. ``no_server`` is the flat-out rate with no viewer at all;
+* (full mode, source checkout) the real simulation, scenarios/track_and_trail.yaml run
+  flat out (sonar on) without and with ``attach_viewer`` and a connected client.
 
 Targets (issue 7): overhead ≤ 20 %; ≥ 10 frames/s delivered during a live run;
 publish() ≤ 5 µs (so a 1 kHz loop spends < 0.5 % of its time in it).
@@ -177,6 +179,50 @@ def _chromium_fps(url: str, seconds: float) -> float | None:
         return (n1 - n0) / (time.perf_counter() - t0)
 
 
+def _real_simulation(pairs: int = 3, ticks: int = 900) -> dict[str, Any] | None:
+    """Flat-out tick rate of scenarios/track_and_trail.yaml without / with attach_viewer
+    (a client connected), alternating runs; None outside a source checkout."""
+    from pathlib import Path
+
+    scenario = Path(__file__).resolve().parents[3] / "scenarios" / "track_and_trail.yaml"
+    try:
+        from uhrisim.scenario.load import load_scenario
+        from uhrisim.sim.simulation import Simulation
+        from uhrisim.viz.viewer.hook import attach_viewer
+    except ImportError:
+        return None
+    if not scenario.is_file():
+        return None
+    source = load_scenario(scenario)
+    rates: dict[bool, list[float]] = {False: [], True: []}
+    frames = 0
+    for i in range(2 * pairs):
+        view = i % 2 == 1
+        sim = Simulation(source)
+        server = client = None
+        if view:
+            server, _ = attach_viewer(sim, port=0, speed=float("inf"))
+            client = _Client(server.url)
+        sim.step()
+        t0 = time.perf_counter()
+        for _ in range(ticks):
+            sim.step()
+        rates[view].append(ticks / (time.perf_counter() - t0))
+        if server is not None and client is not None:
+            server.close()
+            client.finish()
+            frames += len(client.frames)
+        sim.close()
+    without, with_ = float(np.median(rates[False])), float(np.median(rates[True]))
+    return {
+        "scenario": "track_and_trail.yaml",
+        "ticks_per_run": ticks,
+        "tick_rate_hz": {"without_viewer": without, "with_viewer": with_},
+        "overhead_fraction": 1.0 - with_ / without,
+        "frames_received_per_run": frames / pairs,
+    }
+
+
 def run(quick: bool = False) -> dict[str, Any]:
     """Measure; returns a JSON-serialisable dict (see module docstring)."""
     rng = np.random.default_rng(0)
@@ -244,6 +290,7 @@ def run(quick: bool = False) -> dict[str, Any]:
     fps_paced = client.rate("frames", p0, p1)
     sonar_paced = client.rate("sonars", p0, p1)
 
+    real = None if quick else _real_simulation()
     overhead = 1.0 - with_viewer / base
     fps_delivered = fps_chromium if fps_chromium is not None else fps_paced
     return {
@@ -268,6 +315,7 @@ def run(quick: bool = False) -> dict[str, Any]:
             "chromium_page": fps_chromium,
         },
         "sonar_per_s_paced_1khz": sonar_paced,
+        "real_simulation": real,
         "paced_1khz_loop_achieved_hz": paced_rate,
         "targets": {
             "overhead_max": OVERHEAD_TARGET,

@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from uhrisim.sim.pacing import Pacer, PacerStats
+
 from .spec import (
     COMMAND_GROUPS,
     ENV_DEFAULTS,
