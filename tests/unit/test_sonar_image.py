@@ -104,8 +104,9 @@ def test_fast_path_matches_reference() -> None:
     # Recreate the hits the ping used and run the slow reference on them.
     p_s, R_s = sonar.sonar_pose(ORIGIN, LEVEL)
     dirs = sonar.geometry.dirs_sonar @ R_s.T
-    hits = caster.cast(np.broadcast_to(p_s, dirs.shape), dirs, cfg.range_max_m)
-    idx = np.flatnonzero((hits.distance >= cfg.range_min_m) & (hits.distance < cfg.range_max_m))
+    hits = caster.cast(np.broadcast_to(p_s, dirs.shape), dirs, sonar.cast_window_m[1])
+    near, far = sonar.cast_window_m  # hits just outside the window spill echo into it
+    idx = np.flatnonzero((hits.distance >= near) & (hits.distance < far))
     cos_inc = np.abs(np.einsum("ij,ij->i", hits.normal[idx], dirs[idx]))
     ref = reference_polar(sonar, idx, hits.distance[idx], cos_inc, hits.reflectivity[idx])
     assert {FLOOR, PLATE} <= set(np.unique(ping.label_polar).tolist())
@@ -335,8 +336,9 @@ def test_labels_match_reference(caster) -> None:
     ping = sonar.ping(caster, ORIGIN, LEVEL, 0.0)
     p_s, R_s = sonar.sonar_pose(ORIGIN, LEVEL)
     dirs = sonar.geometry.dirs_sonar @ R_s.T
-    hits = caster.cast(np.broadcast_to(p_s, dirs.shape), dirs, cfg.range_max_m)
-    idx = np.flatnonzero((hits.distance >= cfg.range_min_m) & (hits.distance < cfg.range_max_m))
+    hits = caster.cast(np.broadcast_to(p_s, dirs.shape), dirs, sonar.cast_window_m[1])
+    near, far = sonar.cast_window_m  # hits just outside the window spill echo into it
+    idx = np.flatnonzero((hits.distance >= near) & (hits.distance < far))
     cos_inc = np.abs(np.einsum("ij,ij->i", hits.normal[idx], dirs[idx]))
     ref = reference_labels(
         sonar, idx, hits.distance[idx], cos_inc, hits.reflectivity[idx], hits.label[idx]

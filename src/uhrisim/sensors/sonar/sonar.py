@@ -368,6 +368,15 @@ class ImagingSonar:
         """(n_bins, n_beams)."""
         return self.config.n_bins, self.config.sonar_spec.n_beams
 
+    @property
+    def cast_window_m(self) -> tuple[float, float]:
+        """Slant ranges (m) of hits that can put echo into the window: the window widened
+        by the longest half footprint (0.5·MAX_FOOTPRINT_TAN·R·δφ) at each end, so the
+        image does not fray at its near and far edges."""
+        cfg = self.config
+        k = 0.5 * MAX_FOOTPRINT_TAN * self.geometry.dphi
+        return max(0.0, cfg.range_min_m * (1.0 - k)), cfg.range_max_m * (1.0 + k)
+
     def sonar_pose(
         self, position_ned: NDArray[np.float64], rotation_body_to_ned: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -393,7 +402,6 @@ class ImagingSonar:
         caster's scene, or, for any caster, when most rays hit at ~0 m.
         """
         g = self.geometry
-        cfg = self.config
         p_s, R_s = self.sonar_pose(position_ned, rotation_body_to_ned)
         dirs = g.dirs_sonar @ R_s.T
         origins = np.empty_like(dirs)
@@ -404,7 +412,8 @@ class ImagingSonar:
                 f"sonar at NED {np.round(p_s, 3).tolist()} is inside geometry ({inside})",
                 where="SonarConfig.mount_position_frd",
             )
-        hits = raycaster.cast(origins, dirs, cfg.range_max_m, exclude=exclude)
+        near_m, far_m = self.cast_window_m
+        hits = raycaster.cast(origins, dirs, far_m, exclude=exclude)
         distance = np.asarray(hits.distance, dtype=np.float64)
         cos_all = np.abs(np.einsum("ij,ij->i", np.asarray(hits.normal, np.float64), dirs))
         near = np.count_nonzero(distance < INSIDE_GEOMETRY_RANGE_M)
@@ -414,7 +423,7 @@ class ImagingSonar:
                 f"{near}/{distance.size} rays hit closer than {INSIDE_GEOMETRY_RANGE_M} m",
                 where="SonarConfig.mount_position_frd",
             )
-        valid = (distance >= cfg.range_min_m) & (distance < cfg.range_max_m)
+        valid = (distance >= near_m) & (distance < far_m)
         idx = np.flatnonzero(valid)
         r = distance[idx]
         cos_inc = cos_all[idx]
@@ -453,15 +462,18 @@ class ImagingSonar:
         cfg = self.config
         n_bins, n_beams = self.polar_shape
         n_cells = n_bins * n_beams
-        bins = ((r - cfg.range_min_m) / cfg.bin_m).astype(np.int64)
-        np.clip(bins, 0, n_bins - 1, out=bins)
-        cell = bins * n_beams + g.ray_beam[idx]
         e = self.ray_intensity(idx, r, cos_inc, mu)
-
         if cfg.mode == "physical":
             raw, label_polar = self._accumulate(idx, r, cos_inc, e, labels if cfg.labels else None)
             polar = self._physical_polar(raw)
-        else:
+        # Hits inside the window (the image may also use hits just outside it).
+        win = (r >= cfg.range_min_m) & (r < cfg.range_max_m)
+        if not win.all():
+            idx, r, e, labels = idx[win], r[win], e[win], labels[win]
+        bins = ((r - cfg.range_min_m) / cfg.bin_m).astype(np.int64)
+        np.clip(bins, 0, n_bins - 1, out=bins)
+        cell = bins * n_beams + g.ray_beam[idx]
+        if cfg.mode != "physical":
             # 2013 mode: occupancy of the cell each ray's hit falls in; its label.
             label_polar = np.full(n_cells, -1, dtype=np.int16)
             label_polar[cell] = labels  # no intensities: any hit of the cell will do
@@ -549,17 +561,24 @@ class ImagingSonar:
     def _footprint_bins(
         self, r: NDArray[np.float64], cos_inc: NDArray[np.float64], e: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], ...]:
-        """Footprints clipped to the window, in fractional bins: start ``a``, end ``b``,
-        first and last bin ``lo``, ``hi``, and echo per bin ``dens`` (a footprint inside
-        one bin puts all its echo there)."""
+        """Footprints clipped to the window, in fractional bins, for the rays whose footprint
+        overlaps the window (``keep``): start ``a``, end ``b``, first and last bin ``lo``,
+        ``hi``, echo per bin ``dens`` and ``one``, the echo of a footprint inside a single
+        bin (all of it, or the part inside the window)."""
         n_bins = self.config.n_bins
         a, length = self.footprint(r, cos_inc)
         length = np.maximum(length, 1e-9)
+        b = a + length
+        keep = (b > 0.0) & (a < n_bins)
+        if not keep.all():
+            a, b, length, e = a[keep], b[keep], length[keep], e[keep]
         dens = e / length
         top = n_bins * (1.0 - 1e-12)
-        b = np.clip(a + length, 0.0, top)
+        whole = (a >= 0.0) & (b <= top)
+        b = np.clip(b, 0.0, top)
         a = np.clip(a, 0.0, top)
-        return a, b, a.astype(np.int64), b.astype(np.int64), dens
+        one = np.where(whole, e, dens * (b - a))
+        return keep, a, b, a.astype(np.int64), b.astype(np.int64), dens, one
 
     def _accumulate(
         self,
@@ -590,7 +609,13 @@ class ImagingSonar:
         if idx.size == 0:
             raw.fill(0.0)
             return raw, label_polar
-        a, b, lo, hi, dens = self._footprint_bins(r, cos_inc, e)
+        keep, a, b, lo, hi, dens, one = self._footprint_bins(r, cos_inc, e)
+        if not keep.all():
+            idx, e = idx[keep], e[keep]
+            labels = labels[keep] if labels is not None else None
+            if idx.size == 0:
+                raw.fill(0.0)
+                return raw, label_polar
         same = lo == hi
         beam = g.ray_beam[idx]
         # Interior runs lo+1 … hi−1 (density each) as +/- steps in a difference image.
@@ -605,7 +630,7 @@ class ImagingSonar:
         np.subtract(integ[1:, 1:], integ[1:, :-1], out=raw, casting="unsafe")
         # End bins get their overlap; a footprint inside one bin puts all its echo there.
         rflat = raw.reshape(-1)
-        w_lo = np.where(same, e, dens * (lo + 1 - a)).astype(np.float32)
+        w_lo = np.where(same, one, dens * (lo + 1 - a)).astype(np.float32)
         np.add.at(rflat, lo * n_beams + beam, w_lo)
         two = ~same
         w_hi = (dens[two] * (b[two] - hi[two])).astype(np.float32)
@@ -616,7 +641,7 @@ class ImagingSonar:
         tiny = 1e-12 * float(e.sum()) + float(np.finfo(np.float32).tiny)
         cv2.threshold(raw, tiny, 0.0, cv2.THRESH_TOZERO, dst=raw)
         if labels is not None:
-            self._label_cells(raw, label_polar, labels, a, b, lo, hi, dens, e, beam)
+            self._label_cells(raw, label_polar, labels, a, b, lo, hi, dens, one, beam)
         return raw, label_polar
 
     def _label_cells(
