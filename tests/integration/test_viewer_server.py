@@ -110,6 +110,16 @@ def test_png_round_trip_is_lossless():
     np.testing.assert_array_equal(back, img)
 
 
+def test_large_fans_are_shrunk_for_display_keeping_aspect_and_mean():
+    img = demo_fan(3.0, size=(512, 400), rng=np.random.default_rng(1))
+    h, w = img.shape
+    back = cv2.imdecode(np.frombuffer(base64.b64decode(encode_png_b64(img, 400)), np.uint8),
+                        cv2.IMREAD_UNCHANGED)
+    assert back.shape == (400, round(w * 400 / h))
+    # area averaging keeps the mean echo level (to the rounding of 8-bit pixels)
+    assert abs(float(back.mean()) - float(img.mean())) < 0.5
+
+
 def test_refuses_non_loopback_and_bad_args():
     with pytest.raises(ConfigError, match="loopback"):
         ViewerServer({}, [], host="0.0.0.0")

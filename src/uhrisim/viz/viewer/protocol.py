@@ -183,11 +183,19 @@ def encode_json(obj: Any) -> str:
     return text
 
 
-def encode_png_b64(image: np.ndarray) -> str:
-    """Base64 PNG of an 8-bit image (H×W grey, H×W×3 RGB or H×W×4 RGBA)."""
+def encode_png_b64(image: np.ndarray, max_px: int | None = None) -> str:
+    """Base64 PNG of an 8-bit image (H×W grey, H×W×3 RGB or H×W×4 RGBA).
+
+    ``max_px``: if the image's larger side exceeds it, it is first shrunk (area
+    averaging, aspect kept) so that side is ``max_px`` pixels — a display copy.
+    """
     import cv2
 
     img = np.asarray(image)
+    if max_px is not None and max(img.shape[:2]) > max_px:
+        k = max_px / max(img.shape[:2])
+        size = (max(1, round(img.shape[1] * k)), max(1, round(img.shape[0] * k)))
+        img = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
     if img.dtype != np.uint8:
         if np.issubdtype(img.dtype, np.floating):
             img = np.clip(np.nan_to_num(img) * 255.0, 0, 255).astype(np.uint8)

@@ -112,6 +112,9 @@ class ViewerServer:
     max_sonar_fps:
         Upper bound on sonar fans PNG-encoded and sent per second, per agent (the
         newest ping wins; a real imaging sonar pings at 5–15 Hz).
+    sonar_max_px:
+        Fans larger than this (pixels, larger side) are shrunk for display before
+        encoding (the sonar panel is about 380 px wide); None sends them full size.
     history_period, history_len:
         Trail history kept by the server (one point per ``history_period`` seconds of
         simulation time, at most ``history_len`` per agent) so a page that connects late
@@ -127,6 +130,7 @@ class ViewerServer:
         max_fps: float = 20.0,
         *,
         max_sonar_fps: float = 10.0,
+        sonar_max_px: int | None = 400,
         history_period: float = 0.5,
         history_len: int = 4000,
     ) -> None:
@@ -140,6 +144,7 @@ class ViewerServer:
             raise ConfigError(f"max_sonar_fps must be > 0, got {max_sonar_fps!r}",
                               "viewer max_sonar_fps")
         self._sonar_period = 1.0 / float(max_sonar_fps)
+        self._sonar_max_px = sonar_max_px
         self._sonar_time: dict[str, float] = {}
         self.host = host
         self.port = port
@@ -461,7 +466,7 @@ class ViewerServer:
         try:
             b64 = sonar.get("fan_png_b64")
             if b64 is None:
-                b64 = encode_png_b64(sonar["fan"])
+                b64 = encode_png_b64(sonar["fan"], self._sonar_max_px)
             self.sonars_encoded += 1
             head = encode_json(
                 {
