@@ -20,8 +20,8 @@ import pytest
 
 pytest.importorskip("rclpy")
 
-from tests.support.children import Child  # noqa: E402
-from uhrisim.record.reader import read_odometry  # noqa: E402
+from tests.support.children import Child
+from uhrisim.record.reader import read_odometry
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "ros2_external_helm.yaml"
@@ -53,7 +53,7 @@ def test_external_nodes_see_the_rov_and_drive_it_to_a_goal(ros_env: int, tmp_pat
         listener.send("STOP")
         result = json.loads(listener.expect("RESULT", timeout=10.0))
         listener.finish()
-        stdout, stderr = sim.communicate(timeout=60.0)
+        _stdout, stderr = sim.communicate(timeout=60.0)
     finally:
         for child in (listener, doomed):
             if child.proc.poll() is None:
