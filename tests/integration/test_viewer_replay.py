@@ -164,3 +164,33 @@ def test_replay_page_shows_the_recorded_tracks(recording):
             assert bp.errors() == []
     finally:
         server.close()
+
+
+def test_truncated_recording_replays_up_to_its_last_complete_chunk(recording, tmp_path):
+    # a run killed half-way leaves no footer: replay what was written before the cut
+    cut = tmp_path / "cut.mcap"
+    data = recording.read_bytes()
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    d = load_replay(cut)
+    assert 0.0 < d.t_end < DURATION
+    tr = d.tracks["diver"]
+    exp = np.array([demo_state(t)["diver"][:3] for t in tr["t"]])
+    np.testing.assert_allclose(np.column_stack([tr["north"], tr["east"], tr["depth"]]), exp,
+                               atol=1e-9)
+
+
+def test_odometry_only_recording(tmp_path):
+    from uhrisim.record.mcap_recorder import McapRecorder
+
+    path = tmp_path / "kayak.mcap"
+    with McapRecorder(path) as rec:
+        for k in range(11):  # 1 m/s due east for 10 s
+            rec.write_odometry("kayak", float(k), (0.0, float(k), 0.0), math.pi / 2,
+                               (1.0, 0.0, 0.0), 0.0)
+    d = load_replay(path)
+    assert d.kinds == {"kayak": "vehicle"} and d.pings == {} and d.scene["objects"] == []
+    f = ReplayPlayer(d, _Sink()).frame_at(2.5)  # type: ignore[arg-type]
+    (a,) = f["agents"]
+    assert (a["north"], a["east"], a["heading_deg"], a["speed"]) == pytest.approx(
+        (0.0, 2.5, 90.0, 1.0))
+    assert f["sonar"] is None and f["plots"]["range_to_diver"] is None
