@@ -205,7 +205,6 @@ class _Geometry:
     beam_kernel: NDArray[np.float32]
     range_kernel: NDArray[np.float32]
     signal_gain: NDArray[np.float32]  # (n_bins, 1) intensity re SL → display units
-    noise_disp: NDArray[np.float32]  # (n_bins, 1) noise in display units
     map_x: NDArray[np.float32]
     map_y: NDArray[np.float32]
     fan_mask: NDArray[np.bool_]
@@ -215,6 +214,10 @@ class _Geometry:
     fan_scale: float
     fan_apex: tuple[float, float]
     speckle_lut: NDArray[np.float32]
+    noise_rel: float  # noise floor relative to the source level (linear)
+    row_offset: NDArray[np.float32]  # (n_bins, n_beams) 1 + k·ln(TVG·SL·gain/top)
+    log_speckle_lut: NDArray[np.float32]  # k·ln(speckle factor), 256 entries
+    k_ln: float  # display units per natural-log unit: 10/(ln 10 · dynamic range)
 
 
 def _speckle_lut(bits: int = 8) -> NDArray[np.float32]:
@@ -255,14 +258,14 @@ class ImagingSonar:
         self.mount_position = np.asarray(config.mount_position_frd, dtype=float)
         self.geometry = self._precompute()
         n_bins, n_beams = self.polar_shape
-        self._noise_positive = bool(np.all(self.geometry.noise_disp > 0.0))
+        # log() needs a positive argument; the noise floor guarantees it unless set absurdly low.
+        self._noise_positive = self.geometry.noise_rel > 1e-30
         # Per-instance scratch buffers, reused every ping (a ping is not re-entrant).
         self._scratch = {
             "raw": np.zeros((n_bins, n_beams), np.float32),
             "diff": np.zeros((n_bins + 1, n_beams), np.float64),
             "integ": np.zeros((n_bins + 1, n_beams + 1), np.float64),
             "img": np.zeros((n_bins, n_beams), np.float32),
-            "u8": np.zeros((n_bins, n_beams), np.uint8),
             "speckle": np.zeros((n_bins, n_beams), np.float32),
         }
 
@@ -312,7 +315,13 @@ class ImagingSonar:
             tvg_db = np.zeros_like(r)
         base = cfg.gain_db - cfg.display_top_db + tvg_db
         signal_gain = (10.0 ** ((base + cfg.source_level_db) / 10.0)).astype(np.float32)[:, None]
-        noise_disp = (10.0 ** ((base + cfg.noise_floor_db) / 10.0)).astype(np.float32)[:, None]
+        # The same mapping in the log domain (see _physical_polar): with I = echo re SL,
+        # polar = 1 + k·ln((I + NL/SL)·TVG·10^((SL + gain − top)/10)·speckle).
+        k_ln = 10.0 / math.log(10.0) / cfg.dynamic_range_db
+        noise_rel = 10.0 ** ((cfg.noise_floor_db - cfg.source_level_db) / 10.0)
+        row_off = 1.0 + k_ln * math.log(10.0) * (base + cfg.source_level_db) / 10.0
+        row_offset = np.repeat(row_off.astype(np.float32)[:, None], spec.n_beams, axis=1)
+        speckle_lut = _speckle_lut()
 
         # Scan conversion map (fan pixel → fractional (beam, bin) in the polar image).
         r_max = cfg.range_max_m
@@ -345,7 +354,6 @@ class ImagingSonar:
             beam_kernel=beam_kernel,
             range_kernel=rk,
             signal_gain=signal_gain,
-            noise_disp=noise_disp,
             map_x=map_x,
             map_y=map_y,
             fan_mask=inside,
@@ -354,7 +362,11 @@ class ImagingSonar:
             map_y_nearest=np.round(map_y),
             fan_scale=scale,
             fan_apex=apex,
-            speckle_lut=_speckle_lut(),
+            speckle_lut=speckle_lut,
+            noise_rel=noise_rel,
+            row_offset=row_offset,
+            log_speckle_lut=(k_ln * np.log(speckle_lut.astype(np.float64))).astype(np.float32),
+            k_ln=k_ln,
         )
 
     # -- properties ------------------------------------------------------------------------
@@ -698,27 +710,26 @@ class ImagingSonar:
         oflat[win] = best_lab[win]
 
     def _physical_polar(self, raw: NDArray[np.float32]) -> NDArray[np.float32]:
-        """Beam pattern + pulse blur, gain/TVG, noise, speckle, log compression → 0…1
-        (a new array)."""
+        """Beam pattern + pulse blur, noise, speckle, TVG and gain, log compression → 0…1
+        (a new array).
+
+        Computed in the log domain, which needs fewer passes over the image:
+        polar = 1 + k·ln(conv(raw) + NL/SL) + [1 + k·ln(TVG·SL·gain/top) − 1] + k·ln(S),
+        equal to compressing ``(conv(raw)·SL + NL)·TVG·gain·S`` (``reference_polar``)."""
         g = self.geometry
-        cfg = self.config
         img = self._scratch["img"]
         cv2.sepFilter2D(
             raw, cv2.CV_32F, g.beam_kernel, g.range_kernel, dst=img,
+            delta=g.noise_rel if self._noise_positive else 0.0,
             borderType=cv2.BORDER_CONSTANT,
         )  # fmt: skip
-        img *= g.signal_gain
-        img += g.noise_disp
-        if cfg.speckle:
-            u = self._scratch["u8"]
-            u.reshape(-1)[:] = np.frombuffer(self.rng.bytes(img.size), dtype=np.uint8)
-            img *= cv2.LUT(u, g.speckle_lut, dst=self._scratch["speckle"])
-        if not self._noise_positive:  # log(0) → −inf clips to 0 below; keep it finite
-            np.maximum(img, np.float32(1e-30), out=img)
+        if not self._noise_positive:
+            np.maximum(img, np.float32(1e-37), out=img)
         cv2.log(img, img)
-        k = np.float32(10.0 / math.log(10.0) / cfg.dynamic_range_db)
-        img *= k
-        img += np.float32(1.0)
+        cv2.scaleAdd(img, g.k_ln, g.row_offset, dst=img)
+        if self.config.speckle:
+            u = np.frombuffer(self.rng.bytes(img.size), dtype=np.uint8).reshape(img.shape)
+            cv2.add(img, cv2.LUT(u, g.log_speckle_lut, dst=self._scratch["speckle"]), dst=img)
         return np.clip(img, 0.0, 1.0)
 
     def _label_fan(
