@@ -47,7 +47,6 @@ class RunResult:
     out_dir: Path
     metrics: dict[str, Any] | None
     files: list[Path] = field(default_factory=list)
-    completed: bool = True
 
 
 def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
@@ -82,13 +81,16 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
     sim = Simulation(source, seed=seed, sonar_enabled=sonar, hooks=hooks)
     if configure is not None:
         configure(sim)
-    completed = False
+    error: BaseException | None = None
     try:
         sim.run(duration, progress=progress, should_stop=should_stop)
-        completed = True
+    except BaseException as exc:
+        error = exc
+        raise
     finally:
-        summary = _write_outputs(sim, out_dir, metrics, strip, files, completed)
-    return RunResult(out_dir, summary, files, completed)
+        sim.close(error)
+        summary = _write_outputs(sim, out_dir, metrics, strip, files, error is None)
+    return RunResult(out_dir, summary, files)
 
 
 def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,

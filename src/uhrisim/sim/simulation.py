@@ -141,6 +141,7 @@ class Simulation:
         self._shallowest_floor = float(np.min(floor.depth)) if floor is not None else np.inf
         self._scene_dirty = False
         self._started = False
+        self._closed = False
         self.wall_time = 0.0
 
     # -- time -----------------------------------------------------------------------------
@@ -228,10 +229,10 @@ class Simulation:
     def run(self, duration: float | None = None,
             progress: Callable[[float], None] | None = None,
             should_stop: Callable[[], bool] | None = None) -> None:
-        """Run ``duration`` simulated seconds (default: the scenario's); hooks always end."""
+        """Advance ``duration`` simulated seconds (default: the scenario's). Can be called
+        again to go on; :meth:`close` ends the hooks (closes recordings, bridges)."""
         duration = self.scenario.duration if duration is None else duration
         end_tick = self.tick + round(duration / self.dt)
-        error: BaseException | None = None
         wall_start = time.perf_counter()
         try:
             self.start()
@@ -241,13 +242,23 @@ class Simulation:
                     progress(self.t)
                 if should_stop is not None and should_stop():
                     break
-        except BaseException as exc:
-            error = exc
-            raise
         finally:
             self.wall_time += time.perf_counter() - wall_start
+
+    def close(self, error: BaseException | None = None) -> None:
+        """End every hook once (``error``: why the run stopped, if it failed)."""
+        if self._closed:
+            return
+        self._closed = True
+        if self._started:
             for hook in self.hooks:
                 hook.on_end(self, error)
+
+    def __enter__(self) -> Simulation:
+        return self
+
+    def __exit__(self, exc_type, exc, traceback) -> None:
+        self.close(exc)
 
     # -- tick stages ----------------------------------------------------------------------
     def _apply_inbox(self) -> None:
@@ -383,8 +394,6 @@ class Simulation:
     def snapshots(self) -> dict[str, AgentSnapshot]:
         return {name: self.snapshot(agent) for name, agent in self.agents.items()}
 
-    def close(self) -> None:
-        """Release resources (nothing to do yet; hooks are closed by ``run``)."""
 
 
 def build_agents_scene(source: ScenarioFile) -> Scene:
