@@ -247,6 +247,15 @@ def test_headings_are_drawn_clockwise_from_north_and_page_reconnects():
                 assert is_rov(-0.4, 0.3) and is_rov(-0.4, -0.3), f"stern wide at {heading_deg}"
                 assert not is_rov(0.4, 0.3), f"nose narrow at {heading_deg}"
                 assert not is_rov(0.4, -0.3), f"nose narrow at {heading_deg}"
+            # non-finite numbers arrive as null and are shown as "–", without page errors
+            odd = _heading_frame(50, 10.0)
+            odd["rtf"] = math.inf
+            odd["agents"][0]["depth"] = math.nan
+            server.publish(odd)
+            _wait_js(page, "window.uhri.frame.t === 50")
+            assert page.evaluate("window.uhri.frame.agents[0].depth") is None
+            page.wait_for_timeout(200)
+            assert page.locator("#rtf").inner_text() == "RTF –"
             assert bp.errors() == []
 
             # --- reconnect

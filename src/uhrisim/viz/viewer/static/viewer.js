@@ -3,6 +3,8 @@
 // The page keeps its state in window.uhri (read by the tests and handy in the console).
 
 const $ = (id) => document.getElementById(id);
+// number → fixed text; "–" for null/undefined/NaN (the server sends non-finite as null)
+const fmt = (v, digits) => (typeof v === "number" && isFinite(v) ? v.toFixed(digits) : "–");
 const DEG = Math.PI / 180;
 const PLOT_WINDOW = 60; // s of plot history shown
 const TRAIL_MAX = 4000; // points per agent kept for live trails
@@ -188,8 +190,8 @@ function pushPlots(f) {
 
 let sliderDragging = false;
 function updateBar(f) {
-  $("clock").textContent = `t = ${f.t.toFixed(1)} s`;
-  const rtf = f.rtf === null || f.rtf === undefined ? "–" : f.rtf.toFixed(2);
+  $("clock").textContent = `t = ${fmt(f.t, 1)} s`;
+  const rtf = fmt(f.rtf, 2);
   $("rtf").textContent = `RTF ${rtf}`;
   $("btn-pause").textContent = f.paused ? "Resume" : "Pause";
   // show the run's speed (null = infinite = "max") unless the user is choosing one
@@ -481,7 +483,7 @@ function drawMap() {
     const [x, y] = worldToScreen(a.north, a.east);
     const len = size(a);
     const mode = a.mode ? ` ${a.mode}` : "";
-    return { text: `${a.name}  d=${a.depth.toFixed(1)} m${mode}`, x: x + len * 0.6,
+    return { text: `${a.name}  d=${fmt(a.depth, 1)} m${mode}`, x: x + len * 0.6,
       y: y + len * 0.6, color: state.colors[a.name] || "#fff" };
   });
   ctx.font = "12px system-ui, 'DejaVu Sans', sans-serif";
@@ -586,7 +588,7 @@ function drawSonar() {
   ctx.imageSmoothingEnabled = true;
   ctx.drawImage(s.img, (w - dw) / 2, (h - dh) / 2, dw, dh);
   $("sonar-caption").textContent =
-    `${name} · t=${s.t.toFixed(1)} s · ${s.fov_deg.toFixed(0)}° · ${s.max_range.toFixed(0)} m`;
+    `${name} · t=${fmt(s.t, 1)} s · ${fmt(s.fov_deg, 0)}° · ${fmt(s.max_range, 0)} m`;
 }
 
 // ---------- plots
