@@ -209,8 +209,7 @@ class _Geometry:
     map_y: NDArray[np.float32]
     fan_mask: NDArray[np.bool_]
     fan_mask_u8: NDArray[np.uint8]
-    map_x_nearest: NDArray[np.float32]
-    map_y_nearest: NDArray[np.float32]
+    map_nearest: NDArray[np.int16]  # (H, W, 2) integer (beam, bin) per fan pixel
     fan_scale: float
     fan_apex: tuple[float, float]
     speckle_lut: NDArray[np.float32]
@@ -267,6 +266,11 @@ class ImagingSonar:
             "integ": np.zeros((n_bins + 1, n_beams + 1), np.float64),
             "img": np.zeros((n_bins, n_beams), np.float32),
             "speckle": np.zeros((n_bins, n_beams), np.float32),
+            "fg_energy": np.zeros(n_bins * n_beams, np.float64),
+            "fg_total": np.zeros(n_bins * n_beams, np.float64),
+            "fg_best": np.zeros(n_bins * n_beams, np.float64),
+            "fg_label": np.full(n_bins * n_beams, -1, np.int16),
+            "fg_mark": np.zeros(n_bins * n_beams, np.bool_),
         }
 
     # -- precomputation --------------------------------------------------------------------
@@ -358,8 +362,7 @@ class ImagingSonar:
             map_y=map_y,
             fan_mask=inside,
             fan_mask_u8=inside.astype(np.uint8) * np.uint8(255),
-            map_x_nearest=np.round(map_x),
-            map_y_nearest=np.round(map_y),
+            map_nearest=cv2.convertMaps(map_x, map_y, cv2.CV_16SC2, nninterpolation=True)[0],
             fan_scale=scale,
             fan_apex=apex,
             speckle_lut=speckle_lut,
@@ -678,12 +681,17 @@ class ImagingSonar:
         others = [int(v) - 1 for v in np.flatnonzero(present) if int(v) - 1 != background]
         if not others:
             return
-        n_cells = raw.size
+        # Sparse per-cell sums in persistent scratch buffers that are all zero (−1, False)
+        # between pings: add, read, reset only the touched cells, so the cost follows the
+        # foreground footprints, not the image size.
         oflat = out.reshape(-1)
         rflat = raw.reshape(-1)
-        fg_sum = np.zeros(n_cells) if len(others) > 1 else None
-        best = np.zeros(n_cells) if len(others) > 1 else None
-        best_lab = np.full(n_cells, -1, np.int16) if len(others) > 1 else None
+        acc = self._scratch["fg_energy"]
+        mark = self._scratch["fg_mark"]
+        best = self._scratch["fg_best"]
+        best_lab = self._scratch["fg_label"]
+        total = self._scratch["fg_total"]
+        touched = []
         for lab in others:
             sel = np.flatnonzero(labels == lab)
             n_c = hi[sel] - lo[sel] + 1
@@ -695,19 +703,25 @@ class ImagingSonar:
             single = np.repeat(n_c == 1, n_c)
             w[single] = e[ray_of[single]]
             cells = row * n_beams + beam[ray_of]
-            energy = np.bincount(cells, w, minlength=n_cells)
-            if fg_sum is None:
-                # One foreground label: it wins where it holds more than half the echo.
-                win = cells[2.0 * energy[cells] > rflat[cells]]
-                oflat[win] = lab
-                return
-            fg_sum += energy
-            win = energy > best
-            best[win] = energy[win]
-            best_lab[win] = lab
-        nz = np.flatnonzero(fg_sum)
-        win = nz[best[nz] > rflat[nz] - fg_sum[nz]]
+            np.add.at(acc, cells, w)
+            mark[cells] = True
+            r0 = int(lo[sel].min()) * n_beams
+            uniq = np.flatnonzero(mark[r0 : (int(hi[sel].max()) + 1) * n_beams]) + r0
+            mark[uniq] = False
+            energy = acc[uniq]  # this label's echo in each cell it touches
+            acc[uniq] = 0.0
+            total[uniq] += energy
+            better = energy > best[uniq]
+            best[uniq[better]] = energy[better]
+            best_lab[uniq[better]] = lab
+            touched.append(uniq)
+        cells = np.concatenate(touched) if len(touched) > 1 else touched[0]
+        # The strongest foreground label wins over the background's share (cell − all fg).
+        win = cells[best[cells] > rflat[cells] - total[cells]]
         oflat[win] = best_lab[win]
+        best[cells] = 0.0
+        best_lab[cells] = -1
+        total[cells] = 0.0
 
     def _physical_polar(self, raw: NDArray[np.float32]) -> NDArray[np.float32]:
         """Beam pattern + pulse blur, noise, speckle, TVG and gain, log compression → 0…1
@@ -744,8 +758,8 @@ class ImagingSonar:
         g = self.geometry
         out = cv2.remap(
             label_polar,
-            g.map_x_nearest,
-            g.map_y_nearest,
+            g.map_nearest,
+            None,
             cv2.INTER_NEAREST,
             borderMode=cv2.BORDER_CONSTANT,
             borderValue=-1,
