@@ -271,6 +271,9 @@ class AgentConfig(Strict):
     script: tuple[ScriptLeg, ...] = ()
     contacts: ContactsConfig = ContactsConfig()
     sensors: tuple[SonarSensor, ...] = ()
+    # The 3-D body in the scene (what sonars see); default: the model's own (a kinematic
+    # vehicle looks like the VideoRay).
+    body: Literal["videoray", "diver"] | None = None
     material: str | None = None
     vehicle_type: str | None = None
     length: PositiveFloat | None = None

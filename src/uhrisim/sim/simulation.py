@@ -92,6 +92,12 @@ class Agent:
     def name(self) -> str:
         return self.config.name
 
+    @property
+    def is_diver_body(self) -> bool:
+        """Does this agent look like a diver in the scene (kicking legs and fins)?"""
+        return (self.config.body or ("diver" if self.config.model == "diver" else "")) \
+            == "diver"
+
     def nav(self) -> NavState:
         return self.plant.nav(self.state, self.inputs)
 
@@ -298,7 +304,7 @@ class Simulation:
             elif agent.config.model == "kinematic":
                 new_state[4] = 0.0
         agent.state = new_state
-        if agent.config.model == "diver":
+        if agent.is_diver_body:
             speed = abs(agent.nav().speed)
             agent.kick_phase += diver_kick_phase_rate(speed) * self.dt
         self._scene_dirty = True
@@ -311,7 +317,7 @@ class Simulation:
         for agent in self.agents.values():
             nav = agent.nav()
             self.scene.set_pose(agent.name, nav.position_ned, rot_z(nav.yaw),
-                                agent.kick_phase if agent.config.model == "diver" else None)
+                                agent.kick_phase if agent.is_diver_body else None)
         self._scene_dirty = False
 
     def _clear_fraction(self, agent: Agent, start: NDArray, end: NDArray) -> float:
