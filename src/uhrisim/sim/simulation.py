@@ -203,6 +203,12 @@ class Simulation:
 
     def step(self) -> TickFrame:
         """Advance one physics step and return what happened (also given to the hooks)."""
+        frame = self._step(build_frame=True)
+        assert frame is not None
+        return frame
+
+    def _step(self, build_frame: bool) -> TickFrame | None:
+        """One tick; the frame (snapshots of every agent) is built only if someone looks."""
         self.start()
         self._apply_inbox()
         self._fire_events()
@@ -225,6 +231,9 @@ class Simulation:
             if self.tick % agent.control_period == 0:
                 self._control(agent)
         posts = tuple(p for a in self.agents.values() for p in a.community.take_log())
+        if not (build_frame or self.hooks):
+            self._pending_events.clear()
+            return None
         frame = TickFrame(self.tick, t, {n: self.snapshot(a) for n, a in self.agents.items()},
                           pings, helm, posts, tuple(self._pending_events))
         self._pending_events.clear()
@@ -243,7 +252,7 @@ class Simulation:
         try:
             self.start()
             while self.tick < end_tick:
-                self.step()
+                self._step(build_frame=False)
                 if progress is not None and self.tick % 100 == 0:
                     progress(self.t)
                 if should_stop is not None and should_stop():
