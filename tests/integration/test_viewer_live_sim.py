@@ -101,6 +101,7 @@ def test_page_shows_the_real_simulation():
             # freeze the run, then the page must show exactly the last simulated state
             page.click("#btn-pause")
             page.wait_for_function("window.uhri.frame.paused === true", timeout=20_000)
+            page.keyboard.press("f")  # fit the map to the agents and the loiter polygon
             page.wait_for_timeout(300)
             last = loop.last
             st = page.evaluate("""() => ({agents: window.uhri.agents, t: window.uhri.frame.t,
