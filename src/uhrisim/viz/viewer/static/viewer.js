@@ -586,7 +586,24 @@ function drawSonar() {
   const k = Math.min(w / s.img.width, h / s.img.height);
   const dw = s.img.width * k, dh = s.img.height * k;
   ctx.imageSmoothingEnabled = true;
-  ctx.drawImage(s.img, (w - dw) / 2, (h - dh) / 2, dw, dh);
+  const x0 = (w - dw) / 2, y0 = (h - dh) / 2;
+  ctx.drawImage(s.img, x0, y0, dw, dh);
+  // range arcs, assuming the fan's apex at the bottom centre and max range at the top
+  if (s.max_range > 0 && s.fov_deg > 0 && s.fov_deg < 180) {
+    const ax = x0 + dw / 2, ay = y0 + dh, half = (s.fov_deg * DEG) / 2;
+    const step = niceStep(s.max_range / 4);
+    ctx.strokeStyle = "rgba(120,220,255,0.35)";
+    ctx.lineWidth = 1;
+    for (let r = step; r <= s.max_range + 1e-9; r += step) {
+      const rp = (r / s.max_range) * dh;
+      ctx.beginPath();
+      ctx.arc(ax, ay, rp, -Math.PI / 2 - half, -Math.PI / 2 + half);
+      ctx.stroke();
+      ctx.font = "10px system-ui, sans-serif";
+      ctx.fillStyle = "rgba(160,230,255,0.8)";
+      ctx.fillText(`${r} m`, ax + rp * Math.sin(half) + 3, ay - rp * Math.cos(half));
+    }
+  }
   $("sonar-caption").textContent =
     `${name} · t=${fmt(s.t, 1)} s · ${fmt(s.fov_deg, 0)}° · ${fmt(s.max_range, 0)} m`;
 }
