@@ -27,7 +27,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from uhrisim.core.errors import UhrisimError
+from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.viz.viewer.adapt import FrameBuilder
 from uhrisim.viz.viewer.protocol import Command
 
@@ -71,7 +71,8 @@ class ViewerHook:
         sleep: Callable[[float], None] = time.sleep,
     ) -> None:
         if not speed > 0:
-            raise UhrisimError(f"viewer speed must be > 0, got {speed!r}")
+            raise ConfigError(f"speed must be > 0 (math.inf: flat out), got {speed!r}",
+                              "ViewerHook speed")
         self.server = server
         self.builder = builder if builder is not None else FrameBuilder()
         self.speed = float(speed)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import gzip
+import importlib.util
 import json
 import logging
 import math
@@ -202,6 +203,10 @@ class ViewerServer:
             return self._url
         if self._started.is_set():
             raise UhrisimError("viewer server was closed or failed to start; make a new one")
+        if importlib.util.find_spec("websockets") is None:
+            raise UhrisimError(
+                "the viewer needs the 'websockets' package: pip install 'uhrisim[viewer]'"
+            )
         self._thread = threading.Thread(target=self._run, name="uhrisim-viewer", daemon=True)
         self._thread.start()
         if not self._started.wait(timeout):
