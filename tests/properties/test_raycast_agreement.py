@@ -50,9 +50,36 @@ def _surface_points(mesh: trimesh.Trimesh, n: int, seed: int) -> np.ndarray:
     return t[:, 0] + a[:, None] * (t[:, 1] - t[:, 0]) + b[:, None] * (t[:, 2] - t[:, 0])
 
 
+AMBIGUITY_SHIFT = 1e-5  # m: a float32 Embree ray can be off by about this much
+
+
+def ambiguous_rays(reference, o, d, max_range: float, exclude) -> np.ndarray:
+    """Rays whose hit/miss the exact reference itself flips when the origin moves by
+    ``AMBIGUITY_SHIFT`` (grazing a silhouette edge): no float32 caster can be held to them."""
+    base = reference.cast(o, d, max_range, exclude).hit
+    flips = np.zeros(len(o), dtype=bool)
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            shifted = o.copy()
+            shifted[:, axis] += sign * AMBIGUITY_SHIFT
+            flips |= reference.cast(shifted, d, max_range, exclude).hit != base
+    return flips
+
+
 def assert_agree(scene: Scene, o, d, max_range: float, exclude=frozenset(), min_hits: int = 50):
     e = scene.raycaster("embree").cast(o, d, max_range, exclude)
-    r = scene.raycaster("reference").cast(o, d, max_range, exclude)
+    reference = scene.raycaster("reference")
+    r = reference.cast(o, d, max_range, exclude)
+    differ = np.flatnonzero(e.hit != r.hit)
+    if differ.size:  # allowed only on silhouette-grazing rays, and only a few of them
+        assert differ.size <= 2, f"{differ.size} rays disagree on hit/miss"
+        grazing = ambiguous_rays(reference, o[differ], d[differ], max_range, exclude)
+        assert grazing.all(), f"rays {differ[~grazing].tolist()} disagree and are not grazing"
+        keep = np.ones(len(o), dtype=bool)
+        keep[differ] = False
+        o, d = o[keep], d[keep]
+        e = scene.raycaster("embree").cast(o, d, max_range, exclude)
+        r = reference.cast(o, d, max_range, exclude)
     np.testing.assert_array_equal(e.hit, r.hit)
     assert int(e.hit.sum()) >= min_hits, "test rays should hit the target"
     h = e.hit
