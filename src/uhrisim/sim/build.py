@@ -77,6 +77,7 @@ def _sonar(sim: Simulation, cfg: AgentConfig, index: int, sensor: SonarSensor):
             rays_per_beam=sensor.rays_per_beam, mount_position_frd=sensor.mount.position,
             tilt_deg=sensor.mount.tilt_deg, yaw_deg=sensor.mount.yaw_deg,
             rate_hz=sensor.rate_hz, mode=sensor.mode, speckle=sensor.speckle,
+            labels=sensor.labels,
             fan_size_px=sensor.fan_width_px, water_temperature_c=water.temperature_c,
             salinity_psu=water.salinity_psu, ph=water.ph)
     except ConfigError as error:
