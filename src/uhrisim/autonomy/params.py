@@ -21,6 +21,7 @@ from uhrisim.core.errors import ConfigError
 __all__ = [
     "Flag",
     "moos_value",
+    "one_of",
     "parse_flag",
     "parse_updates",
     "setter",
@@ -75,6 +76,20 @@ def to_str(v: object, key: str, where: str) -> str:
     if len(s) >= 2 and s[0] == s[-1] and s[0] in "\"'":
         s = s[1:-1]
     return s
+
+
+def one_of(*choices: str) -> Callable[[object, str, str], str]:
+    """A converter accepting one of ``choices`` (lower-cased, quotes stripped), else a
+    ConfigError "<key> must be a, b or c, got <value>"."""
+    listed = " or ".join(filter(None, (", ".join(choices[:-1]), choices[-1])))
+
+    def conv(v: object, key: str, where: str) -> str:
+        s = to_str(v, key, where).lower()
+        if s not in choices:
+            raise ConfigError(f"{key} must be {listed}, got {v!r}", where)
+        return s
+
+    return conv
 
 
 def to_point(v: object, key: str, where: str) -> tuple[float, float]:

@@ -24,15 +24,7 @@ from uhrisim.autonomy.behaviors.contact_base import CONTACT_HANDLERS, ContactBeh
 from uhrisim.autonomy.cpa import cpa_distance
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import distance
-from uhrisim.autonomy.params import setter, to_float, to_str
-from uhrisim.core.errors import ConfigError
-
-
-def _grade(v: object, key: str, where: str) -> str:
-    s = to_str(v, key, where).lower()
-    if s not in ("linear", "quadratic", "quasi"):
-        raise ConfigError(f"{key} must be linear, quadratic or quasi, got {v!r}", where)
-    return s
+from uhrisim.autonomy.params import one_of, setter, to_float
 
 
 def relevance(range_m: float, outer: float, inner: float, grade: str) -> float:
@@ -88,7 +80,7 @@ class AvoidCollision(ContactBehavior):
                 "time_on_leg",
             )
         },
-        "pwt_grade": setter("pwt_grade", _grade),
+        "pwt_grade": setter("pwt_grade", one_of("linear", "quadratic", "quasi")),
     }
 
     def on_run(self, ctx: BehaviorContext) -> Objective | None:

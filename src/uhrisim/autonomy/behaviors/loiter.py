@@ -44,18 +44,10 @@ from uhrisim.autonomy.geometry import (
     point_in_polygon,
     signed_dist_to_polygon,
 )
-from uhrisim.autonomy.params import setter, to_bool, to_float, to_point, to_str
-from uhrisim.core.errors import ConfigError
+from uhrisim.autonomy.params import one_of, setter, to_bool, to_float, to_point, to_str
 from uhrisim.core.frames import wrap_180
 
 Point = tuple[float, float]
-
-
-def _clockwise(v: object, key: str, where: str) -> str:
-    s = to_str(v, key, where).lower()
-    if s not in ("true", "false", "best"):
-        raise ConfigError(f"{key} must be true, false or best, got {v!r}", where)
-    return s
 
 
 def _center(v: object, key: str, where: str) -> Point | str:
@@ -122,7 +114,7 @@ class Loiter(Behavior):
     HANDLERS: ClassVar[dict] = {
         "polygon": setter("polygon", _polygon),
         "speed": setter("speed", to_float),
-        "clockwise": setter("clockwise", _clockwise),
+        "clockwise": setter("clockwise", one_of("true", "false", "best")),
         "capture_radius": setter("capture_radius", to_float),
         "radius": setter("capture_radius", to_float),
         "slip_radius": setter("slip_radius", to_float),

@@ -33,16 +33,8 @@ from uhrisim.autonomy.coupler import couple
 from uhrisim.autonomy.cpa import cpa_distance
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import bearing_deg, distance
-from uhrisim.autonomy.params import setter, to_float, to_str
+from uhrisim.autonomy.params import one_of, setter, to_float
 from uhrisim.autonomy.zaic import zaic_peak_on_axis
-from uhrisim.core.errors import ConfigError
-
-
-def _angle_type(v: object, key: str, where: str) -> str:
-    s = to_str(v, key, where).lower()
-    if s not in ("relative", "absolute"):
-        raise ConfigError(f"{key} must be relative or absolute, got {v!r}", where)
-    return s
 
 
 @dataclass(frozen=True)
@@ -71,7 +63,7 @@ class Trail(ContactBehavior):
         },
         "pwt_outer_dist": setter("max_range", to_float),  # IvP's preferred name
         "time_on_leg": setter("time_on_leg", to_float),
-        "trail_angle_type": setter("trail_angle_type", _angle_type),
+        "trail_angle_type": setter("trail_angle_type", one_of("relative", "absolute")),
     }
 
     def trail_point(self, cx: float, cy: float, ch: float) -> tuple[float, float]:

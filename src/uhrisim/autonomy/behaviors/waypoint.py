@@ -35,6 +35,7 @@ from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import bearing_deg, distance
 from uhrisim.autonomy.params import (
     Flag,
+    one_of,
     parse_flag,
     setter,
     to_bool,
@@ -47,13 +48,6 @@ from uhrisim.autonomy.zaic import zaic_peak_on_axis
 from uhrisim.core.errors import ConfigError
 
 Point = tuple[float, float]
-
-
-def _order(v: object, key: str, where: str) -> str:
-    s = to_str(v, key, where).lower()
-    if s not in ("normal", "reverse"):
-        raise ConfigError(f"{key} must be normal or reverse, got {v!r}", where)
-    return s
 
 
 def _repeat(v: object, key: str, where: str) -> int:
@@ -109,7 +103,7 @@ class Waypoint(Behavior):
         "lead_damper": setter("lead_damper", to_float),
         "lead_to_start": setter("lead_to_start", to_bool),
         "repeat": setter("repeat", _repeat),
-        "order": setter("order", _order),
+        "order": setter("order", one_of("normal", "reverse")),
         "wptflag": _add_flag("wptflags"),
         "cycleflag": _add_flag("cycleflags"),
     }
