@@ -28,6 +28,7 @@ __all__ = [
     "to_bool",
     "to_float",
     "to_point",
+    "to_point_or_present",
     "to_points",
     "to_str",
 ]
@@ -99,6 +100,15 @@ def to_point(v: object, key: str, where: str) -> tuple[float, float]:
     if len(parts) != 2:
         raise ConfigError(f"{key} must be a point 'x,y', got {v!r}", where)
     return (to_float(parts[0], key, where), to_float(parts[1], key, where))
+
+
+def to_point_or_present(v: object, key: str, where: str) -> tuple[float, float] | str:
+    """ "x,y" (or a 2-sequence) -> (x east, y north); "present_position" (any case) is kept
+    as that string, for the behavior to resolve to the vehicle's position."""
+    s = to_str(v, key, where) if not isinstance(v, list | tuple) else v
+    if isinstance(s, str) and s.lower() == "present_position":
+        return "present_position"
+    return to_point(s, key, where)
 
 
 def to_points(v: object, key: str, where: str) -> tuple[tuple[float, float], ...]:

@@ -44,17 +44,17 @@ from uhrisim.autonomy.geometry import (
     point_in_polygon,
     signed_dist_to_polygon,
 )
-from uhrisim.autonomy.params import one_of, setter, to_bool, to_float, to_point, to_str
+from uhrisim.autonomy.params import (
+    one_of,
+    setter,
+    to_bool,
+    to_float,
+    to_point_or_present,
+    to_str,
+)
 from uhrisim.core.frames import wrap_180
 
 Point = tuple[float, float]
-
-
-def _center(v: object, key: str, where: str) -> Point | str:
-    s = to_str(v, key, where) if not isinstance(v, list | tuple) else v
-    if isinstance(s, str) and s.lower() == "present_position":
-        return "present_position"
-    return to_point(s, key, where)
 
 
 def _segments_cross(p1: Point, p2: Point, q1: Point, q2: Point) -> bool:
@@ -122,7 +122,7 @@ class Loiter(Behavior):
         "post_suffix": setter("post_suffix", to_str),
         "acquire_dist": setter("acquire_dist", to_float),
         "center_activate": setter("center_activate", to_bool),
-        "center_assign": setter("center_assign", _center),
+        "center_assign": setter("center_assign", to_point_or_present),
         "xcenter_assign": _xcenter,
         "ycenter_assign": _ycenter,
     }

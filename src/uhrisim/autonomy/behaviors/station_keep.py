@@ -21,11 +21,10 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext
-from uhrisim.autonomy.behaviors.loiter import _center
 from uhrisim.autonomy.behaviors.waypoint_engine import course_speed_objective
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import bearing_deg, distance
-from uhrisim.autonomy.params import setter, to_bool, to_float
+from uhrisim.autonomy.params import setter, to_bool, to_float, to_point_or_present
 
 Point = tuple[float, float]
 
@@ -46,7 +45,7 @@ class StationKeep(Behavior):
     KIND = "BHV_StationKeep"
     Params = StationKeepParams
     HANDLERS: ClassVar[dict] = {
-        "station_pt": setter("station_pt", _center),
+        "station_pt": setter("station_pt", to_point_or_present),
         "center_activate": setter("center_activate", to_bool),
         **{
             k: setter(k, to_float)
