@@ -62,8 +62,12 @@ def _posed(
     return mesh
 
 
-def _positive(value: float, where: str) -> float:
-    v = float(value)
+def positive_length(value: float, where: str) -> float:
+    """``value`` as a float, metres; ConfigError at ``where`` unless finite and > 0."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = float("nan")
     if not np.isfinite(v) or v <= 0.0:
         raise ConfigError(f"must be a positive finite length in metres, got {value!r}", where=where)
     return v
@@ -83,7 +87,7 @@ def box(
     if ext.shape != (3,):
         raise ConfigError(f"must be 3 edge lengths, got {size!r}", where="box.size")
     for i, e in enumerate(ext):
-        _positive(e, f"box.size[{i}]")
+        positive_length(e, f"box.size[{i}]")
     return _posed(trimesh.creation.box(extents=ext), position_ned, yaw, pitch, roll, rotation)
 
 
@@ -99,8 +103,8 @@ def cylinder(
     rotation: ArrayLike | None = None,
 ) -> trimesh.Trimesh:
     """Closed cylinder, axis along its own z, centred on the pose (a ``sections``-gon prism)."""
-    r = _positive(radius, "cylinder.radius")
-    h = _positive(height, "cylinder.height")
+    r = positive_length(radius, "cylinder.radius")
+    h = positive_length(height, "cylinder.height")
     if int(sections) < 3:
         raise ConfigError(f"must be >= 3, got {sections!r}", where="cylinder.sections")
     mesh = trimesh.creation.cylinder(radius=r, height=h, sections=int(sections))
@@ -133,7 +137,7 @@ def sphere(
     subdivisions: int = 3,
 ) -> trimesh.Trimesh:
     """Icosphere of circumradius ``radius`` (vertices on the sphere) centred on the position."""
-    r = _positive(radius, "sphere.radius")
+    r = positive_length(radius, "sphere.radius")
     mesh = trimesh.creation.icosphere(subdivisions=int(subdivisions), radius=r)
     return _posed(mesh, position_ned, 0.0, 0.0, 0.0, None)
 
@@ -151,8 +155,8 @@ def torus(
     rotation: ArrayLike | None = None,
 ) -> trimesh.Trimesh:
     """Torus around its own z axis (lying flat when unrotated: its hole points up/down)."""
-    big = _positive(major_radius, "torus.major_radius")
-    small = _positive(minor_radius, "torus.minor_radius")
+    big = positive_length(major_radius, "torus.major_radius")
+    small = positive_length(minor_radius, "torus.minor_radius")
     if small >= big:
         raise ConfigError(
             f"minor_radius ({small}) must be smaller than major_radius ({big})", where="torus"
@@ -181,8 +185,8 @@ def capsule(
 
     Total length is ``height + 2 * radius``.
     """
-    r = _positive(radius, "capsule.radius")
-    h = _positive(height, "capsule.height")
+    r = positive_length(radius, "capsule.radius")
+    h = positive_length(height, "capsule.height")
     mesh = trimesh.creation.capsule(height=h, radius=r, count=list(count))
     # trimesh's capsule spans z in [0, height + 2r] in some versions; centre it on the origin.
     lo, hi = mesh.bounds[:, 2]

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.core.errors import AssetError, ConfigError
 from uhrisim.core.rng import component_rng
+from uhrisim.world.primitives import positive_length
 
 Extent = float | tuple[float, float, float, float]
 
@@ -128,13 +129,6 @@ def _extent(extent: Extent) -> tuple[float, float, float, float]:
     return box
 
 
-def _positive(v: float, where: str) -> float:
-    f = float(v)
-    if not np.isfinite(f) or f <= 0.0:
-        raise ConfigError(f"must be positive, got {v!r}", where=where)
-    return f
-
-
 def flat(depth: float, extent: Extent = 100.0) -> SeaFloor:
     """Horizontal floor at ``depth`` metres (two triangles)."""
     n0, n1, e0, e1 = _extent(extent)
@@ -194,7 +188,8 @@ def from_height_grid(
     if not np.all(np.isfinite(grid)):
         raise AssetError(f"{p}: height grid contains NaN or inf")
     dn, de = (spacing, spacing) if np.ndim(spacing) == 0 else spacing  # type: ignore[misc]
-    dn, de = _positive(dn, "from_height_grid.spacing"), _positive(de, "from_height_grid.spacing")
+    dn = positive_length(dn, "from_height_grid.spacing")
+    de = positive_length(de, "from_height_grid.spacing")
     north = origin_ned[0] + dn * np.arange(grid.shape[0])
     east = origin_ned[1] + de * np.arange(grid.shape[1])
     return SeaFloor(north, east, grid)
@@ -216,11 +211,11 @@ def procedural(
     ``mean_depth``. Grid spacing is ``resolution`` metres.
     """
     n0, n1, e0, e1 = _extent(extent)
-    res = _positive(resolution, "procedural.resolution")
+    res = positive_length(resolution, "procedural.resolution")
     rough = float(roughness)
     if not np.isfinite(rough) or rough < 0.0:
         raise ConfigError(f"must be >= 0, got {roughness!r}", where="procedural.roughness")
-    corr = _positive(correlation_length, "procedural.correlation_length")
+    corr = positive_length(correlation_length, "procedural.correlation_length")
     ni = int(np.ceil((n1 - n0) / res)) + 1
     nj = int(np.ceil((e1 - e0) / res)) + 1
     north = np.linspace(n0, n1, ni)
