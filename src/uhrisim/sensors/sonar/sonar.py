@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
+from uhrisim.core.frames import rotation_zyx
 from uhrisim.sensors.sonar.acoustics import (
     beam_pattern_gaussian,
     horizontal_beam_kernel,
@@ -178,16 +179,9 @@ class SonarPing:
 
 def mount_rotation(tilt_deg: float, yaw_deg: float) -> NDArray[np.float64]:
     """Rotation sonar frame → vehicle body FRD: yaw (about z, > 0 starboard) after a tilt
-    (pitch −tilt about y, so tilt > 0 points the sonar axis down)."""
-    p = -math.radians(tilt_deg)
-    y = math.radians(yaw_deg)
-    ry = np.array(
-        [[math.cos(p), 0.0, math.sin(p)], [0.0, 1.0, 0.0], [-math.sin(p), 0.0, math.cos(p)]]
-    )
-    rz = np.array(
-        [[math.cos(y), -math.sin(y), 0.0], [math.sin(y), math.cos(y), 0.0], [0.0, 0.0, 1.0]]
-    )
-    return rz @ ry
+    (pitch −tilt about y, so tilt > 0 points the sonar axis down): ZYX Euler angles
+    (roll 0, pitch −tilt, yaw) as in :func:`uhrisim.core.frames.rotation_zyx`."""
+    return rotation_zyx(0.0, -math.radians(tilt_deg), math.radians(yaw_deg))
 
 
 @dataclass(frozen=True)
