@@ -121,7 +121,8 @@ def bench(
 
 def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: int | None,
                        sonar: bool, quiet: bool = False, ros2: bool = False,
-                       moos: bool = False, rtf: float | None = None) -> Any:
+                       moos: bool = False, rtf: float | None = None,
+                       view_port: int | None = None) -> Any:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from uhrisim.scenario.load import load_scenario
@@ -129,15 +130,30 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
     from uhrisim.sim.runner import run_scenario
 
     source = load_scenario(scenario)
-    hooks = live_hooks(source.scenario, ros2=ros2, moos=moos, real_time_factor=rtf)
+    hooks = live_hooks(source.scenario, ros2=ros2, moos=moos, real_time_factor=rtf,
+                       paced_elsewhere=view_port is not None)
+    servers: list[Any] = []
+
+    def attach(sim: Any) -> None:
+        from uhrisim.viz.viewer import attach_viewer
+
+        server, _ = attach_viewer(sim, port=view_port, speed=rtf or 1.0)
+        servers.append(server)
+        err_console.print(f"[bold]viewer:[/] {server.url}  (serving on 127.0.0.1 only)")
+
     total = source.scenario.duration if duration is None else duration
     columns = (TextColumn("[bold]{task.description}"), BarColumn(),
                TextColumn("{task.completed:>6.0f}/{task.total:.0f} s simulated"),
                TimeElapsedColumn())
     with Progress(*columns, console=err_console, disable=quiet, transient=False) as bar:
         task = bar.add_task(source.scenario.name, total=total)
-        return run_scenario(source, out, duration=duration, seed=seed, sonar=sonar,
-                            extra_hooks=hooks, progress=lambda t: bar.update(task, completed=t))
+        try:
+            return run_scenario(source, out, duration=duration, seed=seed, sonar=sonar,
+                                extra_hooks=hooks, configure=None if view_port is None else attach,
+                                progress=lambda t: bar.update(task, completed=t))
+        finally:
+            for server in servers:
+                server.close()
 
 
 def _print_metrics(result: Any) -> None:
@@ -181,12 +197,16 @@ def run(
     ros2: Annotated[bool, typer.Option("--ros2", help="bridge to ROS 2 (loopback only)")] = False,
     moos: Annotated[bool, typer.Option("--moos", help="bridge to MOOSDB(s) on 127.0.0.1")] = False,
     rtf: Annotated[float | None, typer.Option(
-        "--rtf", help="with a bridge: pace to wall clock x RTF (0 = run free)")] = None,
+        "--rtf", help="with a bridge or the viewer: pace to wall clock x RTF (0 = run free)"
+    )] = None,
+    view: Annotated[bool, typer.Option("--view", help="watch live in the browser")] = False,
+    port: Annotated[int, typer.Option(help="viewer port on 127.0.0.1 (0 = any)")] = 8765,
 ) -> None:
     """Run a scenario: recording.mcap, metrics.json and figures go to OUT."""
     out = out or Path("out") / scenario.stem
     result = _run_with_progress(scenario, out, duration, seed, not no_sonar, quiet,
-                                ros2=ros2, moos=moos, rtf=rtf)
+                                ros2=ros2, moos=moos, rtf=rtf,
+                                view_port=port if view else None)
     _print_metrics(result)
 
 
@@ -203,6 +223,31 @@ def validate(scenario: Annotated[Path, typer.Argument(help="scenario YAML file")
     console.print(f"{scenario}: OK — {len(s.agents)} agents "
                   f"({', '.join(a.name for a in s.agents)}), {s.duration:g} s at "
                   f"{s.physics_rate_hz:g} Hz physics")
+
+
+@app.command()
+@friendly_errors
+def view(
+    recording: Annotated[Path, typer.Argument(help="a recording.mcap written by uhrisim run")],
+    port: Annotated[int, typer.Option(help="port on 127.0.0.1 (0 = any)")] = 8765,
+) -> None:
+    """Replay a recorded run in the browser, with a time slider (Ctrl-C to stop)."""
+    import time
+
+    from uhrisim.viz.viewer import serve_replay
+
+    if not recording.is_file():
+        err_console.print(f"[bold red]error:[/] {recording}: no such recording")
+        raise typer.Exit(code=2)
+    server = serve_replay(recording, port=port)
+    console.print(f"[bold]replay of {recording}:[/] {server.url}  (Ctrl-C to stop)")
+    try:
+        while True:
+            time.sleep(0.5)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.close()
 
 
 DEMO_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"

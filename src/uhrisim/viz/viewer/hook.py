@@ -28,6 +28,7 @@ from collections.abc import Callable
 from typing import Any
 
 from uhrisim.core.errors import ConfigError, UhrisimError
+from uhrisim.sim.pacing import Pacer
 from uhrisim.viz.viewer.adapt import FrameBuilder
 from uhrisim.viz.viewer.protocol import Command
 
@@ -86,7 +87,7 @@ class ViewerHook:
         self._period = 1.0 / float(getattr(server, "max_fps", 20.0))
         self._sim: Any = None
         self._steps = 0
-        self._anchor: tuple[float, float] | None = None  # (wall, sim t) pacing origin
+        self._pacer = self._new_pacer()
         self._next_publish = -math.inf
         self._rtf_mark: tuple[float, float] | None = None
         self._ended = False
@@ -115,7 +116,7 @@ class ViewerHook:
             self._sleep(self._idle)
             self._apply(self.server.drain_commands())
             self._publish(frame)
-        self._anchor = None  # resume pacing from here, without catching up the pause
+        self._pacer = self._new_pacer()  # resume pacing from here, not catching up the pause
         self._rtf_mark = None
 
     def on_end(self, sim: Any, error: BaseException | None) -> None:
@@ -148,7 +149,7 @@ class ViewerHook:
             elif c.kind == "speed":
                 if isinstance(c.value, float) and c.value > 0:
                     self.speed = c.value
-                    self._anchor = None
+                    self._pacer = self._new_pacer()
             elif c.kind == "select":
                 self.selected = c.agent
             elif c.kind == "post":
@@ -161,21 +162,14 @@ class ViewerHook:
                 except UhrisimError as e:
                     log.warning("viewer button: %s", e)
 
+    def _new_pacer(self) -> Pacer:
+        """A pacer at the current speed (``math.inf`` runs free), anchored at its first tick."""
+        return Pacer(self.speed, max_lag_s=MAX_PACING_LAG_S, clock=self._clock,
+                     sleep=self._sleep)
+
     def _pace(self, t: float) -> None:
         """Sleep so that simulated time advances at ``speed`` × wall time."""
-        if math.isinf(self.speed):
-            self._anchor = None
-            return
-        now = self._clock()
-        if self._anchor is None:
-            self._anchor = (now, t)
-            return
-        wall0, t0 = self._anchor
-        lead = wall0 + (t - t0) / self.speed - now
-        if lead > 0:
-            self._sleep(lead)
-        elif lead < -MAX_PACING_LAG_S:
-            self._anchor = (now, t)  # too slow for this speed: don't race to catch up later
+        self._pacer.wait(t)
 
     def _measure_rtf(self, now: float, t: float) -> None:
         if self._rtf_mark is None:
