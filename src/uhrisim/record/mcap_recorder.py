@@ -61,13 +61,13 @@ from mcap.writer import Writer as McapWriter
 from mcap_ros2._dynamic import serialize_dynamic
 
 from uhrisim import __version__ as uhrisim_version
+from uhrisim.bridges.ros2.convert import odom_fields_from_ned, pose_enu_from_ned
 from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.core.frames import (
     enu_from_ned,
     enu_rotation_from_ned,
     flu_from_frd,
     quaternion_from_matrix,
-    rot_z,
 )
 from uhrisim.record import cdr
 from uhrisim.record.msgdefs import schema_text
@@ -345,10 +345,7 @@ class McapRecorder:
         r = float(yaw_rate)
         if not (math.isfinite(yaw) and math.isfinite(r)):
             raise ConfigError("yaw_rad and yaw_rate must be finite", where=where)
-        p_enu = enu_from_ned(p_ned)
-        q = quaternion_from_matrix(enu_rotation_from_ned(rot_z(yaw)))
-        v_flu = flu_from_frd(v_frd)
-        w_flu = flu_from_frd((0.0, 0.0, r))
+        f = odom_fields_from_ned(p_ned, yaw, v_frd, r)
         sec, nanosec = divmod(t_ns, 1_000_000_000)
         encoders = self._odom_encoders.get(agent)
         if encoders is None:
@@ -358,13 +355,12 @@ class McapRecorder:
                 cdr.TransformEncoder(self.world_frame, child),
             )
             self._odom_encoders[agent] = encoders
-        p = p_enu.tolist()
-        qq = q.tolist()
+        p, qq = f.position_enu, f.orientation_xyzw
         self._write(
             f"/{agent}/odom",
             "nav_msgs/msg/Odometry",
             t_ns,
-            encoders[0](sec, nanosec, p, qq, v_flu.tolist(), w_flu.tolist()),
+            encoders[0](sec, nanosec, p, qq, f.linear_flu, f.angular_flu),
         )
         self._write("/tf", "tf2_msgs/msg/TFMessage", t_ns, encoders[1](sec, nanosec, p, qq))
 
@@ -400,10 +396,10 @@ class McapRecorder:
             raise ConfigError(
                 "sonar_pose_ned must be (position (3,), rotation (3, 3))", where=where
             ) from None
-        p_enu = enu_from_ned(_vec(pos_ned, 3, "sonar position", where)).tolist()
-        q = quaternion_from_matrix(
-            enu_rotation_from_ned(_rotation(rot_ned, "sonar rotation", where))
-        ).tolist()
+        p_enu, q = pose_enu_from_ned(
+            _vec(pos_ned, 3, "sonar position", where),
+            _rotation(rot_ned, "sonar rotation", where),
+        )
         sec, nanosec = divmod(t_ns, 1_000_000_000)
         polar = None if polar_u8 is None else _mono8(polar_u8, "polar_u8", where)
         fan = None if fan_u8 is None else _mono8(fan_u8, "fan_u8", where)

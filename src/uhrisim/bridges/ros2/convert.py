@@ -70,7 +70,8 @@ def _vec3(value: ArrayLike, name: str) -> NDArray[np.float64]:
     v = np.asarray(value, dtype=float)
     if v.shape != (3,):
         raise ConfigError(f"expected shape (3,), got {v.shape}", where=name)
-    if not np.all(np.isfinite(v)):
+    x, y, z = v.tolist()  # three math.isfinite calls: cheaper than a ufunc on 3 values
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
         raise NumericalError(f"{name} is not finite: {v.tolist()}")
     return v
 
@@ -100,10 +101,10 @@ def odom_fields_from_ned(
     lin = flu_from_frd(v)
     ang = flu_from_frd(np.array([0.0, 0.0, r]))
     return OdomFields(
-        position_enu=(float(pos[0]), float(pos[1]), float(pos[2])),
-        orientation_xyzw=(float(quat[0]), float(quat[1]), float(quat[2]), float(quat[3])),
-        linear_flu=(float(lin[0]), float(lin[1]), float(lin[2])),
-        angular_flu=(float(ang[0]), float(ang[1]), float(ang[2])),
+        position_enu=tuple(pos.tolist()),
+        orientation_xyzw=tuple(quat.tolist()),
+        linear_flu=tuple(lin.tolist()),
+        angular_flu=tuple(ang.tolist()),
     )
 
 
