@@ -38,6 +38,7 @@ from uhrisim.autonomy.contacts import NodeReport, format_node_report
 from uhrisim.bridges.moos.client import MoosClient
 from uhrisim.bridges.moos.geodesy import latlon_from_local
 from uhrisim.core.errors import BridgeError
+from uhrisim.core.frames import moos_xy_from_ned, wrap_360
 
 __all__ = [
     "DEFAULT_LAT_ORIGIN",
@@ -161,8 +162,8 @@ class MoosAgentBridge:
         if not all(math.isfinite(v) for v in vals):
             raise BridgeError(f"MOOS publish_nav({self.agent_name}): non-finite value {vals}")
         self._check_community()
-        hdg = heading_deg % 360.0
-        x_e, y_n = float(y_east), float(x_north)  # MOOS local: x east, y north
+        hdg = float(wrap_360(heading_deg))
+        x_e, y_n = moos_xy_from_ned(float(x_north), float(y_east))  # MOOS: x east, y north
         lat, lon = latlon_from_local(x_e, y_n, self.lat_origin, self.long_origin)
         t = self.moos_time(t_sim)
         report = format_node_report(NodeReport(
