@@ -97,7 +97,6 @@ _COMPRESSION = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4,
 # A ROS 2 name token: a letter, then letters, digits, underscores.
 _NAME_TOKEN = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 _FRAME_ID = re.compile(r"^[A-Za-z][A-Za-z0-9_/]*$")
-_IDENTITY_Q = (0.0, 0.0, 0.0, 1.0)
 
 
 def _library_identifier() -> str:

@@ -24,14 +24,6 @@ from uhrisim.core.errors import ConfigError
 from uhrisim.world.materials import Material
 
 
-def _axis_angle_matrix(axis: NDArray[np.float64], angle: float) -> NDArray[np.float64]:
-    """Rodrigues rotation matrix about a unit axis (right-handed, radians)."""
-    x, y, z = axis
-    c, s = np.cos(angle), np.sin(angle)
-    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-    return np.eye(3) + s * k + (1.0 - c) * (k @ k)
-
-
 @dataclass(frozen=True)
 class Joint:
     """A revolute joint driven by the body's phase.
