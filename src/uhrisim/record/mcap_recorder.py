@@ -62,6 +62,7 @@ from mcap_ros2._dynamic import serialize_dynamic
 
 from uhrisim import __version__ as uhrisim_version
 from uhrisim.bridges.ros2.convert import odom_fields_from_ned, pose_enu_from_ned
+from uhrisim.bridges.ros2.spec import ROS_NAME_TOKEN
 from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.core.frames import (
     enu_from_ned,
@@ -94,8 +95,6 @@ _MARKER_REQUIRED = ("ns", "id", "type")
 
 _COMPRESSION = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4,
                 "none": CompressionType.NONE}
-# A ROS 2 name token: a letter, then letters, digits, underscores.
-_NAME_TOKEN = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 _FRAME_ID = re.compile(r"^[A-Za-z][A-Za-z0-9_/]*$")
 
 
@@ -160,7 +159,7 @@ def _rotation(value: Any, name: str, where: str) -> np.ndarray:
 
 
 def _check_name(value: str, what: str, where: str) -> str:
-    if not isinstance(value, str) or not _NAME_TOKEN.match(value):
+    if not isinstance(value, str) or not ROS_NAME_TOKEN.match(value):
         raise ConfigError(
             f"{what} {value!r} is not a ROS name (letter, then letters/digits/_)", where=where
         )

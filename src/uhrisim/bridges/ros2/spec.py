@@ -21,7 +21,8 @@ COMMAND_GROUPS: tuple[str, ...] = ("desired", "thrusters")
 #: VideoRay thruster command range (docs/conventions.md): dimensionless, saturated here.
 THRUSTER_LIMIT = 150.0
 
-_ROS_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+#: A ROS 2 name token (one namespace level): a letter, then letters, digits, underscores.
+ROS_NAME_TOKEN = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
 
 def _check_rate(value: float | None, where: str) -> None:
@@ -48,7 +49,7 @@ class AgentBridgeSpec:
 
     def __post_init__(self) -> None:
         where = f"AgentBridgeSpec({self.name!r})"
-        if not isinstance(self.name, str) or not _ROS_NAME.match(self.name):
+        if not isinstance(self.name, str) or not ROS_NAME_TOKEN.match(self.name):
             raise ConfigError(
                 "agent name must be a ROS name token (letter, then letters/digits/_)",
                 where=f"{where}.name",
