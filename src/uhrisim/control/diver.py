@@ -7,11 +7,11 @@ is the common part of u_l and u_r and the yaw rate their difference (inverse of 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from numpy.typing import NDArray
 
-from uhrisim.core.frames import wrap_pi, yaw_from_heading_deg
 from uhrisim.dynamics.diver import DiverParams, leg_inputs
 
 
@@ -34,7 +34,7 @@ class DiverController:
 
     def inputs(self, x: NDArray, desired_heading_deg: float, desired_speed: float,
                desired_depth: float) -> NDArray:
-        heading_error = float(wrap_pi(yaw_from_heading_deg(desired_heading_deg) - x[3]))
+        heading_error = math.remainder(math.radians(desired_heading_deg) - x[3], math.tau)
         yaw_rate = self.gains.heading * heading_error
         vertical = self.gains.depth * (desired_depth - x[2])
         return leg_inputs(desired_speed, yaw_rate, vertical, self.params)

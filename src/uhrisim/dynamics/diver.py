@@ -67,14 +67,13 @@ def body_rates_single(u: ArrayLike, params: DiverParams) -> tuple[float, float, 
     return speed, yaw_rate, vertical
 
 
-def leg_inputs(speed: ArrayLike, yaw_rate: ArrayLike, vertical_rate: ArrayLike,
+def leg_inputs(speed: float, yaw_rate: float, vertical_rate: float,
                params: DiverParams) -> NDArray:
-    """Inverse of :func:`body_rates` (before saturation): ``[u_l, u_r, u_z]``."""
+    """Inverse of :func:`body_rates` (before saturation): ``[u_l, u_r, u_z]`` for one diver."""
     r, L = params.wheel_radius, params.track
-    common = np.asarray(speed, dtype=float) / r
-    differential = 0.5 * L * np.asarray(yaw_rate, dtype=float) / r
-    return np.stack([common + differential, common - differential,
-                     np.asarray(vertical_rate, dtype=float)], axis=-1)
+    common = speed / r
+    differential = 0.5 * L * yaw_rate / r
+    return np.array([common + differential, common - differential, vertical_rate])
 
 
 def xdot(t: float, x: ArrayLike, u: ArrayLike, params: DiverParams) -> NDArray:

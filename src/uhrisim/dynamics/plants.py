@@ -16,12 +16,19 @@ from uhrisim.dynamics.integrators import FixedStepIntegrator
 
 @dataclass(frozen=True)
 class NavState:
-    """Navigation truth of one body: NED position (m), yaw (rad), FRD velocity (m/s), r (rad/s)."""
+    """Navigation truth of one body: NED position (m), yaw (rad), FRD velocity (m/s), r (rad/s).
+
+    The arrays are read-only copies, so a NavState can be shared safely.
+    """
 
     position_ned: NDArray
     yaw: float
     velocity_body: NDArray
     yaw_rate: float
+
+    def __post_init__(self) -> None:
+        self.position_ned.setflags(write=False)
+        self.velocity_body.setflags(write=False)
 
     @property
     def speed(self) -> float:

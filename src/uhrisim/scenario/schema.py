@@ -267,6 +267,9 @@ class AgentConfig(Strict):
     driver: Literal["helm", "script", "external", "none"] = "helm"
     videoray: VideoRayModelConfig = VideoRayModelConfig()
     controller: ControllerConfig = ControllerConfig()
+    # How often the controller turns DESIRED_* into actuator inputs; None: every physics
+    # step. (The authors' ROS control node ran at 10 Hz.)
+    control_rate_hz: PositiveFloat | None = None
     diver_limits: DiverLimits = DiverLimits()
     helm: HelmSection | None = None
     script: tuple[ScriptLeg, ...] = ()

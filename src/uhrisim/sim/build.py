@@ -153,6 +153,10 @@ def build_agents(sim: Simulation, sonar_enabled: bool) -> dict[str, Agent]:
                       community=community, state=state, inputs=np.zeros(plant.input_size),
                       radius=COLLISION_RADIUS[cfg.model])
         _add_body(sim, cfg, state)
+        if cfg.control_rate_hz is not None:
+            agent.control_period = ticks_for_rate(
+                cfg.control_rate_hz, sim.dt,
+                sim.source.where("agents", index, "control_rate_hz"))
         if cfg.driver == "helm":
             agent.driver = _helm_driver(sim, cfg, community)
             agent.driver_period = ticks_for_rate(

@@ -87,10 +87,19 @@ class Agent:
     actuator_override: NDArray | None = None
     actuator_override_until: float = -1.0
     last_helm: HelmRecord | None = None
+    _nav: NavState | None = None  # cache; cleared by every change of state or inputs
 
     @property
     def name(self) -> str:
         return self.config.name
+
+    def update(self, state: NDArray | None = None, inputs: NDArray | None = None) -> None:
+        """Replace the state and/or the actuator inputs (the only way the loop changes them)."""
+        if state is not None:
+            self.state = state
+        if inputs is not None:
+            self.inputs = inputs
+        self._nav = None
 
     @property
     def is_diver_body(self) -> bool:
@@ -99,7 +108,10 @@ class Agent:
             == "diver"
 
     def nav(self) -> NavState:
-        return self.plant.nav(self.state, self.inputs)
+        """Navigation truth now (cached until the state or the inputs change)."""
+        if self._nav is None:
+            self._nav = self.plant.nav(self.state, self.inputs)
+        return self._nav
 
     def desired(self) -> tuple[float, float, float]:
         c = self.community
@@ -312,7 +324,7 @@ class Simulation:
                 new_state[4:7] = 0.0  # inelastic stop against the obstacle
             elif agent.config.model == "kinematic":
                 new_state[4] = 0.0
-        agent.state = new_state
+        agent.update(state=new_state)
         if agent.is_diver_body:
             speed = abs(agent.nav().speed)
             agent.kick_phase += diver_kick_phase_rate(speed) * self.dt
@@ -391,13 +403,13 @@ class Simulation:
     def _control(self, agent: Agent) -> None:
         if agent.actuator_override is not None:
             if self.t <= agent.actuator_override_until:
-                agent.inputs = agent.actuator_override
+                agent.update(inputs=agent.actuator_override)
                 return
             agent.actuator_override = None
             self.record_event("actuators", f"{agent.name}: external thruster commands went "
                               "stale; own controller resumed")
         heading, speed, depth = agent.desired()
-        agent.inputs = agent.controller.inputs(agent.state, heading, speed, depth)
+        agent.update(inputs=agent.controller.inputs(agent.state, heading, speed, depth))
 
     # -- read-only views ------------------------------------------------------------------
     def snapshot(self, agent: Agent) -> AgentSnapshot:
