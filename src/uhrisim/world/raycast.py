@@ -31,6 +31,7 @@ import itertools
 import logging
 import weakref
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -140,6 +141,43 @@ def _unit_normals(tri: NDArray[np.float64]) -> NDArray[np.float64]:
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     length = np.linalg.norm(n, axis=1, keepdims=True)
     return n / np.where(length > 0.0, length, 1.0)
+
+
+def _refine_hits(
+    face: NDArray[np.int64],
+    nrm: NDArray[np.float64],
+    plane_w: NDArray[np.float64],
+    o: NDArray[np.float64],
+    d: NDArray[np.float64],
+    limit: NDArray[np.float64] | float,
+    embree_tfar: Callable[[NDArray[np.intp]], NDArray[np.float32]],
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+    """Float64 distances of Embree's float32 hits, refined on the hit triangle's plane.
+
+    ``face``: (N,) triangle hit or -1; ``nrm``: (N, 3) its unit normal (zero rows on a
+    miss); ``plane_w``: (N,) n·v0 of its plane; ``o``, ``d``: (N, 3) rays in the frame of
+    the triangles (metres, unit directions); ``limit``: the range, m. t = (n·v0 − n·o) /
+    (n·d); rays (nearly) in the triangle's plane keep Embree's distance,
+    ``embree_tfar(rows)``. Hits refined past ``limit`` become misses. Returns (face or -1,
+    distance or inf, normal turned to face the ray origin, zero on a miss); ``face`` and
+    ``nrm`` are updated in place.
+    """
+    dn = np.einsum("ij,ij->i", d, nrm)
+    num = plane_w - np.einsum("ij,ij->i", o, nrm)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = num / dn
+    grazing = np.flatnonzero((np.abs(dn) <= 1e-9) & (face >= 0))
+    if len(grazing):
+        t[grazing] = embree_tfar(grazing)
+    t[face < 0] = np.inf
+    beyond = np.flatnonzero(t > limit)  # refined past the limit: a miss
+    if len(beyond):
+        t[beyond] = np.inf
+        face[beyond] = -1
+        nrm[beyond] = 0.0
+    # Turn to face the ray origin (n·d < 0); miss rows stay zero.
+    nrm *= np.copysign(1.0, -dn)[:, None]
+    return face, t, nrm
 
 
 def _face_to_ray(normal: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -362,24 +400,12 @@ class _EmbreeMesh:
         else:
             face = self.scene.run(o32, d32, dists=far).astype(np.int64)  # primID; -1 = miss
         nrm = np.take(self.normal, face, axis=0)  # -1 → the zero row
-        # Refine in float64 against the hit triangle's plane: t = (n·v0 − n·o) / (n·d).
-        dn = np.einsum("ij,ij->i", d, nrm)
-        num = np.take(self.plane_w, face) - np.einsum("ij,ij->i", o, nrm)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = num / dn
-        grazing = np.flatnonzero((np.abs(dn) <= 1e-9) & (face >= 0))
-        if len(grazing):  # ray (nearly) in the triangle's plane: keep Embree's distance
-            res = self.scene.run(o32[grazing], d32[grazing], dists=far[grazing], output=1)
-            t[grazing] = res["tfar"]
-        t[face < 0] = np.inf
-        beyond = np.flatnonzero(t > lim)  # refined past the limit: a miss
-        if len(beyond):
-            t[beyond] = np.inf
-            face[beyond] = -1
-            nrm[beyond] = 0.0
-        # Turn to face the ray origin (n·d < 0); miss rows stay zero.
-        nrm *= np.copysign(1.0, -dn)[:, None]
-        return face, t, nrm
+        plane_w = np.take(self.plane_w, face)
+
+        def embree_tfar(rows: NDArray[np.intp]) -> NDArray[np.float32]:
+            return self.scene.run(o32[rows], d32[rows], dists=far[rows], output=1)["tfar"]
+
+        return _refine_hits(face, nrm, plane_w, o, d, lim, embree_tfar)
 
 
 class _BodyBVH:
@@ -502,23 +528,18 @@ class EmbreeRayCaster(RayCaster):
             local[a:b] = mesh.scene.run(o32[a:b], d32[a:b], dists=far[a:b])
         face = np.where(local >= 0, local + bvh.face_offset[gi], -1)
         nrm = np.take(bvh.normal, face, axis=0)  # -1 → the zero row
-        # Refine in float64 against the hit triangle's plane: t = (n·v0 − n·o) / (n·d).
-        dn = np.einsum("ij,ij->i", dl, nrm)
-        num = np.take(bvh.plane_w, face) - np.einsum("ij,ij->i", ol, nrm)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = num / dn
-        for p in np.flatnonzero((np.abs(dn) <= 1e-9) & (face >= 0)):  # grazing: rare
-            mesh = bvh.groups[gi[p]]
-            res = mesh.scene.run(o32[p : p + 1], d32[p : p + 1], dists=far[p : p + 1], output=1)
-            t[p] = res["tfar"][0]
-        t[face < 0] = np.inf
-        beyond = np.flatnonzero(t > limit)
-        if len(beyond):
-            t[beyond] = np.inf
-            face[beyond] = -1
-            nrm[beyond] = 0.0
-        nrm *= np.copysign(1.0, -dn)[:, None]
-        return face, t, nrm
+        plane_w = np.take(bvh.plane_w, face)
+
+        def embree_tfar(rows: NDArray[np.intp]) -> NDArray[np.float32]:
+            # Rows belong to different groups (scenes): one query each (grazing is rare).
+            return np.array([
+                bvh.groups[gi[p]].scene.run(
+                    o32[p : p + 1], d32[p : p + 1], dists=far[p : p + 1], output=1
+                )["tfar"][0]
+                for p in rows
+            ], dtype=np.float32)  # fmt: skip
+
+        return _refine_hits(face, nrm, plane_w, ol, dl, limit, embree_tfar)
 
     def _cast(self, o, d, max_range, exclude):  # type: ignore[no-untyped-def]
         self._sync()
