@@ -96,18 +96,26 @@ def small_cfg(**kw) -> SonarConfig:
     return SonarConfig(**base)
 
 
+def window_hits(sonar: ImagingSonar, caster) -> tuple[Hits, np.ndarray, np.ndarray]:
+    """The hits a ping at (ORIGIN, LEVEL) forms its image from: all hits, the indices of
+    the rays that hit inside the cast window (hits just outside the image window spill
+    echo into it), and their |cos incidence|."""
+    p_s, R_s = sonar.sonar_pose(ORIGIN, LEVEL)
+    dirs = sonar.geometry.dirs_sonar @ R_s.T
+    hits = caster.cast(np.broadcast_to(p_s, dirs.shape), dirs, sonar.cast_window_m[1])
+    near, far = sonar.cast_window_m
+    idx = np.flatnonzero((hits.distance >= near) & (hits.distance < far))
+    cos_inc = np.abs(np.einsum("ij,ij->i", hits.normal[idx], dirs[idx]))
+    return hits, idx, cos_inc
+
+
 def test_fast_path_matches_reference() -> None:
     cfg = small_cfg()
     sonar = ImagingSonar(cfg, np.random.default_rng(0))
     caster = AnalyticCaster(plate_north=10.0, plate_half=0.3, plate_z=5.5)
     ping = sonar.ping(caster, ORIGIN, LEVEL, 0.0)
     # Recreate the hits the ping used and run the slow reference on them.
-    p_s, R_s = sonar.sonar_pose(ORIGIN, LEVEL)
-    dirs = sonar.geometry.dirs_sonar @ R_s.T
-    hits = caster.cast(np.broadcast_to(p_s, dirs.shape), dirs, sonar.cast_window_m[1])
-    near, far = sonar.cast_window_m  # hits just outside the window spill echo into it
-    idx = np.flatnonzero((hits.distance >= near) & (hits.distance < far))
-    cos_inc = np.abs(np.einsum("ij,ij->i", hits.normal[idx], dirs[idx]))
+    hits, idx, cos_inc = window_hits(sonar, caster)
     ref = reference_polar(sonar, idx, hits.distance[idx], cos_inc, hits.reflectivity[idx])
     assert {FLOOR, PLATE} <= set(np.unique(ping.label_polar).tolist())
     assert ref.max() > 0.5  # the comparison covers lit cells, not just the noise floor
@@ -334,12 +342,7 @@ def test_labels_match_reference(caster) -> None:
     cfg = small_cfg()
     sonar = ImagingSonar(cfg, np.random.default_rng(0))
     ping = sonar.ping(caster, ORIGIN, LEVEL, 0.0)
-    p_s, R_s = sonar.sonar_pose(ORIGIN, LEVEL)
-    dirs = sonar.geometry.dirs_sonar @ R_s.T
-    hits = caster.cast(np.broadcast_to(p_s, dirs.shape), dirs, sonar.cast_window_m[1])
-    near, far = sonar.cast_window_m  # hits just outside the window spill echo into it
-    idx = np.flatnonzero((hits.distance >= near) & (hits.distance < far))
-    cos_inc = np.abs(np.einsum("ij,ij->i", hits.normal[idx], dirs[idx]))
+    hits, idx, cos_inc = window_hits(sonar, caster)
     ref = reference_labels(
         sonar, idx, hits.distance[idx], cos_inc, hits.reflectivity[idx], hits.label[idx]
     )
