@@ -5,25 +5,16 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 
-
-def _save(fig: plt.Figure, path: Path) -> Path:
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+from uhrisim.viz.figures import save_figure, subplots
 
 
 def plot_tracks(series: dict[str, np.ndarray], follower: str, target: str, path: Path,
                 acquired_at: float | None = None) -> Path:
     """x-y tracks, east to the right and north up (MOOS x-y), like the paper's Fig. 19."""
     f, g, t = series["follower_ned"], series["target_ned"], series["t"]
-    fig, ax = plt.subplots(figsize=(6.5, 6))
+    fig, ax = subplots(figsize=(6.5, 6))
     ax.plot(g[:, 1], g[:, 0], color="tab:orange", lw=1.5, label=f"{target} (diver)")
     ax.plot(f[:, 1], f[:, 0], color="tab:blue", lw=1.0, label=f"{follower} (ROV)")
     ax.plot(g[0, 1], g[0, 0], "o", color="tab:orange", ms=7)
@@ -38,14 +29,14 @@ def plot_tracks(series: dict[str, np.ndarray], follower: str, target: str, path:
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, alpha=0.4)
     ax.legend(loc="best", fontsize=8)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_range_bearing(series: dict[str, np.ndarray], trail_range: float, path: Path,
                        acquired_at: float | None = None) -> Path:
     """Range to the target and bearing error over time."""
     t = series["t"]
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    fig, (ax1, ax2) = subplots(2, 1, figsize=(7, 5), sharex=True)
     ax1.plot(t, series["range"], lw=1.0)
     ax1.axhline(trail_range, color="k", ls="--", lw=0.8, label=f"trail range {trail_range} m")
     ax1.set_ylabel("range to diver (m)")
@@ -59,13 +50,13 @@ def plot_range_bearing(series: dict[str, np.ndarray], trail_range: float, path: 
     for ax in (ax1, ax2):
         if acquired_at is not None:
             ax.axvline(acquired_at, color="tab:red", lw=0.8)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_sonar_strip(frames: Sequence[tuple[float, np.ndarray]], path: Path) -> Path:
     """A row of fan images (uint8, apex bottom-centre) with their times."""
     n = max(1, len(frames))
-    fig, axes = plt.subplots(1, n, figsize=(2.6 * n, 2.6), squeeze=False)
+    fig, axes = subplots(1, n, figsize=(2.6 * n, 2.6), squeeze=False)
     for ax, (t, image) in zip(axes[0], frames, strict=False):
         ax.imshow(image, cmap="copper", vmin=0, vmax=255)
         ax.set_title(f"t = {t:.0f} s", fontsize=9)
@@ -73,4 +64,4 @@ def plot_sonar_strip(frames: Sequence[tuple[float, np.ndarray]], path: Path) -> 
     for ax in axes[0][len(frames):]:
         ax.axis("off")
     fig.suptitle("ROV sonar (P900-45 fan)", fontsize=10)
-    return _save(fig, path)
+    return save_figure(fig, path)

@@ -5,20 +5,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+from uhrisim.viz.figures import save_figure, subplots
 
 if TYPE_CHECKING:
     from uhrisim.experiments.openloop import OpenLoopRun
 
-
-def _save(fig: plt.Figure, path: Path) -> Path:
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
 
 
 def plot_openloop(run: OpenLoopRun, out_dir: Path) -> list[Path]:
@@ -26,7 +17,7 @@ def plot_openloop(run: OpenLoopRun, out_dir: Path) -> list[Path]:
     t, s = run.t, run.states
     paths = []
 
-    fig, ax = plt.subplots(figsize=(5, 5))
+    fig, ax = subplots(figsize=(5, 5))
     ax.plot(s[:, 1], s[:, 0], color="tab:blue")  # east on the horizontal axis, north up
     ax.plot(s[0, 1], s[0, 0], "go", label="start")
     ax.plot(s[-1, 1], s[-1, 0], "rs", label="end")
@@ -36,9 +27,9 @@ def plot_openloop(run: OpenLoopRun, out_dir: Path) -> list[Path]:
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True)
     ax.legend()
-    paths.append(_save(fig, out_dir / "openloop_track.png"))
+    paths.append(save_figure(fig, out_dir / "openloop_track.png"))
 
-    fig, ax = plt.subplots(figsize=(6, 3.5))
+    fig, ax = subplots(figsize=(6, 3.5))
     for k, label in enumerate(("port", "starboard", "vertical")):
         ax.plot(t, run.inputs[:, k], label=label)
     ax.set_xlabel("time (s)")
@@ -46,23 +37,23 @@ def plot_openloop(run: OpenLoopRun, out_dir: Path) -> list[Path]:
     ax.set_title("Thruster inputs (Fig. 6)")
     ax.grid(True)
     ax.legend()
-    paths.append(_save(fig, out_dir / "openloop_inputs.png"))
+    paths.append(save_figure(fig, out_dir / "openloop_inputs.png"))
 
-    fig, ax = plt.subplots(figsize=(6, 3.5))
+    fig, ax = subplots(figsize=(6, 3.5))
     for k, label in enumerate(("x north (m)", "y east (m)", "z depth (m)")):
         ax.plot(t, s[:, k], label=label)
     ax.set_xlabel("time (s)")
     ax.set_title("Positions (Fig. 7)")
     ax.grid(True)
     ax.legend()
-    paths.append(_save(fig, out_dir / "openloop_positions.png"))
+    paths.append(save_figure(fig, out_dir / "openloop_positions.png"))
 
-    fig, ax = plt.subplots(figsize=(6, 3.5))
+    fig, ax = subplots(figsize=(6, 3.5))
     for k, label in zip(range(4, 7), ("u surge", "v sway", "w heave"), strict=True):
         ax.plot(t, s[:, k], label=f"{label} (m/s)")
     ax.set_xlabel("time (s)")
     ax.set_title("Linear velocities (Fig. 8)")
     ax.grid(True)
     ax.legend()
-    paths.append(_save(fig, out_dir / "openloop_velocities.png"))
+    paths.append(save_figure(fig, out_dir / "openloop_velocities.png"))
     return paths

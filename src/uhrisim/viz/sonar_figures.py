@@ -20,15 +20,12 @@ import math
 from pathlib import Path
 
 import cv2
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.collections import PolyCollection
 
 from uhrisim.core.rng import component_rng
 from uhrisim.sensors.sonar import ImagingSonar, SonarConfig, SonarPing
+from uhrisim.viz.figures import save_figure, subplots
 
 SEED = 2013
 
@@ -51,7 +48,7 @@ def _pings(paper, pose_name: str, range_max_m: float) -> tuple[SonarPing, SonarP
 
 def _top_view(paper, ping: SonarPing, range_max_m: float, title: str, path: Path) -> None:
     scene = paper.scene
-    fig, ax = plt.subplots(figsize=(7.0, 7.0))
+    fig, ax = subplots(figsize=(7.0, 7.0))
     floor = scene.seafloor
     if floor is not None:
         im = ax.pcolormesh(floor.east, floor.north, floor.depth, cmap="Blues", shading="auto")
@@ -84,9 +81,7 @@ def _top_view(paper, ping: SonarPing, range_max_m: float, title: str, path: Path
     ax.set_ylabel("north (m)")
     ax.set_title(title)
     ax.legend(loc="lower right", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
 
 
 def _label_image(ping: SonarPing, names: list[str]) -> np.ndarray:
@@ -105,7 +100,7 @@ def _label_image(ping: SonarPing, names: list[str]) -> np.ndarray:
 
 
 def _panel(phys: SonarPing, paper_mode: SonarPing, title: str, path: Path) -> None:
-    fig, axes = plt.subplots(1, 3, figsize=(15.0, 5.5))
+    fig, axes = subplots(1, 3, figsize=(15.0, 5.5))
     r = phys.bin_ranges_m
     th = np.degrees(phys.beam_angles_rad)
     axes[0].imshow(
@@ -130,9 +125,7 @@ def _panel(phys: SonarPing, paper_mode: SonarPing, title: str, path: Path) -> No
     axes[2].set_ylabel("row (px)")
     axes[2].set_title("2013 mode (apex top-left)")
     fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save_figure(fig, path, dpi=100)
 
 
 def _write(paper, pose_name: str, range_max_m: float, stem: str, title: str,
