@@ -38,6 +38,7 @@ def bearing_deg(x0: float, y0: float, x1: float, y1: float) -> float:
 
 
 def distance(x0: float, y0: float, x1: float, y1: float) -> float:
+    """Euclidean distance (m) between (x0, y0) and (x1, y1), MOOS local metres."""
     return math.hypot(x1 - x0, y1 - y0)
 
 

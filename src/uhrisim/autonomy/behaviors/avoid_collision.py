@@ -51,6 +51,12 @@ def cpa_utility(cpa: np.ndarray, min_util: float, max_util: float) -> np.ndarray
 
 @dataclass(frozen=True)
 class AvoidCollisionParams:
+    """BHV_AvoidCollision parameters (IvP names and defaults; module docstring).
+
+    ``contact`` the NODE_REPORT name; ``decay`` the dead-reckoning decay (start, end), s;
+    distances m; ``pwt_grade`` "linear" | "quadratic" | "quasi"; ``time_on_leg`` s.
+    """
+
     contact: str = ""
     extrapolate: bool = True
     decay: tuple[float, float] = (5.0, 10.0)

@@ -18,6 +18,10 @@ from uhrisim.autonomy.zaic import zaic_peak_on_axis
 
 @dataclass(frozen=True)
 class ConstantDepthParams:
+    """BHV_ConstantDepth parameters: ``depth`` m (positive down); ZAIC ``peakwidth``,
+    ``basewidth`` m and ``summitdelta`` (utility) with IvP's defaults (reference/helm.md).
+    """
+
     depth: float = 0.0
     peakwidth: float = 3.0
     basewidth: float = 100.0

@@ -82,6 +82,13 @@ def shift(pts: tuple[Point, ...], cx: float, cy: float) -> tuple[Point, ...]:
 
 @dataclass(frozen=True)
 class LoiterParams:
+    """BHV_Loiter parameters (IvP names and defaults; module docstring).
+
+    ``polygon`` vertices MOOS local (x east, y north), m; ``speed`` m/s; ``clockwise``
+    "true" | "false" | "best"; ``capture_radius``, ``slip_radius``, ``acquire_dist`` m;
+    ``center_assign`` a point (m) or "present_position".
+    """
+
     polygon: tuple[Point, ...] = ()
     speed: float = 0.0
     clockwise: str = "true"

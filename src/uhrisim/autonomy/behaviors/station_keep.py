@@ -31,6 +31,12 @@ Point = tuple[float, float]
 
 @dataclass(frozen=True)
 class StationKeepParams:
+    """BHV_StationKeep parameters (IvP names and defaults; module docstring).
+
+    ``station_pt`` MOOS local (x east, y north), m, or "present_position"; radii m
+    (``hibernation_radius`` -1 = off); speeds m/s; ``swing_time`` s.
+    """
+
     station_pt: Point | str | None = None
     center_activate: bool = False
     inner_radius: float = 4.0

@@ -39,6 +39,14 @@ from uhrisim.autonomy.zaic import zaic_peak_on_axis
 
 @dataclass(frozen=True)
 class TrailParams:
+    """BHV_Trail parameters (IvP names and defaults; module docstring).
+
+    ``contact`` the NODE_REPORT name; ``decay`` the dead-reckoning decay (start, end), s;
+    ``trail_range``, ``radius``, ``nm_radius``, ``max_range`` m (max_range 0 = no limit);
+    ``trail_angle`` deg, relative to the contact heading or a compass bearing
+    (``trail_angle_type``); ``time_on_leg`` s.
+    """
+
     contact: str = ""
     extrapolate: bool = True
     decay: tuple[float, float] = (5.0, 10.0)

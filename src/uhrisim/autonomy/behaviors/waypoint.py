@@ -72,6 +72,13 @@ def _point(p: WaypointParams, v: object, key: str, where: str) -> WaypointParams
 
 @dataclass(frozen=True)
 class WaypointParams:
+    """BHV_Waypoint parameters (IvP names and defaults; module docstring).
+
+    Points are MOOS local (x east, y north), m; ``speed`` m/s; ``capture_radius``,
+    ``slip_radius``, ``lead``, ``lead_damper`` m (-1 = off); ``repeat`` extra passes;
+    ``order`` "normal" | "reverse"; flags are (MOOS variable, value) pairs.
+    """
+
     points: tuple[Point, ...] = ()
     speed: float = 0.0
     capture_radius: float = 3.0
