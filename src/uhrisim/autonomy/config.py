@@ -263,7 +263,9 @@ class HelmConfig:
         init: list[tuple[str, Value]] = []
         raw_init = m.get("initialize", {}) or {}
         if isinstance(raw_init, Mapping):
-            init = [(str(k), moos_value(v)) for k, v in raw_init.items()]
+            init = [
+                (str(k), moos_value(v, f"{where}.initialize.{k}")) for k, v in raw_init.items()
+            ]
         else:
             for i, s in enumerate(raw_init):
                 init.append(parse_flag(s, "initialize", f"{where}.initialize[{i}]"))

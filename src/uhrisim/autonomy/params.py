@@ -36,15 +36,17 @@ __all__ = [
 Flag = tuple[str, Value]
 
 
-def moos_value(v: object) -> Value:
-    """Normalise a Python scalar to a MOOS value: bool -> "true"/"false", numbers -> float."""
+def moos_value(v: object, where: str | None = None) -> Value:
+    """Normalise a Python scalar to a MOOS value: bool -> "true"/"false", numbers -> float.
+
+    Anything else is a ConfigError at ``where`` (the variable or field it came from)."""
     if isinstance(v, bool | np.bool_):
         return "true" if v else "false"
     if isinstance(v, numbers.Real):
         return float(v)
     if isinstance(v, str):
         return literal(v)
-    raise ConfigError(f"expected a string or number, got {type(v).__name__}")
+    raise ConfigError(f"expected a string or number, got {type(v).__name__}", where)
 
 
 def to_float(v: object, key: str, where: str) -> float:
@@ -129,7 +131,7 @@ def parse_flag(v: object, key: str, where: str) -> Flag:
     """ "VAR = value" -> (VAR, value) with the value as a MOOS string/number."""
     if isinstance(v, dict) and len(v) == 1:
         ((var, val),) = v.items()
-        return (str(var).strip(), moos_value(val))
+        return (str(var).strip(), moos_value(val, where))
     s = str(v)
     if "=" not in s:
         raise ConfigError(f"{key} must read 'VARIABLE = value', got {v!r}", where)
