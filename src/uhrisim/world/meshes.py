@@ -24,7 +24,9 @@ log = logging.getLogger(__name__)
 SUPPORTED_SUFFIXES = (".obj", ".stl", ".ply", ".glb", ".gltf", ".off")
 
 
-def _first_line(exc: BaseException) -> str:
+def first_line(exc: BaseException) -> str:
+    """The first line of an exception's message (at most 200 characters), or its type name
+    when the message is empty: for one-line error messages that wrap a library's error."""
     text = str(exc).strip()
     return text.splitlines()[0][:200] if text else type(exc).__name__
 
@@ -79,7 +81,7 @@ def load_mesh(
             "nor UTF-8 text)"
         ) from None
     except Exception as exc:  # trimesh raises many types on corrupt input
-        raise AssetError(f"{p}: cannot read mesh ({_first_line(exc)})") from None
+        raise AssetError(f"{p}: cannot read mesh ({first_line(exc)})") from None
     try:
         if isinstance(loaded, trimesh.Scene):
             geoms = [g for g in loaded.dump(concatenate=False) if isinstance(g, trimesh.Trimesh)]
@@ -89,7 +91,7 @@ def load_mesh(
         else:
             mesh = None
     except Exception as exc:
-        raise AssetError(f"{p}: cannot flatten mesh scene ({_first_line(exc)})") from None
+        raise AssetError(f"{p}: cannot flatten mesh scene ({first_line(exc)})") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise AssetError(f"{p}: file holds no triangles")
     verts = np.asarray(mesh.vertices, dtype=float)

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.core.errors import AssetError, ConfigError
 from uhrisim.core.rng import component_rng
+from uhrisim.world.meshes import first_line
 from uhrisim.world.primitives import positive_length
 
 Extent = float | tuple[float, float, float, float]
@@ -179,8 +180,7 @@ def from_height_grid(
     except AssetError:
         raise
     except Exception as exc:
-        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise AssetError(f"{p}: cannot read height grid ({msg})") from None
+        raise AssetError(f"{p}: cannot read height grid ({first_line(exc)})") from None
     grid = np.asarray(grid)
     if grid.ndim != 2 or grid.shape[0] < 2 or grid.shape[1] < 2 or grid.dtype.kind not in "fiu":
         raise AssetError(f"{p}: height grid must be a 2-D numeric array of at least 2 x 2")
