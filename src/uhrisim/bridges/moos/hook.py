@@ -120,7 +120,7 @@ class MoosBridgeHook(BaseHook):
                                    float(heading_deg_from_yaw(nav.yaw)), nav.speed,
                                    link.vehicle_type, link.length, _mode(snap.mode))
             for var, value, _t in bridge.poll():
-                accepted = _accept(var, value, numeric=var in link.subscribe)
+                accepted = _accept(value, numeric=var in link.subscribe)
                 if accepted is None:
                     self.n_rejected += 1
                     log.warning("MOOS %s: ignoring %s = %r (not a finite number)", name, var,
@@ -145,10 +145,9 @@ class MoosBridgeHook(BaseHook):
                          for name, b in self.bridges.items()}}
 
 
-def _accept(var: str, value: float | str | bytes, numeric: bool) -> float | str | None:
+def _accept(value: float | str | bytes, numeric: bool) -> float | str | None:
     """What may enter the community store: the subscribed DESIRED_* must be finite numbers
     (a string that parses as one is accepted, as MOOS apps do); binary data never enters."""
-    del var
     if isinstance(value, bytes):
         return None
     if not numeric:
