@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["couple", "rescale"]
+__all__ = ["couple", "couple_reference", "rescale"]
 
 
 def rescale(f: ArrayLike, low: float, high: float) -> NDArray[np.float64]:
@@ -34,7 +34,33 @@ def couple(
     """F[i, j] = rescale(f_course, 0, wc)[i] + rescale(f_speed, 0, ws)[j], normalised 0..100.
 
     Shapes: ``f_course`` (n_course,), ``f_speed`` (n_speed,) -> (n_course, n_speed).
+    Bit-identical to :func:`couple_reference`: the grid's min and max are taken from the
+    1-D pieces (rounding is monotone, so min_ij fl(a_i + b_j) = fl(min a + min b)) and the
+    final rescale runs in place (``0 + x`` is dropped: x >= +0 here).
     """
+    fc = rescale(f_course, 0.0, course_weight)
+    fs = rescale(f_speed, 0.0, speed_weight)
+    F = np.add.outer(fc, fs)
+    if not normalize:
+        return F
+    fmin = float(fc.min()) + float(fs.min())
+    fmax = float(fc.max()) + float(fs.max())
+    if fmax - fmin <= 0.0:
+        F.fill(100.0)
+        return F
+    F -= fmin
+    F *= 100.0 / (fmax - fmin)
+    return F
+
+
+def couple_reference(
+    f_course: ArrayLike,
+    f_speed: ArrayLike,
+    course_weight: float = 50.0,
+    speed_weight: float = 50.0,
+    normalize: bool = True,
+) -> NDArray[np.float64]:
+    """Plain transcription of the module docstring (reference for :func:`couple`)."""
     fc = rescale(f_course, 0.0, course_weight)
     fs = rescale(f_speed, 0.0, speed_weight)
     F = fc[:, None] + fs[None, :]

@@ -93,22 +93,31 @@ class Domain:
             axes.append(DomainAxis("depth", 0.0, 100.0, 101, optional=True))
         return cls(tuple(axes))
 
-    @property
+    @cached_property
     def names(self) -> tuple[str, ...]:
         return tuple(a.name for a in self.axes)
 
+    @cached_property
+    def _by_name(self) -> dict[str, DomainAxis]:
+        return {a.name: a for a in self.axes}
+
     def has(self, name: str) -> bool:
-        return name in self.names
+        return name in self._by_name
 
     def axis(self, name: str) -> DomainAxis:
-        for a in self.axes:
-            if a.name == name:
-                return a
-        raise ConfigError(f"decision domain has no axis {name!r}", "domain")
+        try:
+            return self._by_name[name]
+        except KeyError:
+            raise ConfigError(f"decision domain has no axis {name!r}", "domain") from None
 
     def order(self, names: tuple[str, ...] | list[str]) -> tuple[str, ...]:
         """``names`` sorted into domain order."""
         return tuple(n for n in self.names if n in names)
+
+    def shape(self, names: tuple[str, ...]) -> tuple[int, ...]:
+        """Grid shape (npts per axis) of the sub-grid over ``names`` (in the given order)."""
+        by = self._by_name
+        return tuple(by[n].npts for n in names)
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,9 +134,10 @@ class Objective:
     @classmethod
     def over(cls, domain: Domain, axes: tuple[str, ...], values: NDArray) -> Objective:
         """Build after checking that ``axes`` are in domain order and the shape matches."""
-        if tuple(axes) != domain.order(axes) or len(set(axes)) != len(axes):
+        axes = tuple(axes)
+        if axes != domain.order(axes) or len(set(axes)) != len(axes):
             raise ConfigError(f"objective axes {axes} not in domain order {domain.names}", "helm")
-        shape = tuple(domain.axis(a).npts for a in axes)
+        shape = domain.shape(axes)
         arr = np.asarray(values, dtype=float)
         if arr.shape != shape:
             raise ConfigError(f"objective over {axes} has shape {arr.shape}, want {shape}", "helm")

@@ -20,14 +20,23 @@ from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.autonomy.domain import DomainAxis
 
-__all__ = ["zaic_heq", "zaic_leq", "zaic_peak", "zaic_peak_on_axis"]
+__all__ = [
+    "ZaicMemo",
+    "zaic_heq",
+    "zaic_leq",
+    "zaic_peak",
+    "zaic_peak_on_axis",
+    "zaic_peak_reference",
+]
 
 
 def _distance(x: NDArray, summit: float, wrap_period: float | None) -> NDArray:
-    d = np.abs(x - summit)
+    """|x - summit| (circular when ``wrap_period``), as a new array."""
+    d = np.subtract(x, summit, out=np.empty_like(x))  # a real array for 0-d x too
+    np.abs(d, out=d)
     if wrap_period:
-        d = d % wrap_period
-        d = np.minimum(d, wrap_period - d)
+        np.remainder(d, wrap_period, out=d)
+        np.minimum(d, wrap_period - d, out=d)
     return d
 
 
@@ -41,10 +50,54 @@ def zaic_peak(
     maxutil: float = 100.0,
     wrap_period: float | None = None,
 ) -> NDArray[np.float64]:
-    """ZAIC peak utility at points ``x`` (same unit as the summit); see module docstring."""
+    """ZAIC peak utility at points ``x`` (same unit as the summit); see module docstring.
+
+    Evaluated in place (one working array): in the peak ``max - (delta/pw) * d``, in the
+    base ``max(edge - ((edge - min)/bw) * (d - pw), min)`` - the same floating-point
+    operations as :func:`zaic_peak_reference`, so the values are bit-identical.
+    """
     xa = np.asarray(x, dtype=float)
     d = _distance(xa, float(summit), wrap_period)
     # widths below 1e-9 (of the axis unit) are zero: avoids overflow on subnormal widths
+    pw = float(peakwidth) if peakwidth > 1e-9 else 0.0
+    bw = float(basewidth) if basewidth > 1e-9 else 0.0
+    delta = min(max(float(summitdelta), 0.0), maxutil - minutil)
+    sloped = pw > 0.0 and delta > 0.0
+    edge = maxutil - delta if sloped else maxutil
+    in_peak = d <= pw
+    if bw > 0.0:
+        # linear from edge at d = pw to min at d = pw + bw, clamped at min beyond
+        u = np.subtract(d, pw, out=np.empty_like(d))
+        u *= (edge - minutil) / bw
+        np.subtract(edge, u, out=u)
+        np.maximum(u, minutil, out=u)
+    else:
+        u = np.full_like(d, minutil)
+    if sloped:
+        d *= delta / pw
+        np.subtract(maxutil, d, out=d)
+        np.copyto(u, d, where=in_peak)
+    else:
+        u[in_peak] = maxutil
+    return u
+
+
+def zaic_peak_reference(
+    x: ArrayLike,
+    summit: float,
+    peakwidth: float,
+    basewidth: float,
+    summitdelta: float,
+    minutil: float = 0.0,
+    maxutil: float = 100.0,
+    wrap_period: float | None = None,
+) -> NDArray[np.float64]:
+    """Plain transcription of the module docstring (reference for :func:`zaic_peak`)."""
+    xa = np.asarray(x, dtype=float)
+    d = np.abs(xa - float(summit))
+    if wrap_period:
+        d = d % wrap_period
+        d = np.minimum(d, wrap_period - d)
     pw = float(peakwidth) if peakwidth > 1e-9 else 0.0
     bw = float(basewidth) if basewidth > 1e-9 else 0.0
     delta = float(np.clip(summitdelta, 0.0, maxutil - minutil))
@@ -55,7 +108,6 @@ def zaic_peak(
         in_peak = np.full_like(d, maxutil)
         edge = maxutil
     if bw > 0.0:
-        # linear from edge at d = pw to min at d = pw + bw, clamped at min beyond
         base = np.maximum(edge - (edge - minutil) / bw * (d - pw), minutil)
     else:
         base = np.full_like(d, minutil)
@@ -83,9 +135,41 @@ def zaic_peak_on_axis(
         maxutil,
         wrap_period=axis.period if axis.wrap else None,
     )
-    if insist_summit and np.all(u <= minutil):
+    if insist_summit and not u.max() > minutil:
         u[axis.index_of(summit)] = maxutil
     return u
+
+
+class ZaicMemo:
+    """:func:`zaic_peak_on_axis` remembering its last call (one per behavior instance).
+
+    The function is pure, so when the arguments repeat (ConstantDepth's depth, Loiter's
+    speed) the previous result is returned - the same read-only array.
+    """
+
+    __slots__ = ("_key", "_value")
+
+    def __init__(self) -> None:
+        self._key: tuple | None = None
+        self._value: NDArray[np.float64] | None = None
+
+    def __call__(
+        self,
+        axis: DomainAxis,
+        summit: float,
+        peakwidth: float,
+        basewidth: float,
+        summitdelta: float,
+        minutil: float = 0.0,
+        maxutil: float = 100.0,
+        insist_summit: bool = True,
+    ) -> NDArray[np.float64]:
+        key = (axis, summit, peakwidth, basewidth, summitdelta, minutil, maxutil, insist_summit)
+        if self._value is None or key != self._key:
+            u = zaic_peak_on_axis(axis, *key[1:])
+            u.flags.writeable = False
+            self._key, self._value = key, u
+        return self._value
 
 
 def zaic_leq(

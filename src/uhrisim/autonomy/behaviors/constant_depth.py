@@ -35,9 +35,18 @@ class ConstantDepth(Behavior):
         k: setter(k, to_float) for k in ("depth", "peakwidth", "basewidth", "summitdelta")
     }
 
+    def reset(self) -> None:
+        self._memo: tuple[object, Objective] | None = None
+
     def on_run(self, ctx: BehaviorContext) -> Objective | None:
         p: ConstantDepthParams = self.params
+        key = (ctx.domain, p)  # the function depends on nothing else: reuse it
+        if self._memo is not None and self._memo[0] == key:
+            return self._memo[1]
         u = zaic_peak_on_axis(
             ctx.domain.axis("depth"), p.depth, p.peakwidth, p.basewidth, p.summitdelta
         )
-        return Objective.over(ctx.domain, ("depth",), u)
+        u.flags.writeable = False
+        obj = Objective.over(ctx.domain, ("depth",), u)
+        self._memo = (key, obj)
+        return obj

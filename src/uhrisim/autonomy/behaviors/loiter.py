@@ -52,6 +52,7 @@ from uhrisim.autonomy.params import (
     to_point_or_present,
     to_str,
 )
+from uhrisim.autonomy.zaic import ZaicMemo
 from uhrisim.core.frames import wrap_180
 
 Point = tuple[float, float]
@@ -147,6 +148,7 @@ class Loiter(Behavior):
         self._pending_center_here = p.center_assign == "present_position"
         self._posted: tuple[int | None, bool] | None = None
         self._posted_poly: tuple[Point, ...] | None = None
+        self._speed_memo = ZaicMemo()
 
     def on_params_changed(self, key: str) -> None:
         p: LoiterParams = self.params
@@ -233,4 +235,4 @@ class Loiter(Behavior):
             ctx.post(f"LOITER_ACQUIRE{sfx}", "true" if self.acquire_mode else "false")
             self._posted = state
         crs = bearing_deg(own.x, own.y, tx, ty)
-        return course_speed_objective(ctx, crs, p.speed, (0.0, 0.3, 0.0))
+        return course_speed_objective(ctx, crs, p.speed, (0.0, 0.3, 0.0), self._speed_memo)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from uhrisim.autonomy.behaviors.base import BehaviorContext
 from uhrisim.autonomy.coupler import couple
 from uhrisim.autonomy.domain import Objective
-from uhrisim.autonomy.zaic import zaic_peak_on_axis
+from uhrisim.autonomy.zaic import ZaicMemo, zaic_peak_on_axis
 
 
 @dataclass
@@ -37,10 +37,18 @@ class ArrivalTracker:
 
 
 def course_speed_objective(
-    ctx: BehaviorContext, course_deg: float, speed: float, speed_zaic: tuple[float, float, float]
+    ctx: BehaviorContext,
+    course_deg: float,
+    speed: float,
+    speed_zaic: tuple[float, float, float],
+    speed_memo: ZaicMemo | None = None,
 ) -> Objective:
     """Loiter/StationKeep function: course ZAIC (pw 0, bw 180, wrap) coupled 50/50 with a
-    speed ZAIC ``speed_zaic = (peakwidth, basewidth, summitdelta)``, normalised 0..100."""
+    speed ZAIC ``speed_zaic = (peakwidth, basewidth, summitdelta)``, normalised 0..100.
+
+    ``speed_memo`` (the behavior's own) reuses the speed piece while its arguments repeat.
+    """
     fc = zaic_peak_on_axis(ctx.domain.axis("course"), course_deg, 0.0, 180.0, 0.0)
-    fs = zaic_peak_on_axis(ctx.domain.axis("speed"), speed, *speed_zaic)
+    zs = speed_memo if speed_memo is not None else zaic_peak_on_axis
+    fs = zs(ctx.domain.axis("speed"), speed, *speed_zaic)
     return Objective.over(ctx.domain, ("course", "speed"), couple(fc, fs))
