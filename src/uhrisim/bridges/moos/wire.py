@@ -148,17 +148,9 @@ class MoosMessage:
         source_aux: str = "",
     ) -> MoosMessage:
         """A notification ``N``: a double (``D``), a string (``S``) or binary data (``B``)."""
-        if isinstance(value, bool | int | float):
-            return cls(msg_id, "N", "D", source, source_aux, community, key, float(time),
-                       float(value), -1.0, b"")
-        if isinstance(value, str):
-            return cls(msg_id, "N", "S", source, source_aux, community, key, float(time),
-                       -1.0, -1.0, _text(value))
-        if isinstance(value, bytes | bytearray | memoryview):
-            return cls(msg_id, "N", "B", source, source_aux, community, key, float(time),
-                       -1.0, -1.0, bytes(value))
-        raise TypeError(f"MOOS notify {key!r}: value must be float, str or bytes, "
-                        f"not {type(value).__name__}")
+        dtype, dval, sval = _notify_data(key, value)
+        return cls(msg_id, "N", dtype, source, source_aux, community, key, float(time),
+                   dval, -1.0, sval)
 
     @classmethod
     def register(
@@ -232,6 +224,19 @@ def encode_packet_raw(encoded: list[bytes]) -> bytes:
 _NOTIFY_D = struct.Struct("<iicci")
 
 
+def _notify_data(key: str, value: float | str | bytes) -> tuple[str, float, bytes]:
+    """(data type, dval, sval) of a notification: a number -> ("D", value, b""), a string
+    -> ("S", -1, UTF-8 bytes), binary -> ("B", -1, the bytes); anything else TypeError."""
+    if isinstance(value, bool | int | float):
+        return "D", float(value), b""
+    if isinstance(value, str):
+        return "S", -1.0, _text(value)
+    if isinstance(value, bytes | bytearray | memoryview):
+        return "B", -1.0, bytes(value)
+    raise TypeError(f"MOOS notify {key!r}: value must be float, str or bytes, "
+                    f"not {type(value).__name__}")
+
+
 def encode_notify(key: str, value: float | str | bytes, time: float, source: str,
                   msg_id: int) -> bytes:
     """Fast path: the bytes of ``encode_message(MoosMessage.notify(key, value, time,
@@ -239,18 +244,10 @@ def encode_notify(key: str, value: float | str | bytes, time: float, source: str
     posting many variables per tick; equality is tested)."""
     s = _text(source)
     k = _text(key)
-    if isinstance(value, bool | int | float):
-        dtype, dval, v = b"D", float(value), b""
-    elif isinstance(value, str):
-        dtype, dval, v = b"S", -1.0, _text(value)
-    elif isinstance(value, bytes | bytearray | memoryview):
-        dtype, dval, v = b"B", -1.0, bytes(value)
-    else:
-        raise TypeError(f"MOOS notify {key!r}: value must be float, str or bytes, "
-                        f"not {type(value).__name__}")
+    dtype, dval, v = _notify_data(key, value)
     length = MESSAGE_MIN_LEN + len(s) + len(k) + len(v)
     return b"".join((
-        _NOTIFY_D.pack(length, msg_id, b"N", dtype, len(s)), s,
+        _NOTIFY_D.pack(length, msg_id, b"N", dtype.encode("ascii"), len(s)), s,
         b"\x00\x00\x00\x00\x00\x00\x00\x00",  # empty source_aux and community
         _I32.pack(len(k)), k,
         _DOUBLES.pack(float(time), dval, -1.0),
