@@ -105,38 +105,38 @@ def headless_page(
         shutil.rmtree(profile, ignore_errors=True)
 
 
-def demo_screenshot(path: str, sim_seconds: float = 150.0) -> None:
-    """Save a screenshot of the page showing the stand-in track-and-trail mission.
+def mission_screenshot(path: str, sim_seconds: float = 150.0) -> None:
+    """Save a screenshot of the page during the real track-and-trail mission.
 
     ``python tests/support/browser.py docs/img/viewer.png`` regenerates the README image.
     """
-    import time
+    import threading
+    from pathlib import Path
 
-    from uhrisim.viz.viewer import ViewerServer
-    from uhrisim.viz.viewer.demo import DEMO_BUTTONS, DemoRun, demo_scene
+    from uhrisim.scenario.load import load_scenario
+    from uhrisim.sim.simulation import Simulation
+    from uhrisim.viz.viewer import attach_viewer
 
-    server = ViewerServer(demo_scene(), DEMO_BUTTONS, port=0, max_fps=20)
-    url = server.start()
-    run = DemoRun(server)
+    scenario = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
+    sim = Simulation(load_scenario(scenario))
+    server, _ = attach_viewer(sim, port=0, speed=20.0)
+    run = threading.Thread(target=sim.run, args=(sim_seconds,), daemon=True)
     try:
         with headless_page(width=1400, height=860) as bp:
-            bp.page.goto(url)
+            bp.page.goto(server.url)
             bp.page.wait_for_function("window.uhri && window.uhri.scene !== null")
-            run.speed = 25.0
             run.start()
-            while run.t < sim_seconds:
-                time.sleep(0.1)
-            run.speed = 1.0
+            run.join()
             bp.page.wait_for_timeout(2500)
             bp.page.screenshot(path=path)
             if bp.errors():
                 raise RuntimeError(f"page reported errors: {bp.errors()}")
     finally:
-        run.stop()
+        sim.close()
         server.close()
 
 
 if __name__ == "__main__":  # pragma: no cover - manual tool
     import sys
 
-    demo_screenshot(sys.argv[1] if len(sys.argv) > 1 else "viewer.png")
+    mission_screenshot(sys.argv[1] if len(sys.argv) > 1 else "viewer.png")
