@@ -34,7 +34,7 @@ from typing import Any
 from uhrisim.autonomy.behaviors.base import OwnNav
 from uhrisim.autonomy.cpa import cpa_distance
 from uhrisim.autonomy.extrapolator import LinearExtrapolator
-from uhrisim.autonomy.params import to_float, to_str
+from uhrisim.autonomy.params import to_decay, to_float, to_str
 from uhrisim.core.errors import ConfigError
 
 __all__ = [
@@ -281,12 +281,7 @@ class ContactManagerConfig:
         alerts = tuple(
             parse_alert(a, f"{where}.alerts[{i}]") for i, a in enumerate(m.get("alerts", []))
         )
-        decay = m.get("decay", (30.0, 60.0))
-        parts = decay if isinstance(decay, list | tuple) else str(decay).split(",")
-        if len(parts) != 2:
-            raise ConfigError("decay must be 'start,end'", f"{where}.decay")
-        d = (to_float(parts[0], "decay", where), to_float(parts[1], "decay", where))
-        LinearExtrapolator(*d)
+        d = to_decay(m.get("decay", (30.0, 60.0)), "decay", where)
         age = to_float(m.get("contact_max_age", 600.0), "contact_max_age", where)
         relays = tuple(
             parse_relay(r, f"{where}.relays[{i}]") for i, r in enumerate(m.get("relays", []))

@@ -26,6 +26,7 @@ __all__ = [
     "parse_updates",
     "setter",
     "to_bool",
+    "to_decay",
     "to_float",
     "to_point",
     "to_point_or_present",
@@ -93,6 +94,18 @@ def one_of(*choices: str) -> Callable[[object, str, str], str]:
         return s
 
     return conv
+
+
+def to_decay(v: object, key: str, where: str) -> tuple[float, float]:
+    """ "start,end" (or a 2-sequence) -> a contact's dead-reckoning decay window
+    (start, end), s, with 0 <= start <= end (IvP ``decay``)."""
+    parts = list(v) if isinstance(v, list | tuple) else str(v).split(",")
+    if len(parts) != 2:
+        raise ConfigError(f"{key} must read 'start,end' in seconds, got {v!r}", where)
+    a, b = (to_float(p, key, where) for p in parts)
+    if a < 0 or b < a:
+        raise ConfigError(f"{key} needs 0 <= start <= end, got {v!r}", where)
+    return (a, b)
 
 
 def to_point(v: object, key: str, where: str) -> tuple[float, float]:

@@ -11,21 +11,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext, ContactInfo
+from uhrisim.autonomy.cpa import CpaGrid
+from uhrisim.autonomy.domain import Domain
 from uhrisim.autonomy.extrapolator import Extrapolated, LinearExtrapolator
-from uhrisim.autonomy.params import setter, to_bool, to_str
-from uhrisim.core.errors import ConfigError
-
-
-def to_decay(v: object, key: str, where: str) -> tuple[float, float]:
-    parts = list(v) if isinstance(v, list | tuple) else str(v).split(",")
-    try:
-        a, b = (float(str(p).strip()) for p in parts)
-    except ValueError:
-        raise ConfigError(f"{key} must read 'start,end' in seconds, got {v!r}", where) from None
-    if a < 0 or b < a:
-        raise ConfigError(f"{key} needs 0 <= start <= end, got {v!r}", where)
-    return (a, b)
-
+from uhrisim.autonomy.params import setter, to_bool, to_decay, to_str
 
 CONTACT_HANDLERS = {
     "contact": setter("contact", to_str),
@@ -53,6 +42,14 @@ class ContactTrack:
 
 class ContactBehavior(Behavior):
     CONTACT_BASED = True
+
+    def cpa_grid(self, domain: Domain) -> CpaGrid:
+        """Own-ship velocities over the domain's course x speed grid (built once per domain)."""
+        memo = getattr(self, "_cpa_grid", None)
+        if memo is None or memo[0] != domain:
+            grid = CpaGrid.over(domain.axis("course").values, domain.axis("speed").values)
+            memo = self._cpa_grid = (domain, grid)
+        return memo[1]
 
     def track(self, ctx: BehaviorContext) -> ContactTrack | None:
         p = self.params
