@@ -11,7 +11,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from uhrisim.autonomy.behaviors.avoid_collision import cpa_utility, cpa_utility_inplace
+from uhrisim.autonomy.behaviors.base import BehaviorContext, OwnNav
+from uhrisim.autonomy.config import HelmConfig
 from uhrisim.autonomy.coupler import couple, couple_reference
+from uhrisim.autonomy.cpa import CpaGrid, cpa_distance
 from uhrisim.autonomy.domain import DomainAxis
 from uhrisim.autonomy.zaic import ZaicMemo, zaic_peak, zaic_peak_on_axis, zaic_peak_reference
 
@@ -70,3 +74,50 @@ def test_zaic_memo_returns_the_same_function_and_recomputes_on_change():
     assert np.array_equal(a, zaic_peak_on_axis(SPEED, 0.5, 0.0, 0.3, 0.0))
     b = memo(SPEED, 0.7, 0.0, 0.3, 0.0)
     assert b is not a and np.array_equal(b, zaic_peak_on_axis(SPEED, 0.7, 0.0, 0.3, 0.0))
+
+
+def test_cpa_grid_equals_cpa_distance():
+    crs, spd = COURSE.values, SPEED.values
+    grid = CpaGrid.over(crs, spd)
+    rng = np.random.default_rng(3)
+    for k in range(300):
+        own = rng.uniform(-20.0, 20.0, 2)
+        cn = own if k % 10 == 0 else rng.uniform(-20.0, 20.0, 2)  # r0 = 0 included
+        h, v = float(rng.uniform(0.0, 360.0)), float(rng.choice([0.0, rng.uniform(0.0, 2.0)]))
+        horizon = float(rng.choice([120.0, 60.0, 1.0, 0.0]))
+        fast = grid.distance(own[0], own[1], cn[0], cn[1], h, v, horizon)
+        ref = cpa_distance(own[0], own[1], crs[:, None], spd[None, :], cn[0], cn[1], h, v,
+                           horizon)  # fmt: skip
+        assert np.array_equal(fast, ref)  # == (a zero's sign may differ)
+
+
+def test_cpa_utility_inplace_equals_cpa_utility():
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        cpa = rng.uniform(0.0, 4.0, (36, 41))
+        lo = float(rng.uniform(0.0, 2.0))
+        hi = float(rng.choice([lo, lo + rng.uniform(0.0, 2.0)]))
+        ref = cpa_utility(cpa, lo, hi)
+        assert cpa_utility_inplace(cpa.copy(), lo, hi).tobytes() == ref.tobytes()
+
+
+def test_avoid_collision_function_equals_reference_path():
+    cfg = HelmConfig.from_mapping({"domain": {"course": [0, 359, 360], "speed": [0, 2, 41]},
+                                   "behaviors": [{"type": "AvoidCollision", "name": "avd",
+                                                  "contact": "diver", "pwt_outer_dist": 4,
+                                                  "pwt_inner_dist": 1.5,
+                                                  "min_util_cpa_dist": 1.0,
+                                                  "max_util_cpa_dist": 1.5}]})  # fmt: skip
+    b = cfg.behaviors[0].instantiate()
+    rng = np.random.default_rng(9)
+    for k in range(40):
+        x, y = rng.uniform(-3.0, 3.0, 2)
+        info = {"DIVER_NAV_X": float(x), "DIVER_NAV_Y": float(y),
+                "DIVER_NAV_HEADING": float(rng.uniform(0, 360)),
+                "DIVER_NAV_SPEED": float(rng.uniform(0, 1)), "DIVER_NAV_UTC": 0.0}  # fmt: skip
+        own = OwnNav(0.0, 0.0, float(rng.uniform(0, 360)), 0.5, 1.0)
+        ctx = BehaviorContext(0.5 * k / 40, cfg.domain, info, own)
+        fast, ref = b.on_run(ctx), b.objective_reference(ctx)
+        if ref is None or b.priority_scale <= 0.0:
+            continue
+        assert fast is not None and fast.values.tobytes() == ref.values.tobytes()

@@ -49,6 +49,20 @@ def cpa_utility(cpa: np.ndarray, min_util: float, max_util: float) -> np.ndarray
     return u
 
 
+def cpa_utility_inplace(cpa: np.ndarray, min_util: float, max_util: float) -> np.ndarray:
+    """:func:`cpa_utility` computed in ``cpa``'s own storage (same operations; returns it)."""
+    span = max(max_util - min_util, 1e-9)
+    below = cpa < min_util
+    u = cpa
+    u -= min_util
+    u *= 75.0 / span
+    u += 25.0
+    np.maximum(u, 25.0, out=u)
+    np.minimum(u, 100.0, out=u)
+    u[below] = 0.0
+    return u
+
+
 @dataclass(frozen=True)
 class AvoidCollisionParams:
     """BHV_AvoidCollision parameters (IvP names and defaults; module docstring).
@@ -102,6 +116,21 @@ class AvoidCollision(ContactBehavior):
         self.priority_scale = relevance(rng, p.pwt_outer_dist, p.pwt_inner_dist, p.pwt_grade)
         if self.priority_scale <= 0.0:
             return None
+        min_u = p.min_util_cpa_dist if rng > p.min_util_cpa_dist else rng / 2.0
+        max_u = max(p.max_util_cpa_dist, min_u)
+        cpa = self.cpa_grid(ctx.domain).distance(
+            own.x, own.y, tr.x, tr.y, tr.info.heading, tr.info.speed, p.time_on_leg
+        )
+        u = cpa_utility_inplace(cpa, min_u, max_u)
+        return Objective.over(ctx.domain, ("course", "speed"), u)
+
+    def objective_reference(self, ctx: BehaviorContext) -> Objective | None:
+        """:meth:`on_run`'s function from the plain :func:`cpa_distance` (tests only)."""
+        p: AvoidCollisionParams = self.params
+        own, tr = ctx.own, self.track(ctx)
+        if own is None or tr is None:
+            return None
+        rng = distance(own.x, own.y, tr.x, tr.y)
         min_u = p.min_util_cpa_dist if rng > p.min_util_cpa_dist else rng / 2.0
         max_u = max(p.max_util_cpa_dist, min_u)
         crs, spd = ctx.domain.axis("course").values, ctx.domain.axis("speed").values

@@ -30,7 +30,6 @@ import numpy as np
 from uhrisim.autonomy.behaviors.base import BehaviorContext
 from uhrisim.autonomy.behaviors.contact_base import CONTACT_HANDLERS, ContactBehavior
 from uhrisim.autonomy.coupler import couple
-from uhrisim.autonomy.cpa import cpa_distance
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import bearing_deg, distance
 from uhrisim.autonomy.params import one_of, setter, to_float
@@ -95,11 +94,12 @@ class Trail(ContactBehavior):
         dist = distance(own.x, own.y, px, py)
         crs_axis, spd_axis = ctx.domain.axis("course"), ctx.domain.axis("speed")
         if dist > p.nm_radius:
-            cpa = cpa_distance(
-                own.x, own.y, crs_axis.values[:, None], spd_axis.values[None, :],
-                px, py, ch, cv, p.time_on_leg,
-            )  # fmt: skip
-            u = np.clip(100.0 * (1.0 - cpa / dist), 0.0, 100.0)
+            u = self.cpa_grid(ctx.domain).distance(own.x, own.y, px, py, ch, cv, p.time_on_leg)
+            u /= dist  # 100 (1 - cpa / D) clipped to 0..100, in place
+            np.subtract(1.0, u, out=u)
+            u *= 100.0
+            np.maximum(u, 0.0, out=u)
+            np.minimum(u, 100.0, out=u)
             return Objective.over(ctx.domain, ("course", "speed"), u)
         if dist > p.radius:
             hx, hy = math.sin(math.radians(ch)), math.cos(math.radians(ch))
