@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext, ContactInfo
+from uhrisim.autonomy.cpa import CpaGrid
+from uhrisim.autonomy.domain import Domain
 from uhrisim.autonomy.extrapolator import Extrapolated, LinearExtrapolator
 from uhrisim.autonomy.params import setter, to_bool, to_decay, to_str
 
@@ -40,6 +42,14 @@ class ContactTrack:
 
 class ContactBehavior(Behavior):
     CONTACT_BASED = True
+
+    def cpa_grid(self, domain: Domain) -> CpaGrid:
+        """Own-ship velocities over the domain's course x speed grid (built once per domain)."""
+        memo = getattr(self, "_cpa_grid", None)
+        if memo is None or memo[0] != domain:
+            grid = CpaGrid.over(domain.axis("course").values, domain.axis("speed").values)
+            memo = self._cpa_grid = (domain, grid)
+        return memo[1]
 
     def track(self, ctx: BehaviorContext) -> ContactTrack | None:
         p = self.params
