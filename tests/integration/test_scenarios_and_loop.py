@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uhrisim.core.errors import ConfigError
+from uhrisim.core.errors import AssetError, ConfigError
 from uhrisim.record.reader import summarize
 from uhrisim.scenario.load import load_scenario, validate_data
 from uhrisim.sim.simulation import Simulation
@@ -52,6 +52,36 @@ def test_out_of_range_value_names_the_field_path_and_line(tmp_path):
                  "    driver: none\n    sensors:\n      - {preset: P900-45, max_range: -3}\n")
     with pytest.raises(ConfigError, match=r"s\.yaml:7: agents\[0\]\.sensors\[0\]\.max_range"):
         load_scenario(path)
+
+
+def test_nan_is_refused_at_load_with_its_field(tmp_path):
+    path = write(tmp_path, "name: x\nagents:\n  - {name: rov, model: videoray, driver: none,\n"
+                 "     start: {north: .nan}}\n")
+    with pytest.raises(ConfigError, match=r"s\.yaml:4: agents\[0\]\.start\.north: .*finite"):
+        load_scenario(path)
+
+
+@pytest.mark.parametrize("content, problem", [(None, "mesh file not found"),
+                                              (b"garbage\x00\x01", "no triangles")])
+def test_missing_or_corrupt_mesh_names_the_scenario_line_and_the_file(tmp_path, content,
+                                                                       problem):
+    if content is not None:
+        (tmp_path / "wreck.stl").write_bytes(content)
+    path = write(tmp_path, "name: x\nworld:\n  objects:\n"
+                 "    - {type: mesh, file: wreck.stl, label: wreck}\n"
+                 "agents: [{name: rov, model: videoray, driver: none}]\n")
+    with pytest.raises(AssetError, match=rf"s\.yaml:4: .*wreck\.stl.*{problem}"):
+        Simulation(load_scenario(path))
+
+
+def test_cli_reports_bad_input_in_one_line(tmp_path):
+    path = write(tmp_path, "name: x\nagents:\n  - {name: rov, model: videoray, drivr: none}\n")
+    result = subprocess.run([sys.executable, "-m", "uhrisim", "validate", str(path)],
+                            capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 2
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and "did you mean 'driver'" in lines[0], result.stderr
+    assert "Traceback" not in result.stderr
 
 
 def test_unknown_agent_reference_gets_a_did_you_mean():

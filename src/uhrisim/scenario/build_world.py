@@ -5,7 +5,7 @@ from __future__ import annotations
 import difflib
 import math
 
-from uhrisim.core.errors import ConfigError
+from uhrisim.core.errors import AssetError, ConfigError
 from uhrisim.core.frames import rot_z
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import (
@@ -53,7 +53,10 @@ def object_mesh(obj: SceneObject, source: ScenarioFile, where: str, posed: bool 
     if isinstance(obj, CapsuleObject):
         return prim.capsule(obj.radius, obj.height, position, yaw=yaw)
     if isinstance(obj, MeshObject):
-        return meshes.load_mesh(source.resolve(obj.file), obj.scale, position, yaw=yaw)
+        try:
+            return meshes.load_mesh(source.resolve(obj.file), obj.scale, position, yaw=yaw)
+        except AssetError as error:
+            raise AssetError(f"{where}: {error}") from None
     raise ConfigError(f"unsupported object type {type(obj).__name__}", where=where)
 
 

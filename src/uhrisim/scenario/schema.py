@@ -27,7 +27,8 @@ HeadingDeg = Annotated[float, Field(ge=-360.0, le=360.0)]
 class Strict(BaseModel):
     """Base of every scenario section: frozen, and unknown keys are errors with a hint."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True,
+                              allow_inf_nan=False)
 
     @model_validator(mode="before")
     @classmethod
