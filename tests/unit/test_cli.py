@@ -1,0 +1,42 @@
+"""The command line: help, figures, benchmarks as JSON, and errors as one line."""
+
+import json
+
+from typer.testing import CliRunner
+
+from uhrisim.bench import available
+from uhrisim.cli import app
+
+runner = CliRunner()
+
+
+def test_help_lists_the_commands():
+    result = runner.invoke(app, ["--help"])
+    assert result.exit_code == 0
+    for command in ("run", "validate", "view", "figure", "bench", "demo"):
+        assert command in result.output
+
+
+def test_bench_prints_one_json_object_with_rates():
+    result = runner.invoke(app, ["bench", "dynamics", "--quick", "--json"])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.output)
+    assert data["single_vehicle_steps_per_s"] > 0
+    assert data["batch"]["100"]["vehicle_steps_per_s"] > data["single_vehicle_steps_per_s"]
+    assert isinstance(data["target"]["meets_target"], bool)
+
+
+def test_every_issue_benchmark_is_registered():
+    assert {"dynamics", "sonar", "helm", "mission", "bridges", "raycast", "viewer"} <= set(
+        available())
+
+
+def test_unknown_names_fail_with_exit_status_2():
+    assert runner.invoke(app, ["bench", "nope"]).exit_code == 2
+    assert runner.invoke(app, ["figure", "nope"]).exit_code == 2
+
+
+def test_figure_openloop_writes_its_files(tmp_path):
+    result = runner.invoke(app, ["figure", "openloop", "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "openloop.csv").is_file() and (tmp_path / "openloop_track.png").is_file()
