@@ -16,7 +16,8 @@ from uhrisim.autonomy.behaviors.base import BehaviorContext, OwnNav
 from uhrisim.autonomy.config import HelmConfig
 from uhrisim.autonomy.coupler import couple, couple_reference
 from uhrisim.autonomy.cpa import CpaGrid, cpa_distance
-from uhrisim.autonomy.domain import DomainAxis
+from uhrisim.autonomy.domain import Domain, DomainAxis, Objective
+from uhrisim.autonomy.solver import WeightedObjective, solve, solve_reference
 from uhrisim.autonomy.zaic import ZaicMemo, zaic_peak, zaic_peak_on_axis, zaic_peak_reference
 
 COURSE = DomainAxis("course", 0.0, 359.0, 360, wrap=True)
@@ -121,3 +122,25 @@ def test_avoid_collision_function_equals_reference_path():
         if ref is None or b.priority_scale <= 0.0:
             continue
         assert fast is not None and fast.values.tobytes() == ref.values.tobytes()
+
+
+def test_solve_equals_reference_solver():
+    dom = Domain((COURSE, SPEED, DomainAxis("depth", 0.0, 50.0, 501, optional=True)))
+    rng = np.random.default_rng(13)
+    for k in range(150):
+        plateaus = rng.integers(0, 5, (360, 41)) * 25.0  # many exact ties
+        objs = [WeightedObjective("cs", float(rng.uniform(1, 300)),
+                                  Objective.over(dom, ("course", "speed"), plateaus))]  # fmt: skip
+        if k % 2:
+            objs.append(WeightedObjective("c", 50.0, Objective.over(
+                dom, ("course",), rng.integers(0, 3, 360) * 10.0)))  # ties on purpose
+        if k % 3:
+            objs.append(WeightedObjective("cs2", 200.0, Objective.over(
+                dom, ("course", "speed"), rng.uniform(0, 100, (360, 41)))))
+        objs.append(WeightedObjective("d", 100.0, Objective.over(
+            dom, ("depth",), rng.integers(0, 4, 501) * 1.0)))
+        if k % 5 == 0:
+            objs.append(WeightedObjective("off", 0.0, objs[0].objective))  # dropped
+        fast, ref = solve(dom, objs), solve_reference(dom, objs)
+        assert fast.decision == ref.decision and fast.indices == ref.indices
+        assert fast.total == ref.total and fast.contributions == ref.contributions

@@ -21,10 +21,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import NDArray
 
 from uhrisim.autonomy.domain import Domain, Objective
 
-__all__ = ["SolveResult", "WeightedObjective", "solve"]
+__all__ = ["SolveResult", "WeightedObjective", "solve", "solve_reference"]
 
 
 @dataclass(frozen=True)
@@ -73,8 +74,81 @@ def _components(domain: Domain, objs: list[WeightedObjective]) -> list[tuple[str
     return [domain.order(g) for g in groups.values()]
 
 
+def _fuse(
+    domain: Domain, comp: tuple[str, ...], members: list[WeightedObjective]
+) -> NDArray[np.float64]:
+    """sum_i priority_i * f_i over the component's sub-grid, added in objective order.
+
+    The first full-grid term starts the sum (``0 + x`` is x for the argmax), the others
+    go through one scratch array: the same additions in the same order as a zero-filled
+    accumulator, with no per-term temporaries.
+    """
+    shape = domain.shape(comp)
+    acc: NDArray[np.float64] | None = None
+    tmp: NDArray[np.float64] | None = None
+    for w in members:
+        v = w.objective.values
+        if w.objective.axes != comp:  # a function over fewer axes: broadcast it
+            view_shape = [1] * len(comp)
+            for a, n in zip(w.objective.axes, v.shape, strict=True):
+                view_shape[comp.index(a)] = n
+            v = v.reshape(view_shape)
+        if v.shape != shape:
+            if acc is None:
+                acc = np.zeros(shape)
+            acc += w.priority * v
+        elif acc is None:
+            acc = np.multiply(v, w.priority)
+        else:
+            if tmp is None:
+                tmp = np.empty(shape)
+            acc += np.multiply(v, w.priority, out=tmp)
+    assert acc is not None  # a component has at least one member
+    return acc
+
+
 def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
     """Fuse weighted objectives and return the argmax decision (see module docstring)."""
+    objs = [w for w in objectives if w.priority > 0.0 and w.objective.axes]
+    if not objs:
+        return SolveResult(None, all_stop_reason="no active behaviors (no objective functions)")
+    decision: dict[str, float] = {}
+    indices: dict[str, int] = {}
+    for comp in _components(domain, objs):
+        members = [w for w in objs if w.objective.axes[0] in comp]
+        acc = _fuse(domain, comp, members)
+        flat = int(np.argmax(acc))
+        best = np.unravel_index(flat, acc.shape) if len(comp) > 1 else (flat,)
+        for a, i in zip(comp, best, strict=True):
+            indices[a] = int(i)
+            decision[a] = float(domain.axis(a).values[i])
+    return _audit(domain, objs, decision, indices)
+
+
+def _audit(
+    domain: Domain,
+    objs: list[WeightedObjective],
+    decision: dict[str, float],
+    indices: dict[str, int],
+) -> SolveResult:
+    missing = [a.name for a in domain.axes if not a.optional and a.name not in indices]
+    contributions = {w.name: 0.0 for w in objs}
+    for w in objs:
+        contributions[w.name] += w.priority * w.objective.at(indices)
+    total = float(sum(contributions.values()))
+    if missing:
+        return SolveResult(
+            None,
+            indices,
+            total,
+            contributions,
+            all_stop_reason=f"no decision for non-optional variable(s) {', '.join(missing)}",
+        )
+    return SolveResult(decision, indices, total, contributions)
+
+
+def solve_reference(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
+    """Plain form of :func:`solve` (zero-filled accumulator per component; tests only)."""
     objs = [w for w in objectives if w.priority > 0.0 and w.objective.axes]
     if not objs:
         return SolveResult(None, all_stop_reason="no active behaviors (no objective functions)")
@@ -94,17 +168,4 @@ def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
         for a, i in zip(comp, best, strict=True):
             indices[a] = int(i)
             decision[a] = float(domain.axis(a).values[i])
-    missing = [a.name for a in domain.axes if not a.optional and a.name not in indices]
-    contributions = {w.name: 0.0 for w in objs}
-    for w in objs:
-        contributions[w.name] += w.priority * w.objective.at(indices)
-    total = float(sum(contributions.values()))
-    if missing:
-        return SolveResult(
-            None,
-            indices,
-            total,
-            contributions,
-            all_stop_reason=f"no decision for non-optional variable(s) {', '.join(missing)}",
-        )
-    return SolveResult(decision, indices, total, contributions)
+    return _audit(domain, objs, decision, indices)
