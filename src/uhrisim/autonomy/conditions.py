@@ -99,10 +99,10 @@ class Relation:
             if right.name not in info:
                 return False
             right = info[right.name]
-        ln, rn = _as_number(left), _as_number(right)
-        l_is_num = isinstance(left, int | float) and not isinstance(left, bool)
-        r_is_num = isinstance(right, int | float) and not isinstance(right, bool)
+        l_is_num = isinstance(left, (int, float)) and not isinstance(left, bool)
+        r_is_num = isinstance(right, (int, float)) and not isinstance(right, bool)
         if l_is_num or r_is_num:
+            ln, rn = _as_number(left), _as_number(right)
             if ln is None or rn is None:
                 return False
             return _OPS["==" if self.op == "=" else self.op](ln, rn)

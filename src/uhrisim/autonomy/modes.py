@@ -27,6 +27,7 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 
 from uhrisim.autonomy.conditions import Condition, Value, parse_condition
 from uhrisim.core.errors import ConfigError
@@ -53,6 +54,13 @@ class ModeEntry:
     def variables(self) -> set[str]:
         return set().union(*(c.variables() for c in self.conditions)) if self.conditions else set()
 
+    @cached_property
+    def _split(self) -> tuple[tuple[Condition, ...], tuple[Condition, ...], tuple[str, ...]]:
+        """(parent-gate conditions, the others, other variables they read) - fixed per entry."""
+        gate = tuple(c for c in self.conditions if self.var in c.variables())
+        rest = tuple(c for c in self.conditions if self.var not in c.variables())
+        return gate, rest, tuple(sorted(self.variables() - {self.var}))
+
 
 def parse_mode_entry(text: str, where: str = "modes") -> ModeEntry:
     """Parse one mode declaration; conditions in braces are separated by newlines or ';'."""
@@ -68,9 +76,10 @@ def evaluate_modes(entries: tuple[ModeEntry, ...], info: Mapping[str, Value]) ->
     """Mode variable values for this tick (see module docstring)."""
     built: dict[str, str] = {}
     for e in entries:
-        gate = [c for c in e.conditions if e.var in c.variables()]
-        rest = [c for c in e.conditions if e.var not in c.variables()]
-        env = {k: v for k, v in info.items() if k not in built and k != e.var}
+        gate, rest, reads = e._split
+        # the conditions read only their own variables: the env holds just those (info's
+        # values, except that the mode variables built so far this tick replace them)
+        env = {k: info[k] for k in reads if k in info and k not in built}
         env.update(built)
         if gate and e.var not in built:
             continue
