@@ -59,6 +59,10 @@ MAX_FOOTPRINT_TAN = 12.0
 
 _LN10_OVER_10 = math.log(10.0) / 10.0
 
+#: Echo-free row gaps shorter than this (range bins) are filtered with their neighbours
+#: rather than split into a separate OpenCV call (exact either way; fewer calls).
+_ROW_RUN_MERGE_GAP = 16
+
 
 class RayCaster(Protocol):
     """What the sonar needs from a ray caster (``uhrisim.world.scene.Scene.raycaster()``)."""
@@ -211,6 +215,59 @@ class _Geometry:
     row_offset: NDArray[np.float32]  # (n_bins, n_beams) 1 + k·ln(TVG·SL·gain/top)
     log_speckle_lut: NDArray[np.float32]  # k·ln(speckle factor), 256 entries
     k_ln: float  # display units per natural-log unit: 10/(ln 10 · dynamic range)
+    floor_level: NDArray[np.float32]  # (n_bins, n_beams) display level of an echo-free cell
+
+
+def _log_level(
+    raw: NDArray[np.float32],
+    out: NDArray[np.float32],
+    beam_kernel: NDArray[np.float32],
+    range_kernel: NDArray[np.float32],
+    noise_rel: float,
+    k_ln: float,
+    row_offset: NDArray[np.float32],
+) -> None:
+    """``out = 1 + k·ln(conv(raw) + NL/SL) + k·ln(TVG·SL·gain/top)`` (display units, before
+    speckle and clipping) for a block of whole rows of the raw echo image (echo re SL), with
+    zero echo assumed beyond the block's edges; ``row_offset`` holds the block's rows of
+    ``1 + k·ln(TVG·SL·gain/top)``. Written into ``out`` (same shape as ``raw``)."""
+    noise_positive = noise_rel > 1e-30  # log() needs a positive argument
+    cv2.sepFilter2D(
+        raw, cv2.CV_32F, beam_kernel, range_kernel, dst=out,
+        delta=noise_rel if noise_positive else 0.0, borderType=cv2.BORDER_CONSTANT,
+    )  # fmt: skip
+    if not noise_positive:
+        np.maximum(out, np.float32(1e-37), out=out)
+    cv2.log(out, out)
+    cv2.scaleAdd(out, k_ln, row_offset, dst=out)
+
+
+def _floor_level(
+    beam_kernel: NDArray[np.float32],
+    range_kernel: NDArray[np.float32],
+    noise_rel: float,
+    k_ln: float,
+    row_offset: NDArray[np.float32],
+) -> NDArray[np.float32]:
+    """Display level (before speckle and clipping) of every cell of an echo-free image —
+    the noise floor after TVG and gain — formed by the very operations of a ping, so that a
+    ping may copy it into the rows no echo reaches instead of filtering them."""
+    out = np.empty(row_offset.shape, np.float32)
+    _log_level(np.zeros_like(out), out, beam_kernel, range_kernel, noise_rel, k_ln, row_offset)
+    return out
+
+
+def _row_runs(cover: NDArray[np.bool_], pad: int, gap: int) -> list[tuple[int, int]]:
+    """Half-open row ranges [start, stop) that hold every True row of ``cover`` widened by
+    ``pad`` rows each side (clipped to the image); ranges closer than ``gap`` rows are
+    merged. Rows outside the ranges are at least ``pad`` rows from any True row."""
+    rows = np.flatnonzero(cover)
+    if rows.size == 0:
+        return []
+    cut = np.flatnonzero(np.diff(rows) > 2 * pad + gap)
+    starts = np.maximum(np.concatenate([rows[:1], rows[cut + 1]]) - pad, 0)
+    stops = np.minimum(np.concatenate([rows[cut], rows[-1:]]) + pad + 1, cover.size)
+    return list(zip(starts.tolist(), stops.tolist(), strict=True))
 
 
 def _speckle_lut(bits: int = 8) -> NDArray[np.float32]:
@@ -249,10 +306,10 @@ class ImagingSonar:
         self.rng = rng
         self.mount_rotation = mount_rotation(config.tilt_deg, config.yaw_deg)
         self.mount_position = np.asarray(config.mount_position_frd, dtype=float)
+        # Two-way absorption per metre in natural-log units (the config derives α on access).
+        self._two_alpha_ln = 2.0 * config.alpha_db_per_m * _LN10_OVER_10
         self.geometry = self._precompute()
         n_bins, n_beams = self.polar_shape
-        # log() needs a positive argument; the noise floor guarantees it unless set absurdly low.
-        self._noise_positive = self.geometry.noise_rel > 1e-30
         # Per-instance scratch buffers, reused every ping (a ping is not re-entrant).
         self._scratch = {
             "raw": np.zeros((n_bins, n_beams), np.float32),
@@ -364,6 +421,7 @@ class ImagingSonar:
             row_offset=row_offset,
             log_speckle_lut=(k_ln * np.log(speckle_lut.astype(np.float64))).astype(np.float32),
             k_ln=k_ln,
+            floor_level=_floor_level(beam_kernel, rk, noise_rel, k_ln, row_offset),
         )
 
     # -- properties ------------------------------------------------------------------------
@@ -449,9 +507,9 @@ class ImagingSonar:
     ) -> NDArray[np.float64]:
         """Echo intensity of each hit ray relative to the source level (linear):
         ``w_ray·μ·cosβ·R⁻²·10^(−2αR/10)``, w_ray = b_v(φ)²·ΔΩ (see the module docstring)."""
-        a = 2.0 * self.config.alpha_db_per_m * _LN10_OVER_10
         rr = np.maximum(r, 1e-3)
-        return self.geometry.ray_weight[idx] * mu * cos_inc * np.exp(-a * rr) / (rr * rr)
+        w = self.geometry.ray_weight[idx]
+        return w * mu * cos_inc * np.exp(-self._two_alpha_ln * rr) / (rr * rr)
 
     def form_image(
         self,
@@ -473,8 +531,10 @@ class ImagingSonar:
         n_cells = n_bins * n_beams
         e = self.ray_intensity(idx, r, cos_inc, mu)
         if cfg.mode == "physical":
-            raw, label_polar = self._accumulate(idx, r, cos_inc, e, labels if cfg.labels else None)
-            polar = self._physical_polar(raw)
+            raw, label_polar, rows = self._accumulate(
+                idx, r, cos_inc, e, labels if cfg.labels else None
+            )
+            polar = self._physical_polar(raw, rows)
         # Hits inside the window (the image may also use hits just outside it).
         win = (r >= cfg.range_min_m) & (r < cfg.range_max_m)
         if not win.all():
@@ -596,17 +656,21 @@ class ImagingSonar:
         cos_inc: NDArray[np.float64],
         e: NDArray[np.float64],
         labels: NDArray[np.int32] | None = None,
-    ) -> tuple[NDArray[np.float32], NDArray[np.int16]]:
+    ) -> tuple[NDArray[np.float32], NDArray[np.int16], list[tuple[int, int]]]:
         """Sum ray echoes into (bin, beam) cells, each spread evenly over its range
         footprint [a, b) (fractional bins: the end bins get their overlap, the bins in
         between e/(b − a) each), and label each cell (−1: none; all −1 when ``labels`` is
-        None) with the scene label that put the most echo into it.
+        None) with the scene label that put the most echo into it. Also returns the row
+        ranges [start, stop) outside which the raw image is zero by construction (no
+        footprint reaches those range bins), widened by the range-blur half-width.
 
-        O(rays + cells): the interior runs go into a difference image whose cumulative sum
-        along range comes from cv2.integral. Labels: the most frequent label of the ping
-        (usually the sea floor) is the background; the rays of every other label are
-        expanded into their footprint cells and their echo summed per label; a cell takes
-        the label with the most echo, the background's being the rest of the cell's sum.
+        O(rays + cells of the rows the footprints reach): the interior runs go into a
+        difference image whose cumulative sum along range comes from cv2.integral, over the
+        slab of rows between the nearest and the farthest footprint only. Labels: the most
+        frequent label of the ping (usually the sea floor) is the background; the rays of
+        every other label are expanded into their footprint cells and their echo summed per
+        label; a cell takes the label with the most echo, the background's being the rest
+        of the cell's sum.
         The returned raw image is a scratch buffer of this instance (valid until the next
         ping); the labels are a new array.
         """
@@ -617,26 +681,31 @@ class ImagingSonar:
         raw = buf["raw"]
         if idx.size == 0:
             raw.fill(0.0)
-            return raw, label_polar
+            return raw, label_polar, []
         keep, a, b, lo, hi, dens, one = self._footprint_bins(r, cos_inc, e)
         if not keep.all():
             idx, e = idx[keep], e[keep]
             labels = labels[keep] if labels is not None else None
             if idx.size == 0:
                 raw.fill(0.0)
-                return raw, label_polar
+                return raw, label_polar, []
         same = lo == hi
         beam = g.ray_beam[idx]
+        # Rows [r0, r1) hold every footprint; the rest of the image gets no echo.
+        r0, r1 = int(lo.min()), int(hi.max()) + 1
+        raw[:r0].fill(0.0)
+        raw[r1:].fill(0.0)
+        slab = raw[r0:r1]
         # Interior runs lo+1 … hi−1 (density each) as +/- steps in a difference image.
         run = hi > lo + 1
-        diff = buf["diff"]
+        diff = buf["diff"][r0:r1]
         diff.fill(0.0)
         flat = diff.reshape(-1)
-        np.add.at(flat, (lo[run] + 1) * n_beams + beam[run], dens[run])
-        np.add.at(flat, hi[run] * n_beams + beam[run], -dens[run])
+        np.add.at(flat, (lo[run] + (1 - r0)) * n_beams + beam[run], dens[run])
+        np.add.at(flat, (hi[run] - r0) * n_beams + beam[run], -dens[run])
         # Cumulative sum along range = column differences of the integral image.
-        integ = cv2.integral(diff[:n_bins], sum=buf["integ"], sdepth=cv2.CV_64F)
-        np.subtract(integ[1:, 1:], integ[1:, :-1], out=raw, casting="unsafe")
+        integ = cv2.integral(diff, sum=buf["integ"][: r1 - r0 + 1], sdepth=cv2.CV_64F)
+        np.subtract(integ[1:, 1:], integ[1:, :-1], out=slab, casting="unsafe")
         # End bins get their overlap; a footprint inside one bin puts all its echo there.
         rflat = raw.reshape(-1)
         w_lo = np.where(same, one, dens * (lo + 1 - a)).astype(np.float32)
@@ -648,10 +717,14 @@ class ImagingSonar:
         # echo) must not count as echo (it would label shadows): zero everything below
         # 1e-12 of the total echo (−120 dB: far below any noise floor).
         tiny = 1e-12 * float(e.sum()) + float(np.finfo(np.float32).tiny)
-        cv2.threshold(raw, tiny, 0.0, cv2.THRESH_TOZERO, dst=raw)
+        cv2.threshold(slab, tiny, 0.0, cv2.THRESH_TOZERO, dst=slab)
         if labels is not None:
             self._label_cells(raw, label_polar, labels, a, b, lo, hi, dens, one, beam)
-        return raw, label_polar
+        # Range bins some footprint reaches (a difference count over [lo, hi]).
+        steps = np.bincount(lo, minlength=n_bins + 1) - np.bincount(hi + 1, minlength=n_bins + 1)
+        cover = np.cumsum(steps[:n_bins]) > 0
+        rows = _row_runs(cover, g.range_kernel.size // 2, _ROW_RUN_MERGE_GAP)
+        return raw, label_polar, rows
 
     def _label_cells(
         self,
@@ -717,24 +790,27 @@ class ImagingSonar:
         best_lab[cells] = -1
         total[cells] = 0.0
 
-    def _physical_polar(self, raw: NDArray[np.float32]) -> NDArray[np.float32]:
+    def _physical_polar(
+        self, raw: NDArray[np.float32], rows: list[tuple[int, int]] | None = None
+    ) -> NDArray[np.float32]:
         """Beam pattern + pulse blur, noise, speckle, TVG and gain, log compression → 0…1
         (a new array).
 
         Computed in the log domain, which needs fewer passes over the image:
         polar = 1 + k·ln(conv(raw) + NL/SL) + [1 + k·ln(TVG·SL·gain/top) − 1] + k·ln(S),
-        equal to compressing ``(conv(raw)·SL + NL)·TVG·gain·S`` (``reference_polar``)."""
+        equal to compressing ``(conv(raw)·SL + NL)·TVG·gain·S`` (``reference_polar``).
+        ``rows``: row ranges outside which ``raw`` is zero at least a range-blur half-width
+        deep (None: all rows); only those are filtered, the others take the precomputed
+        echo-free level (the same operations on zeros)."""
         g = self.geometry
         img = self._scratch["img"]
-        cv2.sepFilter2D(
-            raw, cv2.CV_32F, g.beam_kernel, g.range_kernel, dst=img,
-            delta=g.noise_rel if self._noise_positive else 0.0,
-            borderType=cv2.BORDER_CONSTANT,
-        )  # fmt: skip
-        if not self._noise_positive:
-            np.maximum(img, np.float32(1e-37), out=img)
-        cv2.log(img, img)
-        cv2.scaleAdd(img, g.k_ln, g.row_offset, dst=img)
+        if rows is None:
+            rows = [(0, raw.shape[0])]
+        if sum(b - a for a, b in rows) < raw.shape[0]:
+            np.copyto(img, g.floor_level)
+        for a, b in rows:
+            _log_level(raw[a:b], img[a:b], g.beam_kernel, g.range_kernel, g.noise_rel, g.k_ln,
+                       g.row_offset[a:b])  # fmt: skip
         if self.config.speckle:
             u = np.frombuffer(self.rng.bytes(img.size), dtype=np.uint8).reshape(img.shape)
             cv2.add(img, cv2.LUT(u, g.log_speckle_lut, dst=self._scratch["speckle"]), dst=img)
