@@ -125,7 +125,7 @@ def test_avoid_collision_function_equals_reference_path():
 
 
 def test_solve_equals_reference_solver():
-    dom = Domain((COURSE, SPEED, DomainAxis("depth", 0.0, 50.0, 501, optional=True)))
+    dom = Domain((COURSE, SPEED, DomainAxis("depth", 0.0, 50.0, 26, optional=True)))
     rng = np.random.default_rng(13)
     for k in range(150):
         plateaus = rng.integers(0, 5, (360, 41)) * 25.0  # many exact ties
@@ -138,9 +138,15 @@ def test_solve_equals_reference_solver():
             objs.append(WeightedObjective("cs2", 200.0, Objective.over(
                 dom, ("course", "speed"), rng.uniform(0, 100, (360, 41)))))
         objs.append(WeightedObjective("d", 100.0, Objective.over(
-            dom, ("depth",), rng.integers(0, 4, 501) * 1.0)))
+            dom, ("depth",), rng.integers(0, 4, 26) * 1.0)))
         if k % 5 == 0:
             objs.append(WeightedObjective("off", 0.0, objs[0].objective))  # dropped
+        if k % 4 == 0:  # joins all three axes into one component
+            objs.append(WeightedObjective("sd", 30.0, Objective.over(
+                dom, ("speed", "depth"), rng.integers(0, 3, (41, 26)) * 5.0)))
+        if k % 7 == 0:  # depth before course in the objective list
+            objs.reverse()
         fast, ref = solve(dom, objs), solve_reference(dom, objs)
         assert fast.decision == ref.decision and fast.indices == ref.indices
+        assert list(fast.decision) == list(ref.decision)  # same axis order too
         assert fast.total == ref.total and fast.contributions == ref.contributions

@@ -53,6 +53,23 @@ class SolveResult:
 
 
 def _components(domain: Domain, objs: list[WeightedObjective]) -> list[tuple[str, ...]]:
+    """Connected groups of axes, each in domain order, ordered by their first axis."""
+    groups: list[set[str]] = []
+    for w in objs:
+        axes = set(w.objective.axes)
+        for g in [g for g in groups if not g.isdisjoint(axes)]:
+            axes |= g
+            groups.remove(g)
+        groups.append(axes)
+    if len(groups) > 1:
+        rank = {n: i for i, n in enumerate(domain.names)}
+        groups.sort(key=lambda g: min(rank[n] for n in g))
+    return [domain.order(g) for g in groups]
+
+
+def _components_reference(
+    domain: Domain, objs: list[WeightedObjective]
+) -> list[tuple[str, ...]]:
     parent = {n: n for n in domain.names}
 
     def find(a: str) -> str:
@@ -117,10 +134,13 @@ def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
     for comp in _components(domain, objs):
         members = [w for w in objs if w.objective.axes[0] in comp]
         acc = _fuse(domain, comp, members)
-        flat = int(np.argmax(acc))
-        best = np.unravel_index(flat, acc.shape) if len(comp) > 1 else (flat,)
-        for a, i in zip(comp, best, strict=True):
-            indices[a] = int(i)
+        flat = int(acc.argmax())  # first maximum in C order (the tie rule)
+        best = []
+        for n in reversed(acc.shape):  # unravel (C order)
+            flat, i = divmod(flat, n)
+            best.append(i)
+        for a, i in zip(comp, reversed(best), strict=True):
+            indices[a] = i
             decision[a] = float(domain.axis(a).values[i])
     return _audit(domain, objs, decision, indices)
 
@@ -154,7 +174,7 @@ def solve_reference(domain: Domain, objectives: list[WeightedObjective]) -> Solv
         return SolveResult(None, all_stop_reason="no active behaviors (no objective functions)")
     decision: dict[str, float] = {}
     indices: dict[str, int] = {}
-    for comp in _components(domain, objs):
+    for comp in _components_reference(domain, objs):
         shape = tuple(domain.axis(a).npts for a in comp)
         acc = np.zeros(shape)
         for w in objs:

@@ -52,14 +52,14 @@ def cpa_utility(cpa: np.ndarray, min_util: float, max_util: float) -> np.ndarray
 def cpa_utility_inplace(cpa: np.ndarray, min_util: float, max_util: float) -> np.ndarray:
     """:func:`cpa_utility` computed in ``cpa``'s own storage (same operations; returns it)."""
     span = max(max_util - min_util, 1e-9)
-    below = cpa < min_util
+    keep = cpa >= min_util  # cpa is never NaN: the complement of cpa < min_util
     u = cpa
     u -= min_util
     u *= 75.0 / span
     u += 25.0
     np.maximum(u, 25.0, out=u)
     np.minimum(u, 100.0, out=u)
-    u[below] = 0.0
+    u *= keep  # x 1.0 keeps u exactly, x 0.0 zeroes it (u in [25, 100])
     return u
 
 
