@@ -145,8 +145,8 @@ def _unit_normals(tri: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def _refine_hits(
     face: NDArray[np.int64],
-    nrm: NDArray[np.float64],
-    plane_w: NDArray[np.float64],
+    normal_table: NDArray[np.float64],
+    plane_table: NDArray[np.float64],
     o: NDArray[np.float64],
     d: NDArray[np.float64],
     limit: NDArray[np.float64] | float,
@@ -154,29 +154,41 @@ def _refine_hits(
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
     """Float64 distances of Embree's float32 hits, refined on the hit triangle's plane.
 
-    ``face``: (N,) triangle hit or -1; ``nrm``: (N, 3) its unit normal (zero rows on a
-    miss); ``plane_w``: (N,) n·v0 of its plane; ``o``, ``d``: (N, 3) rays in the frame of
-    the triangles (metres, unit directions); ``limit``: the range, m. t = (n·v0 − n·o) /
-    (n·d); rays (nearly) in the triangle's plane keep Embree's distance,
-    ``embree_tfar(rows)``. Hits refined past ``limit`` become misses. Returns (face or -1,
-    distance or inf, normal turned to face the ray origin, zero on a miss); ``face`` and
-    ``nrm`` are updated in place.
+    ``face``: (N,) triangle hit or -1; ``normal_table``: (F, 3) unit normal and
+    ``plane_table``: (F,) n·v0 of each triangle's plane; ``o``, ``d``: (N, 3) rays in the
+    frame of the triangles (metres, unit directions); ``limit``: the range, m (scalar or
+    (N,)). t = (n·v0 − n·o) / (n·d); rays (nearly) in the triangle's plane keep Embree's
+    distance, ``embree_tfar(rows)``. Hits refined past ``limit`` become misses. Only the
+    rows that hit are computed (most rays of a cast usually miss a given mesh). Returns
+    (face or -1, distance or inf, normal turned to face the ray origin, zero on a miss);
+    ``face`` is updated in place.
     """
-    dn = np.einsum("ij,ij->i", d, nrm)
-    num = plane_w - np.einsum("ij,ij->i", o, nrm)
+    n = len(face)
+    t = np.full(n, np.inf)
+    nrm = np.zeros((n, 3))
+    rows = np.flatnonzero(face >= 0)
+    if len(rows) == 0:
+        return face, t, nrm
+    f = face[rows]
+    nh = np.take(normal_table, f, axis=0)
+    dh = np.take(d, rows, axis=0)
+    dn = np.einsum("ij,ij->i", dh, nh)
+    num = np.take(plane_table, f) - np.einsum("ij,ij->i", np.take(o, rows, axis=0), nh)
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = num / dn
-    grazing = np.flatnonzero((np.abs(dn) <= 1e-9) & (face >= 0))
+        th = num / dn
+    grazing = np.flatnonzero(np.abs(dn) <= 1e-9)
     if len(grazing):
-        t[grazing] = embree_tfar(grazing)
-    t[face < 0] = np.inf
-    beyond = np.flatnonzero(t > limit)  # refined past the limit: a miss
+        th[grazing] = embree_tfar(rows[grazing])
+    # Turn to face the ray origin (n·d < 0).
+    nh *= np.copysign(1.0, -dn)[:, None]
+    lim = limit if np.ndim(limit) == 0 else np.take(limit, rows)
+    beyond = np.flatnonzero(th > lim)  # refined past the limit: a miss
     if len(beyond):
-        t[beyond] = np.inf
-        face[beyond] = -1
-        nrm[beyond] = 0.0
-    # Turn to face the ray origin (n·d < 0); miss rows stay zero.
-    nrm *= np.copysign(1.0, -dn)[:, None]
+        th[beyond] = np.inf
+        face[rows[beyond]] = -1
+        nh[beyond] = 0.0
+    t[rows] = th
+    nrm[rows] = nh
     return face, t, nrm
 
 
@@ -399,13 +411,11 @@ class _EmbreeMesh:
             face = np.concatenate([j.result() for j in jobs]).astype(np.int64)
         else:
             face = self.scene.run(o32, d32, dists=far).astype(np.int64)  # primID; -1 = miss
-        nrm = np.take(self.normal, face, axis=0)  # -1 → the zero row
-        plane_w = np.take(self.plane_w, face)
 
         def embree_tfar(rows: NDArray[np.intp]) -> NDArray[np.float32]:
             return self.scene.run(o32[rows], d32[rows], dists=far[rows], output=1)["tfar"]
 
-        return _refine_hits(face, nrm, plane_w, o, d, lim, embree_tfar)
+        return _refine_hits(face, self.normal, self.plane_w, o, d, lim, embree_tfar)
 
 
 class _BodyBVH:
@@ -527,8 +537,6 @@ class EmbreeRayCaster(RayCaster):
             d32[a:b] = dl[a:b]
             local[a:b] = mesh.scene.run(o32[a:b], d32[a:b], dists=far[a:b])
         face = np.where(local >= 0, local + bvh.face_offset[gi], -1)
-        nrm = np.take(bvh.normal, face, axis=0)  # -1 → the zero row
-        plane_w = np.take(bvh.plane_w, face)
 
         def embree_tfar(rows: NDArray[np.intp]) -> NDArray[np.float32]:
             # Rows belong to different groups (scenes): one query each (grazing is rare).
@@ -539,7 +547,7 @@ class EmbreeRayCaster(RayCaster):
                 for p in rows
             ], dtype=np.float32)  # fmt: skip
 
-        return _refine_hits(face, nrm, plane_w, ol, dl, limit, embree_tfar)
+        return _refine_hits(face, bvh.normal, bvh.plane_w, ol, dl, limit, embree_tfar)
 
     def _cast(self, o, d, max_range, exclude):  # type: ignore[no-untyped-def]
         self._sync()
