@@ -24,6 +24,19 @@ def rescale(f: ArrayLike, low: float, high: float) -> NDArray[np.float64]:
     return low + (a - fmin) * ((high - low) / (fmax - fmin))
 
 
+def _rescale_ranged(f: ArrayLike, high: float) -> tuple[NDArray[np.float64], float, float]:
+    """``rescale(f, 0, high)`` and its exact min and max (taken at f's own extremes: the
+    map is monotone, so no second pass over the result is needed)."""
+    a = np.asarray(f, dtype=float)
+    fmin, fmax = float(a.min()), float(a.max())
+    if fmax - fmin <= 0.0:
+        return np.full_like(a, high), high, high
+    k = high / (fmax - fmin)
+    out = np.subtract(a, fmin)
+    out *= k  # 0 + x dropped: x >= +0 here
+    return out, 0.0, (fmax - fmin) * k
+
+
 def couple(
     f_course: ArrayLike,
     f_speed: ArrayLike,
@@ -38,13 +51,13 @@ def couple(
     1-D pieces (rounding is monotone, so min_ij fl(a_i + b_j) = fl(min a + min b)) and the
     final rescale runs in place (``0 + x`` is dropped: x >= +0 here).
     """
-    fc = rescale(f_course, 0.0, course_weight)
-    fs = rescale(f_speed, 0.0, speed_weight)
+    fc, cmin, cmax = _rescale_ranged(f_course, course_weight)
+    fs, smin, smax = _rescale_ranged(f_speed, speed_weight)
     F = np.add.outer(fc, fs)
     if not normalize:
         return F
-    fmin = float(fc.min()) + float(fs.min())
-    fmax = float(fc.max()) + float(fs.max())
+    fmin = cmin + smin
+    fmax = cmax + smax
     if fmax - fmin <= 0.0:
         F.fill(100.0)
         return F

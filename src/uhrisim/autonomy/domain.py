@@ -11,8 +11,11 @@ order); a function over fewer variables is constant along the others.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
+from itertools import combinations
+from types import MappingProxyType
 
 import numpy as np
 from numpy.typing import NDArray
@@ -119,6 +122,15 @@ class Domain:
         by = self._by_name
         return tuple(by[n].npts for n in names)
 
+    @cached_property
+    def subgrids(self) -> Mapping[tuple[str, ...], tuple[int, ...]]:
+        """Every axis subset in domain order -> its sub-grid shape (read-only; () -> ())."""
+        return MappingProxyType({
+            c: self.shape(c)
+            for k in range(len(self.axes) + 1)
+            for c in combinations(self.names, k)
+        })  # fmt: skip
+
 
 @dataclass(frozen=True, eq=False)
 class Objective:
@@ -135,9 +147,9 @@ class Objective:
     def over(cls, domain: Domain, axes: tuple[str, ...], values: NDArray) -> Objective:
         """Build after checking that ``axes`` are in domain order and the shape matches."""
         axes = tuple(axes)
-        if axes != domain.order(axes) or len(set(axes)) != len(axes):
+        shape = domain.subgrids.get(axes)
+        if shape is None:  # unknown, repeated or out-of-order axes
             raise ConfigError(f"objective axes {axes} not in domain order {domain.names}", "helm")
-        shape = domain.shape(axes)
         arr = np.asarray(values, dtype=float)
         if arr.shape != shape:
             raise ConfigError(f"objective over {axes} has shape {arr.shape}, want {shape}", "helm")
