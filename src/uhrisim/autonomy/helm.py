@@ -141,6 +141,7 @@ class Helm:
             else:
                 self.slots.append(_Slot(spec.instantiate()))
         self.mode_vars = frozenset(config.mode_vars)
+        self._mode_var_order = config.mode_vars  # declaration order (the first is MODE)
         self._first = True
         self._last_lists: dict[str, str] = {}
         self.last_output: HelmOutput | None = None
@@ -265,12 +266,13 @@ class Helm:
             posts.append(("IVPHELM_STATE", state))
             self._last_lists["IVPHELM_STATE"] = state
         built = evaluate_modes(self.config.modes, self.info)
-        for var in self.config.mode_vars:
+        mode_vars = self._mode_var_order
+        for var in mode_vars:
             value = built.get(var, "")  # no entry matched: the mode variable is empty
             if self.info.get(var) != value or self._first:
                 posts.append((var, value))
             self.info[var] = value
-        mode = str(self.info.get(self.config.mode_vars[0], "")) if self.config.mode_vars else ""
+        mode = str(self.info.get(mode_vars[0], "")) if mode_vars else ""
         if parked:
             out = self._finish(t, posts, None, "helm parked (MOOS_MANUAL_OVERRIDE=true)", mode)
             return out
@@ -374,8 +376,11 @@ class Helm:
                 posts.append(("DESIRED_DEPTH", decision.depth))
         elif result is not None:
             posts.append(("DESIRED_SPEED", 0.0))
-        by = {k: tuple(s.bhv.name for s in self.slots if s.status == k) for k in
-              ("active", "running", "idle", "completed")}  # fmt: skip
+        groups: dict[str, list[str]] = {"active": [], "running": [], "idle": [], "completed": []}
+        for s in self.slots:
+            if s.status in groups:
+                groups[s.status].append(s.bhv.name)
+        by = {k: tuple(v) for k, v in groups.items()}
         lists = {
             "IVPHELM_ALLSTOP": reason or "clear",
             "IVPHELM_BHV_ACTIVE": ",".join(by["active"]),
