@@ -17,6 +17,12 @@ from uhrisim.autonomy.config import HelmConfig
 from uhrisim.autonomy.coupler import couple, couple_reference
 from uhrisim.autonomy.cpa import CpaGrid, cpa_distance
 from uhrisim.autonomy.domain import Domain, DomainAxis, Objective
+from uhrisim.autonomy.geometry import (
+    _dist_to_segment,
+    parse_polygon,
+    point_in_polygon,
+    signed_dist_to_polygon,
+)
 from uhrisim.autonomy.solver import WeightedObjective, solve, solve_reference
 from uhrisim.autonomy.zaic import ZaicMemo, zaic_peak, zaic_peak_on_axis, zaic_peak_reference
 
@@ -150,3 +156,20 @@ def test_solve_equals_reference_solver():
         assert fast.decision == ref.decision and fast.indices == ref.indices
         assert list(fast.decision) == list(ref.decision)  # same axis order too
         assert fast.total == ref.total and fast.contributions == ref.contributions
+
+
+def _signed_dist_reference(x: float, y: float, pts) -> float:
+    n = len(pts)
+    d = min(_dist_to_segment(x, y, pts[i], pts[(i + 1) % n]) for i in range(n))
+    return -d if point_in_polygon(x, y, pts) else d
+
+
+def test_signed_dist_to_polygon_equals_segment_by_segment_reference():
+    rng = np.random.default_rng(17)
+    polys = [parse_polygon("format=radial, x=10, y=-20, radius=20, pts=8"),
+             parse_polygon("0,0:10,0:10,10:0,10")]  # fmt: skip
+    for pts in polys:
+        for k in range(2000):
+            x, y = (pts[k % len(pts)] if k % 50 == 0  # exactly on a vertex
+                    else (float(rng.uniform(-40, 40)), float(rng.uniform(-50, 30))))  # fmt: skip
+            assert signed_dist_to_polygon(x, y, pts) == _signed_dist_reference(x, y, pts)

@@ -94,8 +94,18 @@ def dist_to_polygon(x: float, y: float, pts: tuple[Point, ...]) -> float:
 
 def signed_dist_to_polygon(x: float, y: float, pts: tuple[Point, ...]) -> float:
     """Distance to the boundary, negative inside (IvP Loiter's inner/outer test)."""
-    n = len(pts)
-    d = min(_dist_to_segment(x, y, pts[i], pts[(i + 1) % n]) for i in range(n))
+    if not pts:
+        raise ValueError("signed_dist_to_polygon needs a polygon with vertices")
+    d = math.inf
+    (bx, by) = pts[-1]
+    for ax, ay in pts:  # segment (previous vertex -> this one); _dist_to_segment inlined
+        sx, sy = ax - bx, ay - by
+        L2 = sx * sx + sy * sy
+        t = 0.0 if L2 == 0 else max(0.0, min(1.0, ((x - bx) * sx + (y - by) * sy) / L2))
+        di = math.hypot(x - bx - t * sx, y - by - t * sy)
+        if di < d:
+            d = di
+        bx, by = ax, ay
     return -d if point_in_polygon(x, y, pts) else d
 
 

@@ -41,6 +41,8 @@ def moos_value(v: object, where: str | None = None) -> Value:
     """Normalise a Python scalar to a MOOS value: bool -> "true"/"false", numbers -> float.
 
     Anything else is a ConfigError at ``where`` (the variable or field it came from)."""
+    if type(v) is float:  # the common case (NAV_*), without the ABC checks below
+        return v
     if isinstance(v, bool | np.bool_):
         return "true" if v else "false"
     if isinstance(v, numbers.Real):
