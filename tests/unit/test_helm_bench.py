@@ -19,3 +19,11 @@ def test_quick_bench_report_is_complete_and_json():
         assert case["core_fraction_at_4hz"] == pytest.approx(4.0 / case["decisions_per_s"])
         assert isinstance(case["meets_target"], bool)
     assert r["target"]["core_fraction_at_4hz_below"] == 0.01
+
+
+def test_quick_mission_case_reports_both_helms():
+    m = bench._measure_mission(quick=True)
+    json.dumps(m)
+    assert m["agents"] == ["diver", "videoray"] and m["ticks_per_chunk"] == 10
+    assert m["decisions_per_s"] == pytest.approx(1e3 / m["ms_per_decision"])
+    assert m["meets_target"] == (m["ms_per_decision"] <= m["target_ms_per_decision"])
