@@ -13,6 +13,7 @@ import pytest
 
 from uhrisim.autonomy.behaviors.avoid_collision import cpa_utility, cpa_utility_inplace
 from uhrisim.autonomy.behaviors.base import BehaviorContext, OwnNav
+from uhrisim.autonomy.conditions import Relation, VarRef, field_match
 from uhrisim.autonomy.config import HelmConfig
 from uhrisim.autonomy.coupler import couple, couple_reference
 from uhrisim.autonomy.cpa import CpaGrid, cpa_distance
@@ -173,3 +174,29 @@ def test_signed_dist_to_polygon_equals_segment_by_segment_reference():
             x, y = (pts[k % len(pts)] if k % 50 == 0  # exactly on a vertex
                     else (float(rng.uniform(-40, 40)), float(rng.uniform(-50, 30))))  # fmt: skip
             assert signed_dist_to_polygon(x, y, pts) == _signed_dist_reference(x, y, pts)
+
+
+def _field_match_reference(a: str, b: str) -> bool:
+    fa, fb = a.split(":"), b.split(":")
+    short, long_ = (fa, fb) if len(fa) <= len(fb) else (fb, fa)
+    n = len(short)
+    return any(long_[i : i + n] == short for i in range(len(long_) - n + 1))
+
+
+def test_condition_string_fast_path_equals_general_rules():
+    """String vs string: '=' exact, '==' field match, others lexical (conditions.py)."""
+    words = ["ACTIVE", "ACTIVE:TRAILING", "TRAILING", "A:B:C", "B:C", "B", "", ":", "A::B",
+             "true", "3", "3.0"]  # fmt: skip
+    lexical = {"!=": str.__ne__, "<": str.__lt__, ">": str.__gt__, "<=": str.__le__,
+               ">=": str.__ge__}  # fmt: skip
+    for a in words:
+        for b in words:
+            assert field_match(a, b) == _field_match_reference(a, b), (a, b)
+            info = {"V": a, "W": b}
+            assert Relation("V", "=", b).evaluate(info) == (a == b)
+            assert Relation("V", "==", VarRef("W")).evaluate(info) == _field_match_reference(a, b)
+            for op, f in lexical.items():
+                assert Relation("V", op, b).evaluate(info) == f(a, b), (a, op, b)
+    # a number on either side still compares numerically
+    assert Relation("V", "=", 3.0).evaluate({"V": "3"})
+    assert Relation("V", "=", "3").evaluate({"V": 3.0})

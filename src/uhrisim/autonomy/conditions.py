@@ -78,6 +78,10 @@ class VarRef:
 
 def field_match(a: str, b: str) -> bool:
     """IvP ``strFieldMatch``: the shorter ``:``-list is a contiguous run of the longer."""
+    if a == b:
+        return True
+    if ":" not in a and ":" not in b:  # two one-field lists
+        return False
     fa, fb = a.split(":"), b.split(":")
     short, long_ = (fa, fb) if len(fa) <= len(fb) else (fb, fa)
     n = len(short)
@@ -99,6 +103,12 @@ class Relation:
             if right.name not in info:
                 return False
             right = info[right.name]
+        if type(left) is str and type(right) is str:  # the common case: no numbers involved
+            if self.op == "=":
+                return left == right
+            if self.op == "==":
+                return field_match(left, right)
+            return _OPS[self.op](left, right)
         l_is_num = isinstance(left, (int, float)) and not isinstance(left, bool)
         r_is_num = isinstance(right, (int, float)) and not isinstance(right, bool)
         if l_is_num or r_is_num:
