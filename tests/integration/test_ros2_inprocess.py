@@ -109,13 +109,22 @@ def test_scene_helm_clock_and_image_contents(bridge: Ros2Bridge, probe: Probe, a
             "scale": [0.5, 0.5, 10.0], "color": (0.2, 0.3, 0.4, 1.0)}
     path = {"ns": "path", "id": 0, "type": "line_strip",
             "points_ned": [[0.0, 0.0, 1.0], [3.0, 4.0, 2.0]], "scale": [0.05, 0, 0]}
-    bridge.publish_scene(2.25, [pile, path])
-    bridge.publish_helm(agent, 2.5, 45.0, 0.8, None, "MODE@ACTIVE:TRAIL")
     polar = (np.arange(64 * 32, dtype=np.uint16) % 251).astype(np.uint8).reshape(64, 32)
-    bridge.publish_sonar(agent, 2.75, polar, None, None)
     g = probe.got
-    assert probe.spin_until(lambda: g["/scene/markers"] and g[f"/{agent}/helm/mode"]
-                            and g[f"/{agent}/sonar/polar"] and len(g["/clock"]) >= 3)
+
+    def everything_arrived() -> bool:
+        return bool(g["/scene/markers"] and g[f"/{agent}/helm/mode"]
+                    and g[f"/{agent}/sonar/polar"] and len(g["/clock"]) >= 3)
+
+    # Best-effort sensor topics may drop a message on a loaded machine: publish the same
+    # three messages again until all have arrived (each round is identical).
+    for _ in range(20):
+        bridge.publish_scene(2.25, [pile, path])
+        bridge.publish_helm(agent, 2.5, 45.0, 0.8, None, "MODE@ACTIVE:TRAIL")
+        bridge.publish_sonar(agent, 2.75, polar, None, None)
+        if probe.spin_until(everything_arrived, timeout=0.5):
+            break
+    assert everything_arrived()
 
     m_pile, m_path = g["/scene/markers"][0].markers
     assert (m_pile.ns, m_pile.id, m_pile.type) == ("piles", 3, Marker.CYLINDER)
@@ -134,7 +143,8 @@ def test_scene_helm_clock_and_image_contents(bridge: Ros2Bridge, probe: Probe, a
     assert g[f"/{agent}/helm/desired_depth"] == []  # None is not published
     assert g[f"/{agent}/helm/mode"][-1].data == "MODE@ACTIVE:TRAIL"
     clocks = [(c.clock.sec, c.clock.nanosec) for c in g["/clock"]]
-    assert clocks[-3:] == [(2, 250_000_000), (2, 500_000_000), (2, 750_000_000)]
+    run = [(2, 250_000_000), (2, 500_000_000), (2, 750_000_000)]  # one per publish call
+    assert any(clocks[i:i + 3] == run for i in range(len(clocks) - 2)), clocks
 
     img = g[f"/{agent}/sonar/polar"][-1]
     assert (img.height, img.width, img.step, img.encoding) == (64, 32, 32, "mono8")
