@@ -313,7 +313,6 @@ class ImagingSonar:
         # Per-instance scratch buffers, reused every ping (a ping is not re-entrant).
         self._scratch = {
             "raw": np.zeros((n_bins, n_beams), np.float32),
-            "diff": np.zeros((n_bins + 1, n_beams), np.float64),
             "integ": np.zeros((n_bins + 1, n_beams + 1), np.float64),
             "img": np.zeros((n_bins, n_beams), np.float32),
             "speckle": np.zeros((n_bins, n_beams), np.float32),
@@ -698,11 +697,14 @@ class ImagingSonar:
         slab = raw[r0:r1]
         # Interior runs lo+1 … hi−1 (density each) as +/- steps in a difference image.
         run = hi > lo + 1
-        diff = buf["diff"][r0:r1]
-        diff.fill(0.0)
-        flat = diff.reshape(-1)
-        np.add.at(flat, (lo[run] + (1 - r0)) * n_beams + beam[run], dens[run])
-        np.add.at(flat, (hi[run] - r0) * n_beams + beam[run], -dens[run])
+        # (np.bincount sums in input order, as np.add.at into zeros would, but faster.)
+        beam_run, dens_run = beam[run], dens[run]
+        cells = np.concatenate([
+            (lo[run] + (1 - r0)) * n_beams + beam_run, (hi[run] - r0) * n_beams + beam_run
+        ])  # fmt: skip
+        diff = np.bincount(
+            cells, np.concatenate([dens_run, -dens_run]), minlength=(r1 - r0) * n_beams
+        ).reshape(r1 - r0, n_beams)
         # Cumulative sum along range = column differences of the integral image.
         integ = cv2.integral(diff, sum=buf["integ"][: r1 - r0 + 1], sdepth=cv2.CV_64F)
         np.subtract(integ[1:, 1:], integ[1:, :-1], out=slab, casting="unsafe")
