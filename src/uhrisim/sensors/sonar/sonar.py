@@ -704,7 +704,8 @@ class ImagingSonar:
         ])  # fmt: skip
         diff = np.bincount(
             cells, np.concatenate([dens_run, -dens_run]), minlength=(r1 - r0) * n_beams
-        ).reshape(r1 - r0, n_beams)
+        )  # int64 when no footprint spans 3+ bins: made float64 below
+        diff = diff.astype(np.float64, copy=False).reshape(r1 - r0, n_beams)
         # Cumulative sum along range = column differences of the integral image.
         integ = cv2.integral(diff, sum=buf["integ"][: r1 - r0 + 1], sdepth=cv2.CV_64F)
         np.subtract(integ[1:, 1:], integ[1:, :-1], out=slab, casting="unsafe")
