@@ -370,3 +370,28 @@ def test_fidelity_knobs_do_not_change_the_level() -> None:
     ref = band_db(rays_per_beam=128)
     assert band_db(rays_per_beam=32) == pytest.approx(ref, abs=0.3)
     assert band_db(rays_per_beam=32, rays_per_beam_azimuth=4) == pytest.approx(ref, abs=0.3)
+
+
+def test_row_runs_match_filtering_every_row() -> None:
+    # A plate 2 m ahead and the floor from ~9 m leave a band of range bins no echo reaches
+    # (nor the 3-bin range blur): the ping filters only the rows echo reaches and copies the
+    # precomputed echo-free level into the rest. That must equal forming every row.
+    cfg = small_cfg(range_min_m=0.0, range_max_m=20.0, speckle=False)
+    sonar = ImagingSonar(cfg, np.random.default_rng(0))
+    caster = AnalyticCaster(floor_z=8.0, plate_north=2.0, plate_half=0.3, plate_z=4.0)
+    hits, idx, cos_inc = window_hits(sonar, caster)
+    r = hits.distance[idx]
+    e = sonar.ray_intensity(idx, r, cos_inc, hits.reflectivity[idx])
+    raw, _, rows = sonar._accumulate(idx, r, cos_inc, e)
+    n_bins = sonar.polar_shape[0]
+    covered = sum(b - a for a, b in rows)
+    assert len(rows) >= 2 and n_bins - covered >= 50  # the skip is exercised (5 m of bins)
+    fast = sonar._physical_polar(raw.copy(), rows)
+    every = sonar._physical_polar(raw.copy(), None)
+    np.testing.assert_array_equal(fast, every)
+    # Outside the runs the echo is zero, so the image is the noise floor there.
+    outside = np.ones(n_bins, bool)
+    for a, b in rows:
+        outside[a:b] = False
+    assert not raw[outside].any()
+    np.testing.assert_array_equal(fast[outside], np.clip(sonar.geometry.floor_level[outside], 0, 1))
