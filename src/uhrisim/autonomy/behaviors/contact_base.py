@@ -46,7 +46,7 @@ class ContactBehavior(Behavior):
     def cpa_grid(self, domain: Domain) -> CpaGrid:
         """Own-ship velocities over the domain's course x speed grid (built once per domain)."""
         memo = getattr(self, "_cpa_grid", None)
-        if memo is None or memo[0] != domain:
+        if memo is None or (memo[0] is not domain and memo[0] != domain):
             grid = CpaGrid.over(domain.axis("course").values, domain.axis("speed").values)
             memo = self._cpa_grid = (domain, grid)
         return memo[1]
