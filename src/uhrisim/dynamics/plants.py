@@ -4,6 +4,7 @@ of them: ``step(t, x, u) -> x`` over one physics step and ``nav(x) -> NavState``
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -12,6 +13,17 @@ from numpy.typing import NDArray
 from uhrisim.core.errors import NumericalError
 from uhrisim.dynamics import diver, kinematic, videoray
 from uhrisim.dynamics.integrators import FixedStepIntegrator
+
+
+def finite_or_raise(x: NDArray, vehicle: str, t: float) -> NDArray:
+    """``x`` if every entry is finite, else a NumericalError naming the vehicle and time.
+
+    (The sum of a vector is NaN/inf exactly when an entry is, short of overflow - which
+    is no valid state either; it is several times cheaper than ``all(isfinite(x))``.)
+    """
+    if not math.isfinite(x.sum()):
+        raise NumericalError("state became NaN/inf during integration", vehicle=vehicle, t=t)
+    return x
 
 
 @dataclass(frozen=True)
@@ -63,11 +75,8 @@ class VideoRayPlant:
         if np.ndim(x) > 1:
             return self.integrator.step(t, x, u, self.params)
         n = self.integrator.substeps
-        x_next = videoray.rk4_single(x, u, self.params, self.dt / n, n)
-        if not np.all(np.isfinite(x_next)):
-            raise NumericalError("state became NaN/inf during integration", vehicle=self.name,
-                                 t=t + self.dt)
-        return x_next
+        return finite_or_raise(videoray.rk4_single(x, u, self.params, self.dt / n, n),
+                               self.name, t + self.dt)
 
     def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:
         del u  # velocities are part of the state
@@ -90,10 +99,8 @@ class DiverPlant:
         return np.array([*position_ned, yaw])
 
     def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
-        x_next = diver.step_exact(x, u, self.params, self.dt)
-        if not np.all(np.isfinite(x_next)):
-            raise NumericalError("state became NaN/inf", vehicle=self.name, t=t + self.dt)
-        return x_next
+        return finite_or_raise(diver.step_exact(x, u, self.params, self.dt), self.name,
+                               t + self.dt)
 
     def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:
         speed, yaw_rate, vertical = (diver.body_rates_single(u, self.params) if u is not None
