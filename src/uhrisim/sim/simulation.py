@@ -86,6 +86,7 @@ class Agent:
     kick_phase: float = 0.0
     actuator_override: NDArray | None = None
     actuator_override_until: float = -1.0
+    in_contact: bool = False  # touching another body or the scene since the last tick
     last_helm: HelmRecord | None = None
     _nav: NavState | None = None  # cache; cleared by every change of state or inputs
 
@@ -316,9 +317,12 @@ class Simulation:
             if agent.config.model == "videoray":
                 new_state[6] = max(new_state[6], 0.0)  # no upward heave through the surface
         end = new_state[:3]
-        fraction = self._clear_fraction(agent, start, end)
-        if fraction < 1.0:
+        fraction, touched = self._clear_fraction(agent, start, end)
+        if fraction < 1.0 and not agent.in_contact:  # count each contact once, at its onset
             self.collisions += 1
+            self.record_event("collision", f"{agent.name} touched {touched}")
+        agent.in_contact = fraction < 1.0
+        if fraction < 1.0:
             new_state[:3] = start + (end - start) * max(0.0, fraction - 1e-3)
             if agent.config.model == "videoray":
                 new_state[4:7] = 0.0  # inelastic stop against the obstacle
@@ -341,9 +345,10 @@ class Simulation:
                                 agent.kick_phase if agent.is_diver_body else None)
         self._scene_dirty = False
 
-    def _clear_fraction(self, agent: Agent, start: NDArray, end: NDArray) -> float:
-        """Fraction of the move start->end free of other agents and static geometry."""
-        fraction = 1.0
+    def _clear_fraction(self, agent: Agent, start: NDArray, end: NDArray
+                        ) -> tuple[float, str]:
+        """Fraction of the move start->end free of other agents and static geometry, and
+        what it touches ("" when the move is free)."""
         for other in self.agents.values():
             if other is agent:
                 continue
@@ -351,17 +356,14 @@ class Simulation:
             end_distance = math.dist(end, centre)
             approaching = end_distance < math.dist(start, centre)
             if approaching and end_distance < agent.radius + other.radius:
-                fraction = 0.0
-                self.record_event("collision", f"{agent.name} touched {other.name}")
-        if fraction > 0.0 and self._near_static(agent, end):
+                return 0.0, other.name
+        if self._near_static(agent, end):
             self._sync_scene()
             free = self.scene.segment_clear(start, end, agent.radius,
                                             exclude=frozenset(self.agents))
             if free < 1.0:
-                fraction = min(fraction, free)
-                self.record_event("collision", f"{agent.name} touched the scene at NED "
-                                  f"{np.round(end, 2).tolist()}")
-        return fraction
+                return free, f"the scene at NED {np.round(end, 2).tolist()}"
+        return 1.0, ""
 
     def _near_static(self, agent: Agent, point: NDArray) -> bool:
         """Cheap broad phase: is ``point`` within reach of any static geometry?"""
