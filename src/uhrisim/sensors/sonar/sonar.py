@@ -321,6 +321,8 @@ class ImagingSonar:
             "fg_best": np.zeros(n_bins * n_beams, np.float64),
             "fg_label": np.full(n_bins * n_beams, -1, np.int16),
             "fg_mark": np.zeros(n_bins * n_beams, np.bool_),
+            # Strongest echo per fan pixel for the label splat: all zero between pings.
+            "fan_pmax": np.zeros(self.geometry.fan_mask.size, np.float64),
         }
 
     # -- precomputation --------------------------------------------------------------------
@@ -844,9 +846,10 @@ class ImagingSonar:
             ok = (col >= 0) & (col < W) & (row >= 0) & (row < H)
             pix = row[ok] * W + col[ok]
             ee = e[ok]
-            pmax = np.zeros(H * W)
+            pmax = self._scratch["fan_pmax"]  # zeros; only the splatted pixels are reset
             np.maximum.at(pmax, pix, ee)
             win = ee >= pmax[pix]
+            pmax[pix] = 0.0
             out.reshape(-1)[pix[win]] = labels[ok][win]
         return out
 
