@@ -20,7 +20,6 @@ def ros_env(tmp_path_factory: pytest.TempPathFactory):
     mp.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     mp.setenv("ROS_DOMAIN_ID", str(domain))
     mp.setenv("ROS_LOG_DIR", str(tmp_path_factory.mktemp("roslog")))
-    mp.delenv("ROS_LOCALHOST_ONLY", raising=False)
     yield domain
     mp.undo()
     ros2_shm.clean_zombie_shm(before)

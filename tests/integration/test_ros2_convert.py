@@ -200,7 +200,7 @@ def test_specs_validate() -> None:
 def test_env_defaults_only_fill_missing() -> None:
     env: dict[str, str] = {}
     assert apply_env_defaults(env) == {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
-    assert "ROS_LOCALHOST_ONLY" not in env
+    assert env == {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}  # nothing else is set
     env2 = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET"}
     assert apply_env_defaults(env2) == {}
     assert env2["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "SUBNET"

@@ -111,7 +111,7 @@ class AgentCommands:
 
 #: Environment defaults the bridge applies when the user has not set them.
 #: ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` keeps DDS discovery on loopback; the old
-#: ``ROS_LOCALHOST_ONLY`` is ignored by ROS 2 Kilted and is never set here.
+#: The pre-Jazzy localhost-only switch is ignored by ROS 2 Kilted and is never set here.
 ENV_DEFAULTS: dict[str, str] = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
 
 
