@@ -250,9 +250,6 @@ def view(
         server.close()
 
 
-DEMO_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
-
-
 @app.command()
 @friendly_errors
 def demo(
@@ -262,7 +259,9 @@ def demo(
     """The paper's track-and-trail mission (Fig. 19), headless, plus Figs 5-8."""
     console.print("[bold]uhrisim demo:[/] the VideoRay tracks and trails a loitering diver "
                   f"for {duration:g} simulated seconds (DeMarco et al. 2013, Fig. 19)")
-    result = _run_with_progress(DEMO_SCENARIO, out, duration, None, True)
+    from uhrisim.scenario.shipped import shipped_scenario
+
+    result = _run_with_progress(shipped_scenario(), out, duration, None, True)
     _print_metrics(result)
     for path in _resolve(FIGURES["openloop"][0])(out / "openloop"):
         console.print(f"  wrote {path}")

@@ -13,19 +13,18 @@ import random
 import tempfile
 import time
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 from uhrisim.scenario.load import load_scenario
+from uhrisim.scenario.shipped import shipped_scenario
 from uhrisim.sim.hooks import Hook
 from uhrisim.sim.simulation import Simulation
 
-SCENARIO = Path(__file__).resolve().parents[3] / "scenarios" / "track_and_trail.yaml"
 TARGET_OVERHEAD = 0.20
 
 
 def _rtf(hooks: list[Hook], seconds: float) -> float:
-    with Simulation(load_scenario(SCENARIO), sonar_enabled=False, hooks=hooks) as sim:
+    with Simulation(load_scenario(shipped_scenario()), sonar_enabled=False, hooks=hooks) as sim:
         sim.run(1.0)
         start = time.perf_counter()
         sim.run(seconds)

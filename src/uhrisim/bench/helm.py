@@ -17,13 +17,12 @@ from __future__ import annotations
 
 import math
 import time
-from pathlib import Path
 
 from uhrisim.autonomy import Helm, HelmConfig, NodeReport, format_node_report
+from uhrisim.scenario.shipped import shipped_scenario
 
 HELM_HZ = 4.0
 TARGET_CORE_FRACTION = 0.01
-MISSION = Path(__file__).resolve().parents[3] / "scenarios" / "track_and_trail.yaml"
 MISSION_TARGET_MS = 0.3
 
 _CONTACTS = ("diver", "boat", "kayak")
@@ -89,7 +88,7 @@ def _measure_mission(quick: bool) -> dict:
     from uhrisim.sim.simulation import Simulation
 
     settle_s, chunk, chunks = (3.0, 5, 2) if quick else (30.0, 50, 12)
-    sim = Simulation(load_scenario(MISSION), sonar_enabled=False)
+    sim = Simulation(load_scenario(shipped_scenario()), sonar_enabled=False)
     sim.run(settle_s)
     agents = [(a.driver, a) for a in sim.agents.values() if a.driver is not None]
     best = math.inf
@@ -101,7 +100,7 @@ def _measure_mission(quick: bool) -> dict:
         best = min(best, (time.perf_counter() - t0) / (chunk * len(agents)))
     ms = 1e3 * best
     return {
-        "scenario": MISSION.name,
+        "scenario": shipped_scenario().name,
         "settled_s": settle_s,
         "agents": [a.name for _, a in agents],
         "ticks_per_chunk": chunk * len(agents),

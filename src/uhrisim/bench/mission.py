@@ -7,18 +7,17 @@ without sonar. The loop runs without hooks (no recording), after a 2 s warm-up.
 from __future__ import annotations
 
 import time
-from pathlib import Path
 from typing import Any
 
 from uhrisim.scenario.load import load_scenario
+from uhrisim.scenario.shipped import shipped_scenario
 from uhrisim.sim.simulation import Simulation
 
-SCENARIO = Path(__file__).resolve().parents[3] / "scenarios" / "track_and_trail.yaml"
 TARGETS = {"with_sonar": 10.0, "without_sonar": 100.0}
 
 
 def _rtf(sonar: bool, seconds: float) -> dict[str, Any]:
-    sim = Simulation(load_scenario(SCENARIO), sonar_enabled=sonar)
+    sim = Simulation(load_scenario(shipped_scenario()), sonar_enabled=sonar)
     sim.run(2.0)  # warm-up: caches, first pings
     start = time.perf_counter()
     sim.run(seconds)
@@ -31,5 +30,5 @@ def _rtf(sonar: bool, seconds: float) -> dict[str, Any]:
 
 def run(quick: bool = False) -> dict[str, Any]:
     seconds = 5.0 if quick else 60.0
-    return {"scenario": SCENARIO.name, "physics_rate_hz": 60,
+    return {"scenario": shipped_scenario().name, "physics_rate_hz": 60,
             "with_sonar": _rtf(True, seconds), "without_sonar": _rtf(False, seconds)}

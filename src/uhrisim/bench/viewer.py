@@ -182,9 +182,10 @@ def _chromium_fps(url: str, seconds: float) -> float | None:
 def _real_simulation(pairs: int = 3, ticks: int = 900) -> dict[str, Any] | None:
     """Flat-out tick rate of scenarios/track_and_trail.yaml without / with attach_viewer
     (a client connected), alternating runs; None outside a source checkout."""
-    from pathlib import Path
 
-    scenario = Path(__file__).resolve().parents[3] / "scenarios" / "track_and_trail.yaml"
+    from uhrisim.scenario.shipped import shipped_scenario
+
+    scenario = shipped_scenario()
     try:
         from uhrisim.scenario.load import load_scenario
         from uhrisim.sim.simulation import Simulation
