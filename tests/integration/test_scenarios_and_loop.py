@@ -84,6 +84,18 @@ def test_cli_reports_bad_input_in_one_line(tmp_path):
     assert "Traceback" not in result.stderr
 
 
+def test_controller_inputs_must_be_finite_numbers_wherever_they_are_posted(tmp_path):
+    sim = Simulation(load_scenario(write(tmp_path, COLLIDE)))
+    with pytest.raises(ConfigError, match="rov: DESIRED_SPEED must be a finite number"):
+        sim.post("rov", "DESIRED_SPEED", "fast")
+    sim.post("rov", "DESIRED_SPEED", "0.5")  # a numeric string is a number
+    sim.run(0.1)
+    assert sim.agents["rov"].community.get("DESIRED_SPEED") == 0.5
+    bad_event = COLLIDE + "events: [{at: 1, post: {agent: rov, var: DESIRED_DEPTH, value: deep}}]\n"
+    with pytest.raises(ConfigError, match=r"events\[0\]\.post.*DESIRED_DEPTH must be a finite"):
+        load_scenario(write(tmp_path, bad_event, "bad.yaml"))
+
+
 def test_unknown_agent_reference_gets_a_did_you_mean():
     data = {"name": "x", "agents": [{"name": "videoray", "model": "videoray", "driver": "none"}],
             "buttons": [{"label": "GO", "agent": "videoray1", "var": "DEPLOY", "value": "true"}]}

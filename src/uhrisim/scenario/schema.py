@@ -20,6 +20,8 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
+from uhrisim.sim.community import checked_value
+
 NonNegativeFloat = Annotated[float, Field(ge=0.0)]
 HeadingDeg = Annotated[float, Field(ge=-360.0, le=360.0)]
 
@@ -283,6 +285,11 @@ class AgentConfig(Strict):
     vehicle_type: str | None = None
     length: PositiveFloat | None = None
 
+    @property
+    def scene_body(self) -> str:
+        """The 3-D body the agent has in the scene: ``body``, or its model's own."""
+        return self.body or ("diver" if self.model == "diver" else "videoray")
+
     @model_validator(mode="after")
     def _driver_matches(self) -> AgentConfig:
         if self.driver == "helm" and self.helm is None:
@@ -296,6 +303,11 @@ class PostAction(Strict):
     agent: str
     var: str
     value: str | float | bool
+
+    @model_validator(mode="after")
+    def _value_fits_var(self) -> PostAction:
+        checked_value(self.agent, self.var, self.value)  # ConfigError is a ValueError
+        return self
 
 
 class MoveAction(Strict):
@@ -395,11 +407,8 @@ class TrailMetricConfig(Strict):
     acquire_hold_s: PositiveFloat = 10.0
 
 
-class ButtonConfig(Strict):
+class ButtonConfig(PostAction):
     label: str
-    agent: str
-    var: str
-    value: str | float | bool
 
 
 class Scenario(Strict):

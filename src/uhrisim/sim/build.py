@@ -35,7 +35,6 @@ if TYPE_CHECKING:
 #: Collision spheres (m): VideoRay hull ~0.38 x 0.29 x 0.22 m; a prone diver with fins is
 #: ~2.3 m long, a 0.6 m sphere covers the torso and tank where contact matters.
 COLLISION_RADIUS = {"videoray": 0.25, "diver": 0.6, "kinematic": 0.5}
-DEFAULT_BODY = {"videoray": "videoray", "diver": "diver", "kinematic": "videoray"}
 
 
 def _plant(cfg: AgentConfig, dt: float):
@@ -131,7 +130,7 @@ def _add_body(sim: Simulation, cfg: AgentConfig, state) -> None:
     position, rotation = state[:3], rot_z(state[3])
     material = material_named(cfg.material, f"agents.{cfg.name}.material") \
         if cfg.material else None
-    if (cfg.body or DEFAULT_BODY[cfg.model]) == "diver":
+    if cfg.scene_body == "diver":
         sim.scene.add_dynamic(cfg.name, diver_parts(material or NEOPRENE), "diver",
                               material or NEOPRENE, position, rotation, 0.0)
     else:

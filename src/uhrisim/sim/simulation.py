@@ -37,7 +37,7 @@ from uhrisim.core.rng import component_rng
 from uhrisim.dynamics.plants import NavState
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import AgentConfig, EventConfig
-from uhrisim.sim.community import Community, Value
+from uhrisim.sim.community import Community, Value, checked_value
 from uhrisim.sim.hooks import AgentSnapshot, HelmRecord, Hook, SimEvent, TickFrame
 from uhrisim.world.assets import diver_kick_phase_rate
 from uhrisim.world.scene import Scene
@@ -105,8 +105,7 @@ class Agent:
     @property
     def is_diver_body(self) -> bool:
         """Does this agent look like a diver in the scene (kicking legs and fins)?"""
-        return (self.config.body or ("diver" if self.config.model == "diver" else "")) \
-            == "diver"
+        return self.config.scene_body == "diver"
 
     def nav(self) -> NavState:
         """Navigation truth now (cached until the state or the inputs change)."""
@@ -115,6 +114,7 @@ class Agent:
         return self._nav
 
     def desired(self) -> tuple[float, float, float]:
+        """DESIRED_HEADING (deg), DESIRED_SPEED (m/s), DESIRED_DEPTH (m) now."""
         c = self.community
         start = self.config.start
         return (float(c.get("DESIRED_HEADING", start.heading_deg % 360.0)),
@@ -178,6 +178,7 @@ class Simulation:
         """Queue a variable for an agent's community (thread-safe; applied next tick)."""
         if agent not in self.agents:
             raise ConfigError(f"unknown agent {agent!r}; agents: {', '.join(self.agents)}")
+        value = checked_value(agent, var, value)
         with self._inbox_lock:
             self._inbox.append((agent, var, value, source))
 
