@@ -23,6 +23,7 @@ import numpy as np
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.record.mcap_recorder import McapRecorder
+from uhrisim.sensors.sonar.sonar import cloud_hits
 
 logger = logging.getLogger(__name__)
 
@@ -187,16 +188,7 @@ class McapRecordingHook:
             rec.write_event(float(ev.t), str(ev.kind), str(ev.detail))
 
     def _write_ping(self, rec: McapRecorder, agent: str, ping: Any) -> None:
-        points = intensity = None
-        if self.record_points:
-            cloud = getattr(ping, "cloud", None)
-            if cloud is not None:
-                xyz = np.stack([np.ravel(cloud.x), np.ravel(cloud.y), np.ravel(cloud.z)], -1)
-                keep = np.isfinite(xyz).all(axis=1)
-                points = xyz[keep].astype(float)
-                intensity = np.ravel(cloud.intensity)[keep].astype(float)
-            else:
-                points = np.asarray(ping.hit_points_sonar, dtype=float).reshape(-1, 3)
+        points, intensity = cloud_hits(ping.cloud) if self.record_points else (None, None)
         rec.write_sonar(
             agent,
             float(ping.t),

@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from uhrisim.core.errors import ConfigError
+from uhrisim.sensors.sonar.sonar import cloud_hits
 from uhrisim.sim.hooks import BaseHook, TickFrame
 
 from .convert import RateGate
@@ -193,14 +194,7 @@ class Ros2BridgeHook(BaseHook):
 
     @staticmethod
     def _publish_ping(bridge: Ros2Bridge, name: str, ping: Any) -> None:
-        cloud = getattr(ping, "cloud", None)
-        if cloud is not None:
-            xyz = np.stack([np.ravel(cloud.x), np.ravel(cloud.y), np.ravel(cloud.z)], -1)
-            keep = np.isfinite(xyz).all(axis=1)
-            points, intensity = xyz[keep], np.ravel(cloud.intensity)[keep]
-        else:
-            points = np.asarray(ping.hit_points_sonar, dtype=float).reshape(-1, 3)
-            intensity = None
+        points, intensity = cloud_hits(ping.cloud)
         bridge.publish_sonar(name, float(ping.t), ping.polar_u8, ping.fan_u8, points, intensity,
                              sonar_pose_ned=(ping.position_ned, ping.rotation_ned_from_sonar))
 

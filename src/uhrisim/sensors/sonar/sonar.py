@@ -181,6 +181,15 @@ class SonarPing:
         return self.position_ned + np.asarray(pts_sonar, float) @ self.rotation_ned_from_sonar.T
 
 
+def cloud_hits(cloud: SonarCloud) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The rays of a ``sonar_cloud`` that hit inside the window: sonar-frame points
+    (M, 3, m) and their display intensity (M,, 0..1); the cloud lists every ray, NaN on
+    a miss."""
+    xyz = np.stack([np.ravel(cloud.x), np.ravel(cloud.y), np.ravel(cloud.z)], -1).astype(float)
+    keep = np.isfinite(xyz).all(axis=1)
+    return xyz[keep], np.ravel(cloud.intensity)[keep].astype(float)
+
+
 def mount_rotation(tilt_deg: float, yaw_deg: float) -> NDArray[np.float64]:
     """Rotation sonar frame → vehicle body FRD: yaw (about z, > 0 starboard) after a tilt
     (pitch −tilt about y, so tilt > 0 points the sonar axis down): ZYX Euler angles
