@@ -35,9 +35,12 @@ from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned, rot_z
 from uhrisim.core.rng import component_rng
 from uhrisim.dynamics.plants import NavState
+from uhrisim.scenario.build_world import build_static_scene
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import AgentConfig, EventConfig
+from uhrisim.sim.build import apply_event_action, build_agents, build_events
 from uhrisim.sim.community import Community, Value, checked_value
+from uhrisim.sim.contacts import TruthContacts
 from uhrisim.sim.hooks import AgentSnapshot, HelmRecord, Hook, SimEvent, TickFrame
 from uhrisim.world.assets import diver_kick_phase_rate
 from uhrisim.world.scene import Scene
@@ -135,8 +138,6 @@ class Simulation:
 
     def __init__(self, source: ScenarioFile, *, seed: int | None = None,
                  sonar_enabled: bool = True, hooks: Sequence[Hook] = ()) -> None:
-        from uhrisim.sim.build import build_agents, build_events  # avoids an import cycle
-
         self.source = source
         self.scenario = source.scenario
         self.seed = self.scenario.seed if seed is None else seed
@@ -149,9 +150,9 @@ class Simulation:
         self._pending_events: list[SimEvent] = []
         self._inbox: list[tuple[str, str, Value, str]] = []
         self._inbox_lock = threading.Lock()
-        self.scene: Scene = build_agents_scene(source)
+        self.scene: Scene = build_static_scene(source)
         self.agents: dict[str, Agent] = build_agents(self, sonar_enabled)
-        self.contacts = build_contacts(self)
+        self.contacts = TruthContacts(self)
         self.events: list[ScheduledEvent] = build_events(self)
         self.raycaster = self.scene.raycaster("embree") if any(
             a.sonars for a in self.agents.values()) else None
@@ -297,8 +298,6 @@ class Simulation:
             self.agents[agent].community.post(var, value, self.t, source)
 
     def _fire_events(self) -> None:
-        from uhrisim.sim.build import apply_event_action
-
         for event in self.events:
             if event.fired:
                 continue
@@ -424,18 +423,6 @@ class Simulation:
     def snapshots(self) -> dict[str, AgentSnapshot]:
         return {name: self.snapshot(agent) for name, agent in self.agents.items()}
 
-
-
-def build_agents_scene(source: ScenarioFile) -> Scene:
-    from uhrisim.scenario.build_world import build_static_scene
-
-    return build_static_scene(source)
-
-
-def build_contacts(sim: Simulation):
-    from uhrisim.sim.contacts import TruthContacts
-
-    return TruthContacts(sim)
 
 
 def static_obstacle_boxes(scene: Scene) -> tuple[NDArray, NDArray]:
