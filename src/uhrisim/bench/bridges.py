@@ -11,24 +11,17 @@ from __future__ import annotations
 import os
 import random
 import tempfile
-import time
 from collections.abc import Callable
 from typing import Any
 
-from uhrisim.scenario.load import load_scenario
-from uhrisim.scenario.shipped import shipped_scenario
+from uhrisim.bench.mission import mission_rtf
 from uhrisim.sim.hooks import Hook
-from uhrisim.sim.simulation import Simulation
 
 TARGET_OVERHEAD = 0.20
 
 
 def _rtf(hooks: list[Hook], seconds: float) -> float:
-    with Simulation(load_scenario(shipped_scenario()), sonar_enabled=False, hooks=hooks) as sim:
-        sim.run(1.0)
-        start = time.perf_counter()
-        sim.run(seconds)
-        return seconds / (time.perf_counter() - start)
+    return mission_rtf(seconds, sonar=False, hooks=hooks)
 
 
 def _with_ros2(seconds: float) -> float | str:
