@@ -15,12 +15,12 @@ well below the target against the VideoRay's drag.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from uhrisim.core.frames import heading_deg_from_yaw, wrap_180
 from uhrisim.dynamics.videoray import VideoRayParams
 
 
@@ -73,14 +73,17 @@ class VideoRayPController:
     def inputs(self, x: NDArray, desired_heading_deg: float, desired_speed: float,
                desired_depth: float) -> NDArray:
         g = self.gains
-        heading_error = float(wrap_180(desired_heading_deg - heading_deg_from_yaw(x[3])))
-        speed_term = g.speed_weight * g.speed * (desired_speed - x[4])
+        _, _, depth, yaw, surge = np.asarray(x[:5], dtype=float).tolist()
+        # On plain floats, the same operations as wrap_180(desired - heading_deg_from_yaw).
+        heading_deg = math.degrees(yaw) % 360.0
+        heading_error = (desired_heading_deg - heading_deg + 180.0) % 360.0 - 180.0
+        speed_term = g.speed_weight * g.speed * (desired_speed - surge)
         if g.speed_feedforward:
             speed_term += feedforward_input(desired_speed, self.params)
         heading_term = g.heading_weight * g.heading * heading_error
         port = heading_term + speed_term
         star = -heading_term + speed_term
-        vert = -g.depth * (desired_depth - x[2])
+        vert = -g.depth * (desired_depth - depth)
         limit = self.params.input_limit
-        return np.clip(np.array([port, star, vert]), -limit, limit)
-
+        return np.array([min(max(port, -limit), limit), min(max(star, -limit), limit),
+                         min(max(vert, -limit), limit)])

@@ -59,7 +59,7 @@ def body_rates(u: ArrayLike, params: DiverParams) -> NDArray:
 
 def body_rates_single(u: ArrayLike, params: DiverParams) -> tuple[float, float, float]:
     """Float twin of :func:`body_rates` for one diver (the hot path; tests hold them equal)."""
-    left, right, vertical = (float(v) for v in u)
+    left, right, vertical = np.asarray(u, dtype=float).tolist()
     r, L = params.wheel_radius, params.track
     speed = min(max(0.5 * r * (left + right), -params.max_reverse_speed), params.max_speed)
     yaw_rate = min(max(r / L * (left - right), -params.max_turn_rate), params.max_turn_rate)
@@ -93,7 +93,7 @@ def step_exact(x: ArrayLike, u: ArrayLike, params: DiverParams, dt: float) -> ND
     north += (s/w)(sin psi(t) - sin psi0), east -= (s/w)(cos psi(t) - cos psi0); a
     straight line when w = 0. Tests hold it to RK4 on :func:`xdot`.
     """
-    north, east, depth, psi = (float(v) for v in x)
+    north, east, depth, psi = np.asarray(x, dtype=float).tolist()
     speed, yaw_rate, vertical = body_rates_single(u, params)
     new_psi = psi + yaw_rate * dt
     if abs(yaw_rate) * dt > 1e-9:

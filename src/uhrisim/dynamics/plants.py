@@ -57,6 +57,7 @@ class VideoRayPlant:
     name: str = "videoray"
     substeps: int | None = None
     integrator: FixedStepIntegrator = field(init=False)
+    coefficients: videoray.RateCoefficients = field(init=False)
     kind = "videoray"
     state_size = videoray.STATE_SIZE
     input_size = videoray.INPUT_SIZE
@@ -66,6 +67,7 @@ class VideoRayPlant:
             videoray.xdot, self.dt, videoray.stiffest_eigenvalue(self.params),
             substeps=self.substeps, name=self.name)
         object.__setattr__(self, "integrator", integrator)
+        object.__setattr__(self, "coefficients", videoray.RateCoefficients.of(self.params))
 
     def initial_state(self, position_ned: NDArray, yaw: float, speed: float = 0.0) -> NDArray:
         return np.array([*position_ned, yaw, speed, 0.0, 0.0, 0.0])
@@ -75,8 +77,9 @@ class VideoRayPlant:
         if np.ndim(x) > 1:
             return self.integrator.step(t, x, u, self.params)
         n = self.integrator.substeps
-        return finite_or_raise(videoray.rk4_single(x, u, self.params, self.dt / n, n),
-                               self.name, t + self.dt)
+        return finite_or_raise(
+            videoray.rk4_single(x, u, self.params, self.dt / n, n, self.coefficients),
+            self.name, t + self.dt)
 
     def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:
         del u  # velocities are part of the state

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -185,7 +185,7 @@ def _thrust_single(command: float, limit: float, linear_ct: float, quadratic: bo
 
 def _generalized_forces_single(u: ArrayLike, p: VideoRayParams) -> tuple[float, float, float]:
     """Float twin of :func:`generalized_forces` for one vehicle: ``(X, Z, N)``."""
-    port_cmd, star_cmd, vert_cmd = (float(v) for v in u)
+    port_cmd, star_cmd, vert_cmd = np.asarray(u, dtype=float).tolist()
     quadratic = p.thrust_map == "quadratic"
     port = _thrust_single(port_cmd, p.input_limit, p.ct_linear, quadratic,
                           p.ct_forward_quadratic, p.ct_reverse_quadratic)
@@ -196,26 +196,53 @@ def _generalized_forces_single(u: ArrayLike, p: VideoRayParams) -> tuple[float, 
     return port + star, -vert, p.moment_arm * (port - star)
 
 
+class RateCoefficients(NamedTuple):
+    """The velocity equations of :func:`xdot` with every coefficient divided by its inertia
+    once: ``d(vel)/dt = c*coupling + b*vel + q*|vel|*vel + force/inertia`` (SI units)."""
+
+    cu: float
+    cv: float
+    cr: float
+    bu: float
+    bv: float
+    bw: float
+    br: float
+    qu: float
+    qv: float
+    qw: float
+    qr: float
+    m11: float
+    m33: float
+    J: float
+
+    @classmethod
+    def of(cls, p: VideoRayParams) -> RateCoefficients:
+        sign = -1.0 if p.coupling == "paper" else 1.0
+        munk = 0.0 if p.coupling == "paper" else (p.m11 - p.m22)
+        return cls(sign * p.m22 / p.m11, -sign * p.m11 / p.m22, munk / p.J,
+                   p.Xu / p.m11, p.Yv / p.m22, p.Zw / p.m33, p.Nr / p.J,
+                   p.Xuu / p.m11, p.Yvv / p.m22, p.Zww / p.m33, p.Nrr / p.J,
+                   p.m11, p.m33, p.J)
+
+
 def rk4_single(x: ArrayLike, u: ArrayLike, params: VideoRayParams, h: float,
-               substeps: int) -> NDArray[np.float64]:
+               substeps: int, coefficients: RateCoefficients | None = None
+               ) -> NDArray[np.float64]:
     """``substeps`` RK4 steps of size ``h`` for ONE vehicle with inputs held: a fast path
     on plain floats, equal (to rounding) to :func:`uhrisim.dynamics.integrators.rk4_step`
-    on :func:`xdot` (a test holds it to that reference)."""
-    p = params
-    surge, heave, yaw_moment = _generalized_forces_single(u, p)
-    sign = -1.0 if p.coupling == "paper" else 1.0
-    munk = 0.0 if p.coupling == "paper" else (p.m11 - p.m22)
-    # Coefficients divided by inertia once: d(vel)/dt = a*coupling + b*vel + c*|vel|*vel + f.
-    cu, cv, cr = sign * p.m22 / p.m11, -sign * p.m11 / p.m22, munk / p.J
-    bu, bv, bw, br = p.Xu / p.m11, p.Yv / p.m22, p.Zw / p.m33, p.Nr / p.J
-    qu, qv, qw, qr = p.Xuu / p.m11, p.Yvv / p.m22, p.Zww / p.m33, p.Nrr / p.J
-    fu, fw, fr = surge / p.m11, heave / p.m33, yaw_moment / p.J
-    north, east, depth, psi, su, sv, sw, sr = (float(v) for v in x)
+    on :func:`xdot` (a test holds it to that reference). ``coefficients``: those of
+    ``params``, when the caller keeps them (they are computed otherwise)."""
+    surge, heave, yaw_moment = _generalized_forces_single(u, params)
+    cu, cv, cr, bu, bv, bw, br, qu, qv, qw, qr, m11, m33, J = (
+        coefficients or RateCoefficients.of(params))
+    fu, fw, fr = surge / m11, heave / m33, yaw_moment / J
+    north, east, depth, psi, su, sv, sw, sr = np.asarray(x, dtype=float).tolist()
     cos, sin = math.cos, math.sin
 
     def rates(psi: float, uu: float, v: float, w: float, r: float) -> tuple[float, ...]:
+        """d(north, east, u, v, w, r)/dt; d(depth)/dt = w and d(psi)/dt = r need no work."""
         c, s_ = cos(psi), sin(psi)
-        return (uu * c - v * s_, uu * s_ + v * c, w, r,
+        return (uu * c - v * s_, uu * s_ + v * c,
                 cu * v * r + bu * uu + qu * abs(uu) * uu + fu,
                 cv * uu * r + bv * v + qv * abs(v) * v,
                 bw * w + qw * abs(w) * w + fw,
@@ -223,17 +250,17 @@ def rk4_single(x: ArrayLike, u: ArrayLike, params: VideoRayParams, h: float,
 
     half, sixth = 0.5 * h, h / 6.0
     for _ in range(substeps):
-        a1, b1, c1, d1, e1, f1, g1, k1 = rates(psi, su, sv, sw, sr)
-        a2, b2, c2, d2, e2, f2, g2, k2 = rates(psi + half * d1, su + half * e1, sv + half * f1,
-                                               sw + half * g1, sr + half * k1)
-        a3, b3, c3, d3, e3, f3, g3, k3 = rates(psi + half * d2, su + half * e2, sv + half * f2,
-                                               sw + half * g2, sr + half * k2)
-        a4, b4, c4, d4, e4, f4, g4, k4 = rates(psi + h * d3, su + h * e3, sv + h * f3,
-                                               sw + h * g3, sr + h * k3)
+        a1, b1, e1, f1, g1, k1 = rates(psi, su, sv, sw, sr)
+        w2, r2 = sw + half * g1, sr + half * k1
+        a2, b2, e2, f2, g2, k2 = rates(psi + half * sr, su + half * e1, sv + half * f1, w2, r2)
+        w3, r3 = sw + half * g2, sr + half * k2
+        a3, b3, e3, f3, g3, k3 = rates(psi + half * r2, su + half * e2, sv + half * f2, w3, r3)
+        w4, r4 = sw + h * g3, sr + h * k3
+        a4, b4, e4, f4, g4, k4 = rates(psi + h * r3, su + h * e3, sv + h * f3, w4, r4)
         north += sixth * (a1 + 2.0 * (a2 + a3) + a4)
         east += sixth * (b1 + 2.0 * (b2 + b3) + b4)
-        depth += sixth * (c1 + 2.0 * (c2 + c3) + c4)
-        psi += sixth * (d1 + 2.0 * (d2 + d3) + d4)
+        depth += sixth * (sw + 2.0 * (w2 + w3) + w4)
+        psi += sixth * (sr + 2.0 * (r2 + r3) + r4)
         su += sixth * (e1 + 2.0 * (e2 + e3) + e4)
         sv += sixth * (f1 + 2.0 * (f2 + f3) + f4)
         sw += sixth * (g1 + 2.0 * (g2 + g3) + g4)

@@ -310,14 +310,14 @@ class Simulation:
                 apply_event_action(self, event)
 
     def _advance(self, agent: Agent) -> None:
-        start = agent.state[:3].copy()
-        new_state = agent.plant.step(self.t, agent.state, agent.inputs)
+        previous = agent.state  # plants return a new state; this one stays as it was
+        new_state = agent.plant.step(self.t, previous, agent.inputs)
         if new_state[2] < SURFACE_DEPTH:  # cannot fly out of the water
             new_state[2] = SURFACE_DEPTH
             if agent.config.model == "videoray":
                 new_state[6] = max(new_state[6], 0.0)  # no upward heave through the surface
-        end = new_state[:3]
-        fraction, touched = self._clear_fraction(agent, start, end)
+        start, end = previous[:3], new_state[:3]
+        fraction, touched = self._clear_fraction(agent, start.tolist(), end.tolist())
         if fraction < 1.0 and not agent.in_contact:  # count each contact once, at its onset
             self.collisions += 1
             self.record_event("collision", f"{agent.name} touched {touched}")
@@ -345,28 +345,28 @@ class Simulation:
                                 agent.kick_phase if agent.is_diver_body else None)
         self._scene_dirty = False
 
-    def _clear_fraction(self, agent: Agent, start: NDArray, end: NDArray
+    def _clear_fraction(self, agent: Agent, start: list[float], end: list[float]
                         ) -> tuple[float, str]:
-        """Fraction of the move start->end free of other agents and static geometry, and
-        what it touches ("" when the move is free)."""
+        """Fraction of the move start->end (NED, m) free of other agents and static
+        geometry, and what it touches ("" when the move is free)."""
         for other in self.agents.values():
             if other is agent:
                 continue
-            centre = other.state[:3]
+            centre = other.state[:3].tolist()
             end_distance = math.dist(end, centre)
-            approaching = end_distance < math.dist(start, centre)
-            if approaching and end_distance < agent.radius + other.radius:
+            if end_distance < agent.radius + other.radius and end_distance < math.dist(
+                    start, centre):  # touching and approaching
                 return 0.0, other.name
         if self._near_static(agent, end):
             self._sync_scene()
-            free = self.scene.segment_clear(start, end, agent.radius,
+            free = self.scene.segment_clear(np.array(start), np.array(end), agent.radius,
                                             exclude=frozenset(self.agents))
             if free < 1.0:
                 return free, f"the scene at NED {np.round(end, 2).tolist()}"
         return 1.0, ""
 
-    def _near_static(self, agent: Agent, point: NDArray) -> bool:
-        """Cheap broad phase: is ``point`` within reach of any static geometry?"""
+    def _near_static(self, agent: Agent, point: list[float]) -> bool:
+        """Cheap broad phase: is ``point`` (NED, m) within reach of any static geometry?"""
         if self._has_movable_objects:
             return True  # movable objects have no precomputed bounds: always look closely
         margin = agent.radius + 0.5
