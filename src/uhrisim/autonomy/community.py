@@ -12,7 +12,12 @@ from collections.abc import Iterable, Mapping, Sequence
 
 from uhrisim.autonomy.behaviors.base import OwnNav
 from uhrisim.autonomy.config import HelmConfig
-from uhrisim.autonomy.contacts import ContactManager, ContactManagerConfig, NodeReport
+from uhrisim.autonomy.contacts import (
+    ContactManager,
+    ContactManagerConfig,
+    NodeReport,
+    parse_node_report,
+)
 from uhrisim.autonomy.helm import Helm, HelmOutput, as_mail
 
 __all__ = ["VehicleAutonomy"]
@@ -41,7 +46,8 @@ class VehicleAutonomy:
     ) -> HelmOutput:
         """One helm tick at ``t`` (s): returns the helm's output; the contact manager's
         postings of this tick are in ``last_contact_posts``."""
-        reports = list(node_reports)
+        # parsed once, here, for both the contact manager and the helm
+        reports = [parse_node_report(r) if isinstance(r, str) else r for r in node_reports]
         for r in reports:
             self.contacts.on_node_report(r, t)
         self.last_contact_posts = self.contacts.step(t, nav)

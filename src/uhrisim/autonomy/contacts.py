@@ -82,6 +82,9 @@ class NodeReport:
     extra: tuple[tuple[str, str], ...] = ()
 
 
+_KNOWN_KEYS = frozenset(("NAME", "TYPE", "MODE", *_NUMERIC))
+
+
 def parse_node_report(text: str) -> NodeReport:
     """Parse a NODE_REPORT string; malformed input -> ConfigError (a ValueError)."""
     if not isinstance(text, str) or not text.strip():
@@ -89,29 +92,32 @@ def parse_node_report(text: str) -> NodeReport:
     fields: dict[str, str] = {}
     extra: list[tuple[str, str]] = []
     for part in text.split(","):
-        if not part.strip():
-            continue
-        if "=" not in part:
+        k, has_value, v = part.partition("=")
+        if not has_value:
+            if not part.strip():
+                continue
             raise ConfigError(f"field {part.strip()!r} is not KEY=value", "NODE_REPORT")
-        k, v = part.split("=", 1)
         key = k.strip().upper()
         key = _ALIASES.get(key, key)
-        if key in ("NAME", "TYPE", "MODE", *_NUMERIC):
+        if key in _KNOWN_KEYS:
             fields[key] = v.strip()
         else:
             extra.append((k.strip(), v.strip()))
     for need in ("NAME", "X", "Y"):
-        if need not in fields or not fields[need]:
+        if not fields.get(need):
             raise ConfigError(f"node report lacks {need}=: {text!r}", "NODE_REPORT")
     num: dict[str, float] = {}
     for key in _NUMERIC:
-        if key in fields:
-            try:
-                num[key] = float(fields[key])
-            except ValueError:
-                raise ConfigError(f"{key}={fields[key]!r} is not a number", "NODE_REPORT") from None
-            if not math.isfinite(num[key]):
-                raise ConfigError(f"{key}={fields[key]!r} is not finite", "NODE_REPORT")
+        value = fields.get(key)
+        if value is None:
+            continue
+        try:
+            number = float(value)
+        except ValueError:
+            raise ConfigError(f"{key}={value!r} is not a number", "NODE_REPORT") from None
+        if not math.isfinite(number):
+            raise ConfigError(f"{key}={value!r} is not finite", "NODE_REPORT")
+        num[key] = number
     return NodeReport(
         name=fields["NAME"],
         x=num["X"],
