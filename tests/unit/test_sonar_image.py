@@ -43,9 +43,9 @@ class AnalyticCaster:
     plate_mu: float = 0.2
 
     def cast(self, origins, directions, max_range, exclude=frozenset()):
-        o = np.asarray(origins, float)
         d = np.asarray(directions, float)
-        n = len(o)
+        o = np.broadcast_to(np.asarray(origins, float), d.shape)  # (3,): one shared origin
+        n = len(d)
         dist = np.full(n, np.inf)
         lab = np.full(n, -1, np.int32)
         nrm = np.zeros((n, 3))

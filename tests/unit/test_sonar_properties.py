@@ -18,11 +18,12 @@ class Floor:
     """Flat floor at NED z = 8 m (label 0, μ = 0.02)."""
 
     def cast(self, origins, directions, max_range, exclude=frozenset()):
-        o, d = np.asarray(origins), np.asarray(directions)
+        d = np.asarray(directions)
+        o = np.broadcast_to(np.asarray(origins), d.shape)  # (3,): one shared origin
         with np.errstate(divide="ignore", invalid="ignore"):
             t = (8.0 - o[:, 2]) / d[:, 2]
         hit = (d[:, 2] > 0) & (t > 0) & (t <= max_range)
-        n = len(o)
+        n = len(d)
 
         class H:
             distance = np.where(hit, t, np.inf)

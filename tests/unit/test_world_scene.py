@@ -15,7 +15,7 @@ from uhrisim.world import primitives as prim
 from uhrisim.world import seafloor as sf
 from uhrisim.world.assets import diver_parts
 from uhrisim.world.materials import CONCRETE, NEOPRENE, SAND, STEEL, Material
-from uhrisim.world.paper_scenes import pier_scene, single_piling_scene, torus_scene
+from uhrisim.world.paper_scenes import add_diver, pier_scene, single_piling_scene, torus_scene
 from uhrisim.world.scene import Scene
 
 BACKENDS = ["embree", "reference"]
@@ -352,6 +352,24 @@ def test_threaded_embree_matches_single_thread() -> None:
         np.testing.assert_array_equal(getattr(one, field), getattr(two, field))
     with pytest.raises(ConfigError, match="threads"):
         ps.scene.raycaster("embree", threads=0)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_shared_origin_equals_one_origin_per_ray(backend: str) -> None:
+    """A (3,) origin (a sensor's fan) is the same question as that origin on every row,
+    static geometry and an articulated body alike, and must give identical answers."""
+    scene = _separation_scene()
+    add_diver(scene, "diver", (7.0, 2.0, 4.5), 1.57)  # broadside, in the fan
+    rc = scene.raycaster(backend)
+    o, d = _fan(48, 24)
+    rows = rc.cast(o, d, 30.0)
+    shared = rc.cast(o[0], d, 30.0)
+    diver = scene.body_names.index("diver")
+    assert (rows.body == diver).sum() > 5 and (rows.label == -1).any() and (rows.body == 0).any()
+    for field in ("distance", "label", "normal", "reflectivity", "body"):
+        np.testing.assert_array_equal(getattr(rows, field), getattr(shared, field))
+    with pytest.raises(ConfigError, match=r"origins.*\(3,\)"):
+        rc.cast(np.zeros(2), d, 30.0)
 
 
 def test_hit_points_and_depth_queries() -> None:

@@ -39,6 +39,9 @@ def test_depth_at_matches_ray_hits_on_rough_floor() -> None:
     rng = np.random.default_rng(0)
     n, e = rng.uniform(-9.9, 9.9, 500), rng.uniform(-7.9, 7.9, 500)
     np.testing.assert_allclose(_vertical_ray_depths(floor, n, e), floor.depth_at(n, e), atol=1e-9)
+    # The scalar path (two plain numbers) gives the vectorized answer exactly.
+    scalar = [floor.depth_at(float(a), float(b)) for a, b in zip(n[:50], e[:50], strict=True)]
+    np.testing.assert_array_equal(scalar, floor.depth_at(n[:50], e[:50]))
     # At grid nodes the depth is the grid value.
     np.testing.assert_allclose(
         floor.depth_at(floor.north[3], floor.east[:5]), floor.depth[3, :5], atol=1e-12

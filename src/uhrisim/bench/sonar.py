@@ -72,8 +72,8 @@ def _case(paper, preset: str, range_m: float, rays: int, quick: bool, labels: bo
     full, full_cpu = _rates(lambda: sonar.ping(rc, p, R, 0.0), repeats, min_time)
     p_s, R_s = sonar.sonar_pose(p, R)
     dirs = sonar.geometry.dirs_sonar @ R_s.T
-    origins = np.broadcast_to(p_s, dirs.shape).copy()
-    cast, cast_cpu = _rates(lambda: rc.cast(origins, dirs, range_m), repeats, min_time)
+    far_m = sonar.cast_window_m[1]
+    cast, cast_cpu = _rates(lambda: rc.cast(p_s, dirs, far_m), repeats, min_time)
     n_bins, n_beams = sonar.polar_shape
     result = {
         "preset": preset,

@@ -13,6 +13,7 @@ list, so all pilings can share ``"piling"``) and a :class:`~uhrisim.world.materi
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -111,6 +112,9 @@ class Scene:
         self._static_version = 0
         self._seafloor: SeaFloor | None = None
         self._collision_caster: RayCaster | None = None
+        # (static_version, lower corners (K, 3), upper corners (K, 3), objects) of the
+        # watertight static meshes, for inside_solid.
+        self._solid_boxes: tuple[int, NDArray[np.float64], NDArray[np.float64], list] | None = None
 
     def __getstate__(self) -> dict:
         # The cached collision caster holds Embree handles, which do not pickle.
@@ -258,6 +262,26 @@ class Scene:
             raise ConfigError(f"no dynamic body named {name!r}", where="Scene.pose")
         b = self._bodies[i]
         return b.position.copy(), b.rotation.copy(), b.kick_phase
+
+    def inside_solid(self, p_ned: ArrayLike) -> str | None:
+        """Why the point ``p_ned`` (NED, m) is inside the scene's static solid geometry —
+        below the sea floor, or inside a watertight static mesh — or None. Dynamic bodies
+        are not checked. Cheap enough to ask once per sensor sample (bounding boxes are
+        cached per ``static_version``; only meshes whose box holds the point are tested)."""
+        p = np.asarray(p_ned, dtype=float).reshape(3)
+        depth = self.depth_at(p[0], p[1])
+        if math.isfinite(depth) and p[2] > depth + 1e-6:
+            return f"{p[2] - depth:.3f} m below the sea floor"
+        if self._solid_boxes is None or self._solid_boxes[0] != self._static_version:
+            solid = [o for o in self._static if o.mesh.is_watertight]
+            lo = np.array([o.mesh.bounds[0] for o in solid]).reshape(-1, 3)
+            hi = np.array([o.mesh.bounds[1] for o in solid]).reshape(-1, 3)
+            self._solid_boxes = (self._static_version, lo, hi, solid)
+        _, lo, hi, solid = self._solid_boxes
+        for k in np.flatnonzero(np.all(p >= lo, axis=1) & np.all(p <= hi, axis=1)):
+            if bool(solid[k].mesh.contains(p.reshape(1, 3))[0]):
+                return f"inside a {solid[k].label!r} mesh"
+        return None
 
     def depth_at(self, x_north: ArrayLike, y_east: ArrayLike) -> NDArray[np.float64] | float:
         """Sea-floor depth (m) at NED (north, east); NaN outside it or without a sea floor."""

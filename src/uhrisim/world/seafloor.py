@@ -14,8 +14,10 @@ and :func:`procedural` (Gaussian-correlated random relief, deterministic from a 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import trimesh
@@ -91,23 +93,35 @@ class SeaFloor:
     def depth_at(self, x_north: ArrayLike, y_east: ArrayLike) -> NDArray[np.float64] | float:
         """Floor depth (m, positive down) at NED (north, east); NaN outside the grid.
 
-        Vectorized over broadcastable inputs; linear on the mesh's own triangles.
+        Vectorized over broadcastable inputs; linear on the mesh's own triangles. Two plain
+        numbers take a scalar path (a sensor asks once per ping; numpy's per-call cost on
+        0-d arrays would dominate).
         """
-        x = np.asarray(x_north, dtype=float)
-        y = np.asarray(y_east, dtype=float)
-        x, y = np.broadcast_arrays(x, y)
-        n, e, z = self.north, self.east, self.depth
+        n, e = self.north, self.east
+        if np.ndim(x_north) == 0 and np.ndim(y_east) == 0:
+            x, y = float(x_north), float(y_east)  # type: ignore[arg-type]
+            if not (n[0] <= x <= n[-1] and e[0] <= y <= e[-1]):
+                return math.nan
+            i = min(max(int(np.searchsorted(n, x, side="right")) - 1, 0), len(n) - 2)
+            j = min(max(int(np.searchsorted(e, y, side="right")) - 1, 0), len(e) - 2)
+            return float(self._interpolate(i, j, x, y))
+        x, y = np.broadcast_arrays(np.asarray(x_north, dtype=float), np.asarray(y_east, float))
         inside = (x >= n[0]) & (x <= n[-1]) & (y >= e[0]) & (y <= e[-1])
         i = np.clip(np.searchsorted(n, x, side="right") - 1, 0, len(n) - 2)
         j = np.clip(np.searchsorted(e, y, side="right") - 1, 0, len(e) - 2)
+        out = np.where(inside, self._interpolate(i, j, x, y), np.nan)
+        return float(out) if out.ndim == 0 else out
+
+    def _interpolate(self, i: Any, j: Any, x: Any, y: Any) -> Any:
+        """Depth at (x, y) inside grid cell (i, j) (arrays or numbers), on the cell's two
+        mesh triangles (i,j),(i+1,j),(i+1,j+1) and (i,j),(i+1,j+1),(i,j+1)."""
+        n, e, z = self.north, self.east, self.depth
         s = (x - n[i]) / (n[i + 1] - n[i])  # along north, 0..1
         t = (y - e[j]) / (e[j + 1] - e[j])  # along east, 0..1
         z00, z10, z11, z01 = z[i, j], z[i + 1, j], z[i + 1, j + 1], z[i, j + 1]
-        lower = z00 + s * (z10 - z00) + t * (z11 - z10)  # triangle (i,j),(i+1,j),(i+1,j+1)
-        upper = z00 + t * (z01 - z00) + s * (z11 - z01)  # triangle (i,j),(i+1,j+1),(i,j+1)
-        out = np.where(s >= t, lower, upper)
-        out = np.where(inside, out, np.nan)
-        return float(out) if out.ndim == 0 else out
+        lower = z00 + s * (z10 - z00) + t * (z11 - z10)
+        upper = z00 + t * (z01 - z00) + s * (z11 - z01)
+        return np.where(s >= t, lower, upper)
 
 
 def _extent(extent: Extent) -> tuple[float, float, float, float]:

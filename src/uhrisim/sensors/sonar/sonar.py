@@ -58,6 +58,7 @@ INSIDE_GEOMETRY_RANGE_M = 0.02
 MAX_FOOTPRINT_TAN = 12.0
 
 _LN10_OVER_10 = math.log(10.0) / 10.0
+_ONES3 = np.ones(3)  # (N, 3) @ _ONES3: row sums, much faster than einsum for 3 columns
 
 #: Echo-free row gaps shorter than this (range bins) are filtered with their neighbours
 #: rather than split into a separate OpenCV call (exact either way; fewer calls).
@@ -74,8 +75,10 @@ class RayCaster(Protocol):
         max_range: float,
         exclude: frozenset[str] = ...,
     ) -> Any:
-        """Return hits with ``distance`` (N,) inf on miss, ``label`` (N,) int −1 on miss,
-        ``normal`` (N, 3) unit, ``reflectivity`` (N,) Lambert μ."""
+        """First hits of N rays from one shared origin (the sonar's; ``origins`` has shape
+        (3,)) along ``directions`` (N, 3): hits with ``distance`` (N,) inf on miss,
+        ``label`` (N,) int −1 on miss, ``normal`` (N, 3) unit, ``reflectivity`` (N,)
+        Lambert μ."""
         ...
 
 
@@ -205,6 +208,7 @@ class _Geometry:
     ray_az: NDArray[np.float64]
     ray_el: NDArray[np.float64]
     dirs_sonar: NDArray[np.float64]
+    dirs_sonar_cols: NDArray[np.float64]  # the same, (3, N) contiguous
     ray_beam: NDArray[np.int64]
     ray_weight: NDArray[np.float64]
     dphi: float
@@ -322,8 +326,7 @@ class ImagingSonar:
         # Per-instance scratch buffers, reused every ping (a ping is not re-entrant).
         self._scratch = {
             "raw": np.zeros((n_bins, n_beams), np.float32),
-            "integ": np.zeros((n_bins + 1, n_beams + 1), np.float64),
-            "img": np.zeros((n_bins, n_beams), np.float32),
+            "integ": np.zeros((n_bins + 2, n_beams + 1), np.float64),
             "speckle": np.zeros((n_bins, n_beams), np.float32),
             "fg_energy": np.zeros(n_bins * n_beams, np.float64),
             "fg_total": np.zeros(n_bins * n_beams, np.float64),
@@ -412,6 +415,7 @@ class ImagingSonar:
             ray_az=ray_az,
             ray_el=ray_el,
             dirs_sonar=dirs,
+            dirs_sonar_cols=np.ascontiguousarray(dirs.T),
             ray_beam=ray_beam,
             ray_weight=ray_weight,
             dphi=dphi,
@@ -481,8 +485,6 @@ class ImagingSonar:
         g = self.geometry
         p_s, R_s = self.sonar_pose(position_ned, rotation_body_to_ned)
         dirs = g.dirs_sonar @ R_s.T
-        origins = np.empty_like(dirs)
-        origins[:] = p_s
         inside = _inside_scene_geometry(raycaster, p_s)
         if inside is not None:
             raise ConfigError(
@@ -490,9 +492,9 @@ class ImagingSonar:
                 where="SonarConfig.mount_position_frd",
             )
         near_m, far_m = self.cast_window_m
-        hits = raycaster.cast(origins, dirs, far_m, exclude=exclude)
+        hits = raycaster.cast(p_s, dirs, far_m, exclude=exclude)  # one shared origin
         distance = np.asarray(hits.distance, dtype=np.float64)
-        cos_all = np.abs(np.einsum("ij,ij->i", np.asarray(hits.normal, np.float64), dirs))
+        cos_all = np.abs((np.asarray(hits.normal, np.float64) * dirs) @ _ONES3)
         near = np.count_nonzero(distance < INSIDE_GEOMETRY_RANGE_M)
         if near > INSIDE_GEOMETRY_FRACTION * distance.size:
             raise ConfigError(
@@ -551,9 +553,9 @@ class ImagingSonar:
             idx, r, e, labels = idx[win], r[win], e[win], labels[win]
         bins = ((r - cfg.range_min_m) / cfg.bin_m).astype(np.int64)
         np.clip(bins, 0, n_bins - 1, out=bins)
-        cell = bins * n_beams + g.ray_beam[idx]
         if cfg.mode != "physical":
             # 2013 mode: occupancy of the cell each ray's hit falls in; its label.
+            cell = bins * n_beams + g.ray_beam[idx]
             label_polar = np.full(n_cells, -1, dtype=np.int16)
             label_polar[cell] = labels  # no intensities: any hit of the cell will do
             label_polar = label_polar.reshape(n_bins, n_beams)
@@ -569,9 +571,12 @@ class ImagingSonar:
                 1.0 + np.log10(np.maximum(lvl, 1e-30)) * (10.0 / cfg.dynamic_range_db), 0.0, 1.0
             )
 
-        pts_sonar = g.dirs_sonar[idx] * r[:, None]
-        pts_ned = position_ned + pts_sonar @ rotation_ned_from_sonar.T
-        cloud = self._cloud(idx, pts_sonar, ray_disp)
+        # Hit points as (3, M) columns (cheap to gather and rotate); the ping keeps the
+        # (M, 3) transposed views.
+        cols_sonar = np.take(g.dirs_sonar_cols, idx, axis=1) * r
+        pts_sonar = cols_sonar.T
+        pts_ned = (rotation_ned_from_sonar @ cols_sonar + np.reshape(position_ned, (3, 1))).T
+        cloud = self._cloud(idx, cols_sonar, ray_disp)
 
         if cfg.mode == "physical":
             fan = cv2.remap(
@@ -583,7 +588,7 @@ class ImagingSonar:
                 borderValue=0,
             )
             if cfg.labels:
-                label_fan = self._label_fan(label_polar, pts_sonar, e, labels)
+                label_fan = self._label_fan(label_polar, cols_sonar, e, labels)
             else:
                 label_fan = np.full(fan.shape, -1, dtype=np.int16)
             scale, apex = g.fan_scale, g.fan_apex
@@ -674,9 +679,9 @@ class ImagingSonar:
         ranges [start, stop) outside which the raw image is zero by construction (no
         footprint reaches those range bins), widened by the range-blur half-width.
 
-        O(rays + cells of the rows the footprints reach): the interior runs go into a
-        difference image whose cumulative sum along range comes from cv2.integral, over the
-        slab of rows between the nearest and the farthest footprint only. Labels: the most
+        O(rays + cells of the rows the footprints reach): every footprint becomes four steps
+        of a difference image whose cumulative sum along range comes from cv2.integral, over
+        the slab of rows between the nearest and the farthest footprint only. Labels: the most
         frequent label of the ping (usually the sea floor) is the background; the rays of
         every other label are expanded into their footprint cells and their echo summed per
         label; a cell takes the label with the most echo, the background's being the rest
@@ -706,27 +711,22 @@ class ImagingSonar:
         raw[:r0].fill(0.0)
         raw[r1:].fill(0.0)
         slab = raw[r0:r1]
-        # Interior runs lo+1 … hi−1 (density each) as +/- steps in a difference image.
-        run = hi > lo + 1
+        # Each footprint as steps along range of a difference image: its first bin gets its
+        # overlap w_first, the bins between the density each, its last bin its overlap
+        # w_last; a footprint inside one bin puts all its echo there (steps +e, −e).
+        w_first = np.where(same, one, dens * (lo + 1 - a))
+        w_last = np.where(same, 0.0, dens * (b - hi))
+        inner = np.where(same, 0.0, dens)
+        rows_first = (lo - r0) * n_beams + beam
+        rows_last = (hi - r0) * n_beams + beam
+        cells = np.concatenate([rows_first, rows_first + n_beams, rows_last, rows_last + n_beams])
+        steps = np.concatenate([w_first, inner - w_first, w_last - inner, -w_last])
         # (np.bincount sums in input order, as np.add.at into zeros would, but faster.)
-        beam_run, dens_run = beam[run], dens[run]
-        cells = np.concatenate([
-            (lo[run] + (1 - r0)) * n_beams + beam_run, (hi[run] - r0) * n_beams + beam_run
-        ])  # fmt: skip
-        diff = np.bincount(
-            cells, np.concatenate([dens_run, -dens_run]), minlength=(r1 - r0) * n_beams
-        )  # int64 when no footprint spans 3+ bins: made float64 below
-        diff = diff.astype(np.float64, copy=False).reshape(r1 - r0, n_beams)
+        diff = np.bincount(cells, steps, minlength=(r1 - r0 + 1) * n_beams)
+        diff = diff.reshape(r1 - r0 + 1, n_beams)
         # Cumulative sum along range = column differences of the integral image.
-        integ = cv2.integral(diff, sum=buf["integ"][: r1 - r0 + 1], sdepth=cv2.CV_64F)
-        np.subtract(integ[1:, 1:], integ[1:, :-1], out=slab, casting="unsafe")
-        # End bins get their overlap; a footprint inside one bin puts all its echo there.
-        rflat = raw.reshape(-1)
-        w_lo = np.where(same, one, dens * (lo + 1 - a)).astype(np.float32)
-        np.add.at(rflat, lo * n_beams + beam, w_lo)
-        two = ~same
-        w_hi = (dens[two] * (b[two] - hi[two])).astype(np.float32)
-        np.add.at(rflat, hi[two] * n_beams + beam[two], w_hi)
+        integ = cv2.integral(diff, sum=buf["integ"][: r1 - r0 + 2], sdepth=cv2.CV_64F)
+        np.subtract(integ[1:-1, 1:], integ[1:-1, :-1], out=slab, casting="unsafe")
         # Round-off of the integral image (~1e-16 of a row sum, itself ≤ the ping's total
         # echo) must not count as echo (it would label shadows): zero everything below
         # 1e-12 of the total echo (−120 dB: far below any noise floor).
@@ -735,8 +735,8 @@ class ImagingSonar:
         if labels is not None:
             self._label_cells(raw, label_polar, labels, a, b, lo, hi, dens, one, beam)
         # Range bins some footprint reaches (a difference count over [lo, hi]).
-        steps = np.bincount(lo, minlength=n_bins + 1) - np.bincount(hi + 1, minlength=n_bins + 1)
-        cover = np.cumsum(steps[:n_bins]) > 0
+        reach = np.bincount(lo, minlength=n_bins + 1) - np.bincount(hi + 1, minlength=n_bins + 1)
+        cover = np.cumsum(reach[:n_bins]) > 0
         rows = _row_runs(cover, g.range_kernel.size // 2, _ROW_RUN_MERGE_GAP)
         return raw, label_polar, rows
 
@@ -758,7 +758,10 @@ class ImagingSonar:
         n_beams = raw.shape[1]
         present = np.bincount(labels + 1)
         background = int(np.argmax(present)) - 1
-        np.copyto(out, np.int16(background), where=raw > 0.0)
+        # out = background where raw > 0, else −1 (a look-up on OpenCV's 0/255 mask).
+        lut = np.full(256, -1, np.int16)
+        lut[255] = background
+        cv2.LUT(cv2.compare(raw, 0.0, cv2.CMP_GT), lut, dst=out)
         others = [int(v) - 1 for v in np.flatnonzero(present) if int(v) - 1 != background]
         if not others:
             return
@@ -817,28 +820,29 @@ class ImagingSonar:
         deep (None: all rows); only those are filtered, the others take the precomputed
         echo-free level (the same operations on zeros)."""
         g = self.geometry
-        img = self._scratch["img"]
-        if rows is None:
-            rows = [(0, raw.shape[0])]
-        if sum(b - a for a, b in rows) < raw.shape[0]:
-            np.copyto(img, g.floor_level)
-        for a, b in rows:
+        img = np.empty(raw.shape, np.float32)
+        done = 0  # rows [0, done) are formed
+        for a, b in [(0, raw.shape[0])] if rows is None else rows:
+            img[done:a] = g.floor_level[done:a]
             _log_level(raw[a:b], img[a:b], g.beam_kernel, g.range_kernel, g.noise_rel, g.k_ln,
                        g.row_offset[a:b])  # fmt: skip
+            done = b
+        img[done:] = g.floor_level[done:]
         if self.config.speckle:
             u = np.frombuffer(self.rng.bytes(img.size), dtype=np.uint8).reshape(img.shape)
             cv2.add(img, cv2.LUT(u, g.log_speckle_lut, dst=self._scratch["speckle"]), dst=img)
-        return np.clip(img, 0.0, 1.0)
+        return np.clip(img, 0.0, 1.0, out=img)
 
     def _label_fan(
         self,
         label_polar: NDArray[np.int16],
-        pts_sonar: NDArray[np.float64],
+        cols_sonar: NDArray[np.float64],
         e: NDArray[np.float64],
         labels: NDArray[np.int32],
     ) -> NDArray[np.int16]:
-        """Nearest-neighbour scan conversion of the polar labels, then each hit splatted at
-        its own fan pixel (strongest wins), so thin returns survive the down-sampling."""
+        """Nearest-neighbour scan conversion of the polar labels, then each hit (sonar-frame
+        points ``cols_sonar`` (3, M), m; echo ``e``) splatted at its own fan pixel
+        (strongest wins), so thin returns survive the down-sampling."""
         g = self.geometry
         out = cv2.remap(
             label_polar,
@@ -850,8 +854,8 @@ class ImagingSonar:
         )
         if e.size:
             H, W = out.shape
-            col = np.floor(g.fan_apex[0] + 0.5 + pts_sonar[:, 1] * g.fan_scale).astype(np.int64)
-            row = np.floor(g.fan_apex[1] + 0.5 - pts_sonar[:, 0] * g.fan_scale).astype(np.int64)
+            col = np.floor(g.fan_apex[0] + 0.5 + cols_sonar[1] * g.fan_scale).astype(np.int64)
+            row = np.floor(g.fan_apex[1] + 0.5 - cols_sonar[0] * g.fan_scale).astype(np.int64)
             ok = (col >= 0) & (col < W) & (row >= 0) & (row < H)
             pix = row[ok] * W + col[ok]
             ee = e[ok]
@@ -863,13 +867,15 @@ class ImagingSonar:
         return out
 
     def _cloud(
-        self, idx: NDArray[np.int64], pts: NDArray[np.float64], ray_disp: NDArray[np.float32]
+        self, idx: NDArray[np.int64], cols: NDArray[np.float64], ray_disp: NDArray[np.float32]
     ) -> SonarCloud:
+        """The ``sonar_cloud`` of a ping from the rays ``idx`` that hit inside the window and
+        their sonar-frame points ``cols`` (3, M), m."""
         g = self.geometry
         cfg = self.config
         n = self.n_rays
-        xyz = np.full((n, 3), np.nan, dtype=np.float32)
-        xyz[idx] = pts
+        x, y, z = np.full((3, n), np.nan, dtype=np.float32)
+        x[idx], y[idx], z[idx] = cols
         n_planes = cfg.rays_per_beam
         per_plane = n // n_planes
         az = g.ray_az[:per_plane]
@@ -883,32 +889,21 @@ class ImagingSonar:
             range_max=float(cfg.range_max_m),
             vert_height=float(g.dphi * n_planes),
             vert_resolution=float(g.dphi),
-            x=xyz[:, 0].copy(),
-            y=xyz[:, 1].copy(),
-            z=xyz[:, 2].copy(),
+            x=x,
+            y=y,
+            z=z,
             intensity=ray_disp,
         )
 
 
 def _inside_scene_geometry(raycaster: RayCaster, p: NDArray[np.float64]) -> str | None:
-    """Why the point ``p`` (NED) is inside the scene's solid geometry, or None.
-
-    Uses the caster's ``scene`` when it has one (``uhrisim.world``): below the sea floor,
-    or inside a watertight static mesh whose bounding box holds the point. Dynamic bodies
-    are not checked (the sonar's own vehicle is excluded from its rays anyway).
-    """
+    """Why the point ``p`` (NED) is inside the caster's scene geometry, or None: asks the
+    caster's ``scene`` when it has one (``uhrisim.world.scene.Scene.inside_solid``: below
+    the sea floor or inside a watertight static mesh). Dynamic bodies are not checked (the
+    sonar's own vehicle is excluded from its rays anyway)."""
     scene = getattr(raycaster, "scene", None)
-    if scene is None or not hasattr(scene, "static_objects"):
-        return None
-    depth = float(scene.depth_at(p[0], p[1]))
-    if math.isfinite(depth) and p[2] > depth + 1e-6:
-        return f"{p[2] - depth:.3f} m below the sea floor"
-    for obj in scene.static_objects:
-        lo, hi = obj.mesh.bounds
-        in_box = bool(np.all(p >= lo) and np.all(p <= hi))
-        if in_box and obj.mesh.is_watertight and bool(obj.mesh.contains(p.reshape(1, 3))[0]):
-            return f"inside a {obj.label!r} mesh"
-    return None
+    inside_solid = getattr(scene, "inside_solid", None)
+    return inside_solid(p) if inside_solid is not None else None
 
 
 def image_2013(
