@@ -323,3 +323,33 @@ def test_live_messages_equal_recordings(tmp_path: Path) -> None:
     raw_cloud = cdr.encode_pointcloud2(3, 0, "rov/sonar", xyzi)
     assert deserialize_message(raw_cloud, PointCloud2) == pointcloud_msg(
         3.0, "rov/sonar", pts, inten)
+
+
+def test_preserialised_odometry_and_pose_equal_the_messages() -> None:
+    """publish_nav sends odometry and pose as bytes packed by precompiled structs; rclpy's
+    own deserializer reads them back as exactly the messages odometry_msg builds (floats
+    exactly, every stamp and frame id), for random poses, stamps and agent names."""
+    from geometry_msgs.msg import PoseStamped
+    from nav_msgs.msg import Odometry
+    from rclpy.serialization import deserialize_message
+
+    from uhrisim.bridges.ros2.bridge import WORLD_FRAME, PoseStampedEncoder, odometry_msg
+    from uhrisim.bridges.ros2.convert import odom_fields_from_ned, stamp_from_sim_time
+    from uhrisim.record.cdr import OdometryEncoder
+
+    rng = np.random.default_rng(11)
+    for agent in ("rov", "videoray", "diver_2"):
+        odometry, pose = OdometryEncoder(WORLD_FRAME, f"{agent}/base_link"), PoseStampedEncoder(
+            WORLD_FRAME)
+        for _ in range(20):
+            pos, yaw, vel = rng.uniform(-50, 50, 3), rng.uniform(-4, 4), rng.uniform(-1, 1, 3)
+            r, t = rng.uniform(-0.5, 0.5), rng.uniform(0.0, 1e5)
+            f = odom_fields_from_ned(pos, yaw, vel, r)
+            sec, nanosec = stamp_from_sim_time(t)
+            expected = odometry_msg(agent, t, pos, yaw, vel, r)
+            raw = odometry(sec, nanosec, f.position_enu, f.orientation_xyzw, f.linear_flu,
+                           f.angular_flu)
+            assert deserialize_message(raw, Odometry) == expected
+            want_pose = PoseStamped(header=expected.header, pose=expected.pose.pose)
+            raw_pose = pose(sec, nanosec, f.position_enu, f.orientation_xyzw)
+            assert deserialize_message(raw_pose, PoseStamped) == want_pose

@@ -7,7 +7,7 @@ snapshots; they never mutate simulation state. Commands from outside enter throu
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -56,9 +56,56 @@ class SimEvent:
     detail: str
 
 
+class AgentSnapshots(Mapping[str, AgentSnapshot]):
+    """The agents of one tick by name, each snapshot taken when it is first read.
+
+    A hook that reads no snapshot on a tick (odometry published at 10 Hz of a 60 Hz loop)
+    costs nothing for them. Snapshots can be taken while the tick's hooks run; once the
+    simulation moves on, reading one that was never taken raises ``RuntimeError`` (it
+    would no longer show that tick). Those already taken stay readable.
+    """
+
+    def __init__(self, names: tuple[str, ...], take: Callable[[str], AgentSnapshot]) -> None:
+        self._names = names
+        self._take = take
+        self._taken: dict[str, AgentSnapshot] = {}
+        self._open = True
+
+    def __getitem__(self, name: str) -> AgentSnapshot:
+        snapshot = self._taken.get(name)
+        if snapshot is None:
+            if name not in self._names:
+                raise KeyError(name)
+            if not self._open:
+                raise RuntimeError(f"the snapshot of {name!r} was not taken during its tick; "
+                                   "read TickFrame.agents inside on_tick")
+            snapshot = self._taken[name] = self._take(name)
+        return snapshot
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._names)
+
+    def __len__(self) -> int:
+        return len(self._names)
+
+    def take_all(self) -> AgentSnapshots:
+        """Take every snapshot now (a frame that outlives its tick); returns self."""
+        for name in self._names:
+            self[name]
+        return self
+
+    def close(self) -> None:
+        """The simulation moved on: no further snapshot can be taken."""
+        self._open = False
+
+
 @dataclass(frozen=True)
 class TickFrame:
-    """Everything new at one tick; ``pings``/``helm`` hold only this tick's outputs."""
+    """Everything new at one tick; ``pings``/``helm`` hold only this tick's outputs.
+
+    ``agents`` is an :class:`AgentSnapshots` when the simulation makes the frame: read it
+    during ``on_tick`` (the frame :meth:`Simulation.step` returns has every snapshot).
+    """
 
     tick: int
     t: float

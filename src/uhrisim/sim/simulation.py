@@ -41,7 +41,7 @@ from uhrisim.scenario.schema import AgentConfig, EventConfig
 from uhrisim.sim.build import apply_event_action, build_agents, build_events
 from uhrisim.sim.community import Community, Value, checked_value
 from uhrisim.sim.contacts import TruthContacts
-from uhrisim.sim.hooks import AgentSnapshot, HelmRecord, Hook, SimEvent, TickFrame
+from uhrisim.sim.hooks import AgentSnapshot, AgentSnapshots, HelmRecord, Hook, SimEvent, TickFrame
 from uhrisim.world.assets import diver_kick_phase_rate
 from uhrisim.world.scene import Scene
 
@@ -223,7 +223,8 @@ class Simulation:
         return frame
 
     def _step(self, build_frame: bool) -> TickFrame | None:
-        """One tick; the frame (snapshots of every agent) is built only if someone looks."""
+        """One tick; a frame is made only if someone looks, and its agent snapshots are
+        taken as hooks read them (all of them for ``build_frame``)."""
         self.start()
         self._apply_inbox()
         self._fire_events()
@@ -249,11 +250,15 @@ class Simulation:
         if not (build_frame or self.hooks):
             self._pending_events.clear()
             return None
-        frame = TickFrame(self.tick, t, {n: self.snapshot(a) for n, a in self.agents.items()},
-                          pings, helm, posts, tuple(self._pending_events))
+        snapshots = AgentSnapshots(tuple(self.agents), self._snapshot_of)
+        if build_frame:
+            snapshots.take_all()
+        frame = TickFrame(self.tick, t, snapshots, pings, helm, posts,
+                          tuple(self._pending_events))
         self._pending_events.clear()
         for hook in self.hooks:
             hook.on_tick(frame)
+        snapshots.close()
         return frame
 
     def run(self, duration: float | None = None,
@@ -417,8 +422,11 @@ class Simulation:
     def snapshot(self, agent: Agent) -> AgentSnapshot:
         heading, speed, depth = agent.desired()
         return AgentSnapshot(agent.name, agent.config.model, agent.nav(),
-                             tuple(float(v) for v in agent.inputs), heading, speed, depth,
+                             tuple(agent.inputs.tolist()), heading, speed, depth,
                              str(agent.community.get("MODE", "")))
+
+    def _snapshot_of(self, name: str) -> AgentSnapshot:
+        return self.snapshot(self.agents[name])
 
     def snapshots(self) -> dict[str, AgentSnapshot]:
         return {name: self.snapshot(agent) for name, agent in self.agents.items()}

@@ -112,8 +112,8 @@ class MoosBridgeHook(BaseHook):
         for link in self.links:
             name = link.agent
             bridge = self.bridges[name]
-            snap = frame.agents.get(name)
-            if snap is not None and frame.tick % self._periods[name] == 0:
+            snap = frame.agents.get(name) if frame.tick % self._periods[name] == 0 else None
+            if snap is not None:  # read only at the nav rate (snapshots are taken on demand)
                 nav = snap.nav
                 bridge.publish_nav(frame.t, float(nav.position_ned[0]),
                                    float(nav.position_ned[1]), float(nav.position_ned[2]),

@@ -178,19 +178,25 @@ class RateGate:
         self._next: float | None = None
         self._last: float | None = None
 
-    def due(self, t_sim: float) -> bool:
-        """True when a message stamped ``t_sim`` (s) should go out."""
+    def is_due(self, t_sim: float) -> bool:
+        """Would :meth:`due` answer True at ``t_sim``? Notes the time (as ``due`` does) but
+        uses up nothing: a caller can skip preparing a message that will not go out."""
         t = float(t_sim)
         if self._last is not None and t < self._last:
             self._next = None
         self._last = t
-        if self._period is None:
+        if self._period is None or self._next is None:
             return True
-        eps = 1e-9 * max(1.0, abs(t))
-        if self._next is None or t >= self._next - eps:
+        return t >= self._next - 1e-9 * max(1.0, abs(t))
+
+    def due(self, t_sim: float) -> bool:
+        """True when a message stamped ``t_sim`` (s) should go out."""
+        if not self.is_due(t_sim):
+            return False
+        if self._period is not None:
+            t = float(t_sim)
             if self._next is None or t - self._next >= self._period:
                 self._next = t + self._period  # first call, or fell behind: re-anchor
             else:
                 self._next += self._period
-            return True
-        return False
+        return True

@@ -178,9 +178,8 @@ class Ros2BridgeHook(BaseHook):
         poll_commands = self._command_gate.due(t)
         for spec, name in zip(bridge.agents, self._ros, strict=True):
             ros = spec.name
-            snap = frame.agents.get(name)
-            if snap is not None:
-                nav = snap.nav
+            if bridge.odometry_due(ros, t):  # the snapshot only when odometry goes out
+                nav = frame.agents[name].nav
                 bridge.publish_nav(ros, t, nav.position_ned, nav.yaw, nav.velocity_body,
                                    nav.yaw_rate)
             ping = frame.pings.get(name)
@@ -190,7 +189,7 @@ class Ros2BridgeHook(BaseHook):
             if h is not None:
                 bridge.publish_helm(ros, t, h.heading_deg, h.speed, h.depth, h.mode)
             if spec.accept and poll_commands:
-                self._take_commands(sim, name, bridge.commands(ros, t), snap)
+                self._take_commands(sim, name, bridge.commands(ros, t), frame)
 
     @staticmethod
     def _publish_ping(bridge: Ros2Bridge, name: str, ping: Any) -> None:
@@ -199,7 +198,7 @@ class Ros2BridgeHook(BaseHook):
                              sonar_pose_ned=(ping.position_ned, ping.rotation_ned_from_sonar))
 
     def _take_commands(self, sim: Simulation, name: str, cmd: AgentCommands,
-                       snap: Any) -> None:
+                       frame: TickFrame) -> None:
         if cmd.received_count != self._seen[name]:
             self._seen[name] = cmd.received_count
             for field, var in _DESIRED_VARS:
@@ -219,6 +218,7 @@ class Ros2BridgeHook(BaseHook):
             if active:
                 sim.record_event("bridge", f"ros2 {name}: external commands active")
             else:
+                snap = frame.agents.get(name)
                 depth = float(snap.nav.position_ned[2]) if snap is not None else 0.0
                 sim.post(name, "DESIRED_SPEED", 0.0, source="ros2")
                 sim.post(name, "DESIRED_DEPTH", depth, source="ros2")
