@@ -8,9 +8,10 @@ metres) the first surface within ``max_range`` — and return a :class:`RayHits`
   ``add_static`` is called again). Each dynamic body is split into groups of rigid parts
   that move together (for the diver: core+tank, each leg, each fin); every group has its
   own small Embree scene built once in its rest frame. A cast first traces the static
-  scene, then culls the rays against each body's and each group's bounding sphere,
-  transforms the survivors into the group's frame — so poses and kick phases set through
-  ``Scene.set_pose`` are seen without any BVH rebuild — and keeps the nearer hit.
+  scene, then culls the rays against each body's bounding sphere, transforms the
+  survivors into each group's frame — so poses and kick phases set through
+  ``Scene.set_pose`` are seen without any BVH rebuild — traces those that meet the
+  group's rest-frame bounding box, and keeps the nearest hit.
   Embree works in float32 (coordinates more than 1 km from the origin are shifted to the
   geometry's centre first); it only chooses the triangle: the distance is recomputed in
   float64 against that triangle's plane, so results agree with the reference to ~1e-9 m.
@@ -383,6 +384,25 @@ class _EmbreeMesh:
         self.plane_w = np.append(np.einsum("ij,ij->i", normal, tri[:, 0]), 0.0)
         self.centre = centre
         self.radius = float(np.max(np.linalg.norm(allv - centre, axis=1)))
+        pad = 1e-6 * (1.0 + float(np.max(hi - lo)))  # keeps the box test conservative
+        self.box_lo, self.box_hi = lo - pad, hi + pad
+
+    def box_candidates(
+        self, o: NDArray[np.float64], d_cols: NDArray[np.float64], limit: NDArray[np.float64]
+    ) -> NDArray[np.intp]:
+        """Indices of the rays whose segment [0, limit] may meet this mesh's bounding box
+        (slab test; conservative). Local frame: ``o`` (3,) one shared origin or (N, 3),
+        ``d_cols`` (3, N) unit directions, ``limit`` (N,) m."""
+        o_cols = o[:, None] if o.ndim == 1 else o.T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / d_cols
+            t1 = (self.box_lo[:, None] - o_cols) * inv
+            t2 = (self.box_hi[:, None] - o_cols) * inv
+        # fmin/fmax skip the NaN of a ray lying in a slab's plane (no constraint there).
+        near, far = np.fmin(t1, t2), np.fmax(t1, t2)
+        enter = np.fmax(np.fmax(near[0], near[1]), near[2])
+        leave = np.fmin(np.fmin(far[0], far[1]), far[2])
+        return np.flatnonzero((enter <= leave) & (leave >= 0.0) & (enter <= limit))
 
     def intersect(
         self,
@@ -427,8 +447,9 @@ class _EmbreeMesh:
 
 class _BodyBVH:
     """A dynamic body for Embree: one scene per group of rigid parts that move together
-    (identical joint chains), built once in the rest pose, and float64 face tables
-    concatenated over the groups so that one batch of numpy work serves all of them."""
+    (identical joint chains), built once in the rest pose; ``face_offset`` numbers the
+    groups' faces consecutively and ``face_map`` takes those numbers to the body's own face
+    order (for per-face reflectivity)."""
 
     def __init__(self, device: object, geometry: ArticulatedMesh) -> None:
         chains: dict[tuple, list[int]] = {}
@@ -450,12 +471,44 @@ class _BodyBVH:
         self.group_part = group_part
         counts = [len(g.normal) - 1 for g in self.groups]
         self.face_offset = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
-        # Concatenated per-face tables with a final sentinel row for "no hit" (index -1).
-        self.normal = np.vstack([g.normal[:-1] for g in self.groups] + [np.zeros((1, 3))])
-        self.plane_w = np.concatenate([g.plane_w[:-1] for g in self.groups] + [[0.0]])
-        self.face_map = np.concatenate([*face_maps, [0]]).astype(np.int64)
+        self.face_map = np.concatenate(face_maps).astype(np.int64)
         self.centres = np.array([g.centre for g in self.groups])
         self.radii = np.array([g.radius for g in self.groups])
+
+    def trace(
+        self,
+        o: NDArray[np.float64],
+        d: NDArray[np.float64],
+        limit: NDArray[np.float64],
+        rots: NDArray[np.float64],
+        trans: NDArray[np.float64],
+    ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+        """Nearest hit on the posed body within ``limit`` (N,) m for rays from ``o`` ((3,)
+        one shared origin, or (N, 3)) along ``d`` (N, 3), NED. Group g is posed by
+        ``rots[g]``, ``trans[g]`` (group frame → NED). Each group traces only the rays that
+        meet its rest-frame bounding box (tighter than a sphere for limbs), the groups in
+        turn, each within the nearest hit so far. Returns (body face or -1, distance or inf,
+        NED normal facing the ray origin, zero on a miss)."""
+        n = len(d)
+        face = np.full(n, -1, dtype=np.int64)
+        bound = np.array(limit, dtype=float)  # nearest hit so far (or the limit)
+        normal = np.zeros((n, 3))
+        for g, mesh in enumerate(self.groups):
+            R = rots[g]
+            o_local = (o - trans[g]) @ R  # rows of R^T (o - t)
+            d_cols = R.T @ d.T  # (3, N) directions in the group frame
+            sel = mesh.box_candidates(o_local, d_cols, bound)
+            if len(sel) == 0:
+                continue
+            f, t, nrm = mesh.intersect(
+                o_local if o_local.ndim == 1 else o_local[sel], d_cols[:, sel].T, bound[sel]
+            )
+            hit = np.flatnonzero(f >= 0)
+            rows = sel[hit]
+            bound[rows] = t[hit]
+            face[rows] = f[hit] + self.face_offset[g]
+            normal[rows] = nrm[hit] @ R.T
+        return face, np.where(face >= 0, bound, np.inf), normal
 
 
 class EmbreeRayCaster(RayCaster):
@@ -483,8 +536,9 @@ class EmbreeRayCaster(RayCaster):
         self._device = rtcore.EmbreeDevice()
         self._static: _EmbreeMesh | None = None
         self._static_version = -1
-        self._static_label = np.zeros(0, dtype=np.int32)
-        self._static_refl = np.zeros(0)
+        # Per static face: label and μ, each with a last entry that face -1 (a miss) reads.
+        self._static_label = np.array([-1], dtype=np.int32)
+        self._static_refl = np.array([0.0])
         self._parts: dict[str, _BodyBVH] = {}
         self._sync()
 
@@ -496,7 +550,6 @@ class EmbreeRayCaster(RayCaster):
             if objs:
                 tris = [o.mesh.vertices.view(np.ndarray)[o.mesh.faces] for o in objs]
                 self._static = _EmbreeMesh(self._device, tris)
-                # Per-face label and μ, with a sentinel last entry that face -1 (miss) reads.
                 pairs = zip(tris, objs, strict=True)
                 self._static_label = np.concatenate(
                     [np.full(len(t), o.label_id, np.int32) for t, o in pairs] + [[-1]]
@@ -510,67 +563,34 @@ class EmbreeRayCaster(RayCaster):
                 )
             else:
                 self._static = None
+                self._static_label = np.array([-1], dtype=np.int32)
+                self._static_refl = np.array([0.0])
             self._static_version = sc.static_version
         for b in sc.bodies:
             if b.name not in self._parts:
                 self._parts[b.name] = _BodyBVH(self._device, b.geometry)
 
-    @staticmethod
-    def _trace_pairs(
-        bvh: _BodyBVH,
-        gi: NDArray[np.intp],
-        o: NDArray[np.float64],
-        d: NDArray[np.float64],
-        rots: NDArray[np.float64],
-        trans: NDArray[np.float64],
-        limit: NDArray[np.float64],
-    ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
-        """Trace (ray, group) pairs sorted by group (``o``: (N, 3) origins of the pairs, or
-        (3,) one shared origin): one Embree call per group, then one float64 refinement
-        for all pairs. Returns (body-table face or -1, distance or inf,
-        normal in the group frame facing the ray, zero on a miss)."""
-        n = len(gi)
-        ol, dl = np.empty((n, 3)), np.empty((n, 3))
-        o32, d32 = np.empty((n, 3), dtype=np.float32), np.empty((n, 3), dtype=np.float32)
-        far = np.minimum(limit * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR).astype(np.float32)
-        local = np.empty(n, dtype=np.int64)
-        cuts = np.searchsorted(gi, np.arange(len(bvh.groups) + 1))
-        for g, (a, b) in enumerate(itertools.pairwise(cuts)):
-            if a == b:
-                continue
-            mesh = bvh.groups[g]
-            o_rows = o if o.ndim == 1 else o[a:b]  # (3,): one shared origin
-            ol[a:b] = (o_rows - trans[g]) @ rots[g]  # rows of R^T (o - t)
-            np.matmul(d[a:b], rots[g], out=dl[a:b])
-            o32[a:b] = ol[a:b] if mesh.shift is None else ol[a:b] - mesh.shift
-            d32[a:b] = dl[a:b]
-            local[a:b] = mesh.scene.run(o32[a:b], d32[a:b], dists=far[a:b])
-        face = np.where(local >= 0, local + bvh.face_offset[gi], -1)
-
-        def embree_tfar(rows: NDArray[np.intp]) -> NDArray[np.float32]:
-            # Rows belong to different groups (scenes): one query each (grazing is rare).
-            return np.array([
-                bvh.groups[gi[p]].scene.run(
-                    o32[p : p + 1], d32[p : p + 1], dists=far[p : p + 1], output=1
-                )["tfar"][0]
-                for p in rows
-            ], dtype=np.float32)  # fmt: skip
-
-        return _refine_hits(face, bvh.normal, bvh.plane_w, ol, dl, limit, embree_tfar)
-
     def _cast(self, o, d, max_range, exclude):  # type: ignore[no-untyped-def]
         self._sync()
         n = len(d)
+        face = np.full(n, -1, dtype=np.int64)
+        best = np.full(n, np.inf)
+        normal = np.zeros((n, 3))
         if self._static is not None:
-            face, t, normal = self._static.intersect(o, d, max_range, self._pool, self.threads)
-            best = np.maximum(t, 0.0)
-            label = np.take(self._static_label, face)  # -1 → the -1 sentinel at the end
-            refl = np.take(self._static_refl, face)
-        else:
-            best = np.full(n, np.inf)
-            label = np.full(n, -1, dtype=np.int32)
-            normal = np.zeros((n, 3))
-            refl = np.zeros(n)
+            # Only rays that meet the static geometry's bounding box go to Embree (a vehicle
+            # in mid-water looking level often sees no static geometry at all).
+            near = self._static.box_candidates(o, d.T, np.full(n, max_range))
+            if len(near) == n:
+                face, best, normal = self._static.intersect(
+                    o, d, max_range, self._pool, self.threads
+                )
+            elif len(near):
+                face[near], best[near], normal[near] = self._static.intersect(
+                    o if o.ndim == 1 else o[near], d[near], max_range, self._pool, self.threads
+                )
+            np.maximum(best, 0.0, out=best)
+        label = np.take(self._static_label, face)  # -1 → the -1 sentinel at the end
+        refl = np.take(self._static_refl, face)
         body = np.full(n, -1, dtype=np.int32)
         active = [(bi, b) for bi, b in enumerate(self._scene.bodies) if b.name not in exclude]
         cull = _RayCuller(o, d) if active else None
@@ -587,37 +607,20 @@ class EmbreeRayCaster(RayCaster):
             body_idx = cull.candidates(np.minimum(best, max_range), bc, br)
             if len(body_idx) == 0:
                 continue
-            # (ray, group) pairs whose group sphere the ray may touch, grouped by group.
-            masks = cull.subset(body_idx).candidates_many(
-                np.minimum(best[body_idx], max_range), centres, bvh.radii
-            )
-            gi, ri = np.nonzero(masks)  # sorted by group
-            if len(gi) == 0:
-                continue
-            rays = body_idx[ri]
-            limit = np.minimum(best[rays], max_range)
-            face, t, nrm = self._trace_pairs(
-                bvh,
-                gi,
-                o if o.ndim == 1 else np.take(o, rays, axis=0),
-                np.take(d, rays, axis=0),
+            face, t, nrm = bvh.trace(
+                o if o.ndim == 1 else np.take(o, body_idx, axis=0),
+                np.take(d, body_idx, axis=0),
+                np.minimum(best[body_idx], max_range),
                 rots,
                 trans,
-                limit,
             )
             hit = np.flatnonzero(face >= 0)
-            if len(hit) == 0:
-                continue
-            # Nearest group per ray: sort the hits by (ray, distance), keep each ray's first.
-            order = hit[np.lexsort((t[hit], rays[hit]))]
-            _, first = np.unique(rays[order], return_index=True)
-            win = order[first]
-            win = win[t[win] < best[rays[win]]]
-            sel = rays[win]
-            best[sel] = np.maximum(t[win], 0.0)
+            hit = hit[t[hit] < best[body_idx[hit]]]  # a tie keeps the static surface
+            sel = body_idx[hit]
+            best[sel] = np.maximum(t[hit], 0.0)
             label[sel] = b.label_id
-            refl[sel] = b.face_reflectivity[bvh.face_map[face[win]]]
-            normal[sel] = np.einsum("pij,pj->pi", rots[gi[win]], nrm[win])
+            refl[sel] = b.face_reflectivity[bvh.face_map[face[hit]]]
+            normal[sel] = nrm[hit]
             body[sel] = bi
         return RayHits(distance=best, label=label, normal=normal, reflectivity=refl, body=body)
 
@@ -628,7 +631,7 @@ class _RayCuller:
     For a sphere (centre c, radius r) a ray may touch it within ``limit`` when its miss
     distance² |c − o|² − t_ca² ≤ r² with t_ca = (c − o)·d, and −r ≤ t_ca ≤ limit + r.
     When every ray starts at the same point (a sonar ping) only ``d @ (c − o)`` is needed;
-    otherwise o·o and o·d are computed once and reused for every sphere.
+    otherwise o·o and o·d are computed once and reused for every body's sphere.
     """
 
     def __init__(self, o: NDArray[np.float64], d: NDArray[np.float64]) -> None:
@@ -642,30 +645,6 @@ class _RayCuller:
             else:
                 self.oo = _row_dots(o, o)
                 self.od = _row_dots(o, d)
-
-    def subset(self, idx: NDArray[np.intp]) -> _RayCuller:
-        sub = object.__new__(_RayCuller)
-        sub.d, sub.o0 = np.take(self.d, idx, axis=0), self.o0  # take: faster than d[idx]
-        if self.o0 is None:
-            sub.o = np.take(self.o, idx, axis=0)
-            sub.oo, sub.od = np.take(self.oo, idx), np.take(self.od, idx)
-        return sub
-
-    def candidates_many(
-        self, limit: NDArray[np.float64], centres: NDArray[np.float64], radii: NDArray[np.float64]
-    ) -> NDArray[np.bool_]:
-        """(G, N) mask: may ray i touch sphere g (centres (G, 3), radii (G,)) within limit."""
-        c = np.asarray(centres, dtype=float)
-        if self.o0 is not None:
-            v = c - self.o0
-            tca = v @ self.d.T
-            d2 = np.einsum("ij,ij->i", v, v)[:, None] - tca * tca
-        else:
-            tca = c @ self.d.T - self.od
-            cc = np.einsum("ij,ij->i", c, c)[:, None]
-            d2 = (cc - 2.0 * (c @ self.o.T) + self.oo) - tca * tca
-        r = (np.asarray(radii, dtype=float) * (1.0 + 1e-6) + 1e-6)[:, None]
-        return (d2 <= r * r) & (tca >= -r) & (tca - r <= limit)
 
     def candidates(
         self, limit: NDArray[np.float64], centre: NDArray[np.float64], radius: float
