@@ -395,3 +395,24 @@ def test_row_runs_match_filtering_every_row() -> None:
         outside[a:b] = False
     assert not raw[outside].any()
     np.testing.assert_array_equal(fast[outside], np.clip(sonar.geometry.floor_level[outside], 0, 1))
+
+
+@pytest.mark.parametrize("mode", ["physical", "2013"])
+def test_fan_images_formed_late_equal_formed_at_once(mode: str) -> None:
+    """The fan images are formed on first access: a ping whose fan is read only after the
+    sonar has pinged again (new speckle, shared scratch buffers reused) shows exactly the
+    images it would have shown at once."""
+    caster = ThreeLabelCaster()
+    cfg = small_cfg(mode=mode, colormap="jet")
+    at_once = ImagingSonar(cfg, np.random.default_rng(3))
+    late = ImagingSonar(cfg, np.random.default_rng(3))
+    first = at_once.ping(caster, ORIGIN, LEVEL, 0.0)
+    images = (first.fan_u8.copy(), first.label_fan.copy(), first.fan_rgb.copy())
+    kept = late.ping(caster, ORIGIN, LEVEL, 0.0)
+    later = late.ping(caster, ORIGIN + np.array([0.5, 0.2, 0.0]), LEVEL, 0.1)
+    assert not np.array_equal(later.fan_u8, images[0])
+    for formed_late, formed_at_once in zip(
+        (kept.fan_u8, kept.label_fan, kept.fan_rgb), images, strict=True
+    ):
+        np.testing.assert_array_equal(formed_late, formed_at_once)
+    assert (images[1] == PLATE).any() and (images[1] == 2).any()

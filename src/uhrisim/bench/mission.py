@@ -2,6 +2,10 @@
 
 Targets on one core (issue 5): >= 10x real time with the P900-45 at 15 Hz, >= 100x
 without sonar. The loop runs without hooks (no recording), after a 2 s warm-up.
+
+Both rates are printed: simulated seconds per wall second and per CPU second of this
+process. On a shared machine the wall rate drops with the load; the CPU rate is what one
+core delivers, and the targets are judged on it.
 """
 
 from __future__ import annotations
@@ -18,20 +22,29 @@ from uhrisim.sim.simulation import Simulation
 TARGETS = {"with_sonar": 10.0, "without_sonar": 100.0}
 
 
-def mission_rtf(seconds: float, sonar: bool, hooks: Sequence[Hook] = ()) -> float:
-    """Simulated seconds per wall second of the mission, after a 2 s warm-up."""
+def mission_rates(
+    seconds: float, sonar: bool, hooks: Sequence[Hook] = ()
+) -> tuple[float, float]:
+    """Simulated seconds per wall second and per CPU second (this process, all threads) of
+    the mission, after a 2 s warm-up."""
     with Simulation(load_scenario(shipped_scenario()), sonar_enabled=sonar, hooks=hooks) as sim:
         sim.run(2.0)  # warm-up: caches, first pings, bridge connections
-        start = time.perf_counter()
+        wall, cpu = time.perf_counter(), time.process_time()
         sim.run(seconds)
-        return seconds / (time.perf_counter() - start)
+        return seconds / (time.perf_counter() - wall), seconds / (time.process_time() - cpu)
+
+
+def mission_rtf(seconds: float, sonar: bool, hooks: Sequence[Hook] = ()) -> float:
+    """Simulated seconds per wall second of the mission, after a 2 s warm-up."""
+    return mission_rates(seconds, sonar, hooks)[0]
 
 
 def _rtf(sonar: bool, seconds: float) -> dict[str, Any]:
-    rtf = mission_rtf(seconds, sonar)
+    wall_rtf, cpu_rtf = mission_rates(seconds, sonar)
     key = "with_sonar" if sonar else "without_sonar"
-    return {"simulated_s": seconds, "wall_s": seconds / rtf, "real_time_factor": rtf,
-            "target": TARGETS[key], "meets_target": rtf >= TARGETS[key]}
+    return {"simulated_s": seconds, "wall_s": seconds / wall_rtf, "cpu_s": seconds / cpu_rtf,
+            "real_time_factor": wall_rtf, "real_time_factor_cpu": cpu_rtf,
+            "target": TARGETS[key], "meets_target": cpu_rtf >= TARGETS[key]}
 
 
 def run(quick: bool = False) -> dict[str, Any]:

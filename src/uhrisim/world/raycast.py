@@ -392,17 +392,24 @@ class _EmbreeMesh:
     ) -> NDArray[np.intp]:
         """Indices of the rays whose segment [0, limit] may meet this mesh's bounding box
         (slab test; conservative). Local frame: ``o`` (3,) one shared origin or (N, 3),
-        ``d_cols`` (3, N) unit directions, ``limit`` (N,) m."""
-        o_cols = o[:, None] if o.ndim == 1 else o.T
-        with np.errstate(divide="ignore", invalid="ignore"):
-            inv = 1.0 / d_cols
-            t1 = (self.box_lo[:, None] - o_cols) * inv
-            t2 = (self.box_hi[:, None] - o_cols) * inv
-        # fmin/fmax skip the NaN of a ray lying in a slab's plane (no constraint there).
-        near, far = np.fmin(t1, t2), np.fmax(t1, t2)
-        enter = np.fmax(np.fmax(near[0], near[1]), near[2])
-        leave = np.fmin(np.fmin(far[0], far[1]), far[2])
-        return np.flatnonzero((enter <= leave) & (leave >= 0.0) & (enter <= limit))
+        ``d_cols`` (3, N) unit directions, ``limit`` (N,) m.
+
+        With a shared origin, an axis whose slab holds the origin is skipped (it could only
+        shorten the segment): a vehicle above a sea floor tests one slab, not three."""
+        enter = np.zeros(len(limit))
+        leave = np.array(limit, dtype=float)
+        for k in range(3):
+            lo, hi = self.box_lo[k], self.box_hi[k]
+            if o.ndim == 1 and lo <= o[k] <= hi:
+                continue
+            o_k = o[k] if o.ndim == 1 else o[:, k]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                inv = 1.0 / d_cols[k]
+                t_lo, t_hi = (lo - o_k) * inv, (hi - o_k) * inv
+            # fmin/fmax skip the NaN of a ray lying in a slab's plane (no constraint there).
+            np.fmax(enter, np.fmin(t_lo, t_hi), out=enter)
+            np.fmin(leave, np.fmax(t_lo, t_hi), out=leave)
+        return np.flatnonzero(enter <= leave)
 
     def intersect(
         self,
@@ -486,22 +493,31 @@ class _BodyBVH:
         """Nearest hit on the posed body within ``limit`` (N,) m for rays from ``o`` ((3,)
         one shared origin, or (N, 3)) along ``d`` (N, 3), NED. Group g is posed by
         ``rots[g]``, ``trans[g]`` (group frame → NED). Each group traces only the rays that
-        meet its rest-frame bounding box (tighter than a sphere for limbs), the groups in
-        turn, each within the nearest hit so far. Returns (body face or -1, distance or inf,
-        NED normal facing the ray origin, zero on a miss)."""
+        meet its bounding sphere and then its rest-frame bounding box (much tighter than
+        the sphere for limbs), the groups in turn, each within the nearest hit so far.
+        Returns (body face or -1, distance or inf, NED normal facing the ray origin, zero on
+        a miss)."""
         n = len(d)
         face = np.full(n, -1, dtype=np.int64)
         bound = np.array(limit, dtype=float)  # nearest hit so far (or the limit)
         normal = np.zeros((n, 3))
+        cull = _RayCuller(o, d)
+        centres = np.einsum("gij,gj->gi", rots, self.centres) + trans
         for g, mesh in enumerate(self.groups):
+            near = cull.candidates(bound, centres[g], mesh.radius)  # cheap sphere test first
+            if len(near) == 0:
+                continue
             R = rots[g]
             o_local = (o - trans[g]) @ R  # rows of R^T (o - t)
-            d_cols = R.T @ d.T  # (3, N) directions in the group frame
-            sel = mesh.box_candidates(o_local, d_cols, bound)
-            if len(sel) == 0:
+            if o_local.ndim == 2:
+                o_local = o_local[near]
+            d_cols = R.T @ np.take(d, near, axis=0).T  # (3, M) directions in the group frame
+            box = mesh.box_candidates(o_local, d_cols, bound[near])
+            if len(box) == 0:
                 continue
+            sel = near[box]
             f, t, nrm = mesh.intersect(
-                o_local if o_local.ndim == 1 else o_local[sel], d_cols[:, sel].T, bound[sel]
+                o_local if o_local.ndim == 1 else o_local[box], d_cols[:, box].T, bound[sel]
             )
             hit = np.flatnonzero(f >= 0)
             rows = sel[hit]

@@ -31,7 +31,9 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, Protocol
 
 import cv2
@@ -134,6 +136,9 @@ class SonarPing:
             each cell (cells reached only by a ray's range footprint take the label of the
             nearest ray centre along range), −1 where no echo arrived.
         label_fan: label image aligned with ``fan_u8`` (−1 none).
+        form_fan_images: forms (fan_u8, label_fan, fan_rgb). The three fan images are
+            formed on first access of any of them (scan conversion is a large share of a
+            small ping; a simulation whose hooks never look at the fan never pays for it).
         cloud: the paper's ``sonar_cloud`` with intensities.
         hit_points_sonar, hit_points_ned: (M, 3) hit points of the rays that hit inside the
             window, sonar frame and NED, m.
@@ -148,19 +153,37 @@ class SonarPing:
     bin_ranges_m: NDArray[np.float64]
     polar: NDArray[np.float32]
     polar_u8: NDArray[np.uint8]
-    fan_u8: NDArray[np.uint8]
     fan_px_per_m: float
     fan_apex_px: tuple[float, float]
     label_polar: NDArray[np.int16]
-    label_fan: NDArray[np.int16]
     cloud: SonarCloud
     hit_points_sonar: NDArray[np.float64]
     hit_points_ned: NDArray[np.float64]
     hit_labels: NDArray[np.int32]
+    form_fan_images: Callable[[], tuple[Any, Any, Any]] = field(repr=False, compare=False)
     mode: str = "physical"
-    fan_rgb: NDArray[np.uint8] | None = field(default=None)
     fan_layout: str = "bottom-centre"
     fan_half_fov_rad: float = 0.0
+
+    @cached_property
+    def _fan_images(self) -> tuple[NDArray[np.uint8], NDArray[np.int16], NDArray[np.uint8] | None]:
+        return self.form_fan_images()
+
+    @property
+    def fan_u8(self) -> NDArray[np.uint8]:
+        """The Cartesian fan image (see the class docstring); formed on first access."""
+        return self._fan_images[0]
+
+    @property
+    def label_fan(self) -> NDArray[np.int16]:
+        """Label image aligned with ``fan_u8`` (−1 none); formed on first access."""
+        return self._fan_images[1]
+
+    @property
+    def fan_rgb(self) -> NDArray[np.uint8] | None:
+        """Colour-mapped ``fan_u8`` (H, W, 3) BGR when ``config.colormap`` is set;
+        formed on first access."""
+        return self._fan_images[2]
 
     def fan_pixels_to_sonar(self, px: NDArray[np.float64]) -> NDArray[np.float64]:
         """Sonar-frame points (N, 3), metres, for fan pixel coordinates ``px`` (N, 2) as
@@ -333,8 +356,6 @@ class ImagingSonar:
             "fg_best": np.zeros(n_bins * n_beams, np.float64),
             "fg_label": np.full(n_bins * n_beams, -1, np.int16),
             "fg_mark": np.zeros(n_bins * n_beams, np.bool_),
-            # Strongest echo per fan pixel for the label splat: all zero between pings.
-            "fan_pmax": np.zeros(self.geometry.fan_mask.size, np.float64),
         }
 
     # -- precomputation --------------------------------------------------------------------
@@ -579,27 +600,27 @@ class ImagingSonar:
         cloud = self._cloud(idx, cols_sonar, ray_disp)
 
         if cfg.mode == "physical":
-            fan = cv2.remap(
-                polar_u8,
-                g.map_x,
-                g.map_y,
-                cv2.INTER_LINEAR,
-                borderMode=cv2.BORDER_CONSTANT,
-                borderValue=0,
-            )
-            if cfg.labels:
-                label_fan = self._label_fan(label_polar, cols_sonar, e, labels)
-            else:
-                label_fan = np.full(fan.shape, -1, dtype=np.int16)
             scale, apex = g.fan_scale, g.fan_apex
         else:
-            fan, label_fan, apex = image_2013(pts_sonar, labels, cfg)
-            scale = cfg.px_per_m_2013
-        fan_rgb = None
-        if cfg.colormap is not None:
-            fan_rgb = cv2.applyColorMap(fan, COLORMAPS[cfg.colormap])
+            scale, apex = cfg.px_per_m_2013, (0.0, 0.0)  # image_2013's apex: top-left
+
+        def fan_images() -> tuple[NDArray[np.uint8], NDArray[np.int16], NDArray[np.uint8] | None]:
+            """(fan_u8, label_fan, fan_rgb) of this ping (formed on first access)."""
             if cfg.mode == "physical":
-                fan_rgb = cv2.bitwise_and(fan_rgb, fan_rgb, mask=g.fan_mask_u8)
+                fan = cv2.remap(polar_u8, g.map_x, g.map_y, cv2.INTER_LINEAR,
+                                borderMode=cv2.BORDER_CONSTANT, borderValue=0)  # fmt: skip
+                if cfg.labels:
+                    label_fan = self._label_fan(label_polar, cols_sonar, e, labels)
+                else:
+                    label_fan = np.full(fan.shape, -1, dtype=np.int16)
+            else:
+                fan, label_fan, _ = image_2013(pts_sonar, labels, cfg)
+            fan_rgb = None
+            if cfg.colormap is not None:
+                fan_rgb = cv2.applyColorMap(fan, COLORMAPS[cfg.colormap])
+                if cfg.mode == "physical":
+                    fan_rgb = cv2.bitwise_and(fan_rgb, fan_rgb, mask=g.fan_mask_u8)
+            return fan, label_fan, fan_rgb
 
         return SonarPing(
             t=float(t),
@@ -609,17 +630,15 @@ class ImagingSonar:
             bin_ranges_m=g.bin_centres,
             polar=polar,
             polar_u8=polar_u8,
-            fan_u8=fan,
             fan_px_per_m=float(scale),
             fan_apex_px=(float(apex[0]), float(apex[1])),
             label_polar=label_polar,
-            label_fan=label_fan,
             cloud=cloud,
             hit_points_sonar=pts_sonar,
             hit_points_ned=pts_ned,
             hit_labels=labels,
+            form_fan_images=fan_images,
             mode=cfg.mode,
-            fan_rgb=fan_rgb,
             fan_layout="bottom-centre" if cfg.mode == "physical" else cfg.layout_2013,
             fan_half_fov_rad=math.radians(cfg.sonar_spec.fov_h_deg) / 2.0,
         )
@@ -859,10 +878,11 @@ class ImagingSonar:
             ok = (col >= 0) & (col < W) & (row >= 0) & (row < H)
             pix = row[ok] * W + col[ok]
             ee = e[ok]
-            pmax = self._scratch["fan_pmax"]  # zeros; only the splatted pixels are reset
+            # Strongest echo per fan pixel. Its own array (calloc'd: only the pages touched
+            # cost), not a scratch buffer: a ping's fan may be formed after later pings.
+            pmax = np.zeros(out.size)
             np.maximum.at(pmax, pix, ee)
             win = ee >= pmax[pix]
-            pmax[pix] = 0.0
             out.reshape(-1)[pix[win]] = labels[ok][win]
         return out
 
