@@ -589,22 +589,21 @@ class EmbreeRayCaster(RayCaster):
     def _cast(self, o, d, max_range, exclude):  # type: ignore[no-untyped-def]
         self._sync()
         n = len(d)
-        face = np.full(n, -1, dtype=np.int64)
-        best = np.full(n, np.inf)
-        normal = np.zeros((n, 3))
-        if self._static is not None:
-            # Only rays that meet the static geometry's bounding box go to Embree (a vehicle
-            # in mid-water looking level often sees no static geometry at all).
-            near = self._static.box_candidates(o, d.T, np.full(n, max_range))
-            if len(near) == n:
-                face, best, normal = self._static.intersect(
-                    o, d, max_range, self._pool, self.threads
-                )
-            elif len(near):
-                face[near], best[near], normal[near] = self._static.intersect(
+        # Only rays that meet the static geometry's bounding box go to Embree (a vehicle in
+        # mid-water looking level often sees no static geometry at all).
+        static = self._static
+        near = None if static is None else static.box_candidates(o, d.T, np.full(n, max_range))
+        if static is not None and near is not None and len(near) == n:
+            face, best, normal = static.intersect(o, d, max_range, self._pool, self.threads)
+        else:
+            face = np.full(n, -1, dtype=np.int64)
+            best = np.full(n, np.inf)
+            normal = np.zeros((n, 3))
+            if static is not None and near is not None and len(near):
+                face[near], best[near], normal[near] = static.intersect(
                     o if o.ndim == 1 else o[near], d[near], max_range, self._pool, self.threads
                 )
-            np.maximum(best, 0.0, out=best)
+        np.maximum(best, 0.0, out=best)
         label = np.take(self._static_label, face)  # -1 → the -1 sentinel at the end
         refl = np.take(self._static_refl, face)
         body = np.full(n, -1, dtype=np.int32)
