@@ -8,8 +8,14 @@ DB's ``T`` replies are read and ignored. Notifications (``N``) the DB pushes lan
 thread-safe inbox that the caller empties with :meth:`MoosClient.drain`.
 
 Never blocking the caller: :meth:`notify`, :meth:`register` and :meth:`drain` only take a
-short lock and poke a wake-up socket; all network I/O happens on the client's own
-thread. When the DB goes away the thread reconnects with exponential backoff
+short lock. While connected with nothing queued, a notification's packet is written at
+once by the caller's thread with one non-blocking ``send`` (a loopback TCP write of a
+few microseconds); otherwise (a queue still being flushed, a full socket buffer, a
+send error) it joins the queue and a wake-up socket pokes the client's thread, which
+does all other network I/O (connecting, reading, timing, the rest of a partial write).
+Either way the order of the posts is kept and no call waits on the network; waking the
+client's thread for every post would cost far more (a thread switch and a wait for
+the GIL). When the DB goes away the thread reconnects with exponential backoff
 (``reconnect_min_s`` doubling up to ``reconnect_max_s``), performs the handshake again and
 re-registers every variable.
 
@@ -41,8 +47,8 @@ from uhrisim.bridges.moos.wire import (
     MoosMessage,
     MoosProtocolError,
     MoosStreamParser,
+    NotifyEncoder,
     encode_message,
-    encode_notify,
     encode_packet,
     encode_packet_raw,
 )
@@ -109,6 +115,7 @@ class MoosClient:
         self.host = "127.0.0.1"
         self.port = 9000
         self.name = "uhrisim"
+        self._encode_notify = NotifyEncoder(self.name)
 
         self._lock = threading.Lock()
         # outgoing messages, already serialised: (variable for notifications else None, bytes)
@@ -119,6 +126,10 @@ class MoosClient:
         self._registrations: dict[str, float] = {}
         self._next_id = 0
         self._wake_pending = False
+        # the connected socket and the bytes not yet written to it, shared by the caller's
+        # direct sends and the client thread; both only under self._lock
+        self._sock: socket.socket | None = None
+        self._sendbuf = bytearray()
         self._wake_r, self._wake_w = socket.socketpair()
         self._wake_r.setblocking(False)
         self._wake_w.setblocking(False)
@@ -177,6 +188,7 @@ class MoosClient:
         if not name or any(ch.isspace() for ch in name):
             raise BridgeError(f"MOOS client: invalid name {name!r} (non-empty, no spaces)")
         self.host, self.port, self.name = host, int(port), name
+        self._encode_notify = NotifyEncoder(name)
         self._status = f"connecting to {host}:{port}"
         self._thread = threading.Thread(target=self._run, name=f"moos-{name}", daemon=True)
         self._thread.start()
@@ -245,25 +257,53 @@ class MoosClient:
     def notify_many(
         self, items: Iterable[tuple[str, float | str | bytes]], time: float | None = None
     ) -> bool:
-        """Post several variables with one time stamp, one lock and one wake-up."""
+        """Post several variables with one time stamp in one packet (one lock, at most
+        one ``send`` or one wake-up)."""
         t = self.moos_time() if time is None else float(time)
+        wake = False
         with self._lock:
-            name = self.name
-            msgs = [(k, encode_notify(k, v, t, name, self._new_id())) for k, v in items]
+            enc = self._encode_notify
+            msgs = [(k, enc(k, v, t, self._new_id())) for k, v in items]
             up = self._connected
-            if up:
+            if not up:
+                self._latest_down.update(msgs)
+            elif self._sock is not None and not self._outbox and not self._sendbuf:
+                wake = self._send_direct(msgs)
+            else:
                 free = self._outbox.maxlen - len(self._outbox)  # type: ignore[operator]
                 if len(msgs) > free:
                     self.dropped_out += len(msgs) - free
                 self._outbox.extend(msgs)
-            else:
-                self._latest_down.update(msgs)
-        if up:
+                wake = True
+        if wake:
             self._wake()
         return up
 
+    def _send_direct(self, msgs: list[tuple[str | None, bytes]]) -> bool:
+        """Write ``msgs`` as one packet now, from the caller's thread (lock held, nothing
+        queued before them). Returns True when the client thread must be woken: the
+        socket took only part (the rest waits in the send buffer for the thread) or
+        failed (the messages go back to the queue, so the thread keeps the latest value
+        of each variable for the reconnection when it finds the connection dead)."""
+        assert self._sock is not None
+        packet = encode_packet_raw([data for _, data in msgs])
+        try:
+            n = self._sock.send(packet)
+        except (BlockingIOError, InterruptedError):
+            n = 0
+        except OSError:
+            self._outbox.extend(msgs)
+            return True
+        self.n_sent += len(msgs)
+        if n == len(packet):
+            return False
+        self._sendbuf += memoryview(packet)[n:]
+        return True
+
     def drain(self) -> list[MoosMessage]:
         """Return and clear every notification received since the last call (oldest first)."""
+        if not self._inbox:  # the common case, without the lock (a deque's length is atomic)
+            return []
         with self._lock:
             out = list(self._inbox)
             self._inbox.clear()
@@ -394,37 +434,41 @@ class MoosClient:
     def _serve(self, sock: socket.socket) -> None:
         sel = selectors.DefaultSelector()
         parser = self._parser
-        sendbuf = bytearray()
         next_timing = time.monotonic()
+        sendbuf = self._sendbuf
         try:
             sel.register(sock, selectors.EVENT_READ)
             sel.register(self._wake_r, selectors.EVENT_READ)
+            with self._lock:
+                sendbuf.clear()
+                self._sock = sock  # callers may now write their posts directly
             want_write = False
             while not self._stop.is_set():
                 now = time.monotonic()
-                if now >= next_timing:
-                    sendbuf += encode_packet([MoosMessage(
-                        -1, "T", "D", "", "", "", "_async_timing", self.moos_time(), 0.0, -1.0)])
-                    next_timing = now + self._timing_period
-                # collect outgoing mail
                 with self._lock:
+                    if now >= next_timing:
+                        sendbuf += encode_packet([MoosMessage(
+                            -1, "T", "D", "", "", "", "_async_timing", self.moos_time(), 0.0,
+                            -1.0)])
+                        next_timing = now + self._timing_period
+                    # collect outgoing mail
                     self._wake_pending = False
                     out = [data for _, data in self._outbox]
                     self._outbox.clear()
-                if out:
-                    sendbuf += encode_packet_raw(out)
-                    self.n_sent += len(out)
-                if sendbuf:
-                    try:
-                        n = sock.send(sendbuf)
-                        del sendbuf[:n]
-                    except (BlockingIOError, InterruptedError):
-                        pass
-                    if len(sendbuf) > self._max_send_buffer:
-                        raise BridgeError(
-                            f"MOOSDB is not reading ({len(sendbuf)} bytes backed up)")
-                if bool(sendbuf) != want_write:
-                    want_write = bool(sendbuf)
+                    if out:
+                        sendbuf += encode_packet_raw(out)
+                        self.n_sent += len(out)
+                    if sendbuf:
+                        try:
+                            n = sock.send(sendbuf)
+                            del sendbuf[:n]
+                        except (BlockingIOError, InterruptedError):
+                            pass
+                    backlog = len(sendbuf)
+                if backlog > self._max_send_buffer:
+                    raise BridgeError(f"MOOSDB is not reading ({backlog} bytes backed up)")
+                if bool(backlog) != want_write:
+                    want_write = bool(backlog)
                     sel.modify(sock, selectors.EVENT_READ
                                | (selectors.EVENT_WRITE if want_write else 0))
                 for key, _mask in sel.select(max(0.0, next_timing - time.monotonic())):
@@ -441,4 +485,7 @@ class MoosClient:
                         for p in parser.feed(data):
                             self._on_messages(p.messages)
         finally:
+            with self._lock:
+                self._sock = None
+                sendbuf.clear()
             sel.close()

@@ -41,6 +41,7 @@ __all__ = [
     "MoosPacket",
     "MoosProtocolError",
     "MoosStreamParser",
+    "NotifyEncoder",
     "decode_handshake",
     "decode_message",
     "decode_packet",
@@ -253,6 +254,34 @@ def encode_notify(key: str, value: float | str | bytes, time: float, source: str
         _DOUBLES.pack(float(time), dval, -1.0),
         _I32.pack(len(v)), v,
     ))
+
+
+class NotifyEncoder:
+    """:func:`encode_notify` for one source, faster for numbers: the constant bytes of
+    each variable's double notification (length, type, source, key) are laid out once
+    in a precompiled ``struct``, so a post is one ``pack``. Strings and binary data take
+    :func:`encode_notify`. Same bytes (tested)."""
+
+    __slots__ = ("_doubles", "_source", "_src")
+
+    def __init__(self, source: str) -> None:
+        self._source = source
+        self._src = _text(source)
+        self._doubles: dict[str, tuple[struct.Struct, int, bytes]] = {}
+
+    def __call__(self, key: str, value: float | str | bytes, time: float, msg_id: int
+                 ) -> bytes:
+        if type(value) is not float:  # int, bool, str, bytes: the general path
+            return encode_notify(key, value, time, self._source, msg_id)
+        laid = self._doubles.get(key)
+        if laid is None:
+            k, s = _text(key), self._src
+            laid = self._doubles[key] = (
+                struct.Struct(f"<iicci{len(s)}s8xi{len(k)}s3di"), MESSAGE_MIN_LEN + len(s)
+                + len(k), k)
+        st, length, k = laid
+        s = self._src
+        return st.pack(length, msg_id, b"N", b"D", len(s), s, len(k), k, time, value, -1.0, 0)
 
 
 def encode_handshake() -> bytes:
