@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import logging
 import math
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -356,7 +357,11 @@ class ImagingSonar:
             "fg_best": np.zeros(n_bins * n_beams, np.float64),
             "fg_label": np.full(n_bins * n_beams, -1, np.int16),
             "fg_mark": np.zeros(n_bins * n_beams, np.bool_),
+            # Strongest echo per fan pixel for the label splat: all zero between uses. A
+            # ping's fan is formed when first read, maybe on another thread: hence the lock.
+            "fan_pmax": np.zeros(self.geometry.fan_mask.size, np.float64),
         }
+        self._fan_pmax_lock = threading.Lock()
 
     # -- precomputation --------------------------------------------------------------------
     def _precompute(self) -> _Geometry:
@@ -878,11 +883,11 @@ class ImagingSonar:
             ok = (col >= 0) & (col < W) & (row >= 0) & (row < H)
             pix = row[ok] * W + col[ok]
             ee = e[ok]
-            # Strongest echo per fan pixel. Its own array (calloc'd: only the pages touched
-            # cost), not a scratch buffer: a ping's fan may be formed after later pings.
-            pmax = np.zeros(out.size)
-            np.maximum.at(pmax, pix, ee)
-            win = ee >= pmax[pix]
+            with self._fan_pmax_lock:
+                pmax = self._scratch["fan_pmax"]  # zeros; only the splatted pixels are reset
+                np.maximum.at(pmax, pix, ee)
+                win = ee >= pmax[pix]
+                pmax[pix] = 0.0
             out.reshape(-1)[pix[win]] = labels[ok][win]
         return out
 
