@@ -353,3 +353,25 @@ def test_preserialised_odometry_and_pose_equal_the_messages() -> None:
             want_pose = PoseStamped(header=expected.header, pose=expected.pose.pose)
             raw_pose = pose(sec, nanosec, f.position_enu, f.orientation_xyzw)
             assert deserialize_message(raw_pose, PoseStamped) == want_pose
+
+
+def test_preserialised_clock_and_helm_messages_equal_rclpy() -> None:
+    """/clock and the helm topics go out as bytes packed without building messages;
+    they are exactly rclpy's own serialisation of the messages, and read back equal."""
+    from rclpy.serialization import deserialize_message, serialize_message
+
+    from uhrisim.bridges.ros2.bridge import clock_bytes, float64_bytes, string_bytes
+    from uhrisim.bridges.ros2.convert import stamp_from_sim_time
+
+    rng = np.random.default_rng(5)
+    for t in [0.0, 0.5, 1e-9, 59.99999999, *rng.uniform(0.0, 1e6, 50).tolist()]:
+        want = Clock()
+        want.clock.sec, want.clock.nanosec = stamp_from_sim_time(t)
+        assert clock_bytes(t) == serialize_message(want)
+        assert deserialize_message(clock_bytes(t), Clock) == want
+    for v in [0.0, -0.0, 1.5, -1e300, 359.99, *rng.uniform(-1e3, 1e3, 50).tolist()]:
+        assert float64_bytes(v) == serialize_message(Float64(data=v))
+        assert deserialize_message(float64_bytes(v), Float64) == Float64(data=v)
+    for text in ["", "a", "ab", "abc", "MODE@ACTIVE:TRAIL", "ÅØ ünïcødé", "x" * 257]:
+        assert deserialize_message(string_bytes(text), String) == String(data=text)
+        assert string_bytes(text) == serialize_message(String(data=text))

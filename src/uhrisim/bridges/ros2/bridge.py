@@ -126,6 +126,9 @@ _MARKER_TYPES: dict[str, int] = {
 #: Marker types whose geometry is a list of world points (``points_ned``).
 _POINT_MARKERS = frozenset({"line_strip", "line_list", "points", "triangle_list"})
 
+#: What :meth:`Ros2Bridge.commands` answers before any command arrived.
+_NO_COMMANDS = AgentCommands()
+
 _CMD_KEYS_DESIRED = ("desired_heading", "desired_speed", "desired_depth")
 _CMD_KEY_THRUSTERS = "thrusters"
 
@@ -150,6 +153,10 @@ class _AgentIO:
         self.odometry = OdometryEncoder(WORLD_FRAME, f"{spec.name}/base_link")
         self.pose = PoseStampedEncoder(WORLD_FRAME)
         self.pubs: dict[str, Any] = {}
+        self.topics = {f"helm_{key}": f"/{spec.name}/helm/{key}"
+                       for key in ("desired_heading", "desired_speed", "desired_depth", "mode")}
+        self.mode_text: str | None = None  # the last helm mode and its serialised message
+        self.mode_bytes = b""
         self.slots: dict[str, _Slot] = {}
         self.received = 0  # command messages accepted so far
 
@@ -221,6 +228,31 @@ class PoseStampedEncoder:
                  orientation_xyzw: Sequence[float]) -> bytes:
         return self._struct.pack(CDR_LE_HEADER, sec, nanosec, len(self._frame), self._frame,
                                  *position, *orientation_xyzw)
+
+
+#: rosgraph_msgs/Clock serialised (CDR little endian): header, int32 sec, uint32 nanosec.
+_CLOCK_CDR = struct.Struct("<4siI")
+#: std_msgs/Float64 serialised: header, then the double (8-aligned at offset 0).
+_FLOAT64_CDR = struct.Struct("<4sd")
+
+
+def clock_bytes(t_sim: float) -> bytes:
+    """The serialised rosgraph_msgs/Clock of simulation time ``t_sim`` (s): what rclpy
+    makes of the message (tests/integration/test_ros2_inprocess.py holds it to that)."""
+    sec, nanosec = stamp_from_sim_time(t_sim)
+    return _CLOCK_CDR.pack(CDR_LE_HEADER, sec, nanosec)
+
+
+def float64_bytes(value: float) -> bytes:
+    """The serialised std_msgs/Float64 of ``value``."""
+    return _FLOAT64_CDR.pack(CDR_LE_HEADER, value)
+
+
+def string_bytes(text: str) -> bytes:
+    """The serialised std_msgs/String of ``text`` (uint32 length with the NUL, UTF-8
+    bytes, NUL)."""
+    raw = text.encode("utf-8") + b"\x00"
+    return CDR_LE_HEADER + struct.pack("<I", len(raw)) + raw
 
 
 def pointcloud_msg(
@@ -461,16 +493,15 @@ class Ros2Bridge:
 
     def _advance(self, t_sim: float) -> None:
         t = float(t_sim)
-        with self._lock:
-            self._t_sim_latest = t
+        # one attribute store is atomic: the command callbacks read it under the lock
+        self._t_sim_latest = t
         if (
             self._pub_clock is not None
-            and (self._t_clock_published is None or t != self._t_clock_published)
+            and t != self._t_clock_published
             and self._clock_gate.due(t)
         ):
-            msg = Clock()
-            msg.clock.sec, msg.clock.nanosec = stamp_from_sim_time(t)
-            self._publish(self._pub_clock, msg, "/clock")
+            # pre-serialised: the bytes of a rosgraph_msgs/Clock, without building one
+            self._publish(self._pub_clock, clock_bytes(t), "/clock")
             self._t_clock_published = t
 
     def _publish(self, pub: Any, msg: Any, key: str) -> None:
@@ -593,16 +624,19 @@ class Ros2Bridge:
         """
         io = self._io(agent, "publish_helm")
         self._advance(t_sim)
+        # pre-serialised std_msgs/Float64 and String (the bytes rclpy would make)
         for key, value in (
             ("desired_heading", heading_deg),
             ("desired_speed", speed),
             ("desired_depth", depth),
         ):
             if value is not None:
-                self._publish(
-                    io.pubs[f"helm_{key}"], Float64(data=float(value)), f"/{agent}/helm/{key}"
-                )
-        self._publish(io.pubs["helm_mode"], String(data=str(mode)), f"/{agent}/helm/mode")
+                self._publish(io.pubs[f"helm_{key}"], float64_bytes(float(value)),
+                              io.topics[f"helm_{key}"])
+        mode = str(mode)
+        if mode != io.mode_text:
+            io.mode_text, io.mode_bytes = mode, string_bytes(mode)
+        self._publish(io.pubs["helm_mode"], io.mode_bytes, io.topics["helm_mode"])
 
     def publish_scene(self, t_sim: float, markers: Sequence[Mapping[str, Any]]) -> None:
         """Publish ``/scene/markers`` (visualization_msgs/MarkerArray, frame ``"map"``).
@@ -716,6 +750,9 @@ class Ros2Bridge:
         """
         io = self._io(agent, "commands")
         t = float(t_sim)
+        if not io.slots:  # nothing ever received (slots only grow): no lock, no clock read
+            self._t_sim_latest = t
+            return _NO_COMMANDS
         now_wall = time.monotonic()
         with self._lock:
             self._t_sim_latest = t

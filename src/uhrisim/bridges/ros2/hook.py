@@ -125,6 +125,8 @@ class Ros2BridgeHook(BaseHook):
         self.bridge: Ros2Bridge | None = None
         self._sim: Simulation | None = None
         self._ros: dict[str, str] = {}  # simulation agent name -> ROS namespace
+        # per linked agent: (ROS name, simulation name, publish sonar, accept commands)
+        self._links: list[tuple[str, str, bool, bool]] = []
         self._seen: dict[str, int] = {}
         self._active: dict[str, bool] = {}
         self.n_posted = 0
@@ -160,6 +162,8 @@ class Ros2BridgeHook(BaseHook):
         self._sim = sim
         self.bridge = Ros2Bridge(specs, **self._bridge_kw)
         self.bridge.start()
+        self._links = [(spec.name, name, spec.publish_sonar, bool(spec.accept))
+                       for spec, name in zip(self.bridge.agents, self._ros, strict=True)]
         self._seen = dict.fromkeys(names, 0)
         self._active = dict.fromkeys(names, False)
         if self._publish_scene and getattr(sim, "scene", None) is not None:
@@ -176,19 +180,21 @@ class Ros2BridgeHook(BaseHook):
         t = float(frame.t)
         bridge.publish_clock(t)
         poll_commands = self._command_gate.due(t)
-        for spec, name in zip(bridge.agents, self._ros, strict=True):
-            ros = spec.name
+        pings, helm = frame.pings, frame.helm
+        for ros, name, publish_sonar, accept in self._links:
             if bridge.odometry_due(ros, t):  # the snapshot only when odometry goes out
                 nav = frame.agents[name].nav
                 bridge.publish_nav(ros, t, nav.position_ned, nav.yaw, nav.velocity_body,
                                    nav.yaw_rate)
-            ping = frame.pings.get(name)
-            if ping is not None and spec.publish_sonar:
-                self._publish_ping(bridge, ros, ping)
-            h = frame.helm.get(name)
-            if h is not None:
-                bridge.publish_helm(ros, t, h.heading_deg, h.speed, h.depth, h.mode)
-            if spec.accept and poll_commands:
+            if pings:
+                ping = pings.get(name)
+                if ping is not None and publish_sonar:
+                    self._publish_ping(bridge, ros, ping)
+            if helm:
+                h = helm.get(name)
+                if h is not None:
+                    bridge.publish_helm(ros, t, h.heading_deg, h.speed, h.depth, h.mode)
+            if accept and poll_commands:
                 self._take_commands(sim, name, bridge.commands(ros, t), frame)
 
     @staticmethod
