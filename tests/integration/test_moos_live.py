@@ -369,3 +369,42 @@ def test_client_talks_like_the_real_client_to_a_replayed_real_db():
     finally:
         c.close()
         srv.close()
+
+
+@pytest.mark.parametrize("coalesce_s", [0.0, 0.005, 0.2])
+def test_posts_faster_than_coalesce_arrive_complete_in_order_and_in_time(db, coalesce_s):
+    """Posts that follow each other sooner than ``coalesce_s`` share packets, yet every
+    one arrives, in posting order, with its own value and stamp; the last of a burst is
+    sent by the client's thread within about ``coalesce_s`` (nothing waits for a later
+    post), and a post after a quiet spell goes out at once."""
+    pub, sub = MoosClient(coalesce_s=coalesce_s), MoosClient()
+    try:
+        sub.connect("127.0.0.1", db.port, f"co_sub_{int(coalesce_s * 1000)}", strict=True)
+        pub.connect("127.0.0.1", db.port, f"co_pub_{int(coalesce_s * 1000)}", strict=True)
+        key = f"CO_X_{int(coalesce_s * 1000)}"
+        sub.register(key)
+        assert wait_until(lambda: (pub.notify(key, -1.0) and False) or any(
+            m.key == key for m in sub.drain()), 5.0, 0.05)
+        time.sleep(max(0.05, 2 * coalesce_s))
+        sub.drain()
+        got: list[MoosMessage] = []
+        t0 = time.monotonic()
+        for i in range(200):
+            pub.notify_many([(key, float(i)), (key + "_S", f"s{i}")], time=1000.0 + i)
+        assert wait_until(lambda: got.extend(sub.drain()) or len(got) >= 200, 5.0, 0.001)
+        elapsed = time.monotonic() - t0
+        assert [m.dval for m in got] == [float(i) for i in range(200)]
+        assert [m.time for m in got] == [1000.0 + i for i in range(200)]
+        assert elapsed < coalesce_s + 1.0
+        # a lone post after a quiet spell is written at once by the caller's thread
+        time.sleep(coalesce_s + 0.05)
+        t1 = time.monotonic()
+        pub.notify(key, 1e6)
+        msgs: list[MoosMessage] = []
+        assert wait_until(lambda: msgs.extend(sub.drain()) or bool(msgs), 2.0, 0.0005)
+        assert msgs[0].dval == 1e6
+        assert time.monotonic() - t1 < 0.5
+        assert pub.dropped_out == 0
+    finally:
+        pub.close()
+        sub.close()

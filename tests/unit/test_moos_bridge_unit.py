@@ -104,3 +104,41 @@ def test_publish_nav_maps_ned_to_moos_frame_and_units():
     assert (rep.lat, rep.lon) == pytest.approx((lat, lon), abs=1e-8)
     with pytest.raises(BridgeError, match="non-finite"):
         b.publish_nav(3.0, math.nan, 0.0, 0.0, 0.0, 0.0)
+
+
+def test_publish_nav_fast_path_equals_the_general_formulas():
+    """publish_nav keeps the grid constants and writes the NODE_REPORT text directly; the
+    values and text are exactly those of latlon_from_local, wrap_360 and
+    format_node_report(NodeReport(...)), for random states, headings of any range
+    (0 and 360 included) and odd type/mode strings (which take the general path)."""
+    import numpy as np
+
+    from uhrisim.autonomy.contacts import NodeReport, format_node_report
+    from uhrisim.core.frames import wrap_360
+
+    rng = np.random.default_rng(9)
+    c = _RecordingClient()
+    b = MoosAgentBridge("videoray", lat_origin=42.358456, long_origin=-71.087589, client=c,
+                        time_source="sim")
+    headings = [0.0, -0.0, 360.0, -360.0, 720.5, -1e-12, 359.999999, *rng.uniform(-1e3, 1e3, 200)]
+    for i, hdg_in in enumerate(headings):
+        n, e, d, spd = rng.uniform(-500, 500), rng.uniform(-500, 500), rng.uniform(0, 50), \
+            rng.uniform(0, 3)
+        if i % 9 == 0:
+            n, e, d, spd = -0.0, 0.0, 0.0, -0.0
+        vtype, mode = [("UUV", "MODE@ACTIVE:TRAIL"), ("KAYAK", "NONE"), ("", "X"),
+                       ("UUV", "")][i % 4]
+        t_sim = float(rng.uniform(0, 1e4))
+        b.publish_nav(t_sim, n, e, d, hdg_in, spd, vtype, 1.5, mode)
+        items, t = c.posts[-1]
+        vals = dict(items)
+        hdg = float(wrap_360(hdg_in))
+        lat, lon = latlon_from_local(float(e), float(n), 42.358456, -71.087589)
+        assert vals == {
+            "NAV_X": e, "NAV_Y": n, "NAV_DEPTH": d, "NAV_HEADING": hdg, "NAV_SPEED": spd,
+            "NAV_LAT": lat, "NAV_LONG": lon,
+            "NODE_REPORT": format_node_report(NodeReport(
+                name="videoray", x=e, y=n, speed=spd, heading=hdg, depth=d, lat=lat, lon=lon,
+                type=vtype, mode=mode, time=t, length=1.5)),
+        }
+        assert math.copysign(1.0, vals["NAV_HEADING"]) == math.copysign(1.0, hdg)

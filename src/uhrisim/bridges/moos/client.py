@@ -41,6 +41,7 @@ import socket
 import threading
 import time
 from collections.abc import Callable, Iterable
+from time import monotonic as time_now
 
 from uhrisim.bridges.moos.wire import (
     HANDSHAKE,
@@ -79,6 +80,14 @@ class MoosClient:
         TCP connect + welcome wait per attempt (wall-clock seconds).
     timing_period_s:
         Period of ``_async_timing`` messages (wall-clock seconds).
+    coalesce_s:
+        Shortest wall-clock time between two packets of notifications (default 5 ms). A
+        post that comes sooner after the last packet waits, with those that follow it,
+        until that time has passed, then they go out together in one packet (sent by the
+        next post or by the client's thread, whichever comes first): a simulation that
+        runs far faster than real time posts a few packets per 5 ms instead of one per
+        post (each write also wakes the DB). A post that comes later than that goes out
+        at once. ``0`` sends every post at once.
     max_outbox, max_inbox:
         Bounds of the outgoing and incoming queues (messages); the oldest are dropped.
     max_send_buffer:
@@ -96,6 +105,7 @@ class MoosClient:
         reconnect_max_s: float = 1.0,
         connect_timeout_s: float = 1.0,
         timing_period_s: float = 1.0,
+        coalesce_s: float = 0.005,
         max_outbox: int = 100_000,
         max_inbox: int = 100_000,
         max_send_buffer: int = 16 * 1024 * 1024,
@@ -109,6 +119,11 @@ class MoosClient:
         self._rmax = reconnect_max_s
         self._ctimeout = connect_timeout_s
         self._timing_period = timing_period_s
+        if not coalesce_s >= 0.0:
+            raise BridgeError(f"MOOS client: coalesce_s {coalesce_s!r} must be >= 0")
+        self._coalesce = float(coalesce_s)
+        self._last_send = -float("inf")  # monotonic time of the last packet written
+        self._flush_armed = False  # the client thread will flush the queue by itself
         self._max_send_buffer = max_send_buffer
         self._wall = wall_clock
 
@@ -267,14 +282,23 @@ class MoosClient:
             up = self._connected
             if not up:
                 self._latest_down.update(msgs)
-            elif self._sock is not None and not self._outbox and not self._sendbuf:
-                wake = self._send_direct(msgs)
-            else:
+            elif self._sock is None or self._sendbuf or len(self._outbox) + len(msgs) > (
+                    self._outbox.maxlen or 0) // 2:
+                # not serving yet, a partial write pending, or a large backlog: the thread
                 free = self._outbox.maxlen - len(self._outbox)  # type: ignore[operator]
                 if len(msgs) > free:
                     self.dropped_out += len(msgs) - free
                 self._outbox.extend(msgs)
                 wake = True
+            elif time_now() - self._last_send >= self._coalesce:
+                if self._outbox:  # what waited for this packet goes first
+                    msgs[:0] = self._outbox
+                    self._outbox.clear()
+                wake = self._send_direct(msgs)
+            else:  # too soon after the last packet: wait for the next one
+                self._outbox.extend(msgs)
+                wake = not self._flush_armed  # the thread must know, to flush in time
+                self._flush_armed = True
         if wake:
             self._wake()
         return up
@@ -286,6 +310,7 @@ class MoosClient:
         failed (the messages go back to the queue, so the thread keeps the latest value
         of each variable for the reconnection when it finds the connection dead)."""
         assert self._sock is not None
+        self._last_send = time_now()
         packet = encode_packet_raw([data for _, data in msgs])
         try:
             n = self._sock.send(packet)
@@ -441,6 +466,7 @@ class MoosClient:
             sel.register(self._wake_r, selectors.EVENT_READ)
             with self._lock:
                 sendbuf.clear()
+                self._flush_armed = False  # what the handshake queued goes out at once
                 self._sock = sock  # callers may now write their posts directly
             want_write = False
             while not self._stop.is_set():
@@ -451,13 +477,17 @@ class MoosClient:
                             -1, "T", "D", "", "", "", "_async_timing", self.moos_time(), 0.0,
                             -1.0)])
                         next_timing = now + self._timing_period
-                    # collect outgoing mail
+                    # collect outgoing mail, no sooner than coalesce_s after the last packet
                     self._wake_pending = False
-                    out = [data for _, data in self._outbox]
-                    self._outbox.clear()
-                    if out:
+                    flush_at = self._last_send + self._coalesce
+                    if self._outbox and (now >= flush_at or not self._flush_armed):
+                        out = [data for _, data in self._outbox]
+                        self._outbox.clear()
                         sendbuf += encode_packet_raw(out)
                         self.n_sent += len(out)
+                        self._last_send = now
+                    self._flush_armed = bool(self._outbox)
+                    wait_until = flush_at if self._outbox else next_timing
                     if sendbuf:
                         try:
                             n = sock.send(sendbuf)
@@ -471,7 +501,8 @@ class MoosClient:
                     want_write = bool(backlog)
                     sel.modify(sock, selectors.EVENT_READ
                                | (selectors.EVENT_WRITE if want_write else 0))
-                for key, _mask in sel.select(max(0.0, next_timing - time.monotonic())):
+                timeout = max(0.0, min(next_timing, wait_until) - time.monotonic())
+                for key, _mask in sel.select(timeout):
                     if key.fileobj is self._wake_r:
                         with contextlib.suppress(BlockingIOError, InterruptedError):
                             self._wake_r.recv(4096)

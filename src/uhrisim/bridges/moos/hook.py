@@ -115,8 +115,8 @@ class MoosBridgeHook(BaseHook):
             snap = frame.agents.get(name) if frame.tick % self._periods[name] == 0 else None
             if snap is not None:  # read only at the nav rate (snapshots are taken on demand)
                 nav = snap.nav
-                bridge.publish_nav(frame.t, float(nav.position_ned[0]),
-                                   float(nav.position_ned[1]), float(nav.position_ned[2]),
+                north, east, down = nav.position_ned.tolist()
+                bridge.publish_nav(frame.t, north, east, down,
                                    float(heading_deg_from_yaw(nav.yaw)), nav.speed,
                                    link.vehicle_type, link.length, _mode(snap.mode))
             for var, value, _t in bridge.poll():
