@@ -135,8 +135,10 @@ class SonarPing:
         fan_half_fov_rad: half the horizontal field of view (for the 2013 layouts).
         label_polar: (n_bins, n_beams) int16: the scene label of the strongest return in
             each cell (cells reached only by a ray's range footprint take the label of the
-            nearest ray centre along range), −1 where no echo arrived.
-        label_fan: label image aligned with ``fan_u8`` (−1 none).
+            nearest ray centre along range), −1 where no echo arrived. With
+            ``config.labels`` off: all −1, one read-only array shared by every ping.
+        label_fan: label image aligned with ``fan_u8`` (−1 none; read-only and shared
+            with labels off).
         form_fan_images: forms (fan_u8, label_fan, fan_rgb). The three fan images are
             formed on first access of any of them (scan conversion is a large share of a
             small ping; a simulation whose hooks never look at the fan never pays for it).
@@ -307,6 +309,12 @@ def _row_runs(cover: NDArray[np.bool_], pad: int, gap: int) -> list[tuple[int, i
     return list(zip(starts.tolist(), stops.tolist(), strict=True))
 
 
+def _read_only(a: NDArray[Any]) -> NDArray[Any]:
+    """``a``, made read-only (an image shared by many pings)."""
+    a.setflags(write=False)
+    return a
+
+
 def _uniform_bytes(rng: np.random.Generator, n: int) -> NDArray[np.uint8]:
     """``n`` independent uniform random bytes: the bytes of full-range 64-bit draws
     (several times faster than ``Generator.bytes``, which draws 32 bits at a time through
@@ -358,6 +366,7 @@ class ImagingSonar:
         # Per-instance scratch buffers, reused every ping (a ping is not re-entrant).
         self._scratch = {
             "raw": np.zeros((n_bins, n_beams), np.float32),
+            "diff": np.zeros((n_bins + 1) * n_beams, np.float64),  # all zero between pings
             "integ": np.zeros((n_bins + 2, n_beams + 1), np.float64),
             "speckle": np.zeros((n_bins, n_beams), np.float32),
             "fg_energy": np.zeros(n_bins * n_beams, np.float64),
@@ -370,6 +379,9 @@ class ImagingSonar:
             "fan_pmax": np.zeros(self.geometry.fan_mask.size, np.float64),
         }
         self._fan_pmax_lock = threading.Lock()
+        # With labels off every ping shares these read-only "no label" images.
+        self._unlabelled_polar = _read_only(np.full((n_bins, n_beams), -1, np.int16))
+        self._unlabelled_fan = _read_only(np.full(self.geometry.fan_mask.shape, -1, np.int16))
 
     # -- precomputation --------------------------------------------------------------------
     def _precompute(self) -> _Geometry:
@@ -625,7 +637,7 @@ class ImagingSonar:
                 if cfg.labels:
                     label_fan = self._label_fan(label_polar, cols_sonar, e, labels)
                 else:
-                    label_fan = np.full(fan.shape, -1, dtype=np.int16)
+                    label_fan = self._unlabelled_fan
             else:
                 fan, label_fan, _ = image_2013(pts_sonar, labels, cfg)
             fan_rgb = None
@@ -724,7 +736,10 @@ class ImagingSonar:
         g = self.geometry
         n_bins, n_beams = self.polar_shape
         buf = self._scratch
-        label_polar = np.full((n_bins, n_beams), -1, dtype=np.int16)
+        if labels is None:
+            label_polar = self._unlabelled_polar
+        else:
+            label_polar = np.full((n_bins, n_beams), -1, dtype=np.int16)
         raw = buf["raw"]
         if idx.size == 0:
             raw.fill(0.0)
@@ -753,11 +768,15 @@ class ImagingSonar:
         rows_last = (hi - r0) * n_beams + beam
         cells = np.concatenate([rows_first, rows_first + n_beams, rows_last, rows_last + n_beams])
         steps = np.concatenate([w_first, inner - w_first, w_last - inner, -w_last])
-        # (np.bincount sums in input order, as np.add.at into zeros would, but faster.)
-        diff = np.bincount(cells, steps, minlength=(r1 - r0 + 1) * n_beams)
-        diff = diff.reshape(r1 - r0 + 1, n_beams)
+        # Summed in input order into the zeroed scratch (a fresh megabyte-sized array per
+        # ping would cost page faults), which is zeroed again once read.
+        diff = buf["diff"][: (r1 - r0 + 1) * n_beams]
+        np.add.at(diff, cells, steps)
         # Cumulative sum along range = column differences of the integral image.
-        integ = cv2.integral(diff, sum=buf["integ"][: r1 - r0 + 2], sdepth=cv2.CV_64F)
+        integ = cv2.integral(
+            diff.reshape(r1 - r0 + 1, n_beams), sum=buf["integ"][: r1 - r0 + 2], sdepth=cv2.CV_64F
+        )
+        diff.fill(0.0)
         cv2.subtract(integ[1:-1, 1:], integ[1:-1, :-1], dst=slab, dtype=cv2.CV_32F)
         # Round-off of the integral image (~1e-16 of a row sum, itself ≤ the ping's total
         # echo) must not count as echo (it would label shadows): zero everything below
