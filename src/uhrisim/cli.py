@@ -19,6 +19,7 @@ from rich.console import Console
 from rich.table import Table
 
 from uhrisim.core.errors import UhrisimError
+from uhrisim.core.memory import keep_freed_memory
 
 app = typer.Typer(
     name="uhrisim",
@@ -30,6 +31,12 @@ app = typer.Typer(
 )
 console = Console()
 err_console = Console(stderr=True)
+
+
+@app.callback()
+def _process_settings() -> None:
+    """Process-wide settings of the command (side effects at the edge)."""
+    keep_freed_memory()  # no page-fault churn on every sonar ping (see core/memory.py)
 
 # Figure name -> "module:function(out_dir) -> list[Path]".
 FIGURES: dict[str, tuple[str, str]] = {
