@@ -21,7 +21,7 @@ def linear(ping, cfg: SonarConfig) -> np.ndarray:
 def cfg_for(tilt_deg: float, **kw) -> SonarConfig:
     base = dict(
         tilt_deg=tilt_deg, mount_position_frd=(0.0, 0.0, 0.0), speckle=False,
-        dynamic_range_db=200.0, display_top_db=250.0, range_max_m=30.0,
+        dynamic_range_db=200.0, display_top_db=250.0, range_max_m=30.0, labels=True,
     )  # fmt: skip
     base.update(kw)
     return SonarConfig(**base)

@@ -18,7 +18,7 @@ def _ping(mode: str, with_floor: bool, speckle: bool = True, seed: int = 3):
     paper = single_piling_scene(12.0, 6.0, width=0.4, with_floor=with_floor)
     cfg = SonarConfig(
         tilt_deg=10.0, mount_position_frd=(0.0, 0.0, 0.0), range_max_m=20.0, mode=mode,
-        speckle=speckle,
+        speckle=speckle, labels=True,
     )  # fmt: skip
     pose = paper.sonar_poses["origin"]
     sonar = ImagingSonar(cfg, np.random.default_rng(seed))

@@ -90,7 +90,7 @@ def small_cfg(**kw) -> SonarConfig:
     )
     base = dict(
         spec=spec, range_min_m=8.0, range_max_m=14.0, rays_per_beam=16, tilt_deg=15.0,
-        mount_position_frd=(0.0, 0.0, 0.0), speckle=False, rate_hz=10.0,
+        mount_position_frd=(0.0, 0.0, 0.0), speckle=False, rate_hz=10.0, labels=True,
     )  # fmt: skip
     base.update(kw)
     return SonarConfig(**base)
@@ -292,7 +292,7 @@ def test_2013_mode_geometry_and_white_boundaries() -> None:
 def test_fan_geometry_and_labels() -> None:
     cfg = SonarConfig(
         range_max_m=20.0, tilt_deg=0.0, mount_position_frd=(0.0, 0.0, 0.0), speckle=False,
-        fan_size_px=400, colormap="bone",
+        fan_size_px=400, colormap="bone", labels=True,
     )  # fmt: skip
     sonar = ImagingSonar(cfg, np.random.default_rng(0))
     caster = AnalyticCaster(floor_z=None, plate_north=12.0, plate_half=0.5, plate_z=4.0)

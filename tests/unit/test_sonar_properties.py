@@ -47,7 +47,7 @@ class Floor:
 def test_ping_invariants(tilt, yaw, heading, mount, depth, seed) -> None:
     cfg = SonarConfig(
         spec=SPEC, range_max_m=15.0, rays_per_beam=12, tilt_deg=tilt, yaw_deg=yaw,
-        mount_position_frd=mount, fan_size_px=128, rate_hz=10.0,
+        mount_position_frd=mount, fan_size_px=128, rate_hz=10.0, labels=True,
     )  # fmt: skip
     sonar = ImagingSonar(cfg, np.random.default_rng(seed))
     R = rot_z(math.radians(heading))

@@ -180,7 +180,7 @@ class SonarSensor(Strict):
     rays_per_beam: Annotated[int, Field(ge=1, le=512)] = 32
     mode: Literal["physical", "2013"] = "physical"
     speckle: bool = True
-    labels: bool = True  # per-pixel object labels (for training detectors); costs ~20 %
+    labels: bool = False  # per-pixel object label images (training data); ~+50 % per ping
     fan_width_px: Annotated[int, Field(ge=64, le=4096)] = 512
     mount: SonarMount = SonarMount()
 

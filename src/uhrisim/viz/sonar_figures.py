@@ -37,7 +37,7 @@ def _pings(paper, pose_name: str, range_max_m: float) -> tuple[SonarPing, SonarP
         tilt_deg=pose.tilt_deg, mount_position_frd=(0.0, 0.0, 0.0), range_max_m=range_max_m,
     )  # fmt: skip
     phys = ImagingSonar(
-        SonarConfig(colormap="bone", fan_size_px=600, **common),
+        SonarConfig(colormap="bone", fan_size_px=600, labels=True, **common),
         component_rng(SEED, "figure/sonar"),
     ).ping(rc, pose.position_ned, pose.rotation, 0.0)
     paper_mode = ImagingSonar(

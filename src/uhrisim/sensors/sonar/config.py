@@ -79,7 +79,9 @@ class SonarConfig:
         dynamic_range_db: levels ``display_top_db − dynamic_range_db … display_top_db`` map
             to 0…1 (8-bit: 0…255).
         speckle: multiply cell intensities by unit exponential draws (Rayleigh amplitude).
-        labels: compute the per-pixel label images (False: all −1, a little faster).
+        labels: compute the per-pixel label images (which object gave each pixel's
+            strongest return: ground truth for training detectors). Opt-in: they add about
+            half to a ping's cost (``uhrisim bench sonar``); off, they are all −1.
         sidelobe_db: level of the first horizontal side lobe relative to the main lobe.
         pulse_resolution_m: range blur FWHM from the pulse length (default: the spec's
             range resolution).
@@ -115,7 +117,7 @@ class SonarConfig:
     display_top_db: float = 185.0
     dynamic_range_db: float = 50.0
     speckle: bool = True
-    labels: bool = True
+    labels: bool = False
     sidelobe_db: float = -25.0
     pulse_resolution_m: float | None = None
     fan_size_px: int = 512
