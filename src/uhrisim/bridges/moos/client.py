@@ -327,6 +327,11 @@ class MoosClient:
         self._sendbuf += memoryview(packet)[n:]
         return True
 
+    @property
+    def has_mail(self) -> bool:
+        """True when :meth:`drain` would return something (a lock-free look)."""
+        return bool(self._inbox)
+
     def drain(self) -> list[MoosMessage]:
         """Return and clear every notification received since the last call (oldest first)."""
         if not self._inbox:  # the common case, without the lock (a deque's length is atomic)

@@ -83,6 +83,7 @@ class MoosBridgeHook(BaseHook):
         self._factory = bridge_factory
         self.bridges: dict[str, MoosAgentBridge] = {}
         self._periods: dict[str, int] = {}
+        self._rows: list[tuple[MoosAgentLink, MoosAgentBridge, int]] = []
         self._was_connected: dict[str, bool] = {}
         self._sim: Simulation | None = None
         self.n_in = 0
@@ -104,34 +105,40 @@ class MoosBridgeHook(BaseHook):
                 self._time_warp, link.subscribe, link.extra_vars,
                 time_source=self._time_source, strict=self._strict)
             self._was_connected[link.agent] = False
+            self._rows.append((link, self.bridges[link.agent], self._periods[link.agent]))
 
     def on_tick(self, frame: TickFrame) -> None:
         sim = self._sim
         if sim is None:
             return
-        for link in self.links:
+        tick = frame.tick
+        for link, bridge, period in self._rows:
             name = link.agent
-            bridge = self.bridges[name]
-            snap = frame.agents.get(name) if frame.tick % self._periods[name] == 0 else None
-            if snap is not None:  # read only at the nav rate (snapshots are taken on demand)
+            if tick % period == 0:  # snapshots only at the nav rate (taken on demand)
+                snap = frame.agents[name]
                 nav = snap.nav
                 north, east, down = nav.position_ned.tolist()
                 bridge.publish_nav(frame.t, north, east, down,
                                    float(heading_deg_from_yaw(nav.yaw)), nav.speed,
                                    link.vehicle_type, link.length, _mode(snap.mode))
-            for var, value, _t in bridge.poll():
-                accepted = _accept(value, numeric=var in link.subscribe)
-                if accepted is None:
-                    self.n_rejected += 1
-                    log.warning("MOOS %s: ignoring %s = %r (not a finite number)", name, var,
-                                value)
-                    continue
-                sim.post(name, var, accepted, source="moos")
-                self.n_in += 1
+            if bridge.client.has_mail:  # usually not: nothing came in
+                self._take_mail(sim, link, bridge)
             up = bridge.connected
             if up != self._was_connected[name]:
                 self._was_connected[name] = up
                 sim.record_event("bridge", f"moos {name}: {bridge.status}")
+
+    def _take_mail(self, sim: Simulation, link: MoosAgentLink, bridge: MoosAgentBridge) -> None:
+        """Post what the community sent into the agent's community (typed input path)."""
+        name = link.agent
+        for var, value, _t in bridge.poll():
+            accepted = _accept(value, numeric=var in link.subscribe)
+            if accepted is None:
+                self.n_rejected += 1
+                log.warning("MOOS %s: ignoring %s = %r (not a finite number)", name, var, value)
+                continue
+            sim.post(name, var, accepted, source="moos")
+            self.n_in += 1
 
     def on_end(self, sim: Simulation, error: BaseException | None) -> None:
         del sim, error
