@@ -271,10 +271,13 @@ def _log_level(
     zero echo assumed beyond the block's edges; ``row_offset`` holds the block's rows of
     ``1 + k·ln(TVG·SL·gain/top)``. Written into ``out`` (same shape as ``raw``)."""
     noise_positive = noise_rel > 1e-30  # log() needs a positive argument
-    cv2.sepFilter2D(
-        raw, cv2.CV_32F, beam_kernel, range_kernel, dst=out,
-        delta=noise_rel if noise_positive else 0.0, borderType=cv2.BORDER_CONSTANT,
-    )  # fmt: skip
+    # The separable filter as two filter2D passes (along beams, then in place along range):
+    # same result to float32 rounding, about 1.5x faster than OpenCV's sepFilter2D here.
+    delta = noise_rel if noise_positive else 0.0
+    zero_border = cv2.BORDER_CONSTANT
+    cv2.filter2D(raw, cv2.CV_32F, beam_kernel.reshape(1, -1), dst=out, borderType=zero_border)
+    cv2.filter2D(out, cv2.CV_32F, range_kernel.reshape(-1, 1), dst=out, delta=delta,
+                 borderType=zero_border)  # fmt: skip
     if not noise_positive:
         np.maximum(out, np.float32(1e-37), out=out)
     cv2.log(out, out)
