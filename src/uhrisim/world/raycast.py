@@ -225,7 +225,8 @@ class RayCaster(ABC):
         """First hit of each ray within ``max_range`` metres.
 
         Args:
-            origins: (N, 3) ray origins, world NED metres.
+            origins: (N, 3) ray origins, world NED metres, or (3,): one origin shared
+                by every ray (a sensor's fan; cheaper).
             directions: (N, 3) unit directions, world NED (|d| within 1e-5 of 1).
             max_range: positive range limit in metres (``np.inf`` allowed).
             exclude: names of dynamic bodies to ignore (e.g. the sensor's own vehicle).
