@@ -15,6 +15,20 @@ def test_wraps():
     assert frames.wrap_pi(3 * np.pi) == pytest.approx(-np.pi)
 
 
+def test_one_number_gives_the_array_answer_bit_for_bit():
+    """The angle helpers' plain-number path (the control loop's) equals their numpy path,
+    signed zeros and the wrap boundaries included."""
+    rng = np.random.default_rng(5)
+    values = np.concatenate([[0.0, -0.0, 180.0, -180.0, 360.0, -360.0, 720.0, 1e-300, -1e-12],
+                             rng.uniform(-2000.0, 2000.0, 500)])
+    for fn in (frames.wrap_180, frames.wrap_360, frames.heading_deg_from_yaw):
+        as_array = fn(values)
+        for v, expected in zip(values.tolist(), as_array.tolist(), strict=True):
+            got = fn(v)
+            assert type(got) is float
+            assert got == expected and np.copysign(1.0, got) == np.copysign(1.0, expected)
+
+
 def test_heading_and_yaw_are_the_same_angle():
     assert frames.heading_deg_from_yaw(np.pi / 2) == pytest.approx(90.0)
     assert frames.heading_deg_from_yaw(-np.pi / 2) == pytest.approx(270.0)

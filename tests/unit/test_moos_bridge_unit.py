@@ -106,11 +106,10 @@ def test_publish_nav_maps_ned_to_moos_frame_and_units():
         b.publish_nav(3.0, math.nan, 0.0, 0.0, 0.0, 0.0)
 
 
-def test_publish_nav_fast_path_equals_the_general_formulas():
-    """publish_nav keeps the grid constants and writes the NODE_REPORT text directly; the
-    values and text are exactly those of latlon_from_local, wrap_360 and
+def test_publish_nav_equals_the_general_formulas():
+    """publish_nav's values and text are exactly those of latlon_from_local, wrap_360 and
     format_node_report(NodeReport(...)), for random states, headings of any range
-    (0 and 360 included) and odd type/mode strings (which take the general path)."""
+    (0 and 360 included) and odd type/mode strings."""
     import numpy as np
 
     from uhrisim.autonomy.contacts import NodeReport, format_node_report

@@ -15,12 +15,12 @@ well below the target against the VideoRay's drag.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from uhrisim.core.frames import heading_deg_from_yaw, wrap_180
 from uhrisim.dynamics.videoray import VideoRayParams
 
 
@@ -74,9 +74,7 @@ class VideoRayPController:
                desired_depth: float) -> NDArray:
         g = self.gains
         _, _, depth, yaw, surge = np.asarray(x[:5], dtype=float).tolist()
-        # On plain floats, the same operations as wrap_180(desired - heading_deg_from_yaw).
-        heading_deg = math.degrees(yaw) % 360.0
-        heading_error = (desired_heading_deg - heading_deg + 180.0) % 360.0 - 180.0
+        heading_error = wrap_180(desired_heading_deg - heading_deg_from_yaw(yaw))
         speed_term = g.speed_weight * g.speed * (desired_speed - surge)
         if g.speed_feedforward:
             speed_term += feedforward_input(desired_speed, self.params)

@@ -36,7 +36,7 @@ from collections.abc import Iterable, Mapping
 
 from uhrisim.autonomy.contacts import NodeReport, format_node_report
 from uhrisim.bridges.moos.client import MoosClient
-from uhrisim.bridges.moos.geodesy import moos_grid_radius
+from uhrisim.bridges.moos.geodesy import latlon_from_local
 from uhrisim.core.errors import BridgeError
 from uhrisim.core.frames import moos_xy_from_ned, wrap_360
 
@@ -115,11 +115,6 @@ class MoosAgentBridge:
         self.node_report_var = node_report_var
         self.time_source = time_source
         self.variables: tuple[str, ...] = tuple(dict.fromkeys((*subscribe, *extra_vars)))
-        # CMOOSGeodesy local grid of the origin (latlon_from_local's constants, once)
-        self._grid_r = moos_grid_radius(self.lat_origin)
-        self._grid_r_cos = self._grid_r * math.cos(math.radians(self.lat_origin))
-        self._nav_vars = ("NAV_X", "NAV_Y", "NAV_DEPTH", "NAV_HEADING", "NAV_SPEED", "NAV_LAT",
-                          "NAV_LONG", node_report_var)
         self._latest: dict[str, tuple[float | str | bytes, float]] = {}
         self._community_checked = False
         self.client = client if client is not None else MoosClient(time_warp=time_warp)
@@ -163,27 +158,22 @@ class MoosAgentBridge:
         any range - wrapped to [0, 360)), speed (m/s). Returns True if sent now, False if
         the DB is unreachable (the latest values are then sent on reconnection).
         """
-        x_north, y_east = float(x_north), float(y_east)
-        depth, heading_deg, speed_mps = float(depth), float(heading_deg), float(speed_mps)
-        isfinite = math.isfinite
-        if not (isfinite(x_north) and isfinite(y_east) and isfinite(depth)
-                and isfinite(heading_deg) and isfinite(speed_mps)):
-            vals = (x_north, y_east, depth, heading_deg, speed_mps)
+        vals = x_north, y_east, depth, heading_deg, speed_mps = (
+            float(x_north), float(y_east), float(depth), float(heading_deg), float(speed_mps))
+        if not all(math.isfinite(v) for v in vals):
             raise BridgeError(f"MOOS publish_nav({self.agent_name}): non-finite value {vals}")
         self._check_community()
-        # wrap_360 leaves (0, 360) unchanged: skip its numpy call in the common case
-        hdg = heading_deg if 0.0 < heading_deg < 360.0 else float(wrap_360(heading_deg))
+        hdg = wrap_360(heading_deg)
         x_e, y_n = moos_xy_from_ned(x_north, y_east)  # MOOS: x east, y north
-        # geodesy.latlon_from_local (CMOOSGeodesy LocalGrid2LatLong), constants kept
-        lat = self.lat_origin + math.degrees(math.asin(y_n / self._grid_r))
-        lon = self.long_origin + math.degrees(math.asin(x_e / self._grid_r_cos))
+        lat, lon = latlon_from_local(x_e, y_n, self.lat_origin, self.long_origin)
         t = self.moos_time(t_sim)
-        report = _node_report(self.agent_name, x_e, y_n, speed_mps, hdg, depth, lat, lon,
-                              vehicle_type, mode, t, length)
-        v = self._nav_vars
+        report = format_node_report(NodeReport(
+            name=self.agent_name, x=x_e, y=y_n, speed=speed_mps, heading=hdg, depth=depth,
+            lat=lat, lon=lon, type=vehicle_type, mode=mode, time=t, length=length))
         return self.client.notify_many((
-            (v[0], x_e), (v[1], y_n), (v[2], depth), (v[3], hdg), (v[4], speed_mps),
-            (v[5], lat), (v[6], lon), (v[7], report)), t)
+            ("NAV_X", x_e), ("NAV_Y", y_n), ("NAV_DEPTH", depth), ("NAV_HEADING", hdg),
+            ("NAV_SPEED", speed_mps), ("NAV_LAT", lat), ("NAV_LONG", lon),
+            (self.node_report_var, report)), t)
 
     def publish_var(self, name: str, value: float | str | bytes, t_sim: float | None = None
                     ) -> bool:
@@ -234,23 +224,3 @@ class MoosAgentBridge:
             log.warning("MOOS bridge %r: DB community is %r, expected %r", self.agent_name,
                         self.client.community, self.community)
 
-
-def _num(v: float, nd: int) -> str:
-    s = f"{v:.{nd}f}".rstrip("0").rstrip(".")
-    return "0" if s in ("-0", "") else s
-
-
-def _node_report(name: str, x: float, y: float, speed: float, heading: float, depth: float,
-                 lat: float, lon: float, vehicle_type: str, mode: str, t: float,
-                 length: float | None) -> str:
-    """``format_node_report(NodeReport(...))`` of a nav post, without building the
-    dataclass (same text, tested); anything unusual takes that general path."""
-    if ("," in name or "=" in name or "," in vehicle_type or "=" in vehicle_type
-            or "," in mode or "=" in mode or not vehicle_type or not mode or length is None):
-        return format_node_report(NodeReport(
-            name=name, x=x, y=y, speed=speed, heading=heading, depth=depth, lat=lat, lon=lon,
-            type=vehicle_type, mode=mode, time=t, length=length))
-    return (f"NAME={name},X={_num(x, 3)},Y={_num(y, 3)},SPD={_num(speed, 3)},"
-            f"HDG={_num(heading, 2)},DEP={_num(depth, 3)},LAT={_num(lat, 8)},"
-            f"LON={_num(lon, 8)},TYPE={vehicle_type},MODE={mode},TIME={_num(t, 3)},"
-            f"LENGTH={_num(length, 3)}")

@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.core.frames import rotation_zyx
+from uhrisim.core.frames import rotation_zyx, row_dots
 from uhrisim.sensors.sonar.acoustics import (
     beam_pattern_gaussian,
     horizontal_beam_kernel,
@@ -61,7 +61,6 @@ INSIDE_GEOMETRY_RANGE_M = 0.02
 MAX_FOOTPRINT_TAN = 12.0
 
 _LN10_OVER_10 = math.log(10.0) / 10.0
-_ONES3 = np.ones(3)  # (N, 3) @ _ONES3: row sums, much faster than einsum for 3 columns
 
 #: Echo-free row gaps shorter than this (range bins) are filtered with their neighbours
 #: rather than split into a separate OpenCV call (exact either way; fewer calls).
@@ -543,7 +542,7 @@ class ImagingSonar:
         near_m, far_m = self.cast_window_m
         hits = raycaster.cast(p_s, dirs, far_m, exclude=exclude)  # one shared origin
         distance = np.asarray(hits.distance, dtype=np.float64)
-        cos_all = np.abs((np.asarray(hits.normal, np.float64) * dirs) @ _ONES3)
+        cos_all = np.abs(row_dots(np.asarray(hits.normal, np.float64), dirs))
         near = np.count_nonzero(distance < INSIDE_GEOMETRY_RANGE_M)
         if near > INSIDE_GEOMETRY_FRACTION * distance.size:
             raise ConfigError(
