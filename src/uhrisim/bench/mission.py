@@ -34,11 +34,6 @@ def mission_rates(
         return seconds / (time.perf_counter() - wall), seconds / (time.process_time() - cpu)
 
 
-def mission_rtf(seconds: float, sonar: bool, hooks: Sequence[Hook] = ()) -> float:
-    """Simulated seconds per wall second of the mission, after a 2 s warm-up."""
-    return mission_rates(seconds, sonar, hooks)[0]
-
-
 def _rtf(sonar: bool, seconds: float) -> dict[str, Any]:
     wall_rtf, cpu_rtf = mission_rates(seconds, sonar)
     key = "with_sonar" if sonar else "without_sonar"
