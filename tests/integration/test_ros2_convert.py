@@ -12,7 +12,7 @@ import pytest
 from uhrisim.bridges.ros2 import AgentBridgeSpec, AgentCommands, Pacer, apply_env_defaults
 from uhrisim.bridges.ros2.convert import (
     RateGate,
-    cloud_bytes_from_frd,
+    cloud_xyzi_flu,
     odom_fields_from_ned,
     pose_enu_from_ned,
     stamp_from_sim_time,
@@ -95,15 +95,34 @@ def test_marker_pose_identity_object_points_north() -> None:
         pose_enu_from_ned([0, 0, 0], np.diag([1.0, 1.0, -1.0]))  # a reflection
 
 
-def test_cloud_bytes_are_flu_float32() -> None:
+def test_cloud_rows_are_flu_float32() -> None:
     pts = np.array([[1.0, 2.0, 3.0], [4.0, -5.0, 0.5]])
-    n, raw = cloud_bytes_from_frd(pts, [7.0, 8.0])
-    rows = np.frombuffer(bytes(raw), dtype="<f4").reshape(n, 4)
+    rows = cloud_xyzi_flu(pts, [7.0, 8.0])
+    assert rows.dtype == np.dtype("<f4") and rows.flags.c_contiguous
     np.testing.assert_array_equal(rows, [[1, -2, -3, 7], [4, 5, -0.5, 8]])
-    n0, raw0 = cloud_bytes_from_frd(np.zeros((0, 3)))
-    assert n0 == 0 and len(bytes(raw0)) == 0
+    assert cloud_xyzi_flu(np.zeros((0, 3))).shape == (0, 4)
+    np.testing.assert_array_equal(cloud_xyzi_flu(pts)[:, 3], [0.0, 0.0])
     with pytest.raises(ConfigError):
-        cloud_bytes_from_frd(pts, [1.0])
+        cloud_xyzi_flu(pts, [1.0])
+
+
+def test_pose_rotation_check_is_allclose_to_a_proper_rotation() -> None:
+    """The written-out orthonormality test accepts and refuses what
+    ``np.allclose(r @ r.T, I, atol=1e-6)`` and ``det(r) > 0`` do, NaN included."""
+    rng = np.random.default_rng(3)
+    for scale in (0.0, 1e-8, 3e-7, 1e-6, 1e-5, 1e-3):
+        for _ in range(40):
+            q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+            r = q + scale * rng.normal(size=(3, 3))
+            proper = bool(np.allclose(r @ r.T, np.eye(3), atol=1e-6)
+                          and np.linalg.det(r) >= 0.0)
+            if proper:
+                pose_enu_from_ned([0, 0, 0], r)
+            else:
+                with pytest.raises(ConfigError):
+                    pose_enu_from_ned([0, 0, 0], r)
+    with pytest.raises(ConfigError):
+        pose_enu_from_ned([0, 0, 0], np.full((3, 3), np.nan))
 
 
 @pytest.mark.parametrize(("rate", "dt"), [(15.0, 0.01), (10.0, 0.01), (15.0, 0.02), (7.0, 0.05)])

@@ -26,13 +26,14 @@ from rclpy.context import Context  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.qos import qos_profile_sensor_data  # noqa: E402
 from rclpy.signals import SignalHandlerOptions  # noqa: E402
-from sensor_msgs.msg import Image  # noqa: E402
+from sensor_msgs.msg import Image, PointCloud2  # noqa: E402
 from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
 from visualization_msgs.msg import Marker, MarkerArray  # noqa: E402
 
 from uhrisim.bridges.ros2.bridge import QOS_SCENE  # noqa: E402
 from uhrisim.bridges.ros2.hook import Ros2BridgeHook  # noqa: E402
-from uhrisim.core.frames import enu_from_ned  # noqa: E402
+from uhrisim.core.frames import enu_from_ned, enu_rotation_from_ned, quaternion_from_matrix  # noqa: E402
+from uhrisim.sensors.sonar.sonar import cloud_hits  # noqa: E402
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
 
@@ -49,9 +50,14 @@ def test_hook_on_real_simulation(ros_env: int) -> None:
     node = rclpy.create_node("probe", context=ctx, start_parameter_services=False)
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(node)
-    got: dict[str, list] = {k: [] for k in ("odom", "polar", "sonar_pose", "scene")}
+    got: dict[str, list] = {k: [] for k in ("odom", "polar", "fan", "points", "sonar_pose",
+                                            "scene")}
     node.create_subscription(Odometry, "/videoray/odom", got["odom"].append, 50)
     node.create_subscription(Image, "/videoray/sonar/polar", got["polar"].append,
+                             qos_profile_sensor_data)
+    node.create_subscription(Image, "/videoray/sonar/fan", got["fan"].append,
+                             qos_profile_sensor_data)
+    node.create_subscription(PointCloud2, "/videoray/sonar/points", got["points"].append,
                              qos_profile_sensor_data)
     node.create_subscription(PoseStamped, "/videoray/sonar/pose", got["sonar_pose"].append, 50)
     node.create_subscription(MarkerArray, "/scene/markers", got["scene"].append, QOS_SCENE)
@@ -78,6 +84,7 @@ def test_hook_on_real_simulation(ros_env: int) -> None:
         bridge = hook.bridge
         assert bridge is not None
         assert bridge.wait_for_subscribers(["/videoray/odom", "/videoray/sonar/polar",
+                                            "/videoray/sonar/fan", "/videoray/sonar/points",
                                             "/videoray/cmd/desired_speed"], 20.0)
         end = time.monotonic() + 0.5
         while time.monotonic() < end:  # let the writers match the probe's readers
@@ -85,7 +92,8 @@ def test_hook_on_real_simulation(ros_env: int) -> None:
         n0 = len(got["odom"])
         step(120)  # 2 s of simulation
         end = time.monotonic() + 2.0
-        while time.monotonic() < end and len(got["odom"]) < n0 + 20:
+        while time.monotonic() < end and (len(got["odom"]) < n0 + 20
+                                          or len(got["sonar_pose"]) < len(pings) - 1):
             ex.spin_once(timeout_sec=0.02)
 
         # 120 ticks at 60 Hz, odometry gated to 10 Hz: 20 messages, one per 6 ticks
@@ -103,17 +111,39 @@ def test_hook_on_real_simulation(ros_env: int) -> None:
         def stamp(m) -> tuple[int, int]:
             return (m.header.stamp.sec, m.header.stamp.nanosec)
 
+        # reliable, one pose per ping (while the probe keeps up)
+        assert len(got["sonar_pose"]) >= len(pings) - 1
+        step(300)  # the diver comes into the sonar's view after about 4 s
+        end = time.monotonic() + 2.0
+        while time.monotonic() < end and not any(m.width for m in got["points"]):
+            ex.spin_once(timeout_sec=0.02)
         assert got["polar"], "no sonar image"
         img = got["polar"][-1]
         ping = pings[stamp(img)]
+        assert ping.polar_u8.max() > 0  # an image with echoes in it
         assert (img.height, img.width) == ping.polar_u8.shape
         np.testing.assert_array_equal(
             np.frombuffer(bytes(img.data), np.uint8).reshape(ping.polar_u8.shape), ping.polar_u8)
-        assert len(got["sonar_pose"]) >= len(pings) - 1  # reliable, one per ping
+        fan = got["fan"][-1]
+        fan_u8 = pings[stamp(fan)].fan_u8
+        assert (fan.height, fan.width, fan.step, fan.encoding) == (*fan_u8.shape,
+                                                                   fan_u8.shape[1], "mono8")
+        np.testing.assert_array_equal(
+            np.frombuffer(bytes(fan.data), np.uint8).reshape(fan_u8.shape), fan_u8)
+        cloud = max(got["points"], key=lambda m: m.width)  # the ping with the most hits
+        points, intensity = cloud_hits(pings[stamp(cloud)].cloud)
+        assert points.shape[0] > 0 and cloud.width == points.shape[0] and cloud.is_dense
+        rows = np.frombuffer(bytes(cloud.data), "<f4").reshape(-1, 4)
+        flu = np.column_stack([points[:, 0], -points[:, 1], -points[:, 2], intensity])
+        np.testing.assert_array_equal(rows, flu.astype("<f4"))  # sonar frame, FLU
         for m in got["sonar_pose"]:
+            ping = pings[stamp(m)]
             q = m.pose.position
-            np.testing.assert_allclose([q.x, q.y, q.z],
-                                       enu_from_ned(pings[stamp(m)].position_ned), atol=1e-9)
+            np.testing.assert_allclose([q.x, q.y, q.z], enu_from_ned(ping.position_ned),
+                                       atol=1e-9)
+            o = m.pose.orientation
+            want = quaternion_from_matrix(enu_rotation_from_ned(ping.rotation_ned_from_sonar))
+            np.testing.assert_allclose([o.x, o.y, o.z, o.w], want, atol=1e-12)
 
         assert got["scene"], "no scene markers"
         tri = [m for m in got["scene"][-1].markers if m.type == Marker.TRIANGLE_LIST]

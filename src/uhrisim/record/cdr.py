@@ -214,16 +214,17 @@ def encode_image(
     image: np.ndarray,
     encoding: str = "mono8",
 ) -> bytes:
-    """sensor_msgs/msg/Image from a 2-D uint8 array (row-major, ``step = width``)."""
+    """sensor_msgs/msg/Image from a 2-D uint8 array (row-major, ``step = width``). The
+    pixels are copied once, into the returned bytes."""
     height, width = image.shape
+    pixels = _byte_view(image)
     b = CdrBuffer()
     b.header(sec, nanosec, frame_id)
     b.u32s(height, width)
     b.string(encoding)
     b.u8(0)  # is_bigendian
-    b.u32(width)  # step, bytes per row
-    b.u8_seq(_byte_view(image))
-    return b.getvalue()
+    b.u32s(width, len(pixels))  # step (bytes per row), then the data's length
+    return b"".join((b.getvalue(), pixels))
 
 
 def encode_pointcloud2(
@@ -234,7 +235,8 @@ def encode_pointcloud2(
 ) -> bytes:
     """sensor_msgs/msg/PointCloud2, unorganised (height 1), fields x, y, z, intensity float32.
 
-    ``points_xyzi`` has shape ``(N, 4)``; it is written little endian, 16 bytes a point.
+    ``points_xyzi`` has shape ``(N, 4)``; it is written little endian, 16 bytes a point
+    (copied once, into the returned bytes).
     """
     pts = np.ascontiguousarray(points_xyzi, dtype="<f4")
     n = pts.shape[0]
@@ -248,10 +250,9 @@ def encode_pointcloud2(
         b.u8(POINTFIELD_FLOAT32)
         b.u32(1)
     b.u8(0)  # is_bigendian
-    b.u32s(16, 16 * n)  # point_step, row_step
-    b.u8_seq(_byte_view(pts))
-    b.u8(1)  # is_dense: no NaN points
-    return b.getvalue()
+    data = _byte_view(pts)
+    b.u32s(16, 16 * n, len(data))  # point_step, row_step, then the data's length
+    return b"".join((b.getvalue(), data, b"\x01"))  # is_dense: no NaN points
 
 
 def decode_odometry(data: bytes | memoryview) -> tuple[int, int, str, str, tuple[float, ...]]:

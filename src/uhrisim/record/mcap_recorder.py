@@ -61,13 +61,12 @@ from mcap.writer import Writer as McapWriter
 from mcap_ros2._dynamic import serialize_dynamic
 
 from uhrisim import __version__ as uhrisim_version
-from uhrisim.bridges.ros2.convert import odom_fields_from_ned, pose_enu_from_ned
+from uhrisim.bridges.ros2.convert import cloud_xyzi_flu, odom_fields_from_ned, pose_enu_from_ned
 from uhrisim.bridges.ros2.spec import ROS_NAME_TOKEN
 from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.core.frames import (
     enu_from_ned,
     enu_rotation_from_ned,
-    flu_from_frd,
     quaternion_from_matrix,
 )
 from uhrisim.record import cdr
@@ -421,9 +420,7 @@ class McapRecorder:
                     )
             if not (np.all(np.isfinite(pts)) and np.all(np.isfinite(inten))):
                 raise ConfigError("points and intensity must be finite", where=where)
-            cloud = np.empty((pts.shape[0], 4), dtype="<f4")
-            cloud[:, :3] = flu_from_frd(pts)
-            cloud[:, 3] = inten
+            cloud = cloud_xyzi_flu(pts, inten)
         elif intensity is not None:
             raise ConfigError("intensity given without points_sonar_frame", where=where)
 

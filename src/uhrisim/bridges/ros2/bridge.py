@@ -40,13 +40,18 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from uhrisim.core.errors import BridgeError, ConfigError
 from uhrisim.core.frames import enu_from_ned, wrap_360
-from uhrisim.record.cdr import CDR_LE_HEADER, OdometryEncoder
+from uhrisim.record.cdr import (
+    CDR_LE_HEADER,
+    OdometryEncoder,
+    encode_image,
+    encode_pointcloud2,
+)
 
 from .convert import (
     CLOUD_FIELDS,
     CLOUD_POINT_STEP,
     RateGate,
-    cloud_bytes_from_frd,
+    cloud_xyzi_flu,
     odom_fields_from_ned,
     pose_enu_from_ned,
     stamp_from_sim_time,
@@ -168,13 +173,19 @@ def _set_stamp(header: Any, t_sim: float, frame_id: str) -> None:
     header.frame_id = frame_id
 
 
-def image_msg(img: np.ndarray, t_sim: float, frame_id: str, where: str = "image") -> Image:
-    """sensor_msgs/Image ``mono8`` of a 2-D uint8 array (row-major, step = width),
-    stamped with simulation time ``t_sim`` (s)."""
+def _mono8(img: np.ndarray, where: str) -> np.ndarray:
+    """``img`` as a C-contiguous 2-D uint8 array, or a ConfigError naming ``where``."""
     a = np.asarray(img)
     if a.dtype != np.uint8 or a.ndim != 2:
         raise ConfigError(f"expected a 2-D uint8 image, got {a.dtype} {a.shape}", where)
-    a = np.ascontiguousarray(a)
+    return np.ascontiguousarray(a)
+
+
+def image_msg(img: np.ndarray, t_sim: float, frame_id: str, where: str = "image") -> Image:
+    """sensor_msgs/Image ``mono8`` of a 2-D uint8 array (row-major, step = width),
+    stamped with simulation time ``t_sim`` (s): the message whose bytes
+    :meth:`Ros2Bridge.publish_sonar` sends (tests hold the two together)."""
+    a = _mono8(img, where)
     msg = Image()
     _set_stamp(msg.header, t_sim, frame_id)
     msg.height, msg.width = int(a.shape[0]), int(a.shape[1])
@@ -259,8 +270,11 @@ def pointcloud_msg(
     t_sim: float, frame_id: str, points_frd: ArrayLike, intensity: ArrayLike | None = None
 ) -> PointCloud2:
     """sensor_msgs/PointCloud2 (height 1; x, y, z, intensity float32 LE, 16 bytes a
-    point) of ``(N, 3)`` sensor-frame FRD points, written in the sensor's FLU frame."""
-    n, raw = cloud_bytes_from_frd(points_frd, intensity)
+    point) of ``(N, 3)`` sensor-frame FRD points, written in the sensor's FLU frame: the
+    message whose bytes :meth:`Ros2Bridge.publish_sonar` sends (tests hold the two
+    together)."""
+    xyzi = cloud_xyzi_flu(points_frd, intensity)
+    n = xyzi.shape[0]
     cloud = PointCloud2()
     _set_stamp(cloud.header, t_sim, frame_id)
     cloud.height, cloud.width = 1, n
@@ -273,7 +287,7 @@ def pointcloud_msg(
     cloud.row_step = CLOUD_POINT_STEP * n
     cloud.is_dense = True
     data = array.array("B")
-    data.frombytes(raw)
+    data.frombytes(xyzi.reshape(-1).view(np.uint8))
     cloud.data = data
     return cloud
 
@@ -588,23 +602,22 @@ class Ros2Bridge:
         if not io.sonar_gate.due(t_sim):
             return False
         frame = f"{agent}/sonar"
-        if polar_u8 is not None:
-            msg = image_msg(polar_u8, t_sim, frame, "Ros2Bridge.publish_sonar.polar_u8")
-            self._publish(io.pubs["polar"], msg, f"/{agent}/sonar/polar")
-        if fan_u8 is not None:
-            msg = image_msg(fan_u8, t_sim, frame, "Ros2Bridge.publish_sonar.fan_u8")
-            self._publish(io.pubs["fan"], msg, f"/{agent}/sonar/fan")
+        sec, nanosec = stamp_from_sim_time(t_sim)
+        # pre-serialised, as image_msg / pointcloud_msg / PoseStamped would be: the
+        # pixels and points are copied once, into the bytes handed to DDS
+        for key, image in (("polar", polar_u8), ("fan", fan_u8)):
+            if image is not None:
+                where = f"Ros2Bridge.publish_sonar.{key}_u8"
+                raw = encode_image(sec, nanosec, frame, _mono8(image, where))
+                self._publish(io.pubs[key], raw, f"/{agent}/sonar/{key}")
         if points_sonar_frd is not None:
-            cloud = pointcloud_msg(t_sim, frame, points_sonar_frd, intensity)
-            self._publish(io.pubs["points"], cloud, f"/{agent}/sonar/points")
+            xyzi = cloud_xyzi_flu(points_sonar_frd, intensity)
+            raw = encode_pointcloud2(sec, nanosec, frame, xyzi)
+            self._publish(io.pubs["points"], raw, f"/{agent}/sonar/points")
         if sonar_pose_ned is not None:
             pos, quat = pose_enu_from_ned(sonar_pose_ned[0], sonar_pose_ned[1])
-            ps = PoseStamped()
-            _set_stamp(ps.header, t_sim, WORLD_FRAME)
-            ps.pose.position.x, ps.pose.position.y, ps.pose.position.z = pos
-            o = ps.pose.orientation
-            o.x, o.y, o.z, o.w = quat
-            self._publish(io.pubs["sonar_pose"], ps, f"/{agent}/sonar/pose")
+            self._publish(io.pubs["sonar_pose"], io.pose(sec, nanosec, pos, quat),
+                          f"/{agent}/sonar/pose")
         return True
 
     def publish_helm(

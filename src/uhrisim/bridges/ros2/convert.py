@@ -173,6 +173,11 @@ def odom_fields_from_ned_reference(
     )
 
 
+_IDENTITY = np.eye(3)
+#: ``np.allclose(r @ r.T, I, atol=1e-6)`` written out: |r r^T - I| <= 1e-6 + 1e-5 |I|.
+_ORTHONORMAL_TOLERANCE = 1e-6 + 1e-5 * _IDENTITY
+
+
 def pose_enu_from_ned(
     position_ned: ArrayLike, rotation_ned: ArrayLike | None = None
 ) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
@@ -183,10 +188,10 @@ def pose_enu_from_ned(
     half-extents along its own axes are unchanged (only signs of axes flip).
     """
     p = _vec3(position_ned, "position_ned")
-    r = np.eye(3) if rotation_ned is None else np.asarray(rotation_ned, dtype=float)
+    r = _IDENTITY if rotation_ned is None else np.asarray(rotation_ned, dtype=float)
     if r.shape != (3, 3):
         raise ConfigError(f"expected a 3x3 rotation, got shape {r.shape}", where="rotation")
-    if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0.0:
+    if not (np.abs(r @ r.T - _IDENTITY) <= _ORTHONORMAL_TOLERANCE).all() or _det3(r) < 0.0:
         raise ConfigError("matrix is not a proper rotation", where="rotation")
     pos = enu_from_ned(p)
     q = quaternion_from_matrix(enu_rotation_from_ned(r))
@@ -196,16 +201,23 @@ def pose_enu_from_ned(
     )
 
 
-#: ``sensor_msgs/PointCloud2`` layout written by :func:`cloud_bytes_from_frd`:
+def _det3(m: NDArray[np.float64]) -> float:
+    """Determinant of a 3x3 matrix (the triple product of its rows)."""
+    (a, b, c), (d, e, f), (g, h, i) = m.tolist()
+    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+
+
+#: ``sensor_msgs/PointCloud2`` layout written by :func:`cloud_xyzi_flu`:
 #: (name, byte offset) of four FLOAT32 fields, 16 bytes per point, little-endian.
 CLOUD_FIELDS: tuple[tuple[str, int], ...] = (("x", 0), ("y", 4), ("z", 8), ("intensity", 12))
 CLOUD_POINT_STEP = 16
 
 
-def cloud_bytes_from_frd(
+def cloud_xyzi_flu(
     points_frd: ArrayLike, intensity: ArrayLike | None = None
-) -> tuple[int, bytes | memoryview]:
-    """Point count and packed little-endian float32 ``x, y, z, intensity`` rows (FLU).
+) -> NDArray[np.float32]:
+    """``(N, 4)`` little-endian float32 rows ``x, y, z, intensity`` in FLU: the data of a
+    PointCloud2 with :data:`CLOUD_FIELDS`.
 
     ``points_frd`` is ``(N, 3)`` in the sensor's FRD frame (m); it is converted to the
     sensor's FLU frame (y and z negated). ``intensity`` is ``(N,)`` (any unit the sonar
@@ -224,7 +236,7 @@ def cloud_bytes_from_frd(
         if inten.shape[0] != n:
             raise ConfigError(f"{inten.shape[0]} intensities for {n} points", where="intensity")
         packed[:, 3] = inten
-    return n, memoryview(packed.reshape(-1).view(np.uint8))
+    return packed
 
 
 class RateGate:

@@ -213,9 +213,12 @@ def cloud_hits(cloud: SonarCloud) -> tuple[NDArray[np.float64], NDArray[np.float
     """The rays of a ``sonar_cloud`` that hit inside the window: sonar-frame points
     (M, 3, m) and their display intensity (M,, 0..1); the cloud lists every ray, NaN on
     a miss."""
-    xyz = np.stack([np.ravel(cloud.x), np.ravel(cloud.y), np.ravel(cloud.z)], -1).astype(float)
-    keep = np.isfinite(xyz).all(axis=1)
-    return xyz[keep], np.ravel(cloud.intensity)[keep].astype(float)
+    x, y, z = np.ravel(cloud.x), np.ravel(cloud.y), np.ravel(cloud.z)
+    keep = np.isfinite(x)
+    keep &= np.isfinite(y)
+    keep &= np.isfinite(z)
+    xyz = np.stack([x[keep], y[keep], z[keep]], -1).astype(float)  # few hits, many rays
+    return xyz, np.ravel(cloud.intensity)[keep].astype(float)
 
 
 def mount_rotation(tilt_deg: float, yaw_deg: float) -> NDArray[np.float64]:
