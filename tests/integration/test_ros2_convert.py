@@ -139,6 +139,25 @@ def test_rate_gate_keeps_average_rate_on_a_tick_grid(rate: float, dt: float) -> 
     assert gaps.max() <= 1.0 / rate + dt + 1e-9
 
 
+def test_rate_gate_fires_on_multiples_of_its_period() -> None:
+    """A 20 Hz gate first asked at any tick of a 60 Hz loop fires on the ticks at 0.05,
+    0.10, ... s; two gates of one rate share their ticks, and a 10 Hz gate fires on every
+    other one of them; wake_time says when the gate can next be due."""
+    ticks = [k / 60 for k in range(1, 601)]
+    late = RateGate(20.0)
+    fired_late = [t for t in ticks[7:] if late.due(t)]
+    early = RateGate(20.0)
+    fired_early = [t for t in ticks if early.due(t)]
+    assert fired_late == [t for t in fired_early if t >= ticks[7]]
+    np.testing.assert_allclose(fired_early, 0.05 * np.arange(1, 201), atol=1e-12)
+    ten = RateGate(10.0)
+    assert [t for t in ticks if ten.due(t)] == fired_early[1::2]
+    g = RateGate(20.0)
+    assert g.wake_time == -math.inf and g.due(0.05)
+    assert g.wake_time == pytest.approx(0.1) and not g.is_due(0.0999) and g.is_due(0.1)
+    assert g.due(0.37) and g.wake_time == pytest.approx(0.4)  # fell behind: next multiple
+
+
 def test_rate_gate_none_and_time_reset() -> None:
     g = RateGate(None)
     assert all(g.due(t) for t in (0.0, 0.0, 0.001))

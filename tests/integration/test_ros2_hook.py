@@ -90,7 +90,10 @@ def test_hook_on_real_simulation(ros_env: int) -> None:
         while time.monotonic() < end:  # let the writers match the probe's readers
             ex.spin_once(timeout_sec=0.02)
         n0 = len(got["odom"])
+        clock0 = bridge.stats()["published"].get("/clock", 0)
         step(120)  # 2 s of simulation
+        # /clock at its default 10 Hz, on the ticks of the 10 Hz odometry
+        assert bridge.stats()["published"]["/clock"] - clock0 == 20
         end = time.monotonic() + 2.0
         while time.monotonic() < end and (len(got["odom"]) < n0 + 20
                                           or len(got["sonar_pose"]) < len(pings) - 1):

@@ -158,6 +158,25 @@ def bridge_scene_qos():
     return QOS_SCENE
 
 
+def test_helm_mode_is_latched_and_sent_on_change(ros_env: int, probe: Probe) -> None:
+    """/helm/mode goes out when the mode changes, transient-local: a node subscribing
+    after the mode was set still receives it; repeating the same mode sends nothing."""
+    name = f"rov_{secrets.token_hex(3)}"
+    with Ros2Bridge([AgentBridgeSpec(name)], node_name=f"uhrisim_{name}",
+                    domain_id=ros_env) as b:
+        b.publish_helm(name, 1.0, 10.0, 0.5, 2.0, "MODE@ACTIVE:LOITER")
+        b.publish_helm(name, 1.25, 11.0, 0.5, 2.0, "MODE@ACTIVE:LOITER")
+        topic = f"/{name}/helm/mode"
+        assert b.stats()["published"][topic] == 1
+        probe.sub(String, topic, qos=bridge_scene_qos())  # subscribes after the fact
+        got = probe.got[topic]
+        assert probe.spin_until(lambda: len(got) == 1)
+        assert got[0].data == "MODE@ACTIVE:LOITER"
+        b.publish_helm(name, 1.5, 12.0, 0.5, 2.0, "MODE@ACTIVE:TRAIL")
+        assert probe.spin_until(lambda: len(got) == 2)
+        assert got[1].data == "MODE@ACTIVE:TRAIL" and b.stats()["published"][topic] == 2
+
+
 def test_commands_validation_and_sim_time_timeout(bridge: Ros2Bridge, probe: Probe, agent: str):
     pubs = {k: probe.node.create_publisher(Float64, f"/{agent}/cmd/{k}", 10)
             for k in ("desired_heading", "desired_speed", "desired_depth")}

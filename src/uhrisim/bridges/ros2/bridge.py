@@ -102,6 +102,15 @@ QOS_SCENE = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.TRANSIENT_LOCAL,
 )
+#: Helm mode: published when it changes, reliable and transient-local (keep the last 1),
+#: so a node that subscribes later with transient-local durability still gets the mode
+#: in force; a volatile subscriber matches too and gets every change from then on.
+QOS_LATCHED = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
 #: /clock: best effort, keep the last 1 (what rclpy's TimeSource subscribes with).
 QOS_CLOCK = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
@@ -160,8 +169,7 @@ class _AgentIO:
         self.pubs: dict[str, Any] = {}
         self.topics = {f"helm_{key}": f"/{spec.name}/helm/{key}"
                        for key in ("desired_heading", "desired_speed", "desired_depth", "mode")}
-        self.mode_text: str | None = None  # the last helm mode and its serialised message
-        self.mode_bytes = b""
+        self.mode_text: str | None = None  # the last helm mode published
         self.slots: dict[str, _Slot] = {}
         self.received = 0  # command messages accepted so far
 
@@ -430,7 +438,7 @@ class Ros2Bridge:
                 p[f"helm_{key}"] = node.create_publisher(
                     Float64, f"/{name}/helm/{key}", QOS_STATE
                 )
-            p["helm_mode"] = node.create_publisher(String, f"/{name}/helm/mode", QOS_STATE)
+            p["helm_mode"] = node.create_publisher(String, f"/{name}/helm/mode", QOS_LATCHED)
             if "desired" in io.spec.accept:
                 for key in _CMD_KEYS_DESIRED:
                     node.create_subscription(
@@ -520,13 +528,31 @@ class Ros2Bridge:
 
     def _publish(self, pub: Any, msg: Any, key: str) -> None:
         try:
-            pub.publish(msg)
+            if type(msg) is bytes:  # serialised: straight to rcl (what publish() calls)
+                pub.handle.publish_raw(msg)
+            else:
+                pub.publish(msg)
         except Exception as exc:
             raise BridgeError(f"Ros2Bridge: publishing {key} failed: {exc}") from exc
-        with self._lock:
-            self._counts[key] = self._counts.get(key, 0) + 1
+        counts = self._counts  # written by this (the simulation's) thread only
+        counts[key] = counts.get(key, 0) + 1
 
     # ----------------------------------------------------------------- publishing
+    def note_time(self, t_sim: float) -> None:
+        """Tell the bridge the simulation time (s) without publishing anything: the
+        receipt time of commands that arrive next (``timeout_clock="sim"``)."""
+        self._t_sim_latest = float(t_sim)
+
+    @property
+    def wake_time(self) -> float:
+        """Before this simulation time (s) neither ``/clock`` nor any agent's odometry is
+        due: a loop may call only :meth:`note_time` until then (sonar pings and helm
+        decisions are not gated by it)."""
+        wake = self._clock_gate.wake_time if self._pub_clock is not None else math.inf
+        for io in self._agents.values():
+            wake = min(wake, io.nav_gate.wake_time)
+        return wake
+
     def publish_clock(self, t_sim: float) -> None:
         """Publish ``/clock`` at ``t_sim`` (s) if it changed (every ``publish_*`` call
         does this too); for loops that tick without publishing anything else."""
@@ -631,9 +657,9 @@ class Ros2Bridge:
     ) -> None:
         """Publish the helm's decision: ``/<agent>/helm/desired_heading`` (compass deg),
         ``/<agent>/helm/desired_speed`` (m/s), ``/<agent>/helm/desired_depth`` (m, down)
-        as std_msgs/Float64 (each skipped when ``None``) and ``/<agent>/helm/mode``
-        (std_msgs/String, e.g. ``"MODE@ACTIVE:TRAIL"``). Not rate-gated: the helm's own
-        rate applies.
+        as std_msgs/Float64 (each skipped when ``None``) and, when it differs from the
+        last one, ``/<agent>/helm/mode`` (std_msgs/String, e.g. ``"MODE@ACTIVE:TRAIL"``,
+        latched: see :data:`QOS_LATCHED`). Not rate-gated: the helm's own rate applies.
         """
         io = self._io(agent, "publish_helm")
         self._advance(t_sim)
@@ -648,8 +674,8 @@ class Ros2Bridge:
                               io.topics[f"helm_{key}"])
         mode = str(mode)
         if mode != io.mode_text:
-            io.mode_text, io.mode_bytes = mode, string_bytes(mode)
-        self._publish(io.pubs["helm_mode"], io.mode_bytes, io.topics["helm_mode"])
+            io.mode_text = mode
+            self._publish(io.pubs["helm_mode"], string_bytes(mode), io.topics["helm_mode"])
 
     def publish_scene(self, t_sim: float, markers: Sequence[Mapping[str, Any]]) -> None:
         """Publish ``/scene/markers`` (visualization_msgs/MarkerArray, frame ``"map"``).
@@ -791,7 +817,7 @@ class Ros2Bridge:
     def stats(self) -> dict[str, Any]:
         """Messages published per topic and command messages rejected (a copy)."""
         with self._lock:
-            return {"published": dict(self._counts), "rejected_commands": self._rejected}
+            return {"published": self._counts.copy(), "rejected_commands": self._rejected}
 
     def subscriber_count(self, topic: str) -> int:
         """How many subscriptions the ROS graph shows on ``topic`` (for tests/tools)."""

@@ -243,37 +243,54 @@ class RateGate:
     """Decides, in simulation time, whether a topic at ``rate_hz`` is due.
 
     Call :meth:`due` with every tick's ``t_sim``; it answers True at most once per
-    period and keeps the long-run average rate exact on a tick grid (a 15 Hz topic on
-    a 100 Hz tick publishes at intervals 0.07, 0.07, 0.06 s ...). ``rate_hz=None``
-    answers True on every call. A time that goes backwards (a reset run) restarts it.
+    period, at the first tick at or after each multiple of the period (0, 0.1, 0.2 ... s
+    at 10 Hz), so the long-run average rate is exact on a tick grid (a 15 Hz topic on a
+    100 Hz tick publishes at intervals 0.07, 0.07, 0.06 s ...) and gates of the same rate
+    fire on the same ticks. A time within 1e-9 (relative) of a multiple counts as on it
+    (tick times are products and sums of floats). ``rate_hz=None`` answers True on every
+    call. A time that goes backwards (a reset run) restarts the gate.
     """
 
     def __init__(self, rate_hz: float | None) -> None:
         if rate_hz is not None and not (math.isfinite(rate_hz) and rate_hz > 0.0):
             raise ConfigError(f"rate must be a positive number of Hz, got {rate_hz!r}", "rate_hz")
         self._period = None if rate_hz is None else 1.0 / float(rate_hz)
-        self._next: float | None = None
-        self._last: float | None = None
+        self._next: float | None = None  # the multiple of the period due next
+        self._due_from = -math.inf  # the earliest time that counts as reaching it
+        self._last = -math.inf
+
+    @property
+    def wake_time(self) -> float:
+        """Before this simulation time (s) the gate is surely not due (``-inf``: it may be
+        due at any time); lets a caller skip whole ticks."""
+        return self._due_from
+
+    def _aim(self, multiple: float) -> None:
+        self._next = multiple
+        self._due_from = multiple - 1e-9 * max(1.0, abs(multiple))
 
     def is_due(self, t_sim: float) -> bool:
         """Would :meth:`due` answer True at ``t_sim``? Notes the time (as ``due`` does) but
         uses up nothing: a caller can skip preparing a message that will not go out."""
         t = float(t_sim)
-        if self._last is not None and t < self._last:
-            self._next = None
-        self._last = t
-        if self._period is None or self._next is None:
+        period = self._period
+        if period is None:
             return True
-        return t >= self._next - 1e-9 * max(1.0, abs(t))
+        if self._next is None or t < self._last:  # first call, or a reset run
+            self._aim(math.ceil(t / period - 1e-9) * period)
+        self._last = t
+        return t >= self._due_from
 
     def due(self, t_sim: float) -> bool:
         """True when a message stamped ``t_sim`` (s) should go out."""
         if not self.is_due(t_sim):
             return False
-        if self._period is not None:
+        period = self._period
+        if period is not None:
+            assert self._next is not None
             t = float(t_sim)
-            if self._next is None or t - self._next >= self._period:
-                self._next = t + self._period  # first call, or fell behind: re-anchor
+            if t - self._next >= period:  # fell behind: aim at the multiple after t
+                self._aim((math.floor(t / period + 1e-9) + 1) * period)
             else:
-                self._next += self._period
+                self._aim(self._next + period)
         return True

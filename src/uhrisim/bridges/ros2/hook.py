@@ -26,6 +26,7 @@ at real time (``uhrisim.sim.pacing.Pacer``) or let nodes use ``/clock``
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -84,8 +85,8 @@ class Ros2BridgeHook(BaseHook):
     ``odom_rate_hz``: odometry rate in simulated time (``None``: every tick);
     ``sonar_rate_hz``: ``None`` publishes every ping the simulation makes.
     ``publish_scene``: send the static scene as ``/scene/markers`` at start.
-    ``clock_rate_hz``: ``/clock`` rate in simulated time (``None``: every tick; 20 Hz keeps
-    ``use_sim_time`` nodes within 50 ms at a fraction of the cost).
+    ``clock_rate_hz``: ``/clock`` rate in simulated time (``None``: every tick; 10 Hz, the
+    default of Gazebo's ``gazebo_ros_init``, is on the same ticks as 10 Hz odometry).
     ``command_poll_hz``: how often incoming commands are read into the simulation
     (``None``: every tick); they act at most 1/rate s (simulated) after arrival.
     Other arguments go to :class:`Ros2Bridge`.
@@ -103,7 +104,7 @@ class Ros2BridgeHook(BaseHook):
         domain_id: int | None = None,
         command_timeout_s: float = 1.0,
         timeout_clock: Literal["sim", "wall"] = "sim",
-        clock_rate_hz: float | None = 20.0,
+        clock_rate_hz: float | None = 10.0,
         command_poll_hz: float | None = 20.0,
         reliable_sensors: bool = False,
     ) -> None:
@@ -127,6 +128,8 @@ class Ros2BridgeHook(BaseHook):
         self._ros: dict[str, str] = {}  # simulation agent name -> ROS namespace
         # per linked agent: (ROS name, simulation name, publish sonar, accept commands)
         self._links: list[tuple[str, str, bool, bool]] = []
+        self._accepting = False
+        self._publish_wake = self._wake_time = -math.inf
         self._seen: dict[str, int] = {}
         self._active: dict[str, bool] = {}
         self.n_posted = 0
@@ -164,6 +167,9 @@ class Ros2BridgeHook(BaseHook):
         self.bridge.start()
         self._links = [(spec.name, name, spec.publish_sonar, bool(spec.accept))
                        for spec, name in zip(self.bridge.agents, self._ros, strict=True)]
+        self._accepting = any(accept for *_, accept in self._links)
+        # simulation times before which nothing is due (see on_tick)
+        self._publish_wake = self._wake_time = -math.inf
         self._seen = dict.fromkeys(names, 0)
         self._active = dict.fromkeys(names, False)
         if self._publish_scene and getattr(sim, "scene", None) is not None:
@@ -178,24 +184,33 @@ class Ros2BridgeHook(BaseHook):
         if bridge is None or sim is None:
             return
         t = float(frame.t)
-        bridge.publish_clock(t)
-        poll_commands = self._command_gate.due(t)
         pings, helm = frame.pings, frame.helm
-        for ros, name, publish_sonar, accept in self._links:
-            if bridge.odometry_due(ros, t):  # the snapshot only when odometry goes out
-                nav = frame.agents[name].nav
-                bridge.publish_nav(ros, t, nav.position_ned, nav.yaw, nav.velocity_body,
-                                   nav.yaw_rate)
-            if pings:
-                ping = pings.get(name)
-                if ping is not None and publish_sonar:
+        if t < self._wake_time and not pings and not helm:
+            bridge.note_time(t)  # nothing due: most ticks of a 60 Hz loop
+            return
+        if t >= self._publish_wake or pings or helm:
+            bridge.publish_clock(t)
+            for ros, name, publish_sonar, _ in self._links:
+                if bridge.odometry_due(ros, t):  # the snapshot only when odometry goes out
+                    nav = frame.agents[name].nav
+                    bridge.publish_nav(ros, t, nav.position_ned, nav.yaw, nav.velocity_body,
+                                       nav.yaw_rate)
+                ping = pings.get(name) if publish_sonar and pings else None
+                if ping is not None:
                     self._publish_ping(bridge, ros, ping)
-            if helm:
-                h = helm.get(name)
-                if h is not None:
-                    bridge.publish_helm(ros, t, h.heading_deg, h.speed, h.depth, h.mode)
-            if accept and poll_commands:
-                self._take_commands(sim, name, bridge.commands(ros, t), frame)
+                decision = helm.get(name) if helm else None
+                if decision is not None:
+                    bridge.publish_helm(ros, t, decision.heading_deg, decision.speed,
+                                        decision.depth, decision.mode)
+            self._publish_wake = bridge.wake_time
+        if self._accepting and self._command_gate.due(t):
+            for ros, name, _, accept in self._links:
+                if accept:
+                    self._take_commands(sim, name, bridge.commands(ros, t), frame)
+        else:
+            bridge.note_time(t)
+        self._wake_time = min(self._publish_wake, self._command_gate.wake_time
+                              if self._accepting else math.inf)
 
     @staticmethod
     def _publish_ping(bridge: Ros2Bridge, name: str, ping: Any) -> None:
