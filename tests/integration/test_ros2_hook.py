@@ -185,3 +185,27 @@ def test_hook_on_real_simulation(ros_env: int) -> None:
         ex.shutdown()
         node.destroy_node()
         ctx.try_shutdown()
+
+
+def test_unsubscribed_sonar_products_are_not_formed(ros_env: int) -> None:
+    """With nobody subscribed to the sonar topics, the hook forms no fan image (the costly
+    product) and sends no images or hits, but still the sonar pose of every ping."""
+    hook = Ros2BridgeHook(domain_id=ros_env, node_name="uhrisim_lazy_sonar_test",
+                          publish_scene=False)
+    pings = []
+
+    class Keep:
+        def on_start(self, sim) -> None: ...
+        def on_end(self, sim, error) -> None: ...
+        def on_tick(self, frame) -> None:
+            pings.extend(frame.pings.values())
+
+    sim = simulation.Simulation(load.load_scenario(SCENARIO), hooks=[hook, Keep()], seed=1)
+    with sim:
+        sim.run(1.0)
+        published = hook.bridge.stats()["published"]
+    assert len(pings) == 15
+    assert all("_fan_images" not in vars(p) for p in pings)  # never formed
+    assert published["/videoray/sonar/pose"] == 15
+    assert not any(k in published for k in ("/videoray/sonar/polar", "/videoray/sonar/fan",
+                                             "/videoray/sonar/points"))

@@ -595,6 +595,20 @@ class Ros2Bridge:
         caller skip gathering navigation data that would not go out."""
         return self._io(agent, "odometry_due").nav_gate.is_due(t_sim)
 
+    def sonar_subscribed(self, agent: str) -> tuple[bool, bool, bool]:
+        """Whether ``/<agent>/sonar/polar``, ``/fan`` and ``/points`` have a matched
+        subscriber now (a fraction of a microsecond each). The sonar topics are volatile:
+        what goes out while nobody is subscribed reaches no one, so a caller may skip
+        forming those products (the simulation hook does; the fan image is the costly
+        one)."""
+        io = self._io(agent, "sonar_subscribed")
+        if not io.spec.publish_sonar:
+            return False, False, False
+        p = io.pubs
+        return (p["polar"].handle.get_subscription_count() > 0,
+                p["fan"].handle.get_subscription_count() > 0,
+                p["points"].handle.get_subscription_count() > 0)
+
     def publish_sonar(
         self,
         agent: str,

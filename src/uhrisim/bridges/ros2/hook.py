@@ -3,8 +3,10 @@
 Each tick the hook (a read-only observer, like the recorder) publishes every linked
 agent's odometry (gated to ``odom_rate_hz`` in simulated time), each new sonar ping and
 helm decision, and ``/clock``; at start it publishes the static scene as markers.
-Commands received from ROS 2 enter the simulation through the typed input paths every
-outside command uses:
+Sonar images and hits go out only while someone subscribes to them (their topics are
+volatile, so nobody could tell the difference): the fan image of a ping is formed only
+for a subscriber. Commands received from ROS 2 enter the simulation through the typed
+input paths every outside command uses:
 
 * ``/<agent>/cmd/desired_*`` -> :meth:`Simulation.post` of ``DESIRED_HEADING`` /
   ``DESIRED_SPEED`` / ``DESIRED_DEPTH`` (source ``"ros2"``), once per received message,
@@ -214,8 +216,12 @@ class Ros2BridgeHook(BaseHook):
 
     @staticmethod
     def _publish_ping(bridge: Ros2Bridge, name: str, ping: Any) -> None:
-        points, intensity = cloud_hits(ping.cloud)
-        bridge.publish_sonar(name, float(ping.t), ping.polar_u8, ping.fan_u8, points, intensity,
+        """The ping's products that someone subscribes to (the fan image is formed only
+        then), and the sonar pose."""
+        polar, fan, hits = bridge.sonar_subscribed(name)
+        points, intensity = cloud_hits(ping.cloud) if hits else (None, None)
+        bridge.publish_sonar(name, float(ping.t), ping.polar_u8 if polar else None,
+                             ping.fan_u8 if fan else None, points, intensity,
                              sonar_pose_ned=(ping.position_ned, ping.rotation_ned_from_sonar))
 
     def _take_commands(self, sim: Simulation, name: str, cmd: AgentCommands,
