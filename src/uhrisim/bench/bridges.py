@@ -1,16 +1,25 @@
 """Overhead of the live bridges on the track-and-trail mission's real-time factor.
 
-The mission runs free (no pacing, no sonar, no recording) for the same simulated time
-three ways: no bridge; with the ROS 2 bridge publishing odometry, helm and scene on a
-private loopback domain; with the MOOS bridge posting NAV_*/NODE_REPORT at 10 Hz to a
-test MOOSDB on 127.0.0.1. Target (issue 6): each bridge costs under 20 % of the RTF.
+The mission runs free (no pacing, no recording) for the same simulated time with and
+without a bridge, and the overhead is ``1 - RTF(with bridge) / RTF(without)``
+(target, issue 6: under 20 %). Cases:
 
-Overhead = 1 - RTF(with bridge) / RTF(without). Both rates are measured, as in the
-mission benchmark: simulated seconds per wall second and per CPU second of the
-simulation process (all its threads: the bridges' I/O and DDS threads included; the
-test MOOSDB, a separate process standing in for a real MOOSDB, is not). The three runs
-are repeated in turn (``repeats``) and the medians compared, since one shared core
-makes single runs noisy; the target is judged on the CPU rates, like the mission's.
+* without the sonar (the loop is then ~6 ms of CPU per simulated second, so every
+  message counts): the ROS 2 bridge publishing odometry, pose, helm, ``/clock`` and
+  the scene on a private loopback domain with nobody subscribed (``ros2``) and with a
+  listener process subscribed to every one of those topics (``ros2_listener``); the
+  MOOS bridge posting NAV_*/NODE_REPORT of both agents at 10 Hz to a test MOOSDB on
+  127.0.0.1 (``moos``);
+* with the P900-45 sonar at 15 Hz (the mission as flown), the ROS 2 bridge with a
+  listener on every topic, the polar and fan images and the hits included
+  (``sonar.ros2_listener``: each ping's fan image is formed for it).
+
+Both rates are measured, as in the mission benchmark: simulated seconds per wall second
+and per CPU second of the simulation process (all its threads: the bridges' I/O and
+DDS threads included; the listener and the test MOOSDB, separate processes standing in
+for the user's nodes, are not). The runs of a case are repeated in turn and the medians
+compared, since the shared machine makes single runs noisy; the target is judged on the
+CPU rates, like the mission's.
 """
 
 from __future__ import annotations
@@ -19,82 +28,146 @@ import os
 import random
 import statistics
 import tempfile
-from collections.abc import Callable
+import time
+from collections.abc import Callable, Iterator
+from contextlib import ExitStack, contextmanager
 from typing import Any
 
 from uhrisim.bench.mission import mission_rates
-from uhrisim.sim.hooks import Hook
+from uhrisim.sim.hooks import BaseHook, Hook
 
 TARGET_OVERHEAD = 0.20
+#: Agents of the shipped mission, and the one carrying the sonar.
+AGENTS = ("videoray", "diver")
+SONAR_AGENT = "videoray"
 
 Rates = tuple[float, float]  # simulated seconds per wall second, per CPU second
+#: A case: makes the hooks of one run inside an ExitStack (processes, bridges), or says
+#: why it cannot run.
+Case = Callable[[ExitStack, bool], list[Hook] | str]
 
 
-def _rates(hooks: list[Hook], seconds: float) -> Rates:
-    return mission_rates(seconds, sonar=False, hooks=hooks)
-
-
-def _without(seconds: float) -> Rates:
-    return _rates([], seconds)
-
-
-def _with_ros2(seconds: float) -> Rates | str:
+def _ros2_environment() -> str | None:
+    """Loopback discovery and a log folder for ROS 2; why not, if the extra is missing."""
     try:
-        from uhrisim.bridges.ros2 import Ros2BridgeHook
+        import rclpy  # noqa: F401
     except ImportError as error:  # the ros2 extra is optional
         return f"skipped: {error}"
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     os.environ.setdefault("ROS_LOG_DIR", tempfile.mkdtemp(prefix="uhrisim-roslog-"))
-    domain = random.SystemRandom().randint(1, 101)
-    return _rates([Ros2BridgeHook(domain_id=domain, node_name="uhrisim_bench")], seconds)
+    return None
 
 
-def _with_moos(seconds: float) -> Rates:
+class _AwaitListener(BaseHook):
+    """Placed after the ROS 2 hook: at start, waits until the listener is matched on
+    every topic, so the measured run publishes to it from its first tick."""
+
+    def __init__(self, ros_hook: Any, topics: list[str]) -> None:
+        self._ros_hook, self._topics = ros_hook, topics
+
+    def on_start(self, sim: Any) -> None:
+        del sim
+        if not self._ros_hook.bridge.wait_for_subscribers(self._topics, timeout_s=30.0):
+            raise RuntimeError("bench: the ROS 2 listener was not discovered within 30 s")
+        time.sleep(0.3)  # the graph shows the reader a little before the writer matches it
+
+
+def _ros2(listener: bool) -> Case:
+    def case(stack: ExitStack, sonar: bool) -> list[Hook] | str:
+        why_not = _ros2_environment()
+        if why_not is not None:
+            return why_not
+        from uhrisim.bridges.ros2 import AgentBridgeSpec, Ros2BridgeHook
+        from uhrisim.bridges.ros2.bridge import QOS_CLOCK, agent_topics
+
+        from ._ros2_listener import Listener, qos_label, type_name
+
+        domain = random.SystemRandom().randint(1, 101)
+        hook = Ros2BridgeHook(domain_id=domain, node_name="uhrisim_bench", publish_scene=False)
+        if not listener:
+            return [hook]
+        from rosgraph_msgs.msg import Clock
+
+        topics = [("/clock", type_name(Clock), qos_label(QOS_CLOCK))]
+        for name in AGENTS:
+            spec = AgentBridgeSpec(name, publish_sonar=sonar and name == SONAR_AGENT)
+            topics += [(t, type_name(m), qos_label(q)) for _, t, m, q in agent_topics(spec)]
+        stack.enter_context(Listener(topics, domain))
+        return [hook, _AwaitListener(hook, [t for t, _, _ in topics])]
+
+    return case
+
+
+def _moos(stack: ExitStack, sonar: bool) -> list[Hook]:
+    del sonar
     from uhrisim.bridges.moos.hook import MoosAgentLink, MoosBridgeHook
     from uhrisim.bridges.moos.testdb import spawn
 
-    with spawn(community="bench") as db:
-        links = [MoosAgentLink("videoray", port=db.port), MoosAgentLink("diver", port=db.port)]
-        return _rates([MoosBridgeHook(links, time_source="sim", strict=True)], seconds)
+    db = stack.enter_context(spawn(community="bench"))
+    links = [MoosAgentLink(name, port=db.port) for name in AGENTS]
+    return [MoosBridgeHook(links, time_source="sim", strict=True)]
 
 
-def run(quick: bool = False, repeats: int | None = None) -> dict[str, Any]:
-    seconds = 5.0 if quick else 60.0
-    repeats = (1 if quick else 7) if repeats is None else max(1, int(repeats))
-    runners: dict[str, Callable[[float], Rates | str]] = {
-        "without": _without, "ros2": _with_ros2, "moos": _with_moos}
-    samples: dict[str, list[Rates]] = {name: [] for name in runners}
+def _without(stack: ExitStack, sonar: bool) -> list[Hook]:
+    del stack, sonar
+    return []
+
+
+@contextmanager
+def _hooks(case: Case, sonar: bool) -> Iterator[list[Hook] | str]:
+    with ExitStack() as stack:
+        yield case(stack, sonar)
+
+
+def _compare(cases: dict[str, Case], sonar: bool, seconds: float, repeats: int
+             ) -> dict[str, Any]:
+    """Runs every case ``repeats`` times in turn (``"without"`` first); the medians."""
+    samples: dict[str, list[Rates]] = {name: [] for name in cases}
     skipped: dict[str, str] = {}
     for _ in range(repeats):
-        for name, runner in runners.items():
+        for name, case in cases.items():
             if name in skipped:
                 continue
-            rates = runner(seconds)
-            if isinstance(rates, str):
-                skipped[name] = rates
-            else:
-                samples[name].append(rates)
+            with _hooks(case, sonar) as hooks:
+                if isinstance(hooks, str):
+                    skipped[name] = hooks
+                    continue
+                samples[name].append(mission_rates(seconds, sonar=sonar, hooks=hooks))
 
     def median(name: str, k: int) -> float:
         return statistics.median(r[k] for r in samples[name])
 
     base_wall, base_cpu = median("without", 0), median("without", 1)
-    result: dict[str, Any] = {
-        "simulated_s": seconds, "repeats": repeats,
+    out: dict[str, Any] = {
+        "simulated_s": seconds, "repeats": repeats, "sonar": sonar,
         "rtf_without_bridge": base_wall, "rtf_cpu_without_bridge": base_cpu,
         "cpu_ms_per_simulated_s_without_bridge": 1e3 / base_cpu,
     }
-    for name in ("ros2", "moos"):
+    for name in cases:
+        if name == "without":
+            continue
         if name in skipped:
-            result[name] = {"status": skipped[name]}
+            out[name] = {"status": skipped[name]}
             continue
         wall, cpu = median(name, 0), median(name, 1)
         overhead_cpu = 1.0 - cpu / base_cpu
-        result[name] = {
+        out[name] = {
             "rtf": wall, "overhead": 1.0 - wall / base_wall,
             "rtf_cpu": cpu, "overhead_cpu": overhead_cpu,
             "cpu_ms_per_simulated_s": 1e3 / cpu - 1e3 / base_cpu,
             "overhead_cpu_runs": [1.0 - r[1] / base_cpu for r in samples[name]],
             "target": TARGET_OVERHEAD, "meets_target": overhead_cpu < TARGET_OVERHEAD,
         }
+    return out
+
+
+def run(quick: bool = False, repeats: int | None = None) -> dict[str, Any]:
+    seconds, sonar_seconds = (5.0, 2.0) if quick else (60.0, 20.0)
+    repeats = (1 if quick else 7) if repeats is None else max(1, int(repeats))
+    result = _compare({"without": _without, "ros2": _ros2(listener=False),
+                       "ros2_listener": _ros2(listener=True), "moos": _moos},
+                      sonar=False, seconds=seconds, repeats=repeats)
+    result["with_sonar"] = _compare({"without": _without, "ros2_listener": _ros2(listener=True)},
+                               sonar=True, seconds=sonar_seconds,
+                               repeats=max(1, (repeats + 1) // 2))
     return result

@@ -15,7 +15,6 @@ from __future__ import annotations
 import json
 import os
 import random
-import subprocess
 import sys
 import tempfile
 import time
@@ -32,43 +31,6 @@ TARGET_OVERHEAD_FRACTION = 0.05
 POLAR_SHAPE = (2000, 256)
 FAN_SHAPE = (600, 1000)
 N_POINTS = 4096
-
-_SUBSCRIBER = r"""
-import json, sys, threading, time
-import rclpy
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.qos import qos_profile_sensor_data
-from nav_msgs.msg import Odometry
-from sensor_msgs.msg import Image, PointCloud2
-agent = sys.argv[1]
-rclpy.init()
-node = rclpy.create_node("bench_subscriber", start_parameter_services=False)
-counts = {}
-def make(topic):
-    counts[topic] = 0
-    def cb(msg):
-        counts[topic] += 1
-    return cb
-node.create_subscription(Odometry, f"/{agent}/odom", make("odom"), 10)
-for name, typ in (("polar", Image), ("fan", Image), ("points", PointCloud2)):
-    node.create_subscription(typ, f"/{agent}/sonar/{name}", make(name), qos_profile_sensor_data)
-ex = SingleThreadedExecutor(); ex.add_node(node)
-stop = threading.Event()
-def reader():
-    for line in sys.stdin:
-        cmd = line.strip()
-        if cmd == "COUNTS":
-            print("COUNTS " + json.dumps(counts), flush=True)
-        elif cmd == "STOP":
-            break
-    stop.set()
-threading.Thread(target=reader, daemon=True).start()
-print("READY", flush=True)
-while not stop.is_set():
-    ex.spin_once(timeout_sec=0.02)
-ex.shutdown(); node.destroy_node(); rclpy.try_shutdown()
-"""
-
 
 def _time_calls(fn, n: int) -> dict[str, float]:
     """Per-call wall time of ``fn(k)`` for k in range(n): median, p95, mean (µs)."""
@@ -94,44 +56,6 @@ def _sustained(fn, seconds: float) -> tuple[int, float]:
     return k, time.perf_counter() - t0
 
 
-class _Subscriber:
-    def __init__(self, agent: str, domain: int) -> None:
-        self.proc = subprocess.Popen(
-            [sys.executable, "-c", _SUBSCRIBER, agent],
-            env={**os.environ, "ROS_DOMAIN_ID": str(domain)},
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.DEVNULL,
-            text=True,
-        )
-
-    def _line(self, prefix: str) -> str:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            if line.startswith(prefix):
-                return line[len(prefix):].strip()
-        raise RuntimeError(f"bench subscriber ended before {prefix!r}")
-
-    def ready(self) -> None:
-        self._line("READY")
-
-    def counts(self) -> dict[str, int]:
-        assert self.proc.stdin is not None
-        self.proc.stdin.write("COUNTS\n")
-        self.proc.stdin.flush()
-        return json.loads(self._line("COUNTS"))
-
-    def close(self) -> None:
-        try:
-            assert self.proc.stdin is not None
-            self.proc.stdin.write("STOP\n")
-            self.proc.stdin.flush()
-            self.proc.wait(timeout=10)
-        except Exception:
-            self.proc.kill()
-            self.proc.wait()
-
-
 def run(quick: bool = False) -> dict[str, Any]:
     """Measure the bridge; see the module docstring. Returns a JSON-serialisable dict."""
     from uhrisim.bridges.ros2 import apply_env_defaults
@@ -151,6 +75,9 @@ def run(quick: bool = False) -> dict[str, Any]:
 
 def _run(quick: bool, domain: int, agent: str) -> dict[str, Any]:
     from uhrisim.bridges.ros2 import AgentBridgeSpec, Ros2Bridge
+    from uhrisim.bridges.ros2.bridge import agent_topics
+
+    from ._ros2_listener import Listener, qos_label, type_name
 
 
     rng = np.random.default_rng(0)
@@ -170,7 +97,7 @@ def _run(quick: bool, domain: int, agent: str) -> dict[str, Any]:
     )
     bridge.start()
     gated.start()
-    sub: _Subscriber | None = None
+    sub: Listener | None = None
     out: dict[str, Any] = {}
     try:
         def nav(k: int) -> None:
@@ -195,10 +122,13 @@ def _run(quick: bool, domain: int, agent: str) -> dict[str, Any]:
         with_sub: dict[str, Any] | None = None
         sustained: dict[str, Any] | None = None
         if not quick:
-            sub = _Subscriber(agent, domain)
-            sub.ready()
+            odom_topic, polar_topic = f"/{agent}/odom", f"/{agent}/sonar/polar"
+            sub = Listener([(t, type_name(m), qos_label(q))
+                            for _, t, m, q in agent_topics(AgentBridgeSpec(agent))
+                            if t in (odom_topic, polar_topic, f"/{agent}/sonar/fan",
+                                     f"/{agent}/sonar/points")], domain)
             end = time.monotonic() + 20.0
-            topics = [f"/{agent}/odom", f"/{agent}/sonar/polar"]
+            topics = [odom_topic, polar_topic]
             while not all(bridge.subscriber_count(t) > 0 for t in topics):
                 if time.monotonic() > end:
                     raise RuntimeError("bench subscriber was not discovered within 20 s")
@@ -218,10 +148,11 @@ def _run(quick: bool, domain: int, agent: str) -> dict[str, Any]:
             sonar_bytes = polar.nbytes + fan.nbytes + 16 * N_POINTS
             sustained = {
                 "odom_published_per_s": k_nav / s_nav,
-                "odom_delivered_fraction": (c1["odom"] - c0["odom"]) / max(k_nav, 1),
+                "odom_delivered_fraction": (c1[odom_topic] - c0[odom_topic]) / max(k_nav, 1),
                 "sonar_sets_published_per_s": k_son / s_son,
                 "sonar_publish_MB_per_s": k_son * sonar_bytes / s_son / 1e6,
-                "sonar_polar_delivered_fraction": (c2["polar"] - c1["polar"]) / max(k_son, 1),
+                "sonar_polar_delivered_fraction":
+                    (c2[polar_topic] - c1[polar_topic]) / max(k_son, 1),
                 "seconds_each": sustain_s,
             }
             out["with_external_subscriber"] = with_sub

@@ -156,6 +156,25 @@ class _Slot:
     t_wall: float
 
 
+def agent_topics(spec: AgentBridgeSpec, sensor_qos: QoSProfile = QOS_SENSOR
+                 ) -> list[tuple[str, str, type, QoSProfile]]:
+    """``(key, topic, message type, QoS)`` of every topic the bridge publishes for one
+    agent (besides ``/clock`` and ``/scene/markers``), as :meth:`Ros2Bridge.start`
+    creates them; ``sensor_qos`` is that of the sonar images and hits."""
+    ns = f"/{spec.name}"
+    topics = [("odom", f"{ns}/odom", Odometry, QOS_STATE),
+              ("pose", f"{ns}/pose", PoseStamped, QOS_STATE)]
+    if spec.publish_sonar:
+        topics += [("polar", f"{ns}/sonar/polar", Image, sensor_qos),
+                   ("fan", f"{ns}/sonar/fan", Image, sensor_qos),
+                   ("points", f"{ns}/sonar/points", PointCloud2, sensor_qos),
+                   ("sonar_pose", f"{ns}/sonar/pose", PoseStamped, QOS_STATE)]
+    topics += [(f"helm_{key}", f"{ns}/helm/{key}", Float64, QOS_STATE)
+               for key in ("desired_heading", "desired_speed", "desired_depth")]
+    topics.append(("helm_mode", f"{ns}/helm/mode", String, QOS_LATCHED))
+    return topics
+
+
 class _AgentIO:
     """Publishers, rate gates and command slots of one agent (bridge-private)."""
 
@@ -167,8 +186,7 @@ class _AgentIO:
         self.odometry = OdometryEncoder(WORLD_FRAME, f"{spec.name}/base_link")
         self.pose = PoseStampedEncoder(WORLD_FRAME)
         self.pubs: dict[str, Any] = {}
-        self.topics = {f"helm_{key}": f"/{spec.name}/helm/{key}"
-                       for key in ("desired_heading", "desired_speed", "desired_depth", "mode")}
+        self.topics = {key: topic for key, topic, _, _ in agent_topics(spec)}
         self.mode_text: str | None = None  # the last helm mode published
         self.slots: dict[str, _Slot] = {}
         self.received = 0  # command messages accepted so far
@@ -423,22 +441,8 @@ class Ros2Bridge:
             self._pub_clock = node.create_publisher(Clock, "/clock", QOS_CLOCK)
         self._pub_scene = node.create_publisher(MarkerArray, "/scene/markers", QOS_SCENE)
         for name, io in self._agents.items():
-            p = io.pubs
-            p["odom"] = node.create_publisher(Odometry, f"/{name}/odom", QOS_STATE)
-            p["pose"] = node.create_publisher(PoseStamped, f"/{name}/pose", QOS_STATE)
-            if io.spec.publish_sonar:
-                q = self._sensor_qos
-                p["polar"] = node.create_publisher(Image, f"/{name}/sonar/polar", q)
-                p["fan"] = node.create_publisher(Image, f"/{name}/sonar/fan", q)
-                p["points"] = node.create_publisher(PointCloud2, f"/{name}/sonar/points", q)
-                p["sonar_pose"] = node.create_publisher(
-                    PoseStamped, f"/{name}/sonar/pose", QOS_STATE
-                )
-            for key in ("desired_heading", "desired_speed", "desired_depth"):
-                p[f"helm_{key}"] = node.create_publisher(
-                    Float64, f"/{name}/helm/{key}", QOS_STATE
-                )
-            p["helm_mode"] = node.create_publisher(String, f"/{name}/helm/mode", QOS_LATCHED)
+            for key, topic, msg_type, qos in agent_topics(io.spec, self._sensor_qos):
+                io.pubs[key] = node.create_publisher(msg_type, topic, qos)
             if "desired" in io.spec.accept:
                 for key in _CMD_KEYS_DESIRED:
                     node.create_subscription(
@@ -585,9 +589,9 @@ class Ros2Bridge:
         sec, nanosec = stamp_from_sim_time(t_sim)
         odom = io.odometry(sec, nanosec, f.position_enu, f.orientation_xyzw, f.linear_flu,
                            f.angular_flu)  # the bytes of odometry_msg(...)
-        self._publish(io.pubs["odom"], odom, f"/{agent}/odom")
+        self._publish(io.pubs["odom"], odom, io.topics["odom"])
         pose = io.pose(sec, nanosec, f.position_enu, f.orientation_xyzw)
-        self._publish(io.pubs["pose"], pose, f"/{agent}/pose")
+        self._publish(io.pubs["pose"], pose, io.topics["pose"])
         return True
 
     def odometry_due(self, agent: str, t_sim: float) -> bool:
@@ -649,15 +653,15 @@ class Ros2Bridge:
             if image is not None:
                 where = f"Ros2Bridge.publish_sonar.{key}_u8"
                 raw = encode_image(sec, nanosec, frame, _mono8(image, where))
-                self._publish(io.pubs[key], raw, f"/{agent}/sonar/{key}")
+                self._publish(io.pubs[key], raw, io.topics[key])
         if points_sonar_frd is not None:
             xyzi = cloud_xyzi_flu(points_sonar_frd, intensity)
             raw = encode_pointcloud2(sec, nanosec, frame, xyzi)
-            self._publish(io.pubs["points"], raw, f"/{agent}/sonar/points")
+            self._publish(io.pubs["points"], raw, io.topics["points"])
         if sonar_pose_ned is not None:
             pos, quat = pose_enu_from_ned(sonar_pose_ned[0], sonar_pose_ned[1])
             self._publish(io.pubs["sonar_pose"], io.pose(sec, nanosec, pos, quat),
-                          f"/{agent}/sonar/pose")
+                          io.topics["sonar_pose"])
         return True
 
     def publish_helm(
