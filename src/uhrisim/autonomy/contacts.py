@@ -45,6 +45,7 @@ __all__ = [
     "NodeReport",
     "RelaySpec",
     "format_node_report",
+    "node_report_text",
     "parse_node_report",
 ]
 
@@ -135,32 +136,49 @@ def parse_node_report(text: str) -> NodeReport:
     )
 
 
+_FIXED = {nd: f".{nd}f" for nd in range(10)}  # format specs of 0..9 decimals
+
+
 def _f(v: float, nd: int) -> str:
-    s = f"{v:.{nd}f}".rstrip("0").rstrip(".")
+    """``v`` to ``nd`` decimals without trailing zeros or point (``-0`` as ``0``)."""
+    s = format(v, _FIXED[nd]).rstrip("0").rstrip(".")
     return "0" if s in ("-0", "") else s
 
 
 def format_node_report(r: NodeReport) -> str:
     """NODE_REPORT string (X/Y/SPD/DEP to 1 mm or 1 mm/s, HDG 0.01 deg, TIME 1 ms)."""
-    for label, text in (("name", r.name), ("type", r.type), ("mode", r.mode)):
+    return node_report_text(r.name, r.x, r.y, r.speed, r.heading, r.depth, lat=r.lat,
+                            lon=r.lon, type=r.type, mode=r.mode, time=r.time,
+                            length=r.length, extra=r.extra)
+
+
+def node_report_text(
+    name: str, x: float, y: float, speed: float, heading: float, depth: float, *,
+    lat: float | None = None, lon: float | None = None, type: str = "", mode: str = "",
+    time: float | None = None, length: float | None = None,
+    extra: tuple[tuple[str, str], ...] = (),
+) -> str:
+    """:func:`format_node_report` of the fields of a :class:`NodeReport`, without making
+    one (a bridge posting ten reports a simulated second saves the object)."""
+    for label, text in (("name", name), ("type", type), ("mode", mode)):
         if "," in text or "=" in text:
             raise ConfigError(f"NODE_REPORT {label} {text!r} may not contain ',' or '='",
                               "NODE_REPORT")
-    parts = [f"NAME={r.name}", f"X={_f(r.x, 3)}", f"Y={_f(r.y, 3)}", f"SPD={_f(r.speed, 3)}"]
-    parts += [f"HDG={_f(r.heading, 2)}", f"DEP={_f(r.depth, 3)}"]
-    if r.lat is not None:
-        parts.append(f"LAT={_f(r.lat, 8)}")
-    if r.lon is not None:
-        parts.append(f"LON={_f(r.lon, 8)}")
-    if r.type:
-        parts.append(f"TYPE={r.type}")
-    if r.mode:
-        parts.append(f"MODE={r.mode}")
-    if r.time is not None:
-        parts.append(f"TIME={_f(r.time, 3)}")
-    if r.length is not None:
-        parts.append(f"LENGTH={_f(r.length, 3)}")
-    parts += [f"{k}={v}" for k, v in r.extra]
+    parts = [f"NAME={name}", f"X={_f(x, 3)}", f"Y={_f(y, 3)}", f"SPD={_f(speed, 3)}",
+             f"HDG={_f(heading, 2)}", f"DEP={_f(depth, 3)}"]
+    if lat is not None:
+        parts.append(f"LAT={_f(lat, 8)}")
+    if lon is not None:
+        parts.append(f"LON={_f(lon, 8)}")
+    if type:
+        parts.append(f"TYPE={type}")
+    if mode:
+        parts.append(f"MODE={mode}")
+    if time is not None:
+        parts.append(f"TIME={_f(time, 3)}")
+    if length is not None:
+        parts.append(f"LENGTH={_f(length, 3)}")
+    parts += [f"{k}={v}" for k, v in extra]
     return ",".join(parts)
 
 

@@ -34,7 +34,7 @@ import logging
 import math
 from collections.abc import Iterable, Mapping
 
-from uhrisim.autonomy.contacts import NodeReport, format_node_report
+from uhrisim.autonomy.contacts import node_report_text
 from uhrisim.bridges.moos.client import MoosClient
 from uhrisim.bridges.moos.geodesy import latlon_from_local
 from uhrisim.core.errors import BridgeError
@@ -167,9 +167,9 @@ class MoosAgentBridge:
         x_e, y_n = moos_xy_from_ned(x_north, y_east)  # MOOS: x east, y north
         lat, lon = latlon_from_local(x_e, y_n, self.lat_origin, self.long_origin)
         t = self.moos_time(t_sim)
-        report = format_node_report(NodeReport(
-            name=self.agent_name, x=x_e, y=y_n, speed=speed_mps, heading=hdg, depth=depth,
-            lat=lat, lon=lon, type=vehicle_type, mode=mode, time=t, length=length))
+        report = node_report_text(self.agent_name, x_e, y_n, speed_mps, hdg, depth, lat=lat,
+                                  lon=lon, type=vehicle_type, mode=mode, time=t,
+                                  length=length)
         return self.client.notify_many((
             ("NAV_X", x_e), ("NAV_Y", y_n), ("NAV_DEPTH", depth), ("NAV_HEADING", hdg),
             ("NAV_SPEED", speed_mps), ("NAV_LAT", lat), ("NAV_LONG", lon),

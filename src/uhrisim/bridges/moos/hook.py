@@ -59,6 +59,8 @@ class MoosBridgeHook(BaseHook):
 
     ``lat_origin``/``long_origin`` default to the scenario's. ``strict=True`` makes an
     unreachable MOOSDB an error at start; otherwise the bridges keep retrying.
+    Connection changes are noted (``bridge`` events) at the nav rate; incoming mail is
+    read every tick.
     """
 
     def __init__(
@@ -113,17 +115,18 @@ class MoosBridgeHook(BaseHook):
             return
         tick = frame.tick
         for link, bridge, period in self._rows:
-            name = link.agent
-            if tick % period == 0:  # snapshots only at the nav rate (taken on demand)
-                snap = frame.agents[name]
-                nav = snap.nav
-                north, east, down = nav.position_ned.tolist()
-                bridge.publish_nav(frame.t, north, east, down,
-                                   float(heading_deg_from_yaw(nav.yaw)), nav.speed,
-                                   link.vehicle_type, link.length, _mode(snap.mode))
             if bridge.client.has_mail:  # usually not: nothing came in
                 self._take_mail(sim, link, bridge)
-            up = bridge.connected
+            if tick % period:
+                continue
+            name = link.agent  # a nav tick: post (the snapshot is taken only now) ...
+            snap = frame.agents[name]
+            nav = snap.nav
+            north, east, down = nav.position_ned.tolist()
+            bridge.publish_nav(frame.t, north, east, down,
+                               float(heading_deg_from_yaw(nav.yaw)), nav.speed,
+                               link.vehicle_type, link.length, _mode(snap.mode))
+            up = bridge.connected  # ... and note a connection that came or went
             if up != self._was_connected[name]:
                 self._was_connected[name] = up
                 sim.record_event("bridge", f"moos {name}: {bridge.status}")
