@@ -33,7 +33,7 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from typing import Any
 
-from uhrisim.bench.mission import mission_rates
+from uhrisim.bench.mission import WARM_UP_S, mission_rates
 from uhrisim.sim.hooks import BaseHook, Hook
 
 TARGET_OVERHEAD = 0.20
@@ -72,8 +72,15 @@ class _AwaitListener(BaseHook):
         time.sleep(0.3)  # the graph shows the reader a little before the writer matches it
 
 
-def _ros2(listener: bool) -> Case:
-    def case(stack: ExitStack, sonar: bool) -> list[Hook] | str:
+class _Ros2Case:
+    """The ROS 2 bridge, alone or with a listener on every topic it publishes; notes how
+    many messages the listener received in each run (warm-up included)."""
+
+    def __init__(self, listener: bool) -> None:
+        self.listener = listener
+        self.received: list[int] = []
+
+    def __call__(self, stack: ExitStack, sonar: bool) -> list[Hook] | str:
         why_not = _ros2_environment()
         if why_not is not None:
             return why_not
@@ -84,7 +91,7 @@ def _ros2(listener: bool) -> Case:
 
         domain = random.SystemRandom().randint(1, 101)
         hook = Ros2BridgeHook(domain_id=domain, node_name="uhrisim_bench", publish_scene=False)
-        if not listener:
+        if not self.listener:
             return [hook]
         from rosgraph_msgs.msg import Clock
 
@@ -92,10 +99,10 @@ def _ros2(listener: bool) -> Case:
         for name in AGENTS:
             spec = AgentBridgeSpec(name, publish_sonar=sonar and name == SONAR_AGENT)
             topics += [(t, type_name(m), qos_label(q)) for _, t, m, q in agent_topics(spec)]
-        stack.enter_context(Listener(topics, domain))
+        listener = stack.enter_context(Listener(topics, domain))
+        # closed after the run (last in, first out): count what arrived first
+        stack.callback(lambda: self.received.append(sum(listener.counts().values())))
         return [hook, _AwaitListener(hook, [t for t, _, _ in topics])]
-
-    return case
 
 
 def _moos(stack: ExitStack, sonar: bool) -> list[Hook]:
@@ -164,10 +171,18 @@ def _compare(cases: dict[str, Case], sonar: bool, seconds: float, repeats: int
 def run(quick: bool = False, repeats: int | None = None) -> dict[str, Any]:
     seconds, sonar_seconds = (5.0, 2.0) if quick else (60.0, 20.0)
     repeats = (1 if quick else 7) if repeats is None else max(1, int(repeats))
-    result = _compare({"without": _without, "ros2": _ros2(listener=False),
-                       "ros2_listener": _ros2(listener=True), "moos": _moos},
+    listening = _Ros2Case(listener=True)
+    result = _compare({"without": _without, "ros2": _Ros2Case(listener=False),
+                       "ros2_listener": listening, "moos": _moos},
                       sonar=False, seconds=seconds, repeats=repeats)
-    result["with_sonar"] = _compare({"without": _without, "ros2_listener": _ros2(listener=True)},
-                               sonar=True, seconds=sonar_seconds,
-                               repeats=max(1, (repeats + 1) // 2))
+    listening_sonar = _Ros2Case(listener=True)
+    result["with_sonar"] = _compare({"without": _without, "ros2_listener": listening_sonar},
+                                    sonar=True, seconds=sonar_seconds,
+                                    repeats=max(1, (repeats + 1) // 2))
+    for out, case, simulated in ((result, listening, seconds),
+                                 (result["with_sonar"], listening_sonar, sonar_seconds)):
+        if case.received and isinstance(out.get("ros2_listener"), dict):
+            # messages that reached the listener per simulated second (2 s warm-up included)
+            out["ros2_listener"]["listener_received_per_simulated_s"] = (
+                statistics.median(case.received) / (simulated + WARM_UP_S))
     return result

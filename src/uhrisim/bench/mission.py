@@ -20,15 +20,17 @@ from uhrisim.sim.hooks import Hook
 from uhrisim.sim.simulation import Simulation
 
 TARGETS = {"with_sonar": 10.0, "without_sonar": 100.0}
+#: Simulated seconds run before the timed ones: caches, first pings, bridge connections.
+WARM_UP_S = 2.0
 
 
 def mission_rates(
     seconds: float, sonar: bool, hooks: Sequence[Hook] = ()
 ) -> tuple[float, float]:
     """Simulated seconds per wall second and per CPU second (this process, all threads) of
-    the mission, after a 2 s warm-up."""
+    the mission, after a warm-up of :data:`WARM_UP_S`."""
     with Simulation(load_scenario(shipped_scenario()), sonar_enabled=sonar, hooks=hooks) as sim:
-        sim.run(2.0)  # warm-up: caches, first pings, bridge connections
+        sim.run(WARM_UP_S)
         wall, cpu = time.perf_counter(), time.process_time()
         sim.run(seconds)
         return seconds / (time.perf_counter() - wall), seconds / (time.process_time() - cpu)
