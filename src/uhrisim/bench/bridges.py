@@ -10,9 +10,11 @@ without a bridge, and the overhead is ``1 - RTF(with bridge) / RTF(without)``
   listener process subscribed to every one of those topics (``ros2_listener``); the
   MOOS bridge posting NAV_*/NODE_REPORT of both agents at 10 Hz to a test MOOSDB on
   127.0.0.1 (``moos``);
-* with the P900-45 sonar at 15 Hz (the mission as flown), the ROS 2 bridge with a
-  listener on every topic, the polar and fan images and the hits included
-  (``sonar.ros2_listener``: each ping's fan image is formed for it).
+* with the P900-45 sonar at 15 Hz (the mission as flown), the ROS 2 bridge alone
+  (``with_sonar.ros2``: nobody subscribes to the sonar images and hits, so they are not
+  formed; the sonar pose goes out) and with a listener on every topic, the polar and fan
+  images and the hits included (``with_sonar.ros2_listener``: each ping's fan image is
+  formed for it).
 
 Both rates are measured, as in the mission benchmark: simulated seconds per wall second
 and per CPU second of the simulation process (all its threads: the bridges' I/O and
@@ -176,7 +178,8 @@ def run(quick: bool = False, repeats: int | None = None) -> dict[str, Any]:
                        "ros2_listener": listening, "moos": _moos},
                       sonar=False, seconds=seconds, repeats=repeats)
     listening_sonar = _Ros2Case(listener=True)
-    result["with_sonar"] = _compare({"without": _without, "ros2_listener": listening_sonar},
+    result["with_sonar"] = _compare({"without": _without, "ros2": _Ros2Case(listener=False),
+                                     "ros2_listener": listening_sonar},
                                     sonar=True, seconds=sonar_seconds,
                                     repeats=max(1, (repeats + 1) // 2))
     for out, case, simulated in ((result, listening, seconds),
