@@ -87,8 +87,10 @@ class MoosClient:
         that time has passed, then they go out together in one packet (sent by the next
         post or by the client's thread, whichever comes first); a post that comes later
         goes out at once. For a slow DB fed by a simulation running far faster than real
-        time (fewer packets, each write also wakes the DB); on the mission benchmark it
-        made no difference that the noise could show.
+        time (fewer packets, each write also wakes the DB). Not a saving for the
+        simulation itself: on the free-running mission benchmark a 20 ms window saved
+        a few percent at best and a 5 ms one cost more than it saved (every flush by the
+        client's thread takes the GIL from the simulation's thread).
     max_outbox, max_inbox:
         Bounds of the outgoing and incoming queues (messages); the oldest are dropped.
     max_send_buffer:
