@@ -26,6 +26,7 @@ from rclpy.context import Context  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.qos import qos_profile_sensor_data  # noqa: E402
 from rclpy.signals import SignalHandlerOptions  # noqa: E402
+from rosgraph_msgs.msg import Clock  # noqa: E402
 from sensor_msgs.msg import Image, PointCloud2  # noqa: E402
 from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
 from visualization_msgs.msg import Marker, MarkerArray  # noqa: E402
@@ -61,6 +62,7 @@ def test_hook_on_real_simulation(ros_env: int) -> None:
                              qos_profile_sensor_data)
     node.create_subscription(PoseStamped, "/videoray/sonar/pose", got["sonar_pose"].append, 50)
     node.create_subscription(MarkerArray, "/scene/markers", got["scene"].append, QOS_SCENE)
+    node.create_subscription(Clock, "/clock", lambda _: None, qos_profile_sensor_data)
     pub_speed = node.create_publisher(Float64, "/videoray/cmd/desired_speed", 10)
     pub_thr = node.create_publisher(Float64MultiArray, "/videoray/cmd/thrusters", 10)
 
@@ -85,7 +87,7 @@ def test_hook_on_real_simulation(ros_env: int) -> None:
         assert bridge is not None
         assert bridge.wait_for_subscribers(["/videoray/odom", "/videoray/sonar/polar",
                                             "/videoray/sonar/fan", "/videoray/sonar/points",
-                                            "/videoray/cmd/desired_speed"], 20.0)
+                                            "/clock", "/videoray/cmd/desired_speed"], 20.0)
         end = time.monotonic() + 0.5
         while time.monotonic() < end:  # let the writers match the probe's readers
             ex.spin_once(timeout_sec=0.02)
@@ -187,10 +189,10 @@ def test_hook_on_real_simulation(ros_env: int) -> None:
         ctx.try_shutdown()
 
 
-def test_unsubscribed_sonar_products_are_not_formed(ros_env: int) -> None:
-    """With nobody subscribed to the sonar topics, the hook forms no fan image (the costly
-    product) and sends no images or hits, but still the sonar pose of every ping."""
-    hook = Ros2BridgeHook(domain_id=ros_env, node_name="uhrisim_lazy_sonar_test",
+def test_unsubscribed_topics_cost_nothing(ros_env: int) -> None:
+    """With nobody subscribed, the hook writes only the latched helm modes: no odometry,
+    clock, helm values or sonar products, and no fan image is formed (the costly product)."""
+    hook = Ros2BridgeHook(domain_id=ros_env, node_name="uhrisim_lazy_test",
                           publish_scene=False)
     pings = []
 
@@ -206,6 +208,4 @@ def test_unsubscribed_sonar_products_are_not_formed(ros_env: int) -> None:
         published = hook.bridge.stats()["published"]
     assert len(pings) == 15
     assert all("_fan_images" not in vars(p) for p in pings)  # never formed
-    assert published["/videoray/sonar/pose"] == 15
-    assert not any(k in published for k in ("/videoray/sonar/polar", "/videoray/sonar/fan",
-                                             "/videoray/sonar/points"))
+    assert set(published) == {"/videoray/helm/mode", "/diver/helm/mode"}

@@ -177,6 +177,30 @@ def test_helm_mode_is_latched_and_sent_on_change(ros_env: int, probe: Probe) -> 
         assert got[1].data == "MODE@ACTIVE:TRAIL" and b.stats()["published"][topic] == 2
 
 
+def test_only_subscribed_volatile_topics_are_written(ros_env: int, probe: Probe) -> None:
+    """A volatile topic nobody subscribes to is not written (nobody could receive it);
+    once a node subscribes it is; the latched mode always is."""
+    from nav_msgs.msg import Odometry
+
+    name = f"rov_{secrets.token_hex(3)}"
+    with Ros2Bridge([AgentBridgeSpec(name, odom_rate_hz=None)], node_name=f"uhrisim_{name}",
+                    domain_id=ros_env) as b:
+        assert b.publish_nav(name, 0.1, [1.0, 2.0, 3.0], 0.5, [0.2, 0.0, 0.0], 0.0) is False
+        assert not b.odometry_due(name, 0.15)  # due, but nobody would get it
+        b.publish_helm(name, 0.1, 10.0, 0.5, 2.0, "MODE@ACTIVE:LOITER")
+        b.publish_sonar(name, 0.1, np.zeros((4, 3), np.uint8), np.zeros((5, 6), np.uint8),
+                        np.zeros((2, 3)), None, sonar_pose_ned=([0, 0, 0], np.eye(3)))
+        ours = {k: v for k, v in b.stats()["published"].items() if name in k}
+        assert ours == {f"/{name}/helm/mode": 1}
+        probe.sub(Odometry, f"/{name}/odom")
+        _wait_matched(b, probe, [f"/{name}/odom"])
+        assert b.odometry_due(name, 0.2)
+        assert b.publish_nav(name, 0.2, [1.0, 2.0, 3.0], 0.5, [0.2, 0.0, 0.0], 0.0) is True
+        ours = {k: v for k, v in b.stats()["published"].items() if name in k}
+        assert ours == {f"/{name}/helm/mode": 1, f"/{name}/odom": 1}  # not the pose
+        assert probe.spin_until(lambda: len(probe.got[f"/{name}/odom"]) == 1)
+
+
 def test_commands_validation_and_sim_time_timeout(bridge: Ros2Bridge, probe: Probe, agent: str):
     pubs = {k: probe.node.create_publisher(Float64, f"/{agent}/cmd/{k}", 10)
             for k in ("desired_heading", "desired_speed", "desired_depth")}
@@ -276,12 +300,13 @@ def test_clock_follows_sim_time_and_can_be_throttled(ros_env: int) -> None:
     of 0.01 s ticks the rate gate lets through t = 0.0, 0.1, ..., 1.0: 11 messages."""
     name = f"c_{secrets.token_hex(3)}"
     with Ros2Bridge([AgentBridgeSpec(name, publish_sonar=False)], domain_id=ros_env,
-                    clock_rate_hz=10.0) as b:
+                    clock_rate_hz=10.0, publish_unsubscribed=True) as b:
         for k in range(101):
             b.publish_clock(k * 0.01)
             b.publish_clock(k * 0.01)  # same time again: nothing new
         assert b.stats()["published"]["/clock"] == 11
-    with Ros2Bridge([AgentBridgeSpec(name, publish_sonar=False)], domain_id=ros_env) as b:
+    with Ros2Bridge([AgentBridgeSpec(name, publish_sonar=False)], domain_id=ros_env,
+                    publish_unsubscribed=True) as b:
         for k in range(50):
             b.publish_nav(name, k * 0.01, [0, 0, 0], 0.0, [0, 0, 0], 0.0)
             b.publish_helm(name, k * 0.01, 10.0, 0.5, 1.0, "M")

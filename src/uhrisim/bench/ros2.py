@@ -90,10 +90,13 @@ def _run(quick: bool, domain: int, agent: str) -> dict[str, Any]:
     n_nav, n_sonar = (300, 20) if quick else (3000, 200)
     sustain_s = 0.0 if quick else 1.5
 
-    bridge = Ros2Bridge([AgentBridgeSpec(agent)], node_name=f"uhrisim_{agent}", domain_id=domain)
+    # every call serialises and writes, subscribed or not: the costs of the calls
+    bridge = Ros2Bridge([AgentBridgeSpec(agent)], node_name=f"uhrisim_{agent}", domain_id=domain,
+                        publish_unsubscribed=True)
     gated = Ros2Bridge(
         [AgentBridgeSpec(f"{agent}_g", publish_sonar=False, odom_rate_hz=ODOM_HZ)],
         node_name=f"uhrisim_{agent}_g", domain_id=domain, publish_clock=False,
+        publish_unsubscribed=True,
     )
     bridge.start()
     gated.start()

@@ -348,6 +348,11 @@ class Ros2Bridge:
         Worth setting when the loop runs free at thousands of ticks per second.
     reliable_sensors:
         Publish sonar images/clouds reliably instead of best effort (see QoS).
+    publish_unsubscribed:
+        Write every message even to topics nobody subscribes to. By default a volatile
+        topic without a matched subscriber is skipped (no subscriber could receive what
+        it missed; the conversion and the DDS write are saved); the latched
+        ``/helm/mode`` and ``/scene/markers`` are always written.
     """
 
     def __init__(
@@ -361,6 +366,7 @@ class Ros2Bridge:
         publish_clock: bool = True,
         clock_rate_hz: float | None = None,
         reliable_sensors: bool = False,
+        publish_unsubscribed: bool = False,
     ) -> None:
         specs = list(agents)
         if not all(isinstance(s, AgentBridgeSpec) for s in specs):
@@ -385,6 +391,7 @@ class Ros2Bridge:
         self._publish_clock = publish_clock
         self._clock_gate = RateGate(clock_rate_hz)
         self._sensor_qos = QOS_SENSOR_RELIABLE if reliable_sensors else QOS_SENSOR
+        self._publish_unsubscribed = publish_unsubscribed
         self._agents = {s.name: _AgentIO(s) for s in specs}
         self._lock = threading.Lock()
         self._t_sim_latest = 0.0
@@ -529,9 +536,14 @@ class Ros2Bridge:
             and t != self._t_clock_published
             and self._clock_gate.due(t)
         ):
-            # pre-serialised: the bytes of a rosgraph_msgs/Clock, without building one
-            self._publish(self._pub_clock, clock_bytes(t), "/clock")
+            if self._wanted(self._pub_clock):
+                # pre-serialised: the bytes of a rosgraph_msgs/Clock, without building one
+                self._publish(self._pub_clock, clock_bytes(t), "/clock")
             self._t_clock_published = t
+
+    def _wanted(self, pub: Any) -> bool:
+        """Should a message go to ``pub``'s topic: someone subscribed (well under 1 us)?"""
+        return self._publish_unsubscribed or pub.handle.get_subscription_count() > 0
 
     def _publish(self, pub: Any, msg: Any, key: str) -> None:
         try:
@@ -581,40 +593,52 @@ class Ros2Bridge:
 
         Inputs in uhrisim frames: ``position_ned`` (m), ``yaw_rad`` (compass, rad),
         ``velocity_body_frd`` (m/s), ``yaw_rate`` (rad/s, clockwise positive). Out:
-        pose in ``"map"`` (ENU), twist in ``"<agent>/base_link"`` (FLU). Returns True
+        pose in ``"map"`` (ENU), twist in ``"<agent>/base_link"`` (FLU). Each goes out
+        only while someone subscribes to it (see ``publish_unsubscribed``). Returns True
         when messages went out.
         """
         io = self._io(agent, "publish_nav")
         self._advance(t_sim)
         if not io.nav_gate.due(t_sim):
             return False
+        odom_wanted, pose_wanted = self._wanted(io.pubs["odom"]), self._wanted(io.pubs["pose"])
+        if not (odom_wanted or pose_wanted):
+            return False
         f = odom_fields_from_ned(position_ned, yaw_rad, velocity_body_frd, yaw_rate)
         sec, nanosec = stamp_from_sim_time(t_sim)
-        odom = io.odometry(sec, nanosec, f.position_enu, f.orientation_xyzw, f.linear_flu,
-                           f.angular_flu)  # the bytes of odometry_msg(...)
-        self._publish(io.pubs["odom"], odom, io.topics["odom"])
-        pose = io.pose(sec, nanosec, f.position_enu, f.orientation_xyzw)
-        self._publish(io.pubs["pose"], pose, io.topics["pose"])
+        if odom_wanted:
+            odom = io.odometry(sec, nanosec, f.position_enu, f.orientation_xyzw, f.linear_flu,
+                               f.angular_flu)  # the bytes of odometry_msg(...)
+            self._publish(io.pubs["odom"], odom, io.topics["odom"])
+        if pose_wanted:
+            pose = io.pose(sec, nanosec, f.position_enu, f.orientation_xyzw)
+            self._publish(io.pubs["pose"], pose, io.topics["pose"])
         return True
 
     def odometry_due(self, agent: str, t_sim: float) -> bool:
         """Would :meth:`publish_nav` publish ``agent``'s odometry at ``t_sim`` (s)? Lets a
-        caller skip gathering navigation data that would not go out."""
-        return self._io(agent, "odometry_due").nav_gate.is_due(t_sim)
+        caller skip gathering navigation data that would not go out. When the rate gate
+        is due but nobody subscribes to the odometry or the pose, the answer is False and
+        the gate moves on to its next period, as if the odometry had gone out."""
+        io = self._io(agent, "odometry_due")
+        if not io.nav_gate.is_due(t_sim):
+            return False
+        if self._wanted(io.pubs["odom"]) or self._wanted(io.pubs["pose"]):
+            return True
+        io.nav_gate.due(t_sim)  # nothing to send: pass the slot
+        return False
 
     def sonar_subscribed(self, agent: str) -> tuple[bool, bool, bool]:
         """Whether ``/<agent>/sonar/polar``, ``/fan`` and ``/points`` have a matched
-        subscriber now (a fraction of a microsecond each). The sonar topics are volatile:
-        what goes out while nobody is subscribed reaches no one, so a caller may skip
-        forming those products (the simulation hook does; the fan image is the costly
-        one)."""
+        subscriber now (a fraction of a microsecond each; all True with
+        ``publish_unsubscribed``). :meth:`publish_sonar` skips the others; a caller may
+        skip forming those products (the simulation hook does; the fan image is the
+        costly one)."""
         io = self._io(agent, "sonar_subscribed")
         if not io.spec.publish_sonar:
             return False, False, False
         p = io.pubs
-        return (p["polar"].handle.get_subscription_count() > 0,
-                p["fan"].handle.get_subscription_count() > 0,
-                p["points"].handle.get_subscription_count() > 0)
+        return self._wanted(p["polar"]), self._wanted(p["fan"]), self._wanted(p["points"])
 
     def publish_sonar(
         self,
@@ -636,8 +660,9 @@ class Ros2Bridge:
         (sensor_msgs/PointCloud2, x y z intensity float32, sonar FLU frame).
         ``sonar_pose_ned``: ``(position_ned (3,), rotation (3x3) sonar FRD -> NED)`` ->
         ``/<agent>/sonar/pose`` (geometry_msgs/PoseStamped in ``"map"``: where the
-        ``"<agent>/sonar"`` frame is, since there is no /tf). Any ``None`` product is
-        skipped. Returns True when the gate was due.
+        ``"<agent>/sonar"`` frame is, since there is no /tf). Any ``None`` product, and
+        any whose topic nobody subscribes to, is skipped. Returns True when the gate was
+        due.
         """
         io = self._io(agent, "publish_sonar")
         if not io.spec.publish_sonar:
@@ -653,15 +678,15 @@ class Ros2Bridge:
         # pre-serialised, as image_msg / pointcloud_msg / PoseStamped would be: the
         # pixels and points are copied once, into the bytes handed to DDS
         for key, image in (("polar", polar_u8), ("fan", fan_u8)):
-            if image is not None:
+            if image is not None and self._wanted(io.pubs[key]):
                 where = f"Ros2Bridge.publish_sonar.{key}_u8"
                 raw = encode_image(sec, nanosec, frame, _mono8(image, where))
                 self._publish(io.pubs[key], raw, io.topics[key])
-        if points_sonar_frd is not None:
+        if points_sonar_frd is not None and self._wanted(io.pubs["points"]):
             xyzi = cloud_xyzi_flu(points_sonar_frd, intensity)
             raw = encode_pointcloud2(sec, nanosec, frame, xyzi)
             self._publish(io.pubs["points"], raw, io.topics["points"])
-        if sonar_pose_ned is not None:
+        if sonar_pose_ned is not None and self._wanted(io.pubs["sonar_pose"]):
             pos, quat = pose_enu_from_ned(sonar_pose_ned[0], sonar_pose_ned[1])
             self._publish(io.pubs["sonar_pose"], io.pose(sec, nanosec, pos, quat),
                           io.topics["sonar_pose"])
@@ -681,6 +706,7 @@ class Ros2Bridge:
         as std_msgs/Float64 (each skipped when ``None``) and, when it differs from the
         last one, ``/<agent>/helm/mode`` (std_msgs/String, e.g. ``"MODE@ACTIVE:TRAIL"``,
         latched: see :data:`QOS_LATCHED`). Not rate-gated: the helm's own rate applies.
+        The desired values go out only while someone subscribes to them; the mode always.
         """
         io = self._io(agent, "publish_helm")
         self._advance(t_sim)
@@ -690,7 +716,7 @@ class Ros2Bridge:
             ("desired_speed", speed),
             ("desired_depth", depth),
         ):
-            if value is not None:
+            if value is not None and self._wanted(io.pubs[f"helm_{key}"]):
                 self._publish(io.pubs[f"helm_{key}"], float64_bytes(float(value)),
                               io.topics[f"helm_{key}"])
         mode = str(mode)
