@@ -3,9 +3,9 @@
 Each tick the hook (a read-only observer, like the recorder) publishes every linked
 agent's odometry (gated to ``odom_rate_hz`` in simulated time), each new sonar ping and
 helm decision, and ``/clock``; at start it publishes the static scene as markers.
-Sonar images and hits go out only while someone subscribes to them (their topics are
-volatile, so nobody could tell the difference): the fan image of a ping is formed only
-for a subscriber. Commands received from ROS 2 enter the simulation through the typed
+Volatile topics go out only while someone subscribes to them (nobody could tell the
+difference, :class:`Ros2Bridge` ``publish_unsubscribed``): the fan image of a ping is
+formed, and a snapshot taken for odometry, only for a subscriber. Commands received from ROS 2 enter the simulation through the typed
 input paths every outside command uses:
 
 * ``/<agent>/cmd/desired_*`` -> :meth:`Simulation.post` of ``DESIRED_HEADING`` /
