@@ -5,8 +5,9 @@ agent's odometry (gated to ``odom_rate_hz`` in simulated time), each new sonar p
 helm decision, and ``/clock``; at start it publishes the static scene as markers.
 Volatile topics go out only while someone subscribes to them (nobody could tell the
 difference, :class:`Ros2Bridge` ``publish_unsubscribed``): the fan image of a ping is
-formed, and a snapshot taken for odometry, only for a subscriber. Commands received from ROS 2 enter the simulation through the typed
-input paths every outside command uses:
+formed, and a snapshot taken for odometry, only for a subscriber. Commands received
+from ROS 2 enter the simulation through the typed input paths every outside command
+uses:
 
 * ``/<agent>/cmd/desired_*`` -> :meth:`Simulation.post` of ``DESIRED_HEADING`` /
   ``DESIRED_SPEED`` / ``DESIRED_DEPTH`` (source ``"ros2"``), once per received message,
