@@ -217,8 +217,8 @@ class Ros2BridgeHook(BaseHook):
 
     @staticmethod
     def _publish_ping(bridge: Ros2Bridge, name: str, ping: Any) -> None:
-        """The ping's products that someone subscribes to (the fan image is formed only
-        then), and the sonar pose."""
+        """The ping's products that someone subscribes to: the hit cloud and the fan image
+        are formed only then (publish_sonar skips the unread ones)."""
         polar, fan, hits = bridge.sonar_subscribed(name)
         points, intensity = cloud_hits(ping.cloud) if hits else (None, None)
         bridge.publish_sonar(name, float(ping.t), ping.polar_u8 if polar else None,
