@@ -31,8 +31,8 @@ import random
 import statistics
 import tempfile
 import time
-from collections.abc import Callable, Iterator
-from contextlib import ExitStack, contextmanager
+from collections.abc import Callable
+from contextlib import ExitStack
 from typing import Any
 
 from uhrisim.bench.mission import WARM_UP_S, mission_rates
@@ -55,7 +55,9 @@ def _ros2_environment() -> str | None:
         import rclpy  # noqa: F401
     except ImportError as error:  # the ros2 extra is optional
         return f"skipped: {error}"
-    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    from uhrisim.bridges.ros2.spec import apply_env_defaults
+
+    apply_env_defaults()  # now, not at bridge start: the listener process inherits it
     os.environ.setdefault("ROS_LOG_DIR", tempfile.mkdtemp(prefix="uhrisim-roslog-"))
     return None
 
@@ -122,12 +124,6 @@ def _without(stack: ExitStack, sonar: bool) -> list[Hook]:
     return []
 
 
-@contextmanager
-def _hooks(case: Case, sonar: bool) -> Iterator[list[Hook] | str]:
-    with ExitStack() as stack:
-        yield case(stack, sonar)
-
-
 def _compare(cases: dict[str, Case], sonar: bool, seconds: float, repeats: int
              ) -> dict[str, Any]:
     """Runs every case ``repeats`` times in turn (``"without"`` first); the medians."""
@@ -137,7 +133,8 @@ def _compare(cases: dict[str, Case], sonar: bool, seconds: float, repeats: int
         for name, case in cases.items():
             if name in skipped:
                 continue
-            with _hooks(case, sonar) as hooks:
+            with ExitStack() as stack:
+                hooks = case(stack, sonar)
                 if isinstance(hooks, str):
                     skipped[name] = hooks
                     continue

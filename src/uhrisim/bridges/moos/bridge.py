@@ -223,4 +223,3 @@ class MoosAgentBridge:
         if self.community is not None and self.client.community != self.community:
             log.warning("MOOS bridge %r: DB community is %r, expected %r", self.agent_name,
                         self.client.community, self.community)
-

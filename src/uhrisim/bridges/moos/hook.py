@@ -84,7 +84,6 @@ class MoosBridgeHook(BaseHook):
         self._strict = strict
         self._factory = bridge_factory
         self.bridges: dict[str, MoosAgentBridge] = {}
-        self._periods: dict[str, int] = {}
         self._rows: list[tuple[MoosAgentLink, MoosAgentBridge, int]] = []
         self._was_connected: dict[str, bool] = {}
         self._sim: Simulation | None = None
@@ -101,13 +100,13 @@ class MoosBridgeHook(BaseHook):
                                   f"{', '.join(sim.agents)}")
             if link.nav_rate_hz <= 0:
                 raise ConfigError(f"MOOS link {link.agent!r}: nav_rate_hz must be > 0")
-            self._periods[link.agent] = max(1, round(1.0 / (link.nav_rate_hz * sim.dt)))
+            period = max(1, round(1.0 / (link.nav_rate_hz * sim.dt)))  # ticks
             self.bridges[link.agent] = self._factory(
                 link.agent, link.host, link.port, link.community, lat0, lon0,
                 self._time_warp, link.subscribe, link.extra_vars,
                 time_source=self._time_source, strict=self._strict)
             self._was_connected[link.agent] = False
-            self._rows.append((link, self.bridges[link.agent], self._periods[link.agent]))
+            self._rows.append((link, self.bridges[link.agent], period))
 
     def on_tick(self, frame: TickFrame) -> None:
         sim = self._sim

@@ -42,6 +42,7 @@ from uhrisim.core.errors import BridgeError, ConfigError
 from uhrisim.core.frames import enu_from_ned, wrap_360
 from uhrisim.record.cdr import (
     CDR_LE_HEADER,
+    CdrBuffer,
     OdometryEncoder,
     encode_image,
     encode_pointcloud2,
@@ -290,8 +291,9 @@ def float64_bytes(value: float) -> bytes:
 def string_bytes(text: str) -> bytes:
     """The serialised std_msgs/String of ``text`` (uint32 length with the NUL, UTF-8
     bytes, NUL)."""
-    raw = text.encode("utf-8") + b"\x00"
-    return CDR_LE_HEADER + struct.pack("<I", len(raw)) + raw
+    cdr = CdrBuffer()
+    cdr.string(text)
+    return cdr.getvalue()
 
 
 def pointcloud_msg(
