@@ -28,7 +28,7 @@ from std_msgs.msg import Float64, Float64MultiArray, String  # noqa: E402
 from visualization_msgs.msg import Marker, MarkerArray  # noqa: E402
 
 from uhrisim.bridges.ros2 import AgentBridgeSpec, Ros2Bridge  # noqa: E402
-from uhrisim.core.errors import BridgeError, ConfigError  # noqa: E402
+from uhrisim.core.errors import BridgeError, ConfigError, NumericalError  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -192,6 +192,11 @@ def test_only_subscribed_volatile_topics_are_written(ros_env: int, probe: Probe)
                         np.zeros((2, 3)), None, sonar_pose_ned=([0, 0, 0], np.eye(3)))
         ours = {k: v for k, v in b.stats()["published"].items() if name in k}
         assert ours == {f"/{name}/helm/mode": 1}
+        # bad input is refused whether or not anyone would have received it
+        with pytest.raises(ConfigError, match="uint8"):
+            b.publish_sonar(name, 0.3, None, np.zeros((5, 6)))
+        with pytest.raises(NumericalError):
+            b.publish_nav(name, 0.3, [np.nan, 0.0, 0.0], 0.0, [0.0, 0.0, 0.0], 0.0)
         probe.sub(Odometry, f"/{name}/odom")
         _wait_matched(b, probe, [f"/{name}/odom"])
         assert b.odometry_due(name, 0.2)

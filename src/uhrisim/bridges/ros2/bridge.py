@@ -603,10 +603,10 @@ class Ros2Bridge:
         self._advance(t_sim)
         if not io.nav_gate.due(t_sim):
             return False
+        f = odom_fields_from_ned(position_ned, yaw_rad, velocity_body_frd, yaw_rate)  # checks
         odom_wanted, pose_wanted = self._wanted(io.pubs["odom"]), self._wanted(io.pubs["pose"])
         if not (odom_wanted or pose_wanted):
             return False
-        f = odom_fields_from_ned(position_ned, yaw_rad, velocity_body_frd, yaw_rate)
         sec, nanosec = stamp_from_sim_time(t_sim)
         if odom_wanted:
             odom = io.odometry(sec, nanosec, f.position_enu, f.orientation_xyzw, f.linear_flu,
@@ -676,21 +676,23 @@ class Ros2Bridge:
         if not io.sonar_gate.due(t_sim):
             return False
         frame = f"{agent}/sonar"
+        # every product given is checked, whether or not someone subscribes to it
+        images = [(key, _mono8(image, f"Ros2Bridge.publish_sonar.{key}_u8"))
+                  for key, image in (("polar", polar_u8), ("fan", fan_u8)) if image is not None]
+        xyzi = None if points_sonar_frd is None else cloud_xyzi_flu(points_sonar_frd, intensity)
+        pose = None if sonar_pose_ned is None else pose_enu_from_ned(*sonar_pose_ned)
         sec, nanosec = stamp_from_sim_time(t_sim)
         # pre-serialised, as image_msg / pointcloud_msg / PoseStamped would be: the
         # pixels and points are copied once, into the bytes handed to DDS
-        for key, image in (("polar", polar_u8), ("fan", fan_u8)):
-            if image is not None and self._wanted(io.pubs[key]):
-                where = f"Ros2Bridge.publish_sonar.{key}_u8"
-                raw = encode_image(sec, nanosec, frame, _mono8(image, where))
-                self._publish(io.pubs[key], raw, io.topics[key])
-        if points_sonar_frd is not None and self._wanted(io.pubs["points"]):
-            xyzi = cloud_xyzi_flu(points_sonar_frd, intensity)
-            raw = encode_pointcloud2(sec, nanosec, frame, xyzi)
-            self._publish(io.pubs["points"], raw, io.topics["points"])
-        if sonar_pose_ned is not None and self._wanted(io.pubs["sonar_pose"]):
-            pos, quat = pose_enu_from_ned(sonar_pose_ned[0], sonar_pose_ned[1])
-            self._publish(io.pubs["sonar_pose"], io.pose(sec, nanosec, pos, quat),
+        for key, image in images:
+            if self._wanted(io.pubs[key]):
+                self._publish(io.pubs[key], encode_image(sec, nanosec, frame, image),
+                              io.topics[key])
+        if xyzi is not None and self._wanted(io.pubs["points"]):
+            self._publish(io.pubs["points"], encode_pointcloud2(sec, nanosec, frame, xyzi),
+                          io.topics["points"])
+        if pose is not None and self._wanted(io.pubs["sonar_pose"]):
+            self._publish(io.pubs["sonar_pose"], io.pose(sec, nanosec, *pose),
                           io.topics["sonar_pose"])
         return True
 
@@ -718,9 +720,11 @@ class Ros2Bridge:
             ("desired_speed", speed),
             ("desired_depth", depth),
         ):
-            if value is not None and self._wanted(io.pubs[f"helm_{key}"]):
-                self._publish(io.pubs[f"helm_{key}"], float64_bytes(float(value)),
-                              io.topics[f"helm_{key}"])
+            if value is None:
+                continue
+            raw = float64_bytes(float(value))  # a bad value fails, subscribed or not
+            if self._wanted(io.pubs[f"helm_{key}"]):
+                self._publish(io.pubs[f"helm_{key}"], raw, io.topics[f"helm_{key}"])
         mode = str(mode)
         if mode != io.mode_text:
             io.mode_text = mode
