@@ -210,3 +210,43 @@ def test_unsubscribed_topics_cost_nothing(ros_env: int) -> None:
     assert len(pings) == 15
     assert all("_fan_images" not in vars(p) for p in pings)  # never formed
     assert set(published) == {"/videoray/helm/mode", "/diver/helm/mode"}
+
+
+def test_ros_shut_down_under_the_bridge_does_not_stop_the_simulation(
+    ros_env: int, caplog: pytest.LogCaptureFixture
+) -> None:
+    """ROS shut down in the middle of a run (the bridge's context, as another library's
+    shutdown would): every write fails from then on, the run goes to its end with the
+    same states as without a bridge, and each failing topic is counted and logged once
+    (not once a message)."""
+
+    class Last:
+        def __init__(self, shut_at: float | None = None) -> None:
+            self.shut_at, self.position = shut_at, None
+
+        def on_start(self, sim) -> None: ...
+        def on_end(self, sim, error) -> None: ...
+        def on_tick(self, frame) -> None:
+            self.position = frame.agents["videoray"].nav.position_ned.copy()
+            if self.shut_at is not None and frame.t >= self.shut_at:
+                hook.bridge._context.try_shutdown()  # fault injection
+                self.shut_at = None
+
+    hook = Ros2BridgeHook(domain_id=ros_env % 101 + 1, node_name="uhrisim_shutdown_test",
+                          publish_scene=False)
+    shut, plain = Last(shut_at=0.5), Last()
+    source = load.load_scenario(SCENARIO)
+    with (caplog.at_level("WARNING", logger="uhrisim.bridges.ros2.bridge"),
+          simulation.Simulation(source, hooks=[hook, shut], seed=1) as sim):
+        sim.run(2.0)
+        stats = hook.bridge.stats()
+    with simulation.Simulation(load.load_scenario(SCENARIO), hooks=[plain], seed=1) as sim:
+        sim.run(2.0)
+    np.testing.assert_array_equal(shut.position, plain.position)
+    # nobody subscribed: only the latched helm modes went out; once ROS is gone each
+    # write is tried (the publisher cannot tell whether someone listens) and fails
+    assert set(stats["published"]) == {"/videoray/helm/mode", "/diver/helm/mode"}
+    assert stats["failed"]["/clock"] == 15  # 0.6 ... 2.0 s at 10 Hz
+    assert stats["failed"]["/videoray/odom"] == 15 and stats["failed"]["/videoray/pose"] == 15
+    warned = [r.getMessage() for r in caplog.records if "failed" in r.getMessage()]
+    assert sorted(w.split()[4] for w in warned) == sorted(stats["failed"])

@@ -129,6 +129,9 @@ QOS_COMMAND = QoSProfile(
     durability=DurabilityPolicy.VOLATILE,
 )
 
+#: A failing topic is logged on its first failed write and then on every this many.
+FAILURE_LOG_EVERY = 100
+
 _MARKER_TYPES: dict[str, int] = {
     "box": Marker.CUBE,
     "sphere": Marker.SPHERE,
@@ -399,6 +402,7 @@ class Ros2Bridge:
         self._t_sim_latest = 0.0
         self._t_clock_published: float | None = None
         self._counts: dict[str, int] = {}
+        self._failed: dict[str, int] = {}
         self._rejected = 0
         self._context: Context | None = None
         self._node: Any = None
@@ -544,17 +548,32 @@ class Ros2Bridge:
             self._t_clock_published = t
 
     def _wanted(self, pub: Any) -> bool:
-        """Should a message go to ``pub``'s topic: someone subscribed (well under 1 us)?"""
-        return self._publish_unsubscribed or pub.handle.get_subscription_count() > 0
+        """Should a message go to ``pub``'s topic: someone subscribed (well under 1 us)?
+        A publisher that cannot tell (ROS shut down under the bridge) says yes: the write
+        then fails and is counted by :meth:`_publish`."""
+        if self._publish_unsubscribed:
+            return True
+        try:
+            return pub.handle.get_subscription_count() > 0
+        except Exception:
+            return True
 
     def _publish(self, pub: Any, msg: Any, key: str) -> None:
+        """Hand one message to DDS. A write that fails (the context shut down by someone
+        else, a full history in asynchronous publication mode) is counted per topic and
+        logged, the first of each topic and then every :data:`FAILURE_LOG_EVERY`-th; the
+        simulation goes on (nothing in the loop waits for or depends on ROS)."""
         try:
             if type(msg) is bytes:  # serialised: straight to rcl (what publish() calls)
                 pub.handle.publish_raw(msg)
             else:
                 pub.publish(msg)
         except Exception as exc:
-            raise BridgeError(f"Ros2Bridge: publishing {key} failed: {exc}") from exc
+            failed = self._failed[key] = self._failed.get(key, 0) + 1
+            if failed == 1 or failed % FAILURE_LOG_EVERY == 0:
+                log.warning("ROS 2 bridge: publishing %s failed (%d so far; the simulation "
+                            "goes on): %s", key, failed, exc)
+            return
         counts = self._counts  # written by this (the simulation's) thread only
         counts[key] = counts.get(key, 0) + 1
 
@@ -868,9 +887,11 @@ class Ros2Bridge:
 
     # ----------------------------------------------------------------- introspection
     def stats(self) -> dict[str, Any]:
-        """Messages published per topic and command messages rejected (a copy)."""
+        """Messages published and writes failed per topic, and command messages rejected
+        (a copy)."""
         with self._lock:
-            return {"published": self._counts.copy(), "rejected_commands": self._rejected}
+            return {"published": self._counts.copy(), "failed": self._failed.copy(),
+                    "rejected_commands": self._rejected}
 
     def subscriber_count(self, topic: str) -> int:
         """How many subscriptions the ROS graph shows on ``topic`` (for tests/tools)."""
