@@ -222,12 +222,13 @@ def test_ros_shut_down_under_the_bridge_does_not_stop_the_simulation(
 
     class Last:
         def __init__(self, shut_at: float | None = None) -> None:
-            self.shut_at, self.position = shut_at, None
+            self.shut_at, self.position, self.events = shut_at, None, []
 
         def on_start(self, sim) -> None: ...
         def on_end(self, sim, error) -> None: ...
         def on_tick(self, frame) -> None:
             self.position = frame.agents["videoray"].nav.position_ned.copy()
+            self.events += [e for e in frame.events if e.kind == "bridge"]
             if self.shut_at is not None and frame.t >= self.shut_at:
                 hook.bridge._context.try_shutdown()  # fault injection
                 self.shut_at = None
@@ -250,3 +251,8 @@ def test_ros_shut_down_under_the_bridge_does_not_stop_the_simulation(
     assert stats["failed"]["/videoray/odom"] == 15 and stats["failed"]["/videoray/pose"] == 15
     warned = [r.getMessage() for r in caplog.records if "failed" in r.getMessage()]
     assert sorted(w.split()[4] for w in warned) == sorted(stats["failed"])
+    # and the recording says so: an event on each tick where topics first failed (each
+    # topic fails on its first write after 0.5 s), every failing topic named once
+    assert all(0.5 < e.t <= 0.75 for e in shut.events)
+    named = [t.rstrip(",") for e in shut.events for t in e.detail.split() if t[0] == "/"]
+    assert sorted(named) == sorted(stats["failed"])

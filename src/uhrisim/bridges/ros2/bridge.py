@@ -893,6 +893,12 @@ class Ros2Bridge:
             return {"published": self._counts.copy(), "failed": self._failed.copy(),
                     "rejected_commands": self._rejected}
 
+    @property
+    def failing_topics(self) -> tuple[str, ...]:
+        """The topics on which a write has failed so far, in the order they first failed
+        (see :meth:`_publish`)."""
+        return tuple(self._failed)
+
     def subscriber_count(self, topic: str) -> int:
         """How many subscriptions the ROS graph shows on ``topic`` (for tests/tools)."""
         if not self.started:

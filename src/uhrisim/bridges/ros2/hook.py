@@ -21,6 +21,9 @@ uses:
   once: ``DESIRED_SPEED = 0`` and ``DESIRED_DEPTH`` = the current depth, and records a
   ``bridge`` event; another event marks commands becoming active again.
 
+A write that fails (ROS shut down under the bridge) does not stop the run: the bridge
+counts it, and the hook records a ``bridge`` event when a topic first fails.
+
 The hook does not pace the loop: to run in step with live ROS nodes, pace the simulation
 at real time (``uhrisim.sim.pacing.Pacer``) or let nodes use ``/clock``
 (``use_sim_time:=true``).
@@ -135,6 +138,7 @@ class Ros2BridgeHook(BaseHook):
         self._publish_wake = self._wake_time = -math.inf
         self._seen: dict[str, int] = {}
         self._active: dict[str, bool] = {}
+        self._failing: tuple[str, ...] = ()  # bridge.failing_topics, as last recorded
         self.n_posted = 0
         self.n_rejected = 0
 
@@ -175,6 +179,7 @@ class Ros2BridgeHook(BaseHook):
         self._publish_wake = self._wake_time = -math.inf
         self._seen = dict.fromkeys(names, 0)
         self._active = dict.fromkeys(names, False)
+        self._failing = ()
         if self._publish_scene and getattr(sim, "scene", None) is not None:
             from uhrisim.record.hook import scene_markers
 
@@ -206,6 +211,11 @@ class Ros2BridgeHook(BaseHook):
                     bridge.publish_helm(ros, t, decision.heading_deg, decision.speed,
                                         decision.depth, decision.mode)
             self._publish_wake = bridge.wake_time
+            if bridge.failing_topics != self._failing:  # rare: note it in the recording
+                new = bridge.failing_topics[len(self._failing):]
+                self._failing = bridge.failing_topics
+                sim.record_event("bridge", f"ros2: writes to {', '.join(new)} failed (the "
+                                           "run goes on; counts in the summary, see the log)")
         if self._accepting and self._command_gate.due(t):
             for ros, name, _, accept in self._links:
                 if accept:
