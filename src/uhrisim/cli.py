@@ -129,7 +129,7 @@ def bench(
 def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: int | None,
                        sonar: bool, quiet: bool = False, ros2: bool = False,
                        moos: bool = False, rtf: float | None = None,
-                       view_port: int | None = None) -> Any:
+                       view_port: int | None = None, lockstep: bool = False) -> Any:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from uhrisim.scenario.load import load_scenario
@@ -138,7 +138,7 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
 
     source = load_scenario(scenario)
     hooks = live_hooks(source.scenario, ros2=ros2, moos=moos, real_time_factor=rtf,
-                       paced_elsewhere=view_port is not None)
+                       paced_elsewhere=view_port is not None, lockstep=lockstep)
     servers: list[Any] = []
 
     def attach(sim: Any) -> None:
@@ -203,6 +203,9 @@ def run(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")] = False,
     ros2: Annotated[bool, typer.Option("--ros2", help="bridge to ROS 2 (loopback only)")] = False,
     moos: Annotated[bool, typer.Option("--moos", help="bridge to MOOSDB(s) on 127.0.0.1")] = False,
+    lockstep: Annotated[bool, typer.Option(
+        "--lockstep", help="ROS 2 in lockstep: each odometry period waits for the "
+                           "controllers' commands (repeatable runs; implies --ros2)")] = False,
     rtf: Annotated[float | None, typer.Option(
         "--rtf", help="with a bridge or the viewer: pace to wall clock x RTF (0 = run free)"
     )] = None,
@@ -213,7 +216,7 @@ def run(
     out = out or Path("out") / scenario.stem
     result = _run_with_progress(scenario, out, duration, seed, not no_sonar, quiet,
                                 ros2=ros2, moos=moos, rtf=rtf,
-                                view_port=port if view else None)
+                                view_port=port if view else None, lockstep=lockstep)
     _print_metrics(result)
 
 

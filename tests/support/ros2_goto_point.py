@@ -4,13 +4,16 @@ This is the example node of docs/bridges-ros2.md (kept here so a test runs it).
 It reads ``/<agent>/odom`` (nav_msgs/Odometry, ENU "map" frame) and publishes
 ``/<agent>/cmd/desired_heading`` (compass degrees: 0 north, 90 east),
 ``/<agent>/cmd/desired_speed`` (m/s) and ``/<agent>/cmd/desired_depth`` (m, positive
-down) at 10 Hz, slowing down near the goal and stopping inside ``--radius``.
+down) at 10 Hz, slowing down near the goal and stopping inside ``--radius``. With
+``--reactive`` it answers each odometry message at once instead (the controller of a
+lockstep run, ``uhrisim run --lockstep``) and keeps answering until stopped.
 
     python ros2_goto_point.py --agent rov --x 10 --y 5 --depth 3
     # goal: 10 m east, 5 m north of the map origin, 3 m deep
 
 Environment: ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and the simulator's ROS_DOMAIN_ID.
-Prints ``ARRIVED <distance>`` once inside the radius and exits after --hold s.
+Prints ``ARRIVED <distance>`` once inside the radius and exits after --hold s (not with
+``--reactive``).
 """
 
 from __future__ import annotations
@@ -35,6 +38,8 @@ def main() -> int:
     ap.add_argument("--radius", type=float, default=0.5, help="arrival radius (m)")
     ap.add_argument("--hold", type=float, default=0.5, help="s to keep commanding stop")
     ap.add_argument("--timeout", type=float, default=60.0, help="give up after (wall s)")
+    ap.add_argument("--reactive", action="store_true",
+                    help="answer each odometry message at once (lockstep runs)")
     args = ap.parse_args()
 
     rclpy.init()
@@ -45,15 +50,8 @@ def main() -> int:
     pub_depth = node.create_publisher(Float64, f"/{a}/cmd/desired_depth", 10)
     state = {"odom": None, "arrived_at": None}
 
-    def on_odom(msg: Odometry) -> None:
-        state["odom"] = msg
-
-    node.create_subscription(Odometry, f"/{a}/odom", on_odom, 10)
-
-    def on_timer() -> None:
-        odom = state["odom"]
-        if odom is None:
-            return
+    def command(odom: Odometry) -> None:
+        """Head for the goal from the pose in ``odom``: the three desired values."""
         p = odom.pose.pose.position  # ENU: x east, y north, z up
         d_east, d_north = args.x - p.x, args.y - p.y
         dist = math.hypot(d_east, d_north)
@@ -68,13 +66,25 @@ def main() -> int:
         pub_speed.publish(Float64(data=speed))
         pub_depth.publish(Float64(data=args.depth))
 
-    node.create_timer(0.1, on_timer)
+    def on_odom(msg: Odometry) -> None:
+        state["odom"] = msg
+        if args.reactive:
+            command(msg)
+
+    node.create_subscription(Odometry, f"/{a}/odom", on_odom, 10)
+
+    def on_timer() -> None:
+        if state["odom"] is not None:
+            command(state["odom"])
+
+    if not args.reactive:
+        node.create_timer(0.1, on_timer)
     t0 = time.monotonic()
     try:
         while rclpy.ok():
             rclpy.spin_once(node, timeout_sec=0.05)
             done = state["arrived_at"]
-            if done is not None and time.monotonic() - done > args.hold:
+            if done is not None and not args.reactive and time.monotonic() - done > args.hold:
                 break
             if time.monotonic() - t0 > args.timeout:
                 print("TIMEOUT", flush=True)

@@ -366,6 +366,10 @@ class Ros2Section(Strict):
     odom_rate_hz: PositiveFloat = 10.0
     domain_id: Annotated[int, Field(ge=0, le=232)] | None = None
     command_timeout_s: PositiveFloat = 1.0
+    # Wait each odometry period for the controllers' answers (repeatable runs with
+    # outside nodes; docs/bridges-ros2.md "Lockstep"); `uhrisim run --lockstep` too.
+    lockstep: bool = False
+    lockstep_timeout_s: PositiveFloat = 10.0  # wall s a round (and the start) may wait
 
 
 class MoosLink(Strict):

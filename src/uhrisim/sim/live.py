@@ -17,7 +17,9 @@ from uhrisim.sim.pacing import PacingHook
 log = logging.getLogger(__name__)
 
 
-def ros2_hook(scenario: Scenario) -> Hook:
+def ros2_hook(scenario: Scenario, lockstep: bool = False) -> Hook:
+    """The ROS 2 hook of the scenario's ``bridges.ros2`` section; ``lockstep`` switches
+    lockstep on whatever the section says."""
     from uhrisim.bridges.ros2 import Ros2BridgeHook
 
     section = scenario.bridges.ros2
@@ -27,7 +29,9 @@ def ros2_hook(scenario: Scenario) -> Hook:
         else ("desired", "thrusters")
     return Ros2BridgeHook(agents, accept=accept, odom_rate_hz=section.odom_rate_hz,
                           domain_id=section.domain_id,
-                          command_timeout_s=section.command_timeout_s)
+                          command_timeout_s=section.command_timeout_s,
+                          lockstep=lockstep or section.lockstep,
+                          lockstep_timeout_s=section.lockstep_timeout_s)
 
 
 def moos_hook(scenario: Scenario) -> Hook:
@@ -52,19 +56,20 @@ def moos_hook(scenario: Scenario) -> Hook:
 
 
 def live_hooks(scenario: Scenario, *, ros2: bool = False, moos: bool = False,
-               real_time_factor: float | None = None, paced_elsewhere: bool = False
-               ) -> list[Hook]:
+               real_time_factor: float | None = None, paced_elsewhere: bool = False,
+               lockstep: bool = False) -> list[Hook]:
     """The bridge hooks the scenario (or the command line) asks for, plus pacing.
 
     ``real_time_factor`` overrides the scenario's; with MOOS on, the default pace is its
-    MOOSTimeWarp. ``paced_elsewhere``: the viewer paces the run itself.
+    MOOSTimeWarp. ``paced_elsewhere``: the viewer paces the run itself. ``lockstep``
+    switches the ROS 2 bridge on, in lockstep.
     """
     bridges = scenario.bridges
     hooks: list[Hook] = []
-    use_ros2 = ros2 or bridges.ros2.enabled
+    use_ros2 = ros2 or lockstep or bridges.ros2.enabled
     use_moos = moos or bridges.moos.enabled
     if use_ros2:
-        hooks.append(ros2_hook(scenario))
+        hooks.append(ros2_hook(scenario, lockstep=lockstep))
     if use_moos:
         hooks.append(moos_hook(scenario))
     if (use_ros2 or use_moos) and not paced_elsewhere:

@@ -89,13 +89,14 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
         raise
     finally:
         sim.close(error)
-        summary = _write_outputs(sim, out_dir, metrics, strip, files, error is None)
+        summary = _write_outputs(sim, out_dir, metrics, strip, files, error is None,
+                                 extra_hooks)
     return RunResult(out_dir, summary, files)
 
 
 def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
                    strip: SonarStripHook | None, files: list[Path],
-                   completed: bool) -> dict[str, Any]:
+                   completed: bool, extra_hooks: Sequence[Hook]) -> dict[str, Any]:
     from uhrisim.viz import mission_figures as figs
 
     summary: dict[str, Any] = {"scenario": sim.scenario.name, "seed": sim.seed,
@@ -114,6 +115,10 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
                                              out_dir / "range_bearing.png", acquired_at))
     if strip is not None and strip.frames:
         files.append(figs.plot_sonar_strip(strip.frames, out_dir / "sonar_strip.png"))
+    for hook in extra_hooks:  # the live bridges: messages, failures, reconnections, rounds
+        report = getattr(hook, "summary", None)
+        if report is not None:
+            summary |= report()
     path = out_dir / "metrics.json"
     path.write_text(json.dumps(summary, indent=2) + "\n")
     files.append(path)

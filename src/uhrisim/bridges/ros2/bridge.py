@@ -151,6 +151,9 @@ _CMD_KEYS_DESIRED = ("desired_heading", "desired_speed", "desired_depth")
 #: Longest wait of the command executor for something to do (s).
 _IDLE_SPIN_S = 1.0
 _CMD_KEY_THRUSTERS = "thrusters"
+#: What answers a lockstep round, per accepted command group: every topic of the group.
+_ANSWER_GROUPS = {"desired": frozenset(_CMD_KEYS_DESIRED),
+                  "thrusters": frozenset({_CMD_KEY_THRUSTERS})}
 
 
 @dataclass
@@ -194,8 +197,15 @@ class _AgentIO:
         self.pubs: dict[str, Any] = {}
         self.topics = {key: topic for key, topic, _, _ in agent_topics(spec)}
         self.mode_text: str | None = None  # the last helm mode published
+        self.subs: dict[str, Any] = {}  # command key -> subscription
         self.slots: dict[str, _Slot] = {}
         self.received = 0  # command messages accepted so far
+        self.answered: set[str] = set()  # command keys received since begin_round
+
+    def has_answered(self) -> bool:
+        """Since the last :meth:`Ros2Bridge.begin_round`, a whole command group this
+        agent accepts has arrived (all three desired values, or the thrusters)."""
+        return any(_ANSWER_GROUPS[group] <= self.answered for group in self.spec.accept)
 
 
 def _set_stamp(header: Any, t_sim: float, frame_id: str) -> None:
@@ -358,6 +368,10 @@ class Ros2Bridge:
         topic without a matched subscriber is skipped (no subscriber could receive what
         it missed; the conversion and the DDS write are saved); the latched
         ``/helm/mode`` and ``/scene/markers`` are always written.
+    reliable_commands:
+        Subscribe to the commands reliably (keep the last 10) instead of best effort:
+        for lockstep runs, where a lost command would stall a round. Such subscriptions
+        match reliable publishers only (rclpy's default).
     """
 
     def __init__(
@@ -372,6 +386,7 @@ class Ros2Bridge:
         clock_rate_hz: float | None = None,
         reliable_sensors: bool = False,
         publish_unsubscribed: bool = False,
+        reliable_commands: bool = False,
     ) -> None:
         specs = list(agents)
         if not all(isinstance(s, AgentBridgeSpec) for s in specs):
@@ -397,8 +412,11 @@ class Ros2Bridge:
         self._clock_gate = RateGate(clock_rate_hz)
         self._sensor_qos = QOS_SENSOR_RELIABLE if reliable_sensors else QOS_SENSOR
         self._publish_unsubscribed = publish_unsubscribed
+        # reliable commands: the state profile's settings (reliable, keep the last 10)
+        self._command_qos = QOS_STATE if reliable_commands else QOS_COMMAND
         self._agents = {s.name: _AgentIO(s) for s in specs}
         self._lock = threading.Lock()
+        self._answers = threading.Condition(self._lock)  # lockstep rounds wait on it
         self._t_sim_latest = 0.0
         self._t_clock_published: float | None = None
         self._counts: dict[str, int] = {}
@@ -460,14 +478,14 @@ class Ros2Bridge:
                 io.pubs[key] = node.create_publisher(msg_type, topic, qos)
             if "desired" in io.spec.accept:
                 for key in _CMD_KEYS_DESIRED:
-                    node.create_subscription(
+                    io.subs[key] = node.create_subscription(
                         Float64, f"/{name}/cmd/{key}", self._make_float_cb(name, key),
-                        QOS_COMMAND,
+                        self._command_qos,
                     )
             if "thrusters" in io.spec.accept:
-                node.create_subscription(
+                io.subs[_CMD_KEY_THRUSTERS] = node.create_subscription(
                     Float64MultiArray, f"/{name}/cmd/thrusters", self._make_thruster_cb(name),
-                    QOS_COMMAND,
+                    self._command_qos,
                 )
         self._executor = SingleThreadedExecutor(context=ctx)
         self._executor.add_node(node)
@@ -817,6 +835,8 @@ class Ros2Bridge:
             io = self._agents[agent]
             io.slots[key] = _Slot(value, self._t_sim_latest, time.monotonic())
             io.received += 1
+            io.answered.add(key)
+            self._answers.notify_all()
 
     def _reject(self, agent: str, key: str, why: str) -> None:
         with self._lock:
@@ -892,6 +912,44 @@ class Ros2Bridge:
         with self._lock:
             return {"published": self._counts.copy(), "failed": self._failed.copy(),
                     "rejected_commands": self._rejected}
+
+    # ----------------------------------------------------------------- lockstep
+    def begin_round(self, agent: str) -> bool:
+        """Lockstep: start a round for ``agent`` (call it before publishing the state the
+        round answers): from now on :meth:`wait_answers` waits for commands that arrive
+        after this call. Returns whether the agent had answered the previous round."""
+        io = self._io(agent, "begin_round")
+        with self._lock:
+            answered = io.has_answered()
+            io.answered.clear()
+        return answered
+
+    def wait_answers(self, agents: Sequence[str], timeout_s: float) -> list[str]:
+        """Block (wall clock, at most ``timeout_s``) until each of ``agents`` has answered
+        since its :meth:`begin_round`: a whole command group it accepts received (desired
+        heading, speed and depth; or thrusters). Returns those still silent (none: [])."""
+        ios = [self._io(agent, "wait_answers") for agent in agents]
+        deadline = time.monotonic() + timeout_s
+        with self._answers:
+            while True:
+                silent = [io.spec.name for io in ios if not io.has_answered()]
+                left = deadline - time.monotonic()
+                if not silent or left <= 0.0:
+                    return silent
+                self._answers.wait(left)
+
+    def wait_for_controller(self, agent: str, timeout_s: float) -> bool:
+        """Block (wall clock) until a node both receives ``agent``'s odometry (a matched
+        subscriber to ``/<agent>/odom``) and publishes one of its command topics (a
+        matched publisher); True when it did within ``timeout_s``. For lockstep starts."""
+        io = self._io(agent, "wait_for_controller")
+        end = time.monotonic() + timeout_s
+        while not (io.pubs["odom"].get_subscription_count() > 0
+                   and any(sub.get_publisher_count() > 0 for sub in io.subs.values())):
+            if time.monotonic() > end:
+                return False
+            time.sleep(0.02)
+        return True
 
     @property
     def failing_topics(self) -> tuple[str, ...]:

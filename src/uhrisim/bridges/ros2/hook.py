@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from uhrisim.core.errors import ConfigError
+from uhrisim.core.errors import BridgeError, ConfigError
 from uhrisim.sensors.sonar.sonar import cloud_hits
 from uhrisim.sim.hooks import BaseHook, TickFrame
 
@@ -95,6 +95,13 @@ class Ros2BridgeHook(BaseHook):
     default of Gazebo's ``gazebo_ros_init``, is on the same ticks as 10 Hz odometry).
     ``command_poll_hz``: how often incoming commands are read into the simulation
     (``None``: every tick); they act at most 1/rate s (simulated) after arrival.
+    ``lockstep``: on each odometry tick, after publishing, wait (at most
+    ``lockstep_timeout_s`` wall seconds) until every linked agent that accepts commands
+    has answered with a whole command group, and apply the answers on the next tick: runs
+    with a controller that answers each odometry message are then repeatable. At start
+    the hook waits as long for each such agent's controller to appear. An agent whose
+    controller stays silent for a round is no longer waited for (a ``bridge`` event says
+    so) until it answers again; its commands then go stale and the safe stop follows.
     Other arguments go to :class:`Ros2Bridge`.
     """
 
@@ -113,7 +120,12 @@ class Ros2BridgeHook(BaseHook):
         clock_rate_hz: float | None = 10.0,
         command_poll_hz: float | None = 20.0,
         reliable_sensors: bool = False,
+        lockstep: bool = False,
+        lockstep_timeout_s: float = 10.0,
     ) -> None:
+        if not (lockstep_timeout_s > 0 and math.isfinite(lockstep_timeout_s)):
+            raise ConfigError(f"must be a positive number of seconds, got "
+                              f"{lockstep_timeout_s!r}", "Ros2BridgeHook.lockstep_timeout_s")
         self._names = None if agents is None else tuple(agents)
         self._accept = tuple(accept)
         self._odom_rate = odom_rate_hz
@@ -126,7 +138,13 @@ class Ros2BridgeHook(BaseHook):
             "timeout_clock": timeout_clock,
             "clock_rate_hz": clock_rate_hz,
             "reliable_sensors": reliable_sensors,
+            "reliable_commands": lockstep,  # a lost command would stall a round
         }
+        self._lockstep = lockstep
+        self._lockstep_timeout = lockstep_timeout_s
+        self._stepped: list[str] = []  # ROS names of the agents lockstep rounds wait for
+        self._lapsed: set[str] = set()  # ... that did not answer their last round
+        self.n_rounds = 0
         self._timeout = command_timeout_s
         self._command_gate = RateGate(command_poll_hz)
         self.bridge: Ros2Bridge | None = None
@@ -175,6 +193,8 @@ class Ros2BridgeHook(BaseHook):
         self._links = [(spec.name, name, spec.publish_sonar, bool(spec.accept))
                        for spec, name in zip(self.bridge.agents, self._ros, strict=True)]
         self._accepting = any(accept for *_, accept in self._links)
+        if self._lockstep:
+            self._await_controllers()
         # simulation times before which nothing is due (see on_tick)
         self._publish_wake = self._wake_time = -math.inf
         self._seen = dict.fromkeys(names, 0)
@@ -187,6 +207,24 @@ class Ros2BridgeHook(BaseHook):
             if markers:
                 self.bridge.publish_scene(float(sim.t), markers)
 
+    def _await_controllers(self) -> None:
+        """Lockstep start: every agent that accepts commands needs its controller."""
+        bridge = self.bridge
+        assert bridge is not None
+        self._stepped = [ros for ros, *_, accept in self._links if accept]
+        self._lapsed = set()
+        if not self._stepped:
+            bridge.close()
+            raise ConfigError("ROS 2 lockstep needs an agent that accepts commands "
+                              "(links: [{agent: ..., accept: [desired]}])")
+        for ros in self._stepped:
+            if not bridge.wait_for_controller(ros, self._lockstep_timeout):
+                bridge.close()
+                raise BridgeError(
+                    f"ROS 2 lockstep: no controller for {ros!r} within "
+                    f"{self._lockstep_timeout:g} s (no node subscribed to /{ros}/odom and "
+                    f"publishing /{ros}/cmd/*, reliably: rclpy's default QoS)")
+
     def on_tick(self, frame: TickFrame) -> None:
         bridge, sim = self.bridge, self._sim
         if bridge is None or sim is None:
@@ -196,10 +234,14 @@ class Ros2BridgeHook(BaseHook):
         if t < self._wake_time and not pings and not helm:
             bridge.note_time(t)  # nothing due: most ticks of a 60 Hz loop
             return
+        rounds: list[str] = []  # lockstep: agents whose answer to this tick is awaited
         if t >= self._publish_wake or pings or helm:
             bridge.publish_clock(t)
             for ros, name, publish_sonar, _ in self._links:
                 if bridge.odometry_due(ros, t):  # the snapshot only when odometry goes out
+                    if ros in self._stepped:
+                        rounds.append(ros)
+                        self._begin_round(sim, bridge, ros, t)
                     nav = frame.agents[name].nav
                     bridge.publish_nav(ros, t, nav.position_ned, nav.yaw, nav.velocity_body,
                                        nav.yaw_rate)
@@ -216,7 +258,9 @@ class Ros2BridgeHook(BaseHook):
                 self._failing = bridge.failing_topics
                 sim.record_event("bridge", f"ros2: writes to {', '.join(new)} failed (the "
                                            "run goes on; counts in the summary, see the log)")
-        if self._accepting and self._command_gate.due(t):
+        if rounds:
+            self._await_answers(sim, bridge, [r for r in rounds if r not in self._lapsed], t)
+        if rounds or (self._accepting and self._command_gate.due(t)):
             for ros, name, _, accept in self._links:
                 if accept:
                     self._take_commands(sim, name, bridge.commands(ros, t), frame)
@@ -224,6 +268,27 @@ class Ros2BridgeHook(BaseHook):
             bridge.note_time(t)
         self._wake_time = min(self._publish_wake, self._command_gate.wake_time
                               if self._accepting else math.inf)
+
+    def _begin_round(self, sim: Simulation, bridge: Ros2Bridge, ros: str, t: float) -> None:
+        """A lockstep round for ``ros`` starts; one that had lapsed is waited for again
+        once it has answered."""
+        if bridge.begin_round(ros) and ros in self._lapsed:
+            self._lapsed.discard(ros)
+            sim.record_event("bridge", f"ros2 {ros}: controller answering again at "
+                                       f"t={t:.2f} s: lockstep resumed")
+
+    def _await_answers(self, sim: Simulation, bridge: Ros2Bridge, agents: list[str],
+                       t: float) -> None:
+        """Wait for the answers of ``agents`` to the state at ``t`` (a lockstep round,
+        counted in ``n_rounds``); a silent one lapses."""
+        if not agents:
+            return
+        self.n_rounds += 1
+        for ros in bridge.wait_answers(agents, self._lockstep_timeout):
+            self._lapsed.add(ros)
+            sim.record_event("bridge", f"ros2 {ros}: no answer to t={t:.2f} s within "
+                                       f"{self._lockstep_timeout:g} s: not waited for until "
+                                       "it answers again (lockstep lapsed)")
 
     @staticmethod
     def _publish_ping(bridge: Ros2Bridge, name: str, ping: Any) -> None:
@@ -273,4 +338,6 @@ class Ros2BridgeHook(BaseHook):
 
     def summary(self) -> dict[str, Any]:
         stats = self.bridge.stats() if self.bridge is not None else {}
-        return {"ros2": {**stats, "posted": self.n_posted, "rejected": self.n_rejected}}
+        lockstep = {"lockstep_rounds": self.n_rounds} if self._lockstep else {}
+        return {"ros2": {**stats, "posted": self.n_posted, "rejected": self.n_rejected,
+                         **lockstep}}
