@@ -257,7 +257,7 @@ class Ros2BridgeHook(BaseHook):
                 new = bridge.failing_topics[len(self._failing):]
                 self._failing = bridge.failing_topics
                 sim.record_event("bridge", f"ros2: writes to {', '.join(new)} failed (the "
-                                           "run goes on; counts in the summary, see the log)")
+                                           "run goes on; counts in metrics.json, see the log)")
         if rounds:
             self._await_answers(sim, bridge, [r for r in rounds if r not in self._lapsed], t)
         if rounds or (self._accepting and self._command_gate.due(t)):
