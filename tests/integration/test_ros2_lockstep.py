@@ -75,8 +75,8 @@ def test_lockstep_without_a_controller_says_what_is_missing(ros_env: int) -> Non
     from uhrisim.scenario.load import load_scenario
     from uhrisim.sim.simulation import Simulation
 
-    hook = Ros2BridgeHook(domain_id=ros_env % 101 + 1, lockstep=True, lockstep_timeout_s=0.5,
-                          publish_scene=False)
+    hook = Ros2BridgeHook(domain_id=ros_env % 101 + 1, lockstep=True,
+                          lockstep_start_timeout_s=0.5, publish_scene=False)
     with (pytest.raises(BridgeError, match=r"no controller for 'videoray' within 0\.5 s"),
           Simulation(load_scenario(SCENARIO), hooks=[hook]) as sim):
         sim.run(0.5)
@@ -88,6 +88,7 @@ def test_a_controller_dying_mid_run_lapses_lockstep_and_the_run_goes_on(
 ) -> None:
     del ros_env
     scenario = tmp_path / "lockstep.yaml"  # lockstep from the scenario file, 1 s rounds
+    # (the start still waits up to 30 s for the controller: discovery on a busy machine)
     text = SCENARIO.read_text()
     section = "ros2: {enabled: true, odom_rate_hz: 10, command_timeout_s: 1.0"
     assert section in text

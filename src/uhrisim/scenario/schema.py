@@ -369,7 +369,7 @@ class Ros2Section(Strict):
     # Wait each odometry period for the controllers' answers (repeatable runs with
     # outside nodes; docs/bridges-ros2.md "Lockstep"); `uhrisim run --lockstep` too.
     lockstep: bool = False
-    lockstep_timeout_s: PositiveFloat = 10.0  # wall s a round (and the start) may wait
+    lockstep_timeout_s: PositiveFloat = 10.0  # wall s a round may wait for the answers
 
 
 class MoosLink(Strict):

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -57,6 +58,9 @@ log = logging.getLogger(__name__)
 #: Triangles per scene object sent to ROS viewers; larger meshes (a fine sea floor) are
 #: thinned, every k-th triangle kept, to keep the one-off scene message small and fast.
 SCENE_MAX_TRIANGLES_PER_OBJECT = 20_000
+
+#: Wall seconds a lockstep start waits after finding the controllers (see on_start).
+LOCKSTEP_SETTLE_S = 0.5
 
 _DESIRED_VARS = (
     ("desired_heading_deg", "DESIRED_HEADING"),
@@ -99,7 +103,8 @@ class Ros2BridgeHook(BaseHook):
     ``lockstep_timeout_s`` wall seconds) until every linked agent that accepts commands
     has answered with a whole command group, and apply the answers on the next tick: runs
     with a controller that answers each odometry message are then repeatable. At start
-    the hook waits as long for each such agent's controller to appear. An agent whose
+    the hook waits up to ``lockstep_start_timeout_s`` for each such agent's controller to
+    appear (discovery alone can take seconds). An agent whose
     controller stays silent for a round is no longer waited for (a ``bridge`` event says
     so) until it answers again; its commands then go stale and the safe stop follows.
     Other arguments go to :class:`Ros2Bridge`.
@@ -122,10 +127,13 @@ class Ros2BridgeHook(BaseHook):
         reliable_sensors: bool = False,
         lockstep: bool = False,
         lockstep_timeout_s: float = 10.0,
+        lockstep_start_timeout_s: float = 30.0,
     ) -> None:
-        if not (lockstep_timeout_s > 0 and math.isfinite(lockstep_timeout_s)):
-            raise ConfigError(f"must be a positive number of seconds, got "
-                              f"{lockstep_timeout_s!r}", "Ros2BridgeHook.lockstep_timeout_s")
+        for name, value in (("lockstep_timeout_s", lockstep_timeout_s),
+                            ("lockstep_start_timeout_s", lockstep_start_timeout_s)):
+            if not (value > 0 and math.isfinite(value)):
+                raise ConfigError(f"must be a positive number of seconds, got {value!r}",
+                                  f"Ros2BridgeHook.{name}")
         self._names = None if agents is None else tuple(agents)
         self._accept = tuple(accept)
         self._odom_rate = odom_rate_hz
@@ -142,6 +150,7 @@ class Ros2BridgeHook(BaseHook):
         }
         self._lockstep = lockstep
         self._lockstep_timeout = lockstep_timeout_s
+        self._lockstep_start_timeout = lockstep_start_timeout_s
         self._stepped: list[str] = []  # ROS names of the agents lockstep rounds wait for
         self._lapsed: set[str] = set()  # ... that did not answer their last round
         self.n_rounds = 0
@@ -218,12 +227,15 @@ class Ros2BridgeHook(BaseHook):
             raise ConfigError("ROS 2 lockstep needs an agent that accepts commands "
                               "(links: [{agent: ..., accept: [desired]}])")
         for ros in self._stepped:
-            if not bridge.wait_for_controller(ros, self._lockstep_timeout):
+            if not bridge.wait_for_controller(ros, self._lockstep_start_timeout):
                 bridge.close()
                 raise BridgeError(
                     f"ROS 2 lockstep: no controller for {ros!r} within "
-                    f"{self._lockstep_timeout:g} s (no node subscribed to /{ros}/odom and "
+                    f"{self._lockstep_start_timeout:g} s (no node subscribed to /{ros}/odom and "
                     f"publishing /{ros}/cmd/*, reliably: rclpy's default QoS)")
+        # we see the controller's writers matched; its writers may see our readers a
+        # moment later, and a command written before that would not reach us
+        time.sleep(LOCKSTEP_SETTLE_S)
 
     def on_tick(self, frame: TickFrame) -> None:
         bridge, sim = self.bridge, self._sim
