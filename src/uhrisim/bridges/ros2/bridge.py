@@ -939,9 +939,9 @@ class Ros2Bridge:
                 self._answers.wait(left)
 
     def wait_for_controller(self, agent: str, timeout_s: float) -> bool:
-        """Block (wall clock) until a node both receives ``agent``'s odometry (a matched
-        subscriber to ``/<agent>/odom``) and publishes one of its command topics (a
-        matched publisher); True when it did within ``timeout_s``. For lockstep starts."""
+        """Block (wall clock) until ``/<agent>/odom`` has a matched subscriber and one of
+        the agent's command topics a matched publisher (its controller, for a lockstep
+        start); True when that happened within ``timeout_s``."""
         io = self._io(agent, "wait_for_controller")
         end = time.monotonic() + timeout_s
         while not (io.pubs["odom"].get_subscription_count() > 0

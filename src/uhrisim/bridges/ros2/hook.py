@@ -26,7 +26,8 @@ counts it, and the hook records a ``bridge`` event when a topic first fails.
 
 The hook does not pace the loop: to run in step with live ROS nodes, pace the simulation
 at real time (``uhrisim.sim.pacing.Pacer``) or let nodes use ``/clock``
-(``use_sim_time:=true``).
+(``use_sim_time:=true``). In lockstep (``lockstep=True``) it waits, each odometry period,
+for the controllers' answers: runs with outside nodes in the loop become repeatable.
 """
 
 from __future__ import annotations
@@ -104,9 +105,9 @@ class Ros2BridgeHook(BaseHook):
     has answered with a whole command group, and apply the answers on the next tick: runs
     with a controller that answers each odometry message are then repeatable. At start
     the hook waits up to ``lockstep_start_timeout_s`` for each such agent's controller to
-    appear (discovery alone can take seconds). An agent whose
-    controller stays silent for a round is no longer waited for (a ``bridge`` event says
-    so) until it answers again; its commands then go stale and the safe stop follows.
+    appear (discovery alone can take seconds). An agent whose controller stays silent for
+    a round is no longer waited for (a ``bridge`` event says so) until it answers again;
+    its commands then go stale and the safe stop follows.
     Other arguments go to :class:`Ros2Bridge`.
     """
 
@@ -222,6 +223,7 @@ class Ros2BridgeHook(BaseHook):
         assert bridge is not None
         self._stepped = [ros for ros, *_, accept in self._links if accept]
         self._lapsed = set()
+        self.n_rounds = 0
         if not self._stepped:
             bridge.close()
             raise ConfigError("ROS 2 lockstep needs an agent that accepts commands "
