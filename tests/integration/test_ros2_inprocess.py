@@ -18,6 +18,7 @@ import pytest
 
 rclpy = pytest.importorskip("rclpy")
 
+from nav_msgs.msg import Odometry  # noqa: E402
 from rclpy.context import Context  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.qos import qos_profile_sensor_data  # noqa: E402
@@ -252,6 +253,39 @@ def test_commands_validation_and_sim_time_timeout(bridge: Ros2Bridge, probe: Pro
     late = bridge.commands(agent, 6.01)
     assert late.stale and late.desired_speed is None and late.thrusters is None
     assert late.age_s == pytest.approx(1.01)
+
+
+def test_lockstep_round_is_answered_by_a_whole_command_group(ros_env: int,
+                                                             probe: Probe) -> None:
+    """A lockstep round counts as answered once every topic of one accepted command
+    group has arrived since it began: two of the three desired values are not enough,
+    the thrusters alone are; nothing new means silence."""
+    name = f"l_{secrets.token_hex(3)}"
+    with Ros2Bridge([AgentBridgeSpec(name, publish_sonar=False)], domain_id=ros_env,
+                    reliable_commands=True) as b:
+        desired = {k: probe.node.create_publisher(Float64, f"/{name}/cmd/{k}", 10)
+                   for k in ("desired_heading", "desired_speed", "desired_depth")}
+        thrusters = probe.node.create_publisher(Float64MultiArray, f"/{name}/cmd/thrusters", 10)
+        assert not b.wait_for_controller(name, 0.1)  # nobody reads the odometry yet
+        probe.sub(Odometry, f"/{name}/odom")
+        assert b.wait_for_controller(name, 10.0)
+        probe.spin_until(lambda: False, timeout=0.3)  # our readers matched by its writers
+
+        assert not b.begin_round(name)  # nothing answered before
+        desired["desired_heading"].publish(Float64(data=10.0))
+        desired["desired_speed"].publish(Float64(data=0.5))
+        assert b.wait_answers([name], 0.5) == [name]
+        desired["desired_depth"].publish(Float64(data=2.0))
+        assert b.wait_answers([name], 5.0) == []
+        assert b.begin_round(name)
+        thrusters.publish(Float64MultiArray(data=[1.0, 2.0, 3.0]))
+        assert b.wait_answers([name], 5.0) == []
+        assert b.begin_round(name)
+        assert b.wait_answers([name], 0.2) == [name]
+        assert not b.begin_round(name)
+        c = b.commands(name, 0.0)
+        assert (c.desired_heading_deg, c.desired_speed, c.desired_depth, c.thrusters) == (
+            10.0, 0.5, 2.0, (1.0, 2.0, 3.0))
 
 
 def test_wall_clock_timeout(ros_env: int, probe: Probe) -> None:
