@@ -20,7 +20,7 @@ import math
 import struct
 import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -206,6 +206,17 @@ class _AgentIO:
         """Since the last :meth:`Ros2Bridge.begin_round`, a whole command group this
         agent accepts has arrived (all three desired values, or the thrusters)."""
         return any(_ANSWER_GROUPS[group] <= self.answered for group in self.spec.accept)
+
+
+def _poll_until(condition: Callable[[], bool], timeout_s: float) -> bool:
+    """Check ``condition`` every 20 ms (wall clock) until it holds, at most ``timeout_s``
+    (ROS graph changes, which rclpy only lets us poll); True when it held."""
+    end = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > end:
+            return False
+        time.sleep(0.02)
+    return True
 
 
 def _set_stamp(header: Any, t_sim: float, frame_id: str) -> None:
@@ -943,13 +954,10 @@ class Ros2Bridge:
         the agent's command topics a matched publisher (its controller, for a lockstep
         start); True when that happened within ``timeout_s``."""
         io = self._io(agent, "wait_for_controller")
-        end = time.monotonic() + timeout_s
-        while not (io.pubs["odom"].get_subscription_count() > 0
-                   and any(sub.get_publisher_count() > 0 for sub in io.subs.values())):
-            if time.monotonic() > end:
-                return False
-            time.sleep(0.02)
-        return True
+        return _poll_until(
+            lambda: io.pubs["odom"].get_subscription_count() > 0
+            and any(sub.get_publisher_count() > 0 for sub in io.subs.values()),
+            timeout_s)
 
     @property
     def failing_topics(self) -> tuple[str, ...]:
@@ -967,9 +975,5 @@ class Ros2Bridge:
         """Block (wall clock) until every topic in ``topics`` has a subscriber, or the
         timeout passes; True on success. For tests and tools, not for the sim loop.
         DDS discovery of a new node takes from ~0.1 s to a few seconds."""
-        end = time.monotonic() + timeout_s
-        while not all(self.subscriber_count(t) > 0 for t in topics):
-            if time.monotonic() > end:
-                return False
-            time.sleep(0.02)
-        return True
+        return _poll_until(lambda: all(self.subscriber_count(t) > 0 for t in topics),
+                           timeout_s)

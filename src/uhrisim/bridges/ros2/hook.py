@@ -218,19 +218,18 @@ class Ros2BridgeHook(BaseHook):
                 self.bridge.publish_scene(float(sim.t), markers)
 
     def _await_controllers(self) -> None:
-        """Lockstep start: every agent that accepts commands needs its controller."""
+        """Lockstep start: every agent that accepts commands needs its controller (an
+        error here ends the run; the simulation's close then closes the bridge)."""
         bridge = self.bridge
         assert bridge is not None
         self._stepped = [ros for ros, *_, accept in self._links if accept]
         self._lapsed = set()
         self.n_rounds = 0
         if not self._stepped:
-            bridge.close()
             raise ConfigError("ROS 2 lockstep needs an agent that accepts commands "
                               "(links: [{agent: ..., accept: [desired]}])")
         for ros in self._stepped:
             if not bridge.wait_for_controller(ros, self._lockstep_start_timeout):
-                bridge.close()
                 raise BridgeError(
                     f"ROS 2 lockstep: no controller for {ros!r} within "
                     f"{self._lockstep_start_timeout:g} s (no node subscribed to /{ros}/odom and "
