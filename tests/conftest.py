@@ -1,7 +1,25 @@
 """Test-suite settings: property tests are derandomized (the same examples every run, on
-every machine) and have no per-example deadline (CI machines are shared and slow)."""
+every machine) and have no per-example deadline (CI machines are shared and slow); every
+test fails that reads a path beside the repository (tests/support/repository_bounds.py)."""
 
+import pytest
 from hypothesis import settings
+
+from tests.support import repository_bounds
 
 settings.register_profile("uhrisim", derandomize=True, deadline=None, print_blob=True)
 settings.load_profile("uhrisim")
+
+repository_bounds.install()
+
+
+@pytest.fixture(autouse=True)
+def _reads_stay_in_the_repository():
+    """Fail a test that opened or listed anything beside the repository (a bare clone
+    has nothing there: copy what a test needs into tests/data/ with its provenance)."""
+    start = len(repository_bounds.offences)
+    yield
+    seen = repository_bounds.offences[start:]
+    del repository_bounds.offences[start:]
+    if seen:
+        pytest.fail(f"read outside the repository ({len(seen)}×), first: {seen[0]}")

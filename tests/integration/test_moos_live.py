@@ -22,6 +22,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.support.moos_trace import trace_streams
 from uhrisim.autonomy.contacts import parse_node_report
 from uhrisim.bridges.moos.bridge import MoosAgentBridge
 from uhrisim.bridges.moos.client import MoosClient
@@ -310,25 +311,10 @@ def test_client_survives_a_server_speaking_garbage():
         th.join(2.0)
 
 
-def _trace_streams() -> dict[tuple[int, str], bytes]:
-    env = os.environ.get("UHRISIM_REFERENCE_DIR")
-    base = Path(env) if env else Path(__file__).resolve().parents[3] / "shared" / "reference"
-    path = base / "moos-trace.jsonl"
-    if not path.is_file():
-        pytest.fail(f"MOOS reference trace not found at {path} (set UHRISIM_REFERENCE_DIR)")
-    out: dict[tuple[int, str], bytes] = {}
-    for line in path.read_text().splitlines():
-        if line.strip():
-            rec = json.loads(line)
-            key = (rec["conn"], rec["dir"])
-            out[key] = out.get(key, b"") + bytes.fromhex(rec["hex"])
-    return out
-
-
 def test_client_talks_like_the_real_client_to_a_replayed_real_db():
     """Replay the real MOOSDB's welcome (trace, conn 2) to our client; what our client sends
     back must have the real client's shape, message by message (times and ids aside)."""
-    streams = _trace_streams()
+    streams = trace_streams()
     real_c2s = [m for p in MoosStreamParser(expect_handshake=True).feed(streams[(2, "c2s")])
                 for m in p.messages]
     real_s2c = MoosStreamParser().feed(streams[(2, "s2c")])

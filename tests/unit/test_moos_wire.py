@@ -1,22 +1,20 @@
 """MOOS v10 wire protocol: the real MOOSDB trace, byte-exact round trips, malformed input.
 
-Provenance: ``shared/reference/moos-trace.jsonl`` holds the raw bytes of two real client
-connections to a real MOOSDB (reference/moos-wire.md). The expected values below
+Provenance: ``tests/data/moos/moos-trace.jsonl`` holds the raw bytes of two real client
+connections to a real MOOSDB (its README says where they came from). The expected values below
 (DESIRED_HEADING = 123.5, NODE_NOTE = "hello world", NAV_X = 42.25, community "trace",
 client name "uPokeDB") are the ones that note says were posted.
 """
 
 from __future__ import annotations
 
-import json
-import os
 import struct
-from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from tests.support.moos_trace import trace_chunks, trace_streams
 from uhrisim.bridges.moos.wire import (
     HANDSHAKE,
     MESSAGE_MIN_LEN,
@@ -33,32 +31,6 @@ from uhrisim.bridges.moos.wire import (
     encode_packet,
 )
 from uhrisim.core.errors import BridgeError
-
-REPO = Path(__file__).resolve().parents[2]
-
-
-def _trace_path() -> Path:
-    env = os.environ.get("UHRISIM_REFERENCE_DIR")
-    base = Path(env) if env else REPO.parent / "shared" / "reference"
-    return base / "moos-trace.jsonl"
-
-
-def _streams() -> tuple[dict[tuple[int, str], bytes], dict[tuple[int, str], list[bytes]]]:
-    path = _trace_path()
-    if not path.is_file():
-        pytest.fail(f"MOOS reference trace not found at {path}: the shared/ folder must sit "
-                    "beside the repository (or set UHRISIM_REFERENCE_DIR)")
-    streams: dict[tuple[int, str], bytes] = {}
-    chunks: dict[tuple[int, str], list[bytes]] = {}
-    for line in path.read_text().splitlines():
-        if not line.strip():
-            continue
-        rec = json.loads(line)
-        k = (rec["conn"], rec["dir"])
-        b = bytes.fromhex(rec["hex"])
-        streams[k] = streams.get(k, b"") + b
-        chunks.setdefault(k, []).append(b)
-    return streams, chunks
 
 
 def _message_spans(stream: bytes, start: int) -> list[tuple[int, int]]:
@@ -78,7 +50,8 @@ def _message_spans(stream: bytes, start: int) -> list[tuple[int, int]]:
 
 
 def test_trace_parses_every_byte_and_reserialises_identically():
-    streams, chunks = _streams()
+    chunks = trace_chunks()
+    streams = trace_streams()
     assert set(streams) == {(1, "c2s"), (1, "s2c"), (2, "c2s"), (2, "s2c")}
     n_msgs = 0
     for (conn, direction), data in streams.items():
@@ -104,7 +77,7 @@ def test_trace_parses_every_byte_and_reserialises_identically():
 
 
 def test_trace_semantics():
-    streams, _ = _streams()
+    streams = trace_streams()
     c2s1 = MoosStreamParser(expect_handshake=True).feed(streams[(1, "c2s")])
     s2c1 = MoosStreamParser().feed(streams[(1, "s2c")])
     hello = c2s1[0].messages[0]
@@ -134,7 +107,7 @@ def test_trace_semantics():
 
 
 def test_trace_byte_by_byte_and_all_at_once_agree():
-    streams, _ = _streams()
+    streams = trace_streams()
     for (_, direction), data in streams.items():
         hs = direction == "c2s"
         whole = MoosStreamParser(expect_handshake=hs).feed(data)
