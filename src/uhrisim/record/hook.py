@@ -23,7 +23,7 @@ import numpy as np
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.record.mcap_recorder import McapRecorder
-from uhrisim.sensors.sonar.sonar import cloud_hits
+from uhrisim.sensors.sonar.cloud import cloud_hits
 
 logger = logging.getLogger(__name__)
 
