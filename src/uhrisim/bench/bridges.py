@@ -37,7 +37,7 @@ from contextlib import ExitStack
 from typing import Any, Literal
 
 from uhrisim.bench.mission import WARM_UP_S, mission_rates
-from uhrisim.sim.hooks import BaseHook, Hook
+from uhrisim.sim.simulation import BaseHook, Hook
 
 TARGET_OVERHEAD = 0.20
 #: Agents of the shipped mission, and the one carrying the sonar.
