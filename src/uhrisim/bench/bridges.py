@@ -77,7 +77,7 @@ class _AwaitListener(BaseHook):
         time.sleep(0.3)  # the graph shows the reader a little before the writer matches it
 
 
-#: Keys (:func:`~uhrisim.bridges.ros2.bridge.agent_topics`) of the sonar's bulk products.
+#: Keys (:func:`~uhrisim.bridges.ros2.topics.agent_topics`) of the sonar's bulk products.
 SONAR_DATA_KEYS = frozenset({"polar", "fan", "points"})
 
 
@@ -96,7 +96,7 @@ class _Ros2Case:
         if why_not is not None:
             return why_not
         from uhrisim.bridges.ros2 import AgentBridgeSpec, Ros2BridgeHook
-        from uhrisim.bridges.ros2.bridge import QOS_CLOCK, agent_topics
+        from uhrisim.bridges.ros2.topics import QOS_CLOCK, agent_topics
 
         from ._ros2_listener import Listener, qos_label, type_name
 
