@@ -1,4 +1,4 @@
-"""The recorder as a simulation publish hook (``uhrisim.sim.hooks.Hook``).
+"""The recorder as a simulation publish hook (``uhrisim.sim.simulation.Hook``).
 
 :class:`McapRecordingHook` turns each :class:`~uhrisim.sim.hooks.TickFrame` into
 :class:`~uhrisim.record.McapRecorder` calls: agent odometry (every ``odom_every``
