@@ -132,8 +132,8 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
                        view_port: int | None = None, lockstep: bool = False) -> Any:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from uhrisim.bridges.live import live_hooks
     from uhrisim.scenario.load import load_scenario
-    from uhrisim.sim.live import live_hooks
     from uhrisim.sim.runner import run_scenario
 
     source = load_scenario(scenario)

@@ -37,7 +37,7 @@ from contextlib import ExitStack
 from typing import Any, Literal
 
 from uhrisim.bench.mission import WARM_UP_S, mission_rates
-from uhrisim.sim.hooks import BaseHook, Hook
+from uhrisim.sim.simulation import BaseHook, Hook
 
 TARGET_OVERHEAD = 0.20
 #: Agents of the shipped mission, and the one carrying the sonar.
@@ -77,7 +77,7 @@ class _AwaitListener(BaseHook):
         time.sleep(0.3)  # the graph shows the reader a little before the writer matches it
 
 
-#: Keys (:func:`~uhrisim.bridges.ros2.bridge.agent_topics`) of the sonar's bulk products.
+#: Keys (:func:`~uhrisim.bridges.ros2.topics.agent_topics`) of the sonar's bulk products.
 SONAR_DATA_KEYS = frozenset({"polar", "fan", "points"})
 
 
@@ -96,7 +96,7 @@ class _Ros2Case:
         if why_not is not None:
             return why_not
         from uhrisim.bridges.ros2 import AgentBridgeSpec, Ros2BridgeHook
-        from uhrisim.bridges.ros2.bridge import QOS_CLOCK, agent_topics
+        from uhrisim.bridges.ros2.topics import QOS_CLOCK, agent_topics
 
         from ._ros2_listener import Listener, qos_label, type_name
 

@@ -16,8 +16,7 @@ from typing import Any
 
 from uhrisim.scenario.load import load_scenario
 from uhrisim.scenario.shipped import shipped_scenario
-from uhrisim.sim.hooks import Hook
-from uhrisim.sim.simulation import Simulation
+from uhrisim.sim.simulation import Hook, Simulation
 
 TARGETS = {"with_sonar": 10.0, "without_sonar": 100.0}
 #: Simulated seconds run before the timed ones: caches, first pings, bridge connections.

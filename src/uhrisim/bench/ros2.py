@@ -75,7 +75,7 @@ def run(quick: bool = False) -> dict[str, Any]:
 
 def _run(quick: bool, domain: int, agent: str) -> dict[str, Any]:
     from uhrisim.bridges.ros2 import AgentBridgeSpec, Ros2Bridge
-    from uhrisim.bridges.ros2.bridge import agent_topics
+    from uhrisim.bridges.ros2.topics import agent_topics
 
     from ._ros2_listener import Listener, qos_label, type_name
 

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from uhrisim.dynamics import videoray
 from uhrisim.dynamics.integrators import integrate_adaptive
 from uhrisim.dynamics.plants import VideoRayPlant
+from uhrisim.viz.openloop_figures import plot_openloop
 
 THRUST_INPUT = np.array([130.0, 150.0, -100.0])  # port, starboard, vertical (paper section IV)
 THRUST_DURATION = 5.0  # s
@@ -73,8 +74,7 @@ def write_csv(run: OpenLoopRun, path: Path) -> Path:
 
 def make_openloop(out_dir: Path) -> list[Path]:
     """Run the experiment and write ``openloop.csv`` and the four figures (PNG)."""
-    from uhrisim.viz.openloop_figures import plot_openloop
-
     out_dir.mkdir(parents=True, exist_ok=True)
     run = run_openloop()
-    return [write_csv(run, out_dir / "openloop.csv"), *plot_openloop(run, out_dir)]
+    figures = plot_openloop(run.t, run.states, run.inputs, out_dir)
+    return [write_csv(run, out_dir / "openloop.csv"), *figures]

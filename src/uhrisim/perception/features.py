@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.sensors.sonar.sonar import SonarPing
+from uhrisim.sensors.sonar.ping import SonarPing
 
 
 @dataclass(frozen=True)

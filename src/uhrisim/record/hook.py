@@ -1,4 +1,4 @@
-"""The recorder as a simulation publish hook (``uhrisim.sim.hooks.Hook``).
+"""The recorder as a simulation publish hook (``uhrisim.sim.simulation.Hook``).
 
 :class:`McapRecordingHook` turns each :class:`~uhrisim.sim.hooks.TickFrame` into
 :class:`~uhrisim.record.McapRecorder` calls: agent odometry (every ``odom_every``
@@ -23,7 +23,7 @@ import numpy as np
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.record.mcap_recorder import McapRecorder
-from uhrisim.sensors.sonar.sonar import cloud_hits
+from uhrisim.sensors.sonar.cloud import cloud_hits
 
 logger = logging.getLogger(__name__)
 

@@ -1,10 +1,15 @@
-"""Turn a validated scenario into live agents and scheduled events."""
+"""Turn a validated scenario into live agents and scheduled events.
+
+The builders take the simulation under construction as a :class:`BuildContext` — what
+they read of it — so that they sit below :class:`~uhrisim.sim.simulation.Simulation`,
+which calls them; what they build are the records of :mod:`uhrisim.sim.state`.
+"""
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
@@ -15,26 +20,40 @@ from uhrisim.autonomy.contacts import AlertSpec, ContactManagerConfig
 from uhrisim.control.diver import DiverController, DiverGains
 from uhrisim.control.marine_pid import MarinePidController, MarinePidGains
 from uhrisim.control.videoray_p import GAIN_PRESETS, VideoRayPController
+from uhrisim.core.clock import ticks_for_rate
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import rot_z
 from uhrisim.dynamics.diver import DiverParams
 from uhrisim.dynamics.kinematic import KinematicParams
 from uhrisim.dynamics.plants import DiverPlant, KinematicPlant, VideoRayPlant
 from uhrisim.dynamics.videoray import VideoRayParams
-from uhrisim.scenario.build_world import add_object, material_named
-from uhrisim.scenario.schema import AgentConfig, SonarSensor
+from uhrisim.scenario.build_world import material_named
+from uhrisim.scenario.load import ScenarioFile
+from uhrisim.scenario.schema import AgentConfig, Scenario, SonarSensor
 from uhrisim.sim.community import Community
 from uhrisim.sim.drivers import HelmDriver, ScriptedDriver
 from uhrisim.sim.script import ScriptDriver
+from uhrisim.sim.state import Agent, ScheduledEvent, SonarSlot
 from uhrisim.world.assets import diver_parts, videoray_mesh
 from uhrisim.world.materials import NEOPRENE, ROV_PLASTIC
-
-if TYPE_CHECKING:
-    from uhrisim.sim.simulation import Agent, ScheduledEvent, Simulation
+from uhrisim.world.scene import Scene
 
 #: Collision spheres (m): VideoRay hull ~0.38 x 0.29 x 0.22 m; a prone diver with fins is
 #: ~2.3 m long, a 0.6 m sphere covers the torso and tank where contact matters.
 COLLISION_RADIUS = {"videoray": 0.25, "diver": 0.6, "kinematic": 0.5}
+
+
+class BuildContext(Protocol):
+    """What the builders read of the simulation they build for (a Simulation is one): the
+    scenario and its file, the physics step ``dt`` (s), the scene the agents' bodies are
+    added to, and the named random streams."""
+
+    source: ScenarioFile
+    scenario: Scenario
+    dt: float
+    scene: Scene
+
+    def rng(self, component: str) -> np.random.Generator: ...
 
 
 def _plant(cfg: AgentConfig, dt: float):
@@ -63,10 +82,9 @@ def _controller(cfg: AgentConfig, plant):
     return MarinePidController(MarinePidGains())
 
 
-def _sonar(sim: Simulation, cfg: AgentConfig, index: int, sensor: SonarSensor):
+def _sonar(sim: BuildContext, cfg: AgentConfig, index: int, sensor: SonarSensor):
     from uhrisim.sensors.sonar.config import SonarConfig
     from uhrisim.sensors.sonar.sonar import ImagingSonar
-    from uhrisim.sim.simulation import SonarSlot, ticks_for_rate
 
     water = sim.scenario.world.water
     where = sim.source.where("agents", _agent_index(sim, cfg.name), "sensors", index)
@@ -90,11 +108,11 @@ def _sonar(sim: Simulation, cfg: AgentConfig, index: int, sensor: SonarSensor):
     return SonarSlot(name, sonar, period)
 
 
-def _agent_index(sim: Simulation, name: str) -> int:
+def _agent_index(sim: BuildContext, name: str) -> int:
     return [a.name for a in sim.scenario.agents].index(name)
 
 
-def known_external_vars(sim: Simulation, agent_name: str) -> set[str]:
+def known_external_vars(sim: BuildContext, agent_name: str) -> set[str]:
     """Variables posted into this agent's community from outside its helm."""
     s = sim.scenario
     known = {b.var for b in s.buttons if b.agent == agent_name}
@@ -103,7 +121,7 @@ def known_external_vars(sim: Simulation, agent_name: str) -> set[str]:
     return known
 
 
-def _helm_driver(sim: Simulation, cfg: AgentConfig, community: Community) -> HelmDriver:
+def _helm_driver(sim: BuildContext, cfg: AgentConfig, community: Community) -> HelmDriver:
     index = _agent_index(sim, cfg.name)
     section = cfg.helm
     alerts = tuple(AlertSpec(id=a.var.lower(), var=a.var, pattern=a.pattern,
@@ -126,7 +144,7 @@ def _helm_driver(sim: Simulation, cfg: AgentConfig, community: Community) -> Hel
     return HelmDriver(autonomy, community.mailbox())
 
 
-def _add_body(sim: Simulation, cfg: AgentConfig, state) -> None:
+def _add_body(sim: BuildContext, cfg: AgentConfig, state) -> None:
     position, rotation = state[:3], rot_z(state[3])
     material = material_named(cfg.material, f"agents.{cfg.name}.material") \
         if cfg.material else None
@@ -138,9 +156,7 @@ def _add_body(sim: Simulation, cfg: AgentConfig, state) -> None:
                               position, rotation)
 
 
-def build_agents(sim: Simulation, sonar_enabled: bool) -> dict[str, Agent]:
-    from uhrisim.sim.simulation import Agent, ticks_for_rate
-
+def build_agents(sim: BuildContext, sonar_enabled: bool) -> dict[str, Agent]:
     agents: dict[str, Agent] = {}
     for index, cfg in enumerate(sim.scenario.agents):
         plant = _plant(cfg, sim.dt)
@@ -169,9 +185,7 @@ def build_agents(sim: Simulation, sonar_enabled: bool) -> dict[str, Agent]:
     return agents
 
 
-def build_events(sim: Simulation) -> list[ScheduledEvent]:
-    from uhrisim.sim.simulation import ScheduledEvent
-
+def build_events(sim: BuildContext) -> list[ScheduledEvent]:
     events = []
     for index, cfg in enumerate(sim.scenario.events):
         condition = None
@@ -179,34 +193,3 @@ def build_events(sim: Simulation) -> list[ScheduledEvent]:
             condition = parse_condition(cfg.when, sim.source.where("events", index, "when"))
         events.append(ScheduledEvent(cfg, index, condition))
     return events
-
-
-def apply_event_action(sim: Simulation, event: ScheduledEvent) -> None:
-    """Carry out a scripted event's action and log it."""
-    cfg = event.config
-    if cfg.post is not None:
-        sim.agents[cfg.post.agent].community.post(cfg.post.var, cfg.post.value, sim.t, "event")
-        sim.record_event("event", f"posted {cfg.post.var}={cfg.post.value} to {cfg.post.agent}")
-    elif cfg.add_object is not None:
-        where = sim.source.where("events", event.index, "add_object")
-        obj = cfg.add_object
-        add_object(sim.scene, obj, sim.source, where)
-        sim.refresh_static_obstacles()
-        sim.record_event("event", f"added object {obj.label!r}")
-    elif cfg.move_object is not None:
-        move = cfg.move_object
-        if move.label not in sim.scene.body_names:
-            raise ConfigError(f"move_object: no movable body named {move.label!r}; movable: "
-                              f"{', '.join(sim.scene.body_names)}",
-                              where=sim.source.where("events", event.index, "move_object"))
-        _, rotation, _ = sim.scene.pose(move.label)
-        sim.scene.set_pose(move.label, np.array(move.position.as_list()), rotation)
-        sim.record_event("event", f"moved {move.label!r} to {move.position.as_list()}")
-    elif cfg.script is not None:
-        agent = sim.agents[cfg.agent]
-        if isinstance(agent.driver, ScriptedDriver):
-            agent.driver.script.replace(cfg.script)
-        else:
-            agent.driver = ScriptedDriver(ScriptDriver(cfg.script))
-            agent.driver_period = max(1, round(0.25 / sim.dt))
-        sim.record_event("event", f"new script for {cfg.agent} ({len(cfg.script)} legs)")

@@ -3,23 +3,22 @@
 Each observing agent receives, at its contacts rate, a NODE_REPORT of every other agent
 (MOOS frame: x east, y north, compass heading), with Gaussian position noise, a fixed
 latency and random dropout drawn from the observer's own random stream. A sonar-based
-tracker can replace this class: anything with ``step(sim, t)`` that posts NODE_REPORTs
+tracker can replace this class: anything with ``step(tick, t)`` that posts NODE_REPORTs
 into the observers' communities will do.
 """
 
 from __future__ import annotations
 
 import heapq
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from uhrisim.autonomy.contacts import NodeReport, format_node_report
+from uhrisim.core.clock import ticks_for_rate
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned
-
-if TYPE_CHECKING:
-    from uhrisim.sim.simulation import Agent, Simulation
+from uhrisim.sim.state import Agent
 
 VEHICLE_TYPES = {"videoray": "UUV", "diver": "DIVER", "kinematic": "UUV"}
 VEHICLE_LENGTHS = {"videoray": 0.38, "diver": 2.3, "kinematic": 1.0}  # m
@@ -52,27 +51,34 @@ class _Queued:
 
 
 class TruthContacts:
-    """Delivers truth NODE_REPORTs to every helm-driven agent."""
+    """Delivers truth NODE_REPORTs to every helm-driven agent.
 
-    def __init__(self, sim: Simulation) -> None:
-        from uhrisim.sim.simulation import ticks_for_rate
+    ``agents``: the simulation's agents by name (read on every step); ``dt``: the
+    physics step (s); ``rng(name)``: the named random stream of a component (each
+    observer's noise and dropout come from ``"<observer>/contacts"``).
+    """
 
-        self._observers = [a for a in sim.agents.values() if a.config.driver == "helm"]
+    def __init__(self, agents: Mapping[str, Agent], dt: float,
+                 rng: Callable[[str], np.random.Generator]) -> None:
+        self._agents = agents
+        self._observers = [a for a in agents.values() if a.config.driver == "helm"]
         self._periods = {
-            a.name: ticks_for_rate(a.config.contacts.rate_hz, sim.dt,
+            a.name: ticks_for_rate(a.config.contacts.rate_hz, dt,
                                    f"agents.{a.name}.contacts.rate_hz")
             for a in self._observers}
-        self._rngs = {a.name: sim.rng(f"{a.name}/contacts") for a in self._observers}
+        self._rngs = {a.name: rng(f"{a.name}/contacts") for a in self._observers}
         self._queue: list[_Queued] = []
         self._sequence = 0
 
-    def step(self, sim: Simulation, t: float) -> None:
+    def step(self, tick: int, t: float) -> None:
+        """Send the reports due at ``tick`` (time ``t``, s) and deliver those whose
+        latency has passed."""
         for observer in self._observers:
-            if sim.tick % self._periods[observer.name]:
+            if tick % self._periods[observer.name]:
                 continue
             cfg = observer.config.contacts
             rng = self._rngs[observer.name]
-            for target in sim.agents.values():
+            for target in self._agents.values():
                 if target is observer:
                     continue
                 dropped = rng.random() < cfg.dropout
@@ -85,4 +91,5 @@ class TruthContacts:
                                                     observer.name, report))
         while self._queue and self._queue[0].deliver_at <= t + 1e-9:
             item = heapq.heappop(self._queue)
-            sim.agents[item.observer].community.post("NODE_REPORT", item.report, t, "contacts")
+            self._agents[item.observer].community.post("NODE_REPORT", item.report, t,
+                                                       "contacts")

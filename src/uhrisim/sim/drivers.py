@@ -2,16 +2,12 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from uhrisim.autonomy.behaviors.base import OwnNav
 from uhrisim.autonomy.community import VehicleAutonomy
 from uhrisim.sim.community import Mailbox
 from uhrisim.sim.hooks import HelmRecord
 from uhrisim.sim.script import ScriptDriver
-
-if TYPE_CHECKING:
-    from uhrisim.sim.simulation import Agent
+from uhrisim.sim.state import Agent
 
 
 class HelmDriver:

@@ -2,21 +2,22 @@
 
 Hooks (recorder, metrics, viewer, ROS 2 and MOOS bridges) get copies and immutable
 snapshots; they never mutate simulation state. Commands from outside enter through
-:meth:`uhrisim.sim.simulation.Simulation.post` / ``set_actuators`` instead.
+:meth:`uhrisim.sim.simulation.Simulation.post` / ``set_actuators`` instead. The hook
+interface itself (:class:`~uhrisim.sim.simulation.Hook`, ``BaseHook``) lives with the
+Simulation that calls it; this module holds only the data it passes.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING
 
 from uhrisim.dynamics.plants import NavState
 from uhrisim.sim.community import Post
 
 if TYPE_CHECKING:
-    from uhrisim.sensors.sonar.sonar import SonarPing
-    from uhrisim.sim.simulation import Simulation
+    from uhrisim.sensors.sonar.ping import SonarPing
 
 
 @dataclass(frozen=True)
@@ -114,29 +115,3 @@ class TickFrame:
     helm: Mapping[str, HelmRecord] = field(default_factory=dict)
     posts: tuple[Post, ...] = ()
     events: tuple[SimEvent, ...] = ()
-
-
-class Hook(Protocol):
-    """A read-only observer of the simulation."""
-
-    def on_start(self, sim: Simulation) -> None: ...
-
-    def on_tick(self, frame: TickFrame) -> None: ...
-
-    def on_end(self, sim: Simulation, error: BaseException | None) -> None: ...
-
-
-class BaseHook:
-    """Convenience base: every callback does nothing."""
-
-    def on_start(self, sim: Simulation) -> None:
-        del sim
-
-    def on_tick(self, frame: TickFrame) -> None:
-        del frame
-
-    def on_end(self, sim: Simulation, error: BaseException | None) -> None:
-        del sim, error
-
-    def summary(self) -> dict[str, Any]:
-        return {}

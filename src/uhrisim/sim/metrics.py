@@ -17,16 +17,14 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from uhrisim.core.frames import wrap_180
 from uhrisim.scenario.schema import TrailMetricConfig
-from uhrisim.sim.hooks import BaseHook, TickFrame
-
-if TYPE_CHECKING:
-    from uhrisim.sim.simulation import Simulation
+from uhrisim.sim.hooks import TickFrame
+from uhrisim.sim.simulation import BaseHook, Simulation
 
 SAMPLE_RATE_HZ = 10.0
 

@@ -18,9 +18,9 @@ import numpy as np
 
 from uhrisim.record.hook import McapRecordingHook
 from uhrisim.scenario.load import ScenarioFile, load_scenario
-from uhrisim.sim.hooks import BaseHook, Hook, TickFrame
+from uhrisim.sim.hooks import TickFrame
 from uhrisim.sim.metrics import TrailMetrics
-from uhrisim.sim.simulation import Simulation
+from uhrisim.sim.simulation import BaseHook, Hook, Simulation
 
 SONAR_STRIP_FRAMES = 6
 

@@ -25,8 +25,7 @@ import math
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,14 +33,15 @@ from numpy.typing import NDArray
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned, rot_z
 from uhrisim.core.rng import component_rng
-from uhrisim.dynamics.plants import NavState
-from uhrisim.scenario.build_world import build_static_scene
+from uhrisim.scenario.build_world import add_object, build_static_scene
 from uhrisim.scenario.load import ScenarioFile
-from uhrisim.scenario.schema import AgentConfig, EventConfig
-from uhrisim.sim.build import apply_event_action, build_agents, build_events
-from uhrisim.sim.community import Community, Value, checked_value
+from uhrisim.sim.build import build_agents, build_events
+from uhrisim.sim.community import Value, checked_value
 from uhrisim.sim.contacts import TruthContacts
-from uhrisim.sim.hooks import AgentSnapshot, AgentSnapshots, HelmRecord, Hook, SimEvent, TickFrame
+from uhrisim.sim.drivers import ScriptedDriver
+from uhrisim.sim.hooks import AgentSnapshot, AgentSnapshots, HelmRecord, SimEvent, TickFrame
+from uhrisim.sim.script import ScriptDriver
+from uhrisim.sim.state import Agent, ScheduledEvent
 from uhrisim.world.assets import diver_kick_phase_rate
 from uhrisim.world.scene import Scene
 
@@ -50,87 +50,32 @@ log = logging.getLogger(__name__)
 SURFACE_DEPTH = 0.0  # m; bodies cannot leave the water
 
 
-def ticks_for_rate(rate_hz: float, dt: float, where: str) -> int:
-    """Whole number of physics steps per period of ``rate_hz``; ConfigError otherwise."""
-    ticks = 1.0 / (rate_hz * dt)
-    whole = round(ticks)
-    if whole < 1 or abs(ticks - whole) > 1e-6 * max(1.0, ticks):
-        raise ConfigError(
-            f"rate {rate_hz:g} Hz is not a whole number of physics steps of {dt:g} s "
-            f"({ticks:.4g} steps); choose a rate that divides the physics rate "
-            f"{1.0 / dt:g} Hz", where=where)
-    return whole
+class Hook(Protocol):
+    """A read-only observer of the simulation (recorder, metrics, viewer, bridges): told
+    of the start, handed every tick's :class:`~uhrisim.sim.hooks.TickFrame`, told of the
+    end (with the error that stopped the run, if one did)."""
+
+    def on_start(self, sim: Simulation) -> None: ...
+
+    def on_tick(self, frame: TickFrame) -> None: ...
+
+    def on_end(self, sim: Simulation, error: BaseException | None) -> None: ...
 
 
-@dataclass
-class SonarSlot:
-    """A sonar on an agent with its tick period."""
+class BaseHook:
+    """Convenience base: every callback does nothing."""
 
-    name: str
-    sonar: Any  # uhrisim.sensors.sonar.sonar.ImagingSonar
-    period: int
+    def on_start(self, sim: Simulation) -> None:
+        del sim
 
+    def on_tick(self, frame: TickFrame) -> None:
+        del frame
 
-@dataclass
-class Agent:
-    """Mutable per-agent state owned by the Simulation (hand out snapshots, not this)."""
+    def on_end(self, sim: Simulation, error: BaseException | None) -> None:
+        del sim, error
 
-    config: AgentConfig
-    plant: Any
-    controller: Any
-    community: Community
-    state: NDArray
-    inputs: NDArray
-    radius: float
-    driver: Any = None
-    driver_period: int = 1
-    control_period: int = 1
-    sonars: list[SonarSlot] = field(default_factory=list)
-    kick_phase: float = 0.0
-    actuator_override: NDArray | None = None
-    actuator_override_until: float = -1.0
-    in_contact: bool = False  # touching another body or the scene since the last tick
-    last_helm: HelmRecord | None = None
-    _nav: NavState | None = None  # cache; cleared by every change of state or inputs
-
-    @property
-    def name(self) -> str:
-        return self.config.name
-
-    def update(self, state: NDArray | None = None, inputs: NDArray | None = None) -> None:
-        """Replace the state and/or the actuator inputs (the only way the loop changes them)."""
-        if state is not None:
-            self.state = state
-        if inputs is not None:
-            self.inputs = inputs
-        self._nav = None
-
-    @property
-    def is_diver_body(self) -> bool:
-        """Does this agent look like a diver in the scene (kicking legs and fins)?"""
-        return self.config.scene_body == "diver"
-
-    def nav(self) -> NavState:
-        """Navigation truth now (cached until the state or the inputs change)."""
-        if self._nav is None:
-            self._nav = self.plant.nav(self.state, self.inputs)
-        return self._nav
-
-    def desired(self) -> tuple[float, float, float]:
-        """DESIRED_HEADING (deg), DESIRED_SPEED (m/s), DESIRED_DEPTH (m) now."""
-        c = self.community
-        start = self.config.start
-        return (float(c.get("DESIRED_HEADING", start.heading_deg % 360.0)),
-                float(c.get("DESIRED_SPEED", 0.0)),
-                float(c.get("DESIRED_DEPTH", start.depth)))
-
-
-@dataclass
-class ScheduledEvent:
-    config: EventConfig
-    index: int
-    condition: Any = None
-    fired: bool = False
+    def summary(self) -> dict[str, Any]:
+        return {}
 
 
 class Simulation:
@@ -152,7 +97,7 @@ class Simulation:
         self._inbox_lock = threading.Lock()
         self.scene: Scene = build_static_scene(source)
         self.agents: dict[str, Agent] = build_agents(self, sonar_enabled)
-        self.contacts = TruthContacts(self)
+        self.contacts = TruthContacts(self.agents, self.dt, self.rng)
         self.events: list[ScheduledEvent] = build_events(self)
         self.raycaster = self.scene.raycaster("embree") if any(
             a.sonars for a in self.agents.values()) else None
@@ -235,7 +180,7 @@ class Simulation:
         for agent in self.agents.values():
             if self.tick % agent.driver_period == 0:
                 self._post_nav(agent)
-        self.contacts.step(self, t)
+        self.contacts.step(self.tick, t)
         pings = self._sense() if self.raycaster is not None else {}
         helm: dict[str, HelmRecord] = {}
         for agent in self.agents.values():
@@ -312,7 +257,38 @@ class Simulation:
                 and event.condition.evaluate(self.agents[cfg.agent].community.values()))
             if due:
                 event.fired = True
-                apply_event_action(self, event)
+                self._apply_event(event)
+
+    def _apply_event(self, event: ScheduledEvent) -> None:
+        """Carry out a scripted event's action and log it."""
+        cfg = event.config
+        if cfg.post is not None:
+            post = cfg.post
+            self.agents[post.agent].community.post(post.var, post.value, self.t, "event")
+            self.record_event("event", f"posted {post.var}={post.value} to {post.agent}")
+        elif cfg.add_object is not None:
+            where = self.source.where("events", event.index, "add_object")
+            obj = cfg.add_object
+            add_object(self.scene, obj, self.source, where)
+            self.refresh_static_obstacles()
+            self.record_event("event", f"added object {obj.label!r}")
+        elif cfg.move_object is not None:
+            move = cfg.move_object
+            if move.label not in self.scene.body_names:
+                raise ConfigError(f"move_object: no movable body named {move.label!r}; movable: "
+                                  f"{', '.join(self.scene.body_names)}",
+                                  where=self.source.where("events", event.index, "move_object"))
+            _, rotation, _ = self.scene.pose(move.label)
+            self.scene.set_pose(move.label, np.array(move.position.as_list()), rotation)
+            self.record_event("event", f"moved {move.label!r} to {move.position.as_list()}")
+        elif cfg.script is not None:
+            agent = self.agents[cfg.agent]
+            if isinstance(agent.driver, ScriptedDriver):
+                agent.driver.script.replace(cfg.script)
+            else:
+                agent.driver = ScriptedDriver(ScriptDriver(cfg.script))
+                agent.driver_period = max(1, round(0.25 / self.dt))
+            self.record_event("event", f"new script for {cfg.agent} ({len(cfg.script)} legs)")
 
     def _advance(self, agent: Agent) -> None:
         previous = agent.state  # plants return a new state; this one stays as it was

@@ -3,24 +3,24 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+
+from numpy.typing import NDArray
 
 from uhrisim.viz.figures import save_figure, subplots
 
-if TYPE_CHECKING:
-    from uhrisim.experiments.openloop import OpenLoopRun
 
+def plot_openloop(t: NDArray, states: NDArray, inputs: NDArray, out_dir: Path) -> list[Path]:
+    """Write ``openloop_track.png``, ``_inputs``, ``_positions``, ``_velocities`` to out_dir.
 
-
-def plot_openloop(run: OpenLoopRun, out_dir: Path) -> list[Path]:
-    """Write ``openloop_track.png``, ``_inputs``, ``_positions``, ``_velocities`` to out_dir."""
-    t, s = run.t, run.states
+    ``t``: (n,) times (s); ``states``: (n, 8) VideoRay states ``x y z psi u v w r`` (NED m,
+    rad, FRD m/s, rad/s); ``inputs``: (n, 3) thruster inputs ``port, star, vert`` (-150..150).
+    """
     paths = []
 
     fig, ax = subplots(figsize=(5, 5))
-    ax.plot(s[:, 1], s[:, 0], color="tab:blue")  # east on the horizontal axis, north up
-    ax.plot(s[0, 1], s[0, 0], "go", label="start")
-    ax.plot(s[-1, 1], s[-1, 0], "rs", label="end")
+    ax.plot(states[:, 1], states[:, 0], color="tab:blue")  # east on the horizontal axis, north up
+    ax.plot(states[0, 1], states[0, 0], "go", label="start")
+    ax.plot(states[-1, 1], states[-1, 0], "rs", label="end")
     ax.set_xlabel("east y (m)")
     ax.set_ylabel("north x (m)")
     ax.set_title("VideoRay open loop: x-y track (Fig. 5)")
@@ -31,7 +31,7 @@ def plot_openloop(run: OpenLoopRun, out_dir: Path) -> list[Path]:
 
     fig, ax = subplots(figsize=(6, 3.5))
     for k, label in enumerate(("port", "starboard", "vertical")):
-        ax.plot(t, run.inputs[:, k], label=label)
+        ax.plot(t, inputs[:, k], label=label)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("thruster input (-150..150)")
     ax.set_title("Thruster inputs (Fig. 6)")
@@ -41,7 +41,7 @@ def plot_openloop(run: OpenLoopRun, out_dir: Path) -> list[Path]:
 
     fig, ax = subplots(figsize=(6, 3.5))
     for k, label in enumerate(("x north (m)", "y east (m)", "z depth (m)")):
-        ax.plot(t, s[:, k], label=label)
+        ax.plot(t, states[:, k], label=label)
     ax.set_xlabel("time (s)")
     ax.set_title("Positions (Fig. 7)")
     ax.grid(True)
@@ -50,7 +50,7 @@ def plot_openloop(run: OpenLoopRun, out_dir: Path) -> list[Path]:
 
     fig, ax = subplots(figsize=(6, 3.5))
     for k, label in zip(range(4, 7), ("u surge", "v sway", "w heave"), strict=True):
-        ax.plot(t, s[:, k], label=f"{label} (m/s)")
+        ax.plot(t, states[:, k], label=f"{label} (m/s)")
     ax.set_xlabel("time (s)")
     ax.set_title("Linear velocities (Fig. 8)")
     ax.grid(True)

@@ -18,8 +18,9 @@ from uhrisim.world import assets, materials, primitives, seafloor
 from uhrisim.world.bodies import ArticulatedMesh, Joint, Part
 from uhrisim.world.materials import Material
 from uhrisim.world.meshes import load_mesh
+from uhrisim.world.objects import DynamicBody, StaticObject
 from uhrisim.world.raycast import EmbreeRayCaster, RayCaster, RayHits, ReferenceRayCaster
-from uhrisim.world.scene import DynamicBody, Scene, StaticObject
+from uhrisim.world.scene import Scene
 from uhrisim.world.seafloor import SeaFloor
 
 __all__ = [

@@ -1,5 +1,9 @@
 """Ray casting against a :class:`~uhrisim.world.scene.Scene`: Embree and a numpy reference.
 
+A caster reads the scene through :class:`SceneGeometry` (its static objects and posed
+bodies, :mod:`uhrisim.world.objects`); the Scene builds casters over itself
+(``Scene.raycaster()``), so this module sits below it.
+
 Both back ends answer the same question — for each ray (origin, unit direction, NED
 metres) the first surface within ``max_range`` — and return a :class:`RayHits`.
 
@@ -35,17 +39,15 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import row_dots
-
-if TYPE_CHECKING:
-    from uhrisim.world.bodies import ArticulatedMesh
-    from uhrisim.world.scene import Scene
+from uhrisim.world.bodies import ArticulatedMesh
+from uhrisim.world.objects import DynamicBody, StaticObject
 
 log = logging.getLogger(__name__)
 
@@ -197,16 +199,40 @@ def _face_to_ray(normal: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray
     return normal * np.where(s > 0.0, -1.0, 1.0)[:, None]
 
 
+class SceneGeometry(Protocol):
+    """What a ray caster reads of a scene (a :class:`~uhrisim.world.scene.Scene` is one)."""
+
+    @property
+    def static_objects(self) -> tuple[StaticObject, ...]:
+        """Fixed meshes (NED), in the order added."""
+        ...
+
+    @property
+    def static_version(self) -> int:
+        """Changes whenever static geometry is added (casters rebuild lazily)."""
+        ...
+
+    @property
+    def bodies(self) -> tuple[DynamicBody, ...]:
+        """Posed dynamic bodies; body ids in :class:`RayHits` index this tuple."""
+        ...
+
+    @property
+    def body_names(self) -> list[str]:
+        """Names of the dynamic bodies, in the order of ``bodies``."""
+        ...
+
+
 class RayCaster(ABC):
     """Casts rays into a scene; created once, reused every tick (sees later set_pose calls)."""
 
     backend: str = ""
 
-    def __init__(self, scene: Scene) -> None:
+    def __init__(self, scene: SceneGeometry) -> None:
         self._scene = scene
 
     @property
-    def scene(self) -> Scene:
+    def scene(self) -> SceneGeometry:
         return self._scene
 
     def cast(
@@ -255,7 +281,7 @@ class ReferenceRayCaster(RayCaster):
 
     backend = "reference"
 
-    def __init__(self, scene: Scene, max_pairs: int = 1 << 18) -> None:
+    def __init__(self, scene: SceneGeometry, max_pairs: int = 1 << 18) -> None:
         super().__init__(scene)
         self._max_pairs = int(max_pairs)
 
@@ -527,7 +553,7 @@ class EmbreeRayCaster(RayCaster):
 
     backend = "embree"
 
-    def __init__(self, scene: Scene, threads: int = 1) -> None:
+    def __init__(self, scene: SceneGeometry, threads: int = 1) -> None:
         super().__init__(scene)
         if not isinstance(threads, int) or threads < 1:
             raise ConfigError(
@@ -672,7 +698,7 @@ class _RayCuller:
         return np.flatnonzero((d2 <= r * r) & (tca + r >= 0.0) & (tca - r <= limit))
 
 
-def make_raycaster(scene: Scene, backend: str = "embree", threads: int = 1) -> RayCaster:
+def make_raycaster(scene: SceneGeometry, backend: str = "embree", threads: int = 1) -> RayCaster:
     """Ray caster of the named back end ("embree" or "reference") over ``scene``.
 
     ``threads`` > 1 splits the static-geometry Embree query of large batches across that

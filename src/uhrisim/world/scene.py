@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import trimesh
@@ -23,60 +22,16 @@ from numpy.typing import ArrayLike, NDArray
 from uhrisim.core.errors import ConfigError
 from uhrisim.world.bodies import ArticulatedMesh
 from uhrisim.world.materials import Material
-from uhrisim.world.raycast import RayCaster, RayHits, make_raycaster
+from uhrisim.world.objects import DynamicBody, StaticObject
+from uhrisim.world.raycast import RayCaster, make_raycaster
 from uhrisim.world.seafloor import SeaFloor
 
-__all__ = ["DynamicBody", "RayCaster", "RayHits", "Scene", "StaticObject"]
+__all__ = ["Scene"]
 
 log = logging.getLogger(__name__)
 
 _EYE3 = np.eye(3)
 _EYE3.setflags(write=False)
-
-
-@dataclass(frozen=True)
-class StaticObject:
-    """A fixed mesh in NED with its label id and material."""
-
-    mesh: trimesh.Trimesh
-    label: str
-    label_id: int
-    material: Material
-
-
-class DynamicBody:
-    """A movable body: geometry in its body frame (FRD) plus the current pose.
-
-    Mutated only through :meth:`Scene.set_pose`; read the pose with :meth:`Scene.pose`.
-    """
-
-    def __init__(
-        self, name: str, geometry: ArticulatedMesh, label: str, label_id: int, material: Material
-    ) -> None:
-        self.name = name
-        self.geometry = geometry
-        self.label = label
-        self.label_id = label_id
-        self.material = material
-        self.face_reflectivity = geometry.face_reflectivity(material)
-        self.face_reflectivity.setflags(write=False)
-        self.position = np.zeros(3)
-        self.rotation = np.eye(3)
-        self.kick_phase = 0.0
-        self.part_transforms = geometry.part_transforms(0.0)
-
-    def pose_matrix(self) -> NDArray[np.float64]:
-        """4x4 body(FRD)→NED transform."""
-        m = np.eye(4)
-        m[:3, :3] = self.rotation
-        m[:3, 3] = self.position
-        return m
-
-    def mesh_world(self) -> trimesh.Trimesh:
-        """The posed body as one Trimesh in NED (for plotting and export; not a hot path)."""
-        mesh = self.geometry.mesh_at(self.kick_phase)
-        mesh.apply_transform(self.pose_matrix())
-        return mesh
 
 
 def _check_label(label: str, where: str) -> str:
@@ -222,7 +177,8 @@ class Scene:
     # ------------------------------------------------------------------ queries
     @property
     def labels(self) -> list[str]:
-        """Distinct label strings; label ids in :class:`RayHits` index this list (a copy)."""
+        """Distinct label strings; label ids in :class:`~uhrisim.world.raycast.RayHits`
+        index this list (a copy)."""
         return list(self._labels)
 
     def label_id(self, label: str) -> int:
@@ -235,7 +191,8 @@ class Scene:
 
     @property
     def body_names(self) -> list[str]:
-        """Dynamic body names; body ids in :class:`RayHits` index this list (a copy)."""
+        """Dynamic body names; body ids in :class:`~uhrisim.world.raycast.RayHits` index
+        this list (a copy)."""
         return [b.name for b in self._bodies]
 
     @property

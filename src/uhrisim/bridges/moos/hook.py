@@ -17,15 +17,13 @@ import logging
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from uhrisim.bridges.moos.bridge import MoosAgentBridge
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw
-from uhrisim.sim.hooks import BaseHook, TickFrame
-
-if TYPE_CHECKING:
-    from uhrisim.sim.simulation import Simulation
+from uhrisim.sim.hooks import TickFrame
+from uhrisim.sim.simulation import BaseHook, Simulation
 
 __all__ = ["MoosAgentLink", "MoosBridgeHook"]
 

@@ -41,15 +41,14 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from uhrisim.core.errors import BridgeError, ConfigError
-from uhrisim.sensors.sonar.sonar import cloud_hits
-from uhrisim.sim.hooks import BaseHook, TickFrame
+from uhrisim.sensors.sonar.cloud import cloud_hits
+from uhrisim.sim.hooks import TickFrame
+from uhrisim.sim.simulation import BaseHook, Simulation
 
 from .convert import RateGate
 from .spec import COMMAND_GROUPS, AgentBridgeSpec, AgentCommands
 
 if TYPE_CHECKING:
-    from uhrisim.sim.simulation import Simulation
-
     from .bridge import Ros2Bridge
 
 __all__ = ["Ros2BridgeHook", "decimate_triangle_markers"]

@@ -8,15 +8,13 @@ Public API::
                       exclude=frozenset({"videoray"}))
 """
 
+from uhrisim.sensors.sonar.cloud import SonarCloud
 from uhrisim.sensors.sonar.config import COLORMAPS, SonarConfig
+from uhrisim.sensors.sonar.fan import image_2013
+from uhrisim.sensors.sonar.geometry import mount_rotation
+from uhrisim.sensors.sonar.ping import SonarPing
 from uhrisim.sensors.sonar.presets import PRESETS, SonarSpec, get_preset
-from uhrisim.sensors.sonar.sonar import (
-    ImagingSonar,
-    SonarCloud,
-    SonarPing,
-    image_2013,
-    mount_rotation,
-)
+from uhrisim.sensors.sonar.sonar import ImagingSonar
 
 __all__ = [
     "COLORMAPS",

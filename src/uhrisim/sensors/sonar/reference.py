@@ -12,7 +12,8 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from uhrisim.sensors.sonar.sonar import MAX_FOOTPRINT_TAN, ImagingSonar
+from uhrisim.sensors.sonar.echoes import MAX_FOOTPRINT_TAN
+from uhrisim.sensors.sonar.sonar import ImagingSonar
 
 
 def reference_polar(

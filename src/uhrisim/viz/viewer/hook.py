@@ -1,7 +1,7 @@
 """A simulation hook that drives the web viewer: frames out, page commands in.
 
 ``ViewerHook`` implements the simulation's hook protocol (``on_start(sim)``,
-``on_tick(tick_frame)``, ``on_end(sim, error)``; see ``uhrisim.sim.hooks``). Each tick,
+``on_tick(tick_frame)``, ``on_end(sim, error)``; see ``uhrisim.sim.simulation``). Each tick,
 in the simulation thread, it:
 
 1. applies the page's commands (``ViewerServer.drain_commands``): ``post`` →

@@ -11,8 +11,8 @@ from __future__ import annotations
 import logging
 
 from uhrisim.scenario.schema import Scenario
-from uhrisim.sim.hooks import Hook
 from uhrisim.sim.pacing import PacingHook
+from uhrisim.sim.simulation import Hook
 
 log = logging.getLogger(__name__)
 

@@ -1,0 +1,138 @@
+"""One agent's outgoing products: per product its publishers, rate gate and encoding.
+
+Odometry and pose go out at the agent's odometry rate, the sonar products at its sonar
+rate (both gated in simulated time), the helm's decision whenever the helm decides (its
+own rate), the helm mode when it changes. Messages go out pre-serialised where that saves
+time (the bytes of :mod:`.messages`' builders) and only to topics someone subscribes to
+(:class:`~uhrisim.bridges.ros2.writer.TopicWriter`). Inputs are in uhrisim's frames
+(NED, FRD); :mod:`.convert` turns them into ROS's.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+from rclpy.qos import QoSProfile
+
+from uhrisim.record.cdr import OdometryEncoder, encode_image, encode_pointcloud2
+
+from .convert import (
+    RateGate,
+    cloud_xyzi_flu,
+    odom_fields_from_ned,
+    pose_enu_from_ned,
+    stamp_from_sim_time,
+)
+from .messages import WORLD_FRAME, PoseStampedEncoder, float64_bytes, mono8, string_bytes
+from .spec import AgentBridgeSpec
+from .topics import agent_topics
+from .writer import TopicWriter
+
+
+class AgentPublishers:
+    """The publishers, rate gates and encoders of one agent (``spec``), writing through
+    ``writer``. The methods are those of :class:`~uhrisim.bridges.ros2.bridge.Ros2Bridge`
+    (``publish_nav`` ...) for this agent, after the bridge has checked the call and
+    advanced ``/clock``; see there for units and frames."""
+
+    def __init__(self, spec: AgentBridgeSpec, writer: TopicWriter) -> None:
+        self.spec = spec
+        self.writer = writer
+        self.nav_gate = RateGate(spec.odom_rate_hz)
+        self.sonar_gate = RateGate(spec.sonar_rate_hz)
+        # odometry and pose go out pre-serialised (a few us instead of ~30 us a message)
+        self.odometry = OdometryEncoder(WORLD_FRAME, f"{spec.name}/base_link")
+        self.pose = PoseStampedEncoder(WORLD_FRAME)
+        self.pubs: dict[str, Any] = {}
+        self.topics = {key: topic for key, topic, _, _ in agent_topics(spec)}
+        self.mode_text: str | None = None  # the last helm mode published
+
+    def create(self, node: Any, sensor_qos: QoSProfile) -> None:
+        """Create this agent's publishers on ``node`` (``sensor_qos``: sonar images, hits)."""
+        for key, topic, msg_type, qos in agent_topics(self.spec, sensor_qos):
+            self.pubs[key] = node.create_publisher(msg_type, topic, qos)
+
+    def nav(self, t_sim: float, position_ned: ArrayLike, yaw_rad: float,
+            velocity_body_frd: ArrayLike, yaw_rate: float) -> bool:
+        """Odometry and pose, if the odometry gate is due; True when they went out."""
+        if not self.nav_gate.due(t_sim):
+            return False
+        f = odom_fields_from_ned(position_ned, yaw_rad, velocity_body_frd, yaw_rate)  # checks
+        wanted = self.writer.wanted
+        odom_wanted, pose_wanted = wanted(self.pubs["odom"]), wanted(self.pubs["pose"])
+        if not (odom_wanted or pose_wanted):
+            return False
+        sec, nanosec = stamp_from_sim_time(t_sim)
+        if odom_wanted:
+            odom = self.odometry(sec, nanosec, f.position_enu, f.orientation_xyzw,
+                                 f.linear_flu, f.angular_flu)  # the bytes of odometry_msg(...)
+            self.writer.write(self.pubs["odom"], odom, self.topics["odom"])
+        if pose_wanted:
+            pose = self.pose(sec, nanosec, f.position_enu, f.orientation_xyzw)
+            self.writer.write(self.pubs["pose"], pose, self.topics["pose"])
+        return True
+
+    def odometry_due(self, t_sim: float) -> bool:
+        """Would :meth:`nav` publish at ``t_sim`` (s)? A due gate with nobody subscribed
+        moves on to its next period, as if the odometry had gone out."""
+        if not self.nav_gate.is_due(t_sim):
+            return False
+        if self.writer.wanted(self.pubs["odom"]) or self.writer.wanted(self.pubs["pose"]):
+            return True
+        self.nav_gate.due(t_sim)  # nothing to send: pass the slot
+        return False
+
+    def sonar_subscribed(self) -> tuple[bool, bool, bool]:
+        """Whether the polar image, the fan image and the points have a subscriber."""
+        if not self.spec.publish_sonar:
+            return False, False, False
+        p, wanted = self.pubs, self.writer.wanted
+        return wanted(p["polar"]), wanted(p["fan"]), wanted(p["points"])
+
+    def sonar(self, t_sim: float, polar_u8: np.ndarray | None, fan_u8: np.ndarray | None,
+              points_sonar_frd: ArrayLike | None, intensity: ArrayLike | None,
+              sonar_pose_ned: tuple[ArrayLike, ArrayLike] | None) -> bool:
+        """The sonar products given, if the sonar gate is due; True when it was due."""
+        if not self.sonar_gate.due(t_sim):
+            return False
+        frame = f"{self.spec.name}/sonar"
+        # every product given is checked, whether or not someone subscribes to it
+        images = [(key, mono8(image, f"Ros2Bridge.publish_sonar.{key}_u8"))
+                  for key, image in (("polar", polar_u8), ("fan", fan_u8)) if image is not None]
+        xyzi = None if points_sonar_frd is None else cloud_xyzi_flu(points_sonar_frd, intensity)
+        pose = None if sonar_pose_ned is None else pose_enu_from_ned(*sonar_pose_ned)
+        sec, nanosec = stamp_from_sim_time(t_sim)
+        # pre-serialised, as image_msg / pointcloud_msg / PoseStamped would be: the
+        # pixels and points are copied once, into the bytes handed to DDS
+        pubs, write, wanted = self.pubs, self.writer.write, self.writer.wanted
+        for key, image in images:
+            if wanted(pubs[key]):
+                write(pubs[key], encode_image(sec, nanosec, frame, image), self.topics[key])
+        if xyzi is not None and wanted(pubs["points"]):
+            write(pubs["points"], encode_pointcloud2(sec, nanosec, frame, xyzi),
+                  self.topics["points"])
+        if pose is not None and wanted(pubs["sonar_pose"]):
+            write(pubs["sonar_pose"], self.pose(sec, nanosec, *pose), self.topics["sonar_pose"])
+        return True
+
+    def helm(self, heading_deg: float | None, speed: float | None, depth: float | None,
+             mode: str) -> None:
+        """The desired values given (to subscribers) and the mode when it changed."""
+        # pre-serialised std_msgs/Float64 and String (the bytes rclpy would make)
+        for key, value in (
+            ("desired_heading", heading_deg),
+            ("desired_speed", speed),
+            ("desired_depth", depth),
+        ):
+            if value is None:
+                continue
+            raw = float64_bytes(float(value))  # a bad value fails, subscribed or not
+            if self.writer.wanted(self.pubs[f"helm_{key}"]):
+                self.writer.write(self.pubs[f"helm_{key}"], raw, self.topics[f"helm_{key}"])
+        mode = str(mode)
+        if mode != self.mode_text:
+            self.mode_text = mode
+            self.writer.write(self.pubs["helm_mode"], string_bytes(mode),
+                              self.topics["helm_mode"])

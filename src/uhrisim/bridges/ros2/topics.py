@@ -1,0 +1,103 @@
+"""The ROS 2 bridge's topics and their QoS: what goes out per agent, what comes in.
+
+Per agent (namespace ``/<agent>``): ``odom``, ``pose``, the sonar's ``sonar/polar``,
+``sonar/fan``, ``sonar/points`` and ``sonar/pose``, the helm's ``helm/desired_*`` and
+``helm/mode``; commands in on ``cmd/desired_*`` and ``cmd/thrusters``. Bridge-wide:
+``/clock`` and ``/scene/markers``. docs/bridges-ros2.md has the table with frames, units
+and rates; the QoS profiles below say why each is what it is.
+"""
+
+from __future__ import annotations
+
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Odometry
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import Image, PointCloud2
+from std_msgs.msg import Float64, String
+
+from .spec import AgentBridgeSpec
+
+#: Odometry, pose, helm and scene: reliable, keep the last 10, volatile. A reliable
+#: publisher matches reliable and best-effort subscribers alike; keep-last means a slow
+#: or dead subscriber only loses old samples, the publisher never waits.
+QOS_STATE = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=10,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+#: Sonar images and point clouds: the ROS "sensor data" convention, best effort, keep
+#: the last 2. Subscribers must ask for best effort (``qos_profile_sensor_data``);
+#: ``Ros2Bridge(reliable_sensors=True)`` switches to reliable keep-last-2 for tools that
+#: only subscribe reliably.
+QOS_SENSOR = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=2,
+    reliability=ReliabilityPolicy.BEST_EFFORT,
+    durability=DurabilityPolicy.VOLATILE,
+)
+QOS_SENSOR_RELIABLE = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=2,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+#: Scene markers: reliable, transient-local, keep the last 1, so a viewer that starts
+#: late still receives the static scene.
+QOS_SCENE = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
+#: Helm mode: published when it changes, reliable and transient-local (keep the last 1),
+#: so a node that subscribes later with transient-local durability still gets the mode
+#: in force; a volatile subscriber matches too and gets every change from then on.
+QOS_LATCHED = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
+#: /clock: best effort, keep the last 1 (what rclpy's TimeSource subscribes with).
+QOS_CLOCK = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.BEST_EFFORT,
+    durability=DurabilityPolicy.VOLATILE,
+)
+#: Command subscriptions: best effort, keep the last 10. A best-effort subscriber
+#: matches both reliable and best-effort publishers; commands are latest-value and must
+#: be re-sent faster than the timeout anyway, so a lost sample costs nothing.
+QOS_COMMAND = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=10,
+    reliability=ReliabilityPolicy.BEST_EFFORT,
+    durability=DurabilityPolicy.VOLATILE,
+)
+
+#: Keys of the desired values (std_msgs/Float64): the helm's ``/<agent>/helm/<key>`` out,
+#: the commands ``/<agent>/cmd/<key>`` in.
+DESIRED_KEYS = ("desired_heading", "desired_speed", "desired_depth")
+#: Command key of the thruster inputs (``/<agent>/cmd/thrusters``, Float64MultiArray).
+THRUSTERS_KEY = "thrusters"
+
+
+def agent_topics(spec: AgentBridgeSpec, sensor_qos: QoSProfile = QOS_SENSOR
+                 ) -> list[tuple[str, str, type, QoSProfile]]:
+    """``(key, topic, message type, QoS)`` of every topic the bridge publishes for one
+    agent (besides ``/clock`` and ``/scene/markers``), as
+    :meth:`~uhrisim.bridges.ros2.bridge.Ros2Bridge.start` creates them; ``sensor_qos`` is
+    that of the sonar images and hits."""
+    ns = f"/{spec.name}"
+    topics = [("odom", f"{ns}/odom", Odometry, QOS_STATE),
+              ("pose", f"{ns}/pose", PoseStamped, QOS_STATE)]
+    if spec.publish_sonar:
+        topics += [("polar", f"{ns}/sonar/polar", Image, sensor_qos),
+                   ("fan", f"{ns}/sonar/fan", Image, sensor_qos),
+                   ("points", f"{ns}/sonar/points", PointCloud2, sensor_qos),
+                   ("sonar_pose", f"{ns}/sonar/pose", PoseStamped, QOS_STATE)]
+    topics += [(f"helm_{key}", f"{ns}/helm/{key}", Float64, QOS_STATE)
+               for key in DESIRED_KEYS]
+    topics.append(("helm_mode", f"{ns}/helm/mode", String, QOS_LATCHED))
+    return topics

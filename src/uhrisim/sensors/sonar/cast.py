@@ -1,0 +1,102 @@
+"""Casting a ping: the sonar's ray fan into the world, and the hits inside its window.
+
+Rays start at the sonar's origin (world NED, m) along unit directions in NED; the caster
+(:class:`RayCaster`, e.g. ``Scene.raycaster()``) returns each ray's first hit. A sonar that
+sits inside geometry cannot ping: :func:`cast_fan` refuses with a ConfigError naming the
+mount, whether the scene says so (below the sea floor, inside a watertight mesh) or most
+rays hit at ~0 m.
+"""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from uhrisim.core.errors import ConfigError
+from uhrisim.core.frames import row_dots
+
+#: A ping is refused (ConfigError) when more than this fraction of rays hit closer than
+#: :data:`INSIDE_GEOMETRY_RANGE_M`: the sonar sits inside (or flush against) geometry.
+INSIDE_GEOMETRY_FRACTION = 0.5
+INSIDE_GEOMETRY_RANGE_M = 0.02
+
+
+class RayCaster(Protocol):
+    """What the sonar needs from a ray caster (``uhrisim.world.scene.Scene.raycaster()``)."""
+
+    def cast(
+        self,
+        origins: NDArray[np.float64],
+        directions: NDArray[np.float64],
+        max_range: float,
+        exclude: frozenset[str] = ...,
+    ) -> Any:
+        """First hits of N rays from one shared origin (the sonar's; ``origins`` has shape
+        (3,)) along ``directions`` (N, 3): hits with ``distance`` (N,) inf on miss,
+        ``label`` (N,) int −1 on miss, ``normal`` (N, 3) unit, ``reflectivity`` (N,)
+        Lambert μ."""
+        ...
+
+
+class FanHits(NamedTuple):
+    """The rays of a fan that hit inside the cast window (all arrays have M rows)."""
+
+    idx: NDArray[np.int64]  # indices into the fan
+    r: NDArray[np.float64]  # slant range, m
+    cos_inc: NDArray[np.float64]  # |cos| of the incidence angle
+    mu: NDArray[np.float64]  # Lambert coefficient of the surface hit
+    labels: NDArray[np.int32]  # scene label of the surface hit
+
+
+def cast_fan(
+    raycaster: RayCaster,
+    origin_ned: NDArray[np.float64],
+    dirs_ned: NDArray[np.float64],
+    window_m: tuple[float, float],
+    exclude: frozenset[str] = frozenset(),
+) -> FanHits:
+    """Cast the rays ``dirs_ned`` (N, 3) from ``origin_ned`` (3,) and keep the hits with
+    slant range in ``window_m`` = [near, far) (m); bodies named in ``exclude`` are not seen.
+
+    Raises ConfigError (naming ``SonarConfig.mount_position_frd``) if the origin is inside
+    the caster's scene geometry or more than :data:`INSIDE_GEOMETRY_FRACTION` of the rays
+    hit closer than :data:`INSIDE_GEOMETRY_RANGE_M`.
+    """
+    inside = _inside_scene_geometry(raycaster, origin_ned)
+    if inside is not None:
+        raise ConfigError(
+            f"sonar at NED {np.round(origin_ned, 3).tolist()} is inside geometry ({inside})",
+            where="SonarConfig.mount_position_frd",
+        )
+    near_m, far_m = window_m
+    hits = raycaster.cast(origin_ned, dirs_ned, far_m, exclude=exclude)  # one shared origin
+    distance = np.asarray(hits.distance, dtype=np.float64)
+    cos_all = np.abs(row_dots(np.asarray(hits.normal, np.float64), dirs_ned))
+    near = np.count_nonzero(distance < INSIDE_GEOMETRY_RANGE_M)
+    if near > INSIDE_GEOMETRY_FRACTION * distance.size:
+        raise ConfigError(
+            f"sonar at NED {np.round(origin_ned, 3).tolist()} is inside geometry: "
+            f"{near}/{distance.size} rays hit closer than {INSIDE_GEOMETRY_RANGE_M} m",
+            where="SonarConfig.mount_position_frd",
+        )
+    valid = (distance >= near_m) & (distance < far_m)
+    idx = np.flatnonzero(valid)
+    return FanHits(
+        idx=idx,
+        r=distance[idx],
+        cos_inc=cos_all[idx],
+        mu=np.asarray(hits.reflectivity, dtype=np.float64)[idx],
+        labels=np.asarray(hits.label)[idx].astype(np.int32),
+    )
+
+
+def _inside_scene_geometry(raycaster: RayCaster, p: NDArray[np.float64]) -> str | None:
+    """Why the point ``p`` (NED) is inside the caster's scene geometry, or None: asks the
+    caster's ``scene`` when it has one (``uhrisim.world.scene.Scene.inside_solid``: below
+    the sea floor or inside a watertight static mesh). Dynamic bodies are not checked (the
+    sonar's own vehicle is excluded from its rays anyway)."""
+    scene = getattr(raycaster, "scene", None)
+    inside_solid = getattr(scene, "inside_solid", None)
+    return inside_solid(p) if inside_solid is not None else None

@@ -1,0 +1,197 @@
+"""The echo of each ray and the raw echo image: echoes summed into (range bin, beam) cells.
+
+A ray that hits at slant range R with incidence β on a surface of Lambert coefficient μ
+returns, relative to the source level (``shared/reference/sonar.md``),
+``b_v(φ)²·ΔΩ·μ·cos β·R⁻²·10^(−2αR/10)`` (two-way spreading and absorption, Lambert
+scattering off the patch R²ΔΩ/cos β the ray stands for; the weight b_v(φ)²·ΔΩ is
+precomputed, :mod:`uhrisim.sensors.sonar.geometry`). Each echo is spread evenly over the
+range footprint of its elevation slice, R·δφ·tan β, so a floor stays continuous however
+few rays are cast, and summed into the cells; rays stop at the first hit, so shadows come
+only from the geometry. The raw image then goes through the stages of
+:mod:`uhrisim.sensors.sonar.polar`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from uhrisim.sensors.sonar.config import SonarConfig
+from uhrisim.sensors.sonar.geometry import SonarGeometry
+from uhrisim.sensors.sonar.labels import CellLabeller, unlabelled
+
+#: Cap on tan β when spreading a ray's echo over its range footprint (β ≈ 85°).
+MAX_FOOTPRINT_TAN = 12.0
+
+#: Echo-free row gaps shorter than this (range bins) are filtered with their neighbours
+#: rather than split into a separate OpenCV call (exact either way; fewer calls).
+_ROW_RUN_MERGE_GAP = 16
+
+
+def ray_echo(
+    weight: NDArray[np.float64],
+    r: NDArray[np.float64],
+    cos_inc: NDArray[np.float64],
+    mu: NDArray[np.float64],
+    two_alpha_ln: float,
+) -> NDArray[np.float64]:
+    """Echo intensity of each hit ray relative to the source level (linear):
+    ``weight·μ·cosβ·R⁻²·exp(−two_alpha_ln·R)``, with the ray weights b_v(φ)²·ΔΩ, slant
+    ranges ``r`` (m), |cos incidence| ``cos_inc``, Lambert μ ``mu`` and the two-way
+    absorption ``two_alpha_ln`` (natural-log units per metre)."""
+    rr = np.maximum(r, 1e-3)
+    return weight * mu * cos_inc * np.exp(-two_alpha_ln * rr) / (rr * rr)
+
+
+def footprint(
+    r: NDArray[np.float64], cos_inc: NDArray[np.float64], dphi: float, cfg: SonarConfig
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Range footprint of each ray in bin units: (start, length).
+
+    A ray stands for an elevation slice ``dphi`` (rad); on a surface seen at incidence β
+    that slice spans ΔR = R·δφ·tan β in range, centred on the ray's hit (a flat floor at
+    height h: ΔR ≈ R²δφ/h). Spreading each echo evenly over its footprint keeps the sea
+    floor continuous however few rays are cast (tan β is capped at
+    :data:`MAX_FOOTPRINT_TAN`). Returned in fractional bins from ``range_min_m``.
+    """
+    c = np.clip(cos_inc, 1.0 / math.sqrt(1.0 + MAX_FOOTPRINT_TAN**2), 1.0)
+    length = r * (dphi / cfg.bin_m) * (np.sqrt(1.0 - c * c) / c)
+    start = (r - cfg.range_min_m) / cfg.bin_m - 0.5 * length
+    return start, length
+
+
+def _row_runs(cover: NDArray[np.bool_], pad: int, gap: int) -> list[tuple[int, int]]:
+    """Half-open row ranges [start, stop) that hold every True row of ``cover`` widened by
+    ``pad`` rows each side (clipped to the image); ranges closer than ``gap`` rows are
+    merged. Rows outside the ranges are at least ``pad`` rows from any True row."""
+    rows = np.flatnonzero(cover)
+    if rows.size == 0:
+        return []
+    cut = np.flatnonzero(np.diff(rows) > 2 * pad + gap)
+    starts = np.maximum(np.concatenate([rows[:1], rows[cut + 1]]) - pad, 0)
+    stops = np.minimum(np.concatenate([rows[cut], rows[-1:]]) + pad + 1, cover.size)
+    return list(zip(starts.tolist(), stops.tolist(), strict=True))
+
+
+class EchoAccumulator:
+    """Sums ray echoes into the raw echo image of ``geometry``/``config`` and labels its
+    cells; keeps its scratch images between pings (not re-entrant: one per sonar)."""
+
+    def __init__(self, geometry: SonarGeometry, config: SonarConfig) -> None:
+        self.geometry = geometry
+        self.config = config
+        n_bins, n_beams = config.n_bins, config.sonar_spec.n_beams
+        self._raw = np.zeros((n_bins, n_beams), np.float32)
+        self._diff = np.zeros((n_bins + 1) * n_beams, np.float64)  # all zero between pings
+        self._integ = np.zeros((n_bins + 2, n_beams + 1), np.float64)
+        self._labeller = CellLabeller(n_bins * n_beams)
+        #: The polar labels of every ping formed without labels.
+        self.unlabelled = unlabelled((n_bins, n_beams))
+
+    def _footprint_bins(
+        self, r: NDArray[np.float64], cos_inc: NDArray[np.float64], e: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], ...]:
+        """Footprints clipped to the window, in fractional bins, for the rays whose footprint
+        overlaps the window (``keep``): start ``a``, end ``b``, first and last bin ``lo``,
+        ``hi``, echo per bin ``dens`` and ``one``, the echo of a footprint inside a single
+        bin (all of it, or the part inside the window)."""
+        n_bins = self.config.n_bins
+        a, length = footprint(r, cos_inc, self.geometry.dphi, self.config)
+        length = np.maximum(length, 1e-9)
+        b = a + length
+        keep = (b > 0.0) & (a < n_bins)
+        if not keep.all():
+            a, b, length, e = a[keep], b[keep], length[keep], e[keep]
+        dens = e / length
+        top = n_bins * (1.0 - 1e-12)
+        whole = (a >= 0.0) & (b <= top)
+        b = np.clip(b, 0.0, top)
+        a = np.clip(a, 0.0, top)
+        one = np.where(whole, e, dens * (b - a))
+        return keep, a, b, a.astype(np.int64), b.astype(np.int64), dens, one
+
+    def accumulate(
+        self,
+        idx: NDArray[np.int64],
+        r: NDArray[np.float64],
+        cos_inc: NDArray[np.float64],
+        e: NDArray[np.float64],
+        labels: NDArray[np.int32] | None = None,
+    ) -> tuple[NDArray[np.float32], NDArray[np.int16], list[tuple[int, int]]]:
+        """Sum ray echoes into (bin, beam) cells, each spread evenly over its range
+        footprint [a, b) (fractional bins: the end bins get their overlap, the bins in
+        between e/(b − a) each), and label each cell (−1: none; all −1 when ``labels`` is
+        None) with the scene label that put the most echo into it. Also returns the row
+        ranges [start, stop) outside which the raw image is zero by construction (no
+        footprint reaches those range bins), widened by the range-blur half-width.
+
+        O(rays + cells of the rows the footprints reach): every footprint becomes four steps
+        of a difference image whose cumulative sum along range comes from cv2.integral, over
+        the slab of rows between the nearest and the farthest footprint only. Labels: the most
+        frequent label of the ping (usually the sea floor) is the background; the rays of
+        every other label are expanded into their footprint cells and their echo summed per
+        label; a cell takes the label with the most echo, the background's being the rest
+        of the cell's sum.
+        The returned raw image is a scratch buffer of this instance (valid until the next
+        ping); the labels are a new array (with ``labels`` None: the shared read-only
+        :attr:`unlabelled` image).
+        """
+        g = self.geometry
+        n_bins, n_beams = self._raw.shape
+        if labels is None:
+            label_polar = self.unlabelled
+        else:
+            label_polar = np.full((n_bins, n_beams), -1, dtype=np.int16)
+        raw = self._raw
+        if idx.size == 0:
+            raw.fill(0.0)
+            return raw, label_polar, []
+        keep, a, b, lo, hi, dens, one = self._footprint_bins(r, cos_inc, e)
+        if not keep.all():
+            idx, e = idx[keep], e[keep]
+            labels = labels[keep] if labels is not None else None
+            if idx.size == 0:
+                raw.fill(0.0)
+                return raw, label_polar, []
+        same = lo == hi
+        beam = g.ray_beam[idx]
+        # Rows [r0, r1) hold every footprint; the rest of the image gets no echo.
+        r0, r1 = int(lo.min()), int(hi.max()) + 1
+        raw[:r0].fill(0.0)
+        raw[r1:].fill(0.0)
+        slab = raw[r0:r1]
+        # Each footprint as steps along range of a difference image: its first bin gets its
+        # overlap w_first, the bins between the density each, its last bin its overlap
+        # w_last; a footprint inside one bin puts all its echo there (steps +e, −e).
+        w_first = np.where(same, one, dens * (lo + 1 - a))
+        w_last = np.where(same, 0.0, dens * (b - hi))
+        inner = np.where(same, 0.0, dens)
+        rows_first = (lo - r0) * n_beams + beam
+        rows_last = (hi - r0) * n_beams + beam
+        cells = np.concatenate([rows_first, rows_first + n_beams, rows_last, rows_last + n_beams])
+        steps = np.concatenate([w_first, inner - w_first, w_last - inner, -w_last])
+        # Summed in input order into the zeroed scratch (a fresh megabyte-sized array per
+        # ping would cost page faults), which is zeroed again once read.
+        diff = self._diff[: (r1 - r0 + 1) * n_beams]
+        np.add.at(diff, cells, steps)
+        # Cumulative sum along range = column differences of the integral image.
+        integ = cv2.integral(
+            diff.reshape(r1 - r0 + 1, n_beams), sum=self._integ[: r1 - r0 + 2], sdepth=cv2.CV_64F
+        )
+        diff.fill(0.0)
+        cv2.subtract(integ[1:-1, 1:], integ[1:-1, :-1], dst=slab, dtype=cv2.CV_32F)
+        # Round-off of the integral image (~1e-16 of a row sum, itself ≤ the ping's total
+        # echo) must not count as echo (it would label shadows): zero everything below
+        # 1e-12 of the total echo (−120 dB: far below any noise floor).
+        tiny = 1e-12 * float(e.sum()) + float(np.finfo(np.float32).tiny)
+        cv2.threshold(slab, tiny, 0.0, cv2.THRESH_TOZERO, dst=slab)
+        if labels is not None:
+            self._labeller.label(raw, label_polar, labels, a, b, lo, hi, dens, one, beam)
+        # Range bins some footprint reaches (a difference count over [lo, hi]).
+        reach = np.bincount(lo, minlength=n_bins + 1) - np.bincount(hi + 1, minlength=n_bins + 1)
+        cover = np.cumsum(reach[:n_bins]) > 0
+        rows = _row_runs(cover, g.range_kernel.size // 2, _ROW_RUN_MERGE_GAP)
+        return raw, label_polar, rows
