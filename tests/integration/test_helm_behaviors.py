@@ -227,7 +227,8 @@ def test_constant_depth_holds_depth():
     cfg = HelmConfig.from_mapping(
         {
             "behaviors": [
-                {"type": "ConstantDepth", "name": "depth", "depth": 3},
+                {"type": "ConstantDepth", "name": "depth", "depth": 3,
+                 "duration": "no-time-limit"},
                 {"type": "Waypoint", "name": "go", "points": "0,1000", "speed": 1},
             ]
         }

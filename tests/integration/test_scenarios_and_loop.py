@@ -112,7 +112,7 @@ agents:
     model: diver
     helm:
       rate_hz: 3
-      behaviors: [{type: ConstantDepth, name: d, depth: 2}]
+      behaviors: [{type: ConstantDepth, name: d, depth: 2, duration: no-time-limit}]
 """)
     with pytest.raises(ConfigError, match=r"3 Hz is not a whole number of physics steps"):
         Simulation(load_scenario(path))

@@ -7,10 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from uhrisim.autonomy.behaviors import BehaviorContext, OwnNav
-from uhrisim.autonomy.behaviors.avoid_collision import cpa_utility, relevance
+from uhrisim.autonomy.behaviors import BehaviorContext, ContactInfo, OwnNav
+from uhrisim.autonomy.behaviors.avoid_collision import PIECE, cpa_utility, relevance
+from uhrisim.autonomy.behaviors.trail import FAR_PIECE
 from uhrisim.autonomy.config import build_behavior_spec
+from uhrisim.autonomy.cpa import cpa_distance
 from uhrisim.autonomy.domain import Domain
+from uhrisim.autonomy.ivp_build import reflect
+from uhrisim.core.errors import ConfigError
 
 D = Domain.paper()
 SPD = D.axis("speed").values
@@ -22,12 +26,10 @@ def make(kind: str, **params):
 
 
 def ctx(own: OwnNav, t: float = 0.0, **contacts) -> BehaviorContext:
-    info: dict = {}
-    for name, (x, y, h, v) in contacts.items():
-        k = name.upper()
-        info.update({f"{k}_NAV_X": x, f"{k}_NAV_Y": y, f"{k}_NAV_HEADING": h,
-                     f"{k}_NAV_SPEED": v, f"{k}_NAV_DEPTH": 0.0, f"{k}_NAV_UTC": 0.0})  # fmt: skip
-    return BehaviorContext(t, D, info, own)
+    """A tick at ``t`` with contacts ``name=(x, y, heading, speed)`` reported at t = 0."""
+    ledger = {name: ContactInfo(name, x, y, h, v, 0.0, 0.0)
+              for name, (x, y, h, v) in contacts.items()}  # fmt: skip
+    return BehaviorContext(t, D, {}, own, ledger)
 
 
 def argmax_cs(obj) -> tuple[float, float]:
@@ -49,24 +51,43 @@ def test_trail_regimes():
     # inside radius: match the contact's heading and speed
     obj = b.on_run(ctx(OwnNav(0.3, -2.0, 90.0, 0.0), diver=diver))
     assert argmax_cs(obj) == (0.0, pytest.approx(1.0))
-    # far regime (D = 30 > 5): 100 (1 - cpa/D) against a virtual contact at P
+    # far regime (D = 30 > 5): 100 (1 - cpa/D) against a virtual contact at P ...
     obj = b.on_run(ctx(OwnNav(30.0, -2.0, 0.0, 0.0), diver=diver))
-    assert np.allclose(obj.values[:, 0], 0.0)  # standing still: cpa = D (abeam, t* = 0)
+    crs, spd = D.axis("course").values, SPD
+    cpa = cpa_distance(30.0, -2.0, crs[:, None], spd[None, :], 0.0, -2.0, 0.0, 1.0, 60.0)
+    exact = np.clip(100.0 - 100.0 * cpa / 30.0, 0.0, 100.0)
+    assert np.allclose(exact[:, 0], 0.0)  # standing still: cpa = D (abeam, t* = 0)
     # west at 1 m/s: r0 = (30, 0), w = (-1, -1), t* = 15, cpa = |(15, -15)| = 21.21
-    assert obj.values[270, 5] == pytest.approx(100.0 * (1.0 - math.sqrt(450.0) / 30.0))
-    assert obj.values.max() > 99.0
+    assert exact[270, 5] == pytest.approx(100.0 * (1.0 - math.sqrt(450.0) / 30.0))
+    # ... handed over as pHelmIvP builds it: 3 x 2-index pieces, normalised 0..100
+    # (BHV_Trail.cpp:43, 219-243, 333; the build itself is held to MOOS-IvP in
+    # test_helm_ivp_build.py)
+    np.testing.assert_array_equal(obj.values, reflect(exact, FAR_PIECE))
+    assert (obj.values.min(), obj.values.max()) == pytest.approx((0.0, 100.0))
+    assert abs(obj.values - exact).max() > 1.0  # the pieces are not the exact table
     # relative vs absolute trail angle
     b2 = make("Trail", contact="diver", trail_range=2, trail_angle=90, trail_angle_type="absolute")
     assert b2.trail_point(0.0, 0.0, 45.0) == pytest.approx((2.0, 0.0))
-    # no contact information: nothing to say (on_no_contact_ok defaults to true)
+    # no contact information: no function and a warning (on_no_contact_ok defaults to
+    # true; false makes it an error, which halts the helm: IvPContactBehavior.cpp:533-541)
     c = ctx(OwnNav(0, 0, 0, 0))
-    assert b.on_run(c) is None and c.posts == []
+    assert b.on_run(c) is None and [v for v, _ in c.posts] == ["BHV_WARNING"]
     b3 = make("Trail", contact="diver", on_no_contact_ok="false")
     c = ctx(OwnNav(0, 0, 0, 0))
     assert b3.on_run(c) is None and c.posts[0][0] == "BHV_ERROR"
-    # a stale report (decay 5,10 maxed at dt = 11 s) is dropped with a warning
+    # an 11 s old report is used where it puts the contact: pHelmIvP dead-reckons no
+    # contact (IvPContactBehavior.cpp:568-591), whatever extrapolate and decay say
     c = ctx(OwnNav(3.0, -4.0, 0.0, 1.0), t=11.0, diver=diver)
-    assert b.on_run(c) is None and c.posts[0][0] == "BHV_WARNING"
+    np.testing.assert_array_equal(b.on_run(c).values, b.on_run(ctx(
+        OwnNav(3.0, -4.0, 0.0, 1.0), diver=diver)).values)
+    assert c.posts == [("VIEW_POINT", "x=0.00,y=-2.00,label=b")]
+    # extrapolate = false: the speed summit is 0 near the trail point (BHV_Trail.cpp:273)
+    b4 = make("Trail", contact="diver", trail_range=2, radius=1, nm_radius=5, extrapolate="false")
+    assert argmax_cs(b4.on_run(ctx(OwnNav(3.0, -4.0, 0.0, 1.0), diver=diver))) == (337.0, 0.0)
+    # pwt_outer_dist: off AT that range already (BHV_Trail.cpp:372-375)
+    b5 = make("Trail", contact="diver", trail_range=2, pwt_outer_dist=5)
+    assert b5.on_run(ctx(OwnNav(3.0, -4.0, 0.0, 1.0), diver=diver)) is None
+    assert b5.on_run(ctx(OwnNav(3.0, -3.9, 0.0, 1.0), diver=diver)) is not None
 
 
 def test_avoid_collision_relevance_and_utility():
@@ -74,7 +95,10 @@ def test_avoid_collision_relevance_and_utility():
     assert relevance(35.0, 50.0, 20.0, "quadratic") == pytest.approx(0.25)
     assert relevance(35.0, 50.0, 20.0, "quasi") == pytest.approx(0.5**1.5)
     assert relevance(60.0, 50.0, 20.0, "linear") == 0.0
-    assert relevance(10.0, 50.0, 20.0, "quasi") == 1.0
+    assert relevance(20.0, 50.0, 20.0, "quasi") == 1.0
+    # inside pwt_inner_dist the relevance grows past 1 (BHV_AvoidCollision.cpp:484-497)
+    assert relevance(10.0, 50.0, 20.0, "quasi") == pytest.approx((40.0 / 30.0) ** 1.5)
+    assert relevance(0.5, 3.0, 1.0, "quasi") == pytest.approx(1.3975, abs=1e-4)
     u = cpa_utility(np.array([4.0, 8.0, 16.5, 25.0, 30.0]), 8.0, 25.0)
     assert u == pytest.approx([0.0, 25.0, 62.5, 100.0, 100.0])  # 25 + 75 * 8.5/17 = 62.5
 
@@ -83,18 +107,42 @@ def test_avoid_collision_objective_head_on():
     b = make("AvoidCollision", contact="boat", pwt_outer_dist=50, pwt_inner_dist=20,
              completed_dist=75, min_util_cpa_dist=8, max_util_cpa_dist=25)  # fmt: skip
     boat = (0.0, 10.0, 180.0, 1.0)  # 10 m ahead, coming straight at us
+    # first build: nothing, the domain has depth (BHV_AvoidCollision.cpp:51-54, 315-331)
+    assert b.on_run(ctx(OwnNav(0.0, 0.0, 0.0, 1.0), boat=boat)) is None
     obj = b.on_run(ctx(OwnNav(0.0, 0.0, 0.0, 1.0), boat=boat))
-    assert b.priority_scale == 1.0  # range 10 <= inner 20
-    assert obj.values[0, 5] == 0.0  # north at 1 m/s: cpa 0
+    assert b.priority_scale == pytest.approx((40.0 / 30.0) ** 1.5)  # range 10 < inner 20
+    crs = D.axis("course").values
+    exact = cpa_utility(cpa_distance(0.0, 0.0, crs[:, None], SPD[None, :],
+                                     0.0, 10.0, 180.0, 1.0, 120.0), 8.0, 25.0)  # fmt: skip
+    assert exact[0, 5] == 0.0  # north at 1 m/s: cpa 0
     # east at 5 m/s: w = (5, 1), r0 = (0, -10), t* = 10/26, r = (1.923, -9.615), cpa 9.806
     cpa = math.hypot(5 * 10 / 26, -10 + 10 / 26)
-    assert obj.values[90, 25] == pytest.approx(25 + 75 * (cpa - 8) / 17)
+    assert exact[90, 25] == pytest.approx(25 + 75 * (cpa - 8) / 17)
+    # handed over as 3 x 3-index pieces normalised 0..100: no candidate clears 25 m
+    # (exact peak < 100), the normalised one peaks at 100 all the same
+    assert exact.max() < 100.0
+    np.testing.assert_array_equal(obj.values, reflect(exact, PIECE))
+    assert (obj.values.min(), obj.values.max()) == pytest.approx((0.0, 100.0))
     # range already inside min_util_cpa_dist (6 < 8): min becomes range/2 = 3
-    obj = b.on_run(ctx(OwnNav(0.0, 0.0, 0.0, 0.0), boat=(0.0, 6.0, 0.0, 0.0)))
-    assert obj.values[180, 0] == pytest.approx(25 + 75 * (6 - 3) / 22)  # stay: cpa = 6
-    # beyond completed_dist: completes, no function
+    c = ctx(OwnNav(0.0, 0.0, 0.0, 0.0), boat=(0.0, 6.0, 0.0, 0.0))
+    exact = cpa_utility(cpa_distance(0.0, 0.0, crs[:, None], SPD[None, :],
+                                     0.0, 6.0, 0.0, 0.0, 120.0), 3.0, 25.0)  # fmt: skip
+    assert exact[180, 0] == pytest.approx(25 + 75 * (6 - 3) / 22)  # stay: cpa = 6
+    np.testing.assert_array_equal(b.on_run(c).values, reflect(exact, PIECE))
+    # min above max_util_cpa_dist: the AOF cannot start, no function and an error
+    b2 = make("AvoidCollision", contact="boat", min_util_cpa_dist=30, max_util_cpa_dist=25,
+              pwt_outer_dist=50, pwt_inner_dist=20)  # fmt: skip
+    c = ctx(OwnNav(0.0, 0.0, 0.0, 0.0), boat=(0.0, 40.0, 180.0, 1.0))  # range 40 > min 30
+    assert b2.on_run(c) is None and c.posts[0][0] == "BHV_ERROR"
+    # completed at 1.1 x completed_dist (82.5 m), not before (BHV_AvoidCollision.cpp:275)
     c = ctx(OwnNav(0.0, 0.0, 0.0, 0.0), boat=(0.0, 80.0, 0.0, 0.0))
+    assert b.on_run(c) is None and not b.complete_requested  # beyond outer: no relevance
+    c = ctx(OwnNav(0.0, 0.0, 0.0, 0.0), boat=(0.0, 82.5, 0.0, 0.0))
     assert b.on_run(c) is None and b.complete_requested
+    # ... and while idle too (l.226)
+    b3 = make("AvoidCollision", contact="boat", completed_dist=75)
+    b3.on_idle(ctx(OwnNav(0.0, 0.0, 0.0, 0.0), boat=(0.0, 90.0, 0.0, 0.0)))
+    assert b3.complete_requested
 
 
 def test_constant_depth_function():
@@ -132,9 +180,17 @@ def test_waypoint_lead_and_station_keep_speeds():
     obj = w2.on_run(ctx(OwnNav(0.0, 50.0, 170.0, 1.0)))
     assert obj.values[170, 5] > obj.values[190, 5]
     s = make("StationKeep", station_pt="0,0", inner_radius=4, outer_radius=15)
-    assert [s.desired_speed(d) for d in (3.0, 9.5, 20.0)] == pytest.approx([0.0, 0.6, 2.0])
+    # transit_speed defaults to 2.5 m/s (BHV_StationKeep.cpp:62)
+    assert [s.desired_speed(d) for d in (3.0, 9.5, 20.0)] == pytest.approx([0.0, 0.6, 2.5])
+    # the tick the station is set: speed 0 toward it (BHV_StationKeep.cpp:371-376)
+    assert argmax_cs(s.on_run(ctx(OwnNav(0.0, 9.5, 90.0, 0.0)))) == (180.0, 0.0)
     obj = s.on_run(ctx(OwnNav(0.0, 9.5, 90.0, 0.0)))
     assert argmax_cs(obj) == (180.0, pytest.approx(0.6))  # head back south at 1.2*5.5/11
+    # outer_speed above transit_speed raises it (l.168-169); radii must be > 0
+    s2 = make("StationKeep", station_pt="0,0", outer_speed=3.0)
+    assert s2.params.transit_speed == 3.0
+    with pytest.raises(ConfigError, match="inner_radius must be > 0"):
+        make("StationKeep", station_pt="0,0", inner_radius=0)
 
 
 def test_loiter_function_points_at_the_current_vertex():

@@ -260,8 +260,9 @@ def test_bad_input_names_file_and_line(tmp_path):
     e = _err("set MODE = ACTIVE {\n  GO = true\n} INACTIVE\n", tmp_path)
     assert e.where.endswith("bad.bhv:1") and "'GO'" in str(e)
 
-    e = _err(ok_head + "Behavior = BHV_Trail\n{\n name = t\n}\n", tmp_path)
-    assert e.where.endswith("bad.bhv:2") and "contact" in str(e)
+    # pHelmIvP refuses a negative duration other than -1 (IvPBehavior.cpp:285-296)
+    e = _err(ok_head + "Behavior = BHV_Trail\n{\n name = t\n duration = -5\n}\n", tmp_path)
+    assert e.where.endswith("bad.bhv:5") and "duration must be >= 0" in str(e)
 
     e = _err(ok_head + "Behavior = BHV_ConstantDepth\n{\n name = d\n depth = deep\n}\n", tmp_path)
     assert e.where.endswith("bad.bhv:5") and "number" in str(e)
@@ -284,13 +285,14 @@ def test_condition_variable_known_from_other_sources(tmp_path):
     text = (
         "Behavior = BHV_ConstantDepth\n{\n name = d\n endflag = DONE = true\n depth = 1\n}\n"
         "Behavior = BHV_ConstantDepth\n{\n name = e\n condition = DONE = true\n"
-        " condition = DIVER_NAV_DEPTH > 1\n condition = BUTTON = 1\n depth = 2\n}\n"
+        " condition = DIVER_NAV_TYPE = swimmer\n condition = BUTTON = 1\n depth = 2\n}\n"
     )
     f = tmp_path / "ok.bhv"
     f.write_text(text)
     with pytest.raises(ConfigError, match="BUTTON"):
         load_bhv(f)
-    cfg = load_bhv(f, known_vars=["BUTTON"])  # DONE from an endflag, DIVER_NAV_* from reports
+    # DONE from an endflag, DIVER_NAV_TYPE from the diver's reports (HelmIvP.cpp:1788-1790)
+    cfg = load_bhv(f, known_vars=["BUTTON"])
     assert len(cfg.behaviors[1].common.conditions) == 3
 
 
@@ -400,7 +402,7 @@ def test_mission_style_file_with_nsplug_macros_and_ivp_aliases():
     assert (orbit.capture_radius, orbit.slip_radius, orbit.post_suffix) == (2.0, 6.0, "rov")
     assert orbit.polygon == parse_polygon("format=radial, x=10, y=-20, radius=15, pts=8, snap=0.5")
     assert ("visual_hints", "nextpt_color=white, edge_color=orange") in by["orbit"].common.display
-    assert by["follow_"].params.max_range == 500.0  # pwt_outer_dist is Trail's max_range
+    assert by["follow_"].params.pwt_outer_dist == 500.0
     assert by["go_home"].params.points == ((0.0, 0.0),) and by["go_home"].params.lead == 4.0
     sk = by["hold_station"].params
     assert (sk.swing_time, sk.hibernation_radius) == (3.0, 8.0)
@@ -413,7 +415,7 @@ def test_mission_style_file_with_nsplug_macros_and_ivp_aliases():
         load_bhv(
             DATA / "rov_nsplug.bhv", known_vars=KNOWN, macros={"LOITER_CENTER": "1,2", "VNAME": "v"}
         )
-    assert e.value.where.endswith("rov_nsplug.bhv:107")
+    assert e.value.where.endswith("rov_nsplug.bhv:108")
 
 
 def test_preprocessor_errors(tmp_path):

@@ -24,8 +24,11 @@ def test_inactive_until_deploy_then_spawn_per_contact():
     h = meta_helm()
     out = h.step(0.0, NAV)
     assert out.mode == "INACTIVE" and out.decision is None
-    assert "no active behaviors" in out.all_stop_reason
-    assert out.post_dict()["DESIRED_SPEED"] == 0.0 and out.post_dict()["DEPLOY"] == "false"
+    # pHelmIvP's all-stop: NothingToDo, with one iteration's grace before DESIRED_* = 0
+    # (HelmIvP.cpp:1730-1753)
+    assert out.all_stop_reason == "NothingToDo" and out.post_dict()["DEPLOY"] == "false"
+    assert out.post_dict()["IVPHELM_ALLSTOP"] == "NothingToDo"
+    assert "DESIRED_SPEED" not in out.post_dict()
     report = "NAME=diver,X=10,Y=0,SPD=0.5,HDG=180,DEP=2,TIME=0.25"
     spawn = "name=diver # contact=diver"
     out = h.step(
@@ -36,13 +39,17 @@ def test_inactive_until_deploy_then_spawn_per_contact():
     assert h.behavior("trail_diver").params.contact == "diver"
     assert out.active == ("const_depth", "trail_diver")  # avd: diver beyond pwt_outer_dist
     assert "avd_diver" in out.running and out.decision is not None
-    assert h.info["DIVER_NAV_DEPTH"] == 2.0 and h.info["DIVER_NAV_UTC"] == 0.25
-    # a second alert for the same contact does not duplicate it; a list = several postings
+    assert out.post_dict()["IVPHELM_ALLSTOP"] == "clear"
+    assert (h.ledger["diver"].depth, h.ledger["diver"].t_report) == (2.0, 0.25)
+    # a second alert for the same contact does not duplicate it; a list = several postings;
+    # bob is not in the contact ledger: his spawn dies at once (IvPBehavior.cpp:339-341)
     out = h.step(0.5, {"TRAIL_INFO": [spawn, "contact=bob # name=bob"]})
     assert "BHV_WARNING" not in out.post_dict()
     assert h.behavior("trail_diver").params.contact == "diver"  # untouched by bob's alert
+    assert h.behavior_names.count("trail_diver") == 1 and "trail_bob" not in h.behavior_names
+    bob = "NAME=bob,X=-10,Y=0,SPD=0.5,HDG=0,DEP=2,TIME=0.5"
+    out = h.step(0.5, {"NODE_REPORT": bob, "TRAIL_INFO": "contact=bob # name=bob"})
     assert h.behavior("trail_bob").params.contact == "bob"
-    assert h.behavior_names.count("trail_diver") == 1 and "trail_bob" in h.behavior_names
     out = h.step(0.75, {"TRAIL": "false"})
     assert out.mode == "ACTIVE:LOITERING" and "loiter" in out.active
     assert "trail_diver" in out.idle
@@ -61,6 +68,9 @@ def test_audit_contributions_add_up_to_the_maximum():
             "NODE_REPORT": "NAME=diver,X=3,Y=-1,SPD=0.4,HDG=200,DEP=2,TIME=0.25",
         },
     )
+    # avd_diver's first build yields nothing (BHV_AvoidCollision.cpp:51-54, 315-331)
+    assert set(out.contributions) == {"const_depth", "trail_diver"}
+    out = h.step(0.5, {"NODE_REPORT": "NAME=diver,X=3,Y=-1,SPD=0.4,HDG=200,DEP=2,TIME=0.5"})
 
     assert set(out.contributions) == {"const_depth", "trail_diver", "avd_diver"}
     assert sum(out.contributions.values()) == pytest.approx(out.total)
@@ -144,18 +154,21 @@ def test_flags_durations_and_perpetual():
     assert out.active == ("b",)
 
 
-def test_mode_variable_empties_when_no_entry_matches():
+def test_mode_variable_keeps_its_value_when_no_entry_matches():
+    # pHelmIvP posts a mode variable only when an entry gives it a value (ModeSet.cpp:66)
     cfg = HelmConfig.from_mapping(
         {
             "initialize": {"DEPLOY": "true"},
             "modes": ["MODE = ACTIVE { DEPLOY = true }"],
-            "behaviors": [{"type": "ConstantDepth", "name": "d", "condition": "MODE==ACTIVE"}],
+            "behaviors": [{"type": "ConstantDepth", "name": "d", "condition": "MODE==ACTIVE",
+                           "duration": "no-time-limit"}],
+            "domain": {"course": [0, 359, 360], "speed": [0, 5, 26], "depth": [0, 10, 11]},
         }
     )
     h = Helm(cfg, "v")
     assert h.step(0.0, NAV).mode == "ACTIVE"
     out = h.step(0.25, {"DEPLOY": "false"})
-    assert out.mode == "" and out.post_dict()["MODE"] == "" and out.idle == ("d",)
+    assert out.mode == "ACTIVE" and "MODE" not in out.post_dict() and out.active == ("d",)
     with pytest.raises(ConfigError, match="non-optional 'speed'"):
         HelmConfig.from_mapping({"domain": {"course": [0, 359, 360]}})
 
@@ -164,7 +177,14 @@ def test_manual_override_parks_the_helm():
     h = meta_helm()
     out = h.step(0.0, {**NAV, "MOOS_MANUAL_OVERRIDE": "true", "DEPLOY": "true"})
     assert out.helm_state == "PARK" and out.decision is None
-    assert "DESIRED_SPEED" not in out.post_dict() and out.post_dict()["IVPHELM_STATE"] == "PARK"
+    # parked: ManualOverride and DESIRED_* = 0 for every domain variable, once
+    # (HelmIvP.cpp:400-404, 1717-1771)
+    posted = out.post_dict()
+    assert posted["IVPHELM_STATE"] == "PARK" and posted["IVPHELM_ALLSTOP"] == "ManualOverride"
+    assert (posted["DESIRED_HEADING"], posted["DESIRED_SPEED"], posted["DESIRED_DEPTH"]) == (
+        0.0, 0.0, 0.0)
+    out = h.step(0.1, {})
+    assert "DESIRED_SPEED" not in out.post_dict() and "IVPHELM_ALLSTOP" not in out.post_dict()
     out = h.step(0.25, {"MOOS_MANUAL_OVERRIDE": "false"})
     assert out.helm_state == "DRIVE" and out.post_dict()["IVPHELM_STATE"] == "DRIVE"
 
@@ -177,19 +197,21 @@ def test_numpy_scalars_and_report_objects_in_mail():
             "NAV_X": np.float32(1.5),
             "NAV_Y": np.int64(2),
             "NAV_HEADING": 90.0,
+            "NAV_SPEED": np.float64(0.0),
+            "NAV_DEPTH": np.int32(0),
             "DEPLOY": np.bool_(True),
             "NODE_REPORT": NodeReport("diver", 4.0, 5.0, 0.5, 90.0, 2.0, time=0.0),
         },
     )
     assert "BHV_WARNING" not in out.post_dict()
     assert (h.info["NAV_X"], h.info["NAV_Y"], h.info["DEPLOY"]) == (1.5, 2.0, "true")
-    assert h.info["DIVER_NAV_X"] == 4.0 and out.mode == "ACTIVE:TRAILING"
+    assert h.ledger["diver"].x == 4.0 and out.mode == "ACTIVE:TRAILING"
 
 
 def test_bad_node_report_is_reported_not_fatal():
     h = meta_helm()
     out = h.step(0.0, {**NAV, "NODE_REPORT": "NAME=diver,X=oops,Y=1"})
-    assert "bad NODE_REPORT" in out.post_dict()["BHV_WARNING"]
+    assert "Bad NodeReport" in out.post_dict()["BHV_WARNING"]
 
 
 def test_mission_style_file_runtime_flags_suffix_and_spawn_completion():

@@ -75,6 +75,13 @@ def test_zaic_insist_summit_between_grid_points():
     assert u[3] == 100.0 and np.count_nonzero(u) == 1
     u2 = zaic_peak_on_axis(spd, 0.55, 0.0, 0.05, 0.0, insist_summit=False)
     assert not u2.any()
+    # IvP's rule (ZAIC_PEAK.cpp:378-428): a half-way summit goes to the LOWER point, one
+    # beyond the axis to its end - on a wrapping axis too (359.7 -> 359, not 0)
+    assert zaic_peak_on_axis(spd, 0.5, 0.0, 0.05, 0.0)[2] == 100.0
+    assert zaic_peak_on_axis(spd, 7.0, 0.0, 0.05, 0.0)[25] == 100.0
+    assert zaic_peak_on_axis(spd, -1.0, 0.0, 0.05, 0.0)[0] == 100.0
+    crs = D.axis("course")
+    assert zaic_peak_on_axis(crs, 359.7, 0.0, 0.2, 0.0)[359] == 100.0
 
 
 def test_zaic_on_course_axis_wraps():
@@ -104,10 +111,14 @@ def test_coupler_scaling():
     # un-normalised sum with an offset input: fc rescaled to 0..50 regardless of offset
     F3 = couple(fc + 7.0, fs, normalize=False)
     assert F3[2, 1] == pytest.approx(100.0) and F3[0, 0] == pytest.approx(0.0)
-    # a constant ("indifferent") function rescales to its top value
-    assert rescale(np.full(4, 3.0), 0.0, 50.0) == pytest.approx([50.0] * 4)
+    # a constant ("indifferent") function keeps its value, as PDMap::normalize leaves a
+    # constant (PDMap.cpp:175-176); the normalised coupling then spans 0..100 all the same
+    assert rescale(np.full(4, 3.0), 0.0, 50.0) == pytest.approx([3.0] * 4)
     F4 = couple(np.array([0.0, 100.0]), np.full(3, 9.0), normalize=False)
-    assert pytest.approx(np.array([[50.0] * 3, [100.0] * 3])) == F4
+    assert pytest.approx(np.array([[9.0] * 3, [59.0] * 3])) == F4
+    assert pytest.approx(np.array([[0.0] * 3, [100.0] * 3])) == couple(
+        np.array([0.0, 100.0]), np.full(3, 9.0))
+    assert pytest.approx(np.full((2, 3), 16.0)) == couple(np.full(2, 7.0), np.full(3, 9.0))
 
 
 # ---------------------------------------------------------------------------- CPA
@@ -216,10 +227,10 @@ def test_solver_tie_rule_first_in_c_order():
 
 def test_solver_all_stop_cases():
     assert solve(D, []).decision is None
-    assert "no active behaviors" in solve(D, []).all_stop_reason
+    assert solve(D, []).all_stop_reason == "NothingToDo"  # pHelmIvP's IVPHELM_ALLSTOP
     depth_only = WeightedObjective("d", 1.0, Objective.over(D, ("depth",), np.arange(101.0)))
     res = solve(D, [depth_only])
-    assert res.decision is None and "course" in res.all_stop_reason
+    assert res.decision is None and res.all_stop_reason == "MissingDecVars:course,speed"
     assert res.contributions == {"d": 100.0}  # audit still reported
     zero = WeightedObjective("z", 0.0, Objective.over(D, ("course", "speed"), np.ones((360, 26))))
     assert solve(D, [zero]).decision is None  # weight <= 0 is dropped

@@ -4,7 +4,7 @@ Vocabulary and frames are MOOS's (x east, y north, compass degrees, depth down);
 reference/helm.md and docs/conventions.md. One community per vehicle, each helm tick::
 
     cm_cfg = ContactManagerConfig.from_mapping({"alerts": [...], "relays": [...]})
-    cfg = HelmConfig.from_bhv_file("meta_vehicle.bhv", known_vars=cm_cfg.alert_vars)
+    cfg = load_bhv("meta_vehicle.bhv", known_vars=cm_cfg.alert_vars)
     #  or HelmConfig.from_mapping(scenario["helm"], "scenario.yaml:helm", cm_cfg.alert_vars)
     helm, cm = Helm(cfg, "videoray"), ContactManager(cm_cfg, "videoray")
 

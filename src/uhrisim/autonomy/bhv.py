@@ -16,18 +16,29 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 
-from uhrisim.autonomy.config import HelmConfig, build_behavior_spec
+from uhrisim.autonomy.conditions import Value
+from uhrisim.autonomy.config import BehaviorSpec, HelmConfig, build_behavior_spec, default_domain
 from uhrisim.autonomy.domain import Domain
-from uhrisim.autonomy.modes import parse_mode_entry
+from uhrisim.autonomy.modes import ModeEntry, parse_mode_entry
 from uhrisim.autonomy.params import parse_flag
 from uhrisim.core.errors import AssetError, ConfigError
 
-__all__ = ["load_bhv", "parse_bhv", "preprocess"]
+__all__ = [
+    "BhvContent",
+    "load_bhv",
+    "parse_bhv",
+    "parse_bhv_content",
+    "preprocess",
+    "read_bhv_file",
+    "strip_comment",
+]
 
 
-def _strip_comment(line: str) -> str:
+def strip_comment(line: str) -> str:
+    """``line`` without its ``//`` comment (outside quotes), stripped."""
     out, quote = [], ""
     i = 0
     while i < len(line):
@@ -100,17 +111,24 @@ def preprocess(lines: list[str], macros: Mapping[str, object], filename: str) ->
     return out
 
 
-def parse_bhv(
-    text: str,
-    filename: str = "<bhv>",
-    known_vars: Iterable[str] = (),
-    domain: Domain | None = None,
-    macros: Mapping[str, object] | None = None,
-) -> HelmConfig:
-    """Parse ``.bhv`` text into a validated :class:`HelmConfig` (``macros``: nsplug subset)."""
-    raw_lines = [_strip_comment(s) for s in text.splitlines()]
+@dataclass(frozen=True)
+class BhvContent:
+    """What a ``.bhv`` file declares: behaviors, mode entries, initial values, in order."""
+
+    behaviors: tuple[BehaviorSpec, ...]
+    modes: tuple[ModeEntry, ...]
+    initialize: tuple[tuple[str, Value], ...]
+    initialize_deferred: tuple[tuple[str, Value], ...]
+    source: str
+
+
+def parse_bhv_content(
+    text: str, filename: str = "<bhv>", macros: Mapping[str, object] | None = None
+) -> BhvContent:
+    """The declarations of ``.bhv`` text (``macros``: nsplug subset), not yet validated."""
+    raw_lines = [strip_comment(s) for s in text.splitlines()]
     lines = preprocess(raw_lines, macros or {}, filename)
-    init, modes, specs = [], [], []
+    init, deferred, modes, specs = [], [], [], []
     i, n = 0, len(lines)
     while i < n:
         line, lineno = lines[i], i + 1
@@ -119,10 +137,11 @@ def parse_bhv(
         if not line:
             i += 1
         elif re.match(r"^initialize_?\s", low):
-            body = line.split(None, 1)[1]
+            word, body = line.split(None, 1)
+            into = deferred if word.endswith("_") else init
             for part in body.split(","):
                 if part.strip():
-                    init.append(parse_flag(part, "initialize", where))
+                    into.append(parse_flag(part, word.lower(), where))
             i += 1
         elif re.match(r"^set\s", low):
             chunk, j = [line], i
@@ -163,14 +182,51 @@ def parse_bhv(
                     k, v = s.split("=", 1)
                     items.append((k.strip(), v.strip(), f"{filename}:{j + 1}"))
                 j += 1
-            specs.append(build_behavior_spec(kind, items, where))
+            specs.append(build_behavior_spec(kind, items, where, exact_kind=True))
             i = j + 1
         else:
             raise ConfigError(f"cannot read line {line!r}", where)
+    return BhvContent(tuple(specs), tuple(modes), tuple(init), tuple(deferred), filename)
+
+
+def parse_bhv(
+    text: str,
+    filename: str = "<bhv>",
+    known_vars: Iterable[str] = (),
+    domain: Domain | None = None,
+    macros: Mapping[str, object] | None = None,
+) -> HelmConfig:
+    """Parse ``.bhv`` text into a validated :class:`HelmConfig` (``macros``: nsplug subset).
+
+    A ``.bhv`` file carries no decision domain (pHelmIvP takes it from the ``.moos``
+    file): without ``domain`` the paper's is used, with a warning."""
+    return _validated(parse_bhv_content(text, filename, macros), known_vars, domain)
+
+
+def _validated(
+    content: BhvContent, known_vars: Iterable[str], domain: Domain | None
+) -> HelmConfig:
     cfg = HelmConfig(
-        tuple(specs), tuple(modes), tuple(init), domain or Domain.paper(), source=filename
+        content.behaviors,
+        content.modes,
+        content.initialize,
+        domain or default_domain(content.source),
+        initialize_deferred=content.initialize_deferred,
+        source=content.source,
     )
     return cfg.validate(known_vars)
+
+
+def read_bhv_file(path: str | Path, macros: Mapping[str, object] | None = None) -> BhvContent:
+    """Read a ``.bhv`` file's declarations; a missing or unreadable file is an AssetError."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as e:
+        raise AssetError(f"{p}: cannot read behavior file ({e.strerror})") from None
+    except UnicodeDecodeError as e:
+        raise AssetError(f"{p}: not a text file ({e.reason} at byte {e.start})") from None
+    return parse_bhv_content(text, str(p), macros)
 
 
 def load_bhv(
@@ -180,9 +236,4 @@ def load_bhv(
     macros: Mapping[str, object] | None = None,
 ) -> HelmConfig:
     """Read and parse a ``.bhv`` file; errors name ``path:line``."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as e:
-        raise AssetError(f"{p}: cannot read behavior file ({e.strerror})") from e
-    return parse_bhv(text, str(p), known_vars, domain, macros)
+    return _validated(read_bhv_file(path, macros), known_vars, domain)

@@ -12,18 +12,22 @@ The mapping form (scenario YAML)::
 
 Every value goes through the same converters as ``.bhv`` lines, so a ``.bhv`` file and its
 YAML twin give EQUAL :class:`HelmConfig` objects (source locations are not compared).
+Files are read above this module: :mod:`uhrisim.autonomy.bhv` (``.bhv``) and
+:mod:`uhrisim.autonomy.moos_file` (a ``.moos`` mission's pHelmIvP block).
 """
 
 from __future__ import annotations
 
 import difflib
+import logging
 import re
+import warnings
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 from uhrisim.autonomy.behaviors import REGISTRY, Behavior, behavior_class
-from uhrisim.autonomy.behaviors.base import COMMON_HANDLERS, CommonParams
+from uhrisim.autonomy.behaviors.base import COMMON_HANDLERS, CommonParams, common_key
 from uhrisim.autonomy.conditions import Value
 from uhrisim.autonomy.domain import Domain, DomainAxis
 from uhrisim.autonomy.modes import ModeEntry, parse_mode_entry
@@ -35,9 +39,42 @@ __all__ = [
     "NAV_VARS",
     "BehaviorSpec",
     "HelmConfig",
+    "HelmSettings",
     "build_behavior_spec",
+    "default_domain",
     "parse_domain",
 ]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class HelmSettings:
+    """Settings of the helm process itself (pHelmIvP's ProcessConfig block).
+
+    ``start_engaged``: drive from the first iteration (pHelmIvP's ``start_engaged``; it
+    defaults to false there, and a ``.moos`` file's helm keeps that default; a helm given
+    by a ``.bhv`` file or a scenario mapping is the simulation's own and starts engaged).
+    While parked the helm waits for ``MOOS_MANUAL_OVERRIDE = false``.
+    ``ok_skew`` (s, None = "any"): mail posted more than this before or after the helm's
+    time is ignored (default 60, HelmIvP.cpp:65, 220-233).
+    ``contact_max_age`` (s): a contact whose last report is older leaves the contact
+    ledger - twice as old while a behavior uses it (default 45, HelmIvP.cpp:1268, 386).
+    """
+
+    start_engaged: bool = True
+    ok_skew: float | None = 60.0
+    contact_max_age: float = 45.0
+
+
+def default_domain(where: str) -> Domain:
+    """The paper's domain, used when none is given - with a warning naming ``where``."""
+    domain = Domain.paper()
+    msg = (f"{where}: no decision domain given; using the paper's course:0:359:360, "
+           "speed:0:5:26, depth:0:100:101:optional")
+    log.warning(msg)
+    warnings.warn(msg, UserWarning, stacklevel=3)
+    return domain
 
 NAV_VARS = frozenset(
     {"NAV_X", "NAV_Y", "NAV_HEADING", "NAV_SPEED", "NAV_DEPTH", "NAV_LAT", "NAV_LONG", "NAV_YAW"}
@@ -66,7 +103,7 @@ HELM_POSTED_VARS = frozenset(
         "NODE_REPORT",
     }
 )
-_CONTACT_VAR = re.compile(r"^[A-Za-z0-9_\-]+_NAV_(X|Y|HEADING|SPEED|DEPTH|UTC)$")
+_CONTACT_VAR = re.compile(r"^[A-Za-z0-9_\-]+_NAV_(GROUP|TYPE)$")  # from NODE_REPORTs
 REPEATABLE = frozenset(
     {
         "condition",
@@ -114,16 +151,22 @@ class BehaviorSpec:
 
 
 def build_behavior_spec(
-    kind: str, items: Iterable[tuple[str, object, str]], where: str
+    kind: str, items: Iterable[tuple[str, object, str]], where: str, exact_kind: bool = False
 ) -> BehaviorSpec:
-    """Typed spec from ``(key, value, where)`` items; unknown key or bad value -> ConfigError."""
-    cls = behavior_class(kind, where)
-    common, params = CommonParams(), cls.Params()
+    """Typed spec from ``(key, value, where)`` items; unknown key or bad value -> ConfigError
+    (pHelmIvP refuses to start on either: MALCONFIG, BehaviorSet.cpp:311-327, 392-416).
+
+    ``exact_kind``: the kind must be spelt as pHelmIvP knows it (``BHV_Loiter``), as in a
+    ``.bhv`` file; a scenario mapping may say ``Loiter`` or ``loiter``."""
+    cls = behavior_class(kind, where, exact=exact_kind)
+    common, params = CommonParams(duration=cls.DEFAULT_DURATION), cls.Params()
     cond_wheres: list[str] = []
+    duration_given = False
     for key, value, w in items:
-        k = str(key).strip().lower()
+        k = common_key(key)
         if k in COMMON_HANDLERS:
             common = COMMON_HANDLERS[k](common, value, k, w)
+            duration_given |= k == "duration"
             if k == "condition":
                 cond_wheres.extend([w] * (len(value) if isinstance(value, list | tuple) else 1))
         elif k in cls.HANDLERS:
@@ -135,15 +178,13 @@ def build_behavior_spec(
             raise ConfigError(f"{cls.KIND} has no parameter {key!r}{extra}", w)
     if not common.name:
         raise ConfigError(f"{cls.KIND} needs a name", where)
-    for req in cls.REQUIRED:
-        if not getattr(params, req):
-            raise ConfigError(f"{cls.KIND} {common.name!r} needs {req} =", where)
-    if cls.CONTACT_BASED and not params.contact and common.templating != "spawn":
-        raise ConfigError(
-            f"{cls.KIND} {common.name!r} needs contact = (or templating = spawn)", where
-        )
     if common.templating == "spawn" and not common.updates:
         raise ConfigError(f"spawn template {common.name!r} needs updates = VARIABLE", where)
+    if common.duration == 0.0 and not duration_given and not common.perpetual:
+        msg = (f"{where}: {cls.KIND} {common.name!r} has no duration: as in pHelmIvP it "
+               "completes at its first running iteration (give duration = no-time-limit)")
+        log.warning(msg)
+        warnings.warn(msg, UserWarning, stacklevel=2)
     return BehaviorSpec(cls.KIND, common, params, where, tuple(cond_wheres))
 
 
@@ -196,6 +237,8 @@ class HelmConfig:
     modes: tuple[ModeEntry, ...] = ()
     initialize: tuple[tuple[str, Value], ...] = ()
     domain: Domain = field(default_factory=Domain.paper)
+    initialize_deferred: tuple[tuple[str, Value], ...] = ()
+    settings: HelmSettings = field(default_factory=HelmSettings)
     source: str = field(default="", compare=False)
 
     @property
@@ -204,31 +247,42 @@ class HelmConfig:
 
     def posted_vars(self) -> set[str]:
         """Variables this helm initialises or posts itself."""
-        out = {v for v, _ in self.initialize} | set(self.mode_vars) | set(HELM_POSTED_VARS)
+        out = {v for v, _ in self.initialize + self.initialize_deferred}
+        out |= set(self.mode_vars) | set(HELM_POSTED_VARS)
         for b in self.behaviors:
             out |= b.posted_vars()
         return out
 
-    def validate(self, known_vars: Iterable[str] = ()) -> HelmConfig:
+    def validate(self, known_vars: Iterable[str] | None = ()) -> HelmConfig:
         """Check names, domain needs and that every condition variable has a source.
 
-        ``known_vars``: variables posted from outside (contact-manager alert variables,
-        viewer buttons, the simulation). Returns self; raises ConfigError with the location.
+        Names: no behavior's name may begin with another's (templates aside), as pHelmIvP
+        refuses (BehaviorSet.cpp:288-295, 1208-1221). ``known_vars``: variables posted from
+        outside (contact-manager alert variables, viewer buttons, the simulation); None
+        skips the source check (a MOOS community has other apps posting: pHelmIvP itself
+        does not check, a condition on a variable nobody posts is simply false). Returns
+        self; raises ConfigError with the location.
         """
         for a in ("course", "speed"):
             if not self.domain.has(a) or self.domain.axis(a).optional:
                 raise ConfigError(f"the helm domain needs a non-optional {a!r} axis", "domain")
         names: dict[str, str] = {}
         for b in self.behaviors:
-            if b.name in names:
-                raise ConfigError(
-                    f"duplicate behavior name {b.name!r} (also {names[b.name]})", b.where
-                )
-            names[b.name] = b.where
+            if not b.is_template:
+                for other, where in names.items():
+                    if b.name.startswith(other) or other.startswith(b.name):
+                        raise ConfigError(
+                            f"duplicate behavior name {b.name!r}: pHelmIvP counts names "
+                            f"that begin with another as duplicates (also {other!r} at "
+                            f"{where})", b.where,
+                        )
+                names[b.name] = b.where
             axes = {"BHV_ConstantDepth": ("depth",)}.get(b.kind, ("course", "speed"))
             for a in axes:
                 if not self.domain.has(a):
                     raise ConfigError(f"{b.kind} {b.name!r} needs a {a!r} domain axis", b.where)
+        if known_vars is None:
+            return self
         known = self.posted_vars() | set(NAV_VARS) | set(known_vars)
 
         def check(var: str, where: str, owner: str) -> None:
@@ -286,19 +340,9 @@ class HelmConfig:
             if not isinstance(b, Mapping) or not ("type" in b or "kind" in b):
                 raise ConfigError("each behavior needs a 'type' (e.g. Loiter)", w)
             specs.append(build_behavior_spec(b.get("type", b.get("kind")), _items_of(b, w), w))
-        domain = parse_domain(m["domain"], f"{where}.domain") if "domain" in m else Domain.paper()
+        if "domain" in m:
+            domain = parse_domain(m["domain"], f"{where}.domain")
+        else:
+            domain = default_domain(where)
         cfg = cls(tuple(specs), tuple(modes), tuple(init), domain, source=where)
         return cfg.validate(known_vars)
-
-    @classmethod
-    def from_bhv_file(
-        cls,
-        path: str,
-        known_vars: Iterable[str] = (),
-        domain: Domain | None = None,
-        macros: Mapping[str, object] | None = None,
-    ) -> HelmConfig:
-        """Load a MOOS-IvP ``.bhv`` file (see :mod:`uhrisim.autonomy.bhv`)."""
-        from uhrisim.autonomy.bhv import load_bhv
-
-        return load_bhv(path, known_vars=known_vars, domain=domain, macros=macros)

@@ -60,6 +60,7 @@ _ALIASES = {
     "DEPTH": "DEP",
     "LON": "LON",
     "LONG": "LON",
+    "UTC_TIME": "TIME",
 }
 _NUMERIC = ("X", "Y", "SPD", "HDG", "DEP", "LAT", "LON", "TIME", "LENGTH")
 

@@ -1,10 +1,10 @@
 """Coupling two 1-D functions into one over (course, speed) (IvP ``OF_Coupler``).
 
 reference/helm.md: each function is rescaled to 0..w (w = 50 by default) and the two are
-added, F(c, v) = f_c(c) + f_v(v); the behavior then normalises F to 0..100.
+added, F(c, v) = f_c(c) + f_v(v); F is then normalised to 0..100 (OF_Coupler.cpp:74-98).
 
-A constant input (no preference) rescales to its top value ``w``: "indifferent" counts as
-fully satisfied. Constants never change an argmax, so the choice only shows in audits.
+Rescaling is IvP's ``PDMap::normalize`` (PDMap.cpp:169-183): a constant function (no
+preference) keeps its value. Constants never change an argmax; they show in audits.
 """
 
 from __future__ import annotations
@@ -16,11 +16,11 @@ __all__ = ["couple", "couple_reference", "rescale"]
 
 
 def rescale(f: ArrayLike, low: float, high: float) -> NDArray[np.float64]:
-    """Affinely map the range [min f, max f] onto [low, high] (constant -> high)."""
+    """Affinely map the range [min f, max f] onto [low, high] (a constant is unchanged)."""
     a = np.asarray(f, dtype=float)
     fmin, fmax = float(a.min()), float(a.max())
     if fmax - fmin <= 0.0:
-        return np.full_like(a, high)
+        return a.copy()
     return low + (a - fmin) * ((high - low) / (fmax - fmin))
 
 
@@ -30,7 +30,7 @@ def _rescale_ranged(f: ArrayLike, high: float) -> tuple[NDArray[np.float64], flo
     a = np.asarray(f, dtype=float)
     fmin, fmax = float(a.min()), float(a.max())
     if fmax - fmin <= 0.0:
-        return np.full_like(a, high), high, high
+        return a.copy(), fmin, fmax
     k = high / (fmax - fmin)
     out = np.subtract(a, fmin)
     out *= k  # 0 + x dropped: x >= +0 here
@@ -59,8 +59,7 @@ def couple(
     fmin = cmin + smin
     fmax = cmax + smax
     if fmax - fmin <= 0.0:
-        F.fill(100.0)
-        return F
+        return F  # both constant: their sum stays
     F -= fmin
     F *= 100.0 / (fmax - fmin)
     return F

@@ -148,9 +148,18 @@ def _radial(spec: str, key: str, where: str) -> tuple[Point, ...]:
         b = math.radians(180.0 / n + k * 360.0 / n)
         px, py = cx + radius * math.sin(b), cy + radius * math.cos(b)
         if snap > 0:
-            px, py = round(px / snap) * snap, round(py / snap) * snap
+            px, py = snap_to_step(px, snap), snap_to_step(py, snap)
         pts.append((px, py))
     return tuple(pts)
+
+
+def snap_to_step(value: float, step: float) -> float:
+    """``value`` on the nearest multiple of ``step``, halves away from zero (MOOS-IvP
+    MBUtils ``snapToStep``; a step <= 0 leaves it)."""
+    if step <= 0:
+        return value
+    q = value / step
+    return float(int(q + 0.5) if q >= 0.0 else int(q - 0.5)) * step
 
 
 def parse_polygon(v: object, key: str = "polygon", where: str = "polygon") -> tuple[Point, ...]:

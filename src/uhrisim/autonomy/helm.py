@@ -1,32 +1,45 @@
-"""The behavior-fusion helm (pHelmIvP semantics, reference/helm.md "The helm cycle").
+"""The behavior-fusion helm, with pHelmIvP's semantics (reference/helm.md "The helm
+cycle"; MOOS-IvP ivp/src/pHelmIvP/HelmIvP.cpp, HelmEngine.cpp, lib_helmivp).
 
 Inputs and outputs stay in the MOOS vocabulary: NAV_X (east, m), NAV_Y (north, m),
 NAV_HEADING (compass deg), NAV_SPEED (m/s), NAV_DEPTH (m, down); out come DESIRED_HEADING
 (deg), DESIRED_SPEED (m/s), DESIRED_DEPTH (m). The simulation converts to NED at the
 boundary. One call of :meth:`Helm.step` is one helm iteration (4 Hz in the paper):
 
-1. mail (variables changed since the last step) enters the info buffer. ``NODE_REPORT``
-   values (a string, a :class:`NodeReport`, or a list of them) become
-   ``<NAME>_NAV_X/_Y/_HEADING/_SPEED/_DEPTH/_UTC`` entries (name upper-cased; own
-   reports ignored). A posting to a spawn template's ``updates`` variable containing
-   ``name=X`` spawns behavior ``<template name><X>`` (IvP concatenation) with the other
-   ``param=value`` pairs applied, or updates it if it already exists; postings to a
-   behavior's ``updates`` variable set parameters. A list value means several postings
-   of that variable, applied in order. The ``initialize`` values are applied (and
-   posted) before the first mail;
-2. mode variables are evaluated (:mod:`modes`), posted when they change;
-3. each behavior's conditions decide idle/running; durations expire; running behaviors
-   produce objectives; flags are posted on transitions (runflag: idle -> running,
-   idleflag: -> idle, activeflag / inactiveflag: starts / stops producing a function,
-   endflag: completion);
-4. the solver fuses priority-weighted functions (:mod:`solver`; tie rule there);
-5. DESIRED_* are posted every tick; with no decision, DESIRED_SPEED = 0 and the reason
-   goes to IVPHELM_ALLSTOP.
+1. Mail enters the info buffer posting by posting - a mapping ``{var: value}`` or the
+   stream of ``(var, value, time)`` postings as MOOS delivers them (:func:`postings_of`).
+   Mail more than ``ok_skew`` s off the helm's time is ignored (IVPHELM_SKEW).
+   ``MOOS_MANUAL_OVERRIDE`` (or ``MOOS_MANUAL_OVERIDE``) = "false" engages the helm,
+   "true" parks it; it starts engaged only with ``start_engaged``. ``NODE_REPORT`` (and
+   ``AIS_REPORT``) values go to the contact ledger under their NAME, exact case; a report
+   without TIME or X/Y is refused (ContactLedger.cpp:195-208).
+   Postings to an ``updates`` variable are kept for the next decision iteration.
+2. Parked: IVPHELM_ALLSTOP = ManualOverride, DESIRED_* = 0 once, and the kept postings
+   are dropped - a spawning alert that arrives while parked is lost, as in pHelmIvP
+   (``clearDeltaVectors``, HelmIvP.cpp:400-404).
+3. Until NAV_X, NAV_Y, NAV_HEADING, NAV_SPEED (and NAV_DEPTH with a depth axis) are known
+   the helm waits (nothing posted, postings kept; HelmIvP.cpp:1942-1974).
+4. A decision iteration: contacts older than ``contact_max_age`` (twice that for one a
+   behavior names) leave the ledger; kept postings spawn templates (a posting with
+   ``name=X`` to a template's variable makes ``<template name>X``, or ``X`` if it starts
+   with the template's name; an existing one is updated instead; a name-less posting
+   updates every instance) and update behaviors; mode variables are evaluated (one that
+   no entry sets keeps its value); each behavior's conditions decide idle/running
+   (a dynamically spawned contact behavior whose contact is not in the ledger completes;
+   a duration ends a running behavior once reached - duration 0 at its first running
+   iteration); running behaviors produce objectives; flags are posted on transitions.
+5. A BHV_ERROR from a behavior halts the iteration (IVPHELM_ALLSTOP = BehaviorError).
+   Otherwise the solver fuses priority-weighted functions (:mod:`solver`): no function is
+   NothingToDo, a non-optional variable without a decision MissingDecVars:<vars> (also
+   posted as BHV_ERROR), else clear and DESIRED_* for each decided variable.
+   IVPHELM_ALLSTOP is posted when it changes; a non-clear one posts DESIRED_* = 0 for every
+   domain variable once - for NothingToDo/MissingDecVars only from the second iteration in
+   a row (HelmIvP.cpp:499-549, 1717-1771).
 
-The helm's own posts (flags, mode, behavior posts) are applied to its info buffer at the
-end of the step, so conditions see them on the next tick - as when they come back through
-the MOOSDB. ``MOOS_MANUAL_OVERRIDE = true`` parks the helm (IVPHELM_STATE = PARK: no
-behaviors run, nothing DESIRED_* is posted).
+pHelmIvP's first second without decisions (HelmIvP.cpp:407-411, a wait for the first mail
+of a live community) is not modelled. The helm's own posts (flags, mode, behavior posts)
+are applied to its info buffer at the end of the step, so conditions see them on the next
+tick - as when they come back through the MOOSDB.
 """
 
 from __future__ import annotations
@@ -35,7 +48,13 @@ import logging
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
-from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext, OwnNav
+from uhrisim.autonomy.behaviors.base import (
+    Behavior,
+    BehaviorContext,
+    ContactInfo,
+    OwnNav,
+    valid_name,
+)
 from uhrisim.autonomy.conditions import Value
 from uhrisim.autonomy.config import BehaviorSpec, HelmConfig
 from uhrisim.autonomy.contacts import NodeReport, parse_node_report
@@ -45,7 +64,7 @@ from uhrisim.autonomy.solver import SolveResult, WeightedObjective, solve
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import yaw_from_heading_deg
 
-__all__ = ["Decision", "Helm", "HelmOutput", "as_mail"]
+__all__ = ["Decision", "Helm", "HelmOutput", "Posting", "as_mail", "postings_of"]
 
 log = logging.getLogger(__name__)
 
@@ -66,6 +85,22 @@ def as_mail(
         else:
             mail[var] = val
     return mail
+
+
+Posting = tuple[str, object, float]
+"""One piece of mail as MOOS delivers it: (variable, value, MOOS time in s)."""
+
+
+def postings_of(mail: Mapping[str, object] | Iterable[Posting], t: float) -> list[Posting]:
+    """The postings in ``mail`` in delivery order: a mapping's entries (a list value is
+    several postings of that variable) are dated ``t``; postings are taken as they are."""
+    if not isinstance(mail, Mapping):
+        return [(str(var), value, float(time)) for var, value, time in mail]
+    out: list[Posting] = []
+    for var, val in mail.items():
+        for v in val if isinstance(val, list | tuple) else (val,):
+            out.append((var, v, t))
+    return out
 
 
 @dataclass(frozen=True)
@@ -125,23 +160,40 @@ def _num(v: object) -> float | None:
         return None
 
 
+OVERRIDE_VARS = frozenset({"MOOS_MANUAL_OVERRIDE", "MOOS_MANUAL_OVERIDE"})
+LEDGER_VARS = frozenset({"NODE_REPORT", "AIS_REPORT", "AIS_REPORT_LOCAL"})
+_NO_DECISION = ("NothingToDo", "MissingDecVars")
+
+
+def _desired_var(axis: str) -> str:
+    """The variable a decision on ``axis`` is posted to (DESIRED_COURSE is DESIRED_HEADING)."""
+    return "DESIRED_HEADING" if axis == "course" else f"DESIRED_{axis.upper()}"
+
+
 class Helm:
     """A MOOS-IvP style helm for one vehicle (see module docstring)."""
 
     def __init__(self, config: HelmConfig, vehicle_name: str = "") -> None:
         self.config = config
+        self.settings = config.settings
         self.vehicle_name = vehicle_name
         self.domain = config.domain
         self.info: dict[str, Value] = {}
+        self.ledger: dict[str, ContactInfo] = {}
+        self.engaged = config.settings.start_engaged
         self.templates: dict[str, list[BehaviorSpec]] = {}
+        self.spawn_counts: dict[str, int] = {}
         self.slots: list[_Slot] = []
         for spec in config.behaviors:
             if spec.is_template:
                 self.templates.setdefault(spec.common.updates, []).append(spec)
             else:
                 self.slots.append(_Slot(spec.instantiate()))
-        self.mode_vars = frozenset(config.mode_vars)
         self._mode_var_order = config.mode_vars  # declaration order (the first is MODE)
+        self._kept: list[tuple[str, str]] = []  # updates postings for the next iteration
+        self._nav_started = False
+        self._allstop = ""  # the last IVPHELM_ALLSTOP message (HelmIvP m_allstop_msg)
+        self._no_decisions = 0
         self._first = True
         self._last_lists: dict[str, str] = {}
         self.last_output: HelmOutput | None = None
@@ -171,124 +223,196 @@ class Helm:
         log.warning("helm %s: %s", self.vehicle_name, msg)
         posts.append(("BHV_WARNING", msg))
 
-    def _node_report(self, text: object, t: float, posts: list) -> None:
+    def _node_report(self, text: object, posts: list) -> None:
+        """A report into the contact ledger (ContactLedger::processNodeReport)."""
         try:
             r = text if isinstance(text, NodeReport) else parse_node_report(str(text))
         except ConfigError as e:
-            self._warn(posts, f"bad NODE_REPORT ignored: {e}")
+            self._warn(posts, f"Bad NodeReport: {e}")
             return
-        if r.name.lower() == self.vehicle_name.lower():
+        if r.time is None:
+            self._warn(posts, f"Bad NodeReport: {text} The issue: Missing timestamp.")
             return
-        k = r.name.upper()
-        self.info.update(
-            {
-                f"{k}_NAV_X": r.x,
-                f"{k}_NAV_Y": r.y,
-                f"{k}_NAV_HEADING": r.heading,
-                f"{k}_NAV_SPEED": r.speed,
-                f"{k}_NAV_DEPTH": r.depth,
-                f"{k}_NAV_UTC": r.time if r.time is not None else t,
-            }
-        )
+        self.ledger[r.name] = ContactInfo(r.name, r.x, r.y, r.heading, r.speed, r.depth, r.time)
+        if r.type:
+            self.info[f"{r.name.upper()}_NAV_TYPE"] = r.type
 
+    def _take_mail(self, t: float, postings: Iterable[Posting], posts: list) -> None:
+        watched = set(self.templates) | {s.bhv.common.updates for s in self.slots}
+        for var, v, t_post in postings:
+            skew = self.settings.ok_skew
+            if skew is not None and abs(t - t_post) > skew:
+                msg = f"Helm ignores MOOS msg due to skew: {var} Skew={t - t_post:.2f}"
+                log.warning("helm %s: %s", self.vehicle_name, msg)
+                posts.append(("IVPHELM_SKEW", msg))
+                continue
+            if var in LEDGER_VARS:
+                self._node_report(v, posts)
+                continue
+            try:
+                self.info[var] = moos_value(v)
+            except ConfigError as e:
+                self._warn(posts, f"{var}: {e}")
+                continue
+            if var in OVERRIDE_VARS and str(v).strip().lower() in ("true", "false"):
+                self.engaged = str(v).strip().lower() == "false"
+            if var in watched:
+                self._kept.append((var, str(v)))
+
+    # -- spawning and updates ----------------------------------------------------------
     def _spawn(self, var: str, text: str, posts: list) -> None:
+        """A posting to a template's variable (BehaviorSet::handlePossibleSpawnings)."""
         try:
             pairs = parse_updates(text)
         except ConfigError as e:
             self._warn(posts, f"bad {var} posting {text!r}: {e}")
             return
         given = dict(pairs).get("name")
-        if not given:
-            self._warn(posts, f"{var} posting {text!r} has no name= to spawn with")
-            return
         rest = [(k, v) for k, v in pairs if k != "name"]
+        if given is None:  # updates every spawned instance (IvPBehavior::checkUpdates)
+            for s in self.slots:
+                if s.spawned and s.bhv.common.updates == var and s.status != "completed":
+                    self._apply_update(s.bhv, var, rest, posts)
+            return
         for tpl in self.templates[var]:
-            new_name = tpl.name + given
-            existing = self.behavior(new_name)
-            try:
-                if existing is None:
-                    b = tpl.instantiate(new_name)
-                    for k, v in rest:
-                        b.set_param(k, v, f"{var} posting")
-                    b.reset()
-                    self.slots.append(_Slot(b, spawned=True))
-                    log.info("helm %s: spawned %s", self.vehicle_name, new_name)
-                else:
-                    for k, v in rest:
-                        existing.set_param(k, v, f"{var} posting")
-            except ConfigError as e:
-                self._warn(posts, f"spawn of {new_name} from {var} failed: {e}")
-
-    def _update(self, var: str, text: str, posts: list) -> None:
-        for s in self.slots:
-            if s.bhv.common.updates != var or s.status == "completed":
+            new_name = given if given.startswith(tpl.name) else tpl.name + given
+            existing = self.behavior(new_name) or self.behavior(given)
+            if existing is not None:
+                self._apply_update(existing, var, rest, posts)
                 continue
-            if s.spawned and var in self.templates:
-                continue  # spawned instances are updated through _spawn (by name)
+            if not valid_name(given):
+                self._warn(posts, f"Failed to spawn {new_name}. Bad name: {given}")
+                continue
+            limit = tpl.common.max_spawnings
+            if limit and self.spawn_counts.get(tpl.name, 0) >= limit:
+                self._warn(posts, f"Failed to spawn {new_name}: max_spawnings {limit} reached")
+                continue
             try:
-                for k, v in parse_updates(text):
-                    if k in ("name", "templating"):
-                        raise ConfigError(f"{k} cannot be updated", f"{var} posting")
-                    s.bhv.set_param(k, v, f"{var} posting")
+                b = tpl.instantiate(new_name)
+                for k, v in rest:
+                    b.set_param(k, v, f"{var} posting")
             except ConfigError as e:
-                self._warn(posts, f"update of {s.bhv.name} from {var} rejected: {e}")
+                self._warn(posts, f"Failed to spawn {new_name}. Bad config: {e}")
+                continue
+            b.reset()
+            self.slots.append(_Slot(b, spawned=True))
+            self.spawn_counts[tpl.name] = self.spawn_counts.get(tpl.name, 0) + 1
+            posts.extend(self._expand(b, f) for f in b.common.spawnflags)
+            log.info("helm %s: spawned %s", self.vehicle_name, new_name)
 
-    def _take_mail(self, t: float, mail: Mapping[str, object], posts: list) -> None:
-        update_vars = {s.bhv.common.updates for s in self.slots if s.bhv.common.updates}
-        for var, val in mail.items():
-            values = list(val) if isinstance(val, list | tuple) else [val]
-            for v in values:
-                if var == "NODE_REPORT":
-                    self._node_report(v, t, posts)
-                    continue
-                try:
-                    self.info[var] = moos_value(v)
-                except ConfigError as e:
-                    self._warn(posts, f"{var}: {e}")
-                    continue
-                if var in self.templates:
-                    self._spawn(var, str(v), posts)
-                if var in update_vars:
-                    self._update(var, str(v), posts)
+    def _apply_update(
+        self, bhv: Behavior, var: str, pairs: list[tuple[str, str]], posts: list
+    ) -> None:
+        try:
+            for k, v in pairs:
+                if k in ("name", "templating"):
+                    raise ConfigError(f"{k} cannot be updated", f"{var} posting")
+                bhv.set_param(k, v, f"{var} posting")
+        except ConfigError as e:
+            self._warn(posts, f"update of {bhv.name} from {var} rejected: {e}")
+
+    def _apply_kept(self, posts: list) -> None:
+        """Spawn and update from the postings kept since the last decision iteration."""
+        kept, self._kept = self._kept, []
+        for var, text in kept:
+            if var in self.templates:
+                self._spawn(var, text, posts)
+            for s in list(self.slots):
+                if (s.bhv.common.updates == var and not s.spawned and s.status != "completed"):
+                    try:
+                        pairs = parse_updates(text)
+                    except ConfigError as e:
+                        self._warn(posts, f"update of {s.bhv.name} from {var} rejected: {e}")
+                        continue
+                    self._apply_update(s.bhv, var, pairs, posts)
 
     # -- the iteration ---------------------------------------------------------------
-    def step(self, t: float, mail: Mapping[str, object] | None = None) -> HelmOutput:
-        """One helm iteration at time ``t`` (s) with the variables changed since the last."""
+    def step(
+        self, t: float, mail: Mapping[str, object] | Iterable[Posting] | None = None
+    ) -> HelmOutput:
+        """One helm iteration at time ``t`` (s) with the mail since the last one.
+
+        ``mail``: a mapping ``{variable: value}`` (a list value = several postings, in
+        order), all posted at ``t``; or the postings themselves, ``(variable, value,
+        time)`` in the order MOOS delivered them (``time`` s, the posting's MOOS time)."""
         posts: list[tuple[str, Value]] = []
-        self._init_posts: tuple[tuple[str, Value], ...] = ()
+        init_posts: tuple[tuple[str, Value], ...] = ()
         if self._first:  # posted once, and applied before the first mail (mail wins)
-            self._init_posts = self.config.initialize
+            init_posts = self.config.initialize
             self.info.update(dict(self.config.initialize))
-        self._take_mail(t, mail or {}, posts)
-        parked = str(self.info.get("MOOS_MANUAL_OVERRIDE", "false")).lower() == "true"
-        state = "PARK" if parked else "DRIVE"
-        if self._last_lists.get("IVPHELM_STATE") != state:
-            posts.append(("IVPHELM_STATE", state))
-            self._last_lists["IVPHELM_STATE"] = state
+        self._take_mail(t, postings_of(mail or {}, t), posts)
+        if self._first:  # initialize_: only what is still unknown (HelmIvP.cpp:923-952)
+            late = tuple((v, x) for v, x in self.config.initialize_deferred if v not in self.info)
+            self.info.update(dict(late))
+            init_posts += late
+        state = "DRIVE" if self.engaged else "PARK"
+        posts.append(("IVPHELM_STATE", state))
+        mode = str(self.info.get(self._mode_var_order[0], "")) if self._mode_var_order else ""
+        if not self.engaged:
+            self._kept.clear()
+            self._post_allstop("ManualOverride", posts)
+            return self._finish(t, init_posts, posts, None, "ManualOverride", mode, state)
+        if not self._nav_known():
+            return self._finish(t, init_posts, posts, None, None, mode, state)
+        self._clear_stale_contacts(t)
+        self._apply_kept(posts)
         built = evaluate_modes(self.config.modes, self.info)
-        mode_vars = self._mode_var_order
-        for var in mode_vars:
-            value = built.get(var, "")  # no entry matched: the mode variable is empty
-            if self.info.get(var) != value or self._first:
-                posts.append((var, value))
-            self.info[var] = value
-        mode = str(self.info.get(mode_vars[0], "")) if mode_vars else ""
-        if parked:
-            out = self._finish(t, posts, None, "helm parked (MOOS_MANUAL_OVERRIDE=true)", mode)
-            return out
-        ctx = BehaviorContext(t, self.domain, self.info, self.own_nav())
+        for var in self._mode_var_order:
+            if var in built and (self.info.get(var) != built[var] or self._first):
+                posts.append((var, built[var]))
+                self.info[var] = built[var]
+        mode = str(self.info.get(self._mode_var_order[0], "")) if self._mode_var_order else ""
+        ctx = BehaviorContext(t, self.domain, self.info, self.own_nav(), self.ledger)
         weighted: list[WeightedObjective] = []
         for s in list(self.slots):
-            if s.status == "completed":
-                continue
-            self._run_slot(s, ctx, weighted)
+            if s.status != "completed":
+                self._run_slot(s, ctx, weighted)
         posts.extend(ctx.posts)
         self.slots = [s for s in self.slots if not (s.spawned and s.status == "completed")]
-        result = solve(self.domain, weighted)
-        return self._finish(t, posts, result, result.all_stop_reason, mode, tuple(weighted))
+        if any(var == "BHV_ERROR" for var, _ in ctx.posts):  # HelmEngine.cpp:233-243
+            result, reason = None, "BehaviorError"
+        else:
+            result = solve(self.domain, weighted)
+            reason = result.all_stop_reason or "clear"
+            if reason.startswith("MissingDecVars"):
+                posts.append(("BHV_ERROR", reason))
+        self._post_allstop(reason, posts)
+        if result is not None and result.decision is not None:
+            posts.extend((_desired_var(a), v) for a, v in result.decision.items())
+        return self._finish(t, init_posts, posts, result, reason, mode, state, tuple(weighted))
 
-    def _flag(self, ctx: BehaviorContext, b: Behavior, flag: tuple[str, Value]) -> None:
-        """Post a flag, expanding $[CONTACT], $[OWNSHIP], $[BHVNAME] in string values."""
+    def _nav_known(self) -> bool:
+        if not self._nav_started:
+            need = ["NAV_X", "NAV_Y", "NAV_HEADING", "NAV_SPEED"]
+            need += ["NAV_DEPTH"] if self.domain.has("depth") else []
+            self._nav_started = all(v in self.info for v in need)
+        return self._nav_started
+
+    def _clear_stale_contacts(self, t: float) -> None:
+        """Contacts whose report is older than contact_max_age leave the ledger; twice as
+        old for one a behavior names (HelmIvP.cpp:383-386, ContactLedger.cpp:400-425)."""
+        used = {getattr(s.bhv.params, "contact", "") for s in self.slots}
+        age = self.settings.contact_max_age
+        for name in [n for n, c in self.ledger.items()
+                     if t - c.t_report > age * (2.0 if n in used else 1.0)]:  # fmt: skip
+            del self.ledger[name]
+
+    def _post_allstop(self, msg: str, posts: list) -> None:
+        """IVPHELM_ALLSTOP and the DESIRED_* zeros (HelmIvP::postAllStop)."""
+        if msg == self._allstop:
+            return
+        self._allstop = msg
+        self._no_decisions = self._no_decisions + 1 if msg.startswith(_NO_DECISION) else 0
+        posts.append(("IVPHELM_ALLSTOP", msg))
+        if msg == "clear":
+            return
+        if self._no_decisions == 1:  # one iteration's grace, to change modes
+            self._allstop = "IncompleteOrEmptyDecision"
+            return
+        posts.extend((_desired_var(a.name), 0.0) for a in self.domain.axes)
+
+    def _expand(self, b: Behavior, flag: tuple[str, Value]) -> tuple[str, Value]:
+        """A flag with $[CONTACT], $[OWNSHIP], $[BHVNAME] expanded in a string value."""
         var, val = flag
         if isinstance(val, str) and "$[" in val:
             val = (
@@ -296,27 +420,24 @@ class Helm:
                 .replace("$[OWNSHIP]", self.vehicle_name)
                 .replace("$[BHVNAME]", b.name)
             )
-        ctx.post(var, val)
+        return var, val
+
+    def _flag(self, ctx: BehaviorContext, b: Behavior, flag: tuple[str, Value]) -> None:
+        ctx.post(*self._expand(b, flag))
 
     def _run_slot(self, s: _Slot, ctx: BehaviorContext, weighted: list) -> None:
         b = s.bhv
         c = b.common
         b.priority_scale, b.complete_requested = 1.0, False
+        contact = getattr(b.params, "contact", "")
+        if s.spawned and contact and contact not in ctx.contacts:  # IvPBehavior.cpp:339-341
+            self._complete(s, ctx)
+            return
         running = all(cond.evaluate(self.info) for cond in c.conditions)
         prev = s.status
         t = ctx.t
-        if c.duration > 0:
-            if running and s.dur_start is None:
-                s.dur_start = t
-            if running and s.last_t is not None and s.dur_start is not None:
-                s.dur_accum += t - s.last_t
-            s.last_t = t if running else None
-            if s.dur_start is not None:
-                elapsed = (t - s.dur_start) if c.duration_idle_decay else s.dur_accum
-                if elapsed >= c.duration:
-                    self._complete(s, ctx)
-                    return
         if not running:
+            s.last_t = None  # idle time counts only with duration_idle_decay
             if prev in ("", "running", "active"):
                 for f in c.idleflags:
                     self._flag(ctx, b, f)
@@ -325,7 +446,19 @@ class Helm:
                     self._flag(ctx, b, f)
             s.status = "idle"
             b.on_idle(ctx)
+            if b.complete_requested:
+                self._complete(s, ctx)
             return
+        if c.duration >= 0:  # the clock starts at the first running iteration
+            if s.dur_start is None:
+                s.dur_start = t
+            elif s.last_t is not None:
+                s.dur_accum += t - s.last_t
+            s.last_t = t
+            elapsed = (t - s.dur_start) if c.duration_idle_decay else s.dur_accum
+            if elapsed >= c.duration:  # IvPBehavior::durationExceeded
+                self._complete(s, ctx)
+                return
         if prev in ("", "idle"):
             b.on_run_start(ctx)
             for f in c.runflags:
@@ -361,28 +494,24 @@ class Helm:
     def _finish(
         self,
         t: float,
+        init_posts: tuple[tuple[str, Value], ...],
         posts: list[tuple[str, Value]],
         result: SolveResult | None,
         reason: str | None,
         mode: str,
+        state: str,
         weighted: tuple[WeightedObjective, ...] = (),
     ) -> HelmOutput:
         decision = None
         if result is not None and result.decision is not None:
             d = result.decision
             decision = Decision(d["course"], d["speed"], d.get("depth"))
-            posts += [("DESIRED_HEADING", decision.heading_deg), ("DESIRED_SPEED", decision.speed)]
-            if decision.depth is not None:
-                posts.append(("DESIRED_DEPTH", decision.depth))
-        elif result is not None:
-            posts.append(("DESIRED_SPEED", 0.0))
         groups: dict[str, list[str]] = {"active": [], "running": [], "idle": [], "completed": []}
         for s in self.slots:
             if s.status in groups:
                 groups[s.status].append(s.bhv.name)
         by = {k: tuple(v) for k, v in groups.items()}
         lists = {
-            "IVPHELM_ALLSTOP": reason or "clear",
             "IVPHELM_BHV_ACTIVE": ",".join(by["active"]),
             "IVPHELM_BHV_RUNNING": ",".join(by["running"]),
             "IVPHELM_BHV_IDLE": ",".join(by["idle"]),
@@ -393,14 +522,14 @@ class Helm:
                 posts.append((var, val))
                 self._last_lists[var] = val
         for var, val in posts:
-            if var not in ("NODE_REPORT", "BHV_WARNING", "BHV_ERROR"):
+            if var not in ("BHV_WARNING", "BHV_ERROR", "IVPHELM_SKEW"):
                 self.info[var] = val
         self._first = False
         out = HelmOutput(
             t=t,
             decision=decision,
             all_stop_reason=None if decision is not None else reason,
-            posts=self._init_posts + tuple(posts),
+            posts=init_posts + tuple(posts),
             contributions=dict(result.contributions) if result else {},
             total=result.total if result else 0.0,
             mode=mode,
@@ -408,7 +537,7 @@ class Helm:
             running=by["running"],
             idle=by["idle"],
             completed=by["completed"],
-            helm_state="PARK" if result is None else "DRIVE",
+            helm_state=state,
             solve=result,
             objectives=weighted,
         )

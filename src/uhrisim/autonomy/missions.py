@@ -34,7 +34,7 @@ def paper_diver_helm(
         "initialize": {"DEPLOY": "true"},
         "behaviors": [
             {"type": "ConstantDepth", "name": "depth", "depth": depth,
-             "condition": "DEPLOY = true"},
+             "duration": "no-time-limit", "condition": "DEPLOY = true"},
             {"type": "Loiter", "name": "loiter", "speed": speed, "condition": "DEPLOY = true",
              "polygon": f"format=radial, x={cx:g}, y={cy:g}, radius=20, pts=8",
              "slip_radius": 4},
@@ -53,7 +53,7 @@ _ROV: dict[str, Any] = {
     ],
     "behaviors": [
         {"type": "ConstantDepth", "name": "depth", "depth": 0, "condition": "MODE == ACTIVE",
-         "updates": "DEPTH_UPDATES"},
+         "duration": "no-time-limit", "updates": "DEPTH_UPDATES"},
         {"type": "Trail", "name": "trail_", "pwt": 300, "condition": "MODE == TRAILING",
          "templating": "spawn", "updates": "TRAIL_INFO", "trail_range": 2, "trail_angle": 180,
          "radius": 0.2, "nm_radius": 5},

@@ -19,7 +19,9 @@ ACTIVE`` is exact, so it holds for "ACTIVE" but no longer once a sibling made it
 conditions hold the value is set, prefixed by the parent ("ACTIVE:TRAILING"); if only the
 gate holds the else-value is (also prefixed); an entry with no gate sets the value
 outright. Behavior conditions then usually test the mode with ``==``, IvP's field match
-(``MODE == TRAILING`` holds for "ACTIVE:TRAILING", see :mod:`conditions`).
+(``MODE == TRAILING`` holds for "ACTIVE:TRAILING", see :mod:`conditions`); inside a mode
+declaration ``==`` is refused, as pHelmIvP refuses it. A mode variable that no entry sets
+this tick keeps its value (the helm does not post it: ModeSet.cpp:66).
 """
 
 from __future__ import annotations
@@ -68,6 +70,8 @@ def parse_mode_entry(text: str, where: str = "modes") -> ModeEntry:
     if not m:
         raise ConfigError(f"cannot read mode declaration {' '.join(str(text).split())!r}", where)
     body = m.group("body") or ""
+    if "==" in body:  # pHelmIvP refuses it (ModeEntry.cpp:121-125: MALCONFIG)
+        raise ConfigError("'==' is not allowed in a mode declaration: use '='", where)
     conds = tuple(parse_condition(c, where) for c in re.split(r"[;\n]", body) if c.strip())
     return ModeEntry(m.group("var"), m.group("val"), conds, m.group("else") or None, where)
 

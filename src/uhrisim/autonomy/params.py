@@ -28,9 +28,11 @@ __all__ = [
     "to_bool",
     "to_decay",
     "to_float",
+    "to_non_negative",
     "to_point",
     "to_point_or_present",
     "to_points",
+    "to_positive",
     "to_str",
 ]
 
@@ -61,6 +63,22 @@ def to_float(v: object, key: str, where: str) -> float:
         raise ConfigError(f"{key} must be a number, got {v!r}", where) from None
     if not math.isfinite(x):
         raise ConfigError(f"{key} must be finite, got {v!r}", where)
+    return x
+
+
+def to_positive(v: object, key: str, where: str) -> float:
+    """A number > 0 (IvP refuses the parameter otherwise: a config error)."""
+    x = to_float(v, key, where)
+    if not x > 0.0:
+        raise ConfigError(f"{key} must be > 0, got {v!r}", where)
+    return x
+
+
+def to_non_negative(v: object, key: str, where: str) -> float:
+    """A number >= 0 (IvP refuses the parameter otherwise: a config error)."""
+    x = to_float(v, key, where)
+    if x < 0.0:
+        raise ConfigError(f"{key} must be >= 0, got {v!r}", where)
     return x
 
 

@@ -12,8 +12,13 @@ Tie rule (documented, deterministic): among grid points with the same total, the
 C order of the domain axes wins - lowest course index, then lowest speed index, then
 lowest depth index (``numpy.argmax`` on the flattened component grid).
 
-All-stop: no functions at all, or a non-optional axis that no function covers, gives no
-decision and a reason string.
+All-stop: no functions at all ("NothingToDo"), or a non-optional axis that no function
+covers ("MissingDecVars:<axes>", in domain order), gives no decision - pHelmIvP's
+IVPHELM_ALLSTOP values (HelmIvP.cpp:499-531).
+
+Weights: a function whose values span more than 100 is first normalised to 0..100, then
+multiplied by its priority (IvP ``Problem::addOF``, Problem.cpp:127-134); weight <= 0 is
+dropped. Behaviors hand in functions within 0..100, so this guards outside functions.
 """
 
 from __future__ import annotations
@@ -50,6 +55,21 @@ class SolveResult:
     total: float = 0.0
     contributions: dict[str, float] = field(default_factory=dict)
     all_stop_reason: str | None = None
+
+
+def _taking_part(objectives: list[WeightedObjective]) -> list[WeightedObjective]:
+    """The functions the solver uses: weight > 0, over some axis, spanning <= 100."""
+    out = []
+    for w in objectives:
+        if not (w.priority > 0.0 and w.objective.axes):
+            continue
+        v = w.objective.values
+        lo, hi = float(v.min()), float(v.max())
+        if hi - lo > 100.0:  # PDMap::normalize(0, 100): intercept first, then the scale
+            scaled = Objective(w.objective.axes, (v + (0.0 - lo)) * (100.0 / (hi - lo)))
+            w = WeightedObjective(w.name, w.priority, scaled)
+        out.append(w)
+    return out
 
 
 def _components(domain: Domain, objs: list[WeightedObjective]) -> list[tuple[str, ...]]:
@@ -126,9 +146,9 @@ def _fuse(
 
 def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
     """Fuse weighted objectives and return the argmax decision (see module docstring)."""
-    objs = [w for w in objectives if w.priority > 0.0 and w.objective.axes]
+    objs = _taking_part(objectives)
     if not objs:
-        return SolveResult(None, all_stop_reason="no active behaviors (no objective functions)")
+        return SolveResult(None, all_stop_reason="NothingToDo")
     decision: dict[str, float] = {}
     indices: dict[str, int] = {}
     for comp in _components(domain, objs):
@@ -162,16 +182,16 @@ def _audit(
             indices,
             total,
             contributions,
-            all_stop_reason=f"no decision for non-optional variable(s) {', '.join(missing)}",
+            all_stop_reason="MissingDecVars:" + ",".join(missing),
         )
     return SolveResult(decision, indices, total, contributions)
 
 
 def solve_reference(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
     """Plain form of :func:`solve` (zero-filled accumulator per component; tests only)."""
-    objs = [w for w in objectives if w.priority > 0.0 and w.objective.axes]
+    objs = _taking_part(objectives)
     if not objs:
-        return SolveResult(None, all_stop_reason="no active behaviors (no objective functions)")
+        return SolveResult(None, all_stop_reason="NothingToDo")
     decision: dict[str, float] = {}
     indices: dict[str, int] = {}
     for comp in _components_reference(domain, objs):

@@ -10,7 +10,9 @@ Semantics from reference/helm.md ("ZAIC peak"). With d the distance of x to the 
 ``delta_eff`` is the summit delta when pw > 0 and 0 otherwise (with no peak plateau the
 base starts at the summit value, so the function stays continuous); delta is clipped to
 ``max - min``. On a grid, if every point is at ``min`` (the peak falls between grid
-points), the grid point nearest the summit gets ``max`` ("insist summit").
+points), one grid point gets ``max`` ("insist summit", ZAIC_PEAK.cpp:378-428): the first
+index for a summit below the axis, the last for one above it (wrapping axes too), else
+the grid point nearest the summit along the axis (not around it), the lower on a tie.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from uhrisim.autonomy.domain import DomainAxis
 
 __all__ = [
     "ZaicMemo",
+    "insist_index",
     "zaic_heq",
     "zaic_leq",
     "zaic_peak",
@@ -136,8 +139,17 @@ def zaic_peak_on_axis(
         wrap_period=axis.period if axis.wrap else None,
     )
     if insist_summit and not u.max() > minutil:
-        u[axis.index_of(summit)] = maxutil
+        u[insist_index(axis, summit)] = maxutil
     return u
+
+
+def insist_index(axis: DomainAxis, summit: float) -> int:
+    """The grid index an insisted summit lands on (module docstring)."""
+    if summit < axis.low:
+        return 0
+    if summit > axis.high:
+        return axis.npts - 1
+    return int(np.argmin(np.abs(axis.values - summit)))  # first minimum: the lower index
 
 
 class ZaicMemo:

@@ -26,6 +26,7 @@ TARGET_CORE_FRACTION = 0.01
 MISSION_TARGET_MS = 0.3
 
 _CONTACTS = ("diver", "boat", "kayak")
+PAPER_DOMAIN = {"course": [0, 359, 360], "speed": [0, 5, 26], "depth": [0, 100, 101, "optional"]}
 
 
 def _behaviors(n: int) -> list[dict]:
@@ -36,7 +37,7 @@ def _behaviors(n: int) -> list[dict]:
          "trail_range": 2, "radius": 0.5, "nm_radius": 15},
         {"type": "AvoidCollision", "name": "avd_diver", "contact": "diver", "pwt": 200,
          "pwt_outer_dist": 200, "pwt_inner_dist": 20},
-        {"type": "ConstantDepth", "name": "depth", "depth": 3},
+        {"type": "ConstantDepth", "name": "depth", "depth": 3, "duration": "no-time-limit"},
         {"type": "Waypoint", "name": "wpt", "points": "0,100:50,50", "speed": 1.0},
         {"type": "StationKeep", "name": "sk", "station_pt": "30,30"},
         {"type": "AvoidCollision", "name": "avd_boat", "contact": "boat",
@@ -62,7 +63,7 @@ def _mail(t: float) -> dict:
 
 
 def _measure(n_behaviors: int, n_steps: int) -> dict:
-    cfg = HelmConfig.from_mapping({"behaviors": _behaviors(n_behaviors)})
+    cfg = HelmConfig.from_mapping({"behaviors": _behaviors(n_behaviors), "domain": PAPER_DOMAIN})
     helm = Helm(cfg, "videoray")
     mails = [_mail(0.25 * i) for i in range(n_steps + 5)]
     for i in range(5):

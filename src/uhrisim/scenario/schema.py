@@ -211,10 +211,15 @@ class DiverLimits(Strict):
 
 
 class HelmSection(Strict):
-    """Behaviors inline (MOOS-IvP vocabulary) or from a ``.bhv`` file beside the scenario."""
+    """Behaviors inline (MOOS-IvP vocabulary), from a ``.bhv`` file, or the pHelmIvP block
+    of a MOOS mission file (``moos_file``: its Behaviors, Domain and settings); files are
+    beside the scenario. ``macros`` feed nsplug's ``$(NAME)`` / ``#ifdef`` in the files."""
 
     rate_hz: PositiveFloat = 4.0
     bhv_file: str | None = None
+    moos_file: str | None = None
+    moos_process: str = "pHelmIvP"
+    macros: dict[str, str | float] = Field(default_factory=dict)
     initialize: dict[str, str | float | bool] = Field(default_factory=dict)
     modes: tuple[str, ...] = ()
     behaviors: tuple[dict[str, Any], ...] = ()
@@ -222,8 +227,16 @@ class HelmSection(Strict):
 
     @model_validator(mode="after")
     def _one_source(self) -> HelmSection:
-        if self.bhv_file and self.behaviors:
-            raise ValueError("give either bhv_file or inline behaviors, not both")
+        given = [k for k in ("bhv_file", "moos_file") if getattr(self, k)]
+        inline = [k for k in ("behaviors", "modes", "initialize") if getattr(self, k)]
+        if len(given) > 1:
+            raise ValueError("give either bhv_file or moos_file, not both")
+        if given and inline:
+            raise ValueError(f"give either {given[0]} or inline {inline[0]}, not both")
+        if self.moos_file and self.domain:
+            raise ValueError("with moos_file the domain comes from its Domain lines")
+        if self.macros and not given:
+            raise ValueError("macros apply to a bhv_file or moos_file")
         return self
 
 

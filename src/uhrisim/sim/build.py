@@ -13,10 +13,12 @@ from typing import Protocol
 
 import numpy as np
 
+from uhrisim.autonomy.bhv import load_bhv
 from uhrisim.autonomy.community import VehicleAutonomy
 from uhrisim.autonomy.conditions import parse_condition
 from uhrisim.autonomy.config import HelmConfig, parse_domain
 from uhrisim.autonomy.contacts import AlertSpec, ContactManagerConfig
+from uhrisim.autonomy.moos_file import load_helm_from_moos
 from uhrisim.control.diver import DiverController, DiverGains
 from uhrisim.control.marine_pid import MarinePidController, MarinePidGains
 from uhrisim.control.videoray_p import GAIN_PRESETS, VideoRayPController
@@ -128,11 +130,14 @@ def _helm_driver(sim: BuildContext, cfg: AgentConfig, community: Community) -> H
                              alert_range=a.alert_range, cpa_range=a.cpa_range)
                    for a in cfg.contacts.alerts)
     known = known_external_vars(sim, cfg.name) | {a.var for a in alerts}
-    if section.bhv_file:
+    if section.moos_file:
+        helm_config = load_helm_from_moos(sim.source.resolve(section.moos_file),
+                                          section.moos_process, section.macros)
+    elif section.bhv_file:
         domain = parse_domain(dict(section.domain), sim.source.where(
             "agents", index, "helm", "domain")) if section.domain else None
-        helm_config = HelmConfig.from_bhv_file(str(sim.source.resolve(section.bhv_file)),
-                                               known_vars=known, domain=domain)
+        helm_config = load_bhv(sim.source.resolve(section.bhv_file), known, domain,
+                               section.macros)
     else:
         mapping = {"initialize": dict(section.initialize), "modes": list(section.modes),
                    "behaviors": [dict(b) for b in section.behaviors]}

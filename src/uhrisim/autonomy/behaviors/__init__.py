@@ -22,12 +22,18 @@ REGISTRY: dict[str, type[Behavior]] = {
 }
 
 
-def behavior_class(kind: str, where: str = "behavior") -> type[Behavior]:
-    """Class for ``BHV_Loiter`` / ``Loiter`` (case-insensitive); unknown -> ConfigError."""
-    k = str(kind).strip().lower()
+def behavior_class(kind: str, where: str = "behavior", exact: bool = False) -> type[Behavior]:
+    """Class for ``BHV_Loiter`` / ``Loiter`` (any case); ``exact``: only ``BHV_Loiter``, as
+    pHelmIvP reads kinds (BFactoryStatic.cpp). Unknown -> ConfigError."""
+    given = str(kind).strip()
+    if exact and given in REGISTRY:
+        return REGISTRY[given]
+    k = given.lower()
     k = k if k.startswith("bhv_") else "bhv_" + k
     for name, cls in REGISTRY.items():
         if name.lower() == k:
+            if exact:
+                raise ConfigError(f"unknown behavior {given!r}: pHelmIvP knows {name}", where)
             return cls
     raise ConfigError(f"unknown behavior {kind!r} (known: {', '.join(sorted(REGISTRY))})", where)
 

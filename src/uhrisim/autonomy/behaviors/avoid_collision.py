@@ -1,12 +1,25 @@
 """BHV_AvoidCollision: keep the closest point of approach to a contact large.
 
-reference/helm.md. Relevance r grades from 0 at ``pwt_outer_dist`` to 1 at
-``pwt_inner_dist`` (pct = (outer - range)/(outer - inner); linear: pct, quadratic: pct^2,
-quasi: pct^1.5); the helm weight this tick is ``priority * r`` (dropped at 0). Utility from
-the CPA over ``time_on_leg`` (120 s) for each candidate course x speed: 0 for
-cpa < min_util_cpa_dist, 100 for cpa >= max_util_cpa_dist, 25 -> 100 linearly between;
-if the current range is already inside min_util_cpa_dist, range/2 is used as the min.
-Completed (endflags; a spawned instance is removed) beyond ``completed_dist``.
+As pHelmIvP does it (MOOS-IvP ivp/src/lib_behaviors-marine/BHV_AvoidCollision.cpp,
+AOF_AvoidCollision.cpp; reference/helm.md):
+
+* relevance r = pct, pct^2 or pct^1.5 (``pwt_grade`` linear, quadratic, quasi) with
+  pct = (outer - range)/(outer - inner): 0 at and beyond ``pwt_outer_dist``, 1 at
+  ``pwt_inner_dist`` and MORE than 1 inside it (not clamped, getRelevance l.484-497); the
+  helm weight this tick is ``priority * r`` (no function at r <= 0);
+* utility from the CPA over ``time_on_leg`` (120 s) for each candidate course x speed: 0
+  for cpa < min_util_cpa_dist, 100 for cpa > max_util_cpa_dist, 25 -> 100 linearly
+  between; with the range already at or inside min_util_cpa_dist, range/2 is the min
+  (l.311-313); a min above max_util_cpa_dist is no function and a BHV_ERROR (the AOF
+  refuses to initialise);
+* the utility is built into 3 x 3-index linear pieces and normalised 0..100 (so the
+  peak is 100 even when no candidate clears max_util_cpa_dist), as
+  :func:`~uhrisim.autonomy.ivp_build.reflect` computes (l.292-293, 330-384);
+* with a ``depth`` axis in the helm's domain an instance's first build yields nothing (its
+  first reflector runs over course, speed AND depth, which the build pieces do not name;
+  l.51-54, 315-331): one tick without a function, as in pHelmIvP;
+* completed (endflags; a spawned instance is removed) once the range reaches 1.1 x
+  ``completed_dist``, whether running or idle (l.211, 226, 275).
 
 Defaults (IvP): outer 200, inner 50, completed 500, min 10, max 75, grade quasi.
 Authors' mission: outer 50, inner 20, completed 75, min 8, max 25, priority 200.
@@ -19,22 +32,28 @@ from typing import ClassVar
 
 import numpy as np
 
-from uhrisim.autonomy.behaviors.base import BehaviorContext
+from uhrisim.autonomy.behaviors.base import BehaviorContext, ContactInfo
 from uhrisim.autonomy.behaviors.contact_base import CONTACT_HANDLERS, ContactBehavior
 from uhrisim.autonomy.cpa import cpa_distance
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import distance
+from uhrisim.autonomy.ivp_build import fit_pieces_reference, normalize, reflect
 from uhrisim.autonomy.params import one_of, setter, to_float
 
 
 def relevance(range_m: float, outer: float, inner: float, grade: str) -> float:
-    """0 at/after ``outer``, 1 at/inside ``inner``, graded between (see module docstring)."""
+    """0 at/after ``outer``, 1 at ``inner``, graded between and beyond (module docstring)."""
     if range_m >= outer:
         return 0.0
-    if range_m <= inner or outer <= inner:
+    if outer <= inner:  # pHelmIvP divides by zero here; full relevance is the sane reading
         return 1.0
-    pct = (outer - range_m) / (outer - inner)
+    pct = (outer - range_m) / (outer - inner)  # > 1 inside ``inner``: not clamped
     return pct * pct if grade == "quadratic" else pct**1.5 if grade == "quasi" else pct
+
+
+PIECE = (3, 3)
+"""Build pieces, grid indices (course, speed): ``uniform_piece = discrete @ course:3,speed:3``
+(BHV_AvoidCollision.cpp:48)."""
 
 
 def cpa_utility(cpa: np.ndarray, min_util: float, max_util: float) -> np.ndarray:
@@ -103,39 +122,66 @@ class AvoidCollision(ContactBehavior):
         "pwt_grade": setter("pwt_grade", one_of("linear", "quadratic", "quasi")),
     }
 
+    def reset(self) -> None:
+        self.built_once = False
+
+    def _range(self, ctx: BehaviorContext) -> tuple[float, ContactInfo] | None:
+        """Range (m) to the contact and its track, or None with nothing to go on."""
+        tr = self.track(ctx)
+        if ctx.own is None or tr is None:
+            return None
+        return distance(ctx.own.x, ctx.own.y, tr.x, tr.y), tr
+
+    def _cpa_bounds(self, rng: float, ctx: BehaviorContext) -> tuple[float, float] | None:
+        """(collision, all-clear) CPA distances, m, or None (BHV_ERROR) when they cross."""
+        p: AvoidCollisionParams = self.params
+        collision = p.min_util_cpa_dist if rng > p.min_util_cpa_dist else rng / 2.0
+        if collision > p.max_util_cpa_dist:
+            ctx.post("BHV_ERROR", f"{self.name}: Unable to init AOF_AvoidCollision.")
+            return None
+        return collision, p.max_util_cpa_dist
+
+    def on_idle(self, ctx: BehaviorContext) -> None:
+        seen = self._range(ctx)
+        if seen is not None and seen[0] >= 1.1 * self.params.completed_dist:
+            self.complete()
+
     def on_run(self, ctx: BehaviorContext) -> Objective | None:
         p: AvoidCollisionParams = self.params
-        own = ctx.own
-        tr = self.track(ctx)
-        if own is None or tr is None:
+        seen = self._range(ctx)
+        if seen is None:
             return None
-        rng = distance(own.x, own.y, tr.x, tr.y)
-        if rng > p.completed_dist:
+        rng, tr = seen
+        if rng >= 1.1 * p.completed_dist:
             self.complete()
             return None
         self.priority_scale = relevance(rng, p.pwt_outer_dist, p.pwt_inner_dist, p.pwt_grade)
         if self.priority_scale <= 0.0:
             return None
-        min_u = p.min_util_cpa_dist if rng > p.min_util_cpa_dist else rng / 2.0
-        max_u = max(p.max_util_cpa_dist, min_u)
+        bounds = self._cpa_bounds(rng, ctx)
+        first_build, self.built_once = not self.built_once, True
+        if bounds is None or (first_build and ctx.domain.has("depth")):
+            return None
+        own = ctx.own
         cpa = self.cpa_grid(ctx.domain).distance(
-            own.x, own.y, tr.x, tr.y, tr.info.heading, tr.info.speed, p.time_on_leg
+            own.x, own.y, tr.x, tr.y, tr.heading, tr.speed, p.time_on_leg
         )
-        u = cpa_utility_inplace(cpa, min_u, max_u)
-        return Objective.over(ctx.domain, ("course", "speed"), u)
+        u = cpa_utility_inplace(cpa, *bounds)
+        return Objective.over(ctx.domain, ("course", "speed"), reflect(u, PIECE))
 
     def objective_reference(self, ctx: BehaviorContext) -> Objective | None:
-        """:meth:`on_run`'s function from the plain :func:`cpa_distance` (tests only)."""
+        """:meth:`on_run`'s function from the plain :func:`cpa_distance` and the reference
+        fit (tests only; ignores the first-build rule)."""
         p: AvoidCollisionParams = self.params
-        own, tr = ctx.own, self.track(ctx)
-        if own is None or tr is None:
+        seen = self._range(ctx)
+        bounds = None if seen is None else self._cpa_bounds(seen[0], ctx)
+        if seen is None or bounds is None:
             return None
-        rng = distance(own.x, own.y, tr.x, tr.y)
-        min_u = p.min_util_cpa_dist if rng > p.min_util_cpa_dist else rng / 2.0
-        max_u = max(p.max_util_cpa_dist, min_u)
+        own, tr = ctx.own, seen[1]
         crs, spd = ctx.domain.axis("course").values, ctx.domain.axis("speed").values
         cpa = cpa_distance(
             own.x, own.y, crs[:, None], spd[None, :],
-            tr.x, tr.y, tr.info.heading, tr.info.speed, p.time_on_leg,
+            tr.x, tr.y, tr.heading, tr.speed, p.time_on_leg,
         )  # fmt: skip
-        return Objective.over(ctx.domain, ("course", "speed"), cpa_utility(cpa, min_u, max_u))
+        u = normalize(normalize(fit_pieces_reference(cpa_utility(cpa, *bounds), PIECE)))
+        return Objective.over(ctx.domain, ("course", "speed"), u.table())

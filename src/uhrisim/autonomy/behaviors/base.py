@@ -1,12 +1,17 @@
 """Behavior base class, common IvP parameters, and the per-tick context behaviors read.
 
-Common parameters (IvP ``IvPBehavior::setParam``): ``name``, ``pwt``/``priority``
-(default 100), ``condition`` (repeatable, AND-ed), ``endflag``, ``runflag``, ``idleflag``,
-``activeflag``, ``inactiveflag`` (repeatable ``VAR = value``), ``updates`` (variable whose
-"param=value # ..." postings update the behavior at run time), ``duration`` (s, -1 = none),
+Common parameters (IvP ``IvPBehavior::setParam``, IvPBehavior.cpp:178-324; a leading
+``_`` is ignored, case does not matter): ``name`` (alias ``descriptor``; letters, digits
+and ``_-[]()#@+``), ``pwt``/``priwt``/``priority`` (>= 0, default 100), ``condition``
+(repeatable, AND-ed), ``endflag``, ``runflag``, ``idleflag``, ``activeflag``,
+``inactiveflag``, ``spawnflag`` (repeatable ``VAR = value``; also spelt ``end_flag``...),
+``updates`` (variable whose "param=value # ..." postings update the behavior at run time),
+``duration`` (s >= 0, or -1 / ``no-time-limit`` for none; 0 completes the behavior at its
+first running iteration; default none, but 0 for ConstantDepth as in pHelmIvP),
 ``duration_idle_decay`` (default true: the clock runs while idle too), ``perpetual``
-(default false: completion ends the behavior for good), ``templating = spawn``.
-``duration = no-time-limit`` means -1. Display-only parameters (``visual_hints``,
+(default false: completion ends the behavior for good), ``templating`` (exactly ``spawn``
+or ``clone``: a template; ``disallow`` or anything else: not), ``max_spawnings`` (a
+template's limit, 0 = none). Display-only parameters (``visual_hints``,
 ``bearing_line_config``, ``bearing_lines``) are kept in ``display`` and do not affect
 decisions. Flag values may use ``$[CONTACT]``, ``$[OWNSHIP]``, ``$[BHVNAME]``.
 
@@ -16,26 +21,36 @@ producing an objective), *completed*.
 
 from __future__ import annotations
 
-import math
+import logging
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
 from uhrisim.autonomy.conditions import Condition, Value, parse_condition
 from uhrisim.autonomy.domain import Domain, Objective
-from uhrisim.autonomy.extrapolator import Extrapolated, LinearExtrapolator
-from uhrisim.autonomy.params import Flag, parse_flag, to_bool, to_float, to_str
+from uhrisim.autonomy.params import Flag, parse_flag, to_bool, to_float, to_non_negative, to_str
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned
 
 __all__ = [
     "COMMON_HANDLERS",
+    "NAME_CHARS",
     "Behavior",
     "BehaviorContext",
     "CommonParams",
     "ContactInfo",
     "OwnNav",
+    "common_key",
+    "valid_name",
 ]
+
+log = logging.getLogger(__name__)
+
+
+def common_key(key: str) -> str:
+    """A parameter name as IvP matches it: lower case, a leading ``_`` dropped."""
+    k = str(key).strip().lower()
+    return k[1:] if k.startswith("_") else k
 
 
 @dataclass(frozen=True)
@@ -55,6 +70,8 @@ class CommonParams:
     duration_idle_decay: bool = True
     perpetual: bool = False
     templating: str = ""
+    max_spawnings: int = 0
+    spawnflags: tuple[Flag, ...] = ()
     display: tuple[tuple[str, str], ...] = ()
 
 
@@ -75,16 +92,32 @@ def _set(field_name: str, conv: Callable[[object, str, str], Any]) -> Callable:
 
 
 def _templating(v: object, key: str, where: str) -> str:
-    s = to_str(v, key, where).lower()
-    if s not in ("spawn", "", "disallowed"):
-        raise ConfigError(f"templating must be 'spawn', got {v!r}", where)
-    return "spawn" if s == "spawn" else ""
+    """``spawn`` and ``clone`` (exactly so) make a template, anything else an ordinary
+    behavior, as pHelmIvP (BehaviorSpec.cpp:122-135 ignores other words, with a warning)."""
+    s = to_str(v, key, where)
+    if s in ("spawn", "clone"):
+        return "spawn"
+    if s != "disallow":
+        log.warning("%s: templating = %s is not spawn/clone/disallow: pHelmIvP ignores it, "
+                    "the behavior is not a template", where, s)
+    return ""
 
 
 def _duration(v: object, key: str, where: str) -> float:
-    if isinstance(v, str) and v.strip().lower() == "no-time-limit":
+    """Seconds >= 0, or -1 / ``no-time-limit`` for none (IvPBehavior.cpp:285-296)."""
+    if isinstance(v, str) and v.strip() in ("no-time-limit", "-1"):
         return -1.0
-    return to_float(v, key, where)
+    x = to_float(v, key, where)
+    if x < 0 and x != -1.0:
+        raise ConfigError(f"{key} must be >= 0, -1 or no-time-limit, got {v!r}", where)
+    return x
+
+
+def _max_spawnings(v: object, key: str, where: str) -> int:
+    x = to_float(v, key, where)
+    if x < 0 or x != int(x):
+        raise ConfigError(f"{key} must be a whole number >= 0, got {v!r}", where)
+    return int(x)
 
 
 def _display(p: CommonParams, v: object, key: str, where: str) -> CommonParams:
@@ -96,28 +129,46 @@ def _cond(v: object, key: str, where: str) -> Condition:
     return parse_condition(str(v), where)
 
 
+NAME_CHARS = frozenset("_-[]()#@+")
+"""Besides letters and digits, what a behavior name may hold (IvPBehavior.cpp:136-144)."""
+
+
+def valid_name(s: str) -> bool:
+    return bool(s) and all(c.isalnum() or c in NAME_CHARS for c in s)
+
+
 def _name(v: object, key: str, where: str) -> str:
     s = to_str(v, key, where)
-    if not s or any(c.isspace() for c in s):
-        raise ConfigError(f"behavior name must be one word, got {v!r}", where)
+    if not valid_name(s):
+        raise ConfigError(
+            f"behavior name must be letters, digits and {''.join(sorted(NAME_CHARS))}, "
+            f"got {v!r}", where,
+        )
     return s
 
 
+_FLAGS = {
+    "endflag": "endflags",
+    "runflag": "runflags",
+    "idleflag": "idleflags",
+    "activeflag": "activeflags",
+    "inactiveflag": "inactiveflags",
+    "spawnflag": "spawnflags",
+}
+
 COMMON_HANDLERS: dict[str, Callable] = {
     "name": _set("name", _name),
-    "pwt": _set("priority", to_float),
-    "priority": _set("priority", to_float),
+    "descriptor": _set("name", _name),
+    **{k: _set("priority", to_non_negative) for k in ("pwt", "priwt", "priority")},
     "condition": _append("conditions", _cond),
-    "endflag": _append("endflags", parse_flag),
-    "runflag": _append("runflags", parse_flag),
-    "idleflag": _append("idleflags", parse_flag),
-    "activeflag": _append("activeflags", parse_flag),
-    "inactiveflag": _append("inactiveflags", parse_flag),
+    **{k: _append(f, parse_flag) for k, f in _FLAGS.items()},
+    **{k.replace("flag", "_flag"): _append(f, parse_flag) for k, f in _FLAGS.items()},
     "updates": _set("updates", to_str),
     "duration": _set("duration", _duration),
     "duration_idle_decay": _set("duration_idle_decay", to_bool),
     "perpetual": _set("perpetual", to_bool),
     "templating": _set("templating", _templating),
+    "max_spawnings": _set("max_spawnings", _max_spawnings),
     # display-only (pMarineViewer rendering): kept in the config, no effect on decisions
     "visual_hints": _display,
     "bearing_line_config": _display,
@@ -156,7 +207,8 @@ class OwnNav:
 
 @dataclass(frozen=True)
 class ContactInfo:
-    """A contact as the helm's info buffer holds it (``<NAME>_NAV_*`` from NODE_REPORTs)."""
+    """A contact as the helm's ledger holds it: its last NODE_REPORT (x east, y north m,
+    heading compass deg, speed m/s, depth m, ``t_report`` the report's TIME, s)."""
 
     name: str
     x: float
@@ -166,50 +218,25 @@ class ContactInfo:
     depth: float
     t_report: float
 
-    def extrapolate(self, extrapolator: LinearExtrapolator | None, t: float) -> Extrapolated:
-        """Dead-reckoned position at ``t`` (the raw report when ``extrapolator`` is None)."""
-        if extrapolator is None:
-            return Extrapolated(self.x, self.y, 0.0, False)
-        return extrapolator.extrapolate(self.x, self.y, self.heading, self.speed, self.t_report, t)
-
-
-def _num(v: object) -> float | None:
-    try:
-        x = float(v)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        return None
-    return x if math.isfinite(x) else None
-
 
 @dataclass
 class BehaviorContext:
-    """What a behavior sees in one helm tick: time, domain, info buffer, own nav; its posts."""
+    """What a behavior sees in one helm tick: time, domain, info buffer, own nav, the
+    helm's contact ledger (contacts by NODE_REPORT name, exact case); its posts."""
 
     t: float
     domain: Domain
     info: Mapping[str, Value]
     own: OwnNav | None
+    contacts: Mapping[str, ContactInfo] = field(default_factory=dict)
     posts: list[tuple[str, Value]] = field(default_factory=list)
 
     def post(self, var: str, value: Value) -> None:
         self.posts.append((var, value))
 
     def contact(self, name: str) -> ContactInfo | None:
-        """Contact ``name`` from ``<NAME>_NAV_X/_Y/_HEADING/_SPEED/_DEPTH/_UTC``, else None."""
-        key = name.upper()
-        x, y = _num(self.info.get(f"{key}_NAV_X")), _num(self.info.get(f"{key}_NAV_Y"))
-        if x is None or y is None:
-            return None
-        g = self.info.get
-        return ContactInfo(
-            name,
-            x,
-            y,
-            _num(g(f"{key}_NAV_HEADING")) or 0.0,
-            _num(g(f"{key}_NAV_SPEED")) or 0.0,
-            _num(g(f"{key}_NAV_DEPTH")) or 0.0,
-            _num(g(f"{key}_NAV_UTC")) if _num(g(f"{key}_NAV_UTC")) is not None else self.t,
-        )
+        """Contact ``name`` as last reported (exact case, as pHelmIvP's ledger), else None."""
+        return self.contacts.get(name)
 
 
 class Behavior:
@@ -223,8 +250,8 @@ class Behavior:
     KIND: ClassVar[str] = ""
     Params: ClassVar[type] = object
     HANDLERS: ClassVar[dict[str, Callable]] = {}
-    REQUIRED: ClassVar[tuple[str, ...]] = ()
     CONTACT_BASED: ClassVar[bool] = False
+    DEFAULT_DURATION: ClassVar[float] = -1.0  # s; -1 = no limit (IvPBehavior.cpp:69)
 
     def __init__(self, common: CommonParams, params: Any) -> None:
         self.common = common
@@ -245,7 +272,7 @@ class Behavior:
 
     def set_param(self, key: str, value: object, where: str) -> None:
         """Apply one parameter (load time or an ``updates`` posting); unknown -> ConfigError."""
-        k = key.strip().lower()
+        k = common_key(key)
         if k in COMMON_HANDLERS:
             self.common = COMMON_HANDLERS[k](self.common, value, k, where)
         elif k in self.HANDLERS:

@@ -1,8 +1,13 @@
 """BHV_ConstantDepth: hold a depth (subdomain: depth).
 
 Objective: ZAIC peak at ``depth`` with IvP defaults peakwidth 3 m, basewidth 100 m,
-summitdelta 50 (reference/helm.md). The depth can follow another vehicle through
-``updates`` postings such as ``depth=3.2``.
+summitdelta 50 (reference/helm.md); no normalisation (BHV_ConstantDepth.cpp:112-120). The
+depth can follow another vehicle through ``updates`` postings such as ``depth=3.2``.
+
+Its ``duration`` defaults to 0, as in pHelmIvP ("we force the user to provide a duration
+value otherwise it will timeout immediately", BHV_ConstantDepth.cpp:56-60): without
+``duration = no-time-limit`` (or a time) it completes at its first running iteration.
+``depth`` below 0 is taken as 0 and ``summitdelta`` is clipped to [0, 100] (l.73-96).
 """
 
 from __future__ import annotations
@@ -28,11 +33,22 @@ class ConstantDepthParams:
     summitdelta: float = 50.0
 
 
+def _depth(v: object, key: str, where: str) -> float:
+    return max(to_float(v, key, where), 0.0)
+
+
+def _summitdelta(v: object, key: str, where: str) -> float:
+    return min(max(to_float(v, key, where), 0.0), 100.0)
+
+
 class ConstantDepth(Behavior):
     KIND = "BHV_ConstantDepth"
     Params = ConstantDepthParams
+    DEFAULT_DURATION = 0.0
     HANDLERS: ClassVar[dict] = {
-        k: setter(k, to_float) for k in ("depth", "peakwidth", "basewidth", "summitdelta")
+        "depth": setter("depth", _depth),
+        "summitdelta": setter("summitdelta", _summitdelta),
+        **{k: setter(k, to_float) for k in ("peakwidth", "basewidth")},
     }
 
     def reset(self) -> None:

@@ -1,19 +1,21 @@
 """Shared machinery of contact behaviors (IvP ``IvPContactBehavior``).
 
 Parameters: ``contact`` (name as in its NODE_REPORT), ``extrapolate`` (default true),
-``decay = start,end`` (s, default 5,10), ``on_no_contact_ok`` (default true: a missing
-contact is silent; false posts ``BHV_ERROR``). A contact whose dead reckoning has decayed
-fully ("decay maxed") gets no function (reference/helm.md).
+``decay = start,end`` (s), ``on_no_contact_ok`` (default true: a missing contact is
+silent; false posts ``BHV_ERROR``).
+
+The contact is where its last report put it: pHelmIvP dead-reckons no contact (its
+extrapolation is compiled out, IvPContactBehavior.cpp:568-591, and the helm's contact
+ledger never switches its own on, ContactLedger.cpp:43), so ``extrapolate`` and ``decay``
+are accepted as pHelmIvP accepts them; ``extrapolate = false`` only stops Trail matching
+the contact's speed. A contact too old for the helm's ledger is gone (:mod:`helm`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext, ContactInfo
 from uhrisim.autonomy.cpa import CpaGrid
 from uhrisim.autonomy.domain import Domain
-from uhrisim.autonomy.extrapolator import Extrapolated, LinearExtrapolator
 from uhrisim.autonomy.params import setter, to_bool, to_decay, to_str
 
 CONTACT_HANDLERS = {
@@ -22,22 +24,6 @@ CONTACT_HANDLERS = {
     "decay": setter("decay", to_decay),
     "on_no_contact_ok": setter("on_no_contact_ok", to_bool),
 }
-
-
-@dataclass(frozen=True)
-class ContactTrack:
-    """Contact as reported and its dead-reckoned position now."""
-
-    info: ContactInfo
-    now: Extrapolated
-
-    @property
-    def x(self) -> float:
-        return self.now.x
-
-    @property
-    def y(self) -> float:
-        return self.now.y
 
 
 class ContactBehavior(Behavior):
@@ -51,19 +37,18 @@ class ContactBehavior(Behavior):
             memo = self._cpa_grid = (domain, grid)
         return memo[1]
 
-    def track(self, ctx: BehaviorContext) -> ContactTrack | None:
+    def track(self, ctx: BehaviorContext) -> ContactInfo | None:
+        """The contact as last reported, or None: with no contact named, silently while
+        ``on_no_contact_ok``; with a named contact the ledger lacks, a BHV_WARNING - or a
+        BHV_ERROR, which halts the helm's iteration, when not ``on_no_contact_ok``
+        (IvPContactBehavior.cpp:514-541)."""
         p = self.params
         if not p.contact:
-            ctx.post("BHV_ERROR", f"{self.name}: no contact given")
+            if not p.on_no_contact_ok:
+                ctx.post("BHV_ERROR", f"{self.name}: contact IDX not set.")
             return None
         info = ctx.contact(p.contact)
         if info is None:
-            if not p.on_no_contact_ok:
-                ctx.post("BHV_ERROR", f"{self.name}: no information on contact {p.contact}")
-            return None
-        ex = LinearExtrapolator(*p.decay) if p.extrapolate else None
-        now = info.extrapolate(ex, ctx.t)
-        if now.decay_maxed:
-            ctx.post("BHV_WARNING", f"{self.name}: contact {p.contact} report too old")
-            return None
-        return ContactTrack(info, now)
+            msg = f"{self.name}: {p.contact} x/y/heading/speed info not found"
+            ctx.post("BHV_WARNING" if p.on_no_contact_ok else "BHV_ERROR", msg)
+        return info

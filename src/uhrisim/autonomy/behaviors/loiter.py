@@ -2,11 +2,12 @@
 
 reference/helm.md. Course: ZAIC peak at the bearing to the next vertex (pw 0, bw 180,
 wrap: linear to zero at +-180 deg); speed: peak at ``speed`` (pw 0, bw 0.3, a triangle);
-coupled 50/50 and normalised to 0..100. Vertices advance on ``capture_radius`` or by slip
-(``slip_radius``). When the vehicle is farther than ``acquire_dist`` from the polygon's
-boundary - outside, or deep inside (IvP's outer/inner positions) - it is in *acquire
-mode*: each tick it re-picks the vertex to approach (below). ``clockwise = true | false
-| best``.
+coupled ``patience`` / 100 - ``patience`` (default 50/50; BHV_Loiter.cpp:532) and
+normalised to 0..100. Vertices are snapped to 0.1 m (as pHelmIvP does). Vertices advance
+on ``capture_radius`` or by slip (``slip_radius``). When the vehicle is farther than
+``acquire_dist`` from the polygon's boundary - outside, or deep inside (IvP's
+outer/inner positions) - it is in *acquire mode*: each tick it re-picks the vertex to
+approach (below). ``clockwise = true | false | best``.
 
 Acquire vertex (IvP ``LoiterEngine`` semantics, re-implemented; the reference note is
 silent). With turn(k) = the signed turn (deg, right/clockwise positive) from the approach
@@ -22,7 +23,8 @@ own -> vertex k onto the onward edge k -> k+dir:
 
 Parameters (IvP names): polygon, speed, clockwise (true), capture_radius (3; alias
 ``radius``), slip_radius (15; alias ``nm_radius``), acquire_dist (10), post_suffix
-(appended as ``_SUFFIX`` to the variables it posts), center_activate (false: on becoming
+(appended as ``_SUFFIX`` to the variables it posts), patience (50, in [1, 99]: the
+course's share of the coupling), center_activate (false: on becoming
 running, move the polygon's centre to the vehicle), center_assign ("x,y" or
 "present_position"), xcenter_assign, ycenter_assign. Posts LOITER_INDEX and
 LOITER_ACQUIRE on change, and the polygon as VIEW_POLYGON
@@ -43,6 +45,7 @@ from uhrisim.autonomy.geometry import (
     parse_polygon,
     point_in_polygon,
     signed_dist_to_polygon,
+    snap_to_step,
 )
 from uhrisim.autonomy.params import (
     one_of,
@@ -53,6 +56,7 @@ from uhrisim.autonomy.params import (
     to_str,
 )
 from uhrisim.autonomy.zaic import ZaicMemo
+from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import wrap_180
 
 Point = tuple[float, float]
@@ -99,10 +103,26 @@ class LoiterParams:
     center_activate: bool = False
     center_assign: Point | str | None = None
     post_suffix: str = ""
+    patience: float = 50.0
+
+
+VERTEX_SNAP_M = 0.1
 
 
 def _polygon(v: object, key: str, where: str) -> tuple[Point, ...]:
-    return parse_polygon(v, key, where)
+    """A convex polygon, its vertices snapped to 0.1 m as pHelmIvP always does
+    (BHV_Loiter.cpp:104: the bearings to the vertices follow from the snapped points)."""
+    return tuple(
+        (snap_to_step(x, VERTEX_SNAP_M), snap_to_step(y, VERTEX_SNAP_M))
+        for x, y in parse_polygon(v, key, where)
+    )
+
+
+def _patience(v: object, key: str, where: str) -> float:
+    x = to_float(v, key, where)
+    if not 1.0 <= x <= 99.0:
+        raise ConfigError(f"{key} must be in [1, 99], got {v!r}", where)
+    return x
 
 
 def _xcenter(p: LoiterParams, v: object, key: str, where: str) -> LoiterParams:
@@ -118,7 +138,6 @@ def _ycenter(p: LoiterParams, v: object, key: str, where: str) -> LoiterParams:
 class Loiter(Behavior):
     KIND = "BHV_Loiter"
     Params = LoiterParams
-    REQUIRED = ("polygon",)
     HANDLERS: ClassVar[dict] = {
         "polygon": setter("polygon", _polygon),
         "speed": setter("speed", to_float),
@@ -128,6 +147,7 @@ class Loiter(Behavior):
         "slip_radius": setter("slip_radius", to_float),
         "nm_radius": setter("slip_radius", to_float),
         "post_suffix": setter("post_suffix", to_str),
+        "patience": setter("patience", _patience),
         "acquire_dist": setter("acquire_dist", to_float),
         "center_activate": setter("center_activate", to_bool),
         "center_assign": setter("center_assign", to_point_or_present),
@@ -202,7 +222,10 @@ class Loiter(Behavior):
     def on_run(self, ctx: BehaviorContext) -> Objective | None:
         p: LoiterParams = self.params
         own = ctx.own
-        if own is None or not self.vertices:
+        if not self.vertices:  # pHelmIvP loads it, then idles (BHV_Loiter.cpp:366-370)
+            ctx.post("BHV_WARNING", f"{self.name}: Empty/NULL Loiter Specification.")
+            return None
+        if own is None:
             return None
         if self._pending_center_here:
             self.vertices = shift(self.vertices, own.x, own.y)
@@ -235,4 +258,6 @@ class Loiter(Behavior):
             ctx.post(f"LOITER_ACQUIRE{sfx}", "true" if self.acquire_mode else "false")
             self._posted = state
         crs = bearing_deg(own.x, own.y, tx, ty)
-        return course_speed_objective(ctx, crs, p.speed, (0.0, 0.3, 0.0), self._speed_memo)
+        return course_speed_objective(
+            ctx, crs, p.speed, (0.0, 0.3, 0.0), self._speed_memo, (p.patience, 100.0 - p.patience)
+        )

@@ -9,22 +9,26 @@ Parameters (IvP names and defaults): station_pt ("x,y" or "present_position"),
 center_activate (false: on becoming running, hold the vehicle's position), swing_time
 (0 s: with center_activate, the station keeps following the vehicle for this long after
 activation, so it is set where the vehicle has swung to), inner_radius (4), outer_radius
-(15), outer_speed (1.2), transit_speed (2.0), hibernation_radius (-1 = off; when on, the
+(15), outer_speed (1.2; also raises transit_speed to it), transit_speed (2.5), radii and
+speeds > 0, swing_time clipped to [0, 60] s, hibernation_radius (-1 or off; when on, the
 behavior hibernates - desired speed 0 - once inside inner_radius, and seeks the station
 again only after drifting beyond hibernation_radius; IvP's extra "progress" test is not
-modelled). Posts PSKEEP_MODE (DISABLED / HIBERNATING / SEEKING_STATION) on change.
+modelled). Posts PSKEEP_MODE (DISABLED / HIBERNATING / SEEKING_STATION) on change. As in
+pHelmIvP (BHV_StationKeep.cpp:240-309, 355-376), the tick the station is set (first run,
+activation, each swing tick) asks for speed 0 and a course to the station - 0 deg when
+the station is the vehicle's own position, its heading while swinging.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar
 
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext
 from uhrisim.autonomy.behaviors.waypoint_engine import course_speed_objective
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import bearing_deg, distance
-from uhrisim.autonomy.params import setter, to_bool, to_float, to_point_or_present
+from uhrisim.autonomy.params import setter, to_bool, to_float, to_point_or_present, to_positive
 
 Point = tuple[float, float]
 
@@ -42,9 +46,25 @@ class StationKeepParams:
     inner_radius: float = 4.0
     outer_radius: float = 15.0
     outer_speed: float = 1.2
-    transit_speed: float = 2.0
+    transit_speed: float = 2.5
     swing_time: float = 0.0
     hibernation_radius: float = -1.0
+
+
+def _outer_speed(p: StationKeepParams, v: object, key: str, where: str) -> StationKeepParams:
+    """outer_speed (> 0) also raises transit_speed to it (BHV_StationKeep.cpp:163-170)."""
+    x = to_positive(v, key, where)
+    return replace(p, outer_speed=x, transit_speed=max(p.transit_speed, x))
+
+
+def _swing_time(v: object, key: str, where: str) -> float:
+    return min(max(to_float(v, key, where), 0.0), 60.0)  # clipped to [0, 60] s, as IvP
+
+
+def _hibernation_radius(v: object, key: str, where: str) -> float:
+    if str(v).strip().lower() in ("off", "-1", "-1.0"):
+        return -1.0
+    return to_positive(v, key, where)
 
 
 class StationKeep(Behavior):
@@ -54,21 +74,18 @@ class StationKeep(Behavior):
         "station_pt": setter("station_pt", to_point_or_present),
         "center_activate": setter("center_activate", to_bool),
         **{
-            k: setter(k, to_float)
-            for k in (
-                "inner_radius",
-                "outer_radius",
-                "outer_speed",
-                "transit_speed",
-                "swing_time",
-                "hibernation_radius",
-            )
+            k: setter(k, to_positive)
+            for k in ("inner_radius", "outer_radius", "transit_speed")
         },
+        "outer_speed": _outer_speed,
+        "swing_time": setter("swing_time", _swing_time),
+        "hibernation_radius": setter("hibernation_radius", _hibernation_radius),
     }
 
     def reset(self) -> None:
         sp = self.params.station_pt
         self.station: Point | None = sp if isinstance(sp, tuple) else None
+        self.fresh = True  # the station was just set: this tick holds still
         self.swing_until: float | None = None
         self.state = "seeking_station"
         self._posted_state: str | None = None
@@ -82,6 +99,7 @@ class StationKeep(Behavior):
             ctx.own is not None
         ):
             self.station = (ctx.own.x, ctx.own.y)
+            self.fresh = True
             self.swing_until = ctx.t + self.params.swing_time
             self.state = "hibernating"
 
@@ -89,8 +107,9 @@ class StationKeep(Behavior):
         p: StationKeepParams = self.params
         if d <= p.inner_radius:
             return 0.0
-        if d < p.outer_radius:
-            return p.outer_speed * (d - p.inner_radius) / (p.outer_radius - p.inner_radius)
+        outer = max(p.outer_radius, p.inner_radius)  # IvP lifts outer to inner (l.253-254)
+        if d < outer:
+            return p.outer_speed * (d - p.inner_radius) / (outer - p.inner_radius)
         return p.transit_speed
 
     def on_run(self, ctx: BehaviorContext) -> Objective | None:
@@ -99,15 +118,18 @@ class StationKeep(Behavior):
         if own is None:
             return None
         if self.station is None:
-            self.station = (own.x, own.y)
-        if self.swing_until is not None:
-            if ctx.t < self.swing_until:
-                self.station = (own.x, own.y)
-            else:
-                self.swing_until = None
+            self.station, self.fresh = (own.x, own.y), True
+        swinging = self.swing_until is not None and ctx.t < self.swing_until
+        if swinging:
+            self.station, self.fresh = (own.x, own.y), True
+        elif self.swing_until is not None:
+            self.swing_until = None
         sx, sy = self.station
         d = distance(own.x, own.y, sx, sy)
-        speed = self.desired_speed(d)
+        # the tick the station is set pHelmIvP keeps its old distance: speed 0
+        # (BHV_StationKeep.cpp:371-376, the "hibernating" reset)
+        speed = 0.0 if self.fresh else self.desired_speed(d)
+        self.fresh = False
         if p.hibernation_radius > 0:
             if self.state == "hibernating" and d > p.hibernation_radius:
                 self.state = "seeking_station"
@@ -119,5 +141,6 @@ class StationKeep(Behavior):
         if mode != self._posted_state:
             ctx.post("PSKEEP_MODE", mode)
             self._posted_state = mode
-        crs = bearing_deg(own.x, own.y, sx, sy) if d > 1e-9 else own.heading
+        # relAng of a point to itself is 0; while swinging, the own heading (l.264-267)
+        crs = own.heading if swinging else bearing_deg(own.x, own.y, sx, sy) if d > 0.0 else 0.0
         return course_speed_objective(ctx, crs, speed, (0.0, 0.4, 0.0))

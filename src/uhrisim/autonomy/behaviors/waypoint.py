@@ -1,10 +1,13 @@
 """BHV_Waypoint: visit a list of points.
 
-Objective (IvP ``BHV_Waypoint::buildOF``, zaic method, as in the MOOS-IvP copy in
-mjbays/ROS-IvP-Native; the reference note is silent): course = max of two ZAIC peaks -
-at the bearing to the steering point (pw 0, bw 180, max 100, wrap) and a small
-heading-hold component at the current heading (pw 30, bw 180, delta 5, max 20); speed =
-ZAIC peak at ``speed`` (pw speed/2, bw 1.6, delta 20); coupled 50/50, normalised 0..100.
+Objective (IvP ``BHV_Waypoint::buildOF``, zaic method, BHV_Waypoint.cpp:854-878): course
+= SUM of two ZAIC peak components - at the bearing to the steering point, unrounded (pw
+0, bw 180, max 100, wrap) and a small heading-hold component at the current heading (pw
+30, bw 180, delta 5, max 20) - as ``extractIvPFunction(false)`` sums them
+(ZAIC_PEAK.cpp:236-252); speed = ZAIC peak at ``speed`` (pw speed/2, bw 1.6, delta 20);
+coupled 50/50, normalised 0..100. The heading-hold part moves the rounding of a bearing
+between two whole degrees toward the current heading (e.g. bearing 45.55 deg, heading
+0: course 45, not 46).
 
 Parameters (IvP names): points ("x1,y1:x2,y2", "pts={...}"), point (one point), speed,
 capture_radius (3; alias ``radius``), slip_radius (15; alias ``nm_radius``), lead (-1 =
@@ -25,8 +28,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from typing import ClassVar
-
-import numpy as np
 
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext
 from uhrisim.autonomy.behaviors.waypoint_engine import ArrivalTracker
@@ -96,7 +97,6 @@ class WaypointParams:
 class Waypoint(Behavior):
     KIND = "BHV_Waypoint"
     Params = WaypointParams
-    REQUIRED = ("points",)
     HANDLERS: ClassVar[dict] = {
         "points": setter("points", to_points),
         "point": _point,
@@ -168,7 +168,10 @@ class Waypoint(Behavior):
     def on_run(self, ctx: BehaviorContext) -> Objective | None:
         p: WaypointParams = self.params
         own = ctx.own
-        if own is None or not self.route:
+        if not self.route:  # pHelmIvP loads it, then idles (BHV_Waypoint.cpp:173-176)
+            ctx.post("BHV_WARNING", f"{self.name}: No waypts given")
+            return None
+        if own is None:
             return None
         if self.finished:
             if not self.common.perpetual:
@@ -206,9 +209,7 @@ class Waypoint(Behavior):
             self._posted = self.index
         sx, sy = self.steer_point(own.x, own.y)
         crs = ctx.domain.axis("course")
-        fc = np.maximum(
-            zaic_peak_on_axis(crs, bearing_deg(own.x, own.y, sx, sy), 0.0, 180.0, 50.0),
-            zaic_peak_on_axis(crs, own.heading, 30.0, 180.0, 5.0, 0.0, 20.0),
-        )
+        fc = zaic_peak_on_axis(crs, bearing_deg(own.x, own.y, sx, sy), 0.0, 180.0, 50.0)
+        fc += zaic_peak_on_axis(crs, own.heading, 30.0, 180.0, 5.0, 0.0, 20.0)
         fs = zaic_peak_on_axis(ctx.domain.axis("speed"), p.speed, p.speed / 2.0, 1.6, 20.0)
         return Objective.over(ctx.domain, ("course", "speed"), couple(fc, fs))

@@ -42,13 +42,15 @@ def course_speed_objective(
     speed: float,
     speed_zaic: tuple[float, float, float],
     speed_memo: ZaicMemo | None = None,
+    weights: tuple[float, float] = (50.0, 50.0),
 ) -> Objective:
-    """Loiter/StationKeep function: course ZAIC (pw 0, bw 180, wrap) coupled 50/50 with a
-    speed ZAIC ``speed_zaic = (peakwidth, basewidth, summitdelta)``, normalised 0..100.
+    """Loiter/StationKeep function: course ZAIC (pw 0, bw 180, wrap) coupled with a speed
+    ZAIC ``speed_zaic = (peakwidth, basewidth, summitdelta)`` by ``weights`` (course,
+    speed), normalised 0..100.
 
     ``speed_memo`` (the behavior's own) reuses the speed piece while its arguments repeat.
     """
     fc = zaic_peak_on_axis(ctx.domain.axis("course"), course_deg, 0.0, 180.0, 0.0)
     zs = speed_memo if speed_memo is not None else zaic_peak_on_axis
     fs = zs(ctx.domain.axis("speed"), speed, *speed_zaic)
-    return Objective.over(ctx.domain, ("course", "speed"), couple(fc, fs))
+    return Objective.over(ctx.domain, ("course", "speed"), couple(fc, fs, *weights))

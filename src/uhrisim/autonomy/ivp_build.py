@@ -1,0 +1,157 @@
+"""IvP function building as pHelmIvP does it: piecewise-linear fits and normalisation.
+
+Behaviors whose utility is a general function of (course, speed) - AvoidCollision, Trail
+beyond ``nm_radius`` - do not hand pHelmIvP the exact table: ``OF_Reflector`` covers the
+grid with uniform pieces of ``piece`` grid indices per axis and fits each with a plane
+(``Regressor::setWeight1``, strict range), and the helm maximises that piecewise surface.
+A grid table reproduces pHelmIvP's decisions only if it reproduces the fit, so this
+module computes it (MOOS-IvP source, ivp/src/lib_ivpbuild: BuildUtils.cpp:613-790 piece
+layout, Regressor.cpp:177-310 the fit; lib_ivpcore PDMap.cpp:169-183 ``normalize``).
+
+Pieces, per axis: index ranges ``[0, p-1], [p, 2p-1], ...``, the last one cut short by the
+axis end. One piece ``[c0, c1] x [s0, s1]`` (grid indices, course first) is fitted from its
+four corners, plus its centre ``(c0 + (c1-c0)//2, s0 + (s1-s0)//2)`` when it spans more
+than two indices on some axis:
+
+* slopes: mean of the two opposite edge differences per axis, over the run (0 on a
+  single-index axis);
+* intercept: mean over the samples of ``value - plane``, clamped so that the plane stays
+  within the samples' [min, max] at every sample (the upper bound is applied first);
+* value at a grid point ``(c, s)`` of the piece: ``b + mc*c + ms*s``.
+
+``normalize(base, range)`` maps [min, max] of the function onto [base, base + range] (the
+second argument is a range); a constant function is left as it is.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "PiecewisePlanes",
+    "fit_pieces",
+    "fit_pieces_reference",
+    "normalize",
+    "reflect",
+]
+
+
+@dataclass(frozen=True)
+class PiecewisePlanes:
+    """Planes over uniform pieces of a 2-D grid: ``value = b + mc*c + ms*s`` on piece
+    ``(i, j)`` for grid indices ``c`` in ``c_lo[i]..c_hi[i]``, ``s`` in ``s_lo[j]..s_hi[j]``.
+    Arrays ``b``, ``mc``, ``ms`` have shape (pieces along course, pieces along speed)."""
+
+    c_lo: NDArray[np.int64]
+    c_hi: NDArray[np.int64]
+    s_lo: NDArray[np.int64]
+    s_hi: NDArray[np.int64]
+    b: NDArray[np.float64]
+    mc: NDArray[np.float64]
+    ms: NDArray[np.float64]
+
+    def corners(self) -> NDArray[np.float64]:
+        """Every piece's value at its four corners, shape (4, pieces, pieces)."""
+        c = (self.c_lo[:, None], self.c_hi[:, None])
+        s = (self.s_lo[None, :], self.s_hi[None, :])
+        return np.stack([self.b + self.mc * ci + self.ms * si for si in s for ci in c])
+
+    def table(self) -> NDArray[np.float64]:
+        """The function on the whole grid, shape (n course, n speed)."""
+        c_piece = np.repeat(np.arange(len(self.c_lo)), self.c_hi - self.c_lo + 1)
+        s_piece = np.repeat(np.arange(len(self.s_lo)), self.s_hi - self.s_lo + 1)
+        ci = np.arange(len(c_piece), dtype=float)[:, None]
+        si = np.arange(len(s_piece), dtype=float)[None, :]
+        rows, cols = c_piece[:, None], s_piece[None, :]
+        return self.b[rows, cols] + self.mc[rows, cols] * ci + self.ms[rows, cols] * si
+
+
+def _spans(n: int, piece: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    lo = np.arange(0, n, piece)
+    return lo, np.minimum(lo + piece - 1, n - 1)
+
+
+def fit_pieces(values: NDArray[np.float64], piece: tuple[int, int]) -> PiecewisePlanes:
+    """Fit planes to ``values`` (course x speed grid) over pieces of ``piece`` indices
+    (module docstring); the same floating-point operations as :func:`fit_pieces_reference`."""
+    F = np.asarray(values, dtype=float)
+    c_lo, c_hi = _spans(F.shape[0], piece[0])
+    s_lo, s_hi = _spans(F.shape[1], piece[1])
+    C0, C1, S0, S1 = c_lo[:, None], c_hi[:, None], s_lo[None, :], s_hi[None, :]
+    pts = [(C0, S0), (C1, S0), (C0, S1), (C1, S1)]
+    v = [F[c, s] for c, s in pts]
+    run_c, run_s = (C1 - C0).astype(float), (S1 - S0).astype(float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mc = np.where(run_c > 0, (((v[1] - v[0]) + (v[3] - v[2])) / 2.0) / run_c, 0.0)
+        ms = np.where(run_s > 0, (((v[2] - v[0]) + (v[3] - v[1])) / 2.0) / run_s, 0.0)
+    centre = ((C1 - C0) > 1) | ((S1 - S0) > 1)
+    cc, sc = C0 + (C1 - C0) // 2, S0 + (S1 - S0) // 2
+    pts.append((cc, sc))
+    v.append(F[cc, sc])
+    hi = np.maximum.reduce(v[:4])
+    lo = np.minimum.reduce(v[:4])
+    hi = np.where(centre, np.maximum(hi, v[4]), hi)
+    lo = np.where(centre, np.minimum(lo, v[4]), lo)
+    total = np.zeros(mc.shape)
+    upper = np.full(mc.shape, np.inf)
+    lower = np.full(mc.shape, -np.inf)
+    for k, (c, s) in enumerate(pts):
+        plane = mc * c + ms * s
+        use = centre if k == 4 else True
+        total = np.where(use, total + (v[k] - plane), total)
+        upper = np.where(use, np.minimum(upper, hi - plane), upper)
+        lower = np.where(use, np.maximum(lower, lo - plane), lower)
+    b = total / np.where(centre, 5.0, 4.0)
+    b = np.where(b > upper, upper, b)
+    b = np.where(b < lower, lower, b)
+    return PiecewisePlanes(c_lo, c_hi, s_lo, s_hi, b, mc, ms)
+
+
+def fit_pieces_reference(
+    values: NDArray[np.float64], piece: tuple[int, int]
+) -> PiecewisePlanes:
+    """Piece by piece, as the module docstring reads (reference for :func:`fit_pieces`)."""
+    F = np.asarray(values, dtype=float)
+    c_lo, c_hi = _spans(F.shape[0], piece[0])
+    s_lo, s_hi = _spans(F.shape[1], piece[1])
+    b, mc, ms = (np.empty((len(c_lo), len(s_lo))) for _ in range(3))
+    for i, (c0, c1) in enumerate(zip(c_lo, c_hi, strict=True)):
+        for j, (s0, s1) in enumerate(zip(s_lo, s_hi, strict=True)):
+            pts = [(c0, s0), (c1, s0), (c0, s1), (c1, s1)]
+            if c1 - c0 > 1 or s1 - s0 > 1:
+                pts.append((c0 + (c1 - c0) // 2, s0 + (s1 - s0) // 2))
+            v = [float(F[p]) for p in pts]
+            slope_c = 0.0 if c1 == c0 else (((v[1] - v[0]) + (v[3] - v[2])) / 2.0) / (c1 - c0)
+            slope_s = 0.0 if s1 == s0 else (((v[2] - v[0]) + (v[3] - v[1])) / 2.0) / (s1 - s0)
+            planes = [slope_c * c + slope_s * s for c, s in pts]
+            total = 0.0
+            for vk, pk in zip(v, planes, strict=True):
+                total += vk - pk
+            intercept = total / len(pts)
+            intercept = min(intercept, min(max(v) - p for p in planes))
+            intercept = max(intercept, max(min(v) - p for p in planes))
+            b[i, j], mc[i, j], ms[i, j] = intercept, slope_c, slope_s
+    return PiecewisePlanes(c_lo, c_hi, s_lo, s_hi, b, mc, ms)
+
+
+def normalize(f: PiecewisePlanes, base: float = 0.0, span: float = 100.0) -> PiecewisePlanes:
+    """``PDMap::normalize(base, span)``: [min, max] onto [base, base + span]; the intercept
+    moves first, then every weight scales. A constant function is returned unchanged."""
+    corners = f.corners()
+    lo, hi = float(corners.min()), float(corners.max())
+    if not hi - lo > 0.0:
+        return f
+    k = span / (hi - lo)
+    return PiecewisePlanes(
+        f.c_lo, f.c_hi, f.s_lo, f.s_hi, (f.b + (base - lo)) * k, f.mc * k, f.ms * k
+    )
+
+
+def reflect(values: NDArray[np.float64], piece: tuple[int, int]) -> NDArray[np.float64]:
+    """What pHelmIvP's reflector-built behaviors hand the solver: ``values`` fitted over
+    pieces of ``piece`` indices, normalised 0..100 by the reflector and again by the
+    behavior (OF_Reflector.cpp:112-113, then e.g. BHV_AvoidCollision.cpp:293), as a table."""
+    return normalize(normalize(fit_pieces(values, piece))).table()
