@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import logging
 import re
-import warnings
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -103,8 +102,8 @@ def parse_moos(
     global_lines: list[MoosLine] = []
     blocks: dict[str, tuple[MoosLine, ...]] = {}
     block_wheres: dict[str, str] = {}
-    current: list[MoosLine] | None = None
-    opening: tuple[str, str] | None = None  # (block name, where) awaiting its '{'
+    header: tuple[str, str] | None = None  # (block name, where) of the block being read
+    current: list[MoosLine] | None = None  # its lines, once its '{' is seen
 
     def expand(s: str, where: str) -> str:
         def sub(m: re.Match) -> str:
@@ -119,21 +118,18 @@ def parse_moos(
         line = raw.strip()
         if not line:
             continue
-        if opening is not None:
+        if header is not None and current is None:  # the line after ProcessConfig = X
             if not line.startswith("{"):
-                raise ConfigError(f"ProcessConfig = {opening[0]} must open with '{{'", where)
-            current, opening = [], (opening[0], opening[1])
-            blocks.setdefault(opening[0], ())
-            block_wheres.setdefault(opening[0], opening[1])
+                raise ConfigError(f"ProcessConfig = {header[0]} must open with '{{'", where)
+            current = []
             line = line[1:].strip()
             if not line:
                 continue
-        if current is not None:
+        if header is not None and current is not None:
             if line.startswith("}"):
-                name = opening[0] if opening else ""
-                if not blocks[name]:  # the first block of a name counts (MOOS GoTo)
-                    blocks[name] = tuple(current)
-                current, opening = None, None
+                if header[0] not in blocks:  # the first block of a name counts (MOOS GoTo)
+                    blocks[header[0]], block_wheres[header[0]] = tuple(current), header[1]
+                header, current = None, None
                 continue
             if line.startswith("{"):
                 raise ConfigError("'{' inside a ProcessConfig block (missing '}'?)", where)
@@ -155,16 +151,16 @@ def parse_moos(
             continue
         key, value = key.strip(), expand(value.strip(), where)
         if key.lower() == "processconfig":
-            opening = (re.sub(r"\s", "", value), where)
-            if not opening[0]:
+            name = re.sub(r"\s", "", value)
+            if not name:
                 raise ConfigError("ProcessConfig needs a name", where)
-            if "{" in opening[0]:  # "ProcessConfig = pHelmIvP {" on one line
+            if "{" in name:  # "ProcessConfig = pHelmIvP {": MOOS finds no block there
                 raise ConfigError("put the '{' of a ProcessConfig block on its own line", where)
+            header = (name, where)
             continue
         global_lines.append(MoosLine(key, value, where))
-    if current is not None or opening is not None:
-        name, where = opening if opening else ("?", filename)
-        raise ConfigError(f"ProcessConfig = {name} is never closed with '}}'", where)
+    if header is not None:
+        raise ConfigError(f"ProcessConfig = {header[0]} is never closed with '}}'", header[1])
     return MoosFile(filename, tuple(global_lines), blocks, block_wheres)
 
 
@@ -291,12 +287,6 @@ def load_helm_from_moos(
             block_where,
         )
     settings = _settings(lines)
-    if not any(line.key.lower() in _ENGAGE_KEYS for line in lines):
-        msg = (f"{block_where}: {process} starts parked (start_engaged defaults to false); "
-               "post MOOS_MANUAL_OVERRIDE = false to engage it, as pMarineViewer's DEPLOY "
-               "button does")
-        log.warning(msg)
-        warnings.warn(msg, UserWarning, stacklevel=2)
     # pHelmIvP reads its files in the order of a sorted set (Populator_BehaviorSet::populate)
     parts = [read_bhv_file(bhv_files[name], macros) for name in sorted(bhv_files)]
     cfg = HelmConfig(

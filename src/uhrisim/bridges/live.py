@@ -41,7 +41,9 @@ def moos_hook(scenario: Scenario) -> Hook:
     if section.links:
         links = [MoosAgentLink(agent=link.agent, port=link.port, host=link.host,
                                community=link.community, nav_rate_hz=link.nav_rate_hz,
-                               subscribe=link.subscribe, extra_vars=link.extra_vars)
+                               subscribe=link.subscribe, extra_vars=link.extra_vars,
+                               vehicle_type=link.vehicle_type,
+                               node_report_var=link.node_report_var)
                  for link in section.links]
     else:
         links = [MoosAgentLink(agent=agent.name, port=9000 + index)

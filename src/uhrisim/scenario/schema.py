@@ -395,6 +395,8 @@ class MoosLink(Strict):
     nav_rate_hz: PositiveFloat = 10.0
     subscribe: tuple[str, ...] = DESIRED_VARS
     extra_vars: tuple[str, ...] = ()
+    vehicle_type: str = "UUV"  # NODE_REPORT TYPE (pContactMgrV20 filters may use it)
+    node_report_var: str = "NODE_REPORT"  # NODE_REPORT_LOCAL when pShare forwards it
 
 
 class MoosSection(Strict):

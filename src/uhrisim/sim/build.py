@@ -8,7 +8,9 @@ which calls them; what they build are the records of :mod:`uhrisim.sim.state`.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
+import warnings
 from typing import Protocol
 
 import numpy as np
@@ -39,6 +41,8 @@ from uhrisim.sim.state import Agent, ScheduledEvent, SonarSlot
 from uhrisim.world.assets import diver_parts, videoray_mesh
 from uhrisim.world.materials import NEOPRENE, ROV_PLASTIC
 from uhrisim.world.scene import Scene
+
+log = logging.getLogger(__name__)
 
 #: Collision spheres (m): VideoRay hull ~0.38 x 0.29 x 0.22 m; a prone diver with fins is
 #: ~2.3 m long, a 0.6 m sphere covers the torso and tank where contact matters.
@@ -123,6 +127,13 @@ def known_external_vars(sim: BuildContext, agent_name: str) -> set[str]:
     return known
 
 
+def _engages(scenario: Scenario, agent_name: str) -> bool:
+    """Whether an event or a button of the scenario posts MOOS_MANUAL_OVERRIDE = false."""
+    posts = [e.post for e in scenario.events if e.post] + list(scenario.buttons)
+    return any(p.agent == agent_name and p.var == "MOOS_MANUAL_OVERRIDE"
+               and str(p.value).lower() == "false" for p in posts)
+
+
 def _helm_driver(sim: BuildContext, cfg: AgentConfig, community: Community) -> HelmDriver:
     index = _agent_index(sim, cfg.name)
     section = cfg.helm
@@ -145,6 +156,12 @@ def _helm_driver(sim: BuildContext, cfg: AgentConfig, community: Community) -> H
             mapping["domain"] = dict(section.domain)
         helm_config = HelmConfig.from_mapping(
             mapping, where=sim.source.where("agents", index, "helm"), known_vars=known)
+    if not helm_config.settings.start_engaged and not _engages(sim.scenario, cfg.name):
+        msg = (f"{sim.source.where('agents', index, 'helm')}: {cfg.name}'s helm starts "
+               "parked (pHelmIvP's start_engaged is false) and no event or button posts "
+               "MOOS_MANUAL_OVERRIDE = false: it drives only if a bridge posts it")
+        log.warning(msg)
+        warnings.warn(msg, UserWarning, stacklevel=2)
     autonomy = VehicleAutonomy(cfg.name, helm_config, ContactManagerConfig(alerts=alerts))
     return HelmDriver(autonomy, community.mailbox())
 

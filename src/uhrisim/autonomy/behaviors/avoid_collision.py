@@ -94,6 +94,7 @@ class AvoidCollisionParams:
     extrapolate: bool = True
     decay: tuple[float, float] = (5.0, 10.0)
     on_no_contact_ok: bool = True
+    no_alert_request: bool = False  # IvP default (BHV_AvoidCollision.cpp:69)
     pwt_outer_dist: float = 200.0
     pwt_inner_dist: float = 50.0
     completed_dist: float = 500.0

@@ -1,8 +1,10 @@
 """Shared machinery of contact behaviors (IvP ``IvPContactBehavior``).
 
 Parameters: ``contact`` (name as in its NODE_REPORT), ``extrapolate`` (default true),
-``decay = start,end`` (s), ``on_no_contact_ok`` (default true: a missing contact is
-silent; false posts ``BHV_ERROR``).
+``decay = start,end`` (s), ``on_no_contact_ok`` (default true: a missing contact is a
+``BHV_WARNING``; false a ``BHV_ERROR``), ``no_alert_request`` (whether a template asks
+pContactMgrV20 for its alert with ``BCM_ALERT_REQUEST``: accepted, not modelled - in a
+uhrisim scenario the contact manager's alerts are the scenario's ``contacts.alerts``).
 
 The contact is where its last report put it: pHelmIvP dead-reckons no contact (its
 extrapolation is compiled out, IvPContactBehavior.cpp:568-591, and the helm's contact
@@ -23,6 +25,7 @@ CONTACT_HANDLERS = {
     "extrapolate": setter("extrapolate", to_bool),
     "decay": setter("decay", to_decay),
     "on_no_contact_ok": setter("on_no_contact_ok", to_bool),
+    "no_alert_request": setter("no_alert_request", to_bool),
 }
 
 

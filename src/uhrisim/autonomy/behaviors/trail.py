@@ -59,6 +59,7 @@ class TrailParams:
     extrapolate: bool = True
     decay: tuple[float, float] = (5.0, 10.0)
     on_no_contact_ok: bool = True
+    no_alert_request: bool = True  # IvP default (BHV_Trail.cpp:60)
     trail_range: float = 50.0
     trail_angle: float = 180.0
     trail_angle_type: str = "relative"

@@ -38,7 +38,9 @@ class MoosAgentLink:
     every AppTick, typically 10 Hz). ``subscribe``/``extra_vars``: variables taken back
     and posted into the agent's community (``subscribe`` ones must be finite numbers;
     anything else is dropped with a warning so a stray post cannot crash the run).
-    ``vehicle_type``/``length``: NODE_REPORT TYPE and LENGTH (m).
+    ``vehicle_type``/``length``: NODE_REPORT TYPE and LENGTH (m). ``node_report_var``:
+    the variable the report goes to (``NODE_REPORT_LOCAL``, pNodeReporter's name, when
+    pShare forwards it to other communities as their NODE_REPORT).
     """
 
     agent: str
@@ -50,6 +52,7 @@ class MoosAgentLink:
     extra_vars: tuple[str, ...] = ()
     vehicle_type: str = "UUV"
     length: float = 1.0
+    node_report_var: str = "NODE_REPORT"
 
 
 class MoosBridgeHook(BaseHook):
@@ -102,7 +105,8 @@ class MoosBridgeHook(BaseHook):
             self.bridges[link.agent] = self._factory(
                 link.agent, link.host, link.port, link.community, lat0, lon0,
                 self._time_warp, link.subscribe, link.extra_vars,
-                time_source=self._time_source, strict=self._strict)
+                time_source=self._time_source, strict=self._strict,
+                node_report_var=link.node_report_var)
             self._was_connected[link.agent] = False
             self._rows.append((link, self.bridges[link.agent], period))
 
