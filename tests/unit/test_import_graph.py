@@ -41,9 +41,6 @@ LAYER_OF = {name: rank for rank, names in enumerate(LAYERS) for name in names}
 #: Upward imports that exist today, each with the reason it stays for now. An entry whose
 #: edge has gone fails the test: delete it then.
 KNOWN_UPWARD: Mapping[tuple[str, str], str] = {
-    ("uhrisim.scenario.schema", "uhrisim.sim.community"):
-        "the schema checks DESIRED_* values with sim.community.checked_value; the "
-        "community's value rules belong below scenario (schema.py is another change's)",
     ("uhrisim.sim.runner", "uhrisim.record.hook"):
         "the end-to-end runner (recording, metrics, figures) is application code above "
         "record/ and viz/, kept at uhrisim.sim.runner where callers import it",

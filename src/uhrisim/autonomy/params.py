@@ -19,7 +19,9 @@ from uhrisim.autonomy.conditions import Value, literal
 from uhrisim.core.errors import ConfigError
 
 __all__ = [
+    "NUMERIC_VARS",
     "Flag",
+    "checked_value",
     "moos_value",
     "one_of",
     "parse_flag",
@@ -52,6 +54,23 @@ def moos_value(v: object, where: str | None = None) -> Value:
     if isinstance(v, str):
         return literal(v)
     raise ConfigError(f"expected a string or number, got {type(v).__name__}", where)
+
+
+NUMERIC_VARS = frozenset({"DESIRED_HEADING", "DESIRED_SPEED", "DESIRED_DEPTH"})
+
+
+def checked_value(agent: str, var: str, value: Value) -> Value:
+    """``value`` if it may be posted as ``var``; the controllers' inputs must be finite
+    numbers (a ConfigError names the agent, variable and value otherwise)."""
+    if var in NUMERIC_VARS:
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            number = math.nan
+        if isinstance(value, bool) or not math.isfinite(number):
+            raise ConfigError(f"{var} must be a finite number, got {value!r}", where=agent)
+        return number
+    return value
 
 
 def to_float(v: object, key: str, where: str) -> float:

@@ -20,7 +20,7 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
-from uhrisim.sim.community import checked_value
+from uhrisim.autonomy.params import checked_value
 
 NonNegativeFloat = Annotated[float, Field(ge=0.0)]
 HeadingDeg = Annotated[float, Field(ge=-360.0, le=360.0)]

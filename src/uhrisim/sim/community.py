@@ -7,12 +7,11 @@ compass degrees, DESIRED_*, NODE_REPORT, mode variables such as DEPLOY).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
-from uhrisim.core.errors import ConfigError
-
 Value = str | float
+
+__all__ = ["Mailbox", "Post", "Value"]
 
 
 @dataclass(frozen=True)
@@ -24,23 +23,6 @@ class Post:
     value: Value
     t: float
     source: str
-
-
-NUMERIC_VARS = frozenset({"DESIRED_HEADING", "DESIRED_SPEED", "DESIRED_DEPTH"})
-
-
-def checked_value(agent: str, var: str, value: Value) -> Value:
-    """``value`` if it may be posted as ``var``; the controllers' inputs must be finite
-    numbers (a ConfigError names the agent, variable and value otherwise)."""
-    if var in NUMERIC_VARS:
-        try:
-            number = float(value)
-        except (TypeError, ValueError):
-            number = math.nan
-        if isinstance(value, bool) or not math.isfinite(number):
-            raise ConfigError(f"{var} must be a finite number, got {value!r}", where=agent)
-        return number
-    return value
 
 
 #: Variables whose every posting matters (one per contact): mailboxes keep them all, in

@@ -30,13 +30,14 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from uhrisim.autonomy.params import checked_value
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned, rot_z
 from uhrisim.core.rng import component_rng
 from uhrisim.scenario.build_world import add_object, build_static_scene
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.sim.build import build_agents, build_events
-from uhrisim.sim.community import Value, checked_value
+from uhrisim.sim.community import Value
 from uhrisim.sim.contacts import TruthContacts
 from uhrisim.sim.drivers import ScriptedDriver
 from uhrisim.sim.hooks import AgentSnapshot, AgentSnapshots, HelmRecord, SimEvent, TickFrame
