@@ -60,13 +60,19 @@ class PiecewisePlanes:
         return np.stack([self.b + self.mc * ci + self.ms * si for si in s for ci in c])
 
     def table(self) -> NDArray[np.float64]:
-        """The function on the whole grid, shape (n course, n speed)."""
-        c_piece = np.repeat(np.arange(len(self.c_lo)), self.c_hi - self.c_lo + 1)
-        s_piece = np.repeat(np.arange(len(self.s_lo)), self.s_hi - self.s_lo + 1)
-        ci = np.arange(len(c_piece), dtype=float)[:, None]
-        si = np.arange(len(s_piece), dtype=float)[None, :]
-        rows, cols = c_piece[:, None], s_piece[None, :]
-        return self.b[rows, cols] + self.mc[rows, cols] * ci + self.ms[rows, cols] * si
+        """The function on the whole grid, shape (n course, n speed).
+
+        Every piece is laid out on a padded block of the full piece size (the last, cut
+        short, spills past the grid and is sliced off): one broadcast, ``b + mc*c + ms*s``
+        in that order at each grid point."""
+        n_c, n_s = int(self.c_hi[-1]) + 1, int(self.s_hi[-1]) + 1
+        pc = int(self.c_hi[0] - self.c_lo[0]) + 1
+        ps = int(self.s_hi[0] - self.s_lo[0]) + 1
+        c = (self.c_lo[:, None] + np.arange(pc)).astype(float)[:, :, None, None]
+        s = (self.s_lo[:, None] + np.arange(ps)).astype(float)[None, None, :, :]
+        b, mc, ms = (a[:, None, :, None] for a in (self.b, self.mc, self.ms))
+        padded = b + mc * c + ms * s
+        return padded.reshape(len(self.c_lo) * pc, len(self.s_lo) * ps)[:n_c, :n_s]
 
 
 def _spans(n: int, piece: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -76,38 +82,41 @@ def _spans(n: int, piece: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
 
 def fit_pieces(values: NDArray[np.float64], piece: tuple[int, int]) -> PiecewisePlanes:
     """Fit planes to ``values`` (course x speed grid) over pieces of ``piece`` indices
-    (module docstring); the same floating-point operations as :func:`fit_pieces_reference`."""
+    (module docstring); the same floating-point operations as :func:`fit_pieces_reference`,
+    on all pieces at once (samples stacked: 4 corners, then the centre)."""
     F = np.asarray(values, dtype=float)
     c_lo, c_hi = _spans(F.shape[0], piece[0])
     s_lo, s_hi = _spans(F.shape[1], piece[1])
     C0, C1, S0, S1 = c_lo[:, None], c_hi[:, None], s_lo[None, :], s_hi[None, :]
-    pts = [(C0, S0), (C1, S0), (C0, S1), (C1, S1)]
-    v = [F[c, s] for c, s in pts]
+    cc, sc = C0 + (C1 - C0) // 2, S0 + (S1 - S0) // 2
+    at = [(C0, S0), (C1, S0), (C0, S1), (C1, S1), (cc, sc)]
+    v = np.stack([F[c, s] for c, s in at])
     run_c, run_s = (C1 - C0).astype(float), (S1 - S0).astype(float)
     with np.errstate(divide="ignore", invalid="ignore"):
         mc = np.where(run_c > 0, (((v[1] - v[0]) + (v[3] - v[2])) / 2.0) / run_c, 0.0)
         ms = np.where(run_s > 0, (((v[2] - v[0]) + (v[3] - v[1])) / 2.0) / run_s, 0.0)
     centre = ((C1 - C0) > 1) | ((S1 - S0) > 1)
-    cc, sc = C0 + (C1 - C0) // 2, S0 + (S1 - S0) // 2
-    pts.append((cc, sc))
-    v.append(F[cc, sc])
-    hi = np.maximum.reduce(v[:4])
-    lo = np.minimum.reduce(v[:4])
+    planes = np.stack([mc * c + ms * s for c, s in at])
+    hi, lo = v[:4].max(axis=0), v[:4].min(axis=0)
     hi = np.where(centre, np.maximum(hi, v[4]), hi)
     lo = np.where(centre, np.minimum(lo, v[4]), lo)
-    total = np.zeros(mc.shape)
-    upper = np.full(mc.shape, np.inf)
-    lower = np.full(mc.shape, -np.inf)
-    for k, (c, s) in enumerate(pts):
-        plane = mc * c + ms * s
-        use = centre if k == 4 else True
-        total = np.where(use, total + (v[k] - plane), total)
-        upper = np.where(use, np.minimum(upper, hi - plane), upper)
-        lower = np.where(use, np.maximum(lower, lo - plane), lower)
+    residual = v - planes
+    total = ((residual[0] + residual[1]) + residual[2]) + residual[3]
+    total = np.where(centre, total + residual[4], total)
+    use = _use(centre)
+    upper = (hi - planes).min(axis=0, where=use, initial=np.inf)
+    lower = (lo - planes).max(axis=0, where=use, initial=-np.inf)
     b = total / np.where(centre, 5.0, 4.0)
     b = np.where(b > upper, upper, b)
     b = np.where(b < lower, lower, b)
     return PiecewisePlanes(c_lo, c_hi, s_lo, s_hi, b, mc, ms)
+
+
+def _use(centre: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Which of the 5 stacked samples a piece uses: its corners, its centre if it has one."""
+    use = np.ones((5, *centre.shape), dtype=bool)
+    use[4] = centre
+    return use
 
 
 def fit_pieces_reference(
