@@ -24,7 +24,8 @@ from uhrisim.autonomy.config import BehaviorSpec, HelmConfig, build_behavior_spe
 from uhrisim.autonomy.domain import Domain
 from uhrisim.autonomy.modes import ModeEntry, parse_mode_entry
 from uhrisim.autonomy.params import parse_flag
-from uhrisim.core.errors import AssetError, ConfigError
+from uhrisim.core.errors import ConfigError
+from uhrisim.core.files import read_text_file
 
 __all__ = [
     "BhvContent",
@@ -219,14 +220,7 @@ def _validated(
 
 def read_bhv_file(path: str | Path, macros: Mapping[str, object] | None = None) -> BhvContent:
     """Read a ``.bhv`` file's declarations; a missing or unreadable file is an AssetError."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as e:
-        raise AssetError(f"{p}: cannot read behavior file ({e.strerror})") from None
-    except UnicodeDecodeError as e:
-        raise AssetError(f"{p}: not a text file ({e.reason} at byte {e.start})") from None
-    return parse_bhv_content(text, str(p), macros)
+    return parse_bhv_content(read_text_file(path, "behavior file"), str(path), macros)
 
 
 def load_bhv(

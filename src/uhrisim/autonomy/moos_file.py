@@ -41,7 +41,8 @@ from uhrisim.autonomy.bhv import preprocess, read_bhv_file, strip_comment
 from uhrisim.autonomy.config import HelmConfig, HelmSettings
 from uhrisim.autonomy.domain import Domain, DomainAxis
 from uhrisim.autonomy.params import to_bool, to_float
-from uhrisim.core.errors import AssetError, ConfigError
+from uhrisim.core.errors import ConfigError
+from uhrisim.core.files import read_text_file
 
 __all__ = [
     "MoosFile",
@@ -166,14 +167,7 @@ def parse_moos(
 
 def load_moos(path: str | Path, macros: Mapping[str, object] | None = None) -> MoosFile:
     """Read and parse a ``.moos`` file; errors name ``path:line``."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as e:
-        raise AssetError(f"{p}: cannot read MOOS file ({e.strerror})") from None
-    except UnicodeDecodeError as e:
-        raise AssetError(f"{p}: not a text file ({e.reason} at byte {e.start})") from None
-    return parse_moos(text, str(p), macros)
+    return parse_moos(read_text_file(path, "MOOS file"), str(path), macros)
 
 
 def _domain_axis(value: str, where: str) -> DomainAxis:
