@@ -459,8 +459,9 @@ class Helm:
             if elapsed >= c.duration:  # IvPBehavior::durationExceeded
                 self._complete(s, ctx)
                 return
-        if prev in ("", "idle"):
+        if prev == "idle":  # not at the first iteration (BehaviorSet.cpp:780-781)
             b.on_run_start(ctx)
+        if prev in ("", "idle"):
             for f in c.runflags:
                 self._flag(ctx, b, f)
         obj = b.on_run(ctx)

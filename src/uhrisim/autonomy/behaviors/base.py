@@ -285,7 +285,8 @@ class Behavior:
         """Hook: a parameter changed at run time."""
 
     def on_run_start(self, ctx: BehaviorContext) -> None:
-        """Hook: transition idle -> running."""
+        """Hook: transition idle -> running (not a behavior running from the helm's first
+        iteration: pHelmIvP's onIdleToRunState)."""
 
     def on_idle(self, ctx: BehaviorContext) -> None:
         """Hook: called each tick the behavior is idle."""

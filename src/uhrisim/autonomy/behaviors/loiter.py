@@ -4,10 +4,10 @@ reference/helm.md. Course: ZAIC peak at the bearing to the next vertex (pw 0, bw
 wrap: linear to zero at +-180 deg); speed: peak at ``speed`` (pw 0, bw 0.3, a triangle);
 coupled ``patience`` / 100 - ``patience`` (default 50/50; BHV_Loiter.cpp:532) and
 normalised to 0..100. Vertices are snapped to 0.1 m (as pHelmIvP does). Vertices advance
-on ``capture_radius`` or by slip (``slip_radius``). When the vehicle is farther than
-``acquire_dist`` from the polygon's boundary - outside, or deep inside (IvP's
-outer/inner positions) - it is in *acquire mode*: each tick it re-picks the vertex to
-approach (below). ``clockwise = true | false | best``.
+on ``capture_radius`` or by slip (``slip_radius``). As in pHelmIvP (BHV_Loiter.cpp:
+270-310), the loiter starts at vertex 0; it picks the vertex to approach (below) when it
+goes from idle to running, and each tick while it is farther than ``acquire_dist``
+outside the polygon (*acquire mode*). ``clockwise = true | false | best``.
 
 Acquire vertex (IvP ``LoiterEngine`` semantics, re-implemented; the reference note is
 silent). With turn(k) = the signed turn (deg, right/clockwise positive) from the approach
@@ -160,13 +160,14 @@ class Loiter(Behavior):
         self.vertices: tuple[Point, ...] = p.polygon
         if isinstance(p.center_assign, tuple) and p.polygon:
             self.vertices = shift(p.polygon, *p.center_assign)
-        self.index: int | None = None
+        self.index = 0
+        self.acquire_now = False  # pick the vertex at the next run (idle -> running)
         self.direction = -1 if p.clockwise == "false" else 1
         self.acquire_mode = True
         self.arrival = ArrivalTracker(p.capture_radius, p.slip_radius)
         self.laps = 0
         self._pending_center_here = p.center_assign == "present_position"
-        self._posted: tuple[int | None, bool] | None = None
+        self._posted: tuple[int, bool] | None = None
         self._posted_poly: tuple[Point, ...] | None = None
         self._speed_memo = ZaicMemo()
 
@@ -178,6 +179,7 @@ class Loiter(Behavior):
             self.arrival = ArrivalTracker(p.capture_radius, p.slip_radius)
 
     def on_run_start(self, ctx: BehaviorContext) -> None:
+        self.acquire_now = True
         if self.params.center_activate:
             self._pending_center_here = True
 
@@ -230,10 +232,10 @@ class Loiter(Behavior):
         if self._pending_center_here:
             self.vertices = shift(self.vertices, own.x, own.y)
             self._pending_center_here = False
-            self.index = None
         n = len(self.vertices)
-        acquire = abs(signed_dist_to_polygon(own.x, own.y, self.vertices)) > p.acquire_dist
-        if acquire or self.index is None:
+        acquire = signed_dist_to_polygon(own.x, own.y, self.vertices) > p.acquire_dist
+        if acquire or self.acquire_now:
+            self.acquire_now = False
             k, d = self.acquire(own.x, own.y, own.heading)
             if k != self.index:
                 self.arrival.reset()
