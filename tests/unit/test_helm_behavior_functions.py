@@ -272,13 +272,18 @@ def test_loiter_acquisition_rules():
     # inside at the centre: every vertex needs a 135 deg turn; the one ahead (heading 45,
     # vertex (20, 20)) wins with the 2 deg spiral bonus
     assert b.acquire(10.0, 10.0, 45.0) == (2, 1)
-    # deep inside (10 m from every edge > acquire_dist 5) is acquire mode too (IvP "inner")
+    # acquire mode is only FARTHER than acquire_dist OUTSIDE (BHV_Loiter.cpp:301-303): deep
+    # inside, a loiter running from the first iteration heads for vertex 0; one that goes
+    # from idle to running picks its vertex (onIdleToRunState, l.270-278)
     from uhrisim.autonomy.geometry import signed_dist_to_polygon
 
     assert signed_dist_to_polygon(10.0, 10.0, b.vertices) == -10.0
     assert signed_dist_to_polygon(10.0, -30.0, b.vertices) == 30.0
     inner = make("Loiter", polygon=sq, speed=1.0, acquire_dist=5)
     inner.on_run(ctx(OwnNav(10.0, 10.0, 45.0, 1.0)))
-    assert inner.acquire_mode and inner.index == 2
+    assert not inner.acquire_mode and inner.index == 0
+    inner.on_run_start(ctx(OwnNav(10.0, 10.0, 45.0, 1.0)))
+    inner.on_run(ctx(OwnNav(10.0, 10.0, 45.0, 1.0)))
+    assert not inner.acquire_mode and inner.index == 2
     inner.on_run(ctx(OwnNav(10.0, 18.0, 45.0, 1.0)))  # 2 m from the north edge: on-poly
     assert not inner.acquire_mode
