@@ -26,6 +26,7 @@ second argument is a range); a constant function is left as it is.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -80,43 +81,69 @@ def _spans(n: int, piece: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     return lo, np.minimum(lo + piece - 1, n - 1)
 
 
+@dataclass(frozen=True)
+class _Layout:
+    """The pieces of one grid shape and piece size, and the grid indices of their five
+    samples (4 corners, then the centre), stacked on axis 0: (5, pieces c, pieces s)."""
+
+    c_lo: NDArray[np.int64]
+    c_hi: NDArray[np.int64]
+    s_lo: NDArray[np.int64]
+    s_hi: NDArray[np.int64]
+    flat: NDArray[np.int64]  # flat grid index of each sample
+    c: NDArray[np.float64]  # its course index, (5, pieces c, 1)
+    s: NDArray[np.float64]  # its speed index, (5, 1, pieces s)
+    run_c: NDArray[np.float64]  # c_hi - c_lo, 1 where 0 (its slope is 0 then)
+    run_s: NDArray[np.float64]
+    flat_c: NDArray[np.bool_]  # single-index pieces along course
+    flat_s: NDArray[np.bool_]
+    centre: NDArray[np.bool_]  # pieces with a centre sample
+    use: NDArray[np.bool_]  # (5, ...): the samples a piece uses
+    count: NDArray[np.float64]  # 5.0 or 4.0
+
+
+@lru_cache(maxsize=16)
+def _layout(n_c: int, n_s: int, pc: int, ps: int) -> _Layout:
+    c_lo, c_hi = _spans(n_c, pc)
+    s_lo, s_hi = _spans(n_s, ps)
+    C0, C1, S0, S1 = c_lo[:, None], c_hi[:, None], s_lo[None, :], s_hi[None, :]
+    at = [(C0, S0), (C1, S0), (C0, S1), (C1, S1), (C0 + (C1 - C0) // 2, S0 + (S1 - S0) // 2)]
+    flat = np.stack([np.broadcast_to(c * n_s + s, (len(c_lo), len(s_lo))) for c, s in at])
+    centre = ((C1 - C0) > 1) | ((S1 - S0) > 1)
+    use = np.ones((5, *centre.shape), dtype=bool)
+    use[4] = centre
+    return _Layout(
+        c_lo, c_hi, s_lo, s_hi, flat,
+        np.stack([np.broadcast_to(c, (len(c_lo), 1)) for c, _ in at]).astype(float),
+        np.stack([np.broadcast_to(s, (1, len(s_lo))) for _, s in at]).astype(float),
+        np.maximum(C1 - C0, 1).astype(float), np.maximum(S1 - S0, 1).astype(float),
+        C1 == C0, S1 == S0, centre, use, np.where(centre, 5.0, 4.0),
+    )  # fmt: skip
+
+
 def fit_pieces(values: NDArray[np.float64], piece: tuple[int, int]) -> PiecewisePlanes:
     """Fit planes to ``values`` (course x speed grid) over pieces of ``piece`` indices
     (module docstring); the same floating-point operations as :func:`fit_pieces_reference`,
     on all pieces at once (samples stacked: 4 corners, then the centre)."""
     F = np.asarray(values, dtype=float)
-    c_lo, c_hi = _spans(F.shape[0], piece[0])
-    s_lo, s_hi = _spans(F.shape[1], piece[1])
-    C0, C1, S0, S1 = c_lo[:, None], c_hi[:, None], s_lo[None, :], s_hi[None, :]
-    cc, sc = C0 + (C1 - C0) // 2, S0 + (S1 - S0) // 2
-    at = [(C0, S0), (C1, S0), (C0, S1), (C1, S1), (cc, sc)]
-    v = np.stack([F[c, s] for c, s in at])
-    run_c, run_s = (C1 - C0).astype(float), (S1 - S0).astype(float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        mc = np.where(run_c > 0, (((v[1] - v[0]) + (v[3] - v[2])) / 2.0) / run_c, 0.0)
-        ms = np.where(run_s > 0, (((v[2] - v[0]) + (v[3] - v[1])) / 2.0) / run_s, 0.0)
-    centre = ((C1 - C0) > 1) | ((S1 - S0) > 1)
-    planes = np.stack([mc * c + ms * s for c, s in at])
-    hi, lo = v[:4].max(axis=0), v[:4].min(axis=0)
-    hi = np.where(centre, np.maximum(hi, v[4]), hi)
-    lo = np.where(centre, np.minimum(lo, v[4]), lo)
+    L = _layout(F.shape[0], F.shape[1], piece[0], piece[1])
+    v = F.ravel()[L.flat]
+    mc = (((v[1] - v[0]) + (v[3] - v[2])) / 2.0) / L.run_c
+    ms = (((v[2] - v[0]) + (v[3] - v[1])) / 2.0) / L.run_s
+    mc[np.broadcast_to(L.flat_c, mc.shape)] = 0.0
+    ms[np.broadcast_to(L.flat_s, ms.shape)] = 0.0
+    planes = mc * L.c + ms * L.s
+    hi = v.max(axis=0, where=L.use, initial=-np.inf)
+    lo = v.min(axis=0, where=L.use, initial=np.inf)
     residual = v - planes
     total = ((residual[0] + residual[1]) + residual[2]) + residual[3]
-    total = np.where(centre, total + residual[4], total)
-    use = _use(centre)
-    upper = (hi - planes).min(axis=0, where=use, initial=np.inf)
-    lower = (lo - planes).max(axis=0, where=use, initial=-np.inf)
-    b = total / np.where(centre, 5.0, 4.0)
+    total = np.where(L.centre, total + residual[4], total)
+    upper = (hi - planes).min(axis=0, where=L.use, initial=np.inf)
+    lower = (lo - planes).max(axis=0, where=L.use, initial=-np.inf)
+    b = total / L.count
     b = np.where(b > upper, upper, b)
     b = np.where(b < lower, lower, b)
-    return PiecewisePlanes(c_lo, c_hi, s_lo, s_hi, b, mc, ms)
-
-
-def _use(centre: NDArray[np.bool_]) -> NDArray[np.bool_]:
-    """Which of the 5 stacked samples a piece uses: its corners, its centre if it has one."""
-    use = np.ones((5, *centre.shape), dtype=bool)
-    use[4] = centre
-    return use
+    return PiecewisePlanes(L.c_lo, L.c_hi, L.s_lo, L.s_hi, b, mc, ms)
 
 
 def fit_pieces_reference(
