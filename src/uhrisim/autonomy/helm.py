@@ -317,14 +317,17 @@ class Helm:
         for var, text in kept:
             if var in self.templates:
                 self._spawn(var, text, posts)
-            for s in list(self.slots):
-                if (s.bhv.common.updates == var and not s.spawned and s.status != "completed"):
-                    try:
-                        pairs = parse_updates(text)
-                    except ConfigError as e:
-                        self._warn(posts, f"update of {s.bhv.name} from {var} rejected: {e}")
-                        continue
-                    self._apply_update(s.bhv, var, pairs, posts)
+            targets = [s.bhv for s in self.slots if s.bhv.common.updates == var
+                       and not s.spawned and s.status != "completed"]  # fmt: skip
+            if not targets:
+                continue
+            try:
+                pairs = parse_updates(text)
+            except ConfigError as e:
+                self._warn(posts, f"bad {var} posting {text!r}: {e}")
+                continue
+            for bhv in targets:
+                self._apply_update(bhv, var, pairs, posts)
 
     # -- the iteration ---------------------------------------------------------------
     def step(
