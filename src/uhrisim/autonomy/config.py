@@ -19,9 +19,7 @@ Files are read above this module: :mod:`uhrisim.autonomy.bhv` (``.bhv``) and
 from __future__ import annotations
 
 import difflib
-import logging
 import re
-import warnings
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -32,7 +30,7 @@ from uhrisim.autonomy.conditions import Value
 from uhrisim.autonomy.domain import Domain, DomainAxis
 from uhrisim.autonomy.modes import ModeEntry, parse_mode_entry
 from uhrisim.autonomy.params import moos_value, parse_flag, to_float
-from uhrisim.core.errors import ConfigError
+from uhrisim.core.errors import ConfigError, warn_user
 
 __all__ = [
     "HELM_POSTED_VARS",
@@ -44,8 +42,6 @@ __all__ = [
     "default_domain",
     "parse_domain",
 ]
-
-log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -72,8 +68,7 @@ def default_domain(where: str) -> Domain:
     domain = Domain.paper()
     msg = (f"{where}: no decision domain given; using the paper's course:0:359:360, "
            "speed:0:5:26, depth:0:100:101:optional")
-    log.warning(msg)
-    warnings.warn(msg, UserWarning, stacklevel=3)
+    warn_user(msg, stacklevel=3)
     return domain
 
 NAV_VARS = frozenset(
@@ -183,8 +178,7 @@ def build_behavior_spec(
     if common.duration == 0.0 and not duration_given and not common.perpetual:
         msg = (f"{where}: {cls.KIND} {common.name!r} has no duration: as in pHelmIvP it "
                "completes at its first running iteration (give duration = no-time-limit)")
-        log.warning(msg)
-        warnings.warn(msg, UserWarning, stacklevel=2)
+        warn_user(msg)
     return BehaviorSpec(cls.KIND, common, params, where, tuple(cond_wheres))
 
 

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import logging
+import warnings
+
 
 class UhrisimError(Exception):
     """Base class of every error uhrisim raises on purpose."""
@@ -39,3 +42,10 @@ class AssetError(UhrisimError, OSError):
 
 class BridgeError(UhrisimError, ConnectionError):
     """A ROS 2 / MOOS peer is unreachable or spoke something we cannot accept."""
+
+
+def warn_user(message: str, stacklevel: int = 2) -> None:
+    """Tell the user a default or a correction was applied: logged (the command line shows
+    it) and raised as a ``UserWarning`` (tests and callers can catch it)."""
+    logging.getLogger("uhrisim").warning(message)
+    warnings.warn(message, UserWarning, stacklevel=stacklevel + 1)

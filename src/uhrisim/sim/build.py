@@ -8,9 +8,7 @@ which calls them; what they build are the records of :mod:`uhrisim.sim.state`.
 from __future__ import annotations
 
 import dataclasses
-import logging
 import math
-import warnings
 from typing import Protocol
 
 import numpy as np
@@ -25,7 +23,7 @@ from uhrisim.control.diver import DiverController, DiverGains
 from uhrisim.control.marine_pid import MarinePidController, MarinePidGains
 from uhrisim.control.videoray_p import GAIN_PRESETS, VideoRayPController
 from uhrisim.core.clock import ticks_for_rate
-from uhrisim.core.errors import ConfigError
+from uhrisim.core.errors import ConfigError, warn_user
 from uhrisim.core.frames import rot_z
 from uhrisim.dynamics.diver import DiverParams
 from uhrisim.dynamics.kinematic import KinematicParams
@@ -41,8 +39,6 @@ from uhrisim.sim.state import Agent, ScheduledEvent, SonarSlot
 from uhrisim.world.assets import diver_parts, videoray_mesh
 from uhrisim.world.materials import NEOPRENE, ROV_PLASTIC
 from uhrisim.world.scene import Scene
-
-log = logging.getLogger(__name__)
 
 #: Collision spheres (m): VideoRay hull ~0.38 x 0.29 x 0.22 m; a prone diver with fins is
 #: ~2.3 m long, a 0.6 m sphere covers the torso and tank where contact matters.
@@ -160,8 +156,7 @@ def _helm_driver(sim: BuildContext, cfg: AgentConfig, community: Community) -> H
         msg = (f"{sim.source.where('agents', index, 'helm')}: {cfg.name}'s helm starts "
                "parked (pHelmIvP's start_engaged is false) and no event or button posts "
                "MOOS_MANUAL_OVERRIDE = false: it drives only if a bridge posts it")
-        log.warning(msg)
-        warnings.warn(msg, UserWarning, stacklevel=2)
+        warn_user(msg)
     autonomy = VehicleAutonomy(cfg.name, helm_config, ContactManagerConfig(alerts=alerts))
     return HelmDriver(autonomy, community.mailbox())
 

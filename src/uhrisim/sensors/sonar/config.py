@@ -7,19 +7,15 @@ body FRD frame (metres), tilt > 0 points the sonar down, yaw > 0 turns it to sta
 
 from __future__ import annotations
 
-import logging
 import math
-import warnings
 from dataclasses import dataclass
 from typing import Literal
 
 import cv2
 
-from uhrisim.core.errors import ConfigError
+from uhrisim.core.errors import ConfigError, warn_user
 from uhrisim.sensors.sonar.acoustics import absorption_db_per_m, sound_speed_fg
 from uhrisim.sensors.sonar.presets import SonarSpec, get_preset
-
-log = logging.getLogger(__name__)
 
 #: Colour maps accepted for ``SonarConfig.colormap`` (OpenCV's built-ins).
 COLORMAPS: dict[str, int] = {
@@ -223,8 +219,7 @@ class SonarConfig:
                 f"{PING_RATE_MARGIN}·2R/c caps it at {cap:.2f} Hz); using "
                 f"{self.effective_rate_hz:.2f} Hz"
             )
-            log.warning(msg)
-            warnings.warn(msg, UserWarning, stacklevel=3)
+            warn_user(msg, stacklevel=3)
 
     # -- derived quantities ---------------------------------------------------------------
     @property
