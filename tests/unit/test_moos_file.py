@@ -206,3 +206,11 @@ def test_scenario_helm_from_a_moos_file_and_its_errors(tmp_path):
     bad.write_text(both)
     with pytest.raises(ConfigError, match="the domain comes from its Domain lines"):
         load_scenario(bad)
+
+
+def test_the_mission_file_api_is_exported_from_autonomy():
+    from uhrisim import autonomy
+
+    assert autonomy.load_helm_from_moos is load_helm_from_moos
+    axes = autonomy.parse_domain(["course:0:359:360", "speed:0:5:26", "depth:0:10:11:optional"])
+    assert axes.names == ("course", "speed", "depth") and axes.axis("depth").optional
