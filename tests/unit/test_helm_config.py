@@ -427,5 +427,6 @@ def test_preprocessor_errors(tmp_path):
         e = _err(text, tmp_path)
         assert msg in str(e) and e.where.endswith(f"bad.bhv:{line}")
     f = tmp_path / "def.bhv"
-    f.write_text("#define D 7\n#ifndef E\ninitialize X = $(D)\n#endif\n")
+    f.write_text("#define D 7\n#ifndef E\ninitialize X = $(D)\n#endif\n"
+                 "Behavior = BHV_Waypoint\n{\n name = w\n points = 0,9\n}\n")
     assert load_bhv(f).initialize == (("X", 7.0),)

@@ -12,7 +12,7 @@ import pytest
 
 from uhrisim.autonomy import Helm, HelmConfig, load_bhv
 from uhrisim.autonomy.bhv import parse_bhv
-from uhrisim.autonomy.config import HelmSettings
+from uhrisim.autonomy.config import HelmSettings, parse_domain
 from uhrisim.core.errors import ConfigError
 
 DOMAIN = {"course": [0, 359, 360], "speed": [0, 5, 26], "depth": [0, 100, 101, "optional"]}
@@ -207,7 +207,7 @@ def test_deferred_initialize_only_fills_what_is_unknown(tmp_path):
     f = tmp_path / "i.bhv"
     f.write_text("initialize_ A = 1, B = 2\ninitialize C = 3\n"
                  "Behavior = BHV_Waypoint\n{\n name = w\n points = 0,9\n}\n")
-    h = Helm(load_bhv(f, domain=HelmConfig.from_mapping({"domain": DOMAIN}).domain), "rov")
+    h = Helm(load_bhv(f, domain=parse_domain(DOMAIN)), "rov")
     out = h.step(0.0, {**NAV, "A": "given"})
     assert (h.info["A"], h.info["B"], h.info["C"]) == ("given", 2.0, 3.0)
     assert ("A", 1.0) not in out.posts and ("B", 2.0) in out.posts

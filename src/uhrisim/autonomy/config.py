@@ -250,8 +250,9 @@ class HelmConfig:
     def validate(self, known_vars: Iterable[str] | None = ()) -> HelmConfig:
         """Check names, domain needs and that every condition variable has a source.
 
-        Names: no behavior's name may begin with another's (templates aside), as pHelmIvP
-        refuses (BehaviorSet.cpp:288-295, 1208-1221). ``known_vars``: variables posted from
+        A helm with no behavior is refused. Names: no behavior's name may begin with
+        another's (templates aside), as pHelmIvP refuses (BehaviorSet.cpp:288-295,
+        1208-1221). ``known_vars``: variables posted from
         outside (contact-manager alert variables, viewer buttons, the simulation); None
         skips the source check (a MOOS community has other apps posting: pHelmIvP itself
         does not check, a condition on a variable nobody posts is simply false). Returns
@@ -275,9 +276,16 @@ class HelmConfig:
             for a in axes:
                 if not self.domain.has(a):
                     raise ConfigError(f"{b.kind} {b.name!r} needs a {a!r} domain axis", b.where)
-        if known_vars is None:
-            return self
-        known = self.posted_vars() | set(NAV_VARS) | set(known_vars)
+        if known_vars is not None:
+            self._check_condition_sources(set(known_vars))
+        if not self.behaviors:
+            raise ConfigError("the helm declares no behaviors: it could decide nothing",
+                              self.source or "helm")
+        return self
+
+    def _check_condition_sources(self, known_vars: set[str]) -> None:
+        """Every condition variable is posted or initialised by something (ConfigError)."""
+        known = self.posted_vars() | set(NAV_VARS) | known_vars
 
         def check(var: str, where: str, owner: str) -> None:
             if var not in known and not _CONTACT_VAR.match(var):
@@ -293,7 +301,6 @@ class HelmConfig:
                 w = b.condition_wheres[i] if i < len(b.condition_wheres) else b.where
                 for var in sorted(c.variables()):
                     check(var, w, f"behavior {b.name!r}")
-        return self
 
     @classmethod
     def from_mapping(

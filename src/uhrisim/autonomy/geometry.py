@@ -115,6 +115,10 @@ _DISPLAY_FIELDS = {
 }  # fmt: skip
 
 
+#: More vertices than this is refused: a loiter's helm tick is linear in them.
+MAX_POLYGON_POINTS = 1000
+
+
 def _radial(spec: str, key: str, where: str) -> tuple[Point, ...]:
     body = spec.split("::", 1)[1] if "::" in spec else spec
     fields: dict[str, str] = {}
@@ -140,8 +144,9 @@ def _radial(spec: str, key: str, where: str) -> tuple[Point, ...]:
         n = int(to_float(fields["pts"], key, where))
     except KeyError as e:
         raise ConfigError(f"{key}: radial polygon needs {e.args[0]}=", where) from None
-    if radius <= 0 or n < 3:
-        raise ConfigError(f"{key}: radial polygon needs radius > 0 and pts >= 3", where)
+    if radius <= 0 or not 3 <= n <= MAX_POLYGON_POINTS:
+        raise ConfigError(f"{key}: radial polygon needs radius > 0 and 3 <= pts <= "
+                          f"{MAX_POLYGON_POINTS}", where)
     snap = to_float(fields.get("snap", 0), key, where)
     pts = []
     for k in range(n):
@@ -173,6 +178,9 @@ def parse_polygon(v: object, key: str = "polygon", where: str = "polygon") -> tu
         if isinstance(s, str):
             s = ":".join(p for p in s.split(":") if not p.strip().lower().startswith("label"))
         pts = to_points(s, key, where)
+        if len(pts) > MAX_POLYGON_POINTS:
+            raise ConfigError(f"{key} has {len(pts)} points, more than {MAX_POLYGON_POINTS}",
+                              where)
     if not is_convex(pts):
         raise ConfigError(f"{key} is not a convex polygon: {v!r}", where)
     if signed_area(pts) > 0:

@@ -17,6 +17,7 @@ from uhrisim.scenario.schema import (
     MeshObject,
     ProceduralFloor,
     SceneObject,
+    SeaFloor,
     SlopedFloor,
     SphereObject,
     TorusObject,
@@ -64,7 +65,16 @@ def build_static_scene(source: ScenarioFile) -> Scene:
     """Scene with the scenario's sea floor and objects (dynamic bodies are added later)."""
     world = source.scenario.world
     scene = Scene()
-    floor = world.seafloor
+    try:
+        _add_floor(scene, world.seafloor, source)
+    except ConfigError as error:  # e.g. a floor too big: name the scenario's field
+        raise ConfigError(str(error), source.where("world", "seafloor")) from None
+    for index, obj in enumerate(world.objects):
+        add_object(scene, obj, source, source.where("world", "objects", index))
+    return scene
+
+
+def _add_floor(scene: Scene, floor: SeaFloor | None, source: ScenarioFile) -> None:
     if isinstance(floor, FlatFloor):
         scene.add_static(seafloor.flat(floor.depth, floor.extent), "seafloor", SAND)
     elif isinstance(floor, SlopedFloor):
@@ -76,9 +86,6 @@ def build_static_scene(source: ScenarioFile) -> Scene:
     elif isinstance(floor, ProceduralFloor):
         scene.add_static(seafloor.procedural(floor.seed, floor.extent, floor.depth,
                                              floor.roughness), "seafloor", SAND)
-    for index, obj in enumerate(world.objects):
-        add_object(scene, obj, source, source.where("world", "objects", index))
-    return scene
 
 
 def add_object(scene: Scene, obj: SceneObject, source: ScenarioFile, where: str) -> None:

@@ -8,7 +8,8 @@ range fail with the field path (the loader adds the file line). Positions are NE
 from __future__ import annotations
 
 import difflib
-from typing import Annotated, Any, Literal
+from types import UnionType
+from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
 from pydantic import (
     BaseModel,
@@ -24,6 +25,16 @@ from uhrisim.autonomy.params import checked_value
 
 NonNegativeFloat = Annotated[float, Field(ge=0.0)]
 HeadingDeg = Annotated[float, Field(ge=-360.0, le=360.0)]
+
+
+def _numeric_only(field: Any) -> bool:
+    """Whether a field takes numbers and never a boolean (float/int, constrained or not,
+    optional or not)."""
+    kinds = set(get_args(field.annotation)) if get_origin(field.annotation) in (
+        Union, UnionType) else {field.annotation}
+    kinds = {get_args(k)[0] if get_origin(k) is Annotated else k for k in kinds}
+    kinds.discard(type(None))
+    return bool(kinds) and kinds <= {float, int}
 
 
 class Strict(BaseModel):
@@ -45,6 +56,13 @@ class Strict(BaseModel):
                             else f"known keys: {', '.join(sorted(known))}")
                     raise PydanticCustomError("unknown_key", "unknown key '{key}'; {hint}",
                                               {"key": key, "hint": hint})
+                field = cls.model_fields.get(key) or next(
+                    f for f in cls.model_fields.values() if f.alias == key)
+                if isinstance(data[key], bool) and _numeric_only(field):
+                    # YAML reads yes/no/on/off as booleans: "duration: yes" is not 1 s
+                    raise PydanticCustomError(
+                        "bool_for_number", "{key} must be a number, got {value!r}",
+                        {"key": key, "value": data[key]})
         return data
 
 
@@ -256,6 +274,14 @@ class ScriptLeg(Strict):
         return self
 
 
+def _legs_in_time_order(legs: tuple[ScriptLeg, ...]) -> tuple[ScriptLeg, ...]:
+    for i in range(1, len(legs)):
+        if not legs[i].t > legs[i - 1].t:
+            raise ValueError(f"script legs must be in time order: leg {i} at t={legs[i].t:g} s "
+                             f"does not come after leg {i - 1} at t={legs[i - 1].t:g} s")
+    return legs
+
+
 class AlertConfig(Strict):
     """A contact-manager alert (MOOS pContactMgrV20 style)."""
 
@@ -298,6 +324,15 @@ class AgentConfig(Strict):
     vehicle_type: str | None = None
     length: PositiveFloat | None = None
 
+    _script_order = field_validator("script")(_legs_in_time_order)
+
+    @field_validator("start")
+    @classmethod
+    def _starts_in_the_water(cls, start: Pose) -> Pose:
+        if start.depth < 0.0:
+            raise ValueError(f"start.depth {start.depth:g} m is above the surface (depth >= 0)")
+        return start
+
     @property
     def scene_body(self) -> str:
         """The 3-D body the agent has in the scene: ``body``, or its model's own."""
@@ -338,6 +373,11 @@ class EventConfig(Strict):
     add_object: SceneObject | None = None
     script: tuple[ScriptLeg, ...] | None = None
     agent: str | None = None
+
+    @field_validator("script")
+    @classmethod
+    def _script_order(cls, legs: tuple[ScriptLeg, ...] | None) -> tuple[ScriptLeg, ...] | None:
+        return legs if legs is None else _legs_in_time_order(legs)
 
     @model_validator(mode="after")
     def _trigger_and_action(self) -> EventConfig:
@@ -477,4 +517,14 @@ class Scenario(Strict):
                 close = difflib.get_close_matches(name, sorted(names), n=1)
                 hint = f"; did you mean {close[0]!r}?" if close else ""
                 raise ValueError(f"{field} names unknown agent {name!r}{hint}")
+        movable = {o.label for o in self.world.objects if o.movable}
+        movable |= {e.add_object.label for e in self.events
+                    if e.add_object is not None and e.add_object.movable}
+        for i, e in enumerate(self.events):
+            if e.move_object is not None and e.move_object.label not in movable:
+                close = difflib.get_close_matches(e.move_object.label, sorted(movable), n=1)
+                hint = (f"; did you mean {close[0]!r}?" if close else
+                        "; only movable objects (movable: true) can be moved")
+                raise ValueError(f"events[{i}].move_object names no movable object "
+                                 f"{e.move_object.label!r}{hint}")
         return self

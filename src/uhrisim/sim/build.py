@@ -29,7 +29,7 @@ from uhrisim.dynamics.diver import DiverParams
 from uhrisim.dynamics.kinematic import KinematicParams
 from uhrisim.dynamics.plants import DiverPlant, KinematicPlant, VideoRayPlant
 from uhrisim.dynamics.videoray import VideoRayParams
-from uhrisim.scenario.build_world import material_named
+from uhrisim.scenario.build_world import material_named, object_mesh
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import AgentConfig, Scenario, SonarSensor
 from uhrisim.sim.community import Community
@@ -174,9 +174,17 @@ def _add_body(sim: BuildContext, cfg: AgentConfig, state) -> None:
 
 
 def build_agents(sim: BuildContext, sonar_enabled: bool) -> dict[str, Agent]:
+    rec = sim.scenario.recording
+    if rec.enabled:  # the recorder's odometry rate, like every rate: whole steps
+        ticks_for_rate(rec.odometry_rate_hz, sim.dt,
+                       sim.source.where("recording", "odometry_rate_hz"))
     agents: dict[str, Agent] = {}
     for index, cfg in enumerate(sim.scenario.agents):
-        plant = _plant(cfg, sim.dt)
+        try:
+            plant = _plant(cfg, sim.dt)
+        except ConfigError as error:  # e.g. a model too stiff for the step
+            raise ConfigError(str(error), sim.source.where("agents", index, "model")) from None
+        _check_start(sim, index, cfg, agents)
         start = cfg.start
         state = plant.initial_state(np.array([start.north, start.east, start.depth]),
                                     math.radians(start.heading_deg))
@@ -202,9 +210,29 @@ def build_agents(sim: BuildContext, sonar_enabled: bool) -> dict[str, Agent]:
     return agents
 
 
+def _check_start(sim: BuildContext, index: int, cfg: AgentConfig,
+                 placed: dict[str, Agent]) -> None:
+    """An agent starts in the water: not in the sea floor or a solid object, and clear of
+    the agents placed before it (their collision spheres do not overlap)."""
+    where = sim.source.where("agents", index, "start")
+    start = np.array(cfg.start.as_list())
+    inside = sim.scene.inside_solid(start)
+    if inside is not None:
+        raise ConfigError(f"agents[{index}].start: {cfg.name} would start {inside}", where)
+    radius = COLLISION_RADIUS[cfg.model]
+    for other in placed.values():
+        gap = float(np.linalg.norm(other.nav().position_ned - start))
+        if gap < radius + other.radius:
+            raise ConfigError(
+                f"agents[{index}].start: {cfg.name} starts {gap:.2f} m from {other.name}, "
+                f"inside its collision distance {radius + other.radius:.2f} m", where)
+
+
 def build_events(sim: BuildContext) -> list[ScheduledEvent]:
     events = []
     for index, cfg in enumerate(sim.scenario.events):
+        if cfg.add_object is not None:  # its mesh must load now, not when the event fires
+            object_mesh(cfg.add_object, sim.source, sim.source.where("events", index, "add_object"))
         condition = None
         if cfg.when is not None:
             condition = parse_condition(cfg.when, sim.source.where("events", index, "when"))

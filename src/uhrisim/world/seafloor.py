@@ -209,6 +209,11 @@ def from_height_grid(
     return SeaFloor(north, east, grid)
 
 
+#: Procedural floors cost ~1.3 kB of memory a grid cell (mesh, noise, FFT): 250 000 cells
+#: (an extent of 250 m at 1 m) is ~330 MB.
+MAX_PROCEDURAL_CELLS = 250_000
+
+
 def procedural(
     seed: int,
     extent: Extent = 50.0,
@@ -232,6 +237,11 @@ def procedural(
     corr = positive_length(correlation_length, "procedural.correlation_length")
     ni = int(np.ceil((n1 - n0) / res)) + 1
     nj = int(np.ceil((e1 - e0) / res)) + 1
+    if ni * nj > MAX_PROCEDURAL_CELLS:
+        raise ConfigError(
+            f"a {n1 - n0:g} x {e1 - e0:g} m floor at {res:g} m is {ni * nj} cells, more than "
+            f"{MAX_PROCEDURAL_CELLS} (~1.3 kB each): use a smaller extent or a coarser "
+            "resolution", where="procedural.extent")
     north = np.linspace(n0, n1, ni)
     east = np.linspace(e0, e1, nj)
     rng = component_rng(int(seed), "world/seafloor")
