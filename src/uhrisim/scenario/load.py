@@ -71,7 +71,7 @@ def validate_data(data: Any, source: str, lines: LineMap | None = None) -> Scena
         first = error.errors()[0]
         loc = _data_path(tuple(first["loc"]), data)
         message = first["msg"]
-        if first["type"] == "unknown_key":
+        if first["type"] in ("unknown_key", "bool_for_number"):  # raised for the mapping
             loc = (*loc, first["ctx"]["key"])
         elif first["type"] == "missing":
             message = f"missing required key {first['loc'][-1]!r}"

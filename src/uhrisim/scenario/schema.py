@@ -60,9 +60,8 @@ class Strict(BaseModel):
                     f for f in cls.model_fields.values() if f.alias == key)
                 if isinstance(data[key], bool) and _numeric_only(field):
                     # YAML reads yes/no/on/off as booleans: "duration: yes" is not 1 s
-                    raise PydanticCustomError(
-                        "bool_for_number", "{key} must be a number, got {value!r}",
-                        {"key": key, "value": data[key]})
+                    raise PydanticCustomError("bool_for_number", "must be a number, got {value}",
+                                              {"key": key, "value": str(data[key])})
         return data
 
 
@@ -517,14 +516,10 @@ class Scenario(Strict):
                 close = difflib.get_close_matches(name, sorted(names), n=1)
                 hint = f"; did you mean {close[0]!r}?" if close else ""
                 raise ValueError(f"{field} names unknown agent {name!r}{hint}")
-        movable = {o.label for o in self.world.objects if o.movable}
-        movable |= {e.add_object.label for e in self.events
-                    if e.add_object is not None and e.add_object.movable}
-        for i, e in enumerate(self.events):
-            if e.move_object is not None and e.move_object.label not in movable:
-                close = difflib.get_close_matches(e.move_object.label, sorted(movable), n=1)
-                hint = (f"; did you mean {close[0]!r}?" if close else
-                        "; only movable objects (movable: true) can be moved")
-                raise ValueError(f"events[{i}].move_object names no movable object "
-                                 f"{e.move_object.label!r}{hint}")
         return self
+
+    def movable_labels(self) -> set[str]:
+        """Labels of the objects events may move: movable ones, in the world or added."""
+        movable = {o.label for o in self.world.objects if o.movable}
+        return movable | {e.add_object.label for e in self.events
+                          if e.add_object is not None and e.add_object.movable}

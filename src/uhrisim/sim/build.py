@@ -8,6 +8,7 @@ which calls them; what they build are the records of :mod:`uhrisim.sim.state`.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 from typing import Protocol
 
@@ -230,9 +231,18 @@ def _check_start(sim: BuildContext, index: int, cfg: AgentConfig,
 
 def build_events(sim: BuildContext) -> list[ScheduledEvent]:
     events = []
+    movable = sim.scenario.movable_labels()
     for index, cfg in enumerate(sim.scenario.events):
-        if cfg.add_object is not None:  # its mesh must load now, not when the event fires
+        # what an event acts on must exist now, not only when it fires
+        if cfg.add_object is not None:
             object_mesh(cfg.add_object, sim.source, sim.source.where("events", index, "add_object"))
+        if cfg.move_object is not None and cfg.move_object.label not in movable:
+            close = difflib.get_close_matches(cfg.move_object.label, sorted(movable), n=1)
+            hint = (f"; did you mean {close[0]!r}?" if close else
+                    "; only movable objects (movable: true) can be moved")
+            raise ConfigError(f"events[{index}].move_object names no movable object "
+                              f"{cfg.move_object.label!r}{hint}",
+                              sim.source.where("events", index, "move_object"))
         condition = None
         if cfg.when is not None:
             condition = parse_condition(cfg.when, sim.source.where("events", index, "when"))
