@@ -107,6 +107,9 @@ def test_helm_with_no_behaviors_and_huge_polygons_are_refused(tmp_path):
     with pytest.raises(UhrisimError, match=r"rov\.bhv:4: polygon: radial polygon needs"):
         build(tmp_path, BASE.replace("    driver: none\n", helm))
     assert time.monotonic() - started < 5.0  # refused up front, not built first
+    (tmp_path / "rov.bhv").write_bytes(b"Behavior = BHV_Loiter\n{\n name = \xff\xfe\n}\n")
+    with pytest.raises(UhrisimError, match=r"rov\.bhv: not a text file"):
+        build(tmp_path, BASE.replace("    driver: none\n", helm))
 
 
 @pytest.mark.parametrize(
