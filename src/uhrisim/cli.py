@@ -1,7 +1,8 @@
 """The ``uhrisim`` command line: run missions, make the paper's figures, benchmark.
 
-Library errors (``UhrisimError``) become one-line messages and exit status 2; nothing
-here computes physics.
+Library errors (``UhrisimError``) become one-line messages and exit status 2, printed as
+plain text (a message is never read as Rich markup: brackets in a path or a key stay);
+every option is checked before any work starts. Nothing here computes physics.
 """
 
 from __future__ import annotations
@@ -9,6 +10,7 @@ from __future__ import annotations
 import functools
 import importlib
 import json
+import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -16,9 +18,11 @@ from typing import Annotated, Any
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
+from rich.text import Text
 
-from uhrisim.core.errors import UhrisimError
+from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.core.memory import keep_freed_memory
 
 app = typer.Typer(
@@ -54,6 +58,12 @@ def _resolve(target: str) -> Callable[..., Any]:
     return getattr(importlib.import_module(module_name), function_name)
 
 
+def report_error(message: object) -> None:
+    """``error: <message>`` on stderr, the message as plain text (never Rich markup)."""
+    err_console.print(Text.assemble(("error: ", "bold red"), str(message)), highlight=False,
+                      soft_wrap=True)
+
+
 def friendly_errors(command: Callable[..., Any]) -> Callable[..., Any]:
     """Turn uhrisim's own errors into a one-line message and exit status 2."""
 
@@ -62,10 +72,27 @@ def friendly_errors(command: Callable[..., Any]) -> Callable[..., Any]:
         try:
             return command(*args, **kwargs)
         except UhrisimError as error:
-            err_console.print(f"[bold red]error:[/] {error}", highlight=False, soft_wrap=True)
+            report_error(error)
             raise typer.Exit(code=2) from None
 
     return wrapper
+
+
+def check_option(name: str, value: float | None, ok: bool, rule: str) -> None:
+    """A ConfigError naming the option when ``value`` breaks its ``rule``."""
+    if value is not None and not ok:
+        raise ConfigError(f"--{name} must be {rule}, got {value!r}")
+
+
+def check_run_options(duration: float | None, seed: int | None, rtf: float | None,
+                      port: int | None = None) -> None:
+    """The run options, checked before anything is built."""
+    finite = duration is not None and math.isfinite(duration)
+    check_option("duration", duration, finite and duration > 0, "a finite number of seconds > 0")
+    check_option("seed", seed, seed is not None and 0 <= seed < 2**63, "an integer >= 0")
+    check_option("rtf", rtf, rtf is not None and math.isfinite(rtf) and rtf >= 0,
+                 "a finite number >= 0")
+    check_option("port", port, port is not None and 0 <= port <= 65535, "in 0..65535")
 
 
 @app.command()
@@ -76,12 +103,10 @@ def figure(
 ) -> None:
     """Reproduce a figure of the paper into OUT."""
     if name not in FIGURES:
-        err_console.print(f"[bold red]error:[/] unknown figure {name!r}; "
-                          f"choose from {', '.join(FIGURES)}")
-        raise typer.Exit(code=2)
+        raise ConfigError(f"unknown figure {name!r}; choose from {', '.join(FIGURES)}")
     paths = _resolve(FIGURES[name][0])(out)
     for path in paths:
-        console.print(f"wrote {path}")
+        console.print(Text(f"wrote {path}"))
 
 
 def _print_tree(result: dict[str, Any], title: str) -> None:
@@ -115,9 +140,8 @@ def bench(
     names = available() if name == "all" else [name]
     unknown = [n for n in names if n not in available()]
     if unknown:
-        err_console.print(f"[bold red]error:[/] unknown benchmark {unknown[0]!r}; "
+        raise ConfigError(f"unknown benchmark {unknown[0]!r}; "
                           f"available: {', '.join(available())}")
-        raise typer.Exit(code=2)
     results = {n: run_benchmark(n, quick=quick) for n in names}
     if as_json:
         sys.stdout.write(json.dumps(results if name == "all" else results[name], indent=2) + "\n")
@@ -146,14 +170,15 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
 
         server, _ = attach_viewer(sim, port=view_port, speed=rtf or 1.0)
         servers.append(server)
-        err_console.print(f"[bold]viewer:[/] {server.url}  (serving on 127.0.0.1 only)")
+        err_console.print(Text.assemble(("viewer: ", "bold"),
+                                        f"{server.url}  (serving on 127.0.0.1 only)"))
 
     total = source.scenario.duration if duration is None else duration
     columns = (TextColumn("[bold]{task.description}"), BarColumn(),
                TextColumn("{task.completed:>6.0f}/{task.total:.0f} s simulated"),
                TimeElapsedColumn())
     with Progress(*columns, console=err_console, disable=quiet, transient=False) as bar:
-        task = bar.add_task(source.scenario.name, total=total)
+        task = bar.add_task(escape(source.scenario.name), total=total)
         try:
             return run_scenario(source, out, duration=duration, seed=seed, sonar=sonar,
                                 extra_hooks=hooks, configure=None if view_port is None else attach,
@@ -184,7 +209,7 @@ def _print_metrics(result: Any) -> None:
         table.add_row(name, value)
     console.print(table)
     for path in result.files:
-        console.print(f"  wrote {path}")
+        console.print(Text(f"  wrote {path}"))
 
 
 def _fmt(value: float | None, unit: str) -> str:
@@ -213,6 +238,7 @@ def run(
     port: Annotated[int, typer.Option(help="viewer port on 127.0.0.1 (0 = any)")] = 8765,
 ) -> None:
     """Run a scenario: recording.mcap, metrics.json and figures go to OUT."""
+    check_run_options(duration, seed, rtf, port)
     out = out or Path("out") / scenario.stem
     result = _run_with_progress(scenario, out, duration, seed, not no_sonar, quiet,
                                 ros2=ros2, moos=moos, rtf=rtf,
@@ -230,9 +256,9 @@ def validate(scenario: Annotated[Path, typer.Argument(help="scenario YAML file")
     source = load_scenario(scenario)
     Simulation(source, sonar_enabled=True)  # builds helms, sonars, scene: every check
     s = source.scenario
-    console.print(f"{scenario}: OK — {len(s.agents)} agents "
-                  f"({', '.join(a.name for a in s.agents)}), {s.duration:g} s at "
-                  f"{s.physics_rate_hz:g} Hz physics")
+    console.print(Text(f"{scenario}: OK — {len(s.agents)} agents "
+                       f"({', '.join(a.name for a in s.agents)}), {s.duration:g} s at "
+                       f"{s.physics_rate_hz:g} Hz physics"))
 
 
 @app.command()
@@ -244,13 +270,14 @@ def view(
     """Replay a recorded run in the browser, with a time slider (Ctrl-C to stop)."""
     import time
 
+    from uhrisim.record.recover import recover_in_place
     from uhrisim.viz.viewer import serve_replay
 
-    if not recording.is_file():
-        err_console.print(f"[bold red]error:[/] {recording}: no such recording")
-        raise typer.Exit(code=2)
+    check_option("port", port, 0 <= port <= 65535, "in 0..65535")
+    _recover_if_cut(recording, recover_in_place)
     server = serve_replay(recording, port=port)
-    console.print(f"[bold]replay of {recording}:[/] {server.url}  (Ctrl-C to stop)")
+    console.print(Text.assemble((f"replay of {recording}: ", "bold"),
+                                f"{server.url}  (Ctrl-C to stop)"))
     try:
         while True:
             time.sleep(0.5)
@@ -267,6 +294,7 @@ def demo(
     duration: Annotated[float, typer.Option(help="simulated seconds")] = 600.0,
 ) -> None:
     """The paper's track-and-trail mission (Fig. 19), headless, plus Figs 5-8."""
+    check_run_options(duration, None, None)
     console.print("[bold]uhrisim demo:[/] the VideoRay tracks and trails a loitering diver "
                   f"for {duration:g} simulated seconds (DeMarco et al. 2013, Fig. 19)")
     from uhrisim.scenario.shipped import shipped_scenario
@@ -274,5 +302,30 @@ def demo(
     result = _run_with_progress(shipped_scenario(), out, duration, None, True)
     _print_metrics(result)
     for path in _resolve(FIGURES["openloop"][0])(out / "openloop"):
-        console.print(f"  wrote {path}")
+        console.print(Text(f"  wrote {path}"))
 
+
+
+def _recover_if_cut(recording: Path, recover_in_place: Callable[[Path], int | None]) -> None:
+    """Make a recording a killed run cut short complete (kept as ``.partial``), saying so."""
+    count = recover_in_place(recording)
+    if count is not None:
+        err_console.print(Text(f"{recording}: the run was cut short; recovered {count} "
+                               f"messages (the cut file is kept as {recording}.partial)"))
+
+
+@app.command()
+@friendly_errors
+def recover(
+    run: Annotated[Path, typer.Argument(help="a run's output folder, or its recording.mcap")],
+) -> None:
+    """Make the recording of a killed run complete, so that every MCAP reader opens it."""
+    from uhrisim.record.recover import recover_in_place
+
+    recording = run / "recording.mcap" if run.is_dir() else run
+    count = recover_in_place(recording)
+    if count is None:
+        console.print(Text(f"{recording}: complete, nothing to recover"))
+    else:
+        console.print(Text(f"{recording}: recovered {count} messages "
+                           f"(the cut file is kept as {recording}.partial)"))

@@ -40,6 +40,11 @@ class AssetError(UhrisimError, OSError):
     """A mesh or data file is missing, unreadable or corrupt."""
 
 
+class MissingExtraError(UhrisimError, ImportError):
+    """A feature in use needs an optional extra that is not installed (the message names
+    the ``pip install "uhrisim[extra]"`` to run)."""
+
+
 class BridgeError(UhrisimError, ConnectionError):
     """A ROS 2 / MOOS peer is unreachable or spoke something we cannot accept."""
 

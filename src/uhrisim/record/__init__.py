@@ -16,7 +16,7 @@ from uhrisim.record.reader import (
     read_odometry,
     summarize,
 )
-from uhrisim.record.recover import recover
+from uhrisim.record.recover import is_complete, recover, recover_in_place
 
 __all__ = [
     "MARKER_TYPES",
@@ -25,10 +25,12 @@ __all__ = [
     "McapRecordingHook",
     "OdometryTrack",
     "RecordingSummary",
+    "is_complete",
     "iter_messages",
     "iter_raw_messages",
     "read_odometry",
     "recover",
+    "recover_in_place",
     "ros_name",
     "scene_markers",
     "summarize",

@@ -17,11 +17,13 @@ from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 
 from uhrisim.core.errors import UhrisimError
-from uhrisim.record.reader import _scan, _ScanState
+from uhrisim.record.reader import MCAP_MAGIC, _scan, _ScanState
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["recover"]
+__all__ = ["is_complete", "recover", "recover_in_place"]
+
+PARTIAL_SUFFIX = ".partial"
 
 
 def recover(src: Path | str, dst: Path | str, chunk_size: int = 1024 * 1024) -> int:
@@ -61,3 +63,30 @@ def recover(src: Path | str, dst: Path | str, chunk_size: int = 1024 * 1024) -> 
     logger.info("recovered %d messages from %s (%s) into %s", count, src,
                 "truncated" if state.truncated else "complete", dst)
     return count
+
+
+def is_complete(path: Path | str) -> bool:
+    """Whether the MCAP file ends with its closing magic (a finished recording)."""
+    path = Path(path)
+    with path.open("rb") as f:
+        f.seek(0, 2)
+        if f.tell() < 2 * len(MCAP_MAGIC):
+            return False
+        f.seek(-len(MCAP_MAGIC), 2)
+        return f.read() == MCAP_MAGIC
+
+
+def recover_in_place(path: Path | str) -> int | None:
+    """Make the recording at ``path`` complete if a killed run cut it short: the cut file
+    is kept as ``<path>.partial`` and a complete one, with every message of its complete
+    chunks, takes its place. Returns the messages copied, or None if it was complete."""
+    path = Path(path)
+    if not path.is_file():
+        raise UhrisimError(f"{path}: no such recording")
+    if is_complete(path):
+        return None
+    partial = path.with_name(path.name + PARTIAL_SUFFIX)
+    if partial.exists():
+        raise UhrisimError(f"{partial} already exists: move it away to recover {path} again")
+    path.rename(partial)
+    return recover(partial, path)

@@ -1,14 +1,19 @@
 """Run a scenario file end to end and write its outputs into a folder.
 
-Outputs: ``recording.mcap`` (if recording is on), ``metrics.json`` and the figures
-``trajectory.png``, ``range_bearing.png`` (if the scenario names a trail pair) and
-``sonar_strip.png`` (if a sonar ran). A run that fails still closes its recording and
-writes what it measured, marked ``"completed": false``.
+Outputs: ``recording.mcap`` (if recording is on), ``metrics.json`` (strict JSON: a value
+that is not a finite number is ``null``) and the figures ``trajectory.png``,
+``range_bearing.png`` (if the scenario names a trail pair) and ``sonar_strip.png`` (if a
+sonar ran). The output folder is checked before anything is built. A run that fails
+still closes its recording and writes what it measured, marked ``"completed": false``;
+if writing those outputs fails too, that is logged and the run's own error is raised.
 """
 
 from __future__ import annotations
 
 import json
+import logging
+import math
+import tempfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from uhrisim.core.errors import AssetError
 from uhrisim.record.hook import McapRecordingHook
 from uhrisim.scenario.load import ScenarioFile, load_scenario
 from uhrisim.sim.hooks import TickFrame
@@ -23,6 +29,8 @@ from uhrisim.sim.metrics import TrailMetrics
 from uhrisim.sim.simulation import BaseHook, Hook, Simulation
 
 SONAR_STRIP_FRAMES = 6
+
+log = logging.getLogger(__name__)
 
 
 class SonarStripHook(BaseHook):
@@ -60,7 +68,7 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
         source = load_scenario(source)
     scenario = source.scenario
     duration = scenario.duration if duration is None else duration
-    out_dir.mkdir(parents=True, exist_ok=True)
+    prepare_out_dir(out_dir)
     hooks: list[Hook] = []
     files: list[Path] = []
     if scenario.recording.enabled:
@@ -81,17 +89,46 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
     sim = Simulation(source, seed=seed, sonar_enabled=sonar, hooks=hooks)
     if configure is not None:
         configure(sim)
-    error: BaseException | None = None
     try:
         sim.run(duration, progress=progress, should_stop=should_stop)
-    except BaseException as exc:
-        error = exc
+    except BaseException as error:
+        try:  # what was measured until the failure, without masking it
+            sim.close(error)
+            _write_outputs(sim, out_dir, metrics, strip, files, False, extra_hooks)
+        except Exception as cleanup:
+            log.error("after the run failed, its outputs could not all be written: %s",
+                      cleanup)
         raise
-    finally:
-        sim.close(error)
-        summary = _write_outputs(sim, out_dir, metrics, strip, files, error is None,
-                                 extra_hooks)
+    sim.close(None)
+    summary = _write_outputs(sim, out_dir, metrics, strip, files, True, extra_hooks)
     return RunResult(out_dir, summary, files)
+
+
+def prepare_out_dir(out_dir: Path) -> None:
+    """Create the output folder, or say in one line why a run could not write there."""
+    if out_dir.exists() and not out_dir.is_dir():
+        raise AssetError(f"{out_dir}: the output folder is a file")
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out_dir):
+            pass
+    except OSError as error:
+        raise AssetError(f"{out_dir}: cannot write the run's outputs here "
+                         f"({error.strerror or error})") from None
+
+
+def strict_json(value: Any) -> Any:
+    """``value`` with every number that is not finite (NaN, infinity) as None, numpy
+    scalars as Python numbers: what ``json.dumps(allow_nan=False)`` accepts."""
+    if isinstance(value, dict):
+        return {k: strict_json(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [strict_json(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
@@ -120,6 +157,6 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
         if report is not None:
             summary |= report()
     path = out_dir / "metrics.json"
-    path.write_text(json.dumps(summary, indent=2) + "\n")
+    path.write_text(json.dumps(strict_json(summary), indent=2, allow_nan=False) + "\n")
     files.append(path)
     return summary

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from uhrisim.core.errors import MissingExtraError
 from uhrisim.sim.pacing import Pacer, PacerStats
 
 from .spec import (
@@ -41,10 +42,10 @@ def __getattr__(name: str) -> Any:
         try:
             from .bridge import Ros2Bridge
         except ImportError as exc:
-            raise ImportError(
-                f"uhrisim.bridges.ros2.{name} needs ROS 2 (rclpy and message packages): "
-                f'pip install "uhrisim[ros2]" ({exc})'
-            ) from exc
+            raise MissingExtraError(
+                f"the ROS 2 bridge needs ROS 2 ({exc.name or 'rclpy'} is missing): "
+                'pip install "uhrisim[ros2]"'
+            ) from None
         if name == "Ros2BridgeHook":
             from .hook import Ros2BridgeHook
 

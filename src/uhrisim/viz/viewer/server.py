@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from uhrisim.core.errors import ConfigError, UhrisimError
+from uhrisim.core.errors import ConfigError, MissingExtraError, UhrisimError
 from uhrisim.viz.viewer.protocol import (
     Command,
     encode_json,
@@ -204,8 +204,8 @@ class ViewerServer:
         if self._started.is_set():
             raise UhrisimError("viewer server was closed or failed to start; make a new one")
         if importlib.util.find_spec("websockets") is None:
-            raise UhrisimError(
-                "the viewer needs the 'websockets' package: pip install 'uhrisim[viewer]'"
+            raise MissingExtraError(
+                "the viewer needs the 'websockets' package: pip install \"uhrisim[viewer]\""
             )
         self._thread = threading.Thread(target=self._run, name="uhrisim-viewer", daemon=True)
         self._thread.start()
