@@ -1,5 +1,7 @@
 """``python -m uhrisim`` is the ``uhrisim`` command."""
 
-from uhrisim.cli import app
+import sys
 
-app(prog_name="uhrisim")
+from uhrisim.cli import main
+
+sys.exit(main())

@@ -158,9 +158,10 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
 
     from uhrisim.bridges.live import live_hooks
     from uhrisim.scenario.load import load_scenario
-    from uhrisim.sim.runner import run_scenario
+    from uhrisim.sim.runner import prepare_out_dir, run_scenario
 
     source = load_scenario(scenario)
+    prepare_out_dir(out)  # before the progress bar: a refusal is one line
     hooks = live_hooks(source.scenario, ros2=ros2, moos=moos, real_time_factor=rtf,
                        paced_elsewhere=view_port is not None, lockstep=lockstep)
     servers: list[Any] = []
@@ -177,7 +178,7 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
     columns = (TextColumn("[bold]{task.description}"), BarColumn(),
                TextColumn("{task.completed:>6.0f}/{task.total:.0f} s simulated"),
                TimeElapsedColumn())
-    with Progress(*columns, console=err_console, disable=quiet, transient=False) as bar:
+    with Progress(*columns, console=err_console, disable=quiet, transient=True) as bar:
         task = bar.add_task(escape(source.scenario.name), total=total)
         try:
             return run_scenario(source, out, duration=duration, seed=seed, sonar=sonar,
@@ -329,3 +330,25 @@ def recover(
     else:
         console.print(Text(f"{recording}: recovered {count} messages "
                            f"(the cut file is kept as {recording}.partial)"))
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The ``uhrisim`` command: the app, with command-line usage errors (an option that is
+    not a number, an unknown option) also reported in one line. Returns the exit status."""
+    try:
+        status = app(args=argv, prog_name="uhrisim", standalone_mode=False)
+    except _USAGE_ERROR as error:
+        message = error.format_message()
+        if message:  # empty: no arguments at all, and the help was printed
+            ctx = getattr(error, "ctx", None)
+            report_error(f"{message} (see {ctx.command_path if ctx else 'uhrisim'} --help)")
+        return 2
+    except typer.Abort:
+        report_error("interrupted")
+        return 130
+    return status if isinstance(status, int) else 0
+
+
+#: Click's UsageError (bad or unknown option, missing argument), whichever click typer
+#: ships: BadParameter is its direct subclass.
+_USAGE_ERROR: type[Exception] = typer.BadParameter.__mro__[1]
