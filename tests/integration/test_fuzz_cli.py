@@ -7,13 +7,12 @@ from __future__ import annotations
 import contextlib
 import io
 import math
-import signal
 from pathlib import Path
 
-import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
+from tests.support.time_limit import time_limit
 from uhrisim.cli import main
 
 SCENARIO = """\
@@ -41,14 +40,6 @@ OPTIONS = st.lists(st.one_of(
 ), max_size=4)
 
 
-class _TimeoutError(Exception):
-    pass
-
-
-def _alarm(signum, frame):
-    raise _TimeoutError
-
-
 @settings(max_examples=120, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(command=st.sampled_from(["run", "validate"]), options=OPTIONS)
@@ -64,17 +55,9 @@ def test_any_options_work_or_are_refused_in_one_line(tmp_path: Path, command, op
     if command == "run" and not any(o[0] == "--duration" for o in options):
         argv += ["--duration", "0.5"]  # a valid run stays short
     err = io.StringIO()
-    previous = signal.signal(signal.SIGALRM, _alarm)
-    signal.alarm(30)
-    try:
-        with contextlib.chdir(tmp_path), contextlib.redirect_stderr(err), \
-                contextlib.redirect_stdout(io.StringIO()):  # "--out ''" is the folder we are in
-            status = main(argv)
-    except _TimeoutError:
-        pytest.fail(f"no answer within 30 s for {argv}")
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, previous)
+    with time_limit(30, str(argv)), contextlib.chdir(tmp_path), \
+            contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        status = main(argv)  # "--out ''" is the folder we are in: tmp_path
     lines = [line for line in err.getvalue().splitlines() if line.strip()]
     if status == 2:
         assert len(lines) == 1 and lines[0].startswith("error: "), (argv, err.getvalue())

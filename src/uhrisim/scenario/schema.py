@@ -12,6 +12,7 @@ from types import UnionType
 from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
 from pydantic import (
+    AfterValidator,
     BaseModel,
     ConfigDict,
     Field,
@@ -23,7 +24,8 @@ from pydantic_core import PydanticCustomError
 
 from uhrisim.autonomy.params import checked_value
 
-NonNegativeFloat = Annotated[float, Field(ge=0.0)]
+# -0.0 passes ge=0 but numpy refuses it as a scale ("scale < 0"): made +0.0
+NonNegativeFloat = Annotated[float, Field(ge=0.0), AfterValidator(lambda x: x + 0.0)]
 HeadingDeg = Annotated[float, Field(ge=-360.0, le=360.0)]
 
 
