@@ -182,29 +182,46 @@ def build_behavior_spec(
     return BehaviorSpec(cls.KIND, common, params, where, tuple(cond_wheres))
 
 
-def _axis_from(name: str, v: object, where: str) -> DomainAxis:
-    parts = list(v) if isinstance(v, list | tuple) else str(v).split(":")
+def axis_from(name: str, v: object, where: str) -> DomainAxis:
+    """One decision-space axis from ``low, high, npts [, optional]`` (a list or a ``:``- or
+    ``,``-separated string), by pHelmIvP's rules (HelmIvP::handleConfigDomain,
+    HelmIvP.cpp:1471-1518): ``npts`` may be given as ``delta=d``, ``high >= low``, and a
+    one-point axis has ``low == high``."""
+    parts = list(v) if isinstance(v, list | tuple) else str(v).replace(",", ":").split(":")
     optional = bool(parts) and str(parts[-1]).strip().lower() == "optional"
     if optional:
         parts = parts[:-1]
     if len(parts) != 3:
         raise ConfigError(f"domain axis {name!r} must be low, high, npts [, optional]", where)
     low, high = to_float(parts[0], name, where), to_float(parts[1], name, where)
-    n = to_float(parts[2], name, where)
-    if n != int(n):
-        raise ConfigError(f"domain axis {name!r} npts must be whole, got {parts[2]!r}", where)
-    return DomainAxis(name, low, high, int(n), optional=optional, wrap=name == "course")
+    if high < low:
+        raise ConfigError(f"domain axis {name!r}: high {high:g} is below low {low:g}", where)
+    if str(parts[2]).strip().lower().startswith("delta="):
+        delta = to_float(str(parts[2]).split("=", 1)[1], f"{name} delta", where)
+        if not 0.0 < delta <= high - low:
+            raise ConfigError(f"domain axis {name!r}: delta must be in (0, {high - low:g}]",
+                              where)
+        npts = int((high - low) / delta + 1)
+    else:
+        n = to_float(parts[2], name, where)
+        if n != int(n) or n < 1:
+            raise ConfigError(f"domain axis {name!r} npts must be a whole number >= 1, "
+                              f"got {parts[2]!r}", where)
+        npts = int(n)
+    if high == low and npts != 1:
+        raise ConfigError(f"domain axis {name!r}: low == high needs npts 1", where)
+    return DomainAxis(name, low, high, npts, optional=optional, wrap=name == "course")
 
 
 def parse_domain(v: object, where: str = "domain") -> Domain:
     """Domain from {name: [low, high, npts(, optional)]} or ["course:0:359:360", ...]."""
     if isinstance(v, Mapping):
-        axes = [_axis_from(str(k), val, f"{where}.{k}") for k, val in v.items()]
+        axes = [axis_from(str(k), val, f"{where}.{k}") for k, val in v.items()]
     elif isinstance(v, list | tuple):
         axes = []
         for s in v:
             name, _, rest = str(s).partition(":")
-            axes.append(_axis_from(name.strip(), rest, where))
+            axes.append(axis_from(name.strip(), rest, where))
     else:
         raise ConfigError("domain must be a mapping or a list of 'name:low:high:npts'", where)
     return Domain(tuple(axes))

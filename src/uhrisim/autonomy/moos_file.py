@@ -38,7 +38,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from uhrisim.autonomy.bhv import preprocess, read_bhv_file, strip_comment
-from uhrisim.autonomy.config import HelmConfig, HelmSettings
+from uhrisim.autonomy.config import HelmConfig, HelmSettings, axis_from
 from uhrisim.autonomy.domain import Domain, DomainAxis
 from uhrisim.autonomy.params import to_bool, to_float
 from uhrisim.core.errors import ConfigError
@@ -171,28 +171,11 @@ def load_moos(path: str | Path, macros: Mapping[str, object] | None = None) -> M
 
 
 def _domain_axis(value: str, where: str) -> DomainAxis:
-    """One ``Domain =`` line (HelmIvP::handleConfigDomain, HelmIvP.cpp:1471-1518)."""
-    parts = value.replace(",", ":").split(":")
-    if len(parts) not in (4, 5) or not parts[0]:
+    """One ``Domain = name:low:high:npts[:optional]`` line (``,`` may stand for ``:``)."""
+    name, _, rest = value.replace(",", ":").partition(":")
+    if not name or rest.count(":") not in (2, 3):
         raise ConfigError(f"Domain must read name:low:high:npts[:optional], got {value!r}", where)
-    name = parts[0]
-    low, high = to_float(parts[1], "Domain low", where), to_float(parts[2], "Domain high", where)
-    if high < low:
-        raise ConfigError(f"Domain {name}: high {high:g} is below low {low:g}", where)
-    if parts[3].lower().startswith("delta="):
-        delta = to_float(parts[3].split("=", 1)[1], "Domain delta", where)
-        if not 0.0 < delta <= high - low:
-            raise ConfigError(f"Domain {name}: delta must be in (0, {high - low:g}]", where)
-        npts = int((high - low) / delta + 1)
-    else:
-        n = to_float(parts[3], "Domain npts", where)
-        if n != int(n) or n < 1:
-            raise ConfigError(f"Domain {name}: npts must be a whole number >= 1", where)
-        npts = int(n)
-    if high == low and npts != 1:
-        raise ConfigError(f"Domain {name}: low == high needs npts 1", where)
-    optional = len(parts) == 5 and parts[4].lower() == "optional"
-    return DomainAxis(name, low, high, npts, optional=optional, wrap=name == "course")
+    return axis_from(name, rest, where)
 
 
 def helm_domain(lines: Iterable[MoosLine]) -> Domain | None:
