@@ -174,6 +174,8 @@ class TrailDiverEnv(gymnasium.Env):
             raise EnvArgumentError(f"control_step_s must be a whole number of physics steps "
                                    f"(1/{physics_hz:g} s), got {control_step_s!r}")
         self.control_step_s = round(ticks) / physics_hz
+        self._max_steps = max(1, round(self.time_limit_s / self.control_step_s))
+        self._steps = 0
         self.follower, self.target = follower, target
         self._sonar_config = next((a.sensors[0] for a in self.episodes.base.agents
                                    if a.name == follower and a.sensors), None)
@@ -287,6 +289,7 @@ class TrailDiverEnv(gymnasium.Env):
                                hooks=[self._ping_hook] if self._ping_hook else ())
         self._sim.start()
         self._done = False
+        self._steps = 0
         self._track = []
         # One control step with the follower's commands at rest (speed 0, its start
         # heading and depth) or its helm driving: the first observation shows a ping.
@@ -334,7 +337,8 @@ class TrailDiverEnv(gymnasium.Env):
         terms = reward_terms(self.weights, geometry, collided, lost, np.asarray(inputs))
         reason = "collision" if collided else "lost" if lost else None
         terminated = reason is not None
-        truncated = not terminated and sim.t >= self.time_limit_s - 1e-9
+        self._steps += 1
+        truncated = not terminated and self._steps >= self._max_steps
         self._done = terminated or truncated
         if self.render_mode is not None:
             self._track.append((follower.position_ned, target.position_ned))
@@ -400,6 +404,8 @@ _ARGUMENTS = ("observation", "command", "scenario", "follower", "target", "contr
 
 def _refuse_unknown(given: dict[str, Any], what: str, known: tuple[str, ...]) -> None:
     for key in given:
+        if key in known:
+            continue
         close = difflib.get_close_matches(str(key), known, n=1)
         hint = f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(known)}"
         raise EnvArgumentError(f"unknown {what} {key!r}{hint}")
