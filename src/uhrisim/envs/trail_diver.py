@@ -15,7 +15,9 @@ Actions (``command=``):
 * ``"desired"`` (default), float32 (3,): [heading change (rad, > 0 turns to starboard;
   desired heading = current compass heading + this), speed (m/s through the water),
   depth change (m, > 0 deeper; desired depth = current depth + this, at least 0)],
-  bounds [-π, 0, -2] .. [π, 1.5, 2]; the ROV's own controller (paper eqs 5-9) tracks it.
+  bounds [-π, 0, -2] .. [π, 1.0, 2] (1.07 m/s is the VideoRay's full-thrust speed: a
+  higher demand saturates both thrusters and leaves no yaw authority); the ROV's own
+  controller (paper eqs 5-9) tracks it.
 * ``"thrusters"``, float32 (3,): [port, starboard, vertical] commands in [-150, 150]
   (positive port/starboard push forward, negative vertical dives), held for the step.
 
@@ -71,7 +73,7 @@ RELATIVE_BOUND_M = 200.0
 SPEED_BOUND = 5.0          # m/s
 YAW_RATE_BOUND = 10.0      # rad/s
 DESIRED_LOW = np.array([-math.pi, 0.0, -2.0], dtype=np.float32)
-DESIRED_HIGH = np.array([math.pi, 1.5, 2.0], dtype=np.float32)
+DESIRED_HIGH = np.array([math.pi, 1.0, 2.0], dtype=np.float32)
 THRUSTER_RANGE = 150.0
 SEED_SPAN = 2**31 - 1
 
