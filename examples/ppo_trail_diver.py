@@ -23,7 +23,9 @@ import uhrisim.envs  # noqa: F401  (registers the ids)
 
 def make_env(env_id: str, **kwargs):
     """The environment with its action box rescaled to [-1, 1], which PPO prefers."""
-    return gymnasium.wrappers.RescaleAction(gymnasium.make(env_id, **kwargs), -1.0, 1.0)
+    env = gymnasium.make(env_id, **kwargs)
+    ones = np.ones(env.action_space.shape, dtype=np.float32)
+    return gymnasium.wrappers.RescaleAction(env, -ones, ones)
 
 
 def evaluate(model, env_id: str, episode_seeds: list[int]) -> tuple[float, float]:

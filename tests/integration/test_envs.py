@@ -214,7 +214,8 @@ def test_bad_actions_and_options_are_refused():
     assert env.step(np.zeros(3, dtype=np.float32))[0].shape == (14,)
 
 
-@pytest.mark.filterwarnings("ignore:.*(Received the following error|Raising the last):UserWarning")
+@pytest.mark.filterwarnings("ignore:.*(ERROR|Received the following error|Raising the last)"
+                            ":UserWarning")
 def test_async_vector_env_reports_a_bad_action_without_hanging():
     vec = gymnasium.make_vec("uhrisim/TrailDiverState-v0", num_envs=2,
                              vectorization_mode="async", **FAST)
@@ -238,3 +239,34 @@ def test_render_shows_map_and_sonar_fan():
     # the follower is drawn at the map's centre; the fan panel shows the diver's echo
     assert tuple(frame[200, 200]) == (255, 220, 0)
     assert frame[:, 400:].max() > 100
+
+
+def test_ppo_example_evaluates_against_the_helm_without_torch():
+    """examples/ppo_trail_diver.py's evaluation (the part that needs no torch) on a real
+    env: a policy that holds still scores below the helm on the same episode."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "ppo_trail_diver.py"
+    spec = importlib.util.spec_from_file_location("ppo_trail_diver", path)
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+
+    class HoldStill:  # rescaled actions: heading change 0, speed 0, depth change 0
+        def predict(self, obs, deterministic=True):
+            return np.array([0.0, -1.0, 0.0], dtype=np.float32), None
+
+    still, helm = example.evaluate(HoldStill(), "uhrisim/TrailDiverState-v0", [3])
+    assert helm > still + 10.0
+
+
+def test_bench_gym_reports_rates_and_targets():
+    from uhrisim.bench import run_benchmark
+
+    result = run_benchmark("gym", quick=True)
+    for key in ("state_env", "sonar_env"):
+        assert result[key]["steps_per_s"] > 0 and result[key]["steps_per_cpu_s"] > 0
+        assert isinstance(result[key]["meets_target"], bool)
+    vec = result["async_vector_env"]
+    assert vec["num_envs"] == 2 and vec["speedup"] > 0
+    assert vec["speedup"] == pytest.approx(vec["steps_per_s"] / vec["single_env_steps_per_s"])
