@@ -12,6 +12,7 @@ from gymnasium.utils.env_checker import check_env  # noqa: E402
 
 from uhrisim.envs import ENV_IDS, EnvArgumentError, Randomization, TrailDiverEnv  # noqa: E402
 from uhrisim.envs.task import REWARD_TERMS, THRUSTER_LIMIT  # noqa: E402
+from uhrisim.scenario.shipped import shipped_scenario  # noqa: E402
 
 FAST = {"randomization": {"clutter": 0}}
 
@@ -194,6 +195,9 @@ def test_async_vector_env_matches_single_envs():
     ({"control_step_s": 0.11}, "whole number of physics steps"),
     ({"randomization": {"cluter": 1}}, "did you mean 'clutter'"),
     ({"follower": "auv"}, "follower 'auv' is no agent"),
+    ({"scenario": shipped_scenario("track_and_trail_usimmarine.yaml"), "command": "thrusters"},
+     "is a kinematic model"),
+    ({"scenario": shipped_scenario().parent / "nope.yaml"}, "cannot read scenario file"),
 ])
 def test_bad_arguments_are_clear_gymnasium_errors(kwargs, message):
     with pytest.raises(gymnasium.error.Error, match=message):

@@ -14,7 +14,8 @@ Reward of a step = the sum of the named terms (each also in ``info["reward_terms
 * ``bearing`` = −w_b · |bearing error| / 180°;
 * ``collision`` = −w_c on a step in which the follower touched anything (new contact);
 * ``energy`` = −w_e · mean over the three thrusters of (input / 150)² (inputs at the end
-  of the step; 150 = the VideoRay's command range, docs/conventions.md);
+  of the step; 150 = the VideoRay's command range, docs/conventions.md; a follower of
+  another model has its three actuator inputs scaled the same way);
 * ``lost`` = −w_l on the step the diver is lost (horizontal range > ``lost_range_m``).
 
 An episode terminates on a collision or a lost diver and is truncated at ``time_limit_s``.

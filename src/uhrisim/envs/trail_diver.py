@@ -184,6 +184,11 @@ class TrailDiverEnv(gymnasium.Env):
         if observation == "sonar" and self._sonar_config is None:
             raise EnvArgumentError(f"observation='sonar' needs a sonar on {follower!r}; its "
                                    "scenario agent has no sensors")
+        follower_model = next(a.model for a in self.episodes.base.agents if a.name == follower)
+        if command == "thrusters" and follower_model != "videoray":
+            raise EnvArgumentError(f"command='thrusters' drives a VideoRay's three thrusters; "
+                                   f"{follower!r} is a {follower_model} model: use "
+                                   "command='desired'")
         if command == "desired":
             self.action_space = spaces.Box(DESIRED_LOW, DESIRED_HIGH, dtype=np.float32)
         else:
