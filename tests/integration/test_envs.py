@@ -198,6 +198,8 @@ def test_async_vector_env_matches_single_envs():
     ({"scenario": shipped_scenario("track_and_trail_usimmarine.yaml"), "command": "thrusters"},
      "is a kinematic model"),
     ({"scenario": shipped_scenario().parent / "nope.yaml"}, "cannot read scenario file"),
+    ({"sonar_shape": 64}, "sonar_shape must be two integers"),
+    ({"time_limit_s": float("nan")}, "time_limit_s must be a finite number > 0"),
 ])
 def test_bad_arguments_are_clear_gymnasium_errors(kwargs, message):
     with pytest.raises(gymnasium.error.Error, match=message):

@@ -61,6 +61,7 @@ from uhrisim.envs.episodes import Randomization, TrailEpisodes
 from uhrisim.envs.render import render_frame
 from uhrisim.envs.task import RewardWeights, TrailGeometry, body_frd, reward_terms
 from uhrisim.scenario.shipped import shipped_scenario
+from uhrisim.sensors.sonar.presets import get_preset
 from uhrisim.sim.hooks import TickFrame
 from uhrisim.sim.simulation import BaseHook, Simulation
 
@@ -152,7 +153,7 @@ class TrailDiverEnv(gymnasium.Env):
             if isinstance(value, bool) or not isinstance(value, int | float) or not (
                     math.isfinite(value) and value > 0):
                 raise EnvArgumentError(f"{name} must be a finite number > 0, got {value!r}")
-        if (len(tuple(sonar_shape)) != 2 or
+        if (not isinstance(sonar_shape, tuple | list) or len(sonar_shape) != 2 or
                 not all(isinstance(n, int) and 8 <= n <= 1024 for n in sonar_shape)):
             raise EnvArgumentError(f"sonar_shape must be two integers in [8, 1024] (range "
                                    f"bins, beams), got {sonar_shape!r}")
@@ -247,12 +248,12 @@ class TrailDiverEnv(gymnasium.Env):
         follower, target = self._navs()
         ping = self._ping_hook.ping if self._ping_hook is not None else None
         sonar = self._sonar_config
+        half_fov = math.radians(get_preset(sonar.preset).fov_h_deg) / 2.0 if sonar else 0.0
         return render_frame(
             self._sim.scene, follower, target,
             TrailGeometry.of(follower, target, *self._trail).trail_point_ned, self._track,
             ping.fan_u8 if ping is not None else None,
-            sonar.max_range if sonar is not None else None,
-            ping.fan_half_fov_rad if ping is not None else math.radians(22.5), self._sim.t)
+            sonar.max_range if sonar is not None else None, half_fov, self._sim.t)
 
     def close(self) -> None:
         if self._sim is not None:
