@@ -40,15 +40,18 @@ class LinearPolicy:
                 ).astype(np.float32)
 
 
-def episode_return(env, act: Callable[[np.ndarray], np.ndarray], episode_seed: int) -> float:
-    """Undiscounted return of one episode of ``env`` (reset with ``episode_seed``)."""
+def rollout(env, act: Callable[[np.ndarray], np.ndarray], episode_seed: int
+            ) -> tuple[float, float]:
+    """One episode of ``env`` (reset with ``episode_seed``) flown by ``act``: its
+    undiscounted return and its mean distance (m) from the trail point."""
     obs, _ = env.reset(options={"episode_seed": episode_seed})
-    total, done = 0.0, False
+    total, errors, done = 0.0, [], False
     while not done:
-        obs, reward, terminated, truncated, _ = env.step(act(obs))
+        obs, reward, terminated, truncated, info = env.step(act(obs))
         total += reward
+        errors.append(info["position_error_m"])
         done = terminated or truncated
-    return total
+    return total, float(np.mean(errors))
 
 
 @dataclass
@@ -80,5 +83,5 @@ def cross_entropy_search(score: Callable[[np.ndarray], float], size: int,
 
 
 def mean_return(env, act: Callable[[np.ndarray], np.ndarray], seeds: Sequence[int]) -> float:
-    """Mean :func:`episode_return` over the episodes of ``seeds``."""
-    return float(np.mean([episode_return(env, act, s) for s in seeds]))
+    """Mean return of :func:`rollout` over the episodes of ``seeds``."""
+    return float(np.mean([rollout(env, act, s)[0] for s in seeds]))
