@@ -58,25 +58,36 @@ def test_same_seed_same_trajectory(observation):
     assert not _same(first[0][0], other[0][0])
 
 
-def test_sonar_sees_the_diver_and_state_matches_contact():
-    """Both observations describe the same episode; with the diver ahead inside the fan,
-    the polar image has bright returns in the beams towards it."""
+def test_both_observations_describe_the_same_episode():
     sonar = TrailDiverEnv("sonar", randomization=Randomization.none())
     state = TrailDiverEnv("state", randomization=Randomization.none())
     obs_sonar, _ = sonar.reset(seed=1)
     obs_state, _ = state.reset(seed=1)
     np.testing.assert_allclose(obs_sonar["contact"][:3], obs_state[3:6], atol=1e-5)
-    # turn towards the diver (its starboard offset), then look
-    for _ in range(12):
-        obs_state, *_ = state.step(np.array([math.atan2(obs_state[4], obs_state[3]), 0.0, 0.0]))
-        obs_sonar, *_ = sonar.step(np.array([math.atan2(obs_sonar["contact"][1],
-                                                        obs_sonar["contact"][0]), 0.0, 0.0]))
-    forward, starboard = obs_sonar["contact"][:2]
-    assert forward > 0 and abs(math.degrees(math.atan2(starboard, forward))) < 10.0
-    image = obs_sonar["sonar"]
-    assert image.shape == (96, 64) and image.dtype == np.uint8
-    centre = image[:, 24:40]  # beams within ~±6° of the bow
-    assert centre.max() > 100 and centre.mean() > image[:, :8].mean()
+    np.testing.assert_allclose(obs_sonar["nav"][5:9], obs_state[9:13], atol=1e-6)
+    assert obs_sonar["nav"][2] == pytest.approx(obs_state[13], abs=1e-6)
+
+
+@pytest.mark.parametrize("side_deg", [12.0, -12.0])
+def test_sonar_image_shows_the_diver_at_its_bearing_and_range(side_deg):
+    """Polar layout and frames: with the diver held ``side_deg`` to starboard (FRD), its
+    echo is in the beam column of that bearing (port to starboard over the 45° fan) and
+    in the range row of its distance (0.5-10 m, nearest first)."""
+    env = TrailDiverEnv("sonar", randomization=Randomization.none())
+    obs, _ = env.reset(seed=1)
+    for _ in range(16):
+        forward, starboard, down = obs["contact"][:3]
+        obs, *_ = env.step(np.array([math.atan2(starboard, forward) - math.radians(side_deg),
+                                     0.6, down]))
+    forward, starboard = (float(v) for v in obs["contact"][:2])
+    bearing_deg = math.degrees(math.atan2(starboard, forward))
+    assert abs(bearing_deg - side_deg) < 3.0
+    image = obs["sonar"].astype(float)
+    assert image.shape == (96, 64) and obs["sonar"].dtype == np.uint8
+    column = (bearing_deg + 22.5) / 45.0 * 64
+    row = (math.hypot(forward, starboard) - 0.5) / 9.5 * 96
+    assert abs(int(np.argmax(image.sum(axis=0))) - column) <= 3
+    assert abs(int(np.argmax(image.sum(axis=1))) - row) <= 4
 
 
 def test_reward_terms_add_up_and_follow_their_definitions():
