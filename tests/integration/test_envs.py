@@ -180,6 +180,30 @@ def test_randomization_from_the_seed():
     assert plain.scenario.world == base.world
 
 
+def test_scenario_hook_randomises_on_its_own_stream():
+    def murky_harbour(data, rng):
+        data["world"]["water"]["temperature_c"] = 4.0
+        data["world"].setdefault("objects", []).append(
+            {"type": "box", "label": "hull", "size": [2, 2, 2],
+             "position": {"north": float(rng.uniform(30, 40)), "east": 0, "depth": 3}})
+
+    plain = TrailDiverEnv("state", **FAST)
+    hooked = TrailDiverEnv("state", scenario_hook=murky_harbour, **FAST)
+    a, b = plain.episodes.scenario(9), hooked.episodes.scenario(9)
+    assert b.scenario.world.water.temperature_c == 4.0
+    assert [o.label for o in b.scenario.world.objects] == ["hull"]
+    assert 30 <= b.scenario.world.objects[0].position.north <= 40
+    assert b.scenario.agents == a.scenario.agents  # the built-in draws are unchanged
+    hooked.reset(seed=0)
+    assert "hull" in [o.label for o in hooked._sim.scene.static_objects]
+
+    def bad(data, rng):
+        data["agents"][0]["start"]["depth"] = -5
+
+    with pytest.raises(EnvArgumentError, match=r"agents\[0\]\.start"):
+        TrailDiverEnv("state", scenario_hook=bad).reset(seed=0)
+
+
 def test_async_vector_env_matches_single_envs():
     seeds = [10, 11]
     vec = gymnasium.make_vec("uhrisim/TrailDiverState-v0", num_envs=2,

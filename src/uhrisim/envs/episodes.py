@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -44,6 +45,10 @@ FOLLOWER_START_HEADING_DEG = 45.0
 PILING_RADIUS_M = (0.15, 0.5)
 CLUTTER_CLEARANCE_M = 5.0
 CLUTTER_MARGIN_M = 10.0
+
+
+#: A user's randomisation: edits an episode's scenario data in place from a generator.
+ScenarioHook = Callable[[dict, np.random.Generator], None]
 
 
 @dataclass(frozen=True)
@@ -79,12 +84,16 @@ class TrailEpisodes:
     """Scenarios for episodes of ``follower`` trailing ``target`` in ``scenario_path``.
 
     ``sonar_rate_hz``: the follower's sonar pings at this rate in every episode (None:
-    as the file says). The trail geometry (range, angle) comes from the file's
-    ``metrics`` section, which the file must have.
+    as the file says). ``hook(data, rng)``: your own randomisation, called after the
+    built-in draws with the episode's scenario data (the YAML mapping, NED metres and
+    compass degrees as in the files) to edit in place and a generator of its own stream
+    ``"envs/episode/hook"``; the result is validated like a file. The trail geometry
+    (range, angle) comes from the file's ``metrics`` section, which the file must have.
     """
 
     def __init__(self, scenario_path: str | Path, follower: str, target: str,
-                 randomization: Randomization, sonar_rate_hz: float | None = None) -> None:
+                 randomization: Randomization, sonar_rate_hz: float | None = None,
+                 hook: ScenarioHook | None = None) -> None:
         self.path = Path(scenario_path)
         try:
             text = self.path.read_text(encoding="utf-8")
@@ -105,6 +114,7 @@ class TrailEpisodes:
         self.trail_angle_deg = base.metrics.angle_deg
         self.randomization = randomization
         self.sonar_rate_hz = sonar_rate_hz
+        self.hook = hook
         floor = base.world.seafloor
         self.floor_depth_m = getattr(floor, "depth", None)
         self.base = base
@@ -135,6 +145,8 @@ class TrailEpisodes:
             self._draw_loiter(rng, target, loiter)
         if r.clutter:
             self._draw_clutter(rng, data, follower, loiter)
+        if self.hook is not None:
+            self.hook(data, component_rng(int(seed), "envs/episode/hook"))
         return ScenarioFile(validate_data(data, str(self.path), self._lines), self.path,
                             self._lines)
 

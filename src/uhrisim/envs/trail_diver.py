@@ -57,7 +57,7 @@ from gymnasium import spaces
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw
 from uhrisim.dynamics.plants import NavState
-from uhrisim.envs.episodes import Randomization, TrailEpisodes
+from uhrisim.envs.episodes import Randomization, ScenarioHook, TrailEpisodes
 from uhrisim.envs.render import render_frame
 from uhrisim.envs.task import RewardWeights, TrailGeometry, body_frd, reward_terms
 from uhrisim.scenario.shipped import shipped_scenario
@@ -128,8 +128,9 @@ class TrailDiverEnv(gymnasium.Env):
     ``time_limit_s`` truncation; ``lost_range_m`` horizontal range (m) beyond which the
     diver is lost; ``include_contact`` (sonar observation only); ``sonar_shape`` (range
     bins, beams); ``randomization`` a :class:`Randomization` or a dict of its fields;
-    ``reward_weights`` a :class:`RewardWeights` or a dict; ``render_mode`` None |
-    "rgb_array".
+    ``reward_weights`` a :class:`RewardWeights` or a dict; ``scenario_hook`` your own
+    randomisation ``hook(data, rng)`` (:class:`~uhrisim.envs.episodes.TrailEpisodes`);
+    ``render_mode`` None | "rgb_array".
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 4}
@@ -143,6 +144,7 @@ class TrailDiverEnv(gymnasium.Env):
                  sonar_shape: tuple[int, int] = SONAR_SHAPE,
                  randomization: Randomization | dict | None = None,
                  reward_weights: RewardWeights | dict | None = None,
+                 scenario_hook: ScenarioHook | None = None,
                  render_mode: str | None = None, **unknown: Any) -> None:
         _refuse_unknown(unknown, "TrailDiverEnv argument", _ARGUMENTS)
         _one_of("observation", observation, ("sonar", "state"))
@@ -168,7 +170,8 @@ class TrailDiverEnv(gymnasium.Env):
         try:
             self.episodes = TrailEpisodes(
                 path, follower, target, randomization,
-                sonar_rate_hz=1.0 / control_step_s if observation == "sonar" else None)
+                sonar_rate_hz=1.0 / control_step_s if observation == "sonar" else None,
+                hook=scenario_hook)
         except ConfigError as error:
             raise EnvArgumentError(str(error)) from None
         physics_hz = self.episodes.base.physics_rate_hz
@@ -190,6 +193,9 @@ class TrailDiverEnv(gymnasium.Env):
             raise EnvArgumentError(f"command='thrusters' drives a VideoRay's three thrusters; "
                                    f"{follower!r} is a {follower_model} model: use "
                                    "command='desired'")
+        if scenario_hook is not None and not callable(scenario_hook):
+            raise EnvArgumentError(f"scenario_hook must be a callable (data, rng), got "
+                                   f"{scenario_hook!r}")
         if command == "desired":
             self.action_space = spaces.Box(DESIRED_LOW, DESIRED_HIGH, dtype=np.float32)
         else:
@@ -290,7 +296,10 @@ class TrailDiverEnv(gymnasium.Env):
     def _begin(self, episode_seed: int, follower_helm: bool) -> None:
         self.close()
         self._episode_seed = episode_seed
-        source = self.episodes.scenario(episode_seed, follower_helm=follower_helm)
+        try:
+            source = self.episodes.scenario(episode_seed, follower_helm=follower_helm)
+        except ConfigError as error:  # e.g. a scenario_hook that wrote a bad value
+            raise EnvArgumentError(f"episode {episode_seed}: {error}") from None
         sonar = self.observation_kind == "sonar"
         self._ping_hook = _LatestPing(self.follower) if sonar else None
         self._sim = Simulation(source, sonar_enabled=sonar,
@@ -407,7 +416,7 @@ class TrailDiverEnv(gymnasium.Env):
 
 _ARGUMENTS = ("observation", "command", "scenario", "follower", "target", "control_step_s",
               "time_limit_s", "lost_range_m", "include_contact", "sonar_shape",
-              "randomization", "reward_weights", "render_mode")
+              "randomization", "reward_weights", "scenario_hook", "render_mode")
 
 
 def _refuse_unknown(given: dict[str, Any], what: str, known: tuple[str, ...]) -> None:
