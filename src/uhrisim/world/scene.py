@@ -48,9 +48,13 @@ def _clean_mesh(mesh: trimesh.Trimesh, where: str) -> trimesh.Trimesh:
     f = np.asarray(mesh.faces, dtype=np.int64)
     if len(f) and not np.all(np.isfinite(v)):
         raise ConfigError("mesh has NaN/inf vertices", where=where)
-    if len(f):
-        area2 = np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
-        f = f[area2 > 1e-14]
+    if len(f):  # twice the area > 1e-14 m², squared (the cross product spelt out: 2x faster)
+        p0 = v[f[:, 0]]
+        a, b = v[f[:, 1]] - p0, v[f[:, 2]] - p0
+        cx = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+        cy = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+        cz = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+        f = f[cx * cx + cy * cy + cz * cz > 1e-28]
     if len(f) == 0:
         raise ConfigError("mesh has no (non-degenerate) triangles", where=where)
     return trimesh.Trimesh(v.copy(), f, process=False, validate=False)
@@ -66,6 +70,7 @@ class Scene:
         self._labels: list[str] = []
         self._static_version = 0
         self._seafloor: SeaFloor | None = None
+        self._floor_object: StaticObject | None = None  # the sea floor's static object
         self._collision_caster: RayCaster | None = None
         # (static_version, lower corners (K, 3), upper corners (K, 3), objects) of the
         # watertight static meshes, for inside_solid.
@@ -88,6 +93,7 @@ class Scene:
         _check_label(label, "Scene.add_static.label")
         if not isinstance(material, Material):
             raise ConfigError(f"expected a Material, got {material!r}", where="Scene.add_static")
+        is_floor = isinstance(mesh, SeaFloor) and self._seafloor is None
         if isinstance(mesh, SeaFloor):
             if self._seafloor is not None:
                 log.warning("scene already has a sea floor; depth_at keeps using the first one")
@@ -96,6 +102,8 @@ class Scene:
             mesh = mesh.mesh
         clean = _clean_mesh(mesh, f"Scene.add_static({label!r})")
         self._static.append(StaticObject(clean, label, self._label_id(label), material))
+        if is_floor:
+            self._floor_object = self._static[-1]
         self._static_version += 1
 
     def add_dynamic(
@@ -230,7 +238,10 @@ class Scene:
         if math.isfinite(depth) and p[2] > depth + 1e-6:
             return f"{p[2] - depth:.3f} m below the sea floor"
         if self._solid_boxes is None or self._solid_boxes[0] != self._static_version:
-            solid = [o for o in self._static if o.mesh.is_watertight]
+            # the sea floor's height field is answered by depth_at above (and is never
+            # a closed solid: testing it costs ~50 ms per scene built)
+            solid = [o for o in self._static
+                     if o is not self._floor_object and o.mesh.is_watertight]
             lo = np.array([o.mesh.bounds[0] for o in solid]).reshape(-1, 3)
             hi = np.array([o.mesh.bounds[1] for o in solid]).reshape(-1, 3)
             self._solid_boxes = (self._static_version, lo, hi, solid)
