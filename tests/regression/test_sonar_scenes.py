@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from uhrisim.sensors.sonar import ImagingSonar, SonarConfig
+from uhrisim.sensors.sonar.config import ECHOES_ONLY
 from uhrisim.world.paper_scenes import single_piling_scene, torus_scene
 
 
@@ -19,9 +20,12 @@ def linear(ping, cfg: SonarConfig) -> np.ndarray:
 
 
 def cfg_for(tilt_deg: float, **kw) -> SonarConfig:
+    # The echoes of the geometry alone: no speckle, no diffuse terms (noise, reverberation
+    # and far side lobes grey the shadows on purpose; test_sonar_tank.py measures them).
     base = dict(
         tilt_deg=tilt_deg, mount_position_frd=(0.0, 0.0, 0.0), speckle=False,
         dynamic_range_db=200.0, display_top_db=250.0, range_max_m=30.0, labels=True,
+        **ECHOES_ONLY,
     )  # fmt: skip
     base.update(kw)
     return SonarConfig(**base)

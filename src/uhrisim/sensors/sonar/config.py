@@ -31,6 +31,18 @@ COLORMAPS: dict[str, int] = {
     "cividis": cv2.COLORMAP_CIVIDIS,
 }
 
+#: Settings that switch off every diffuse term of the image (noise, reverberation, far side
+#: lobes), leaving the echoes of the geometry alone: ``SonarConfig(**ECHOES_ONLY, ...)``
+#: for measuring where echoes and shadows fall (tests, figures of the geometry).
+ECHOES_ONLY: dict[str, object] = {
+    "noise_floor_db": -100.0,
+    "ambient_noise": False,
+    "post_tvg_noise_db": None,
+    "volume_scattering_db": None,
+    "surface_scattering_db": None,
+    "far_sidelobe_db": None,
+}
+
 #: Margin on the two-way travel time when capping the ping rate: f ≤ 1/(margin·2R/c).
 PING_RATE_MARGIN = 1.1
 
