@@ -222,7 +222,9 @@ def thermal_noise_spectrum_db(frequency_hz: ArrayLike) -> NDArray[np.float64] | 
     return float(nl) if nl.ndim == 0 else nl
 
 
-def wind_noise_spectrum_db(frequency_hz: ArrayLike, sea_state: float) -> NDArray[np.float64] | float:
+def wind_noise_spectrum_db(
+    frequency_hz: ArrayLike, sea_state: float
+) -> NDArray[np.float64] | float:
     """Wind/sea-state noise spectrum level, dB re 1 µPa²/Hz, after Knudsen as drawn in the
     Wenz curves: 56 + 19·log10(sea state) at 1 kHz (sea state 0 taken as 0.5), falling
     17 dB per decade of frequency (Urick, *Principles of Underwater Sound*, 3rd ed., §7.4).
@@ -248,7 +250,9 @@ def directivity_index_db(width_h_rad: float, width_v_rad: float) -> float:
     return float(10.0 * math.log10(4.0 * math.pi / (width_h_rad * width_v_rad)))
 
 
-def element_directivity(theta_rad: ArrayLike, edge_rad: float, edge_loss_db: float) -> NDArray[np.float64]:
+def element_directivity(
+    theta_rad: ArrayLike, edge_rad: float, edge_loss_db: float
+) -> NDArray[np.float64]:
     """Two-way power pattern of one array element across the fan: sinc²(u·sin θ)² with u
     chosen so the pattern is ``edge_loss_db`` down at ``edge_rad`` (the fan edge). Vendors
     do not publish the element pattern; the edge loss is the knob (0 dB: flat)."""

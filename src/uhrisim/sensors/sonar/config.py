@@ -101,9 +101,13 @@ class SonarConfig:
             default: the spec's range resolution).
         fan_edge_loss_db: two-way element directivity at the fan edges (default: the
             preset's); 0 dB: flat.
-        speckle: coherent image formation: complex Gaussian scatterer amplitudes summed
-            through the beam and pulse amplitude patterns (Rayleigh amplitude, grain set
-            by beam width and pulse length). Off: the mean (incoherent) intensity.
+        speckle: speckle with Rayleigh amplitude whose grain is set by the beam width and
+            the pulse length. Off: the mean (incoherent) intensity.
+        speckle_model: ``"product"`` (default): the mean image times a unit speckle field
+            made once per sonar from complex scatterer sums through the beam and pulse
+            amplitude patterns; ``"coherent"``: each ping's echoes themselves as complex
+            scatterer amplitudes summed through those patterns (exact at edges and point
+            targets, ~0.6 ms more per P900-45 ping). Same statistics on uniform areas.
         tvg: apply time-varied gain ``tvg_spreading_db_per_decade·log10 R + 2αR``, held
             constant inside ``tvg_min_range_m`` (the receiver's gain range is finite).
         gain_db: user gain, dB ≥ 0, added before display compression.
@@ -158,9 +162,10 @@ class SonarConfig:
     dynamic_range_db: float = 60.0
     display_gamma: float = 2.5
     speckle: bool = True
+    speckle_model: Literal["product", "coherent"] = "product"
     labels: bool = False
     sidelobe_db: float | None = None
-    n_sidelobes: int = 2
+    n_sidelobes: int = 1
     pulse_resolution_m: float | None = None
     fan_edge_loss_db: float | None = None
     multipath: bool = False
@@ -271,6 +276,10 @@ class SonarConfig:
             raise bad("tilt_deg", f"must be in (-90, 90) degrees, got {self.tilt_deg!r}")
         if self.rate_hz <= 0.0:
             raise bad("rate_hz", f"must be > 0 Hz, got {self.rate_hz!r}")
+        if self.speckle_model not in ("product", "coherent"):
+            raise bad(
+                "speckle_model", f"must be 'product' or 'coherent', got {self.speckle_model!r}"
+            )
         if self.mode not in ("physical", "2013"):
             raise bad("mode", f"must be 'physical' or '2013', got {self.mode!r}")
         if self.dynamic_range_db <= 0.0:

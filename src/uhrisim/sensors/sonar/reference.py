@@ -36,9 +36,12 @@ def reference_polar(
     noise, the far side lobes' share of the row's echo, and the surface when ``depth_m``
     is given); then either (``fields`` None) the mean intensity, the beam pattern and
     range blur as explicit sums of power kernels plus the diffuse intensity, or
-    (``fields`` = the ping's z_re, z_im, w_re, w_im windows) the complex sum
-    Σ h_r·h_b·√raw·z + √d·w over amplitude kernels and its squared magnitude; + TVG
-    (held inside tvg_min_range_m) + gain; map [top − DR, top] dB → [0, 1].
+    (``fields`` = the ping's (|w|²,) speckle window) that mean times |w|², or
+    (``fields`` = the ping's (z_re, z_im) windows) the coherent sum
+    Σ h_r·h_b·√(raw + d/P)·z over amplitude kernels and its squared magnitude (image
+    borders mirrored; for the mean, the fan edges only); + TVG (held inside
+    tvg_min_range_m) + gain; map
+    [top − DR, top] dB → [0, 1].
     """
     cfg = sonar.config
     g = sonar.geometry
@@ -86,15 +89,17 @@ def reference_polar(
     noise = 10.0 ** (cfg.noise_floor_db / 10.0)
     if cfg.ambient_noise:
         band = ambient_noise_band_db(spec.frequency_hz, cfg.bandwidth_hz, cfg.sea_state)
-        di = 10.0 * math.log10(4.0 * math.pi / (math.radians(spec.beam_width_h_deg)
-                                                 * math.radians(spec.beam_width_v_deg)))  # fmt: skip
+        beam_solid_angle = math.radians(spec.beam_width_h_deg) * math.radians(
+            spec.beam_width_v_deg
+        )
+        di = 10.0 * math.log10(4.0 * math.pi / beam_solid_angle)
         noise += 10.0 ** ((band - di) / 10.0)
     width_v = math.radians(spec.beam_width_v_deg)
     psi_v = sum(  # ∫ b_v(φ)² dφ by the midpoint rule over ±4 beam widths
         math.exp(-2.0 * math.log(2.0) * (((j + 0.5) * 1e-4 - 4 * width_v) / (0.5 * width_v)) ** 2)
         for j in range(int(8 * width_v / 1e-4))
     ) * 1e-4
-    out = np.zeros((n_bins, n_beams))
+    diffuse, tvgs = [], []
     for b in range(n_bins):
         Rc = max(cfg.range_min_m + (b + 0.5) * cfg.bin_m, 0.5 * cfg.bin_m)
         Rt = max(Rc, cfg.tvg_min_range_m)
@@ -114,26 +119,36 @@ def reference_polar(
             area = Rc * dtheta * cfg.bin_m  # surface patch of one cell
             d += (10.0 ** (cfg.surface_scattering_db / 10.0) * (depth_m / Rc) ** 2 * area
                   * b_v2 * loss / Rc**4 * sum(kb))  # fmt: skip
+        diffuse.append(d)
+        tvgs.append(tvg)
+
+    def mirror(i: int, n: int) -> int:  # image borders mirror: −1 → 1, n → n − 2
+        return -i if i < 0 else (2 * (n - 1) - i if i >= n else i)
+
+    out = np.zeros((n_bins, n_beams))
+    for b in range(n_bins):
+        d, tvg = diffuse[b], tvgs[b]
         for j in range(n_beams):
-            if fields is None:
+            if fields is None or len(fields) == 1:  # the mean, times |w|² if given
                 s = 0.0
                 for u in range(-hr, hr + 1):
                     for v in range(-hb, hb + 1):
-                        bb, jj = b + u, j + v
-                        if 0 <= bb < n_bins and 0 <= jj < n_beams:
+                        bb, jj = b + u, mirror(j + v, n_beams)
+                        if 0 <= bb < n_bins:  # no echo beyond the window's ends
                             s += kr[u + hr] * kb[v + hb] * raw[bb][jj]
                 intensity = s + d
-            else:
-                z_re, z_im, w_re, w_im = fields
-                cre = math.sqrt(d) * float(w_re[b, j])
-                cim = math.sqrt(d) * float(w_im[b, j])
+                if fields is not None:
+                    intensity *= float(fields[0][b, j])
+            else:  # coherent: Σ h_r·h_b·√(raw + d_row/P)·z
+                z_re, z_im = fields
+                power = sum(x * x for x in ab) * sum(x * x for x in ar)
+                cre = cim = 0.0
                 for u in range(-hr, hr + 1):
                     for v in range(-hb, hb + 1):
-                        bb, jj = b + u, j + v
-                        if 0 <= bb < n_bins and 0 <= jj < n_beams:
-                            amp = ar[u + hr] * ab[v + hb] * math.sqrt(raw[bb][jj])
-                            cre += amp * float(z_re[bb, jj])
-                            cim += amp * float(z_im[bb, jj])
+                        bb, jj = mirror(b + u, n_bins), mirror(j + v, n_beams)
+                        amp = ar[u + hr] * ab[v + hb] * math.sqrt(raw[bb][jj] + diffuse[bb] / power)
+                        cre += amp * float(z_re[bb, jj])
+                        cim += amp * float(z_im[bb, jj])
                 intensity = cre * cre + cim * cim
             level = 10.0 * math.log10(max(intensity, 1e-300) * sl_lin) + tvg + cfg.gain_db
             out[b, j] = min(
@@ -146,7 +161,7 @@ def reference_bytes(polar: NDArray[np.float64], gamma: float) -> NDArray[np.uint
     """The 8-bit display mapping, one pixel at a time: round(255·x^γ)."""
     out = np.zeros(polar.shape, np.uint8)
     for index, x in np.ndenumerate(polar):
-        out[index] = int(math.floor(255.0 * float(x) ** gamma + 0.5))
+        out[index] = math.floor(255.0 * float(x) ** gamma + 0.5)
     return out
 
 

@@ -53,7 +53,6 @@ from uhrisim.sensors.sonar.geometry import mount_rotation, sonar_geometry, surfa
 from uhrisim.sensors.sonar.labels import FanLabeller, unlabelled
 from uhrisim.sensors.sonar.ping import SonarPing
 from uhrisim.sensors.sonar.polar import (
-    add_diffuse_field,
     clip_unit,
     coherent_field,
     coherent_log_intensity,
@@ -103,7 +102,8 @@ class ImagingSonar:
         self._fan_labels = FanLabeller(self.geometry)
         self._bank = (
             SpeckleBank.draw(rng, self.polar_shape, self.geometry.beam_amp,
-                             self.geometry.range_amp, self.geometry.k_ln)
+                             self.geometry.range_amp, self.geometry.k_ln,
+                             scatterers=config.speckle_model == "coherent")
             if config.speckle and config.mode == "physical" else None
         )  # fmt: skip
         self._c_re = np.empty(self.polar_shape, np.float32)
@@ -337,15 +337,15 @@ class ImagingSonar:
         rows: list[tuple[int, int]] | None = None,
         surface: NDArray[np.float64] | None = None,
     ) -> NDArray[np.float32]:
-        """The stages of :mod:`.polar`, composed: diffuse terms per row, speckle through the
-        beam and pulse patterns (or their incoherent mean), TVG, gain and log compression,
-        clipped to 0…1 (a new array). ``surface``: this ping's surface reverberation per
-        row (None: none).
+        """The stages of :mod:`.polar`, composed: diffuse terms per row, the mean image
+        through the beam and pulse patterns times the product speckle field, or the
+        coherent sum (``speckle_model``), TVG, gain and log compression, clipped to 0…1 (a
+        new array). ``surface``: this ping's surface reverberation per row (None: none).
 
         ``rows``: row ranges outside which ``raw`` is zero at least a range-kernel
         half-width deep (None: all rows); only those are filtered. The others hold only
-        the diffuse terms, so they take the diffuse level times the speckle bank's
-        precomputed diffuse field there — what the stages give on zero echo."""
+        the diffuse terms and take their level (in the coherent model times the bank's
+        diffuse field: what the stages give on zero echo, in distribution)."""
         g = self.geometry
         k = g.k_ln
         d = diffuse_rows(g.diffuse_static, raw, g.leak, surface)
@@ -354,30 +354,31 @@ class ImagingSonar:
         )  # display level of the diffuse terms alone, per row
         img = np.empty(raw.shape, np.float32)
         bank = self._bank
+        coherent = bank is not None and bank.z_re is not None
         if bank is not None:
+            k_ln_w2 = bank.log_w(*bank.w_offset(self.rng))
+        if coherent:
             z_re, z_im = bank.z(int(self.rng.integers(0, bank.z_offsets)))
-            w_re, w_im, k_ln_w2 = bank.w(*bank.w_offset(self.rng))
         done = 0  # rows [0, done) are formed
-        for a, b in [(0, raw.shape[0])] if rows is None else rows:
-            if bank is None:
-                img[done:a] = free[done:a]
-            else:
+        for a, b in [*([(0, raw.shape[0])] if rows is None else rows), (raw.shape[0], None)]:
+            if coherent:  # echo-free rows: the diffuse level times the diffuse field
                 np.add(k_ln_w2[done:a], free[done:a], out=img[done:a])
+            else:
+                img[done:a] = free[done:a]
+            if b is None:
+                break
             blk = img[a:b]
-            if bank is None:
+            if coherent:
+                c_re, c_im = self._c_re[a:b], self._c_im[a:b]
+                coherent_field(raw[a:b], d[a:b], z_re[a:b], z_im[a:b], g.beam_amp,
+                               g.range_amp, c_re, c_im)  # fmt: skip
+                coherent_log_intensity(c_re, c_im, blk)
+                display_level(blk, 2.0 * k, g.row_offset[a:b], blk)
+            else:
                 mean_intensity(raw[a:b], g.beam_kernel, g.range_kernel, d[a:b], blk)
                 cv2.log(blk, blk)
                 display_level(blk, k, g.row_offset[a:b], blk)
-            else:
-                c_re, c_im = self._c_re[a:b], self._c_im[a:b]
-                coherent_field(raw[a:b], z_re[a:b], z_im[a:b], g.beam_amp, g.range_amp,
-                               c_re, c_im)  # fmt: skip
-                add_diffuse_field(c_re, c_im, w_re[a:b], w_im[a:b], d[a:b])
-                coherent_log_intensity(c_re, c_im, blk)
-                display_level(blk, 2.0 * k, g.row_offset[a:b], blk)
             done = b
-        if bank is None:
-            img[done:] = free[done:]
-        else:
-            np.add(k_ln_w2[done:], free[done:], out=img[done:])
+        if bank is not None and not coherent:  # product speckle: a factor |w|² on intensity
+            cv2.add(img, k_ln_w2, dst=img)
         return clip_unit(img)

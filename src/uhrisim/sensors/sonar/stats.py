@@ -61,7 +61,9 @@ def frame_stats(
     return FrameStats(cv, ratio, zero, int(v.size), int(obj.size))
 
 
-def apex_polar_coordinates(shape: tuple[int, int]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def apex_polar_coordinates(
+    shape: tuple[int, int],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(range in pixels from the apex, bearing in degrees, > 0 right) of every pixel of a
     fan image whose apex is at the bottom centre."""
     h, w = shape
@@ -126,11 +128,14 @@ def image_stats(
         "range_profile": {"range_px": clean(r_c), "relative_brightness": clean(r_prof)},
         "bearing_profile": {"bearing_deg": clean(b_c), "relative_brightness": clean(b_prof)},
         "per_frame": [
-            {"background_cv": round(f.background_cv, 4),
-             "object_ratio": None if f.object_ratio is None else round(f.object_ratio, 4),
-             "zero_fraction": round(f.zero_fraction, 6), "object_px": f.object_px}
+            {
+                "background_cv": round(f.background_cv, 4),
+                "object_ratio": None if f.object_ratio is None else round(f.object_ratio, 4),
+                "zero_fraction": round(f.zero_fraction, 6),
+                "object_px": f.object_px,
+            }
             for f in frames
-        ],  # fmt: skip
+        ],
     }
 
 
@@ -144,7 +149,9 @@ def object_label_image(label_fan: NDArray[np.int16], background: set[int]) -> ND
     return out.astype(np.uint16)
 
 
-def load_frames(folder: Path) -> tuple[list[NDArray[np.uint8]], list[NDArray[np.integer]], NDArray[np.bool_]]:
+def load_frames(
+    folder: Path,
+) -> tuple[list[NDArray[np.uint8]], list[NDArray[np.integer]], NDArray[np.bool_]]:
     """Read ``*_fan.png`` / ``*_labels.png`` pairs and the optional ``fan_mask.png`` from
     ``folder`` (module docstring); ConfigError naming the file when something is off."""
     folder = Path(folder)
