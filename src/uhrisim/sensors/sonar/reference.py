@@ -89,16 +89,19 @@ def reference_polar(
     noise = 10.0 ** (cfg.noise_floor_db / 10.0)
     if cfg.ambient_noise:
         band = ambient_noise_band_db(spec.frequency_hz, cfg.bandwidth_hz, cfg.sea_state)
-        beam_solid_angle = math.radians(spec.beam_width_h_deg) * math.radians(
-            spec.beam_width_v_deg
-        )
+        beam_solid_angle = math.radians(spec.beam_width_h_deg) * math.radians(spec.beam_width_v_deg)
         di = 10.0 * math.log10(4.0 * math.pi / beam_solid_angle)
         noise += 10.0 ** ((band - di) / 10.0)
     width_v = math.radians(spec.beam_width_v_deg)
-    psi_v = sum(  # ∫ b_v(φ)² dφ by the midpoint rule over ±4 beam widths
-        math.exp(-2.0 * math.log(2.0) * (((j + 0.5) * 1e-4 - 4 * width_v) / (0.5 * width_v)) ** 2)
-        for j in range(int(8 * width_v / 1e-4))
-    ) * 1e-4
+    psi_v = (
+        sum(  # ∫ b_v(φ)² dφ by the midpoint rule over ±4 beam widths
+            math.exp(
+                -2.0 * math.log(2.0) * (((j + 0.5) * 1e-4 - 4 * width_v) / (0.5 * width_v)) ** 2
+            )
+            for j in range(int(8 * width_v / 1e-4))
+        )
+        * 1e-4
+    )
     diffuse, tvgs = [], []
     for b in range(n_bins):
         Rc = max(cfg.range_min_m + (b + 0.5) * cfg.bin_m, 0.5 * cfg.bin_m)
