@@ -41,7 +41,7 @@ def test_tank_frames_have_real_frame_statistics(tank) -> None:
 
 def test_tank_shadows_and_water_are_grey_and_the_floor_varies_like_a_real_one(tank) -> None:
     pings, fans, labels, mask = tank
-    r_px, bearing = apex_polar_coordinates(mask.shape)
+    r_px, _ = apex_polar_coordinates(mask.shape)
     r = r_px / pings[0].fan_px_per_m
     f = np.stack(fans).astype(np.float64)
     bg = np.stack(labels) == 0
