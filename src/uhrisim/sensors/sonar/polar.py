@@ -110,8 +110,7 @@ def mean_intensity(
     block's rows), into ``out``."""
     cv2.filter2D(raw, cv2.CV_32F, beam_pow.reshape(1, -1), dst=out, borderType=_MIRROR)
     cv2.filter2D(out, cv2.CV_32F, range_pow.reshape(-1, 1), dst=out, borderType=_ZERO)
-    np.add(out, d_rows.astype(np.float32)[:, None], out=out)
-    np.maximum(out, np.float32(1e-37), out=out)  # log() needs a positive argument
+    np.add(out, d_rows.astype(np.float32)[:, None], out=out)  # (0 logs to −inf, clipped to 0)
 
 
 def display_level(
