@@ -113,3 +113,30 @@ def test_bad_spec_names_the_field(field: str, value: float) -> None:
         dataclasses.replace(get_preset("P900-45"), **{field: value})
     assert err.value.where == f"SonarSpec('P900-45').{field}"
     assert "\n" not in str(err.value)
+
+
+SCENARIO = """name: x
+agents:
+  - name: rov
+    model: kinematic
+    driver: none
+    sensors:
+      - {type: sonar, max_range: 10, image: IMAGE}
+"""
+
+
+def test_scenario_image_settings_reach_the_sonar(tmp_path) -> None:
+    from uhrisim.scenario.load import load_scenario
+    from uhrisim.sim.simulation import Simulation
+
+    path = tmp_path / "s.yaml"
+    path.write_text(SCENARIO.replace("IMAGE", "{gain_db: 6, post_tvg_noise_db: null, "
+                                     "speckle_model: coherent}"))  # fmt: skip
+    sim = Simulation(load_scenario(path))
+    cfg = sim.agents["rov"].sonars[0].sonar.config
+    assert (cfg.gain_db, cfg.post_tvg_noise_db, cfg.speckle_model) == (6.0, None, "coherent")
+    assert cfg.display_gamma == SonarConfig().display_gamma  # left out: the default
+    path.write_text(SCENARIO.replace("IMAGE", "{gain_db: -3}"))
+    with pytest.raises(ConfigError) as err:
+        Simulation(load_scenario(path))
+    assert "s.yaml:7" in str(err.value) and "SonarConfig.gain_db" in str(err.value)
