@@ -114,6 +114,29 @@ def test_volume_reverberation_level_and_its_20_log_r_rise() -> None:
         assert g == pytest.approx(expected, abs=0.02)
 
 
+def test_surface_reverberation_level_through_the_vertical_pattern() -> None:
+    # Sonar 1 m below the surface, tilted up by asin(1/10) = 5.74°: at 10 m the surface
+    # lies on the beam's axis. A Lambert surface (μ_s) seen at slant range R covers
+    # R·δθ·Δr per cell at incidence cos β = h/R; echo re SL μ_s(h/R)²·R·δθ·Δr·b_v²·R⁻⁴·
+    # 10^(−2αR/10), summed through the horizontal pattern; the 40 log R + 2αR TVG
+    # leaves μ_s + SL + 10 log((h/R)²·R·δθ·Δr·Σ) + 10 log b_v², b_v² the two-way Gaussian
+    # vertical pattern at the surface's elevation off the axis. None before R = h.
+    mu_db, h = -20.0, 1.0
+    tilt = -math.degrees(math.asin(h / 10.0))
+    cfg = diffuse_only(surface_scattering_db=mu_db, tilt_deg=tilt)
+    sonar = ImagingSonar(cfg, np.random.default_rng(0))
+    polar = sonar.ping(NO_SCENE, np.array([0.0, 0.0, h]), LEVEL, 0).polar
+    sigma = float(sonar.geometry.beam_kernel.sum())
+    dtheta = math.radians(1.0)
+    for r in (10.05, 20.05):
+        off_axis = math.asin(h / r) + math.radians(tilt)
+        b_v2 = math.exp(-2 * math.log(2) * (off_axis / math.radians(10.0)) ** 2)
+        expected = (mu_db + cfg.source_level_db
+                    + 10 * math.log10((h / r) ** 2 * r * dtheta * 0.1 * sigma * b_v2))  # fmt: skip
+        assert level_db(polar, cfg)[rows_at(cfg, [r])[0], 4] == pytest.approx(expected, abs=0.05)
+    assert (level_db(polar, cfg)[rows_at(cfg, [0.75])[0]] < 0.0).all()  # nothing above
+
+
 # -- speckle ----------------------------------------------------------------------------------
 
 
