@@ -50,6 +50,8 @@ FIGURES: dict[str, tuple[str, str]] = {
                    "paper Figs 12-14: pier support beams over bathymetry"),
     "sonar-torus": ("uhrisim.viz.sonar_figures:make_sonar_torus",
                     "paper Figs 15-16: a torus on the sea floor"),
+    "sonar-tank": ("uhrisim.viz.sonar_figures:make_sonar_tank",
+                   "test tank: 30 fan + label images and their statistics vs real frames"),
 }
 
 
@@ -330,6 +332,28 @@ def recover(
     else:
         console.print(Text(f"{recording}: recovered {count} messages "
                            f"(the cut file is kept as {recording}.partial)"))
+
+
+@app.command("sonar-stats")
+@friendly_errors
+def sonar_stats(
+    folder: Annotated[Path, typer.Argument(help="folder of *_fan.png + *_labels.png images")],
+    as_json: Annotated[bool, typer.Option("--json", help="print one JSON object")] = False,
+) -> None:
+    """Speckle contrast, object/background ratio, zero pixels and brightness profiles of
+    sonar fan images with label images (see docs/sonar.md)."""
+    from uhrisim.sensors.sonar.stats import image_stats, load_frames
+
+    stats = image_stats(*load_frames(folder))
+    if as_json:
+        sys.stdout.write(json.dumps(stats, indent=2) + "\n")
+        return
+    summary = {k: v for k, v in stats.items() if k != "per_frame"}
+    for key in ("range_profile", "bearing_profile"):
+        axis, values = summary.pop(key).values()
+        summary[key] = "  ".join(f"{a:g}:{v:.2f}" for a, v in zip(axis, values, strict=True)
+                                 if a is not None and v is not None)  # fmt: skip
+    _print_tree(summary, f"uhrisim sonar-stats {folder}")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from uhrisim.sensors.sonar import ImagingSonar, SonarConfig
+from uhrisim.sensors.sonar.config import ECHOES_ONLY
 from uhrisim.world.paper_scenes import single_piling_scene, torus_scene
 
 
@@ -19,9 +20,12 @@ def linear(ping, cfg: SonarConfig) -> np.ndarray:
 
 
 def cfg_for(tilt_deg: float, **kw) -> SonarConfig:
+    # The echoes of the geometry alone: no speckle, no diffuse terms (noise, reverberation
+    # and far side lobes grey the shadows on purpose; test_sonar_tank.py measures them).
     base = dict(
         tilt_deg=tilt_deg, mount_position_frd=(0.0, 0.0, 0.0), speckle=False,
         dynamic_range_db=200.0, display_top_db=250.0, range_max_m=30.0, labels=True,
+        **ECHOES_ONLY,
     )  # fmt: skip
     base.update(kw)
     return SonarConfig(**base)
@@ -197,3 +201,26 @@ def test_shadow_cells_carry_no_label() -> None:
     assert (ping.label_polar[np.ix_(rows, cols)] == -1).all()
     beside = beams_near(ping, 10.0, 0.8)
     assert (ping.label_polar[np.ix_(rows, beside)] == paper.scene.label_id("seafloor")).all()
+
+
+def test_default_shadow_is_grey_with_soft_edges() -> None:
+    # With the default diffuse terms (noise, reverberation, far side lobes) the shadow of
+    # the 1 m piling is grey, not black, and its edge across the beams is soft: the
+    # horizontal beam pattern (1° main lobe, side lobes) spreads the lit floor into it.
+    # Real shadows: ≈ 20–40 of 255 with soft edges (issue 14).
+    paper = single_piling_scene(15.0, 0.0, width=1.0)
+    cfg = SonarConfig(tilt_deg=10.0, mount_position_frd=(0.0, 0.0, 0.0), speckle=False)
+    _, ping = ping_scene(paper, "origin", cfg)
+    rows = bins_between(ping, 18.0, 28.0)
+    shadow = ping.polar_u8[np.ix_(rows, beams_near(ping, 0.0, 0.5))].astype(float)
+    lit = ping.polar_u8[np.ix_(rows, beams_near(ping, 10.0, 0.8))].astype(float)
+    assert shadow.min() > 0 and 10.0 < shadow.mean() < 0.6 * lit.mean()
+    # Across the shadow's edge (half-angle atan(0.5/15) = 1.9°) the brightness climbs over
+    # about a beam width (10 % → 90 % of the step over > 0.5°), not from one beam to the next.
+    profile = ping.polar_u8[rows].astype(float).mean(axis=0)
+    angles = np.degrees(ping.beam_angles_rad)
+    side = (angles > 0.0) & (angles < 6.0)
+    a, p = angles[side], profile[side]
+    lo, hi = p.min(), p[a > 4.0].mean()
+    rise = a[np.argmax(p > lo + 0.9 * (hi - lo))] - a[np.argmax(p > lo + 0.1 * (hi - lo))]
+    assert rise > 0.5

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 
@@ -47,6 +48,21 @@ def test_unknown_preset() -> None:
         ({"dynamic_range_db": 0.0}, "dynamic_range_db"),
         ({"blur_ksize_2013": 4}, "blur_ksize_2013"),
         ({"gain_db": math.nan}, "gain_db"),
+        # Image formation (issue 14): a negative gain, noise at or above the source level.
+        ({"gain_db": -3.0}, "gain_db"),
+        ({"noise_floor_db": 215.0}, "noise_floor_db"),
+        ({"noise_floor_db": 210.0}, "noise_floor_db"),
+        ({"display_gamma": 0.0}, "display_gamma"),
+        ({"speckle_model": "fancy"}, "speckle_model"),
+        ({"sea_state": 12.0}, "sea_state"),
+        ({"far_sidelobe_db": 3.0}, "far_sidelobe_db"),
+        ({"sidelobe_db": 0.0}, "sidelobe_db"),
+        ({"fan_edge_loss_db": -1.0}, "fan_edge_loss_db"),
+        ({"tvg_min_range_m": -1.0}, "tvg_min_range_m"),
+        ({"receiver_bandwidth_hz": 0.0}, "receiver_bandwidth_hz"),
+        ({"post_tvg_noise_db": math.inf}, "post_tvg_noise_db"),
+        ({"n_sidelobes": -1}, "n_sidelobes"),
+        ({"multipath_loss_db": -2.0}, "multipath_loss_db"),
     ],
 )
 def test_bad_values_name_the_field(kwargs: dict, field: str) -> None:
@@ -87,3 +103,40 @@ def test_floor_coverage_range() -> None:
     cfg = SonarConfig(rays_per_beam=64)
     dphi = math.radians(20.0) / 64
     assert cfg.floor_bin_coverage_range_m(5.0) == pytest.approx(math.sqrt(0.0254 * 5 / dphi))
+
+
+@pytest.mark.parametrize(("field", "value"), [("n_beams", 0), ("n_beams", 1), ("sidelobe_db", 2.0),
+                                              ("fan_edge_loss_db", 40.0)])  # fmt: skip
+def test_bad_spec_names_the_field(field: str, value: float) -> None:
+    # Zero beams (or one: no spacing) is a one-line error naming the spec's field.
+    with pytest.raises(ConfigError) as err:
+        dataclasses.replace(get_preset("P900-45"), **{field: value})
+    assert err.value.where == f"SonarSpec('P900-45').{field}"
+    assert "\n" not in str(err.value)
+
+
+SCENARIO = """name: x
+agents:
+  - name: rov
+    model: kinematic
+    driver: none
+    sensors:
+      - {type: sonar, max_range: 10, image: IMAGE}
+"""
+
+
+def test_scenario_image_settings_reach_the_sonar(tmp_path) -> None:
+    from uhrisim.scenario.load import load_scenario
+    from uhrisim.sim.simulation import Simulation
+
+    path = tmp_path / "s.yaml"
+    path.write_text(SCENARIO.replace("IMAGE", "{gain_db: 6, post_tvg_noise_db: null, "
+                                     "speckle_model: coherent}"))  # fmt: skip
+    sim = Simulation(load_scenario(path))
+    cfg = sim.agents["rov"].sonars[0].sonar.config
+    assert (cfg.gain_db, cfg.post_tvg_noise_db, cfg.speckle_model) == (6.0, None, "coherent")
+    assert cfg.display_gamma == SonarConfig().display_gamma  # left out: the default
+    path.write_text(SCENARIO.replace("IMAGE", "{gain_db: -3}"))
+    with pytest.raises(ConfigError) as err:
+        Simulation(load_scenario(path))
+    assert "s.yaml:7" in str(err.value) and "SonarConfig.gain_db" in str(err.value)

@@ -25,3 +25,23 @@ def test_make_sonar_torus(tmp_path: Path) -> None:
     img = cv2.imread(str(tmp_path / "sonar_torus_2013.png"), cv2.IMREAD_GRAYSCALE)
     # 2013 image: 10 px/m over 20 m, apex top-left with a white boundary line from it.
     assert img.shape[1] == 201 and img[0, 0] == 255
+
+
+def test_make_sonar_tank(tmp_path: Path) -> None:
+    import json
+
+    from uhrisim.sensors.sonar.stats import image_stats, load_frames
+    from uhrisim.viz.sonar_figures import make_sonar_tank
+
+    paths = make_sonar_tank(tmp_path, n_frames=3)
+    names = {p.name for p in paths}
+    assert {"tank_000_fan.png", "tank_002_labels.png", "fan_mask.png", "tank_stats.json",
+            "tank_panel.png"} <= names and len(paths) == 3 * 2 + 3  # fmt: skip
+    stats = json.loads((tmp_path / "tank_stats.json").read_text())
+    # The statistics written are those sonar-stats finds in the folder (PNG round trip).
+    again = image_stats(*load_frames(tmp_path))
+    assert stats["median_background_cv"] == again["median_background_cv"]
+    assert stats["median_object_ratio"] == again["median_object_ratio"]
+    assert stats["real_frame_bands"]["median_background_cv"] == [0.34, 0.5]
+    labels = cv2.imread(str(tmp_path / "tank_000_labels.png"), cv2.IMREAD_UNCHANGED)
+    assert labels.dtype == np.uint16 and len(np.unique(labels)) >= 4  # background + objects

@@ -190,6 +190,30 @@ class SonarMount(Strict):
     yaw_deg: HeadingDeg = 0.0
 
 
+class SonarImage(Strict):
+    """Image-formation settings of a physical-mode sonar (docs/sonar.md); a key left out
+    keeps the default, ``null`` switches an optional term off. Checked by SonarConfig."""
+
+    gain_db: float | None = None
+    display_top_db: float | None = None
+    dynamic_range_db: float | None = None
+    display_gamma: float | None = None
+    source_level_db: float | None = None
+    noise_floor_db: float | None = None
+    ambient_noise: bool | None = None
+    sea_state: float | None = None
+    post_tvg_noise_db: float | None = None
+    volume_scattering_db: float | None = None
+    surface_scattering_db: float | None = None
+    far_sidelobe_db: float | None = None
+    sidelobe_db: float | None = None
+    fan_edge_loss_db: float | None = None
+    tvg_min_range_m: float | None = None
+    speckle_model: Literal["product", "coherent"] | None = None
+    multipath: bool | None = None
+    multipath_loss_db: float | None = None
+
+
 class SonarSensor(Strict):
     type: Literal["sonar"] = "sonar"
     preset: str = "P900-45"
@@ -202,6 +226,7 @@ class SonarSensor(Strict):
     labels: bool = False  # per-pixel object label images (training data); ~+50 % per ping
     fan_width_px: Annotated[int, Field(ge=64, le=4096)] = 512
     mount: SonarMount = SonarMount()
+    image: SonarImage = SonarImage()
 
 
 class VideoRayModelConfig(Strict):

@@ -99,7 +99,8 @@ def _sonar(sim: BuildContext, cfg: AgentConfig, index: int, sensor: SonarSensor)
             rate_hz=sensor.rate_hz, mode=sensor.mode, speckle=sensor.speckle,
             labels=sensor.labels,
             fan_size_px=sensor.fan_width_px, water_temperature_c=water.temperature_c,
-            salinity_psu=water.salinity_psu, ph=water.ph)
+            salinity_psu=water.salinity_psu, ph=water.ph,
+            **sensor.image.model_dump(exclude_unset=True))
     except ConfigError as error:
         raise ConfigError(str(error), where=where) from None
     if config.effective_rate_hz < sensor.rate_hz - 1e-9:

@@ -1,4 +1,6 @@
-"""Sonar figures of the paper's scenes: the pier (Figs 12-14) and the torus (Figs 15-16).
+"""Sonar figures of the paper's scenes — the pier (Figs 12-14) and the torus (Figs 15-16) —
+and of the test tank (``scenarios/sonar_tank.yaml``, :func:`make_sonar_tank`: fan images,
+label images and their statistics against real frames).
 
 Each ``make_*`` writes, into ``out_dir``:
 
@@ -25,6 +27,7 @@ from matplotlib.collections import PolyCollection
 
 from uhrisim.core.rng import component_rng
 from uhrisim.sensors.sonar import ImagingSonar, SonarConfig, SonarPing
+from uhrisim.sensors.sonar.stats import image_stats, object_label_image
 from uhrisim.viz.figures import save_figure, subplots
 
 SEED = 2013
@@ -164,3 +167,96 @@ def make_sonar_torus(out_dir: Path) -> list[Path]:
 
     return _write(torus_scene(), "front", 20.0, "sonar_torus", "Torus (paper Figs 15-16)",
                   out_dir)  # fmt: skip
+
+
+#: Real tank frames (issue 14; ``docs/sonar.md``): in-fan background std/mean 0.34–0.50
+#: (median ≈ 0.41), objects 1.4–2.4× the background, no exactly-zero in-fan pixels.
+REAL_FRAME_BANDS = {
+    "median_background_cv": (0.34, 0.50),
+    "median_object_ratio": (1.4, 2.4),
+    "median_zero_fraction": (0.0, 0.01),
+}
+
+
+def tank_frames(
+    n_frames: int = 30, seed: int | None = None
+) -> tuple[list[SonarPing], np.ndarray, set[int]]:
+    """Run ``scenarios/sonar_tank.yaml`` until its sonar has pinged ``n_frames`` times:
+    (the pings, the fan mask, the scene labels of the background — the sea floor)."""
+    from uhrisim.scenario.load import load_scenario
+    from uhrisim.scenario.shipped import shipped_scenario
+    from uhrisim.sim.simulation import Simulation
+
+    sim = Simulation(load_scenario(shipped_scenario("sonar_tank.yaml")), seed=seed)
+    agent = sim.scenario.agents[0].name
+    pings: list[SonarPing] = []
+    while len(pings) < n_frames:
+        ping = sim.step().pings.get(agent)
+        if ping is not None:
+            pings.append(ping)
+    sonar = sim.agents[agent].sonars[0].sonar
+    return pings, sonar.geometry.fan_mask, {sim.scene.label_id("seafloor")}
+
+
+def make_sonar_tank(out_dir: Path, n_frames: int = 30) -> list[Path]:
+    """The test tank with the default image settings: ``tank_NNN_fan.png`` (8-bit fan),
+    ``tank_NNN_labels.png`` (16-bit: 0 background, scene label + 1 for objects),
+    ``fan_mask.png``, ``tank_stats.json`` (:func:`uhrisim.sensors.sonar.stats.image_stats`,
+    the same numbers ``uhrisim sonar-stats`` prints for the folder, with the real-frame
+    bands) and ``tank_panel.png`` (three frames, their labels, the range and bearing
+    brightness profiles)."""
+    import json
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    pings, mask, background = tank_frames(n_frames)
+    fans = [p.fan_u8 for p in pings]
+    labels = [object_label_image(p.label_fan, background) for p in pings]
+    paths: list[Path] = []
+    for i, (fan, lab) in enumerate(zip(fans, labels, strict=True)):
+        for kind, image in (("fan", fan), ("labels", lab)):
+            path = out / f"tank_{i:03d}_{kind}.png"
+            cv2.imwrite(str(path), image)
+            paths.append(path)
+    mask_path = out / "fan_mask.png"
+    cv2.imwrite(str(mask_path), mask.astype(np.uint8) * 255)
+    stats = image_stats(fans, labels, mask)
+    stats["real_frame_bands"] = REAL_FRAME_BANDS
+    stats_path = out / "tank_stats.json"
+    stats_path.write_text(json.dumps(stats, indent=1))
+    panel = out / "tank_panel.png"
+    _tank_panel(fans, labels, stats, pings[0].fan_px_per_m, panel)
+    return [*paths, mask_path, stats_path, panel]
+
+
+def _tank_panel(fans, labels, stats: dict, px_per_m: float, path: Path) -> None:
+    fig, axes = subplots(2, 3, figsize=(15.0, 8.5))
+    for k, i in enumerate((0, len(fans) // 2, len(fans) - 1)):
+        axes[0, k].imshow(fans[i], cmap="gray", vmin=0, vmax=255)
+        axes[0, k].contour(labels[i] > 0, levels=[0.5], colors="tab:red", linewidths=0.6)
+        axes[0, k].set_title(f"frame {i} (objects outlined)")
+        axes[0, k].set_axis_off()
+    r = np.array(stats["range_profile"]["range_px"], float) / px_per_m
+    axes[1, 0].plot(r, np.array(stats["range_profile"]["relative_brightness"], float), "o-")
+    axes[1, 0].set_xlabel("range (m)")
+    axes[1, 0].set_ylabel("background brightness / mean")
+    axes[1, 0].set_title("range profile")
+    b = stats["bearing_profile"]
+    axes[1, 1].plot(b["bearing_deg"], np.array(b["relative_brightness"], float), "o-")
+    axes[1, 1].set_xlabel("bearing (deg, + starboard)")
+    axes[1, 1].set_title("bearing profile")
+    per = stats["per_frame"]
+    axes[1, 2].plot([f["background_cv"] for f in per], label="background std/mean")
+    axes[1, 2].plot([f["object_ratio"] for f in per], label="object / background")
+    for lo, hi in (REAL_FRAME_BANDS["median_background_cv"],
+                   REAL_FRAME_BANDS["median_object_ratio"]):  # fmt: skip
+        axes[1, 2].axhspan(lo, hi, color="0.85", zorder=0)
+    axes[1, 2].set_xlabel("frame")
+    axes[1, 2].set_title("per frame (grey: real tank frames)")
+    axes[1, 2].legend(fontsize=8)
+    fig.suptitle(
+        f"Sonar test tank (P900-90, 10 m): background std/mean "
+        f"{stats['median_background_cv']:.2f}, object/background "
+        f"{stats['median_object_ratio']:.2f}, zero px {stats['median_zero_fraction']:.2%}"
+    )
+    save_figure(fig, path, dpi=90)

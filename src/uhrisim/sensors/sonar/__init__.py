@@ -9,7 +9,7 @@ Public API::
 """
 
 from uhrisim.sensors.sonar.cloud import SonarCloud
-from uhrisim.sensors.sonar.config import COLORMAPS, SonarConfig
+from uhrisim.sensors.sonar.config import COLORMAPS, ECHOES_ONLY, SonarConfig
 from uhrisim.sensors.sonar.fan import image_2013
 from uhrisim.sensors.sonar.geometry import mount_rotation
 from uhrisim.sensors.sonar.ping import SonarPing
@@ -18,6 +18,7 @@ from uhrisim.sensors.sonar.sonar import ImagingSonar
 
 __all__ = [
     "COLORMAPS",
+    "ECHOES_ONLY",
     "PRESETS",
     "ImagingSonar",
     "SonarCloud",

@@ -16,6 +16,8 @@ References:
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -193,3 +195,81 @@ def range_blur_kernel(bin_m: float, resolution_m: float) -> NDArray[np.float32]:
     k = np.arange(-half, half + 1, dtype=float)
     w = np.exp(-0.5 * (k / sigma_bins) ** 2)
     return (w / w.sum()).astype(np.float32)
+
+
+def beam_amplitude_kernel(
+    beam_spacing_rad: float,
+    width_3db_rad: float,
+    sidelobe_db: float = -25.0,
+    n_sidelobes: int = 2,
+) -> NDArray[np.float32]:
+    """Signed amplitude (complex-voltage) pattern whose square is
+    :func:`horizontal_beam_kernel`: a sinc with the same main lobe, its side lobes
+    alternating in sign as a line aperture's do. A formed beam sums scatterer amplitudes
+    through it, so the speckle grain across beams is set by the beam width."""
+    power = horizontal_beam_kernel(beam_spacing_rad, width_3db_rad, sidelobe_db, n_sidelobes)
+    half = power.size // 2
+    x = np.arange(-half, half + 1) * beam_spacing_rad * (2.0 * _SINC2_HALF_POWER_X / width_3db_rad)
+    sign = np.where(np.sinc(x) < 0.0, -1.0, 1.0)
+    return (sign * np.sqrt(power.astype(np.float64))).astype(np.float32)
+
+
+def thermal_noise_spectrum_db(frequency_hz: ArrayLike) -> NDArray[np.float64] | float:
+    """Thermal (molecular agitation) noise spectrum level, dB re 1 µPa²/Hz:
+    NL = −15 + 20·log10(f / 1 kHz) (Mellen 1952; the high-frequency limb of the Wenz
+    curves). It dominates the ambient noise above ~100 kHz."""
+    nl = -15.0 + 20.0 * np.log10(np.asarray(frequency_hz, dtype=float) / 1e3)
+    return float(nl) if nl.ndim == 0 else nl
+
+
+def wind_noise_spectrum_db(
+    frequency_hz: ArrayLike, sea_state: float
+) -> NDArray[np.float64] | float:
+    """Wind/sea-state noise spectrum level, dB re 1 µPa²/Hz, after Knudsen as drawn in the
+    Wenz curves: 56 + 19·log10(sea state) at 1 kHz (sea state 0 taken as 0.5), falling
+    17 dB per decade of frequency (Urick, *Principles of Underwater Sound*, 3rd ed., §7.4).
+    At 900 kHz it is ~40 dB below thermal noise: kept so low-frequency specs are right."""
+    ss = max(float(sea_state), 0.5)
+    f = np.asarray(frequency_hz, dtype=float) / 1e3
+    nl = 56.0 + 19.0 * math.log10(ss) - 17.0 * np.log10(f)
+    return float(nl) if nl.ndim == 0 else nl
+
+
+def ambient_noise_band_db(frequency_hz: float, bandwidth_hz: float, sea_state: float) -> float:
+    """Ambient noise band level at the hydrophone, dB re 1 µPa²: the power sum of the
+    thermal and wind spectrum levels times the receiver bandwidth."""
+    spectrum = 10.0 ** (thermal_noise_spectrum_db(frequency_hz) / 10.0) + 10.0 ** (
+        wind_noise_spectrum_db(frequency_hz, sea_state) / 10.0
+    )
+    return float(10.0 * math.log10(spectrum * bandwidth_hz))
+
+
+def directivity_index_db(width_h_rad: float, width_v_rad: float) -> float:
+    """Receive directivity index of a beam of the given −3 dB widths, dB:
+    DI ≈ 10·log10(4π / (θ_h·θ_v)) (Urick §3.6; isotropic noise rejected by a formed beam)."""
+    return float(10.0 * math.log10(4.0 * math.pi / (width_h_rad * width_v_rad)))
+
+
+def element_directivity(
+    theta_rad: ArrayLike, edge_rad: float, edge_loss_db: float
+) -> NDArray[np.float64]:
+    """Two-way power pattern of one array element across the fan: sinc²(u·sin θ)² with u
+    chosen so the pattern is ``edge_loss_db`` down at ``edge_rad`` (the fan edge). Vendors
+    do not publish the element pattern; the edge loss is the knob (0 dB: flat)."""
+    theta = np.asarray(theta_rad, dtype=float)
+    if edge_loss_db <= 0.0:
+        return np.ones_like(theta)
+    # sinc(x)^4 = 10^(-loss/10) → sinc(x) = 10^(-loss/40): solve for x on the main lobe.
+    target = 10.0 ** (-edge_loss_db / 40.0)
+    lo, hi = 0.0, 1.0
+    for _ in range(60):  # bisection: sinc is monotone on [0, 1]
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if np.sinc(mid) > target else (lo, mid)
+    u = 0.5 * (lo + hi) / math.sin(edge_rad)
+    return np.sinc(u * np.sin(theta)) ** 4
+
+
+def gaussian_pattern_integral(width_3db_rad: float) -> float:
+    """∫ b(φ)² dφ over all φ for the Gaussian one-way power pattern b of
+    :func:`beam_pattern_gaussian` (two-way, b²): the equivalent angular width, rad."""
+    return float(0.5 * width_3db_rad * math.sqrt(math.pi / (2.0 * math.log(2.0))))

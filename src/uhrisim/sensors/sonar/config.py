@@ -31,6 +31,18 @@ COLORMAPS: dict[str, int] = {
     "cividis": cv2.COLORMAP_CIVIDIS,
 }
 
+#: Settings that switch off every diffuse term of the image (noise, reverberation, far side
+#: lobes), leaving the echoes of the geometry alone: ``SonarConfig(**ECHOES_ONLY, ...)``
+#: for measuring where echoes and shadows fall (tests, figures of the geometry).
+ECHOES_ONLY: dict[str, object] = {
+    "noise_floor_db": -100.0,
+    "ambient_noise": False,
+    "post_tvg_noise_db": None,
+    "volume_scattering_db": None,
+    "surface_scattering_db": None,
+    "far_sidelobe_db": None,
+}
+
 #: Margin on the two-way travel time when capping the ping rate: f ≤ 1/(margin·2R/c).
 PING_RATE_MARGIN = 1.1
 
@@ -64,23 +76,50 @@ class SonarConfig:
             :attr:`effective_rate_hz`.
         mode: ``"physical"`` (acoustic image formation) or ``"2013"`` (the paper's method).
 
-    Acoustics and display:
+    Image formation (``mode="physical"``; the stages of :mod:`uhrisim.sensors.sonar.polar`,
+    physics and sources in ``docs/sonar.md``). Levels in dB re 1 µPa² unless stated:
         source_level_db: dB re 1 µPa at 1 m (default mid of the 200–220 dB range).
-        noise_floor_db: ambient + electronic noise per cell at the beam output, dB re 1 µPa²
-            (before TVG). Default 65 dB ≈ thermal noise at 900 kHz over a 30 kHz band minus
-            ~20 dB array gain; a default to expose, not a measured fact.
-        tvg: apply time-varied gain ``tvg_spreading_db_per_decade·log10 R + 2αR``.
-        gain_db: display gain added to ``SL − 2TL + TS + TVG`` before compression.
-        display_top_db: level (after gain) mapped to full scale, dB re 1 µPa².
-        dynamic_range_db: levels ``display_top_db − dynamic_range_db … display_top_db`` map
-            to 0…1 (8-bit: 0…255).
-        speckle: multiply cell intensities by unit exponential draws (Rayleigh amplitude).
+        noise_floor_db: receiver (electronic) self-noise per cell at the beam output,
+            before TVG. Must be below ``source_level_db``.
+        ambient_noise: add the ambient sea noise at the beam output: the Wenz-style band
+            level (thermal + wind noise over the receiver bandwidth, :mod:`.acoustics`)
+            less the beam's directivity index.
+        sea_state: sea state for the wind-noise term (0–9; negligible at 900 kHz).
+        receiver_bandwidth_hz: receiver bandwidth (default c / (2·pulse resolution)).
+        post_tvg_noise_db: electronics/ADC noise after the TVG amplifier, on the display
+            scale (the level of an echo that shows equally bright with ``gain_db`` 0): a
+            constant grey at every range, so near-range water is never black. None: off.
+        volume_scattering_db: volume backscattering strength S_v of the water, dB re 1/m
+            (suspended particles, plankton, bubbles); None: off.
+        surface_scattering_db: Lambert coefficient of the sea surface, dB (boundary
+            reverberation seen through the vertical beam pattern); None: off.
+        far_sidelobe_db: integrated far side-lobe level of a beam: each beam receives this
+            fraction of the echo averaged over all beams at its range (grey shadows).
+        sidelobe_db: first horizontal side lobe re the main lobe (default: the preset's).
+        n_sidelobes: horizontal side lobes modelled each side of the main lobe.
+        pulse_resolution_m: pulse length as range resolution (FWHM of the power envelope,
+            default: the spec's range resolution).
+        fan_edge_loss_db: two-way element directivity at the fan edges (default: the
+            preset's); 0 dB: flat.
+        speckle: speckle with Rayleigh amplitude whose grain is set by the beam width and
+            the pulse length. Off: the mean (incoherent) intensity.
+        speckle_model: ``"product"`` (default): the mean image times a unit speckle field
+            made once per sonar from complex scatterer sums through the beam and pulse
+            amplitude patterns; ``"coherent"``: each ping's echoes themselves as complex
+            scatterer amplitudes summed through those patterns (exact at edges and point
+            targets, ~0.6 ms more per P900-45 ping). Same statistics on uniform areas.
+        tvg: apply time-varied gain ``tvg_spreading_db_per_decade·log10 R + 2αR``, held
+            constant inside ``tvg_min_range_m`` (the receiver's gain range is finite).
+        gain_db: user gain, dB ≥ 0, added before display compression.
+        display_top_db: level (after TVG and gain) mapped to full scale.
+        dynamic_range_db: levels ``display_top_db − dynamic_range_db … display_top_db`` are
+            the display window, x = 0…1 (``polar``, linear in dB: log compression).
+        display_gamma: contrast of the 8-bit mapping: ``u8 = round(255·x^display_gamma)``.
+        multipath: add the surface ghost (echo via one surface bounce; off by default).
+        multipath_loss_db: loss of the ghost path at the surface, dB ≥ 0.
         labels: compute the per-pixel label images (which object gave each pixel's
             strongest return: ground truth for training detectors). Opt-in: they add about
             half to a ping's cost (``uhrisim bench sonar``); off, they are all −1.
-        sidelobe_db: level of the first horizontal side lobe relative to the main lobe.
-        pulse_resolution_m: range blur FWHM from the pulse length (default: the spec's
-            range resolution).
         fan_size_px: larger side of the Cartesian fan image in pixels.
         colormap: OpenCV colour map name for ``fan_rgb`` (None: no colour image).
         water_temperature_c, salinity_psu, water_depth_m, ph: water for the
@@ -89,7 +128,8 @@ class SonarConfig:
             image (10 px/m, Gaussian blur, apex top-left). ``layout_2013="port-edge"``
             measures bearings from the port edge of the fan so the whole fan lies in the
             image quadrant; ``"literal"`` draws column = 10·x, row = 10·y (sonar frame),
-            which leaves the port half outside the image.
+            which leaves the port half outside the image. None of the image-formation
+            settings above apply to the 2013 mode, which stays the paper's method.
     """
 
     preset: str = "P900-45"
@@ -107,15 +147,29 @@ class SonarConfig:
     mode: Literal["physical", "2013"] = "physical"
     source_level_db: float = 210.0
     noise_floor_db: float = 65.0
+    ambient_noise: bool = True
+    sea_state: float = 1.0
+    receiver_bandwidth_hz: float | None = None
+    post_tvg_noise_db: float | None = 146.0
+    volume_scattering_db: float | None = -70.0
+    surface_scattering_db: float | None = -40.0
+    far_sidelobe_db: float | None = -30.0
     tvg: bool = True
     tvg_spreading_db_per_decade: float = 40.0
+    tvg_min_range_m: float = 1.0
     gain_db: float = 0.0
-    display_top_db: float = 185.0
-    dynamic_range_db: float = 50.0
+    display_top_db: float = 180.0
+    dynamic_range_db: float = 60.0
+    display_gamma: float = 2.5
     speckle: bool = True
+    speckle_model: Literal["product", "coherent"] = "product"
     labels: bool = False
-    sidelobe_db: float = -25.0
+    sidelobe_db: float | None = None
+    n_sidelobes: int = 1
     pulse_resolution_m: float | None = None
+    fan_edge_loss_db: float | None = None
+    multipath: bool = False
+    multipath_loss_db: float = 6.0
     fan_size_px: int = 512
     colormap: str | None = None
     water_temperature_c: float = 15.0
@@ -143,10 +197,43 @@ class SonarConfig:
         for name in (
             "range_min_m", "range_max_m", "elevation_span", "tilt_deg", "yaw_deg", "rate_hz",
             "source_level_db", "noise_floor_db", "tvg_spreading_db_per_decade", "gain_db",
-            "display_top_db", "dynamic_range_db", "sidelobe_db", "water_temperature_c",
+            "display_top_db", "dynamic_range_db", "water_temperature_c", "sea_state",
             "salinity_psu", "water_depth_m", "ph", "px_per_m_2013", "blur_sigma_2013",
+            "tvg_min_range_m", "display_gamma", "multipath_loss_db",
         ):  # fmt: skip
             finite(name)
+        for name in (
+            "receiver_bandwidth_hz", "post_tvg_noise_db", "volume_scattering_db",
+            "surface_scattering_db", "far_sidelobe_db", "sidelobe_db", "fan_edge_loss_db",
+        ):  # fmt: skip
+            if getattr(self, name) is not None:
+                finite(name)
+        if self.noise_floor_db >= self.source_level_db:
+            raise bad(
+                "noise_floor_db",
+                f"{self.noise_floor_db} dB is not below source_level_db "
+                f"({self.source_level_db} dB): no echo could rise above the noise",
+            )
+        if self.gain_db < 0.0:
+            raise bad("gain_db", f"must be >= 0 dB (a receiver gain), got {self.gain_db!r}")
+        if not 0.1 <= self.display_gamma <= 10.0:
+            raise bad("display_gamma", f"must be in [0.1, 10], got {self.display_gamma!r}")
+        if not 0.0 <= self.sea_state <= 9.0:
+            raise bad("sea_state", f"must be in [0, 9], got {self.sea_state!r}")
+        if self.tvg_min_range_m < 0.0:
+            raise bad("tvg_min_range_m", f"must be >= 0 m, got {self.tvg_min_range_m!r}")
+        if self.multipath_loss_db < 0.0:
+            raise bad("multipath_loss_db", f"must be >= 0 dB, got {self.multipath_loss_db!r}")
+        if self.receiver_bandwidth_hz is not None and self.receiver_bandwidth_hz <= 0.0:
+            raise bad(
+                "receiver_bandwidth_hz", f"must be > 0 Hz, got {self.receiver_bandwidth_hz!r}"
+            )
+        for name in ("sidelobe_db", "far_sidelobe_db", "surface_scattering_db"):
+            v = getattr(self, name)
+            if v is not None and v >= 0.0:
+                raise bad(name, f"must be < 0 dB, got {v!r}")
+        if self.fan_edge_loss_db is not None and not 0.0 <= self.fan_edge_loss_db <= 30.0:
+            raise bad("fan_edge_loss_db", f"must be in [0, 30] dB, got {self.fan_edge_loss_db!r}")
         if self.range_max_m <= 0.0:
             raise bad("range_max_m", f"must be > 0 m, got {self.range_max_m!r}")
         if self.range_min_m < 0.0:
@@ -171,7 +258,10 @@ class SonarConfig:
             finite("pulse_resolution_m")
             if self.pulse_resolution_m <= 0.0:
                 raise bad("pulse_resolution_m", f"must be > 0 m, got {self.pulse_resolution_m!r}")
-        for name, lo in (("rays_per_beam", 2), ("rays_per_beam_azimuth", 1), ("fan_size_px", 16)):
+        for name, lo in (
+            ("rays_per_beam", 2), ("rays_per_beam_azimuth", 1), ("fan_size_px", 16),
+            ("n_sidelobes", 0),
+        ):  # fmt: skip
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < lo:
                 raise bad(name, f"must be an integer >= {lo}, got {v!r}")
@@ -186,6 +276,10 @@ class SonarConfig:
             raise bad("tilt_deg", f"must be in (-90, 90) degrees, got {self.tilt_deg!r}")
         if self.rate_hz <= 0.0:
             raise bad("rate_hz", f"must be > 0 Hz, got {self.rate_hz!r}")
+        if self.speckle_model not in ("product", "coherent"):
+            raise bad(
+                "speckle_model", f"must be 'product' or 'coherent', got {self.speckle_model!r}"
+            )
         if self.mode not in ("physical", "2013"):
             raise bad("mode", f"must be 'physical' or '2013', got {self.mode!r}")
         if self.dynamic_range_db <= 0.0:
@@ -267,6 +361,24 @@ class SonarConfig:
     def effective_rate_hz(self) -> float:
         """The ping rate actually used: min(requested, hardware maximum, range cap)."""
         return min(self.rate_hz, self.sonar_spec.max_rate_hz, self.range_rate_cap_hz)
+
+    @property
+    def beam_sidelobe_db(self) -> float:
+        """First horizontal side lobe re the main lobe, dB (config or preset)."""
+        v = self.sidelobe_db
+        return float(v) if v is not None else self.sonar_spec.sidelobe_db
+
+    @property
+    def edge_loss_db(self) -> float:
+        """Two-way element directivity at the fan edges, dB (config or preset)."""
+        v = self.fan_edge_loss_db
+        return float(v) if v is not None else self.sonar_spec.fan_edge_loss_db
+
+    @property
+    def bandwidth_hz(self) -> float:
+        """Receiver bandwidth, Hz: configured, else c / (2·pulse resolution)."""
+        b = self.receiver_bandwidth_hz
+        return float(b) if b is not None else self.sound_speed_m_s / (2.0 * self.pulse_m)
 
     @property
     def pulse_m(self) -> float:

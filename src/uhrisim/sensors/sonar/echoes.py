@@ -2,13 +2,13 @@
 
 A ray that hits at slant range R with incidence β on a surface of Lambert coefficient μ
 returns, relative to the source level (``shared/reference/sonar.md``),
-``b_v(φ)²·ΔΩ·μ·cos β·R⁻²·10^(−2αR/10)`` (two-way spreading and absorption, Lambert
-scattering off the patch R²ΔΩ/cos β the ray stands for; the weight b_v(φ)²·ΔΩ is
-precomputed, :mod:`uhrisim.sensors.sonar.geometry`). Each echo is spread evenly over the
-range footprint of its elevation slice, R·δφ·tan β, so a floor stays continuous however
-few rays are cast, and summed into the cells; rays stop at the first hit, so shadows come
-only from the geometry. The raw image then goes through the stages of
-:mod:`uhrisim.sensors.sonar.polar`.
+``b_v(φ)²·D(θ)·ΔΩ·μ·cos β·R⁻²·10^(−2αR/10)`` (two-way spreading and absorption, Lambert
+scattering off the patch R²ΔΩ/cos β the ray stands for, the element directivity D across
+the fan; the weight b_v(φ)²·D(θ)·ΔΩ is precomputed, :mod:`uhrisim.sensors.sonar.geometry`).
+Each echo is spread evenly over the range footprint of its elevation slice, R·δφ·tan β,
+so a floor stays continuous however few rays are cast, and summed into the cells; rays
+stop at the first hit, so shadows come only from the geometry. The raw image then goes
+through the stages of :mod:`uhrisim.sensors.sonar.polar`.
 """
 
 from __future__ import annotations

@@ -7,10 +7,11 @@ vehicle body frame FRD by yaw (about z) after a downward tilt (a pitch of −til
 
 Precomputed: the ray fan (``rays_per_beam`` elevation slices of equal width δφ, each ray
 their centre, and ``rays_per_beam_azimuth`` rays across each beam); each ray's weight
-b_v(φ)²·ΔΩ (vertical beam pattern, two-way, times the solid angle ΔΩ = cos φ·δθ·δφ it stands
-for); the range bins; the horizontal beam-pattern and pulse kernels; TVG, source level and
-gain per range bin, linear and in log display units; the speckle tables; the display level
-of an echo-free image; and the scan-conversion maps of the fan (:mod:`.fan`).
+b_v(φ)²·D(θ)·ΔΩ (vertical beam pattern, two-way, element directivity across the fan,
+times the solid angle ΔΩ = cos φ·δθ·δφ it stands for); the range bins; the horizontal
+beam-pattern and pulse kernels (power and amplitude); the diffuse intensity of every range
+row (noise, volume reverberation, post-TVG noise); TVG, source level and gain per range
+bin, linear and in log display units; and the scan-conversion maps of the fan (:mod:`.fan`).
 """
 
 from __future__ import annotations
@@ -23,13 +24,17 @@ from numpy.typing import NDArray
 
 from uhrisim.core.frames import rotation_zyx
 from uhrisim.sensors.sonar.acoustics import (
+    ambient_noise_band_db,
+    beam_amplitude_kernel,
     beam_pattern_gaussian,
+    directivity_index_db,
+    element_directivity,
+    gaussian_pattern_integral,
     horizontal_beam_kernel,
     range_blur_kernel,
 )
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.fan import fan_maps
-from uhrisim.sensors.sonar.polar import floor_level, speckle_lut
 
 
 def mount_rotation(tilt_deg: float, yaw_deg: float) -> NDArray[np.float64]:
@@ -53,8 +58,10 @@ class SonarGeometry:
     ray_weight: NDArray[np.float64]
     dphi: float
     bin_centres: NDArray[np.float64]
-    beam_kernel: NDArray[np.float32]
-    range_kernel: NDArray[np.float32]
+    beam_kernel: NDArray[np.float32]  # power pattern across beams (peak 1)
+    range_kernel: NDArray[np.float32]  # power envelope along range (sum 1)
+    beam_amp: NDArray[np.float32]  # signed amplitude pattern, beam_amp² = beam_kernel
+    range_amp: NDArray[np.float32]  # amplitude envelope, range_amp² = range_kernel
     signal_gain: NDArray[np.float32]  # (n_bins, 1) intensity re SL → display units
     map_x: NDArray[np.float32]
     map_y: NDArray[np.float32]
@@ -63,12 +70,13 @@ class SonarGeometry:
     map_nearest: NDArray[np.int16]  # (H, W, 2) integer (beam, bin) per fan pixel
     fan_scale: float
     fan_apex: tuple[float, float]
-    speckle_lut: NDArray[np.float32]
-    noise_rel: float  # noise floor relative to the source level (linear)
+    noise_rel: float  # receiver + ambient noise at the beam output re SL (linear)
+    diffuse_static: NDArray[np.float64]  # (n_bins,) noise + reverb + post-TVG noise re SL
+    leak: float  # far side lobes: share of the beam-averaged row echo every beam receives
+    tvg_db: NDArray[np.float64]  # (n_bins,) TVG applied, dB
     row_offset: NDArray[np.float32]  # (n_bins, n_beams) 1 + k·ln(TVG·SL·gain/top)
-    log_speckle_lut: NDArray[np.float32]  # k·ln(speckle factor), 256 entries
     k_ln: float  # display units per natural-log unit: 10/(ln 10 · dynamic range)
-    floor_level: NDArray[np.float32]  # (n_bins, n_beams) display level of an echo-free cell
+    floor_level: NDArray[np.float32]  # (n_bins, n_beams) mean display level, no echo
 
 
 def sonar_geometry(cfg: SonarConfig) -> SonarGeometry:
@@ -94,12 +102,16 @@ def sonar_geometry(cfg: SonarConfig) -> SonarGeometry:
     dirs = np.stack([ce * np.cos(ray_az), ce * np.sin(ray_az), np.sin(ray_el)], axis=1)
     b_v = beam_pattern_gaussian(ray_el, math.radians(spec.beam_width_v_deg))
     solid_angle = ce * (dtheta / sub) * dphi
-    ray_weight = b_v * b_v * solid_angle
+    directivity = element_directivity(ray_az, half_fov, cfg.edge_loss_db)
+    ray_weight = b_v * b_v * directivity * solid_angle
 
     n_bins = cfg.n_bins
     bin_centres = cfg.range_min_m + (np.arange(n_bins) + 0.5) * cfg.bin_m
     beam_kernel = horizontal_beam_kernel(
-        dtheta, math.radians(spec.beam_width_h_deg), sidelobe_db=cfg.sidelobe_db
+        dtheta, math.radians(spec.beam_width_h_deg), cfg.beam_sidelobe_db, cfg.n_sidelobes
+    )
+    beam_amp = beam_amplitude_kernel(
+        dtheta, math.radians(spec.beam_width_h_deg), cfg.beam_sidelobe_db, cfg.n_sidelobes
     )
     rk = range_blur_kernel(cfg.bin_m, cfg.pulse_m)
     if rk.size > 1:  # drop negligible tails (keeps the convolution short)
@@ -108,22 +120,25 @@ def sonar_geometry(cfg: SonarConfig) -> SonarGeometry:
         trim = min(int(nz[0]), rk.size - 1 - int(nz[-1]))
         rk = rk[trim : rk.size - trim]
         rk = (rk / rk.sum()).astype(np.float32)
+    range_amp = np.sqrt(rk).astype(np.float32)
 
     alpha = cfg.alpha_db_per_m
     r = np.maximum(bin_centres, 0.5 * cfg.bin_m)
-    if cfg.tvg:
-        tvg_db = cfg.tvg_spreading_db_per_decade * np.log10(r) + 2.0 * alpha * r
+    if cfg.tvg:  # imperfect: the gain is held below tvg_min_range_m
+        r_tvg = np.maximum(r, cfg.tvg_min_range_m)
+        tvg_db = cfg.tvg_spreading_db_per_decade * np.log10(r_tvg) + 2.0 * alpha * r_tvg
     else:
         tvg_db = np.zeros_like(r)
     base = cfg.gain_db - cfg.display_top_db + tvg_db
     signal_gain = (10.0 ** ((base + cfg.source_level_db) / 10.0)).astype(np.float32)[:, None]
-    # The same mapping in the log domain (ImagingSonar._physical_polar): with I = echo re SL,
-    # polar = 1 + k·ln((I + NL/SL)·TVG·10^((SL + gain − top)/10)·speckle).
+    # The mapping in the log domain (ImagingSonar._physical_polar): with I = intensity re
+    # SL, polar = 1 + k·ln(I·TVG·10^((SL + gain − top)/10)).
     k_ln = 10.0 / math.log(10.0) / cfg.dynamic_range_db
-    noise_rel = 10.0 ** ((cfg.noise_floor_db - cfg.source_level_db) / 10.0)
     row_off = 1.0 + k_ln * math.log(10.0) * (base + cfg.source_level_db) / 10.0
     row_offset = np.repeat(row_off.astype(np.float32)[:, None], spec.n_beams, axis=1)
-    speckle = speckle_lut()
+    noise_rel, diffuse_static = diffuse_terms(cfg, r, tvg_db, dtheta, float(beam_kernel.sum()))
+    leak = 0.0 if cfg.far_sidelobe_db is None else 10.0 ** (cfg.far_sidelobe_db / 10.0)
+    floor = row_off + k_ln * np.log(np.maximum(diffuse_static, 1e-300))
 
     fan = fan_maps(cfg, beam_angles)
 
@@ -139,6 +154,8 @@ def sonar_geometry(cfg: SonarConfig) -> SonarGeometry:
         bin_centres=bin_centres,
         beam_kernel=beam_kernel,
         range_kernel=rk,
+        beam_amp=beam_amp,
+        range_amp=range_amp,
         signal_gain=signal_gain,
         map_x=fan.map_x,
         map_y=fan.map_y,
@@ -147,10 +164,76 @@ def sonar_geometry(cfg: SonarConfig) -> SonarGeometry:
         map_nearest=fan.map_nearest,
         fan_scale=fan.px_per_m,
         fan_apex=fan.apex,
-        speckle_lut=speckle,
         noise_rel=noise_rel,
+        diffuse_static=diffuse_static,
+        leak=leak * float(beam_kernel.sum()),
+        tvg_db=tvg_db,
         row_offset=row_offset,
-        log_speckle_lut=(k_ln * np.log(speckle.astype(np.float64))).astype(np.float32),
         k_ln=k_ln,
-        floor_level=floor_level(beam_kernel, rk, noise_rel, k_ln, row_offset),
+        floor_level=np.repeat(floor.astype(np.float32)[:, None], spec.n_beams, axis=1),
     )
+
+
+def diffuse_terms(
+    cfg: SonarConfig,
+    r: NDArray[np.float64],
+    tvg_db: NDArray[np.float64],
+    dtheta: float,
+    beam_power_sum: float,
+) -> tuple[float, NDArray[np.float64]]:
+    """(noise at the beam output re SL, the static diffuse intensity per range row re SL).
+
+    Noise: receiver self-noise plus, when ``ambient_noise``, the Wenz-style ambient band
+    level less the beam's directivity index. Volume reverberation of a cell (range ``r``,
+    one beam spacing ``dtheta`` wide, one bin deep): S_v·V·R⁻⁴·10^(−2αR/10) with
+    V = R²·δθ·Ψ_v·Δr (Ψ_v the two-way vertical pattern's equivalent width), summed
+    through the horizontal beam pattern (``beam_power_sum``). Post-TVG noise: its display
+    level referred back to the input through the TVG, ``post − SL − TVG(R)``."""
+    spec = cfg.sonar_spec
+    noise_lin = 10.0 ** (cfg.noise_floor_db / 10.0)
+    if cfg.ambient_noise:
+        di = directivity_index_db(
+            math.radians(spec.beam_width_h_deg), math.radians(spec.beam_width_v_deg)
+        )
+        ambient = ambient_noise_band_db(spec.frequency_hz, cfg.bandwidth_hz, cfg.sea_state)
+        noise_lin += 10.0 ** ((ambient - di) / 10.0)
+    sl = 10.0 ** (cfg.source_level_db / 10.0)
+    d = np.full(r.shape, noise_lin / sl)
+    if cfg.volume_scattering_db is not None:
+        psi_v = gaussian_pattern_integral(math.radians(spec.beam_width_v_deg))
+        loss = 10.0 ** (-2.0 * cfg.alpha_db_per_m * r / 10.0)
+        sv = 10.0 ** (cfg.volume_scattering_db / 10.0)
+        d += sv * dtheta * psi_v * cfg.bin_m * beam_power_sum * loss / (r * r)
+    if cfg.post_tvg_noise_db is not None:
+        d += 10.0 ** ((cfg.post_tvg_noise_db - cfg.source_level_db - tvg_db) / 10.0)
+    return noise_lin / sl, d
+
+
+def surface_rows(
+    cfg: SonarConfig,
+    r: NDArray[np.float64],
+    depth_m: float,
+    axis_depression_rad: float,
+    dtheta: float,
+    beam_power_sum: float,
+) -> NDArray[np.float64] | None:
+    """Surface (boundary) reverberation per range row re SL for a sonar ``depth_m`` below
+    the surface whose axis points ``axis_depression_rad`` below the horizontal; None when
+    off or out of the water. A Lambert surface (μ_s = ``surface_scattering_db``) seen at
+    slant range R > h covers R·δθ·Δr per beam and bin, at incidence cos β = h/R from its
+    normal and elevation asin(h/R) above the horizontal, weighted by the two-way vertical
+    pattern there: μ_s·(h/R)²·R·δθ·Δr·b_v²·R⁻⁴·10^(−2αR/10), summed through the horizontal
+    beam pattern. (Level sonar rows only: roll is ignored.)"""
+    if cfg.surface_scattering_db is None or depth_m <= 0.0:
+        return None
+    spec = cfg.sonar_spec
+    lit = r > depth_m
+    out = np.zeros_like(r)
+    rr = r[lit]
+    off_axis = np.arcsin(depth_m / rr) + axis_depression_rad
+    b_v = beam_pattern_gaussian(off_axis, math.radians(spec.beam_width_v_deg))
+    mu = 10.0 ** (cfg.surface_scattering_db / 10.0)
+    loss = 10.0 ** (-2.0 * cfg.alpha_db_per_m * rr / 10.0)
+    out[lit] = (mu * (depth_m / rr) ** 2 * rr * dtheta * cfg.bin_m * b_v * b_v * loss
+                * beam_power_sum / rr**4)  # fmt: skip
+    return out

@@ -1,17 +1,33 @@
-"""Image formation stages from the raw echo image to the display polar image.
+"""Image formation stages from the raw echo image to the display polar image and its bytes.
 
 The raw image holds, per (range bin, beam) cell, the echo intensity relative to the source
-level SL (linear; :mod:`uhrisim.sensors.sonar.echoes`). The stages, in the log domain where
-they take the fewest passes over the image (``shared/reference/sonar.md``):
+level SL (linear; :mod:`uhrisim.sensors.sonar.echoes`: spreading, absorption, Lambert
+scattering, vertical beam pattern and element directivity are already in it). The stages,
+each a pure function of the previous stage's array and the per-configuration constants of
+:mod:`uhrisim.sensors.sonar.geometry` (physics and sources: ``docs/sonar.md``):
 
-* beam pattern (convolution along the beams) and pulse length (along range);
-* noise floor NL added (re SL);
-* TVG (+k·log10 R + 2αR by default), source level and gain;
-* Rayleigh speckle: a factor on intensity, drawn per cell from a look-up table;
-* display mapping: ``polar = clip(1 + (L − display_top_db)/dynamic_range_db, 0, 1)``.
+1. :func:`diffuse_rows` — what every beam at a range receives besides the echoes it
+   looks at: receiver + ambient noise, volume and surface reverberation and the far
+   side lobes' share of the echo at that range (one intensity per range row).
+2. Speckle and the beam and pulse patterns, two models (``speckle_model``):
+   product (default) — :func:`mean_intensity`, the incoherent mean through the power
+   patterns (beam pattern with side lobes across beams, pulse envelope along range),
+   times a unit speckle field |w|² made once per sonar from complex Gaussian scatterer
+   sums through the same patterns' amplitudes (:mod:`uhrisim.sensors.sonar.speckle`):
+   Rayleigh amplitude, grain a beam wide and a pulse long; coherent —
+   :func:`coherent_field`, each cell's echo and diffuse intensity as complex Gaussian
+   amplitudes √I·z summed through the amplitude patterns (exact at edges and point
+   targets), :func:`coherent_log_intensity`. ``speckle=False``: the mean alone.
+3. :func:`display_level` — TVG (imperfect: held inside ``tvg_min_range_m``), source
+   level, user gain and log compression into the display window:
+   ``x = 1 + k·ln(I·SL·TVG·gain / top)``, k = 10/(ln 10 · dynamic range); clipped to
+   0…1 by :func:`clip_unit`. This is ``SonarPing.polar`` (linear in dB).
+4. :func:`display_bytes` — the 8-bit mapping a user sees: ``round(255·x^γ)``, γ the
+   contrast (``display_gamma``).
 
-Each is a pure function of arrays (kernels, curves and tables precomputed once per
-configuration, :mod:`uhrisim.sensors.sonar.geometry`); ``ImagingSonar`` composes them.
+``ImagingSonar._physical_polar`` composes them (one place), over the range rows that
+echo reaches; rows no echo reaches take the diffuse level (times the speckle field),
+which is what the stages give there.
 """
 
 from __future__ import annotations
@@ -20,65 +36,109 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+#: Image borders mirror (…cb|abc…): a beam at the fan edge receives diffuse power through
+#: its whole pattern, as the beams inside do.
+_MIRROR = cv2.BORDER_REFLECT_101
+#: Beyond a block of rows there is no echo (the blocks are padded by the pulse half-width).
+_ZERO = cv2.BORDER_CONSTANT
 
-def log_level(
+
+def diffuse_rows(
+    static_rows: NDArray[np.float64],
     raw: NDArray[np.float32],
-    out: NDArray[np.float32],
-    beam_kernel: NDArray[np.float32],
-    range_kernel: NDArray[np.float32],
-    noise_rel: float,
-    k_ln: float,
-    row_offset: NDArray[np.float32],
+    leak: float,
+    surface_rows: NDArray[np.float64] | None = None,
+) -> NDArray[np.float64]:
+    """Diffuse intensity per range row re SL (n_bins,): the static terms (noise, volume
+    reverberation, post-TVG noise referred to the input), the surface reverberation of
+    this ping (None: none) and the far side lobes: ``leak`` times the echo averaged over
+    all beams of the row."""
+    d = static_rows + leak * cv2.reduce(raw, 1, cv2.REDUCE_AVG, dtype=cv2.CV_64F)[:, 0]
+    if surface_rows is not None:
+        d = d + surface_rows
+    return d
+
+
+def coherent_field(
+    raw: NDArray[np.float32],
+    d_rows: NDArray[np.float64],
+    z_re: NDArray[np.float32],
+    z_im: NDArray[np.float32],
+    beam_amp: NDArray[np.float32],
+    range_amp: NDArray[np.float32],
+    out_re: NDArray[np.float32],
+    out_im: NDArray[np.float32],
 ) -> None:
-    """``out = 1 + k·ln(conv(raw) + NL/SL) + k·ln(TVG·SL·gain/top)`` (display units, before
-    speckle and clipping) for a block of whole rows of the raw echo image (echo re SL), with
-    zero echo assumed beyond the block's edges; ``row_offset`` holds the block's rows of
-    ``1 + k·ln(TVG·SL·gain/top)``. Written into ``out`` (same shape as ``raw``)."""
-    noise_positive = noise_rel > 1e-30  # log() needs a positive argument
-    # The separable filter as two filter2D passes (along beams, then in place along range):
-    # same result to float32 rounding, about 1.5x faster than OpenCV's sepFilter2D here.
-    delta = noise_rel if noise_positive else 0.0
-    zero_border = cv2.BORDER_CONSTANT
-    cv2.filter2D(raw, cv2.CV_32F, beam_kernel.reshape(1, -1), dst=out, borderType=zero_border)
-    cv2.filter2D(out, cv2.CV_32F, range_kernel.reshape(-1, 1), dst=out, delta=delta,
-                 borderType=zero_border)  # fmt: skip
-    if not noise_positive:
-        np.maximum(out, np.float32(1e-37), out=out)
+    """Complex beam output of a block of whole rows:
+    ``c = h_r ⊛ h_b ⊛ (√(raw + d/P) · z)``, with z unit complex Gaussian draws per cell
+    (E|z|² = 1), the beam amplitude pattern ``h_b`` across beams, the pulse amplitude
+    envelope ``h_r`` along range and P = Σh_b²·Σh_r²: the echo of each cell and the
+    diffuse intensity ``d`` of its row (noise and reverberation are scattered and
+    received through the same patterns) enter as random scatterer amplitudes, so
+    E|c|² = |h_r|² ⊛ |h_b|² ⊛ raw + d (d taken constant over a pulse length), the mean of
+    :func:`mean_intensity`. Borders mirror the image (the edge beams keep their diffuse
+    power). Written into ``out_re``/``out_im`` (same shape as ``raw``)."""
+    power = float(np.sum(beam_amp.astype(np.float64) ** 2)) * float(
+        np.sum(range_amp.astype(np.float64) ** 2)
+    )
+    col = (d_rows / power).astype(np.float32)[:, None]
+    amp = np.add(raw, col)  # (numpy broadcasts a column ~3x faster than cv2.repeat + add)
+    cv2.sqrt(amp, amp)
+    for z, out in ((z_re, out_re), (z_im, out_im)):
+        cv2.multiply(amp, z, dst=out)
+        cv2.filter2D(out, cv2.CV_32F, beam_amp.reshape(1, -1), dst=out, borderType=_MIRROR)
+        cv2.filter2D(out, cv2.CV_32F, range_amp.reshape(-1, 1), dst=out, borderType=_MIRROR)
+
+
+def coherent_log_intensity(
+    c_re: NDArray[np.float32], c_im: NDArray[np.float32], out: NDArray[np.float32]
+) -> None:
+    """``out = ln|c|`` (half the log intensity), via OpenCV's magnitude and log."""
+    cv2.magnitude(c_re, c_im, magnitude=out)
     cv2.log(out, out)
-    cv2.scaleAdd(out, k_ln, row_offset, dst=out)
 
 
-def floor_level(
-    beam_kernel: NDArray[np.float32],
-    range_kernel: NDArray[np.float32],
-    noise_rel: float,
+def mean_intensity(
+    raw: NDArray[np.float32],
+    beam_pow: NDArray[np.float32],
+    range_pow: NDArray[np.float32],
+    d_rows: NDArray[np.float64],
+    out: NDArray[np.float32],
+) -> None:
+    """Incoherent (speckle-free) intensity of a block of whole rows:
+    ``|h_r|² ⊛ |h_b|² ⊛ raw + d(row)`` (fan edges mirrored, zero echo beyond the
+    block's rows), into ``out``."""
+    cv2.filter2D(raw, cv2.CV_32F, beam_pow.reshape(1, -1), dst=out, borderType=_MIRROR)
+    cv2.filter2D(out, cv2.CV_32F, range_pow.reshape(-1, 1), dst=out, borderType=_ZERO)
+    np.add(out, d_rows.astype(np.float32)[:, None], out=out)  # (0 logs to −inf, clipped to 0)
+
+
+def display_level(
+    ln_i: NDArray[np.float32],
     k_ln: float,
     row_offset: NDArray[np.float32],
-) -> NDArray[np.float32]:
-    """Display level (before speckle and clipping) of every cell of an echo-free image —
-    the noise floor after TVG and gain — formed by the very operations of a ping, so that a
-    ping may copy it into the rows no echo reaches instead of filtering them."""
-    out = np.empty(row_offset.shape, np.float32)
-    log_level(np.zeros_like(out), out, beam_kernel, range_kernel, noise_rel, k_ln, row_offset)
-    return out
+    out: NDArray[np.float32],
+) -> None:
+    """Log compression into the display window: ``out = k·ln I + row_offset`` with
+    ``row_offset = 1 + k·ln(SL·TVG(R)·gain / top)`` (n_rows, n_beams) and ``ln_i`` the
+    natural log of the intensity re SL (pass ``k_ln`` doubled for ``ln|c|``)."""
+    cv2.scaleAdd(ln_i, k_ln, row_offset, dst=out)
 
 
-def uniform_bytes(rng: np.random.Generator, n: int) -> NDArray[np.uint8]:
-    """``n`` independent uniform random bytes: the bytes of full-range 64-bit draws
-    (several times faster than ``Generator.bytes``, which draws 32 bits at a time through
-    the bounded-integer path)."""
-    words = rng.integers(0, np.iinfo(np.uint64).max, (n + 7) // 8, np.uint64, endpoint=True)
-    return words.view(np.uint8)[:n]
+def clip_unit(img: NDArray[np.float32]) -> NDArray[np.float32]:
+    """Clip to 0…1 in place (two OpenCV thresholds: faster than np.clip here)."""
+    cv2.threshold(img, 1.0, 1.0, cv2.THRESH_TRUNC, dst=img)
+    cv2.threshold(img, 0.0, 0.0, cv2.THRESH_TOZERO, dst=img)
+    return img
 
 
-def speckle_lut(bits: int = 8) -> NDArray[np.float32]:
-    """Inverse CDF of the unit exponential at the 2^bits mid-quantiles, rescaled to mean 1:
-    a uniform ``bits``-bit integer → a speckle factor on intensity (Rayleigh amplitude).
-
-    With 8 bits the amplitude std/mean is 0.522 (continuous Rayleigh: 0.5227) and the
-    heaviest draw is 6.2× the mean (a continuous draw exceeds that with probability 0.2 %).
-    """
-    n = 1 << bits
-    u = (np.arange(n, dtype=np.float64) + 0.5) / n
-    e = -np.log1p(-u)
-    return (e / e.mean()).astype(np.float32)
+def display_bytes(polar: NDArray[np.float32], gamma: float) -> NDArray[np.uint8]:
+    """The 8-bit display mapping: ``round(255·x^γ)`` of the clipped display level x."""
+    if gamma == 1.0:
+        return cv2.convertScaleAbs(polar, alpha=255.0)
+    # Black stays black: 255·(1e-30)^γ < 0.5 for every allowed γ ≥ 0.1 (and OpenCV's
+    # log of 0 and exp of −inf take a slow path, ~10× a normal pass).
+    t = cv2.log(cv2.max(polar, 1e-30))
+    np.multiply(t, np.float32(gamma), out=t)
+    cv2.exp(t, t)
+    return cv2.convertScaleAbs(t, alpha=255.0)

@@ -29,6 +29,11 @@ class SonarSpec:
         max_rate_hz: maximum ping rate of the hardware, Hz (physics may cap it further).
         useful_range_m: (min, max) range the vendor calls useful, metres (informational).
         source: where the numbers come from.
+        sidelobe_db: first horizontal side lobe of a formed beam re its main lobe, dB.
+            Not published for the P900 family: −25 dB is that of a moderately shaded
+            receive array (uniform: −13.3 dB; Hamming/Taylor shading: −25…−40 dB).
+        fan_edge_loss_db: two-way element directivity at the fan edge re the axis, dB
+            (the fan darkens towards its edges). Not published: 3 dB is assumed.
     """
 
     name: str
@@ -42,6 +47,8 @@ class SonarSpec:
     max_rate_hz: float
     useful_range_m: tuple[float, float] = (2.0, 60.0)
     source: str = ""
+    sidelobe_db: float = -25.0
+    fan_edge_loss_db: float = 3.0
 
     def __post_init__(self) -> None:
         where = f"SonarSpec({self.name!r})"
@@ -61,6 +68,15 @@ class SonarSpec:
         if int(self.n_beams) != self.n_beams or self.n_beams < 2:
             raise ConfigError(
                 f"must be an integer >= 2, got {self.n_beams!r}", where=f"{where}.n_beams"
+            )
+        if not self.sidelobe_db < 0.0:
+            raise ConfigError(
+                f"must be < 0 dB, got {self.sidelobe_db!r}", where=f"{where}.sidelobe_db"
+            )
+        if not 0.0 <= self.fan_edge_loss_db <= 30.0:
+            raise ConfigError(
+                f"must be in [0, 30] dB, got {self.fan_edge_loss_db!r}",
+                where=f"{where}.fan_edge_loss_db",
             )
         if self.fov_h_deg >= 180.0:
             raise ConfigError(

@@ -12,25 +12,27 @@ incidence β on a surface of Lambert coefficient μ (``shared/reference/sonar.md
     EL = SL − 2·TL(R) + TS,     TL = 20 log10 R + αR,     TS = 10 log10(μ·cos²β·A)
 
 A ray stands for the solid angle ΔΩ = cos φ·δθ·δφ, i.e. a surface patch A = R²ΔΩ/cos β,
-so its echo intensity (re SL) is ``b_v(φ)²·μ·cos β·ΔΩ·R⁻²·10^(−2αR/10)`` with b_v the
-vertical (elevation) power pattern, two-way. Each echo is spread evenly over the range
-footprint of its elevation slice, R·δφ·tan β (so a floor stays continuous however few
-rays are cast), and summed into (range bin, beam) cells — rays stop at the first hit, so
-shadows come only from the geometry. The
-horizontal beam pattern (sinc², ~1° over ~0.18° spacing) is a convolution along the
-beam axis, the pulse length a convolution along range. Then the noise floor is added,
-Rayleigh speckle multiplies the intensity (unit exponential draws: Rayleigh amplitude), TVG
-(+40 log R + 2αR by default) and gain are applied and the level is log-compressed:
-``polar = clip(1 + (L − display_top_db)/dynamic_range_db, 0, 1)``.
+so its echo intensity (re SL) is ``b_v(φ)²·D(θ)·μ·cos β·ΔΩ·R⁻²·10^(−2αR/10)`` with b_v the
+vertical (elevation) power pattern, two-way, and D the element directivity across the fan.
+Each echo is spread evenly over the range footprint of its elevation slice, R·δφ·tan β (so
+a floor stays continuous however few rays are cast), and summed into (range bin, beam)
+cells — rays stop at the first hit, so shadows come only from the geometry; an optional
+surface ghost adds each echo again at the range of its surface-bounce path. The stages of
+:mod:`.polar` then form the display image: diffuse terms (noise, reverberation, far side
+lobes), coherent speckle through the beam pattern (sinc with side lobes across beams) and
+the pulse envelope (along range), TVG, gain and log compression
+``polar = clip(1 + (L − display_top_db)/dynamic_range_db, 0, 1)``, and the 8-bit mapping
+``polar_u8 = round(255·polar^display_gamma)``.
 
 2013 mode (``mode="2013"``, DeMarco et al. 2013): hit points projected onto the sonar's
 x–y plane, ×10 px/m, apex at the top-left pixel, Gaussian blur, white fan boundary lines.
 
 This module composes the stages, each in a module of its own: :mod:`.geometry` (what is
 computed once per configuration), :mod:`.cast` (casting the fan), :mod:`.echoes` (ray
-echoes summed into the raw image), :mod:`.polar` (beam pattern, pulse, noise, speckle, TVG,
-log compression), :mod:`.fan` (scan conversion), :mod:`.labels` and :mod:`.cloud` (the
-label images and the point cloud); :mod:`.ping` holds what a ping produces.
+echoes summed into the raw image), :mod:`.polar` (diffuse terms, speckle through beam
+pattern and pulse, TVG, log compression, 8-bit mapping), :mod:`.speckle` (the random
+fields), :mod:`.fan` (scan conversion), :mod:`.labels` and :mod:`.cloud` (the label images
+and the point cloud); :mod:`.ping` holds what a ping produces.
 """
 
 from __future__ import annotations
@@ -47,10 +49,19 @@ from uhrisim.sensors.sonar.cloud import cloud_hits, sonar_cloud
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.echoes import MAX_FOOTPRINT_TAN, EchoAccumulator, footprint, ray_echo
 from uhrisim.sensors.sonar.fan import color_fan, fan_image, image_2013
-from uhrisim.sensors.sonar.geometry import mount_rotation, sonar_geometry
+from uhrisim.sensors.sonar.geometry import mount_rotation, sonar_geometry, surface_rows
 from uhrisim.sensors.sonar.labels import FanLabeller, unlabelled
 from uhrisim.sensors.sonar.ping import SonarPing
-from uhrisim.sensors.sonar.polar import log_level, uniform_bytes
+from uhrisim.sensors.sonar.polar import (
+    clip_unit,
+    coherent_field,
+    coherent_log_intensity,
+    diffuse_rows,
+    display_bytes,
+    display_level,
+    mean_intensity,
+)
+from uhrisim.sensors.sonar.speckle import SpeckleBank
 
 #: ``cloud_hits`` (:mod:`.cloud`) stays importable from here, where callers import it.
 __all__ = ["ImagingSonar", "cloud_hits"]
@@ -64,7 +75,9 @@ class ImagingSonar:
     ``ping(raycaster, position_ned, rotation_body_to_ned, t)`` casts the ray fan from the
     mount and forms the image. Everything that depends only on the config (ray
     directions, elevation weights, kernels, TVG curve, scan-conversion maps) is computed
-    once here. The Generator is the only state that changes between pings (speckle);
+    once here, and so are the random fields of the speckle, drawn from ``rng``
+    (:mod:`.speckle`). The Generator is the only state that changes between pings (the
+    speckle's offsets);
     scratch buffers are reused between pings, so one instance must not ping from two
     threads at once (make one instance per thread). Arrays in a returned SonarPing are
     its own (never the scratch buffers).
@@ -87,7 +100,14 @@ class ImagingSonar:
         # The stages that keep scratch images between pings (a ping is not re-entrant).
         self._echoes = EchoAccumulator(self.geometry, config)
         self._fan_labels = FanLabeller(self.geometry)
-        self._speckle = np.zeros(self.polar_shape, np.float32)
+        self._bank = (
+            SpeckleBank.draw(rng, self.polar_shape, self.geometry.beam_amp,
+                             self.geometry.range_amp, self.geometry.k_ln,
+                             scatterers=config.speckle_model == "coherent")
+            if config.speckle and config.mode == "physical" else None
+        )  # fmt: skip
+        self._c_re = np.empty(self.polar_shape, np.float32)
+        self._c_im = np.empty(self.polar_shape, np.float32)
         # With labels off every ping shares this read-only "no label" fan image.
         self._unlabelled_fan = unlabelled(self.geometry.fan_mask.shape)
 
@@ -171,10 +191,23 @@ class ImagingSonar:
         n_cells = n_bins * n_beams
         e = self.ray_intensity(idx, r, cos_inc, mu)
         if cfg.mode == "physical":
-            raw, label_polar, rows = self._accumulate(
-                idx, r, cos_inc, e, labels if cfg.labels else None
-            )
-            polar = self._physical_polar(raw, rows)
+            if cfg.multipath:
+                ghosts = self._surface_ghosts(position_ned, rotation_ned_from_sonar, idx, r, e)
+                g_idx, g_r, g_e, keep = ghosts
+                raw, label_polar, rows = self._accumulate(
+                    np.concatenate([idx, g_idx]), np.concatenate([r, g_r]),
+                    np.concatenate([cos_inc, cos_inc[keep]]), np.concatenate([e, g_e]),
+                    np.concatenate([labels, labels[keep]]) if cfg.labels else None,
+                )  # fmt: skip
+            else:
+                raw, label_polar, rows = self._accumulate(
+                    idx, r, cos_inc, e, labels if cfg.labels else None
+                )
+            depression = math.asin(max(-1.0, min(1.0, float(rotation_ned_from_sonar[2, 0]))))
+            surface = surface_rows(cfg, g.bin_centres, float(position_ned[2]), depression,
+                                   g.beam_angles[1] - g.beam_angles[0],
+                                   float(g.beam_kernel.sum()))  # fmt: skip
+            polar = self._physical_polar(raw, rows, surface)
         # Hits inside the window (the image may also use hits just outside it).
         win = (r >= cfg.range_min_m) & (r < cfg.range_max_m)
         if not win.all():
@@ -189,7 +222,10 @@ class ImagingSonar:
             label_polar = label_polar.reshape(n_bins, n_beams)
             polar = np.zeros((n_bins, n_beams), dtype=np.float32)
             polar.reshape(-1)[cell] = 1.0
-        polar_u8 = cv2.convertScaleAbs(polar, alpha=255.0)
+        if cfg.mode == "physical":
+            polar_u8 = display_bytes(polar, cfg.display_gamma)
+        else:
+            polar_u8 = cv2.convertScaleAbs(polar, alpha=255.0)
 
         # Ray-level echo on the display scale, for the cloud's intensity.
         ray_disp = np.zeros(self.n_rays, dtype=np.float32)
@@ -269,31 +305,80 @@ class ImagingSonar:
         image is this sonar's scratch buffer, valid until the next ping)."""
         return self._echoes.accumulate(idx, r, cos_inc, e, labels)
 
-    def _physical_polar(
-        self, raw: NDArray[np.float32], rows: list[tuple[int, int]] | None = None
-    ) -> NDArray[np.float32]:
-        """Beam pattern + pulse blur, noise, speckle, TVG and gain, log compression → 0…1
-        (a new array).
-
-        Computed in the log domain, which needs fewer passes over the image:
-        polar = 1 + k·ln(conv(raw) + NL/SL) + [1 + k·ln(TVG·SL·gain/top) − 1] + k·ln(S),
-        equal to compressing ``(conv(raw)·SL + NL)·TVG·gain·S`` (``reference_polar``).
-        ``rows``: row ranges outside which ``raw`` is zero at least a range-blur half-width
-        deep (None: all rows); only those are filtered, the others take the precomputed
-        echo-free level (the same operations on zeros)."""
+    def _surface_ghosts(
+        self,
+        position_ned: NDArray[np.float64],
+        rotation_ned_from_sonar: NDArray[np.float64],
+        idx: NDArray[np.int64],
+        r: NDArray[np.float64],
+        e: NDArray[np.float64],
+    ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+        """The surface ghost of each hit below the surface (``multipath``): the echo that
+        returns via one bounce off the sea surface (NED z = 0), arriving at the mean of
+        the direct and the mirrored path, R' = (R + |p − p̃_s|)/2 with p̃_s the sonar
+        mirrored in the surface, in the same beam, weaker by ``multipath_loss_db`` and by
+        the longer return leg's spreading (R/|p − p̃_s|)². The vertical beam pattern is
+        that of the direct ray (a simplification). Returns (beam rays, ranges, echoes,
+        which hits have a ghost)."""
+        cfg = self.config
         g = self.geometry
+        dirs_ned = rotation_ned_from_sonar @ np.take(g.dirs_sonar_cols, idx, axis=1)
+        pts = dirs_ned * r + np.reshape(position_ned, (3, 1))
+        mirror = np.array([position_ned[0], position_ned[1], -position_ned[2]])
+        keep = (pts[2] > 0.0) & (position_ned[2] > 0.0)
+        back = np.linalg.norm(pts[:, keep] - mirror[:, None], axis=0)
+        rk = r[keep]
+        loss = 10.0 ** (-cfg.multipath_loss_db / 10.0)
+        return idx[keep], 0.5 * (rk + back), e[keep] * loss * (rk / back) ** 2, keep
+
+    def _physical_polar(
+        self,
+        raw: NDArray[np.float32],
+        rows: list[tuple[int, int]] | None = None,
+        surface: NDArray[np.float64] | None = None,
+    ) -> NDArray[np.float32]:
+        """The stages of :mod:`.polar`, composed: diffuse terms per row, the mean image
+        through the beam and pulse patterns times the product speckle field, or the
+        coherent sum (``speckle_model``), TVG, gain and log compression, clipped to 0…1 (a
+        new array). ``surface``: this ping's surface reverberation per row (None: none).
+
+        ``rows``: row ranges outside which ``raw`` is zero at least a range-kernel
+        half-width deep (None: all rows); only those are filtered. The others hold only
+        the diffuse terms and take their level (in the coherent model times the bank's
+        diffuse field: what the stages give on zero echo, in distribution)."""
+        g = self.geometry
+        k = g.k_ln
+        d = diffuse_rows(g.diffuse_static, raw, g.leak, surface)
+        free = (g.row_offset[:, :1] + k * np.log(np.maximum(d, 1e-300))[:, None]).astype(
+            np.float32
+        )  # display level of the diffuse terms alone, per row
         img = np.empty(raw.shape, np.float32)
+        bank = self._bank
+        coherent = bank is not None and bank.z_re is not None
+        if bank is not None:
+            k_ln_w2 = bank.log_w(*bank.w_offset(self.rng))
+        if coherent:
+            z_re, z_im = bank.z(int(self.rng.integers(0, bank.z_offsets)))
         done = 0  # rows [0, done) are formed
-        for a, b in [(0, raw.shape[0])] if rows is None else rows:
-            img[done:a] = g.floor_level[done:a]
-            log_level(raw[a:b], img[a:b], g.beam_kernel, g.range_kernel, g.noise_rel, g.k_ln,
-                      g.row_offset[a:b])  # fmt: skip
+        for a, b in [*([(0, raw.shape[0])] if rows is None else rows), (raw.shape[0], None)]:
+            if coherent:  # echo-free rows: the diffuse level times the diffuse field
+                np.add(k_ln_w2[done:a], free[done:a], out=img[done:a])
+            else:
+                img[done:a] = free[done:a]
+            if b is None:
+                break
+            blk = img[a:b]
+            if coherent:
+                c_re, c_im = self._c_re[a:b], self._c_im[a:b]
+                coherent_field(raw[a:b], d[a:b], z_re[a:b], z_im[a:b], g.beam_amp,
+                               g.range_amp, c_re, c_im)  # fmt: skip
+                coherent_log_intensity(c_re, c_im, blk)
+                display_level(blk, 2.0 * k, g.row_offset[a:b], blk)
+            else:
+                mean_intensity(raw[a:b], g.beam_kernel, g.range_kernel, d[a:b], blk)
+                cv2.log(blk, blk)
+                display_level(blk, k, g.row_offset[a:b], blk)
             done = b
-        img[done:] = g.floor_level[done:]
-        if self.config.speckle:
-            u = uniform_bytes(self.rng, img.size).reshape(img.shape)
-            cv2.add(img, cv2.LUT(u, g.log_speckle_lut, dst=self._speckle), dst=img)
-        # Clip to 0…1 in place (two OpenCV thresholds: faster than np.clip here).
-        cv2.threshold(img, 1.0, 1.0, cv2.THRESH_TRUNC, dst=img)
-        cv2.threshold(img, 0.0, 0.0, cv2.THRESH_TOZERO, dst=img)
-        return img
+        if bank is not None and not coherent:  # product speckle: a factor |w|² on intensity
+            cv2.add(img, k_ln_w2, dst=img)
+        return clip_unit(img)
