@@ -307,6 +307,51 @@ def demo(
 
 
 
+def _batch_progress(what: str) -> Any:
+    """A progress bar on stderr for a sweep or a dataset (clears itself at the end)."""
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    return Progress(TextColumn(f"[bold]{what}"), BarColumn(), MofNCompleteColumn(),
+                    TimeElapsedColumn(), TimeRemainingColumn(), console=err_console,
+                    transient=True)
+
+
+@app.command()
+@friendly_errors
+def sweep(
+    sweep_file: Annotated[Path, typer.Argument(help="sweep YAML file")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="output folder")],
+    address: Annotated[str | None, typer.Option(
+        help="Ray cluster: 'auto' or ray://host:port (default: a local Ray, loopback only)"
+    )] = None,
+    workers: Annotated[int | None, typer.Option(help="runs at a time (default: all CPUs)")
+                       ] = None,
+) -> None:
+    """Run a parameter sweep on Ray: a run folder per run, results.parquet/.csv, summary.png."""
+    from uhrisim.batch.sweep import run_sweep
+
+    check_option("workers", workers, workers is not None and workers >= 1, "an integer >= 1")
+    with _batch_progress("sweep") as bar:
+        task = bar.add_task("runs", total=None)
+        result = run_sweep(sweep_file, out, address=address, workers=workers,
+                           progress=lambda done, total: bar.update(task, completed=done,
+                                                                   total=total))
+    lines = [f"{len(result.rows)} runs: {len(result.rows) - result.failed} ok "
+             f"({result.skipped} already done), {result.failed} failed"]
+    lines += [f"  failed {row['run']}: {row['error']}" for row in result.rows
+              if row["status"] == "failed"]
+    lines += [f"  wrote {path}" for path in result.files]
+    for line in lines:
+        console.print(Text(line), soft_wrap=True)
+
+
 def _recover_if_cut(recording: Path, recover_in_place: Callable[[Path], int | None]) -> None:
     """Make a recording a killed run cut short complete (kept as ``.partial``), saying so."""
     count = recover_in_place(recording)

@@ -1,0 +1,138 @@
+"""Ray for sweeps and datasets: connect (or start a loopback-only local Ray), run tasks.
+
+This module is the only place that imports Ray (DESIGN.md: ``batch/`` sits above ``sim/``
+and ``envs/``; Ray is imported only there). Addresses (``--address``):
+
+* none: a local Ray started here, loopback only (node IP 127.0.0.1, so every Ray server
+  binds 127.0.0.1), dashboard off, usage stats off, ``workers`` CPUs; stopped at the end;
+* ``auto``: the Ray already running on this machine (``ray start --head`` earlier);
+* ``ray://host:port``: a Ray Client server (a remote cluster's head, port 10001 usually);
+* ``host:port``: a cluster's GCS address, from a node of that cluster.
+
+A reachable, well-formed address is checked before Ray is touched, so a typo is a
+one-line :class:`~uhrisim.core.errors.ConfigError`, not a minute of retries.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import re
+import socket
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
+
+from uhrisim.core.errors import ConfigError, MissingExtraError
+
+#: Environment of a local Ray: no usage statistics; on Linux, Ray replaces a node IP of
+#: 127.0.0.1 by the machine's address unless clusters are declared unsupported, which
+#: keeps the node (and so every gRPC server of it) on loopback.
+LOCAL_RAY_ENV = {"RAY_USAGE_STATS_ENABLED": "0", "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"}
+LOOPBACK = "127.0.0.1"
+#: Seconds a TCP connection to ``--address`` may take before it counts as unreachable.
+CONNECT_TIMEOUT_S = 5.0
+
+_HOST_PORT = re.compile(r"^(?P<host>[A-Za-z0-9._-]+|\[[0-9A-Fa-f:]+\]):(?P<port>\d{1,5})$")
+
+
+def _ray() -> Any:
+    try:
+        import ray
+    except ImportError:
+        raise MissingExtraError('sweeps and datasets run on Ray: pip install "uhrisim[batch]"'
+                                ) from None
+    return ray
+
+
+def check_address(address: str | None) -> tuple[str, int] | None:
+    """(host, port) that ``address`` names (None for a local Ray or ``auto``); a
+    ConfigError naming ``--address`` if it is malformed or nothing listens there."""
+    if address is None or address == "auto":
+        return None
+    rest = address.removeprefix("ray://")
+    match = _HOST_PORT.match(rest)
+    if not match or not 0 < int(match["port"]) <= 65535:
+        raise ConfigError(f"{address!r} is not 'auto', 'ray://host:port' or 'host:port'",
+                          where="--address")
+    host, port = match["host"].strip("[]"), int(match["port"])
+    try:
+        with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S):
+            pass
+    except OSError as error:
+        reason = error.strerror or type(error).__name__
+        raise ConfigError(f"cannot reach Ray at {address} ({reason})", where="--address") from None
+    return host, port
+
+
+@contextlib.contextmanager
+def ray_session(address: str | None = None, workers: int | None = None) -> Iterator[int]:
+    """Ray for the duration of the block; yields how many tasks to keep in flight.
+
+    Reuses a Ray this process already initialised (a test module's, a notebook's) and
+    leaves it running; otherwise connects to ``address`` or starts a local, loopback-only
+    Ray with ``workers`` CPUs (default: this machine's), and shuts it down at the end.
+    """
+    if workers is not None and workers < 1:
+        raise ConfigError(f"must be an integer >= 1, got {workers!r}", where="--workers")
+    check_address(address)
+    ray = _ray()
+    owned = not ray.is_initialized()
+    if owned:
+        _init(ray, address, workers)
+    try:
+        yield workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
+    finally:
+        if owned:
+            ray.shutdown()
+
+
+def start_local_ray(workers: int) -> None:
+    """Start a local, loopback-only Ray with ``workers`` CPUs (tests start one per module)."""
+    _init(_ray(), None, workers)
+
+
+def _init(ray: Any, address: str | None, workers: int | None) -> None:
+    quiet = {"include_dashboard": False, "log_to_driver": False,
+             "logging_level": logging.ERROR, "configure_logging": False}
+    if address is None:
+        os.environ.update(LOCAL_RAY_ENV)
+        ray.init(num_cpus=workers or os.cpu_count() or 1, _node_ip_address=LOOPBACK,
+                 # the workers import uhrisim from this environment; no packaging
+                 runtime_env={"env_vars": dict(LOCAL_RAY_ENV)}, **quiet)
+        return
+    try:
+        ray.init(address=address, log_to_driver=False, logging_level=logging.ERROR,
+                 configure_logging=False)
+    except (ConnectionError, RuntimeError, ValueError) as error:
+        message = str(error).strip().splitlines()[0] if str(error).strip() else repr(error)
+        raise ConfigError(f"cannot connect to Ray at {address}: {message}",
+                          where="--address") from None
+
+
+def run_tasks(function: Callable[[Any], Any], items: Sequence[Any], in_flight: int,
+              on_result: Callable[[int, Any], None]) -> None:
+    """Run ``function(item)`` as one Ray task (1 CPU) per item, at most ``in_flight`` at a
+    time, and call ``on_result(index, result)`` in the driver as each one finishes (in
+    completion order). An exception inside a task is re-raised here; callers that want
+    the others to go on catch errors inside ``function`` and return them. Interrupted
+    (Ctrl-C, an exception from ``on_result``), the tasks still running are cancelled."""
+    ray = _ray()
+    remote = ray.remote(num_cpus=1, max_retries=0)(function)
+    pending: dict[Any, int] = {}
+    queue = iter(enumerate(items))
+    try:
+        for index, item in queue:
+            pending[remote.remote(item)] = index
+            if len(pending) >= in_flight:
+                break
+        while pending:
+            done, _ = ray.wait(list(pending), num_returns=1)
+            index = pending.pop(done[0])
+            on_result(index, ray.get(done[0]))
+            for next_index, item in queue:
+                pending[remote.remote(item)] = next_index
+                break
+    finally:
+        for ref in pending:
+            ray.cancel(ref, force=True)
