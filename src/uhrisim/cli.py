@@ -352,6 +352,35 @@ def sweep(
         console.print(Text(line), soft_wrap=True)
 
 
+@app.command()
+@friendly_errors
+def dataset(
+    dataset_file: Annotated[Path, typer.Argument(help="dataset YAML file")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="output folder")],
+    address: Annotated[str | None, typer.Option(
+        help="Ray cluster: 'auto' or ray://host:port (default: a local Ray, loopback only)"
+    )] = None,
+    workers: Annotated[int | None, typer.Option(help="shards at a time (default: all CPUs)")
+                       ] = None,
+    shard_frames: Annotated[int, typer.Option(help="frames per Ray task")] = 25,
+) -> None:
+    """Render a labelled sonar dataset on Ray: images, label images, COCO, card, preview."""
+    from uhrisim.batch.dataset import run_dataset
+
+    check_option("workers", workers, workers is not None and workers >= 1, "an integer >= 1")
+    check_option("shard-frames", shard_frames, shard_frames >= 1, "an integer >= 1")
+    with _batch_progress("dataset") as bar:
+        task = bar.add_task("frames", total=None)
+        result = run_dataset(dataset_file, out, address=address, workers=workers,
+                             shard_frames=shard_frames,
+                             progress=lambda done, total: bar.update(task, completed=done,
+                                                                     total=total))
+    console.print(Text(f"{result.frames} frames, {result.annotations} annotated instances"),
+                  soft_wrap=True)
+    for path in result.files:
+        console.print(Text(f"  wrote {path}"), soft_wrap=True)
+
+
 def _recover_if_cut(recording: Path, recover_in_place: Callable[[Path], int | None]) -> None:
     """Make a recording a killed run cut short complete (kept as ``.partial``), saying so."""
     count = recover_in_place(recording)
