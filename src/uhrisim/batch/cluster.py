@@ -36,12 +36,18 @@ CONNECT_TIMEOUT_S = 5.0
 _HOST_PORT = re.compile(r"^(?P<host>[A-Za-z0-9._-]+|\[[0-9A-Fa-f:]+\]):(?P<port>\d{1,5})$")
 
 
-def _ray() -> Any:
+def _ray(local: bool = False) -> Any:
+    """The ray module; ``local``: set up for a loopback-only local Ray first."""
+    if local:
+        os.environ.update(LOCAL_RAY_ENV)  # read when Ray is first imported
     try:
         import ray
+        from ray._private import ray_constants
     except ImportError:
         raise MissingExtraError('sweeps and datasets run on Ray: pip install "uhrisim[batch]"'
                                 ) from None
+    if local:  # Ray imported before (a notebook, a test): the constant the variable set
+        ray_constants.ENABLE_RAY_CLUSTER = False
     return ray
 
 
@@ -76,7 +82,7 @@ def ray_session(address: str | None = None, workers: int | None = None) -> Itera
     if workers is not None and workers < 1:
         raise ConfigError(f"must be an integer >= 1, got {workers!r}", where="--workers")
     check_address(address)
-    ray = _ray()
+    ray = _ray(local=address is None)
     owned = not ray.is_initialized()
     if owned:
         _init(ray, address, workers)
@@ -89,14 +95,13 @@ def ray_session(address: str | None = None, workers: int | None = None) -> Itera
 
 def start_local_ray(workers: int) -> None:
     """Start a local, loopback-only Ray with ``workers`` CPUs (tests start one per module)."""
-    _init(_ray(), None, workers)
+    _init(_ray(local=True), None, workers)
 
 
 def _init(ray: Any, address: str | None, workers: int | None) -> None:
     quiet = {"include_dashboard": False, "log_to_driver": False,
              "logging_level": logging.ERROR, "configure_logging": False}
     if address is None:
-        os.environ.update(LOCAL_RAY_ENV)
         ray.init(num_cpus=workers or os.cpu_count() or 1, _node_ip_address=LOOPBACK,
                  # the workers import uhrisim from this environment; no packaging
                  runtime_env={"env_vars": dict(LOCAL_RAY_ENV)}, **quiet)

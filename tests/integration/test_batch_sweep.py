@@ -1,0 +1,128 @@
+"""Sweeps on a real local Ray (one per module, 2 CPUs, loopback only): a 2×2×2 sweep gives
+8 rows with the right parameters, applied in each run; an interrupted and restarted sweep
+skips the runs that finished (and reruns the one whose metrics were cut short); a run
+with a value the scenario refuses, or that cannot be built, is a failed row with its
+one-line error while the others finish.
+
+Runs are 3 simulated seconds of the paper's mission without sonar or recording.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("ray")
+pa_parquet = pytest.importorskip("pyarrow.parquet")
+
+from uhrisim.batch.cluster import LOOPBACK, start_local_ray  # noqa: E402
+from uhrisim.batch.sweep import RUNS_DIR, run_sweep  # noqa: E402
+from uhrisim.scenario.shipped import shipped_scenario  # noqa: E402
+
+HEADING = "agents.videoray.controller.heading"
+RANGE = "metrics.range"
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    import ray
+
+    start_local_ray(2)
+    yield ray
+    ray.shutdown()
+
+
+def write_sweep(folder: Path, grid: dict, seeds=(1, 2), **extra) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    sweep = {"scenario": str(shipped_scenario()), "duration": 3.0, "sonar": False,
+             "set": {"recording.enabled": False}, "grid": grid, "seeds": list(seeds)} | extra
+    path = folder / "sweep.yaml"
+    path.write_text(json.dumps(sweep))  # JSON is YAML
+    return path
+
+
+def test_local_ray_listens_on_loopback_only(local_ray):
+    import psutil
+
+    nodes = local_ray.nodes()
+    assert [n["NodeManagerAddress"] for n in nodes] == [LOOPBACK]
+    ray_pids = {p.pid for p in psutil.process_iter(["cmdline"])
+                if any("ray" in part for part in (p.info["cmdline"] or [])[:2])}
+    listening = [c for c in psutil.net_connections("inet")
+                 if c.status == psutil.CONN_LISTEN and c.pid in ray_pids]
+    assert listening
+    assert {c.laddr.ip.removeprefix("::ffff:") for c in listening} == {LOOPBACK}
+
+
+def test_a_2x2x2_sweep_gives_8_rows_with_their_parameters(local_ray, tmp_path):
+    grid = {HEADING: [0.5, 2.0], RANGE: [2.0, 3.0]}
+    out = tmp_path / "out"
+    result = run_sweep(write_sweep(tmp_path, grid), out, workers=2)
+    table = pa_parquet.read_table(out / "results.parquet").to_pylist()
+    assert len(table) == 8 and result.failed == 0 and result.skipped == 0
+    expected = set(itertools.product(grid[HEADING], grid[RANGE], (1, 2)))
+    assert {(r[HEADING], r[RANGE], r["seed"]) for r in table} == expected
+    assert all(r["status"] == "ok" and r["error"] is None for r in table)
+    csv_lines = (out / "results.csv").read_text().splitlines()
+    assert len(csv_lines) == 9 and csv_lines[0].startswith(f"run,status,seed,{HEADING},{RANGE}")
+    for row in table:  # each run ran with its own values: metrics.json says so
+        metrics = json.loads((out / RUNS_DIR / row["run"] / "metrics.json").read_text())
+        assert metrics["seed"] == row["seed"] and metrics["trail_range_m"] == row[RANGE]
+        assert metrics["simulated_s"] == pytest.approx(3.0, abs=0.05)
+        assert row["min_separation_m"] == metrics["min_separation_m"]
+    # the heading gain steers the ROV: the same seed and range, another gain, another path
+    by_key = {(r[HEADING], r[RANGE], r["seed"]): r["min_separation_m"] for r in table}
+    assert by_key[(0.5, 2.0, 1)] != by_key[(2.0, 2.0, 1)]
+    assert (out / "summary.png").stat().st_size > 10_000
+
+
+def test_an_interrupted_sweep_restarts_where_it_stopped(local_ray, tmp_path):
+    path = write_sweep(tmp_path, {HEADING: [0.5, 1.0], RANGE: [2.0, 3.0]})
+    out = tmp_path / "out"
+    finished_before: list[int] = []
+
+    def stop_after_three(done: int, total: int) -> None:
+        finished_before.append(done)
+        if done >= 3:
+            raise KeyboardInterrupt  # as Ctrl-C would, with runs still in flight
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(path, out, workers=2, progress=stop_after_three)
+    complete = {p.parent.name: p.stat().st_mtime_ns for p in (out / RUNS_DIR).glob(
+        "*/metrics.json") if json.loads(p.read_text()).get("completed")}
+    assert len(complete) >= 3 and not (out / "results.parquet").exists()
+    cut = sorted(complete)[0]  # a metrics.json cut short by a kill mid-write
+    metrics = out / RUNS_DIR / cut / "metrics.json"
+    metrics.write_text(metrics.read_text()[:40])
+    result = run_sweep(path, out, workers=2)
+    assert len(result.rows) == 8 and result.failed == 0
+    assert result.skipped == len(complete) - 1
+    for run, mtime in complete.items():  # finished runs untouched, the cut one run again
+        again = (out / RUNS_DIR / run / "metrics.json").stat().st_mtime_ns
+        assert (again == mtime) == (run != cut)
+    assert json.loads(metrics.read_text())["completed"] is True
+    third = run_sweep(path, out, workers=2)
+    assert third.skipped == 8 and all(r["run_wall_s"] is None for r in third.rows)
+
+
+def test_failed_runs_are_recorded_and_the_others_finish(local_ray, tmp_path):
+    # -1 is refused by the schema (a gain >= 0); a diver 50 m down starts below the floor
+    # (8 m): refused when the run builds, inside its Ray task
+    grid = {HEADING: [1.0, -1.0], "agents.diver.start.depth": [1.5, 50.0]}
+    result = run_sweep(write_sweep(tmp_path, grid, seeds=(1,)), tmp_path / "out", workers=2)
+    rows = {(r[HEADING], r["agents.diver.start.depth"]): r for r in result.rows}
+    assert len(rows) == 4 and result.failed == 3
+    assert rows[(1.0, 1.5)]["status"] == "ok"
+    assert rows[(1.0, 1.5)]["min_separation_m"] > 0
+    for key in [(-1.0, 1.5), (-1.0, 50.0)]:
+        error = rows[key]["error"]
+        assert rows[key]["status"] == "failed" and "\n" not in error
+        assert "agents[1].controller.heading" in error and "greater than or equal to 0" in error
+    built = rows[(1.0, 50.0)]
+    assert built["status"] == "failed" and "\n" not in built["error"]
+    assert "below the sea floor" in built["error"]
+    assert (tmp_path / "out" / RUNS_DIR / built["run"] / "error.txt").read_text().strip() == \
+        built["error"]
