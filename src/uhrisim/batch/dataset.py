@@ -179,14 +179,10 @@ class DatasetFile(Strict):
 
 @dataclass(frozen=True)
 class DatasetPlan:
-    """A checked dataset file and where its relative paths resolve."""
+    """A checked dataset file and the folder its relative paths (mesh files) are in."""
 
     spec: DatasetFile
     folder: Path
-
-    def resolve(self, relative: str) -> Path:
-        path = Path(relative).expanduser()
-        return path if path.is_absolute() else self.folder / path
 
 
 def load_dataset(path: str | Path) -> DatasetPlan:
@@ -370,8 +366,9 @@ class FrameBuilder:
         if kind.size is not None:
             data["size"] = [draw_span(s, rng) for s in kind.size]
         if kind.file is not None:
-            data |= {"file": str(self.plan.resolve(kind.file)),
-                     "scale": draw_span(kind.scale, rng)}
+            # as written: the frame's world resolves it beside the dataset file, and its
+            # JSON does not depend on where the dataset sits
+            data |= {"file": kind.file, "scale": draw_span(kind.scale, rng)}
         world = validate_data({"objects": [data]}, where, model=World, kind="dataset")
         return world.objects[0]
 
