@@ -109,7 +109,6 @@ class PlannedRun:
     run_id: str
     scenario_path: str
     sonar: bool
-    duration: float | None
     error: str | None = None  # the scenario refuses these values: failed without running
 
 
@@ -219,7 +218,7 @@ def _plan_run(index: int, point: dict[str, Any], seed: int, base: dict[str, Any]
     digest = hashlib.sha256(json.dumps({"scenario": identity, "sonar": sweep.sonar},
                                        sort_keys=True, default=str).encode()).hexdigest()
     return PlannedRun(index, point, seed, data, digest[:12], str(base_path), sweep.sonar,
-                      sweep.duration, error)
+                      error)
 
 
 def completed_metrics(run_dir: Path) -> dict[str, Any] | None:
