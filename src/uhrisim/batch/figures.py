@@ -19,7 +19,9 @@ BINS = 6
 #: Columns of the table that are bookkeeping, not outcomes.
 NOT_METRICS = ("seed", "run_wall_s", "wall_s", "real_time_factor", "simulated_s",
                "trail_range_m", "trail_angle_deg", "completed")
-MAX_METRICS = 12
+MAX_METRICS = 8
+#: Shown first: the headline outcomes of a mission (then RMS errors, then the rest).
+HEADLINE = ("time_to_acquire_s", "min_separation_m", "collisions")
 
 
 def numeric_column(rows: list[dict[str, Any]], name: str) -> np.ndarray | None:
@@ -45,7 +47,8 @@ def mean_ci95(values: np.ndarray) -> tuple[float, float]:
 
 
 def metric_columns(rows: list[dict[str, Any]], parameters: list[str]) -> list[str]:
-    """Numeric outcome columns that vary over the completed runs (at most MAX_METRICS)."""
+    """Numeric outcome columns that vary over the completed runs, headline ones and RMS
+    errors first (at most MAX_METRICS)."""
     names = list(dict.fromkeys(k for row in rows for k in row))
     chosen = []
     for name in names:
@@ -54,7 +57,9 @@ def metric_columns(rows: list[dict[str, Any]], parameters: list[str]) -> list[st
         column = numeric_column(rows, name)
         if column is not None and np.isfinite(column).any() and np.nanstd(column) > 0:
             chosen.append(name)
-    return chosen[:MAX_METRICS]
+    rank = {name: (0 if name in HEADLINE else 1 if name.endswith(".rms") else 2)
+            for name in chosen}
+    return sorted(chosen, key=lambda name: rank[name])[:MAX_METRICS]
 
 
 def _groups(values: list[Any]) -> tuple[list[np.ndarray], list[float], list[str]]:
@@ -116,7 +121,7 @@ def plot_sweep_summary(rows: list[dict[str, Any]], parameters: list[str], path: 
     failed = len(rows) - len(ok)
     fig.suptitle(f"{len(ok)} completed runs ({failed} failed): mean and 95 % CI per value",
                  fontsize=10)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.35 / fig.get_figheight()))
     fig.savefig(path, dpi=90)
     plt.close(fig)
     return path
