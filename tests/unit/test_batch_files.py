@@ -5,6 +5,7 @@ starts (``uhrisim sweep`` / ``uhrisim dataset``: one ``error:`` line, exit statu
 from __future__ import annotations
 
 import json
+import re
 import socket
 from pathlib import Path
 
@@ -167,3 +168,20 @@ def test_bad_dataset_files_are_one_line_errors(tmp_path, edit, parts):
     out = tmp_path / "out"
     one_line_error(cli.invoke(app, ["dataset", str(path), "--out", str(out)]), *parts)
     assert not out.exists()
+
+
+def test_the_shipped_examples_and_the_readme_sweep_load(tmp_path):
+    from uhrisim.batch.dataset import load_dataset
+
+    plan = load_sweep(shipped_scenario("sweep_trail_gains.yaml"))
+    assert len(plan.runs) == 3 * 2 * 3 and not any(r.error for r in plan.runs)
+    assert all(r.data["agents"][1]["contacts"]["position_noise_std"] == 0.2 for r in plan.runs)
+    dataset = load_dataset(shipped_scenario("dataset_sonar_objects.yaml"))
+    assert dataset.spec.classes == ["diver", "rov", "piling", "crate", "buoy", "tyre"]
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    block = next(b for b in re.findall(r"```yaml\n(.*?)```", readme, flags=re.S)
+                 if b.startswith("scenario:"))
+    sweep = yaml.safe_load(block) | {"scenario": str(shipped_scenario())}
+    (tmp_path / "readme.yaml").write_text(json.dumps(sweep))
+    assert [r.parameters for r in load_sweep(tmp_path / "readme.yaml").runs] == [
+        r.parameters for r in plan.runs]
