@@ -2,7 +2,8 @@
 8 rows with the right parameters, applied in each run; an interrupted and restarted sweep
 skips the runs that finished (and reruns the one whose metrics were cut short); a run
 with a value the scenario refuses, or that cannot be built, is a failed row with its
-one-line error while the others finish.
+one-line error while the others finish. The ``uhrisim sweep`` command SIGKILLed with its
+own local Ray and started again skips the runs that finished.
 
 Runs are 3 simulated seconds of the paper's mission without sonar or recording.
 """
@@ -11,6 +12,12 @@ from __future__ import annotations
 
 import itertools
 import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -126,3 +133,33 @@ def test_failed_runs_are_recorded_and_the_others_finish(local_ray, tmp_path):
     assert "below the sea floor" in built["error"]
     assert (tmp_path / "out" / RUNS_DIR / built["run"] / "error.txt").read_text().strip() == \
         built["error"]
+
+
+def test_a_sigkilled_sweep_command_restarts_where_it_stopped(tmp_path):
+    """The command itself, with the local Ray it starts, SIGKILLed (its whole process
+    group) after two runs finished; started again, it runs only the others."""
+    path = write_sweep(tmp_path, {RANGE: [2.0, 3.0, 4.0, 5.0]}, duration=20.0)
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "uhrisim", "sweep", str(path), "--out", str(out),
+               "--workers", "2"]
+    first = subprocess.Popen(command, start_new_session=True, stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 180.0
+        while len(list((out / RUNS_DIR).glob("*/metrics.json"))) < 2:
+            assert first.poll() is None and time.monotonic() < deadline
+            time.sleep(0.1)
+    finally:
+        os.killpg(first.pid, signal.SIGKILL)
+        first.wait()
+    complete = {p.parent.name: p.stat().st_mtime_ns for p in (out / RUNS_DIR).glob(
+        "*/metrics.json") if json.loads(p.read_text() or "{}").get("completed")}
+    assert 2 <= len(complete) < 8 and not (out / "results.csv").exists()
+    again = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr
+    # (a worker busy when its driver died may still finish its run before it exits)
+    summary = re.search(r"8 runs: 8 ok \((\d+) already done\), 0 failed", again.stdout)
+    assert summary and len(complete) <= int(summary[1]) < 8, again.stdout
+    for run, mtime in complete.items():
+        assert (out / RUNS_DIR / run / "metrics.json").stat().st_mtime_ns == mtime
+    assert len((out / "results.csv").read_text().splitlines()) == 9
