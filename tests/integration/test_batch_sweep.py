@@ -163,3 +163,20 @@ def test_a_sigkilled_sweep_command_restarts_where_it_stopped(tmp_path):
     for run, mtime in complete.items():
         assert (out / RUNS_DIR / run / "metrics.json").stat().st_mtime_ns == mtime
     assert len((out / "results.csv").read_text().splitlines()) == 9
+
+
+def test_a_task_that_raises_is_reported_and_the_others_finish(local_ray):
+    from uhrisim.batch.cluster import run_tasks
+
+    def halve(x: int) -> float:
+        if x == 3:
+            raise ValueError("three is odd here")
+        return x / 2
+
+    results, errors = {}, {}
+    run_tasks(halve, [1, 2, 3, 4], 2, results.__setitem__, errors.__setitem__)
+    assert results == {0: 0.5, 1: 1.0, 3: 2.0}
+    assert list(errors) == [2] and type(errors[2]) is ValueError
+    assert "three is odd here" in str(errors[2])
+    with pytest.raises(ValueError, match="three is odd here"):  # the task's own error
+        run_tasks(halve, [3], 1, results.__setitem__)

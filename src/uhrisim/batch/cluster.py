@@ -116,28 +116,41 @@ def _init(ray: Any, address: str | None, workers: int | None) -> None:
 
 
 def run_tasks(function: Callable[[Any], Any], items: Sequence[Any], in_flight: int,
-              on_result: Callable[[int, Any], None]) -> None:
+              on_result: Callable[[int, Any], None],
+              on_error: Callable[[int, BaseException], None] | None = None) -> None:
     """Run ``function(item)`` as one Ray task (1 CPU) per item, at most ``in_flight`` at a
     time, and call ``on_result(index, result)`` in the driver as each one finishes (in
-    completion order). An exception inside a task is re-raised here; callers that want
-    the others to go on catch errors inside ``function`` and return them. Interrupted
-    (Ctrl-C, an exception from ``on_result``), the tasks still running are cancelled."""
+    completion order). A task that raises, or whose worker died (Ray retries those on
+    another worker first), goes to ``on_error(index, error)`` — the task's own exception
+    — and the others go on; without ``on_error`` that exception is raised here.
+    Interrupted (Ctrl-C, an exception from a callback), the tasks still running are
+    cancelled."""
     ray = _ray()
-    remote = ray.remote(num_cpus=1, max_retries=0)(function)
+    remote = ray.remote(num_cpus=1)(function)
     pending: dict[Any, int] = {}
     queue = iter(enumerate(items))
-    try:
+
+    def submit() -> None:
         for index, item in queue:
             pending[remote.remote(item)] = index
-            if len(pending) >= in_flight:
-                break
+            return
+
+    try:
+        for _ in range(in_flight):
+            submit()
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1)
             index = pending.pop(done[0])
-            on_result(index, ray.get(done[0]))
-            for next_index, item in queue:
-                pending[remote.remote(item)] = next_index
-                break
+            submit()
+            try:
+                result = ray.get(done[0])
+            except ray.exceptions.RayError as error:
+                cause = error.cause if isinstance(error, ray.exceptions.RayTaskError) else error
+                if on_error is None:
+                    raise cause from None
+                on_error(index, cause)
+                continue
+            on_result(index, result)
     finally:
         for ref in pending:
             ray.cancel(ref, force=True)

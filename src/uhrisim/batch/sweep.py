@@ -249,12 +249,16 @@ def execute_run(task: tuple[PlannedRun, str]) -> dict[str, Any]:
         metrics = run_scenario(source, run_dir, sonar=run.sonar).metrics or {}
         status, error = "ok", None
     except Exception as failure:
-        metrics = {}
-        status = "failed"
-        error = str(failure) if isinstance(failure, UhrisimError) else \
-            f"{type(failure).__name__}: {first_line(failure)}"
+        metrics, status, error = {}, "failed", one_line(failure)
         (run_dir / "error.txt").write_text(error + "\n")
     return _row(run, status, error, metrics, time.perf_counter() - start)
+
+
+def one_line(error: BaseException) -> str:
+    """The one-line message of a run's error (uhrisim's own errors are one line already)."""
+    if isinstance(error, UhrisimError):
+        return str(error)
+    return f"{type(error).__name__}: {first_line(error)}"
 
 
 def _row(run: PlannedRun, status: str, error: str | None, metrics: dict[str, Any],
@@ -309,9 +313,14 @@ def run_sweep(sweep_path: str | Path, out: str | Path, *, address: str | None = 
         if progress:
             progress(done, len(plan.runs))
 
+    def lost_one(index: int, error: BaseException) -> None:
+        """A run whose worker died (out of memory, a lost node): failed, the rest go on."""
+        finished_one(index, _row(todo[index], "failed", one_line(error), {}, None))
+
     if todo:
         with ray_session(address, workers) as in_flight:
-            run_tasks(execute_run, [(run, str(out)) for run in todo], in_flight, finished_one)
+            run_tasks(execute_run, [(run, str(out)) for run in todo], in_flight, finished_one,
+                      lost_one)
     result = SweepResult([r for r in rows if r is not None], skipped)
     result.files = write_table(result.rows, plan.parameters, out)
     result.files.append(plot_sweep_summary(result.rows, plan.parameters, out / "summary.png"))
