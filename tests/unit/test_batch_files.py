@@ -14,6 +14,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
+from tests.integration.test_cli_bad_input import one_line_error
 from uhrisim.batch.params import Draw, apply_path, check_path, split_path
 from uhrisim.batch.sweep import load_sweep
 from uhrisim.cli import app
@@ -97,15 +98,6 @@ def test_a_plan_crosses_grid_list_random_and_seeds(tmp_path):
                                                     None}, seeds=[10]))
     implicit = load_sweep(sweep_file(tmp_path, seeds=[10]))
     assert explicit.runs[0].run_id == implicit.runs[0].run_id
-
-
-def one_line_error(result, *parts: str) -> str:
-    assert result.exit_code == 2, result.output
-    lines = [line for line in result.output.splitlines() if line.strip()]
-    assert len(lines) == 1 and lines[0].startswith("error: "), result.output
-    for part in parts:
-        assert part in lines[0], lines[0]
-    return lines[0]
 
 
 @pytest.mark.parametrize(("fields", "parts"), [
