@@ -27,8 +27,10 @@ from uhrisim.core.errors import ConfigError, MissingExtraError
 
 #: Environment of a local Ray: no usage statistics; on Linux, Ray replaces a node IP of
 #: 127.0.0.1 by the machine's address unless clusters are declared unsupported, which
-#: keeps the node (and so every gRPC server of it) on loopback.
-LOCAL_RAY_ENV = {"RAY_USAGE_STATS_ENABLED": "0", "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"}
+#: keeps the node (and so every gRPC server of it) on loopback; token authentication on
+#: (Ray's default for a local cluster, said explicitly: no warning on every start).
+LOCAL_RAY_ENV = {"RAY_USAGE_STATS_ENABLED": "0", "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0",
+                 "RAY_AUTH_MODE": "token"}
 LOOPBACK = "127.0.0.1"
 #: Seconds a TCP connection to ``--address`` may take before it counts as unreachable.
 CONNECT_TIMEOUT_S = 5.0
