@@ -491,7 +491,7 @@ def coco_document(spec: DatasetFile, records: list[dict[str, Any]]) -> dict[str,
             annotations.append({"id": len(annotations) + 1, "image_id": image_id} | ann)
     return {
         "info": {"description": spec.description or spec.name,
-                 "version": uhrisim.__version__, "year": 2013,
+                 "version": uhrisim.__version__,
                  "contributor": "uhrisim (DeMarco, West & Howard 2013 sonar re-creation)"},
         "licenses": [],
         "images": images,
