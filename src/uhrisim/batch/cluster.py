@@ -27,10 +27,11 @@ from uhrisim.core.errors import ConfigError, MissingExtraError
 
 #: Environment of a local Ray: no usage statistics; on Linux, Ray replaces a node IP of
 #: 127.0.0.1 by the machine's address unless clusters are declared unsupported, which
-#: keeps the node (and so every gRPC server of it) on loopback; token authentication on
-#: (Ray's default for a local cluster, said explicitly: no warning on every start).
-LOCAL_RAY_ENV = {"RAY_USAGE_STATS_ENABLED": "0", "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0",
-                 "RAY_AUTH_MODE": "token"}
+#: keeps the node (and so every gRPC server of it) on loopback.
+LOCAL_RAY_ENV = {"RAY_USAGE_STATS_ENABLED": "0", "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"}
+#: Ray's logger that says, at every local start, that token authentication is on (its
+#: default, which we keep).
+_TOKEN_NOTICE_LOGGER = "ray._private.authentication.authentication_token_setup"
 LOOPBACK = "127.0.0.1"
 #: Seconds a TCP connection to ``--address`` may take before it counts as unreachable.
 CONNECT_TIMEOUT_S = 5.0
@@ -104,6 +105,7 @@ def _init(ray: Any, address: str | None, workers: int | None) -> None:
     quiet = {"include_dashboard": False, "log_to_driver": False,
              "logging_level": logging.ERROR, "configure_logging": False}
     if address is None:
+        logging.getLogger(_TOKEN_NOTICE_LOGGER).setLevel(logging.ERROR)
         ray.init(num_cpus=workers or os.cpu_count() or 1, _node_ip_address=LOOPBACK,
                  # the workers import uhrisim from this environment; no packaging
                  runtime_env={"env_vars": dict(LOCAL_RAY_ENV)}, **quiet)
