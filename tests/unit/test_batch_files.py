@@ -141,6 +141,7 @@ def test_unreachable_or_malformed_addresses_are_one_line(tmp_path, address, part
     result = cli.invoke(app, ["sweep", str(path), "--out", str(tmp_path / "o"),
                               "--address", address])
     one_line_error(result, "--address", part)
+    assert not (tmp_path / "o").exists()
 
 
 @pytest.mark.parametrize(("edit", "parts"), [

@@ -16,6 +16,7 @@ one-line :class:`~uhrisim.core.errors.ConfigError`, not a minute of retries.
 from __future__ import annotations
 
 import contextlib
+import importlib
 import logging
 import os
 import re
@@ -24,6 +25,7 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from uhrisim.core.errors import ConfigError, MissingExtraError
+from uhrisim.world.meshes import first_line
 
 #: Environment of a local Ray: no usage statistics; on Linux, Ray replaces a node IP of
 #: 127.0.0.1 by the machine's address unless clusters are declared unsupported, which
@@ -55,10 +57,23 @@ def _ray(local: bool = False) -> Any:
 
 
 def check_address(address: str | None) -> tuple[str, int] | None:
-    """(host, port) that ``address`` names (None for a local Ray or ``auto``); a
-    ConfigError naming ``--address`` if it is malformed or nothing listens there."""
-    if address is None or address == "auto":
+    """(host, port) that ``address`` names (None for a local Ray); a ConfigError naming
+    ``--address`` if it is malformed or nothing listens there. ``auto`` is the address Ray
+    itself would pick (``RAY_ADDRESS``, the last ``ray start`` on this machine, a running
+    GCS), checked the same way: Ray would otherwise retry a stale one for minutes."""
+    if address is None:
         return None
+    if address == "auto":
+        services = importlib.import_module("ray._private.services", _ray().__name__)
+        try:
+            found = services.get_ray_address_from_environment("auto", None)
+        except (ConnectionError, RuntimeError, ValueError) as error:
+            raise ConfigError(f"auto: no Ray found on this machine ({first_line(error)})",
+                              where="--address") from None
+        if found in (None, "auto"):
+            raise ConfigError("auto: no Ray found on this machine (start one with "
+                              "`ray start --head`)", where="--address")
+        return check_address(found)
     rest = address.removeprefix("ray://")
     match = _HOST_PORT.match(rest)
     if not match or not 0 < int(match["port"]) <= 65535:
@@ -114,8 +129,7 @@ def _init(ray: Any, address: str | None, workers: int | None) -> None:
         ray.init(address=address, log_to_driver=False, logging_level=logging.ERROR,
                  configure_logging=False)
     except (ConnectionError, RuntimeError, ValueError) as error:
-        message = str(error).strip().splitlines()[0] if str(error).strip() else repr(error)
-        raise ConfigError(f"cannot connect to Ray at {address}: {message}",
+        raise ConfigError(f"cannot connect to Ray at {address}: {first_line(error)}",
                           where="--address") from None
 
 

@@ -41,7 +41,7 @@ import yaml
 from pydantic import Field, field_validator, model_validator
 
 import uhrisim
-from uhrisim.batch.cluster import ray_session, run_tasks
+from uhrisim.batch.cluster import check_address, ray_session, run_tasks
 from uhrisim.batch.params import Draw
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import rot_z
@@ -454,6 +454,7 @@ def run_dataset(dataset_path: str | Path, out: str | Path, *, address: str | Non
         raise ConfigError(f"must be an integer >= 1, got {shard_frames!r}",
                           where="--shard-frames")
     plan = load_dataset(dataset_path)
+    check_address(address)  # before anything is written
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     total = plan.spec.frames

@@ -39,7 +39,7 @@ from typing import Annotated, Any
 
 from pydantic import Field, PositiveFloat, field_validator
 
-from uhrisim.batch.cluster import ray_session, run_tasks
+from uhrisim.batch.cluster import check_address, ray_session, run_tasks
 from uhrisim.batch.figures import plot_sweep_summary
 from uhrisim.batch.params import Draw, apply_path, check_path
 from uhrisim.core.errors import ConfigError, UhrisimError
@@ -289,6 +289,7 @@ def run_sweep(sweep_path: str | Path, out: str | Path, *, address: str | None = 
 
     ``progress(done, total)`` is called as runs finish (skipped ones count as done)."""
     plan = load_sweep(sweep_path)
+    check_address(address)  # before anything is written
     out = Path(out)
     (out / RUNS_DIR).mkdir(parents=True, exist_ok=True)
     rows: list[dict[str, Any] | None] = [None] * len(plan.runs)
