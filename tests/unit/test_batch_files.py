@@ -178,3 +178,24 @@ def test_the_shipped_examples_and_the_readme_sweep_load(tmp_path):
     (tmp_path / "readme.yaml").write_text(json.dumps(sweep))
     assert [r.parameters for r in load_sweep(tmp_path / "readme.yaml").runs] == [
         r.parameters for r in plan.runs]
+
+
+def test_confidence_intervals_and_bins_of_the_summary_figure():
+    from scipy import stats
+
+    from uhrisim.batch.figures import BINS, _groups, mean_ci95
+
+    mean, half = mean_ci95(np.array([1.0, 2.0, 3.0, 4.0, np.nan]))
+    # by hand: s = sqrt(5/3), t(0.975, 3) = 3.1824
+    assert mean == 2.5 and half == pytest.approx(3.1824463 * np.sqrt(5 / 3) / 2, rel=1e-6)
+    assert mean_ci95(np.array([7.0])) == (7.0, 0.0)
+    sample = np.random.default_rng(1).normal(10.0, 2.0, 4000)
+    m, h = mean_ci95(sample)
+    assert h == pytest.approx(stats.sem(sample) * 1.96, rel=0.01) and abs(m - 10.0) < h * 2
+    groups, xs, labels = _groups([0.5, 2.0, 0.5, 1.0, 2.0])  # a grid: one group a value
+    assert xs == [0.5, 1.0, 2.0] and [g.tolist() for g in groups] == [[0, 2], [3], [1, 4]]
+    drawn = list(np.linspace(0.0, 1.0, 60))  # random draws: equal-count bins
+    groups, xs, _ = _groups(drawn)
+    assert len(groups) == BINS and {g.size for g in groups} == {10} and xs == sorted(xs)
+    groups, xs, labels = _groups(["P900-90", "P900-45", "P900-90"])  # categories
+    assert labels == ["P900-90", "P900-45"] and xs == [0.0, 1.0]
