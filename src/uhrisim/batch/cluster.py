@@ -117,17 +117,17 @@ def start_local_ray(workers: int) -> None:
 
 
 def _init(ray: Any, address: str | None, workers: int | None) -> None:
-    quiet = {"include_dashboard": False, "log_to_driver": False,
-             "logging_level": logging.ERROR, "configure_logging": False}
+    """Start a local Ray (``address`` None) or connect; the tasks' output stays in Ray's
+    logs (``/tmp/ray/session_*/logs``), not on this terminal."""
+    quiet = {"log_to_driver": False, "logging_level": logging.ERROR,
+             "configure_logging": False}
     if address is None:
         logging.getLogger(_TOKEN_NOTICE_LOGGER).setLevel(logging.ERROR)
         ray.init(num_cpus=workers or os.cpu_count() or 1, _node_ip_address=LOOPBACK,
-                 # the workers import uhrisim from this environment; no packaging
-                 runtime_env={"env_vars": dict(LOCAL_RAY_ENV)}, **quiet)
+                 include_dashboard=False, **quiet)
         return
     try:
-        ray.init(address=address, log_to_driver=False, logging_level=logging.ERROR,
-                 configure_logging=False)
+        ray.init(address=address, **quiet)
     except (ConnectionError, RuntimeError, ValueError) as error:
         raise ConfigError(f"cannot connect to Ray at {address}: {first_line(error)}",
                           where="--address") from None
