@@ -42,7 +42,7 @@ from pydantic import Field, field_validator, model_validator
 
 import uhrisim
 from uhrisim.batch.cluster import check_address, ray_session, run_tasks
-from uhrisim.batch.params import Draw
+from uhrisim.batch.params import Draw, read_yaml
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import rot_z
 from uhrisim.core.rng import component_rng
@@ -57,7 +57,6 @@ from uhrisim.scenario.schema import (
     Water,
     World,
 )
-from uhrisim.scenario.yaml_lines import load_with_lines
 from uhrisim.world.assets import diver_parts, videoray_mesh
 from uhrisim.world.materials import NEOPRENE, ROV_PLASTIC
 from uhrisim.world.scene import Scene
@@ -189,11 +188,7 @@ def load_dataset(path: str | Path) -> DatasetPlan:
     """Read and check a dataset file; frame 0 is drawn and built here, so a bad sonar
     setting, material or mesh file is a one-line ConfigError before Ray starts."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as error:
-        raise ConfigError(f"cannot read dataset file ({error.strerror})", where=str(path)) from None
-    data, lines = load_with_lines(text, str(path))
+    data, lines = read_yaml(path, "dataset")
     spec: DatasetFile = validate_data(data, str(path), lines, model=DatasetFile, kind="dataset")
     low, high = spec.objects.count
     if low > high:

@@ -81,7 +81,8 @@ def _groups(values: list[Any]) -> tuple[list[np.ndarray], list[float], list[str]
     return groups, xs, [str(d) for d in distinct]
 
 
-def plot_sweep_summary(rows: list[dict[str, Any]], parameters: list[str], path: Path) -> Path:
+def plot_sweep_summary(rows: list[dict[str, Any]], parameters: list[str], path: Path,
+                       title: str = "sweep") -> Path:
     """Draw the summary figure of the completed runs into ``path`` (PNG)."""
     import matplotlib
 
@@ -119,7 +120,8 @@ def plot_sweep_summary(rows: list[dict[str, Any]], parameters: list[str], path: 
                 ax.set_xlabel(parameter, fontsize=8)
             ax.grid(alpha=0.3)
     failed = len(rows) - len(ok)
-    fig.suptitle(f"{len(ok)} completed runs ({failed} failed): mean and 95 % CI per value",
+    fig.suptitle(f"{title}: {len(ok)} completed runs ({failed} failed), mean and 95 % CI "
+                 "per value",
                  fontsize=10)
     fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.35 / fig.get_figheight()))
     fig.savefig(path, dpi=90)

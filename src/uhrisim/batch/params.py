@@ -13,6 +13,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
+from pathlib import Path
 from types import UnionType
 from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
@@ -21,6 +22,7 @@ from pydantic import BaseModel, model_validator
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.scenario.schema import Scenario, Strict
+from uhrisim.scenario.yaml_lines import LineMap, load_with_lines
 
 #: Keys that name an item of a list in a scenario (agents by name, objects by label).
 ITEM_KEYS = ("name", "label")
@@ -59,6 +61,18 @@ class Draw(Strict):
         if self.integers is not None:
             return int(rng.integers(self.integers[0], self.integers[1], endpoint=True))
         return self.choice[int(rng.integers(len(self.choice)))]
+
+
+def read_yaml(path: Path, kind: str) -> tuple[Any, LineMap]:
+    """The parsed YAML of a ``kind`` file ("sweep", "scenario", "dataset") and the line of
+    each key; a missing or unreadable file is a one-line ConfigError."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{kind} file not found", where=str(path)) from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise ConfigError(f"cannot read {kind} file: {error}", where=str(path)) from None
+    return load_with_lines(text, str(path))
 
 
 def split_path(path: str) -> list[str | int]:

@@ -3,6 +3,7 @@
 A sweep file (YAML; paths beside it)::
 
     scenario: track_and_trail.yaml      # the base scenario
+    name: heading gains                 # the summary figure's title (default: file name)
     set: {duration: 60, recording.enabled: false}   # the same for every run
     grid:                               # every combination (Cartesian product)
       agents.videoray.controller.heading: [0.5, 1.0, 2.0]
@@ -41,12 +42,12 @@ from pydantic import Field, PositiveFloat, field_validator
 
 from uhrisim.batch.cluster import check_address, ray_session, run_tasks
 from uhrisim.batch.figures import plot_sweep_summary
-from uhrisim.batch.params import Draw, apply_path, check_path
+from uhrisim.batch.params import Draw, apply_path, check_path, read_yaml
 from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.core.rng import component_rng
 from uhrisim.scenario.load import ScenarioFile, validate_data
 from uhrisim.scenario.schema import Strict
-from uhrisim.scenario.yaml_lines import LineMap, line_of, load_with_lines
+from uhrisim.scenario.yaml_lines import line_of
 from uhrisim.world.meshes import first_line
 
 RUNS_DIR = "runs"
@@ -132,24 +133,14 @@ class SweepResult:
         return sum(row["status"] == "failed" for row in self.rows)
 
 
-def _read_yaml(path: Path, kind: str) -> tuple[Any, LineMap]:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"{kind} file not found", where=str(path)) from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise ConfigError(f"cannot read {kind} file: {error}", where=str(path)) from None
-    return load_with_lines(text, str(path))
-
-
 def load_sweep(path: str | Path) -> SweepPlan:
     """Read and check a sweep file and plan its runs: every error (an unknown dotted path,
     an empty grid, a missing scenario) is a one-line ConfigError before anything runs."""
     path = Path(path)
-    data, lines = _read_yaml(path, "sweep")
+    data, lines = read_yaml(path, "sweep")
     sweep: SweepFile = validate_data(data, str(path), lines, model=SweepFile, kind="sweep")
     base_path = (path.parent / sweep.scenario).resolve()
-    base, base_lines = _read_yaml(base_path, "scenario")
+    base, base_lines = read_yaml(base_path, "scenario")
     validate_data(base, str(base_path), base_lines)  # the base itself must be sound
 
     def where(*key: Any) -> str:
@@ -324,7 +315,8 @@ def run_sweep(sweep_path: str | Path, out: str | Path, *, address: str | None = 
                       lost_one)
     result = SweepResult([r for r in rows if r is not None], skipped)
     result.files = write_table(result.rows, plan.parameters, out)
-    result.files.append(plot_sweep_summary(result.rows, plan.parameters, out / "summary.png"))
+    result.files.append(plot_sweep_summary(result.rows, plan.parameters, out / "summary.png",
+                                           plan.name))
     return result
 
 
