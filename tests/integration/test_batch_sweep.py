@@ -180,3 +180,21 @@ def test_a_task_that_raises_is_reported_and_the_others_finish(local_ray):
     assert "three is odd here" in str(errors[2])
     with pytest.raises(ValueError, match="three is odd here"):  # the task's own error
         run_tasks(halve, [3], 1, results.__setitem__)
+
+
+@pytest.mark.parametrize("how", ["host:port", "auto"])
+def test_the_command_joins_an_existing_ray(local_ray, tmp_path, how):
+    """``uhrisim sweep --address`` in another process joins this module's Ray (a cluster
+    of one node) as a second driver, runs there, and leaves it running."""
+    gcs = local_ray.get_runtime_context().gcs_address
+    assert gcs.startswith(f"{LOOPBACK}:")
+    env = os.environ | ({"RAY_ADDRESS": gcs} if how == "auto" else {})
+    path = write_sweep(tmp_path, {RANGE: [2.0, 3.0]}, seeds=(1,))
+    done = subprocess.run([sys.executable, "-m", "uhrisim", "sweep", str(path), "--out",
+                           str(tmp_path / "out"), "--address", gcs if how != "auto" else how],
+                          capture_output=True, text=True, timeout=300, env=env)
+    assert done.returncode == 0, done.stderr
+    assert "2 runs: 2 ok (0 already done), 0 failed" in done.stdout
+    table = pa_parquet.read_table(tmp_path / "out" / "results.parquet").to_pylist()
+    assert sorted(r[RANGE] for r in table) == [2.0, 3.0]
+    assert local_ray.get(local_ray.remote(lambda: 42).remote()) == 42  # still running
