@@ -3,7 +3,8 @@
 skips the runs that finished (and reruns the one whose metrics were cut short); a run
 with a value the scenario refuses, or that cannot be built, is a failed row with its
 one-line error while the others finish. The ``uhrisim sweep`` command SIGKILLed with its
-own local Ray and started again skips the runs that finished.
+own local Ray and started again skips the runs that finished; with ``--address`` it joins
+an existing Ray. The local Ray listens on loopback only.
 
 Runs are 3 simulated seconds of the paper's mission without sonar or recording.
 """
