@@ -166,10 +166,10 @@ def test_bad_dataset_files_are_one_line_errors(tmp_path, edit, parts):
 def test_the_shipped_examples_and_the_readme_sweep_load(tmp_path):
     from uhrisim.batch.dataset import load_dataset
 
-    plan = load_sweep(shipped_scenario("sweep_trail_gains.yaml"))
+    plan = load_sweep(shipped_scenario("batch/sweep_trail_gains.yaml"))
     assert len(plan.runs) == 3 * 3 * 2 and not any(r.error for r in plan.runs)
     assert all(r.data["agents"][1]["contacts"]["position_noise_std"] == 0.2 for r in plan.runs)
-    dataset = load_dataset(shipped_scenario("dataset_sonar_objects.yaml"))
+    dataset = load_dataset(shipped_scenario("batch/dataset_sonar_objects.yaml"))
     assert dataset.spec.classes == ["diver", "rov", "piling", "crate", "buoy", "tyre"]
     readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
     block = next(b for b in re.findall(r"```yaml\n(.*?)```", readme, flags=re.S)

@@ -46,7 +46,12 @@ from uhrisim.batch.params import Draw, read_yaml
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import rot_z
 from uhrisim.core.rng import component_rng
-from uhrisim.scenario.build_world import add_object, build_static_scene, object_mesh
+from uhrisim.scenario.build_world import (
+    add_object,
+    build_static_scene,
+    material_named,
+    object_mesh,
+)
 from uhrisim.scenario.load import ScenarioFile, validate_data
 from uhrisim.scenario.schema import (
     AgentConfig,
@@ -94,6 +99,7 @@ def _check_span(span: Span) -> Span:
 
 class FloorSection(Strict):
     types: tuple[Literal["flat", "sloped", "procedural"], ...] = FLOOR_TYPES
+    material: tuple[str, ...] = ("sand",)
     depth: Span = (6.0, 15.0)
     slope: Span = (-0.1, 0.1)
     roughness: Span = (0.1, 0.8)
@@ -234,12 +240,13 @@ class FrameBuilder:
         heading = float(rng.uniform(0.0, 360.0))
         altitude = draw_span(s.altitude, rng)
         floor = self._floor(range_max)
+        floor_material = self._choice(spec.floors.material)
         source = ScenarioFile(Scenario(name=f"{spec.name}/{self.index}",
                                        world=World(water=Water(**water), seafloor=floor),
                                        agents=(AgentConfig(name="sonar", model="kinematic",
                                                            driver="none"),)),
                               self.plan.folder / "dataset.yaml")
-        scene = build_static_scene(source)
+        scene = build_static_scene(source, material_named(floor_material, "floors.material"))
         depth = float(scene.depth_at(0.0, 0.0)) - altitude
         if depth < 0.2:
             raise ConfigError(f"frame {self.index}: the sonar, {altitude:.2f} m above a floor "
@@ -270,6 +277,7 @@ class FrameBuilder:
                       "range_min_m": config.range_min_m, "range_max_m": range_max,
                       "range_bin_m": config.bin_m, "settings": settings},
             "water": water,
+            "floor_material": floor_material,
             "world": World(water=Water(**water), seafloor=floor,
                            objects=tuple(objects)).model_dump(mode="json"),
             "instances": instances,
@@ -502,7 +510,8 @@ def write_card(spec: DatasetFile, records: list[dict[str, Any]], coco: dict[str,
     """``README.md``: what the dataset holds (counts, classes, parameters, layout)."""
     per_class = Counter(a["category_id"] for a in coco["annotations"])
     placed = Counter(i["class"] for r in records for i in r["instances"][1:])
-    floors = Counter(r["world"]["seafloor"]["type"] for r in records)
+    floors = Counter(f'{r["world"]["seafloor"]["type"]} {r["floor_material"]}'
+                     for r in records)
     presets = Counter(r["sonar"]["preset"] for r in records)
     empty = sum(not r["annotations"] for r in records)
     lines = [f"# {spec.name}", "", spec.description or "A labelled forward-looking sonar "

@@ -5,9 +5,9 @@ for frames. One local Ray (2 CPUs, loopback only) is started once; the workers a
 up (imports, first build) before anything is timed, and the time is that of the tasks
 (submission to the last result), not of Ray's start or of the table and figures.
 
-Runs: the paper's track-and-trail mission (``scenarios/sweep_trail_gains.yaml``'s grid),
+Runs: the paper's track-and-trail mission (``scenarios/batch/sweep_trail_gains.yaml``'s grid),
 ``RUN_SECONDS`` simulated seconds each, no sonar, no recording. Frames: the shipped
-example dataset (``scenarios/dataset_sonar_objects.yaml``: two P900 presets, 16 rays a
+example dataset (``scenarios/batch/dataset_sonar_objects.yaml``: two P900 presets, 16 rays a
 beam, 256 px fans, 1-4 objects), ``SHARD_FRAMES`` frames a task. On a machine others
 share, both wall-clock rates drop with the load and their ratio falls short of what 2 free
 cores give; the rates per CPU second of the workers do not depend on the load, and
@@ -58,10 +58,10 @@ def run(quick: bool = False) -> dict[str, Any]:
         return {"skipped": 'needs the batch extra: pip install "uhrisim[batch]"'}
     runs_n = 4 if quick else 12
     frames_n = 20 if quick else 160
-    plan = load_sweep(shipped_scenario("sweep_trail_gains.yaml"))
+    plan = load_sweep(shipped_scenario("batch/sweep_trail_gains.yaml"))
     runs = [r for r in plan.runs if r.error is None][:runs_n]
     runs = [replace(r, data=r.data | {"duration": RUN_SECONDS}) for r in runs]
-    dataset = load_dataset(shipped_scenario("dataset_sonar_objects.yaml"))
+    dataset = load_dataset(shipped_scenario("batch/dataset_sonar_objects.yaml"))
     result: dict[str, Any] = {"cpus": os.cpu_count(), "run_simulated_s": RUN_SECONDS,
                               "runs": len(runs), "frames": frames_n,
                               "shard_frames": SHARD_FRAMES, "target_ratio": TARGET_RATIO}
