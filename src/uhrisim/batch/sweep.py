@@ -228,11 +228,7 @@ def execute_run(task: tuple[PlannedRun, str]) -> dict[str, Any]:
     from uhrisim.sim.runner import run_scenario
 
     run, out = task
-    run_dir = Path(out) / RUNS_DIR / run.run_id
-    run_dir.mkdir(parents=True, exist_ok=True)
-    (run_dir / "run.json").write_text(json.dumps(
-        {"run": run.run_id, "parameters": run.parameters, "seed": run.seed,
-         "scenario": run.scenario_path, "sonar": run.sonar}, indent=2, default=str) + "\n")
+    run_dir = run_folder(run, Path(out))
     start = time.perf_counter()
     try:
         scenario = validate_data(run.data, f"run {run.run_id}")
@@ -243,6 +239,16 @@ def execute_run(task: tuple[PlannedRun, str]) -> dict[str, Any]:
         metrics, status, error = {}, "failed", one_line(failure)
         (run_dir / "error.txt").write_text(error + "\n")
     return _row(run, status, error, metrics, time.perf_counter() - start)
+
+
+def run_folder(run: PlannedRun, out: Path) -> Path:
+    """The run's folder under ``out``, with its ``run.json`` (values, seed, base scenario)."""
+    run_dir = out / RUNS_DIR / run.run_id
+    run_dir.mkdir(parents=True, exist_ok=True)
+    (run_dir / "run.json").write_text(json.dumps(
+        {"run": run.run_id, "parameters": run.parameters, "seed": run.seed,
+         "scenario": run.scenario_path, "sonar": run.sonar}, indent=2, default=str) + "\n")
+    return run_dir
 
 
 def one_line(error: BaseException) -> str:
@@ -287,7 +293,8 @@ def run_sweep(sweep_path: str | Path, out: str | Path, *, address: str | None = 
     todo: list[PlannedRun] = []
     for run in plan.runs:
         finished = completed_metrics(out / RUNS_DIR / run.run_id)
-        if run.error is not None:
+        if run.error is not None:  # refused by the schema: recorded, never run
+            (run_folder(run, out) / "error.txt").write_text(run.error + "\n")
             rows[run.index] = _row(run, "failed", run.error, {}, None)
         elif finished is not None:
             rows[run.index] = _row(run, "ok", None, finished, None)
