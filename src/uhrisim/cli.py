@@ -309,6 +309,76 @@ def demo(
 
 
 
+RayAddress = Annotated[str | None, typer.Option(
+    help="Ray cluster: 'auto' or ray://host:port (default: a local Ray, loopback only)")]
+RayWorkers = Annotated[int | None, typer.Option(help="Ray tasks at a time (default: all CPUs)")]
+
+
+def _on_ray(what: str, workers: int | None, work: Callable[..., Any]) -> Any:
+    """``work(progress=...)`` with a progress bar of ``what`` on stderr (it clears itself
+    at the end), ``--workers`` checked first."""
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    check_option("workers", workers, workers is not None and workers >= 1, "an integer >= 1")
+    columns = (TextColumn(f"[bold]{what}"), BarColumn(), MofNCompleteColumn(),
+               TimeElapsedColumn(), TimeRemainingColumn())
+    with Progress(*columns, console=err_console, transient=True) as bar:
+        task = bar.add_task(what, total=None)
+        return work(progress=lambda done, total: bar.update(task, completed=done, total=total))
+
+
+def _print_lines(lines: list[str]) -> None:
+    for line in lines:
+        console.print(Text(line), soft_wrap=True)
+
+
+@app.command()
+@friendly_errors
+def sweep(
+    sweep_file: Annotated[Path, typer.Argument(help="sweep YAML file")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="output folder")],
+    address: RayAddress = None,
+    workers: RayWorkers = None,
+) -> None:
+    """Run a parameter sweep on Ray: a run folder per run, results.parquet/.csv, summary.png."""
+    from uhrisim.batch.sweep import run_sweep
+
+    result = _on_ray("runs", workers, functools.partial(
+        run_sweep, sweep_file, out, address=address, workers=workers))
+    lines = [f"{len(result.rows)} runs: {len(result.rows) - result.failed} ok "
+             f"({result.skipped} already done), {result.failed} failed"]
+    lines += [f"  failed {row['run']}: {row['error']}" for row in result.rows
+              if row["status"] == "failed"]
+    _print_lines(lines + [f"  wrote {path}" for path in result.files])
+
+
+@app.command()
+@friendly_errors
+def dataset(
+    dataset_file: Annotated[Path, typer.Argument(help="dataset YAML file")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="output folder")],
+    address: RayAddress = None,
+    workers: RayWorkers = None,
+    shard_frames: Annotated[int, typer.Option(help="frames per Ray task")] = 25,
+) -> None:
+    """Render a labelled sonar dataset on Ray: images, label images, COCO, card, preview."""
+    from uhrisim.batch.dataset import run_dataset
+
+    check_option("shard-frames", shard_frames, shard_frames >= 1, "an integer >= 1")
+    result = _on_ray("frames", workers, functools.partial(
+        run_dataset, dataset_file, out, address=address, workers=workers,
+        shard_frames=shard_frames))
+    _print_lines([f"{result.frames} frames, {result.annotations} annotated instances"]
+                 + [f"  wrote {path}" for path in result.files])
+
+
 def _recover_if_cut(recording: Path, recover_in_place: Callable[[Path], int | None]) -> None:
     """Make a recording a killed run cut short complete (kept as ``.partial``), saying so."""
     count = recover_in_place(recording)

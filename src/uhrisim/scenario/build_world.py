@@ -61,12 +61,13 @@ def object_mesh(obj: SceneObject, source: ScenarioFile, where: str, posed: bool 
     raise ConfigError(f"unsupported object type {type(obj).__name__}", where=where)
 
 
-def build_static_scene(source: ScenarioFile) -> Scene:
-    """Scene with the scenario's sea floor and objects (dynamic bodies are added later)."""
+def build_static_scene(source: ScenarioFile, floor_material: Material = SAND) -> Scene:
+    """Scene with the scenario's sea floor (of ``floor_material``) and objects (dynamic
+    bodies are added later)."""
     world = source.scenario.world
     scene = Scene()
     try:
-        _add_floor(scene, world.seafloor, source)
+        _add_floor(scene, world.seafloor, source, floor_material)
     except ConfigError as error:  # e.g. a floor too big: name the scenario's field
         raise ConfigError(str(error), source.where("world", "seafloor")) from None
     for index, obj in enumerate(world.objects):
@@ -74,18 +75,19 @@ def build_static_scene(source: ScenarioFile) -> Scene:
     return scene
 
 
-def _add_floor(scene: Scene, floor: SeaFloor | None, source: ScenarioFile) -> None:
+def _add_floor(scene: Scene, floor: SeaFloor | None, source: ScenarioFile,
+               material: Material) -> None:
     if isinstance(floor, FlatFloor):
-        scene.add_static(seafloor.flat(floor.depth, floor.extent), "seafloor", SAND)
+        scene.add_static(seafloor.flat(floor.depth, floor.extent), "seafloor", material)
     elif isinstance(floor, SlopedFloor):
         scene.add_static(seafloor.sloped(floor.depth, floor.slope, floor.direction_deg,
-                                         floor.extent), "seafloor", SAND)
+                                         floor.extent), "seafloor", material)
     elif isinstance(floor, GridFloor):
         scene.add_static(seafloor.from_height_grid(source.resolve(floor.file), floor.spacing),
-                         "seafloor", SAND)
+                         "seafloor", material)
     elif isinstance(floor, ProceduralFloor):
         scene.add_static(seafloor.procedural(floor.seed, floor.extent, floor.depth,
-                                             floor.roughness), "seafloor", SAND)
+                                             floor.roughness), "seafloor", material)
 
 
 def add_object(scene: Scene, obj: SceneObject, source: ScenarioFile, where: str) -> None:

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.scenario.schema import Scenario
@@ -61,12 +61,14 @@ def _data_path(loc: tuple[Any, ...], data: Any) -> tuple[Any, ...]:
     return tuple(path)
 
 
-def validate_data(data: Any, source: str, lines: LineMap | None = None) -> Scenario:
-    """Validate parsed data; the first problem becomes a one-line ``ConfigError``."""
+def validate_data(data: Any, source: str, lines: LineMap | None = None,
+                  model: type[BaseModel] = Scenario, kind: str = "scenario") -> Any:
+    """Validate parsed data as ``model`` (a scenario unless told; ``kind`` names the file
+    in messages); the first problem becomes a one-line ``ConfigError``."""
     if not isinstance(data, dict):
-        raise ConfigError("a scenario file must be a mapping of keys to values", where=source)
+        raise ConfigError(f"a {kind} file must be a mapping of keys to values", where=source)
     try:
-        return Scenario.model_validate(data)
+        return model.model_validate(data)
     except ValidationError as error:
         first = error.errors()[0]
         loc = _data_path(tuple(first["loc"]), data)
