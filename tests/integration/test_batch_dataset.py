@@ -56,7 +56,7 @@ def dataset_file(folder: Path, seed: int) -> Path:
         ]},
         "sonar": {"preset": ["P900-45", "P900-90"], "range_max_m": [8, 12],
                   "settings": {"rays_per_beam": 8, "fan_size_px": 128,
-                               "range_resolution_m": 0.1, "gain_db": {"uniform": [-3, 3]}}},
+                               "range_resolution_m": 0.1, "gain_db": {"uniform": [0, 6]}}},
     }
     path = folder / "dataset.yaml"
     path.write_text(json.dumps(spec))
