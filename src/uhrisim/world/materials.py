@@ -6,14 +6,14 @@ A :class:`Material` carries the Lambert scattering coefficient ``reflectivity`` 
 ``albedo_rgb`` per camera channel (linear, 0..1) that the camera uses
 (:mod:`uhrisim.sensors.camera`).
 
-The values below are **defaults, not facts** (acoustic and optical alike): they are order-of-magnitude choices so that
-sand is darker than concrete, steel and a scuba tank in a sonar image. Published Lambert
-coefficients vary by an order of magnitude with grain size, frequency and grazing angle
-(sandy seabeds are commonly quoted around μ ≈ −27…−20 dB, i.e. 0.002–0.01, at tens to
-hundreds of kHz; hard man-made targets are much brighter). The optical albedos are
-plausible diffuse reflectances (pale sand brighter than mud, a black neoprene suit about
-5 %, the VideoRay's yellow hull). Expose them in scenarios and calibrate against real data
-where it matters.
+The values below are **defaults, not facts** (acoustic and optical alike): they are
+order-of-magnitude choices so that sand is darker than concrete, steel and a scuba tank
+in a sonar image. Published Lambert coefficients vary by an order of magnitude with
+grain size, frequency and grazing angle (sandy seabeds are commonly quoted around
+μ ≈ −27…−20 dB, i.e. 0.002–0.01, at tens to hundreds of kHz; hard man-made targets are
+much brighter). The optical albedos are plausible diffuse reflectances (pale sand
+brighter than mud, a black neoprene suit about 5 %, the VideoRay's yellow hull). Expose
+them in scenarios and calibrate against real data where it matters.
 """
 
 from __future__ import annotations

@@ -616,7 +616,10 @@ class EmbreeRayCaster(RayCaster):
                     + [[0.0]]
                 )
                 self._static_material = np.concatenate(
-                    [np.full(len(t), o.material_id, np.int32) for t, o in zip(tris, objs, strict=True)]
+                    [
+                        np.full(len(t), o.material_id, np.int32)
+                        for t, o in zip(tris, objs, strict=True)
+                    ]
                     + [[-1]]
                 ).astype(np.int32)
             else:

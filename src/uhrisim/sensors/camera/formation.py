@@ -5,9 +5,10 @@ them. Per channel λ ∈ {R, G, B}, a pixel whose ray hits a surface at range r 
 
     E = E_direct + E_forward + B_sun + B_lamps,
 
-* **object radiance** J (:func:`lamplight_on_surface`, :func:`daylight_on_surface`): Lambertian albedo ρ times the light
-  reaching the surface — the lamps (cone, inverse-square fall-off, attenuation
-  exp(−c·d) on the way out, cosine of incidence) and the down-welling daylight, which
+* **object radiance** J (:func:`lamplight_on_surface`, :func:`daylight_on_surface`):
+  Lambertian albedo ρ times the light reaching the surface — the lamps (cone,
+  inverse-square fall-off, attenuation exp(−c·d) on the way out, cosine of incidence)
+  and the down-welling daylight, which
   dims with depth as exp(−K_d·z) and lights upward-facing surfaces ((1 + n_up)/2;
   no shadows);
 * **direct** (:func:`attenuate`): J·exp(−c·r), c = a + b the beam attenuation;
@@ -99,7 +100,7 @@ def forward_scatter(
     if top < 0.5:
         return source
     h, w = source.shape[:2]
-    n_levels = min(_FS_LEVELS, int(math.ceil(math.log2(top))) + 2)
+    n_levels = min(_FS_LEVELS, math.ceil(math.log2(top)) + 2)
     # level index log2(σ) + 1 for σ ≥ 1 px, 0 (no blur) for σ ≤ 0.5 px, linear between
     idx = np.log2(np.maximum(sigma_px, _F32(0.5)))
     idx += _F32(1.0)

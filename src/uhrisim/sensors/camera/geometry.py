@@ -6,7 +6,8 @@ x optical axis, y right, z down; see :mod:`.config`).
 
 The lamps' backscatter (veiling light) in a pixel depends only on the pixel's direction
 and on how far the ray runs before it hits something — the lamps move with the camera.
-So it is integrated once, per channel, on a grid of directions (``CELLS_ACROSS`` cells across)
+So it is integrated once, per channel, on a grid of directions (square cells of about
+``CELL_DEG``)
 and ``N_RANGE_NODES`` ranges r_k = R·(k/(K − 1))² (dense near the camera, where the lamp
 cones enter the view), and looked up per frame (:func:`.formation.lamp_backscatter`).
 """
@@ -22,8 +23,8 @@ from numpy.typing import NDArray
 from uhrisim.sensors.camera.config import CameraConfig, Lamp
 from uhrisim.sensors.camera.water import WaterOptics
 
-#: backscatter-table cells across the image width (a cell is square, ≥ 2 pixels)
-CELLS_ACROSS = 80
+#: angular size of a backscatter-table cell at the image centre (a square of pixels)
+CELL_DEG = 1.0
 #: range nodes of the backscatter table
 N_RANGE_NODES = 48
 #: integration samples along each direction when building the table
@@ -124,7 +125,7 @@ def camera_geometry(config: CameraConfig) -> CameraGeometry:
     w, h = int(config.width), int(config.height)  # type: ignore[arg-type]
     K = config.intrinsics
     dirs = pixel_directions(K, w, h)
-    block = max(2, -(-w // CELLS_ACROSS))
+    block = max(1, int(K[0, 0] * math.radians(CELL_DEG)))
     cw, ch = -(-w // block), -(-h // block)
     v, u = np.mgrid[0:h, 0:w]
     cell = ((v // block) * cw + (u // block)).reshape(-1).astype(np.int32)
