@@ -67,7 +67,12 @@ from mcap.writer import Writer as McapWriter
 from mcap_ros2._dynamic import serialize_dynamic
 
 from uhrisim import __version__ as uhrisim_version
-from uhrisim.bridges.ros2.convert import cloud_xyzi_flu, odom_fields_from_ned, pose_enu_from_ned
+from uhrisim.bridges.ros2.convert import (
+    cloud_xyzi_flu,
+    odom_fields_from_ned,
+    optical_rotation_ned,
+    pose_enu_from_ned,
+)
 from uhrisim.bridges.ros2.spec import ROS_NAME_TOKEN
 from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.core.frames import (
@@ -185,12 +190,6 @@ def _mono8(image: Any, name: str, where: str) -> np.ndarray:
             where=where,
         )
     return arr
-
-
-# Columns: the optical frame's axes (x right, y down, z forward) in the camera frame
-# (x forward, y right, z down).
-_OPTICAL_FROM_CAMERA = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
-_FLIP_YZ = np.diag([1.0, -1.0, -1.0])
 
 
 def _intrinsics(value: Any, where: str) -> np.ndarray:
@@ -509,11 +508,8 @@ class McapRecorder:
             raise ConfigError(
                 "camera_pose_ned must be (position (3,), rotation (3, 3))", where=where
             ) from None
-        rot = _rotation(rot_ned, "camera rotation", where)
-        # optical axes in the camera frame: x = right (y), y = down (z), z = forward (x);
-        # pose_enu_from_ned treats the child as FRD and flips y, z to FLU: undo that.
-        rot_optical = rot @ _OPTICAL_FROM_CAMERA @ _FLIP_YZ
-        p_enu, q = pose_enu_from_ned(_vec(pos_ned, 3, "camera position", where), rot_optical)
+        rot = optical_rotation_ned(_rotation(rot_ned, "camera rotation", where))
+        p_enu, q = pose_enu_from_ned(_vec(pos_ned, 3, "camera position", where), rot)
         sec, nanosec = divmod(t_ns, 1_000_000_000)
         self._write("/tf", "tf2_msgs/msg/TFMessage", t_ns, cdr.encode_tf_message(
             [(sec, nanosec, self.world_frame, camera_frame, p_enu, q)]))
