@@ -112,7 +112,10 @@ class UnderwaterCamera:
         cfg, geo = self.config, self.geometry
         h, w = self.shape
         origin, R = self.camera_pose(position_ned, rotation_body_to_ned)
-        hits = raycaster.cast(origin, geo.dirs_cam @ R.T, cfg.max_range_m, exclude)
+        # einsum, not @: a BLAS product of these skinny shapes spawns threads, which costs
+        # far more than it saves on a busy machine
+        dirs_ned = np.einsum("ij,kj->ik", geo.dirs_cam, R)
+        hits = raycaster.cast(origin, dirs_ned, cfg.max_range_m, exclude)
         rng32 = hits.distance.astype(_F32)
         scene = raycaster.scene
         radiance = self._radiance(hits, rng32, origin, R, getattr(scene, "materials", ()))
@@ -136,7 +139,7 @@ class UnderwaterCamera:
         down components of the rays change only when the camera's down axis does)."""
         key = R[2].tobytes()
         if self._paths is None or self._paths[0] != key:
-            down = (self.geometry.dirs_cam @ R[2]).astype(_F32)
+            down = np.einsum("ij,j->i", self.geometry.dirs_cam, R[2]).astype(_F32)
             self._paths = (key, fm.DaylightPaths.of(down, self.config.water))
         return self._paths[1]
 
@@ -157,7 +160,7 @@ class UnderwaterCamera:
                                         cfg.sun_radiance)
         if cfg.lamps:
             points_cam = np.take(geo.dirs_cam, hit, axis=0).astype(_F32) * r_hit[:, None]
-            normals_cam = normal_ned @ R.astype(_F32)
+            normals_cam = np.einsum("ij,jk->ik", normal_ned, R.astype(_F32))
             source += fm.lamplight_on_surface(albedo, points_cam, normals_cam, cfg.lamps,
                                               water)
         total = fm.sun_veiling(paths, range_m, float(origin[2]), water, cfg.sun_radiance)
