@@ -240,6 +240,7 @@ class CameraSensor(Strict):
     height: Annotated[int, Field(ge=1, le=8192)] | None = None
     hfov_deg: Annotated[float, Field(gt=0.0, lt=180.0)] | None = None
     max_range: PositiveFloat = 30.0
+    sampling: Literal["adaptive", "full"] = "adaptive"  # rays: adaptive, or one per pixel
     water: CameraWater = CameraWater()
     lamps: bool = True
     lamp_power: NonNegativeFloat = 1.0

@@ -122,6 +122,7 @@ def _camera(sim: BuildContext, cfg: AgentConfig, index: int, sensor: CameraSenso
         config = CameraConfig(
             preset=sensor.preset, width=sensor.width, height=sensor.height,
             hfov_deg=sensor.hfov_deg, rate_hz=sensor.rate_hz, max_range_m=sensor.max_range,
+            sampling=sensor.sampling,
             mount_position_frd=sensor.mount.position, tilt_deg=sensor.mount.tilt_deg,
             yaw_deg=sensor.mount.yaw_deg, water=water, lamps_on=sensor.lamps,
             lamp_power=sensor.lamp_power, sun_radiance=sensor.sun_radiance,

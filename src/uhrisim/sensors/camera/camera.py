@@ -17,8 +17,8 @@ from uhrisim.core.errors import ConfigError
 from uhrisim.sensors.camera import formation as fm
 from uhrisim.sensors.camera.config import CameraConfig
 from uhrisim.sensors.camera.geometry import camera_geometry
+from uhrisim.sensors.camera.sampling import AdaptiveGrid, same_object
 from uhrisim.sensors.sonar.geometry import mount_rotation
-from uhrisim.world.materials import Material
 from uhrisim.world.raycast import RayCaster, RayHits
 
 _F32 = np.float32
@@ -81,6 +81,9 @@ class UnderwaterCamera:
         self._lut = fm.srgb_lut()
         h, w = self.shape
         self._paths: tuple[bytes, fm.DaylightPaths] | None = None
+        self._grid = AdaptiveGrid.of(h, w) if config.sampling == "adaptive" else None
+        #: share of the pixels that got their own ray in the last adaptive frame
+        self.last_exact_fraction = 1.0
         # Sensor noise: a pool of unit normal draws twice the image, read at a random offset
         # each frame (one integer draw per frame instead of 3·H·W normals).
         self._noise_pool = (
@@ -112,26 +115,72 @@ class UnderwaterCamera:
         cfg, geo = self.config, self.geometry
         h, w = self.shape
         origin, R = self.camera_pose(position_ned, rotation_body_to_ned)
-        # einsum, not @: a BLAS product of these skinny shapes spawns threads, which costs
-        # far more than it saves on a busy machine
-        dirs_ned = np.einsum("ij,kj->ik", geo.dirs_cam, R)
-        hits = raycaster.cast(origin, dirs_ned, cfg.max_range_m, exclude)
-        rng32 = hits.distance.astype(_F32)
         scene = raycaster.scene
-        radiance = self._radiance(hits, rng32, origin, R, getattr(scene, "materials", ()))
+        albedo = np.array([m.albedo_rgb for m in getattr(scene, "materials", ())]
+                          or [[0.0] * 3], _F32)
+        paths = self._daylight_paths(R)
+
+        def cast(pixels: NDArray[np.intp] | None) -> RayHits:
+            dirs = geo.dirs_cam if pixels is None else np.take(geo.dirs_cam, pixels, axis=0)
+            # einsum, not @: a BLAS product of these skinny shapes spawns threads, which
+            # costs far more than it saves on a busy machine
+            return raycaster.cast(origin, np.einsum("ij,kj->ik", dirs, R), cfg.max_range_m,
+                                  exclude)
+
+        def form(pixels: NDArray[np.intp] | None) -> tuple[RayHits, NDArray, NDArray, NDArray]:
+            hits = cast(pixels)
+            r = hits.distance.astype(_F32)
+            light, fs = self._light(hits, r, pixels, origin, R, albedo, paths)
+            return hits, r, light, fs
+
+        grid = self._grid
+        if grid is None:  # one ray per pixel
+            hits, range_m, light, fs = form(None)
+            labels = hits.label.astype(np.int16)
+            light, fs = light.reshape(h, w, 3), fs.reshape(h, w, 3)
+        else:
+            hc, wc = grid.coarse_shape
+            hits_c, range_c, light_c, fs_c = form(grid.coarse)
+            inverse_depth = 1.0 / (range_c * np.take(geo.cos_axis, grid.coarse))  # 0: water
+            same = same_object(*(a.reshape(hc, wc) for a in (hits_c.label, hits_c.body,
+                                                             hits_c.material)))
+            r_seen = np.where(np.isfinite(range_c), range_c, _F32(0.0))
+            points = np.take(geo.dirs_cam, grid.coarse, axis=0) * r_seen[:, None]
+            normals = np.einsum("ij,jk->ik", hits_c.normal, R)  # camera frame; water: 0
+            smooth = grid.smooth_cells(points.reshape(hc, wc, 3), normals.reshape(hc, wc, 3),
+                                       r_seen.reshape(hc, wc), same)
+            exact = grid.exact_pixels(smooth)
+            self.last_exact_fraction = len(exact) / (h * w)
+            light = grid.upsample(light_c.reshape(hc, wc, 3)).reshape(-1, 3)
+            fs = grid.upsample(fs_c.reshape(hc, wc, 3)).reshape(-1, 3)
+            with np.errstate(divide="ignore"):  # open water: 1/0 = inf
+                range_m = 1.0 / (grid.upsample(inverse_depth.reshape(hc, wc)).reshape(-1)
+                                 * geo.cos_axis)
+            labels = grid.nearest_corner(hits_c.label.astype(np.int16).reshape(hc, wc))
+            labels = labels.reshape(-1)
+            if len(exact):
+                hits_e, range_e, light_e, fs_e = form(exact)
+                light[exact], fs[exact], range_m[exact] = light_e, fs_e, range_e
+                labels[exact] = hits_e.label
+            range_m[grid.coarse] = range_c
+            light, fs = light.reshape(h, w, 3), fs.reshape(h, w, 3)
+        radiance = light
+        if cfg.forward_scatter and cfg.forward_scatter_spread > 0.0:
+            radiance = light + fm.forward_scatter(
+                fs, range_m.reshape(h, w), cfg.water, cfg.forward_scatter_spread,
+                float(geo.K[0, 0]))
         gain = fm.exposure_gain(radiance, cfg)
         noise = None
         if self._noise_pool is not None:
             start = int(self.rng.integers(0, h * w * 3))
             noise = self._noise_pool[start : start + h * w * 3].reshape(h, w, 3)
         rgb = fm.expose(radiance, gain, cfg, noise, self._lut)
-        depth = rng32 * geo.cos_axis
-        depth[~np.isfinite(rng32)] = np.nan
-        scene_labels = getattr(scene, "labels", ())
+        depth = range_m * geo.cos_axis
+        depth[~np.isfinite(range_m)] = np.nan
         return CameraFrame(
-            t=float(t), rgb=rgb, radiance=radiance, range_m=rng32.reshape(h, w),
-            depth_m=depth.reshape(h, w), labels=hits.label.astype(np.int16).reshape(h, w),
-            label_names=tuple(scene_labels), gain=gain, K=geo.K.copy(),
+            t=float(t), rgb=rgb, radiance=radiance, range_m=range_m.reshape(h, w),
+            depth_m=depth.reshape(h, w), labels=labels.reshape(h, w),
+            label_names=tuple(getattr(scene, "labels", ())), gain=gain, K=geo.K.copy(),
             position_ned=origin, rotation_ned_from_camera=R)
 
     def _daylight_paths(self, R: NDArray[np.float64]) -> fm.DaylightPaths:
@@ -143,35 +192,36 @@ class UnderwaterCamera:
             self._paths = (key, fm.DaylightPaths.of(down, self.config.water))
         return self._paths[1]
 
-    def _radiance(self, hits: RayHits, range_m: NDArray[np.float32],
-                  origin: NDArray[np.float64], R: NDArray[np.float64],
-                  materials: tuple[Material, ...]) -> NDArray[np.float32]:
-        """(H, W, 3) linear radiance at the camera: the stages of :mod:`.formation`."""
+    def _light(self, hits: RayHits, range_m: NDArray[np.float32],
+               pixels: NDArray[np.intp] | None, origin: NDArray[np.float64],
+               R: NDArray[np.float64], albedo_table: NDArray[np.float32],
+               paths: fm.DaylightPaths) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+        """(N, 3) radiance reaching the camera along the rays of ``pixels`` (None: all)
+        without forward scatter — direct light and both veils — and (N, 3) the
+        forward-scatter source J·(exp(−G·r) − exp(−c·r)): the stages of
+        :mod:`.formation`."""
         cfg, geo, water = self.config, self.geometry, self.config.water
-        h, w = self.shape
-        paths = self._daylight_paths(R)
+        paths = paths.take(pixels)
         hit = np.flatnonzero(hits.material >= 0)
         r_hit = range_m[hit]
-        albedo_table = np.array([m.albedo_rgb for m in materials] or [[0.0] * 3], _F32)
         albedo = np.take(albedo_table, np.take(hits.material, hit), axis=0)
         normal_ned = np.take(hits.normal, hit, axis=0).astype(_F32)
         depth_hit = np.take(paths.down, hit) * r_hit + _F32(origin[2])
         source = fm.daylight_on_surface(albedo, depth_hit, -normal_ned[:, 2], water,
                                         cfg.sun_radiance)
         if cfg.lamps:
-            points_cam = np.take(geo.dirs_cam, hit, axis=0).astype(_F32) * r_hit[:, None]
+            dirs = geo.dirs_cam if pixels is None else np.take(geo.dirs_cam, pixels, axis=0)
+            points_cam = np.take(dirs, hit, axis=0).astype(_F32) * r_hit[:, None]
             normals_cam = np.einsum("ij,jk->ik", normal_ned, R.astype(_F32))
             source += fm.lamplight_on_surface(albedo, points_cam, normals_cam, cfg.lamps,
                                               water)
         total = fm.sun_veiling(paths, range_m, float(origin[2]), water, cfg.sun_radiance)
         direct = fm.attenuate(source, r_hit, water.c)
+        fs = np.zeros_like(total)
         if cfg.forward_scatter and cfg.forward_scatter_spread > 0.0:
-            fs = np.zeros((h * w, 3), _F32)
             fs[hit] = fm.attenuate(source, r_hit, water.a + water.b_b) - direct
-            total += fm.forward_scatter(
-                fs.reshape(h, w, 3), range_m.reshape(h, w), water, cfg.forward_scatter_spread,
-                float(geo.K[0, 0])).reshape(-1, 3)
         total[hit] += direct
         if geo.backscatter_table is not None:
-            total += fm.lamp_backscatter(geo, range_m)
-        return total.reshape(h, w, 3)
+            cells = geo.cell_of_pixel if pixels is None else np.take(geo.cell_of_pixel, pixels)
+            total += fm.lamp_backscatter(geo, cells, range_m)
+        return total, fs

@@ -100,6 +100,9 @@ class CameraConfig:
     K: tuple[tuple[float, float, float], ...] | None = None
     rate_hz: float = 10.0
     max_range_m: float = 30.0
+    #: "adaptive": rays on every second pixel, more only where the image needs them
+    #: (:mod:`.sampling`); "full": one ray per pixel
+    sampling: str = "adaptive"
     mount_position_frd: tuple[float, float, float] | None = None
     tilt_deg: float | None = None
     yaw_deg: float = 0.0
@@ -146,6 +149,9 @@ class CameraConfig:
                 f"must be < 180 degrees for a pinhole camera, got {hfov!r}", "camera.hfov_deg")
         _finite(self.rate_hz, "camera.rate_hz", 0.0, 1000.0, True)
         _finite(self.max_range_m, "camera.max_range_m", 0.0, 1e4, True)
+        if self.sampling not in ("adaptive", "full"):
+            raise ConfigError(f"must be 'adaptive' or 'full', got {self.sampling!r}",
+                              "camera.sampling")
         mount = spec.mount_position_frd if self.mount_position_frd is None else (
             self.mount_position_frd)
         if len(tuple(mount)) != 3:

@@ -93,29 +93,37 @@ def forward_scatter(
     """Forward-scattered light: (H, W, 3) ``source`` (J·(exp(−G·r) − exp(−c·r)), zero
     where nothing was hit) blurred per pixel by a Gaussian of σ = spread·b·r radians
     (× focal length in pixels; b of the green channel), blending between the levels of a
-    Gaussian pyramid (σ ≈ 2^k px at level k, each brought back to full size bilinearly)."""
+    Gaussian pyramid (σ ≈ 2^k px at level k). Level 0 (no blur) is weighed in at full
+    resolution; the blurred levels, smooth by construction, are blended at half
+    resolution and brought back to full size bilinearly."""
     sigma_px = np.where(np.isfinite(range_img), range_img, _F32(0.0))
     sigma_px *= _F32(spread * float(water.b[1]) * focal_px)
     top = float(sigma_px.max()) if sigma_px.size else 0.0
-    if top < 0.5:
-        return source
     h, w = source.shape[:2]
+    if top < 0.5 or min(h, w) < 4:
+        return source
     n_levels = min(_FS_LEVELS, math.ceil(math.log2(top)) + 2)
     # level index log2(σ) + 1 for σ ≥ 1 px, 0 (no blur) for σ ≤ 0.5 px, linear between
     idx = np.log2(np.maximum(sigma_px, _F32(0.5)))
     idx += _F32(1.0)
     np.clip(idx, 0.0, n_levels - 1.0, out=idx)
-    out = np.zeros_like(source)
-    small = source
-    for k in range(n_levels):
-        if k:
+    w0 = np.maximum(1.0 - idx, 0.0)
+    half = cv2.pyrDown(source)
+    hh, hw = half.shape[:2]
+    idx_half = cv2.resize(idx, (hw, hh), interpolation=cv2.INTER_NEAREST)
+    blurred = np.zeros_like(half)
+    small = half
+    for k in range(1, n_levels):
+        if k > 1:
             small = cv2.pyrDown(small) if min(small.shape[:2]) >= 2 else small
-        weight = 1.0 - np.abs(idx - _F32(k))
+        weight = 1.0 - np.abs(idx_half - _F32(k))
         np.maximum(weight, 0.0, out=weight)
         if not weight.any():
             continue
-        level = small if k == 0 else cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
-        out += level * weight[..., None]
+        level = small if k == 1 else cv2.resize(small, (hw, hh), interpolation=cv2.INTER_LINEAR)
+        blurred += level * weight[..., None]
+    out = cv2.resize(blurred, (w, h), interpolation=cv2.INTER_LINEAR)
+    out += source * w0[..., None]
     return out
 
 
@@ -137,6 +145,13 @@ class DaylightPaths:
         x = water.c[None, :] + water.k_d[None, :] * down.astype(np.float64)[:, None]
         x = np.where(np.abs(x) < 1e-6, 1e-6, x).astype(_F32)
         return DaylightPaths(down.astype(_F32), coefficient, x)
+
+    def take(self, rays: NDArray[np.intp] | None) -> DaylightPaths:
+        """The paths of a subset of the rays (None: all)."""
+        if rays is None:
+            return self
+        return DaylightPaths(np.take(self.down, rays), np.take(self.coefficient, rays, axis=0),
+                             np.take(self.x, rays, axis=0))
 
 
 def sun_veiling(
@@ -174,11 +189,11 @@ def sun_veiling(
     return term
 
 
-def lamp_backscatter(geometry: CameraGeometry, range_m: NDArray[np.float32]
-                     ) -> NDArray[np.float32]:
-    """(H·W, 3) veiling light of the lamps for every pixel, from the precomputed table:
-    linear interpolation in range between the nodes r_k = R·(k/(K − 1))² (a miss, or a
-    hit beyond R, reads the last node)."""
+def lamp_backscatter(geometry: CameraGeometry, cells: NDArray[np.int32],
+                     range_m: NDArray[np.float32]) -> NDArray[np.float32]:
+    """(N, 3) veiling light of the lamps along N rays (their table ``cells``, where they
+    stop ``range_m``) from the precomputed table: linear interpolation in range between
+    the nodes r_k = R·(k/(K − 1))² (a miss, or a hit beyond R, reads the last node)."""
     table = geometry.backscatter_table
     n_nodes = len(geometry.range_nodes)
     r_max = float(geometry.range_nodes[-1])
@@ -186,7 +201,7 @@ def lamp_backscatter(geometry: CameraGeometry, range_m: NDArray[np.float32]
     kf = np.sqrt(rr * _F32(1.0 / r_max)) * _F32(n_nodes - 1)
     k0 = np.minimum(kf.astype(np.int32), n_nodes - 2)
     frac = (kf - k0)[:, None]
-    row = geometry.cell_of_pixel * n_nodes + k0
+    row = cells * n_nodes + k0
     lo = np.take(table, row, axis=0)
     hi = np.take(table, row + 1, axis=0)
     hi -= lo
