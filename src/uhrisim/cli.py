@@ -50,6 +50,8 @@ FIGURES: dict[str, tuple[str, str]] = {
                    "paper Figs 12-14: pier support beams over bathymetry"),
     "sonar-torus": ("uhrisim.viz.sonar_figures:make_sonar_torus",
                     "paper Figs 15-16: a torus on the sea floor"),
+    "camera": ("uhrisim.viz.camera_figures:make_camera",
+               "the diver in clear, coastal and turbid water, near and far, lamps on/off"),
 }
 
 
