@@ -192,6 +192,18 @@ def _mono8(image: Any, name: str, where: str) -> np.ndarray:
     return arr
 
 
+def _pose(value: Any, sensor: str, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """A sensor's ``(position (3,), rotation (3, 3))`` in NED, checked."""
+    try:
+        position, rotation = value
+    except (TypeError, ValueError):
+        raise ConfigError(
+            f"{sensor}_pose_ned must be (position (3,), rotation (3, 3))", where=where
+        ) from None
+    return (_vec(position, 3, f"{sensor} position", where),
+            _rotation(rotation, f"{sensor} rotation", where))
+
+
 def _intrinsics(value: Any, where: str) -> np.ndarray:
     """A finite 3x3 intrinsic matrix."""
     k = np.asarray(value, dtype=float)
@@ -406,16 +418,8 @@ class McapRecorder:
         _check_name(agent, "agent", where)
         _check_frame(sonar_frame, where)
         t_ns = _stamp_ns(t, where)
-        try:
-            pos_ned, rot_ned = sonar_pose_ned
-        except (TypeError, ValueError):
-            raise ConfigError(
-                "sonar_pose_ned must be (position (3,), rotation (3, 3))", where=where
-            ) from None
-        p_enu, q = pose_enu_from_ned(
-            _vec(pos_ned, 3, "sonar position", where),
-            _rotation(rot_ned, "sonar rotation", where),
-        )
+        pos_ned, rot_ned = _pose(sonar_pose_ned, "sonar", where)
+        p_enu, q = pose_enu_from_ned(pos_ned, rot_ned)
         sec, nanosec = divmod(t_ns, 1_000_000_000)
         polar = None if polar_u8 is None else _mono8(polar_u8, "polar_u8", where)
         fan = None if fan_u8 is None else _mono8(fan_u8, "fan_u8", where)
@@ -502,14 +506,8 @@ class McapRecorder:
                               f"{rgb.dtype} shape {rgb.shape}", where=where)
         height, width = rgb.shape[:2]
         k = _intrinsics(K, where)
-        try:
-            pos_ned, rot_ned = camera_pose_ned
-        except (TypeError, ValueError):
-            raise ConfigError(
-                "camera_pose_ned must be (position (3,), rotation (3, 3))", where=where
-            ) from None
-        rot = optical_rotation_ned(_rotation(rot_ned, "camera rotation", where))
-        p_enu, q = pose_enu_from_ned(_vec(pos_ned, 3, "camera position", where), rot)
+        pos_ned, rot_ned = _pose(camera_pose_ned, "camera", where)
+        p_enu, q = pose_enu_from_ned(pos_ned, optical_rotation_ned(rot_ned))
         sec, nanosec = divmod(t_ns, 1_000_000_000)
         self._write("/tf", "tf2_msgs/msg/TFMessage", t_ns, cdr.encode_tf_message(
             [(sec, nanosec, self.world_frame, camera_frame, p_enu, q)]))

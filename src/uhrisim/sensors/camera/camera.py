@@ -18,7 +18,7 @@ from uhrisim.sensors.camera import formation as fm
 from uhrisim.sensors.camera.config import CameraConfig
 from uhrisim.sensors.camera.geometry import camera_geometry
 from uhrisim.sensors.camera.sampling import AdaptiveGrid, same_object
-from uhrisim.sensors.sonar.geometry import mount_rotation
+from uhrisim.sensors.sonar.geometry import mount_rotation, mounted_pose
 from uhrisim.world.raycast import RayCaster, RayHits
 
 _F32 = np.float32
@@ -98,9 +98,8 @@ class UnderwaterCamera:
         self, position_ned: NDArray[np.float64], rotation_body_to_ned: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Camera centre (NED, m) and rotation camera → NED for a vehicle pose."""
-        p = np.asarray(position_ned, dtype=float).reshape(3)
-        R = np.asarray(rotation_body_to_ned, dtype=float).reshape(3, 3)
-        return p + R @ self.mount_position, R @ self.mount_rotation
+        return mounted_pose(position_ned, rotation_body_to_ned, self.mount_position,
+                            self.mount_rotation)
 
     def capture(
         self,
