@@ -25,6 +25,17 @@ _F32 = np.float32
 
 
 @dataclass(frozen=True)
+class _Rays:
+    """A set of the camera's pixel rays: camera-frame directions, cos of their angle to
+    the optical axis, backscatter-table cells and daylight factors."""
+
+    dirs_cam: NDArray[np.float64]
+    cos_axis: NDArray[np.float32]
+    cells: NDArray[np.int32]
+    paths: fm.DaylightPaths
+
+
+@dataclass(frozen=True)
 class CameraFrame:
     """One camera frame (arrays are the frame's own).
 
@@ -82,6 +93,7 @@ class UnderwaterCamera:
         h, w = self.shape
         self._paths: tuple[bytes, fm.DaylightPaths] | None = None
         self._grid = AdaptiveGrid.of(h, w) if config.sampling == "adaptive" else None
+        self._coarse_rays: tuple[fm.DaylightPaths, _Rays] | None = None
         #: share of the pixels that got their own ray in the last adaptive frame
         self.last_exact_fraction = 1.0
         # Sensor noise: a pool of unit normal draws twice the image, read at a random offset
@@ -117,34 +129,29 @@ class UnderwaterCamera:
         scene = raycaster.scene
         albedo = np.array([m.albedo_rgb for m in getattr(scene, "materials", ())]
                           or [[0.0] * 3], _F32)
-        paths = self._daylight_paths(R)
 
-        def cast(pixels: NDArray[np.intp] | None) -> RayHits:
-            dirs = geo.dirs_cam if pixels is None else np.take(geo.dirs_cam, pixels, axis=0)
+        def form(rays: _Rays) -> tuple[RayHits, NDArray, NDArray, NDArray]:
             # einsum, not @: a BLAS product of these skinny shapes spawns threads, which
             # costs far more than it saves on a busy machine
-            return raycaster.cast(origin, np.einsum("ij,kj->ik", dirs, R), cfg.max_range_m,
-                                  exclude)
-
-        def form(pixels: NDArray[np.intp] | None) -> tuple[RayHits, NDArray, NDArray, NDArray]:
-            hits = cast(pixels)
+            hits = raycaster.cast(origin, np.einsum("ij,kj->ik", rays.dirs_cam, R),
+                                  cfg.max_range_m, exclude)
             r = hits.distance.astype(_F32)
-            light, fs = self._light(hits, r, pixels, origin, R, albedo, paths)
+            light, fs = self._light(hits, r, rays, origin, R, albedo)
             return hits, r, light, fs
 
         grid = self._grid
         if grid is None:  # one ray per pixel
-            hits, range_m, light, fs = form(None)
+            hits, range_m, light, fs = form(self._rays(R, None))
             labels = hits.label.astype(np.int16)
             light, fs = light.reshape(h, w, 3), fs.reshape(h, w, 3)
         else:
             hc, wc = grid.coarse_shape
-            hits_c, range_c, light_c, fs_c = form(grid.coarse)
-            inverse_depth = 1.0 / (range_c * np.take(geo.cos_axis, grid.coarse))  # 0: water
+            hits_c, range_c, light_c, fs_c = form(self._rays(R, grid.coarse))
+            inverse_depth = 1.0 / (range_c * self._rays(R, grid.coarse).cos_axis)  # 0: water
             same = same_object(*(a.reshape(hc, wc) for a in (hits_c.label, hits_c.body,
                                                              hits_c.material)))
             r_seen = np.where(np.isfinite(range_c), range_c, _F32(0.0))
-            points = np.take(geo.dirs_cam, grid.coarse, axis=0) * r_seen[:, None]
+            points = self._rays(R, grid.coarse).dirs_cam * r_seen[:, None]
             normals = np.einsum("ij,jk->ik", hits_c.normal, R)  # camera frame; water: 0
             smooth = grid.smooth_cells(points.reshape(hc, wc, 3), normals.reshape(hc, wc, 3),
                                        r_seen.reshape(hc, wc), same)
@@ -158,7 +165,7 @@ class UnderwaterCamera:
             labels = grid.nearest_corner(hits_c.label.astype(np.int16).reshape(hc, wc))
             labels = labels.reshape(-1)
             if len(exact):
-                hits_e, range_e, light_e, fs_e = form(exact)
+                hits_e, range_e, light_e, fs_e = form(self._rays(R, exact))
                 light[exact], fs[exact], range_m[exact] = light_e, fs_e, range_e
                 labels[exact] = hits_e.label
             range_m[grid.coarse] = range_c
@@ -191,16 +198,31 @@ class UnderwaterCamera:
             self._paths = (key, fm.DaylightPaths.of(down, self.config.water))
         return self._paths[1]
 
-    def _light(self, hits: RayHits, range_m: NDArray[np.float32],
-               pixels: NDArray[np.intp] | None, origin: NDArray[np.float64],
-               R: NDArray[np.float64], albedo_table: NDArray[np.float32],
-               paths: fm.DaylightPaths) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
-        """(N, 3) radiance reaching the camera along the rays of ``pixels`` (None: all)
-        without forward scatter — direct light and both veils — and (N, 3) the
-        forward-scatter source J·(exp(−G·r) − exp(−c·r)): the stages of
-        :mod:`.formation`."""
+    def _rays(self, R: NDArray[np.float64], pixels: NDArray[np.intp] | None) -> _Rays:
+        """What the formation needs of the rays of ``pixels`` (None: every pixel) for the
+        camera rotation ``R``; the coarse grid's is kept between frames (for one tilt)."""
+        paths = self._daylight_paths(R)
+        geo = self.geometry
+        if pixels is None:
+            return _Rays(geo.dirs_cam, geo.cos_axis, geo.cell_of_pixel, paths)
+        coarse = self._grid is not None and pixels is self._grid.coarse
+        if coarse and self._coarse_rays is not None and self._coarse_rays[0] is paths:
+            return self._coarse_rays[1]
+        rays = _Rays(np.take(geo.dirs_cam, pixels, axis=0), np.take(geo.cos_axis, pixels),
+                     np.take(geo.cell_of_pixel, pixels), paths.take(pixels))
+        if coarse:
+            self._coarse_rays = (paths, rays)
+        return rays
+
+    def _light(self, hits: RayHits, range_m: NDArray[np.float32], rays: _Rays,
+               origin: NDArray[np.float64], R: NDArray[np.float64],
+               albedo_table: NDArray[np.float32]
+               ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+        """(N, 3) radiance reaching the camera along ``rays`` without forward scatter —
+        direct light and both veils — and (N, 3) the forward-scatter source
+        J·(exp(−G·r) − exp(−c·r)): the stages of :mod:`.formation`."""
         cfg, geo, water = self.config, self.geometry, self.config.water
-        paths = paths.take(pixels)
+        paths = rays.paths
         hit = np.flatnonzero(hits.material >= 0)
         r_hit = range_m[hit]
         albedo = np.take(albedo_table, np.take(hits.material, hit), axis=0)
@@ -209,8 +231,7 @@ class UnderwaterCamera:
         source = fm.daylight_on_surface(albedo, depth_hit, -normal_ned[:, 2], water,
                                         cfg.sun_radiance)
         if cfg.lamps:
-            dirs = geo.dirs_cam if pixels is None else np.take(geo.dirs_cam, pixels, axis=0)
-            points_cam = np.take(dirs, hit, axis=0).astype(_F32) * r_hit[:, None]
+            points_cam = np.take(rays.dirs_cam, hit, axis=0).astype(_F32) * r_hit[:, None]
             normals_cam = np.einsum("ij,jk->ik", normal_ned, R.astype(_F32))
             source += fm.lamplight_on_surface(albedo, points_cam, normals_cam, cfg.lamps,
                                               water)
@@ -221,6 +242,5 @@ class UnderwaterCamera:
             fs[hit] = fm.attenuate(source, r_hit, water.a + water.b_b) - direct
         total[hit] += direct
         if geo.backscatter_table is not None:
-            cells = geo.cell_of_pixel if pixels is None else np.take(geo.cell_of_pixel, pixels)
-            total += fm.lamp_backscatter(geo, cells, range_m)
+            total += fm.lamp_backscatter(geo, rays.cells, range_m)
         return total, fs

@@ -236,10 +236,15 @@ def expose(
     normal draws of the same shape, or None), clip, transfer curve."""
     signal = radiance * _F32(gain)
     np.clip(signal, 0.0, 1.0, out=signal)
-    if noise is not None:
+    if noise is not None:  # in place, to spare the memory traffic of temporaries
         fw = _F32(config.full_well_e)
-        sigma = np.sqrt(signal * fw + _F32(config.read_noise_e) ** 2) * (_F32(1.0) / fw)
-        signal += sigma * noise
+        sigma = signal * fw
+        sigma += _F32(config.read_noise_e) ** 2
+        np.sqrt(sigma, out=sigma)
+        sigma *= noise
+        sigma *= _F32(1.0) / fw
+        signal += sigma
         np.clip(signal, 0.0, 1.0, out=signal)
-    idx = (signal * _F32(len(lut) - 1) + _F32(0.5)).astype(np.uint16)
-    return lut[idx]
+    signal *= _F32(len(lut) - 1)
+    signal += _F32(0.5)
+    return np.take(lut, signal.astype(np.uint16))

@@ -105,8 +105,8 @@ class AdaptiveGrid:
         rough = ~smooth
         ya, yb = self.cells_y
         xa, xb = self.cells_x
-        need = (rough[np.ix_(ya, xa)] | rough[np.ix_(ya, xb)] | rough[np.ix_(yb, xa)]
-                | rough[np.ix_(yb, xb)])
+        rows = rough[ya] | rough[yb]  # (H, Wc − 1): a rough cell above or below
+        need = rows[:, xa] | rows[:, xb]
         return np.flatnonzero(need.reshape(-1) & ~self.is_coarse)
 
     def upsample(self, coarse_values: NDArray[np.float32]) -> NDArray[np.float32]:
