@@ -99,3 +99,33 @@ def test_same_seed_same_images_as_recorded(run):
         _, _, raw = next(iter(reader.messages(connections=[connection])))
         msg = reader.deserialize(raw, connection.msgtype)
     np.testing.assert_array_equal(np.asarray(msg.data).reshape(240, 320, 3), shot)
+
+
+@pytest.mark.parametrize(
+    ("camera", "field"),
+    [
+        ("{type: camera, width: 0}", "sensors[1].width"),
+        ("{type: camera, hfov_deg: 180}", "sensors[1].hfov_deg"),
+        ("{type: camera, water: {attenuation: [0.4, -0.1, 0.5]}}",
+         "sensors[1].water.attenuation[1]"),
+        ("{type: camera, water: {jerlov: 5C}}", "sensors[1].water.jerlov"),
+        ("{type: camera, rate_hz: 7}", "rate_hz: rate 7 Hz is not a whole number"),
+    ],
+)
+def test_bad_camera_settings_are_one_line_errors(tmp_path, camera, field):
+    from typer.testing import CliRunner
+
+    from uhrisim.cli import app
+
+    text = SCENARIO.read_text()
+    start = text.index("      - type: camera")
+    end = text.index("\n\n", start)
+    path = tmp_path / "bad.yaml"
+    path.write_text(text[:start] + f"      - {camera}" + text[end:])
+    (tmp_path / "videoray_trail.bhv").write_text((SCENARIO.parent / "videoray_trail.bhv")
+                                                 .read_text())
+    result = CliRunner().invoke(app, ["run", str(path), "--out", str(tmp_path / "out"),
+                                      "--duration", "0.1"])
+    assert result.exit_code == 2
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error:") and field in lines[0], lines
