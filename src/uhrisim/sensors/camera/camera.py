@@ -8,6 +8,7 @@ backscatter table, the sRGB table, a pool of noise draws) is computed once here.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -139,37 +140,12 @@ class UnderwaterCamera:
             light, fs = self._light(hits, r, rays, origin, R, albedo)
             return hits, r, light, fs
 
-        grid = self._grid
-        if grid is None:  # one ray per pixel
+        if self._grid is None:  # one ray per pixel
             hits, range_m, light, fs = form(self._rays(R, None))
             labels = hits.label.astype(np.int16)
-            light, fs = light.reshape(h, w, 3), fs.reshape(h, w, 3)
         else:
-            hc, wc = grid.coarse_shape
-            hits_c, range_c, light_c, fs_c = form(self._rays(R, grid.coarse))
-            inverse_depth = 1.0 / (range_c * self._rays(R, grid.coarse).cos_axis)  # 0: water
-            same = same_object(*(a.reshape(hc, wc) for a in (hits_c.label, hits_c.body,
-                                                             hits_c.material)))
-            r_seen = np.where(np.isfinite(range_c), range_c, _F32(0.0))
-            points = self._rays(R, grid.coarse).dirs_cam * r_seen[:, None]
-            normals = np.einsum("ij,jk->ik", hits_c.normal, R)  # camera frame; water: 0
-            smooth = grid.smooth_cells(points.reshape(hc, wc, 3), normals.reshape(hc, wc, 3),
-                                       r_seen.reshape(hc, wc), same)
-            exact = grid.exact_pixels(smooth)
-            self.last_exact_fraction = len(exact) / (h * w)
-            light = grid.upsample(light_c.reshape(hc, wc, 3)).reshape(-1, 3)
-            fs = grid.upsample(fs_c.reshape(hc, wc, 3)).reshape(-1, 3)
-            with np.errstate(divide="ignore"):  # open water: 1/0 = inf
-                range_m = 1.0 / (grid.upsample(inverse_depth.reshape(hc, wc)).reshape(-1)
-                                 * geo.cos_axis)
-            labels = grid.nearest_corner(hits_c.label.astype(np.int16).reshape(hc, wc))
-            labels = labels.reshape(-1)
-            if len(exact):
-                hits_e, range_e, light_e, fs_e = form(self._rays(R, exact))
-                light[exact], fs[exact], range_m[exact] = light_e, fs_e, range_e
-                labels[exact] = hits_e.label
-            range_m[grid.coarse] = range_c
-            light, fs = light.reshape(h, w, 3), fs.reshape(h, w, 3)
+            light, fs, range_m, labels = self._adaptive(form, R)
+        light, fs = light.reshape(h, w, 3), fs.reshape(h, w, 3)
         radiance = light
         if cfg.forward_scatter and cfg.forward_scatter_spread > 0.0:
             radiance = light + fm.forward_scatter(
@@ -188,6 +164,40 @@ class UnderwaterCamera:
             depth_m=depth.reshape(h, w), labels=labels.reshape(h, w),
             label_names=tuple(getattr(scene, "labels", ())), gain=gain, K=geo.K.copy(),
             position_ned=origin, rotation_ned_from_camera=R)
+
+    def _adaptive(self, form: Callable[[_Rays], tuple[RayHits, NDArray, NDArray, NDArray]],
+                  R: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """Adaptive sampling (:mod:`.sampling`): ``form`` the coarse grid's rays, then the
+        rays of the cells that are not smooth; everything else interpolated. Returns the
+        (H·W, 3) light and forward-scatter source, (H·W,) range and labels."""
+        grid, geo = self._grid, self.geometry
+        assert grid is not None
+        hc, wc = grid.coarse_shape
+        coarse = self._rays(R, grid.coarse)
+        hits_c, range_c, light_c, fs_c = form(coarse)
+        inverse_depth = 1.0 / (range_c * coarse.cos_axis)  # 0 for open water
+        same = same_object(*(a.reshape(hc, wc) for a in (hits_c.label, hits_c.body,
+                                                         hits_c.material)))
+        r_seen = np.where(np.isfinite(range_c), range_c, _F32(0.0))
+        points = coarse.dirs_cam * r_seen[:, None]
+        normals = np.einsum("ij,jk->ik", hits_c.normal, R)  # camera frame; water: 0
+        smooth = grid.smooth_cells(points.reshape(hc, wc, 3), normals.reshape(hc, wc, 3),
+                                   r_seen.reshape(hc, wc), same)
+        exact = grid.exact_pixels(smooth)
+        self.last_exact_fraction = len(exact) / len(geo.cos_axis)
+        light = grid.upsample(light_c.reshape(hc, wc, 3)).reshape(-1, 3)
+        fs = grid.upsample(fs_c.reshape(hc, wc, 3)).reshape(-1, 3)
+        with np.errstate(divide="ignore"):  # open water: 1/0 = inf
+            range_m = 1.0 / (grid.upsample(inverse_depth.reshape(hc, wc)).reshape(-1)
+                             * geo.cos_axis)
+        labels = grid.nearest_corner(hits_c.label.astype(np.int16).reshape(hc, wc))
+        labels = labels.reshape(-1)
+        if len(exact):
+            hits_e, range_e, light_e, fs_e = form(self._rays(R, exact))
+            light[exact], fs[exact], range_m[exact] = light_e, fs_e, range_e
+            labels[exact] = hits_e.label
+        range_m[grid.coarse] = range_c
+        return light, fs, range_m, labels
 
     def _daylight_paths(self, R: NDArray[np.float64]) -> fm.DaylightPaths:
         """The rays' daylight factors for camera rotation ``R`` (cached on its tilt: the
