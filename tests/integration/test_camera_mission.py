@@ -129,3 +129,20 @@ def test_bad_camera_settings_are_one_line_errors(tmp_path, camera, field):
     assert result.exit_code == 2
     lines = [line for line in result.output.splitlines() if line.strip()]
     assert len(lines) == 1 and lines[0].startswith("error:") and field in lines[0], lines
+
+
+def test_recorded_camera_frames_replay_in_the_viewer(run):
+    """The viewer's replay reads the recorded rgb8 pictures back, and a frame at a time
+    carries the latest picture at or before it, once."""
+    from uhrisim.viz.viewer.replay import ReplayPlayer, load_replay
+
+    data = load_replay(run.out_dir / "recording.mcap")
+    ts, images = data.shots["videoray"]
+    np.testing.assert_allclose(ts, [0.1, 1.1])
+    assert images[0].shape == (240, 320, 3) and images[0].dtype == np.uint8
+    player = ReplayPlayer(data, server=None)  # type: ignore[arg-type]
+    (shot,) = player.frame_at(1.5)["camera"]
+    assert shot["agent"] == "videoray" and shot["t"] == pytest.approx(1.1)
+    assert shot["image"] is images[1]
+    assert player.frame_at(1.6)["camera"] is None  # already sent
+    assert player.frame_at(0.05)["camera"] is None  # nothing recorded yet
