@@ -254,3 +254,18 @@ def test_bad_parameters_are_one_line_errors_naming_the_field(make, field):
         make()
     message = str(info.value)
     assert field in message and "\n" not in message
+
+
+def test_full_intrinsics_give_the_same_rays_as_the_field_of_view():
+    by_fov = CameraConfig(width=64, height=48, hfov_deg=70.0)
+    f = 32.0 / math.tan(math.radians(35.0))
+    by_k = CameraConfig(width=64, height=48, K=((f, 0, 31.5), (0, f, 23.5), (0, 0, 1)))
+    assert by_k.hfov_deg == pytest.approx(70.0)
+    np.testing.assert_allclose(by_fov.intrinsics, by_k.intrinsics)
+    rng = np.random.default_rng(0)
+    np.testing.assert_allclose(UnderwaterCamera(by_k, rng).geometry.dirs_cam,
+                               UnderwaterCamera(by_fov, rng).geometry.dirs_cam)
+    # a principal point off centre turns the central ray off the optical axis
+    shifted = CameraConfig(width=64, height=48, K=((f, 0, 40.0), (0, f, 23.5), (0, 0, 1)))
+    d = UnderwaterCamera(shifted, rng).geometry.dirs_cam.reshape(48, 64, 3)[24, 40]
+    assert d[1] == pytest.approx(0.0, abs=1e-12) and d[0] < 1.0  # pixel 40 is on the axis

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -102,7 +103,7 @@ class CameraConfig:
     max_range_m: float = 30.0
     #: "adaptive": rays on every second pixel, more only where the image needs them
     #: (:mod:`.sampling`); "full": one ray per pixel
-    sampling: str = "adaptive"
+    sampling: Literal["adaptive", "full"] = "adaptive"
     mount_position_frd: tuple[float, float, float] | None = None
     tilt_deg: float | None = None
     yaw_deg: float = 0.0
@@ -142,7 +143,11 @@ class CameraConfig:
             object.__setattr__(self, "K", tuple(tuple(float(v) for v in row) for row in k))
             if self.hfov_deg is not None:
                 raise ConfigError("give either K or hfov_deg, not both", "camera.hfov_deg")
-        hfov = spec.hfov_deg if self.hfov_deg is None else self.hfov_deg
+            # the field of view K gives across the image's width (at the principal point)
+            hfov = math.degrees(math.atan2(k[0, 2] + 0.5, k[0, 0])
+                                + math.atan2(width - 0.5 - k[0, 2], k[0, 0]))
+        else:
+            hfov = spec.hfov_deg if self.hfov_deg is None else self.hfov_deg
         object.__setattr__(self, "hfov_deg", _finite(hfov, "camera.hfov_deg", 0.0, 180.0, True))
         if self.hfov_deg >= 180.0:
             raise ConfigError(
