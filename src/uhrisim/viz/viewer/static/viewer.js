@@ -583,9 +583,10 @@ function trailsFor(t) {
   return out;
 }
 
-// ---------- sonar panel
-function drawSonar() {
-  const c = $("sonar");
+// ---------- image panels: the selected agent's latest image (or the first agent's),
+// letterboxed on black; returns where it was drawn (s is null when there is none yet)
+function drawLatestImage(canvasId, images) {
+  const c = $(canvasId);
   const dpr = sizeCanvas(c);
   const ctx = c.getContext("2d");
   ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
@@ -593,18 +594,25 @@ function drawSonar() {
   ctx.fillStyle = "#000";
   ctx.fillRect(0, 0, w, h);
   let name = state.selected;
-  if (!state.sonar[name]) name = Object.keys(state.sonar)[0];
-  const s = state.sonar[name];
+  if (!images[name]) name = Object.keys(images)[0];
+  const s = images[name];
+  if (!s) return { ctx, s: null };
+  const k = Math.min(w / s.img.width, h / s.img.height);
+  const dw = s.img.width * k, dh = s.img.height * k;
+  const x0 = (w - dw) / 2, y0 = (h - dh) / 2;
+  ctx.imageSmoothingEnabled = true;
+  ctx.drawImage(s.img, x0, y0, dw, dh);
+  return { ctx, name, s, x0, y0, dw, dh };
+}
+
+// ---------- sonar panel
+function drawSonar() {
+  const { ctx, name, s, x0, y0, dw, dh } = drawLatestImage("sonar", state.sonar);
   if (!s) {
     label(ctx, "no sonar image yet", 10, 20, "#777");
     $("sonar-caption").textContent = "";
     return;
   }
-  const k = Math.min(w / s.img.width, h / s.img.height);
-  const dw = s.img.width * k, dh = s.img.height * k;
-  ctx.imageSmoothingEnabled = true;
-  const x0 = (w - dw) / 2, y0 = (h - dh) / 2;
-  ctx.drawImage(s.img, x0, y0, dw, dh);
   // range arcs, assuming the fan's apex at the bottom centre and max range at the top
   if (s.max_range > 0 && s.fov_deg > 0 && s.fov_deg < 180) {
     const ax = x0 + dw / 2, ay = y0 + dh, half = (s.fov_deg * DEG) / 2;
@@ -625,23 +633,10 @@ function drawSonar() {
     `${name} · t=${fmt(s.t, 1)} s · ${fmt(s.fov_deg, 0)}° · ${fmt(s.max_range, 0)} m`;
 }
 
-// ---------- camera panel: the selected agent's latest frame, letterboxed
+// ---------- camera panel
 function drawCamera() {
-  const c = $("camera");
-  const dpr = sizeCanvas(c);
-  const ctx = c.getContext("2d");
-  ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-  const w = c.clientWidth, h = c.clientHeight;
-  ctx.fillStyle = "#000";
-  ctx.fillRect(0, 0, w, h);
-  let name = state.selected;
-  if (!state.camera[name]) name = Object.keys(state.camera)[0];
-  const s = state.camera[name];
+  const { name, s } = drawLatestImage("camera", state.camera);
   if (!s) return;
-  const k = Math.min(w / s.img.width, h / s.img.height);
-  const dw = s.img.width * k, dh = s.img.height * k;
-  ctx.imageSmoothingEnabled = true;
-  ctx.drawImage(s.img, (w - dw) / 2, (h - dh) / 2, dw, dh);
   $("camera-caption").textContent =
     `${name} · t=${fmt(s.t, 1)} s · ${s.img.width}×${s.img.height}`;
 }
