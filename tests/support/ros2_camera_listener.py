@@ -1,11 +1,12 @@
 """External ROS 2 subscriber for the camera topics: plain rclpy, no uhrisim imports.
 
-Subscribes (sensor-data QoS: best effort) to one agent's ``camera/image_raw``,
+Subscribes (sensor-data QoS, best effort; ``--reliable``: reliable, keep-last 5) to one
+agent's ``camera/image_raw``,
 ``camera/camera_info`` and ``camera/depth``, prints ``READY`` once each has a publisher,
 and on ``STOP`` prints one JSON line ``RESULT {...}`` with, per topic, the count and a
 summary of the first message (header, size, encoding, a checksum of the pixels, K).
 
-    python ros2_camera_listener.py --agent rov
+    python ros2_camera_listener.py --agent rov [--reliable]
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import time
 
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
-from rclpy.qos import qos_profile_sensor_data
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, Image
 
 
@@ -38,7 +39,12 @@ def summary(msg) -> dict:
 def main() -> int:
     parser = argparse.ArgumentParser()
     parser.add_argument("--agent", required=True)
+    parser.add_argument("--reliable", action="store_true")
     args = parser.parse_args()
+    qos = qos_profile_sensor_data
+    if args.reliable:
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
+                         reliability=ReliabilityPolicy.RELIABLE)
     rclpy.init()
     node = rclpy.create_node("camera_listener", start_parameter_services=False)
     topics = {f"/{args.agent}/camera/image_raw": Image,
@@ -55,7 +61,7 @@ def main() -> int:
         return on_msg
 
     for topic, kind in topics.items():
-        node.create_subscription(kind, topic, callback(topic), qos_profile_sensor_data)
+        node.create_subscription(kind, topic, callback(topic), qos)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     stop = threading.Event()
