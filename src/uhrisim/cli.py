@@ -52,6 +52,8 @@ FIGURES: dict[str, tuple[str, str]] = {
                     "paper Figs 15-16: a torus on the sea floor"),
     "sonar-tank": ("uhrisim.viz.sonar_figures:make_sonar_tank",
                    "test tank: 30 fan + label images and their statistics vs real frames"),
+    "camera": ("uhrisim.viz.camera_figures:make_camera",
+               "the diver in clear, coastal and turbid water, near and far, lamps on/off"),
 }
 
 

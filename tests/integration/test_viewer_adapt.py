@@ -196,3 +196,21 @@ def test_decimated_terrain_keeps_its_shape_and_area():
     # small meshes are passed through untouched
     v2, f2 = decimate_mesh(verts[:3], [[0, 1, 2]], max_faces=10)
     assert np.array_equal(v2, verts[:3]) and f2.tolist() == [[0, 1, 2]]
+
+
+def test_camera_frames_observed_between_builds_are_sent_once():
+    @dataclass
+    class _Shot:
+        t: float
+        rgb: np.ndarray
+
+    shot = _Shot(0.3, np.zeros((24, 32, 3), np.uint8))
+    tick = _tick(0.3)
+    tick.images = {"videoray": shot}  # what the simulation's TickFrame carries
+    b = FrameBuilder()
+    b.observe(tick)
+    b.observe(_tick(0.4))
+    f = b.build(_tick(0.5))
+    (c,) = f["camera"]
+    assert c["agent"] == "videoray" and c["t"] == 0.3 and c["image"] is shot.rgb
+    assert b.build(_tick(0.6))["camera"] is None  # consumed

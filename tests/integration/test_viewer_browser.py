@@ -281,3 +281,34 @@ def test_headings_are_drawn_clockwise_from_north_and_page_reconnects():
             assert others == []
     finally:
         server.close()
+
+
+def test_camera_panel_appears_with_the_first_frame_and_shows_it():
+    """No camera: no camera panel. A camera frame arrives: the panel opens and shows the
+    picture (its left half orange, right half blue, letterboxed in the panel)."""
+    server = ViewerServer({}, [], port=0, max_fps=20)
+    url = server.start()
+    try:
+        with headless_page() as bp:
+            page = bp.page
+            server.publish(_heading_frame(0, 0.0))
+            page.goto(url)
+            _wait_js(page, "window.uhri.framesReceived > 0")
+            assert not page.locator("#camera-panel").is_visible()
+            image = np.zeros((120, 160, 3), np.uint8)
+            image[:, :80] = (240, 140, 20)
+            image[:, 80:] = (20, 60, 230)
+            server.publish({**_heading_frame(1, 0.0),
+                            "camera": [{"agent": "rov", "t": 1.0, "image": image}]})
+            _wait_js(page, "window.uhri.camerasReceived > 0")
+            page.wait_for_timeout(300)
+            assert page.locator("#camera-panel").is_visible()
+            shot = _png(page.locator("#camera").screenshot()).astype(int)
+            h, w = shot.shape[:2]
+            row = shot[h // 2]
+            assert np.all(np.abs(row[w // 2 - 20] - (240, 140, 20)) <= 16)
+            assert np.all(np.abs(row[w // 2 + 20] - (20, 60, 230)) <= 16)
+            assert "rov" in page.locator("#camera-caption").inner_text()
+            assert bp.errors() == []
+    finally:
+        server.close()

@@ -359,3 +359,29 @@ def test_foreign_origins_and_hosts_are_refused(server):
     req = urllib.request.Request(server.url, headers={"Host": "[::1]:8765"})
     with urllib.request.urlopen(req) as r:
         assert r.status == 200
+
+
+def test_camera_frames_go_out_as_camera_messages(server):
+    """A frame's camera entry is copied at publish, PNG-encoded in the server thread and
+    sent as a ``camera`` message; the frame message itself carries no image."""
+    image = np.zeros((60, 80, 3), np.uint8)
+    image[:, :40] = (200, 120, 30)  # RGB
+    orig = image.copy()
+    server.publish({**demo_frame(2.0), "camera": [{"agent": "videoray", "t": 2.0,
+                                                   "image": image}]})
+    image[:] = 0  # the simulation may reuse its buffer
+    with connect(_ws_url(server.url)) as ws:
+        ws.recv(timeout=5)
+        seen: dict[str, dict] = {}
+
+        def both(m):
+            seen[m["type"]] = m
+            return {"frame", "camera"} <= set(seen)
+
+        _recv_until(ws, both)
+    assert "camera" not in seen["frame"]
+    msg = seen["camera"]
+    assert msg["agent"] == "videoray" and msg["t"] == pytest.approx(2.0)
+    img = cv2.imdecode(np.frombuffer(base64.b64decode(msg["png_b64"]), np.uint8),
+                       cv2.IMREAD_COLOR)
+    np.testing.assert_array_equal(img[:, :, ::-1], orig)

@@ -95,6 +95,7 @@ def assert_agree(scene: Scene, o, d, max_range: float, exclude=frozenset(), min_
     np.testing.assert_array_equal(e.label, r.label)
     np.testing.assert_array_equal(e.body, r.body)
     np.testing.assert_array_equal(e.reflectivity, r.reflectivity)
+    np.testing.assert_array_equal(e.material, r.material)  # what the camera's albedo reads
     # Normals: unit, facing the ray, and equal to the reference except where a ray lands on
     # an edge shared by two faces (within 1e-6 m of it), where either face is right.
     assert np.allclose(np.linalg.norm(e.normal[h], axis=1), 1.0, atol=1e-12)
@@ -102,6 +103,7 @@ def assert_agree(scene: Scene, o, d, max_range: float, exclude=frozenset(), min_
     same = np.all(np.abs(e.normal - r.normal) < 1e-6, axis=1)
     assert same.mean() > 0.995
     assert np.all(e.normal[~h] == 0.0) and np.all(e.label[~h] == -1) and np.all(e.body[~h] == -1)
+    assert np.all(e.material[~h] == -1) and np.all(e.material[h] >= 0)
     return e, r
 
 

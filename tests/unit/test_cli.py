@@ -27,7 +27,8 @@ def test_bench_prints_one_json_object_with_rates():
 
 
 def test_every_issue_benchmark_is_registered():
-    assert {"dynamics", "sonar", "helm", "mission", "bridges", "raycast", "viewer"} <= set(
+    assert {"dynamics", "sonar", "helm", "mission", "bridges", "raycast", "viewer",
+            "camera"} <= set(
         available())
 
 

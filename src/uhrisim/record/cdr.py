@@ -214,16 +214,17 @@ def encode_image(
     image: np.ndarray,
     encoding: str = "mono8",
 ) -> bytes:
-    """sensor_msgs/msg/Image from a 2-D uint8 array (row-major, ``step = width``). The
-    pixels are copied once, into the returned bytes."""
-    height, width = image.shape
+    """sensor_msgs/msg/Image from a (H, W) or (H, W, C) array, row-major and little endian
+    (``step`` = bytes per row: W for mono8, 3·W for rgb8, 4·W for 32FC1). The pixels are
+    copied once, into the returned bytes."""
+    height, width = image.shape[:2]
     pixels = _byte_view(image)
     b = CdrBuffer()
     b.header(sec, nanosec, frame_id)
     b.u32s(height, width)
     b.string(encoding)
     b.u8(0)  # is_bigendian
-    b.u32s(width, len(pixels))  # step (bytes per row), then the data's length
+    b.u32s(len(pixels) // max(height, 1), len(pixels))  # step (bytes per row), data length
     return b"".join((b.getvalue(), pixels))
 
 

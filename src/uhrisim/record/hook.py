@@ -96,6 +96,9 @@ class McapRecordingHook:
         Write the static scene as markers at start (``scene_markers``).
     sonar_every:
         Record every this-many-th ping of each sonar (1: all; images are large).
+    record_camera, camera_every:
+        Whether camera frames are recorded (image, camera info, depth, labels), and every
+        this-many-th frame of each camera.
     chunk_size, flush_period_s:
         Passed to :class:`McapRecorder`; by default a chunk is also closed at least every
         simulated second, so a killed run loses at most about one second.
@@ -110,6 +113,8 @@ class McapRecordingHook:
         record_points: bool = True,
         record_scene: bool = True,
         sonar_every: int = 1,
+        record_camera: bool = True,
+        camera_every: int = 1,
         chunk_size: int = 256 * 1024,
         flush_period_s: float | None = 1.0,
     ) -> None:
@@ -126,6 +131,12 @@ class McapRecordingHook:
                               where="McapRecordingHook")
         self.sonar_every = int(sonar_every)
         self._pings_seen: dict[str, int] = {}
+        if int(camera_every) < 1:
+            raise ConfigError(f"camera_every must be >= 1, got {camera_every}",
+                              where="McapRecordingHook")
+        self.record_camera = record_camera
+        self.camera_every = int(camera_every)
+        self._images_seen: dict[str, int] = {}
         self._chunk_size = chunk_size
         self._flush_period_s = flush_period_s
         self._rec: McapRecorder | None = None
@@ -173,6 +184,11 @@ class McapRecordingHook:
             self._pings_seen[agent] = seen + 1
             if seen % self.sonar_every == 0:
                 self._write_ping(rec, self._name(agent), ping)
+        for agent, image in getattr(frame, "images", {}).items():
+            seen = self._images_seen.get(agent, 0)
+            self._images_seen[agent] = seen + 1
+            if self.record_camera and seen % self.camera_every == 0:
+                self._write_image(rec, self._name(agent), image)
         for agent, h in frame.helm.items():
             rec.write_helm_decision(
                 self._name(agent), t, h.heading_deg, h.speed, h.depth, h.contributions,
@@ -199,6 +215,14 @@ class McapRecordingHook:
             f"{agent}/sonar",
             (ping.position_ned, ping.rotation_ned_from_sonar),
         )
+
+    @staticmethod
+    def _write_image(rec: McapRecorder, agent: str, image: Any) -> None:
+        labels = np.asarray(image.labels)
+        labels_u8 = (labels + 1).astype(np.uint8) if labels.max(initial=-1) < 255 else None
+        rec.write_camera(agent, float(image.t), image.rgb, image.depth_m, labels_u8, image.K,
+                         f"{agent}/camera_optical",
+                         (image.position_ned, image.rotation_ned_from_camera))
 
     def on_end(self, sim: Any, error: BaseException | None) -> None:
         rec = self._rec

@@ -11,7 +11,9 @@ here and only here, with ``uhrisim.core.frames``:
 
 * world frame ``map`` (configurable) is ENU: x east, y north, z up;
 * ``<agent>/base_link`` is the vehicle's FLU body frame (x forward, y port, z up);
-* a sonar frame (e.g. ``rov/sonar``) is the sonar's FLU frame.
+* a sonar frame (e.g. ``rov/sonar``) is the sonar's FLU frame;
+* a camera optical frame (e.g. ``rov/camera_optical``) follows REP-103's optical
+  convention: x right, y down, z along the optical axis.
 
 Topics (``<agent>`` is the community name):
 
@@ -24,6 +26,10 @@ topic                             type                                frame
 ``/<agent>/sonar/polar``          sensor_msgs/msg/Image (mono8)       sonar frame
 ``/<agent>/sonar/fan``            sensor_msgs/msg/Image (mono8)       sonar frame
 ``/<agent>/sonar/points``         sensor_msgs/msg/PointCloud2         sonar frame (FLU)
+``/<agent>/camera/image_raw``     sensor_msgs/msg/Image (rgb8)        camera optical
+``/<agent>/camera/camera_info``   sensor_msgs/msg/CameraInfo          camera optical
+``/<agent>/camera/depth``         sensor_msgs/msg/Image (32FC1)       camera optical
+``/<agent>/camera/labels``        sensor_msgs/msg/Image (mono8)       camera optical
 ``/<agent>/helm/decision``        uhrisim_msgs/msg/HelmDecision       —
 ``/<agent>/vars``                 uhrisim_msgs/msg/Variable           —
 ``/scene/markers``                visualization_msgs/msg/MarkerArray  map (ENU)
@@ -61,7 +67,12 @@ from mcap.writer import Writer as McapWriter
 from mcap_ros2._dynamic import serialize_dynamic
 
 from uhrisim import __version__ as uhrisim_version
-from uhrisim.bridges.ros2.convert import cloud_xyzi_flu, odom_fields_from_ned, pose_enu_from_ned
+from uhrisim.bridges.ros2.convert import (
+    cloud_xyzi_flu,
+    odom_fields_from_ned,
+    optical_rotation_ned,
+    pose_enu_from_ned,
+)
 from uhrisim.bridges.ros2.spec import ROS_NAME_TOKEN
 from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.core.frames import (
@@ -179,6 +190,26 @@ def _mono8(image: Any, name: str, where: str) -> np.ndarray:
             where=where,
         )
     return arr
+
+
+def _pose(value: Any, sensor: str, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """A sensor's ``(position (3,), rotation (3, 3))`` in NED, checked."""
+    try:
+        position, rotation = value
+    except (TypeError, ValueError):
+        raise ConfigError(
+            f"{sensor}_pose_ned must be (position (3,), rotation (3, 3))", where=where
+        ) from None
+    return (_vec(position, 3, f"{sensor} position", where),
+            _rotation(rotation, f"{sensor} rotation", where))
+
+
+def _intrinsics(value: Any, where: str) -> np.ndarray:
+    """A finite 3x3 intrinsic matrix."""
+    k = np.asarray(value, dtype=float)
+    if k.shape != (3, 3) or not np.all(np.isfinite(k)):
+        raise ConfigError(f"K must be a finite 3x3 matrix, got shape {k.shape}", where=where)
+    return k
 
 
 class McapRecorder:
@@ -387,16 +418,8 @@ class McapRecorder:
         _check_name(agent, "agent", where)
         _check_frame(sonar_frame, where)
         t_ns = _stamp_ns(t, where)
-        try:
-            pos_ned, rot_ned = sonar_pose_ned
-        except (TypeError, ValueError):
-            raise ConfigError(
-                "sonar_pose_ned must be (position (3,), rotation (3, 3))", where=where
-            ) from None
-        p_enu, q = pose_enu_from_ned(
-            _vec(pos_ned, 3, "sonar position", where),
-            _rotation(rot_ned, "sonar rotation", where),
-        )
+        pos_ned, rot_ned = _pose(sonar_pose_ned, "sonar", where)
+        p_enu, q = pose_enu_from_ned(pos_ned, rot_ned)
         sec, nanosec = divmod(t_ns, 1_000_000_000)
         polar = None if polar_u8 is None else _mono8(polar_u8, "polar_u8", where)
         fan = None if fan_u8 is None else _mono8(fan_u8, "fan_u8", where)
@@ -451,6 +474,72 @@ class McapRecorder:
                 t_ns,
                 cdr.encode_pointcloud2(sec, nanosec, sonar_frame, cloud),
             )
+
+    def write_camera(
+        self,
+        agent: str,
+        t: float,
+        rgb_u8: np.ndarray,
+        depth_m: np.ndarray | None,
+        labels_u8: np.ndarray | None,
+        K: np.ndarray,
+        camera_frame: str,
+        camera_pose_ned: tuple[Sequence[float] | np.ndarray, np.ndarray],
+    ) -> None:
+        """One camera frame: the rgb8 image, its CameraInfo (pinhole, no distortion), the
+        depth image (32FC1, metres along the optical axis, NaN where nothing was hit;
+        REP-118) and the label image (mono8: label id + 1, 0 for open water), each
+        optional but the image; and the optical frame's pose on /tf.
+
+        ``camera_pose_ned = (position (3,), rotation (3, 3))`` is the camera's pose with
+        the camera frame x forward, y right, z down (FRD-like) → NED; the optical frame
+        (x right, y down, z forward) published is derived from it.
+        """
+        where = "McapRecorder.write_camera"
+        self._check_open("write_camera")
+        _check_name(agent, "agent", where)
+        _check_frame(camera_frame, where)
+        t_ns = _stamp_ns(t, where)
+        rgb = np.asarray(rgb_u8)
+        if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.size == 0:
+            raise ConfigError(f"rgb_u8 must be a non-empty (H, W, 3) uint8 array, got "
+                              f"{rgb.dtype} shape {rgb.shape}", where=where)
+        height, width = rgb.shape[:2]
+        k = _intrinsics(K, where)
+        pos_ned, rot_ned = _pose(camera_pose_ned, "camera", where)
+        p_enu, q = pose_enu_from_ned(pos_ned, optical_rotation_ned(rot_ned))
+        sec, nanosec = divmod(t_ns, 1_000_000_000)
+        self._write("/tf", "tf2_msgs/msg/TFMessage", t_ns, cdr.encode_tf_message(
+            [(sec, nanosec, self.world_frame, camera_frame, p_enu, q)]))
+        base = f"/{agent}/camera"
+        self._write(f"{base}/image_raw", "sensor_msgs/msg/Image", t_ns,
+                    cdr.encode_image(sec, nanosec, camera_frame, rgb, "rgb8"))
+        p = np.zeros((3, 4))
+        p[:, :3] = k
+        info = {
+            "header": self._header(t_ns, camera_frame), "height": height, "width": width,
+            "distortion_model": "plumb_bob", "d": [0.0] * 5, "k": k.reshape(-1).tolist(),
+            "r": np.eye(3).reshape(-1).tolist(), "p": p.reshape(-1).tolist(),
+            "binning_x": 0, "binning_y": 0,
+            "roi": {"x_offset": 0, "y_offset": 0, "height": 0, "width": 0,
+                    "do_rectify": False},
+        }
+        self._write(f"{base}/camera_info", "sensor_msgs/msg/CameraInfo", t_ns,
+                    self._encode_dynamic("sensor_msgs/msg/CameraInfo", info))
+        if depth_m is not None:
+            depth = np.asarray(depth_m, dtype="<f4")
+            if depth.shape != (height, width):
+                raise ConfigError(f"depth_m must have shape {(height, width)}, got "
+                                  f"{depth.shape}", where=where)
+            self._write(f"{base}/depth", "sensor_msgs/msg/Image", t_ns,
+                        cdr.encode_image(sec, nanosec, camera_frame, depth, "32FC1"))
+        if labels_u8 is not None:
+            labels = _mono8(labels_u8, "labels_u8", where)
+            if labels.shape != (height, width):
+                raise ConfigError(f"labels_u8 must have shape {(height, width)}, got "
+                                  f"{labels.shape}", where=where)
+            self._write(f"{base}/labels", "sensor_msgs/msg/Image", t_ns,
+                        cdr.encode_image(sec, nanosec, camera_frame, labels))
 
     def write_helm_decision(
         self,

@@ -62,6 +62,22 @@ _OWN: dict[str, str] = {
         "uint32 step\n"
         "uint8[] data\n"
     ),
+    "sensor_msgs/msg/RegionOfInterest": (
+        "uint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\nbool do_rectify\n"
+    ),
+    "sensor_msgs/msg/CameraInfo": (
+        "std_msgs/Header header\n"
+        "uint32 height\n"
+        "uint32 width\n"
+        "string distortion_model\n"
+        "float64[] d\n"
+        "float64[9] k\n"
+        "float64[9] r\n"
+        "float64[12] p\n"
+        "uint32 binning_x\n"
+        "uint32 binning_y\n"
+        "sensor_msgs/RegionOfInterest roi\n"
+    ),
     "sensor_msgs/msg/CompressedImage": "std_msgs/Header header\nstring format\nuint8[] data\n",
     "sensor_msgs/msg/PointField": (
         "uint8 INT8=1\n"

@@ -15,8 +15,10 @@ from pydantic import (
     AfterValidator,
     BaseModel,
     ConfigDict,
+    Discriminator,
     Field,
     PositiveFloat,
+    Tag,
     field_validator,
     model_validator,
 )
@@ -229,6 +231,64 @@ class SonarSensor(Strict):
     image: SonarImage = SonarImage()
 
 
+class CameraWater(Strict):
+    """The water the camera looks through: a Jerlov type (docs/camera.md), or a measured
+    beam attenuation c per channel (1/m, R G B) split by the single-scattering albedo."""
+
+    jerlov: Literal["I", "IA", "IB", "II", "III", "1C", "3C", "7C", "9C"] | None = None
+    attenuation: tuple[PositiveFloat, PositiveFloat, PositiveFloat] | None = None
+    single_scattering_albedo: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.8
+
+    @model_validator(mode="after")
+    def _one_source(self) -> CameraWater:
+        if self.jerlov is not None and self.attenuation is not None:
+            raise ValueError("give either jerlov or attenuation, not both")
+        return self
+
+
+class CameraMount(Strict):
+    """Camera pose on the vehicle (None: the preset's): body FRD position (m), tilt (deg,
+    > 0 down), yaw (deg)."""
+
+    position: tuple[float, float, float] | None = None
+    tilt_deg: Annotated[float, Field(ge=-90.0, le=90.0)] | None = None
+    yaw_deg: HeadingDeg = 0.0
+
+
+class CameraSensor(Strict):
+    """An underwater colour camera (docs/camera.md); None: the preset's value."""
+
+    type: Literal["camera"]
+    preset: Literal["videoray-pro4"] = "videoray-pro4"
+    rate_hz: PositiveFloat = 10.0
+    width: Annotated[int, Field(ge=1, le=8192)] | None = None
+    height: Annotated[int, Field(ge=1, le=8192)] | None = None
+    hfov_deg: Annotated[float, Field(gt=0.0, lt=180.0)] | None = None
+    max_range: PositiveFloat = 30.0
+    sampling: Literal["adaptive", "full"] = "adaptive"  # rays: adaptive, or one per pixel
+    water: CameraWater = CameraWater()
+    lamps: bool = True
+    lamp_power: NonNegativeFloat = 1.0
+    sun_radiance: NonNegativeFloat = 1.0
+    forward_scatter: bool = True
+    exposure: PositiveFloat | Literal["auto"] = "auto"
+    noise: bool = True
+    mount: CameraMount = CameraMount()
+
+
+def _sensor_kind(value: Any) -> str:
+    """The sensor's ``type`` (a sonar may leave it out)."""
+    kind = value.get("type", "sonar") if isinstance(value, dict) else getattr(
+        value, "type", "sonar")
+    return kind if kind in ("sonar", "camera") else "sonar"
+
+
+Sensor = Annotated[
+    Annotated[SonarSensor, Tag("sonar")] | Annotated[CameraSensor, Tag("camera")],
+    Discriminator(_sensor_kind),
+]
+
+
 class VideoRayModelConfig(Strict):
     J: PositiveFloat = 0.0118
     moment_arm: PositiveFloat = 1.0
@@ -342,7 +402,7 @@ class AgentConfig(Strict):
     helm: HelmSection | None = None
     script: tuple[ScriptLeg, ...] = ()
     contacts: ContactsConfig = ContactsConfig()
-    sensors: tuple[SonarSensor, ...] = ()
+    sensors: tuple[Sensor, ...] = ()
     # The 3-D body in the scene (what sonars see); default: the model's own (a kinematic
     # vehicle looks like the VideoRay).
     body: Literal["videoray", "diver"] | None = None
@@ -424,6 +484,8 @@ class RecordingConfig(Strict):
     odometry_rate_hz: PositiveFloat = 10.0
     sonar: bool = True
     sonar_every: Annotated[int, Field(ge=1)] = 1  # every N-th ping (~300 MB/min at 15 Hz)
+    camera: bool = True
+    camera_every: Annotated[int, Field(ge=1)] = 1  # every N-th camera frame
     chunk_kib: Annotated[int, Field(ge=16, le=65536)] = 512
 
 

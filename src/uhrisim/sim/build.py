@@ -32,11 +32,11 @@ from uhrisim.dynamics.plants import DiverPlant, KinematicPlant, VideoRayPlant
 from uhrisim.dynamics.videoray import VideoRayParams
 from uhrisim.scenario.build_world import material_named, object_mesh
 from uhrisim.scenario.load import ScenarioFile
-from uhrisim.scenario.schema import AgentConfig, Scenario, SonarSensor
+from uhrisim.scenario.schema import AgentConfig, CameraSensor, Scenario, SonarSensor
 from uhrisim.sim.community import Community
 from uhrisim.sim.drivers import HelmDriver, ScriptedDriver
 from uhrisim.sim.script import ScriptDriver
-from uhrisim.sim.state import Agent, ScheduledEvent, SonarSlot
+from uhrisim.sim.state import Agent, CameraSlot, ScheduledEvent, SonarSlot
 from uhrisim.world.assets import diver_parts, videoray_mesh
 from uhrisim.world.materials import NEOPRENE, ROV_PLASTIC
 from uhrisim.world.scene import Scene
@@ -110,6 +110,30 @@ def _sonar(sim: BuildContext, cfg: AgentConfig, index: int, sensor: SonarSensor)
     name = f"sonar{index}"
     sonar = ImagingSonar(config, sim.rng(f"{cfg.name}/{name}"))
     return SonarSlot(name, sonar, period)
+
+
+def _camera(sim: BuildContext, cfg: AgentConfig, index: int, sensor: CameraSensor):
+    from uhrisim.sensors.camera import CameraConfig, UnderwaterCamera, jerlov, measured
+
+    where = sim.source.where("agents", _agent_index(sim, cfg.name), "sensors", index)
+    w = sensor.water
+    try:
+        water = (measured(w.attenuation, w.single_scattering_albedo) if w.attenuation
+                 else jerlov(w.jerlov or "IB"))
+        config = CameraConfig(
+            preset=sensor.preset, width=sensor.width, height=sensor.height,
+            hfov_deg=sensor.hfov_deg, rate_hz=sensor.rate_hz, max_range_m=sensor.max_range,
+            sampling=sensor.sampling,
+            mount_position_frd=sensor.mount.position, tilt_deg=sensor.mount.tilt_deg,
+            yaw_deg=sensor.mount.yaw_deg, water=water, lamps_on=sensor.lamps,
+            lamp_power=sensor.lamp_power, sun_radiance=sensor.sun_radiance,
+            forward_scatter=sensor.forward_scatter, exposure=sensor.exposure,
+            noise=sensor.noise)
+    except ConfigError as error:
+        raise ConfigError(str(error), where=where) from None
+    period = ticks_for_rate(sensor.rate_hz, sim.dt, f"{where}: rate_hz")
+    name = f"camera{index}"
+    return CameraSlot(name, UnderwaterCamera(config, sim.rng(f"{cfg.name}/{name}")), period)
 
 
 def _agent_index(sim: BuildContext, name: str) -> int:
@@ -207,7 +231,10 @@ def build_agents(sim: BuildContext, sonar_enabled: bool) -> dict[str, Agent]:
             agent.driver = ScriptedDriver(ScriptDriver(cfg.script))
             agent.driver_period = ticks_for_rate(4.0, sim.dt, f"agents.{cfg.name}.script")
         if sonar_enabled:
-            agent.sonars = [_sonar(sim, cfg, i, s) for i, s in enumerate(cfg.sensors)]
+            agent.sonars = [_sonar(sim, cfg, i, s) for i, s in enumerate(cfg.sensors)
+                            if s.type == "sonar"]
+            agent.cameras = [_camera(sim, cfg, i, s) for i, s in enumerate(cfg.sensors)
+                             if s.type == "camera"]
         agents[cfg.name] = agent
     return agents
 

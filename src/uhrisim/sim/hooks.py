@@ -17,6 +17,7 @@ from uhrisim.dynamics.plants import NavState
 from uhrisim.sim.community import Post
 
 if TYPE_CHECKING:
+    from uhrisim.sensors.camera.camera import CameraFrame
     from uhrisim.sensors.sonar.ping import SonarPing
 
 
@@ -102,7 +103,8 @@ class AgentSnapshots(Mapping[str, AgentSnapshot]):
 
 @dataclass(frozen=True)
 class TickFrame:
-    """Everything new at one tick; ``pings``/``helm`` hold only this tick's outputs.
+    """Everything new at one tick; ``pings``/``images``/``helm`` hold only this tick's
+    outputs (``images``: camera frames by agent).
 
     ``agents`` is an :class:`AgentSnapshots` when the simulation makes the frame: read it
     during ``on_tick`` (the frame :meth:`Simulation.step` returns has every snapshot).
@@ -115,3 +117,4 @@ class TickFrame:
     helm: Mapping[str, HelmRecord] = field(default_factory=dict)
     posts: tuple[Post, ...] = ()
     events: tuple[SimEvent, ...] = ()
+    images: Mapping[str, CameraFrame] = field(default_factory=dict)  # camera frames

@@ -75,13 +75,15 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
         rec = scenario.recording
         hooks.append(McapRecordingHook(
             out_dir / "recording.mcap", record_images=rec.sonar, sonar_every=rec.sonar_every,
+            record_camera=rec.camera, camera_every=rec.camera_every,
             chunk_size=rec.chunk_kib * 1024,
             odom_every=max(1, round(scenario.physics_rate_hz / rec.odometry_rate_hz))))
         files.append(out_dir / "recording.mcap")
     metrics = TrailMetrics(scenario.metrics) if scenario.metrics else None
     if metrics:
         hooks.append(metrics)
-    sonar_agents = [a.name for a in scenario.agents if a.sensors]
+    sonar_agents = [a.name for a in scenario.agents
+                    if any(s.type == "sonar" for s in a.sensors)]
     strip = SonarStripHook(sonar_agents[0], duration) if sonar and sonar_agents else None
     if strip:
         hooks.append(strip)

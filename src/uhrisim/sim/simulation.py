@@ -10,7 +10,7 @@ One tick of the physics step ``dt`` does, in this order (DESIGN.md, "data flows 
 4. **navigation**: NAV_* are posted (at each agent's helm rate);
 5. **contacts**: node reports from simulation truth (degraded as configured) reach the
    other agents' contact managers at the contact rate;
-6. **sensors**: sonars that are due ping the scene;
+6. **sensors**: sonars that are due ping the scene, cameras that are due take a frame;
 7. **autonomy**: helms and scripts that are due post DESIRED_*;
 8. **control**: controllers turn DESIRED_* into actuator inputs for the next tick;
 9. **hooks** receive a :class:`~uhrisim.sim.hooks.TickFrame`.
@@ -101,7 +101,7 @@ class Simulation:
         self.contacts = TruthContacts(self.agents, self.dt, self.rng)
         self.events: list[ScheduledEvent] = build_events(self)
         self.raycaster = self.scene.raycaster("embree") if any(
-            a.sonars for a in self.agents.values()) else None
+            a.sonars or a.cameras for a in self.agents.values()) else None
         self.refresh_static_obstacles()
         floor = self.scene.seafloor
         self._shallowest_floor = float(np.min(floor.depth)) if floor is not None else np.inf
@@ -182,7 +182,7 @@ class Simulation:
             if self.tick % agent.driver_period == 0:
                 self._post_nav(agent)
         self.contacts.step(self.tick, t)
-        pings = self._sense() if self.raycaster is not None else {}
+        pings, images = self._sense() if self.raycaster is not None else ({}, {})
         helm: dict[str, HelmRecord] = {}
         for agent in self.agents.values():
             if agent.driver is not None and self.tick % agent.driver_period == 0:
@@ -200,7 +200,7 @@ class Simulation:
         if build_frame:
             snapshots.take_all()
         frame = TickFrame(self.tick, t, snapshots, pings, helm, posts,
-                          tuple(self._pending_events))
+                          tuple(self._pending_events), images)
         self._pending_events.clear()
         for hook in self.hooks:
             hook.on_tick(frame)
@@ -371,8 +371,9 @@ class Simulation:
         c.post("NAV_HEADING", float(heading_deg_from_yaw(nav.yaw)), t, me)
         c.post("NAV_SPEED", float(nav.speed), t, me)
 
-    def _sense(self) -> dict[str, Any]:
-        pings = {}
+    def _sense(self) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Sonar pings and camera frames of the sensors due now (by agent)."""
+        pings, images = {}, {}
         for agent in self.agents.values():
             for slot in agent.sonars:
                 if self.tick % slot.period:
@@ -382,7 +383,15 @@ class Simulation:
                 pings[agent.name] = slot.sonar.ping(
                     self.raycaster, nav.position_ned, rot_z(nav.yaw), self.t,
                     exclude=frozenset({agent.name}))
-        return pings
+            for cam in agent.cameras:
+                if self.tick % cam.period:
+                    continue
+                self._sync_scene()
+                nav = agent.nav()
+                images[agent.name] = cam.camera.capture(
+                    self.raycaster, nav.position_ned, rot_z(nav.yaw), self.t,
+                    exclude=frozenset({agent.name}))
+        return pings, images
 
     def _control(self, agent: Agent) -> None:
         if agent.actuator_override is not None:

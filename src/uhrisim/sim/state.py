@@ -1,5 +1,5 @@
 """The mutable state a :class:`~uhrisim.sim.simulation.Simulation` owns: its agents (with
-their sonars) and its scheduled events.
+their sonars and cameras) and its scheduled events.
 
 These are the Simulation's own records: it hands out snapshots
 (:class:`~uhrisim.sim.hooks.AgentSnapshot`), never these objects. The builders
@@ -30,6 +30,15 @@ class SonarSlot:
 
 
 @dataclass
+class CameraSlot:
+    """A camera on an agent with its tick period."""
+
+    name: str
+    camera: Any  # uhrisim.sensors.camera.UnderwaterCamera
+    period: int
+
+
+@dataclass
 class Agent:
     """Mutable per-agent state owned by the Simulation (hand out snapshots, not this)."""
 
@@ -44,6 +53,7 @@ class Agent:
     driver_period: int = 1
     control_period: int = 1
     sonars: list[SonarSlot] = field(default_factory=list)
+    cameras: list[CameraSlot] = field(default_factory=list)
     kick_phase: float = 0.0
     actuator_override: NDArray | None = None
     actuator_override_until: float = -1.0

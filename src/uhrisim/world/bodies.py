@@ -176,6 +176,10 @@ class ArticulatedMesh:
             meshes.append(m)
         return trimesh.util.concatenate(meshes)
 
+    def part_materials(self, default: Material) -> tuple[Material, ...]:
+        """Material of every part (its own, else ``default``)."""
+        return tuple(p.material or default for p in self.parts)
+
     def face_reflectivity(self, default: Material) -> NDArray[np.float64]:
         """(F,) Lambert μ of every face (part material, else ``default``)."""
         vals = [

@@ -1,7 +1,8 @@
 """What a :class:`~uhrisim.world.scene.Scene` holds: fixed meshes and posed dynamic bodies.
 
 Both are in world NED metres (``docs/conventions.md``); each carries its label id (an
-index into ``Scene.labels``) and its :class:`~uhrisim.world.materials.Material`. The
+index into ``Scene.labels``) and its :class:`~uhrisim.world.materials.Material` (with its
+index into ``Scene.materials``; a body has one per face, its parts may differ). The
 scene creates and poses them; ray casters (:mod:`uhrisim.world.raycast`) read them.
 """
 
@@ -19,12 +20,13 @@ from uhrisim.world.materials import Material
 
 @dataclass(frozen=True)
 class StaticObject:
-    """A fixed mesh in NED with its label id and material."""
+    """A fixed mesh in NED with its label id, material and material id."""
 
     mesh: trimesh.Trimesh
     label: str
     label_id: int
     material: Material
+    material_id: int = 0
 
 
 class DynamicBody:
@@ -34,8 +36,15 @@ class DynamicBody:
     """
 
     def __init__(
-        self, name: str, geometry: ArticulatedMesh, label: str, label_id: int, material: Material
+        self,
+        name: str,
+        geometry: ArticulatedMesh,
+        label: str,
+        label_id: int,
+        material: Material,
+        face_material: NDArray[np.int32] | None = None,
     ) -> None:
+        """``face_material``: (F,) index into ``Scene.materials`` of every face (None: 0)."""
         self.name = name
         self.geometry = geometry
         self.label = label
@@ -43,6 +52,12 @@ class DynamicBody:
         self.material = material
         self.face_reflectivity = geometry.face_reflectivity(material)
         self.face_reflectivity.setflags(write=False)
+        self.face_material = (
+            np.zeros(geometry.n_faces, np.int32)
+            if face_material is None
+            else np.asarray(face_material, dtype=np.int32)
+        )
+        self.face_material.setflags(write=False)
         self.position = np.zeros(3)
         self.rotation = np.eye(3)
         self.kick_phase = 0.0

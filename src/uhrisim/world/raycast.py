@@ -69,6 +69,8 @@ class RayHits:
         reflectivity: (N,) float64 Lambert μ of the surface hit; 0 on a miss.
         body: (N,) int32 index into ``Scene.body_names`` of the dynamic body hit; -1 for
             static geometry or a miss.
+        material: (N,) int32 index into ``Scene.materials`` of the surface hit; -1 on a
+            miss (the camera reads its optical albedo there).
     """
 
     distance: NDArray[np.float64]
@@ -76,6 +78,7 @@ class RayHits:
     normal: NDArray[np.float64]
     reflectivity: NDArray[np.float64]
     body: NDArray[np.int32]
+    material: NDArray[np.int32]
 
     @property
     def hit(self) -> NDArray[np.bool_]:
@@ -98,6 +101,7 @@ class RayHits:
             normal=np.zeros((n, 3)),
             reflectivity=np.zeros(n),
             body=np.full(n, -1, dtype=np.int32),
+            material=np.full(n, -1, dtype=np.int32),
         )
 
 
@@ -287,15 +291,23 @@ class ReferenceRayCaster(RayCaster):
 
     def world_triangles(
         self, exclude: frozenset[str] = frozenset()
-    ) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.float64], NDArray[np.int32]]:
-        """All posed triangles (F, 3, 3) in NED with per-face label, reflectivity, body."""
-        tris, labels, refl, body = [], [], [], []
+    ) -> tuple[
+        NDArray[np.float64],
+        NDArray[np.int32],
+        NDArray[np.float64],
+        NDArray[np.int32],
+        NDArray[np.int32],
+    ]:
+        """All posed triangles (F, 3, 3) in NED with per-face label, reflectivity, body and
+        material id."""
+        tris, labels, refl, body, mat = [], [], [], [], []
         for obj in self._scene.static_objects:
             t = obj.mesh.vertices.view(np.ndarray)[obj.mesh.faces]
             tris.append(t)
             labels.append(np.full(len(t), obj.label_id, dtype=np.int32))
             refl.append(np.full(len(t), obj.material.reflectivity))
             body.append(np.full(len(t), -1, dtype=np.int32))
+            mat.append(np.full(len(t), obj.material_id, dtype=np.int32))
         for bi, b in enumerate(self._scene.bodies):
             if b.name in exclude:
                 continue
@@ -304,20 +316,23 @@ class ReferenceRayCaster(RayCaster):
             labels.append(np.full(len(t), b.label_id, dtype=np.int32))
             refl.append(b.face_reflectivity)
             body.append(np.full(len(t), bi, dtype=np.int32))
+            mat.append(b.face_material)
         if not tris:
             z = np.zeros((0, 3, 3))
-            return z, np.zeros(0, np.int32), np.zeros(0), np.zeros(0, np.int32)
+            none = np.zeros(0, np.int32)
+            return z, none, np.zeros(0), none, none
         return (
             np.concatenate(tris),
             np.concatenate(labels),
             np.concatenate(refl),
             np.concatenate(body),
+            np.concatenate(mat),
         )
 
     def _cast(self, o, d, max_range, exclude):  # type: ignore[no-untyped-def]
         n = len(d)
         o = np.broadcast_to(o, d.shape)
-        tri, lab, refl, body = self.world_triangles(exclude)
+        tri, lab, refl, body, mat = self.world_triangles(exclude)
         out = RayHits.empty(n)
         if len(tri) == 0:
             return out
@@ -362,6 +377,7 @@ class ReferenceRayCaster(RayCaster):
             normal=normals,
             reflectivity=np.where(hit, refl[np.maximum(best_f, 0)], 0.0),
             body=np.where(hit, body[np.maximum(best_f, 0)], -1).astype(np.int32),
+            material=np.where(hit, mat[np.maximum(best_f, 0)], -1).astype(np.int32),
         )
 
 
@@ -576,6 +592,7 @@ class EmbreeRayCaster(RayCaster):
         # Per static face: label and μ, each with a last entry that face -1 (a miss) reads.
         self._static_label = np.array([-1], dtype=np.int32)
         self._static_refl = np.array([0.0])
+        self._static_material = np.array([-1], dtype=np.int32)
         self._parts: dict[str, _BodyBVH] = {}
         self._sync()
 
@@ -598,10 +615,18 @@ class EmbreeRayCaster(RayCaster):
                     ]
                     + [[0.0]]
                 )
+                self._static_material = np.concatenate(
+                    [
+                        np.full(len(t), o.material_id, np.int32)
+                        for t, o in zip(tris, objs, strict=True)
+                    ]
+                    + [[-1]]
+                ).astype(np.int32)
             else:
                 self._static = None
                 self._static_label = np.array([-1], dtype=np.int32)
                 self._static_refl = np.array([0.0])
+                self._static_material = np.array([-1], dtype=np.int32)
             self._static_version = sc.static_version
         for b in sc.bodies:
             if b.name not in self._parts:
@@ -627,6 +652,7 @@ class EmbreeRayCaster(RayCaster):
         np.maximum(best, 0.0, out=best)
         label = np.take(self._static_label, face)  # -1 → the -1 sentinel at the end
         refl = np.take(self._static_refl, face)
+        material = np.take(self._static_material, face)
         body = np.full(n, -1, dtype=np.int32)
         active = [(bi, b) for bi, b in enumerate(self._scene.bodies) if b.name not in exclude]
         cull = _RayCuller(o, d) if active else None
@@ -655,10 +681,19 @@ class EmbreeRayCaster(RayCaster):
             sel = body_idx[hit]
             best[sel] = np.maximum(t[hit], 0.0)
             label[sel] = b.label_id
-            refl[sel] = b.face_reflectivity[bvh.face_map[face[hit]]]
+            body_faces = bvh.face_map[face[hit]]
+            refl[sel] = b.face_reflectivity[body_faces]
+            material[sel] = b.face_material[body_faces]
             normal[sel] = nrm[hit]
             body[sel] = bi
-        return RayHits(distance=best, label=label, normal=normal, reflectivity=refl, body=body)
+        return RayHits(
+            distance=best,
+            label=label,
+            normal=normal,
+            reflectivity=refl,
+            body=body,
+            material=material,
+        )
 
 
 class _RayCuller:

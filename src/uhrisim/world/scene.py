@@ -7,7 +7,8 @@ ray casters keep static and dynamic geometry apart and never rebuild the static 
 pose change (see :mod:`uhrisim.world.raycast`).
 
 Every object has a *label* (``Scene.labels`` holds the distinct strings; ids index that
-list, so all pilings can share ``"piling"``) and a :class:`~uhrisim.world.materials.Material`.
+list, so all pilings can share ``"piling"``) and a :class:`~uhrisim.world.materials.Material`
+(``Scene.materials`` holds the distinct materials; ray hits carry an index into it).
 """
 
 from __future__ import annotations
@@ -68,6 +69,7 @@ class Scene:
         self._bodies: list[DynamicBody] = []
         self._body_index: dict[str, int] = {}
         self._labels: list[str] = []
+        self._materials: list[Material] = []
         self._static_version = 0
         self._seafloor: SeaFloor | None = None
         self._floor_object: StaticObject | None = None  # the sea floor's static object
@@ -88,6 +90,11 @@ class Scene:
             self._labels.append(label)
         return self._labels.index(label)
 
+    def _material_id(self, material: Material) -> int:
+        if material not in self._materials:
+            self._materials.append(material)
+        return self._materials.index(material)
+
     def add_static(self, mesh: trimesh.Trimesh | SeaFloor, label: str, material: Material) -> None:
         """Add fixed geometry in NED. A :class:`SeaFloor` is also kept for ``depth_at``."""
         _check_label(label, "Scene.add_static.label")
@@ -101,7 +108,11 @@ class Scene:
                 self._seafloor = mesh
             mesh = mesh.mesh
         clean = _clean_mesh(mesh, f"Scene.add_static({label!r})")
-        self._static.append(StaticObject(clean, label, self._label_id(label), material))
+        self._static.append(
+            StaticObject(
+                clean, label, self._label_id(label), material, self._material_id(material)
+            )
+        )
         if is_floor:
             self._floor_object = self._static[-1]
         self._static_version += 1
@@ -133,7 +144,11 @@ class Scene:
         if not isinstance(material, Material):
             raise ConfigError(f"expected a Material, got {material!r}", where="Scene.add_dynamic")
         geometry = ArticulatedMesh.from_any(mesh_or_parts, name)
-        body = DynamicBody(name, geometry, label, self._label_id(label), material)
+        ids = [self._material_id(m) for m in geometry.part_materials(material)]
+        face_material = np.repeat(np.array(ids, np.int32), np.diff(geometry.face_offsets))
+        body = DynamicBody(
+            name, geometry, label, self._label_id(label), material, face_material
+        )
         self._body_index[name] = len(self._bodies)
         self._bodies.append(body)
         self.set_pose(name, position_ned, np.eye(3) if rotation is None else rotation, kick_phase)
@@ -188,6 +203,12 @@ class Scene:
         """Distinct label strings; label ids in :class:`~uhrisim.world.raycast.RayHits`
         index this list (a copy)."""
         return list(self._labels)
+
+    @property
+    def materials(self) -> tuple[Material, ...]:
+        """Distinct materials; material ids in :class:`~uhrisim.world.raycast.RayHits`
+        index this tuple."""
+        return tuple(self._materials)
 
     def label_id(self, label: str) -> int:
         """Id of ``label``; ConfigError if no object carries it."""

@@ -397,6 +397,34 @@ class Ros2Bridge:
         self._advance(t_sim)
         return io.sonar(t_sim, polar_u8, fan_u8, points_sonar_frd, intensity, sonar_pose_ned)
 
+    def publish_camera(
+        self,
+        agent: str,
+        t_sim: float,
+        rgb_u8: np.ndarray,
+        depth_m: np.ndarray | None,
+        K: ArrayLike,
+        camera_pose_ned: tuple[ArrayLike, ArrayLike],
+    ) -> None:
+        """Publish a camera frame: ``rgb_u8`` (H, W, 3) uint8 -> ``/<agent>/camera/image_raw``
+        (sensor_msgs/Image rgb8), ``K`` -> ``/<agent>/camera/camera_info``, ``depth_m``
+        (H, W) metres along the optical axis, NaN where nothing was hit ->
+        ``/<agent>/camera/depth`` (32FC1, REP-118), ``camera_pose_ned`` (position (3,),
+        rotation camera (x forward, y right, z down) -> NED) -> ``/<agent>/camera/pose``
+        (the optical frame ``"<agent>/camera_optical"``: x right, y down, z forward). Only
+        to topics with a subscriber (see ``publish_unsubscribed``)."""
+        io = self._io(agent, "publish_camera")
+        where = "Ros2Bridge.publish_camera"
+        if not io.spec.publish_camera:
+            raise ConfigError(f"agent {agent!r} was configured with publish_camera=False",
+                              where)
+        rgb = np.asarray(rgb_u8)
+        if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.size == 0:
+            raise ConfigError(f"rgb_u8 must be a non-empty (H, W, 3) uint8 array, got "
+                              f"{rgb.dtype} {rgb.shape}", where)
+        self._advance(t_sim)
+        io.camera(t_sim, rgb, depth_m, np.asarray(K, dtype=float), camera_pose_ned)
+
     def publish_helm(
         self,
         agent: str,

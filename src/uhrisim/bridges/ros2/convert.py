@@ -178,6 +178,20 @@ _IDENTITY = np.eye(3)
 _ORTHONORMAL_TOLERANCE = 1e-6 + 1e-5 * _IDENTITY
 
 
+#: Columns: the optical frame's axes (x right, y down, z forward) in a camera frame that is
+#: FRD-like (x forward, y right, z down), times the FRD→FLU flip that
+#: :func:`pose_enu_from_ned` applies to its child frame (so that it is undone).
+_OPTICAL_FROM_CAMERA_FRD = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]) @ (
+    np.diag([1.0, -1.0, -1.0]))
+
+
+def optical_rotation_ned(rotation_ned_from_camera: ArrayLike) -> NDArray[np.float64]:
+    """What to hand :func:`pose_enu_from_ned` for a camera's optical frame (REP-103
+    optical: x right, y down, z forward) given the camera frame (x forward, y right,
+    z down) → NED rotation: the result turns into the optical frame → ENU rotation."""
+    return np.asarray(rotation_ned_from_camera, dtype=float) @ _OPTICAL_FROM_CAMERA_FRD
+
+
 def pose_enu_from_ned(
     position_ned: ArrayLike, rotation_ned: ArrayLike | None = None
 ) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:

@@ -1,8 +1,8 @@
 """A simulation hook that attaches a running simulation to ROS 2 (``Ros2Bridge``).
 
 Each tick the hook (a read-only observer, like the recorder) publishes every linked
-agent's odometry (gated to ``odom_rate_hz`` in simulated time), each new sonar ping and
-helm decision, and ``/clock``; at start it publishes the static scene as markers.
+agent's odometry (gated to ``odom_rate_hz`` in simulated time), each new sonar ping,
+camera frame and helm decision, and ``/clock``; at start it publishes the static scene as markers.
 Volatile topics go out only while someone subscribes to them (nobody could tell the
 difference, :class:`Ros2Bridge` ``publish_unsubscribed``): the fan image of a ping is
 formed, and a snapshot taken for odometry, only for a subscriber. Commands received
@@ -190,6 +190,7 @@ class Ros2BridgeHook(BaseHook):
             AgentBridgeSpec(
                 self._ros[name],
                 publish_sonar=bool(getattr(sim.agents[name], "sonars", ())),
+                publish_camera=bool(getattr(sim.agents[name], "cameras", ())),
                 accept=self._accept,
                 sonar_rate_hz=self._sonar_rate,
                 odom_rate_hz=self._odom_rate,
@@ -242,12 +243,12 @@ class Ros2BridgeHook(BaseHook):
         if bridge is None or sim is None:
             return
         t = float(frame.t)
-        pings, helm = frame.pings, frame.helm
-        if t < self._wake_time and not pings and not helm:
+        pings, helm, images = frame.pings, frame.helm, frame.images
+        if t < self._wake_time and not pings and not helm and not images:
             bridge.note_time(t)  # nothing due: most ticks of a 60 Hz loop
             return
         rounds: list[str] = []  # lockstep: agents whose answer to this tick is awaited
-        if t >= self._publish_wake or pings or helm:
+        if t >= self._publish_wake or pings or helm or images:
             bridge.publish_clock(t)
             for ros, name, publish_sonar, _ in self._links:
                 if bridge.odometry_due(ros, t):  # the snapshot only when odometry goes out
@@ -260,6 +261,10 @@ class Ros2BridgeHook(BaseHook):
                 ping = pings.get(name) if publish_sonar and pings else None
                 if ping is not None:
                     self._publish_ping(bridge, ros, ping)
+                image = images.get(name) if images else None
+                if image is not None:
+                    bridge.publish_camera(ros, float(image.t), image.rgb, image.depth_m, image.K,
+                                          (image.position_ned, image.rotation_ned_from_camera))
                 decision = helm.get(name) if helm else None
                 if decision is not None:
                     bridge.publish_helm(ros, t, decision.heading_deg, decision.speed,

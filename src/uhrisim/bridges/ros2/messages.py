@@ -19,7 +19,7 @@ import numpy as np
 from geometry_msgs.msg import Point
 from nav_msgs.msg import Odometry
 from numpy.typing import ArrayLike
-from sensor_msgs.msg import Image, PointCloud2, PointField
+from sensor_msgs.msg import CameraInfo, Image, PointCloud2, PointField
 from visualization_msgs.msg import Marker
 
 from uhrisim.core.errors import ConfigError
@@ -82,6 +82,25 @@ def image_msg(img: np.ndarray, t_sim: float, frame_id: str, where: str = "image"
     data = array.array("B")
     data.frombytes(memoryview(a.reshape(-1)))
     msg.data = data
+    return msg
+
+
+def camera_info_msg(t_sim: float, frame_id: str, shape_hw: tuple[int, int],
+                    K: ArrayLike) -> CameraInfo:
+    """sensor_msgs/CameraInfo of an ideal pinhole camera: intrinsics ``K`` (3x3,
+    pixels), no distortion (``plumb_bob`` with zeros), identity rectification,
+    projection [K | 0]; ``shape_hw`` = (height, width) in pixels."""
+    k = np.asarray(K, dtype=float)
+    if k.shape != (3, 3) or not np.all(np.isfinite(k)):
+        raise ConfigError(f"K must be a finite 3x3 matrix, got {k.shape}", "camera_info_msg")
+    msg = CameraInfo()
+    _set_stamp(msg.header, t_sim, frame_id)
+    msg.height, msg.width = int(shape_hw[0]), int(shape_hw[1])
+    msg.distortion_model = "plumb_bob"
+    msg.d = [0.0] * 5
+    msg.k = k.reshape(-1).tolist()
+    msg.r = np.eye(3).reshape(-1).tolist()
+    msg.p = np.hstack([k, np.zeros((3, 1))]).reshape(-1).tolist()
     return msg
 
 

@@ -22,10 +22,18 @@ from .convert import (
     RateGate,
     cloud_xyzi_flu,
     odom_fields_from_ned,
+    optical_rotation_ned,
     pose_enu_from_ned,
     stamp_from_sim_time,
 )
-from .messages import WORLD_FRAME, PoseStampedEncoder, float64_bytes, mono8, string_bytes
+from .messages import (
+    WORLD_FRAME,
+    PoseStampedEncoder,
+    camera_info_msg,
+    float64_bytes,
+    mono8,
+    string_bytes,
+)
 from .spec import AgentBridgeSpec
 from .topics import agent_topics
 from .writer import TopicWriter
@@ -116,6 +124,30 @@ class AgentPublishers:
         if pose is not None and wanted(pubs["sonar_pose"]):
             write(pubs["sonar_pose"], self.pose(sec, nanosec, *pose), self.topics["sonar_pose"])
         return True
+
+    def camera(self, t_sim: float, rgb_u8: np.ndarray, depth_m: np.ndarray | None,
+               K: np.ndarray, camera_pose_ned: tuple[ArrayLike, ArrayLike]) -> None:
+        """A camera frame to the camera topics someone subscribes to: the rgb8 image,
+        its CameraInfo (pinhole, no distortion), the 32FC1 depth image (REP-118) and the
+        optical frame's pose (x right, y down, z forward; frame ``<agent>/camera_optical``)."""
+        frame = f"{self.spec.name}/camera_optical"
+        sec, nanosec = stamp_from_sim_time(t_sim)
+        pubs, write, wanted = self.pubs, self.writer.write, self.writer.wanted
+        if wanted(pubs["camera_image"]):
+            write(pubs["camera_image"], encode_image(sec, nanosec, frame, rgb_u8, "rgb8"),
+                  self.topics["camera_image"])
+        if wanted(pubs["camera_info"]):
+            write(pubs["camera_info"], camera_info_msg(t_sim, frame, rgb_u8.shape[:2], K),
+                  self.topics["camera_info"])
+        if depth_m is not None and wanted(pubs["camera_depth"]):
+            write(pubs["camera_depth"], encode_image(
+                sec, nanosec, frame, np.asarray(depth_m, dtype="<f4"), "32FC1"),
+                self.topics["camera_depth"])
+        if wanted(pubs["camera_pose"]):
+            position, rotation = camera_pose_ned
+            pose = pose_enu_from_ned(position, optical_rotation_ned(rotation))
+            write(pubs["camera_pose"], self.pose(sec, nanosec, *pose),
+                  self.topics["camera_pose"])
 
     def helm(self, heading_deg: float | None, speed: float | None, depth: float | None,
              mode: str) -> None:

@@ -36,7 +36,8 @@ class AgentBridgeSpec:
     """What the bridge publishes and accepts for one agent (a ROS namespace ``/<name>``).
 
     ``odom_rate_hz`` / ``sonar_rate_hz`` throttle publishing in *simulation* time
-    (``None``: every call publishes). ``accept`` lists the command groups subscribed
+    (``None``: every call publishes). ``publish_camera`` adds the camera topics (every
+    frame the simulation makes goes out). ``accept`` lists the command groups subscribed
     (:data:`COMMAND_GROUPS`); ``()`` makes the agent publish-only (e.g. the diver's
     ground truth).
     """
@@ -46,6 +47,7 @@ class AgentBridgeSpec:
     accept: tuple[str, ...] = COMMAND_GROUPS
     sonar_rate_hz: float | None = None
     odom_rate_hz: float | None = None
+    publish_camera: bool = False
 
     def __post_init__(self) -> None:
         where = f"AgentBridgeSpec({self.name!r})"

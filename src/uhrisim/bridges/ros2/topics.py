@@ -1,7 +1,8 @@
 """The ROS 2 bridge's topics and their QoS: what goes out per agent, what comes in.
 
 Per agent (namespace ``/<agent>``): ``odom``, ``pose``, the sonar's ``sonar/polar``,
-``sonar/fan``, ``sonar/points`` and ``sonar/pose``, the helm's ``helm/desired_*`` and
+``sonar/fan``, ``sonar/points`` and ``sonar/pose``, the camera's ``camera/image_raw``,
+``camera/camera_info``, ``camera/depth`` and ``camera/pose``, the helm's ``helm/desired_*`` and
 ``helm/mode``; commands in on ``cmd/desired_*`` and ``cmd/thrusters``. Bridge-wide:
 ``/clock`` and ``/scene/markers``. docs/bridges-ros2.md has the table with frames, units
 and rates; the QoS profiles below say why each is what it is.
@@ -12,7 +13,7 @@ from __future__ import annotations
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import Image, PointCloud2
+from sensor_msgs.msg import CameraInfo, Image, PointCloud2
 from std_msgs.msg import Float64, String
 
 from .spec import AgentBridgeSpec
@@ -97,6 +98,11 @@ def agent_topics(spec: AgentBridgeSpec, sensor_qos: QoSProfile = QOS_SENSOR
                    ("fan", f"{ns}/sonar/fan", Image, sensor_qos),
                    ("points", f"{ns}/sonar/points", PointCloud2, sensor_qos),
                    ("sonar_pose", f"{ns}/sonar/pose", PoseStamped, QOS_STATE)]
+    if spec.publish_camera:
+        topics += [("camera_image", f"{ns}/camera/image_raw", Image, sensor_qos),
+                   ("camera_info", f"{ns}/camera/camera_info", CameraInfo, sensor_qos),
+                   ("camera_depth", f"{ns}/camera/depth", Image, sensor_qos),
+                   ("camera_pose", f"{ns}/camera/pose", PoseStamped, QOS_STATE)]
     topics += [(f"helm_{key}", f"{ns}/helm/{key}", Float64, QOS_STATE)
                for key in DESIRED_KEYS]
     topics.append(("helm_mode", f"{ns}/helm/mode", String, QOS_LATCHED))

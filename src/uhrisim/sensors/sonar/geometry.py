@@ -44,6 +44,18 @@ def mount_rotation(tilt_deg: float, yaw_deg: float) -> NDArray[np.float64]:
     return rotation_zyx(0.0, -math.radians(tilt_deg), math.radians(yaw_deg))
 
 
+def mounted_pose(
+    position_ned: NDArray[np.float64], rotation_body_to_ned: NDArray[np.float64],
+    mount_position_frd: NDArray[np.float64], mount_rotation_to_body: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A sensor's origin (NED, m) and rotation sensor → NED, for a vehicle pose (position
+    NED, rotation body FRD → NED) and the sensor's mount (position in the body FRD frame,
+    rotation sensor → body)."""
+    p = np.asarray(position_ned, dtype=float).reshape(3)
+    R = np.asarray(rotation_body_to_ned, dtype=float).reshape(3, 3)
+    return p + R @ mount_position_frd, R @ mount_rotation_to_body
+
+
 @dataclass(frozen=True)
 class SonarGeometry:
     """Everything precomputed once per config (ray fan, weights, kernels, maps); angles in

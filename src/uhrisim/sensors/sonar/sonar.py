@@ -49,7 +49,12 @@ from uhrisim.sensors.sonar.cloud import cloud_hits, sonar_cloud
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.echoes import MAX_FOOTPRINT_TAN, EchoAccumulator, footprint, ray_echo
 from uhrisim.sensors.sonar.fan import color_fan, fan_image, image_2013
-from uhrisim.sensors.sonar.geometry import mount_rotation, sonar_geometry, surface_rows
+from uhrisim.sensors.sonar.geometry import (
+    mount_rotation,
+    mounted_pose,
+    sonar_geometry,
+    surface_rows,
+)
 from uhrisim.sensors.sonar.labels import FanLabeller, unlabelled
 from uhrisim.sensors.sonar.ping import SonarPing
 from uhrisim.sensors.sonar.polar import (
@@ -135,9 +140,8 @@ class ImagingSonar:
         self, position_ned: NDArray[np.float64], rotation_body_to_ned: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Sonar origin (NED, m) and rotation sonar → NED for a vehicle pose."""
-        p = np.asarray(position_ned, dtype=float).reshape(3)
-        R = np.asarray(rotation_body_to_ned, dtype=float).reshape(3, 3)
-        return p + R @ self.mount_position, R @ self.mount_rotation
+        return mounted_pose(position_ned, rotation_body_to_ned, self.mount_position,
+                            self.mount_rotation)
 
     # -- the ping --------------------------------------------------------------------------
     def ping(

@@ -5,7 +5,7 @@ every tick, and ``server.publish(builder.build(tick_frame, paused=..., speed_fac
 rtf=...))`` on the ticks it wants to show (every tick is fine too: publish is O(1)).
 It reads the simulation's ``TickFrame`` by duck typing (``t``, ``agents`` mapping of
 snapshots with ``name``, ``model``, ``mode`` and ``nav`` — ``position_ned`` (m),
-``yaw`` (rad, compass), ``speed`` (m/s) — and ``pings`` / ``posts``), so the viewer
+``yaw`` (rad, compass), ``speed`` (m/s) — and ``pings`` / ``images`` / ``posts``), so the viewer
 does not import the simulation.
 
 Overlays come from two places: fixed ones given at construction (e.g. contact and
@@ -101,6 +101,12 @@ def sonar_entry(agent: str, ping: Any) -> dict[str, Any]:
     }
 
 
+def camera_entry(agent: str, frame: Any) -> dict[str, Any]:
+    """A frame's ``camera`` entry from a ``CameraFrame``: the sRGB picture (referenced,
+    not copied: ``ViewerServer.publish`` copies it)."""
+    return {"agent": agent, "t": float(frame.t), "image": frame.rgb}
+
+
 class FrameBuilder:
     """Builds viewer frames from simulation ticks; keeps the overlays posted so far.
 
@@ -128,6 +134,7 @@ class FrameBuilder:
         self._polygons: dict[tuple[str, str], list[list[float]]] = {}
         self._points: dict[tuple[str, str], tuple[float, float]] = {}
         self._pending_pings: dict[str, Any] = {}
+        self._pending_images: dict[str, Any] = {}
 
     def _take_posts(self, posts: Sequence[Any]) -> None:
         for p in posts:
@@ -159,6 +166,8 @@ class FrameBuilder:
         self._take_posts(getattr(tick, "posts", ()))
         for agent, ping in (getattr(tick, "pings", None) or {}).items():
             self._pending_pings[agent] = ping
+        for agent, image in (getattr(tick, "images", None) or {}).items():
+            self._pending_images[agent] = image
 
     def build(
         self,
@@ -200,6 +209,8 @@ class FrameBuilder:
             rng = float(np.linalg.norm(pos[pair[0]] - pos[pair[1]]))
         sonar = [sonar_entry(a, ping) for a, ping in self._pending_pings.items()]
         self._pending_pings = {}
+        camera = [camera_entry(a, image) for a, image in self._pending_images.items()]
+        self._pending_images = {}
         return {
             "t": float(tick.t),
             "paused": bool(paused),
@@ -214,6 +225,7 @@ class FrameBuilder:
                 "circles": list(self._circles),
             },
             "sonar": sonar or None,
+            "camera": camera or None,
             "plots": {
                 "range_to_diver": rng,
                 "depth": {a["name"]: a["depth"] for a in agents},

@@ -2,7 +2,8 @@
 
 The recording is the one ``uhrisim.record.McapRecorder`` writes (topics in its module
 docstring): ``/<agent>/odom`` (nav_msgs/Odometry, ENU/FLU), ``/<agent>/sonar/fan``
-(sensor_msgs/Image mono8), ``/<agent>/vars`` (uhrisim_msgs/Variable) and
+(sensor_msgs/Image mono8), ``/<agent>/camera/image_raw`` (sensor_msgs/Image rgb8),
+``/<agent>/vars`` (uhrisim_msgs/Variable) and
 ``/scene/markers`` (visualization_msgs/MarkerArray, ENU), and the helm's mode from
 ``/<agent>/helm/decision`` (else a ``MODE`` variable). Odometry is read with
 ``uhrisim.record.reader.read_odometry`` (ENU/FLU → NED/FRD); the rest is decoded from
@@ -41,7 +42,8 @@ from uhrisim.viz.viewer.server import ViewerServer
 
 log = logging.getLogger(__name__)
 
-#: Memory budget for decoded sonar fans kept for scrubbing; beyond it pings are thinned.
+#: Memory budget for decoded sonar fans and camera pictures kept for scrubbing; beyond it
+#: the largest agent's images are thinned.
 SONAR_BUDGET_BYTES = 256 * 1024 * 1024
 #: Points per agent sent to the page for replay trails.
 TRACK_POINTS_MAX = 5000
@@ -52,6 +54,7 @@ _MARKER_BOX, _MARKER_SPHERE, _MARKER_CYLINDER, _MARKER_TRIANGLES = 1, 2, 3, 11
 _MARKER_DELETE, _MARKER_DELETEALL = 2, 3
 _ODOM = re.compile(r"^/([^/]+)/odom$")
 _FAN = re.compile(r"^/([^/]+)/sonar/fan$")
+_CAMERA = re.compile(r"^/([^/]+)/camera/image_raw$")
 _VARS = re.compile(r"^/([^/]+)/vars$")
 _HELM = re.compile(r"^/([^/]+)/helm/decision$")
 _HELM_MODE = "__helm_mode"  # key under which helm decisions' modes are kept
@@ -94,18 +97,24 @@ class ReplayData:
     t_end: float
     sonar_fov_deg: dict[str, float]
     sonar_range: dict[str, float]
+    shots: dict[str, tuple[np.ndarray, list[np.ndarray]]] = field(default_factory=dict)
 
 
-def _image_u8(msg: Any) -> np.ndarray | None:
+def _image_u8(msg: Any, encodings: tuple[str, ...] = ("mono8", "8uc1")) -> np.ndarray | None:
+    """The pixels of a sensor_msgs/Image of one of ``encodings`` (mono8: H×W; rgb8:
+    H×W×3), or None."""
     enc = str(msg.encoding).lower()
-    if enc not in ("mono8", "8uc1"):
-        log.warning("replay: sonar image encoding %r not supported (want mono8)", enc)
+    if enc not in encodings:
+        log.warning("replay: image encoding %r not supported (want %s)", enc,
+                    " or ".join(encodings))
         return None
+    channels = 3 if enc == "rgb8" else 1
     h, w, step = int(msg.height), int(msg.width), int(msg.step)
     buf = np.frombuffer(bytes(msg.data), dtype=np.uint8)
-    if buf.size < h * step:
+    if buf.size < h * step or step < w * channels:
         return None
-    return buf[: h * step].reshape(h, step)[:, :w].copy()
+    rows = buf[: h * step].reshape(h, step)[:, : w * channels]
+    return (rows.reshape(h, w, 3) if channels == 3 else rows).copy()
 
 
 def _marker_object(m: Any, max_faces: int = 20_000) -> dict[str, Any] | None:
@@ -189,30 +198,34 @@ def load_replay(
         }
 
     pings: dict[str, _Pings] = {}
+    shots: dict[str, _Pings] = {}  # camera pictures, kept like the fans
     variables: dict[str, dict[str, tuple[list[float], list[float | str]]]] = {}
     markers: dict[tuple[str, int], dict[str, Any]] = {}
     from uhrisim.record.reader import summarize
 
     topics = [
         t for t in summarize(path).topics
-        if _FAN.match(t) or _VARS.match(t) or _HELM.match(t) or t == "/scene/markers"
+        if _FAN.match(t) or _CAMERA.match(t) or _VARS.match(t) or _HELM.match(t)
+        or t == "/scene/markers"
     ]
     total = 0
     for dm in iter_messages(path, topics) if topics else ():
         t = dm.log_time_ns * 1e-9
-        if (m := _FAN.match(dm.topic)) is not None:
-            img = _image_u8(dm.message)
+        fan, shot = _FAN.match(dm.topic), _CAMERA.match(dm.topic)
+        if fan is not None or shot is not None:
+            img = _image_u8(dm.message) if fan else _image_u8(dm.message, ("rgb8",))
             if img is None:
                 continue
-            p = pings.setdefault(m.group(1), _Pings())
+            store, m = (pings, fan) if fan else (shots, shot)
+            p = store.setdefault(m.group(1), _Pings())
             before = len(p.images)
             p.add(t, img)
             if len(p.images) > before:
                 total += img.nbytes
             while total > SONAR_BUDGET_BYTES:
-                big = max(pings.values(), key=lambda q: q.nbytes())
-                big.thin()
-                total = sum(q.nbytes() for q in pings.values())
+                stores = [*pings.values(), *shots.values()]
+                max(stores, key=lambda q: q.nbytes()).thin()
+                total = sum(q.nbytes() for q in stores)
         elif (m := _VARS.match(dm.topic)) is not None:
             v = dm.message
             value: float | str = v.string_value if v.kind == 1 else float(v.double_value)
@@ -273,7 +286,22 @@ def load_replay(
         t_end=t_end,
         sonar_fov_deg=fov,
         sonar_range=rng,
+        shots={a: (np.asarray(p.t), p.images) for a, p in shots.items()},
     )
+
+
+def _due(store: dict[str, tuple[np.ndarray, list[np.ndarray]]], t: float,
+         sent: dict[str, int]) -> list[tuple[str, float, np.ndarray]]:
+    """Per agent, the latest image at or before ``t`` not sent yet: (agent, its time, the
+    image); ``sent`` remembers what went out."""
+    out = []
+    for name, (ts, images) in store.items():
+        i = int(np.searchsorted(ts, t, side="right")) - 1
+        if i < 0 or sent.get(name) == i:
+            continue
+        sent[name] = i
+        out.append((name, float(ts[i]), images[i]))
+    return out
 
 
 def _interp_heading(t: float, ts: np.ndarray, hd: np.ndarray, i: int) -> float:
@@ -296,6 +324,7 @@ class ReplayPlayer:
         self._last_wall: float | None = None
         self._dirty = True
         self._sent_ping: dict[str, int] = {}
+        self._sent_shot: dict[str, int] = {}
         dts = [np.median(np.diff(tr["t"])) for tr in data.tracks.values() if len(tr["t"]) > 1]
         self.step_s = float(min(dts)) if dts else 0.1
         rovs = [a for a, k in data.kinds.items() if k == "rov"]
@@ -337,6 +366,7 @@ class ReplayPlayer:
     def seek(self, t: float) -> None:
         self.t = min(max(t, self.data.t_start), self.data.t_end)
         self._sent_ping.clear()
+        self._sent_shot.clear()
         self._dirty = True
 
     def tick(self, wall: float) -> None:
@@ -387,17 +417,12 @@ class ReplayPlayer:
                 "mode": "" if mode is None else str(mode), **vals,
             })
             pos[name] = (vals["north"], vals["east"], vals["depth"])
-        sonars = []
-        for name, (ts, images) in self.data.pings.items():
-            i = int(np.searchsorted(ts, t, side="right")) - 1
-            if i < 0 or self._sent_ping.get(name) == i:
-                continue
-            self._sent_ping[name] = i
-            sonars.append({
-                "agent": name, "t": float(ts[i]), "fan": images[i],
-                "fov_deg": self.data.sonar_fov_deg[name],
-                "max_range": self.data.sonar_range[name],
-            })
+        sonars = [{"agent": name, "t": ti, "fan": image,
+                   "fov_deg": self.data.sonar_fov_deg[name],
+                   "max_range": self.data.sonar_range[name]}
+                  for name, ti, image in _due(self.data.pings, t, self._sent_ping)]
+        camera = [{"agent": name, "t": ti, "image": image}
+                  for name, ti, image in _due(self.data.shots, t, self._sent_shot)]
         rng = None
         if self._pair is not None:
             a, b = pos[self._pair[0]], pos[self._pair[1]]
@@ -410,6 +435,7 @@ class ReplayPlayer:
             "agents": agents,
             "overlays": self._overlays(t),
             "sonar": sonars or None,
+            "camera": camera or None,
             "plots": {
                 "range_to_diver": rng,
                 "depth": {n: p[2] for n, p in pos.items()},

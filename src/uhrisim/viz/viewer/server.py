@@ -190,6 +190,7 @@ class ViewerServer:
         self.frames_encoded = 0
         self.frames_sent = 0
         self.sonars_encoded = 0
+        self.cameras_encoded = 0
 
     # ------------------------------------------------------------------ sim-side API
     @property
@@ -230,7 +231,10 @@ class ViewerServer:
         the fan image as ``"fan"`` (uint8 array, H×W or H×W×3) instead of
         ``"fan_png_b64"``: it is copied here (cheap) and PNG-encoded in the server thread,
         once per ping, only while a page is connected. ``frame["sonar"]`` may also be a
-        list of such dicts (several agents pinged in the same tick).
+        list of such dicts (several agents pinged in the same tick). ``frame["camera"]``, a
+        list of ``{"agent", "t", "image"}`` (uint8 H×W×3 RGB), goes the same way: copied,
+        PNG-encoded in the server thread at most ``max_sonar_fps`` times a second per
+        agent, sent as ``camera`` messages.
         """
         sonar = frame.get("sonar")
         self._seq += 1
@@ -242,6 +246,10 @@ class ViewerServer:
                     ping = {**ping, "fan": np.array(fan, copy=True)}
                 with self._sonar_lock:
                     self._sonar[str(ping.get("agent", ""))] = (seq, ping)
+        for shot in frame.get("camera") or ():
+            shot = {**shot, "kind": "camera", "image": np.array(shot["image"], copy=True)}
+            with self._sonar_lock:  # one queue for both kinds of image, keyed apart
+                self._sonar[f"camera:{shot.get('agent', '')}"] = (seq, shot)
         self._latest = (seq, frame)
 
     def drain_commands(self) -> list[Command]:
@@ -434,7 +442,8 @@ class ViewerServer:
                 self.processed_seq = seq
                 if self._clients:
                     msg = {"type": "frame", "seq": seq}
-                    msg.update((k, v) for k, v in frame.items() if k != "sonar")
+                    msg.update((k, v) for k, v in frame.items()
+                               if k not in ("sonar", "camera"))
                     try:
                         self._frame_text = encode_json(msg)
                         self.frames_encoded += 1
@@ -468,13 +477,21 @@ class ViewerServer:
             await asyncio.sleep(max(delay, 0.0))
 
     def _encode_sonar(self, seq: int, agent: str, sonar: dict[str, Any]) -> str | None:
+        """The ``sonar`` message of a ping, or the ``camera`` message of a camera frame
+        (entries of kind "camera", keyed ``camera:<agent>``); None if not encodable."""
         try:
-            b64 = sonar.get("fan_png_b64")
-            if b64 is None:
-                b64 = encode_png_b64(sonar["fan"], self._sonar_max_px)
-            self.sonars_encoded += 1
-            head = encode_json(
-                {
+            if sonar.get("kind") == "camera":
+                b64 = encode_png_b64(sonar["image"], self._sonar_max_px)
+                self.cameras_encoded += 1
+                head = {"type": "camera", "seq": seq, "agent": str(sonar.get("agent", "")),
+                        "t": float(sonar.get("t", math.nan))}
+                key = "png_b64"
+            else:
+                b64 = sonar.get("fan_png_b64")
+                if b64 is None:
+                    b64 = encode_png_b64(sonar["fan"], self._sonar_max_px)
+                self.sonars_encoded += 1
+                head = {
                     "type": "sonar",
                     "seq": seq,
                     "agent": agent,
@@ -482,13 +499,13 @@ class ViewerServer:
                     "fov_deg": float(sonar.get("fov_deg", 130.0)),
                     "max_range": float(sonar.get("max_range", 10.0)),
                 }
-            )
+                key = "fan_png_b64"
             if not isinstance(b64, str) or not _B64.fullmatch(b64[:64]):
-                raise ValueError("fan_png_b64 is not base64 text")
+                raise ValueError(f"{key} is not base64 text")
             # base64 needs no JSON escaping: splice it in rather than re-scan 100 kB
-            return head[:-1] + ',"fan_png_b64":"' + b64 + '"}'
+            return encode_json(head)[:-1] + f',"{key}":"' + b64 + '"}'
         except (KeyError, TypeError, ValueError, ConfigError) as e:
-            log.warning("viewer: sonar of %r not encodable: %s", agent, e)
+            log.warning("viewer: image %r not encodable: %s", agent, e)
             return None
 
     def _record_history(self, frame: dict[str, Any]) -> None:

@@ -26,6 +26,8 @@ const state = {
   replay: null,
   selected: null,
   sonar: {}, // agent -> {t, fov_deg, max_range, img}
+  camera: {}, // agent -> {t, img}
+  camerasReceived: 0,
   plots: { range: [], depth: {}, speed: {} },
   framesReceived: 0,
   sonarsReceived: 0,
@@ -66,6 +68,7 @@ function connect() {
     if (msg.type === "hello") onHello(msg);
     else if (msg.type === "frame") onFrame(msg);
     else if (msg.type === "sonar") onSonar(msg);
+    else if (msg.type === "camera") onCamera(msg);
   };
   ws.onclose = () => {
     state.connected = false;
@@ -163,6 +166,18 @@ function onSonar(s) {
   img.src = "data:image/png;base64," + s.fan_png_b64;
 }
 
+function onCamera(m) {
+  state.camerasReceived += 1;
+  const img = new Image();
+  img.onload = () => {
+    state.camera[m.agent] = { t: m.t, img };
+    $("camera-panel").classList.remove("hidden");
+    $("side").classList.add("with-camera");
+    dirty.camera = true;
+  };
+  img.src = "data:image/png;base64," + m.png_b64;
+}
+
 function resetHistories() {
   state.plots = { range: [], depth: {}, speed: {} };
   if (state.mode !== "replay") state.trails = {};
@@ -249,8 +264,10 @@ window.addEventListener("keydown", (ev) => {
 });
 
 // ------------------------------------------------------------------ canvases
-const dirty = { map: true, sonar: true, plots: true, view3d: true };
-state.redraw = () => { dirty.map = dirty.sonar = dirty.plots = dirty.view3d = true; };
+const dirty = { map: true, sonar: true, camera: true, plots: true, view3d: true };
+state.redraw = () => {
+  dirty.map = dirty.sonar = dirty.camera = dirty.plots = dirty.view3d = true;
+};
 
 function sizeCanvas(c) {
   const dpr = window.devicePixelRatio || 1;
@@ -355,7 +372,7 @@ function pickAgent(ev) {
   if (best) {
     state.selected = best;
     command("select", { agent: best });
-    dirty.map = dirty.sonar = dirty.view3d = true;
+    dirty.map = dirty.sonar = dirty.camera = dirty.view3d = true;
   }
 }
 
@@ -566,9 +583,10 @@ function trailsFor(t) {
   return out;
 }
 
-// ---------- sonar panel
-function drawSonar() {
-  const c = $("sonar");
+// ---------- image panels: the selected agent's latest image (or the first agent's),
+// letterboxed on black; returns where it was drawn (s is null when there is none yet)
+function drawLatestImage(canvasId, images) {
+  const c = $(canvasId);
   const dpr = sizeCanvas(c);
   const ctx = c.getContext("2d");
   ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
@@ -576,18 +594,25 @@ function drawSonar() {
   ctx.fillStyle = "#000";
   ctx.fillRect(0, 0, w, h);
   let name = state.selected;
-  if (!state.sonar[name]) name = Object.keys(state.sonar)[0];
-  const s = state.sonar[name];
+  if (!images[name]) name = Object.keys(images)[0];
+  const s = images[name];
+  if (!s) return { ctx, s: null };
+  const k = Math.min(w / s.img.width, h / s.img.height);
+  const dw = s.img.width * k, dh = s.img.height * k;
+  const x0 = (w - dw) / 2, y0 = (h - dh) / 2;
+  ctx.imageSmoothingEnabled = true;
+  ctx.drawImage(s.img, x0, y0, dw, dh);
+  return { ctx, name, s, x0, y0, dw, dh };
+}
+
+// ---------- sonar panel
+function drawSonar() {
+  const { ctx, name, s, x0, y0, dw, dh } = drawLatestImage("sonar", state.sonar);
   if (!s) {
     label(ctx, "no sonar image yet", 10, 20, "#777");
     $("sonar-caption").textContent = "";
     return;
   }
-  const k = Math.min(w / s.img.width, h / s.img.height);
-  const dw = s.img.width * k, dh = s.img.height * k;
-  ctx.imageSmoothingEnabled = true;
-  const x0 = (w - dw) / 2, y0 = (h - dh) / 2;
-  ctx.drawImage(s.img, x0, y0, dw, dh);
   // range arcs, assuming the fan's apex at the bottom centre and max range at the top
   if (s.max_range > 0 && s.fov_deg > 0 && s.fov_deg < 180) {
     const ax = x0 + dw / 2, ay = y0 + dh, half = (s.fov_deg * DEG) / 2;
@@ -606,6 +631,14 @@ function drawSonar() {
   }
   $("sonar-caption").textContent =
     `${name} · t=${fmt(s.t, 1)} s · ${fmt(s.fov_deg, 0)}° · ${fmt(s.max_range, 0)} m`;
+}
+
+// ---------- camera panel
+function drawCamera() {
+  const { name, s } = drawLatestImage("camera", state.camera);
+  if (!s) return;
+  $("camera-caption").textContent =
+    `${name} · t=${fmt(s.t, 1)} s · ${s.img.width}×${s.img.height}`;
 }
 
 // ---------- plots
@@ -906,11 +939,14 @@ state.drawCount = 0;
 function loop(now) {
   if (dirty.map) { dirty.map = false; drawMap(); state.drawCount += 1; }
   if (dirty.sonar) { dirty.sonar = false; drawSonar(); }
+  if (dirty.camera) { dirty.camera = false; drawCamera(); }
   if (dirty.plots && now - lastDraw > 90) { dirty.plots = false; lastDraw = now; drawPlots(); }
   if (dirty.view3d) { dirty.view3d = false; view3d.update(); }
   requestAnimationFrame(loop);
 }
-new ResizeObserver(() => { dirty.map = dirty.sonar = dirty.plots = dirty.view3d = true; })
+new ResizeObserver(() => {
+  dirty.map = dirty.sonar = dirty.camera = dirty.plots = dirty.view3d = true;
+})
   .observe(document.body);
 
 view3d.init().catch((e) => {
