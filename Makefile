@@ -24,6 +24,8 @@ $(VENV)/.core-installed: $(VENV)/.python-ok pyproject.toml
 
 $(VENV)/.test-installed: $(VENV)/.python-ok pyproject.toml
 	$(PY) -m pip install -q -e '.[$(TEST_EXTRAS)]'
+	@# ROS 2 message packages without wheels (tf2_msgs, marine_acoustic_msgs): built here
+	if $(PY) -c 'import rclpy' 2>/dev/null; then $(PY) -m uhrisim.bridges.ros2.interfaces; fi
 	@touch $@ $(VENV)/.core-installed
 
 venv-core: $(VENV)/.core-installed
