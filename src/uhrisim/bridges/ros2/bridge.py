@@ -221,6 +221,8 @@ class Ros2Bridge:
             ctx.try_shutdown()
             raise BridgeError(f"Ros2Bridge: could not start ROS 2 node: {exc}") from exc
         self._context, self._node = ctx, node
+        # command rejections go to /rosout (and the console) through the node's logger
+        self._inbox.validator.log = node.get_logger().warning
         if self._publish_clock:
             self._pub_clock = node.create_publisher(Clock, "/clock", QOS_CLOCK)
         self._pub_scene = node.create_publisher(MarkerArray, "/scene/markers", QOS_SCENE)
@@ -450,9 +452,18 @@ class Ros2Bridge:
 
     # ----------------------------------------------------------------- introspection
     def stats(self) -> dict[str, Any]:
-        """Messages published and writes failed per topic, and command messages rejected
-        (a copy)."""
-        return {**self._writer.stats(), "rejected_commands": self._inbox.rejected}
+        """Messages published and writes failed per topic; command messages refused and
+        clamped, and the rejections per topic and reason (:mod:`.limits`); a copy."""
+        validator = self._inbox.validator
+        return {**self._writer.stats(), "rejected_commands": validator.refused,
+                "clamped_commands": validator.clamped,
+                "command_rejections": validator.counts()}
+
+    def set_max_depth(self, agent: str, depth: float) -> None:
+        """The deepest depth (m, down) ``agent`` may be commanded to now (the floor below
+        it less the clearance; ``math.inf``: no limit): deeper commands are clamped."""
+        self._io(agent, "set_max_depth")
+        self._inbox.validator.set_max_depth(agent, depth)
 
     # ----------------------------------------------------------------- lockstep
     def begin_round(self, agent: str) -> bool:

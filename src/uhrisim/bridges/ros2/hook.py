@@ -16,10 +16,16 @@ uses:
 * ``/<agent>/cmd/thrusters`` -> :meth:`Simulation.set_actuators` with
   ``hold_s = command_timeout_s``: the simulation falls back to the agent's own
   controller when no new thruster command arrives in time.
+* Every command is checked against the agent's envelope first (:mod:`.limits`: speeds
+  within what the vehicle can do, no reverse unless its controller reverses, depth within
+  [0, floor below it - ``depth_clearance_m``], thrusters within ±150 and three of them).
 * When commands stop (all older than ``command_timeout_s``, see
   :class:`~uhrisim.bridges.ros2.spec.AgentCommands`) the hook performs the safe stop
-  once: ``DESIRED_SPEED = 0`` and ``DESIRED_DEPTH`` = the current depth, and records a
-  ``bridge`` event; another event marks commands becoming active again.
+  once: ``DESIRED_HEADING`` = the heading at that moment, ``DESIRED_SPEED = 0`` and
+  ``DESIRED_DEPTH`` = the current depth, and records a ``bridge`` event; another event
+  marks commands becoming active again. A thruster override outlives the command timeout
+  by one command poll, so the safe stop's setpoints are in place before the vehicle's
+  own controller takes over again: it does not turn back to an old heading.
 
 A write that fails (ROS shut down under the bridge) does not stop the run: the bridge
 counts it, and the hook records a ``bridge`` event when a topic first fails.
@@ -41,11 +47,13 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from uhrisim.core.errors import BridgeError, ConfigError
+from uhrisim.core.frames import heading_deg_from_yaw
 from uhrisim.sensors.sonar.cloud import cloud_hits
 from uhrisim.sim.hooks import TickFrame
 from uhrisim.sim.simulation import BaseHook, Simulation
 
 from .convert import RateGate
+from .limits import CommandEnvelope
 from .spec import COMMAND_GROUPS, AgentBridgeSpec, AgentCommands
 
 if TYPE_CHECKING:
@@ -62,11 +70,35 @@ SCENE_MAX_TRIANGLES_PER_OBJECT = 20_000
 #: Wall seconds a lockstep start waits after finding the controllers (see on_start).
 LOCKSTEP_SETTLE_S = 0.5
 
+#: Default vertical clearance (m) kept between a commanded depth and the floor below.
+DEPTH_CLEARANCE_M = 0.5
+
 _DESIRED_VARS = (
     ("desired_heading_deg", "DESIRED_HEADING"),
     ("desired_speed", "DESIRED_SPEED"),
     ("desired_depth", "DESIRED_DEPTH"),
 )
+
+
+def command_envelope(agent: Any) -> CommandEnvelope:
+    """What a simulated agent (``Simulation.agents[name]``) can be commanded to do: its
+    top speed (VideoRay: thrust-drag balance at full forward thrust; diver: its swim-speed
+    limit; kinematic vehicle: 100 % thrust) and whether its controller reverses (none of
+    uhrisim's does: ``reverses`` on the controller says so)."""
+    params = agent.plant.params
+    model = agent.config.model
+    if model == "videoray":
+        from uhrisim.dynamics.videoray import generalized_forces, steady_speed
+
+        lim = params.input_limit
+        surge = float(generalized_forces(np.array([lim, lim, 0.0]), params)[0])
+        max_speed = abs(steady_speed(surge, params.Xu, params.Xuu))
+    elif model == "diver":
+        max_speed = params.max_speed
+    else:  # uSimMarine-style: thrust (%) = thrust_factor x speed, at most 100 %
+        max_speed = 100.0 / params.thrust_factor
+    return CommandEnvelope(max_speed=max_speed,
+                           reverse=bool(getattr(agent.controller, "reverses", False)))
 
 
 def decimate_triangle_markers(
@@ -107,6 +139,8 @@ class Ros2BridgeHook(BaseHook):
     appear (discovery alone can take seconds). An agent whose controller stays silent for
     a round is no longer waited for (a ``bridge`` event says so) until it answers again;
     its commands then go stale and the safe stop follows.
+    ``depth_clearance_m``: commanded depths are clamped to the floor below the vehicle less
+    this (m).
     Other arguments go to :class:`Ros2Bridge`.
     """
 
@@ -128,6 +162,7 @@ class Ros2BridgeHook(BaseHook):
         lockstep: bool = False,
         lockstep_timeout_s: float = 10.0,
         lockstep_start_timeout_s: float = 30.0,
+        depth_clearance_m: float = DEPTH_CLEARANCE_M,
     ) -> None:
         for name, value in (("lockstep_timeout_s", lockstep_timeout_s),
                             ("lockstep_start_timeout_s", lockstep_start_timeout_s)):
@@ -155,6 +190,10 @@ class Ros2BridgeHook(BaseHook):
         self._lapsed: set[str] = set()  # ... that did not answer their last round
         self.n_rounds = 0
         self._timeout = command_timeout_s
+        # a thruster override lasts until the safe stop has surely been posted
+        self._hold_s = command_timeout_s + (0.0 if command_poll_hz is None
+                                            else 1.0 / command_poll_hz)
+        self._clearance = depth_clearance_m
         self._command_gate = RateGate(command_poll_hz)
         self.bridge: Ros2Bridge | None = None
         self._sim: Simulation | None = None
@@ -193,6 +232,7 @@ class Ros2BridgeHook(BaseHook):
                 accept=self._accept,
                 sonar_rate_hz=self._sonar_rate,
                 odom_rate_hz=self._odom_rate,
+                envelope=command_envelope(sim.agents[name]),
             )
             for name in names
         ]
@@ -275,6 +315,7 @@ class Ros2BridgeHook(BaseHook):
         if rounds or (self._accepting and self._command_gate.due(t)):
             for ros, name, _, accept in self._links:
                 if accept:
+                    self._limit_depth(sim, bridge, ros, name, frame)
                     self._take_commands(sim, name, bridge.commands(ros, t), frame)
         else:
             bridge.note_time(t)
@@ -312,6 +353,16 @@ class Ros2BridgeHook(BaseHook):
                              ping.fan_u8 if fan else None, points, intensity,
                              sonar_pose_ned=(ping.position_ned, ping.rotation_ned_from_sonar))
 
+    def _limit_depth(self, sim: Simulation, bridge: Ros2Bridge, ros: str, name: str,
+                     frame: TickFrame) -> None:
+        """Tell the bridge how deep ``name`` may be commanded where it is now."""
+        floor = getattr(sim.scene, "seafloor", None)
+        snap = frame.agents.get(name)
+        if floor is None or snap is None:
+            return
+        north, east = float(snap.nav.position_ned[0]), float(snap.nav.position_ned[1])
+        bridge.set_max_depth(ros, float(floor.depth_at(north, east)) - self._clearance)
+
     def _take_commands(self, sim: Simulation, name: str, cmd: AgentCommands,
                        frame: TickFrame) -> None:
         if cmd.received_count != self._seen[name]:
@@ -323,7 +374,7 @@ class Ros2BridgeHook(BaseHook):
                     self.n_posted += 1
             if cmd.thrusters is not None:
                 try:
-                    sim.set_actuators(name, cmd.thrusters, hold_s=self._timeout)
+                    sim.set_actuators(name, cmd.thrusters, hold_s=self._hold_s)
                 except ConfigError as exc:
                     self.n_rejected += 1
                     log.warning("ROS 2 %s: thruster command rejected: %s", name, exc)
@@ -333,15 +384,21 @@ class Ros2BridgeHook(BaseHook):
             if active:
                 sim.record_event("bridge", f"ros2 {name}: external commands active")
             else:
-                snap = frame.agents.get(name)
-                depth = float(snap.nav.position_ned[2]) if snap is not None else 0.0
-                sim.post(name, "DESIRED_SPEED", 0.0, source="ros2")
-                sim.post(name, "DESIRED_DEPTH", depth, source="ros2")
-                sim.record_event(
-                    "bridge",
-                    f"ros2 {name}: commands stale for {self._timeout:g} s: safe stop "
-                    f"(speed 0, hold depth {depth:.2f} m)",
-                )
+                self._safe_stop(sim, name, frame)
+
+    def _safe_stop(self, sim: Simulation, name: str, frame: TickFrame) -> None:
+        """Commands went stale: hold the heading and depth of this moment, speed 0."""
+        nav = frame.agents[name].nav
+        heading = float(heading_deg_from_yaw(nav.yaw))
+        depth = float(nav.position_ned[2])
+        sim.post(name, "DESIRED_HEADING", heading, source="ros2")
+        sim.post(name, "DESIRED_SPEED", 0.0, source="ros2")
+        sim.post(name, "DESIRED_DEPTH", depth, source="ros2")
+        sim.record_event(
+            "bridge",
+            f"ros2 {name}: commands stale for {self._timeout:g} s: safe stop "
+            f"(speed 0, hold heading {heading:.1f} deg, hold depth {depth:.2f} m)",
+        )
 
     def on_end(self, sim: Simulation, error: BaseException | None) -> None:
         del sim, error
