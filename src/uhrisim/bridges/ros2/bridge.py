@@ -39,6 +39,7 @@ from uhrisim.core.errors import BridgeError, ConfigError
 
 from .commands import CommandInbox
 from .convert import RateGate
+from .interfaces import build_hint
 from .messages import (
     WORLD_FRAME,
     PoseStampedEncoder,
@@ -48,6 +49,7 @@ from .messages import (
     marker_msg,
     odometry_msg,
     pointcloud_msg,
+    static_tf_msg,
     string_bytes,
 )
 from .publishers import AgentPublishers
@@ -59,6 +61,8 @@ from .topics import (
     QOS_SENSOR,
     QOS_SENSOR_RELIABLE,
     QOS_STATE,
+    QOS_TF,
+    QOS_TF_STATIC,
 )
 from .writer import TopicWriter
 
@@ -181,6 +185,8 @@ class Ros2Bridge:
         self._closed = False
         self._pub_clock: Any = None
         self._pub_scene: Any = None
+        self._pub_tf: Any = None
+        self._pub_tf_static: Any = None
 
     # ----------------------------------------------------------------- lifecycle
     @property
@@ -226,8 +232,17 @@ class Ros2Bridge:
         if self._publish_clock:
             self._pub_clock = node.create_publisher(Clock, "/clock", QOS_CLOCK)
         self._pub_scene = node.create_publisher(MarkerArray, "/scene/markers", QOS_SCENE)
+        try:
+            from tf2_msgs.msg import TFMessage
+        except ImportError:
+            log.warning("ROS 2 bridge: no /tf, /tf_static: tf2_msgs is not built (run %s)",
+                        build_hint())
+        else:
+            self._pub_tf = node.create_publisher(TFMessage, "/tf", QOS_TF)
+            self._pub_tf_static = node.create_publisher(TFMessage, "/tf_static",
+                                                        QOS_TF_STATIC)
         for name, io in self._agents.items():
-            io.create(node, self._sensor_qos)
+            io.create(node, self._sensor_qos, self._pub_tf)
             self._inbox.subscribe(node, name, self._command_qos)
         self._executor = SingleThreadedExecutor(context=ctx)
         self._executor.add_node(node)
@@ -398,6 +413,36 @@ class Ros2Bridge:
             )
         self._advance(t_sim)
         return io.sonar(t_sim, polar_u8, fan_u8, points_sonar_frd, intensity, sonar_pose_ned)
+
+    def publish_sonar_image(self, agent: str, t_sim: float, polar_u8: np.ndarray,
+                            beam_angles_rad: ArrayLike, ranges_m: ArrayLike,
+                            frequency_hz: float, sound_speed_m_s: float) -> None:
+        """Publish ``/<agent>/sonar/image`` (marine_acoustic_msgs/ProjectedSonarImage in
+        ``"<agent>/sonar"``): the polar image ``(n_bins, n_beams)`` uint8 with the beam
+        azimuths (rad, > 0 starboard), range-bin centres (m), centre frequency (Hz) and
+        sound speed (m/s); see :func:`~.messages.projected_sonar_image_msg`. Only while
+        someone subscribes, and only when marine_acoustic_msgs is built. Not rate-gated:
+        call it on the calls where :meth:`publish_sonar` published."""
+        io = self._io(agent, "publish_sonar_image")
+        io.sonar_image(t_sim, polar_u8, beam_angles_rad, ranges_m, frequency_hz,
+                       sound_speed_m_s)
+
+    def sonar_image_subscribed(self, agent: str) -> bool:
+        """Does ``/<agent>/sonar/image`` have a subscriber (form it only then)?"""
+        return self._io(agent, "sonar_image_subscribed").sonar_image_wanted()
+
+    def publish_static_transforms(
+        self, t_sim: float, transforms: Sequence[tuple[str, str, ArrayLike, ArrayLike]]
+    ) -> None:
+        """Publish ``/tf_static`` (latched, one message with every static transform): each
+        ``(parent, child, position_frd (3,) m, rotation_frd (3x3) child -> parent)`` in
+        body FRD terms, written in FLU (e.g. ``("rov/base_link", "rov/sonar", mount
+        position, mount rotation)``). Nothing when tf2_msgs is not built."""
+        if not self.started:
+            raise BridgeError("Ros2Bridge.publish_static_transforms: bridge is not running")
+        if self._pub_tf_static is not None:
+            self._writer.write(self._pub_tf_static, static_tf_msg(t_sim, transforms),
+                               "/tf_static")
 
     def publish_helm(
         self,

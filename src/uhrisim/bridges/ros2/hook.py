@@ -205,6 +205,8 @@ class Ros2BridgeHook(BaseHook):
         self._seen: dict[str, int] = {}
         self._active: dict[str, bool] = {}
         self._failing: tuple[str, ...] = ()  # bridge.failing_topics, as last recorded
+        # per ROS name of an agent with a sonar: (centre frequency Hz, sound speed m/s)
+        self._acoustics: dict[str, tuple[float, float]] = {}
         self.n_posted = 0
         self.n_rejected = 0
 
@@ -242,6 +244,7 @@ class Ros2BridgeHook(BaseHook):
         self._links = [(spec.name, name, spec.publish_sonar, bool(spec.accept))
                        for spec, name in zip(self.bridge.agents, self._ros, strict=True)]
         self._accepting = any(accept for *_, accept in self._links)
+        self._publish_mounts(sim)
         if self._lockstep:
             self._await_controllers()
         # simulation times before which nothing is due (see on_tick)
@@ -255,6 +258,23 @@ class Ros2BridgeHook(BaseHook):
             markers = decimate_triangle_markers(scene_markers(sim.scene))
             if markers:
                 self.bridge.publish_scene(float(sim.t), markers)
+
+    def _publish_mounts(self, sim: Simulation) -> None:
+        """``/tf_static``: ``<agent>/base_link`` -> ``<agent>/sonar`` of every linked agent
+        with a sonar (its first one: the frame of its sonar topics), from the mount; and
+        each such sonar's centre frequency and sound speed for ``sonar/image``."""
+        assert self.bridge is not None
+        mounts = []
+        self._acoustics = {}
+        for ros, name, publish_sonar, _ in self._links:
+            if publish_sonar:
+                sonar = sim.agents[name].sonars[0].sonar
+                mounts.append((f"{ros}/base_link", f"{ros}/sonar", sonar.mount_position,
+                               sonar.mount_rotation))
+                self._acoustics[ros] = (sonar.config.sonar_spec.frequency_hz,
+                                        sonar.config.sound_speed_m_s)
+        if mounts:
+            self.bridge.publish_static_transforms(float(sim.t), mounts)
 
     def _await_controllers(self) -> None:
         """Lockstep start: every agent that accepts commands needs its controller (an
@@ -343,15 +363,20 @@ class Ros2BridgeHook(BaseHook):
                                        f"{self._lockstep_timeout:g} s: not waited for until "
                                        "it answers again (lockstep lapsed)")
 
-    @staticmethod
-    def _publish_ping(bridge: Ros2Bridge, name: str, ping: Any) -> None:
+    def _publish_ping(self, bridge: Ros2Bridge, name: str, ping: Any) -> None:
         """The ping's products that someone subscribes to: the hit cloud and the fan image
         are formed only then (publish_sonar skips the unread ones)."""
         polar, fan, hits = bridge.sonar_subscribed(name)
         points, intensity = cloud_hits(ping.cloud) if hits else (None, None)
-        bridge.publish_sonar(name, float(ping.t), ping.polar_u8 if polar else None,
-                             ping.fan_u8 if fan else None, points, intensity,
-                             sonar_pose_ned=(ping.position_ned, ping.rotation_ned_from_sonar))
+        due = bridge.publish_sonar(name, float(ping.t), ping.polar_u8 if polar else None,
+                                   ping.fan_u8 if fan else None, points, intensity,
+                                   sonar_pose_ned=(ping.position_ned,
+                                                   ping.rotation_ned_from_sonar))
+        if due and bridge.sonar_image_subscribed(name):
+            frequency, sound_speed = self._acoustics[name]
+            bridge.publish_sonar_image(name, float(ping.t), ping.polar_u8,
+                                       ping.beam_angles_rad, ping.bin_ranges_m, frequency,
+                                       sound_speed)
 
     def _limit_depth(self, sim: Simulation, bridge: Ros2Bridge, ros: str, name: str,
                      frame: TickFrame) -> None:

@@ -23,8 +23,8 @@ from sensor_msgs.msg import Image, PointCloud2, PointField
 from visualization_msgs.msg import Marker
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.core.frames import enu_from_ned
-from uhrisim.record.cdr import CDR_LE_HEADER, CdrBuffer
+from uhrisim.core.frames import enu_from_ned, flu_from_frd, quaternion_from_matrix
+from uhrisim.record.cdr import CDR_LE_HEADER, CdrBuffer, encode_tf_message
 
 from .convert import (
     CLOUD_FIELDS,
@@ -37,6 +37,93 @@ from .convert import (
 
 #: World frame of every pose and marker (REP-105 "map", ENU).
 WORLD_FRAME = "map"
+
+#: Identity transform: translation (m) and rotation (x, y, z, w).
+_IDENTITY_TF = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+
+
+def agent_frames(agent: str) -> tuple[str, str]:
+    """An agent's REP-105 frames: ``(<agent>/odom, <agent>/base_link)``. Ground truth has
+    no drift, so ``map`` -> ``<agent>/odom`` is the identity."""
+    return f"{agent}/odom", f"{agent}/base_link"
+
+
+def tf_bytes(agent: str, sec: int, nanosec: int, position_enu: Sequence[float],
+             orientation_xyzw: Sequence[float]) -> bytes:
+    """The serialised tf2_msgs/TFMessage of one agent's chain ``map`` -> ``<agent>/odom``
+    (identity) -> ``<agent>/base_link`` (its odometry pose, ENU/FLU)."""
+    odom, base = agent_frames(agent)
+    return encode_tf_message([(sec, nanosec, WORLD_FRAME, odom, *_IDENTITY_TF),
+                              (sec, nanosec, odom, base, position_enu, orientation_xyzw)])
+
+
+def mount_transform(position_frd: ArrayLike, rotation_frd: ArrayLike
+                    ) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+    """``(translation, rotation_xyzw)`` in FLU of a sensor mounted at ``position_frd`` (m,
+    body FRD) with ``rotation_frd`` (3x3, sensor FRD -> body FRD): the transform
+    ``<agent>/base_link`` -> sensor frame, both FLU (FLU = diag(1, -1, -1) FRD)."""
+    flip = np.diag([1.0, -1.0, -1.0])
+    r = flip @ np.asarray(rotation_frd, dtype=float) @ flip
+    t = flu_from_frd(np.asarray(position_frd, dtype=float))
+    q = quaternion_from_matrix(r)
+    return ((float(t[0]), float(t[1]), float(t[2])),
+            (float(q[0]), float(q[1]), float(q[2]), float(q[3])))
+
+
+def static_tf_msg(t_sim: float, transforms: Sequence[tuple[str, str, ArrayLike, ArrayLike]]
+                  ) -> Any:
+    """tf2_msgs/TFMessage of ``(parent, child, position_frd, rotation_frd)`` mounts (see
+    :func:`mount_transform`), stamped ``t_sim``: what ``/tf_static`` carries."""
+    from geometry_msgs.msg import TransformStamped
+    from tf2_msgs.msg import TFMessage
+
+    msg = TFMessage()
+    for parent, child, position_frd, rotation_frd in transforms:
+        ts = TransformStamped()
+        _set_stamp(ts.header, t_sim, parent)
+        ts.child_frame_id = child
+        (x, y, z), (qx, qy, qz, qw) = mount_transform(position_frd, rotation_frd)
+        tr = ts.transform
+        tr.translation.x, tr.translation.y, tr.translation.z = x, y, z
+        tr.rotation.x, tr.rotation.y, tr.rotation.z, tr.rotation.w = qx, qy, qz, qw
+        msg.transforms.append(ts)
+    return msg
+
+
+def projected_sonar_image_msg(t_sim: float, frame_id: str, polar_u8: np.ndarray,
+                              beam_angles_rad: ArrayLike, ranges_m: ArrayLike,
+                              frequency_hz: float, sound_speed_m_s: float) -> Any:
+    """marine_acoustic_msgs/ProjectedSonarImage of a polar image ``(n_bins, n_beams)``
+    (row = range bin near -> far, column = beam port -> starboard), stamped ``t_sim``.
+
+    Following the message's convention (its .msg comment: Z forward in the plane of the
+    fan, X up, hence Y starboard), beam ``i`` at azimuth ``theta_i`` (> 0 starboard) has
+    the direction ``(0, sin theta_i, cos theta_i)``; ``ranges`` are the bin centres (m);
+    the image data is ``uint8``, one row of ``beam_count`` samples per range bin.
+    """
+    from geometry_msgs.msg import Vector3
+    from marine_acoustic_msgs.msg import ProjectedSonarImage, SonarImageData
+
+    image = mono8(polar_u8, "Ros2Bridge.publish_sonar_image.polar_u8")
+    angles = np.asarray(beam_angles_rad, dtype=float).reshape(-1)
+    ranges = np.asarray(ranges_m, dtype=np.float32).reshape(-1)
+    if image.shape != (ranges.size, angles.size):
+        raise ConfigError(f"polar image {image.shape} does not match {ranges.size} ranges x "
+                          f"{angles.size} beams", "Ros2Bridge.publish_sonar_image")
+    msg = ProjectedSonarImage()
+    _set_stamp(msg.header, t_sim, frame_id)
+    msg.ping_info.frequency = float(frequency_hz)
+    msg.ping_info.sound_speed = float(sound_speed_m_s)
+    msg.beam_directions = [Vector3(x=0.0, y=s, z=c) for s, c in
+                           zip(np.sin(angles).tolist(), np.cos(angles).tolist(), strict=True)]
+    msg.ranges = array.array("f", ranges.tobytes())
+    msg.image.is_bigendian = False
+    msg.image.dtype = SonarImageData.DTYPE_UINT8
+    msg.image.beam_count = int(angles.size)
+    data = array.array("B")
+    data.frombytes(memoryview(image.reshape(-1)))
+    msg.image.data = data
+    return msg
 
 _MARKER_TYPES: dict[str, int] = {
     "box": Marker.CUBE,

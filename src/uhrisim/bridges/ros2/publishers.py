@@ -25,7 +25,15 @@ from .convert import (
     pose_enu_from_ned,
     stamp_from_sim_time,
 )
-from .messages import WORLD_FRAME, PoseStampedEncoder, float64_bytes, mono8, string_bytes
+from .messages import (
+    WORLD_FRAME,
+    PoseStampedEncoder,
+    float64_bytes,
+    mono8,
+    projected_sonar_image_msg,
+    string_bytes,
+    tf_bytes,
+)
 from .spec import AgentBridgeSpec
 from .topics import agent_topics
 from .writer import TopicWriter
@@ -48,11 +56,20 @@ class AgentPublishers:
         self.pubs: dict[str, Any] = {}
         self.topics = {key: topic for key, topic, _, _ in agent_topics(spec)}
         self.mode_text: str | None = None  # the last helm mode published
+        self.tf_pub: Any = None  # the bridge's /tf publisher (None: tf2_msgs not built)
 
-    def create(self, node: Any, sensor_qos: QoSProfile) -> None:
-        """Create this agent's publishers on ``node`` (``sensor_qos``: sonar images, hits)."""
+    def create(self, node: Any, sensor_qos: QoSProfile, tf_pub: Any) -> None:
+        """Create this agent's publishers on ``node`` (``sensor_qos``: sonar images, hits);
+        its transforms go to ``tf_pub`` (the bridge's ``/tf``, or None)."""
         for key, topic, msg_type, qos in agent_topics(self.spec, sensor_qos):
             self.pubs[key] = node.create_publisher(msg_type, topic, qos)
+        self.tf_pub = tf_pub
+
+    def _nav_wanted(self) -> tuple[bool, bool, bool]:
+        """Whether odometry, pose and /tf have a subscriber."""
+        wanted = self.writer.wanted
+        tf = self.tf_pub is not None and wanted(self.tf_pub)
+        return wanted(self.pubs["odom"]), wanted(self.pubs["pose"]), tf
 
     def nav(self, t_sim: float, position_ned: ArrayLike, yaw_rad: float,
             velocity_body_frd: ArrayLike, yaw_rate: float) -> bool:
@@ -60,9 +77,8 @@ class AgentPublishers:
         if not self.nav_gate.due(t_sim):
             return False
         f = odom_fields_from_ned(position_ned, yaw_rad, velocity_body_frd, yaw_rate)  # checks
-        wanted = self.writer.wanted
-        odom_wanted, pose_wanted = wanted(self.pubs["odom"]), wanted(self.pubs["pose"])
-        if not (odom_wanted or pose_wanted):
+        odom_wanted, pose_wanted, tf_wanted = self._nav_wanted()
+        if not (odom_wanted or pose_wanted or tf_wanted):
             return False
         sec, nanosec = stamp_from_sim_time(t_sim)
         if odom_wanted:
@@ -72,6 +88,9 @@ class AgentPublishers:
         if pose_wanted:
             pose = self.pose(sec, nanosec, f.position_enu, f.orientation_xyzw)
             self.writer.write(self.pubs["pose"], pose, self.topics["pose"])
+        if tf_wanted:
+            tf = tf_bytes(self.spec.name, sec, nanosec, f.position_enu, f.orientation_xyzw)
+            self.writer.write(self.tf_pub, tf, "/tf")
         return True
 
     def odometry_due(self, t_sim: float) -> bool:
@@ -79,7 +98,7 @@ class AgentPublishers:
         moves on to its next period, as if the odometry had gone out."""
         if not self.nav_gate.is_due(t_sim):
             return False
-        if self.writer.wanted(self.pubs["odom"]) or self.writer.wanted(self.pubs["pose"]):
+        if any(self._nav_wanted()):
             return True
         self.nav_gate.due(t_sim)  # nothing to send: pass the slot
         return False
@@ -116,6 +135,21 @@ class AgentPublishers:
         if pose is not None and wanted(pubs["sonar_pose"]):
             write(pubs["sonar_pose"], self.pose(sec, nanosec, *pose), self.topics["sonar_pose"])
         return True
+
+    def sonar_image_wanted(self) -> bool:
+        """Does ``sonar/image`` (ProjectedSonarImage) exist and have a subscriber?"""
+        pub = self.pubs.get("image")
+        return pub is not None and self.writer.wanted(pub)
+
+    def sonar_image(self, t_sim: float, polar_u8: np.ndarray, beam_angles_rad: ArrayLike,
+                    ranges_m: ArrayLike, frequency_hz: float, sound_speed_m_s: float) -> None:
+        """``sonar/image`` (see :func:`~.messages.projected_sonar_image_msg`), if wanted."""
+        if not self.sonar_image_wanted():
+            return
+        msg = projected_sonar_image_msg(t_sim, f"{self.spec.name}/sonar", polar_u8,
+                                        beam_angles_rad, ranges_m, frequency_hz,
+                                        sound_speed_m_s)
+        self.writer.write(self.pubs["image"], msg, self.topics["image"])
 
     def helm(self, heading_deg: float | None, speed: float | None, depth: float | None,
              mode: str) -> None:

@@ -1,13 +1,17 @@
 """The ROS 2 bridge's topics and their QoS: what goes out per agent, what comes in.
 
 Per agent (namespace ``/<agent>``): ``odom``, ``pose``, the sonar's ``sonar/polar``,
-``sonar/fan``, ``sonar/points`` and ``sonar/pose``, the helm's ``helm/desired_*`` and
-``helm/mode``; commands in on ``cmd/desired_*`` and ``cmd/thrusters``. Bridge-wide:
-``/clock`` and ``/scene/markers``. docs/bridges-ros2.md has the table with frames, units
-and rates; the QoS profiles below say why each is what it is.
+``sonar/fan``, ``sonar/points``, ``sonar/pose`` and ``sonar/image``
+(marine_acoustic_msgs/ProjectedSonarImage, when that package is built: see
+:mod:`.interfaces`), the helm's ``helm/desired_*`` and ``helm/mode``; commands in on
+``cmd/desired_*`` and ``cmd/thrusters``. Bridge-wide: ``/clock``, ``/scene/markers``,
+``/tf`` and ``/tf_static``. docs/bridges-ros2.md has the table with frames, units and
+rates; the QoS profiles below say why each is what it is.
 """
 
 from __future__ import annotations
+
+import importlib.util
 
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
@@ -76,6 +80,22 @@ QOS_COMMAND = QoSProfile(
     durability=DurabilityPolicy.VOLATILE,
 )
 
+#: /tf: what tf2_ros's TransformBroadcaster uses (reliable, keep the last 100, volatile).
+QOS_TF = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=100,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+#: /tf_static: what tf2_ros's StaticTransformBroadcaster uses (reliable, transient local,
+#: keep the last 1): one message holding every static transform, sent once at start.
+QOS_TF_STATIC = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
+
 #: Keys of the desired values (std_msgs/Float64): the helm's ``/<agent>/helm/<key>`` out,
 #: the commands ``/<agent>/cmd/<key>`` in.
 DESIRED_KEYS = ("desired_heading", "desired_speed", "desired_depth")
@@ -93,6 +113,10 @@ def agent_topics(spec: AgentBridgeSpec, sensor_qos: QoSProfile = QOS_SENSOR
     topics = [("odom", f"{ns}/odom", Odometry, QOS_STATE),
               ("pose", f"{ns}/pose", PoseStamped, QOS_STATE)]
     if spec.publish_sonar:
+        if importlib.util.find_spec("marine_acoustic_msgs") is not None:
+            from marine_acoustic_msgs.msg import ProjectedSonarImage
+
+            topics.append(("image", f"{ns}/sonar/image", ProjectedSonarImage, sensor_qos))
         topics += [("polar", f"{ns}/sonar/polar", Image, sensor_qos),
                    ("fan", f"{ns}/sonar/fan", Image, sensor_qos),
                    ("points", f"{ns}/sonar/points", PointCloud2, sensor_qos),
