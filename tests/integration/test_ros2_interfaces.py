@@ -38,3 +38,26 @@ def test_built_types_have_the_real_type_hashes() -> None:
     for name in msgs:
         assert _built_hash("marine_acoustic_msgs", name) == store.hash_rihs01(
             f"marine_acoustic_msgs/msg/{name}"), name
+
+
+def test_pre_serialised_sonar_image_is_what_rclpy_makes() -> None:
+    """The bytes the bridge hands to DDS for /<agent>/sonar/image are rclpy's
+    serialisation of the ProjectedSonarImage built field by field (Fast CDR leaves its
+    padding bytes unset: equal lengths, and rclpy reads ours back as the message)."""
+    import numpy as np
+    from marine_acoustic_msgs.msg import ProjectedSonarImage
+    from rclpy.serialization import deserialize_message, serialize_message
+
+    from uhrisim.bridges.ros2.messages import (
+        projected_sonar_image_bytes,
+        projected_sonar_image_msg,
+    )
+
+    polar = np.arange(6 * 4, dtype=np.uint8).reshape(6, 4)
+    angles, ranges = np.linspace(-0.3, 0.3, 4), np.linspace(0.5, 3.0, 6)
+    args = (12.345, "rov/sonar", polar, angles, ranges, 900e3, 1498.7)
+    ours, theirs = projected_sonar_image_bytes(*args), serialize_message(
+        projected_sonar_image_msg(*args))
+    assert len(ours) == len(theirs)
+    assert deserialize_message(ours, ProjectedSonarImage) == deserialize_message(
+        theirs, ProjectedSonarImage)

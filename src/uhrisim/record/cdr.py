@@ -173,6 +173,25 @@ class TransformEncoder:
         )
 
 
+class PoseStampedEncoder:
+    """geometry_msgs/PoseStamped in a fixed frame, serialised (CDR, little endian) by one
+    precompiled ``struct``: the bytes rclpy makes of the message, without building one.
+    ``tests/integration/test_ros2_convert.py`` holds it to rclpy's serialisation."""
+
+    __slots__ = ("_frame", "_struct")
+
+    def __init__(self, frame_id: str) -> None:
+        self._frame = frame_id.encode("utf-8") + b"\x00"
+        end_of_frame = 8 + 4 + len(self._frame)  # stamp, string length, string (+ NUL)
+        pad = -end_of_frame % 8  # the pose's doubles are 8-aligned
+        self._struct = struct.Struct(f"<4siII{len(self._frame)}s{pad}x7d")
+
+    def __call__(self, sec: int, nanosec: int, position: Sequence[float],
+                 orientation_xyzw: Sequence[float]) -> bytes:
+        return self._struct.pack(CDR_LE_HEADER, sec, nanosec, len(self._frame), self._frame,
+                                 *position, *orientation_xyzw)
+
+
 def encode_odometry(
     sec: int,
     nanosec: int,
@@ -224,6 +243,35 @@ def encode_image(
     b.string(encoding)
     b.u8(0)  # is_bigendian
     b.u32s(width, len(pixels))  # step (bytes per row), then the data's length
+    return b"".join((b.getvalue(), pixels))
+
+
+def encode_projected_sonar_image(
+    sec: int,
+    nanosec: int,
+    frame_id: str,
+    polar: np.ndarray,
+    beam_directions: np.ndarray,
+    ranges: np.ndarray,
+    frequency_hz: float,
+    sound_speed_m_s: float,
+) -> bytes:
+    """marine_acoustic_msgs/msg/ProjectedSonarImage: ``polar`` ``(n_ranges, n_beams)``
+    uint8 (one row of beams per range), ``beam_directions`` ``(n_beams, 3)`` float64,
+    ``ranges`` ``(n_ranges,)`` (written float32), no beam widths, dtype UINT8 (0). The
+    pixels are copied once, into the returned bytes; tests hold it to rclpy's
+    serialisation and mcap_ros2's."""
+    pixels = _byte_view(polar)
+    b = CdrBuffer()
+    b.header(sec, nanosec, frame_id)
+    b._align(4)
+    b._b += struct.pack("<ffII", frequency_hz, sound_speed_m_s, 0, 0)  # PingInfo
+    b.u32(len(beam_directions))
+    b.raw_f64(np.ascontiguousarray(beam_directions, dtype="<f8").tobytes())
+    b.u32(len(ranges))
+    b._b += np.ascontiguousarray(ranges, dtype="<f4").tobytes()
+    b.u8(0)  # is_bigendian
+    b.u32s(0, polar.shape[1], len(pixels))  # dtype UINT8, beam_count, the data's length
     return b"".join((b.getvalue(), pixels))
 
 

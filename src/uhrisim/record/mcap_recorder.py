@@ -50,6 +50,7 @@ import math
 import numbers
 import os
 import re
+import struct
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
@@ -61,7 +62,13 @@ from mcap.writer import Writer as McapWriter
 from mcap_ros2._dynamic import serialize_dynamic
 
 from uhrisim import __version__ as uhrisim_version
-from uhrisim.bridges.ros2.convert import cloud_xyzi_flu, odom_fields_from_ned, pose_enu_from_ned
+from uhrisim.bridges.ros2.convert import (
+    cloud_xyzi_flu,
+    mount_transform,
+    odom_fields_from_ned,
+    pose_enu_from_ned,
+    tf_chain,
+)
 from uhrisim.bridges.ros2.spec import ROS_NAME_TOKEN
 from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.core.frames import (
@@ -249,7 +256,10 @@ class McapRecorder:
         self._channels: dict[str, int] = {}
         self._sequence: dict[int, int] = {}
         self._dynamic: dict[str, Any] = {}
-        self._odom_encoders: dict[str, tuple[cdr.OdometryEncoder, cdr.TransformEncoder]] = {}
+        self._odom_encoders: dict[str, tuple[cdr.OdometryEncoder, cdr.PoseStampedEncoder]] = {}
+        self._pose = cdr.PoseStampedEncoder(self.world_frame)
+        self._static_children: set[str] = set()  # frames placed by /tf_static
+        self._helm_modes: dict[str, str] = {}  # the last /<agent>/helm/mode written
         self._counts: dict[str, int] = {}
         self._last_flush_ns = 0
         self._closed = False
@@ -324,7 +334,8 @@ class McapRecorder:
         velocity_body_frd: Sequence[float] | np.ndarray,
         yaw_rate: float,
     ) -> None:
-        """An agent's pose and velocity: ``/<agent>/odom`` and ``/tf`` map → base_link.
+        """An agent's pose and velocity: ``/<agent>/odom``, ``/<agent>/pose`` and ``/tf``
+        ``map`` → ``<agent>/odom`` (identity) → ``<agent>/base_link`` (REP 105).
 
         ``position_ned`` (m, world NED), ``yaw_rad`` (compass yaw, rad),
         ``velocity_body_frd`` (m/s, body FRD: surge, sway, heave), ``yaw_rate`` (rad/s,
@@ -347,10 +358,7 @@ class McapRecorder:
         encoders = self._odom_encoders.get(agent)
         if encoders is None:
             child = f"{agent}/base_link"
-            encoders = (
-                cdr.OdometryEncoder(self.world_frame, child),
-                cdr.TransformEncoder(self.world_frame, child),
-            )
+            encoders = (cdr.OdometryEncoder(self.world_frame, child), self._pose)
             self._odom_encoders[agent] = encoders
         p, qq = f.position_enu, f.orientation_xyzw
         self._write(
@@ -359,7 +367,39 @@ class McapRecorder:
             t_ns,
             encoders[0](sec, nanosec, p, qq, f.linear_flu, f.angular_flu),
         )
-        self._write("/tf", "tf2_msgs/msg/TFMessage", t_ns, encoders[1](sec, nanosec, p, qq))
+        self._write(f"/{agent}/pose", "geometry_msgs/msg/PoseStamped", t_ns,
+                    encoders[1](sec, nanosec, p, qq))
+        chain = tf_chain(agent, p, qq, self.world_frame)
+        self._write("/tf", "tf2_msgs/msg/TFMessage", t_ns,
+                    cdr.encode_tf_message([(sec, nanosec, *tr) for tr in chain]))
+
+    def write_static_transforms(self, t: float, transforms: Sequence[tuple[str, str, Any, Any]]
+                                ) -> None:
+        """``/tf_static`` (one message with every static transform): each ``(parent,
+        child, position_frd (3,) m, rotation_frd (3x3) child → parent)`` in body FRD
+        terms, written in FLU (e.g. a sonar mount ``("rov/base_link", "rov/sonar", ...)``).
+        A sonar frame placed here is no longer written on ``/tf`` at each ping."""
+        where = "McapRecorder.write_static_transforms"
+        self._check_open("write_static_transforms")
+        t_ns = _stamp_ns(t, where)
+        sec, nanosec = divmod(t_ns, 1_000_000_000)
+        rows = []
+        for parent, child, position_frd, rotation_frd in transforms:
+            _check_frame(parent, where)
+            _check_frame(child, where)
+            xyz, q = mount_transform(_vec(position_frd, 3, "position_frd", where),
+                                     _rotation(rotation_frd, "rotation_frd", where))
+            rows.append((sec, nanosec, parent, child, xyz, q))
+            self._static_children.add(child)
+        self._write("/tf_static", "tf2_msgs/msg/TFMessage", t_ns, cdr.encode_tf_message(rows))
+
+    def write_clock(self, t: float) -> None:
+        """``/clock`` (rosgraph_msgs/msg/Clock): simulation time ``t`` (s)."""
+        t_ns = _stamp_ns(t, "McapRecorder.write_clock")
+        self._check_open("write_clock")
+        sec, nanosec = divmod(t_ns, 1_000_000_000)
+        self._write("/clock", "rosgraph_msgs/msg/Clock", t_ns,
+                    cdr.CDR_LE_HEADER + struct.pack("<iI", sec, nanosec))
 
     def write_sonar(
         self,
@@ -424,12 +464,16 @@ class McapRecorder:
         elif intensity is not None:
             raise ConfigError("intensity given without points_sonar_frame", where=where)
 
-        self._write(
-            "/tf",
-            "tf2_msgs/msg/TFMessage",
-            t_ns,
-            cdr.encode_tf_message([(sec, nanosec, self.world_frame, sonar_frame, p_enu, q)]),
-        )
+        if sonar_frame not in self._static_children:  # else base_link → sonar on /tf_static
+            self._write(
+                "/tf",
+                "tf2_msgs/msg/TFMessage",
+                t_ns,
+                cdr.encode_tf_message([(sec, nanosec, self.world_frame, sonar_frame, p_enu,
+                                        q)]),
+            )
+        self._write(f"/{agent}/sonar/pose", "geometry_msgs/msg/PoseStamped", t_ns,
+                    self._pose(sec, nanosec, p_enu, q))
         if polar is not None:
             self._write(
                 f"/{agent}/sonar/polar",
@@ -451,6 +495,57 @@ class McapRecorder:
                 t_ns,
                 cdr.encode_pointcloud2(sec, nanosec, sonar_frame, cloud),
             )
+
+    def write_sonar_image(self, agent: str, t: float, polar_u8: np.ndarray,
+                          beam_angles_rad: Sequence[float] | np.ndarray,
+                          ranges_m: Sequence[float] | np.ndarray, frequency_hz: float,
+                          sound_speed_m_s: float, sonar_frame: str) -> None:
+        """One ping as ``/<agent>/sonar/image`` (marine_acoustic_msgs/msg/ProjectedSonarImage,
+        the live bridge's message): the polar image ``(n_bins, n_beams)`` uint8, beam
+        azimuths (rad, > 0 starboard) as directions ``(0, sin, cos)`` (the message's Z
+        forward, X up), range-bin centres (m), centre frequency (Hz), sound speed (m/s)."""
+        where = "McapRecorder.write_sonar_image"
+        self._check_open("write_sonar_image")
+        _check_name(agent, "agent", where)
+        _check_frame(sonar_frame, where)
+        t_ns = _stamp_ns(t, where)
+        polar = _mono8(polar_u8, "polar_u8", where)
+        angles = np.asarray(beam_angles_rad, dtype=float).reshape(-1)
+        ranges = np.asarray(ranges_m, dtype=float).reshape(-1)
+        if polar.shape != (ranges.size, angles.size):
+            raise ConfigError(f"polar image {polar.shape} does not match {ranges.size} "
+                              f"ranges x {angles.size} beams", where=where)
+        sec, nanosec = divmod(t_ns, 1_000_000_000)
+        directions = np.stack([np.zeros_like(angles), np.sin(angles), np.cos(angles)], -1)
+        self._write(f"/{agent}/sonar/image", "marine_acoustic_msgs/msg/ProjectedSonarImage",
+                    t_ns, cdr.encode_projected_sonar_image(
+                        sec, nanosec, sonar_frame, polar, directions, ranges,
+                        float(frequency_hz), float(sound_speed_m_s)))
+
+    def write_helm_topics(self, agent: str, t: float, heading_deg: float | None,
+                          speed: float | None, depth: float | None, mode: str) -> None:
+        """The live bridge's helm topics: ``/<agent>/helm/desired_heading`` (compass deg),
+        ``desired_speed`` (m/s), ``desired_depth`` (m, down) as std_msgs/msg/Float64 (each
+        skipped when ``None``) and ``/<agent>/helm/mode`` (std_msgs/msg/String) when it
+        changes."""
+        where = "McapRecorder.write_helm_topics"
+        self._check_open("write_helm_topics")
+        _check_name(agent, "agent", where)
+        t_ns = _stamp_ns(t, where)
+        for key, value in (("desired_heading", heading_deg), ("desired_speed", speed),
+                           ("desired_depth", depth)):
+            if value is None:
+                continue
+            if not math.isfinite(float(value)):
+                raise ConfigError(f"{key} must be finite, got {value!r}", where=where)
+            self._write(f"/{agent}/helm/{key}", "std_msgs/msg/Float64", t_ns,
+                        cdr.CDR_LE_HEADER + struct.pack("<d", float(value)))
+        mode = str(mode)
+        if self._helm_modes.get(agent) != mode:
+            self._helm_modes[agent] = mode
+            buf = cdr.CdrBuffer()
+            buf.string(mode)
+            self._write(f"/{agent}/helm/mode", "std_msgs/msg/String", t_ns, buf.getvalue())
 
     def write_helm_decision(
         self,

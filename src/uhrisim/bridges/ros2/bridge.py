@@ -36,13 +36,13 @@ from rosgraph_msgs.msg import Clock
 from visualization_msgs.msg import MarkerArray
 
 from uhrisim.core.errors import BridgeError, ConfigError
+from uhrisim.record.cdr import PoseStampedEncoder
 
 from .commands import CommandInbox
 from .convert import RateGate
 from .interfaces import build_hint
 from .messages import (
     WORLD_FRAME,
-    PoseStampedEncoder,
     clock_bytes,
     float64_bytes,
     image_msg,

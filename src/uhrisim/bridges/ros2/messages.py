@@ -23,51 +23,33 @@ from sensor_msgs.msg import Image, PointCloud2, PointField
 from visualization_msgs.msg import Marker
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.core.frames import enu_from_ned, flu_from_frd, quaternion_from_matrix
-from uhrisim.record.cdr import CDR_LE_HEADER, CdrBuffer, encode_tf_message
+from uhrisim.core.frames import enu_from_ned
+from uhrisim.record.cdr import (
+    CDR_LE_HEADER,
+    CdrBuffer,
+    encode_projected_sonar_image,
+    encode_tf_message,
+)
 
 from .convert import (
     CLOUD_FIELDS,
     CLOUD_POINT_STEP,
     cloud_xyzi_flu,
+    mount_transform,
     odom_fields_from_ned,
     pose_enu_from_ned,
     stamp_from_sim_time,
+    tf_chain,
 )
 
 #: World frame of every pose and marker (REP-105 "map", ENU).
 WORLD_FRAME = "map"
 
-#: Identity transform: translation (m) and rotation (x, y, z, w).
-_IDENTITY_TF = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
-
-
-def agent_frames(agent: str) -> tuple[str, str]:
-    """An agent's REP-105 frames: ``(<agent>/odom, <agent>/base_link)``. Ground truth has
-    no drift, so ``map`` -> ``<agent>/odom`` is the identity."""
-    return f"{agent}/odom", f"{agent}/base_link"
-
-
 def tf_bytes(agent: str, sec: int, nanosec: int, position_enu: Sequence[float],
              orientation_xyzw: Sequence[float]) -> bytes:
-    """The serialised tf2_msgs/TFMessage of one agent's chain ``map`` -> ``<agent>/odom``
-    (identity) -> ``<agent>/base_link`` (its odometry pose, ENU/FLU)."""
-    odom, base = agent_frames(agent)
-    return encode_tf_message([(sec, nanosec, WORLD_FRAME, odom, *_IDENTITY_TF),
-                              (sec, nanosec, odom, base, position_enu, orientation_xyzw)])
-
-
-def mount_transform(position_frd: ArrayLike, rotation_frd: ArrayLike
-                    ) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
-    """``(translation, rotation_xyzw)`` in FLU of a sensor mounted at ``position_frd`` (m,
-    body FRD) with ``rotation_frd`` (3x3, sensor FRD -> body FRD): the transform
-    ``<agent>/base_link`` -> sensor frame, both FLU (FLU = diag(1, -1, -1) FRD)."""
-    flip = np.diag([1.0, -1.0, -1.0])
-    r = flip @ np.asarray(rotation_frd, dtype=float) @ flip
-    t = flu_from_frd(np.asarray(position_frd, dtype=float))
-    q = quaternion_from_matrix(r)
-    return ((float(t[0]), float(t[1]), float(t[2])),
-            (float(q[0]), float(q[1]), float(q[2]), float(q[3])))
+    """The serialised tf2_msgs/TFMessage of one agent's chain (:func:`~.convert.tf_chain`)."""
+    return encode_tf_message([(sec, nanosec, *tr)
+                              for tr in tf_chain(agent, position_enu, orientation_xyzw)])
 
 
 def static_tf_msg(t_sim: float, transforms: Sequence[tuple[str, str, ArrayLike, ArrayLike]]
@@ -90,6 +72,29 @@ def static_tf_msg(t_sim: float, transforms: Sequence[tuple[str, str, ArrayLike, 
     return msg
 
 
+def _sonar_image_inputs(polar_u8: np.ndarray, beam_angles_rad: ArrayLike, ranges_m: ArrayLike
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The checked image, beam directions ``(n_beams, 3)`` and ranges of a sonar image."""
+    image = mono8(polar_u8, "Ros2Bridge.publish_sonar_image.polar_u8")
+    angles = np.asarray(beam_angles_rad, dtype=float).reshape(-1)
+    ranges = np.asarray(ranges_m, dtype=float).reshape(-1)
+    if image.shape != (ranges.size, angles.size):
+        raise ConfigError(f"polar image {image.shape} does not match {ranges.size} ranges x "
+                          f"{angles.size} beams", "Ros2Bridge.publish_sonar_image")
+    directions = np.stack([np.zeros_like(angles), np.sin(angles), np.cos(angles)], -1)
+    return image, directions, ranges
+
+
+def projected_sonar_image_bytes(t_sim: float, frame_id: str, polar_u8: np.ndarray,
+                                beam_angles_rad: ArrayLike, ranges_m: ArrayLike,
+                                frequency_hz: float, sound_speed_m_s: float) -> bytes:
+    """The serialised :func:`projected_sonar_image_msg` (the pixels copied once)."""
+    image, directions, ranges = _sonar_image_inputs(polar_u8, beam_angles_rad, ranges_m)
+    sec, nanosec = stamp_from_sim_time(t_sim)
+    return encode_projected_sonar_image(sec, nanosec, frame_id, image, directions, ranges,
+                                        float(frequency_hz), float(sound_speed_m_s))
+
+
 def projected_sonar_image_msg(t_sim: float, frame_id: str, polar_u8: np.ndarray,
                               beam_angles_rad: ArrayLike, ranges_m: ArrayLike,
                               frequency_hz: float, sound_speed_m_s: float) -> Any:
@@ -104,22 +109,16 @@ def projected_sonar_image_msg(t_sim: float, frame_id: str, polar_u8: np.ndarray,
     from geometry_msgs.msg import Vector3
     from marine_acoustic_msgs.msg import ProjectedSonarImage, SonarImageData
 
-    image = mono8(polar_u8, "Ros2Bridge.publish_sonar_image.polar_u8")
-    angles = np.asarray(beam_angles_rad, dtype=float).reshape(-1)
-    ranges = np.asarray(ranges_m, dtype=np.float32).reshape(-1)
-    if image.shape != (ranges.size, angles.size):
-        raise ConfigError(f"polar image {image.shape} does not match {ranges.size} ranges x "
-                          f"{angles.size} beams", "Ros2Bridge.publish_sonar_image")
+    image, directions, ranges = _sonar_image_inputs(polar_u8, beam_angles_rad, ranges_m)
     msg = ProjectedSonarImage()
     _set_stamp(msg.header, t_sim, frame_id)
     msg.ping_info.frequency = float(frequency_hz)
     msg.ping_info.sound_speed = float(sound_speed_m_s)
-    msg.beam_directions = [Vector3(x=0.0, y=s, z=c) for s, c in
-                           zip(np.sin(angles).tolist(), np.cos(angles).tolist(), strict=True)]
-    msg.ranges = array.array("f", ranges.tobytes())
+    msg.beam_directions = [Vector3(x=x, y=y, z=z) for x, y, z in directions.tolist()]
+    msg.ranges = array.array("f", ranges.astype(np.float32).tobytes())
     msg.image.is_bigendian = False
     msg.image.dtype = SonarImageData.DTYPE_UINT8
-    msg.image.beam_count = int(angles.size)
+    msg.image.beam_count = int(directions.shape[0])
     data = array.array("B")
     data.frombytes(memoryview(image.reshape(-1)))
     msg.image.data = data
@@ -194,25 +193,6 @@ def odometry_msg(
     tw.linear.x, tw.linear.y, tw.linear.z = f.linear_flu
     tw.angular.x, tw.angular.y, tw.angular.z = f.angular_flu
     return odom
-
-
-class PoseStampedEncoder:
-    """geometry_msgs/PoseStamped in a fixed frame, serialised (CDR, little endian) by one
-    precompiled ``struct``: the bytes rclpy makes of the message, without building one.
-    ``tests/integration/test_ros2_convert.py`` holds it to rclpy's serialisation."""
-
-    __slots__ = ("_frame", "_struct")
-
-    def __init__(self, frame_id: str) -> None:
-        self._frame = frame_id.encode("utf-8") + b"\x00"
-        end_of_frame = 8 + 4 + len(self._frame)  # stamp, string length, string (+ NUL)
-        pad = -end_of_frame % 8  # the pose's doubles are 8-aligned
-        self._struct = struct.Struct(f"<4siII{len(self._frame)}s{pad}x7d")
-
-    def __call__(self, sec: int, nanosec: int, position: Sequence[float],
-                 orientation_xyzw: Sequence[float]) -> bytes:
-        return self._struct.pack(CDR_LE_HEADER, sec, nanosec, len(self._frame), self._frame,
-                                 *position, *orientation_xyzw)
 
 
 #: rosgraph_msgs/Clock serialised (CDR little endian): header, int32 sec, uint32 nanosec.

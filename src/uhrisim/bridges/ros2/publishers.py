@@ -16,7 +16,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 from rclpy.qos import QoSProfile
 
-from uhrisim.record.cdr import OdometryEncoder, encode_image, encode_pointcloud2
+from uhrisim.record.cdr import (
+    OdometryEncoder,
+    PoseStampedEncoder,
+    encode_image,
+    encode_pointcloud2,
+)
 
 from .convert import (
     RateGate,
@@ -27,10 +32,9 @@ from .convert import (
 )
 from .messages import (
     WORLD_FRAME,
-    PoseStampedEncoder,
     float64_bytes,
     mono8,
-    projected_sonar_image_msg,
+    projected_sonar_image_bytes,
     string_bytes,
     tf_bytes,
 )
@@ -143,13 +147,14 @@ class AgentPublishers:
 
     def sonar_image(self, t_sim: float, polar_u8: np.ndarray, beam_angles_rad: ArrayLike,
                     ranges_m: ArrayLike, frequency_hz: float, sound_speed_m_s: float) -> None:
-        """``sonar/image`` (see :func:`~.messages.projected_sonar_image_msg`), if wanted."""
+        """``sonar/image`` (the bytes of :func:`~.messages.projected_sonar_image_msg`), if
+        wanted."""
         if not self.sonar_image_wanted():
             return
-        msg = projected_sonar_image_msg(t_sim, f"{self.spec.name}/sonar", polar_u8,
-                                        beam_angles_rad, ranges_m, frequency_hz,
-                                        sound_speed_m_s)
-        self.writer.write(self.pubs["image"], msg, self.topics["image"])
+        raw = projected_sonar_image_bytes(t_sim, f"{self.spec.name}/sonar", polar_u8,
+                                          beam_angles_rad, ranges_m, frequency_hz,
+                                          sound_speed_m_s)
+        self.writer.write(self.pubs["image"], raw, self.topics["image"])
 
     def helm(self, heading_deg: float | None, speed: float | None, depth: float | None,
              mode: str) -> None:
