@@ -24,6 +24,7 @@ import math
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from typing import Any, Literal
 
 import numpy as np
@@ -52,10 +53,13 @@ from .messages import (
     static_tf_msg,
     string_bytes,
 )
+from .params import BridgeParameters
+from .params import declare as declare_parameters
 from .publishers import AgentPublishers
 from .spec import AgentBridgeSpec, AgentCommands, apply_env_defaults, check_domain_id
 from .topics import (
     QOS_CLOCK,
+    QOS_CLOCK_RELIABLE,
     QOS_COMMAND,
     QOS_SCENE,
     QOS_SENSOR,
@@ -103,9 +107,13 @@ class Ros2Bridge:
     Parameters
     ----------
     agents:
-        One :class:`AgentBridgeSpec` per agent (a ROS namespace ``/<name>``).
+        One :class:`AgentBridgeSpec` per agent (topics ``<name>/...`` in the node's
+        namespace: ``/<name>/odom`` without one).
     node_name:
         Name of the bridge's ROS node.
+    namespace:
+        The node's namespace (``"/sim_a"``: every topic under ``/sim_a/``, ``/clock`` and
+        ``/tf`` included; ``""``: the root).
     domain_id:
         ROS domain id (0-232); ``None`` uses ``ROS_DOMAIN_ID`` (or 0).
     command_timeout_s:
@@ -134,6 +142,12 @@ class Ros2Bridge:
         Subscribe to the commands reliably (keep the last 10) instead of best effort:
         for lockstep runs, where a lost command would stall a round. Such subscriptions
         match reliable publishers only (rclpy's default).
+    ros_args:
+        ROS command-line arguments for the node, as after ``--ros-args``: remappings
+        (``-r __node:=sim``, ``-r __ns:=/sim_a``, ``-r videoray/odom:=odometry``),
+        parameters (``-p sensor_qos:=reliable``, :mod:`.params`), ``--params-file``.
+    world_frame, frame_prefix:
+        Defaults of the parameters of the same names (:mod:`.params`).
     """
 
     def __init__(
@@ -149,6 +163,10 @@ class Ros2Bridge:
         reliable_sensors: bool = False,
         publish_unsubscribed: bool = False,
         reliable_commands: bool = False,
+        namespace: str = "",
+        ros_args: Sequence[str] = (),
+        world_frame: str = WORLD_FRAME,
+        frame_prefix: str = "",
     ) -> None:
         specs = list(agents)
         if not all(isinstance(s, AgentBridgeSpec) for s in specs):
@@ -166,15 +184,29 @@ class Ros2Bridge:
             raise ConfigError(
                 f"must be 'sim' or 'wall', got {timeout_clock!r}", "Ros2Bridge.timeout_clock"
             )
+        if isinstance(ros_args, str) or not all(isinstance(a, str) for a in ros_args):
+            raise ConfigError("must be a list of strings, e.g. ['-r', '__ns:=/sim_a']",
+                              "Ros2Bridge.ros_args")
         self._node_name = node_name
+        self._namespace = namespace
+        self._ros_args = list(ros_args)
+        self._defaults = BridgeParameters(
+            clock_rate_hz=float(clock_rate_hz or 0.0), world_frame=world_frame,
+            frame_prefix=frame_prefix,
+            sensor_qos="reliable" if reliable_sensors else "best_effort")
         self._domain_id = check_domain_id(domain_id)
         self._publish_clock = publish_clock
         self._clock_gate = RateGate(clock_rate_hz)
         self._sensor_qos = QOS_SENSOR_RELIABLE if reliable_sensors else QOS_SENSOR
+        self._clock_qos = QOS_CLOCK
+        self._world_frame = world_frame
+        #: the node's parameters as read at start (the defaults until then)
+        self.parameters = self._defaults
         # reliable commands: the state profile's settings (reliable, keep the last 10)
         self._command_qos = QOS_STATE if reliable_commands else QOS_COMMAND
         self._writer = TopicWriter(publish_unsubscribed)
-        self._agents = {s.name: AgentPublishers(s, self._writer) for s in specs}
+        self._agents = {s.name: AgentPublishers(s, self._writer, world_frame, frame_prefix)
+                        for s in specs}
         self._inbox = CommandInbox(specs, float(command_timeout_s), timeout_clock)
         self._t_clock_published: float | None = None
         self._context: Context | None = None
@@ -187,6 +219,7 @@ class Ros2Bridge:
         self._pub_scene: Any = None
         self._pub_tf: Any = None
         self._pub_tf_static: Any = None
+        self._topic: dict[str, str] = {}  # bridge-wide topic -> its resolved name
 
     # ----------------------------------------------------------------- lifecycle
     @property
@@ -216,31 +249,42 @@ class Ros2Bridge:
         ctx = Context()
         try:
             rclpy.init(
+                args=["uhrisim", "--ros-args", *self._ros_args],
                 context=ctx,
                 domain_id=self._domain_id,
                 signal_handler_options=SignalHandlerOptions.NO,
             )
             node = rclpy.create_node(
-                self._node_name, context=ctx, start_parameter_services=False
+                self._node_name, namespace=self._namespace, context=ctx,
+                start_parameter_services=False,
             )
         except Exception as exc:
             ctx.try_shutdown()
             raise BridgeError(f"Ros2Bridge: could not start ROS 2 node: {exc}") from exc
+        try:
+            self._apply(declare_parameters(node, self._defaults))
+        except ConfigError:
+            node.destroy_node()
+            ctx.try_shutdown()
+            raise
         self._context, self._node = ctx, node
         # command rejections go to /rosout (and the console) through the node's logger
         self._inbox.validator.log = node.get_logger().warning
         if self._publish_clock:
-            self._pub_clock = node.create_publisher(Clock, "/clock", QOS_CLOCK)
-        self._pub_scene = node.create_publisher(MarkerArray, "/scene/markers", QOS_SCENE)
+            self._pub_clock = node.create_publisher(Clock, "clock", self._clock_qos)
+        self._pub_scene = node.create_publisher(MarkerArray, "scene/markers", QOS_SCENE)
         try:
             from tf2_msgs.msg import TFMessage
         except ImportError:
             log.warning("ROS 2 bridge: no /tf, /tf_static: tf2_msgs is not built (run %s)",
                         build_hint())
         else:
-            self._pub_tf = node.create_publisher(TFMessage, "/tf", QOS_TF)
-            self._pub_tf_static = node.create_publisher(TFMessage, "/tf_static",
-                                                        QOS_TF_STATIC)
+            self._pub_tf = node.create_publisher(TFMessage, "tf", QOS_TF)
+            self._pub_tf_static = node.create_publisher(TFMessage, "tf_static", QOS_TF_STATIC)
+        # resolved names (the node's namespace applied), the keys of the statistics
+        self._topic = {key: pub.topic_name for key, pub in (
+            ("clock", self._pub_clock), ("scene", self._pub_scene), ("tf", self._pub_tf),
+            ("tf_static", self._pub_tf_static)) if pub is not None}
         for name, io in self._agents.items():
             io.create(node, self._sensor_qos, self._pub_tf)
             self._inbox.subscribe(node, name, self._command_qos)
@@ -255,6 +299,26 @@ class Ros2Bridge:
             "ROS 2 bridge %r started: domain %s, agents %s",
             self._node_name, self._domain_id, list(self._agents),
         )
+
+    def _apply(self, params: BridgeParameters) -> None:
+        """Rates, frames and QoS from the node's parameters (before any publisher)."""
+        self._clock_gate = RateGate(params.clock_rate_hz or None)
+        self._sensor_qos = QOS_SENSOR_RELIABLE if params.sensor_qos == "reliable" \
+            else QOS_SENSOR
+        self._clock_qos = QOS_CLOCK_RELIABLE if params.clock_qos == "reliable" else QOS_CLOCK
+        self._world_frame = params.world_frame
+        specs = [replace(io.spec,
+                         odom_rate_hz=params.odom_rate_hz or io.spec.odom_rate_hz,
+                         sonar_rate_hz=params.sonar_rate_hz or io.spec.sonar_rate_hz)
+                 for io in self._agents.values()]
+        self._agents = {s.name: AgentPublishers(s, self._writer, params.world_frame,
+                                                params.frame_prefix) for s in specs}
+        self.parameters = params
+
+    def frame(self, agent: str, name: str) -> str:
+        """The full name of one of ``agent``'s frames (``"base_link"``, ``"odom"``,
+        ``"sonar"``), with the ``frame_prefix`` parameter applied."""
+        return f"{self._io(agent, 'frame').frame_base}/{name}"
 
     def _spin(self) -> None:
         ex = self._executor
@@ -318,7 +382,7 @@ class Ros2Bridge:
         ):
             if self._writer.wanted(self._pub_clock):
                 # pre-serialised: the bytes of a rosgraph_msgs/Clock, without building one
-                self._writer.write(self._pub_clock, clock_bytes(t), "/clock")
+                self._writer.write(self._pub_clock, clock_bytes(t), self._topic["clock"])
             self._t_clock_published = t
 
     # ----------------------------------------------------------------- publishing
@@ -442,7 +506,7 @@ class Ros2Bridge:
             raise BridgeError("Ros2Bridge.publish_static_transforms: bridge is not running")
         if self._pub_tf_static is not None:
             self._writer.write(self._pub_tf_static, static_tf_msg(t_sim, transforms),
-                               "/tf_static")
+                               self._topic["tf_static"])
 
     def publish_helm(
         self,
@@ -481,8 +545,9 @@ class Ros2Bridge:
             raise BridgeError("Ros2Bridge.publish_scene: bridge is not running (call start())")
         self._advance(t_sim)
         arr = MarkerArray()
-        arr.markers = [marker_msg(t_sim, i, m) for i, m in enumerate(markers)]
-        self._writer.write(self._pub_scene, arr, "/scene/markers")
+        arr.markers = [marker_msg(t_sim, i, m, self._world_frame)
+                       for i, m in enumerate(markers)]
+        self._writer.write(self._pub_scene, arr, self._topic["scene"])
 
     # ----------------------------------------------------------------- commands
     def commands(self, agent: str, t_sim: float) -> AgentCommands:

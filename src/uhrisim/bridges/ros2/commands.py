@@ -93,11 +93,11 @@ class CommandInbox:
         if "desired" in inbox.spec.accept:
             for key in DESIRED_KEYS:
                 inbox.subs[key] = node.create_subscription(
-                    Float64, f"/{agent}/cmd/{key}", self._make_float_cb(agent, key), qos,
+                    Float64, f"{agent}/cmd/{key}", self._make_float_cb(agent, key), qos,
                 )
         if "thrusters" in inbox.spec.accept:
             inbox.subs[THRUSTERS_KEY] = node.create_subscription(
-                Float64MultiArray, f"/{agent}/cmd/thrusters", self._make_thruster_cb(agent),
+                Float64MultiArray, f"{agent}/cmd/thrusters", self._make_thruster_cb(agent),
                 qos,
             )
 

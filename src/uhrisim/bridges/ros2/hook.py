@@ -140,7 +140,8 @@ class Ros2BridgeHook(BaseHook):
     a round is no longer waited for (a ``bridge`` event says so) until it answers again;
     its commands then go stale and the safe stop follows.
     ``depth_clearance_m``: commanded depths are clamped to the floor below the vehicle less
-    this (m).
+    this (m). ``namespace``, ``ros_args``: the node's namespace and ROS arguments
+    (remappings, parameters: :mod:`.params`).
     Other arguments go to :class:`Ros2Bridge`.
     """
 
@@ -163,6 +164,8 @@ class Ros2BridgeHook(BaseHook):
         lockstep_timeout_s: float = 10.0,
         lockstep_start_timeout_s: float = 30.0,
         depth_clearance_m: float = DEPTH_CLEARANCE_M,
+        namespace: str = "",
+        ros_args: Sequence[str] = (),
     ) -> None:
         for name, value in (("lockstep_timeout_s", lockstep_timeout_s),
                             ("lockstep_start_timeout_s", lockstep_start_timeout_s)):
@@ -182,6 +185,8 @@ class Ros2BridgeHook(BaseHook):
             "clock_rate_hz": clock_rate_hz,
             "reliable_sensors": reliable_sensors,
             "reliable_commands": lockstep,  # a lost command would stall a round
+            "namespace": namespace,
+            "ros_args": tuple(ros_args),
         }
         self._lockstep = lockstep
         self._lockstep_timeout = lockstep_timeout_s
@@ -269,7 +274,8 @@ class Ros2BridgeHook(BaseHook):
         for ros, name, publish_sonar, _ in self._links:
             if publish_sonar:
                 sonar = sim.agents[name].sonars[0].sonar
-                mounts.append((f"{ros}/base_link", f"{ros}/sonar", sonar.mount_position,
+                mounts.append((self.bridge.frame(ros, "base_link"),
+                               self.bridge.frame(ros, "sonar"), sonar.mount_position,
                                sonar.mount_rotation))
                 self._acoustics[ros] = (sonar.config.sonar_spec.frequency_hz,
                                         sonar.config.sound_speed_m_s)

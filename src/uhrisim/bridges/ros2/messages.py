@@ -45,11 +45,12 @@ from .convert import (
 #: World frame of every pose and marker (REP-105 "map", ENU).
 WORLD_FRAME = "map"
 
-def tf_bytes(agent: str, sec: int, nanosec: int, position_enu: Sequence[float],
-             orientation_xyzw: Sequence[float]) -> bytes:
-    """The serialised tf2_msgs/TFMessage of one agent's chain (:func:`~.convert.tf_chain`)."""
-    return encode_tf_message([(sec, nanosec, *tr)
-                              for tr in tf_chain(agent, position_enu, orientation_xyzw)])
+def tf_bytes(frame_base: str, sec: int, nanosec: int, position_enu: Sequence[float],
+             orientation_xyzw: Sequence[float], world_frame: str = WORLD_FRAME) -> bytes:
+    """The serialised tf2_msgs/TFMessage of one agent's chain (:func:`~.convert.tf_chain`,
+    frames ``<frame_base>/odom`` and ``/base_link``)."""
+    chain = tf_chain(frame_base, position_enu, orientation_xyzw, world_frame)
+    return encode_tf_message([(sec, nanosec, *tr) for tr in chain])
 
 
 def static_tf_msg(t_sim: float, transforms: Sequence[tuple[str, str, ArrayLike, ArrayLike]]
@@ -247,10 +248,11 @@ def pointcloud_msg(
     return cloud
 
 
-def marker_msg(t_sim: float, i: int, spec: Mapping[str, Any]) -> Marker:
+def marker_msg(t_sim: float, i: int, spec: Mapping[str, Any],
+               world_frame: str = WORLD_FRAME) -> Marker:
     """visualization_msgs/Marker number ``i`` of ``/scene/markers`` from its mapping (see
     :meth:`~uhrisim.bridges.ros2.bridge.Ros2Bridge.publish_scene`), stamped ``t_sim`` (s),
-    frame ``"map"``; a ConfigError names the marker and the key at fault."""
+    frame ``world_frame``; a ConfigError names the marker and the key at fault."""
     where = f"Ros2Bridge.publish_scene.markers[{i}]"
     try:
         kind = spec["type"]
@@ -259,7 +261,7 @@ def marker_msg(t_sim: float, i: int, spec: Mapping[str, Any]) -> Marker:
                 f"type {kind!r} not one of {sorted(_MARKER_TYPES)}", f"{where}.type"
             )
         m = Marker()
-        _set_stamp(m.header, t_sim, WORLD_FRAME)
+        _set_stamp(m.header, t_sim, world_frame)
         m.ns = str(spec.get("ns", ""))
         m.id = int(spec["id"])
         m.type = _MARKER_TYPES[kind]

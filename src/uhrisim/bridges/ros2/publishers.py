@@ -49,16 +49,20 @@ class AgentPublishers:
     (``publish_nav`` ...) for this agent, after the bridge has checked the call and
     advanced ``/clock``; see there for units and frames."""
 
-    def __init__(self, spec: AgentBridgeSpec, writer: TopicWriter) -> None:
+    def __init__(self, spec: AgentBridgeSpec, writer: TopicWriter,
+                 world_frame: str = WORLD_FRAME, frame_prefix: str = "") -> None:
         self.spec = spec
         self.writer = writer
+        #: the agent's frames are ``<frame_base>/base_link``, ``/odom``, ``/sonar``
+        self.frame_base = f"{frame_prefix}{spec.name}"
+        self.world_frame = world_frame
         self.nav_gate = RateGate(spec.odom_rate_hz)
         self.sonar_gate = RateGate(spec.sonar_rate_hz)
         # odometry and pose go out pre-serialised (a few us instead of ~30 us a message)
-        self.odometry = OdometryEncoder(WORLD_FRAME, f"{spec.name}/base_link")
-        self.pose = PoseStampedEncoder(WORLD_FRAME)
+        self.odometry = OdometryEncoder(world_frame, f"{self.frame_base}/base_link")
+        self.pose = PoseStampedEncoder(world_frame)
         self.pubs: dict[str, Any] = {}
-        self.topics = {key: topic for key, topic, _, _ in agent_topics(spec)}
+        self.topics: dict[str, str] = {}  # key -> resolved topic name, once created
         self.mode_text: str | None = None  # the last helm mode published
         self.tf_pub: Any = None  # the bridge's /tf publisher (None: tf2_msgs not built)
 
@@ -67,7 +71,10 @@ class AgentPublishers:
         its transforms go to ``tf_pub`` (the bridge's ``/tf``, or None)."""
         for key, topic, msg_type, qos in agent_topics(self.spec, sensor_qos):
             self.pubs[key] = node.create_publisher(msg_type, topic, qos)
+            self.topics[key] = self.pubs[key].topic_name
         self.tf_pub = tf_pub
+        if tf_pub is not None:
+            self.topics["tf"] = tf_pub.topic_name
 
     def _nav_wanted(self) -> tuple[bool, bool, bool]:
         """Whether odometry, pose and /tf have a subscriber."""
@@ -93,8 +100,9 @@ class AgentPublishers:
             pose = self.pose(sec, nanosec, f.position_enu, f.orientation_xyzw)
             self.writer.write(self.pubs["pose"], pose, self.topics["pose"])
         if tf_wanted:
-            tf = tf_bytes(self.spec.name, sec, nanosec, f.position_enu, f.orientation_xyzw)
-            self.writer.write(self.tf_pub, tf, "/tf")
+            tf = tf_bytes(self.frame_base, sec, nanosec, f.position_enu, f.orientation_xyzw,
+                          self.world_frame)
+            self.writer.write(self.tf_pub, tf, self.topics["tf"])
         return True
 
     def odometry_due(self, t_sim: float) -> bool:
@@ -120,7 +128,7 @@ class AgentPublishers:
         """The sonar products given, if the sonar gate is due; True when it was due."""
         if not self.sonar_gate.due(t_sim):
             return False
-        frame = f"{self.spec.name}/sonar"
+        frame = f"{self.frame_base}/sonar"
         # every product given is checked, whether or not someone subscribes to it
         images = [(key, mono8(image, f"Ros2Bridge.publish_sonar.{key}_u8"))
                   for key, image in (("polar", polar_u8), ("fan", fan_u8)) if image is not None]
@@ -151,7 +159,7 @@ class AgentPublishers:
         wanted."""
         if not self.sonar_image_wanted():
             return
-        raw = projected_sonar_image_bytes(t_sim, f"{self.spec.name}/sonar", polar_u8,
+        raw = projected_sonar_image_bytes(t_sim, f"{self.frame_base}/sonar", polar_u8,
                                           beam_angles_rad, ranges_m, frequency_hz,
                                           sound_speed_m_s)
         self.writer.write(self.pubs["image"], raw, self.topics["image"])

@@ -96,6 +96,16 @@ QOS_TF_STATIC = QoSProfile(
     durability=DurabilityPolicy.TRANSIENT_LOCAL,
 )
 
+#: The reliable variants of the sensor and clock profiles (``-p sensor_qos:=reliable``,
+#: ``-p clock_qos:=reliable``), for tools that subscribe with rclpy's default reliable QoS
+#: (RViz2's image and point-cloud displays by default, a plain ``create_subscription``).
+QOS_CLOCK_RELIABLE = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+
 #: Keys of the desired values (std_msgs/Float64): the helm's ``/<agent>/helm/<key>`` out,
 #: the commands ``/<agent>/cmd/<key>`` in.
 DESIRED_KEYS = ("desired_heading", "desired_speed", "desired_depth")
@@ -106,10 +116,11 @@ THRUSTERS_KEY = "thrusters"
 def agent_topics(spec: AgentBridgeSpec, sensor_qos: QoSProfile = QOS_SENSOR
                  ) -> list[tuple[str, str, type, QoSProfile]]:
     """``(key, topic, message type, QoS)`` of every topic the bridge publishes for one
-    agent (besides ``/clock`` and ``/scene/markers``), as
+    agent (besides the bridge-wide ones), as
     :meth:`~uhrisim.bridges.ros2.bridge.Ros2Bridge.start` creates them; ``sensor_qos`` is
-    that of the sonar images and hits."""
-    ns = f"/{spec.name}"
+    that of the sonar images and hits. Names are relative: they resolve in the node's
+    namespace (``/<agent>/odom`` without one)."""
+    ns = spec.name
     topics = [("odom", f"{ns}/odom", Odometry, QOS_STATE),
               ("pose", f"{ns}/pose", PoseStamped, QOS_STATE)]
     if spec.publish_sonar:
