@@ -27,6 +27,7 @@ import numpy as np
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.record.mcap_recorder import McapRecorder
+from uhrisim.record.rosbag2 import write_metadata
 from uhrisim.sensors.sonar.cloud import cloud_hits
 
 logger = logging.getLogger(__name__)
@@ -103,6 +104,9 @@ class McapRecordingHook:
     chunk_size, flush_period_s:
         Passed to :class:`McapRecorder`; by default a chunk is also closed at least every
         simulated second, so a killed run loses at most about one second.
+    rosbag2_metadata:
+        At the end, write ``metadata.yaml`` beside the file: its folder becomes a rosbag2
+        bag (:mod:`uhrisim.record.rosbag2`; keep one recording per folder then).
     """
 
     def __init__(
@@ -116,6 +120,7 @@ class McapRecordingHook:
         sonar_every: int = 1,
         chunk_size: int = 256 * 1024,
         flush_period_s: float | None = 1.0,
+        rosbag2_metadata: bool = True,
     ) -> None:
         if int(odom_every) < 1:
             raise ConfigError(f"odom_every must be >= 1, got {odom_every}",
@@ -131,6 +136,7 @@ class McapRecordingHook:
         self.sonar_every = int(sonar_every)
         self._pings_seen: dict[str, int] = {}
         self._chunk_size = chunk_size
+        self.rosbag2_metadata = rosbag2_metadata
         self._flush_period_s = flush_period_s
         self._rec: McapRecorder | None = None
         self._names: dict[str, str] = {}
@@ -232,7 +238,10 @@ class McapRecordingHook:
         if error is not None and not rec.closed:
             rec.write_event(float(getattr(sim, "t", 0.0)), "error",
                             f"{type(error).__name__}: {error}")
+        was_open = not rec.closed
         rec.close()
+        if self.rosbag2_metadata and was_open:
+            write_metadata(self.path)
 
     def summary(self) -> dict[str, Any]:
         rec = self._rec

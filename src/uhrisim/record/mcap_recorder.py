@@ -78,6 +78,7 @@ from uhrisim.core.frames import (
 )
 from uhrisim.record import cdr
 from uhrisim.record.msgdefs import schema_text
+from uhrisim.record.rosbag2 import channel_metadata
 
 logger = logging.getLogger(__name__)
 
@@ -292,7 +293,8 @@ class McapRecorder:
                     typename, "ros2msg", schema_text(typename).encode("utf-8")
                 )
                 self._schema_ids[typename] = schema_id
-            channel_id = self._writer.register_channel(topic, "cdr", schema_id)
+            channel_id = self._writer.register_channel(topic, "cdr", schema_id,
+                                                       channel_metadata(topic))
             self._channels[topic] = channel_id
             self._sequence[channel_id] = 0
         return channel_id
