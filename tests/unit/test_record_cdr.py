@@ -226,3 +226,19 @@ def test_projected_sonar_image_fast_path_equals_the_schema_driven_encoder() -> N
                          "data": polar.tobytes()}}
         assert cdr.encode_projected_sonar_image(3, 5, frame, polar, directions, ranges, 9e5,
                                                 1500.5) == reference(msg), frame
+
+
+def test_transform_encoder_of_a_chain_equals_the_general_encoder() -> None:
+    """The one-struct encoder of the /tf chain (two transforms, fixed frames) gives the
+    bytes of encode_tf_message, for frame names of every length modulo 4 and 8."""
+    from uhrisim.bridges.ros2.convert import tf_chain, tf_chain_frames
+    from uhrisim.record import cdr
+
+    for world in ("m", "ma", "map", "mapp", "world_ned"):
+        for agent in ("a", "ab", "abc", "abcd", "videoray"):
+            pairs = tf_chain_frames(agent, world)
+            chain = tf_chain((1.0, -2.0, 3.5), (0.0, 0.0, 0.6, 0.8))
+            general = cdr.encode_tf_message([(7, 9, p, c, t, q)
+                                             for (p, c), (t, q) in zip(pairs, chain, strict=True)])
+            (t0, q0), second = chain
+            assert cdr.TransformEncoder(*pairs[0], pairs[1])(7, 9, t0, q0, second) == general

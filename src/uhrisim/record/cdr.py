@@ -147,30 +147,38 @@ class OdometryEncoder:
 
 
 class TransformEncoder:
-    """tf2_msgs/msg/TFMessage holding one transform between fixed frames, one struct."""
+    """tf2_msgs/msg/TFMessage of transforms between fixed frames, all with one stamp, packed
+    by one precompiled struct: ``TransformEncoder(parent, child, *more_pairs)``, called
+    with ``(sec, nanosec, translation, rotation_xyzw, *more (translation, rotation))``
+    (one transform per frame pair, in order)."""
 
-    __slots__ = ("_prefix", "_struct")
+    __slots__ = ("_count", "_prefix", "_struct")
 
-    def __init__(self, parent_frame_id: str, child_frame_id: str) -> None:
-        # uint32 count at 0, stamp at 4..12, then the two strings, then 7 doubles.
-        f1, v1, o = _string_fields(parent_frame_id, 12)
-        p1, o = _pad(o, 4)
-        f2, v2, o = _string_fields(child_frame_id, o)
-        p2, o = _pad(o, 8)
-        self._struct = struct.Struct(f"<4sIiI{f1}{p1}{f2}{p2}7d")
-        self._prefix = (v1, v2)
+    def __init__(self, parent_frame_id: str, child_frame_id: str,
+                 *more_pairs: tuple[str, str]) -> None:
+        pairs = [(parent_frame_id, child_frame_id), *more_pairs]
+        fmt, prefix, o = "<4sI", [], 4  # uint32 count at 0, then each transform
+        for parent, child in pairs:
+            _, o = _pad(o, 4)  # (8-aligned after the doubles: no padding needed)
+            f1, v1, o = _string_fields(parent, o + 8)  # after the stamp
+            p1, o = _pad(o, 4)
+            f2, v2, o = _string_fields(child, o)
+            p2, o = _pad(o, 8)
+            fmt += f"iI{f1}{p1}{f2}{p2}7d"
+            prefix.append((v1, v2))
+            o += 7 * 8
+        self._struct = struct.Struct(fmt)
+        self._prefix = prefix
+        self._count = len(pairs)
 
-    def __call__(
-        self,
-        sec: int,
-        nanosec: int,
-        translation: Sequence[float],
-        rotation_xyzw: Sequence[float],
-    ) -> bytes:
-        (v1, v2) = self._prefix
-        return self._struct.pack(
-            CDR_LE_HEADER, 1, sec, nanosec, *v1, *v2, *translation, *rotation_xyzw
-        )
+    def __call__(self, sec: int, nanosec: int, translation: Sequence[float],
+                 rotation_xyzw: Sequence[float],
+                 *more: tuple[Sequence[float], Sequence[float]]) -> bytes:
+        values: list[Any] = [CDR_LE_HEADER, self._count]
+        for (v1, v2), (t, q) in zip(self._prefix, [(translation, rotation_xyzw), *more],
+                                    strict=True):
+            values += [sec, nanosec, *v1, *v2, *t, *q]
+        return self._struct.pack(*values)
 
 
 class PoseStampedEncoder:

@@ -68,6 +68,7 @@ from uhrisim.bridges.ros2.convert import (
     odom_fields_from_ned,
     pose_enu_from_ned,
     tf_chain,
+    tf_chain_frames,
 )
 from uhrisim.bridges.ros2.spec import ROS_NAME_TOKEN
 from uhrisim.core.errors import ConfigError, UhrisimError
@@ -257,7 +258,7 @@ class McapRecorder:
         self._channels: dict[str, int] = {}
         self._sequence: dict[int, int] = {}
         self._dynamic: dict[str, Any] = {}
-        self._odom_encoders: dict[str, tuple[cdr.OdometryEncoder, cdr.PoseStampedEncoder]] = {}
+        self._odom_encoders: dict[str, tuple[cdr.OdometryEncoder, cdr.TransformEncoder]] = {}
         self._pose = cdr.PoseStampedEncoder(self.world_frame)
         self._static_children: set[str] = set()  # frames placed by /tf_static
         self._helm_modes: dict[str, str] = {}  # the last /<agent>/helm/mode written
@@ -360,7 +361,9 @@ class McapRecorder:
         encoders = self._odom_encoders.get(agent)
         if encoders is None:
             child = f"{agent}/base_link"
-            encoders = (cdr.OdometryEncoder(self.world_frame, child), self._pose)
+            first, *more = tf_chain_frames(agent, self.world_frame)
+            encoders = (cdr.OdometryEncoder(self.world_frame, child),
+                        cdr.TransformEncoder(*first, *more))
             self._odom_encoders[agent] = encoders
         p, qq = f.position_enu, f.orientation_xyzw
         self._write(
@@ -370,10 +373,10 @@ class McapRecorder:
             encoders[0](sec, nanosec, p, qq, f.linear_flu, f.angular_flu),
         )
         self._write(f"/{agent}/pose", "geometry_msgs/msg/PoseStamped", t_ns,
-                    encoders[1](sec, nanosec, p, qq))
-        chain = tf_chain(agent, p, qq, self.world_frame)
+                    self._pose(sec, nanosec, p, qq))
+        (t0, q0), second = tf_chain(p, qq)
         self._write("/tf", "tf2_msgs/msg/TFMessage", t_ns,
-                    cdr.encode_tf_message([(sec, nanosec, *tr) for tr in chain]))
+                    encoders[1](sec, nanosec, t0, q0, second))
 
     def write_static_transforms(self, t: float, transforms: Sequence[tuple[str, str, Any, Any]]
                                 ) -> None:

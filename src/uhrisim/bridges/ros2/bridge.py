@@ -569,11 +569,12 @@ class Ros2Bridge:
                 "clamped_commands": validator.clamped,
                 "command_rejections": validator.counts()}
 
-    def set_max_depth(self, agent: str, depth: float) -> None:
-        """The deepest depth (m, down) ``agent`` may be commanded to now (the floor below
-        it less the clearance; ``math.inf``: no limit): deeper commands are clamped."""
-        self._io(agent, "set_max_depth")
-        self._inbox.validator.set_max_depth(agent, depth)
+    def depth_above_floor(self, agent: str, depth: float, deepest: float) -> float:
+        """A commanded depth (m, down) of ``agent`` as it may take effect where the
+        vehicle is: clamped to ``deepest`` (the floor below it less the clearance; NaN:
+        no limit), the clamp counted and reported like every command rejection."""
+        self._io(agent, "depth_above_floor")
+        return self._inbox.validator.depth_above_floor(agent, depth, deepest)
 
     # ----------------------------------------------------------------- lockstep
     def begin_round(self, agent: str) -> bool:

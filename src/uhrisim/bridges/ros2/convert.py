@@ -306,14 +306,19 @@ def agent_frames(agent: str) -> tuple[str, str]:
     return f"{agent}/odom", f"{agent}/base_link"
 
 
-def tf_chain(agent: str, position_enu: Sequence[float], orientation_xyzw: Sequence[float],
-             world_frame: str = "map") -> list[tuple[str, str, Sequence[float],
-                                                    Sequence[float]]]:
-    """``(parent, child, translation, rotation_xyzw)`` of one agent's REP-105 chain:
-    ``map`` -> ``<agent>/odom`` (the identity: ground truth does not drift) ->
-    ``<agent>/base_link`` (its odometry pose, ENU position, FLU body orientation)."""
+def tf_chain_frames(agent: str, world_frame: str = "map") -> tuple[tuple[str, str], ...]:
+    """The ``(parent, child)`` pairs of one agent's REP-105 chain on ``/tf``: ``map`` ->
+    ``<agent>/odom`` (the identity: ground truth does not drift) -> ``<agent>/base_link``
+    (its odometry pose); :func:`tf_chain` gives the transforms."""
     odom, base = agent_frames(agent)
-    return [(world_frame, odom, *_IDENTITY_TF), (odom, base, position_enu, orientation_xyzw)]
+    return (world_frame, odom), (odom, base)
+
+
+def tf_chain(position_enu: Sequence[float], orientation_xyzw: Sequence[float]
+             ) -> tuple[tuple[Sequence[float], Sequence[float]], ...]:
+    """``(translation, rotation_xyzw)`` of each pair of :func:`tf_chain_frames` for an
+    odometry pose (ENU position, FLU body orientation)."""
+    return _IDENTITY_TF, (position_enu, orientation_xyzw)
 
 
 def mount_transform(position_frd: ArrayLike, rotation_frd: ArrayLike

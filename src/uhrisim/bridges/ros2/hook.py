@@ -341,8 +341,7 @@ class Ros2BridgeHook(BaseHook):
         if rounds or (self._accepting and self._command_gate.due(t)):
             for ros, name, _, accept in self._links:
                 if accept:
-                    self._limit_depth(sim, bridge, ros, name, frame)
-                    self._take_commands(sim, name, bridge.commands(ros, t), frame)
+                    self._take_commands(sim, ros, name, bridge.commands(ros, t), frame)
         else:
             bridge.note_time(t)
         self._wake_time = min(self._publish_wake, self._command_gate.wake_time
@@ -384,23 +383,25 @@ class Ros2BridgeHook(BaseHook):
                                        ping.beam_angles_rad, ping.bin_ranges_m, frequency,
                                        sound_speed)
 
-    def _limit_depth(self, sim: Simulation, bridge: Ros2Bridge, ros: str, name: str,
-                     frame: TickFrame) -> None:
-        """Tell the bridge how deep ``name`` may be commanded where it is now."""
+    def _above_floor(self, sim: Simulation, ros: str, name: str, depth: float,
+                     frame: TickFrame) -> float:
+        """``depth`` (m) clamped to the floor below the vehicle now less the clearance."""
         floor = getattr(sim.scene, "seafloor", None)
-        snap = frame.agents.get(name)
-        if floor is None or snap is None:
-            return
-        north, east = float(snap.nav.position_ned[0]), float(snap.nav.position_ned[1])
-        bridge.set_max_depth(ros, float(floor.depth_at(north, east)) - self._clearance)
+        if floor is None or self.bridge is None:
+            return depth
+        north, east, _ = frame.agents[name].nav.position_ned
+        deepest = float(floor.depth_at(float(north), float(east))) - self._clearance
+        return self.bridge.depth_above_floor(ros, depth, deepest)
 
-    def _take_commands(self, sim: Simulation, name: str, cmd: AgentCommands,
+    def _take_commands(self, sim: Simulation, ros: str, name: str, cmd: AgentCommands,
                        frame: TickFrame) -> None:
         if cmd.received_count != self._seen[name]:
             self._seen[name] = cmd.received_count
             for field, var in _DESIRED_VARS:
                 value = getattr(cmd, field)
                 if value is not None:
+                    if var == "DESIRED_DEPTH":
+                        value = self._above_floor(sim, ros, name, value, frame)
                     sim.post(name, var, float(value), source="ros2")
                     self.n_posted += 1
             if cmd.thrusters is not None:

@@ -6,11 +6,13 @@ be honoured at all: not finite, a thruster array of the wrong length, a negative
 a vehicle whose controller cannot reverse. A value outside the vehicle's envelope is
 **clamped** to it: speed to ``[0, max_speed]`` (``[-max_speed, max_speed]`` when the
 controller reverses), depth to ``[0, floor - clearance]``, thruster inputs to
-``±thruster_limit``. Headings are wrapped to [0, 360) (not a rejection). Every refusal and
-clamp is counted per topic and reason (:meth:`CommandValidator.counts`) and reported to a
-log function, rate-limited per topic and reason (the first at once, then at most one a
-``log_period_s`` with how many were suppressed): the bridge hands rclpy's logger here,
-so rejections appear on ``/rosout``.
+``±thruster_limit``. Headings are wrapped to [0, 360) (not a rejection). The floor limit
+depends on where the vehicle is when the command takes effect, so the simulation's side
+applies it (:meth:`CommandValidator.depth_above_floor`) when it takes a depth command.
+Every refusal and clamp is counted per topic and reason (:meth:`CommandValidator.counts`)
+and reported to a log function, rate-limited per topic and reason (the first at once,
+then at most one a ``log_period_s`` with how many were suppressed): the bridge hands
+rclpy's logger here, so rejections appear on ``/rosout``.
 """
 
 from __future__ import annotations
@@ -39,7 +41,7 @@ class CommandEnvelope:
     ``max_speed`` (m/s, > 0; ``math.inf``: no limit); ``reverse``: its controller can hold
     a heading while backing up (negative desired speed); ``thruster_count`` and
     ``thruster_limit``: the length and range of ``cmd/thrusters``. The depth limit is not
-    here: it depends on where the vehicle is (:meth:`CommandValidator.set_max_depth`).
+    here: it depends on where the vehicle is (:meth:`CommandValidator.depth_above_floor`).
     """
 
     max_speed: float = math.inf
@@ -70,15 +72,14 @@ class CommandValidator:
 
     ``log`` (settable) receives one line per reported rejection (the bridge sets its
     node's rclpy logger's ``warning``: the line goes to ``/rosout``). Thread-safe: the
-    bridge's executor thread checks, the simulation thread sets depth limits and reads
-    the counts.
+    bridge's executor thread checks what arrives, the simulation thread the floor limit,
+    and reads the counts.
     """
 
     def __init__(self, envelopes: dict[str, CommandEnvelope],
                  log: Callable[[str], Any] | None = None,
                  log_period_s: float = LOG_PERIOD_S) -> None:
         self._envelopes = dict(envelopes)
-        self._max_depth: dict[str, float] = dict.fromkeys(envelopes, math.inf)
         self.log = log
         self._log_period = log_period_s
         self._lock = threading.Lock()
@@ -86,11 +87,6 @@ class CommandValidator:
         self._logged: dict[tuple[str, str], _LogSlot] = {}
         self.refused = 0
         self.clamped = 0
-
-    def set_max_depth(self, agent: str, depth: float) -> None:
-        """The deepest depth (m, down) ``agent`` may be commanded to now: the floor below
-        it less the clearance; ``math.inf`` (or NaN: no floor known) for no limit."""
-        self._max_depth[agent] = depth if depth == depth else math.inf
 
     def counts(self) -> dict[str, dict[str, int]]:
         """Rejections so far: topic -> reason -> count (a copy)."""
@@ -119,14 +115,17 @@ class CommandValidator:
                 return self._clamp(topic, "outside the speed envelope", v, clamped, "m/s")
             return v
         if key == "desired_depth":
-            deepest = max(0.0, self._max_depth[agent])
-            if v < 0.0:
-                return self._clamp(topic, "above the surface", v, 0.0, "m")
-            if v > deepest:
-                return self._clamp(topic, "below the floor less the clearance", v, deepest,
-                                   "m")
-            return v
+            return self._clamp(topic, "above the surface", v, 0.0, "m") if v < 0.0 else v
         raise ConfigError(f"unknown command {key!r}", "CommandValidator.desired")
+
+    def depth_above_floor(self, agent: str, depth: float, deepest: float) -> float:
+        """A desired depth (m, down, already checked by :meth:`desired`) of ``agent``
+        clamped to ``deepest`` (m: the floor below it less the clearance; NaN: no floor
+        known, no limit)."""
+        if depth > deepest >= 0.0:
+            return self._clamp(f"/{agent}/cmd/desired_depth",
+                               "below the floor less the clearance", depth, deepest, "m")
+        return depth
 
     def thrusters(self, agent: str, values: Sequence[float]) -> tuple[float, ...] | None:
         """The thruster inputs of ``/<agent>/cmd/thrusters`` as the simulation should take

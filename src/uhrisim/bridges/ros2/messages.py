@@ -28,7 +28,6 @@ from uhrisim.record.cdr import (
     CDR_LE_HEADER,
     CdrBuffer,
     encode_projected_sonar_image,
-    encode_tf_message,
 )
 
 from .convert import (
@@ -39,19 +38,10 @@ from .convert import (
     odom_fields_from_ned,
     pose_enu_from_ned,
     stamp_from_sim_time,
-    tf_chain,
 )
 
 #: World frame of every pose and marker (REP-105 "map", ENU).
 WORLD_FRAME = "map"
-
-def tf_bytes(frame_base: str, sec: int, nanosec: int, position_enu: Sequence[float],
-             orientation_xyzw: Sequence[float], world_frame: str = WORLD_FRAME) -> bytes:
-    """The serialised tf2_msgs/TFMessage of one agent's chain (:func:`~.convert.tf_chain`,
-    frames ``<frame_base>/odom`` and ``/base_link``)."""
-    chain = tf_chain(frame_base, position_enu, orientation_xyzw, world_frame)
-    return encode_tf_message([(sec, nanosec, *tr) for tr in chain])
-
 
 def static_tf_msg(t_sim: float, transforms: Sequence[tuple[str, str, ArrayLike, ArrayLike]]
                   ) -> Any:

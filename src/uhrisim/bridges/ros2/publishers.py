@@ -19,6 +19,7 @@ from rclpy.qos import QoSProfile
 from uhrisim.record.cdr import (
     OdometryEncoder,
     PoseStampedEncoder,
+    TransformEncoder,
     encode_image,
     encode_pointcloud2,
 )
@@ -29,6 +30,8 @@ from .convert import (
     odom_fields_from_ned,
     pose_enu_from_ned,
     stamp_from_sim_time,
+    tf_chain,
+    tf_chain_frames,
 )
 from .messages import (
     WORLD_FRAME,
@@ -36,7 +39,6 @@ from .messages import (
     mono8,
     projected_sonar_image_bytes,
     string_bytes,
-    tf_bytes,
 )
 from .spec import AgentBridgeSpec
 from .topics import agent_topics
@@ -61,6 +63,8 @@ class AgentPublishers:
         # odometry and pose go out pre-serialised (a few us instead of ~30 us a message)
         self.odometry = OdometryEncoder(world_frame, f"{self.frame_base}/base_link")
         self.pose = PoseStampedEncoder(world_frame)
+        first, *more = tf_chain_frames(self.frame_base, world_frame)
+        self.tf = TransformEncoder(*first, *more)  # the /tf chain, one struct
         self.pubs: dict[str, Any] = {}
         self.topics: dict[str, str] = {}  # key -> resolved topic name, once created
         self.mode_text: str | None = None  # the last helm mode published
@@ -100,8 +104,8 @@ class AgentPublishers:
             pose = self.pose(sec, nanosec, f.position_enu, f.orientation_xyzw)
             self.writer.write(self.pubs["pose"], pose, self.topics["pose"])
         if tf_wanted:
-            tf = tf_bytes(self.frame_base, sec, nanosec, f.position_enu, f.orientation_xyzw,
-                          self.world_frame)
+            (t0, q0), second = tf_chain(f.position_enu, f.orientation_xyzw)
+            tf = self.tf(sec, nanosec, t0, q0, second)
             self.writer.write(self.tf_pub, tf, self.topics["tf"])
         return True
 
