@@ -40,6 +40,24 @@ def test_built_types_have_the_real_type_hashes() -> None:
             f"marine_acoustic_msgs/msg/{name}"), name
 
 
+def test_uhrisim_msgs_are_the_recordings_definitions() -> None:
+    """uhrisim_msgs is built from the definitions every recording embeds: the hash rosidl
+    computed equals the one rosbags computes from that text."""
+    pytest.importorskip("uhrisim_msgs")
+    from uhrisim.record.msgdefs import own_definition
+
+    store = typesys.get_typestore(typesys.Stores.ROS2_KILTED)
+    msgs, _deps = PACKAGES["uhrisim_msgs"]
+    types = {}
+    for name in msgs:
+        typename = f"uhrisim_msgs/msg/{name}"
+        types.update(typesys.get_types_from_msg(own_definition(typename), typename))
+    store.register(types)
+    for name in msgs:
+        assert _built_hash("uhrisim_msgs", name) == store.hash_rihs01(
+            f"uhrisim_msgs/msg/{name}"), name
+
+
 def test_pre_serialised_sonar_image_is_what_rclpy_makes() -> None:
     """The bytes the bridge hands to DDS for /<agent>/sonar/image are rclpy's
     serialisation of the ProjectedSonarImage built field by field (Fast CDR leaves its

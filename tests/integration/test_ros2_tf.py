@@ -8,7 +8,8 @@ ENU); the chain map -> <agent>/odom -> <agent>/base_link (/tf) -> <agent>/sonar
 (/tf_static, from the mount) applied to the published FLU point must land within 1 cm of
 it. The ProjectedSonarImage's beams and ranges must be the preset's (the ping's beam
 azimuths and bin centres), its directions unit vectors in the message's convention
-(Z forward, X up, Y starboard).
+(Z forward, X up, Y starboard). The helm's decisions arrive as uhrisim_msgs/HelmDecision
+with the simulation's numbers.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ pytest.importorskip("rclpy")
 pytest.importorskip("tf2_msgs", reason="tf2_msgs not built: python -m "
                     "uhrisim.bridges.ros2.interfaces")
 pytest.importorskip("marine_acoustic_msgs")
+pytest.importorskip("uhrisim_msgs")
 
 from tests.support.children import Child
 from uhrisim.bridges.ros2.hook import Ros2BridgeHook
@@ -54,13 +56,14 @@ def test_tf_chain_places_sonar_hits_and_sonar_image_matches_the_preset(
     hook = Ros2BridgeHook(domain_id=ros_env, node_name="uhrisim_tf_test", odom_rate_hz=None)
     sim = Simulation(load_scenario(SCENARIO), hooks=[hook], seed=1)
     listener = Child("ros2_tf_listener.py", ["--agent", "videoray"], tmp_path)
-    pings = {}
+    pings, decisions = {}, {}
     try:
         listener.expect("READY", timeout=30.0)
         sim.start()
         assert hook.bridge is not None
         assert hook.bridge.wait_for_subscribers(
-            ["/tf", "/tf_static", "/videoray/sonar/points", "/videoray/sonar/image"], 20.0)
+            ["/tf", "/tf_static", "/videoray/sonar/points", "/videoray/sonar/image",
+             "/videoray/helm/decision"], 20.0)
         pacer = Pacer(real_time_factor=2.0)
         pacer.reset(sim.t)
         while sim.t < 8.0:  # the diver is in the sonar's view after about 4 s
@@ -69,6 +72,9 @@ def test_tf_chain_places_sonar_hits_and_sonar_image_matches_the_preset(
                 ping = frame.pings["videoray"]
                 sec, ns = divmod(round(ping.t * 1e9), 1_000_000_000)
                 pings[f"{sec}.{ns:09d}"] = ping
+            if "videoray" in frame.helm:
+                sec, ns = divmod(round(frame.t * 1e9), 1_000_000_000)
+                decisions[f"{sec}.{ns:09d}"] = frame.helm["videoray"]
             pacer.wait(frame.t)
         pacer.wait(sim.t + 1.0)  # the last messages arrive
         listener.send("STOP")
@@ -115,3 +121,12 @@ def test_tf_chain_places_sonar_hits_and_sonar_image_matches_the_preset(
     sonar = sim.agents["videoray"].sonars[0].sonar
     assert image["frequency"] == pytest.approx(sonar.config.sonar_spec.frequency_hz)
     assert 1400.0 < image["sound_speed"] < 1600.0
+
+    # the helm's decisions, live as uhrisim_msgs/HelmDecision, each behavior's share in it
+    got = result["decisions"]
+    assert len(got) >= len(decisions) - 2 > 10
+    for stamp, msg in got.items():
+        record = decisions[stamp]
+        assert msg["mode"] == record.mode and msg["total"] == pytest.approx(record.total)
+        assert msg["contributions"] == pytest.approx(dict(record.contributions))
+        assert msg["heading"] == pytest.approx(record.heading_deg)

@@ -1,11 +1,13 @@
-"""A plain rclpy node that collects /tf, /tf_static, an agent's sonar points and its
-marine_acoustic_msgs/ProjectedSonarImage, for the bridge tests; no uhrisim imports.
+"""A plain rclpy node that collects /tf, /tf_static, an agent's sonar points, its
+marine_acoustic_msgs/ProjectedSonarImage and its helm decisions (uhrisim_msgs), for the
+bridge tests; no uhrisim imports (the message packages are built at install time).
 
 Prints ``READY`` once subscribed; on ``STOP`` (stdin) prints ``RESULT <json>``:
 ``static``: the /tf_static transforms; ``tf``: "sec.nanosec" -> the /tf transforms of
 that stamp; ``points``: "sec.nanosec" -> the cloud's (x, y, z) rows (float32 -> float);
 ``image``: the last ProjectedSonarImage's frame, stamp, beam directions, ranges, dtype,
-beam count, data length, frequency and sound speed. A transform is
+beam count, data length, frequency and sound speed; ``decisions``: "sec.nanosec" -> the
+uhrisim_msgs/HelmDecision's heading, mode, contributions and total. A transform is
 ``[parent, child, [tx, ty, tz], [qx, qy, qz, qw]]``.
 
     python ros2_tf_listener.py --agent videoray
@@ -25,6 +27,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import PointCloud2
 from tf2_msgs.msg import TFMessage
+from uhrisim_msgs.msg import HelmDecision
 
 
 def _stamp(header) -> str:
@@ -48,7 +51,7 @@ def main() -> int:
     node = rclpy.create_node("test_tf_listener", start_parameter_services=False)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
-    result: dict = {"static": [], "tf": {}, "points": {}, "image": None}
+    result: dict = {"static": [], "tf": {}, "points": {}, "image": None, "decisions": {}}
 
     def on_tf(msg: TFMessage) -> None:
         for tr in _transforms(msg):
@@ -72,6 +75,12 @@ def main() -> int:
             "frequency": msg.ping_info.frequency, "sound_speed": msg.ping_info.sound_speed,
         }
 
+    def on_decision(msg: HelmDecision) -> None:
+        result["decisions"][_stamp(msg.header)] = {
+            "heading": msg.heading_deg if msg.has_heading else None, "mode": msg.mode,
+            "contributions": {c.name: c.value for c in msg.contributions},
+            "total": msg.total}
+
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
     node.create_subscription(TFMessage, "/tf", on_tf, 100)
@@ -80,6 +89,7 @@ def main() -> int:
                              qos_profile_sensor_data)
     node.create_subscription(ProjectedSonarImage, f"/{args.agent}/sonar/image", on_image,
                              qos_profile_sensor_data)
+    node.create_subscription(HelmDecision, f"/{args.agent}/helm/decision", on_decision, 50)
     print("READY", flush=True)
     while True:
         executor.spin_once(timeout_sec=0.02)

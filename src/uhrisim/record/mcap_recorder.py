@@ -47,7 +47,6 @@ from __future__ import annotations
 
 import logging
 import math
-import numbers
 import os
 import re
 import struct
@@ -59,7 +58,6 @@ from typing import Any
 import numpy as np
 from mcap.writer import LIBRARY_IDENTIFIER, CompressionType
 from mcap.writer import Writer as McapWriter
-from mcap_ros2._dynamic import serialize_dynamic
 
 from uhrisim import __version__ as uhrisim_version
 from uhrisim.bridges.ros2.convert import (
@@ -77,7 +75,7 @@ from uhrisim.core.frames import (
     enu_rotation_from_ned,
     quaternion_from_matrix,
 )
-from uhrisim.record import cdr
+from uhrisim.record import cdr, uhrisim_msgs
 from uhrisim.record.msgdefs import schema_text
 from uhrisim.record.rosbag2 import channel_metadata
 
@@ -257,7 +255,6 @@ class McapRecorder:
         self._schema_ids: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._sequence: dict[int, int] = {}
-        self._dynamic: dict[str, Any] = {}
         self._odom_encoders: dict[str, tuple[cdr.OdometryEncoder, cdr.TransformEncoder]] = {}
         self._pose = cdr.PoseStampedEncoder(self.world_frame)
         self._static_children: set[str] = set()  # frames placed by /tf_static
@@ -313,19 +310,6 @@ class McapRecorder:
         ):
             self._writer.flush()
             self._last_flush_ns = t_ns
-
-    def _encode_dynamic(self, typename: str, message: Mapping[str, Any]) -> bytes:
-        """Encode with mcap_ros2's schema-driven encoder (the general, reference path)."""
-        encoder = self._dynamic.get(typename)
-        if encoder is None:
-            encoder = serialize_dynamic(typename, schema_text(typename))[typename]
-            self._dynamic[typename] = encoder
-        return encoder(message)
-
-    @staticmethod
-    def _header(t_ns: int, frame_id: str) -> dict[str, Any]:
-        sec, nanosec = divmod(t_ns, 1_000_000_000)
-        return {"stamp": {"sec": sec, "nanosec": nanosec}, "frame_id": frame_id}
 
     # ------------------------------------------------------------------ writers
     def write_odometry(
@@ -579,32 +563,10 @@ class McapRecorder:
         self._check_open("write_helm_decision")
         _check_name(agent, "agent", where)
         t_ns = _stamp_ns(t, where)
-        decided = [None if x is None else float(x) for x in (heading_deg, speed, depth)]
-        contrib = [{"name": str(k), "value": float(v)} for k, v in contributions.items()]
-        tot = math.fsum(c["value"] for c in contrib) if total is None else float(total)
-        numbers_ = [x for x in decided if x is not None] + [c["value"] for c in contrib]
-        if not all(math.isfinite(x) for x in [*numbers_, tot]):
-            raise ConfigError("decision values and contributions must be finite", where=where)
-        msg = {
-            "header": self._header(t_ns, ""),
-            "has_heading": decided[0] is not None,
-            "heading_deg": decided[0] or 0.0,
-            "has_speed": decided[1] is not None,
-            "speed": decided[1] or 0.0,
-            "has_depth": decided[2] is not None,
-            "depth": decided[2] or 0.0,
-            "mode": str(mode),
-            "active_behaviors": [str(a) for a in active],
-            "contributions": contrib,
-            "total": tot,
-            "all_stop_reason": str(all_stop_reason),
-        }
-        self._write(
-            f"/{agent}/helm/decision",
-            "uhrisim_msgs/msg/HelmDecision",
-            t_ns,
-            self._encode_dynamic("uhrisim_msgs/msg/HelmDecision", msg),
-        )
+        self._write(f"/{agent}/helm/decision", uhrisim_msgs.HELM_DECISION, t_ns,
+                    uhrisim_msgs.helm_decision_bytes(t_ns, heading_deg, speed, depth,
+                                                     contributions, mode, active, total,
+                                                     all_stop_reason, where))
 
     def write_variable(
         self, agent: str, t: float, name: str, value: float | str, source: str
@@ -618,30 +580,8 @@ class McapRecorder:
         self._check_open("write_variable")
         _check_name(agent, "agent", where)
         t_ns = _stamp_ns(t, where)
-        if isinstance(value, str):
-            kind, dval, sval = 1, 0.0, value
-        elif isinstance(value, numbers.Real):
-            kind, dval, sval = 0, float(value), ""
-        else:
-            raise ConfigError(
-                f"variable {name!r} value must be a number or a string, got "
-                f"{type(value).__name__}",
-                where=where,
-            )
-        msg = {
-            "header": self._header(t_ns, ""),
-            "name": str(name),
-            "source": str(source),
-            "kind": kind,
-            "double_value": dval,
-            "string_value": sval,
-        }
-        self._write(
-            f"/{agent}/vars",
-            "uhrisim_msgs/msg/Variable",
-            t_ns,
-            self._encode_dynamic("uhrisim_msgs/msg/Variable", msg),
-        )
+        self._write(f"/{agent}/vars", uhrisim_msgs.VARIABLE, t_ns,
+                    uhrisim_msgs.variable_bytes(t_ns, name, value, source, where))
 
     def _marker(self, t_ns: int, spec: Mapping[str, Any], index: int) -> dict[str, Any]:
         where = f"McapRecorder.write_scene_markers: marker[{index}]"
@@ -734,14 +674,8 @@ class McapRecorder:
         where = "McapRecorder.write_event"
         self._check_open("write_event")
         t_ns = _stamp_ns(t, where)
-        msg = {"header": self._header(t_ns, self.world_frame), "kind": str(kind),
-               "detail": str(detail)}
-        self._write(
-            "/events",
-            "uhrisim_msgs/msg/Event",
-            t_ns,
-            self._encode_dynamic("uhrisim_msgs/msg/Event", msg),
-        )
+        self._write("/events", uhrisim_msgs.EVENT, t_ns,
+                    uhrisim_msgs.event_bytes(t_ns, self.world_frame, kind, detail))
 
     # ------------------------------------------------------------------ lifecycle
     def flush(self) -> None:

@@ -251,6 +251,14 @@ def schema_text(typename: str) -> str:
     return "".join(parts)
 
 
+def own_definition(typename: str) -> str:
+    """The fields and constants of ``typename`` alone (its ``.msg`` text, dependencies
+    named, not included)."""
+    if typename not in _OWN:
+        raise ConfigError(f"no embedded message definition for {typename!r}", where="msgdefs")
+    return _OWN[typename]
+
+
 def known_types() -> tuple[str, ...]:
     """Every type whose definition is embedded here (full ``pkg/msg/Type`` names)."""
     return tuple(_OWN)

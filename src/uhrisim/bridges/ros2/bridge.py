@@ -37,10 +37,11 @@ from rosgraph_msgs.msg import Clock
 from visualization_msgs.msg import MarkerArray
 
 from uhrisim.core.errors import BridgeError, ConfigError
+from uhrisim.record import uhrisim_msgs
 from uhrisim.record.cdr import PoseStampedEncoder
 
 from .commands import CommandInbox
-from .convert import RateGate
+from .convert import RateGate, stamp_from_sim_time
 from .interfaces import build_hint
 from .messages import (
     WORLD_FRAME,
@@ -88,6 +89,12 @@ log = logging.getLogger(__name__)
 
 #: Longest wait of the command executor for something to do (s).
 _IDLE_SPIN_S = 1.0
+
+
+def _ns(t_sim: float) -> int:
+    """Simulation time (s) as integer nanoseconds (the stamps' rounding)."""
+    sec, nanosec = stamp_from_sim_time(t_sim)
+    return sec * 1_000_000_000 + nanosec
 
 
 def _poll_until(condition: Callable[[], bool], timeout_s: float) -> bool:
@@ -219,6 +226,7 @@ class Ros2Bridge:
         self._pub_scene: Any = None
         self._pub_tf: Any = None
         self._pub_tf_static: Any = None
+        self._pub_events: Any = None
         self._topic: dict[str, str] = {}  # bridge-wide topic -> its resolved name
 
     # ----------------------------------------------------------------- lifecycle
@@ -281,10 +289,18 @@ class Ros2Bridge:
         else:
             self._pub_tf = node.create_publisher(TFMessage, "tf", QOS_TF)
             self._pub_tf_static = node.create_publisher(TFMessage, "tf_static", QOS_TF_STATIC)
+        try:
+            from uhrisim_msgs.msg import Event
+        except ImportError:
+            log.warning("ROS 2 bridge: no helm/decision, vars, /events: uhrisim_msgs is not "
+                        "built (run %s)", build_hint())
+        else:
+            self._pub_events = node.create_publisher(Event, "events", QOS_STATE)
         # resolved names (the node's namespace applied), the keys of the statistics
         self._topic = {key: pub.topic_name for key, pub in (
             ("clock", self._pub_clock), ("scene", self._pub_scene), ("tf", self._pub_tf),
-            ("tf_static", self._pub_tf_static)) if pub is not None}
+            ("tf_static", self._pub_tf_static), ("events", self._pub_events))
+            if pub is not None}
         for name, io in self._agents.items():
             io.create(node, self._sensor_qos, self._pub_tf)
             self._inbox.subscribe(node, name, self._command_qos)
@@ -528,6 +544,45 @@ class Ros2Bridge:
         io = self._io(agent, "publish_helm")
         self._advance(t_sim)
         io.helm(heading_deg, speed, depth, mode)
+
+    def publish_helm_decision(self, agent: str, t_sim: float, heading_deg: float | None,
+                              speed: float | None, depth: float | None,
+                              contributions: Mapping[str, float], mode: str,
+                              active: Sequence[str], total: float | None,
+                              all_stop_reason: str) -> None:
+        """Publish ``/<agent>/helm/decision`` (uhrisim_msgs/HelmDecision: the decision with
+        every behavior's share; the recording's message), only while someone subscribes;
+        fields as :meth:`uhrisim.record.McapRecorder.write_helm_decision`."""
+        io = self._io(agent, "publish_helm_decision")
+        if io.extra_wanted("helm_decision"):
+            io.write_extra("helm_decision", uhrisim_msgs.helm_decision_bytes(
+                _ns(t_sim), heading_deg, speed, depth, contributions, mode, active, total,
+                all_stop_reason, "Ros2Bridge.publish_helm_decision"))
+
+    def publish_variable(self, agent: str, t_sim: float, name: str, value: float | str,
+                         source: str) -> None:
+        """Publish a community posting on ``/<agent>/vars`` (uhrisim_msgs/Variable), only
+        while someone subscribes."""
+        io = self._io(agent, "publish_variable")
+        if io.extra_wanted("vars"):
+            io.write_extra("vars", uhrisim_msgs.variable_bytes(
+                _ns(t_sim), name, value, source, "Ros2Bridge.publish_variable"))
+
+    def publish_event(self, t_sim: float, kind: str, detail: str) -> None:
+        """Publish ``/events`` (uhrisim_msgs/Event, frame the world frame), only while
+        someone subscribes."""
+        if not self.started:
+            raise BridgeError("Ros2Bridge.publish_event: bridge is not running (call start())")
+        if self._pub_events is not None and self._writer.wanted(self._pub_events):
+            self._writer.write(self._pub_events, uhrisim_msgs.event_bytes(
+                _ns(t_sim), self._world_frame, kind, detail), self._topic["events"])
+
+    def extras_subscribed(self) -> bool:
+        """Does anyone subscribe to a ``vars`` topic or to ``/events`` (so that the
+        simulation's postings and events are worth handing over)?"""
+        if self._pub_events is not None and self._writer.wanted(self._pub_events):
+            return True
+        return any(io.extra_wanted("vars") for io in self._agents.values())
 
     def publish_scene(self, t_sim: float, markers: Sequence[Mapping[str, Any]]) -> None:
         """Publish ``/scene/markers`` (visualization_msgs/MarkerArray, frame ``"map"``).

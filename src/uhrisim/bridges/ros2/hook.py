@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import logging
 import math
+import numbers
 import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Literal
@@ -210,6 +211,7 @@ class Ros2BridgeHook(BaseHook):
         self._seen: dict[str, int] = {}
         self._active: dict[str, bool] = {}
         self._failing: tuple[str, ...] = ()  # bridge.failing_topics, as last recorded
+        self._extras = False  # someone subscribes to vars or /events (refreshed at 10 Hz)
         # per ROS name of an agent with a sonar: (centre frequency Hz, sound speed m/s)
         self._acoustics: dict[str, tuple[float, float]] = {}
         self.n_posted = 0
@@ -309,6 +311,8 @@ class Ros2BridgeHook(BaseHook):
             return
         t = float(frame.t)
         pings, helm = frame.pings, frame.helm
+        if self._extras and (frame.posts or frame.events):
+            self._publish_extras(bridge, frame)
         if t < self._wake_time and not pings and not helm:
             bridge.note_time(t)  # nothing due: most ticks of a 60 Hz loop
             return
@@ -330,7 +334,12 @@ class Ros2BridgeHook(BaseHook):
                 if decision is not None:
                     bridge.publish_helm(ros, t, decision.heading_deg, decision.speed,
                                         decision.depth, decision.mode)
+                    bridge.publish_helm_decision(
+                        ros, t, decision.heading_deg, decision.speed, decision.depth,
+                        decision.contributions, decision.mode, decision.active,
+                        decision.total, decision.all_stop_reason or "")
             self._publish_wake = bridge.wake_time
+            self._extras = bridge.extras_subscribed()  # checked at most at 10 Hz
             if bridge.failing_topics != self._failing:  # rare: note it in the recording
                 new = bridge.failing_topics[len(self._failing):]
                 self._failing = bridge.failing_topics
@@ -346,6 +355,19 @@ class Ros2BridgeHook(BaseHook):
             bridge.note_time(t)
         self._wake_time = min(self._publish_wake, self._command_gate.wake_time
                               if self._accepting else math.inf)
+
+    def _publish_extras(self, bridge: Ros2Bridge, frame: TickFrame) -> None:
+        """The tick's community postings (``<agent>/vars``) and events (``/events``), as
+        the recording has them; only called while someone subscribes to either."""
+        for post in frame.posts:
+            ros = self._ros.get(post.community)
+            if ros is not None:
+                value = post.value if isinstance(post.value, str | numbers.Real) \
+                    else str(post.value)
+                bridge.publish_variable(ros, float(post.t), str(post.var), value,
+                                        str(post.source))
+        for event in frame.events:
+            bridge.publish_event(float(event.t), str(event.kind), str(event.detail))
 
     def _begin_round(self, sim: Simulation, bridge: Ros2Bridge, ros: str, t: float) -> None:
         """A lockstep round for ``ros`` starts; one that had lapsed is waited for again

@@ -168,6 +168,16 @@ class AgentPublishers:
                                           sound_speed_m_s)
         self.writer.write(self.pubs["image"], raw, self.topics["image"])
 
+    def extra_wanted(self, key: str) -> bool:
+        """Does the topic ``key`` (``"helm_decision"``, ``"vars"``) exist and have a
+        subscriber?"""
+        pub = self.pubs.get(key)
+        return pub is not None and self.writer.wanted(pub)
+
+    def write_extra(self, key: str, raw: bytes) -> None:
+        """Serialised ``raw`` to the topic ``key`` (checked with :meth:`extra_wanted`)."""
+        self.writer.write(self.pubs[key], raw, self.topics[key])
+
     def helm(self, heading_deg: float | None, speed: float | None, depth: float | None,
              mode: str) -> None:
         """The desired values given (to subscribers) and the mode when it changed."""

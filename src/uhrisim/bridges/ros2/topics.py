@@ -2,11 +2,12 @@
 
 Per agent (namespace ``/<agent>``): ``odom``, ``pose``, the sonar's ``sonar/polar``,
 ``sonar/fan``, ``sonar/points``, ``sonar/pose`` and ``sonar/image``
-(marine_acoustic_msgs/ProjectedSonarImage, when that package is built: see
-:mod:`.interfaces`), the helm's ``helm/desired_*`` and ``helm/mode``; commands in on
+(marine_acoustic_msgs/ProjectedSonarImage), the helm's ``helm/desired_*``,
+``helm/mode`` and ``helm/decision``, the community's ``vars``; commands in on
 ``cmd/desired_*`` and ``cmd/thrusters``. Bridge-wide: ``/clock``, ``/scene/markers``,
-``/tf`` and ``/tf_static``. docs/bridges-ros2.md has the table with frames, units and
-rates; the QoS profiles below say why each is what it is.
+``/tf``, ``/tf_static`` and ``/events``. The topics whose message packages have no
+wheels exist when :mod:`.interfaces` has built them. docs/bridges-ros2.md has the table
+with frames, units and rates; the QoS profiles below say why each is what it is.
 """
 
 from __future__ import annotations
@@ -135,4 +136,9 @@ def agent_topics(spec: AgentBridgeSpec, sensor_qos: QoSProfile = QOS_SENSOR
     topics += [(f"helm_{key}", f"{ns}/helm/{key}", Float64, QOS_STATE)
                for key in DESIRED_KEYS]
     topics.append(("helm_mode", f"{ns}/helm/mode", String, QOS_LATCHED))
+    if importlib.util.find_spec("uhrisim_msgs") is not None:
+        from uhrisim_msgs.msg import HelmDecision, Variable
+
+        topics += [("helm_decision", f"{ns}/helm/decision", HelmDecision, QOS_STATE),
+                   ("vars", f"{ns}/vars", Variable, QOS_STATE)]
     return topics

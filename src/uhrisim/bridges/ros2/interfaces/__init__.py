@@ -2,8 +2,10 @@
 
 ``python -m uhrisim.bridges.ros2.interfaces`` builds ``tf2_msgs`` (TFMessage) and
 ``marine_acoustic_msgs`` (PingInfo, SonarImageData, ProjectedSonarImage) from the
-``.msg`` files next to this module with the rosidl generator wheels of the ``ros2``
-extra (CMake, a C/C++ compiler), and installs them into the Python environment's
+``.msg`` files next to this module, and uhrisim's own ``uhrisim_msgs`` (HelmDecision,
+BehaviorContribution, Variable, Event) from the definitions every recording embeds
+(:mod:`uhrisim.record.msgdefs`), with the rosidl generator wheels of the ``ros2`` extra
+(CMake, a C/C++ compiler), and installs them into the Python environment's
 prefix exactly where a wheel puts its files: the types are the real ones a ROS 2
 installation has (same names, same type hashes), usable from rclpy in any process of
 that environment. ``make venv-test`` runs it.
@@ -19,10 +21,23 @@ PACKAGES: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "tf2_msgs": (("TFMessage",), ("geometry_msgs",)),
     "marine_acoustic_msgs": (("PingInfo", "SonarImageData", "ProjectedSonarImage"),
                              ("geometry_msgs", "std_msgs")),
+    "uhrisim_msgs": (("BehaviorContribution", "HelmDecision", "Variable", "Event"),
+                     ("std_msgs",)),
 }
 
 #: Folder holding ``<package>/msg/<Type>.msg``.
 SOURCE_DIR = Path(__file__).resolve().parent
+
+
+def msg_text(package: str, name: str) -> str:
+    """The ``.msg`` text of ``package/name``: the file next to this module, or for
+    uhrisim_msgs the definition the recordings embed."""
+    path = SOURCE_DIR / package / "msg" / f"{name}.msg"
+    if path.is_file():
+        return path.read_text()
+    from uhrisim.record.msgdefs import own_definition
+
+    return own_definition(f"{package}/msg/{name}")
 
 
 def missing() -> list[str]:

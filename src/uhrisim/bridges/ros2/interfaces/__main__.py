@@ -17,7 +17,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from . import PACKAGES, SOURCE_DIR, missing
+from . import PACKAGES, missing, msg_text
 
 _PACKAGE_XML = """<?xml version="1.0"?>
 <package format="3">
@@ -67,7 +67,7 @@ def _source_tree(name: str, root: Path) -> Path:
     src = root / name
     (src / "msg").mkdir(parents=True)
     for msg in msgs:
-        shutil.copyfile(SOURCE_DIR / name / "msg" / f"{msg}.msg", src / "msg" / f"{msg}.msg")
+        (src / "msg" / f"{msg}.msg").write_text(msg_text(name, msg))
     (src / "package.xml").write_text(_PACKAGE_XML.format(
         name=name, depends="\n".join(f"  <depend>{d}</depend>" for d in deps)))
     (src / "CMakeLists.txt").write_text(_CMAKELISTS.format(
