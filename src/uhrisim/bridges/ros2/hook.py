@@ -1,8 +1,10 @@
 """A simulation hook that attaches a running simulation to ROS 2 (``Ros2Bridge``).
 
 Each tick the hook (a read-only observer, like the recorder) publishes every linked
-agent's odometry (gated to ``odom_rate_hz`` in simulated time), each new sonar ping and
-helm decision, and ``/clock``; at start it publishes the static scene as markers.
+agent's odometry and ``/tf`` (gated to ``odom_rate_hz`` in simulated time), each new
+sonar ping and helm decision, the community postings and events, and ``/clock``; at
+start it publishes the static scene as markers and the sonar mounts on ``/tf_static``:
+the topics the recording has (:mod:`uhrisim.record.hook`).
 Volatile topics go out only while someone subscribes to them (nobody could tell the
 difference, :class:`Ros2Bridge` ``publish_unsubscribed``): the fan image of a ping is
 formed, and a snapshot taken for odometry, only for a subscriber. Commands received
