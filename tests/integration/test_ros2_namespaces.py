@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import json
 import queue
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -91,3 +93,25 @@ def test_two_simulators_in_two_namespaces_on_one_domain(ros_env: int, tmp_path: 
     assert clock_b[0].qos_profile.reliability == ReliabilityPolicy.RELIABLE
     assert image_b[0].qos_profile.reliability == ReliabilityPolicy.RELIABLE
     assert clock_a[0].qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+
+
+def test_a_bad_parameter_is_one_line_naming_it(ros_env: int, tmp_path: Path) -> None:
+    """A parameter of the wrong value or type stops the start with a ConfigError naming
+    it; on the command line, one ``error:`` line and exit status 2."""
+    from uhrisim.bridges.ros2 import AgentBridgeSpec, Ros2Bridge
+    from uhrisim.core.errors import ConfigError
+
+    for args, name in ((["-p", "sensor_qos:=fast"], "sensor_qos"),
+                       (["-p", "odom_rate_hz:=20"], "odom_rate_hz"),  # an int, not a double
+                       (["-p", "clock_rate_hz:=-1.0"], "clock_rate_hz")):
+        bridge = Ros2Bridge([AgentBridgeSpec("rov")], domain_id=ros_env, ros_args=args)
+        with pytest.raises(ConfigError, match=f"ROS parameter {name}"):
+            bridge.start()
+        bridge.close()
+    proc = subprocess.run(
+        [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "--out", str(tmp_path / "o"),
+         "--duration", "1", "--no-sonar", "-q", "--ros-args=-p sensor_qos:=fast"],
+        capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:") and "sensor_qos" in lines[0]

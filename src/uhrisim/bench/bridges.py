@@ -8,8 +8,9 @@ without a bridge, and the overhead is ``1 - RTF(with bridge) / RTF(without)``
   the ROS 2 bridge with nobody subscribed (``ros2``: unread topics are not written, and
   what they would carry is not computed), with a listener process on the topics an
   outside planner or controller reads (``ros2_navigation_listener``: odometry, poses,
-  ``/tf`` and ``/tf_static``, the sonar's pose, helm, ``/clock``), and with a listener on
-  every topic, the polar and fan images, the ProjectedSonarImage and the hits included
+  ``/tf`` and ``/tf_static``, the sonar's pose, the helm's desired values and mode,
+  ``/clock``), and with a listener on every topic, the polar and fan images, the
+  ProjectedSonarImage, the hits, the helm decisions and community postings included
   (``ros2_listener``: each ping's fan image is formed and ~0.8 MB of pixels a ping are
   handed to DDS); the MOOS bridge posting NAV_* and
   NODE_REPORT of both agents at 10 Hz to a test MOOSDB on 127.0.0.1 (``moos``);
@@ -78,15 +79,17 @@ class _AwaitListener(BaseHook):
         time.sleep(0.3)  # the graph shows the reader a little before the writer matches it
 
 
-#: Keys (:func:`~uhrisim.bridges.ros2.topics.agent_topics`) of the sonar's bulk products.
-SONAR_DATA_KEYS = frozenset({"polar", "fan", "points", "image"})
+#: Keys (:func:`~uhrisim.bridges.ros2.topics.agent_topics`) a navigation listener leaves
+#: out: the sonar's bulk products and the helm's audit trail (every behavior's share in
+#: each decision, every community posting).
+NOT_NAVIGATION_KEYS = frozenset({"polar", "fan", "points", "image", "helm_decision", "vars"})
 
 
 class _Ros2Case:
     """The ROS 2 bridge, alone (``listener=None``) or with a listener process on every
-    topic it publishes (``"every"``) or on all but the sonar images and hits
-    (``"navigation"``: odometry, poses, ``/tf``, helm, ``/clock``, what an outside planner
-    reads);
+    topic it publishes (``"every"``) or on what an outside planner reads (``"navigation"``:
+    odometry, poses, ``/tf``, the sonar's pose, the helm's desired values and mode,
+    ``/clock``);
     notes how many messages the listener received in each run (warm-up included)."""
 
     def __init__(self, listener: Literal["every", "navigation"] | None) -> None:
@@ -120,7 +123,7 @@ class _Ros2Case:
             spec = AgentBridgeSpec(name, publish_sonar=sonar and name == SONAR_AGENT)
             topics += [(f"/{t}", type_name(m), qos_label(q))
                        for key, t, m, q in agent_topics(spec)
-                       if self.listener == "every" or key not in SONAR_DATA_KEYS]
+                       if self.listener == "every" or key not in NOT_NAVIGATION_KEYS]
         listener = stack.enter_context(Listener(topics, domain))
         # closed after the run (last in, first out): count what arrived first
         stack.callback(lambda: self.received.append(sum(listener.counts().values())))
