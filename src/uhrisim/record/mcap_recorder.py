@@ -13,22 +13,34 @@ here and only here, with ``uhrisim.core.frames``:
 * ``<agent>/base_link`` is the vehicle's FLU body frame (x forward, y port, z up);
 * a sonar frame (e.g. ``rov/sonar``) is the sonar's FLU frame.
 
-Topics (``<agent>`` is the community name):
+Topics (``<agent>`` is the community name; the live ROS 2 bridge publishes the same):
 
-================================  ==================================  ==================
-topic                             type                                frame
-================================  ==================================  ==================
-``/<agent>/odom``                 nav_msgs/msg/Odometry               map → base_link
-``/tf``                           tf2_msgs/msg/TFMessage              map → base_link,
-                                                                      map → sonar frame
-``/<agent>/sonar/polar``          sensor_msgs/msg/Image (mono8)       sonar frame
-``/<agent>/sonar/fan``            sensor_msgs/msg/Image (mono8)       sonar frame
-``/<agent>/sonar/points``         sensor_msgs/msg/PointCloud2         sonar frame (FLU)
-``/<agent>/helm/decision``        uhrisim_msgs/msg/HelmDecision       —
-``/<agent>/vars``                 uhrisim_msgs/msg/Variable           —
-``/scene/markers``                visualization_msgs/msg/MarkerArray  map (ENU)
-``/events``                       uhrisim_msgs/msg/Event              map
-================================  ==================================  ==================
+============================  =============================================  ==================
+topic                         type                                           frame
+============================  =============================================  ==================
+``/<agent>/odom``             nav_msgs/msg/Odometry                          map → base_link
+``/<agent>/pose``             geometry_msgs/msg/PoseStamped                  map
+``/tf``                       tf2_msgs/msg/TFMessage                         map → odom →
+                                                                             base_link
+``/tf_static``                tf2_msgs/msg/TFMessage                         base_link → sonar
+``/<agent>/sonar/polar``      sensor_msgs/msg/Image (mono8)                  sonar frame
+``/<agent>/sonar/fan``        sensor_msgs/msg/Image (mono8)                  sonar frame
+``/<agent>/sonar/points``     sensor_msgs/msg/PointCloud2                    sonar frame (FLU)
+``/<agent>/sonar/pose``       geometry_msgs/msg/PoseStamped                  map
+``/<agent>/sonar/image``      marine_acoustic_msgs/msg/ProjectedSonarImage   sonar frame
+``/<agent>/helm/desired_*``   std_msgs/msg/Float64                           —
+``/<agent>/helm/mode``        std_msgs/msg/String                            —
+``/<agent>/helm/decision``    uhrisim_msgs/msg/HelmDecision                  —
+``/<agent>/vars``             uhrisim_msgs/msg/Variable                      —
+``/scene/markers``            visualization_msgs/msg/MarkerArray             map (ENU)
+``/events``                   uhrisim_msgs/msg/Event                         map
+``/clock``                    rosgraph_msgs/msg/Clock                        —
+============================  =============================================  ==================
+
+A sonar frame on ``/tf_static`` (:meth:`McapRecorder.write_static_transforms`) is not
+written on ``/tf`` at each ping; without one, each ping puts ``map → sonar frame`` there.
+The latched topics carry their offered QoS in the channel metadata
+(:mod:`uhrisim.record.rosbag2`, which writes the folder's ``metadata.yaml``).
 
 Time: ``header.stamp`` and the MCAP ``log_time``/``publish_time`` are all the
 simulation time (nanoseconds since the start of the run); nothing in the file depends
