@@ -18,6 +18,8 @@ import pytest
 import yaml
 
 pytest.importorskip("rclpy")
+for _package in ("tf2_msgs", "marine_acoustic_msgs", "uhrisim_msgs"):  # the live topics
+    pytest.importorskip(_package, reason="python -m uhrisim.bridges.ros2.interfaces")
 rosbag2 = pytest.importorskip("rosbags.rosbag2")
 
 from mcap.reader import make_reader  # noqa: E402
