@@ -279,23 +279,24 @@ class Ros2Bridge:
         # command rejections go to /rosout (and the console) through the node's logger
         self._inbox.validator.log = node.get_logger().warning
         if self._publish_clock:
-            self._pub_clock = node.create_publisher(Clock, "clock", self._clock_qos)
-        self._pub_scene = node.create_publisher(MarkerArray, "scene/markers", QOS_SCENE)
+            self._pub_clock = self._writer.create(node, Clock, "clock", self._clock_qos)
+        self._pub_scene = self._writer.create(node, MarkerArray, "scene/markers", QOS_SCENE)
         try:
             from tf2_msgs.msg import TFMessage
         except ImportError:
             log.warning("ROS 2 bridge: no /tf, /tf_static: tf2_msgs is not built (run %s)",
                         build_hint())
         else:
-            self._pub_tf = node.create_publisher(TFMessage, "tf", QOS_TF)
-            self._pub_tf_static = node.create_publisher(TFMessage, "tf_static", QOS_TF_STATIC)
+            self._pub_tf = self._writer.create(node, TFMessage, "tf", QOS_TF)
+            self._pub_tf_static = self._writer.create(node, TFMessage, "tf_static",
+                                                      QOS_TF_STATIC)
         try:
             from uhrisim_msgs.msg import Event
         except ImportError:
             log.warning("ROS 2 bridge: no helm/decision, vars, /events: uhrisim_msgs is not "
                         "built (run %s)", build_hint())
         else:
-            self._pub_events = node.create_publisher(Event, "events", QOS_STATE)
+            self._pub_events = self._writer.create(node, Event, "events", QOS_STATE)
         # resolved names (the node's namespace applied), the keys of the statistics
         self._topic = {key: pub.topic_name for key, pub in (
             ("clock", self._pub_clock), ("scene", self._pub_scene), ("tf", self._pub_tf),

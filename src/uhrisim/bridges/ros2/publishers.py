@@ -74,7 +74,7 @@ class AgentPublishers:
         """Create this agent's publishers on ``node`` (``sensor_qos``: sonar images, hits);
         its transforms go to ``tf_pub`` (the bridge's ``/tf``, or None)."""
         for key, topic, msg_type, qos in agent_topics(self.spec, sensor_qos):
-            self.pubs[key] = node.create_publisher(msg_type, topic, qos)
+            self.pubs[key] = self.writer.create(node, msg_type, topic, qos)
             self.topics[key] = self.pubs[key].topic_name
         self.tf_pub = tf_pub
         if tf_pub is not None:
