@@ -24,6 +24,11 @@ $(VENV)/.core-installed: $(VENV)/.python-ok pyproject.toml
 
 $(VENV)/.test-installed: $(VENV)/.python-ok pyproject.toml
 	$(PY) -m pip install -q -e '.[$(TEST_EXTRAS)]'
+	@# ROS 2 message packages without wheels (tf2_msgs, marine_acoustic_msgs, uhrisim_msgs):
+	@# built here where a C/C++ compiler exists (their tests skip, saying why, elsewhere)
+	if $(PY) -c 'import rclpy' 2>/dev/null; then \
+	  if command -v c++ >/dev/null 2>&1; then $(PY) -m uhrisim.bridges.ros2.interfaces; \
+	  else echo "no C/C++ compiler: ROS 2 interface packages not built"; fi; fi
 	@touch $@ $(VENV)/.core-installed
 
 venv-core: $(VENV)/.core-installed

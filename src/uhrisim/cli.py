@@ -157,7 +157,8 @@ def bench(
 def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: int | None,
                        sonar: bool, quiet: bool = False, ros2: bool = False,
                        moos: bool = False, rtf: float | None = None,
-                       view_port: int | None = None, lockstep: bool = False) -> Any:
+                       view_port: int | None = None, lockstep: bool = False,
+                       ros_args: tuple[str, ...] = ()) -> Any:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from uhrisim.bridges.live import live_hooks
@@ -167,7 +168,8 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
     source = load_scenario(scenario)
     prepare_out_dir(out)  # before the progress bar: a refusal is one line
     hooks = live_hooks(source.scenario, ros2=ros2, moos=moos, real_time_factor=rtf,
-                       paced_elsewhere=view_port is not None, lockstep=lockstep)
+                       paced_elsewhere=view_port is not None, lockstep=lockstep,
+                       ros_args=ros_args)
     servers: list[Any] = []
 
     def attach(sim: Any) -> None:
@@ -241,13 +243,20 @@ def run(
     )] = None,
     view: Annotated[bool, typer.Option("--view", help="watch live in the browser")] = False,
     port: Annotated[int, typer.Option(help="viewer port on 127.0.0.1 (0 = any)")] = 8765,
+    ros_args: Annotated[str, typer.Option(
+        "--ros-args", help='ROS 2 node arguments, e.g. --ros-args="-r __ns:=/sim_a -p '
+                           'sensor_qos:=reliable" (implies --ros2)')] = "",
 ) -> None:
-    """Run a scenario: recording.mcap, metrics.json and figures go to OUT."""
+    """Run a scenario: the recording (a rosbag2 folder), metrics.json and figures go to OUT."""
+    import shlex
+
     check_run_options(duration, seed, rtf, port)
     out = out or Path("out") / scenario.stem
+    extra_ros_args = tuple(shlex.split(ros_args))
     result = _run_with_progress(scenario, out, duration, seed, not no_sonar, quiet,
-                                ros2=ros2, moos=moos, rtf=rtf,
-                                view_port=port if view else None, lockstep=lockstep)
+                                ros2=ros2 or bool(extra_ros_args), moos=moos, rtf=rtf,
+                                view_port=port if view else None, lockstep=lockstep,
+                                ros_args=extra_ros_args)
     _print_metrics(result)
 
 

@@ -10,6 +10,7 @@ safe stop once ``command_timeout_s`` of simulated time has passed.
 
 from __future__ import annotations
 
+import importlib.util
 import time
 from pathlib import Path
 
@@ -37,6 +38,8 @@ from uhrisim.core.frames import enu_from_ned, enu_rotation_from_ned, quaternion_
 from uhrisim.sensors.sonar.sonar import cloud_hits  # noqa: E402
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
+#: /tf_static, latched, where tf2_msgs is built (python -m uhrisim.bridges.ros2.interfaces)
+LATCHED_TF = ("/tf_static",) if importlib.util.find_spec("tf2_msgs") else ()
 
 
 
@@ -190,8 +193,9 @@ def test_hook_on_real_simulation(ros_env: int) -> None:
 
 
 def test_unsubscribed_topics_cost_nothing(ros_env: int) -> None:
-    """With nobody subscribed, the hook writes only the latched helm modes: no odometry,
-    clock, helm values or sonar products, and no fan image is formed (the costly product)."""
+    """With nobody subscribed, the hook writes only the latched topics, the helm modes and
+    the sonar mount on /tf_static: no odometry, /tf, clock, helm values or sonar products,
+    and no fan image is formed (the costly product)."""
     # a domain of its own: no reader left from the module's other test may match here
     hook = Ros2BridgeHook(domain_id=ros_env % 101 + 1, node_name="uhrisim_lazy_test",
                           publish_scene=False)
@@ -209,7 +213,8 @@ def test_unsubscribed_topics_cost_nothing(ros_env: int) -> None:
         published = hook.bridge.stats()["published"]
     assert len(pings) == 15
     assert all("_fan_images" not in vars(p) for p in pings)  # never formed
-    assert set(published) == {"/videoray/helm/mode", "/diver/helm/mode"}
+    assert set(published) == {"/videoray/helm/mode", "/diver/helm/mode", *LATCHED_TF}
+    assert all(published[topic] == 1 for topic in LATCHED_TF)
 
 
 def test_ros_shut_down_under_the_bridge_does_not_stop_the_simulation(
@@ -244,9 +249,11 @@ def test_ros_shut_down_under_the_bridge_does_not_stop_the_simulation(
     with simulation.Simulation(load.load_scenario(SCENARIO), hooks=[plain], seed=1) as sim:
         sim.run(2.0)
     np.testing.assert_array_equal(shut.position, plain.position)
-    # nobody subscribed: only the latched helm modes went out; once ROS is gone each
-    # write is tried (the publisher cannot tell whether someone listens) and fails
-    assert set(stats["published"]) == {"/videoray/helm/mode", "/diver/helm/mode"}
+    # nobody subscribed: only the latched helm modes and /tf_static went out; once ROS
+    # is gone each write is tried (the publisher cannot tell whether someone listens)
+    # and fails
+    assert set(stats["published"]) == {"/videoray/helm/mode", "/diver/helm/mode",
+                                       *LATCHED_TF}
     assert stats["failed"]["/clock"] == 15  # 0.6 ... 2.0 s at 10 Hz
     assert stats["failed"]["/videoray/odom"] == 15 and stats["failed"]["/videoray/pose"] == 15
     warned = [r.getMessage() for r in caplog.records if "failed" in r.getMessage()]

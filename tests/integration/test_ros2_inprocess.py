@@ -207,6 +207,21 @@ def test_only_subscribed_volatile_topics_are_written(ros_env: int, probe: Probe)
         assert probe.spin_until(lambda: len(probe.got[f"/{name}/odom"]) == 1)
 
 
+def test_a_reliable_subscriber_to_a_best_effort_topic_is_reported(
+        bridge: Ros2Bridge, probe: Probe, agent: str) -> None:
+    """A default (reliable) subscription to the best-effort sonar images and /clock gets
+    nothing; the bridge sees the incompatible subscriber, counts it per topic and says
+    what to do (on /rosout), instead of staying silent (issue 16)."""
+    topics = [f"/{agent}/sonar/polar", "/clock"]
+    probe.sub(Image, topics[0], qos=10)  # rclpy's default: reliable
+    probe.sub(Clock, topics[1], qos=10)
+
+    def reported() -> bool:
+        return all(bridge.stats()["incompatible_qos"].get(t, 0) >= 1 for t in topics)
+
+    assert probe.spin_until(reported)
+
+
 def test_commands_validation_and_sim_time_timeout(bridge: Ros2Bridge, probe: Probe, agent: str):
     pubs = {k: probe.node.create_publisher(Float64, f"/{agent}/cmd/{k}", 10)
             for k in ("desired_heading", "desired_speed", "desired_depth")}

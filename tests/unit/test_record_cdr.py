@@ -198,3 +198,47 @@ def test_marker_array_matches_reference(specs) -> None:
     msg = {"markers": [marker_dict(m) for m in markers]}
     fast = cdr.encode_marker_array(markers)
     assert fast == reference("visualization_msgs/msg/MarkerArray", msg)
+
+
+def test_projected_sonar_image_fast_path_equals_the_schema_driven_encoder() -> None:
+    """encode_projected_sonar_image (one copy of the pixels) against mcap_ros2's encoder
+    built from the embedded marine_acoustic_msgs definition, for frame ids of every
+    length modulo 4 (the alignment after the header string)."""
+    from mcap_ros2._dynamic import serialize_dynamic
+
+    from uhrisim.record import cdr
+    from uhrisim.record.msgdefs import schema_text
+
+    typename = "marine_acoustic_msgs/msg/ProjectedSonarImage"
+    reference = serialize_dynamic(typename, schema_text(typename))[typename]
+    rng = np.random.default_rng(3)
+    polar = rng.integers(0, 256, (7, 5), dtype=np.uint8)
+    angles = np.linspace(-0.4, 0.4, 5)
+    directions = np.stack([np.zeros(5), np.sin(angles), np.cos(angles)], -1)
+    ranges = np.linspace(0.1, 45.0, 7)
+    for frame in ("a", "ab", "abc", "rov/sonar"):
+        msg = {"header": {"stamp": {"sec": 3, "nanosec": 5}, "frame_id": frame},
+               "ping_info": {"frequency": 9e5, "sound_speed": 1500.5, "tx_beamwidths": [],
+                             "rx_beamwidths": []},
+               "beam_directions": [{"x": x, "y": y, "z": z} for x, y, z in directions.tolist()],
+               "ranges": ranges.astype(np.float32).tolist(),
+               "image": {"is_bigendian": False, "dtype": 0, "beam_count": 5,
+                         "data": polar.tobytes()}}
+        assert cdr.encode_projected_sonar_image(3, 5, frame, polar, directions, ranges, 9e5,
+                                                1500.5) == reference(msg), frame
+
+
+def test_transform_encoder_of_a_chain_equals_the_general_encoder() -> None:
+    """The one-struct encoder of the /tf chain (two transforms, fixed frames) gives the
+    bytes of encode_tf_message, for frame names of every length modulo 4 and 8."""
+    from uhrisim.bridges.ros2.convert import tf_chain, tf_chain_frames
+    from uhrisim.record import cdr
+
+    for world in ("m", "ma", "map", "mapp", "world_ned"):
+        for agent in ("a", "ab", "abc", "abcd", "videoray"):
+            pairs = tf_chain_frames(agent, world)
+            chain = tf_chain((1.0, -2.0, 3.5), (0.0, 0.0, 0.6, 0.8))
+            general = cdr.encode_tf_message([(7, 9, p, c, t, q)
+                                             for (p, c), (t, q) in zip(pairs, chain, strict=True)])
+            (t0, q0), second = chain
+            assert cdr.TransformEncoder(*pairs[0], pairs[1])(7, 9, t0, q0, second) == general

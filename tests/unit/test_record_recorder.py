@@ -75,6 +75,8 @@ def expected_counts() -> dict[str, tuple[str, int]]:
            "/tf": ("tf2_msgs/msg/TFMessage", 2 * N * len(AGENTS))}
     for a in AGENTS:
         exp[f"/{a}/odom"] = ("nav_msgs/msg/Odometry", N)
+        exp[f"/{a}/pose"] = ("geometry_msgs/msg/PoseStamped", N)  # as the live bridge
+        exp[f"/{a}/sonar/pose"] = ("geometry_msgs/msg/PoseStamped", N)
         exp[f"/{a}/sonar/polar"] = ("sensor_msgs/msg/Image", N)
         exp[f"/{a}/sonar/fan"] = ("sensor_msgs/msg/Image", N)
         exp[f"/{a}/sonar/points"] = ("sensor_msgs/msg/PointCloud2", N)
@@ -143,12 +145,15 @@ def test_known_ned_pose_comes_out_right_in_enu(tmp_path: Path) -> None:
     assert yaw_enu_of(msgs["/b/odom"].pose.pose.orientation) == pytest.approx(math.pi / 4)
     # The body's forward axis, rotated into ENU, points east for heading 90°.
     assert rotate(m.pose.pose.orientation, [1, 0, 0]) == pytest.approx([1, 0, 0], abs=1e-12)
-    # ... and tf carries the same transform
+    # ... and tf carries the same transform, as REP 105's chain map -> odom -> base_link
+    # (map -> odom the identity: ground truth does not drift)
     with AnyReader([path]) as reader:
         tfs = [reader.deserialize(raw, c.msgtype) for c, _t, raw in reader.messages()
                if c.topic == "/tf"]
-    tr = tfs[0].transforms[0]
-    assert (tr.header.frame_id, tr.child_frame_id) == ("map", "rov/base_link")
+    to_odom, tr = tfs[0].transforms
+    assert (to_odom.header.frame_id, to_odom.child_frame_id) == ("map", "rov/odom")
+    assert (to_odom.transform.translation.x, to_odom.transform.rotation.w) == (0.0, 1.0)
+    assert (tr.header.frame_id, tr.child_frame_id) == ("rov/odom", "rov/base_link")
     assert (tr.transform.translation.x, tr.transform.translation.y) == pytest.approx((4, 3))
 
 

@@ -38,7 +38,7 @@ def test_every_cut_reads_up_to_the_last_complete_chunk(tmp_path: Path, compressi
     data = full.read_bytes()
     everything = [(c.topic, m.log_time, m.data) for _s, c, m in iter_raw_messages(full)]
     total = len(everything)
-    assert total == 120 * 2 + 12
+    assert total == 120 * 3 + 12  # odometry, pose and /tf per call; the variables
     cut_path = tmp_path / "cut.mcap"
     previous = 0
     # A sweep, plus the bytes either side of every chunk record's end.

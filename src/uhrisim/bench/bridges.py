@@ -7,10 +7,12 @@ without a bridge, and the overhead is ``1 - RTF(with bridge) / RTF(without)``
 * with the P900-45 sonar at 15 Hz (the mission as flown, as ``uhrisim demo`` runs it):
   the ROS 2 bridge with nobody subscribed (``ros2``: unread topics are not written, and
   what they would carry is not computed), with a listener process on the topics an
-  outside planner or controller reads (``ros2_navigation_listener``: odometry, poses, the
-  sonar's pose, helm, ``/clock``), and with a listener on every topic, the polar and fan
-  images and the hits included (``ros2_listener``: each ping's fan image is formed and
-  ~300 kB of pixels a ping are handed to DDS); the MOOS bridge posting NAV_* and
+  outside planner or controller reads (``ros2_navigation_listener``: odometry, poses,
+  ``/tf`` and ``/tf_static``, the sonar's pose, the helm's desired values and mode,
+  ``/clock``), and with a listener on every topic, the polar and fan images, the
+  ProjectedSonarImage, the hits, the helm decisions and community postings included
+  (``ros2_listener``: each ping's fan image is formed and ~0.8 MB of pixels a ping are
+  handed to DDS); the MOOS bridge posting NAV_* and
   NODE_REPORT of both agents at 10 Hz to a test MOOSDB on 127.0.0.1 (``moos``);
 * without the sonar, a stress case: the loop then costs only a few ms of CPU per
   simulated second (a few hundred times real time), so every message counts. The same
@@ -77,14 +79,17 @@ class _AwaitListener(BaseHook):
         time.sleep(0.3)  # the graph shows the reader a little before the writer matches it
 
 
-#: Keys (:func:`~uhrisim.bridges.ros2.topics.agent_topics`) of the sonar's bulk products.
-SONAR_DATA_KEYS = frozenset({"polar", "fan", "points"})
+#: Keys (:func:`~uhrisim.bridges.ros2.topics.agent_topics`) a navigation listener leaves
+#: out: the sonar's bulk products and the helm's audit trail (every behavior's share in
+#: each decision, every community posting).
+NOT_NAVIGATION_KEYS = frozenset({"polar", "fan", "points", "image", "helm_decision", "vars"})
 
 
 class _Ros2Case:
     """The ROS 2 bridge, alone (``listener=None``) or with a listener process on every
-    topic it publishes (``"every"``) or on all but the sonar images and hits
-    (``"navigation"``: odometry, poses, helm, ``/clock``, what an outside planner reads);
+    topic it publishes (``"every"``) or on what an outside planner reads (``"navigation"``:
+    odometry, poses, ``/tf``, the sonar's pose, the helm's desired values and mode,
+    ``/clock``);
     notes how many messages the listener received in each run (warm-up included)."""
 
     def __init__(self, listener: Literal["every", "navigation"] | None) -> None:
@@ -96,7 +101,7 @@ class _Ros2Case:
         if why_not is not None:
             return why_not
         from uhrisim.bridges.ros2 import AgentBridgeSpec, Ros2BridgeHook
-        from uhrisim.bridges.ros2.topics import QOS_CLOCK, agent_topics
+        from uhrisim.bridges.ros2.topics import QOS_CLOCK, QOS_TF, QOS_TF_STATIC, agent_topics
 
         from ._ros2_listener import Listener, qos_label, type_name
 
@@ -107,10 +112,18 @@ class _Ros2Case:
         from rosgraph_msgs.msg import Clock
 
         topics = [("/clock", type_name(Clock), qos_label(QOS_CLOCK))]
+        try:  # the transforms, where tf2_msgs is built (uhrisim.bridges.ros2.interfaces)
+            from tf2_msgs.msg import TFMessage
+        except ImportError:
+            pass
+        else:
+            topics += [("/tf", type_name(TFMessage), qos_label(QOS_TF)),
+                       ("/tf_static", type_name(TFMessage), qos_label(QOS_TF_STATIC))]
         for name in AGENTS:
             spec = AgentBridgeSpec(name, publish_sonar=sonar and name == SONAR_AGENT)
-            topics += [(t, type_name(m), qos_label(q)) for key, t, m, q in agent_topics(spec)
-                       if self.listener == "every" or key not in SONAR_DATA_KEYS]
+            topics += [(f"/{t}", type_name(m), qos_label(q))
+                       for key, t, m, q in agent_topics(spec)
+                       if self.listener == "every" or key not in NOT_NAVIGATION_KEYS]
         listener = stack.enter_context(Listener(topics, domain))
         # closed after the run (last in, first out): count what arrived first
         stack.callback(lambda: self.received.append(sum(listener.counts().values())))

@@ -17,9 +17,10 @@ from uhrisim.sim.simulation import Hook
 log = logging.getLogger(__name__)
 
 
-def ros2_hook(scenario: Scenario, lockstep: bool = False) -> Hook:
+def ros2_hook(scenario: Scenario, lockstep: bool = False,
+              ros_args: tuple[str, ...] = ()) -> Hook:
     """The ROS 2 hook of the scenario's ``bridges.ros2`` section; ``lockstep`` switches
-    lockstep on whatever the section says."""
+    lockstep on whatever the section says; ``ros_args`` come after the section's."""
     from uhrisim.bridges.ros2 import Ros2BridgeHook
 
     section = scenario.bridges.ros2
@@ -31,7 +32,9 @@ def ros2_hook(scenario: Scenario, lockstep: bool = False) -> Hook:
                           domain_id=section.domain_id,
                           command_timeout_s=section.command_timeout_s,
                           lockstep=lockstep or section.lockstep,
-                          lockstep_timeout_s=section.lockstep_timeout_s)
+                          lockstep_timeout_s=section.lockstep_timeout_s,
+                          node_name=section.node_name, namespace=section.namespace,
+                          ros_args=(*section.ros_args, *ros_args))
 
 
 def moos_hook(scenario: Scenario) -> Hook:
@@ -59,19 +62,19 @@ def moos_hook(scenario: Scenario) -> Hook:
 
 def live_hooks(scenario: Scenario, *, ros2: bool = False, moos: bool = False,
                real_time_factor: float | None = None, paced_elsewhere: bool = False,
-               lockstep: bool = False) -> list[Hook]:
+               lockstep: bool = False, ros_args: tuple[str, ...] = ()) -> list[Hook]:
     """The bridge hooks the scenario (or the command line) asks for, plus pacing.
 
     ``real_time_factor`` overrides the scenario's; with MOOS on, the default pace is its
     MOOSTimeWarp. ``paced_elsewhere``: the viewer paces the run itself. ``lockstep``
-    switches the ROS 2 bridge on, in lockstep.
+    switches the ROS 2 bridge on, in lockstep; ``ros_args`` go to its node.
     """
     bridges = scenario.bridges
     hooks: list[Hook] = []
     use_ros2 = ros2 or lockstep or bridges.ros2.enabled
     use_moos = moos or bridges.moos.enabled
     if use_ros2:
-        hooks.append(ros2_hook(scenario, lockstep=lockstep))
+        hooks.append(ros2_hook(scenario, lockstep=lockstep, ros_args=ros_args))
     if use_moos:
         hooks.append(moos_hook(scenario))
     if (use_ros2 or use_moos) and not paced_elsewhere:

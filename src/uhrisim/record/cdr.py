@@ -147,30 +147,57 @@ class OdometryEncoder:
 
 
 class TransformEncoder:
-    """tf2_msgs/msg/TFMessage holding one transform between fixed frames, one struct."""
+    """tf2_msgs/msg/TFMessage of transforms between fixed frames, all with one stamp, packed
+    by one precompiled struct: ``TransformEncoder(parent, child, *more_pairs)``, called
+    with ``(sec, nanosec, translation, rotation_xyzw, *more (translation, rotation))``
+    (one transform per frame pair, in order)."""
 
-    __slots__ = ("_prefix", "_struct")
+    __slots__ = ("_count", "_prefix", "_struct")
 
-    def __init__(self, parent_frame_id: str, child_frame_id: str) -> None:
-        # uint32 count at 0, stamp at 4..12, then the two strings, then 7 doubles.
-        f1, v1, o = _string_fields(parent_frame_id, 12)
-        p1, o = _pad(o, 4)
-        f2, v2, o = _string_fields(child_frame_id, o)
-        p2, o = _pad(o, 8)
-        self._struct = struct.Struct(f"<4sIiI{f1}{p1}{f2}{p2}7d")
-        self._prefix = (v1, v2)
+    def __init__(self, parent_frame_id: str, child_frame_id: str,
+                 *more_pairs: tuple[str, str]) -> None:
+        pairs = [(parent_frame_id, child_frame_id), *more_pairs]
+        fmt, prefix, o = "<4sI", [], 4  # uint32 count at 0, then each transform
+        for parent, child in pairs:
+            _, o = _pad(o, 4)  # (8-aligned after the doubles: no padding needed)
+            f1, v1, o = _string_fields(parent, o + 8)  # after the stamp
+            p1, o = _pad(o, 4)
+            f2, v2, o = _string_fields(child, o)
+            p2, o = _pad(o, 8)
+            fmt += f"iI{f1}{p1}{f2}{p2}7d"
+            prefix.append((v1, v2))
+            o += 7 * 8
+        self._struct = struct.Struct(fmt)
+        self._prefix = prefix
+        self._count = len(pairs)
 
-    def __call__(
-        self,
-        sec: int,
-        nanosec: int,
-        translation: Sequence[float],
-        rotation_xyzw: Sequence[float],
-    ) -> bytes:
-        (v1, v2) = self._prefix
-        return self._struct.pack(
-            CDR_LE_HEADER, 1, sec, nanosec, *v1, *v2, *translation, *rotation_xyzw
-        )
+    def __call__(self, sec: int, nanosec: int, translation: Sequence[float],
+                 rotation_xyzw: Sequence[float],
+                 *more: tuple[Sequence[float], Sequence[float]]) -> bytes:
+        values: list[Any] = [CDR_LE_HEADER, self._count]
+        for (v1, v2), (t, q) in zip(self._prefix, [(translation, rotation_xyzw), *more],
+                                    strict=True):
+            values += [sec, nanosec, *v1, *v2, *t, *q]
+        return self._struct.pack(*values)
+
+
+class PoseStampedEncoder:
+    """geometry_msgs/PoseStamped in a fixed frame, serialised (CDR, little endian) by one
+    precompiled ``struct``: the bytes rclpy makes of the message, without building one.
+    ``tests/integration/test_ros2_convert.py`` holds it to rclpy's serialisation."""
+
+    __slots__ = ("_frame", "_struct")
+
+    def __init__(self, frame_id: str) -> None:
+        self._frame = frame_id.encode("utf-8") + b"\x00"
+        end_of_frame = 8 + 4 + len(self._frame)  # stamp, string length, string (+ NUL)
+        pad = -end_of_frame % 8  # the pose's doubles are 8-aligned
+        self._struct = struct.Struct(f"<4siII{len(self._frame)}s{pad}x7d")
+
+    def __call__(self, sec: int, nanosec: int, position: Sequence[float],
+                 orientation_xyzw: Sequence[float]) -> bytes:
+        return self._struct.pack(CDR_LE_HEADER, sec, nanosec, len(self._frame), self._frame,
+                                 *position, *orientation_xyzw)
 
 
 def encode_odometry(
@@ -225,6 +252,35 @@ def encode_image(
     b.string(encoding)
     b.u8(0)  # is_bigendian
     b.u32s(len(pixels) // max(height, 1), len(pixels))  # step (bytes per row), data length
+    return b"".join((b.getvalue(), pixels))
+
+
+def encode_projected_sonar_image(
+    sec: int,
+    nanosec: int,
+    frame_id: str,
+    polar: np.ndarray,
+    beam_directions: np.ndarray,
+    ranges: np.ndarray,
+    frequency_hz: float,
+    sound_speed_m_s: float,
+) -> bytes:
+    """marine_acoustic_msgs/msg/ProjectedSonarImage: ``polar`` ``(n_ranges, n_beams)``
+    uint8 (one row of beams per range), ``beam_directions`` ``(n_beams, 3)`` float64,
+    ``ranges`` ``(n_ranges,)`` (written float32), no beam widths, dtype UINT8 (0). The
+    pixels are copied once, into the returned bytes; tests hold it to rclpy's
+    serialisation and mcap_ros2's."""
+    pixels = _byte_view(polar)
+    b = CdrBuffer()
+    b.header(sec, nanosec, frame_id)
+    b._align(4)
+    b._b += struct.pack("<ffII", frequency_hz, sound_speed_m_s, 0, 0)  # PingInfo
+    b.u32(len(beam_directions))
+    b.raw_f64(np.ascontiguousarray(beam_directions, dtype="<f8").tobytes())
+    b.u32(len(ranges))
+    b._b += np.ascontiguousarray(ranges, dtype="<f4").tobytes()
+    b.u8(0)  # is_bigendian
+    b.u32s(0, polar.shape[1], len(pixels))  # dtype UINT8, beam_count, the data's length
     return b"".join((b.getvalue(), pixels))
 
 

@@ -1,10 +1,14 @@
 """The recorder as a simulation publish hook (``uhrisim.sim.simulation.Hook``).
 
 :class:`McapRecordingHook` turns each :class:`~uhrisim.sim.hooks.TickFrame` into
-:class:`~uhrisim.record.McapRecorder` calls: agent odometry (every ``odom_every``
-ticks), sonar pings, helm decisions, community posts and events; at start it writes
-the static scene as triangle-list markers and the run's seed/step as MCAP metadata;
-at the end it closes the file (recording an ``error`` event if the run failed).
+:class:`~uhrisim.record.McapRecorder` calls: agent odometry, pose, ``/tf`` and
+``/clock`` (every ``odom_every`` ticks), sonar pings (images, hits, sonar pose and the
+marine_acoustic_msgs/ProjectedSonarImage), helm decisions (and the live bridge's
+``helm/desired_*`` and ``helm/mode``), community posts and events; at start it writes
+the static scene as triangle-list markers, each sonar's mount on ``/tf_static`` and the
+run's seed/step as MCAP metadata; at the end it closes the file (recording an ``error``
+event if the run failed). Every topic the live ROS 2 bridge publishes is recorded under
+the same name, type and frame (docs/bridges-ros2.md).
 
 It only reads what it is handed (DESIGN.md: hooks are read-only) and touches the
 simulation object only in ``on_start``/``on_end`` for ``seed``, ``dt``, ``t`` and
@@ -23,6 +27,7 @@ import numpy as np
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.record.mcap_recorder import McapRecorder
+from uhrisim.record.rosbag2 import write_metadata
 from uhrisim.sensors.sonar.cloud import cloud_hits
 
 logger = logging.getLogger(__name__)
@@ -102,6 +107,9 @@ class McapRecordingHook:
     chunk_size, flush_period_s:
         Passed to :class:`McapRecorder`; by default a chunk is also closed at least every
         simulated second, so a killed run loses at most about one second.
+    rosbag2_metadata:
+        At the end, write ``metadata.yaml`` beside the file: its folder becomes a rosbag2
+        bag (:mod:`uhrisim.record.rosbag2`; keep one recording per folder then).
     """
 
     def __init__(
@@ -117,6 +125,7 @@ class McapRecordingHook:
         camera_every: int = 1,
         chunk_size: int = 256 * 1024,
         flush_period_s: float | None = 1.0,
+        rosbag2_metadata: bool = True,
     ) -> None:
         if int(odom_every) < 1:
             raise ConfigError(f"odom_every must be >= 1, got {odom_every}",
@@ -138,9 +147,12 @@ class McapRecordingHook:
         self.camera_every = int(camera_every)
         self._images_seen: dict[str, int] = {}
         self._chunk_size = chunk_size
+        self.rosbag2_metadata = rosbag2_metadata
         self._flush_period_s = flush_period_s
         self._rec: McapRecorder | None = None
         self._names: dict[str, str] = {}
+        # per recorded agent with a sonar: (centre frequency Hz, sound speed m/s)
+        self._acoustics: dict[str, tuple[float, float]] = {}
 
     @property
     def recorder(self) -> McapRecorder | None:
@@ -164,10 +176,23 @@ class McapRecordingHook:
             self.path, chunk_size=self._chunk_size, flush_period_s=self._flush_period_s,
             metadata={"uhrisim": meta},
         )
+        t = float(getattr(sim, "t", 0.0))
         if self.record_scene and getattr(sim, "scene", None) is not None:
             markers = scene_markers(sim.scene)
             if markers:
-                self._rec.write_scene_markers(float(getattr(sim, "t", 0.0)), markers)
+                self._rec.write_scene_markers(t, markers)
+        self._acoustics = {}
+        mounts = []
+        for agent_name, agent in getattr(sim, "agents", {}).items():
+            if getattr(agent, "sonars", None):
+                sonar = agent.sonars[0].sonar  # its frame is <agent>/sonar
+                name = self._name(agent_name)
+                mounts.append((f"{name}/base_link", f"{name}/sonar", sonar.mount_position,
+                               sonar.mount_rotation))
+                self._acoustics[name] = (sonar.config.sonar_spec.frequency_hz,
+                                         sonar.config.sound_speed_m_s)
+        if mounts:
+            self._rec.write_static_transforms(t, mounts)
 
     def on_tick(self, frame: Any) -> None:
         rec = self._rec
@@ -175,6 +200,7 @@ class McapRecordingHook:
             return
         t = float(frame.t)
         if frame.tick % self.odom_every == 0:
+            rec.write_clock(t)
             for agent, snap in frame.agents.items():
                 nav = snap.nav
                 rec.write_odometry(self._name(agent), t, nav.position_ned, nav.yaw,
@@ -190,6 +216,8 @@ class McapRecordingHook:
             if self.record_camera and seen % self.camera_every == 0:
                 self._write_image(rec, self._name(agent), image)
         for agent, h in frame.helm.items():
+            rec.write_helm_topics(self._name(agent), t, h.heading_deg, h.speed, h.depth,
+                                  h.mode)
             rec.write_helm_decision(
                 self._name(agent), t, h.heading_deg, h.speed, h.depth, h.contributions,
                 h.mode, h.active, total=h.total, all_stop_reason=h.all_stop_reason or "",
@@ -215,6 +243,9 @@ class McapRecordingHook:
             f"{agent}/sonar",
             (ping.position_ned, ping.rotation_ned_from_sonar),
         )
+        if self.record_images and agent in self._acoustics:
+            rec.write_sonar_image(agent, float(ping.t), ping.polar_u8, ping.beam_angles_rad,
+                                  ping.bin_ranges_m, *self._acoustics[agent], f"{agent}/sonar")
 
     @staticmethod
     def _write_image(rec: McapRecorder, agent: str, image: Any) -> None:
@@ -231,7 +262,10 @@ class McapRecordingHook:
         if error is not None and not rec.closed:
             rec.write_event(float(getattr(sim, "t", 0.0)), "error",
                             f"{type(error).__name__}: {error}")
+        was_open = not rec.closed
         rec.close()
+        if self.rosbag2_metadata and was_open:
+            write_metadata(self.path)
 
     def summary(self) -> dict[str, Any]:
         rec = self._rec

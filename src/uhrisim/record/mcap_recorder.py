@@ -15,26 +15,39 @@ here and only here, with ``uhrisim.core.frames``:
 * a camera optical frame (e.g. ``rov/camera_optical``) follows REP-103's optical
   convention: x right, y down, z along the optical axis.
 
-Topics (``<agent>`` is the community name):
+Topics (``<agent>`` is the community name; the live ROS 2 bridge publishes the same):
 
-================================  ==================================  ==================
-topic                             type                                frame
-================================  ==================================  ==================
-``/<agent>/odom``                 nav_msgs/msg/Odometry               map → base_link
-``/tf``                           tf2_msgs/msg/TFMessage              map → base_link,
-                                                                      map → sonar frame
-``/<agent>/sonar/polar``          sensor_msgs/msg/Image (mono8)       sonar frame
-``/<agent>/sonar/fan``            sensor_msgs/msg/Image (mono8)       sonar frame
-``/<agent>/sonar/points``         sensor_msgs/msg/PointCloud2         sonar frame (FLU)
-``/<agent>/camera/image_raw``     sensor_msgs/msg/Image (rgb8)        camera optical
-``/<agent>/camera/camera_info``   sensor_msgs/msg/CameraInfo          camera optical
-``/<agent>/camera/depth``         sensor_msgs/msg/Image (32FC1)       camera optical
-``/<agent>/camera/labels``        sensor_msgs/msg/Image (mono8)       camera optical
-``/<agent>/helm/decision``        uhrisim_msgs/msg/HelmDecision       —
-``/<agent>/vars``                 uhrisim_msgs/msg/Variable           —
-``/scene/markers``                visualization_msgs/msg/MarkerArray  map (ENU)
-``/events``                       uhrisim_msgs/msg/Event              map
-================================  ==================================  ==================
+==================================  ============================================  ==================
+topic                               type                                          frame
+==================================  ============================================  ==================
+``/<agent>/odom``                   nav_msgs/msg/Odometry                         map → base_link
+``/<agent>/pose``                   geometry_msgs/msg/PoseStamped                 map
+``/tf``                             tf2_msgs/msg/TFMessage                        map → odom →
+                                                                                  base_link; map →
+                                                                                  camera optical
+``/tf_static``                      tf2_msgs/msg/TFMessage                        base_link → sonar
+``/<agent>/sonar/polar``            sensor_msgs/msg/Image (mono8)                 sonar frame
+``/<agent>/sonar/fan``              sensor_msgs/msg/Image (mono8)                 sonar frame
+``/<agent>/sonar/points``           sensor_msgs/msg/PointCloud2                   sonar frame (FLU)
+``/<agent>/sonar/pose``             geometry_msgs/msg/PoseStamped                 map
+``/<agent>/sonar/image``            marine_acoustic_msgs/msg/ProjectedSonarImage  sonar frame
+``/<agent>/camera/image_raw``       sensor_msgs/msg/Image (rgb8)                  camera optical
+``/<agent>/camera/camera_info``     sensor_msgs/msg/CameraInfo                    camera optical
+``/<agent>/camera/depth``           sensor_msgs/msg/Image (32FC1)                 camera optical
+``/<agent>/camera/labels``          sensor_msgs/msg/Image (mono8)                 camera optical
+``/<agent>/helm/desired_*``         std_msgs/msg/Float64                          —
+``/<agent>/helm/mode``              std_msgs/msg/String                           —
+``/<agent>/helm/decision``          uhrisim_msgs/msg/HelmDecision                 —
+``/<agent>/vars``                   uhrisim_msgs/msg/Variable                     —
+``/scene/markers``                  visualization_msgs/msg/MarkerArray            map (ENU)
+``/events``                         uhrisim_msgs/msg/Event                        map
+``/clock``                          rosgraph_msgs/msg/Clock                       —
+==================================  ============================================  ==================
+
+A sonar frame on ``/tf_static`` (:meth:`McapRecorder.write_static_transforms`) is not
+written on ``/tf`` at each ping; without one, each ping puts ``map → sonar frame`` there.
+The latched topics carry their offered QoS in the channel metadata
+(:mod:`uhrisim.record.rosbag2`, which writes the folder's ``metadata.yaml``).
 
 Time: ``header.stamp`` and the MCAP ``log_time``/``publish_time`` are all the
 simulation time (nanoseconds since the start of the run); nothing in the file depends
@@ -53,9 +66,9 @@ from __future__ import annotations
 
 import logging
 import math
-import numbers
 import os
 import re
+import struct
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
@@ -64,14 +77,16 @@ from typing import Any
 import numpy as np
 from mcap.writer import LIBRARY_IDENTIFIER, CompressionType
 from mcap.writer import Writer as McapWriter
-from mcap_ros2._dynamic import serialize_dynamic
 
 from uhrisim import __version__ as uhrisim_version
 from uhrisim.bridges.ros2.convert import (
     cloud_xyzi_flu,
+    mount_transform,
     odom_fields_from_ned,
     optical_rotation_ned,
     pose_enu_from_ned,
+    tf_chain,
+    tf_chain_frames,
 )
 from uhrisim.bridges.ros2.spec import ROS_NAME_TOKEN
 from uhrisim.core.errors import ConfigError, UhrisimError
@@ -80,8 +95,9 @@ from uhrisim.core.frames import (
     enu_rotation_from_ned,
     quaternion_from_matrix,
 )
-from uhrisim.record import cdr
+from uhrisim.record import cdr, uhrisim_msgs
 from uhrisim.record.msgdefs import schema_text
+from uhrisim.record.rosbag2 import channel_metadata
 
 logger = logging.getLogger(__name__)
 
@@ -279,8 +295,10 @@ class McapRecorder:
         self._schema_ids: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._sequence: dict[int, int] = {}
-        self._dynamic: dict[str, Any] = {}
         self._odom_encoders: dict[str, tuple[cdr.OdometryEncoder, cdr.TransformEncoder]] = {}
+        self._pose = cdr.PoseStampedEncoder(self.world_frame)
+        self._static_children: set[str] = set()  # frames placed by /tf_static
+        self._helm_modes: dict[str, str] = {}  # the last /<agent>/helm/mode written
         self._counts: dict[str, int] = {}
         self._last_flush_ns = 0
         self._closed = False
@@ -313,7 +331,8 @@ class McapRecorder:
                     typename, "ros2msg", schema_text(typename).encode("utf-8")
                 )
                 self._schema_ids[typename] = schema_id
-            channel_id = self._writer.register_channel(topic, "cdr", schema_id)
+            channel_id = self._writer.register_channel(topic, "cdr", schema_id,
+                                                       channel_metadata(topic))
             self._channels[topic] = channel_id
             self._sequence[channel_id] = 0
         return channel_id
@@ -332,19 +351,6 @@ class McapRecorder:
             self._writer.flush()
             self._last_flush_ns = t_ns
 
-    def _encode_dynamic(self, typename: str, message: Mapping[str, Any]) -> bytes:
-        """Encode with mcap_ros2's schema-driven encoder (the general, reference path)."""
-        encoder = self._dynamic.get(typename)
-        if encoder is None:
-            encoder = serialize_dynamic(typename, schema_text(typename))[typename]
-            self._dynamic[typename] = encoder
-        return encoder(message)
-
-    @staticmethod
-    def _header(t_ns: int, frame_id: str) -> dict[str, Any]:
-        sec, nanosec = divmod(t_ns, 1_000_000_000)
-        return {"stamp": {"sec": sec, "nanosec": nanosec}, "frame_id": frame_id}
-
     # ------------------------------------------------------------------ writers
     def write_odometry(
         self,
@@ -355,7 +361,8 @@ class McapRecorder:
         velocity_body_frd: Sequence[float] | np.ndarray,
         yaw_rate: float,
     ) -> None:
-        """An agent's pose and velocity: ``/<agent>/odom`` and ``/tf`` map → base_link.
+        """An agent's pose and velocity: ``/<agent>/odom``, ``/<agent>/pose`` and ``/tf``
+        ``map`` → ``<agent>/odom`` (identity) → ``<agent>/base_link`` (REP 105).
 
         ``position_ned`` (m, world NED), ``yaw_rad`` (compass yaw, rad),
         ``velocity_body_frd`` (m/s, body FRD: surge, sway, heave), ``yaw_rate`` (rad/s,
@@ -378,10 +385,9 @@ class McapRecorder:
         encoders = self._odom_encoders.get(agent)
         if encoders is None:
             child = f"{agent}/base_link"
-            encoders = (
-                cdr.OdometryEncoder(self.world_frame, child),
-                cdr.TransformEncoder(self.world_frame, child),
-            )
+            first, *more = tf_chain_frames(agent, self.world_frame)
+            encoders = (cdr.OdometryEncoder(self.world_frame, child),
+                        cdr.TransformEncoder(*first, *more))
             self._odom_encoders[agent] = encoders
         p, qq = f.position_enu, f.orientation_xyzw
         self._write(
@@ -390,7 +396,39 @@ class McapRecorder:
             t_ns,
             encoders[0](sec, nanosec, p, qq, f.linear_flu, f.angular_flu),
         )
-        self._write("/tf", "tf2_msgs/msg/TFMessage", t_ns, encoders[1](sec, nanosec, p, qq))
+        self._write(f"/{agent}/pose", "geometry_msgs/msg/PoseStamped", t_ns,
+                    self._pose(sec, nanosec, p, qq))
+        (t0, q0), second = tf_chain(p, qq)
+        self._write("/tf", "tf2_msgs/msg/TFMessage", t_ns,
+                    encoders[1](sec, nanosec, t0, q0, second))
+
+    def write_static_transforms(self, t: float, transforms: Sequence[tuple[str, str, Any, Any]]
+                                ) -> None:
+        """``/tf_static`` (one message with every static transform): each ``(parent,
+        child, position_frd (3,) m, rotation_frd (3x3) child → parent)`` in body FRD
+        terms, written in FLU (e.g. a sonar mount ``("rov/base_link", "rov/sonar", ...)``).
+        A sonar frame placed here is no longer written on ``/tf`` at each ping."""
+        where = "McapRecorder.write_static_transforms"
+        self._check_open("write_static_transforms")
+        t_ns = _stamp_ns(t, where)
+        sec, nanosec = divmod(t_ns, 1_000_000_000)
+        rows = []
+        for parent, child, position_frd, rotation_frd in transforms:
+            _check_frame(parent, where)
+            _check_frame(child, where)
+            xyz, q = mount_transform(_vec(position_frd, 3, "position_frd", where),
+                                     _rotation(rotation_frd, "rotation_frd", where))
+            rows.append((sec, nanosec, parent, child, xyz, q))
+            self._static_children.add(child)
+        self._write("/tf_static", "tf2_msgs/msg/TFMessage", t_ns, cdr.encode_tf_message(rows))
+
+    def write_clock(self, t: float) -> None:
+        """``/clock`` (rosgraph_msgs/msg/Clock): simulation time ``t`` (s)."""
+        t_ns = _stamp_ns(t, "McapRecorder.write_clock")
+        self._check_open("write_clock")
+        sec, nanosec = divmod(t_ns, 1_000_000_000)
+        self._write("/clock", "rosgraph_msgs/msg/Clock", t_ns,
+                    cdr.CDR_LE_HEADER + struct.pack("<iI", sec, nanosec))
 
     def write_sonar(
         self,
@@ -447,12 +485,16 @@ class McapRecorder:
         elif intensity is not None:
             raise ConfigError("intensity given without points_sonar_frame", where=where)
 
-        self._write(
-            "/tf",
-            "tf2_msgs/msg/TFMessage",
-            t_ns,
-            cdr.encode_tf_message([(sec, nanosec, self.world_frame, sonar_frame, p_enu, q)]),
-        )
+        if sonar_frame not in self._static_children:  # else base_link → sonar on /tf_static
+            self._write(
+                "/tf",
+                "tf2_msgs/msg/TFMessage",
+                t_ns,
+                cdr.encode_tf_message([(sec, nanosec, self.world_frame, sonar_frame, p_enu,
+                                        q)]),
+            )
+        self._write(f"/{agent}/sonar/pose", "geometry_msgs/msg/PoseStamped", t_ns,
+                    self._pose(sec, nanosec, p_enu, q))
         if polar is not None:
             self._write(
                 f"/{agent}/sonar/polar",
@@ -541,6 +583,57 @@ class McapRecorder:
             self._write(f"{base}/labels", "sensor_msgs/msg/Image", t_ns,
                         cdr.encode_image(sec, nanosec, camera_frame, labels))
 
+    def write_sonar_image(self, agent: str, t: float, polar_u8: np.ndarray,
+                          beam_angles_rad: Sequence[float] | np.ndarray,
+                          ranges_m: Sequence[float] | np.ndarray, frequency_hz: float,
+                          sound_speed_m_s: float, sonar_frame: str) -> None:
+        """One ping as ``/<agent>/sonar/image`` (marine_acoustic_msgs/msg/ProjectedSonarImage,
+        the live bridge's message): the polar image ``(n_bins, n_beams)`` uint8, beam
+        azimuths (rad, > 0 starboard) as directions ``(0, sin, cos)`` (the message's Z
+        forward, X up), range-bin centres (m), centre frequency (Hz), sound speed (m/s)."""
+        where = "McapRecorder.write_sonar_image"
+        self._check_open("write_sonar_image")
+        _check_name(agent, "agent", where)
+        _check_frame(sonar_frame, where)
+        t_ns = _stamp_ns(t, where)
+        polar = _mono8(polar_u8, "polar_u8", where)
+        angles = np.asarray(beam_angles_rad, dtype=float).reshape(-1)
+        ranges = np.asarray(ranges_m, dtype=float).reshape(-1)
+        if polar.shape != (ranges.size, angles.size):
+            raise ConfigError(f"polar image {polar.shape} does not match {ranges.size} "
+                              f"ranges x {angles.size} beams", where=where)
+        sec, nanosec = divmod(t_ns, 1_000_000_000)
+        directions = np.stack([np.zeros_like(angles), np.sin(angles), np.cos(angles)], -1)
+        self._write(f"/{agent}/sonar/image", "marine_acoustic_msgs/msg/ProjectedSonarImage",
+                    t_ns, cdr.encode_projected_sonar_image(
+                        sec, nanosec, sonar_frame, polar, directions, ranges,
+                        float(frequency_hz), float(sound_speed_m_s)))
+
+    def write_helm_topics(self, agent: str, t: float, heading_deg: float | None,
+                          speed: float | None, depth: float | None, mode: str) -> None:
+        """The live bridge's helm topics: ``/<agent>/helm/desired_heading`` (compass deg),
+        ``desired_speed`` (m/s), ``desired_depth`` (m, down) as std_msgs/msg/Float64 (each
+        skipped when ``None``) and ``/<agent>/helm/mode`` (std_msgs/msg/String) when it
+        changes."""
+        where = "McapRecorder.write_helm_topics"
+        self._check_open("write_helm_topics")
+        _check_name(agent, "agent", where)
+        t_ns = _stamp_ns(t, where)
+        for key, value in (("desired_heading", heading_deg), ("desired_speed", speed),
+                           ("desired_depth", depth)):
+            if value is None:
+                continue
+            if not math.isfinite(float(value)):
+                raise ConfigError(f"{key} must be finite, got {value!r}", where=where)
+            self._write(f"/{agent}/helm/{key}", "std_msgs/msg/Float64", t_ns,
+                        cdr.CDR_LE_HEADER + struct.pack("<d", float(value)))
+        mode = str(mode)
+        if self._helm_modes.get(agent) != mode:
+            self._helm_modes[agent] = mode
+            buf = cdr.CdrBuffer()
+            buf.string(mode)
+            self._write(f"/{agent}/helm/mode", "std_msgs/msg/String", t_ns, buf.getvalue())
+
     def write_helm_decision(
         self,
         agent: str,
@@ -568,32 +661,10 @@ class McapRecorder:
         self._check_open("write_helm_decision")
         _check_name(agent, "agent", where)
         t_ns = _stamp_ns(t, where)
-        decided = [None if x is None else float(x) for x in (heading_deg, speed, depth)]
-        contrib = [{"name": str(k), "value": float(v)} for k, v in contributions.items()]
-        tot = math.fsum(c["value"] for c in contrib) if total is None else float(total)
-        numbers_ = [x for x in decided if x is not None] + [c["value"] for c in contrib]
-        if not all(math.isfinite(x) for x in [*numbers_, tot]):
-            raise ConfigError("decision values and contributions must be finite", where=where)
-        msg = {
-            "header": self._header(t_ns, ""),
-            "has_heading": decided[0] is not None,
-            "heading_deg": decided[0] or 0.0,
-            "has_speed": decided[1] is not None,
-            "speed": decided[1] or 0.0,
-            "has_depth": decided[2] is not None,
-            "depth": decided[2] or 0.0,
-            "mode": str(mode),
-            "active_behaviors": [str(a) for a in active],
-            "contributions": contrib,
-            "total": tot,
-            "all_stop_reason": str(all_stop_reason),
-        }
-        self._write(
-            f"/{agent}/helm/decision",
-            "uhrisim_msgs/msg/HelmDecision",
-            t_ns,
-            self._encode_dynamic("uhrisim_msgs/msg/HelmDecision", msg),
-        )
+        self._write(f"/{agent}/helm/decision", uhrisim_msgs.HELM_DECISION, t_ns,
+                    uhrisim_msgs.helm_decision_bytes(t_ns, heading_deg, speed, depth,
+                                                     contributions, mode, active, total,
+                                                     all_stop_reason, where))
 
     def write_variable(
         self, agent: str, t: float, name: str, value: float | str, source: str
@@ -607,30 +678,8 @@ class McapRecorder:
         self._check_open("write_variable")
         _check_name(agent, "agent", where)
         t_ns = _stamp_ns(t, where)
-        if isinstance(value, str):
-            kind, dval, sval = 1, 0.0, value
-        elif isinstance(value, numbers.Real):
-            kind, dval, sval = 0, float(value), ""
-        else:
-            raise ConfigError(
-                f"variable {name!r} value must be a number or a string, got "
-                f"{type(value).__name__}",
-                where=where,
-            )
-        msg = {
-            "header": self._header(t_ns, ""),
-            "name": str(name),
-            "source": str(source),
-            "kind": kind,
-            "double_value": dval,
-            "string_value": sval,
-        }
-        self._write(
-            f"/{agent}/vars",
-            "uhrisim_msgs/msg/Variable",
-            t_ns,
-            self._encode_dynamic("uhrisim_msgs/msg/Variable", msg),
-        )
+        self._write(f"/{agent}/vars", uhrisim_msgs.VARIABLE, t_ns,
+                    uhrisim_msgs.variable_bytes(t_ns, name, value, source, where))
 
     def _marker(self, t_ns: int, spec: Mapping[str, Any], index: int) -> dict[str, Any]:
         where = f"McapRecorder.write_scene_markers: marker[{index}]"
@@ -723,14 +772,8 @@ class McapRecorder:
         where = "McapRecorder.write_event"
         self._check_open("write_event")
         t_ns = _stamp_ns(t, where)
-        msg = {"header": self._header(t_ns, self.world_frame), "kind": str(kind),
-               "detail": str(detail)}
-        self._write(
-            "/events",
-            "uhrisim_msgs/msg/Event",
-            t_ns,
-            self._encode_dynamic("uhrisim_msgs/msg/Event", msg),
-        )
+        self._write("/events", uhrisim_msgs.EVENT, t_ns,
+                    uhrisim_msgs.event_bytes(t_ns, self.world_frame, kind, detail))
 
     # ------------------------------------------------------------------ lifecycle
     def flush(self) -> None:

@@ -26,6 +26,8 @@ _OWN: dict[str, str] = {
     "builtin_interfaces/msg/Duration": "int32 sec\nuint32 nanosec\n",
     "std_msgs/msg/Header": "builtin_interfaces/Time stamp\nstring frame_id\n",
     "std_msgs/msg/String": "string data\n",
+    "std_msgs/msg/Float64": "float64 data\n",
+    "rosgraph_msgs/msg/Clock": "builtin_interfaces/Time clock\n",
     "std_msgs/msg/ColorRGBA": "float32 r\nfloat32 g\nfloat32 b\nfloat32 a\n",
     "geometry_msgs/msg/Point": "float64 x\nfloat64 y\nfloat64 z\n",
     "geometry_msgs/msg/Vector3": "float64 x\nfloat64 y\nfloat64 z\n",
@@ -33,6 +35,7 @@ _OWN: dict[str, str] = {
     "geometry_msgs/msg/Pose": (
         "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n"
     ),
+    "geometry_msgs/msg/PoseStamped": "std_msgs/Header header\ngeometry_msgs/Pose pose\n",
     "geometry_msgs/msg/PoseWithCovariance": (
         "geometry_msgs/Pose pose\nfloat64[36] covariance\n"
     ),
@@ -145,6 +148,37 @@ _OWN: dict[str, str] = {
         "bool mesh_use_embedded_materials\n"
     ),
     "visualization_msgs/msg/MarkerArray": "visualization_msgs/Marker[] markers\n",
+    # --- marine_acoustic_msgs 2.1.0 (not in Kilted's core; the same files the bridge
+    # builds its live types from: uhrisim/bridges/ros2/interfaces, PROVENANCE.md)
+    "marine_acoustic_msgs/msg/PingInfo": (
+        "float32 frequency\n"
+        "float32 sound_speed\n"
+        "float32[] tx_beamwidths\n"
+        "float32[] rx_beamwidths\n"
+    ),
+    "marine_acoustic_msgs/msg/SonarImageData": (
+        "uint32 DTYPE_UINT8=0\n"
+        "uint32 DTYPE_INT8=1\n"
+        "uint32 DTYPE_UINT16=2\n"
+        "uint32 DTYPE_INT16=3\n"
+        "uint32 DTYPE_UINT32=4\n"
+        "uint32 DTYPE_INT32=5\n"
+        "uint32 DTYPE_UINT64=6\n"
+        "uint32 DTYPE_INT64=7\n"
+        "uint32 DTYPE_FLOAT32=8\n"
+        "uint32 DTYPE_FLOAT64=9\n"
+        "bool is_bigendian\n"
+        "uint32 dtype\n"
+        "uint32 beam_count\n"
+        "uint8[] data\n"
+    ),
+    "marine_acoustic_msgs/msg/ProjectedSonarImage": (
+        "std_msgs/Header header\n"
+        "marine_acoustic_msgs/PingInfo ping_info\n"
+        "geometry_msgs/Vector3[] beam_directions\n"
+        "float32[] ranges\n"
+        "marine_acoustic_msgs/SonarImageData image\n"
+    ),
     # --- uhrisim_msgs: our own types -----------------------------------------------
     # One behavior's share of the helm's objective at the chosen decision.
     "uhrisim_msgs/msg/BehaviorContribution": "string name\nfloat64 value\n",
@@ -231,6 +265,14 @@ def schema_text(typename: str) -> str:
         pkg, _, name = dep.split("/")
         parts.append(f"{SEPARATOR}\nMSG: {pkg}/{name}\n{_OWN[dep]}")
     return "".join(parts)
+
+
+def own_definition(typename: str) -> str:
+    """The fields and constants of ``typename`` alone (its ``.msg`` text, dependencies
+    named, not included)."""
+    if typename not in _OWN:
+        raise ConfigError(f"no embedded message definition for {typename!r}", where="msgdefs")
+    return _OWN[typename]
 
 
 def known_types() -> tuple[str, ...]:

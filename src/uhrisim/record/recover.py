@@ -18,6 +18,7 @@ from mcap.writer import Writer as McapWriter
 
 from uhrisim.core.errors import UhrisimError
 from uhrisim.record.reader import MCAP_MAGIC, _scan, _ScanState
+from uhrisim.record.rosbag2 import write_metadata
 
 logger = logging.getLogger(__name__)
 
@@ -79,7 +80,9 @@ def is_complete(path: Path | str) -> bool:
 def recover_in_place(path: Path | str) -> int | None:
     """Make the recording at ``path`` complete if a killed run cut it short: the cut file
     is kept as ``<path>.partial`` and a complete one, with every message of its complete
-    chunks, takes its place. Returns the messages copied, or None if it was complete."""
+    chunks, takes its place, with the folder's rosbag2 ``metadata.yaml``
+    (:mod:`uhrisim.record.rosbag2`). Returns the messages copied, or None if it was
+    complete."""
     path = Path(path)
     if not path.is_file():
         raise UhrisimError(f"{path}: no such recording")
@@ -89,4 +92,6 @@ def recover_in_place(path: Path | str) -> int | None:
     if partial.exists():
         raise UhrisimError(f"{partial} already exists: move it away to recover {path} again")
     path.rename(partial)
-    return recover(partial, path)
+    count = recover(partial, path)
+    write_metadata(path)
+    return count

@@ -511,6 +511,11 @@ class Ros2Section(Strict):
     # outside nodes; docs/bridges-ros2.md "Lockstep"); `uhrisim run --lockstep` too.
     lockstep: bool = False
     lockstep_timeout_s: PositiveFloat = 10.0  # wall s a round may wait for the answers
+    # The bridge node: its name, namespace (every topic under it, /clock and /tf too) and
+    # ROS arguments as after --ros-args (remappings, -p parameters: docs/bridges-ros2.md)
+    node_name: Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")] = "uhrisim"
+    namespace: Annotated[str, Field(pattern=r"^(/?[A-Za-z][A-Za-z0-9_]*)*/?$")] = ""
+    ros_args: tuple[str, ...] = ()
 
 
 class MoosLink(Strict):

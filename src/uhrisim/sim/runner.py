@@ -1,6 +1,7 @@
 """Run a scenario file end to end and write its outputs into a folder.
 
-Outputs: ``recording.mcap`` (if recording is on), ``metrics.json`` (strict JSON: a value
+Outputs: ``recording.mcap`` and ``metadata.yaml`` (if recording is on: the folder is then
+a rosbag2 bag, ``uhrisim.record.rosbag2``), ``metrics.json`` (strict JSON: a value
 that is not a finite number is ``null``) and the figures ``trajectory.png``,
 ``range_bearing.png`` (if the scenario names a trail pair) and ``sonar_strip.png`` (if a
 sonar ran). The output folder is checked before anything is built. A run that fails
@@ -78,7 +79,7 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
             record_camera=rec.camera, camera_every=rec.camera_every,
             chunk_size=rec.chunk_kib * 1024,
             odom_every=max(1, round(scenario.physics_rate_hz / rec.odometry_rate_hz))))
-        files.append(out_dir / "recording.mcap")
+        files += [out_dir / "recording.mcap", out_dir / "metadata.yaml"]
     metrics = TrailMetrics(scenario.metrics) if scenario.metrics else None
     if metrics:
         hooks.append(metrics)

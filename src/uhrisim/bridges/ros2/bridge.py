@@ -24,6 +24,7 @@ import math
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from typing import Any, Literal
 
 import numpy as np
@@ -36,29 +37,37 @@ from rosgraph_msgs.msg import Clock
 from visualization_msgs.msg import MarkerArray
 
 from uhrisim.core.errors import BridgeError, ConfigError
+from uhrisim.record import uhrisim_msgs
+from uhrisim.record.cdr import PoseStampedEncoder
 
 from .commands import CommandInbox
-from .convert import RateGate
+from .convert import RateGate, stamp_from_sim_time
+from .interfaces import build_hint
 from .messages import (
     WORLD_FRAME,
-    PoseStampedEncoder,
     clock_bytes,
     float64_bytes,
     image_msg,
     marker_msg,
     odometry_msg,
     pointcloud_msg,
+    static_tf_msg,
     string_bytes,
 )
+from .params import BridgeParameters
+from .params import declare as declare_parameters
 from .publishers import AgentPublishers
 from .spec import AgentBridgeSpec, AgentCommands, apply_env_defaults, check_domain_id
 from .topics import (
     QOS_CLOCK,
+    QOS_CLOCK_RELIABLE,
     QOS_COMMAND,
     QOS_SCENE,
     QOS_SENSOR,
     QOS_SENSOR_RELIABLE,
     QOS_STATE,
+    QOS_TF,
+    QOS_TF_STATIC,
 )
 from .writer import TopicWriter
 
@@ -82,6 +91,12 @@ log = logging.getLogger(__name__)
 _IDLE_SPIN_S = 1.0
 
 
+def _ns(t_sim: float) -> int:
+    """Simulation time (s) as integer nanoseconds (the stamps' rounding)."""
+    sec, nanosec = stamp_from_sim_time(t_sim)
+    return sec * 1_000_000_000 + nanosec
+
+
 def _poll_until(condition: Callable[[], bool], timeout_s: float) -> bool:
     """Check ``condition`` every 20 ms (wall clock) until it holds, at most ``timeout_s``
     (ROS graph changes, which rclpy only lets us poll); True when it held."""
@@ -99,9 +114,13 @@ class Ros2Bridge:
     Parameters
     ----------
     agents:
-        One :class:`AgentBridgeSpec` per agent (a ROS namespace ``/<name>``).
+        One :class:`AgentBridgeSpec` per agent (topics ``<name>/...`` in the node's
+        namespace: ``/<name>/odom`` without one).
     node_name:
         Name of the bridge's ROS node.
+    namespace:
+        The node's namespace (``"/sim_a"``: every topic under ``/sim_a/``, ``/clock`` and
+        ``/tf`` included; ``""``: the root).
     domain_id:
         ROS domain id (0-232); ``None`` uses ``ROS_DOMAIN_ID`` (or 0).
     command_timeout_s:
@@ -130,6 +149,12 @@ class Ros2Bridge:
         Subscribe to the commands reliably (keep the last 10) instead of best effort:
         for lockstep runs, where a lost command would stall a round. Such subscriptions
         match reliable publishers only (rclpy's default).
+    ros_args:
+        ROS command-line arguments for the node, as after ``--ros-args``: remappings
+        (``-r __node:=sim``, ``-r __ns:=/sim_a``, ``-r videoray/odom:=odometry``),
+        parameters (``-p sensor_qos:=reliable``, :mod:`.params`), ``--params-file``.
+    world_frame, frame_prefix:
+        Defaults of the parameters of the same names (:mod:`.params`).
     """
 
     def __init__(
@@ -145,6 +170,10 @@ class Ros2Bridge:
         reliable_sensors: bool = False,
         publish_unsubscribed: bool = False,
         reliable_commands: bool = False,
+        namespace: str = "",
+        ros_args: Sequence[str] = (),
+        world_frame: str = WORLD_FRAME,
+        frame_prefix: str = "",
     ) -> None:
         specs = list(agents)
         if not all(isinstance(s, AgentBridgeSpec) for s in specs):
@@ -162,15 +191,29 @@ class Ros2Bridge:
             raise ConfigError(
                 f"must be 'sim' or 'wall', got {timeout_clock!r}", "Ros2Bridge.timeout_clock"
             )
+        if isinstance(ros_args, str) or not all(isinstance(a, str) for a in ros_args):
+            raise ConfigError("must be a list of strings, e.g. ['-r', '__ns:=/sim_a']",
+                              "Ros2Bridge.ros_args")
         self._node_name = node_name
+        self._namespace = namespace
+        self._ros_args = list(ros_args)
+        self._defaults = BridgeParameters(
+            clock_rate_hz=float(clock_rate_hz or 0.0), world_frame=world_frame,
+            frame_prefix=frame_prefix,
+            sensor_qos="reliable" if reliable_sensors else "best_effort")
         self._domain_id = check_domain_id(domain_id)
         self._publish_clock = publish_clock
         self._clock_gate = RateGate(clock_rate_hz)
         self._sensor_qos = QOS_SENSOR_RELIABLE if reliable_sensors else QOS_SENSOR
+        self._clock_qos = QOS_CLOCK
+        self._world_frame = world_frame
+        #: the node's parameters as read at start (the defaults until then)
+        self.parameters = self._defaults
         # reliable commands: the state profile's settings (reliable, keep the last 10)
         self._command_qos = QOS_STATE if reliable_commands else QOS_COMMAND
         self._writer = TopicWriter(publish_unsubscribed)
-        self._agents = {s.name: AgentPublishers(s, self._writer) for s in specs}
+        self._agents = {s.name: AgentPublishers(s, self._writer, world_frame, frame_prefix)
+                        for s in specs}
         self._inbox = CommandInbox(specs, float(command_timeout_s), timeout_clock)
         self._t_clock_published: float | None = None
         self._context: Context | None = None
@@ -181,6 +224,10 @@ class Ros2Bridge:
         self._closed = False
         self._pub_clock: Any = None
         self._pub_scene: Any = None
+        self._pub_tf: Any = None
+        self._pub_tf_static: Any = None
+        self._pub_events: Any = None
+        self._topic: dict[str, str] = {}  # bridge-wide topic -> its resolved name
 
     # ----------------------------------------------------------------- lifecycle
     @property
@@ -210,22 +257,53 @@ class Ros2Bridge:
         ctx = Context()
         try:
             rclpy.init(
+                args=["uhrisim", "--ros-args", *self._ros_args],
                 context=ctx,
                 domain_id=self._domain_id,
                 signal_handler_options=SignalHandlerOptions.NO,
             )
             node = rclpy.create_node(
-                self._node_name, context=ctx, start_parameter_services=False
+                self._node_name, namespace=self._namespace, context=ctx,
+                start_parameter_services=False,
             )
         except Exception as exc:
             ctx.try_shutdown()
             raise BridgeError(f"Ros2Bridge: could not start ROS 2 node: {exc}") from exc
+        try:
+            self._apply(declare_parameters(node, self._defaults))
+        except ConfigError:
+            node.destroy_node()
+            ctx.try_shutdown()
+            raise
         self._context, self._node = ctx, node
+        # command rejections go to /rosout (and the console) through the node's logger
+        self._inbox.validator.log = node.get_logger().warning
         if self._publish_clock:
-            self._pub_clock = node.create_publisher(Clock, "/clock", QOS_CLOCK)
-        self._pub_scene = node.create_publisher(MarkerArray, "/scene/markers", QOS_SCENE)
+            self._pub_clock = self._writer.create(node, Clock, "clock", self._clock_qos)
+        self._pub_scene = self._writer.create(node, MarkerArray, "scene/markers", QOS_SCENE)
+        try:
+            from tf2_msgs.msg import TFMessage
+        except ImportError:
+            log.warning("ROS 2 bridge: no /tf, /tf_static: tf2_msgs is not built (run %s)",
+                        build_hint())
+        else:
+            self._pub_tf = self._writer.create(node, TFMessage, "tf", QOS_TF)
+            self._pub_tf_static = self._writer.create(node, TFMessage, "tf_static",
+                                                      QOS_TF_STATIC)
+        try:
+            from uhrisim_msgs.msg import Event
+        except ImportError:
+            log.warning("ROS 2 bridge: no helm/decision, vars, /events: uhrisim_msgs is not "
+                        "built (run %s)", build_hint())
+        else:
+            self._pub_events = self._writer.create(node, Event, "events", QOS_STATE)
+        # resolved names (the node's namespace applied), the keys of the statistics
+        self._topic = {key: pub.topic_name for key, pub in (
+            ("clock", self._pub_clock), ("scene", self._pub_scene), ("tf", self._pub_tf),
+            ("tf_static", self._pub_tf_static), ("events", self._pub_events))
+            if pub is not None}
         for name, io in self._agents.items():
-            io.create(node, self._sensor_qos)
+            io.create(node, self._sensor_qos, self._pub_tf)
             self._inbox.subscribe(node, name, self._command_qos)
         self._executor = SingleThreadedExecutor(context=ctx)
         self._executor.add_node(node)
@@ -238,6 +316,26 @@ class Ros2Bridge:
             "ROS 2 bridge %r started: domain %s, agents %s",
             self._node_name, self._domain_id, list(self._agents),
         )
+
+    def _apply(self, params: BridgeParameters) -> None:
+        """Rates, frames and QoS from the node's parameters (before any publisher)."""
+        self._clock_gate = RateGate(params.clock_rate_hz or None)
+        self._sensor_qos = QOS_SENSOR_RELIABLE if params.sensor_qos == "reliable" \
+            else QOS_SENSOR
+        self._clock_qos = QOS_CLOCK_RELIABLE if params.clock_qos == "reliable" else QOS_CLOCK
+        self._world_frame = params.world_frame
+        specs = [replace(io.spec,
+                         odom_rate_hz=params.odom_rate_hz or io.spec.odom_rate_hz,
+                         sonar_rate_hz=params.sonar_rate_hz or io.spec.sonar_rate_hz)
+                 for io in self._agents.values()]
+        self._agents = {s.name: AgentPublishers(s, self._writer, params.world_frame,
+                                                params.frame_prefix) for s in specs}
+        self.parameters = params
+
+    def frame(self, agent: str, name: str) -> str:
+        """The full name of one of ``agent``'s frames (``"base_link"``, ``"odom"``,
+        ``"sonar"``), with the ``frame_prefix`` parameter applied."""
+        return f"{self._io(agent, 'frame').frame_base}/{name}"
 
     def _spin(self) -> None:
         ex = self._executor
@@ -301,7 +399,7 @@ class Ros2Bridge:
         ):
             if self._writer.wanted(self._pub_clock):
                 # pre-serialised: the bytes of a rosgraph_msgs/Clock, without building one
-                self._writer.write(self._pub_clock, clock_bytes(t), "/clock")
+                self._writer.write(self._pub_clock, clock_bytes(t), self._topic["clock"])
             self._t_clock_published = t
 
     # ----------------------------------------------------------------- publishing
@@ -425,6 +523,36 @@ class Ros2Bridge:
         self._advance(t_sim)
         io.camera(t_sim, rgb, depth_m, np.asarray(K, dtype=float), camera_pose_ned)
 
+    def publish_sonar_image(self, agent: str, t_sim: float, polar_u8: np.ndarray,
+                            beam_angles_rad: ArrayLike, ranges_m: ArrayLike,
+                            frequency_hz: float, sound_speed_m_s: float) -> None:
+        """Publish ``/<agent>/sonar/image`` (marine_acoustic_msgs/ProjectedSonarImage in
+        ``"<agent>/sonar"``): the polar image ``(n_bins, n_beams)`` uint8 with the beam
+        azimuths (rad, > 0 starboard), range-bin centres (m), centre frequency (Hz) and
+        sound speed (m/s); see :func:`~.messages.projected_sonar_image_msg`. Only while
+        someone subscribes, and only when marine_acoustic_msgs is built. Not rate-gated:
+        call it on the calls where :meth:`publish_sonar` published."""
+        io = self._io(agent, "publish_sonar_image")
+        io.sonar_image(t_sim, polar_u8, beam_angles_rad, ranges_m, frequency_hz,
+                       sound_speed_m_s)
+
+    def sonar_image_subscribed(self, agent: str) -> bool:
+        """Does ``/<agent>/sonar/image`` have a subscriber (form it only then)?"""
+        return self._io(agent, "sonar_image_subscribed").sonar_image_wanted()
+
+    def publish_static_transforms(
+        self, t_sim: float, transforms: Sequence[tuple[str, str, ArrayLike, ArrayLike]]
+    ) -> None:
+        """Publish ``/tf_static`` (latched, one message with every static transform): each
+        ``(parent, child, position_frd (3,) m, rotation_frd (3x3) child -> parent)`` in
+        body FRD terms, written in FLU (e.g. ``("rov/base_link", "rov/sonar", mount
+        position, mount rotation)``). Nothing when tf2_msgs is not built."""
+        if not self.started:
+            raise BridgeError("Ros2Bridge.publish_static_transforms: bridge is not running")
+        if self._pub_tf_static is not None:
+            self._writer.write(self._pub_tf_static, static_tf_msg(t_sim, transforms),
+                               self._topic["tf_static"])
+
     def publish_helm(
         self,
         agent: str,
@@ -446,6 +574,45 @@ class Ros2Bridge:
         self._advance(t_sim)
         io.helm(heading_deg, speed, depth, mode)
 
+    def publish_helm_decision(self, agent: str, t_sim: float, heading_deg: float | None,
+                              speed: float | None, depth: float | None,
+                              contributions: Mapping[str, float], mode: str,
+                              active: Sequence[str], total: float | None,
+                              all_stop_reason: str) -> None:
+        """Publish ``/<agent>/helm/decision`` (uhrisim_msgs/HelmDecision: the decision with
+        every behavior's share; the recording's message), only while someone subscribes;
+        fields as :meth:`uhrisim.record.McapRecorder.write_helm_decision`."""
+        io = self._io(agent, "publish_helm_decision")
+        if io.extra_wanted("helm_decision"):
+            io.write_extra("helm_decision", uhrisim_msgs.helm_decision_bytes(
+                _ns(t_sim), heading_deg, speed, depth, contributions, mode, active, total,
+                all_stop_reason, "Ros2Bridge.publish_helm_decision"))
+
+    def publish_variable(self, agent: str, t_sim: float, name: str, value: float | str,
+                         source: str) -> None:
+        """Publish a community posting on ``/<agent>/vars`` (uhrisim_msgs/Variable), only
+        while someone subscribes."""
+        io = self._io(agent, "publish_variable")
+        if io.extra_wanted("vars"):
+            io.write_extra("vars", uhrisim_msgs.variable_bytes(
+                _ns(t_sim), name, value, source, "Ros2Bridge.publish_variable"))
+
+    def publish_event(self, t_sim: float, kind: str, detail: str) -> None:
+        """Publish ``/events`` (uhrisim_msgs/Event, frame the world frame), only while
+        someone subscribes."""
+        if not self.started:
+            raise BridgeError("Ros2Bridge.publish_event: bridge is not running (call start())")
+        if self._pub_events is not None and self._writer.wanted(self._pub_events):
+            self._writer.write(self._pub_events, uhrisim_msgs.event_bytes(
+                _ns(t_sim), self._world_frame, kind, detail), self._topic["events"])
+
+    def extras_subscribed(self) -> bool:
+        """Does anyone subscribe to a ``vars`` topic or to ``/events`` (so that the
+        simulation's postings and events are worth handing over)?"""
+        if self._pub_events is not None and self._writer.wanted(self._pub_events):
+            return True
+        return any(io.extra_wanted("vars") for io in self._agents.values())
+
     def publish_scene(self, t_sim: float, markers: Sequence[Mapping[str, Any]]) -> None:
         """Publish ``/scene/markers`` (visualization_msgs/MarkerArray, frame ``"map"``).
 
@@ -462,8 +629,9 @@ class Ros2Bridge:
             raise BridgeError("Ros2Bridge.publish_scene: bridge is not running (call start())")
         self._advance(t_sim)
         arr = MarkerArray()
-        arr.markers = [marker_msg(t_sim, i, m) for i, m in enumerate(markers)]
-        self._writer.write(self._pub_scene, arr, "/scene/markers")
+        arr.markers = [marker_msg(t_sim, i, m, self._world_frame)
+                       for i, m in enumerate(markers)]
+        self._writer.write(self._pub_scene, arr, self._topic["scene"])
 
     # ----------------------------------------------------------------- commands
     def commands(self, agent: str, t_sim: float) -> AgentCommands:
@@ -478,9 +646,19 @@ class Ros2Bridge:
 
     # ----------------------------------------------------------------- introspection
     def stats(self) -> dict[str, Any]:
-        """Messages published and writes failed per topic, and command messages rejected
-        (a copy)."""
-        return {**self._writer.stats(), "rejected_commands": self._inbox.rejected}
+        """Messages published and writes failed per topic; command messages refused and
+        clamped, and the rejections per topic and reason (:mod:`.limits`); a copy."""
+        validator = self._inbox.validator
+        return {**self._writer.stats(), "rejected_commands": validator.refused,
+                "clamped_commands": validator.clamped,
+                "command_rejections": validator.counts()}
+
+    def depth_above_floor(self, agent: str, depth: float, deepest: float) -> float:
+        """A commanded depth (m, down) of ``agent`` as it may take effect where the
+        vehicle is: clamped to ``deepest`` (the floor below it less the clearance; NaN:
+        no limit), the clamp counted and reported like every command rejection."""
+        self._io(agent, "depth_above_floor")
+        return self._inbox.validator.depth_above_floor(agent, depth, deepest)
 
     # ----------------------------------------------------------------- lockstep
     def begin_round(self, agent: str) -> bool:

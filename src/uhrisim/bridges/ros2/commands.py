@@ -2,11 +2,11 @@
 receipt time, freshness, and the answers a lockstep round waits for.
 
 An agent that accepts ``"desired"`` listens on ``/<agent>/cmd/desired_heading`` (compass
-degrees, wrapped to [0, 360)), ``/desired_speed`` (m/s) and ``/desired_depth`` (m, down;
-above the surface is held at 0), std_msgs/Float64; one that accepts ``"thrusters"`` on
-``/<agent>/cmd/thrusters``, std_msgs/Float64MultiArray ``(port, starboard, vertical)``
-clipped to ±:data:`~uhrisim.bridges.ros2.spec.THRUSTER_LIMIT`. A value that is not finite
-(or not three of them) is rejected: counted, the first rejection logged as a warning.
+degrees), ``/desired_speed`` (m/s) and ``/desired_depth`` (m, down), std_msgs/Float64; one
+that accepts ``"thrusters"`` on ``/<agent>/cmd/thrusters``, std_msgs/Float64MultiArray
+``(port, starboard, vertical)``. Every value passes the agent's
+:class:`~uhrisim.bridges.ros2.limits.CommandValidator` first: refused values are not
+stored (the previous command stays, and ages), clamped ones are stored clamped.
 
 The subscriptions' callbacks run on the bridge's executor thread and store under a lock;
 the simulation thread reads the latest values (:meth:`CommandInbox.commands`). A
@@ -23,7 +23,6 @@ values, or the thrusters), which :meth:`CommandInbox.wait_answers` waits for.
 from __future__ import annotations
 
 import logging
-import math
 import threading
 import time
 from collections.abc import Sequence
@@ -33,9 +32,8 @@ from typing import Any, Literal
 from rclpy.qos import QoSProfile
 from std_msgs.msg import Float64, Float64MultiArray
 
-from uhrisim.core.frames import wrap_360
-
-from .spec import THRUSTER_LIMIT, AgentBridgeSpec, AgentCommands
+from .limits import CommandValidator
+from .spec import AgentBridgeSpec, AgentCommands
 from .topics import DESIRED_KEYS, THRUSTERS_KEY
 
 log = logging.getLogger(__name__)
@@ -80,12 +78,14 @@ class CommandInbox:
     def __init__(self, specs: Sequence[AgentBridgeSpec], timeout_s: float,
                  timeout_clock: Literal["sim", "wall"]) -> None:
         self._agents = {s.name: _AgentInbox(s) for s in specs}
+        #: checks every command value (its log: the node's rclpy logger once started)
+        self.validator = CommandValidator({s.name: s.envelope for s in specs},
+                                          log=log.warning)
         self._timeout = timeout_s
         self._timeout_clock = timeout_clock
         self._lock = threading.Lock()
         self._answers = threading.Condition(self._lock)  # lockstep rounds wait on it
         self._t_sim_latest = 0.0
-        self._rejected = 0
 
     def subscribe(self, node: Any, agent: str, qos: QoSProfile) -> None:
         """Create ``agent``'s command subscriptions on ``node``: the groups it accepts."""
@@ -93,11 +93,11 @@ class CommandInbox:
         if "desired" in inbox.spec.accept:
             for key in DESIRED_KEYS:
                 inbox.subs[key] = node.create_subscription(
-                    Float64, f"/{agent}/cmd/{key}", self._make_float_cb(agent, key), qos,
+                    Float64, f"{agent}/cmd/{key}", self._make_float_cb(agent, key), qos,
                 )
         if "thrusters" in inbox.spec.accept:
             inbox.subs[THRUSTERS_KEY] = node.create_subscription(
-                Float64MultiArray, f"/{agent}/cmd/thrusters", self._make_thruster_cb(agent),
+                Float64MultiArray, f"{agent}/cmd/thrusters", self._make_thruster_cb(agent),
                 qos,
             )
 
@@ -113,9 +113,8 @@ class CommandInbox:
 
     @property
     def rejected(self) -> int:
-        """Command messages rejected so far."""
-        with self._lock:
-            return self._rejected
+        """Command messages refused so far (clamped ones are not counted here)."""
+        return self.validator.refused
 
     # ----------------------------------------------------------------- callbacks
     def _store(self, agent: str, key: str, value: Any) -> None:
@@ -126,37 +125,19 @@ class CommandInbox:
             inbox.answered.add(key)
             self._answers.notify_all()
 
-    def _reject(self, agent: str, key: str, why: str) -> None:
-        with self._lock:
-            self._rejected += 1
-            first = self._rejected == 1
-        (log.warning if first else log.debug)(
-            "ROS 2 bridge rejected /%s/cmd/%s: %s", agent, key, why
-        )
-
     def _make_float_cb(self, agent: str, key: str) -> Any:
         def cb(msg: Float64) -> None:
-            v = float(msg.data)
-            if not math.isfinite(v):
-                self._reject(agent, key, f"not finite ({v})")
-                return
-            if key == "desired_heading":
-                v = float(wrap_360(v))
-            elif key == "desired_depth" and v < 0.0:
-                v = 0.0  # above the surface is not reachable: hold at the surface
-            self._store(agent, key, v)
+            value = self.validator.desired(agent, key, msg.data)
+            if value is not None:
+                self._store(agent, key, value)
 
         return cb
 
     def _make_thruster_cb(self, agent: str) -> Any:
         def cb(msg: Float64MultiArray) -> None:
-            vals = [float(x) for x in msg.data]
-            if len(vals) != 3 or not all(math.isfinite(x) for x in vals):
-                self._reject(agent, THRUSTERS_KEY, f"need 3 finite values, got {vals}")
-                return
-            lim = THRUSTER_LIMIT
-            clipped = tuple(min(lim, max(-lim, x)) for x in vals)
-            self._store(agent, THRUSTERS_KEY, clipped)
+            values = self.validator.thrusters(agent, msg.data)
+            if values is not None:
+                self._store(agent, THRUSTERS_KEY, values)
 
         return cb
 

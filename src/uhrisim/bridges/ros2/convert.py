@@ -22,6 +22,7 @@ split into whole seconds and nanoseconds.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -308,3 +309,40 @@ class RateGate:
             else:
                 self._aim(self._next + period)
         return True
+
+
+#: Identity transform: translation (m) and rotation (x, y, z, w).
+_IDENTITY_TF = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+
+
+def agent_frames(agent: str) -> tuple[str, str]:
+    """An agent's REP-105 frames: ``(<agent>/odom, <agent>/base_link)``."""
+    return f"{agent}/odom", f"{agent}/base_link"
+
+
+def tf_chain_frames(agent: str, world_frame: str = "map") -> tuple[tuple[str, str], ...]:
+    """The ``(parent, child)`` pairs of one agent's REP-105 chain on ``/tf``: ``map`` ->
+    ``<agent>/odom`` (the identity: ground truth does not drift) -> ``<agent>/base_link``
+    (its odometry pose); :func:`tf_chain` gives the transforms."""
+    odom, base = agent_frames(agent)
+    return (world_frame, odom), (odom, base)
+
+
+def tf_chain(position_enu: Sequence[float], orientation_xyzw: Sequence[float]
+             ) -> tuple[tuple[Sequence[float], Sequence[float]], ...]:
+    """``(translation, rotation_xyzw)`` of each pair of :func:`tf_chain_frames` for an
+    odometry pose (ENU position, FLU body orientation)."""
+    return _IDENTITY_TF, (position_enu, orientation_xyzw)
+
+
+def mount_transform(position_frd: ArrayLike, rotation_frd: ArrayLike
+                    ) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+    """``(translation, rotation_xyzw)`` in FLU of a sensor mounted at ``position_frd`` (m,
+    body FRD) with ``rotation_frd`` (3x3, sensor FRD -> body FRD): the transform
+    ``<agent>/base_link`` -> sensor frame, both FLU (FLU = diag(1, -1, -1) FRD)."""
+    flip = np.diag([1.0, -1.0, -1.0])
+    r = flip @ np.asarray(rotation_frd, dtype=float) @ flip
+    t = flu_from_frd(_vec3(position_frd, "position_frd"))
+    q = quaternion_from_matrix(r)
+    return ((float(t[0]), float(t[1]), float(t[2])),
+            (float(q[0]), float(q[1]), float(q[2]), float(q[3])))

@@ -1,8 +1,10 @@
 """A simulation hook that attaches a running simulation to ROS 2 (``Ros2Bridge``).
 
 Each tick the hook (a read-only observer, like the recorder) publishes every linked
-agent's odometry (gated to ``odom_rate_hz`` in simulated time), each new sonar ping,
-camera frame and helm decision, and ``/clock``; at start it publishes the static scene as markers.
+agent's odometry and ``/tf`` (gated to ``odom_rate_hz`` in simulated time), each new
+sonar ping, camera frame and helm decision, the community postings and events, and
+``/clock``; at start it publishes the static scene as markers and the sensor mounts on
+``/tf_static``: the topics the recording has (:mod:`uhrisim.record.hook`).
 Volatile topics go out only while someone subscribes to them (nobody could tell the
 difference, :class:`Ros2Bridge` ``publish_unsubscribed``): the fan image of a ping is
 formed, and a snapshot taken for odometry, only for a subscriber. Commands received
@@ -16,10 +18,16 @@ uses:
 * ``/<agent>/cmd/thrusters`` -> :meth:`Simulation.set_actuators` with
   ``hold_s = command_timeout_s``: the simulation falls back to the agent's own
   controller when no new thruster command arrives in time.
+* Every command is checked against the agent's envelope first (:mod:`.limits`: speeds
+  within what the vehicle can do, no reverse unless its controller reverses, depth within
+  [0, floor below it - ``depth_clearance_m``], thrusters within ±150 and three of them).
 * When commands stop (all older than ``command_timeout_s``, see
   :class:`~uhrisim.bridges.ros2.spec.AgentCommands`) the hook performs the safe stop
-  once: ``DESIRED_SPEED = 0`` and ``DESIRED_DEPTH`` = the current depth, and records a
-  ``bridge`` event; another event marks commands becoming active again.
+  once: ``DESIRED_HEADING`` = the heading at that moment, ``DESIRED_SPEED = 0`` and
+  ``DESIRED_DEPTH`` = the current depth, and records a ``bridge`` event; another event
+  marks commands becoming active again. A thruster override outlives the command timeout
+  by one command poll, so the safe stop's setpoints are in place before the vehicle's
+  own controller takes over again: it does not turn back to an old heading.
 
 A write that fails (ROS shut down under the bridge) does not stop the run: the bridge
 counts it, and the hook records a ``bridge`` event when a topic first fails.
@@ -34,6 +42,7 @@ from __future__ import annotations
 
 import logging
 import math
+import numbers
 import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Literal
@@ -41,11 +50,13 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from uhrisim.core.errors import BridgeError, ConfigError
+from uhrisim.core.frames import heading_deg_from_yaw
 from uhrisim.sensors.sonar.cloud import cloud_hits
 from uhrisim.sim.hooks import TickFrame
 from uhrisim.sim.simulation import BaseHook, Simulation
 
 from .convert import RateGate
+from .limits import CommandEnvelope
 from .spec import COMMAND_GROUPS, AgentBridgeSpec, AgentCommands
 
 if TYPE_CHECKING:
@@ -62,11 +73,35 @@ SCENE_MAX_TRIANGLES_PER_OBJECT = 20_000
 #: Wall seconds a lockstep start waits after finding the controllers (see on_start).
 LOCKSTEP_SETTLE_S = 0.5
 
+#: Default vertical clearance (m) kept between a commanded depth and the floor below.
+DEPTH_CLEARANCE_M = 0.5
+
 _DESIRED_VARS = (
     ("desired_heading_deg", "DESIRED_HEADING"),
     ("desired_speed", "DESIRED_SPEED"),
     ("desired_depth", "DESIRED_DEPTH"),
 )
+
+
+def command_envelope(agent: Any) -> CommandEnvelope:
+    """What a simulated agent (``Simulation.agents[name]``) can be commanded to do: its
+    top speed (VideoRay: thrust-drag balance at full forward thrust; diver: its swim-speed
+    limit; kinematic vehicle: 100 % thrust) and whether its controller reverses (none of
+    uhrisim's does: ``reverses`` on the controller says so)."""
+    params = agent.plant.params
+    model = agent.config.model
+    if model == "videoray":
+        from uhrisim.dynamics.videoray import generalized_forces, steady_speed
+
+        lim = params.input_limit
+        surge = float(generalized_forces(np.array([lim, lim, 0.0]), params)[0])
+        max_speed = abs(steady_speed(surge, params.Xu, params.Xuu))
+    elif model == "diver":
+        max_speed = params.max_speed
+    else:  # uSimMarine-style: thrust (%) = thrust_factor x speed, at most 100 %
+        max_speed = 100.0 / params.thrust_factor
+    return CommandEnvelope(max_speed=max_speed,
+                           reverse=bool(getattr(agent.controller, "reverses", False)))
 
 
 def decimate_triangle_markers(
@@ -107,6 +142,9 @@ class Ros2BridgeHook(BaseHook):
     appear (discovery alone can take seconds). An agent whose controller stays silent for
     a round is no longer waited for (a ``bridge`` event says so) until it answers again;
     its commands then go stale and the safe stop follows.
+    ``depth_clearance_m``: commanded depths are clamped to the floor below the vehicle less
+    this (m). ``namespace``, ``ros_args``: the node's namespace and ROS arguments
+    (remappings, parameters: :mod:`.params`).
     Other arguments go to :class:`Ros2Bridge`.
     """
 
@@ -128,6 +166,9 @@ class Ros2BridgeHook(BaseHook):
         lockstep: bool = False,
         lockstep_timeout_s: float = 10.0,
         lockstep_start_timeout_s: float = 30.0,
+        depth_clearance_m: float = DEPTH_CLEARANCE_M,
+        namespace: str = "",
+        ros_args: Sequence[str] = (),
     ) -> None:
         for name, value in (("lockstep_timeout_s", lockstep_timeout_s),
                             ("lockstep_start_timeout_s", lockstep_start_timeout_s)):
@@ -147,6 +188,8 @@ class Ros2BridgeHook(BaseHook):
             "clock_rate_hz": clock_rate_hz,
             "reliable_sensors": reliable_sensors,
             "reliable_commands": lockstep,  # a lost command would stall a round
+            "namespace": namespace,
+            "ros_args": tuple(ros_args),
         }
         self._lockstep = lockstep
         self._lockstep_timeout = lockstep_timeout_s
@@ -155,6 +198,10 @@ class Ros2BridgeHook(BaseHook):
         self._lapsed: set[str] = set()  # ... that did not answer their last round
         self.n_rounds = 0
         self._timeout = command_timeout_s
+        # a thruster override lasts until the safe stop has surely been posted
+        self._hold_s = command_timeout_s + (0.0 if command_poll_hz is None
+                                            else 1.0 / command_poll_hz)
+        self._clearance = depth_clearance_m
         self._command_gate = RateGate(command_poll_hz)
         self.bridge: Ros2Bridge | None = None
         self._sim: Simulation | None = None
@@ -166,6 +213,9 @@ class Ros2BridgeHook(BaseHook):
         self._seen: dict[str, int] = {}
         self._active: dict[str, bool] = {}
         self._failing: tuple[str, ...] = ()  # bridge.failing_topics, as last recorded
+        self._extras = False  # someone subscribes to vars or /events (refreshed at 10 Hz)
+        # per ROS name of an agent with a sonar: (centre frequency Hz, sound speed m/s)
+        self._acoustics: dict[str, tuple[float, float]] = {}
         self.n_posted = 0
         self.n_rejected = 0
 
@@ -194,6 +244,7 @@ class Ros2BridgeHook(BaseHook):
                 accept=self._accept,
                 sonar_rate_hz=self._sonar_rate,
                 odom_rate_hz=self._odom_rate,
+                envelope=command_envelope(sim.agents[name]),
             )
             for name in names
         ]
@@ -203,6 +254,7 @@ class Ros2BridgeHook(BaseHook):
         self._links = [(spec.name, name, spec.publish_sonar, bool(spec.accept))
                        for spec, name in zip(self.bridge.agents, self._ros, strict=True)]
         self._accepting = any(accept for *_, accept in self._links)
+        self._publish_mounts(sim)
         if self._lockstep:
             self._await_controllers()
         # simulation times before which nothing is due (see on_tick)
@@ -216,6 +268,24 @@ class Ros2BridgeHook(BaseHook):
             markers = decimate_triangle_markers(scene_markers(sim.scene))
             if markers:
                 self.bridge.publish_scene(float(sim.t), markers)
+
+    def _publish_mounts(self, sim: Simulation) -> None:
+        """``/tf_static``: ``<agent>/base_link`` -> ``<agent>/sonar`` of every linked agent
+        with a sonar (its first one: the frame of its sonar topics), from the mount; and
+        each such sonar's centre frequency and sound speed for ``sonar/image``."""
+        assert self.bridge is not None
+        mounts = []
+        self._acoustics = {}
+        for ros, name, publish_sonar, _ in self._links:
+            if publish_sonar:
+                sonar = sim.agents[name].sonars[0].sonar
+                mounts.append((self.bridge.frame(ros, "base_link"),
+                               self.bridge.frame(ros, "sonar"), sonar.mount_position,
+                               sonar.mount_rotation))
+                self._acoustics[ros] = (sonar.config.sonar_spec.frequency_hz,
+                                        sonar.config.sound_speed_m_s)
+        if mounts:
+            self.bridge.publish_static_transforms(float(sim.t), mounts)
 
     def _await_controllers(self) -> None:
         """Lockstep start: every agent that accepts commands needs its controller (an
@@ -244,6 +314,8 @@ class Ros2BridgeHook(BaseHook):
             return
         t = float(frame.t)
         pings, helm, images = frame.pings, frame.helm, frame.images
+        if self._extras and (frame.posts or frame.events):
+            self._publish_extras(bridge, frame)
         if t < self._wake_time and not pings and not helm and not images:
             bridge.note_time(t)  # nothing due: most ticks of a 60 Hz loop
             return
@@ -269,7 +341,12 @@ class Ros2BridgeHook(BaseHook):
                 if decision is not None:
                     bridge.publish_helm(ros, t, decision.heading_deg, decision.speed,
                                         decision.depth, decision.mode)
+                    bridge.publish_helm_decision(
+                        ros, t, decision.heading_deg, decision.speed, decision.depth,
+                        decision.contributions, decision.mode, decision.active,
+                        decision.total, decision.all_stop_reason or "")
             self._publish_wake = bridge.wake_time
+            self._extras = bridge.extras_subscribed()  # checked at most at 10 Hz
             if bridge.failing_topics != self._failing:  # rare: note it in the recording
                 new = bridge.failing_topics[len(self._failing):]
                 self._failing = bridge.failing_topics
@@ -280,11 +357,24 @@ class Ros2BridgeHook(BaseHook):
         if rounds or (self._accepting and self._command_gate.due(t)):
             for ros, name, _, accept in self._links:
                 if accept:
-                    self._take_commands(sim, name, bridge.commands(ros, t), frame)
+                    self._take_commands(sim, ros, name, bridge.commands(ros, t), frame)
         else:
             bridge.note_time(t)
         self._wake_time = min(self._publish_wake, self._command_gate.wake_time
                               if self._accepting else math.inf)
+
+    def _publish_extras(self, bridge: Ros2Bridge, frame: TickFrame) -> None:
+        """The tick's community postings (``<agent>/vars``) and events (``/events``), as
+        the recording has them; only called while someone subscribes to either."""
+        for post in frame.posts:
+            ros = self._ros.get(post.community)
+            if ros is not None:
+                value = post.value if isinstance(post.value, str | numbers.Real) \
+                    else str(post.value)
+                bridge.publish_variable(ros, float(post.t), str(post.var), value,
+                                        str(post.source))
+        for event in frame.events:
+            bridge.publish_event(float(event.t), str(event.kind), str(event.detail))
 
     def _begin_round(self, sim: Simulation, bridge: Ros2Bridge, ros: str, t: float) -> None:
         """A lockstep round for ``ros`` starts; one that had lapsed is waited for again
@@ -307,28 +397,45 @@ class Ros2BridgeHook(BaseHook):
                                        f"{self._lockstep_timeout:g} s: not waited for until "
                                        "it answers again (lockstep lapsed)")
 
-    @staticmethod
-    def _publish_ping(bridge: Ros2Bridge, name: str, ping: Any) -> None:
+    def _publish_ping(self, bridge: Ros2Bridge, name: str, ping: Any) -> None:
         """The ping's products that someone subscribes to: the hit cloud and the fan image
         are formed only then (publish_sonar skips the unread ones)."""
         polar, fan, hits = bridge.sonar_subscribed(name)
         points, intensity = cloud_hits(ping.cloud) if hits else (None, None)
-        bridge.publish_sonar(name, float(ping.t), ping.polar_u8 if polar else None,
-                             ping.fan_u8 if fan else None, points, intensity,
-                             sonar_pose_ned=(ping.position_ned, ping.rotation_ned_from_sonar))
+        due = bridge.publish_sonar(name, float(ping.t), ping.polar_u8 if polar else None,
+                                   ping.fan_u8 if fan else None, points, intensity,
+                                   sonar_pose_ned=(ping.position_ned,
+                                                   ping.rotation_ned_from_sonar))
+        if due and bridge.sonar_image_subscribed(name):
+            frequency, sound_speed = self._acoustics[name]
+            bridge.publish_sonar_image(name, float(ping.t), ping.polar_u8,
+                                       ping.beam_angles_rad, ping.bin_ranges_m, frequency,
+                                       sound_speed)
 
-    def _take_commands(self, sim: Simulation, name: str, cmd: AgentCommands,
+    def _above_floor(self, sim: Simulation, ros: str, name: str, depth: float,
+                     frame: TickFrame) -> float:
+        """``depth`` (m) clamped to the floor below the vehicle now less the clearance."""
+        floor = getattr(sim.scene, "seafloor", None)
+        if floor is None or self.bridge is None:
+            return depth
+        north, east, _ = frame.agents[name].nav.position_ned
+        deepest = float(floor.depth_at(float(north), float(east))) - self._clearance
+        return self.bridge.depth_above_floor(ros, depth, deepest)
+
+    def _take_commands(self, sim: Simulation, ros: str, name: str, cmd: AgentCommands,
                        frame: TickFrame) -> None:
         if cmd.received_count != self._seen[name]:
             self._seen[name] = cmd.received_count
             for field, var in _DESIRED_VARS:
                 value = getattr(cmd, field)
                 if value is not None:
+                    if var == "DESIRED_DEPTH":
+                        value = self._above_floor(sim, ros, name, value, frame)
                     sim.post(name, var, float(value), source="ros2")
                     self.n_posted += 1
             if cmd.thrusters is not None:
                 try:
-                    sim.set_actuators(name, cmd.thrusters, hold_s=self._timeout)
+                    sim.set_actuators(name, cmd.thrusters, hold_s=self._hold_s)
                 except ConfigError as exc:
                     self.n_rejected += 1
                     log.warning("ROS 2 %s: thruster command rejected: %s", name, exc)
@@ -338,15 +445,21 @@ class Ros2BridgeHook(BaseHook):
             if active:
                 sim.record_event("bridge", f"ros2 {name}: external commands active")
             else:
-                snap = frame.agents.get(name)
-                depth = float(snap.nav.position_ned[2]) if snap is not None else 0.0
-                sim.post(name, "DESIRED_SPEED", 0.0, source="ros2")
-                sim.post(name, "DESIRED_DEPTH", depth, source="ros2")
-                sim.record_event(
-                    "bridge",
-                    f"ros2 {name}: commands stale for {self._timeout:g} s: safe stop "
-                    f"(speed 0, hold depth {depth:.2f} m)",
-                )
+                self._safe_stop(sim, name, frame)
+
+    def _safe_stop(self, sim: Simulation, name: str, frame: TickFrame) -> None:
+        """Commands went stale: hold the heading and depth of this moment, speed 0."""
+        nav = frame.agents[name].nav
+        heading = float(heading_deg_from_yaw(nav.yaw))
+        depth = float(nav.position_ned[2])
+        sim.post(name, "DESIRED_HEADING", heading, source="ros2")
+        sim.post(name, "DESIRED_SPEED", 0.0, source="ros2")
+        sim.post(name, "DESIRED_DEPTH", depth, source="ros2")
+        sim.record_event(
+            "bridge",
+            f"ros2 {name}: commands stale for {self._timeout:g} s: safe stop "
+            f"(speed 0, hold heading {heading:.1f} deg, hold depth {depth:.2f} m)",
+        )
 
     def on_end(self, sim: Simulation, error: BaseException | None) -> None:
         del sim, error

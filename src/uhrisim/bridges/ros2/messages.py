@@ -24,12 +24,17 @@ from visualization_msgs.msg import Marker
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import enu_from_ned
-from uhrisim.record.cdr import CDR_LE_HEADER, CdrBuffer
+from uhrisim.record.cdr import (
+    CDR_LE_HEADER,
+    CdrBuffer,
+    encode_projected_sonar_image,
+)
 
 from .convert import (
     CLOUD_FIELDS,
     CLOUD_POINT_STEP,
     cloud_xyzi_flu,
+    mount_transform,
     odom_fields_from_ned,
     pose_enu_from_ned,
     stamp_from_sim_time,
@@ -37,6 +42,78 @@ from .convert import (
 
 #: World frame of every pose and marker (REP-105 "map", ENU).
 WORLD_FRAME = "map"
+
+def static_tf_msg(t_sim: float, transforms: Sequence[tuple[str, str, ArrayLike, ArrayLike]]
+                  ) -> Any:
+    """tf2_msgs/TFMessage of ``(parent, child, position_frd, rotation_frd)`` mounts (see
+    :func:`mount_transform`), stamped ``t_sim``: what ``/tf_static`` carries."""
+    from geometry_msgs.msg import TransformStamped
+    from tf2_msgs.msg import TFMessage
+
+    msg = TFMessage()
+    for parent, child, position_frd, rotation_frd in transforms:
+        ts = TransformStamped()
+        _set_stamp(ts.header, t_sim, parent)
+        ts.child_frame_id = child
+        (x, y, z), (qx, qy, qz, qw) = mount_transform(position_frd, rotation_frd)
+        tr = ts.transform
+        tr.translation.x, tr.translation.y, tr.translation.z = x, y, z
+        tr.rotation.x, tr.rotation.y, tr.rotation.z, tr.rotation.w = qx, qy, qz, qw
+        msg.transforms.append(ts)
+    return msg
+
+
+def _sonar_image_inputs(polar_u8: np.ndarray, beam_angles_rad: ArrayLike, ranges_m: ArrayLike
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The checked image, beam directions ``(n_beams, 3)`` and ranges of a sonar image."""
+    image = mono8(polar_u8, "Ros2Bridge.publish_sonar_image.polar_u8")
+    angles = np.asarray(beam_angles_rad, dtype=float).reshape(-1)
+    ranges = np.asarray(ranges_m, dtype=float).reshape(-1)
+    if image.shape != (ranges.size, angles.size):
+        raise ConfigError(f"polar image {image.shape} does not match {ranges.size} ranges x "
+                          f"{angles.size} beams", "Ros2Bridge.publish_sonar_image")
+    directions = np.stack([np.zeros_like(angles), np.sin(angles), np.cos(angles)], -1)
+    return image, directions, ranges
+
+
+def projected_sonar_image_bytes(t_sim: float, frame_id: str, polar_u8: np.ndarray,
+                                beam_angles_rad: ArrayLike, ranges_m: ArrayLike,
+                                frequency_hz: float, sound_speed_m_s: float) -> bytes:
+    """The serialised :func:`projected_sonar_image_msg` (the pixels copied once)."""
+    image, directions, ranges = _sonar_image_inputs(polar_u8, beam_angles_rad, ranges_m)
+    sec, nanosec = stamp_from_sim_time(t_sim)
+    return encode_projected_sonar_image(sec, nanosec, frame_id, image, directions, ranges,
+                                        float(frequency_hz), float(sound_speed_m_s))
+
+
+def projected_sonar_image_msg(t_sim: float, frame_id: str, polar_u8: np.ndarray,
+                              beam_angles_rad: ArrayLike, ranges_m: ArrayLike,
+                              frequency_hz: float, sound_speed_m_s: float) -> Any:
+    """marine_acoustic_msgs/ProjectedSonarImage of a polar image ``(n_bins, n_beams)``
+    (row = range bin near -> far, column = beam port -> starboard), stamped ``t_sim``.
+
+    Following the message's convention (its .msg comment: Z forward in the plane of the
+    fan, X up, hence Y starboard), beam ``i`` at azimuth ``theta_i`` (> 0 starboard) has
+    the direction ``(0, sin theta_i, cos theta_i)``; ``ranges`` are the bin centres (m);
+    the image data is ``uint8``, one row of ``beam_count`` samples per range bin.
+    """
+    from geometry_msgs.msg import Vector3
+    from marine_acoustic_msgs.msg import ProjectedSonarImage, SonarImageData
+
+    image, directions, ranges = _sonar_image_inputs(polar_u8, beam_angles_rad, ranges_m)
+    msg = ProjectedSonarImage()
+    _set_stamp(msg.header, t_sim, frame_id)
+    msg.ping_info.frequency = float(frequency_hz)
+    msg.ping_info.sound_speed = float(sound_speed_m_s)
+    msg.beam_directions = [Vector3(x=x, y=y, z=z) for x, y, z in directions.tolist()]
+    msg.ranges = array.array("f", ranges.astype(np.float32).tobytes())
+    msg.image.is_bigendian = False
+    msg.image.dtype = SonarImageData.DTYPE_UINT8
+    msg.image.beam_count = int(directions.shape[0])
+    data = array.array("B")
+    data.frombytes(memoryview(image.reshape(-1)))
+    msg.image.data = data
+    return msg
 
 _MARKER_TYPES: dict[str, int] = {
     "box": Marker.CUBE,
@@ -128,25 +205,6 @@ def odometry_msg(
     return odom
 
 
-class PoseStampedEncoder:
-    """geometry_msgs/PoseStamped in a fixed frame, serialised (CDR, little endian) by one
-    precompiled ``struct``: the bytes rclpy makes of the message, without building one.
-    ``tests/integration/test_ros2_convert.py`` holds it to rclpy's serialisation."""
-
-    __slots__ = ("_frame", "_struct")
-
-    def __init__(self, frame_id: str) -> None:
-        self._frame = frame_id.encode("utf-8") + b"\x00"
-        end_of_frame = 8 + 4 + len(self._frame)  # stamp, string length, string (+ NUL)
-        pad = -end_of_frame % 8  # the pose's doubles are 8-aligned
-        self._struct = struct.Struct(f"<4siII{len(self._frame)}s{pad}x7d")
-
-    def __call__(self, sec: int, nanosec: int, position: Sequence[float],
-                 orientation_xyzw: Sequence[float]) -> bytes:
-        return self._struct.pack(CDR_LE_HEADER, sec, nanosec, len(self._frame), self._frame,
-                                 *position, *orientation_xyzw)
-
-
 #: rosgraph_msgs/Clock serialised (CDR little endian): header, int32 sec, uint32 nanosec.
 _CLOCK_CDR = struct.Struct("<4siI")
 #: std_msgs/Float64 serialised: header, then the double (8-aligned at offset 0).
@@ -199,10 +257,11 @@ def pointcloud_msg(
     return cloud
 
 
-def marker_msg(t_sim: float, i: int, spec: Mapping[str, Any]) -> Marker:
+def marker_msg(t_sim: float, i: int, spec: Mapping[str, Any],
+               world_frame: str = WORLD_FRAME) -> Marker:
     """visualization_msgs/Marker number ``i`` of ``/scene/markers`` from its mapping (see
     :meth:`~uhrisim.bridges.ros2.bridge.Ros2Bridge.publish_scene`), stamped ``t_sim`` (s),
-    frame ``"map"``; a ConfigError names the marker and the key at fault."""
+    frame ``world_frame``; a ConfigError names the marker and the key at fault."""
     where = f"Ros2Bridge.publish_scene.markers[{i}]"
     try:
         kind = spec["type"]
@@ -211,7 +270,7 @@ def marker_msg(t_sim: float, i: int, spec: Mapping[str, Any]) -> Marker:
                 f"type {kind!r} not one of {sorted(_MARKER_TYPES)}", f"{where}.type"
             )
         m = Marker()
-        _set_stamp(m.header, t_sim, WORLD_FRAME)
+        _set_stamp(m.header, t_sim, world_frame)
         m.ns = str(spec.get("ns", ""))
         m.id = int(spec["id"])
         m.type = _MARKER_TYPES[kind]

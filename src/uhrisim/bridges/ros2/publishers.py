@@ -16,7 +16,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 from rclpy.qos import QoSProfile
 
-from uhrisim.record.cdr import OdometryEncoder, encode_image, encode_pointcloud2
+from uhrisim.record.cdr import (
+    OdometryEncoder,
+    PoseStampedEncoder,
+    TransformEncoder,
+    encode_image,
+    encode_pointcloud2,
+)
 
 from .convert import (
     RateGate,
@@ -25,13 +31,15 @@ from .convert import (
     optical_rotation_ned,
     pose_enu_from_ned,
     stamp_from_sim_time,
+    tf_chain,
+    tf_chain_frames,
 )
 from .messages import (
     WORLD_FRAME,
-    PoseStampedEncoder,
     camera_info_msg,
     float64_bytes,
     mono8,
+    projected_sonar_image_bytes,
     string_bytes,
 )
 from .spec import AgentBridgeSpec
@@ -45,22 +53,40 @@ class AgentPublishers:
     (``publish_nav`` ...) for this agent, after the bridge has checked the call and
     advanced ``/clock``; see there for units and frames."""
 
-    def __init__(self, spec: AgentBridgeSpec, writer: TopicWriter) -> None:
+    def __init__(self, spec: AgentBridgeSpec, writer: TopicWriter,
+                 world_frame: str = WORLD_FRAME, frame_prefix: str = "") -> None:
         self.spec = spec
         self.writer = writer
+        #: the agent's frames are ``<frame_base>/base_link``, ``/odom``, ``/sonar``
+        self.frame_base = f"{frame_prefix}{spec.name}"
+        self.world_frame = world_frame
         self.nav_gate = RateGate(spec.odom_rate_hz)
         self.sonar_gate = RateGate(spec.sonar_rate_hz)
         # odometry and pose go out pre-serialised (a few us instead of ~30 us a message)
-        self.odometry = OdometryEncoder(WORLD_FRAME, f"{spec.name}/base_link")
-        self.pose = PoseStampedEncoder(WORLD_FRAME)
+        self.odometry = OdometryEncoder(world_frame, f"{self.frame_base}/base_link")
+        self.pose = PoseStampedEncoder(world_frame)
+        first, *more = tf_chain_frames(self.frame_base, world_frame)
+        self.tf = TransformEncoder(*first, *more)  # the /tf chain, one struct
         self.pubs: dict[str, Any] = {}
-        self.topics = {key: topic for key, topic, _, _ in agent_topics(spec)}
+        self.topics: dict[str, str] = {}  # key -> resolved topic name, once created
         self.mode_text: str | None = None  # the last helm mode published
+        self.tf_pub: Any = None  # the bridge's /tf publisher (None: tf2_msgs not built)
 
-    def create(self, node: Any, sensor_qos: QoSProfile) -> None:
-        """Create this agent's publishers on ``node`` (``sensor_qos``: sonar images, hits)."""
+    def create(self, node: Any, sensor_qos: QoSProfile, tf_pub: Any) -> None:
+        """Create this agent's publishers on ``node`` (``sensor_qos``: sonar images, hits);
+        its transforms go to ``tf_pub`` (the bridge's ``/tf``, or None)."""
         for key, topic, msg_type, qos in agent_topics(self.spec, sensor_qos):
-            self.pubs[key] = node.create_publisher(msg_type, topic, qos)
+            self.pubs[key] = self.writer.create(node, msg_type, topic, qos)
+            self.topics[key] = self.pubs[key].topic_name
+        self.tf_pub = tf_pub
+        if tf_pub is not None:
+            self.topics["tf"] = tf_pub.topic_name
+
+    def _nav_wanted(self) -> tuple[bool, bool, bool]:
+        """Whether odometry, pose and /tf have a subscriber."""
+        wanted = self.writer.wanted
+        tf = self.tf_pub is not None and wanted(self.tf_pub)
+        return wanted(self.pubs["odom"]), wanted(self.pubs["pose"]), tf
 
     def nav(self, t_sim: float, position_ned: ArrayLike, yaw_rad: float,
             velocity_body_frd: ArrayLike, yaw_rate: float) -> bool:
@@ -68,9 +94,8 @@ class AgentPublishers:
         if not self.nav_gate.due(t_sim):
             return False
         f = odom_fields_from_ned(position_ned, yaw_rad, velocity_body_frd, yaw_rate)  # checks
-        wanted = self.writer.wanted
-        odom_wanted, pose_wanted = wanted(self.pubs["odom"]), wanted(self.pubs["pose"])
-        if not (odom_wanted or pose_wanted):
+        odom_wanted, pose_wanted, tf_wanted = self._nav_wanted()
+        if not (odom_wanted or pose_wanted or tf_wanted):
             return False
         sec, nanosec = stamp_from_sim_time(t_sim)
         if odom_wanted:
@@ -80,6 +105,10 @@ class AgentPublishers:
         if pose_wanted:
             pose = self.pose(sec, nanosec, f.position_enu, f.orientation_xyzw)
             self.writer.write(self.pubs["pose"], pose, self.topics["pose"])
+        if tf_wanted:
+            (t0, q0), second = tf_chain(f.position_enu, f.orientation_xyzw)
+            tf = self.tf(sec, nanosec, t0, q0, second)
+            self.writer.write(self.tf_pub, tf, self.topics["tf"])
         return True
 
     def odometry_due(self, t_sim: float) -> bool:
@@ -87,7 +116,7 @@ class AgentPublishers:
         moves on to its next period, as if the odometry had gone out."""
         if not self.nav_gate.is_due(t_sim):
             return False
-        if self.writer.wanted(self.pubs["odom"]) or self.writer.wanted(self.pubs["pose"]):
+        if any(self._nav_wanted()):
             return True
         self.nav_gate.due(t_sim)  # nothing to send: pass the slot
         return False
@@ -105,7 +134,7 @@ class AgentPublishers:
         """The sonar products given, if the sonar gate is due; True when it was due."""
         if not self.sonar_gate.due(t_sim):
             return False
-        frame = f"{self.spec.name}/sonar"
+        frame = f"{self.frame_base}/sonar"
         # every product given is checked, whether or not someone subscribes to it
         images = [(key, mono8(image, f"Ros2Bridge.publish_sonar.{key}_u8"))
                   for key, image in (("polar", polar_u8), ("fan", fan_u8)) if image is not None]
@@ -130,7 +159,7 @@ class AgentPublishers:
         """A camera frame to the camera topics someone subscribes to: the rgb8 image,
         its CameraInfo (pinhole, no distortion), the 32FC1 depth image (REP-118) and the
         optical frame's pose (x right, y down, z forward; frame ``<agent>/camera_optical``)."""
-        frame = f"{self.spec.name}/camera_optical"
+        frame = f"{self.frame_base}/camera_optical"
         sec, nanosec = stamp_from_sim_time(t_sim)
         pubs, write, wanted = self.pubs, self.writer.write, self.writer.wanted
         if wanted(pubs["camera_image"]):
@@ -148,6 +177,32 @@ class AgentPublishers:
             pose = pose_enu_from_ned(position, optical_rotation_ned(rotation))
             write(pubs["camera_pose"], self.pose(sec, nanosec, *pose),
                   self.topics["camera_pose"])
+
+    def sonar_image_wanted(self) -> bool:
+        """Does ``sonar/image`` (ProjectedSonarImage) exist and have a subscriber?"""
+        pub = self.pubs.get("image")
+        return pub is not None and self.writer.wanted(pub)
+
+    def sonar_image(self, t_sim: float, polar_u8: np.ndarray, beam_angles_rad: ArrayLike,
+                    ranges_m: ArrayLike, frequency_hz: float, sound_speed_m_s: float) -> None:
+        """``sonar/image`` (the bytes of :func:`~.messages.projected_sonar_image_msg`), if
+        wanted."""
+        if not self.sonar_image_wanted():
+            return
+        raw = projected_sonar_image_bytes(t_sim, f"{self.frame_base}/sonar", polar_u8,
+                                          beam_angles_rad, ranges_m, frequency_hz,
+                                          sound_speed_m_s)
+        self.writer.write(self.pubs["image"], raw, self.topics["image"])
+
+    def extra_wanted(self, key: str) -> bool:
+        """Does the topic ``key`` (``"helm_decision"``, ``"vars"``) exist and have a
+        subscriber?"""
+        pub = self.pubs.get(key)
+        return pub is not None and self.writer.wanted(pub)
+
+    def write_extra(self, key: str, raw: bytes) -> None:
+        """Serialised ``raw`` to the topic ``key`` (checked with :meth:`extra_wanted`)."""
+        self.writer.write(self.pubs[key], raw, self.topics[key])
 
     def helm(self, heading_deg: float | None, speed: float | None, depth: float | None,
              mode: str) -> None:

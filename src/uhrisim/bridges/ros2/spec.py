@@ -9,17 +9,19 @@ import math
 import os
 import re
 from collections.abc import MutableMapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from uhrisim.core.errors import ConfigError
+
+from .limits import THRUSTER_LIMIT, CommandEnvelope
+
+__all__ = ["COMMAND_GROUPS", "ENV_DEFAULTS", "THRUSTER_LIMIT", "AgentBridgeSpec",
+           "AgentCommands", "apply_env_defaults", "check_domain_id"]
 
 #: Command groups an agent may accept from ROS 2: ``"desired"`` = the three
 #: ``/<agent>/cmd/desired_*`` topics (what the built-in helm would produce),
 #: ``"thrusters"`` = ``/<agent>/cmd/thrusters`` (raw [port, starboard, vertical]).
 COMMAND_GROUPS: tuple[str, ...] = ("desired", "thrusters")
-
-#: VideoRay thruster command range (docs/conventions.md): dimensionless, saturated here.
-THRUSTER_LIMIT = 150.0
 
 #: A ROS 2 name token (one namespace level): a letter, then letters, digits, underscores.
 ROS_NAME_TOKEN = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -39,7 +41,8 @@ class AgentBridgeSpec:
     (``None``: every call publishes). ``publish_camera`` adds the camera topics (every
     frame the simulation makes goes out). ``accept`` lists the command groups subscribed
     (:data:`COMMAND_GROUPS`); ``()`` makes the agent publish-only (e.g. the diver's
-    ground truth).
+    ground truth). ``envelope``: what the vehicle can be commanded to do (speeds, reverse,
+    thrusters; :mod:`.limits`), against which every command is checked.
     """
 
     name: str
@@ -48,6 +51,7 @@ class AgentBridgeSpec:
     sonar_rate_hz: float | None = None
     odom_rate_hz: float | None = None
     publish_camera: bool = False
+    envelope: CommandEnvelope = field(default_factory=CommandEnvelope)
 
     def __post_init__(self) -> None:
         where = f"AgentBridgeSpec({self.name!r})"

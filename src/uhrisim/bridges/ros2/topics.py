@@ -1,14 +1,19 @@
 """The ROS 2 bridge's topics and their QoS: what goes out per agent, what comes in.
 
 Per agent (namespace ``/<agent>``): ``odom``, ``pose``, the sonar's ``sonar/polar``,
-``sonar/fan``, ``sonar/points`` and ``sonar/pose``, the camera's ``camera/image_raw``,
-``camera/camera_info``, ``camera/depth`` and ``camera/pose``, the helm's ``helm/desired_*`` and
-``helm/mode``; commands in on ``cmd/desired_*`` and ``cmd/thrusters``. Bridge-wide:
-``/clock`` and ``/scene/markers``. docs/bridges-ros2.md has the table with frames, units
-and rates; the QoS profiles below say why each is what it is.
+``sonar/fan``, ``sonar/points``, ``sonar/pose`` and ``sonar/image``
+(marine_acoustic_msgs/ProjectedSonarImage), the camera's ``camera/image_raw``,
+``camera/camera_info``, ``camera/depth`` and ``camera/pose``, the helm's ``helm/desired_*``,
+``helm/mode`` and ``helm/decision``, the community's ``vars``; commands in on
+``cmd/desired_*`` and ``cmd/thrusters``. Bridge-wide: ``/clock``, ``/scene/markers``,
+``/tf``, ``/tf_static`` and ``/events``. The topics whose message packages have no
+wheels exist when :mod:`.interfaces` has built them. docs/bridges-ros2.md has the table
+with frames, units and rates; the QoS profiles below say why each is what it is.
 """
 
 from __future__ import annotations
+
+import importlib.util
 
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
@@ -77,6 +82,32 @@ QOS_COMMAND = QoSProfile(
     durability=DurabilityPolicy.VOLATILE,
 )
 
+#: /tf: what tf2_ros's TransformBroadcaster uses (reliable, keep the last 100, volatile).
+QOS_TF = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=100,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+#: /tf_static: what tf2_ros's StaticTransformBroadcaster uses (reliable, transient local,
+#: keep the last 1): one message holding every static transform, sent once at start.
+QOS_TF_STATIC = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
+
+#: The reliable variants of the sensor and clock profiles (``-p sensor_qos:=reliable``,
+#: ``-p clock_qos:=reliable``), for tools that subscribe with rclpy's default reliable QoS
+#: (RViz2's image and point-cloud displays by default, a plain ``create_subscription``).
+QOS_CLOCK_RELIABLE = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+
 #: Keys of the desired values (std_msgs/Float64): the helm's ``/<agent>/helm/<key>`` out,
 #: the commands ``/<agent>/cmd/<key>`` in.
 DESIRED_KEYS = ("desired_heading", "desired_speed", "desired_depth")
@@ -87,13 +118,18 @@ THRUSTERS_KEY = "thrusters"
 def agent_topics(spec: AgentBridgeSpec, sensor_qos: QoSProfile = QOS_SENSOR
                  ) -> list[tuple[str, str, type, QoSProfile]]:
     """``(key, topic, message type, QoS)`` of every topic the bridge publishes for one
-    agent (besides ``/clock`` and ``/scene/markers``), as
+    agent (besides the bridge-wide ones), as
     :meth:`~uhrisim.bridges.ros2.bridge.Ros2Bridge.start` creates them; ``sensor_qos`` is
-    that of the sonar images and hits."""
-    ns = f"/{spec.name}"
+    that of the sonar images and hits. Names are relative: they resolve in the node's
+    namespace (``/<agent>/odom`` without one)."""
+    ns = spec.name
     topics = [("odom", f"{ns}/odom", Odometry, QOS_STATE),
               ("pose", f"{ns}/pose", PoseStamped, QOS_STATE)]
     if spec.publish_sonar:
+        if importlib.util.find_spec("marine_acoustic_msgs") is not None:
+            from marine_acoustic_msgs.msg import ProjectedSonarImage
+
+            topics.append(("image", f"{ns}/sonar/image", ProjectedSonarImage, sensor_qos))
         topics += [("polar", f"{ns}/sonar/polar", Image, sensor_qos),
                    ("fan", f"{ns}/sonar/fan", Image, sensor_qos),
                    ("points", f"{ns}/sonar/points", PointCloud2, sensor_qos),
@@ -106,4 +142,9 @@ def agent_topics(spec: AgentBridgeSpec, sensor_qos: QoSProfile = QOS_SENSOR
     topics += [(f"helm_{key}", f"{ns}/helm/{key}", Float64, QOS_STATE)
                for key in DESIRED_KEYS]
     topics.append(("helm_mode", f"{ns}/helm/mode", String, QOS_LATCHED))
+    if importlib.util.find_spec("uhrisim_msgs") is not None:
+        from uhrisim_msgs.msg import HelmDecision, Variable
+
+        topics += [("helm_decision", f"{ns}/helm/decision", HelmDecision, QOS_STATE),
+                   ("vars", f"{ns}/vars", Variable, QOS_STATE)]
     return topics

@@ -1,4 +1,10 @@
-"""Handing messages to DDS, and the bridge's statistics: messages and failures per topic.
+"""Creating publishers, handing messages to DDS, and the bridge's statistics: messages,
+failures and incompatible subscribers per topic.
+
+A subscriber whose QoS cannot match a publisher's (a reliable subscription to a
+best-effort topic, the ROS default meeting the sensor-data convention) receives nothing;
+DDS only tells the publisher. Every publisher made here counts such subscribers per topic
+and says so through the node's logger (so on ``/rosout``), with what to do.
 
 A volatile topic nobody subscribes to is skipped (no subscriber could receive what it
 missed; the conversion and the DDS write are saved) unless the bridge publishes
@@ -27,6 +33,7 @@ class TopicWriter:
         self.publish_unsubscribed = publish_unsubscribed
         self._counts: dict[str, int] = {}
         self._failed: dict[str, int] = {}
+        self._incompatible: dict[str, int] = {}  # counted on the executor thread
 
     def wanted(self, pub: Any) -> bool:
         """Should a message go to ``pub``'s topic: someone subscribed (well under 1 us)?
@@ -56,9 +63,32 @@ class TopicWriter:
         counts = self._counts
         counts[key] = counts.get(key, 0) + 1
 
+    def create(self, node: Any, msg_type: type, topic: str, qos: Any) -> Any:
+        """A publisher on ``node`` whose incompatible subscribers are counted and reported
+        (see the module docstring)."""
+        from rclpy.event_handler import PublisherEventCallbacks
+        from rclpy.qos import ReliabilityPolicy
+
+        resolved = node.resolve_topic_name(topic)
+        hint = ("; it should subscribe best effort (rclpy's qos_profile_sensor_data), or "
+                "start the bridge with -p sensor_qos:=reliable (sonar) or -p "
+                "clock_qos:=reliable (/clock)"
+                if qos.reliability == ReliabilityPolicy.BEST_EFFORT else "")
+        logger = node.get_logger()
+
+        def incompatible(info: Any) -> None:
+            self._incompatible[resolved] = self._incompatible.get(resolved, 0) + 1
+            logger.warning(f"a subscriber to {resolved} asks for a QoS this publisher cannot "
+                           f"offer ({info.last_policy_kind.name}): it receives nothing{hint}")
+
+        return node.create_publisher(msg_type, topic, qos, event_callbacks=
+                                     PublisherEventCallbacks(incompatible_qos=incompatible))
+
     def stats(self) -> dict[str, dict[str, int]]:
-        """Messages published and writes failed per topic (copies)."""
-        return {"published": self._counts.copy(), "failed": self._failed.copy()}
+        """Messages published, writes failed and incompatible subscribers seen, per topic
+        (copies)."""
+        return {"published": self._counts.copy(), "failed": self._failed.copy(),
+                "incompatible_qos": self._incompatible.copy()}
 
     @property
     def failing_topics(self) -> tuple[str, ...]:

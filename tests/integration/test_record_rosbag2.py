@@ -1,0 +1,97 @@
+"""A run's output folder is a rosbag2 bag with the live bridge's topics (issue 16).
+
+``uhrisim``'s runner records the track-and-trail mission for 3 s with the ROS 2 bridge
+attached. The folder must open with ``rosbags.rosbag2.Reader`` (its metadata.yaml: the
+files, topics, types and counts of the MCAP file) and every message must decode with
+rosbags and with mcap-ros2. The recorded topics must be the topics the bridge's node
+publishes (asked of the ROS graph during the run), uhrisim_msgs' helm decisions,
+community variables and events included. A recording cut short and recovered is a bag
+again.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from pathlib import Path
+
+import pytest
+import yaml
+
+pytest.importorskip("rclpy")
+for _package in ("tf2_msgs", "marine_acoustic_msgs", "uhrisim_msgs"):  # the live topics
+    pytest.importorskip(_package, reason="python -m uhrisim.bridges.ros2.interfaces")
+rosbag2 = pytest.importorskip("rosbags.rosbag2")
+
+from mcap.reader import make_reader  # noqa: E402
+from mcap_ros2.reader import read_ros2_messages  # noqa: E402
+from rosbags.highlevel import AnyReader  # noqa: E402
+
+from uhrisim.bridges.ros2.hook import Ros2BridgeHook  # noqa: E402
+from uhrisim.record.recover import recover_in_place  # noqa: E402
+from uhrisim.sim.runner import run_scenario  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENARIO = ROOT / "scenarios" / "track_and_trail.yaml"
+NODE = "uhrisim_rosbag2_test"
+
+
+class LiveTopics:
+    """Asks the ROS graph, late in the run, which topics the bridge's node publishes."""
+
+    def __init__(self, bridge_hook: Ros2BridgeHook) -> None:
+        self.hook, self.topics = bridge_hook, None
+
+    def on_start(self, sim) -> None: ...
+    def on_end(self, sim, error) -> None: ...
+
+    def on_tick(self, frame) -> None:
+        if self.topics is None and frame.t >= 2.5:
+            node = self.hook.bridge._node
+            self.topics = {name for name, _types in
+                           node.get_publisher_names_and_types_by_node(NODE, "/")}
+
+
+def test_run_folder_is_a_rosbag2_bag_with_the_live_topics(ros_env: int, tmp_path: Path):
+    out = tmp_path / "run"
+    bridge = Ros2BridgeHook(domain_id=ros_env, node_name=NODE)
+    live = LiveTopics(bridge)
+    run_scenario(SCENARIO, out, duration=3.0, extra_hooks=[live, bridge],
+                 configure=lambda sim: sim.record_event("note", "an event for /events"))
+
+    meta = yaml.safe_load((out / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert meta["relative_file_paths"] == ["recording.mcap"]
+    assert meta["storage_identifier"] == "mcap" and meta["version"] == 9
+    declared = {t["topic_metadata"]["name"]: t["message_count"]
+                for t in meta["topics_with_message_count"]}
+
+    # rosbags: the folder as a rosbag2 bag, every message decoded
+    with rosbag2.Reader(out) as reader:
+        assert reader.message_count == meta["message_count"]
+        assert {c.topic: c.msgcount for c in reader.connections} == declared
+    with AnyReader([out]) as reader:
+        counted = Counter()
+        for connection, _t, raw in reader.messages():
+            reader.deserialize(raw, connection.msgtype)
+            counted[connection.topic] += 1
+    assert counted == declared
+    # mcap-ros2: the same messages from the .mcap file
+    decoded = Counter(m.channel.topic for m in read_ros2_messages(out / "recording.mcap"))
+    assert decoded == declared
+
+    # the same topics as live (ROS's own node topics aside)
+    assert live.topics is not None
+    published = live.topics - {"/rosout", "/parameter_events"}
+    recorded = set(declared)
+    assert recorded == published
+    assert {"/clock", "/tf", "/tf_static", "/videoray/sonar/image"} <= recorded
+
+    # a run killed mid-way has no metadata.yaml; uhrisim recover makes the folder a bag
+    data = (out / "recording.mcap").read_bytes()
+    with (out / "recording.mcap").open("rb") as f:
+        last_chunk = max(c.chunk_start_offset for c in make_reader(f).get_summary().chunk_indexes)
+    (out / "metadata.yaml").unlink()
+    (out / "recording.mcap").write_bytes(data[: last_chunk + 10])  # inside the last chunk
+    count = recover_in_place(out / "recording.mcap")
+    assert count is not None and 0 < count < meta["message_count"]
+    with rosbag2.Reader(out) as reader:
+        assert reader.message_count == count == sum(1 for _ in reader.messages())

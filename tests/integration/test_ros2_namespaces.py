@@ -1,0 +1,118 @@
+"""Two simulators on one ROS domain, in different namespaces, do not collide (issue 16).
+
+Both run scenarios/ros2_external_helm.yaml here, paced at real time; one gets its
+namespace by remapping (``--ros-args -r __ns:=/sim_a``), the other from the hook's
+``namespace`` with parameters (``-p``). A separate plain-rclpy process commands only
+``/sim_a/videoray``: that ROV moves, the other stays where it starts. Each node, each
+``clock``, ``tf`` and agent topic exists once per namespace, and the parameters took
+effect (rates, reliable sensor and clock QoS).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import queue
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("rclpy")
+
+from rclpy.qos import ReliabilityPolicy
+
+from tests.support.children import Child
+from uhrisim.bridges.ros2.hook import Ros2BridgeHook
+from uhrisim.scenario.load import load_scenario
+from uhrisim.sim.pacing import Pacer
+from uhrisim.sim.simulation import Simulation
+
+SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "ros2_external_helm.yaml"
+
+
+def test_two_simulators_in_two_namespaces_on_one_domain(ros_env: int, tmp_path: Path) -> None:
+    hook_a = Ros2BridgeHook(domain_id=ros_env, ros_args=["-r", "__ns:=/sim_a",
+                                                         "-p", "odom_rate_hz:=20.0"])
+    hook_b = Ros2BridgeHook(domain_id=ros_env, namespace="/sim_b",
+                            ros_args=["-p", "sensor_qos:=reliable", "-p", "clock_qos:=reliable"])
+    sims = [Simulation(load_scenario(SCENARIO), sonar_enabled=sonar, hooks=[hook])
+            for hook, sonar in ((hook_a, False), (hook_b, True))]
+    plan = [[3.0, {"desired_heading": [90.0], "desired_speed": [0.6], "desired_depth": [2.0]}]]
+    commander = Child("ros2_command_plan.py", ["--agent", "sim_a/videoray", "--plan",
+                                               json.dumps(plan)], tmp_path)
+    try:
+        for sim in sims:
+            sim.start()
+        pacer = Pacer(real_time_factor=1.0)
+        pacer.reset(0.0)
+        done_at = None
+        while sims[0].t < 40.0 and (done_at is None or sims[0].t < done_at + 0.5):
+            for sim in sims:
+                sim.step()
+            pacer.wait(sims[0].t)
+            if done_at is None:
+                try:
+                    if commander.lines.get_nowait() == "DONE":
+                        done_at = sims[0].t
+                except queue.Empty:
+                    pass
+        assert done_at is not None, "the commander never finished"
+        node = hook_a.bridge._node  # the graph as one participant sees it
+        topics = dict(node.get_topic_names_and_types())
+        nodes = set(node.get_node_names_and_namespaces())
+        clock_b = node.get_publishers_info_by_topic("/sim_b/clock")
+        image_b = node.get_publishers_info_by_topic("/sim_b/videoray/sonar/polar")
+        clock_a = node.get_publishers_info_by_topic("/sim_a/clock")
+        params = (hook_a.bridge.parameters, hook_b.bridge.parameters)
+        assert commander.finish(timeout=15.0) == 0
+    finally:
+        for sim in sims:
+            sim.close()
+        if commander.proc.poll() is None:
+            commander.proc.kill()
+
+    assert {("uhrisim", "/sim_a"), ("uhrisim", "/sim_b")} <= nodes
+    for ns in ("/sim_a", "/sim_b"):
+        for topic in ("clock", "videoray/odom", "videoray/cmd/desired_speed", "scene/markers",
+                      *(("tf", "tf_static") if importlib.util.find_spec("tf2_msgs") else ())):
+            assert f"{ns}/{topic}" in topics, f"{ns}/{topic}"
+    assert not {"/clock", "/tf", "/videoray/odom"} & set(topics)  # nothing at the root
+
+    # only sim_a's ROV obeyed: it moved east at the commanded speed; sim_b's stayed put
+    start = np.array([3.0, 4.0, 2.0])
+    moved_a = np.linalg.norm(sims[0].agents["videoray"].nav().position_ned - start)
+    moved_b = np.linalg.norm(sims[1].agents["videoray"].nav().position_ned - start)
+    assert moved_a > 0.8 and moved_b < 0.01
+    assert hook_a.n_posted > 0 and hook_b.n_posted == 0
+
+    # the parameters took effect
+    assert params[0].odom_rate_hz == 20.0 and params[1].odom_rate_hz == 0.0
+    assert params[1].sensor_qos == params[1].clock_qos == "reliable"
+    assert clock_b[0].qos_profile.reliability == ReliabilityPolicy.RELIABLE
+    assert image_b[0].qos_profile.reliability == ReliabilityPolicy.RELIABLE
+    assert clock_a[0].qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+
+
+def test_a_bad_parameter_is_one_line_naming_it(ros_env: int, tmp_path: Path) -> None:
+    """A parameter of the wrong value or type stops the start with a ConfigError naming
+    it; on the command line, one ``error:`` line and exit status 2."""
+    from uhrisim.bridges.ros2 import AgentBridgeSpec, Ros2Bridge
+    from uhrisim.core.errors import ConfigError
+
+    for args, name in ((["-p", "sensor_qos:=fast"], "sensor_qos"),
+                       (["-p", "odom_rate_hz:=20"], "odom_rate_hz"),  # an int, not a double
+                       (["-p", "clock_rate_hz:=-1.0"], "clock_rate_hz")):
+        bridge = Ros2Bridge([AgentBridgeSpec("rov")], domain_id=ros_env, ros_args=args)
+        with pytest.raises(ConfigError, match=f"ROS parameter {name}"):
+            bridge.start()
+        bridge.close()
+    proc = subprocess.run(
+        [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "--out", str(tmp_path / "o"),
+         "--duration", "1", "--no-sonar", "-q", "--ros-args=-p sensor_qos:=fast"],
+        capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:") and "sensor_qos" in lines[0]

@@ -1,0 +1,105 @@
+"""A plain rclpy node that collects /tf, /tf_static, an agent's sonar points, its
+marine_acoustic_msgs/ProjectedSonarImage and its helm decisions (uhrisim_msgs), for the
+bridge tests; no uhrisim imports (the message packages are built at install time).
+
+Prints ``READY`` once subscribed; on ``STOP`` (stdin) prints ``RESULT <json>``:
+``static``: the /tf_static transforms; ``tf``: "sec.nanosec" -> the /tf transforms of
+that stamp; ``points``: "sec.nanosec" -> the cloud's (x, y, z) rows (float32 -> float);
+``image``: the last ProjectedSonarImage's frame, stamp, beam directions, ranges, dtype,
+beam count, data length, frequency and sound speed; ``decisions``: "sec.nanosec" -> the
+uhrisim_msgs/HelmDecision's heading, mode, contributions and total. A transform is
+``[parent, child, [tx, ty, tz], [qx, qy, qz, qw]]``.
+
+    python ros2_tf_listener.py --agent videoray
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import select
+import sys
+
+import numpy as np
+import rclpy
+from marine_acoustic_msgs.msg import ProjectedSonarImage
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from sensor_msgs.msg import PointCloud2
+from tf2_msgs.msg import TFMessage
+from uhrisim_msgs.msg import HelmDecision
+
+
+def _stamp(header) -> str:
+    return f"{header.stamp.sec}.{header.stamp.nanosec:09d}"
+
+
+def _transforms(msg: TFMessage) -> list:
+    out = []
+    for ts in msg.transforms:
+        t, q = ts.transform.translation, ts.transform.rotation
+        out.append([ts.header.frame_id, ts.child_frame_id, [t.x, t.y, t.z],
+                    [q.x, q.y, q.z, q.w]])
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--agent", required=True)
+    args = ap.parse_args()
+    rclpy.init()
+    node = rclpy.create_node("test_tf_listener", start_parameter_services=False)
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    result: dict = {"static": [], "tf": {}, "points": {}, "image": None, "decisions": {}}
+
+    def on_tf(msg: TFMessage) -> None:
+        for tr in _transforms(msg):
+            stamp = _stamp(msg.transforms[0].header)
+            result["tf"].setdefault(stamp, []).append(tr)
+
+    def on_static(msg: TFMessage) -> None:
+        result["static"] = _transforms(msg)
+
+    def on_points(msg: PointCloud2) -> None:
+        xyz = np.frombuffer(bytes(msg.data), "<f4").reshape(-1, 4)[:, :3]
+        if len(xyz):
+            result["points"][_stamp(msg.header)] = xyz.astype(float).tolist()
+
+    def on_image(msg: ProjectedSonarImage) -> None:
+        result["image"] = {
+            "frame_id": msg.header.frame_id, "stamp": _stamp(msg.header),
+            "directions": [[v.x, v.y, v.z] for v in msg.beam_directions],
+            "ranges": [float(r) for r in msg.ranges], "dtype": msg.image.dtype,
+            "beam_count": msg.image.beam_count, "n_data": len(msg.image.data),
+            "frequency": msg.ping_info.frequency, "sound_speed": msg.ping_info.sound_speed,
+        }
+
+    def on_decision(msg: HelmDecision) -> None:
+        result["decisions"][_stamp(msg.header)] = {
+            "heading": msg.heading_deg if msg.has_heading else None, "mode": msg.mode,
+            "contributions": {c.name: c.value for c in msg.contributions},
+            "total": msg.total}
+
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    node.create_subscription(TFMessage, "/tf", on_tf, 100)
+    node.create_subscription(TFMessage, "/tf_static", on_static, latched)
+    node.create_subscription(PointCloud2, f"/{args.agent}/sonar/points", on_points,
+                             qos_profile_sensor_data)
+    node.create_subscription(ProjectedSonarImage, f"/{args.agent}/sonar/image", on_image,
+                             qos_profile_sensor_data)
+    node.create_subscription(HelmDecision, f"/{args.agent}/helm/decision", on_decision, 50)
+    print("READY", flush=True)
+    while True:
+        executor.spin_once(timeout_sec=0.02)
+        if select.select([sys.stdin], [], [], 0.0)[0] and sys.stdin.readline().strip() == "STOP":
+            break
+    print("RESULT " + json.dumps(result), flush=True)
+    node.destroy_node()
+    rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
