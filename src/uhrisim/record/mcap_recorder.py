@@ -77,6 +77,7 @@ from typing import Any
 import numpy as np
 from mcap.writer import LIBRARY_IDENTIFIER, CompressionType
 from mcap.writer import Writer as McapWriter
+from mcap_ros2._dynamic import serialize_dynamic
 
 from uhrisim import __version__ as uhrisim_version
 from uhrisim.bridges.ros2.convert import (
@@ -300,6 +301,7 @@ class McapRecorder:
         self._static_children: set[str] = set()  # frames placed by /tf_static
         self._helm_modes: dict[str, str] = {}  # the last /<agent>/helm/mode written
         self._counts: dict[str, int] = {}
+        self._dynamic: dict[str, Any] = {}  # typename -> mcap_ros2's encoder
         self._last_flush_ns = 0
         self._closed = False
 
@@ -350,6 +352,19 @@ class McapRecorder:
         ):
             self._writer.flush()
             self._last_flush_ns = t_ns
+
+    def _encode_dynamic(self, typename: str, message: Mapping[str, Any]) -> bytes:
+        """Encode with mcap_ros2's schema-driven encoder (the general, reference path)."""
+        encoder = self._dynamic.get(typename)
+        if encoder is None:
+            encoder = serialize_dynamic(typename, schema_text(typename))[typename]
+            self._dynamic[typename] = encoder
+        return encoder(message)
+
+    @staticmethod
+    def _header(t_ns: int, frame_id: str) -> dict[str, Any]:
+        sec, nanosec = divmod(t_ns, 1_000_000_000)
+        return {"stamp": {"sec": sec, "nanosec": nanosec}, "frame_id": frame_id}
 
     # ------------------------------------------------------------------ writers
     def write_odometry(
