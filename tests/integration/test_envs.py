@@ -58,6 +58,30 @@ def test_same_seed_same_trajectory(observation):
     assert not _same(first[0][0], other[0][0])
 
 
+def test_the_20_hz_physics_step_flies_the_file_s_60_hz_trajectory():
+    """The default physics rate (20 Hz, the controllers' rate) against the scenario's own
+    60 Hz: inputs are held between control updates either way and the VideoRay's RK4
+    sub-steps keep their length, so 30 s of seeded random commands end within millimetres
+    (only rounding and the collision/kick bookkeeping between ticks differ)."""
+    runs = {}
+    for rate in (20.0, None):
+        env = TrailDiverEnv("state", physics_rate_hz=rate, time_limit_s=30.0)
+        env.reset(seed=3)
+        env.action_space.seed(3)
+        states, ranges = [], []
+        for _ in range(120):
+            _, _, terminated, truncated, info = env.step(env.action_space.sample())
+            states.append(env._sim.agents["videoray"].state.copy())
+            ranges.append(info["range_m"])
+            if terminated or truncated:
+                break
+        runs[rate] = (np.array(states), np.array(ranges))
+    (fast, fast_range), (file_rate, file_range) = runs[20.0], runs[None]
+    assert fast.shape == file_rate.shape and len(fast) > 60
+    assert np.max(np.linalg.norm(fast[:, :3] - file_rate[:, :3], axis=1)) < 0.01  # m
+    assert np.max(np.abs(fast_range - file_range)) < 0.01
+
+
 def test_both_observations_describe_the_same_episode():
     sonar = TrailDiverEnv("sonar", randomization=Randomization.none())
     state = TrailDiverEnv("state", randomization=Randomization.none())

@@ -84,7 +84,8 @@ class TrailEpisodes:
     """Scenarios for episodes of ``follower`` trailing ``target`` in ``scenario_path``.
 
     ``sonar_rate_hz``: the follower's sonar pings at this rate in every episode (None:
-    as the file says). ``hook(data, rng)``: your own randomisation, called after the
+    as the file says). ``physics_rate_hz``: the episodes' physics rate (None: as the file
+    says). ``hook(data, rng)``: your own randomisation, called after the
     built-in draws with the episode's scenario data (the YAML mapping, NED metres and
     compass degrees as in the files) to edit in place and a generator of its own stream
     ``"envs/episode/hook"``; the result is validated like a file. The trail geometry
@@ -93,7 +94,8 @@ class TrailEpisodes:
 
     def __init__(self, scenario_path: str | Path, follower: str, target: str,
                  randomization: Randomization, sonar_rate_hz: float | None = None,
-                 hook: ScenarioHook | None = None) -> None:
+                 hook: ScenarioHook | None = None,
+                 physics_rate_hz: float | None = None) -> None:
         self.path = Path(scenario_path)
         try:
             text = self.path.read_text(encoding="utf-8")
@@ -114,6 +116,8 @@ class TrailEpisodes:
         self.trail_angle_deg = base.metrics.angle_deg
         self.randomization = randomization
         self.sonar_rate_hz = sonar_rate_hz
+        self.physics_rate_hz = (base.physics_rate_hz if physics_rate_hz is None
+                                else float(physics_rate_hz))
         self.hook = hook
         floor = base.world.seafloor
         self.floor_depth_m = getattr(floor, "depth", None)
@@ -125,6 +129,7 @@ class TrailEpisodes:
         outside (``driver: external``), or by its own helm for ``follower_helm``."""
         data = copy.deepcopy(self._data)
         data["seed"] = int(seed)
+        data["physics_rate_hz"] = self.physics_rate_hz
         agents = {a["name"]: a for a in data["agents"]}
         follower, target = agents[self.follower], agents[self.target]
         if not follower_helm:
