@@ -292,10 +292,41 @@ class AlertConfig(Strict):
     cpa_range: PositiveFloat = 50.0
 
 
-class ContactsConfig(Strict):
-    """Where contact reports come from: simulation truth (as in the paper), degraded."""
+class SonarContactsConfig(Strict):
+    """Contacts from the agent's own sonar (``contacts.source: sonar``): the perception
+    chain's settings and how the diver track is reported (docs/perception.md)."""
 
-    source: Literal["truth"] = "truth"
+    name: Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")] = "diver"
+    vehicle_type: str = "DIVER"
+    k_sigma: PositiveFloat = 4.0
+    min_contrast: Annotated[float, Field(ge=0.0, le=1.0)] = 0.12
+    min_level: Annotated[float, Field(ge=0.0, le=1.0)] = 0.25
+    min_range: NonNegativeFloat = 0.8
+    min_cells: Annotated[int, Field(ge=1)] = 12
+    merge_radius: NonNegativeFloat = 0.8
+    confirm: tuple[Annotated[int, Field(ge=1)], Annotated[int, Field(ge=1)]] = (4, 6)
+    max_coast: PositiveFloat = 2.0
+    accel_std: PositiveFloat = 0.4
+    diver_probability: Annotated[float, Field(gt=0.0, lt=1.0)] = 0.6
+    classifier: str | None = None  # JSON file beside the scenario; None: the shipped one
+    lost_var: str = "DIVER_LOST"
+    search_var: str = "DIVER_SEARCH_UPDATES"
+    silence_warn: PositiveFloat = 30.0  # s without a detection before an event says so
+
+    @model_validator(mode="after")
+    def _m_of_n(self) -> SonarContactsConfig:
+        if self.confirm[0] > self.confirm[1]:
+            raise ValueError(f"confirm: M={self.confirm[0]} hits of N={self.confirm[1]} "
+                             "pings needs M <= N")
+        return self
+
+
+class ContactsConfig(Strict):
+    """Where contact reports come from: simulation truth (as in the paper), degraded, or
+    the agent's own sonar through the perception chain."""
+
+    source: Literal["truth", "sonar"] = "truth"
+    sonar: SonarContactsConfig = SonarContactsConfig()
     rate_hz: PositiveFloat = 4.0
     position_noise_std: NonNegativeFloat = 0.0
     latency: NonNegativeFloat = 0.0

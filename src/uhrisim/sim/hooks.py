@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import Any, TYPE_CHECKING
 
 from uhrisim.dynamics.plants import NavState
 from uhrisim.sim.community import Post
@@ -115,3 +115,5 @@ class TickFrame:
     helm: Mapping[str, HelmRecord] = field(default_factory=dict)
     posts: tuple[Post, ...] = ()
     events: tuple[SimEvent, ...] = ()
+    # Sonar perception of this tick by agent (uhrisim.perception.pipeline.PerceptionFrame)
+    perception: Mapping[str, Any] = field(default_factory=dict)

@@ -10,7 +10,9 @@ One tick of the physics step ``dt`` does, in this order (DESIGN.md, "data flows 
 4. **navigation**: NAV_* are posted (at each agent's helm rate);
 5. **contacts**: node reports from simulation truth (degraded as configured) reach the
    other agents' contact managers at the contact rate;
-6. **sensors**: sonars that are due ping the scene;
+6. **sensors**: sonars that are due ping the scene; agents whose contacts come from their
+   sonar run perception on the ping and post the diver track as a contact report
+   (:mod:`uhrisim.sim.sonar_contacts`);
 7. **autonomy**: helms and scripts that are due post DESIRED_*;
 8. **control**: controllers turn DESIRED_* into actuator inputs for the next tick;
 9. **hooks** receive a :class:`~uhrisim.sim.hooks.TickFrame`.
@@ -42,6 +44,7 @@ from uhrisim.sim.contacts import TruthContacts
 from uhrisim.sim.drivers import ScriptedDriver
 from uhrisim.sim.hooks import AgentSnapshot, AgentSnapshots, HelmRecord, SimEvent, TickFrame
 from uhrisim.sim.script import ScriptDriver
+from uhrisim.sim.sonar_contacts import SonarContacts
 from uhrisim.sim.state import Agent, ScheduledEvent
 from uhrisim.world.assets import diver_kick_phase_rate
 from uhrisim.world.scene import Scene
@@ -99,6 +102,7 @@ class Simulation:
         self.scene: Scene = build_static_scene(source)
         self.agents: dict[str, Agent] = build_agents(self, sonar_enabled)
         self.contacts = TruthContacts(self.agents, self.dt, self.rng)
+        self.sonar_contacts = SonarContacts(self.agents, self.dt, source, self.record_event)
         self.events: list[ScheduledEvent] = build_events(self)
         self.raycaster = self.scene.raycaster("embree") if any(
             a.sonars for a in self.agents.values()) else None
@@ -183,6 +187,7 @@ class Simulation:
                 self._post_nav(agent)
         self.contacts.step(self.tick, t)
         pings = self._sense() if self.raycaster is not None else {}
+        perception = self.sonar_contacts.step(self.tick, t, pings)
         helm: dict[str, HelmRecord] = {}
         for agent in self.agents.values():
             if agent.driver is not None and self.tick % agent.driver_period == 0:
@@ -200,7 +205,7 @@ class Simulation:
         if build_frame:
             snapshots.take_all()
         frame = TickFrame(self.tick, t, snapshots, pings, helm, posts,
-                          tuple(self._pending_events))
+                          tuple(self._pending_events), perception)
         self._pending_events.clear()
         for hook in self.hooks:
             hook.on_tick(frame)

@@ -1,0 +1,227 @@
+"""Detection on the polar sonar image: ego-motion-compensated background and CA-CFAR.
+
+Everything here works on the native polar matrix of a ping (rows = range bins, columns =
+beams; ``SonarPing.polar``, display level 0…1, log-compressed). Because that level is
+logarithmic, the detector is a *log-CFAR*: speckle (Rayleigh amplitude, exponential
+intensity) has a level spread that does not depend on the mean, so a threshold of
+
+    level > μ_train + max(k·σ_train, min_contrast)      and      level ≥ min_level
+
+with μ, σ the background level and spread around each cell keeps the false-alarm rate
+constant whatever the local gain, TVG or reverberation. μ and σ come from block means
+(cell averaging) combined by a median and a minimum over neighbouring blocks — an
+order-statistic CFAR on sub-blocks (Rohling 1983; Gandhi & Kassam 1988), so a diver that
+covers a hundred beams at 2 m does not raise its own threshold as a small guard window
+would let it. The image is first averaged over a small window (non-coherent integration against speckle grain,
+which spans several beams because each beam is ~1° wide over ~0.18° spacing,
+``shared/reference/sonar.md``). On a clean image (no noise floor: σ = 0) the
+``min_contrast``/``min_level`` terms do the work, so the detector works on both.
+
+Ego-motion compensation (:class:`BackgroundModel`): a running mean of the image kept in the
+world, not in the sonar: before each update the previous background is resampled into
+the new sonar pose (the sonar's horizontal plane: range, bearing → local north/east →
+the previous pose's range, bearing), so a static piling stays on its background cell
+while the ROV turns and moves; a moving diver or bubbles do not. The per-cell difference
+``level − background`` is each detection's *motion contrast* (a classifier feature).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from uhrisim.core.errors import ConfigError
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class DetectorParams:
+    """Settings of the adaptive-threshold (CFAR) detector; cells are range bins × beams.
+
+    Attributes:
+        smooth_bins, smooth_beams: pre-averaging window (odd, 1 = none).
+        block_bins, block_beams: size of the blocks whose mean levels sample the
+            background.
+        window_blocks: the background of a block is the median of the block means in a
+            ``window_blocks`` × ``window_blocks`` neighbourhood (3 or 5), then the least of
+            those over its 3×3 neighbours (a target covering a few blocks does not raise
+            its own threshold).
+        k_sigma: threshold in background standard deviations above the background.
+        min_contrast: least level above the background (display units, 0…1).
+        min_level: least absolute level of a detected cell (display units).
+        min_range_m: cells nearer than this are ignored (near-field ringing), m.
+        edge_beams: beams at each side of the fan that are ignored.
+    """
+
+    smooth_bins: int = 3
+    smooth_beams: int = 3
+    block_bins: int = 16
+    block_beams: int = 16
+    window_blocks: int = 5
+    k_sigma: float = 4.0
+    min_contrast: float = 0.12
+    min_level: float = 0.25
+    min_range_m: float = 0.8
+    edge_beams: int = 2
+
+    def __post_init__(self) -> None:
+        for name in ("smooth_bins", "smooth_beams"):
+            v = getattr(self, name)
+            if not isinstance(v, int) or v < 1 or v % 2 == 0:
+                raise ConfigError(f"must be an odd integer >= 1, got {v!r}",
+                                  f"DetectorParams.{name}")
+        for name in ("block_bins", "block_beams"):
+            v = getattr(self, name)
+            if not isinstance(v, int) or v < 1:
+                raise ConfigError(f"must be an integer >= 1, got {v!r}",
+                                  f"DetectorParams.{name}")
+        if self.window_blocks not in (3, 5):
+            raise ConfigError(f"must be 3 or 5, got {self.window_blocks!r}",
+                              "DetectorParams.window_blocks")
+        if not isinstance(self.edge_beams, int) or self.edge_beams < 0:
+            raise ConfigError(f"must be an integer >= 0, got {self.edge_beams!r}",
+                              "DetectorParams.edge_beams")
+        for name in ("k_sigma", "min_contrast", "min_level", "min_range_m"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise ConfigError(f"must be a finite number >= 0, got {v!r}",
+                                  f"DetectorParams.{name}")
+
+
+def clean_level(polar: NDArray, where: str = "ping.polar") -> tuple[NDArray[np.float32], int]:
+    """``polar`` as float32 with non-finite cells set to 0 (no echo), and how many there
+    were (a damaged ping is used, not refused; the caller logs it)."""
+    img = np.asarray(polar, dtype=np.float32)
+    bad = ~np.isfinite(img)
+    n_bad = int(np.count_nonzero(bad))
+    if n_bad:
+        img = np.where(bad, np.float32(0.0), img)
+        log.debug("%s: %d non-finite cells set to 0", where, n_bad)
+    return img, n_bad
+
+
+def background_statistics(x: NDArray[np.float32], params: DetectorParams
+                          ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """Local background level and standard deviation of every cell of ``x`` (module
+    docstring): block means of x and x² → median over the block window → least of 3×3
+    neighbours → interpolated back to cells."""
+    p = params
+    h, w = x.shape
+    gh, gw = max(1, round(h / p.block_bins)), max(1, round(w / p.block_beams))
+    m1 = cv2.resize(x, (gw, gh), interpolation=cv2.INTER_AREA)
+    m2 = cv2.resize(x * x, (gw, gh), interpolation=cv2.INTER_AREA)
+    var = np.maximum(m2 - m1 * m1, 0.0)
+    if min(gh, gw) >= p.window_blocks:
+        m1 = cv2.medianBlur(m1, p.window_blocks)
+        var = cv2.medianBlur(var, p.window_blocks)
+    kernel = np.ones((3, 3), np.uint8)
+    m1, var = cv2.erode(m1, kernel), cv2.erode(var, kernel)
+    size = (w, h)
+    return (cv2.resize(m1, size, interpolation=cv2.INTER_LINEAR),
+            np.sqrt(cv2.resize(var, size, interpolation=cv2.INTER_LINEAR)))
+
+
+def cfar_mask(level: NDArray[np.float32], bin_ranges_m: NDArray[np.float64],
+              params: DetectorParams) -> tuple[NDArray[np.uint8], NDArray[np.float32]]:
+    """(mask, smoothed level): mask is 255 where a cell is detected, else 0 (uint8, the
+    shape of ``level``). See the module docstring for the test."""
+    p = params
+    x = level
+    if p.smooth_bins > 1 or p.smooth_beams > 1:
+        x = cv2.blur(level, (p.smooth_beams, p.smooth_bins), borderType=cv2.BORDER_REFLECT)
+    mean, std = background_statistics(x, p)
+    margin = std * np.float32(p.k_sigma)
+    np.maximum(margin, np.float32(p.min_contrast), out=margin)
+    margin += mean
+    np.maximum(margin, np.float32(p.min_level), out=margin)
+    mask = cv2.compare(x, margin, cv2.CMP_GT)
+    near = int(np.searchsorted(bin_ranges_m, p.min_range_m))
+    mask[:near] = 0
+    if p.edge_beams:
+        mask[:, : p.edge_beams] = 0
+        mask[:, -p.edge_beams:] = 0
+    return mask, x
+
+
+def horizontal_pose(position_ned: NDArray, rotation_ned_from_sonar: NDArray
+                    ) -> tuple[float, float, float]:
+    """(north, east, yaw) of the sonar's horizontal plane: position (m) and the compass
+    direction of its axis projected onto the horizontal (rad)."""
+    r = np.asarray(rotation_ned_from_sonar, dtype=float)
+    return float(position_ned[0]), float(position_ned[1]), math.atan2(r[1, 0], r[0, 0])
+
+
+class BackgroundModel:
+    """A world-stabilised running mean of the polar level (module docstring).
+
+    ``alpha`` is the update weight per ping (time constant ≈ 1/(alpha·ping rate));
+    ``coarse`` the decimation of the resampling maps (they are smooth, so they are computed
+    on every ``coarse``-th bin and beam and interpolated).
+    """
+
+    def __init__(self, bin_ranges_m: NDArray, beam_angles_rad: NDArray, alpha: float = 0.05,
+                 coarse: int = 8) -> None:
+        if not 0.0 < alpha <= 1.0:
+            raise ConfigError(f"must be in (0, 1], got {alpha!r}", "BackgroundModel.alpha")
+        self.alpha = float(alpha)
+        self.r = np.asarray(bin_ranges_m, dtype=np.float64)
+        self.th = np.asarray(beam_angles_rad, dtype=np.float64)
+        self.shape = (self.r.size, self.th.size)
+        rows = np.unique(np.r_[np.arange(0, self.r.size, coarse), self.r.size - 1])
+        cols = np.unique(np.r_[np.arange(0, self.th.size, coarse), self.th.size - 1])
+        self._rows, self._cols = rows, cols
+        rr, tt = np.meshgrid(self.r[rows], self.th[cols], indexing="ij")
+        self._x, self._y = rr * np.cos(tt), rr * np.sin(tt)  # sonar plane, coarse grid
+        self._r0, self._dr = float(self.r[0]), float(self.r[1] - self.r[0]) if self.r.size > 1 else 1.0
+        self._t0 = float(self.th[0])
+        self._dt = float(self.th[1] - self.th[0]) if self.th.size > 1 else 1.0
+        self.background: NDArray[np.float32] | None = None
+        self._pose: tuple[float, float, float] | None = None
+
+    def reset(self) -> None:
+        self.background = None
+        self._pose = None
+
+    def _maps(self, pose: tuple[float, float, float]) -> tuple[NDArray, NDArray]:
+        """Fractional (beam, bin) indices in the previous ping of every current cell."""
+        assert self._pose is not None
+        n1, e1, y1 = pose
+        n0, e0, y0 = self._pose
+        c1, s1 = math.cos(y1), math.sin(y1)
+        north = n1 + c1 * self._x - s1 * self._y
+        east = e1 + s1 * self._x + c1 * self._y
+        dn, de = north - n0, east - e0
+        c0, s0 = math.cos(y0), math.sin(y0)
+        xp, yp = c0 * dn + s0 * de, -s0 * dn + c0 * de
+        rp, tp = np.hypot(xp, yp), np.arctan2(yp, xp)
+        map_bin = ((rp - self._r0) / self._dr).astype(np.float32)
+        map_beam = ((tp - self._t0) / self._dt).astype(np.float32)
+        size = (self.shape[1], self.shape[0])
+        return (cv2.resize(map_beam, size, interpolation=cv2.INTER_LINEAR),
+                cv2.resize(map_bin, size, interpolation=cv2.INTER_LINEAR))
+
+    def update(self, level: NDArray[np.float32], pose: tuple[float, float, float]
+               ) -> NDArray[np.float32]:
+        """Warp the background into ``pose`` (north m, east m, yaw rad), return the
+        motion contrast ``level − background`` (0 on the first ping), then blend ``level``
+        in. Cells the previous ping did not see take the current level."""
+        if self.background is None or self._pose is None:
+            self.background = level.copy()
+            self._pose = pose
+            return np.zeros_like(level)
+        map_beam, map_bin = self._maps(pose)
+        warped = cv2.remap(self.background, map_beam, map_bin, cv2.INTER_LINEAR,
+                           borderMode=cv2.BORDER_CONSTANT, borderValue=-1.0)
+        unseen = warped < 0.0
+        warped[unseen] = level[unseen]
+        contrast = level - warped
+        cv2.addWeighted(warped, 1.0 - self.alpha, level, self.alpha, 0.0, dst=warped)
+        self.background = warped
+        self._pose = pose
+        return contrast
