@@ -30,18 +30,25 @@ class BlobParams:
         merge_radius_m: parts whose centres are closer than this are one blob, m.
         max_parts: at most this many parts (the heaviest) are grouped per ping.
         max_blobs: at most this many blobs (the heaviest) are returned per ping.
+        dynamic_range_db: the display's dynamic range: centres are weighted by intensity,
+            ``10^((level − 1)·dynamic_range_db/10)``, not by the log level, so side lobes
+            and speckle around a strong echo do not pull its centre.
     """
 
     min_cells: int = 12
     merge_radius_m: float = 0.8
     max_parts: int = 64
     max_blobs: int = 24
+    dynamic_range_db: float = 50.0
 
     def __post_init__(self) -> None:
         for name in ("min_cells", "max_parts", "max_blobs"):
             v = getattr(self, name)
             if not isinstance(v, int) or v < 1:
                 raise ConfigError(f"must be an integer >= 1, got {v!r}", f"BlobParams.{name}")
+        if not (math.isfinite(self.dynamic_range_db) and self.dynamic_range_db > 0):
+            raise ConfigError(f"must be a finite number > 0, got {self.dynamic_range_db!r}",
+                              "BlobParams.dynamic_range_db")
         if not (math.isfinite(self.merge_radius_m) and self.merge_radius_m >= 0):
             raise ConfigError(f"must be a finite number >= 0, got {self.merge_radius_m!r}",
                               "BlobParams.merge_radius_m")
@@ -136,14 +143,16 @@ def extract_blobs(mask: NDArray[np.uint8], level: NDArray[np.float32],
     rows, cols = np.divmod(pix, n_beams)
     r = np.asarray(bin_ranges_m, float)[rows]
     th = np.asarray(beam_angles_rad, float)[cols]
-    w = level.ravel()[pix].astype(np.float64)
+    lvl = level.ravel()[pix].astype(np.float64)
+    w = np.exp((lvl - 1.0) * (params.dynamic_range_db * math.log(10.0) / 10.0))
     weight = np.bincount(ids, w, n_comp)
+    level_sum = np.bincount(ids, lvl, n_comp)
     keep = keep[np.argsort(-weight[keep], kind="stable")][: params.max_parts]
     sum_x = np.bincount(ids, w * r * np.cos(th), n_comp)
     sum_y = np.bincount(ids, w * r * np.sin(th), n_comp)
     sum_c = np.bincount(ids, contrast.ravel()[pix], n_comp)
     peak = np.zeros(n_comp)
-    np.maximum.at(peak, ids, w)
+    np.maximum.at(peak, ids, lvl)
     cx, cy = sum_x[keep] / weight[keep], sum_y[keep] / weight[keep]
     group = _groups(cx, cy, params.merge_radius_m)
     n_groups = int(group.max()) + 1
@@ -173,6 +182,6 @@ def extract_blobs(mask: NDArray[np.uint8], level: NDArray[np.float32],
             range_extent_m=float(bottom.max() - top.min()) * dr,
             cross_extent_m=float(right.max() - left.min()) * dth * rng,
             cells=cells, parts=int(members.size), peak_level=float(peak[members].max()),
-            mean_level=float(wsum / cells), contrast=float(sum_c[members].sum() / cells),
+            mean_level=float(level_sum[members].sum() / cells), contrast=float(sum_c[members].sum() / cells),
             touches_edge=bool(left.min() <= edge_beams or right.max() >= n_beams - edge_beams)))
     return BlobImage(tuple(blobs), comp, blob_of_component)

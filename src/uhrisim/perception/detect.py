@@ -173,14 +173,19 @@ class BackgroundModel:
         self.r = np.asarray(bin_ranges_m, dtype=np.float64)
         self.th = np.asarray(beam_angles_rad, dtype=np.float64)
         self.shape = (self.r.size, self.th.size)
-        rows = np.unique(np.r_[np.arange(0, self.r.size, coarse), self.r.size - 1])
-        cols = np.unique(np.r_[np.arange(0, self.th.size, coarse), self.th.size - 1])
-        self._rows, self._cols = rows, cols
-        rr, tt = np.meshgrid(self.r[rows], self.th[cols], indexing="ij")
+        dr = float(self.r[1] - self.r[0]) if self.r.size > 1 else 1.0
+        dth = float(self.th[1] - self.th[0]) if self.th.size > 1 else 1.0
+        # A uniform coarse grid every `coarse` cells, reaching past the last one (bins and
+        # beams are evenly spaced, so the grid's ranges and angles extend linearly) ...
+        n_r, n_t = -(-(self.r.size - 1) // coarse) + 1, -(-(self.th.size - 1) // coarse) + 1
+        rr, tt = np.meshgrid(self.r[0] + dr * coarse * np.arange(n_r),
+                             self.th[0] + dth * coarse * np.arange(n_t), indexing="ij")
         self._x, self._y = rr * np.cos(tt), rr * np.sin(tt)  # sonar plane, coarse grid
-        self._r0, self._dr = float(self.r[0]), float(self.r[1] - self.r[0]) if self.r.size > 1 else 1.0
-        self._t0 = float(self.th[0])
-        self._dt = float(self.th[1] - self.th[0]) if self.th.size > 1 else 1.0
+        # ... and where each cell falls on it (coarse-grid index units), for cv2.remap.
+        cols, rows = np.meshgrid(np.arange(self.th.size, dtype=np.float32) / coarse,
+                                 np.arange(self.r.size, dtype=np.float32) / coarse)
+        self._fine_cols, self._fine_rows = cols, rows
+        self._r0, self._dr, self._t0, self._dt = float(self.r[0]), dr, float(self.th[0]), dth
         self.background: NDArray[np.float32] | None = None
         self._pose: tuple[float, float, float] | None = None
 
@@ -202,9 +207,8 @@ class BackgroundModel:
         rp, tp = np.hypot(xp, yp), np.arctan2(yp, xp)
         map_bin = ((rp - self._r0) / self._dr).astype(np.float32)
         map_beam = ((tp - self._t0) / self._dt).astype(np.float32)
-        size = (self.shape[1], self.shape[0])
-        return (cv2.resize(map_beam, size, interpolation=cv2.INTER_LINEAR),
-                cv2.resize(map_bin, size, interpolation=cv2.INTER_LINEAR))
+        fine = (self._fine_cols, self._fine_rows, cv2.INTER_LINEAR)
+        return cv2.remap(map_beam, *fine), cv2.remap(map_bin, *fine)
 
     def update(self, level: NDArray[np.float32], pose: tuple[float, float, float]
                ) -> NDArray[np.float32]:
