@@ -188,7 +188,7 @@ def test_two_crossing_targets_keep_their_identities():
     for k in range(150):
         t = k * dt
         a = (6.0 + 0.5 * t, -2.0 + 0.4 * t)  # north-east
-        b = (6.0 + 0.5 * t, 2.0 - 0.4 * t)  # north-west: they cross at t = 5 s
+        b = (7.2 + 0.5 * t, 2.0 - 0.4 * t)  # north-west: they pass 1.2 m apart at t = 5 s
         pairs = tracker.step(t, [_point_blob(*a, view), _point_blob(*b, view)], view)
         if k == 10:
             ids = {j: i for i, j in pairs.items()}

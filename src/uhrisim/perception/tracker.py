@@ -50,6 +50,9 @@ class TrackerParams:
         max_coast_s, max_coast_outside_s: coasting limits inside / outside the fan, s.
         max_position_std_m: a track whose position σ grows beyond this is deleted, m.
         fan_margin_m: a prediction closer than this to the fan's edges counts as outside.
+        duplicate_m: two tracks closer than this are one object: the younger is deleted,
+            and no track is started this close to a confirmed one (a second blob of an
+            extended body does not grow a twin track).
         max_tracks: most tracks kept (new tentative ones beyond it are not started).
     """
 
@@ -66,6 +69,7 @@ class TrackerParams:
     max_coast_outside_s: float = 5.0
     max_position_std_m: float = 3.0
     fan_margin_m: float = 0.3
+    duplicate_m: float = 0.9
     max_tracks: int = 40
 
     def __post_init__(self) -> None:
@@ -272,13 +276,29 @@ class MultiTargetTracker:
                 survivors.append(tr)
             else:
                 self.deleted.append(tr)
-        self.tracks = survivors
+        self.tracks = self._without_twins(survivors)
         used = set(pairs.values())
+        held = [tr.x[:2] for tr in self.tracks if tr.confirmed]
         for j, b in enumerate(blobs):
             if j in used or len(self.tracks) >= p.max_tracks:
                 continue
+            if any(math.dist(zs[j], x) < p.duplicate_m for x in held):
+                continue
             self.tracks.append(self._start(t, b, zs[j], Rs[j]))
-        return pairs
+        live = {tr.id for tr in self.tracks}
+        return {i: j for i, j in pairs.items() if i in live}
+
+    def _without_twins(self, tracks: list[Track]) -> list[Track]:
+        """``tracks`` less the younger of any two closer than ``duplicate_m`` (a confirmed
+        track outranks a tentative one)."""
+        ranked = sorted(tracks, key=lambda tr: (not tr.confirmed, tr.t_born, tr.id))
+        kept: list[Track] = []
+        for tr in ranked:
+            if any(math.dist(tr.x[:2], k.x[:2]) < self.params.duplicate_m for k in kept):
+                self.deleted.append(tr)
+            else:
+                kept.append(tr)
+        return sorted(kept, key=lambda tr: tr.id)
 
     def _keep(self, tr: Track, t: float) -> bool:
         p = self.params

@@ -303,7 +303,7 @@ class SonarContactsConfig(Strict):
     min_level: Annotated[float, Field(ge=0.0, le=1.0)] = 0.25
     min_range: NonNegativeFloat = 0.8
     min_cells: Annotated[int, Field(ge=1)] = 12
-    merge_radius: NonNegativeFloat = 0.8
+    merge_radius: NonNegativeFloat = 1.0
     confirm: tuple[Annotated[int, Field(ge=1)], Annotated[int, Field(ge=1)]] = (4, 6)
     max_coast: PositiveFloat = 2.0
     accel_std: PositiveFloat = 0.4
