@@ -353,6 +353,8 @@ class AgentConfig(Strict):
     # vehicle looks like the VideoRay).
     body: Literal["videoray", "diver"] | None = None
     material: str | None = None
+    # The body's label in the sonar's label images; default: its kind ("diver" or "rov").
+    label: Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")] | None = None
     vehicle_type: str | None = None
     length: PositiveFloat | None = None
 
