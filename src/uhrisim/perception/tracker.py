@@ -44,6 +44,8 @@ class TrackerParams:
         extent_weight: share of a blob's extent/√12 added to its measurement σ.
         object_std_m: floor of the measurement σ: where on an extended body the echo
             centre falls wanders from ping to ping (a diver's fins, tank and head).
+        edge_factor: cross-range σ multiplier of a blob that touches the fan's side edge
+            (only the part inside the fan is seen, so its centre is pulled inwards).
         initial_speed_std: velocity σ of a new track, m/s.
         gate_chi2: gate on the squared Mahalanobis distance (2 dof; 9.21 = 99 %).
         confirm_m, confirm_n: M hits in the last N pings confirm a track.
@@ -61,6 +63,7 @@ class TrackerParams:
     bearing_std_deg: float = 1.0
     extent_weight: float = 0.5
     object_std_m: float = 0.15
+    edge_factor: float = 3.0
     initial_speed_std: float = 1.0
     gate_chi2: float = 9.21
     confirm_m: int = 4
@@ -73,7 +76,7 @@ class TrackerParams:
     max_tracks: int = 40
 
     def __post_init__(self) -> None:
-        for name in ("object_std_m", "accel_std", "range_std_m", "bearing_std_deg", "initial_speed_std",
+        for name in ("edge_factor", "object_std_m", "accel_std", "range_std_m", "bearing_std_deg", "initial_speed_std",
                      "gate_chi2", "max_coast_s", "max_coast_outside_s", "max_position_std_m"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
@@ -157,6 +160,8 @@ def measurement_covariance(blob: Blob, sonar_yaw: float, params: TrackerParams
     s_r = math.hypot(params.range_std_m, k * blob.range_extent_m, params.object_std_m)
     s_c = math.hypot(blob.range_m * math.radians(params.bearing_std_deg),
                      k * blob.cross_extent_m, params.object_std_m)
+    if blob.touches_edge:
+        s_c *= params.edge_factor
     a = sonar_yaw + blob.bearing_rad
     c, s = math.cos(a), math.sin(a)
     rot = np.array([[c, -s], [s, c]])
