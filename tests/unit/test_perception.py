@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 from scipy.stats import chi2
@@ -28,8 +29,8 @@ RANGES = syn.bins()
 
 
 def blobs_of(level, params=DetectorParams(), pose=(np.zeros(3), np.eye(3))):
-    mask, smooth = cfar_mask(level, RANGES, params)
-    return extract_blobs(mask, smooth, np.zeros_like(smooth), RANGES, syn.BEAMS, pose[0],
+    mask, smooth, _ = cfar_mask(level, RANGES, params)
+    return extract_blobs(mask, smooth, np.zeros((1, 1), np.float32), RANGES, syn.BEAMS, pose[0],
                          pose[1], params.edge_beams, BlobParams())
 
 
@@ -72,28 +73,36 @@ def test_extended_near_target_does_not_hide_itself():
 
 
 def test_background_is_held_in_the_world_while_the_sonar_moves():
-    # A static scatterer seen from a turning, advancing sonar stays on its background
-    # cells (small motion contrast); one that moved 1 m between pings stands out.
-    model = BackgroundModel(RANGES, syn.BEAMS, alpha=1.0, coarse=8)
+    # A static object (0.3 m) seen from a turning, advancing sonar stays on its background
+    # blocks (small motion contrast); one that moved 1 m between pings stands out.
+    grid = (RANGES.size // 4, syn.N_BEAMS // 4)
+    model = BackgroundModel(RANGES, syn.BEAMS, grid, alpha=1.0)
+    naive = BackgroundModel(RANGES, syn.BEAMS, grid, alpha=1.0)  # told nothing moved
     world = np.array([6.0, 1.0])
-    contrast_static = contrast_moving = 0.0
+    contrast_static = contrast_moving = contrast_naive = 0.0
     for k in range(4):
         north, east, yaw = 0.3 * k, 0.1 * k, math.radians(4.0 * k)
         d = world - [north, east]
         c, s = math.cos(yaw), math.sin(yaw)
         x, y = c * d[0] + s * d[1], -s * d[0] + c * d[1]
         mover = (math.hypot(x, y) - 1.0 * k, math.atan2(y, x) - 0.1)
-        level = syn.polar_image(RANGES, [syn.Target(math.hypot(x, y), math.atan2(y, x)),
-                                         syn.Target(*mover)], None, None)
-        contrast = model.update(level, (north, east, yaw))
+        level = syn.polar_image(RANGES, [
+            syn.Target(math.hypot(x, y), math.atan2(y, x), extent_m=0.3),
+            syn.Target(*mover, extent_m=0.3)], None, None)
+        blocks = cv2.resize(level, grid[::-1], interpolation=cv2.INTER_AREA)
+        contrast = cv2.resize(model.update(blocks, (north, east, yaw)), level.shape[::-1],
+                              interpolation=cv2.INTER_NEAREST)
+        fixed = cv2.resize(naive.update(blocks, (0.0, 0.0, 0.0)), level.shape[::-1],
+                           interpolation=cv2.INTER_NEAREST)
         if k:
             i, j = np.unravel_index(np.argmin(abs(RANGES[:, None] - math.hypot(x, y))
                                               + abs(syn.BEAMS[None, :] - math.atan2(y, x))),
                                     level.shape)
             contrast_static = max(contrast_static, float(contrast[i, j]))
+            contrast_naive = max(contrast_naive, float(fixed[i, j]))
             i, j = np.argmin(abs(RANGES - mover[0])), np.argmin(abs(syn.BEAMS - mover[1]))
             contrast_moving = min(contrast_moving or 1.0, float(contrast[i, j]))
-    assert contrast_static < 0.15
+    assert contrast_static < 0.15 < 0.3 < contrast_naive  # the compensation is what holds it
     assert contrast_moving > 0.5
 
 

@@ -127,7 +127,9 @@ def extract_blobs(mask: NDArray[np.uint8], level: NDArray[np.float32],
                   contrast: NDArray[np.float32], bin_ranges_m: NDArray, beam_angles_rad: NDArray,
                   position_ned: NDArray, rotation_ned_from_sonar: NDArray, edge_beams: int,
                   params: BlobParams) -> BlobImage:
-    """Blobs of a CFAR ``mask`` (uint8, 255 = detected) weighted by ``level``."""
+    """Blobs of a CFAR ``mask`` (uint8, 255 = detected) weighted by ``level``;
+    ``contrast`` is the motion contrast on a grid of blocks over the image (any size: a
+    cell takes its block's value)."""
     n_comp, comp, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8,
                                                                ltype=cv2.CV_32S)
     none = BlobImage((), comp, np.full(max(n_comp, 1), -1, np.int64))
@@ -150,7 +152,8 @@ def extract_blobs(mask: NDArray[np.uint8], level: NDArray[np.float32],
     keep = keep[np.argsort(-weight[keep], kind="stable")][: params.max_parts]
     sum_x = np.bincount(ids, w * r * np.cos(th), n_comp)
     sum_y = np.bincount(ids, w * r * np.sin(th), n_comp)
-    sum_c = np.bincount(ids, contrast.ravel()[pix], n_comp)
+    gh, gw = contrast.shape
+    sum_c = np.bincount(ids, contrast[rows * gh // mask.shape[0], cols * gw // n_beams], n_comp)
     peak = np.zeros(n_comp)
     np.maximum.at(peak, ids, lvl)
     cx, cy = sum_x[keep] / weight[keep], sum_y[keep] / weight[keep]

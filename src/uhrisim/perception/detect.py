@@ -106,47 +106,51 @@ def clean_level(polar: NDArray, where: str = "ping.polar") -> tuple[NDArray[np.f
     return img, n_bad
 
 
-def background_statistics(x: NDArray[np.float32], params: DetectorParams
-                          ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
-    """Local background level and standard deviation of every cell of ``x`` (module
-    docstring): block means of x and x² → median over the block window → least of 3×3
-    neighbours → interpolated back to cells."""
+def block_grid(shape: tuple[int, int], params: DetectorParams) -> tuple[int, int]:
+    """(rows, columns) of the block grid over an image of ``shape``."""
+    return max(1, round(shape[0] / params.block_bins)), max(1, round(shape[1] / params.block_beams))
+
+
+def background_threshold(x: NDArray[np.float32], params: DetectorParams
+                         ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """(threshold of every cell of ``x``, block means of ``x``) (module docstring):
+    block means of x and x² → median over the block window → least of 3×3 neighbours →
+    threshold ``max(μ + max(k·σ, min_contrast), min_level)`` per block → interpolated to
+    cells."""
     p = params
     h, w = x.shape
-    gh, gw = max(1, round(h / p.block_bins)), max(1, round(w / p.block_beams))
-    m1 = cv2.resize(x, (gw, gh), interpolation=cv2.INTER_AREA)
+    gh, gw = block_grid(x.shape, p)
+    means = cv2.resize(x, (gw, gh), interpolation=cv2.INTER_AREA)
     m2 = cv2.resize(x * x, (gw, gh), interpolation=cv2.INTER_AREA)
-    var = np.maximum(m2 - m1 * m1, 0.0)
+    m1, var = means, np.maximum(m2 - means * means, 0.0)
     if min(gh, gw) >= p.window_blocks:
         m1 = cv2.medianBlur(m1, p.window_blocks)
         var = cv2.medianBlur(var, p.window_blocks)
     kernel = np.ones((3, 3), np.uint8)
     m1, var = cv2.erode(m1, kernel), cv2.erode(var, kernel)
-    size = (w, h)
-    return (cv2.resize(m1, size, interpolation=cv2.INTER_LINEAR),
-            np.sqrt(cv2.resize(var, size, interpolation=cv2.INTER_LINEAR)))
+    margin = np.maximum(np.sqrt(var) * np.float32(p.k_sigma), np.float32(p.min_contrast))
+    threshold = np.maximum(m1 + margin, np.float32(p.min_level))
+    return cv2.resize(threshold, (w, h), interpolation=cv2.INTER_LINEAR), means
 
 
 def cfar_mask(level: NDArray[np.float32], bin_ranges_m: NDArray[np.float64],
-              params: DetectorParams) -> tuple[NDArray[np.uint8], NDArray[np.float32]]:
-    """(mask, smoothed level): mask is 255 where a cell is detected, else 0 (uint8, the
-    shape of ``level``). See the module docstring for the test."""
+              params: DetectorParams
+              ) -> tuple[NDArray[np.uint8], NDArray[np.float32], NDArray[np.float32]]:
+    """(mask, smoothed level, block means): mask is 255 where a cell is detected, else 0
+    (uint8, the shape of ``level``); the block means (grid :func:`block_grid`) feed the
+    background model. See the module docstring for the test."""
     p = params
     x = level
     if p.smooth_bins > 1 or p.smooth_beams > 1:
         x = cv2.blur(level, (p.smooth_beams, p.smooth_bins), borderType=cv2.BORDER_REFLECT)
-    mean, std = background_statistics(x, p)
-    margin = std * np.float32(p.k_sigma)
-    np.maximum(margin, np.float32(p.min_contrast), out=margin)
-    margin += mean
-    np.maximum(margin, np.float32(p.min_level), out=margin)
-    mask = cv2.compare(x, margin, cv2.CMP_GT)
+    threshold, means = background_threshold(x, p)
+    mask = cv2.compare(x, threshold, cv2.CMP_GT)
     near = int(np.searchsorted(bin_ranges_m, p.min_range_m))
     mask[:near] = 0
     if p.edge_beams:
         mask[:, : p.edge_beams] = 0
         mask[:, -p.edge_beams:] = 0
-    return mask, x
+    return mask, x, means
 
 
 def horizontal_pose(position_ned: NDArray, rotation_ned_from_sonar: NDArray
@@ -158,74 +162,65 @@ def horizontal_pose(position_ned: NDArray, rotation_ned_from_sonar: NDArray
 
 
 class BackgroundModel:
-    """A world-stabilised running mean of the polar level (module docstring).
+    """A world-stabilised running mean of the polar level (module docstring), kept on a
+    ``grid`` of blocks (rows, columns) over the (bins, beams) image — the detector's
+    blocks: the motion contrast is a per-blob feature and needs no finer grid.
 
-    ``alpha`` is the update weight per ping (time constant ≈ 1/(alpha·ping rate));
-    ``coarse`` the decimation of the resampling maps (they are smooth, so they are computed
-    on every ``coarse``-th bin and beam and interpolated).
+    ``alpha`` is the update weight per ping (time constant ≈ 1/(alpha·ping rate)).
     """
 
-    def __init__(self, bin_ranges_m: NDArray, beam_angles_rad: NDArray, alpha: float = 0.05,
-                 coarse: int = 8) -> None:
+    def __init__(self, bin_ranges_m: NDArray, beam_angles_rad: NDArray,
+                 grid: tuple[int, int], alpha: float = 0.05) -> None:
         if not 0.0 < alpha <= 1.0:
             raise ConfigError(f"must be in (0, 1], got {alpha!r}", "BackgroundModel.alpha")
         self.alpha = float(alpha)
-        self.r = np.asarray(bin_ranges_m, dtype=np.float64)
-        self.th = np.asarray(beam_angles_rad, dtype=np.float64)
-        self.shape = (self.r.size, self.th.size)
-        dr = float(self.r[1] - self.r[0]) if self.r.size > 1 else 1.0
-        dth = float(self.th[1] - self.th[0]) if self.th.size > 1 else 1.0
-        # A uniform coarse grid every `coarse` cells, reaching past the last one (bins and
-        # beams are evenly spaced, so the grid's ranges and angles extend linearly) ...
-        n_r, n_t = -(-(self.r.size - 1) // coarse) + 1, -(-(self.th.size - 1) // coarse) + 1
-        rr, tt = np.meshgrid(self.r[0] + dr * coarse * np.arange(n_r),
-                             self.th[0] + dth * coarse * np.arange(n_t), indexing="ij")
-        self._x, self._y = rr * np.cos(tt), rr * np.sin(tt)  # sonar plane, coarse grid
-        # ... and where each cell falls on it (coarse-grid index units), for cv2.remap.
-        cols, rows = np.meshgrid(np.arange(self.th.size, dtype=np.float32) / coarse,
-                                 np.arange(self.r.size, dtype=np.float32) / coarse)
-        self._fine_cols, self._fine_rows = cols, rows
-        self._r0, self._dr, self._t0, self._dt = float(self.r[0]), dr, float(self.th[0]), dth
+        r = np.asarray(bin_ranges_m, dtype=np.float64)
+        th = np.asarray(beam_angles_rad, dtype=np.float64)
+        self.shape = (r.size, th.size)
+        self.grid = grid
+        dr = float(r[1] - r[0]) if r.size > 1 else 1.0
+        dth = float(th[1] - th[0]) if th.size > 1 else 1.0
+        # Block i covers cells [i·s, (i+1)·s) (s = cells per block, as INTER_AREA averages
+        # them): its centre is cell (i + 0.5)·s − 0.5; bins and beams are evenly spaced.
+        self._s_r, self._s_t = r.size / self.grid[0], th.size / self.grid[1]
+        rows = (np.arange(self.grid[0]) + 0.5) * self._s_r - 0.5
+        cols = (np.arange(self.grid[1]) + 0.5) * self._s_t - 0.5
+        rr, tt = np.meshgrid(r[0] + dr * rows, th[0] + dth * cols, indexing="ij")
+        self._x, self._y = rr * np.cos(tt), rr * np.sin(tt)  # sonar plane, block centres
+        self._r0, self._dr, self._t0, self._dt = float(r[0]), dr, float(th[0]), dth
         self.background: NDArray[np.float32] | None = None
         self._pose: tuple[float, float, float] | None = None
 
-    def reset(self) -> None:
-        self.background = None
-        self._pose = None
-
     def _maps(self, pose: tuple[float, float, float]) -> tuple[NDArray, NDArray]:
-        """Fractional (beam, bin) indices in the previous ping of every current cell."""
+        """Fractional (column, row) block indices in the previous ping of every block."""
         assert self._pose is not None
         n1, e1, y1 = pose
         n0, e0, y0 = self._pose
         c1, s1 = math.cos(y1), math.sin(y1)
-        north = n1 + c1 * self._x - s1 * self._y
-        east = e1 + s1 * self._x + c1 * self._y
-        dn, de = north - n0, east - e0
+        dn = n1 - n0 + c1 * self._x - s1 * self._y
+        de = e1 - e0 + s1 * self._x + c1 * self._y
         c0, s0 = math.cos(y0), math.sin(y0)
         xp, yp = c0 * dn + s0 * de, -s0 * dn + c0 * de
-        rp, tp = np.hypot(xp, yp), np.arctan2(yp, xp)
-        map_bin = ((rp - self._r0) / self._dr).astype(np.float32)
-        map_beam = ((tp - self._t0) / self._dt).astype(np.float32)
-        fine = (self._fine_cols, self._fine_rows, cv2.INTER_LINEAR)
-        return cv2.remap(map_beam, *fine), cv2.remap(map_bin, *fine)
+        cell_r = (np.hypot(xp, yp) - self._r0) / self._dr
+        cell_t = (np.arctan2(yp, xp) - self._t0) / self._dt
+        return (((cell_t + 0.5) / self._s_t - 0.5).astype(np.float32),
+                ((cell_r + 0.5) / self._s_r - 0.5).astype(np.float32))
 
-    def update(self, level: NDArray[np.float32], pose: tuple[float, float, float]
+    def update(self, blocks: NDArray[np.float32], pose: tuple[float, float, float]
                ) -> NDArray[np.float32]:
         """Warp the background into ``pose`` (north m, east m, yaw rad), return the
-        motion contrast ``level − background`` (0 on the first ping), then blend ``level``
-        in. Cells the previous ping did not see take the current level."""
+        motion contrast ``blocks − background`` per block (0 on the first ping), then
+        blend ``blocks`` (the block means of this ping's level) in. Blocks the previous
+        ping did not see take the current level."""
         if self.background is None or self._pose is None:
-            self.background = level.copy()
-            self._pose = pose
-            return np.zeros_like(level)
-        map_beam, map_bin = self._maps(pose)
-        warped = cv2.remap(self.background, map_beam, map_bin, cv2.INTER_LINEAR,
+            self.background, self._pose = blocks.copy(), pose
+            return np.zeros_like(blocks)
+        map_col, map_row = self._maps(pose)
+        warped = cv2.remap(self.background, map_col, map_row, cv2.INTER_LINEAR,
                            borderMode=cv2.BORDER_CONSTANT, borderValue=-1.0)
         unseen = warped < 0.0
-        warped[unseen] = level[unseen]
-        contrast = level - warped
-        cv2.addWeighted(warped, 1.0 - self.alpha, level, self.alpha, 0.0, dst=warped)
-        self.background = warped
-        self._pose = pose
+        warped[unseen] = blocks[unseen]
+        contrast = blocks - warped
+        cv2.addWeighted(warped, 1.0 - self.alpha, blocks, self.alpha, 0.0, dst=warped)
+        self.background, self._pose = warped, pose
         return contrast

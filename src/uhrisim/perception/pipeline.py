@@ -26,6 +26,7 @@ from uhrisim.perception.classify import DiverClassifier
 from uhrisim.perception.detect import (
     BackgroundModel,
     DetectorParams,
+    block_grid,
     cfar_mask,
     clean_level,
     horizontal_pose,
@@ -118,12 +119,13 @@ class SonarPerception:
         level, bad = clean_level(ping.polar)
         if level.shape != self._shape:
             self._background = BackgroundModel(ping.bin_ranges_m, ping.beam_angles_rad,
+                                               block_grid(level.shape, p.detector),
                                                p.background_alpha)
             self._shape = level.shape
         assert self._background is not None
         pose = horizontal_pose(ping.position_ned, ping.rotation_ned_from_sonar)
-        mask, smooth = cfar_mask(level, ping.bin_ranges_m, p.detector)
-        contrast = self._background.update(smooth, pose)
+        mask, smooth, blocks = cfar_mask(level, ping.bin_ranges_m, p.detector)
+        contrast = self._background.update(blocks, pose)
         blobs = extract_blobs(mask, smooth, contrast, ping.bin_ranges_m, ping.beam_angles_rad,
                               ping.position_ned, ping.rotation_ned_from_sonar,
                               p.detector.edge_beams, p.blobs)

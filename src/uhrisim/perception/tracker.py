@@ -146,7 +146,8 @@ class Track:
     @property
     def position_std_m(self) -> float:
         """Largest position standard deviation, m."""
-        return float(math.sqrt(max(np.linalg.eigvalsh(self.P[:2, :2]))))
+        a, b, c = self.P[0, 0], self.P[0, 1], self.P[1, 1]
+        return math.sqrt(0.5 * (a + c) + math.hypot(0.5 * (a - c), b))
 
     @property
     def confirmed(self) -> bool:
