@@ -130,8 +130,16 @@ def extract_blobs(mask: NDArray[np.uint8], level: NDArray[np.float32],
     """Blobs of a CFAR ``mask`` (uint8, 255 = detected) weighted by ``level``;
     ``contrast`` is the motion contrast on a grid of blocks over the image (any size: a
     cell takes its block's value)."""
-    n_comp, comp, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8,
-                                                               ltype=cv2.CV_32S)
+    comp = np.zeros(mask.shape, np.int32)
+    none = BlobImage((), comp, np.full(1, -1, np.int64))
+    # Label only the rows that hold detections (labelling costs per cell of the image).
+    _, top, _, height = cv2.boundingRect(mask)
+    if height == 0:
+        return none
+    bottom = top + height
+    n_comp, comp[top:bottom], stats, _ = cv2.connectedComponentsWithStats(
+        mask[top:bottom], connectivity=8, ltype=cv2.CV_32S)
+    stats[:, cv2.CC_STAT_TOP] += top
     none = BlobImage((), comp, np.full(max(n_comp, 1), -1, np.int64))
     if n_comp <= 1:
         return none
@@ -139,9 +147,9 @@ def extract_blobs(mask: NDArray[np.uint8], level: NDArray[np.float32],
     keep = np.flatnonzero(area[1:] >= params.min_cells) + 1
     if keep.size == 0:
         return none
-    pix = np.flatnonzero(comp)
-    ids = comp.ravel()[pix]
     n_beams = mask.shape[1]
+    pix = np.flatnonzero(comp[top:bottom]) + top * n_beams
+    ids = comp.ravel()[pix]
     rows, cols = np.divmod(pix, n_beams)
     r = np.asarray(bin_ranges_m, float)[rows]
     th = np.asarray(beam_angles_rad, float)[cols]
