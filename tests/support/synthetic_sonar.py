@@ -25,7 +25,7 @@ BEAM_STEP = float(BEAMS[1] - BEAMS[0])
 
 
 def bins(range_min: float = 0.5, range_max: float = 10.0) -> np.ndarray:
-    n = int(round((range_max - range_min) / BIN_M))
+    n = round((range_max - range_min) / BIN_M)
     return range_min + (np.arange(n) + 0.5) * BIN_M
 
 

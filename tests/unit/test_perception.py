@@ -28,10 +28,11 @@ from uhrisim.perception.tracker import (
 RANGES = syn.bins()
 
 
-def blobs_of(level, params=DetectorParams(), pose=(np.zeros(3), np.eye(3))):
+def blobs_of(level):
+    params = DetectorParams()
     mask, smooth, _ = cfar_mask(level, RANGES, params)
-    return extract_blobs(mask, smooth, np.zeros((1, 1), np.float32), RANGES, syn.BEAMS, pose[0],
-                         pose[1], params.edge_beams, BlobParams())
+    return extract_blobs(mask, smooth, np.zeros((1, 1), np.float32), RANGES, syn.BEAMS,
+                         np.zeros(3), np.eye(3), params.edge_beams, BlobParams())
 
 
 @pytest.mark.parametrize("floor_db", [-35.0, -42.0, None])
@@ -240,9 +241,9 @@ def test_nan_cells_and_empty_pings_do_not_break_the_pipeline():
 
 
 def test_bad_settings_are_refused_naming_the_field():
-    with pytest.raises(ConfigError, match="DetectorParams.smooth_bins"):
+    with pytest.raises(ConfigError, match=r"DetectorParams\.smooth_bins"):
         DetectorParams(smooth_bins=2)
-    with pytest.raises(ConfigError, match="TrackerParams.confirm_m"):
+    with pytest.raises(ConfigError, match=r"TrackerParams\.confirm_m"):
         TrackerParams(confirm_m=5, confirm_n=3)
-    with pytest.raises(ConfigError, match="BlobParams.min_cells"):
+    with pytest.raises(ConfigError, match=r"BlobParams\.min_cells"):
         BlobParams(min_cells=0)

@@ -193,6 +193,7 @@ def extract_blobs(mask: NDArray[np.uint8], level: NDArray[np.float32],
             range_extent_m=float(bottom.max() - top.min()) * dr,
             cross_extent_m=float(right.max() - left.min()) * dth * rng,
             cells=cells, parts=int(members.size), peak_level=float(peak[members].max()),
-            mean_level=float(level_sum[members].sum() / cells), contrast=float(sum_c[members].sum() / cells),
+            mean_level=float(level_sum[members].sum() / cells),
+            contrast=float(sum_c[members].sum() / cells),
             touches_edge=bool(left.min() <= edge_beams or right.max() >= n_beams - edge_beams)))
     return BlobImage(tuple(blobs), comp, blob_of_component)

@@ -1,28 +1,30 @@
-"""Detection on the polar sonar image: ego-motion-compensated background and CA-CFAR.
+"""Detection on the polar sonar image: an adaptive (CFAR) threshold and an
+ego-motion-compensated background.
 
 Everything here works on the native polar matrix of a ping (rows = range bins, columns =
 beams; ``SonarPing.polar``, display level 0…1, log-compressed). Because that level is
 logarithmic, the detector is a *log-CFAR*: speckle (Rayleigh amplitude, exponential
 intensity) has a level spread that does not depend on the mean, so a threshold of
 
-    level > μ_train + max(k·σ_train, min_contrast)      and      level ≥ min_level
+    level > μ + max(k·σ, min_contrast)      and      level ≥ min_level
 
 with μ, σ the background level and spread around each cell keeps the false-alarm rate
 constant whatever the local gain, TVG or reverberation. μ and σ come from block means
-(cell averaging) combined by a median and a minimum over neighbouring blocks — an
-order-statistic CFAR on sub-blocks (Rohling 1983; Gandhi & Kassam 1988), so a diver that
+(cell averaging) combined by a median and a minimum over neighbouring blocks — an order-
+statistic CFAR on sub-blocks (Rohling 1983; Gandhi & Kassam 1988), so a diver that
 covers a hundred beams at 2 m does not raise its own threshold as a small guard window
-would let it. The image is first averaged over a small window (non-coherent integration against speckle grain,
-which spans several beams because each beam is ~1° wide over ~0.18° spacing,
-``shared/reference/sonar.md``). On a clean image (no noise floor: σ = 0) the
-``min_contrast``/``min_level`` terms do the work, so the detector works on both.
+would let it. The image is first averaged over a small window (non-coherent integration
+against speckle grain, which spans several beams because each beam is ~1° wide over
+~0.18° spacing, ``shared/reference/sonar.md``). On a clean image (no noise floor: σ = 0)
+the ``min_contrast``/``min_level`` terms do the work, so the detector works on both.
 
-Ego-motion compensation (:class:`BackgroundModel`): a running mean of the image kept in the
-world, not in the sonar: before each update the previous background is resampled into
-the new sonar pose (the sonar's horizontal plane: range, bearing → local north/east →
-the previous pose's range, bearing), so a static piling stays on its background cell
-while the ROV turns and moves; a moving diver or bubbles do not. The per-cell difference
-``level − background`` is each detection's *motion contrast* (a classifier feature).
+Ego-motion compensation (:class:`BackgroundModel`): a running mean of the image kept in
+the world, not in the sonar: before each update the previous background is resampled
+into the new sonar pose (the sonar's horizontal plane: range, bearing → local north/east
+→ the previous pose's range, bearing), so a static piling stays on its background cell
+while the ROV turns and moves; a moving diver or bubbles do not. It is kept on the
+detector's blocks; the difference ``level − background`` is each detection's *motion
+contrast* (a classifier feature).
 """
 
 from __future__ import annotations

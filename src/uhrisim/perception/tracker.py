@@ -76,7 +76,8 @@ class TrackerParams:
     max_tracks: int = 40
 
     def __post_init__(self) -> None:
-        for name in ("edge_factor", "object_std_m", "accel_std", "range_std_m", "bearing_std_deg", "initial_speed_std",
+        for name in ("edge_factor", "object_std_m", "accel_std", "range_std_m",
+                     "bearing_std_deg", "initial_speed_std",
                      "gate_chi2", "max_coast_s", "max_coast_outside_s", "max_position_std_m"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):

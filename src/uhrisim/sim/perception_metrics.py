@@ -6,17 +6,18 @@ the sonar) and the target's true position (NED, horizontal, m):
 * **detection precision**: blobs whose cells are mostly labelled with an object other
   than the sea floor / all blobs (speckle and sea-floor blobs are false);
 * **detection recall (target)**: pings in which the target shows (≥ ``MIN_TARGET_CELLS``
-  labelled cells) and some blob covers at least one of its cells / pings in which it shows;
+  labelled cells) and some blob covers at least one of its cells / pings in which it
+  shows;
 * **held**: pings at which the track perception takes for the diver lies within
-  ``hold_radius_m`` of the target's centre / pings from the first such ping on (the
-  time to that first hold is ``first_held_s``);
+  ``hold_radius_m`` of the target's centre / pings from the first such ping on (the time
+  to that first hold is ``first_held_s``);
 * **identity switches**: changes of the id of the track that holds the target between
   held pings (a re-acquisition under a new id is a switch too);
 * **track position error**: distance diver track → target centre over the pings with a
   diver track (mean, RMS, max);
-* **false diver tracks per minute** (over the whole run): distinct track ids taken for the diver while farther
-  than ``hold_radius_m`` from the target; **clutter tracks per minute**: distinct
-  confirmed track ids never within ``hold_radius_m`` of the target.
+* **false diver tracks per minute** (over the whole run): distinct track ids taken for
+  the diver while farther than ``hold_radius_m`` from the target; **clutter tracks per
+  minute**: distinct confirmed track ids never within ``hold_radius_m`` of the target.
 
 Without label images, the detection figures are ``null``.
 """
@@ -126,7 +127,10 @@ class PerceptionMetrics(BaseHook):
     def summary(self) -> dict[str, Any]:
         minutes = max(self._t1, 1e-9) / 60.0
         errors = np.array(self._errors)
-        ratio = (lambda a, b: a / b if b else None)
+
+        def ratio(a: float, b: float) -> float | None:
+            return a / b if b else None
+
         return {"perception": {
             "observer": self.observer, "target": self.target,
             "hold_radius_m": self.hold_radius_m, "pings": self.pings,
