@@ -36,7 +36,7 @@ class BlobParams:
     """
 
     min_cells: int = 12
-    merge_radius_m: float = 1.0
+    merge_radius_m: float = 1.5
     max_parts: int = 64
     max_blobs: int = 24
     dynamic_range_db: float = 50.0

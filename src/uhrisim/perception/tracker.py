@@ -62,7 +62,7 @@ class TrackerParams:
     range_std_m: float = 0.08
     bearing_std_deg: float = 1.0
     extent_weight: float = 0.5
-    object_std_m: float = 0.15
+    object_std_m: float = 0.25
     edge_factor: float = 3.0
     initial_speed_std: float = 1.0
     gate_chi2: float = 9.21

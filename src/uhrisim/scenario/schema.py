@@ -303,7 +303,7 @@ class SonarContactsConfig(Strict):
     min_level: Annotated[float, Field(ge=0.0, le=1.0)] = 0.25
     min_range: NonNegativeFloat = 0.8
     min_cells: Annotated[int, Field(ge=1)] = 12
-    merge_radius: NonNegativeFloat = 1.0
+    merge_radius: NonNegativeFloat = 1.5
     confirm: tuple[Annotated[int, Field(ge=1)], Annotated[int, Field(ge=1)]] = (4, 6)
     max_coast: PositiveFloat = 2.0
     accel_std: PositiveFloat = 0.4
@@ -334,6 +334,22 @@ class ContactsConfig(Strict):
     alerts: tuple[AlertConfig, ...] = ()
 
 
+class BubblesConfig(Strict):
+    """A diver's exhaled bubble plume (uhrisim.world.bubbles): a burst every ``period`` s
+    of ``clusters`` clouds of ``bubbles_per_cluster`` air spheres (``radius`` m) rising at
+    ``rise_speed`` m/s, spreading at ``spread_speed`` m/s (σ per axis) and drifting with
+    ``current`` (north, east, m/s) until the surface or ``max_age`` s."""
+
+    period: PositiveFloat = 4.0
+    clusters: Annotated[int, Field(ge=1, le=10)] = 3
+    bubbles_per_cluster: Annotated[int, Field(ge=1, le=50)] = 6
+    radius: Annotated[float, Field(gt=0.0, le=0.5)] = 0.03
+    rise_speed: PositiveFloat = 0.3
+    spread_speed: NonNegativeFloat = 0.12
+    current: tuple[float, float] = (0.0, 0.0)
+    max_age: PositiveFloat = 12.0
+
+
 class AgentConfig(Strict):
     name: Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")]
     model: Literal["videoray", "diver", "kinematic"]
@@ -353,6 +369,7 @@ class AgentConfig(Strict):
     # vehicle looks like the VideoRay).
     body: Literal["videoray", "diver"] | None = None
     material: str | None = None
+    bubbles: BubblesConfig | None = None  # exhaled bubble plume (open-circuit scuba)
     # The body's label in the sonar's label images; default: its kind ("diver" or "rov").
     label: Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")] | None = None
     vehicle_type: str | None = None

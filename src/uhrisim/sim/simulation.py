@@ -7,6 +7,7 @@ One tick of the physics step ``dt`` does, in this order (DESIGN.md, "data flows 
 2. **scripted events** that are due (time reached, or condition true) fire once;
 3. **dynamics**: every agent's model advances one step with the actuator inputs chosen at
    the end of the previous tick; collisions stop the move; body poses go to the scene;
+   divers' bubble bursts that are due leave their regulators (:mod:`uhrisim.sim.bubbles`);
 4. **navigation**: NAV_* are posted (at each agent's helm rate);
 5. **contacts**: node reports from simulation truth (degraded as configured) reach the
    other agents' contact managers at the contact rate;
@@ -38,6 +39,7 @@ from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned, rot_z
 from uhrisim.core.rng import component_rng
 from uhrisim.scenario.build_world import add_object, build_static_scene
 from uhrisim.scenario.load import ScenarioFile
+from uhrisim.sim.bubbles import DiverBubbles
 from uhrisim.sim.build import build_agents, build_events
 from uhrisim.sim.community import Value
 from uhrisim.sim.contacts import TruthContacts
@@ -101,6 +103,7 @@ class Simulation:
         self._inbox_lock = threading.Lock()
         self.scene: Scene = build_static_scene(source)
         self.agents: dict[str, Agent] = build_agents(self, sonar_enabled)
+        self.bubbles = DiverBubbles(self.scene, self.agents, self.rng)
         self.contacts = TruthContacts(self.agents, self.dt, self.rng)
         self.sonar_contacts = SonarContacts(self.agents, self.dt, source, self.record_event)
         self.events: list[ScheduledEvent] = build_events(self)
@@ -147,7 +150,9 @@ class Simulation:
     def refresh_static_obstacles(self) -> None:
         """Recompute the collision broad phase after the scene's geometry changed."""
         self._static_boxes = static_obstacle_boxes(self.scene)
-        self._has_movable_objects = any(n not in self.agents for n in self.scene.body_names)
+        self._not_obstacles = frozenset(self.agents) | self.bubbles.body_names
+        self._has_movable_objects = any(n not in self._not_obstacles
+                                        for n in self.scene.body_names)
 
     def record_event(self, kind: str, detail: str) -> None:
         event = SimEvent(self.t, kind, detail)
@@ -182,6 +187,7 @@ class Simulation:
             self._advance(agent)
         self.tick += 1
         t = self.t
+        self.bubbles.release(t)
         for agent in self.agents.values():
             if self.tick % agent.driver_period == 0:
                 self._post_nav(agent)
@@ -330,6 +336,7 @@ class Simulation:
             nav = agent.nav()
             self.scene.set_pose(agent.name, nav.position_ned, rot_z(nav.yaw),
                                 agent.kick_phase if agent.is_diver_body else None)
+        self.bubbles.pose(self.t)
         self._scene_dirty = False
 
     def _clear_fraction(self, agent: Agent, start: list[float], end: list[float]
@@ -347,7 +354,7 @@ class Simulation:
         if self._near_static(agent, end):
             self._sync_scene()
             free = self.scene.segment_clear(np.array(start), np.array(end), agent.radius,
-                                            exclude=frozenset(self.agents))
+                                            exclude=self._not_obstacles)
             if free < 1.0:
                 return free, f"the scene at NED {np.round(end, 2).tolist()}"
         return 1.0, ""
