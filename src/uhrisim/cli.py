@@ -50,6 +50,8 @@ FIGURES: dict[str, tuple[str, str]] = {
                    "paper Figs 12-14: pier support beams over bathymetry"),
     "sonar-torus": ("uhrisim.viz.sonar_figures:make_sonar_torus",
                     "paper Figs 15-16: a torus on the sea floor"),
+    "sonar-trail": ("uhrisim.experiments.sonar_trail:make_sonar_trail",
+                    "issue 15: sonar-only trail, 3 seeds x 10 min, paper + cluttered (~10 min)"),
 }
 
 
