@@ -137,3 +137,62 @@ def test_detections_and_tracks_recorded_as_ros2_markers(sonar_run):
     assert counts == {"/videoray/perception/detections": pings,
                       "/videoray/perception/tracks": pings}
     assert len(close) > 20 and np.median(close) < 0.5
+
+
+EMPTY_WATER = """
+name: empty
+seed: 2
+agents:
+  - {name: diver, model: diver, driver: none, start: {north: -30, east: 0, depth: 2}}
+  - name: videoray
+    model: videoray
+    start: {north: 0, east: 0, depth: 2, heading_deg: 0}
+    helm: {rate_hz: 4, bhv_file: videoray_trail_sonar.bhv}
+    contacts:
+      source: sonar
+      sonar: {silence_warn: 3.0}
+      alerts: [{var: TRAIL_INFO, alert_range: 60}, {var: CONTACT_INFO, alert_range: 60}]
+    sensors:
+      - {preset: P900-45, rate_hz: 15, max_range: 8, rays_per_beam: 16,
+         mount: {position: [0.2, 0, 0], tilt_deg: 0}}
+"""
+
+
+def test_empty_water_and_damaged_pings_are_logged_and_the_helm_searches(tmp_path):
+    # Nothing in the fan for minutes (the diver is 30 m behind), and a ping with NaN cells:
+    # no crash, one event for each, no contact report; the helm heads for the hand-over
+    # point (reacquire), then circles it (search). Between the two, one helm cycle has no
+    # course/speed: the waypoint's endflag takes effect at the next iteration, as in
+    # pHelmIvP.
+    path = tmp_path / "empty.yaml"
+    path.write_text(EMPTY_WATER)
+    (tmp_path / "videoray_trail_sonar.bhv").write_text(
+        (ROOT / "scenarios" / "videoray_trail_sonar.bhv").read_text())
+    sim = Simulation(load_scenario(path))
+    slot = sim.agents["videoray"].sonars[0]
+    ping_once = slot.sonar.ping
+    damaged = []
+
+    def ping(*args, **kwargs):
+        result = ping_once(*args, **kwargs)
+        if not damaged:
+            result.polar[5:9, 100:110] = np.nan
+            damaged.append(result.t)
+        return result
+
+    slot.sonar.ping = ping
+    reports, running, stops = 0, set(), 0
+    while sim.t < 120.0:
+        frame = sim.step()
+        reports += sum(p.var == "NODE_REPORT" and p.community == "videoray"
+                       for p in frame.posts)
+        record = frame.helm.get("videoray")
+        if record is not None:
+            running.update(record.active)
+            stops += record.speed is None
+    events = [e.detail for e in sim.events_log if e.kind == "perception"]
+    assert any("40 non-finite cells" in e for e in events)
+    assert sum("no sonar detection" in e for e in events) == 1  # once per silence
+    assert reports == 0
+    assert {"reacquire", "search"} <= running and stops <= 1
+    assert "search" in sim.agents["videoray"].last_helm.active
