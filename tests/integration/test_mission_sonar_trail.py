@@ -196,3 +196,31 @@ def test_empty_water_and_damaged_pings_are_logged_and_the_helm_searches(tmp_path
     assert reports == 0
     assert {"reacquire", "search"} <= running and stops <= 1
     assert "search" in sim.agents["videoray"].last_helm.active
+
+
+SOURCE_LINE = "      source: sonar        #"
+
+
+@pytest.mark.parametrize(("replacement", "field"), [
+    ("      source: radar        #", r"contacts\.source"),
+    ("      sonar: {confirm: [5, 3]}\n" + SOURCE_LINE, r"contacts\.sonar.*M <= N"),
+    ("      sonar: {min_level: 2}\n" + SOURCE_LINE, r"contacts\.sonar\.min_level"),
+    ("      sonar: {merge_radus: 1}\n" + SOURCE_LINE, "did you mean 'merge_radius'"),
+])
+def test_bad_sonar_contact_settings_name_the_field(tmp_path, replacement, field):
+    from uhrisim.core.errors import ConfigError
+
+    path = tmp_path / "s.yaml"
+    path.write_text(SONAR.read_text().replace(SOURCE_LINE, replacement))
+    with pytest.raises(ConfigError, match=field):
+        load_scenario(path)
+
+
+def test_bad_bubble_settings_name_the_field(tmp_path):
+    from uhrisim.core.errors import ConfigError
+
+    text = CLUTTER.read_text().replace("bubbles: {period: 4.0}", "bubbles: {period: -1}")
+    path = tmp_path / "c.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=r"bubbles\.period"):
+        load_scenario(path)

@@ -26,7 +26,8 @@ def test_a_burst_rises_spreads_drifts_and_leaves_at_the_surface():
     # At 1.5 / 0.3 = 5 s after release it reaches the surface and is parked.
     np.testing.assert_allclose(plume.positions(2.0 + 5.01)[:3], np.tile(PARKED_NED, (3, 1)))
     # Not yet released clouds are parked too.
-    np.testing.assert_allclose(plume.positions(3.0)[3:], np.tile(PARKED_NED, (plume.n_clouds - 3, 1)))
+    parked = np.tile(PARKED_NED, (plume.n_clouds - 3, 1))
+    np.testing.assert_allclose(plume.positions(3.0)[3:], parked)
 
 
 def test_bodies_are_reused_round_robin():
