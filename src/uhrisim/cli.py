@@ -208,6 +208,12 @@ def _print_metrics(result: Any) -> None:
             ("minimum separation", _fmt(m["min_separation_m"], "m")),
         ]
     rows.append(("collisions", str(m.get("collisions", 0))))
+    seen = m.get("perception")
+    if seen:  # contacts from the sonar (docs/perception.md)
+        held = seen["held_pct"]
+        rows += [("diver held by a sonar track", "never" if held is None else f"{held:.1f} %"),
+                 ("sonar track error RMS", _fmt(seen["track_error_m"]["rms"], "m")),
+                 ("track identity switches", str(seen["identity_switches"]))]
     for name, value in rows:
         table.add_row(name, value)
     console.print(table)
