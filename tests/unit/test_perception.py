@@ -30,9 +30,9 @@ RANGES = syn.bins()
 
 def blobs_of(level):
     params = DetectorParams()
-    mask, smooth, _ = cfar_mask(level, RANGES, params)
-    return extract_blobs(mask, smooth, np.zeros((1, 1), np.float32), RANGES, syn.BEAMS,
-                         np.zeros(3), np.eye(3), params.edge_beams, BlobParams())
+    mask, smooth, _, background = cfar_mask(level, RANGES, params)
+    return extract_blobs(mask, smooth, np.zeros((1, 1), np.float32), background, RANGES,
+                         syn.BEAMS, np.zeros(3), np.eye(3), params.edge_beams, BlobParams())
 
 
 @pytest.mark.parametrize("floor_db", [-35.0, -42.0, None])

@@ -64,7 +64,9 @@ class Blob:
         north_m, east_m: the centre in local NED through the ping's pose, m.
         range_extent_m, cross_extent_m: extent along range and across (r·Δθ), m.
         cells: detected cells; parts: connected parts merged into it.
-        peak_level, mean_level: largest and mean smoothed display level (0…1).
+        peak_level: largest smoothed display level (0…1).
+        excess_level: mean level above the local background (display units: a gain or
+            noise-floor change shifts levels, not this).
         contrast: mean motion contrast (level − ego-compensated background).
         touches_edge: whether it reaches the first or last usable beam.
     """
@@ -80,7 +82,7 @@ class Blob:
     cells: int
     parts: int
     peak_level: float
-    mean_level: float
+    excess_level: float
     contrast: float
     touches_edge: bool
 
@@ -123,13 +125,21 @@ def _groups(x: NDArray, y: NDArray, radius: float) -> NDArray[np.int64]:
     return np.unique(roots, return_inverse=True)[1]
 
 
+def _on_blocks(blocks: NDArray, rows: NDArray, cols: NDArray, shape: tuple[int, ...]
+               ) -> NDArray:
+    """Values of a block grid ``blocks`` at cells (rows, cols) of an image of ``shape``."""
+    gh, gw = blocks.shape
+    return blocks[rows * gh // shape[0], cols * gw // shape[1]]
+
+
 def extract_blobs(mask: NDArray[np.uint8], level: NDArray[np.float32],
-                  contrast: NDArray[np.float32], bin_ranges_m: NDArray, beam_angles_rad: NDArray,
-                  position_ned: NDArray, rotation_ned_from_sonar: NDArray, edge_beams: int,
+                  contrast: NDArray[np.float32], background: NDArray[np.float32],
+                  bin_ranges_m: NDArray, beam_angles_rad: NDArray, position_ned: NDArray,
+                  rotation_ned_from_sonar: NDArray, edge_beams: int,
                   params: BlobParams) -> BlobImage:
     """Blobs of a CFAR ``mask`` (uint8, 255 = detected) weighted by ``level``;
-    ``contrast`` is the motion contrast on a grid of blocks over the image (any size: a
-    cell takes its block's value)."""
+    ``contrast`` (the motion contrast) and ``background`` (the local background level)
+    are on grids of blocks over the image (any size: a cell takes its block's value)."""
     comp = np.zeros(mask.shape, np.int32)
     none = BlobImage((), comp, np.full(1, -1, np.int64))
     # Label only the rows that hold detections (labelling costs per cell of the image).
@@ -160,8 +170,8 @@ def extract_blobs(mask: NDArray[np.uint8], level: NDArray[np.float32],
     keep = keep[np.argsort(-weight[keep], kind="stable")][: params.max_parts]
     sum_x = np.bincount(ids, w * r * np.cos(th), n_comp)
     sum_y = np.bincount(ids, w * r * np.sin(th), n_comp)
-    gh, gw = contrast.shape
-    sum_c = np.bincount(ids, contrast[rows * gh // mask.shape[0], cols * gw // n_beams], n_comp)
+    sum_c = np.bincount(ids, _on_blocks(contrast, rows, cols, mask.shape), n_comp)
+    level_sum -= np.bincount(ids, _on_blocks(background, rows, cols, mask.shape), n_comp)
     peak = np.zeros(n_comp)
     np.maximum.at(peak, ids, lvl)
     cx, cy = sum_x[keep] / weight[keep], sum_y[keep] / weight[keep]
@@ -193,7 +203,7 @@ def extract_blobs(mask: NDArray[np.uint8], level: NDArray[np.float32],
             range_extent_m=float(bottom.max() - top.min()) * dr,
             cross_extent_m=float(right.max() - left.min()) * dth * rng,
             cells=cells, parts=int(members.size), peak_level=float(peak[members].max()),
-            mean_level=float(level_sum[members].sum() / cells),
+            excess_level=float(level_sum[members].sum() / cells),
             contrast=float(sum_c[members].sum() / cells),
             touches_edge=bool(left.min() <= edge_beams or right.max() >= n_beams - edge_beams)))
     return BlobImage(tuple(blobs), comp, blob_of_component)

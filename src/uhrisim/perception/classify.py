@@ -13,7 +13,8 @@ this is the same idea with continuous Gaussian emissions of the features below.
 
 Features of a track after a hit (:func:`track_features`): speed over ground from the
 Kalman filter (m/s: a piling is still, bubbles rise and drift slowly, a diver swims),
-log cross-range and range extents (m), mean level, level flicker (σ of the level over
+log cross-range and range extents (m), mean level above the local background (so a
+gain or noise-floor change does not move it), level flicker (σ of the level over
 hits: fins kick, bubbles burst), motion contrast against the ego-compensated background
 and the number of parts merged into the blob. The per-class means and σ are fitted on
 simulator runs whose label images say which blobs are the diver
@@ -36,7 +37,7 @@ from numpy.typing import NDArray
 from uhrisim.core.errors import ConfigError
 from uhrisim.perception.tracker import Track
 
-FEATURES = ("speed", "log_cross_extent", "log_range_extent", "mean_level", "flicker",
+FEATURES = ("speed", "log_cross_extent", "log_range_extent", "excess_level", "flicker",
             "contrast", "parts")
 _EXTENT_FLOOR_M = 0.05  # m: keeps the log finite for a one-cell blob
 
@@ -48,7 +49,7 @@ def track_features(track: Track) -> NDArray[np.float64]:
         track.speed,
         math.log(f.cross_extent_m + _EXTENT_FLOOR_M),
         math.log(f.range_extent_m + _EXTENT_FLOOR_M),
-        f.mean_level,
+        f.excess_level,
         math.sqrt(max(f.level_var, 0.0)),
         f.contrast,
         f.parts,

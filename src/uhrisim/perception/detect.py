@@ -114,11 +114,12 @@ def block_grid(shape: tuple[int, int], params: DetectorParams) -> tuple[int, int
 
 
 def background_threshold(x: NDArray[np.float32], params: DetectorParams
-                         ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
-    """(threshold of every cell of ``x``, block means of ``x``) (module docstring):
-    block means of x and x² → median over the block window → least of 3×3 neighbours →
-    threshold ``max(μ + max(k·σ, min_contrast), min_level)`` per block → interpolated to
-    cells."""
+                         ) -> tuple[NDArray[np.float32], NDArray[np.float32],
+                                    NDArray[np.float32]]:
+    """(threshold of every cell of ``x``, block means of ``x``, background level μ per
+    block) (module docstring): block means of x and x² → median over the block window →
+    least of 3×3 neighbours → threshold ``max(μ + max(k·σ, min_contrast), min_level)``
+    per block → interpolated to cells."""
     p = params
     h, w = x.shape
     gh, gw = block_grid(x.shape, p)
@@ -132,27 +133,29 @@ def background_threshold(x: NDArray[np.float32], params: DetectorParams
     m1, var = cv2.erode(m1, kernel), cv2.erode(var, kernel)
     margin = np.maximum(np.sqrt(var) * np.float32(p.k_sigma), np.float32(p.min_contrast))
     threshold = np.maximum(m1 + margin, np.float32(p.min_level))
-    return cv2.resize(threshold, (w, h), interpolation=cv2.INTER_LINEAR), means
+    return cv2.resize(threshold, (w, h), interpolation=cv2.INTER_LINEAR), means, m1
 
 
 def cfar_mask(level: NDArray[np.float32], bin_ranges_m: NDArray[np.float64],
               params: DetectorParams
-              ) -> tuple[NDArray[np.uint8], NDArray[np.float32], NDArray[np.float32]]:
-    """(mask, smoothed level, block means): mask is 255 where a cell is detected, else 0
-    (uint8, the shape of ``level``); the block means (grid :func:`block_grid`) feed the
-    background model. See the module docstring for the test."""
+              ) -> tuple[NDArray[np.uint8], NDArray[np.float32], NDArray[np.float32],
+                         NDArray[np.float32]]:
+    """(mask, smoothed level, block means, background level per block): mask is 255
+    where a cell is detected, else 0 (uint8, the shape of ``level``); the block means
+    (grid :func:`block_grid`) feed the background model, the background level gives each
+    blob its level above the background. See the module docstring for the test."""
     p = params
     x = level
     if p.smooth_bins > 1 or p.smooth_beams > 1:
         x = cv2.blur(level, (p.smooth_beams, p.smooth_bins), borderType=cv2.BORDER_REFLECT)
-    threshold, means = background_threshold(x, p)
+    threshold, means, background = background_threshold(x, p)
     mask = cv2.compare(x, threshold, cv2.CMP_GT)
     near = int(np.searchsorted(bin_ranges_m, p.min_range_m))
     mask[:near] = 0
     if p.edge_beams:
         mask[:, : p.edge_beams] = 0
         mask[:, -p.edge_beams:] = 0
-    return mask, x, means
+    return mask, x, means, background
 
 
 def horizontal_pose(position_ned: NDArray, rotation_ned_from_sonar: NDArray

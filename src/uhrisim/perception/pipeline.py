@@ -124,9 +124,10 @@ class SonarPerception:
             self._shape = level.shape
         assert self._background is not None
         pose = horizontal_pose(ping.position_ned, ping.rotation_ned_from_sonar)
-        mask, smooth, blocks = cfar_mask(level, ping.bin_ranges_m, p.detector)
+        mask, smooth, blocks, background = cfar_mask(level, ping.bin_ranges_m, p.detector)
         contrast = self._background.update(blocks, pose)
-        blobs = extract_blobs(mask, smooth, contrast, ping.bin_ranges_m, ping.beam_angles_rad,
+        blobs = extract_blobs(mask, smooth, contrast, background, ping.bin_ranges_m,
+                              ping.beam_angles_rad,
                               ping.position_ned, ping.rotation_ned_from_sonar,
                               p.detector.edge_beams, p.blobs)
         half = 0.5 * float(ping.beam_angles_rad[-1] - ping.beam_angles_rad[0])

@@ -96,7 +96,7 @@ class TrackFeatures:
     rate: float = 0.2
     cross_extent_m: float = 0.0
     range_extent_m: float = 0.0
-    mean_level: float = 0.0
+    excess_level: float = 0.0
     level_var: float = 0.0
     contrast: float = 0.0
     parts: float = 0.0
@@ -104,10 +104,10 @@ class TrackFeatures:
 
     def update(self, blob: Blob) -> None:
         a = 1.0 if self.hits == 0 else self.rate
-        d = blob.mean_level - self.mean_level
+        d = blob.excess_level - self.excess_level
         self.cross_extent_m += a * (blob.cross_extent_m - self.cross_extent_m)
         self.range_extent_m += a * (blob.range_extent_m - self.range_extent_m)
-        self.mean_level += a * d
+        self.excess_level += a * d
         self.level_var = (1.0 - a) * (self.level_var + a * d * d)
         self.contrast += a * (blob.contrast - self.contrast)
         self.parts += a * (blob.parts - self.parts)
