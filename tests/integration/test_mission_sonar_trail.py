@@ -224,3 +224,40 @@ def test_bad_bubble_settings_name_the_field(tmp_path):
     path.write_text(text)
     with pytest.raises(ConfigError, match=r"bubbles\.period"):
         load_scenario(path)
+
+
+@pytest.mark.parametrize("floor_db", [-33.0, -20.0])
+def test_trail_holds_on_images_with_a_noise_floor_and_speckle(floor_db):
+    # The detector must not rely on clean images: every ping of the real run gets a noise
+    # floor (display level ~0.35 and ~0.6) and Rayleigh speckle (unit-exponential
+    # intensity, grain over 5 beams) before perception sees it, as a physical image would
+    # have (shared/reference/sonar.md; tests/support/synthetic_sonar.py uses the same model).
+    sim = Simulation(load_scenario(SONAR))
+    slot = sim.agents["videoray"].sonars[0]
+    ping_clean = slot.sonar.ping
+    rng = np.random.default_rng(5)
+    dr_db = slot.sonar.config.dynamic_range_db
+
+    def noisy_ping(*args, **kwargs):
+        ping = ping_clean(*args, **kwargs)
+        intensity = np.where(ping.polar > 0, 10 ** ((ping.polar - 1.0) * dr_db / 10), 0.0)
+        grain = rng.exponential(1.0, (intensity.shape[0], intensity.shape[1] + 4))
+        grain = sum(grain[:, k: k + intensity.shape[1]] for k in range(5)) / 5.0
+        intensity = (intensity + 10 ** (floor_db / 10)) * grain
+        ping.polar[:] = np.clip(1.0 + 10 * np.log10(intensity) / dr_db, 0.0, 1.0)
+        return ping
+
+    slot.sonar.ping = noisy_ping
+    held = counted = 0
+    while sim.t < 60.0:
+        frame = sim.step()
+        seen = frame.perception.get("videoray")
+        if seen is None or sim.t < 10.0:
+            continue
+        truth = sim.agents["diver"].nav().position_ned
+        track = seen.diver_track
+        counted += 1
+        held += track is not None and np.hypot(track.north - truth[0],
+                                               track.east - truth[1]) <= 1.0
+    assert held / counted >= 0.95
+    assert np.median(frame.pings["videoray"].polar) > 0.3  # no pixel near 0: the floor is in
