@@ -12,14 +12,14 @@ decays linearly to 0 over ``max_coast`` s, so the trail slows down rather than r
 on.
 
 Losing and finding the diver (what a MOOS-IvP user scripts with conditions): when the
-diver track is dropped, no more reports are sent (the helm keeps the last one until its
-ledger lets it go), ``<lost_var> = true`` is posted with
-``<search_var> = points=<x>,<y>`` — the last track position, for a reacquire behavior
-(e.g. a BHV_Waypoint with ``updates = DIVER_SEARCH_UPDATES`` and
-``condition = DIVER_LOST = true`` that turns toward it); when a diver track is held
-again, ``<lost_var> = false``. Each of these, a damaged ping (non-finite cells), a diver
-track leaving the fan and a long silence (no detection for ``silence_warn`` s) is a
-logged simulation event.
+diver track is dropped (or no ping has come for ``max_coast`` s), no more reports are
+sent (the helm keeps the last one until its ledger lets it go), ``<lost_var> = true`` is
+posted with ``<search_var> = points=<x>,<y>`` — the last track position, for a reacquire
+behavior (e.g. a BHV_Waypoint with ``updates = DIVER_SEARCH_UPDATES`` and ``condition =
+DIVER_LOST = true`` that turns toward it); when a diver track is held again,
+``<lost_var> = false``. Each of these, a damaged ping (non-finite cells), a diver track
+leaving the fan and a long silence (no detection for ``silence_warn`` s) is a logged
+simulation event.
 """
 
 from __future__ import annotations
@@ -137,7 +137,9 @@ class SonarContacts:
         assert obs.frame is not None
         cfg, agent = obs.config, obs.agent
         community = agent.community
-        track = obs.frame.diver_track
+        # No ping for longer than a track may coast (the sonar stopped): the track is gone.
+        fresh = t - obs.frame.t <= cfg.max_coast
+        track = obs.frame.diver_track if fresh else None
         if track is None:
             if obs.held:
                 obs.held = False
