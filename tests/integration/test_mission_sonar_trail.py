@@ -101,8 +101,8 @@ def test_sonar_source_needs_a_sonar(tmp_path):
     text = text[: text.index("    sensors_off:")] + text[text.index("recording:"):]
     path = tmp_path / "s.yaml"
     path.write_text(text)
-    (tmp_path / "videoray_trail_sonar.bhv").write_text(
-        (ROOT / "scenarios" / "videoray_trail_sonar.bhv").read_text())
+    (tmp_path / "videoray_trail.bhv").write_text(
+        (ROOT / "scenarios" / "videoray_trail.bhv").read_text())
     from uhrisim.core.errors import ConfigError
 
     with pytest.raises(ConfigError, match="takes its contacts from its sonar"):
@@ -147,7 +147,7 @@ agents:
   - name: videoray
     model: videoray
     start: {north: 0, east: 0, depth: 2, heading_deg: 0}
-    helm: {rate_hz: 4, bhv_file: videoray_trail_sonar.bhv}
+    helm: {rate_hz: 4, bhv_file: videoray_trail.bhv, macros: {SONAR_CONTACTS: "true"}}
     contacts:
       source: sonar
       sonar: {silence_warn: 3.0}
@@ -166,8 +166,8 @@ def test_empty_water_and_damaged_pings_are_logged_and_the_helm_searches(tmp_path
     # pHelmIvP.
     path = tmp_path / "empty.yaml"
     path.write_text(EMPTY_WATER)
-    (tmp_path / "videoray_trail_sonar.bhv").write_text(
-        (ROOT / "scenarios" / "videoray_trail_sonar.bhv").read_text())
+    (tmp_path / "videoray_trail.bhv").write_text(
+        (ROOT / "scenarios" / "videoray_trail.bhv").read_text())
     sim = Simulation(load_scenario(path))
     slot = sim.agents["videoray"].sonars[0]
     ping_once = slot.sonar.ping

@@ -40,7 +40,7 @@ def truth_driven(path: Path) -> tuple[ScenarioFile, str, str]:
     data = yaml.safe_load(path.read_text())
     observer = next(a for a in data["agents"] if a.get("contacts", {}).get("source") == "sonar")
     observer["contacts"]["source"] = "truth"
-    observer["helm"]["bhv_file"] = "videoray_trail.bhv"
+    observer["helm"].pop("macros", None)  # the plain trail, without the sonar's reacquire
     for sensor in observer["sensors"]:
         sensor["labels"] = True
     scenario = validate_data(data, str(path))
