@@ -261,3 +261,20 @@ def test_trail_holds_on_images_with_a_noise_floor_and_speckle(floor_db):
                                                track.east - truth[1]) <= 1.0
     assert held / counted >= 0.95
     assert np.median(frame.pings["videoray"].polar) > 0.3  # no pixel near 0: the floor is in
+
+
+def test_scenario_settings_reach_the_perception_and_the_rest_keep_its_defaults(tmp_path):
+    from uhrisim.perception import DetectorParams, TrackerParams
+
+    path = tmp_path / "s.yaml"
+    path.write_text(SONAR.read_text().replace(
+        SOURCE_LINE, "      sonar: {confirm: [2, 3], k_sigma: 5.5, diver_probability: 0.2}\n"
+        + SOURCE_LINE))
+    (tmp_path / "videoray_trail.bhv").write_text(
+        (ROOT / "scenarios" / "videoray_trail.bhv").read_text())
+    params = Simulation(load_scenario(path)).sonar_contacts.observers[0].perception.params
+    assert (params.tracker.confirm_m, params.tracker.confirm_n) == (2, 3)
+    assert params.detector.k_sigma == 5.5
+    assert params.detector.min_contrast == DetectorParams().min_contrast
+    assert params.tracker.max_coast_s == TrackerParams().max_coast_s
+    assert (params.diver_probability, params.keep_probability) == (0.2, 0.2)

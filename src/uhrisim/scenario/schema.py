@@ -294,20 +294,23 @@ class AlertConfig(Strict):
 
 class SonarContactsConfig(Strict):
     """Contacts from the agent's own sonar (``contacts.source: sonar``): the perception
-    chain's settings and how the diver track is reported (docs/perception.md)."""
+    chain's settings and how the diver track is reported (docs/perception.md). A
+    perception setting left null takes the perception's own default
+    (``uhrisim.perception``: DetectorParams, BlobParams, TrackerParams,
+    PerceptionParams)."""
 
     name: Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")] = "diver"
     vehicle_type: str = "DIVER"
-    k_sigma: PositiveFloat = 4.0
-    min_contrast: Annotated[float, Field(ge=0.0, le=1.0)] = 0.12
-    min_level: Annotated[float, Field(ge=0.0, le=1.0)] = 0.25
-    min_range: NonNegativeFloat = 0.8
-    min_cells: Annotated[int, Field(ge=1)] = 12
-    merge_radius: NonNegativeFloat = 1.5
-    confirm: tuple[Annotated[int, Field(ge=1)], Annotated[int, Field(ge=1)]] = (4, 6)
-    max_coast: PositiveFloat = 2.0
-    accel_std: PositiveFloat = 0.4
-    diver_probability: Annotated[float, Field(gt=0.0, lt=1.0)] = 0.6
+    k_sigma: PositiveFloat | None = None
+    min_contrast: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
+    min_level: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
+    min_range: NonNegativeFloat | None = None
+    min_cells: Annotated[int, Field(ge=1)] | None = None
+    merge_radius: NonNegativeFloat | None = None
+    confirm: tuple[Annotated[int, Field(ge=1)], Annotated[int, Field(ge=1)]] | None = None
+    max_coast: PositiveFloat | None = None
+    accel_std: PositiveFloat | None = None
+    diver_probability: Annotated[float, Field(gt=0.0, lt=1.0)] | None = None
     classifier: str | None = None  # JSON file beside the scenario; None: the shipped one
     lost_var: str = "DIVER_LOST"
     search_var: str = "DIVER_SEARCH_UPDATES"
@@ -315,7 +318,7 @@ class SonarContactsConfig(Strict):
 
     @model_validator(mode="after")
     def _m_of_n(self) -> SonarContactsConfig:
-        if self.confirm[0] > self.confirm[1]:
+        if self.confirm is not None and self.confirm[0] > self.confirm[1]:
             raise ValueError(f"confirm: M={self.confirm[0]} hits of N={self.confirm[1]} "
                              "pings needs M <= N")
         return self

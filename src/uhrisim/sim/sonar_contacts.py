@@ -48,19 +48,28 @@ MIN_HEADING_SPEED = 0.1  # m/s: below it a track's heading is noise; the last on
 def perception_params(cfg: SonarContactsConfig, source: ScenarioFile, where: str
                       ) -> PerceptionParams:
     """The perception settings a scenario's ``contacts.sonar`` section asks for."""
-    classifier = None
+    def given(**values: object) -> dict[str, object]:
+        """The settings the scenario gives (the others keep the perception's defaults)."""
+        return {k: v for k, v in values.items() if v is not None}
+
+    confirm = cfg.confirm or (None, None)
+    top: dict[str, object] = given(diver_probability=cfg.diver_probability)
+    if cfg.diver_probability is not None:
+        top["keep_probability"] = min(PerceptionParams.keep_probability,
+                                      cfg.diver_probability)
     if cfg.classifier is not None:
-        classifier = DiverClassifier.load(source.resolve(cfg.classifier))
+        top["classifier"] = DiverClassifier.load(source.resolve(cfg.classifier))
     try:
         return PerceptionParams(
-            detector=DetectorParams(k_sigma=cfg.k_sigma, min_contrast=cfg.min_contrast,
-                                    min_level=cfg.min_level, min_range_m=cfg.min_range),
-            blobs=BlobParams(min_cells=cfg.min_cells, merge_radius_m=cfg.merge_radius),
-            tracker=TrackerParams(confirm_m=cfg.confirm[0], confirm_n=cfg.confirm[1],
-                                  max_coast_s=cfg.max_coast, accel_std=cfg.accel_std),
-            diver_probability=cfg.diver_probability,
-            keep_probability=min(0.3, cfg.diver_probability),
-            classifier=classifier)
+            detector=DetectorParams(**given(k_sigma=cfg.k_sigma, min_contrast=cfg.min_contrast,
+                                            min_level=cfg.min_level,
+                                            min_range_m=cfg.min_range)),
+            blobs=BlobParams(**given(min_cells=cfg.min_cells,
+                                     merge_radius_m=cfg.merge_radius)),
+            tracker=TrackerParams(**given(confirm_m=confirm[0], confirm_n=confirm[1],
+                                          max_coast_s=cfg.max_coast,
+                                          accel_std=cfg.accel_std)),
+            **top)
     except ConfigError as error:
         raise ConfigError(str(error), where) from None
 
@@ -138,7 +147,7 @@ class SonarContacts:
         cfg, agent = obs.config, obs.agent
         community = agent.community
         # No ping for longer than a track may coast (the sonar stopped): the track is gone.
-        fresh = t - obs.frame.t <= cfg.max_coast
+        fresh = t - obs.frame.t <= obs.perception.params.tracker.max_coast_s
         track = obs.frame.diver_track if fresh else None
         if track is None:
             if obs.held:
@@ -159,7 +168,8 @@ class SonarContacts:
         obs.outside = not track.visible
         if track.speed >= MIN_HEADING_SPEED:
             obs.heading = float(heading_deg_from_yaw(math.atan2(track.v_east, track.v_north)))
-        speed = track.speed * max(0.0, 1.0 - track.coast_s / cfg.max_coast)
+        max_coast = obs.perception.params.tracker.max_coast_s
+        speed = track.speed * max(0.0, 1.0 - track.coast_s / max_coast)
         x, y = moos_xy_from_ned(track.north, track.east)
         obs.last_xy = (float(x), float(y))
         nav = agent.nav()
