@@ -278,3 +278,39 @@ def test_scenario_settings_reach_the_perception_and_the_rest_keep_its_defaults(t
     assert params.detector.min_contrast == DetectorParams().min_contrast
     assert params.tracker.max_coast_s == TrackerParams().max_coast_s
     assert (params.diver_probability, params.keep_probability) == (0.2, 0.2)
+
+
+def test_diver_pushed_out_of_the_fan_is_coasted_lost_and_reacquired():
+    # Turn the ROV 100 deg away mid-trail and hold its thrusters at zero for 8 s (longer
+    # than a track may coast outside the fan): the diver track is outside the fan (an
+    # event), it coasts with its reported speed decaying, is lost; then the reacquire
+    # behavior turns the ROV back toward the last track position and the sonar holds the
+    # diver again.
+    sim = Simulation(load_scenario(SONAR), seed=4)
+    while sim.t < 40.0:
+        sim.step()
+    rov = sim.agents["videoray"]
+    state = rov.state.copy()
+    state[3] += np.radians(100.0)
+    rov.update(state=state)
+    sim.set_actuators("videoray", np.zeros_like(rov.inputs), hold_s=8.0)
+    turned_at, speeds, lost_var = sim.t, [], []
+    while sim.t < turned_at + 60.0:
+        frame = sim.step()
+        for post in frame.posts:
+            if post.community != "videoray":
+                continue
+            if post.var == "NODE_REPORT" and not lost_var:
+                speeds.append(float(post.value.split("SPD=")[1].split(",")[0]))
+            elif post.var == "DIVER_LOST":
+                lost_var.append((round(sim.t - turned_at, 2), post.value))
+    details = [e.detail for e in sim.events_log if e.kind == "perception" and e.t >= turned_at]
+    assert any("left the sonar fan" in d for d in details)
+    assert any("lost" in d for d in details)
+    coast = speeds[-8:]  # the last reports before the loss: the speed decays to ~0
+    assert all(b <= a + 1e-9 for a, b in zip(coast, coast[1:], strict=False))
+    assert coast[-1] < 0.15
+    assert [v for _, v in lost_var] == ["true", "false"]  # lost, then held again
+    truth = sim.agents["diver"].nav().position_ned
+    track = sim.sonar_contacts.observers[0].frame.diver_track
+    assert np.hypot(track.north - truth[0], track.east - truth[1]) < 1.0
