@@ -7,6 +7,8 @@ losing the diver handled by the reacquire behavior."""
 from __future__ import annotations
 
 import json
+import time
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -308,9 +310,50 @@ def test_diver_pushed_out_of_the_fan_is_coasted_lost_and_reacquired():
     assert any("left the sonar fan" in d for d in details)
     assert any("lost" in d for d in details)
     coast = speeds[-8:]  # the last reports before the loss: the speed decays to ~0
-    assert all(b <= a + 1e-9 for a, b in zip(coast, coast[1:], strict=False))
+    assert all(b <= a + 1e-9 for a, b in pairwise(coast))
     assert coast[-1] < 0.15
     assert [v for _, v in lost_var] == ["true", "false"]  # lost, then held again
     truth = sim.agents["diver"].nav().position_ned
     track = sim.sonar_contacts.observers[0].frame.diver_track
     assert np.hypot(track.north - truth[0], track.east - truth[1]) < 1.0
+
+
+def test_moos_community_gets_the_sonar_contacts():
+    # A real MOOS v10 DB in another process (the project's test DB) and an observer
+    # client: the ROV's community receives the sonar's diver NODE_REPORT (SOURCE=sonar,
+    # TIME on the MOOS clock, like every other posting there) and DIVER_LOST.
+    from uhrisim.autonomy.contacts import parse_node_report
+    from uhrisim.bridges.moos.client import MoosClient
+    from uhrisim.bridges.moos.hook import MoosAgentLink, MoosBridgeHook
+    from uhrisim.bridges.moos.testdb import spawn
+
+    with spawn(community="videoray") as db:
+        observer = MoosClient()
+        observer.connect("127.0.0.1", db.port, "observer", strict=True)
+        observer.register("NODE_REPORT")
+        observer.register("DIVER_LOST")
+        hook = MoosBridgeHook([MoosAgentLink("videoray", port=db.port, community="videoray")],
+                              time_source="sim", strict=True)
+        sim = Simulation(load_scenario(SONAR), hooks=[hook])
+        try:
+            sim.start()
+            time.sleep(0.3)  # the observer's registrations reach the DB
+            while sim.t < 15.0:
+                sim.step()
+            got: list = []
+            deadline = time.monotonic() + 5.0
+            while time.monotonic() < deadline and not any(
+                    m.key == "DIVER_LOST" and m.value == "false" for m in got):
+                got += observer.drain()
+                time.sleep(0.02)
+            sonar = [(parse_node_report(m.value), m) for m in got
+                     if m.key == "NODE_REPORT" and "SOURCE=sonar" in m.value]
+            assert sonar and all(r.name == "diver" for r, _ in sonar)
+            t0 = hook.bridges["videoray"]._t0  # time_source="sim": MOOS time = t0 + t_sim
+            for r, m in sonar:
+                assert r.time == pytest.approx(m.time, abs=1e-3)
+                assert 0.0 < r.time - t0 <= 15.0
+            assert ("DIVER_LOST", "false") in [(m.key, m.value) for m in got]
+        finally:
+            sim.close()
+            observer.close()
