@@ -30,7 +30,7 @@ def sonar_run(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def clutter_run(tmp_path_factory):
-    return run_scenario(CLUTTER, tmp_path_factory.mktemp("clutter"), duration=240.0)
+    return run_scenario(CLUTTER, tmp_path_factory.mktemp("clutter"), duration=180.0)
 
 
 def test_sonar_only_trail_meets_the_bands(sonar_run):
@@ -91,11 +91,13 @@ def test_contacts_come_from_the_sonar_and_loss_triggers_reacquire():
     assert "reacquire" in sim.agents["videoray"].last_helm.active
 
 
-def test_same_seed_same_sonar_run(sonar_run, tmp_path):
-    again = run_scenario(SONAR, tmp_path, duration=120.0)
+def test_same_seed_same_sonar_run(tmp_path):
+    first = run_scenario(SONAR, tmp_path / "a", duration=40.0)
+    again = run_scenario(SONAR, tmp_path / "b", duration=40.0)
     volatile = {"wall_s", "real_time_factor"}
+    assert first.metrics["perception"]["held_pct"] > 0  # the sonar chain did run
     assert {k: v for k, v in again.metrics.items() if k not in volatile} == {
-        k: v for k, v in sonar_run.metrics.items() if k not in volatile}
+        k: v for k, v in first.metrics.items() if k not in volatile}
 
 
 def test_sonar_source_needs_a_sonar(tmp_path):
@@ -149,7 +151,11 @@ agents:
   - name: videoray
     model: videoray
     start: {north: 0, east: 0, depth: 2, heading_deg: 0}
-    helm: {rate_hz: 4, bhv_file: videoray_trail.bhv, macros: {SONAR_CONTACTS: "true"}}
+    helm:
+      rate_hz: 4
+      bhv_file: videoray_trail.bhv
+      macros: {SONAR_CONTACTS: "true"}
+      domain: {course: [0, 359, 360], speed: [0, 2, 41], depth: [0, 50, 501, optional]}
     contacts:
       source: sonar
       sonar: {silence_warn: 3.0}
@@ -251,7 +257,7 @@ def test_trail_holds_on_images_with_a_noise_floor_and_speckle(floor_db):
 
     slot.sonar.ping = noisy_ping
     held = counted = 0
-    while sim.t < 60.0:
+    while sim.t < 45.0:
         frame = sim.step()
         seen = frame.perception.get("videoray")
         if seen is None or sim.t < 10.0:
