@@ -1,6 +1,6 @@
 """The viewer draws the sonar perception of a real sonar-trail run (headless Chromium):
 the diver track as a green circle on the map where the track is, and the tracks on the
-sonar fan."""
+sonar fan; a replay of the recording shows the recorded tracks."""
 
 from __future__ import annotations
 
@@ -71,3 +71,29 @@ def test_tracks_are_drawn_on_the_map_and_the_fan():
             assert bp.errors() == []
     finally:
         server.close()
+
+
+class _Sink:
+    def publish(self, frame: dict) -> None:
+        del frame
+
+
+def test_replay_shows_the_recorded_tracks(tmp_path):
+    # A recorded sonar-trail run, replayed: the map overlay at time t holds the tracks
+    # recorded at the last ping before t, the diver track next to the recorded diver.
+    from uhrisim.record.reader import read_odometry
+    from uhrisim.sim.runner import run_scenario
+    from uhrisim.viz.viewer.replay import ReplayPlayer, load_replay
+
+    run_scenario(SCENARIO, tmp_path, duration=30.0)
+    data = load_replay(tmp_path / "recording.mcap")
+    times, seen = data.perception["videoray"]
+    assert len(times) == 30 * 15  # every ping
+    diver = read_odometry(tmp_path / "recording.mcap")["diver"]
+    player = ReplayPlayer(data, _Sink())  # type: ignore[arg-type]
+    t = 25.0
+    (track,) = [tr for tr in player.frame_at(t)["overlays"]["tracks"] if tr["kind"] == "diver"]
+    i = int(np.argmin(abs(diver.t - t)))
+    assert math.hypot(track["north"] - diver.x_north[i], track["east"] - diver.y_east[i]) < 1.0
+    last_ping = seen[int(np.searchsorted(times, t, "right")) - 1]
+    assert track == {"agent": "videoray", **next(s for s in last_ping if s["kind"] == "diver")}

@@ -98,7 +98,8 @@ def perception_markers(seen: Any, depth_m: float) -> tuple[list[dict[str, Any]],
     Detections (ns ``detections``): a flat box per blob, centred on it, turned to its
     bearing, range extent × cross-range extent. Tracks (ns ``tracks``): a flat cylinder
     per track, 2σ of its position wide (green: the diver track; orange: other confirmed
-    tracks; grey: tentative), with ``text`` "track <id> P(diver)=<p>", and a line
+    tracks; grey: tentative), with ``text`` "track <id> (<kind>) P(diver)=<p>" (kind:
+    ``diver``, ``track`` or ``tentative``), and a line
     (ns ``track_velocity``) to where it will be in 1 s.
     """
     clear = {"ns": "detections", "id": 0, "type": "box", "action": "deleteall"}
@@ -116,14 +117,14 @@ def perception_markers(seen: Any, depth_m: float) -> tuple[list[dict[str, Any]],
             "color": _DETECTION_RGBA, "text": f"blob {i}: {b.cells} cells"})
     tracks: list[dict[str, Any]] = [{**clear, "ns": "tracks"}]
     for tr in seen.tracks:
-        colour = (_DIVER_RGBA if tr.id == seen.diver else
-                  _CLUTTER_RGBA if tr.confirmed else _TENTATIVE_RGBA)
+        kind = "diver" if tr.id == seen.diver else "track" if tr.confirmed else "tentative"
+        colour = {"diver": _DIVER_RGBA, "track": _CLUTTER_RGBA, "tentative": _TENTATIVE_RGBA}[kind]
         width = max(2.0 * tr.position_std_m, 0.1)
         tracks.append({
             "ns": "tracks", "id": tr.id, "type": "cylinder",
             "position_ned": (tr.north, tr.east, depth_m),
             "scale": (width, width, MARKER_HEIGHT_M), "color": colour,
-            "text": f"track {tr.id} P(diver)={tr.diver_probability:.2f}"})
+            "text": f"track {tr.id} ({kind}) P(diver)={tr.diver_probability:.2f}"})
         tracks.append({
             "ns": "track_velocity", "id": tr.id, "type": "line_strip", "color": colour,
             "points_ned": np.array([[tr.north, tr.east, depth_m],
