@@ -260,6 +260,9 @@ class Ros2BridgeHook(BaseHook):
                 ping = pings.get(name) if publish_sonar and pings else None
                 if ping is not None:
                     self._publish_ping(bridge, ros, ping)
+                    seen = frame.perception.get(name)
+                    if seen is not None:
+                        self._publish_perception(bridge, ros, t, seen, ping)
                 decision = helm.get(name) if helm else None
                 if decision is not None:
                     bridge.publish_helm(ros, t, decision.heading_deg, decision.speed,
@@ -311,6 +314,17 @@ class Ros2BridgeHook(BaseHook):
         bridge.publish_sonar(name, float(ping.t), ping.polar_u8 if polar else None,
                              ping.fan_u8 if fan else None, points, intensity,
                              sonar_pose_ned=(ping.position_ned, ping.rotation_ned_from_sonar))
+
+    @staticmethod
+    def _publish_perception(bridge: Ros2Bridge, name: str, t: float, seen: Any,
+                            ping: Any) -> None:
+        """The sonar perception's detections and tracks, as the recorder writes them
+        (``/<agent>/perception/{detections,tracks}``, docs/perception.md)."""
+        from uhrisim.record.hook import perception_markers
+
+        detections, tracks = perception_markers(seen, float(ping.position_ned[2]))
+        bridge.publish_markers(f"/{name}/perception/detections", t, detections)
+        bridge.publish_markers(f"/{name}/perception/tracks", t, tracks)
 
     def _take_commands(self, sim: Simulation, name: str, cmd: AgentCommands,
                        frame: TickFrame) -> None:
