@@ -12,13 +12,10 @@ once both have a publisher, and on ``STOP`` (or end of stdin) prints one JSON li
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-import threading
-import time
 
 import rclpy
-from rclpy.executors import SingleThreadedExecutor
+from listener_loop import serve
 from visualization_msgs.msg import MarkerArray
 
 
@@ -43,32 +40,7 @@ def main() -> int:
 
     for topic in topics:
         node.create_subscription(MarkerArray, topic, make_cb(topic), 10)
-    ex = SingleThreadedExecutor()
-    ex.add_node(node)
-    stop = threading.Event()
-
-    def read_stdin():
-        for line in sys.stdin:
-            if line.strip() == "STOP":
-                break
-        stop.set()
-
-    threading.Thread(target=read_stdin, daemon=True).start()
-    ready = False
-    deadline = time.monotonic() + 40.0
-    while not stop.is_set():
-        ex.spin_once(timeout_sec=0.02)
-        if not ready and all(node.count_publishers(t) > 0 for t in topics):
-            ready = True
-            print("READY", flush=True)
-        if not ready and time.monotonic() > deadline:
-            print("TIMEOUT waiting for publishers", flush=True)
-            return 2
-    print("RESULT " + json.dumps(rec), flush=True)
-    ex.shutdown()
-    node.destroy_node()
-    rclpy.try_shutdown()
-    return 0
+    return serve(node, topics, rec, ready_timeout_s=40.0)
 
 
 if __name__ == "__main__":
