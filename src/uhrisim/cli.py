@@ -54,6 +54,8 @@ FIGURES: dict[str, tuple[str, str]] = {
                    "test tank: 30 fan + label images and their statistics vs real frames"),
     "camera": ("uhrisim.viz.camera_figures:make_camera",
                "the diver in clear, coastal and turbid water, near and far, lamps on/off"),
+    "sonar-trail": ("uhrisim.experiments.sonar_trail:make_sonar_trail",
+                    "issue 15: sonar-only trail, 3 seeds x 10 min, paper + cluttered (~10 min)"),
 }
 
 
@@ -212,6 +214,12 @@ def _print_metrics(result: Any) -> None:
             ("minimum separation", _fmt(m["min_separation_m"], "m")),
         ]
     rows.append(("collisions", str(m.get("collisions", 0))))
+    seen = m.get("perception")
+    if seen:  # contacts from the sonar (docs/perception.md)
+        held = seen["held_pct"]
+        rows += [("diver held by a sonar track", "never" if held is None else f"{held:.1f} %"),
+                 ("sonar track error RMS", _fmt(seen["track_error_m"]["rms"], "m")),
+                 ("track identity switches", str(seen["identity_switches"]))]
     for name, value in rows:
         table.add_row(name, value)
     console.print(table)

@@ -14,15 +14,13 @@ comes from the parent.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-import threading
 import time
 
 import rclpy
 from geometry_msgs.msg import PoseStamped
+from listener_loop import serve
 from nav_msgs.msg import Odometry
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image, PointCloud2
 
@@ -99,33 +97,7 @@ def main() -> int:
 
     for topic, (typ, qos) in topics.items():
         node.create_subscription(typ, topic, make_cb(topic), qos)
-    ex = SingleThreadedExecutor()
-    ex.add_node(node)
-
-    stop = threading.Event()
-
-    def read_stdin():
-        for line in sys.stdin:
-            if line.strip() == "STOP":
-                break
-        stop.set()
-
-    threading.Thread(target=read_stdin, daemon=True).start()
-    ready = False
-    deadline = time.monotonic() + 20.0
-    while not stop.is_set():
-        ex.spin_once(timeout_sec=0.02)
-        if not ready and all(node.count_publishers(t) > 0 for t in topics):
-            ready = True
-            print("READY", flush=True)
-        if not ready and time.monotonic() > deadline:
-            print("TIMEOUT waiting for publishers", flush=True)
-            return 2
-    print("RESULT " + json.dumps(rec), flush=True)
-    ex.shutdown()
-    node.destroy_node()
-    rclpy.try_shutdown()
-    return 0
+    return serve(node, list(topics), rec)
 
 
 if __name__ == "__main__":

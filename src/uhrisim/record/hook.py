@@ -1,9 +1,10 @@
 """The recorder as a simulation publish hook (``uhrisim.sim.simulation.Hook``).
 
 :class:`McapRecordingHook` turns each :class:`~uhrisim.sim.hooks.TickFrame` into
-:class:`~uhrisim.record.McapRecorder` calls: agent odometry, pose, ``/tf`` and
+`~uhrisim.record.McapRecorder` calls: agent odometry, pose, ``/tf`` and
 ``/clock`` (every ``odom_every`` ticks), sonar pings (images, hits, sonar pose and the
-marine_acoustic_msgs/ProjectedSonarImage), helm decisions (and the live bridge's
+marine_acoustic_msgs/ProjectedSonarImage), each sonar perception frame as markers
+(:func:`perception_markers`), camera frames, helm decisions (and the live bridge's
 ``helm/desired_*`` and ``helm/mode``), community posts and events; at start it writes
 the static scene as triangle-list markers, each sonar's mount on ``/tf_static`` and the
 run's seed/step as MCAP metadata; at the end it closes the file (recording an ``error``
@@ -32,7 +33,14 @@ from uhrisim.sensors.sonar.cloud import cloud_hits
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["McapRecordingHook", "ros_name", "scene_markers"]
+__all__ = ["McapRecordingHook", "perception_markers", "ros_name", "scene_markers"]
+
+# Track colours (r, g, b, a): the diver track, other confirmed tracks, tentative ones.
+_DIVER_RGBA = (0.1, 0.9, 0.2, 0.9)
+_CLUTTER_RGBA = (1.0, 0.55, 0.0, 0.8)
+_TENTATIVE_RGBA = (0.6, 0.6, 0.6, 0.5)
+_DETECTION_RGBA = (0.2, 0.6, 1.0, 0.6)
+MARKER_HEIGHT_M = 0.1  # thickness of the flat detection and track markers
 
 _NOT_NAME = re.compile(r"[^A-Za-z0-9_]")
 # Marker colours by material name (r, g, b, a); others get the default.
@@ -84,6 +92,49 @@ def scene_markers(scene: Any, max_triangles: int = 200_000) -> list[dict[str, An
             "text": str(obj.label),
         })
     return markers
+
+
+def perception_markers(seen: Any, depth_m: float) -> tuple[list[dict[str, Any]],
+                                                           list[dict[str, Any]]]:
+    """(detections, tracks) of a perception frame as marker specs in world NED at the
+    sonar's depth ``depth_m`` (imaging sonars measure no elevation). Each list starts
+    with a ``deleteall`` so a viewer shows only the latest ping's markers.
+
+    Detections (ns ``detections``): a flat box per blob, centred on it, turned to its
+    bearing, range extent × cross-range extent. Tracks (ns ``tracks``): a flat cylinder
+    per track, 2σ of its position wide (green: the diver track; orange: other confirmed
+    tracks; grey: tentative), with ``text`` "track <id> (<kind>) P(diver)=<p>" (kind:
+    ``diver``, ``track`` or ``tentative``), and a line
+    (ns ``track_velocity``) to where it will be in 1 s.
+    """
+    clear = {"ns": "detections", "id": 0, "type": "box", "action": "deleteall"}
+    detections: list[dict[str, Any]] = [clear]
+    yaw = float(seen.view.yaw)
+    for i, b in enumerate(seen.blobs.blobs):
+        a = yaw + float(b.bearing_rad)
+        c, sn = np.cos(a), np.sin(a)
+        detections.append({
+            "ns": "detections", "id": i + 1, "type": "box",
+            "position_ned": (b.north_m, b.east_m, depth_m),
+            "rotation": np.array([[c, -sn, 0.0], [sn, c, 0.0], [0.0, 0.0, 1.0]]),
+            "scale": (max(b.range_extent_m, 0.05), max(b.cross_extent_m, 0.05),
+                      MARKER_HEIGHT_M),
+            "color": _DETECTION_RGBA, "text": f"blob {i}: {b.cells} cells"})
+    tracks: list[dict[str, Any]] = [{**clear, "ns": "tracks"}]
+    for tr in seen.tracks:
+        kind = "diver" if tr.id == seen.diver else "track" if tr.confirmed else "tentative"
+        colour = {"diver": _DIVER_RGBA, "track": _CLUTTER_RGBA, "tentative": _TENTATIVE_RGBA}[kind]
+        width = max(2.0 * tr.position_std_m, 0.1)
+        tracks.append({
+            "ns": "tracks", "id": tr.id, "type": "cylinder",
+            "position_ned": (tr.north, tr.east, depth_m),
+            "scale": (width, width, MARKER_HEIGHT_M), "color": colour,
+            "text": f"track {tr.id} ({kind}) P(diver)={tr.diver_probability:.2f}"})
+        tracks.append({
+            "ns": "track_velocity", "id": tr.id, "type": "line_strip", "color": colour,
+            "points_ned": np.array([[tr.north, tr.east, depth_m],
+                                    [tr.north + tr.v_north, tr.east + tr.v_east, depth_m]])})
+    return detections, tracks
 
 
 class McapRecordingHook:
@@ -230,6 +281,12 @@ class McapRecordingHook:
                                value, str(post.source))
         for ev in frame.events:
             rec.write_event(float(ev.t), str(ev.kind), str(ev.detail))
+        for agent, seen in getattr(frame, "perception", {}).items():
+            name = self._name(agent)
+            depth = float(frame.pings[agent].position_ned[2])
+            detections, tracks = perception_markers(seen, depth)
+            rec.write_markers(f"/{name}/perception/detections", t, detections)
+            rec.write_markers(f"/{name}/perception/tracks", t, tracks)
 
     def _write_ping(self, rec: McapRecorder, agent: str, ping: Any) -> None:
         points, intensity = cloud_hits(ping.cloud) if self.record_points else (None, None)

@@ -696,8 +696,9 @@ class McapRecorder:
         self._write(f"/{agent}/vars", uhrisim_msgs.VARIABLE, t_ns,
                     uhrisim_msgs.variable_bytes(t_ns, name, value, source, where))
 
-    def _marker(self, t_ns: int, spec: Mapping[str, Any], index: int) -> dict[str, Any]:
-        where = f"McapRecorder.write_scene_markers: marker[{index}]"
+    def _marker(self, t_ns: int, spec: Mapping[str, Any], index: int, writer: str
+                ) -> dict[str, Any]:
+        where = f"{writer}: marker[{index}]"
         unknown = set(spec) - _MARKER_KEYS
         if unknown:
             raise ConfigError(
@@ -771,16 +772,18 @@ class McapRecorder:
         (``"add"``, ``"delete"``, ``"deleteall"``) and ``text``. Unknown keys are
         errors. Points are written in the marker's own frame (world ENU → local FLU).
         """
-        where = "McapRecorder.write_scene_markers"
-        self._check_open("write_scene_markers")
+        self.write_markers("/scene/markers", t, markers)
+
+    def write_markers(self, topic: str, t: float, markers: Sequence[Mapping[str, Any]]
+                      ) -> None:
+        """Markers (the dicts of :meth:`write_scene_markers`) as a
+        visualization_msgs/msg/MarkerArray on ``topic``, in the world frame (ENU)."""
+        where = f"McapRecorder.write_markers({topic})"
+        self._check_open("write_markers")
         t_ns = _stamp_ns(t, where)
-        specs = [self._marker(t_ns, m, i) for i, m in enumerate(markers)]
-        self._write(
-            "/scene/markers",
-            "visualization_msgs/msg/MarkerArray",
-            t_ns,
-            cdr.encode_marker_array(specs),
-        )
+        specs = [self._marker(t_ns, m, i, where) for i, m in enumerate(markers)]
+        self._write(topic, "visualization_msgs/msg/MarkerArray", t_ns,
+                    cdr.encode_marker_array(specs))
 
     def write_event(self, t: float, kind: str, detail: str) -> None:
         """Something that happened once (e.g. ``"collision"``) on ``/events``."""

@@ -377,15 +377,65 @@ class AlertConfig(Strict):
     cpa_range: PositiveFloat = 50.0
 
 
-class ContactsConfig(Strict):
-    """Where contact reports come from: simulation truth (as in the paper), degraded."""
+class SonarContactsConfig(Strict):
+    """Contacts from the agent's own sonar (``contacts.source: sonar``): the perception
+    chain's settings and how the diver track is reported (docs/perception.md). A
+    perception setting left null takes the perception's own default
+    (``uhrisim.perception``: DetectorParams, BlobParams, TrackerParams,
+    PerceptionParams)."""
 
-    source: Literal["truth"] = "truth"
+    name: Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")] = "diver"
+    vehicle_type: str = "DIVER"
+    k_sigma: PositiveFloat | None = None
+    min_contrast: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
+    min_level: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
+    min_range: NonNegativeFloat | None = None
+    min_cells: Annotated[int, Field(ge=1)] | None = None
+    merge_radius: NonNegativeFloat | None = None
+    confirm: tuple[Annotated[int, Field(ge=1)], Annotated[int, Field(ge=1)]] | None = None
+    max_coast: PositiveFloat | None = None
+    accel_std: PositiveFloat | None = None
+    diver_probability: Annotated[float, Field(gt=0.0, lt=1.0)] | None = None
+    classifier: str | None = None  # JSON file beside the scenario; None: the shipped one
+    lost_var: str = "DIVER_LOST"
+    search_var: str = "DIVER_SEARCH_UPDATES"
+    silence_warn: PositiveFloat = 30.0  # s without a detection before an event says so
+
+    @model_validator(mode="after")
+    def _m_of_n(self) -> SonarContactsConfig:
+        if self.confirm is not None and self.confirm[0] > self.confirm[1]:
+            raise ValueError(f"confirm: M={self.confirm[0]} hits of N={self.confirm[1]} "
+                             "pings needs M <= N")
+        return self
+
+
+class ContactsConfig(Strict):
+    """Where contact reports come from: simulation truth (as in the paper), degraded, or
+    the agent's own sonar through the perception chain."""
+
+    source: Literal["truth", "sonar"] = "truth"
+    sonar: SonarContactsConfig = SonarContactsConfig()
     rate_hz: PositiveFloat = 4.0
     position_noise_std: NonNegativeFloat = 0.0
     latency: NonNegativeFloat = 0.0
     dropout: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.0
     alerts: tuple[AlertConfig, ...] = ()
+
+
+class BubblesConfig(Strict):
+    """A diver's exhaled bubble plume (uhrisim.world.bubbles): a burst every ``period`` s
+    of ``clusters`` clouds of ``bubbles_per_cluster`` air spheres (``radius`` m) rising at
+    ``rise_speed`` m/s, spreading at ``spread_speed`` m/s (σ per axis) and drifting with
+    ``current`` (north, east, m/s) until the surface or ``max_age`` s."""
+
+    period: PositiveFloat = 4.0
+    clusters: Annotated[int, Field(ge=1, le=10)] = 3
+    bubbles_per_cluster: Annotated[int, Field(ge=1, le=50)] = 6
+    radius: Annotated[float, Field(gt=0.0, le=0.5)] = 0.03
+    rise_speed: PositiveFloat = 0.3
+    spread_speed: NonNegativeFloat = 0.12
+    current: tuple[float, float] = (0.0, 0.0)
+    max_age: PositiveFloat = 12.0
 
 
 class AgentConfig(Strict):
@@ -407,6 +457,9 @@ class AgentConfig(Strict):
     # vehicle looks like the VideoRay).
     body: Literal["videoray", "diver"] | None = None
     material: str | None = None
+    bubbles: BubblesConfig | None = None  # exhaled bubble plume (open-circuit scuba)
+    # The body's label in the sonar's label images; default: its kind ("diver" or "rov").
+    label: Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")] | None = None
     vehicle_type: str | None = None
     length: PositiveFloat | None = None
 

@@ -192,11 +192,11 @@ def _add_body(sim: BuildContext, cfg: AgentConfig, state) -> None:
     material = material_named(cfg.material, f"agents.{cfg.name}.material") \
         if cfg.material else None
     if cfg.scene_body == "diver":
-        sim.scene.add_dynamic(cfg.name, diver_parts(material or NEOPRENE), "diver",
+        sim.scene.add_dynamic(cfg.name, diver_parts(material or NEOPRENE), cfg.label or "diver",
                               material or NEOPRENE, position, rotation, 0.0)
     else:
-        sim.scene.add_dynamic(cfg.name, videoray_mesh(), "rov", material or ROV_PLASTIC,
-                              position, rotation)
+        sim.scene.add_dynamic(cfg.name, videoray_mesh(), cfg.label or "rov",
+                              material or ROV_PLASTIC, position, rotation)
 
 
 def build_agents(sim: BuildContext, sonar_enabled: bool) -> dict[str, Agent]:

@@ -2,9 +2,9 @@
 
 Each observing agent receives, at its contacts rate, a NODE_REPORT of every other agent
 (MOOS frame: x east, y north, compass heading), with Gaussian position noise, a fixed
-latency and random dropout drawn from the observer's own random stream. A sonar-based
-tracker can replace this class: anything with ``step(tick, t)`` that posts NODE_REPORTs
-into the observers' communities will do.
+latency and random dropout drawn from the observer's own random stream. Observers whose
+``contacts.source`` is ``sonar`` get theirs from their own sonar instead
+(:mod:`uhrisim.sim.sonar_contacts`).
 """
 
 from __future__ import annotations
@@ -61,7 +61,8 @@ class TruthContacts:
     def __init__(self, agents: Mapping[str, Agent], dt: float,
                  rng: Callable[[str], np.random.Generator]) -> None:
         self._agents = agents
-        self._observers = [a for a in agents.values() if a.config.driver == "helm"]
+        self._observers = [a for a in agents.values()
+                           if a.config.driver == "helm" and a.config.contacts.source == "truth"]
         self._periods = {
             a.name: ticks_for_rate(a.config.contacts.rate_hz, dt,
                                    f"agents.{a.name}.contacts.rate_hz")

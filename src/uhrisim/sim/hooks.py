@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from uhrisim.dynamics.plants import NavState
 from uhrisim.sim.community import Post
@@ -118,3 +118,5 @@ class TickFrame:
     posts: tuple[Post, ...] = ()
     events: tuple[SimEvent, ...] = ()
     images: Mapping[str, CameraFrame] = field(default_factory=dict)  # camera frames
+    # Sonar perception of this tick by agent (uhrisim.perception.pipeline.PerceptionFrame)
+    perception: Mapping[str, Any] = field(default_factory=dict)

@@ -27,6 +27,7 @@ from uhrisim.record.hook import McapRecordingHook
 from uhrisim.scenario.load import ScenarioFile, load_scenario
 from uhrisim.sim.hooks import TickFrame
 from uhrisim.sim.metrics import TrailMetrics
+from uhrisim.sim.perception_metrics import PerceptionMetrics
 from uhrisim.sim.simulation import BaseHook, Hook, Simulation
 
 SONAR_STRIP_FRAMES = 6
@@ -83,6 +84,10 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
     metrics = TrailMetrics(scenario.metrics) if scenario.metrics else None
     if metrics:
         hooks.append(metrics)
+    observers = [a.name for a in scenario.agents if a.contacts.source == "sonar"]
+    if scenario.metrics and observers and sonar:  # its summary joins metrics.json
+        extra_hooks = [PerceptionMetrics(observers[0], scenario.metrics.target),
+                       *extra_hooks]
     sonar_agents = [a.name for a in scenario.agents
                     if any(s.type == "sonar" for s in a.sensors)]
     strip = SonarStripHook(sonar_agents[0], duration) if sonar and sonar_agents else None
@@ -155,7 +160,7 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
                                              out_dir / "range_bearing.png", acquired_at))
     if strip is not None and strip.frames:
         files.append(figs.plot_sonar_strip(strip.frames, out_dir / "sonar_strip.png"))
-    for hook in extra_hooks:  # the live bridges: messages, failures, reconnections, rounds
+    for hook in extra_hooks:  # perception; live bridges: messages, failures, rounds
         report = getattr(hook, "summary", None)
         if report is not None:
             summary |= report()

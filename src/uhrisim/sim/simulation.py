@@ -7,10 +7,13 @@ One tick of the physics step ``dt`` does, in this order (DESIGN.md, "data flows 
 2. **scripted events** that are due (time reached, or condition true) fire once;
 3. **dynamics**: every agent's model advances one step with the actuator inputs chosen at
    the end of the previous tick; collisions stop the move; body poses go to the scene;
+   divers' bubble bursts that are due leave their regulators (:mod:`uhrisim.sim.bubbles`);
 4. **navigation**: NAV_* are posted (at each agent's helm rate);
 5. **contacts**: node reports from simulation truth (degraded as configured) reach the
    other agents' contact managers at the contact rate;
 6. **sensors**: sonars that are due ping the scene, cameras that are due take a frame;
+   agents whose contacts come from their sonar run perception on the ping and post
+   the diver track as a contact report (:mod:`uhrisim.sim.sonar_contacts`);
 7. **autonomy**: helms and scripts that are due post DESIRED_*;
 8. **control**: controllers turn DESIRED_* into actuator inputs for the next tick;
 9. **hooks** receive a :class:`~uhrisim.sim.hooks.TickFrame`.
@@ -36,12 +39,14 @@ from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned, rot_z
 from uhrisim.core.rng import component_rng
 from uhrisim.scenario.build_world import add_object, build_static_scene
 from uhrisim.scenario.load import ScenarioFile
+from uhrisim.sim.bubbles import DiverBubbles
 from uhrisim.sim.build import build_agents, build_events
 from uhrisim.sim.community import Value
 from uhrisim.sim.contacts import TruthContacts
 from uhrisim.sim.drivers import ScriptedDriver
 from uhrisim.sim.hooks import AgentSnapshot, AgentSnapshots, HelmRecord, SimEvent, TickFrame
 from uhrisim.sim.script import ScriptDriver
+from uhrisim.sim.sonar_contacts import SonarContacts
 from uhrisim.sim.state import Agent, ScheduledEvent
 from uhrisim.world.assets import diver_kick_phase_rate
 from uhrisim.world.scene import Scene
@@ -98,7 +103,9 @@ class Simulation:
         self._inbox_lock = threading.Lock()
         self.scene: Scene = build_static_scene(source)
         self.agents: dict[str, Agent] = build_agents(self, sonar_enabled)
+        self.bubbles = DiverBubbles(self.scene, self.agents, self.rng)
         self.contacts = TruthContacts(self.agents, self.dt, self.rng)
+        self.sonar_contacts = SonarContacts(self.agents, self.dt, source, self.record_event)
         self.events: list[ScheduledEvent] = build_events(self)
         self.raycaster = self.scene.raycaster("embree") if any(
             a.sonars or a.cameras for a in self.agents.values()) else None
@@ -143,7 +150,9 @@ class Simulation:
     def refresh_static_obstacles(self) -> None:
         """Recompute the collision broad phase after the scene's geometry changed."""
         self._static_boxes = static_obstacle_boxes(self.scene)
-        self._has_movable_objects = any(n not in self.agents for n in self.scene.body_names)
+        self._not_obstacles = frozenset(self.agents) | self.bubbles.body_names
+        self._has_movable_objects = any(n not in self._not_obstacles
+                                        for n in self.scene.body_names)
 
     def record_event(self, kind: str, detail: str) -> None:
         event = SimEvent(self.t, kind, detail)
@@ -178,11 +187,13 @@ class Simulation:
             self._advance(agent)
         self.tick += 1
         t = self.t
+        self.bubbles.release(t)
         for agent in self.agents.values():
             if self.tick % agent.driver_period == 0:
                 self._post_nav(agent)
         self.contacts.step(self.tick, t)
         pings, images = self._sense() if self.raycaster is not None else ({}, {})
+        perception = self.sonar_contacts.step(self.tick, t, pings)
         helm: dict[str, HelmRecord] = {}
         for agent in self.agents.values():
             if agent.driver is not None and self.tick % agent.driver_period == 0:
@@ -200,7 +211,7 @@ class Simulation:
         if build_frame:
             snapshots.take_all()
         frame = TickFrame(self.tick, t, snapshots, pings, helm, posts,
-                          tuple(self._pending_events), images)
+                          tuple(self._pending_events), images, perception)
         self._pending_events.clear()
         for hook in self.hooks:
             hook.on_tick(frame)
@@ -325,6 +336,7 @@ class Simulation:
             nav = agent.nav()
             self.scene.set_pose(agent.name, nav.position_ned, rot_z(nav.yaw),
                                 agent.kick_phase if agent.is_diver_body else None)
+        self.bubbles.pose(self.t)
         self._scene_dirty = False
 
     def _clear_fraction(self, agent: Agent, start: list[float], end: list[float]
@@ -342,7 +354,7 @@ class Simulation:
         if self._near_static(agent, end):
             self._sync_scene()
             free = self.scene.segment_clear(np.array(start), np.array(end), agent.radius,
-                                            exclude=frozenset(self.agents))
+                                            exclude=self._not_obstacles)
             if free < 1.0:
                 return free, f"the scene at NED {np.round(end, 2).tolist()}"
         return 1.0, ""

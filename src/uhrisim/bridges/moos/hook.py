@@ -6,6 +6,11 @@ community posts back (DESIRED_*, mode variables, ...) into the agent's own commu
 through :meth:`Simulation.post` - the typed input path every outside command uses, applied
 at the start of the next tick. Connection changes are recorded as ``bridge`` events.
 
+An agent whose contacts come from its sonar (``contacts.source: sonar``) also has what
+its perception posts forwarded to its community, as a sonar-tracking MOOS process would
+post it: the diver's NODE_REPORT (``SOURCE=sonar``, its TIME on the MOOS clock),
+``DIVER_LOST`` and the search updates (docs/perception.md).
+
 The hook does not pace the loop: to run in step with a live community, pace the
 simulation at MOOSTimeWarp x real time (e.g. ``uhrisim.sim.pacing.Pacer``), and
 switch off the agent's built-in helm so that the MOOS helm's DESIRED_* are obeyed.
@@ -16,9 +21,10 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
+from uhrisim.autonomy.contacts import format_node_report, parse_node_report
 from uhrisim.bridges.moos.bridge import MoosAgentBridge
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw
@@ -118,6 +124,9 @@ class MoosBridgeHook(BaseHook):
         for link, bridge, period in self._rows:
             if bridge.client.has_mail:  # usually not: nothing came in
                 self._take_mail(sim, link, bridge)
+            for post in frame.posts:
+                if post.source == "sonar" and post.community == link.agent:
+                    self._forward_sonar(bridge, post.var, post.value, post.t)
             if tick % period:
                 continue
             name = link.agent  # a nav tick: post (the snapshot is taken only now) ...
@@ -131,6 +140,15 @@ class MoosBridgeHook(BaseHook):
             if up != self._was_connected[name]:
                 self._was_connected[name] = up
                 sim.record_event("bridge", f"moos {name}: {bridge.status}")
+
+    @staticmethod
+    def _forward_sonar(bridge: MoosAgentBridge, var: str, value: Any, t: float) -> None:
+        """Post one of the sonar contacts' postings to the community (a NODE_REPORT with
+        its TIME moved from simulation time to the MOOS clock)."""
+        if var == "NODE_REPORT":
+            report = parse_node_report(str(value))
+            value = format_node_report(replace(report, time=bridge.moos_time(t)))
+        bridge.publish_var(var, value, t)
 
     def _take_mail(self, sim: Simulation, link: MoosAgentLink, bridge: MoosAgentBridge) -> None:
         """Post what the community sent into the agent's community (typed input path)."""

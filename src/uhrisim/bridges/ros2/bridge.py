@@ -32,6 +32,7 @@ import rclpy
 from numpy.typing import ArrayLike
 from rclpy.context import Context
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 from visualization_msgs.msg import MarkerArray
@@ -70,6 +71,10 @@ from .topics import (
     QOS_TF_STATIC,
 )
 from .writer import TopicWriter
+
+#: Per-ping marker arrays (sonar perception): reliable, so RViz2's default subscriber gets them.
+QOS_MARKERS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                         reliability=ReliabilityPolicy.RELIABLE)
 
 #: The bridge, and what tests import from here of :mod:`.messages` and :mod:`.topics`.
 __all__ = [
@@ -228,6 +233,7 @@ class Ros2Bridge:
         self._pub_tf_static: Any = None
         self._pub_events: Any = None
         self._topic: dict[str, str] = {}  # bridge-wide topic -> its resolved name
+        self._pub_markers: dict[str, Any] = {}  # topic -> MarkerArray publisher
 
     # ----------------------------------------------------------------- lifecycle
     @property
@@ -632,6 +638,26 @@ class Ros2Bridge:
         arr.markers = [marker_msg(t_sim, i, m, self._world_frame)
                        for i, m in enumerate(markers)]
         self._writer.write(self._pub_scene, arr, self._topic["scene"])
+
+    def publish_markers(self, topic: str, t_sim: float,
+                        markers: Sequence[Mapping[str, Any]]) -> None:
+        """Publish ``markers`` (mappings as for :meth:`publish_scene`; ``action:
+        "deleteall"`` too) as one visualization_msgs/MarkerArray on ``topic``, frame
+        ``"map"``, if someone subscribes; the publisher (reliable, depth 10) is made on
+        first use. The sonar perception's detections and tracks go out this way."""
+        if not self.started:
+            raise BridgeError("Ros2Bridge.publish_markers: bridge is not running (call start())")
+        pub = self._pub_markers.get(topic)
+        if pub is None:
+            pub = self._pub_markers[topic] = self._node.create_publisher(
+                MarkerArray, topic, QOS_MARKERS)
+        self._advance(t_sim)
+        if not self._writer.wanted(pub):
+            return
+        arr = MarkerArray()
+        arr.markers = [marker_msg(t_sim, i, m, self._world_frame)
+                       for i, m in enumerate(markers)]
+        self._writer.write(pub, arr, topic)
 
     # ----------------------------------------------------------------- commands
     def commands(self, agent: str, t_sim: float) -> AgentCommands:

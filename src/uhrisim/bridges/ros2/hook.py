@@ -333,6 +333,9 @@ class Ros2BridgeHook(BaseHook):
                 ping = pings.get(name) if publish_sonar and pings else None
                 if ping is not None:
                     self._publish_ping(bridge, ros, ping)
+                    seen = frame.perception.get(name)
+                    if seen is not None:
+                        self._publish_perception(bridge, ros, t, seen, ping)
                 image = images.get(name) if images else None
                 if image is not None:
                     bridge.publish_camera(ros, float(image.t), image.rgb, image.depth_m, image.K,
@@ -421,6 +424,17 @@ class Ros2BridgeHook(BaseHook):
         north, east, _ = frame.agents[name].nav.position_ned
         deepest = float(floor.depth_at(float(north), float(east))) - self._clearance
         return self.bridge.depth_above_floor(ros, depth, deepest)
+
+    @staticmethod
+    def _publish_perception(bridge: Ros2Bridge, name: str, t: float, seen: Any,
+                            ping: Any) -> None:
+        """The sonar perception's detections and tracks, as the recorder writes them
+        (``/<agent>/perception/{detections,tracks}``, docs/perception.md)."""
+        from uhrisim.record.hook import perception_markers
+
+        detections, tracks = perception_markers(seen, float(ping.position_ned[2]))
+        bridge.publish_markers(f"{name}/perception/detections", t, detections)
+        bridge.publish_markers(f"{name}/perception/tracks", t, tracks)
 
     def _take_commands(self, sim: Simulation, ros: str, name: str, cmd: AgentCommands,
                        frame: TickFrame) -> None:

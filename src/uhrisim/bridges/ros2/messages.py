@@ -274,6 +274,9 @@ def marker_msg(t_sim: float, i: int, spec: Mapping[str, Any],
         m.ns = str(spec.get("ns", ""))
         m.id = int(spec["id"])
         m.type = _MARKER_TYPES[kind]
+        if spec.get("action", "add") == "deleteall":  # clears the display's markers
+            m.action = Marker.DELETEALL
+            return m
         m.action = Marker.ADD
         if kind in _POINT_MARKERS:
             pts = np.asarray(spec["points_ned"], dtype=float)

@@ -81,8 +81,30 @@ def point_from_moos(text: str) -> tuple[str, float, float, bool] | None:
         return (f.get("label", ""), math.nan, math.nan, False) if not active else None
 
 
-def sonar_entry(agent: str, ping: Any) -> dict[str, Any]:
-    """A frame's ``sonar`` entry from a ``SonarPing``: fan image, fov (deg), range (m).
+def track_kind(seen: Any, track: Any) -> str:
+    """How the viewer draws a perception track: ``diver``, ``track`` (confirmed) or
+    ``tentative``."""
+    return "diver" if track.id == seen.diver else "track" if track.confirmed else "tentative"
+
+
+def sonar_marks(seen: Any) -> list[dict[str, Any]]:
+    """The perception tracks of a ``PerceptionFrame`` in the sonar's fan: range (m) and
+    bearing (deg, > 0 starboard) from the sonar, with their kind and id."""
+    view = seen.view
+    c, s = math.cos(view.yaw), math.sin(view.yaw)
+    marks = []
+    for tr in seen.tracks:
+        dn, de = tr.north - view.north, tr.east - view.east
+        x, y = c * dn + s * de, -s * dn + c * de
+        marks.append({"id": int(tr.id), "kind": track_kind(seen, tr),
+                      "range": round(math.hypot(x, y), 3),
+                      "bearing_deg": round(math.degrees(math.atan2(y, x)), 2)})
+    return marks
+
+
+def sonar_entry(agent: str, ping: Any, seen: Any = None) -> dict[str, Any]:
+    """A frame's ``sonar`` entry from a ``SonarPing``: fan image, fov (deg), range (m),
+    and the perception's tracks on the fan (:func:`sonar_marks`) when ``seen`` is given.
 
     Uses the colour-mapped ``fan_rgb`` (BGR in the ping, RGB here) when present, else the
     grey ``fan_u8``. The arrays are referenced, not copied: ``ViewerServer.publish``
@@ -98,6 +120,7 @@ def sonar_entry(agent: str, ping: Any) -> dict[str, Any]:
         "fan": fan,
         "fov_deg": float(np.degrees(beams.max() - beams.min())) if beams.size else 0.0,
         "max_range": float(bins.max()) if bins.size else 0.0,
+        "marks": sonar_marks(seen) if seen is not None else [],
     }
 
 
@@ -135,6 +158,7 @@ class FrameBuilder:
         self._points: dict[tuple[str, str], tuple[float, float]] = {}
         self._pending_pings: dict[str, Any] = {}
         self._pending_images: dict[str, Any] = {}
+        self._perception: dict[str, Any] = {}  # the newest PerceptionFrame per agent
 
     def _take_posts(self, posts: Sequence[Any]) -> None:
         for p in posts:
@@ -168,6 +192,7 @@ class FrameBuilder:
             self._pending_pings[agent] = ping
         for agent, image in (getattr(tick, "images", None) or {}).items():
             self._pending_images[agent] = image
+        self._perception.update(getattr(tick, "perception", None) or {})
 
     def build(
         self,
@@ -207,7 +232,11 @@ class FrameBuilder:
         rng = None
         if pair is not None and pair[0] in pos and pair[1] in pos:
             rng = float(np.linalg.norm(pos[pair[0]] - pos[pair[1]]))
-        sonar = [sonar_entry(a, ping) for a, ping in self._pending_pings.items()]
+        sonar = [sonar_entry(a, ping, self._perception.get(a))
+                 for a, ping in self._pending_pings.items()]
+        tracks = [{"agent": a, "id": int(tr.id), "kind": track_kind(seen, tr),
+                   "north": float(tr.north), "east": float(tr.east)}
+                  for a, seen in self._perception.items() for tr in seen.tracks]
         self._pending_pings = {}
         camera = [camera_entry(a, image) for a, image in self._pending_images.items()]
         self._pending_images = {}
@@ -223,6 +252,7 @@ class FrameBuilder:
                 "points": [{"agent": a, "label": lab, "north": n, "east": e}
                            for (a, lab), (n, e) in self._points.items()],
                 "circles": list(self._circles),
+                "tracks": tracks,
             },
             "sonar": sonar or None,
             "camera": camera or None,

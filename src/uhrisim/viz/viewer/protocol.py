@@ -15,7 +15,9 @@ Server → page messages::
      "replay": {"t_start": float, "t_end": float} | null}
     {"type": "frame", "seq": int, ...the published frame without "sonar"...}
     {"type": "sonar", "seq": int, "agent": str, "t": float, "fan_png_b64": str,
-     "fov_deg": float, "max_range": float}
+     "fov_deg": float, "max_range": float,
+     "marks": [{"id": int, "kind": "diver"|"track"|"tentative", "range": m,
+                "bearing_deg": deg (> 0 starboard)}, ...]}   # sonar perception tracks
 
 Units and frames as in docs/conventions.md and docs/viewer.md: positions NED metres,
 headings compass degrees.

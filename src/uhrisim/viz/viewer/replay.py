@@ -57,6 +57,8 @@ _FAN = re.compile(r"^/([^/]+)/sonar/fan$")
 _CAMERA = re.compile(r"^/([^/]+)/camera/image_raw$")
 _VARS = re.compile(r"^/([^/]+)/vars$")
 _HELM = re.compile(r"^/([^/]+)/helm/decision$")
+_TRACKS = re.compile(r"^/([^/]+)/perception/tracks$")
+_TRACK_TEXT = re.compile(r"^track (\d+) \((diver|track|tentative)\)")
 _HELM_MODE = "__helm_mode"  # key under which helm decisions' modes are kept
 
 
@@ -98,6 +100,9 @@ class ReplayData:
     sonar_fov_deg: dict[str, float]
     sonar_range: dict[str, float]
     shots: dict[str, tuple[np.ndarray, list[np.ndarray]]] = field(default_factory=dict)
+    # sonar perception tracks per agent: (times, [[{id, kind, north, east}, ...] per ping])
+    perception: dict[str, tuple[list[float], list[list[dict[str, Any]]]]] = field(
+        default_factory=dict)
 
 
 def _image_u8(msg: Any, encodings: tuple[str, ...] = ("mono8", "8uc1")) -> np.ndarray | None:
@@ -206,8 +211,10 @@ def load_replay(
     topics = [
         t for t in summarize(path).topics
         if _FAN.match(t) or _CAMERA.match(t) or _VARS.match(t) or _HELM.match(t)
+        or _TRACKS.match(t)
         or t == "/scene/markers"
     ]
+    perception: dict[str, tuple[list[float], list[list[dict[str, Any]]]]] = {}
     total = 0
     for dm in iter_messages(path, topics) if topics else ():
         t = dm.log_time_ns * 1e-9
@@ -236,6 +243,10 @@ def load_replay(
             ts, vs = variables.setdefault(m.group(1), {}).setdefault(_HELM_MODE, ([], []))
             ts.append(t)
             vs.append(str(dm.message.mode))
+        elif (m := _TRACKS.match(dm.topic)) is not None:
+            ts, seen = perception.setdefault(m.group(1), ([], []))
+            ts.append(t)
+            seen.append(_tracks_of(dm.message.markers))
         elif dm.topic == "/scene/markers":
             for mk in dm.message.markers:
                 if mk.action == _MARKER_DELETEALL:
@@ -287,6 +298,7 @@ def load_replay(
         sonar_fov_deg=fov,
         sonar_range=rng,
         shots={a: (np.asarray(p.t), p.images) for a, p in shots.items()},
+        perception=perception,
     )
 
 
@@ -301,6 +313,20 @@ def _due(store: dict[str, tuple[np.ndarray, list[np.ndarray]]], t: float,
             continue
         sent[name] = i
         out.append((name, float(ts[i]), images[i]))
+    return out
+
+
+def _tracks_of(markers: Any) -> list[dict[str, Any]]:
+    """The perception tracks of one ``/<agent>/perception/tracks`` MarkerArray (ENU →
+    north/east; the kind from the marker's text, uhrisim.record.hook.perception_markers)."""
+    out = []
+    for mk in markers:
+        if mk.ns != "tracks" or mk.action == _MARKER_DELETEALL:
+            continue
+        m = _TRACK_TEXT.match(str(mk.text))
+        if m is not None:
+            out.append({"id": int(m.group(1)), "kind": m.group(2),
+                        "north": float(mk.pose.position.y), "east": float(mk.pose.position.x)})
     return out
 
 
@@ -455,7 +481,12 @@ class ReplayPlayer:
             pt = point_from_moos(text) if isinstance(text, str) else None
             if pt is not None and pt[3]:
                 points.append({"agent": agent, "label": pt[0], "north": pt[1], "east": pt[2]})
-        return {"polygons": polys, "points": points, "circles": []}
+        tracks = []
+        for agent, (ts, seen) in self.data.perception.items():
+            i = bisect.bisect_right(ts, t) - 1
+            if i >= 0:
+                tracks += [{"agent": agent, **tr} for tr in seen[i]]
+        return {"polygons": polys, "points": points, "circles": [], "tracks": tracks}
 
     def hello_extra(self) -> dict[str, Any]:
         """Replay range and decimated tracks (for trails), added to the hello message."""

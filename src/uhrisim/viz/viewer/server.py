@@ -498,6 +498,7 @@ class ViewerServer:
                     "t": float(sonar.get("t", math.nan)),
                     "fov_deg": float(sonar.get("fov_deg", 130.0)),
                     "max_range": float(sonar.get("max_range", 10.0)),
+                    "marks": list(sonar.get("marks", [])),
                 }
                 key = "fan_png_b64"
             if not isinstance(b64, str) or not _B64.fullmatch(b64[:64]):

@@ -9,6 +9,7 @@ const DEG = Math.PI / 180;
 const PLOT_WINDOW = 60; // s of plot history shown
 const TRAIL_MAX = 4000; // points per agent kept for live trails
 const TRAIL_MIN_DT = 0.25; // s between live trail points
+const TRACK_COLORS = { diver: "#3f3", track: "#f90", tentative: "#888" }; // sonar tracks
 
 const KIND_COLORS = { rov: "#f5c518", diver: "#ff7a45", vehicle: "#4fd1ff" };
 const EXTRA_COLORS = ["#9be564", "#d783ff", "#ff5c8a", "#5ce1e6", "#ffd6a5"];
@@ -160,7 +161,8 @@ function onSonar(s) {
   state.sonarsReceived += 1;
   const img = new Image();
   img.onload = () => {
-    state.sonar[s.agent] = { t: s.t, fov_deg: s.fov_deg, max_range: s.max_range, img };
+    state.sonar[s.agent] = { t: s.t, fov_deg: s.fov_deg, max_range: s.max_range, img,
+      marks: s.marks || [] };
     dirty.sonar = dirty.view3d = true;
   };
   img.src = "data:image/png;base64," + s.fan_png_b64;
@@ -482,6 +484,18 @@ function drawMap() {
     if (cir.label) queued.push({ text: cir.label, x: x + cir.radius * state.view.scale * 0.71 + 3,
       y: y - cir.radius * state.view.scale * 0.71, color: "#999" });
   }
+  // sonar perception tracks: green the diver track, orange other confirmed, grey tentative
+  for (const tr of ov.tracks || []) {
+    const [x, y] = worldToScreen(tr.north, tr.east);
+    ctx.strokeStyle = TRACK_COLORS[tr.kind] || "#888";
+    ctx.lineWidth = tr.kind === "diver" ? 2 : 1;
+    ctx.beginPath();
+    ctx.arc(x, y, 6, 0, 2 * Math.PI);
+    ctx.stroke();
+    if (tr.kind !== "tentative") {
+      queued.push({ text: `T${tr.id}`, x: x + 8, y: y - 6, color: TRACK_COLORS[tr.kind] });
+    }
+  }
   // points (trail point, waypoints)
   for (const pt of ov.points || []) {
     const [x, y] = worldToScreen(pt.north, pt.east);
@@ -627,6 +641,18 @@ function drawSonar() {
       ctx.font = "10px system-ui, sans-serif";
       ctx.fillStyle = "rgba(160,230,255,0.8)";
       ctx.fillText(`${r} m`, ax + rp * Math.sin(half) + 3, ay - rp * Math.cos(half));
+    }
+  }
+  // perception tracks on the fan (apex at the bottom centre, max range at the top)
+  if (s.max_range > 0) {
+    const ax = x0 + dw / 2, ay = y0 + dh;
+    for (const m of s.marks || []) {
+      const rp = (m.range / s.max_range) * dh, b = m.bearing_deg * DEG;
+      ctx.strokeStyle = TRACK_COLORS[m.kind] || "#888";
+      ctx.lineWidth = m.kind === "diver" ? 2 : 1;
+      ctx.beginPath();
+      ctx.arc(ax + rp * Math.sin(b), ay - rp * Math.cos(b), 7, 0, 2 * Math.PI);
+      ctx.stroke();
     }
   }
   $("sonar-caption").textContent =

@@ -1,0 +1,44 @@
+"""The loop of the external rclpy listeners (``ros2_listener.py``, ``ros2_marker_listener.py``):
+spin ``node`` until ``STOP`` on stdin (or its end), print ``READY`` once every topic has a
+publisher (``TIMEOUT ...`` and exit status 2 if none comes within ``ready_timeout_s``),
+then print one JSON line ``RESULT <result>`` and shut down. Plain rclpy, no uhrisim."""
+
+from __future__ import annotations
+
+import json
+import sys
+import threading
+import time
+from typing import Any
+
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+
+
+def serve(node: Any, topics: list[str], result: Any, ready_timeout_s: float = 20.0) -> int:
+    ex = SingleThreadedExecutor()
+    ex.add_node(node)
+    stop = threading.Event()
+
+    def read_stdin():
+        for line in sys.stdin:
+            if line.strip() == "STOP":
+                break
+        stop.set()
+
+    threading.Thread(target=read_stdin, daemon=True).start()
+    ready = False
+    deadline = time.monotonic() + ready_timeout_s
+    while not stop.is_set():
+        ex.spin_once(timeout_sec=0.02)
+        if not ready and all(node.count_publishers(t) > 0 for t in topics):
+            ready = True
+            print("READY", flush=True)
+        if not ready and time.monotonic() > deadline:
+            print("TIMEOUT waiting for publishers", flush=True)
+            return 2
+    print("RESULT " + json.dumps(result), flush=True)
+    ex.shutdown()
+    node.destroy_node()
+    rclpy.try_shutdown()
+    return 0
