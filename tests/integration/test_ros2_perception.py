@@ -6,6 +6,7 @@ visualization_msgs/MarkerArray, the same markers the recording holds for the sam
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -52,7 +53,8 @@ def test_perception_markers_reach_a_ros2_node(ros_env: int, tmp_path: Path):
     recorded_at = {round(t, 6): seen for t, seen in zip(times, recorded, strict=True)}
     compared = 0
     for msg in tracks:
-        live = [m for m in msg["markers"] if m[0] == "tracks" and "(diver)" in m[6]]
+        live = [m for m in msg["markers"]
+                if m[0] == "tracks" and re.match(r"track \d+ \(diver\)", m[6])]
         seen = recorded_at.get(round(msg["stamp"], 6))
         if not live or seen is None:
             continue
