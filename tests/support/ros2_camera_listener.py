@@ -36,6 +36,7 @@ from rclpy.qos import (
     ReliabilityPolicy,
     qos_profile_sensor_data,
 )
+from ros2_tf_rows import stamp_key, transform_rows
 from sensor_msgs.msg import CameraInfo, Image
 from tf2_msgs.msg import TFMessage
 
@@ -43,19 +44,6 @@ from tf2_msgs.msg import TFMessage
 GRID = 16
 #: longest wait (s) after STOP for the /tf of every picture's stamp
 TF_WAIT_S = 10.0
-
-
-def _stamp(header) -> str:
-    return f"{header.stamp.sec}.{header.stamp.nanosec:09d}"
-
-
-def _transforms(msg: TFMessage) -> list:
-    out = []
-    for ts in msg.transforms:
-        t, q = ts.transform.translation, ts.transform.rotation
-        out.append([ts.header.frame_id, ts.child_frame_id, [t.x, t.y, t.z],
-                    [q.x, q.y, q.z, q.w]])
-    return out
 
 
 def summary(msg) -> dict:
@@ -110,17 +98,17 @@ def main() -> int:
             if entry["first"] is None:
                 entry["first"] = summary(msg)
             if topic.endswith("/depth"):
-                tf["depth"][_stamp(msg.header)] = depth_samples(msg)
+                tf["depth"][stamp_key(msg.header)] = depth_samples(msg)
             elif topic.endswith("/pose"):
-                tf["poses"][_stamp(msg.header)] = summary(msg)
+                tf["poses"][stamp_key(msg.header)] = summary(msg)
         return on_msg
 
     def on_tf(msg: TFMessage) -> None:
-        for row in _transforms(msg):
-            tf["dynamic"].setdefault(_stamp(msg.transforms[0].header), []).append(row)
+        for row in transform_rows(msg):
+            tf["dynamic"].setdefault(stamp_key(msg.transforms[0].header), []).append(row)
 
     def on_static(msg: TFMessage) -> None:
-        tf["static"] = _transforms(msg)
+        tf["static"] = transform_rows(msg)
 
     for topic, (kind, topic_qos) in topics.items():
         node.create_subscription(kind, topic, callback(topic), topic_qos)

@@ -335,7 +335,7 @@ class Ros2Bridge:
 
     def frame(self, agent: str, name: str) -> str:
         """The full name of one of ``agent``'s frames (``"base_link"``, ``"odom"``,
-        ``"sonar"``), with the ``frame_prefix`` parameter applied."""
+        ``"sonar"``, ``"camera_optical"``), with the ``frame_prefix`` parameter applied."""
         return f"{self._io(agent, 'frame').frame_base}/{name}"
 
     def _spin(self) -> None:
