@@ -4,11 +4,11 @@ Per agent (namespace ``/<agent>``): ``odom``, ``pose``, the sonar's ``sonar/pola
 ``sonar/fan``, ``sonar/points``, ``sonar/pose`` and ``sonar/image``
 (marine_acoustic_msgs/ProjectedSonarImage), the camera's ``camera/image_raw``,
 ``camera/camera_info``, ``camera/depth``, ``camera/labels`` and ``camera/pose``, the
-helm's ``helm/desired_*``,
-``helm/mode`` and ``helm/decision``, the community's ``vars``; commands in on
-``cmd/desired_*`` and ``cmd/thrusters``. Bridge-wide: ``/clock``, ``/scene/markers``,
-``/tf``, ``/tf_static`` and ``/events``. The topics whose message packages have no
-wheels exist when :mod:`.interfaces` has built them. docs/bridges-ros2.md has the table
+helm's ``helm/desired_*``, ``helm/mode`` and ``helm/decision``, the community's ``vars``;
+commands in on ``cmd/desired_*`` and ``cmd/thrusters``. Bridge-wide: ``/clock``,
+``/scene/markers``, ``/tf``, ``/tf_static`` (the sonar and camera mounts) and ``/events``.
+The topics whose message packages have no wheels exist when :mod:`.interfaces` has built
+them. docs/bridges-ros2.md has the table
 with frames, units and rates; the QoS profiles below say why each is what it is.
 """
 
