@@ -1,6 +1,7 @@
 """The paper's mission with the VideoRay's camera: stepped by the simulation at its rate,
-recorded as sensor_msgs/Image + CameraInfo (+ depth, labels, tf) and read back with an
-independent reader (rosbags); the same seed gives the same images."""
+recorded as sensor_msgs/Image + CameraInfo (+ depth, labels, pose, the mount on
+/tf_static) and read back with an independent reader (rosbags); the same seed gives the
+same images."""
 
 from __future__ import annotations
 
@@ -39,14 +40,27 @@ def test_camera_steps_at_its_rate_beside_the_sonar():
     assert "rov" not in {first.label_names[i] for i in np.unique(first.labels) if i >= 0}
 
 
+def _matrix(q) -> np.ndarray:
+    """Rotation matrix of a geometry_msgs Quaternion."""
+    x, y, z, w = q.x, q.y, q.z, q.w
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def _stamp(header) -> tuple[int, int]:
+    return header.stamp.sec, header.stamp.nanosec
+
+
 def test_recording_reads_back_as_image_and_camera_info(run):
     from rosbags.highlevel import AnyReader
 
-    images, infos, depths, labels, tfs = [], [], [], [], []
+    images, infos, depths, labels, poses, statics = [], [], [], [], [], []
+    tf = {}  # (stamp, child) -> transform of /tf
     with AnyReader([run.out_dir / "recording.mcap"]) as reader:
         for connection, _, raw in reader.messages():
             topic = connection.topic
-            if not topic.startswith("/videoray/camera") and topic != "/tf":
+            if not topic.startswith(("/videoray/camera", "/tf")):
                 continue
             msg = reader.deserialize(raw, connection.msgtype)
             if topic == "/videoray/camera/image_raw":
@@ -59,11 +73,15 @@ def test_recording_reads_back_as_image_and_camera_info(run):
                 depths.append(msg)
             elif topic == "/videoray/camera/labels":
                 labels.append(msg)
-            else:
-                tfs += [t for t in msg.transforms
-                        if t.child_frame_id == "videoray/camera_optical"]
+            elif topic == "/videoray/camera/pose":
+                assert connection.msgtype == "geometry_msgs/msg/PoseStamped"
+                poses.append(msg)
+            elif topic == "/tf_static":
+                statics += msg.transforms
+            elif topic == "/tf":
+                tf.update({(_stamp(t.header), t.child_frame_id): t for t in msg.transforms})
     # 10 Hz for 2 s, every 10th frame recorded (recording.camera_every: 10)
-    assert len(images) == len(infos) == len(depths) == len(labels) == len(tfs) == 2
+    assert len(images) == len(infos) == len(depths) == len(labels) == len(poses) == 2
     img, info, depth = images[0], infos[0], depths[0]
     assert (img.height, img.width, img.encoding, img.step) == (240, 320, "rgb8", 960)
     assert img.header.frame_id == info.header.frame_id == "videoray/camera_optical"
@@ -80,10 +98,26 @@ def test_recording_reads_back_as_image_and_camera_info(run):
     assert np.array_equal(np.isfinite(z), lab > 0)  # depth where something was seen
     # the optical z axis (forward) in ENU matches the camera's forward axis: vehicle
     # heading rotated down by the 5 deg tilt
-    q = tfs[0].transform.rotation
-    x, y, zq, w = q.x, q.y, q.z, q.w
-    z_axis = np.array([2 * (x * zq + w * y), 2 * (y * zq - w * x), 1 - 2 * (x * x + y * y)])
+    z_axis = _matrix(poses[0].pose.orientation)[:, 2]
     assert z_axis[2] == pytest.approx(-np.sin(np.radians(5.0)), abs=1e-6)  # looks down 5°
+    # the mount is on /tf_static (once; the sonar's beside it) and not on /tf (issue 16)
+    (mount,) = [t for t in statics if t.child_frame_id == "videoray/camera_optical"]
+    assert mount.header.frame_id == "videoray/base_link"
+    assert not any(child == "videoray/camera_optical" for _, child in tf)
+    # map -> odom -> base_link (/tf at the picture's stamp) -> camera_optical (/tf_static)
+    # is the camera pose the simulation reports
+    for pose in poses:
+        chain = [tf[(_stamp(pose.header), "videoray/odom")],
+                 tf[(_stamp(pose.header), "videoray/base_link")], mount]
+        rotation, position = np.eye(3), np.zeros(3)
+        for link in chain:
+            tr = link.transform
+            t = np.array([tr.translation.x, tr.translation.y, tr.translation.z])
+            position = position + rotation @ t
+            rotation = rotation @ _matrix(tr.rotation)
+        p = pose.pose.position
+        np.testing.assert_allclose(position, [p.x, p.y, p.z], atol=1e-9)
+        np.testing.assert_allclose(rotation, _matrix(pose.pose.orientation), atol=1e-9)
 
 
 def test_same_seed_same_images_as_recorded(run):

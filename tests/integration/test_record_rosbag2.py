@@ -1,12 +1,13 @@
 """A run's output folder is a rosbag2 bag with the live bridge's topics (issue 16).
 
 ``uhrisim``'s runner records the track-and-trail mission for 3 s with the ROS 2 bridge
-attached. The folder must open with ``rosbags.rosbag2.Reader`` (its metadata.yaml: the
-files, topics, types and counts of the MCAP file) and every message must decode with
-rosbags and with mcap-ros2. The recorded topics must be the topics the bridge's node
-publishes (asked of the ROS graph during the run), uhrisim_msgs' helm decisions,
-community variables and events included. A recording cut short and recovered is a bag
-again.
+attached, and the same mission with the VideoRay's camera (camera_trail). The folder must
+open with ``rosbags.rosbag2.Reader`` (its metadata.yaml: the files, topics, types and
+counts of the MCAP file) and every message must decode with rosbags and with mcap-ros2.
+The recorded topics must be the topics the bridge's node publishes (asked of the ROS graph
+during the run), uhrisim_msgs' helm decisions, community variables and events included,
+and the camera's five topics; the camera's mount is on /tf_static beside the sonar's, and
+its optical frame not on /tf. A recording cut short and recovered is a bag again.
 """
 
 from __future__ import annotations
@@ -31,7 +32,10 @@ from uhrisim.record.recover import recover_in_place  # noqa: E402
 from uhrisim.sim.runner import run_scenario  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
-SCENARIO = ROOT / "scenarios" / "track_and_trail.yaml"
+SCENARIOS = [ROOT / "scenarios" / name for name in ("track_and_trail.yaml",
+                                                     "camera_trail.yaml")]
+CAMERA_TOPICS = {f"/videoray/camera/{name}" for name in
+                 ("image_raw", "camera_info", "depth", "labels", "pose")}
 NODE = "uhrisim_rosbag2_test"
 
 
@@ -51,11 +55,13 @@ class LiveTopics:
                            node.get_publisher_names_and_types_by_node(NODE, "/")}
 
 
-def test_run_folder_is_a_rosbag2_bag_with_the_live_topics(ros_env: int, tmp_path: Path):
+@pytest.mark.parametrize("scenario", SCENARIOS, ids=lambda path: path.stem)
+def test_run_folder_is_a_rosbag2_bag_with_the_live_topics(ros_env: int, tmp_path: Path,
+                                                          scenario: Path):
     out = tmp_path / "run"
     bridge = Ros2BridgeHook(domain_id=ros_env, node_name=NODE)
     live = LiveTopics(bridge)
-    run_scenario(SCENARIO, out, duration=3.0, extra_hooks=[live, bridge],
+    run_scenario(scenario, out, duration=3.0, extra_hooks=[live, bridge],
                  configure=lambda sim: sim.record_event("note", "an event for /events"))
 
     meta = yaml.safe_load((out / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
@@ -68,11 +74,16 @@ def test_run_folder_is_a_rosbag2_bag_with_the_live_topics(ros_env: int, tmp_path
     with rosbag2.Reader(out) as reader:
         assert reader.message_count == meta["message_count"]
         assert {c.topic: c.msgcount for c in reader.connections} == declared
+    static, tf_children = [], set()
     with AnyReader([out]) as reader:
         counted = Counter()
         for connection, _t, raw in reader.messages():
-            reader.deserialize(raw, connection.msgtype)
+            msg = reader.deserialize(raw, connection.msgtype)
             counted[connection.topic] += 1
+            if connection.topic == "/tf_static":
+                static += [(t.header.frame_id, t.child_frame_id) for t in msg.transforms]
+            elif connection.topic == "/tf":
+                tf_children |= {t.child_frame_id for t in msg.transforms}
     assert counted == declared
     # mcap-ros2: the same messages from the .mcap file
     decoded = Counter(m.channel.topic for m in read_ros2_messages(out / "recording.mcap"))
@@ -84,6 +95,15 @@ def test_run_folder_is_a_rosbag2_bag_with_the_live_topics(ros_env: int, tmp_path
     recorded = set(declared)
     assert recorded == published
     assert {"/clock", "/tf", "/tf_static", "/videoray/sonar/image"} <= recorded
+    # the sensor mounts on /tf_static (once), not on /tf (REP 105: map -> odom -> base_link)
+    camera = scenario.stem == "camera_trail"
+    assert CAMERA_TOPICS.issubset(recorded) is camera
+    mounts = [("videoray/base_link", "videoray/sonar")]
+    if camera:
+        mounts.append(("videoray/base_link", "videoray/camera_optical"))
+    assert static == mounts
+    assert tf_children == {"videoray/odom", "videoray/base_link", "diver/odom",
+                           "diver/base_link"}
 
     # a run killed mid-way has no metadata.yaml; uhrisim recover makes the folder a bag
     data = (out / "recording.mcap").read_bytes()

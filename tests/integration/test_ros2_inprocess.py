@@ -340,6 +340,18 @@ def test_error_paths(ros_env: int, bridge: Ros2Bridge, agent: str) -> None:
         Ros2Bridge([AgentBridgeSpec("a"), AgentBridgeSpec("a")])
     with pytest.raises(ConfigError, match="command_timeout_s"):
         Ros2Bridge([AgentBridgeSpec("a")], command_timeout_s=0.0)
+    camera = Ros2Bridge([AgentBridgeSpec("cam", publish_sonar=False, publish_camera=True)],
+                        domain_id=ros_env, node_name="uhrisim_cam_errors")
+    camera.start()
+    try:
+        rgb, pose = np.zeros((4, 6, 3), np.uint8), ((0.0, 0.0, 0.0), np.eye(3))
+        with pytest.raises(ConfigError, match=r"labels_u8 must have shape \(4, 6\)"):
+            camera.publish_camera("cam", 0.0, rgb, None, np.eye(3), pose,
+                                  np.zeros((6, 4), np.uint8))
+        with pytest.raises(ConfigError, match=r"labels_u8.*uint8"):
+            camera.publish_camera("cam", 0.0, rgb, None, np.eye(3), pose, np.zeros((4, 6)))
+    finally:
+        camera.close()
 
 
 def test_start_applies_localhost_default(ros_env: int, monkeypatch: pytest.MonkeyPatch) -> None:

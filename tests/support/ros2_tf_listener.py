@@ -25,22 +25,10 @@ import rclpy
 from marine_acoustic_msgs.msg import ProjectedSonarImage
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from ros2_tf_rows import stamp_key, transform_rows
 from sensor_msgs.msg import PointCloud2
 from tf2_msgs.msg import TFMessage
 from uhrisim_msgs.msg import HelmDecision
-
-
-def _stamp(header) -> str:
-    return f"{header.stamp.sec}.{header.stamp.nanosec:09d}"
-
-
-def _transforms(msg: TFMessage) -> list:
-    out = []
-    for ts in msg.transforms:
-        t, q = ts.transform.translation, ts.transform.rotation
-        out.append([ts.header.frame_id, ts.child_frame_id, [t.x, t.y, t.z],
-                    [q.x, q.y, q.z, q.w]])
-    return out
 
 
 def main() -> int:
@@ -54,21 +42,21 @@ def main() -> int:
     result: dict = {"static": [], "tf": {}, "points": {}, "image": None, "decisions": {}}
 
     def on_tf(msg: TFMessage) -> None:
-        for tr in _transforms(msg):
-            stamp = _stamp(msg.transforms[0].header)
+        for tr in transform_rows(msg):
+            stamp = stamp_key(msg.transforms[0].header)
             result["tf"].setdefault(stamp, []).append(tr)
 
     def on_static(msg: TFMessage) -> None:
-        result["static"] = _transforms(msg)
+        result["static"] = transform_rows(msg)
 
     def on_points(msg: PointCloud2) -> None:
         xyz = np.frombuffer(bytes(msg.data), "<f4").reshape(-1, 4)[:, :3]
         if len(xyz):
-            result["points"][_stamp(msg.header)] = xyz.astype(float).tolist()
+            result["points"][stamp_key(msg.header)] = xyz.astype(float).tolist()
 
     def on_image(msg: ProjectedSonarImage) -> None:
         result["image"] = {
-            "frame_id": msg.header.frame_id, "stamp": _stamp(msg.header),
+            "frame_id": msg.header.frame_id, "stamp": stamp_key(msg.header),
             "directions": [[v.x, v.y, v.z] for v in msg.beam_directions],
             "ranges": [float(r) for r in msg.ranges], "dtype": msg.image.dtype,
             "beam_count": msg.image.beam_count, "n_data": len(msg.image.data),
@@ -76,7 +64,7 @@ def main() -> int:
         }
 
     def on_decision(msg: HelmDecision) -> None:
-        result["decisions"][_stamp(msg.header)] = {
+        result["decisions"][stamp_key(msg.header)] = {
             "heading": msg.heading_deg if msg.has_heading else None, "mode": msg.mode,
             "contributions": {c.name: c.value for c in msg.contributions},
             "total": msg.total}

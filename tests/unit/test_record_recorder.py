@@ -18,6 +18,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rosbags.highlevel import AnyReader
 
+from uhrisim.bridges.ros2.convert import optical_rotation
 from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.core.frames import rotation_zyx
 from uhrisim.record import McapRecorder, iter_messages, read_odometry, summarize
@@ -211,6 +212,55 @@ def test_sonar_images_points_and_frame(tmp_path: Path) -> None:
     expected = [math.cos(tilt) * math.sin(heading), math.cos(tilt) * math.cos(heading),
                 -math.sin(tilt)]
     assert fwd == pytest.approx(expected, abs=1e-12)
+
+
+def test_camera_mount_on_tf_static_and_pose_not_on_tf(tmp_path: Path) -> None:
+    """A camera tilted 20° down, 0.3 m ahead and 0.1 m below base_link: its optical frame
+    (x right, y down, z forward; REP-103) on /tf_static, worked out by hand in FLU; the
+    picture's topics carry that frame, and /tf gets no map -> camera_optical (issue 16)."""
+    tilt = math.radians(20.0)
+    mount = rotation_zyx(0.0, -tilt, 0.0)  # camera (fwd, right, down) -> body FRD
+    rgb = np.zeros((4, 6, 3), np.uint8)
+    labels = np.arange(24, dtype=np.uint8).reshape(4, 6)
+    k = [[5.0, 0.0, 2.5], [0.0, 5.0, 1.5], [0.0, 0.0, 1.0]]
+    heading = math.radians(90.0)  # the vehicle faces east: base_link = ENU axes
+    pose = ((1.0, 2.0, 3.0), rotation_zyx(0.0, 0.0, heading) @ mount)
+    paths = {name: tmp_path / f"{name}.mcap" for name in ("mounted", "unmounted")}
+    with McapRecorder(paths["mounted"]) as rec:
+        rec.write_static_transforms(0.0, [("rov/base_link", "rov/camera_optical",
+                                           (0.3, 0.0, 0.1), optical_rotation(mount))])
+        rec.write_camera("rov", 0.5, rgb, None, labels, k, "rov/camera_optical", pose)
+    with McapRecorder(paths["unmounted"]) as rec:
+        rec.write_camera("rov", 0.5, rgb, None, None, k, "rov/camera_optical", pose)
+    got = {m.topic: m.message for m in iter_messages(paths["mounted"])}
+    assert set(got) == {"/tf_static", "/rov/camera/image_raw", "/rov/camera/camera_info",
+                        "/rov/camera/labels", "/rov/camera/pose"}
+    (tf,) = got["/tf_static"].transforms
+    assert (tf.header.frame_id, tf.child_frame_id) == ("rov/base_link", "rov/camera_optical")
+    tr, q = tf.transform.translation, tf.transform.rotation
+    assert (tr.x, tr.y, tr.z) == pytest.approx((0.3, 0.0, -0.1))  # FLU: z up
+    s20, c20 = math.sin(tilt), math.cos(tilt)
+    assert rotate(q, [0, 0, 1]) == pytest.approx([c20, 0.0, -s20], abs=1e-12)  # forward
+    assert rotate(q, [1, 0, 0]) == pytest.approx([0.0, -1.0, 0.0], abs=1e-12)  # right
+    assert rotate(q, [0, 1, 0]) == pytest.approx([-s20, 0.0, -c20], abs=1e-12)  # down
+    for topic in ("/rov/camera/image_raw", "/rov/camera/camera_info", "/rov/camera/labels"):
+        assert got[topic].header.frame_id == "rov/camera_optical"
+    np.testing.assert_array_equal(
+        np.frombuffer(got["/rov/camera/labels"].data, np.uint8).reshape(4, 6), labels)
+    # the picture's pose: ENU (2, 1, -3), looking east and 20° down
+    cam = got["/rov/camera/pose"]
+    assert cam.header.frame_id == "map"
+    p = cam.pose.position
+    assert (p.x, p.y, p.z) == pytest.approx((2.0, 1.0, -3.0))
+    assert rotate(cam.pose.orientation, [0, 0, 1]) == pytest.approx([c20, 0.0, -s20],
+                                                                      abs=1e-12)
+    # without a mount on /tf_static the frame goes on /tf, with the same pose
+    got = {m.topic: m.message for m in iter_messages(paths["unmounted"])}
+    assert "/rov/camera/labels" not in got
+    (tf,) = got["/tf"].transforms
+    assert (tf.header.frame_id, tf.child_frame_id) == ("map", "rov/camera_optical")
+    q, q_pose = tf.transform.rotation, cam.pose.orientation
+    assert (q.x, q.y, q.z, q.w) == (q_pose.x, q_pose.y, q_pose.z, q_pose.w)
 
 
 def test_helm_variable_event_and_markers(tmp_path: Path) -> None:

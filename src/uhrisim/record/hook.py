@@ -1,15 +1,16 @@
 """The recorder as a simulation publish hook (``uhrisim.sim.simulation.Hook``).
 
 :class:`McapRecordingHook` turns each :class:`~uhrisim.sim.hooks.TickFrame` into
-`~uhrisim.record.McapRecorder` calls: agent odometry, pose, ``/tf`` and
+:class:`~uhrisim.record.McapRecorder` calls: agent odometry, pose, ``/tf`` and
 ``/clock`` (every ``odom_every`` ticks), sonar pings (images, hits, sonar pose and the
 marine_acoustic_msgs/ProjectedSonarImage), each sonar perception frame as markers
-(:func:`perception_markers`), camera frames, helm decisions (and the live bridge's
-``helm/desired_*`` and ``helm/mode``), community posts and events; at start it writes
-the static scene as triangle-list markers, each sonar's mount on ``/tf_static`` and the
-run's seed/step as MCAP metadata; at the end it closes the file (recording an ``error``
-event if the run failed). Every topic the live ROS 2 bridge publishes is recorded under
-the same name, type and frame (docs/bridges-ros2.md).
+(:func:`perception_markers`), camera frames (image, camera info, depth, labels, camera
+pose), helm decisions (and the live bridge's ``helm/desired_*`` and ``helm/mode``),
+community posts and events; at start it writes the static scene as triangle-list markers,
+each sonar's and camera's mount on ``/tf_static`` (:func:`sensor_mounts`) and the run's
+seed/step as MCAP metadata; at the end it closes the file (recording an ``error`` event
+if the run failed). Every topic the live ROS 2 bridge publishes is recorded under the
+same name, type and frame (docs/bridges-ros2.md).
 
 It only reads what it is handed (DESIGN.md: hooks are read-only) and touches the
 simulation object only in ``on_start``/``on_end`` for ``seed``, ``dt``, ``t`` and
@@ -21,11 +22,13 @@ from __future__ import annotations
 import logging
 import numbers
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from uhrisim.bridges.ros2.convert import label_image_mono8, optical_rotation
 from uhrisim.core.errors import ConfigError
 from uhrisim.record.mcap_recorder import McapRecorder
 from uhrisim.record.rosbag2 import write_metadata
@@ -33,7 +36,8 @@ from uhrisim.sensors.sonar.cloud import cloud_hits
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["McapRecordingHook", "perception_markers", "ros_name", "scene_markers"]
+__all__ = ["McapRecordingHook", "perception_markers", "ros_name", "scene_markers",
+           "sensor_mounts"]
 
 # Track colours (r, g, b, a): the diver track, other confirmed tracks, tentative ones.
 _DIVER_RGBA = (0.1, 0.9, 0.2, 0.9)
@@ -62,6 +66,26 @@ def ros_name(name: str) -> str:
     """
     out = _NOT_NAME.sub("_", str(name))
     return out if out[:1].isalpha() else f"a_{out}"
+
+
+def sensor_mounts(agent: Any, frame: Callable[[str], str]
+                  ) -> list[tuple[str, str, np.ndarray, np.ndarray]]:
+    """The ``/tf_static`` rows of a simulated agent's sensor mounts, as
+    :meth:`McapRecorder.write_static_transforms` and the ROS 2 bridge's
+    ``publish_static_transforms`` take them: ``base_link`` → ``sonar`` (its first sonar,
+    the frame of its sonar topics) and ``base_link`` → ``camera_optical`` (its first
+    camera, the frame of its camera topics: x right, y down, z forward). ``frame(name)``
+    is the agent's full frame name (``"rov/sonar"``)."""
+    rows = []
+    if getattr(agent, "sonars", None):
+        sonar = agent.sonars[0].sonar
+        rows.append((frame("base_link"), frame("sonar"), sonar.mount_position,
+                     sonar.mount_rotation))
+    if getattr(agent, "cameras", None):
+        camera = agent.cameras[0].camera
+        rows.append((frame("base_link"), frame("camera_optical"), camera.mount_position,
+                     optical_rotation(camera.mount_rotation)))
+    return rows
 
 
 def scene_markers(scene: Any, max_triangles: int = 200_000) -> list[dict[str, Any]]:
@@ -153,8 +177,8 @@ class McapRecordingHook:
     sonar_every:
         Record every this-many-th ping of each sonar (1: all; images are large).
     record_camera, camera_every:
-        Whether camera frames are recorded (image, camera info, depth, labels), and every
-        this-many-th frame of each camera.
+        Whether camera frames are recorded (image, camera info, depth, labels, pose), and
+        every this-many-th frame of each camera.
     chunk_size, flush_period_s:
         Passed to :class:`McapRecorder`; by default a chunk is also closed at least every
         simulated second, so a killed run loses at most about one second.
@@ -235,11 +259,10 @@ class McapRecordingHook:
         self._acoustics = {}
         mounts = []
         for agent_name, agent in getattr(sim, "agents", {}).items():
+            name = self._name(agent_name)
+            mounts += sensor_mounts(agent, lambda frame, name=name: f"{name}/{frame}")
             if getattr(agent, "sonars", None):
-                sonar = agent.sonars[0].sonar  # its frame is <agent>/sonar
-                name = self._name(agent_name)
-                mounts.append((f"{name}/base_link", f"{name}/sonar", sonar.mount_position,
-                               sonar.mount_rotation))
+                sonar = agent.sonars[0].sonar
                 self._acoustics[name] = (sonar.config.sonar_spec.frequency_hz,
                                          sonar.config.sound_speed_m_s)
         if mounts:
@@ -306,9 +329,8 @@ class McapRecordingHook:
 
     @staticmethod
     def _write_image(rec: McapRecorder, agent: str, image: Any) -> None:
-        labels = np.asarray(image.labels)
-        labels_u8 = (labels + 1).astype(np.uint8) if labels.max(initial=-1) < 255 else None
-        rec.write_camera(agent, float(image.t), image.rgb, image.depth_m, labels_u8, image.K,
+        rec.write_camera(agent, float(image.t), image.rgb, image.depth_m,
+                         label_image_mono8(image.labels), image.K,
                          f"{agent}/camera_optical",
                          (image.position_ned, image.rotation_ned_from_camera))
 

@@ -23,9 +23,10 @@ topic                               type                                        
 ``/<agent>/odom``                   nav_msgs/msg/Odometry                         map → base_link
 ``/<agent>/pose``                   geometry_msgs/msg/PoseStamped                 map
 ``/tf``                             tf2_msgs/msg/TFMessage                        map → odom →
-                                                                                  base_link; map →
+                                                                                  base_link
+``/tf_static``                      tf2_msgs/msg/TFMessage                        base_link → sonar;
+                                                                                  base_link →
                                                                                   camera optical
-``/tf_static``                      tf2_msgs/msg/TFMessage                        base_link → sonar
 ``/<agent>/sonar/polar``            sensor_msgs/msg/Image (mono8)                 sonar frame
 ``/<agent>/sonar/fan``              sensor_msgs/msg/Image (mono8)                 sonar frame
 ``/<agent>/sonar/points``           sensor_msgs/msg/PointCloud2                   sonar frame (FLU)
@@ -35,6 +36,7 @@ topic                               type                                        
 ``/<agent>/camera/camera_info``     sensor_msgs/msg/CameraInfo                    camera optical
 ``/<agent>/camera/depth``           sensor_msgs/msg/Image (32FC1)                 camera optical
 ``/<agent>/camera/labels``          sensor_msgs/msg/Image (mono8)                 camera optical
+``/<agent>/camera/pose``            geometry_msgs/msg/PoseStamped                 map
 ``/<agent>/helm/desired_*``         std_msgs/msg/Float64                          —
 ``/<agent>/helm/mode``              std_msgs/msg/String                           —
 ``/<agent>/helm/decision``          uhrisim_msgs/msg/HelmDecision                 —
@@ -44,8 +46,9 @@ topic                               type                                        
 ``/clock``                          rosgraph_msgs/msg/Clock                       —
 ==================================  ============================================  ==================
 
-A sonar frame on ``/tf_static`` (:meth:`McapRecorder.write_static_transforms`) is not
-written on ``/tf`` at each ping; without one, each ping puts ``map → sonar frame`` there.
+A sensor frame on ``/tf_static`` (:meth:`McapRecorder.write_static_transforms`: the sonar
+and camera mounts) is not written on ``/tf`` at each ping or picture; without one, each
+puts ``map → sensor frame`` there.
 The latched topics carry their offered QoS in the channel metadata
 (:mod:`uhrisim.record.rosbag2`, which writes the folder's ``metadata.yaml``).
 
@@ -84,7 +87,7 @@ from uhrisim.bridges.ros2.convert import (
     cloud_xyzi_flu,
     mount_transform,
     odom_fields_from_ned,
-    optical_rotation_ned,
+    optical_rotation,
     pose_enu_from_ned,
     tf_chain,
     tf_chain_frames,
@@ -422,7 +425,8 @@ class McapRecorder:
         """``/tf_static`` (one message with every static transform): each ``(parent,
         child, position_frd (3,) m, rotation_frd (3x3) child → parent)`` in body FRD
         terms, written in FLU (e.g. a sonar mount ``("rov/base_link", "rov/sonar", ...)``).
-        A sonar frame placed here is no longer written on ``/tf`` at each ping."""
+        A sensor frame placed here (a sonar's, a camera's optical frame) is no longer
+        written on ``/tf`` with each ping or picture."""
         where = "McapRecorder.write_static_transforms"
         self._check_open("write_static_transforms")
         t_ns = _stamp_ns(t, where)
@@ -546,11 +550,14 @@ class McapRecorder:
         """One camera frame: the rgb8 image, its CameraInfo (pinhole, no distortion), the
         depth image (32FC1, metres along the optical axis, NaN where nothing was hit;
         REP-118) and the label image (mono8: label id + 1, 0 for open water), each
-        optional but the image; and the optical frame's pose on /tf.
+        optional but the image; and the optical frame's pose on ``/<agent>/camera/pose``
+        (PoseStamped in the world frame, as ``sonar/pose``).
 
         ``camera_pose_ned = (position (3,), rotation (3, 3))`` is the camera's pose with
         the camera frame x forward, y right, z down (FRD-like) → NED; the optical frame
-        (x right, y down, z forward) published is derived from it.
+        (x right, y down, z forward) published is derived from it. A ``camera_frame`` on
+        ``/tf_static`` (:meth:`write_static_transforms`, the mount) is not written on
+        ``/tf``; without one, each frame puts ``map → camera_frame`` there.
         """
         where = "McapRecorder.write_camera"
         self._check_open("write_camera")
@@ -564,11 +571,14 @@ class McapRecorder:
         height, width = rgb.shape[:2]
         k = _intrinsics(K, where)
         pos_ned, rot_ned = _pose(camera_pose_ned, "camera", where)
-        p_enu, q = pose_enu_from_ned(pos_ned, optical_rotation_ned(rot_ned))
+        p_enu, q = pose_enu_from_ned(pos_ned, optical_rotation(rot_ned))
         sec, nanosec = divmod(t_ns, 1_000_000_000)
-        self._write("/tf", "tf2_msgs/msg/TFMessage", t_ns, cdr.encode_tf_message(
-            [(sec, nanosec, self.world_frame, camera_frame, p_enu, q)]))
+        if camera_frame not in self._static_children:  # else the mount on /tf_static
+            self._write("/tf", "tf2_msgs/msg/TFMessage", t_ns, cdr.encode_tf_message(
+                [(sec, nanosec, self.world_frame, camera_frame, p_enu, q)]))
         base = f"/{agent}/camera"
+        self._write(f"{base}/pose", "geometry_msgs/msg/PoseStamped", t_ns,
+                    self._pose(sec, nanosec, p_enu, q))
         self._write(f"{base}/image_raw", "sensor_msgs/msg/Image", t_ns,
                     cdr.encode_image(sec, nanosec, camera_frame, rgb, "rgb8"))
         p = np.zeros((3, 4))

@@ -50,6 +50,7 @@ from .messages import (
     float64_bytes,
     image_msg,
     marker_msg,
+    mono8,
     odometry_msg,
     pointcloud_msg,
     static_tf_msg,
@@ -340,7 +341,7 @@ class Ros2Bridge:
 
     def frame(self, agent: str, name: str) -> str:
         """The full name of one of ``agent``'s frames (``"base_link"``, ``"odom"``,
-        ``"sonar"``), with the ``frame_prefix`` parameter applied."""
+        ``"sonar"``, ``"camera_optical"``), with the ``frame_prefix`` parameter applied."""
         return f"{self._io(agent, 'frame').frame_base}/{name}"
 
     def _spin(self) -> None:
@@ -509,13 +510,17 @@ class Ros2Bridge:
         depth_m: np.ndarray | None,
         K: ArrayLike,
         camera_pose_ned: tuple[ArrayLike, ArrayLike],
+        labels_u8: np.ndarray | None = None,
     ) -> None:
         """Publish a camera frame: ``rgb_u8`` (H, W, 3) uint8 -> ``/<agent>/camera/image_raw``
         (sensor_msgs/Image rgb8), ``K`` -> ``/<agent>/camera/camera_info``, ``depth_m``
         (H, W) metres along the optical axis, NaN where nothing was hit ->
-        ``/<agent>/camera/depth`` (32FC1, REP-118), ``camera_pose_ned`` (position (3,),
-        rotation camera (x forward, y right, z down) -> NED) -> ``/<agent>/camera/pose``
-        (the optical frame ``"<agent>/camera_optical"``: x right, y down, z forward). Only
+        ``/<agent>/camera/depth`` (32FC1, REP-118), ``labels_u8`` (H, W) uint8, label id
+        + 1, 0 for open water (:func:`~.convert.label_image_mono8`) ->
+        ``/<agent>/camera/labels`` (mono8), ``camera_pose_ned`` (position (3,), rotation
+        camera (x forward, y right, z down) -> NED) -> ``/<agent>/camera/pose`` (the
+        optical frame ``"<agent>/camera_optical"``: x right, y down, z forward; the same
+        as ``/tf`` with the mount on ``/tf_static``). ``None`` products are skipped; only
         to topics with a subscriber (see ``publish_unsubscribed``)."""
         io = self._io(agent, "publish_camera")
         where = "Ros2Bridge.publish_camera"
@@ -526,8 +531,14 @@ class Ros2Bridge:
         if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.size == 0:
             raise ConfigError(f"rgb_u8 must be a non-empty (H, W, 3) uint8 array, got "
                               f"{rgb.dtype} {rgb.shape}", where)
+        labels = None
+        if labels_u8 is not None:
+            labels = mono8(labels_u8, f"{where}.labels_u8")
+            if labels.shape != rgb.shape[:2]:
+                raise ConfigError(f"labels_u8 must have shape {rgb.shape[:2]}, got "
+                                  f"{labels.shape}", where)
         self._advance(t_sim)
-        io.camera(t_sim, rgb, depth_m, np.asarray(K, dtype=float), camera_pose_ned)
+        io.camera(t_sim, rgb, depth_m, labels, np.asarray(K, dtype=float), camera_pose_ned)
 
     def publish_sonar_image(self, agent: str, t_sim: float, polar_u8: np.ndarray,
                             beam_angles_rad: ArrayLike, ranges_m: ArrayLike,

@@ -186,11 +186,24 @@ _OPTICAL_FROM_CAMERA_FRD = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0
     np.diag([1.0, -1.0, -1.0]))
 
 
-def optical_rotation_ned(rotation_ned_from_camera: ArrayLike) -> NDArray[np.float64]:
-    """What to hand :func:`pose_enu_from_ned` for a camera's optical frame (REP-103
-    optical: x right, y down, z forward) given the camera frame (x forward, y right,
-    z down) → NED rotation: the result turns into the optical frame → ENU rotation."""
-    return np.asarray(rotation_ned_from_camera, dtype=float) @ _OPTICAL_FROM_CAMERA_FRD
+def optical_rotation(rotation_from_camera: ArrayLike) -> NDArray[np.float64]:
+    """What to hand a conversion that flips its child frame from FRD to FLU, for a
+    camera's optical frame (REP-103 optical: x right, y down, z forward), given the
+    rotation camera frame (x forward, y right, z down) → an FRD-style parent: with the
+    camera → NED rotation, :func:`pose_enu_from_ned` then gives the optical frame → ENU
+    rotation; with the mount (camera → body FRD), :func:`mount_transform` gives
+    ``<agent>/base_link`` (FLU) → ``<agent>/camera_optical``."""
+    return np.asarray(rotation_from_camera, dtype=float) @ _OPTICAL_FROM_CAMERA_FRD
+
+
+def label_image_mono8(labels: ArrayLike) -> NDArray[np.uint8] | None:
+    """A camera's label image ``(H, W)`` (index into the scene's labels, -1 for open
+    water) as a ``mono8`` image: label index + 1, 0 for open water; ``None`` when an index
+    does not fit in 8 bits (a scene with more than 254 labels: no label image then)."""
+    arr = np.asarray(labels)
+    if arr.max(initial=-1) >= 255:
+        return None
+    return (arr + 1).astype(np.uint8)
 
 
 def pose_enu_from_ned(

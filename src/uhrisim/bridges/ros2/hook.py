@@ -55,7 +55,7 @@ from uhrisim.sensors.sonar.cloud import cloud_hits
 from uhrisim.sim.hooks import TickFrame
 from uhrisim.sim.simulation import BaseHook, Simulation
 
-from .convert import RateGate
+from .convert import RateGate, label_image_mono8
 from .limits import CommandEnvelope
 from .spec import COMMAND_GROUPS, AgentBridgeSpec, AgentCommands
 
@@ -270,18 +270,21 @@ class Ros2BridgeHook(BaseHook):
                 self.bridge.publish_scene(float(sim.t), markers)
 
     def _publish_mounts(self, sim: Simulation) -> None:
-        """``/tf_static``: ``<agent>/base_link`` -> ``<agent>/sonar`` of every linked agent
-        with a sonar (its first one: the frame of its sonar topics), from the mount; and
-        each such sonar's centre frequency and sound speed for ``sonar/image``."""
-        assert self.bridge is not None
+        """``/tf_static``: every linked agent's sensor mounts, ``<agent>/base_link`` ->
+        ``<agent>/sonar`` and -> ``<agent>/camera_optical`` (the frames of its sonar and
+        camera topics; :func:`uhrisim.record.hook.sensor_mounts`, as the recording has
+        them); and each sonar's centre frequency and sound speed for ``sonar/image``."""
+        from uhrisim.record.hook import sensor_mounts
+
+        bridge = self.bridge
+        assert bridge is not None
         mounts = []
         self._acoustics = {}
         for ros, name, publish_sonar, _ in self._links:
+            mounts += sensor_mounts(sim.agents[name],
+                                    lambda frame, ros=ros: bridge.frame(ros, frame))
             if publish_sonar:
                 sonar = sim.agents[name].sonars[0].sonar
-                mounts.append((self.bridge.frame(ros, "base_link"),
-                               self.bridge.frame(ros, "sonar"), sonar.mount_position,
-                               sonar.mount_rotation))
                 self._acoustics[ros] = (sonar.config.sonar_spec.frequency_hz,
                                         sonar.config.sound_speed_m_s)
         if mounts:
@@ -339,7 +342,8 @@ class Ros2BridgeHook(BaseHook):
                 image = images.get(name) if images else None
                 if image is not None:
                     bridge.publish_camera(ros, float(image.t), image.rgb, image.depth_m, image.K,
-                                          (image.position_ned, image.rotation_ned_from_camera))
+                                          (image.position_ned, image.rotation_ned_from_camera),
+                                          label_image_mono8(image.labels))
                 decision = helm.get(name) if helm else None
                 if decision is not None:
                     bridge.publish_helm(ros, t, decision.heading_deg, decision.speed,

@@ -28,7 +28,7 @@ from .convert import (
     RateGate,
     cloud_xyzi_flu,
     odom_fields_from_ned,
-    optical_rotation_ned,
+    optical_rotation,
     pose_enu_from_ned,
     stamp_from_sim_time,
     tf_chain,
@@ -155,10 +155,12 @@ class AgentPublishers:
         return True
 
     def camera(self, t_sim: float, rgb_u8: np.ndarray, depth_m: np.ndarray | None,
-               K: np.ndarray, camera_pose_ned: tuple[ArrayLike, ArrayLike]) -> None:
+               labels_u8: np.ndarray | None, K: np.ndarray,
+               camera_pose_ned: tuple[ArrayLike, ArrayLike]) -> None:
         """A camera frame to the camera topics someone subscribes to: the rgb8 image,
-        its CameraInfo (pinhole, no distortion), the 32FC1 depth image (REP-118) and the
-        optical frame's pose (x right, y down, z forward; frame ``<agent>/camera_optical``)."""
+        its CameraInfo (pinhole, no distortion), the 32FC1 depth image (REP-118), the
+        mono8 label image and the optical frame's pose (x right, y down, z forward;
+        frame ``<agent>/camera_optical``)."""
         frame = f"{self.frame_base}/camera_optical"
         sec, nanosec = stamp_from_sim_time(t_sim)
         pubs, write, wanted = self.pubs, self.writer.write, self.writer.wanted
@@ -172,9 +174,12 @@ class AgentPublishers:
             write(pubs["camera_depth"], encode_image(
                 sec, nanosec, frame, np.asarray(depth_m, dtype="<f4"), "32FC1"),
                 self.topics["camera_depth"])
+        if labels_u8 is not None and wanted(pubs["camera_labels"]):
+            write(pubs["camera_labels"], encode_image(sec, nanosec, frame, labels_u8),
+                  self.topics["camera_labels"])
         if wanted(pubs["camera_pose"]):
             position, rotation = camera_pose_ned
-            pose = pose_enu_from_ned(position, optical_rotation_ned(rotation))
+            pose = pose_enu_from_ned(position, optical_rotation(rotation))
             write(pubs["camera_pose"], self.pose(sec, nanosec, *pose),
                   self.topics["camera_pose"])
 

@@ -3,11 +3,12 @@
 Per agent (namespace ``/<agent>``): ``odom``, ``pose``, the sonar's ``sonar/polar``,
 ``sonar/fan``, ``sonar/points``, ``sonar/pose`` and ``sonar/image``
 (marine_acoustic_msgs/ProjectedSonarImage), the camera's ``camera/image_raw``,
-``camera/camera_info``, ``camera/depth`` and ``camera/pose``, the helm's ``helm/desired_*``,
-``helm/mode`` and ``helm/decision``, the community's ``vars``; commands in on
-``cmd/desired_*`` and ``cmd/thrusters``. Bridge-wide: ``/clock``, ``/scene/markers``,
-``/tf``, ``/tf_static`` and ``/events``. The topics whose message packages have no
-wheels exist when :mod:`.interfaces` has built them. docs/bridges-ros2.md has the table
+``camera/camera_info``, ``camera/depth``, ``camera/labels`` and ``camera/pose``, the
+helm's ``helm/desired_*``, ``helm/mode`` and ``helm/decision``, the community's ``vars``;
+commands in on ``cmd/desired_*`` and ``cmd/thrusters``. Bridge-wide: ``/clock``,
+``/scene/markers``, ``/tf``, ``/tf_static`` (the sonar and camera mounts) and ``/events``.
+The topics whose message packages have no wheels exist when :mod:`.interfaces` has built
+them. docs/bridges-ros2.md has the table
 with frames, units and rates; the QoS profiles below say why each is what it is.
 """
 
@@ -138,6 +139,7 @@ def agent_topics(spec: AgentBridgeSpec, sensor_qos: QoSProfile = QOS_SENSOR
         topics += [("camera_image", f"{ns}/camera/image_raw", Image, sensor_qos),
                    ("camera_info", f"{ns}/camera/camera_info", CameraInfo, sensor_qos),
                    ("camera_depth", f"{ns}/camera/depth", Image, sensor_qos),
+                   ("camera_labels", f"{ns}/camera/labels", Image, sensor_qos),
                    ("camera_pose", f"{ns}/camera/pose", PoseStamped, QOS_STATE)]
     topics += [(f"helm_{key}", f"{ns}/helm/{key}", Float64, QOS_STATE)
                for key in DESIRED_KEYS]
