@@ -1,7 +1,9 @@
-"""The loop of the external rclpy listeners (``ros2_listener.py``, ``ros2_marker_listener.py``):
-spin ``node`` until ``STOP`` on stdin (or its end), print ``READY`` once every topic has a
-publisher (``TIMEOUT ...`` and exit status 2 if none comes within ``ready_timeout_s``),
-then print one JSON line ``RESULT <result>`` and shut down. Plain rclpy, no uhrisim."""
+"""The loop of the external rclpy listeners (``ros2_listener.py``, ``ros2_marker_listener.py``,
+``ros2_camera_listener.py``): spin ``node`` until ``STOP`` on stdin (or its end), print
+``READY`` once every topic has a publisher (``TIMEOUT ...`` and exit status 2 if none comes
+within ``ready_timeout_s``), let ``settle(spin_once)`` spin on for what is still due, then
+print one JSON line ``RESULT <result>`` (``result()`` when it is callable) and shut down.
+Plain rclpy, no uhrisim."""
 
 from __future__ import annotations
 
@@ -9,13 +11,15 @@ import json
 import sys
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 
 
-def serve(node: Any, topics: list[str], result: Any, ready_timeout_s: float = 20.0) -> int:
+def serve(node: Any, topics: list[str], result: Any, ready_timeout_s: float = 20.0,
+          settle: Callable[[Callable[[], None]], None] | None = None) -> int:
     ex = SingleThreadedExecutor()
     ex.add_node(node)
     stop = threading.Event()
@@ -37,7 +41,9 @@ def serve(node: Any, topics: list[str], result: Any, ready_timeout_s: float = 20
         if not ready and time.monotonic() > deadline:
             print("TIMEOUT waiting for publishers", flush=True)
             return 2
-    print("RESULT " + json.dumps(result), flush=True)
+    if settle is not None:
+        settle(lambda: ex.spin_once(timeout_sec=0.02))
+    print("RESULT " + json.dumps(result() if callable(result) else result), flush=True)
     ex.shutdown()
     node.destroy_node()
     rclpy.try_shutdown()

@@ -20,15 +20,13 @@ the pixels on a 16-pixel grid that saw something. A transform is ``[parent, chil
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-import threading
 import time
 
 import numpy as np
 import rclpy
 from geometry_msgs.msg import PoseStamped
-from rclpy.executors import SingleThreadedExecutor
+from listener_loop import serve
 from rclpy.qos import (
     DurabilityPolicy,
     HistoryPolicy,
@@ -116,41 +114,17 @@ def main() -> int:
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
     node.create_subscription(TFMessage, "/tf", on_tf, 100)
     node.create_subscription(TFMessage, "/tf_static", on_static, latched)
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    stop = threading.Event()
 
-    def read_stdin():
-        for line in sys.stdin:
-            if line.strip() == "STOP":
-                break
-        stop.set()
+    def settle(spin_once) -> None:
+        # as tf2's lookup_transform(timeout) would: wait (at most TF_WAIT_S) for the /tf of
+        # each picture's stamp; a reliable /tf sample lost under the images' traffic (shared
+        # memory full) is repaired only at the writer's next heartbeat, seconds later
+        deadline = time.monotonic() + TF_WAIT_S
+        while time.monotonic() < deadline and not set(tf["depth"]) <= set(tf["dynamic"]):
+            spin_once()
 
-    threading.Thread(target=read_stdin, daemon=True).start()
-    ready = False
-    deadline = time.monotonic() + 30.0
-    while not stop.is_set():  # spin on this thread; stdin is read on another
-        executor.spin_once(timeout_sec=0.02)
-        if not ready and all(node.count_publishers(t) > 0
-                             for t in (*topics, "/tf", "/tf_static")):
-            ready = True
-            print("READY", flush=True)
-        if not ready and time.monotonic() > deadline:
-            print("TIMEOUT waiting for publishers", flush=True)
-            return 2
-    # as tf2's lookup_transform(timeout) would: wait (at most TF_WAIT_S) for the /tf of
-    # each picture's stamp; a reliable /tf sample lost under the images' traffic (shared
-    # memory full) is repaired only at the writer's next heartbeat, seconds later
-    deadline = time.monotonic() + TF_WAIT_S
-    while (time.monotonic() < deadline
-           and not set(tf["depth"]) <= set(tf["dynamic"])):
-        executor.spin_once(timeout_sec=0.02)
-    print("RESULT " + json.dumps({**seen, "tf": tf}), flush=True)
-    executor.shutdown()
-    node.destroy_node()
-    rclpy.try_shutdown()
-    return 0
-
+    return serve(node, [*topics, "/tf", "/tf_static"], lambda: {**seen, "tf": tf},
+                 ready_timeout_s=30.0, settle=settle)
 
 if __name__ == "__main__":
     sys.exit(main())
