@@ -144,7 +144,11 @@ def test_live_page_shows_moving_vehicles_and_sends_commands(live):
         c1 = _png(page.locator("#map").screenshot())
         page.wait_for_timeout(400)
         c2 = _png(page.locator("#map").screenshot())
-        assert np.array_equal(c1, c2), "map changed while paused"
+        # Nothing may move while paused. A level or two at the panel's anti-aliased rounded
+        # corners can differ when the page re-composites (seen in full-suite runs: 27 vs 28);
+        # a moving vehicle changes pixels by > 40, as the motion check above uses.
+        change = np.abs(c1.astype(int) - c2.astype(int)).max(axis=2)
+        assert change.max() <= 2, f"map changed while paused ({(change > 2).sum()} px)"
 
         # --- drawn position: the ROV's colour at worldToScreen(ROV), state == frame
         st = page.evaluate("""() => {
