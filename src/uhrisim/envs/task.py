@@ -48,7 +48,7 @@ class RewardWeights:
     lost: float = 10.0
 
     def __post_init__(self) -> None:
-        for name in ("trail_position", "bearing", "collision", "energy", "lost"):
+        for name in REWARD_TERMS:
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ConfigError(f"reward_weights.{name} must be a finite number >= 0, "

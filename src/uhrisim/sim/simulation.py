@@ -388,22 +388,20 @@ class Simulation:
         pings, images = {}, {}
         for agent in self.agents.values():
             for slot in agent.sonars:
-                if self.tick % slot.period:
-                    continue
-                self._sync_scene()
-                nav = agent.nav()
-                pings[agent.name] = slot.sonar.ping(
-                    self.raycaster, nav.position_ned, rot_z(nav.yaw), self.t,
-                    exclude=frozenset({agent.name}))
+                if self.tick % slot.period == 0:
+                    pings[agent.name] = self._sense_from(agent, slot.sonar.ping)
             for cam in agent.cameras:
-                if self.tick % cam.period:
-                    continue
-                self._sync_scene()
-                nav = agent.nav()
-                images[agent.name] = cam.camera.capture(
-                    self.raycaster, nav.position_ned, rot_z(nav.yaw), self.t,
-                    exclude=frozenset({agent.name}))
+                if self.tick % cam.period == 0:
+                    images[agent.name] = self._sense_from(agent, cam.camera.capture)
         return pings, images
+
+    def _sense_from(self, agent: Agent, sense: Callable[..., Any]) -> Any:
+        """``sense(raycaster, position NED, rotation body→NED, t, exclude=...)`` from the
+        agent's pose now, the agent's own body unseen."""
+        self._sync_scene()
+        nav = agent.nav()
+        return sense(self.raycaster, nav.position_ned, rot_z(nav.yaw), self.t,
+                     exclude=frozenset({agent.name}))
 
     def _control(self, agent: Agent) -> None:
         if agent.actuator_override is not None:
