@@ -105,8 +105,8 @@ def test_sonar_source_needs_a_sonar(tmp_path):
     text = text[: text.index("    sensors_off:")] + text[text.index("recording:"):]
     path = tmp_path / "s.yaml"
     path.write_text(text)
-    (tmp_path / "videoray_trail.bhv").write_text(
-        (ROOT / "scenarios" / "videoray_trail.bhv").read_text())
+    (tmp_path / "meta_videoray_trail.bhv").write_text(
+        (ROOT / "scenarios" / "meta_videoray_trail.bhv").read_text())
     from uhrisim.core.errors import ConfigError
 
     with pytest.raises(ConfigError, match="takes its contacts from its sonar"):
@@ -153,7 +153,7 @@ agents:
     start: {north: 0, east: 0, depth: 2, heading_deg: 0}
     helm:
       rate_hz: 4
-      bhv_file: videoray_trail.bhv
+      bhv_file: meta_videoray_trail.bhv
       macros: {SONAR_CONTACTS: "true"}
       domain: {course: [0, 359, 360], speed: [0, 2, 41], depth: [0, 50, 501, optional]}
     contacts:
@@ -174,8 +174,8 @@ def test_empty_water_and_damaged_pings_are_logged_and_the_helm_searches(tmp_path
     # pHelmIvP.
     path = tmp_path / "empty.yaml"
     path.write_text(EMPTY_WATER)
-    (tmp_path / "videoray_trail.bhv").write_text(
-        (ROOT / "scenarios" / "videoray_trail.bhv").read_text())
+    (tmp_path / "meta_videoray_trail.bhv").write_text(
+        (ROOT / "scenarios" / "meta_videoray_trail.bhv").read_text())
     sim = Simulation(load_scenario(path))
     slot = sim.agents["videoray"].sonars[0]
     ping_once = slot.sonar.ping
@@ -278,8 +278,8 @@ def test_scenario_settings_reach_the_perception_and_the_rest_keep_its_defaults(t
     path.write_text(SONAR.read_text().replace(
         SOURCE_LINE, "      sonar: {confirm: [2, 3], k_sigma: 5.5, diver_probability: 0.2}\n"
         + SOURCE_LINE))
-    (tmp_path / "videoray_trail.bhv").write_text(
-        (ROOT / "scenarios" / "videoray_trail.bhv").read_text())
+    (tmp_path / "meta_videoray_trail.bhv").write_text(
+        (ROOT / "scenarios" / "meta_videoray_trail.bhv").read_text())
     params = Simulation(load_scenario(path)).sonar_contacts.observers[0].perception.params
     assert (params.tracker.confirm_m, params.tracker.confirm_n) == (2, 3)
     assert params.detector.k_sigma == 5.5

@@ -81,7 +81,7 @@ ProcessConfig = pFoo
         ("ProcessConfig = pHelmIvP\n{\nAppTick = 4\n", 1, "never closed"),
         ("ProcessConfig = p\n{\n{\n}\n", 3, "inside a ProcessConfig block"),
         ("x = ${NOPE}\n", 1, r"\$\{NOPE\} is not defined"),
-        ("#include plugs.moos\n", 1, "unsupported directive"),
+        ("#include plugs.moos\n", 1, "'#include' is an nsplug directive"),
     ],
 )
 def test_malformed_moos_files_name_file_and_line(text: str, where: int, match: str):
@@ -180,6 +180,27 @@ def test_bad_files_are_one_line_errors(tmp_path):
         load_helm_from_moos(bad_bhv)
 
 
+@pytest.mark.parametrize(
+    ("bhv", "moos_extra", "where", "match"),
+    [
+        (BHV.replace("  depth    = 2\n", "#ifdef DEEP\n  depth    = 2\n#endif\n"), "",
+         "rov.bhv:6", "'#ifdef' is an nsplug directive: pHelmIvP .* MALCONFIG"),
+        (BHV.replace("speed  = 1.2", "speed  = $(SPEED)"), "", "rov.bhv:12",
+         r"\$\(SPEED\) is an nsplug macro left unexpanded"),
+        (BHV, "#ifdef SIM\nServerPort = 9001\n#endif\n", "rov.moos:6",
+         "'#ifdef' is an nsplug directive: MOOS .* every branch would apply"),
+    ],
+)
+def test_nsplug_left_in_what_phelmivp_reads_is_refused_at_its_line(
+        tmp_path, bhv: str, moos_extra: str, where: str, match: str):
+    # pHelmIvP does not run nsplug (lib_helmivp/Populator_BehaviorSet.cpp)
+    path = mission(tmp_path, "Behaviors = rov.bhv\nDomain = course:0:359:360",
+                   head=HEAD + moos_extra, bhv=bhv)
+    with pytest.raises(ConfigError, match=match) as e:
+        load_helm_from_moos(path)
+    assert str(e.value).startswith(f"{tmp_path / where}: ")
+
+
 def test_the_shipped_community_file_loads_as_the_helm_it_describes():
     cfg = load_helm_from_moos(SHIPPED)
     assert cfg.domain.names == ("course", "speed", "depth")
@@ -205,6 +226,10 @@ def test_scenario_helm_from_a_moos_file_and_its_errors(tmp_path):
                         "moos_file: m.moos\n      domain: *domain")
     bad.write_text(both)
     with pytest.raises(ConfigError, match="the domain comes from its Domain lines"):
+        load_scenario(bad)
+    bad.write_text(text.replace("moos_file: moos_external_helm_videoray.moos",
+                                "moos_file: m.moos\n      macros: {SONAR_CONTACTS: 'true'}"))
+    with pytest.raises(ConfigError, match="macros apply to a bhv_file: a moos_file is read"):
         load_scenario(bad)
 
 

@@ -1,6 +1,7 @@
 """Every shipped .bhv and .moos file would fly in the real pHelmIvP (MOOS-IvP 24.8 rules,
-docs/helm.md): it loads without a warning under those rules, and the contact manager of a
-shipped community hands the helm its alerts."""
+docs/helm.md): it loads without a warning under those rules, every file a shipped .moos
+points pHelmIvP at is pHelmIvP's input as it stands (pHelmIvP does not run nsplug), and the
+contact manager of a shipped community hands the helm its alerts."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from uhrisim.autonomy import load_bhv
+from uhrisim.autonomy.bhv import expand_nsplug, refuse_nsplug, strip_comment
 from uhrisim.autonomy.moos_file import load_helm_from_moos, load_moos
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
@@ -31,6 +33,30 @@ def test_shipped_bhv_loads_without_a_warning(path: Path):
     for spec in cfg.behaviors:
         if spec.kind == "BHV_ConstantDepth":  # pHelmIvP: duration 0 unless given
             assert spec.common.duration != 0.0, f"{spec.where}: {spec.name} has no duration"
+
+
+@pytest.mark.parametrize("path", HELM_FILES, ids=[p.name for p in HELM_FILES])
+def test_every_file_a_shipped_moos_gives_phelmivp_is_read_as_it_stands(path: Path):
+    # pHelmIvP rejects a '#...' line (Populator_BehaviorSet.cpp: "Problem with line N",
+    # MALCONFIG) and takes $(NAME) literally: none may be left in what it reads
+    block = load_moos(path).block("pHelmIvP")
+    behavior_files = [path.parent / line.value for line in block
+                      if line.key.lower() == "behaviors"]
+    assert behavior_files
+    for bhv in (path, *behavior_files):
+        lines = [strip_comment(s) for s in bhv.read_text().splitlines()]
+        refuse_nsplug(lines, str(bhv))  # raises at the first such line
+
+
+def test_the_plain_helm_is_its_meta_file_expanded_by_nsplug():
+    # the file pHelmIvP reads is what `nsplug meta_videoray_trail.bhv videoray_trail.bhv`
+    # writes (checked against MOOS-IvP's nsplug by hand, docs/bridges-moos.md)
+    meta = SCENARIOS / "meta_videoray_trail.bhv"
+    plain = SCENARIOS / "videoray_trail.bhv"
+    assert expand_nsplug(meta.read_text(), {}, str(meta)) == plain.read_text()
+    sonar = expand_nsplug(meta.read_text(), {"SONAR_CONTACTS": "true"}, str(meta))
+    assert "name       = reacquire" in sonar
+    assert "name       = reacquire" not in plain.read_text()
 
 
 @pytest.mark.parametrize("path", HELM_FILES, ids=[p.name for p in HELM_FILES])

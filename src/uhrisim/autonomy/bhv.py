@@ -5,11 +5,17 @@ VALUE { conditions } ELSEVALUE`` mode blocks (multi-line), ``Behavior = BHV_X { 
 value ... }`` blocks, ``//`` comments. Anything else is a ConfigError naming
 ``file:line`` - nothing is silently dropped.
 
-Mission files are usually run through nsplug first; the subset missions use is applied
-when ``macros`` are given (or the file uses them): ``$(NAME)`` substitution, ``#ifdef NAME
-[value]``, ``#ifndef NAME``, ``#else``, ``#endif``, ``#define NAME value``. An undefined
-``$(NAME)`` or an unbalanced directive is a ConfigError at its line; ``#include`` is not
-supported (ConfigError).
+Mission files are usually run through nsplug first; uhrisim's own helm applies the subset
+missions use (``nsplug=True``, the default for a scenario's ``bhv_file``): ``$(NAME)``
+substitution, ``#ifdef NAME [value]``, ``#ifndef NAME``, ``#else``, ``#endif``, ``#define
+NAME value``. An undefined ``$(NAME)`` or an unbalanced directive is a ConfigError at its
+line; ``#include`` is not supported (ConfigError).
+
+pHelmIvP itself does not run nsplug: it reads its files as they are
+(lib_helmivp/Populator_BehaviorSet.cpp), rejects a line such as ``#ifdef X`` ("Problem with
+line N in the BehaviorSet file", then IVPHELM_STATE = MALCONFIG) and takes ``$(NAME)``
+literally. A file read for a ``.moos`` helm (``nsplug=False``) is held to that:
+:func:`refuse_nsplug` names the first such line.
 """
 
 from __future__ import annotations
@@ -29,11 +35,14 @@ from uhrisim.core.files import read_text_file
 
 __all__ = [
     "BhvContent",
+    "expand_nsplug",
     "load_bhv",
     "parse_bhv",
     "parse_bhv_content",
+    "nsplug_lines",
     "preprocess",
     "read_bhv_file",
+    "refuse_nsplug",
     "strip_comment",
 ]
 
@@ -58,10 +67,12 @@ def strip_comment(line: str) -> str:
 _MACRO = re.compile(r"\$\(([A-Za-z_][A-Za-z0-9_]*)\)")
 
 
-def preprocess(lines: list[str], macros: Mapping[str, object], filename: str) -> list[str]:
-    """nsplug subset (module docstring); keeps line numbers (dropped lines become "")."""
+def nsplug_lines(lines: list[str], macros: Mapping[str, object], filename: str
+                 ) -> list[str | None]:
+    """The nsplug subset (module docstring), line by line: each line with its macros
+    expanded, or None where nsplug drops it (a directive, or a branch not taken)."""
     defs = {str(k): str(v) for k, v in macros.items()}
-    out: list[str] = []
+    out: list[str | None] = []
     stack: list[tuple[bool, bool, int]] = []  # (this branch on, parent on, line)
 
     def active() -> bool:
@@ -95,10 +106,10 @@ def preprocess(lines: list[str], macros: Mapping[str, object], filename: str) ->
                     defs[parts[1]] = parts[2].strip() if len(parts) > 2 else ""
             else:
                 raise ConfigError(f"unsupported directive {parts[0]!r}", where)
-            out.append("")
+            out.append(None)
             continue
         if not active():
-            out.append("")
+            out.append(None)
             continue
 
         def sub(m: re.Match, where: str = where) -> str:
@@ -110,6 +121,40 @@ def preprocess(lines: list[str], macros: Mapping[str, object], filename: str) ->
     if stack:
         raise ConfigError("#ifdef never closed with #endif", f"{filename}:{stack[-1][2]}")
     return out
+
+
+def preprocess(lines: list[str], macros: Mapping[str, object], filename: str) -> list[str]:
+    """The nsplug subset, keeping line numbers: dropped lines become ""."""
+    return [line or "" for line in nsplug_lines(lines, macros, filename)]
+
+
+def expand_nsplug(text: str, macros: Mapping[str, object], filename: str = "<bhv>") -> str:
+    """``text`` as ``nsplug`` writes it (MOOS-IvP app_nsplug/Expander.cpp: directive
+    lines and branches not taken are left out, every other line is written as it is,
+    its macros expanded), within the subset of the module docstring."""
+    kept = nsplug_lines(text.splitlines(), macros, filename)
+    return "".join(f"{line}\n" for line in kept if line is not None)
+
+
+def refuse_nsplug(lines: list[str], filename: str, reader: str = "pHelmIvP",
+                  fate: str = "rejects the line (IVPHELM_STATE = MALCONFIG)") -> None:
+    """A ConfigError at the first line ``reader`` would not read as meant: an nsplug
+    directive (``#...``, of which ``reader`` ``fate``) or an unexpanded ``$(NAME)``
+    (``lines``: comments stripped)."""
+    for i, line in enumerate(lines):
+        s = line.strip()
+        where = f"{filename}:{i + 1}"
+        if s.startswith("#"):
+            raise ConfigError(
+                f"{s.split()[0]!r} is an nsplug directive: {reader} reads this file as it "
+                f"is and {fate}; expand the file with nsplug first (docs/bridges-moos.md)",
+                where)
+        macro = _MACRO.search(s)
+        if macro:
+            raise ConfigError(
+                f"{macro.group(0)} is an nsplug macro left unexpanded: {reader} would take "
+                "it literally; expand the file with nsplug first (docs/bridges-moos.md)",
+                where)
 
 
 @dataclass(frozen=True)
@@ -124,11 +169,23 @@ class BhvContent:
 
 
 def parse_bhv_content(
-    text: str, filename: str = "<bhv>", macros: Mapping[str, object] | None = None
+    text: str,
+    filename: str = "<bhv>",
+    macros: Mapping[str, object] | None = None,
+    *,
+    nsplug: bool = True,
 ) -> BhvContent:
-    """The declarations of ``.bhv`` text (``macros``: nsplug subset), not yet validated."""
+    """The declarations of ``.bhv`` text, not yet validated. ``nsplug``: apply the nsplug
+    subset with ``macros`` (uhrisim's helm); otherwise read the text as pHelmIvP does and
+    refuse what it would not read as meant (module docstring)."""
     raw_lines = [strip_comment(s) for s in text.splitlines()]
-    lines = preprocess(raw_lines, macros or {}, filename)
+    if nsplug:
+        lines = preprocess(raw_lines, macros or {}, filename)
+    else:
+        if macros:
+            raise ConfigError("macros need nsplug: pHelmIvP reads the file as it is", filename)
+        refuse_nsplug(raw_lines, filename)
+        lines = raw_lines
     init, deferred, modes, specs = [], [], [], []
     i, n = 0, len(lines)
     while i < n:
@@ -218,9 +275,13 @@ def _validated(
     return cfg.validate(known_vars)
 
 
-def read_bhv_file(path: str | Path, macros: Mapping[str, object] | None = None) -> BhvContent:
-    """Read a ``.bhv`` file's declarations; a missing or unreadable file is an AssetError."""
-    return parse_bhv_content(read_text_file(path, "behavior file"), str(path), macros)
+def read_bhv_file(
+    path: str | Path, macros: Mapping[str, object] | None = None, *, nsplug: bool = True
+) -> BhvContent:
+    """Read a ``.bhv`` file's declarations (``nsplug``: see :func:`parse_bhv_content`); a
+    missing or unreadable file is an AssetError."""
+    return parse_bhv_content(read_text_file(path, "behavior file"), str(path), macros,
+                             nsplug=nsplug)
 
 
 def load_bhv(

@@ -13,10 +13,13 @@ such block counts), and opens with a line that starts with ``{``; inside a block
 blank is removed from a line (``Behaviors = my file.bhv`` names ``myfile.bhv``), a line
 with nothing after ``=`` is skipped, and the block ends at a line starting with ``}``;
 a line without ``=`` is skipped (with a warning here).
-``${NAME}`` is replaced by a ``define: NAME = value`` line of the file or a given macro
-(MOOS would also look in the shell environment; here an unknown name is an error, so a
-run does not depend on the shell). nsplug directives (``#ifdef``, ``$(NAME)``, ...) are
-applied as for ``.bhv`` files when ``macros`` are given or the file uses them.
+``${NAME}`` is replaced by a ``define: NAME = value`` line of the file (MOOS would also look
+in the shell environment; here an unknown name is an error, so a run does not depend on
+the shell). Neither MOOS nor pHelmIvP runs nsplug: MOOS skips a ``#ifdef`` line (it has no
+``=``), so every branch would apply, and keeps ``$(NAME)`` literally; such lines, in the
+``.moos`` file or in the ``.bhv`` files its pHelmIvP block names, are ConfigErrors at
+``file:line`` (:func:`uhrisim.autonomy.bhv.refuse_nsplug`): expand a meta file with nsplug
+first, as MOOS-IvP missions' launch scripts do.
 
 pHelmIvP's block (pHelmIvP/HelmIvP.cpp:1279-1333): ``Behaviors`` (repeatable; a file
 named twice is refused), ``Domain`` (repeatable: ``name:low:high:npts[:optional]`` or
@@ -37,7 +40,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from uhrisim.autonomy.bhv import preprocess, read_bhv_file, strip_comment
+from uhrisim.autonomy.bhv import read_bhv_file, refuse_nsplug, strip_comment
 from uhrisim.autonomy.config import HelmConfig, HelmSettings, axis_from
 from uhrisim.autonomy.domain import Domain, DomainAxis
 from uhrisim.autonomy.params import to_bool, to_float
@@ -94,12 +97,11 @@ _DEFINE = re.compile(r"^define\s*:\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.*)$", re.I
 _EXPAND = re.compile(r"\$\{([^}]*)\}")
 
 
-def parse_moos(
-    text: str, filename: str = "<moos>", macros: Mapping[str, object] | None = None
-) -> MoosFile:
+def parse_moos(text: str, filename: str = "<moos>") -> MoosFile:
     """Parse ``.moos`` text (module docstring); errors are ConfigErrors at ``file:line``."""
-    lines = preprocess([strip_comment(s) for s in text.splitlines()], macros or {}, filename)
-    defines = {str(k): str(v) for k, v in (macros or {}).items()}
+    lines = [strip_comment(s) for s in text.splitlines()]
+    refuse_nsplug(lines, filename, "MOOS", "skips the line, so every branch would apply")
+    defines: dict[str, str] = {}
     global_lines: list[MoosLine] = []
     blocks: dict[str, tuple[MoosLine, ...]] = {}
     block_wheres: dict[str, str] = {}
@@ -165,9 +167,9 @@ def parse_moos(
     return MoosFile(filename, tuple(global_lines), blocks, block_wheres)
 
 
-def load_moos(path: str | Path, macros: Mapping[str, object] | None = None) -> MoosFile:
+def load_moos(path: str | Path) -> MoosFile:
     """Read and parse a ``.moos`` file; errors name ``path:line``."""
-    return parse_moos(read_text_file(path, "MOOS file"), str(path), macros)
+    return parse_moos(read_text_file(path, "MOOS file"), str(path))
 
 
 def _domain_axis(value: str, where: str) -> DomainAxis:
@@ -224,16 +226,12 @@ def _settings(lines: Iterable[MoosLine]) -> HelmSettings:
     return settings
 
 
-def load_helm_from_moos(
-    path: str | Path,
-    process: str = "pHelmIvP",
-    macros: Mapping[str, object] | None = None,
-) -> HelmConfig:
+def load_helm_from_moos(path: str | Path, process: str = "pHelmIvP") -> HelmConfig:
     """The :class:`HelmConfig` of a ``.moos`` file's ``ProcessConfig = <process>`` block:
     its behavior file(s), domain and settings, validated as pHelmIvP would (module
     docstring). Condition variables are not required to have a known poster: in a MOOS
     community any app may post them (pHelmIvP does not check either)."""
-    moos = load_moos(path, macros)
+    moos = load_moos(path)
     for key in ("Community", "LatOrigin", "LongOrigin"):  # HelmIvP.cpp:1251-1262
         if moos.global_value(key) is None:
             raise ConfigError(f"no {key} = ... line: pHelmIvP would not start (MALCONFIG)",
@@ -265,7 +263,7 @@ def load_helm_from_moos(
         )
     settings = _settings(lines)
     # pHelmIvP reads its files in the order of a sorted set (Populator_BehaviorSet::populate)
-    parts = [read_bhv_file(bhv_files[name], macros) for name in sorted(bhv_files)]
+    parts = [read_bhv_file(bhv_files[name], nsplug=False) for name in sorted(bhv_files)]
     cfg = HelmConfig(
         behaviors=tuple(b for part in parts for b in part.behaviors),
         modes=tuple(m for part in parts for m in part.modes),

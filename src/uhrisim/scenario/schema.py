@@ -317,7 +317,9 @@ class DiverLimits(Strict):
 class HelmSection(Strict):
     """Behaviors inline (MOOS-IvP vocabulary), from a ``.bhv`` file, or the pHelmIvP block
     of a MOOS mission file (``moos_file``: its Behaviors, Domain and settings); files are
-    beside the scenario. ``macros`` feed nsplug's ``$(NAME)`` / ``#ifdef`` in the files."""
+    beside the scenario. ``macros`` feed nsplug's ``$(NAME)`` / ``#ifdef`` in a ``bhv_file``
+    (uhrisim's helm expands it); a ``moos_file`` is read as MOOS and pHelmIvP read it,
+    without nsplug."""
 
     rate_hz: PositiveFloat = 4.0
     bhv_file: str | None = None
@@ -339,8 +341,9 @@ class HelmSection(Strict):
             raise ValueError(f"give either {given[0]} or inline {inline[0]}, not both")
         if self.moos_file and self.domain:
             raise ValueError("with moos_file the domain comes from its Domain lines")
-        if self.macros and not given:
-            raise ValueError("macros apply to a bhv_file or moos_file")
+        if self.macros and not self.bhv_file:
+            raise ValueError("macros apply to a bhv_file: a moos_file is read as pHelmIvP "
+                             "reads it, without nsplug (expand it with nsplug first)")
         return self
 
 

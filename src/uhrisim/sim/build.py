@@ -165,7 +165,7 @@ def _helm_driver(sim: BuildContext, cfg: AgentConfig, community: Community) -> H
     known = known_external_vars(sim, cfg.name) | {a.var for a in alerts}
     if section.moos_file:
         helm_config = load_helm_from_moos(sim.source.resolve(section.moos_file),
-                                          section.moos_process, section.macros)
+                                          section.moos_process)
     elif section.bhv_file:
         domain = parse_domain(dict(section.domain), sim.source.where(
             "agents", index, "helm", "domain")) if section.domain else None
