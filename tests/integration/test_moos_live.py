@@ -176,7 +176,7 @@ def test_wildcard_registration_and_duplicate_name_poison(db):
         assert {m.key for m in got} == {"WILD_A"}
         # a second client with the same name is refused with a K (poison) message
         twin = MoosClient()
-        with pytest.raises(BridgeError, match="already connected"):
+        with pytest.raises(BridgeError, match="already exists"):
             twin.connect("127.0.0.1", db.port, "poster", strict=True)
     finally:
         watcher.stop()
@@ -254,6 +254,57 @@ def test_db_killed_and_restarted_is_survived_without_blocking():
         first.kill()
         if second is not None:
             second.terminate()
+
+
+def raw_client(port: int, name: str) -> socket.socket:
+    """A connection that says hello as ``name`` and is welcomed (then holds the name)."""
+    s = socket.create_connection(("127.0.0.1", port), timeout=60.0)
+    hello = MoosMessage(-1, "i", "S", "", "", "", "asynchronous", time.time(), -1.0, -1.0,
+                        name.encode())
+    s.sendall(HANDSHAKE + encode_packet([hello]))
+    assert MoosStreamParser().feed(s.recv(4096))[0].messages[0].msg_type == "W"
+    return s
+
+
+def test_a_busy_db_is_given_time_to_welcome():
+    # the DB takes the name at once and welcomes 2.5 s later (a loaded MOOSDB was seen to
+    # take longer than the 1 s earlier clients gave it, then refuse the retry by name):
+    # one attempt, no refusal, connected
+    with spawn(welcome_delay_s=2.5) as slow:
+        client = MoosClient()
+        try:
+            client.connect("127.0.0.1", slow.port, "uhrisim_videoray")
+            assert wait_until(lambda: "waiting for the welcome" in client.status, 60.0)
+            assert client.wait_connected(120.0), client.status
+            assert (client.n_attempts, client.n_refusals, client.n_connects) == (1, 0, 1)
+        finally:
+            client.close()
+
+
+def test_a_name_the_db_still_holds_is_retried_until_it_is_free(caplog):
+    # a stale connection holds our name: the DB refuses us ('K'); the client says so once,
+    # keeps retrying with backoff, and gets in as soon as the stale one is gone
+    with spawn() as dbp:
+        stale = raw_client(dbp.port, "uhrisim_videoray")
+        client = MoosClient(reconnect_max_s=0.2)
+        try:
+            with caplog.at_level("WARNING", logger="uhrisim.bridges.moos.client"):
+                client.connect("127.0.0.1", dbp.port, "uhrisim_videoray")
+                assert wait_until(lambda: client.n_refusals >= 3, 120.0), client.status
+                assert not client.connected and "already exists" in client.status
+                stale.close()
+                assert client.wait_connected(120.0), client.status
+                # said by the client's thread once it is in
+                assert wait_until(lambda: any(f"(attempt {client.n_attempts})" in r.getMessage()
+                                              for r in caplog.records), 60.0)
+            said = [r.getMessage() for r in caplog.records]
+            refused = [m for m in said if "refused the name" in m]
+            assert len(refused) == 1, said
+            assert 'A client of this name ("uhrisim_videoray") already exists' in refused[0]
+            assert client.n_attempts == client.n_refusals + 1 and client.n_connects == 1
+        finally:
+            stale.close()
+            client.close()
 
 
 def test_db_drops_a_client_sending_garbage_and_keeps_serving(db):

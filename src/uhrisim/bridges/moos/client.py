@@ -19,6 +19,15 @@ the GIL). When the DB goes away the thread reconnects with exponential backoff
 (``reconnect_min_s`` doubling up to ``reconnect_max_s``), performs the handshake again and
 re-registers every variable.
 
+A busy MOOSDB may take seconds to welcome a client, and MOOS's own clients wait for the
+welcome without a time limit (CMOOSCommClient::HandShake reads it with no timeout); this
+client waits ``welcome_timeout_s`` (30 s by default) before it gives a connection up. A
+connection given up too soon is still held by the DB under the client's name until the
+DB notices it closed, and the DB refuses the next one ("A client of this name already
+exists", a ``K`` reply): the client says so once, counts it in :attr:`n_refusals` and
+keeps retrying with backoff until the name is free. :attr:`n_attempts` counts every TCP
+connection tried, :attr:`n_connects` every welcomed one.
+
 Notifications while disconnected: the **latest value per variable** is kept (older ones
 are replaced) and sent, after the re-registrations, once the client is connected again.
 While connected, the outgoing queue is bounded (``max_outbox`` messages; the oldest are
@@ -61,6 +70,12 @@ log = logging.getLogger(__name__)
 
 #: Largest accepted MOOSTimeWarp (a sanity bound; MOOS itself only requires warp > 0).
 _MAX_WARP = 1000.0
+#: How often a wait for the DB's welcome looks whether the client was closed (s).
+_STOP_POLL_S = 0.25
+
+
+class _NameRefusedError(BridgeError):
+    """The DB answered the handshake with poison (``K``): it refused the client's name."""
 
 
 class MoosClient:
@@ -77,7 +92,9 @@ class MoosClient:
     reconnect_min_s, reconnect_max_s:
         Reconnection backoff (wall-clock seconds), doubling from min to max.
     connect_timeout_s:
-        TCP connect + welcome wait per attempt (wall-clock seconds).
+        TCP connect wait per attempt (wall-clock seconds).
+    welcome_timeout_s:
+        How long an accepted connection waits for the DB's welcome (wall-clock seconds).
     timing_period_s:
         Period of ``_async_timing`` messages (wall-clock seconds).
     coalesce_s:
@@ -107,6 +124,7 @@ class MoosClient:
         reconnect_min_s: float = 0.05,
         reconnect_max_s: float = 1.0,
         connect_timeout_s: float = 1.0,
+        welcome_timeout_s: float = 30.0,
         timing_period_s: float = 1.0,
         coalesce_s: float = 0.0,
         max_outbox: int = 100_000,
@@ -121,6 +139,7 @@ class MoosClient:
         self._rmin = reconnect_min_s
         self._rmax = reconnect_max_s
         self._ctimeout = connect_timeout_s
+        self._welcome_timeout = welcome_timeout_s
         self._timing_period = timing_period_s
         if not coalesce_s >= 0.0:
             raise BridgeError(f"MOOS client: coalesce_s {coalesce_s!r} must be >= 0")
@@ -163,7 +182,9 @@ class MoosClient:
         self.skew = 0.0
         self.last_error: str | None = None
         self._status = "not started"
+        self.n_attempts = 0
         self.n_connects = 0
+        self.n_refusals = 0
         self.dropped_out = 0
         self.dropped_in = 0
         self.n_sent = 0
@@ -362,23 +383,34 @@ class MoosClient:
 
     def _run(self) -> None:
         backoff = self._rmin
-        first_failure_logged = False
+        told: set[str] = set()  # kinds of failure already logged since the last welcome
         while not self._stop.is_set():
             sock: socket.socket | None = None
             try:
                 sock = self._handshake()
                 backoff = self._rmin
-                first_failure_logged = False
+                if told:
+                    log.warning("MOOS client %r: connected to %s:%d (attempt %d)",
+                                self.name, self.host, self.port, self.n_attempts)
+                told.clear()
                 self._serve(sock)
+            except _NameRefusedError as exc:
+                self.last_error = f"refused: {exc}"
+                if "refused" not in told:
+                    told.add("refused")
+                    log.warning("MOOS client %r: MOOSDB at %s:%d refused the name: %s - it "
+                                "still holds a connection of that name (an earlier one of "
+                                "ours it has not yet seen closed, or another process); "
+                                "retrying with backoff", self.name, self.host, self.port, exc)
             except (OSError, BridgeError) as exc:
                 self.last_error = f"{type(exc).__name__}: {exc}"
                 if self._connected:
                     log.warning("MOOS client %r: connection to %s:%d lost: %s",
                                 self.name, self.host, self.port, exc)
-                elif not first_failure_logged:
+                elif "failed" not in told:
+                    told.add("failed")
                     log.warning("MOOS client %r: cannot connect to MOOSDB at %s:%d (%s); "
                                 "retrying", self.name, self.host, self.port, exc)
-                    first_failure_logged = True
                 else:
                     log.debug("MOOS client %r: retry failed: %s", self.name, exc)
             finally:
@@ -401,27 +433,43 @@ class MoosClient:
             backoff = min(self._rmax, backoff * 2.0)
 
     def _handshake(self) -> socket.socket:
+        self.n_attempts += 1
         sock = socket.create_connection((self.host, self.port), timeout=self._ctimeout)
+        try:
+            return self._welcomed(sock)
+        except BaseException:
+            sock.close()
+            raise
+
+    def _welcomed(self, sock: socket.socket) -> socket.socket:
+        """Say hello on ``sock`` and wait (up to ``welcome_timeout_s``, while not closed)
+        for the DB's welcome; the connection made ready to serve."""
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         hello = MoosMessage(-1, "i", "S", "", "", "", "asynchronous", self.moos_time(),
                             -1.0, -1.0, self.name.encode())
         sock.sendall(HANDSHAKE + encode_packet([hello]))
+        self._status = f"waiting for the welcome of {self.host}:{self.port}"
         parser = MoosStreamParser()
-        deadline = time.monotonic() + self._ctimeout
+        deadline = time.monotonic() + self._welcome_timeout
         packets = []
         while not packets:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
-                raise BridgeError("MOOSDB sent no welcome within the connect timeout")
-            sock.settimeout(remaining)
-            data = sock.recv(65536)
+                raise BridgeError(f"MOOSDB sent no welcome within {self._welcome_timeout:g} s")
+            if self._stop.is_set():
+                raise BridgeError("closed while waiting for the welcome")
+            sock.settimeout(min(remaining, _STOP_POLL_S))
+            try:
+                data = sock.recv(65536)
+            except TimeoutError:
+                continue
             if not data:
                 raise BridgeError("MOOSDB closed the connection during the handshake")
             packets = parser.feed(data)
         first = packets[0].messages[0] if packets[0].messages else None
         if first is None or first.msg_type == "K":
-            reason = first.string if first is not None else "empty reply"
-            raise BridgeError(f"MOOSDB refused {self.name!r}: {reason}")
+            self.n_refusals += 1
+            raise _NameRefusedError(first.string if first is not None else "empty reply")
         if first.msg_type != "W":
             raise MoosProtocolError(f"MOOS handshake: expected W or K, got {first.msg_type!r}")
         if first.string != "asynchronous":

@@ -7,8 +7,11 @@ behaviour seen in ``shared/reference/moos-trace.jsonl``:
   ``asynchronous`` (a v10 asynchronous client) or empty (an old synchronous client) and
   whose string value is the client's name. The DB answers ``W`` (welcome: sval
   ``asynchronous`` for async clients, dval = clock skew estimate = DB time - the time in
-  the client's message, src_aux ``hostname=...``, community) or ``K`` (poison) when the
-  name is already connected;
+  the client's message, src_aux ``hostname=...``, community) or ``K`` (poison, with the
+  real DB's text ``A client of this name ("NAME") already exists``) when the name is
+  already connected. The name is taken when the DB reads it (MOOSCommServer.cpp:956-980),
+  before the welcome goes out: with ``welcome_delay_s`` the welcome follows that many
+  seconds later, as from a busy DB, while the DB serves everyone else;
 * ``R``/``U`` register/unregister a variable; on registration the current value (if any)
   is sent at once; ``*``/``/`` wildcard register/unregister with a string
   ``AppPattern=..,VarPattern=..,Interval=..`` (comma- or space-separated; ``*``/``?`` glob);
@@ -80,6 +83,8 @@ class _Client:
     wildcards: list[_Wildcard] = field(default_factory=list)
     outbuf: bytearray = field(default_factory=bytearray)
     mail: list[MoosMessage] = field(default_factory=list)  # for synchronous clients
+    welcome: MoosMessage | None = None  # a welcome still to send (welcome_delay_s)
+    welcome_at: float = 0.0  # time.time() at which it goes out
 
     def wants(self, key: str, source: str) -> bool:
         if key in self.registered:
@@ -102,12 +107,17 @@ def _parse_wildcard(spec: str) -> _Wildcard:
 
 
 class MoosTestDB:
-    """A single-threaded MOOSDB serving ``127.0.0.1:port`` (``port=0``: ephemeral)."""
+    """A single-threaded MOOSDB serving ``127.0.0.1:port`` (``port=0``: ephemeral);
+    ``welcome_delay_s``: seconds between reading a client's name and welcoming it."""
 
-    def __init__(self, port: int = 0, community: str = "uhrisim", host: str = "127.0.0.1"):
+    def __init__(self, port: int = 0, community: str = "uhrisim", host: str = "127.0.0.1",
+                 welcome_delay_s: float = 0.0):
         if host not in ("127.0.0.1", "localhost"):
             raise BridgeError(f"MoosTestDB: refusing to bind {host!r}; loopback only")
+        if not 0.0 <= welcome_delay_s < 3600.0:
+            raise BridgeError(f"MoosTestDB: welcome_delay_s {welcome_delay_s!r} not in [0, 3600)")
         self.community = community
+        self.welcome_delay_s = welcome_delay_s
         self._listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         self._listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         self._listener.bind(("127.0.0.1", port))
@@ -148,7 +158,14 @@ class MoosTestDB:
         if now >= self._next_db_time:
             self._post_db_vars(now)
             self._next_db_time = now + 1.0
-        for key, mask in self._sel.select(min(timeout, max(0.0, self._next_db_time - now))):
+        due = self._next_db_time
+        for client in list(self._clients.values()):
+            if client.welcome is not None:
+                if now >= client.welcome_at:
+                    self._welcome(client)
+                else:
+                    due = min(due, client.welcome_at)
+        for key, mask in self._sel.select(min(timeout, max(0.0, due - now))):
             if key.data is None:
                 self._accept()
                 continue
@@ -273,19 +290,27 @@ class MoosTestDB:
         hello = msgs[0]
         name = hello.string
         if any(c.name == name for c in self._clients.values()):
-            self._send(client, [MoosMessage(-1, "K", "S", "", "", self.community, "",
-                                            time.time(), -1.0, -1.0,
-                                            f"a client called {name} is already connected")])
+            self._send(client, [MoosMessage(
+                -1, "K", "S", "", "", self.community, "", time.time(), -1.0, -1.0,
+                f'A client of this name ("{name}") already exists'.encode())])
             self._drop(client, f"duplicate name {name!r}")
             return
         client.name = name
         client.asynchronous = hello.key == "asynchronous"
         now = time.time()
         skew = now - hello.time if hello.time > 0 else 0.0
-        self._send(client, [MoosMessage(
+        client.welcome = MoosMessage(
             -1, "W", "D", "", f"hostname={self._hostname}", self.community, "", now, skew, -1.0,
-            b"asynchronous" if client.asynchronous else b"")])
-        log.info("MOOSDB: %s connected (%s, %s)", name, client.addr,
+            b"asynchronous" if client.asynchronous else b"")
+        client.welcome_at = now + self.welcome_delay_s
+        if not self.welcome_delay_s:
+            self._welcome(client)
+
+    def _welcome(self, client: _Client) -> None:
+        assert client.welcome is not None
+        self._send(client, [client.welcome])
+        client.welcome = None
+        log.info("MOOSDB: %s connected (%s, %s)", client.name, client.addr,
                  "asynchronous" if client.asynchronous else "synchronous")
 
     def _on_notify(self, m: MoosMessage) -> None:
@@ -335,11 +360,13 @@ class TestDBProcess:
         self.terminate()
 
 
-def spawn(port: int = 0, community: str = "uhrisim", timeout_s: float = 10.0) -> TestDBProcess:
+def spawn(port: int = 0, community: str = "uhrisim", timeout_s: float = 60.0,
+          welcome_delay_s: float = 0.0) -> TestDBProcess:
     """Start ``python -m uhrisim.bridges.moos.testdb`` in a child process on 127.0.0.1.
 
     ``port=0`` picks a free port; the child reports it on its first stdout line. Raises
-    :class:`BridgeError` if the DB is not listening within ``timeout_s``.
+    :class:`BridgeError` if the DB is not listening within ``timeout_s`` (a bound for a
+    busy machine: the child reports as soon as it listens).
     """
     env = dict(os.environ)
     src_root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(
@@ -347,7 +374,7 @@ def spawn(port: int = 0, community: str = "uhrisim", timeout_s: float = 10.0) ->
     env["PYTHONPATH"] = os.pathsep.join(p for p in (src_root, env.get("PYTHONPATH")) if p)
     proc = subprocess.Popen(
         [sys.executable, "-m", "uhrisim.bridges.moos.testdb", "--port", str(port),
-         "--community", community],
+         "--community", community, "--welcome-delay", repr(welcome_delay_s)],
         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, text=True)
     sel = selectors.DefaultSelector()
     assert proc.stdout is not None
@@ -367,11 +394,13 @@ def main(argv: list[str] | None = None) -> int:
                                  description="A small pure-Python MOOSDB on 127.0.0.1.")
     ap.add_argument("--port", type=int, default=9000, help="TCP port (0: any free port)")
     ap.add_argument("--community", default="uhrisim", help="community name")
+    ap.add_argument("--welcome-delay", type=float, default=0.0, metavar="S",
+                    help="welcome each client S seconds after reading its name (a busy DB)")
     ap.add_argument("-v", "--verbose", action="store_true")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(asctime)s %(name)s %(message)s")
-    db = MoosTestDB(args.port, args.community)
+    db = MoosTestDB(args.port, args.community, welcome_delay_s=args.welcome_delay)
     signal.signal(signal.SIGTERM, lambda *_: db.stop())
     sys.stdout.write(f"{_READY_PREFIX}{db.port}\n")
     sys.stdout.flush()
