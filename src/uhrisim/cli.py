@@ -160,7 +160,7 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
                        sonar: bool, quiet: bool = False, ros2: bool = False,
                        moos: bool = False, rtf: float | None = None,
                        view_port: int | None = None, lockstep: bool = False,
-                       ros_args: tuple[str, ...] = ()) -> Any:
+                       ros_args: tuple[str, ...] = (), require_helm: bool = False) -> Any:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from uhrisim.bridges.live import live_hooks
@@ -171,7 +171,7 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
     prepare_out_dir(out)  # before the progress bar: a refusal is one line
     hooks = live_hooks(source.scenario, ros2=ros2, moos=moos, real_time_factor=rtf,
                        paced_elsewhere=view_port is not None, lockstep=lockstep,
-                       ros_args=ros_args)
+                       ros_args=ros_args, require_helm=require_helm)
     servers: list[Any] = []
 
     def attach(sim: Any) -> None:
@@ -214,6 +214,13 @@ def _print_metrics(result: Any) -> None:
             ("minimum separation", _fmt(m["min_separation_m"], "m")),
         ]
     rows.append(("collisions", str(m.get("collisions", 0))))
+    for bridge in ("moos", "ros2"):  # agents driven from outside (bridges.helm_watch)
+        section = m.get(bridge) or {}
+        watches = {name: link["helm"] for name, link in section.items()
+                   if isinstance(link, dict) and "helm" in link} if bridge == "moos" \
+            else section.get("helm", {})
+        for name, watch in watches.items():
+            rows.append((f"outside helm of {name} ({bridge.upper()})", _helm_row(watch)))
     seen = m.get("perception")
     if seen:  # contacts from the sonar (docs/perception.md)
         held = seen["held_pct"]
@@ -225,6 +232,16 @@ def _print_metrics(result: Any) -> None:
     console.print(table)
     for path in result.files:
         console.print(Text(f"  wrote {path}"))
+
+
+def _helm_row(watch: dict[str, Any]) -> str:
+    """How an outside helm drove, in a few words (its watch's summary in metrics.json)."""
+    first = watch["first_command_s"]
+    state = f", IVPHELM_STATE={watch['helm_state']}" if watch.get("helm_state") else ""
+    if first is None:
+        return f"never drove{state}"
+    return (f"first command at {first:.1f} s, {watch['seconds_without_commands']:.0f} s "
+            f"without{state}")
 
 
 def _fmt(value: float | None, unit: str) -> str:
@@ -254,6 +271,11 @@ def run(
     ros_args: Annotated[str, typer.Option(
         "--ros-args", help='ROS 2 node arguments, e.g. --ros-args="-r __ns:=/sim_a -p '
                            'sensor_qos:=reliable" (implies --ros2)')] = "",
+    require_helm: Annotated[bool, typer.Option(
+        "--require-helm", help="end the run as failed (exit status 2) when an agent's "
+                               "outside helm (MOOS or ROS 2) does not drive it: MALCONFIG, "
+                               "parked, an all-stop or no commands (bridges.helm_watch)")
+    ] = False,
 ) -> None:
     """Run a scenario: the recording (a rosbag2 folder), metrics.json and figures go to OUT."""
     import shlex
@@ -264,7 +286,7 @@ def run(
     result = _run_with_progress(scenario, out, duration, seed, not no_sonar, quiet,
                                 ros2=ros2 or bool(extra_ros_args), moos=moos, rtf=rtf,
                                 view_port=port if view else None, lockstep=lockstep,
-                                ros_args=extra_ros_args)
+                                ros_args=extra_ros_args, require_helm=require_helm)
     _print_metrics(result)
 
 

@@ -596,9 +596,19 @@ class MoosSection(Strict):
     links: tuple[MoosLink, ...] = ()  # empty: every agent, ports 9000, 9001, ...
 
 
+class HelmWatchSection(Strict):
+    """How loudly an outside helm that does not drive its agent is reported
+    (:mod:`uhrisim.bridges.helm_watch`; docs/bridges-moos.md)."""
+
+    silence_s: PositiveFloat = 10.0  # simulated s without commands (or parked) before a warning
+    repeat_s: PositiveFloat = 5.0  # a lasting problem is said again at most this often (s)
+    required: bool = False  # end the run as failed at the first one (uhrisim run --require-helm)
+
+
 class BridgesConfig(Strict):
     ros2: Ros2Section = Ros2Section()
     moos: MoosSection = MoosSection()
+    helm_watch: HelmWatchSection = HelmWatchSection()
     # Live bridges pace the run to wall clock x this factor; null runs free (lockstep).
     real_time_factor: PositiveFloat | None = 1.0
 

@@ -102,7 +102,7 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
     except BaseException as error:
         try:  # what was measured until the failure, without masking it
             sim.close(error)
-            _write_outputs(sim, out_dir, metrics, strip, files, False, extra_hooks)
+            _write_outputs(sim, out_dir, metrics, strip, files, False, extra_hooks, error)
         except Exception as cleanup:
             log.error("after the run failed, its outputs could not all be written: %s",
                       cleanup)
@@ -141,7 +141,8 @@ def strict_json(value: Any) -> Any:
 
 def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
                    strip: SonarStripHook | None, files: list[Path],
-                   completed: bool, extra_hooks: Sequence[Hook]) -> dict[str, Any]:
+                   completed: bool, extra_hooks: Sequence[Hook],
+                   error: BaseException | None = None) -> dict[str, Any]:
     from uhrisim.viz import mission_figures as figs
 
     summary: dict[str, Any] = {"scenario": sim.scenario.name, "seed": sim.seed,
@@ -164,6 +165,8 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
         report = getattr(hook, "summary", None)
         if report is not None:
             summary |= report()
+    if error is not None:  # why the run ended early
+        summary["stopped_by"] = str(error) or type(error).__name__
     path = out_dir / "metrics.json"
     path.write_text(json.dumps(strict_json(summary), indent=2, allow_nan=False) + "\n")
     files.append(path)

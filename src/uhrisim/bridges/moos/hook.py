@@ -11,6 +11,12 @@ its perception posts forwarded to its community, as a sonar-tracking MOOS proces
 post it: the diver's NODE_REPORT (``SOURCE=sonar``, its TIME on the MOOS clock),
 ``DIVER_LOST`` and the search updates (docs/perception.md).
 
+An agent the community drives (``driver: external`` or ``none``, its link taking DESIRED_*)
+is watched: the bridge also takes pHelmIvP's IVPHELM_STATE, IVPHELM_ALLSTOP, BHV_ERROR and
+BHV_WARNING, and an :class:`~uhrisim.bridges.helm_watch.OutsideHelmWatch` says, in a
+warning line and a ``bridge`` event, when that helm does not drive (MALCONFIG, parked, an
+all-stop, no DESIRED_*, no connection); metrics.json's ``moos`` section has what it saw.
+
 The hook does not pace the loop: to run in step with a live community, pace the
 simulation at MOOSTimeWarp x real time (e.g. ``uhrisim.sim.pacing.Pacer``), and
 switch off the agent's built-in helm so that the MOOS helm's DESIRED_* are obeyed.
@@ -25,9 +31,11 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from uhrisim.autonomy.contacts import format_node_report, parse_node_report
+from uhrisim.bridges.helm_watch import HELM_STATUS_VARS, OutsideHelmWatch
 from uhrisim.bridges.moos.bridge import MoosAgentBridge
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw
+from uhrisim.scenario.schema import HelmWatchSection
 from uhrisim.sim.hooks import TickFrame
 from uhrisim.sim.simulation import BaseHook, Simulation
 
@@ -67,7 +75,8 @@ class MoosBridgeHook(BaseHook):
     ``lat_origin``/``long_origin`` default to the scenario's. ``strict=True`` makes an
     unreachable MOOSDB an error at start; otherwise the bridges keep retrying.
     Connection changes are noted (``bridge`` events) at the nav rate; incoming mail is
-    read every tick.
+    read every tick. ``helm_watch``: how an outside helm that does not drive is reported
+    (module docstring; default: the scenario schema's defaults).
     """
 
     def __init__(
@@ -79,6 +88,7 @@ class MoosBridgeHook(BaseHook):
         time_warp: float = 1.0,
         time_source: str = "moos",
         strict: bool = False,
+        helm_watch: HelmWatchSection | None = None,
         bridge_factory: Callable[..., MoosAgentBridge] = MoosAgentBridge,
     ) -> None:
         names = [link.agent for link in links]
@@ -90,6 +100,8 @@ class MoosBridgeHook(BaseHook):
         self._time_source = time_source
         self._strict = strict
         self._factory = bridge_factory
+        self._watch_settings = helm_watch or HelmWatchSection()
+        self.watches: dict[str, OutsideHelmWatch] = {}
         self.bridges: dict[str, MoosAgentBridge] = {}
         self._rows: list[tuple[MoosAgentLink, MoosAgentBridge, int]] = []
         self._was_connected: dict[str, bool] = {}
@@ -108,13 +120,37 @@ class MoosBridgeHook(BaseHook):
             if link.nav_rate_hz <= 0:
                 raise ConfigError(f"MOOS link {link.agent!r}: nav_rate_hz must be > 0")
             period = max(1, round(1.0 / (link.nav_rate_hz * sim.dt)))  # ticks
+            watched = (sim.agents[link.agent].config.driver in ("external", "none")
+                       and any(v.startswith("DESIRED_") for v in link.subscribe))
+            extra = (*link.extra_vars, *HELM_STATUS_VARS) if watched else link.extra_vars
             self.bridges[link.agent] = self._factory(
                 link.agent, link.host, link.port, link.community, lat0, lon0,
-                self._time_warp, link.subscribe, link.extra_vars,
+                self._time_warp, link.subscribe, extra,
                 time_source=self._time_source, strict=self._strict,
                 node_report_var=link.node_report_var)
+            if watched:
+                self.watches[link.agent] = self._watch(sim, link)
             self._was_connected[link.agent] = False
             self._rows.append((link, self.bridges[link.agent], period))
+
+    def _watch(self, sim: Simulation, link: MoosAgentLink) -> OutsideHelmWatch:
+        """The watch of an agent the community drives, started now."""
+        where = f"community {link.community!r}" if link.community else "the community"
+        address = f"{link.host}:{link.port}"
+
+        def say(line: str) -> None:
+            log.warning("%s", line)
+            sim.record_event("bridge", line)
+
+        def hint(state: str | None) -> str:
+            return "" if state is not None else (
+                f" and no IVPHELM_STATE either: is pHelmIvP running in {where} at {address}?")
+
+        watch = OutsideHelmWatch(f"MOOS {where}" if link.community else
+                                 f"MOOS link of {link.agent!r}", "DESIRED_*",
+                                 self._watch_settings, say, hint)
+        watch.start(sim.t)
+        return watch
 
     def on_tick(self, frame: TickFrame) -> None:
         sim = self._sim
@@ -123,7 +159,7 @@ class MoosBridgeHook(BaseHook):
         tick = frame.tick
         for link, bridge, period in self._rows:
             if bridge.client.has_mail:  # usually not: nothing came in
-                self._take_mail(sim, link, bridge)
+                self._take_mail(sim, link, bridge, frame.t)
             for post in frame.posts:
                 if post.source == "sonar" and post.community == link.agent:
                     self._forward_sonar(bridge, post.var, post.value, post.t)
@@ -140,6 +176,10 @@ class MoosBridgeHook(BaseHook):
             if up != self._was_connected[name]:
                 self._was_connected[name] = up
                 sim.record_event("bridge", f"moos {name}: {bridge.status}")
+            watch = self.watches.get(name)
+            if watch is not None:
+                watch.connection(up, frame.t, bridge.status)
+                watch.check(frame.t)
 
     @staticmethod
     def _forward_sonar(bridge: MoosAgentBridge, var: str, value: Any, t: float) -> None:
@@ -150,10 +190,18 @@ class MoosBridgeHook(BaseHook):
             value = format_node_report(replace(report, time=bridge.moos_time(t)))
         bridge.publish_var(var, value, t)
 
-    def _take_mail(self, sim: Simulation, link: MoosAgentLink, bridge: MoosAgentBridge) -> None:
-        """Post what the community sent into the agent's community (typed input path)."""
+    def _take_mail(self, sim: Simulation, link: MoosAgentLink, bridge: MoosAgentBridge,
+                   t: float) -> None:
+        """Post what the community sent into the agent's community (typed input path);
+        the watch (if any) hears of commands and of the helm's state at ``t`` (s)."""
         name = link.agent
+        watch = self.watches.get(name)
         for var, value, _t in bridge.poll():
+            if watch is not None:
+                if var in HELM_STATUS_VARS:
+                    watch.helm_status(var, value, t)
+                elif var.startswith("DESIRED_") and var in link.subscribe:
+                    watch.command(t)
             accepted = _accept(value, numeric=var in link.subscribe)
             if accepted is None:
                 self.n_rejected += 1
@@ -168,10 +216,18 @@ class MoosBridgeHook(BaseHook):
             bridge.close()
 
     def summary(self) -> dict[str, Any]:
-        return {"moos": {name: {"connected": b.connected, "status": b.status,
-                                "sent": b.client.n_sent, "received": b.client.n_received,
-                                "reconnects": max(0, b.client.n_connects - 1)}
-                         for name, b in self.bridges.items()}}
+        t = self._sim.t if self._sim is not None else 0.0
+        out: dict[str, Any] = {}
+        for name, b in self.bridges.items():
+            client = b.client
+            out[name] = {"connected": b.connected, "status": b.status, "sent": client.n_sent,
+                         "received": client.n_received,
+                         "connection_attempts": client.n_attempts,
+                         "refusals": client.n_refusals,
+                         "reconnects": max(0, client.n_connects - 1)}
+            if name in self.watches:
+                out[name]["helm"] = self.watches[name].summary(t)
+        return {"moos": out}
 
 
 def _accept(value: float | str | bytes, numeric: bool) -> float | str | None:

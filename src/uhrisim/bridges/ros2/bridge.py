@@ -723,6 +723,12 @@ class Ros2Bridge:
             and self._inbox.has_publisher(agent),
             timeout_s)
 
+    def command_source(self, agent: str) -> tuple[tuple[str, ...], bool]:
+        """``agent``'s command topics (resolved names) and whether a publisher is matched
+        on one of them now: what to tell a user whose controller is silent."""
+        self._io(agent, "command_source")
+        return self._inbox.topics(agent), self._inbox.has_publisher(agent)
+
     @property
     def failing_topics(self) -> tuple[str, ...]:
         """The topics on which a write has failed so far, in the order they first failed

@@ -105,6 +105,10 @@ class CommandInbox:
         """Does one of ``agent``'s command topics have a matched publisher now?"""
         return any(sub.get_publisher_count() > 0 for sub in self._agents[agent].subs.values())
 
+    def topics(self, agent: str) -> tuple[str, ...]:
+        """``agent``'s command topics, as resolved (the node's namespace applied)."""
+        return tuple(sub.topic_name for sub in self._agents[agent].subs.values())
+
     def note_time(self, t_sim: float) -> None:
         """The simulation time (s) now: the receipt time of commands that arrive next
         (``timeout_clock="sim"``). One attribute store: atomic, the callbacks read it

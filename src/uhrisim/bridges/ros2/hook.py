@@ -49,8 +49,10 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from uhrisim.bridges.helm_watch import OutsideHelmWatch
 from uhrisim.core.errors import BridgeError, ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw
+from uhrisim.scenario.schema import HelmWatchSection
 from uhrisim.sensors.sonar.cloud import cloud_hits
 from uhrisim.sim.hooks import TickFrame
 from uhrisim.sim.simulation import BaseHook, Simulation
@@ -144,7 +146,9 @@ class Ros2BridgeHook(BaseHook):
     its commands then go stale and the safe stop follows.
     ``depth_clearance_m``: commanded depths are clamped to the floor below the vehicle less
     this (m). ``namespace``, ``ros_args``: the node's namespace and ROS arguments
-    (remappings, parameters: :mod:`.params`).
+    (remappings, parameters: :mod:`.params`). ``helm_watch``: how an agent driven from ROS
+    (``driver: external`` or ``none``, accepting commands) whose commands do not come is
+    reported (:mod:`uhrisim.bridges.helm_watch`; default: the schema's defaults).
     Other arguments go to :class:`Ros2Bridge`.
     """
 
@@ -169,6 +173,7 @@ class Ros2BridgeHook(BaseHook):
         depth_clearance_m: float = DEPTH_CLEARANCE_M,
         namespace: str = "",
         ros_args: Sequence[str] = (),
+        helm_watch: HelmWatchSection | None = None,
     ) -> None:
         for name, value in (("lockstep_timeout_s", lockstep_timeout_s),
                             ("lockstep_start_timeout_s", lockstep_start_timeout_s)):
@@ -218,6 +223,8 @@ class Ros2BridgeHook(BaseHook):
         self._acoustics: dict[str, tuple[float, float]] = {}
         self.n_posted = 0
         self.n_rejected = 0
+        self._watch_settings = helm_watch or HelmWatchSection()
+        self.watches: dict[str, OutsideHelmWatch] = {}  # by simulation agent name
 
     def on_start(self, sim: Simulation) -> None:
         from .bridge import Ros2Bridge
@@ -261,6 +268,8 @@ class Ros2BridgeHook(BaseHook):
         self._publish_wake = self._wake_time = -math.inf
         self._seen = dict.fromkeys(names, 0)
         self._active = dict.fromkeys(names, False)
+        self.watches = {name: self._watch(sim, ros) for ros, name, _, accept in self._links
+                        if accept and sim.agents[name].config.driver in ("external", "none")}
         self._failing = ()
         if self._publish_scene and getattr(sim, "scene", None) is not None:
             from uhrisim.record.hook import scene_markers
@@ -268,6 +277,28 @@ class Ros2BridgeHook(BaseHook):
             markers = decimate_triangle_markers(scene_markers(sim.scene))
             if markers:
                 self.bridge.publish_scene(float(sim.t), markers)
+
+    def _watch(self, sim: Simulation, ros: str) -> OutsideHelmWatch:
+        """The watch of an agent driven from ROS, started now."""
+        bridge = self.bridge
+        assert bridge is not None
+
+        def say(line: str) -> None:
+            log.warning("%s", line)
+            sim.record_event("bridge", line)
+
+        def hint(state: str | None) -> str:
+            del state
+            topics, matched = bridge.command_source(ros)
+            where = f"{topics[0].rsplit('/', 1)[0]}/*" if topics else f"/{ros}/cmd/*"
+            return (f": a node publishes on {where} but sends nothing" if matched else
+                    f": no node publishes on {where} (is the controller running, on this "
+                    "ROS_DOMAIN_ID, in this namespace?)")
+
+        watch = OutsideHelmWatch(f"ROS 2 agent {ros!r}", "commands", self._watch_settings,
+                                 say, hint)
+        watch.start(sim.t)
+        return watch
 
     def _publish_mounts(self, sim: Simulation) -> None:
         """``/tf_static``: every linked agent's sensor mounts, ``<agent>/base_link`` ->
@@ -442,8 +473,11 @@ class Ros2BridgeHook(BaseHook):
 
     def _take_commands(self, sim: Simulation, ros: str, name: str, cmd: AgentCommands,
                        frame: TickFrame) -> None:
+        watch = self.watches.get(name)
         if cmd.received_count != self._seen[name]:
             self._seen[name] = cmd.received_count
+            if watch is not None:
+                watch.command(frame.t)
             for field, var in _DESIRED_VARS:
                 value = getattr(cmd, field)
                 if value is not None:
@@ -457,6 +491,8 @@ class Ros2BridgeHook(BaseHook):
                 except ConfigError as exc:
                     self.n_rejected += 1
                     log.warning("ROS 2 %s: thruster command rejected: %s", name, exc)
+        if watch is not None:
+            watch.check(frame.t)
         active = cmd.received and not cmd.stale
         if active != self._active[name]:
             self._active[name] = active
@@ -487,5 +523,8 @@ class Ros2BridgeHook(BaseHook):
     def summary(self) -> dict[str, Any]:
         stats = self.bridge.stats() if self.bridge is not None else {}
         lockstep = {"lockstep_rounds": self.n_rounds} if self._lockstep else {}
+        t = self._sim.t if self._sim is not None else 0.0
+        helm = {"helm": {name: w.summary(t) for name, w in self.watches.items()}} \
+            if self.watches else {}
         return {"ros2": {**stats, "posted": self.n_posted, "rejected": self.n_rejected,
-                         **lockstep}}
+                         **lockstep, **helm}}
