@@ -263,3 +263,48 @@ def test_ros_shut_down_under_the_bridge_does_not_stop_the_simulation(
     assert all(0.5 < e.t <= 0.75 for e in shut.events)
     named = [t.rstrip(",") for e in shut.events for t in e.detail.split() if t[0] == "/"]
     assert sorted(named) == sorted(stats["failed"])
+
+
+def test_an_agent_driven_from_ros_whose_commands_never_come_is_said(
+        ros_env: int, caplog: pytest.LogCaptureFixture) -> None:
+    """ros2_external_helm.yaml's ROV (driver: external) with no controller: after the watch's
+    silence a warning names the command topics and whether a node publishes on them; once
+    commands come, the watch counts them and the warnings stop."""
+    from uhrisim.scenario.schema import HelmWatchSection
+
+    source = load.load_scenario(SCENARIO.parent / "ros2_external_helm.yaml")
+    hook = Ros2BridgeHook(["videoray"], domain_id=ros_env, node_name="uhrisim_watch_test",
+                          publish_scene=False,
+                          helm_watch=HelmWatchSection(silence_s=5.0, repeat_s=100.0))
+    ctx = Context()
+    rclpy.init(context=ctx, domain_id=ros_env, signal_handler_options=SignalHandlerOptions.NO)
+    node = rclpy.create_node("controller", context=ctx, start_parameter_services=False)
+    try:
+        with (caplog.at_level("WARNING", logger="uhrisim.bridges.ros2.hook"),
+              simulation.Simulation(source, hooks=[hook], sonar_enabled=False) as sim):
+            sim.run(5.5)
+            speed = node.create_publisher(Float64, "/videoray/cmd/desired_speed", 10)
+            deadline = time.monotonic() + 120.0  # discovery: ms to seconds
+            while not hook.bridge.command_source("videoray")[1]:
+                assert time.monotonic() < deadline, "the publisher was never matched"
+                time.sleep(0.05)
+            sim.run(5.5)  # silent publisher: the watch's second kind of line
+            watch = hook.watches["videoray"]
+            deadline = time.monotonic() + 120.0
+            while watch.n_commands == 0:
+                assert time.monotonic() < deadline, "no command ever reached the bridge"
+                speed.publish(Float64(data=0.3))
+                sim.step()
+                time.sleep(0.01)
+            summary = hook.summary()["ros2"]["helm"]["videoray"]
+    finally:
+        node.destroy_node()
+        ctx.try_shutdown()
+    said = [r.getMessage() for r in caplog.records]
+    assert said == [
+        "ROS 2 agent 'videoray': no commands since the start (5 s): no node publishes on "
+        "/videoray/cmd/* (is the controller running, on this ROS_DOMAIN_ID, in this "
+        "namespace?)",
+        "ROS 2 agent 'videoray': no commands since the start (6 s): a node publishes on "
+        "/videoray/cmd/* but sends nothing"], said  # at the first check after 5.5 s
+    assert summary["first_command_s"] > 11.0 and summary["warnings"] == 2

@@ -157,8 +157,8 @@ class OutsideHelmWatch:
         if gap >= silence:
             since = ("since the start" if self.first_command_s is None
                      else f"since t={self._gap_start:.1f} s")
-            hint = self._hint(None if state is None else state[0])
-            return "silence", f"{self.who}: no {self.commands} {since} ({gap:.0f} s){hint}"
+            hint = self._hint(None if state is None else state[0])  # a new hint: said anew
+            return f"silence{hint}", f"{self.who}: no {self.commands} {since} ({gap:.0f} s){hint}"
         return None
 
     def summary(self, t: float) -> dict[str, Any]:
