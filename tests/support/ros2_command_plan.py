@@ -4,9 +4,12 @@
 every cycle (``--rate`` Hz) publishes each value of each key in turn on
 ``/<agent>/cmd/<key>``: ``desired_heading|speed|depth`` as std_msgs/Float64 (``NaN``
 allowed, JSON's), ``thrusters`` as std_msgs/Float64MultiArray (a list, of any length).
-Waits until the bridge subscribes, prints ``READY``, runs the plan, prints ``DONE`` and
-exits (its commands then go stale). ``--rosout`` also prints each ``/rosout`` line of the
-node ``--bridge-node`` as ``ROSOUT <level> <text>``.
+A phase lasts its seconds of *simulated* time, read on ``--clock`` (the bridge's
+``/clock``): on a busy machine the simulation may run slower than the wall clock, and
+the plan follows it. Waits until the bridge subscribes and the clock ticks, prints
+``READY``, runs the plan, prints ``DONE`` and exits (its commands then go stale).
+``--rosout`` also prints each ``/rosout`` line of the node ``--bridge-node`` as
+``ROSOUT <level> <text>``.
 
     python ros2_command_plan.py --agent rov \\
         --plan '[[2.0, {"desired_speed": [1e6, -5], "thrusters": [[1, 2]]}]]'
@@ -22,8 +25,12 @@ import time
 import rclpy
 from rcl_interfaces.msg import Log
 from rclpy.executors import SingleThreadedExecutor
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64, Float64MultiArray
+
+#: Bound on waiting for the bridge (discovery takes ms to seconds; a busy machine more).
+WAIT_S = 300.0
 
 
 def main() -> int:
@@ -33,6 +40,7 @@ def main() -> int:
     ap.add_argument("--rate", type=float, default=20.0)
     ap.add_argument("--rosout", action="store_true")
     ap.add_argument("--bridge-node", default="uhrisim")
+    ap.add_argument("--clock", default="/clock", help="the simulation's clock topic")
     args = ap.parse_args()
     plan = json.loads(args.plan)
 
@@ -51,27 +59,33 @@ def main() -> int:
         qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
         node.create_subscription(Log, "/rosout", on_log, qos)
-    deadline = time.monotonic() + 30.0
-    while not all(p.get_subscription_count() > 0 for p in pubs.values()):
+    now: list[float] = []  # the latest simulation time heard (s)
+
+    def on_clock(msg: Clock) -> None:
+        now[:] = [msg.clock.sec + msg.clock.nanosec * 1e-9]
+
+    node.create_subscription(Clock, args.clock, on_clock, qos_profile_sensor_data)
+    deadline = time.monotonic() + WAIT_S
+    while not (now and all(p.get_subscription_count() > 0 for p in pubs.values())):
         if time.monotonic() > deadline:
-            print("TIMEOUT waiting for the bridge's subscriptions", flush=True)
+            print("TIMEOUT waiting for the bridge's subscriptions and clock", flush=True)
             return 2
         executor.spin_once(timeout_sec=0.02)
     executor.spin_once(timeout_sec=0.5)  # let the bridge's readers see our writers
     print("READY", flush=True)
     period = 1.0 / args.rate
     for seconds, phase in plan:
-        t0 = time.monotonic()
-        k = 0
-        while time.monotonic() - t0 < seconds:
+        t0 = now[0]
+        while now[0] - t0 < seconds:
             for key, values in phase.items():
                 for value in values:
                     if key == "thrusters":
                         pubs[key].publish(Float64MultiArray(data=[float(x) for x in value]))
                     else:
                         pubs[key].publish(Float64(data=float(value)))
-            k += 1
-            executor.spin_once(timeout_sec=max(0.0, t0 + k * period - time.monotonic()))
+            cycle_end = time.monotonic() + period
+            while (left := cycle_end - time.monotonic()) > 0:
+                executor.spin_once(timeout_sec=left)
     print("DONE", flush=True)
     end = time.monotonic() + (3.0 if args.rosout else 0.0)
     while time.monotonic() < end:  # the last /rosout lines
