@@ -1,6 +1,11 @@
 """Test-suite settings: property tests are derandomized (the same examples every run, on
 every machine) and have no per-example deadline (CI machines are shared and slow); every
-test fails that reads a path beside the repository (tests/support/repository_bounds.py)."""
+test fails that reads a path beside the repository (tests/support/repository_bounds.py);
+every integration test is marked ``slow`` (missions, child processes, real ROS 2 and MOOS
+peers, a browser), as is any other test that says so itself: ``make test-fast`` runs the
+rest (``pytest -m "not slow"``)."""
+
+from pathlib import Path
 
 import pytest
 from hypothesis import settings
@@ -23,3 +28,12 @@ def _reads_stay_in_the_repository():
     del repository_bounds.offences[start:]
     if seen:
         pytest.fail(f"read outside the repository ({len(seen)}×), first: {seen[0]}")
+
+
+INTEGRATION = Path(__file__).parent / "integration"
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    for item in items:
+        if INTEGRATION in item.path.parents:
+            item.add_marker(pytest.mark.slow)

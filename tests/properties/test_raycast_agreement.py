@@ -126,6 +126,7 @@ def test_primitives_agree(name: str) -> None:
     assert_agree(scene, o, d, 50.0)
 
 
+@pytest.mark.slow
 def test_seafloor_and_objects_agree() -> None:
     scene = Scene()
     floor = sf.procedural(7, (-10.0, 10.0, -10.0, 10.0), 8.0, 0.4, 2.0, 0.5)
@@ -163,6 +164,7 @@ def _dynamic_scene() -> Scene:
     return scene
 
 
+@pytest.mark.slow
 def test_dynamic_bodies_agree_after_set_pose() -> None:
     scene = _dynamic_scene()
     emb = scene.raycaster("embree")  # created before the poses change: must see them
@@ -187,6 +189,7 @@ def test_dynamic_bodies_agree_after_set_pose() -> None:
         assert not np.any(e.body == 1)
 
 
+@pytest.mark.slow
 @settings(max_examples=15, deadline=None)
 @given(
     yaw=st.floats(-math.pi, math.pi),

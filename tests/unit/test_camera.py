@@ -126,6 +126,7 @@ def _diver_scene():
     return ps.scene
 
 
+@pytest.mark.slow
 def test_depth_image_is_the_ray_cast_distance_and_labels_the_scene_objects():
     scene = _diver_scene()
     cfg = CameraConfig(width=48, height=36, hfov_deg=70.0, water=jerlov("IB"),
@@ -182,6 +183,7 @@ def test_fast_formation_matches_the_slow_reference():
     np.testing.assert_allclose(frame.radiance, ref, rtol=0.03, atol=1e-4 * float(ref.max()))
 
 
+@pytest.mark.slow
 def test_adaptive_sampling_matches_one_ray_per_pixel():
     """Adaptive sampling (rays on every second pixel, more at edges and creases) against
     a ray per pixel, on the pier with the diver: the same labels almost everywhere, depth

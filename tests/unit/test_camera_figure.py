@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import csv
 
+import pytest
+
 from uhrisim.viz.camera_figures import make_camera
 
 
+@pytest.mark.slow
 def test_camera_figure_contrast_falls_with_turbidity_and_distance(tmp_path):
     files = make_camera(tmp_path)
     assert (tmp_path / "camera_grid.png").stat().st_size > 50_000

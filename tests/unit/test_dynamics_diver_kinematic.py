@@ -42,6 +42,7 @@ def test_leg_inputs_invert_body_rates():
     np.testing.assert_allclose(diver.body_rates(legs, DIVER), [0.4, 0.2, -0.1])
 
 
+@pytest.mark.slow
 def test_exact_arc_step_matches_fine_rk4_on_the_paper_equations():
     rng = np.random.default_rng(2)
     for _ in range(20):

@@ -27,6 +27,7 @@ def mcap_prefix_messages(data: bytes) -> list[tuple[str, int, bytes]]:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("compression", ["zstd", "none"])
 def test_every_cut_reads_up_to_the_last_complete_chunk(tmp_path: Path, compression) -> None:
     full = tmp_path / "full.mcap"

@@ -61,6 +61,7 @@ def test_no_file_names_a_folder_beside_the_repository():
     assert not hits, "paths beside the repository:\n" + "\n".join(hits)
 
 
+@pytest.mark.slow
 def test_no_module_climbs_above_the_repository_root():
     hits = []
     for f in _project_files():

@@ -27,6 +27,7 @@ _SPECIAL_YAWS = [0.0, -0.0, math.pi, -math.pi, math.pi / 2, -math.pi / 2, 3 * ma
                  2 * math.pi, -7 * math.pi / 6, -math.pi / 6, 7 * math.pi / 6, 1e-300, 100.0]
 
 
+@pytest.mark.slow
 def test_fast_equals_reference_bit_for_bit() -> None:
     rng = np.random.default_rng(2024)
     for i in range(20_000):

@@ -6,10 +6,12 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 
 from uhrisim.viz.sonar_figures import make_sonar_torus
 
 
+@pytest.mark.slow
 def test_make_sonar_torus(tmp_path: Path) -> None:
     paths = make_sonar_torus(tmp_path)
     names = sorted(p.name for p in paths)
@@ -27,6 +29,7 @@ def test_make_sonar_torus(tmp_path: Path) -> None:
     assert img.shape[1] == 201 and img[0, 0] == 255
 
 
+@pytest.mark.slow
 def test_make_sonar_tank(tmp_path: Path) -> None:
     import json
 

@@ -354,6 +354,7 @@ def test_threaded_embree_matches_single_thread() -> None:
         ps.scene.raycaster("embree", threads=0)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_shared_origin_equals_one_origin_per_ray(backend: str) -> None:
     """A (3,) origin (a sensor's fan) is the same question as that origin on every row,
