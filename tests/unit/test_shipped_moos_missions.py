@@ -50,7 +50,8 @@ def test_every_file_a_shipped_moos_gives_phelmivp_is_read_as_it_stands(path: Pat
 
 def test_the_plain_helm_is_its_meta_file_expanded_by_nsplug():
     # the file pHelmIvP reads is what `nsplug meta_videoray_trail.bhv videoray_trail.bhv`
-    # writes (checked against MOOS-IvP's nsplug by hand, docs/bridges-moos.md)
+    # writes, byte for byte; expand_nsplug wrote both variants exactly as MOOS-IvP 24.8's
+    # nsplug did when checked by hand (docs/bridges-moos.md)
     meta = SCENARIOS / "meta_videoray_trail.bhv"
     plain = SCENARIOS / "videoray_trail.bhv"
     assert expand_nsplug(meta.read_text(), {}, str(meta)) == plain.read_text()

@@ -131,8 +131,9 @@ def preprocess(lines: list[str], macros: Mapping[str, object], filename: str) ->
 def expand_nsplug(text: str, macros: Mapping[str, object], filename: str = "<bhv>") -> str:
     """``text`` as ``nsplug`` writes it (MOOS-IvP app_nsplug/Expander.cpp: directive
     lines and branches not taken are left out, every other line is written as it is,
-    its macros expanded), within the subset of the module docstring."""
-    kept = nsplug_lines(text.splitlines(), macros, filename)
+    its macros expanded, each ended by a newline - the empty "line" after a final newline
+    too), within the subset of the module docstring."""
+    kept = nsplug_lines(text.split("\n"), macros, filename)
     return "".join(f"{line}\n" for line in kept if line is not None)
 
 
