@@ -24,13 +24,15 @@ written, ``completed: false``). pHelmIvP's values: MOOS-IvP pHelmIvP/HelmIvP.cpp
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from typing import Any
 
 from uhrisim.core.errors import BridgeError
 from uhrisim.scenario.schema import HelmWatchSection
 
-__all__ = ["HELM_STATUS_VARS", "HelmSilentError", "OutsideHelmWatch"]
+__all__ = ["HELM_STATUS_VARS", "HelmSilentError", "OutsideHelmWatch", "driven_from_outside",
+           "say_loudly"]
 
 #: What pHelmIvP posts about itself, watched in a MOOS community.
 HELM_STATUS_VARS = ("IVPHELM_STATE", "IVPHELM_ALLSTOP", "BHV_ERROR", "BHV_WARNING")
@@ -41,6 +43,23 @@ _KEEP_MESSAGES = 10
 
 class HelmSilentError(BridgeError):
     """An outside helm did not drive its agent, and the run was asked to require it."""
+
+
+def driven_from_outside(agent: Any) -> bool:
+    """Whether a simulated agent moves only on outside commands (``driver: external`` or
+    ``none``): the agents a bridge that takes commands for it watches."""
+    return agent.config.driver in ("external", "none")
+
+
+def say_loudly(sim: Any, logger: logging.Logger) -> Callable[[str], None]:
+    """How a watch says a line: a warning of ``logger`` (the console) and a ``bridge``
+    event of the simulation ``sim`` (the recording)."""
+
+    def say(line: str) -> None:
+        logger.warning("%s", line)
+        sim.record_event("bridge", line)
+
+    return say
 
 
 class OutsideHelmWatch:

@@ -31,7 +31,12 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from uhrisim.autonomy.contacts import format_node_report, parse_node_report
-from uhrisim.bridges.helm_watch import HELM_STATUS_VARS, OutsideHelmWatch
+from uhrisim.bridges.helm_watch import (
+    HELM_STATUS_VARS,
+    OutsideHelmWatch,
+    driven_from_outside,
+    say_loudly,
+)
 from uhrisim.bridges.moos.bridge import MoosAgentBridge
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw
@@ -120,8 +125,8 @@ class MoosBridgeHook(BaseHook):
             if link.nav_rate_hz <= 0:
                 raise ConfigError(f"MOOS link {link.agent!r}: nav_rate_hz must be > 0")
             period = max(1, round(1.0 / (link.nav_rate_hz * sim.dt)))  # ticks
-            watched = (sim.agents[link.agent].config.driver in ("external", "none")
-                       and any(v.startswith("DESIRED_") for v in link.subscribe))
+            watched = driven_from_outside(sim.agents[link.agent]) and any(
+                v.startswith("DESIRED_") for v in link.subscribe)
             extra = (*link.extra_vars, *HELM_STATUS_VARS) if watched else link.extra_vars
             self.bridges[link.agent] = self._factory(
                 link.agent, link.host, link.port, link.community, lat0, lon0,
@@ -138,17 +143,13 @@ class MoosBridgeHook(BaseHook):
         where = f"community {link.community!r}" if link.community else "the community"
         address = f"{link.host}:{link.port}"
 
-        def say(line: str) -> None:
-            log.warning("%s", line)
-            sim.record_event("bridge", line)
-
         def hint(state: str | None) -> str:
             return "" if state is not None else (
                 f" and no IVPHELM_STATE either: is pHelmIvP running in {where} at {address}?")
 
         watch = OutsideHelmWatch(f"MOOS {where}" if link.community else
                                  f"MOOS link of {link.agent!r}", "DESIRED_*",
-                                 self._watch_settings, say, hint)
+                                 self._watch_settings, say_loudly(sim, log), hint)
         watch.start(sim.t)
         return watch
 

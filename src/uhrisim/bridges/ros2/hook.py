@@ -49,7 +49,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from uhrisim.bridges.helm_watch import OutsideHelmWatch
+from uhrisim.bridges.helm_watch import OutsideHelmWatch, driven_from_outside, say_loudly
 from uhrisim.core.errors import BridgeError, ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw
 from uhrisim.scenario.schema import HelmWatchSection
@@ -269,7 +269,7 @@ class Ros2BridgeHook(BaseHook):
         self._seen = dict.fromkeys(names, 0)
         self._active = dict.fromkeys(names, False)
         self.watches = {name: self._watch(sim, ros) for ros, name, _, accept in self._links
-                        if accept and sim.agents[name].config.driver in ("external", "none")}
+                        if accept and driven_from_outside(sim.agents[name])}
         self._failing = ()
         if self._publish_scene and getattr(sim, "scene", None) is not None:
             from uhrisim.record.hook import scene_markers
@@ -283,10 +283,6 @@ class Ros2BridgeHook(BaseHook):
         bridge = self.bridge
         assert bridge is not None
 
-        def say(line: str) -> None:
-            log.warning("%s", line)
-            sim.record_event("bridge", line)
-
         def hint(state: str | None) -> str:
             del state
             topics, matched = bridge.command_source(ros)
@@ -296,7 +292,7 @@ class Ros2BridgeHook(BaseHook):
                     "ROS_DOMAIN_ID, in this namespace?)")
 
         watch = OutsideHelmWatch(f"ROS 2 agent {ros!r}", "commands", self._watch_settings,
-                                 say, hint)
+                                 say_loudly(sim, log), hint)
         watch.start(sim.t)
         return watch
 
