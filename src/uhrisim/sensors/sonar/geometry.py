@@ -62,6 +62,7 @@ class SonarGeometry:
     radians, ranges in metres, directions in the sonar frame."""
 
     beam_angles: NDArray[np.float64]
+    beam_spacing: float  # mean spacing of the beam centres, rad
     ray_az: NDArray[np.float64]
     ray_el: NDArray[np.float64]
     dirs_sonar: NDArray[np.float64]
@@ -97,11 +98,12 @@ def sonar_geometry(cfg: SonarConfig) -> SonarGeometry:
     spec = cfg.sonar_spec
     n_beams = spec.n_beams
     half_fov = math.radians(spec.fov_h_deg) / 2.0
-    beam_angles = np.linspace(-half_fov, half_fov, n_beams)
-    dtheta = beam_angles[1] - beam_angles[0]
+    beam_angles = spec.beam_angles_rad  # native: evenly spaced, or the maker's table
+    dtheta = float(beam_angles[-1] - beam_angles[0]) / (n_beams - 1)  # mean spacing
+    local = np.gradient(beam_angles)  # each beam's own spacing (its share of the fan)
     sub = cfg.rays_per_beam_azimuth
-    offsets = ((np.arange(sub) + 0.5) / sub - 0.5) * dtheta
-    ray_az_plane = (beam_angles[:, None] + offsets[None, :]).ravel()
+    offsets = ((np.arange(sub) + 0.5) / sub - 0.5)[None, :] * local[:, None]
+    ray_az_plane = (beam_angles[:, None] + offsets).ravel()
     beam_of_az = np.repeat(np.arange(n_beams), sub)
     span = math.radians(spec.beam_width_v_deg) * cfg.elevation_span
     n_el = cfg.rays_per_beam
@@ -113,7 +115,7 @@ def sonar_geometry(cfg: SonarConfig) -> SonarGeometry:
     ce = np.cos(ray_el)
     dirs = np.stack([ce * np.cos(ray_az), ce * np.sin(ray_az), np.sin(ray_el)], axis=1)
     b_v = beam_pattern_gaussian(ray_el, math.radians(spec.beam_width_v_deg))
-    solid_angle = ce * (dtheta / sub) * dphi
+    solid_angle = ce * (np.tile(np.repeat(local, sub), n_el) / sub) * dphi
     directivity = element_directivity(ray_az, half_fov, cfg.edge_loss_db)
     ray_weight = b_v * b_v * directivity * solid_angle
 
@@ -156,6 +158,7 @@ def sonar_geometry(cfg: SonarConfig) -> SonarGeometry:
 
     return SonarGeometry(
         beam_angles=beam_angles,
+        beam_spacing=dtheta,
         ray_az=ray_az,
         ray_el=ray_el,
         dirs_sonar=dirs,

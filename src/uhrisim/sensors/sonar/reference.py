@@ -49,7 +49,8 @@ def reference_polar(
     n_bins, n_beams = sonar.polar_shape
     alpha = cfg.alpha_db_per_m
     half_fov = math.radians(spec.fov_h_deg) / 2.0
-    dtheta = float(g.beam_angles[1] - g.beam_angles[0])
+    dtheta = g.beam_spacing  # mean beam spacing (kernels, reverberation cells)
+    local = np.gradient(g.beam_angles)  # each beam's own spacing (its rays' solid angle)
     raw = [[0.0] * n_beams for _ in range(n_bins)]
     for k in range(len(idx)):
         i = int(idx[k])
@@ -59,7 +60,7 @@ def reference_polar(
         el_pattern = math.exp(-math.log(2.0) * (phi / (0.5 * math.radians(
             spec.beam_width_v_deg))) ** 2)  # fmt: skip
         directivity = float(element_directivity(float(g.ray_az[i]), half_fov, cfg.edge_loss_db))
-        solid_angle = math.cos(phi) * dtheta / cfg.rays_per_beam_azimuth * g.dphi
+        solid_angle = math.cos(phi) * local[g.ray_beam[i]] / cfg.rays_per_beam_azimuth * g.dphi
         area = R * R * solid_angle / max(c, 1e-12)
         ts_db = 10.0 * math.log10(max(float(mu[k]) * c * c * area, 1e-300))
         tl_db = 20.0 * math.log10(R) + alpha * R

@@ -209,7 +209,7 @@ class ImagingSonar:
                 )
             depression = math.asin(max(-1.0, min(1.0, float(rotation_ned_from_sonar[2, 0]))))
             surface = surface_rows(cfg, g.bin_centres, float(position_ned[2]), depression,
-                                   g.beam_angles[1] - g.beam_angles[0],
+                                   g.beam_spacing,
                                    float(g.beam_kernel.sum()))  # fmt: skip
             polar = self._physical_polar(raw, rows, surface)
         # Hits inside the window (the image may also use hits just outside it).
