@@ -178,11 +178,20 @@ _GEMINI_SOURCE = "Tritech Gemini 720is product manual 0703-SOM-00002; Gemini 720
 _M900_SOURCE = "Teledyne BlueView M900-130 datasheet as quoted by Sui et al. 2024 (MFS2oT)"
 
 #: The assumed values of what makers do not publish (docs/sonar.md, "assumed"): the TVG
-#: amplifier's range; the element directivity at the fan edge, larger for the 130° fans,
-#: whose beams steered to ±65° also widen 2.4×, brightening the diffuse floor there; the
-#: 8-bit level of the display window's bottom.
+#: amplifier's range; the 8-bit level of the bottom of the display window (real frames
+#: have no black pixel inside the fan); the floor's net darkening at the fan edge (real
+#: frames are darker there; the P900 family's 3 dB was matched to them).
 _TVG_RANGE_DB = 80.0
-_EDGE_LOSS_DB = {45: 3.0, 90: 3.0, 130: 3.0}
+_BLACK_LEVEL = 4
+_NET_EDGE_DARKENING_DB = 3.0
+
+
+def _edge_loss_db(fov_deg: float) -> float:
+    """The element directivity at the fan edge (two-way, dB) of a steered array whose
+    diffuse floor ends :data:`_NET_EDGE_DARKENING_DB` darker at the edge: the edge beam
+    is 1/cos(fov/2) wider and gathers as much more of the floor (docs/sonar.md)."""
+    return _NET_EDGE_DARKENING_DB - 10.0 * math.log10(math.cos(math.radians(fov_deg / 2.0)))
+
 
 P900_45 = SonarSpec(
     name="P900-45",
@@ -195,8 +204,9 @@ P900_45 = SonarSpec(
     range_resolution_m=0.0254,
     max_rate_hz=15.0,
     source=_P900_SOURCE,
-    fan_edge_loss_db=_EDGE_LOSS_DB[45],
+    fan_edge_loss_db=_edge_loss_db(45.0),
     tvg_max_gain_db=_TVG_RANGE_DB,
+    display_black_level=_BLACK_LEVEL,
 )
 P900_90 = SonarSpec(
     name="P900-90",
@@ -209,8 +219,9 @@ P900_90 = SonarSpec(
     range_resolution_m=0.0254,
     max_rate_hz=15.0,
     source=_P900_SOURCE,
-    fan_edge_loss_db=_EDGE_LOSS_DB[90],
+    fan_edge_loss_db=_edge_loss_db(90.0),
     tvg_max_gain_db=_TVG_RANGE_DB,
+    display_black_level=_BLACK_LEVEL,
 )
 P900_130 = SonarSpec(
     name="P900-130",
@@ -223,8 +234,9 @@ P900_130 = SonarSpec(
     range_resolution_m=0.0254,
     max_rate_hz=15.0,
     source=_P900_SOURCE,
-    fan_edge_loss_db=_EDGE_LOSS_DB[130],
+    fan_edge_loss_db=_edge_loss_db(130.0),
     tvg_max_gain_db=_TVG_RANGE_DB,
+    display_black_level=_BLACK_LEVEL,
 )
 M900_130 = SonarSpec(
     name="M900-130",
@@ -238,8 +250,9 @@ M900_130 = SonarSpec(
     max_rate_hz=25.0,
     useful_range_m=(2.0, 100.0),
     source=_M900_SOURCE,
-    fan_edge_loss_db=_EDGE_LOSS_DB[130],
+    fan_edge_loss_db=_edge_loss_db(130.0),
     tvg_max_gain_db=_TVG_RANGE_DB,
+    display_black_level=_BLACK_LEVEL,
 )
 #: ARIS Explorer 3000: the range resolution is the pulse length c·τ/2 of the maker's
 #: "medium" pulse (16 µs at 1.8 MHz, 10 µs at 3.0 MHz; c = 1500 m/s), the beam width the
@@ -259,7 +272,7 @@ ARIS3000_1800 = SonarSpec(
     beam_angles_deg=ARIS3000_64,
     steered=False,
     tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=8,
+    display_black_level=_BLACK_LEVEL,
 )
 ARIS3000_3000 = SonarSpec(
     name="ARIS3000-3MHz",
@@ -276,7 +289,7 @@ ARIS3000_3000 = SonarSpec(
     beam_angles_deg=ARIS3000_128,
     steered=False,
     tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=8,
+    display_black_level=_BLACK_LEVEL,
 )
 M750D_750 = SonarSpec(
     name="M750d-750kHz",
@@ -290,9 +303,9 @@ M750D_750 = SonarSpec(
     max_rate_hz=40.0,
     useful_range_m=(0.1, 120.0),
     source=_OCULUS_SOURCE,
-    fan_edge_loss_db=_EDGE_LOSS_DB[130],
+    fan_edge_loss_db=_edge_loss_db(130.0),
     tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=8,
+    display_black_level=_BLACK_LEVEL,
 )
 M750D_1200 = SonarSpec(
     name="M750d-1.2MHz",
@@ -306,9 +319,9 @@ M750D_1200 = SonarSpec(
     max_rate_hz=40.0,
     useful_range_m=(0.1, 40.0),
     source=_OCULUS_SOURCE,
-    fan_edge_loss_db=_EDGE_LOSS_DB[90],
+    fan_edge_loss_db=_edge_loss_db(70.0),
     tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=8,
+    display_black_level=_BLACK_LEVEL,
 )
 M1200D_1200 = SonarSpec(
     name="M1200d-1.2MHz",
@@ -322,9 +335,9 @@ M1200D_1200 = SonarSpec(
     max_rate_hz=40.0,
     useful_range_m=(0.1, 30.0),
     source=_OCULUS_SOURCE,
-    fan_edge_loss_db=_EDGE_LOSS_DB[130],
+    fan_edge_loss_db=_edge_loss_db(130.0),
     tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=8,
+    display_black_level=_BLACK_LEVEL,
 )
 M1200D_2100 = SonarSpec(
     name="M1200d-2.1MHz",
@@ -338,9 +351,9 @@ M1200D_2100 = SonarSpec(
     max_rate_hz=40.0,
     useful_range_m=(0.1, 10.0),
     source=_OCULUS_SOURCE,
-    fan_edge_loss_db=_EDGE_LOSS_DB[45],
+    fan_edge_loss_db=_edge_loss_db(60.0),
     tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=8,
+    display_black_level=_BLACK_LEVEL,
 )
 GEMINI_720IK = SonarSpec(
     name="Gemini-720ik",
@@ -354,9 +367,9 @@ GEMINI_720IK = SonarSpec(
     max_rate_hz=30.0,
     useful_range_m=(0.2, 120.0),
     source=_GEMINI_SOURCE,
-    fan_edge_loss_db=_EDGE_LOSS_DB[130],
+    fan_edge_loss_db=_edge_loss_db(130.0),
     tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=8,
+    display_black_level=_BLACK_LEVEL,
 )
 
 PRESETS: dict[str, SonarSpec] = {
