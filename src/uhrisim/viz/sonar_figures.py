@@ -260,3 +260,73 @@ def _tank_panel(fans, labels, stats: dict, px_per_m: float, path: Path) -> None:
         f"{stats['median_object_ratio']:.2f}, zero px {stats['median_zero_fraction']:.2%}"
     )
     save_figure(fig, path, dpi=90)
+
+
+def make_compare_figure(report: dict, curves: dict, path: Path) -> Path:
+    """The figure of ``uhrisim sonar-compare`` (:func:`uhrisim.sensors.sonar.compare.
+    compare_folders`): REAL against SIM — intensity histograms, LBP texture histograms,
+    the speckle's autocorrelation along range and across bearing, the background's
+    brightness across the fan and along range, and the verdict of every measure."""
+    real, sim = curves["real"], curves["sim"]
+    fig, axes = subplots(2, 3, figsize=(16.0, 9.0))
+    colours = {"REAL": "tab:blue", "SIM": "tab:orange"}
+    pairs = (("REAL", real), ("SIM", sim))
+    ax = axes[0, 0]
+    for name, stats in pairs:
+        ax.plot(np.arange(256), stats.histogram, color=colours[name], label=name)
+    ax.set_yscale("log")
+    ax.set_xlabel("8-bit level (in-fan pixels)")
+    ax.set_ylabel("fraction")
+    m = report["measures"]
+    ax.set_title(f"intensity: JS {m['js_divergence_bits']['difference']:.3g} bit, "
+                 f"EMD {m['emd_grey_levels']['difference']:.3g} levels")  # fmt: skip
+    ax.legend()
+    ax = axes[0, 1]
+    codes = np.arange(10)
+    ax.bar(codes - 0.2, real.lbp, 0.4, color=colours["REAL"], label="REAL")
+    ax.bar(codes + 0.2, sim.lbp, 0.4, color=colours["SIM"], label="SIM")
+    ax.set_xticks(codes, [*(str(c) for c in range(9)), "non-\nuniform"])
+    ax.set_xlabel("LBP code (ones of 8 neighbours ≥ centre)")
+    ax.set_title(f"texture (LBP): JS {m['lbp_js_divergence_bits']['difference']:.3g} bit")
+    ax.legend()
+    ax = axes[0, 2]
+    for name, stats, units in (("REAL", real, curves["units"]), ("SIM", sim, curves["sim_units"])):
+        g = stats.grain
+        lags = np.arange(len(g["acf_range"]))
+        ax.plot(lags * g["lag_px"] / units["range_px"], g["acf_range"], color=colours[name],
+                label=f"{name} along range")  # fmt: skip
+        ax.plot(lags * g["lag_deg"] / units["bearing_deg"], g["acf_bearing"], "--",
+                color=colours[name], label=f"{name} across bearing")  # fmt: skip
+    ax.axhline(0.5, color="0.6", lw=0.8)
+    names = curves["unit_names"]
+    widths = [m[k].get("real") or 1.0 for k in ("grain_range", "grain_bearing")]
+    ax.set_xlim(0, 4 * max(widths))
+    ax.set_xlabel(f"lag ({names['range_px']} along range, {names['bearing_deg']} across)")
+    ax.set_ylabel("autocorrelation")
+    ax.set_title("speckle grain (half maximum = grain width)")
+    ax.legend(fontsize=8)
+    for ax, key, label in ((axes[1, 0], "bearing", "bearing / half the field of view"),
+                           (axes[1, 1], "range", "range / the fan's far range")):  # fmt: skip
+        for name, stats in pairs:
+            ax.plot(stats.profiles[key + "_centres"], stats.profiles[key], "o-",
+                    color=colours[name], label=name)  # fmt: skip
+        ax.set_xlabel(label)
+        ax.set_ylabel("background brightness / its mean")
+        ax.set_title("brightness across the fan" if key == "bearing" else
+                     "brightness along range")  # fmt: skip
+        ax.legend()
+    ax = axes[1, 2]
+    ax.set_axis_off()
+    rows = [[k, m_["verdict"]] for k, m_ in m.items()]
+    table = ax.table(cellText=rows, colLabels=["measure", "verdict"], loc="center",
+                     cellLoc="left")  # fmt: skip
+    table.scale(1.0, 1.2)
+    for (row, _), cell in table.get_celld().items():
+        if row > 0:
+            verdict = rows[row - 1][1]
+            cell.set_facecolor({"match": "#d9f2d9", "close": "#fff2cc",
+                                "differs": "#f8d0d0"}.get(verdict, "white"))  # fmt: skip
+    v = report["verdicts"]
+    fig.suptitle(f"sonar-compare: REAL {report['real']} vs SIM {report['sim']} — "
+                 f"{v['match']} match, {v['close']} close, {v['differs']} differ")  # fmt: skip
+    return save_figure(fig, path, dpi=90)
