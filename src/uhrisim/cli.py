@@ -52,11 +52,17 @@ FIGURES: dict[str, tuple[str, str]] = {
                     "paper Figs 15-16: a torus on the sea floor"),
     "sonar-tank": ("uhrisim.viz.sonar_figures:make_sonar_tank",
                    "test tank: 30 fan + label images and their statistics vs real frames"),
+    "sonar-presets": ("uhrisim.viz.sonar_figures:make_sonar_presets",
+                      "every sonar preset in the test tank, drawn as its maker's viewer does"),
     "camera": ("uhrisim.viz.camera_figures:make_camera",
                "the diver in clear, coastal and turbid water, near and far, lamps on/off"),
     "sonar-trail": ("uhrisim.experiments.sonar_trail:make_sonar_trail",
                     "issue 15: sonar-only trail, 3 seeds x 10 min, paper + cluttered (~10 min)"),
 }
+
+
+#: The figures whose sonar ``--preset`` picks.
+PRESET_FIGURES = ("sonar-tank", "sonar-pier", "sonar-torus")
 
 
 def _resolve(target: str) -> Callable[..., Any]:
@@ -106,11 +112,17 @@ def check_run_options(duration: float | None, seed: int | None, rtf: float | Non
 def figure(
     name: Annotated[str, typer.Argument(help=f"one of: {', '.join(FIGURES)}")],
     out: Annotated[Path, typer.Option("--out", "-o", help="output folder")] = Path("out/figures"),
+    preset: Annotated[str | None, typer.Option(
+        "--preset", help=f"the sonar of {', '.join(PRESET_FIGURES)} (a sonar preset name)",
+    )] = None,
 ) -> None:
     """Reproduce a figure of the paper into OUT."""
     if name not in FIGURES:
         raise ConfigError(f"unknown figure {name!r}; choose from {', '.join(FIGURES)}")
-    paths = _resolve(FIGURES[name][0])(out)
+    if preset is not None and name not in PRESET_FIGURES:
+        raise ConfigError(f"--preset applies to {', '.join(PRESET_FIGURES)}, not {name!r}")
+    kwargs = {} if preset is None else {"preset": preset}
+    paths = _resolve(FIGURES[name][0])(out, **kwargs)
     for path in paths:
         console.print(Text(f"wrote {path}"))
 

@@ -2,7 +2,9 @@
 (``uhrisim sonar-compare REAL SIM``; formulas and references in ``docs/sonar.md``).
 
 Frames are fan images with the apex at the bottom centre, forward up (the display
-convention of ``docs/conventions.md``). A folder holds ``*.png`` frames, optionally each
+convention of ``docs/conventions.md``). A folder holds ``*.png`` frames (only its
+``*_fan.png`` if it has any, as ``uhrisim figure sonar-tank`` writes them beside other
+images), optionally each
 with an object mask ``<frame>_labels.png`` or ``<frame>_mask.png`` (non-zero: an object;
 for ``<stem>_fan.png`` also ``<stem>_labels.png``, as ``uhrisim figure sonar-tank``
 writes them) and optionally one ``fan_mask.png`` (non-zero inside the fan). Without a
@@ -136,8 +138,9 @@ def load_frame_set(folder: Path, geometry: FanGeometry | None = None) -> FrameSe
     folder = Path(folder)
     if not folder.is_dir():
         raise ConfigError(f"{folder} is not a folder", where="sonar-compare")
-    paths = sorted(p for p in folder.glob("*.png")
-                   if p.name != FAN_MASK_NAME and not p.name.endswith(_MASK_SUFFIXES))  # fmt: skip
+    paths = sorted(folder.glob("*_fan.png")) or sorted(
+        p for p in folder.glob("*.png")
+        if p.name != FAN_MASK_NAME and not p.name.endswith(_MASK_SUFFIXES))  # fmt: skip
     if not paths:
         raise ConfigError(f"no *.png frames in {folder}", where="sonar-compare")
     frames, masks = [], []
