@@ -62,22 +62,28 @@ def filter_beams(
     margin: int = 0,
 ) -> None:
     """Each beam of ``src`` through its block's horizontal pattern (``power``, or
-    ``amplitude`` when True) into ``out``. One block: one OpenCV pass; several (steered
-    beams widening off the axis): each block's beams filtered from a margin of their
-    neighbours, so every beam sees exactly its own pattern. Beyond the image's side
-    borders ``src`` is mirrored, unless it carries ``margin`` columns of its own on each
-    side (at least the widest pattern's half-width; ``out`` is then that much narrower)."""
+    ``amplitude`` when True) into ``out``, image borders mirrored. One OpenCV pass with
+    the pattern of the block with the most beams; each other block (steered beams widening
+    off the axis) then filtered again from its beams and a margin of their neighbours, so
+    that every beam sees exactly its own pattern. ``margin``: ``src`` carries that many
+    columns of its own beyond each side (at least the widest pattern's half-width), used
+    instead of mirroring; ``out`` is then that much narrower."""
     kernels = [b.amplitude if amplitude else b.power for b in blocks]
-    pad = max(k.size // 2 for k in kernels)
-    if len(blocks) == 1 and margin == 0:
-        cv2.filter2D(src, cv2.CV_32F, kernels[0].reshape(1, -1), dst=out, borderType=_MIRROR)
-        return
-    padded, pad = (src, margin) if margin else (_padded(src, pad), pad)
-    for block, k in zip(blocks, kernels, strict=True):
+    n = out.shape[1]
+    main = max(range(len(blocks)), key=lambda i: blocks[i].stop - blocks[i].start)
+    if margin == 0:
+        cv2.filter2D(src, cv2.CV_32F, kernels[main].reshape(1, -1), dst=out, borderType=_MIRROR)
+    for i, (block, k) in enumerate(zip(blocks, kernels, strict=True)):
+        if i == main and margin == 0:
+            continue
         h = k.size // 2
-        seg = padded[:, block.start + pad - h : block.stop + pad + h]
-        res = cv2.filter2D(seg, cv2.CV_32F, k.reshape(1, -1), borderType=_MIRROR)
-        out[:, block.start : block.stop] = res[:, h : h + block.stop - block.start]
+        # Columns [lo, hi) of src around the block: where they meet the image's border
+        # OpenCV mirrors it, as the image is; elsewhere the h columns beyond are real.
+        lo = block.start + margin - h if margin else max(0, block.start - h)
+        hi = block.stop + margin + h if margin else min(n, block.stop + h)
+        res = cv2.filter2D(src[:, lo:hi], cv2.CV_32F, k.reshape(1, -1), borderType=_MIRROR)
+        first = block.start + margin - lo
+        out[:, block.start : block.stop] = res[:, first : first + block.stop - block.start]
 
 
 def diffuse_rows(
