@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from tests.unit.test_sonar_image import LEVEL, ORIGIN
+from tests.unit.test_sonar_image import LEVEL, ORIGIN, Hits
 from tests.unit.test_sonar_stages import (
     NO_SCENE,
     acf_fwhm,
@@ -28,15 +28,6 @@ from uhrisim.sensors.sonar.acoustics import element_directivity
 from uhrisim.sensors.sonar.config import ECHOES_ONLY
 from uhrisim.sensors.sonar.polar import display_bytes
 from uhrisim.sensors.sonar.reference import reference_bytes
-
-
-@dataclass(frozen=True)
-class Hits:
-    distance: np.ndarray
-    label: np.ndarray
-    normal: np.ndarray
-    reflectivity: np.ndarray
-    body: np.ndarray
 
 
 @dataclass(frozen=True)

@@ -383,37 +383,36 @@ class SonarConfig:
         """The ping rate actually used: min(requested, hardware maximum, range cap)."""
         return min(self.rate_hz, self.sonar_spec.max_rate_hz, self.range_rate_cap_hz)
 
+    def _or_preset(self, name: str, spec_name: str) -> object:
+        """The setting ``name``, or the spec's ``spec_name`` where it is None."""
+        value = getattr(self, name)
+        return value if value is not None else getattr(self.sonar_spec, spec_name)
+
     @property
     def beam_sidelobe_db(self) -> float:
         """First horizontal side lobe re the main lobe, dB (config or preset)."""
-        v = self.sidelobe_db
-        return float(v) if v is not None else self.sonar_spec.sidelobe_db
+        return float(self._or_preset("sidelobe_db", "sidelobe_db"))
 
     @property
     def edge_loss_db(self) -> float:
         """Two-way element directivity at the fan edges, dB (config or preset)."""
-        v = self.fan_edge_loss_db
-        return float(v) if v is not None else self.sonar_spec.fan_edge_loss_db
+        return float(self._or_preset("fan_edge_loss_db", "fan_edge_loss_db"))
 
     @property
     def steering(self) -> bool:
         """Whether the beams widen as 1/cos θ off the axis (config or preset)."""
-        v = self.beam_steering
-        return bool(v) if v is not None else self.sonar_spec.steered
+        return bool(self._or_preset("beam_steering", "steered"))
 
     @property
     def tvg_cap_db(self) -> float:
         """The largest TVG applied, dB (config or preset; inf: unlimited)."""
-        v = self.tvg_max_gain_db if self.tvg_max_gain_db is not None else (
-            self.sonar_spec.tvg_max_gain_db
-        )
-        return float(v) if v is not None else math.inf
+        value = self._or_preset("tvg_max_gain_db", "tvg_max_gain_db")
+        return float(value) if value is not None else math.inf
 
     @property
     def black_level(self) -> int:
         """The 8-bit level of the bottom of the display window (config or preset)."""
-        v = self.display_black_level
-        return int(v) if v is not None else self.sonar_spec.display_black_level
+        return int(self._or_preset("display_black_level", "display_black_level"))
 
     @property
     def bandwidth_hz(self) -> float:

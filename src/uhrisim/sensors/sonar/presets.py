@@ -193,184 +193,51 @@ def _edge_loss_db(fov_deg: float) -> float:
     return _NET_EDGE_DARKENING_DB - 10.0 * math.log10(math.cos(math.radians(fov_deg / 2.0)))
 
 
-P900_45 = SonarSpec(
-    name="P900-45",
-    frequency_hz=900e3,
-    fov_h_deg=45.0,
-    n_beams=256,
-    beam_width_h_deg=1.0,
-    beam_width_v_deg=20.0,
-    max_range_m=100.0,
-    range_resolution_m=0.0254,
-    max_rate_hz=15.0,
-    source=_P900_SOURCE,
-    fan_edge_loss_db=_edge_loss_db(45.0),
-    tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=_BLACK_LEVEL,
-)
-P900_90 = SonarSpec(
-    name="P900-90",
-    frequency_hz=900e3,
-    fov_h_deg=90.0,
-    n_beams=512,
-    beam_width_h_deg=1.0,
-    beam_width_v_deg=20.0,
-    max_range_m=100.0,
-    range_resolution_m=0.0254,
-    max_rate_hz=15.0,
-    source=_P900_SOURCE,
-    fan_edge_loss_db=_edge_loss_db(90.0),
-    tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=_BLACK_LEVEL,
-)
-P900_130 = SonarSpec(
-    name="P900-130",
-    frequency_hz=900e3,
-    fov_h_deg=130.0,
-    n_beams=768,
-    beam_width_h_deg=1.0,
-    beam_width_v_deg=20.0,
-    max_range_m=100.0,
-    range_resolution_m=0.0254,
-    max_rate_hz=15.0,
-    source=_P900_SOURCE,
-    fan_edge_loss_db=_edge_loss_db(130.0),
-    tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=_BLACK_LEVEL,
-)
-M900_130 = SonarSpec(
-    name="M900-130",
-    frequency_hz=900e3,
-    fov_h_deg=130.0,
-    n_beams=768,
-    beam_width_h_deg=1.0,
-    beam_width_v_deg=20.0,
-    max_range_m=100.0,
-    range_resolution_m=0.014,
-    max_rate_hz=25.0,
-    useful_range_m=(2.0, 100.0),
-    source=_M900_SOURCE,
-    fan_edge_loss_db=_edge_loss_db(130.0),
-    tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=_BLACK_LEVEL,
-)
+def _preset(name: str, frequency_hz: float, fov_h_deg: float, n_beams: int,
+            beam_width_h_deg: float, beam_width_v_deg: float, max_range_m: float,
+            range_resolution_m: float, max_rate_hz: float, source: str,
+            **rest: object) -> SonarSpec:  # fmt: skip
+    """A maker's sonar with the assumed values above: the TVG range, the black level and,
+    for a steered array, the element directivity that gives the net edge darkening."""
+    steered = bool(rest.get("steered", True))
+    assumed = {
+        "tvg_max_gain_db": _TVG_RANGE_DB,
+        "display_black_level": _BLACK_LEVEL,
+        "fan_edge_loss_db": _edge_loss_db(fov_h_deg) if steered else _NET_EDGE_DARKENING_DB,
+    }
+    return SonarSpec(name, frequency_hz, fov_h_deg, n_beams, beam_width_h_deg,
+                     beam_width_v_deg, max_range_m, range_resolution_m, max_rate_hz,
+                     source=source, **{**assumed, **rest})  # fmt: skip
+
+
+#: BlueView P900 family and M900-130 (900 kHz, 1° × 20° beams).
+P900_45 = _preset("P900-45", 900e3, 45.0, 256, 1.0, 20.0, 100.0, 0.0254, 15.0, _P900_SOURCE)
+P900_90 = _preset("P900-90", 900e3, 90.0, 512, 1.0, 20.0, 100.0, 0.0254, 15.0, _P900_SOURCE)
+P900_130 = _preset("P900-130", 900e3, 130.0, 768, 1.0, 20.0, 100.0, 0.0254, 15.0, _P900_SOURCE)
+M900_130 = _preset("M900-130", 900e3, 130.0, 768, 1.0, 20.0, 100.0, 0.014, 25.0, _M900_SOURCE,
+                   useful_range_m=(2.0, 100.0))  # fmt: skip
 #: ARIS Explorer 3000: the range resolution is the pulse length c·τ/2 of the maker's
 #: "medium" pulse (16 µs at 1.8 MHz, 10 µs at 3.0 MHz; c = 1500 m/s), the beam width the
-#: mean of the maker's per-beam widths (its table's left-to-right extent of each beam).
-ARIS3000_1800 = SonarSpec(
-    name="ARIS3000-1.8MHz",
-    frequency_hz=1.8e6,
-    fov_h_deg=2.0 * 14.703,
-    n_beams=64,
-    beam_width_h_deg=0.466,
-    beam_width_v_deg=14.0,
-    max_range_m=20.0,
-    range_resolution_m=0.012,
-    max_rate_hz=15.0,
-    useful_range_m=(8.0, 20.0),
-    source=_ARIS_SOURCE,
-    beam_angles_deg=ARIS3000_64,
-    steered=False,
-    tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=_BLACK_LEVEL,
-)
-ARIS3000_3000 = SonarSpec(
-    name="ARIS3000-3MHz",
-    frequency_hz=3.0e6,
-    fov_h_deg=2.0 * 14.705,
-    n_beams=128,
-    beam_width_h_deg=0.232,
-    beam_width_v_deg=14.0,
-    max_range_m=20.0,
-    range_resolution_m=0.0075,
-    max_rate_hz=15.0,
-    useful_range_m=(1.0, 8.0),
-    source=_ARIS_SOURCE,
-    beam_angles_deg=ARIS3000_128,
-    steered=False,
-    tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=_BLACK_LEVEL,
-)
-M750D_750 = SonarSpec(
-    name="M750d-750kHz",
-    frequency_hz=750e3,
-    fov_h_deg=130.0,
-    n_beams=512,
-    beam_width_h_deg=1.0,
-    beam_width_v_deg=20.0,
-    max_range_m=120.0,
-    range_resolution_m=0.004,
-    max_rate_hz=40.0,
-    useful_range_m=(0.1, 120.0),
-    source=_OCULUS_SOURCE,
-    fan_edge_loss_db=_edge_loss_db(130.0),
-    tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=_BLACK_LEVEL,
-)
-M750D_1200 = SonarSpec(
-    name="M750d-1.2MHz",
-    frequency_hz=1.2e6,
-    fov_h_deg=70.0,
-    n_beams=512,
-    beam_width_h_deg=0.6,
-    beam_width_v_deg=12.0,
-    max_range_m=40.0,
-    range_resolution_m=0.0025,
-    max_rate_hz=40.0,
-    useful_range_m=(0.1, 40.0),
-    source=_OCULUS_SOURCE,
-    fan_edge_loss_db=_edge_loss_db(70.0),
-    tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=_BLACK_LEVEL,
-)
-M1200D_1200 = SonarSpec(
-    name="M1200d-1.2MHz",
-    frequency_hz=1.2e6,
-    fov_h_deg=130.0,
-    n_beams=512,
-    beam_width_h_deg=0.6,
-    beam_width_v_deg=20.0,
-    max_range_m=30.0,
-    range_resolution_m=0.0025,
-    max_rate_hz=40.0,
-    useful_range_m=(0.1, 30.0),
-    source=_OCULUS_SOURCE,
-    fan_edge_loss_db=_edge_loss_db(130.0),
-    tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=_BLACK_LEVEL,
-)
-M1200D_2100 = SonarSpec(
-    name="M1200d-2.1MHz",
-    frequency_hz=2.1e6,
-    fov_h_deg=60.0,
-    n_beams=512,
-    beam_width_h_deg=0.4,
-    beam_width_v_deg=12.0,
-    max_range_m=10.0,
-    range_resolution_m=0.0025,
-    max_rate_hz=40.0,
-    useful_range_m=(0.1, 10.0),
-    source=_OCULUS_SOURCE,
-    fan_edge_loss_db=_edge_loss_db(60.0),
-    tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=_BLACK_LEVEL,
-)
-GEMINI_720IK = SonarSpec(
-    name="Gemini-720ik",
-    frequency_hz=720e3,
-    fov_h_deg=130.0,
-    n_beams=512,
-    beam_width_h_deg=1.0,
-    beam_width_v_deg=20.0,
-    max_range_m=120.0,
-    range_resolution_m=0.008,
-    max_rate_hz=30.0,
-    useful_range_m=(0.2, 120.0),
-    source=_GEMINI_SOURCE,
-    fan_edge_loss_db=_edge_loss_db(130.0),
-    tvg_max_gain_db=_TVG_RANGE_DB,
-    display_black_level=_BLACK_LEVEL,
-)
+#: mean of the maker's per-beam widths (its table's left-to-right extent of each beam);
+#: the field of view spans the table's outer beam centres.
+ARIS3000_1800 = _preset("ARIS3000-1.8MHz", 1.8e6, 2.0 * 14.703, 64, 0.466, 14.0, 20.0, 0.012,
+                        15.0, _ARIS_SOURCE, useful_range_m=(8.0, 20.0),
+                        beam_angles_deg=ARIS3000_64, steered=False)  # fmt: skip
+ARIS3000_3000 = _preset("ARIS3000-3MHz", 3.0e6, 2.0 * 14.705, 128, 0.232, 14.0, 20.0, 0.0075,
+                        15.0, _ARIS_SOURCE, useful_range_m=(1.0, 8.0),
+                        beam_angles_deg=ARIS3000_128, steered=False)  # fmt: skip
+#: Blueprint Subsea Oculus M750d and M1200d, each at its two frequencies.
+M750D_750 = _preset("M750d-750kHz", 750e3, 130.0, 512, 1.0, 20.0, 120.0, 0.004, 40.0,
+                    _OCULUS_SOURCE, useful_range_m=(0.1, 120.0))  # fmt: skip
+M750D_1200 = _preset("M750d-1.2MHz", 1.2e6, 70.0, 512, 0.6, 12.0, 40.0, 0.0025, 40.0,
+                     _OCULUS_SOURCE, useful_range_m=(0.1, 40.0))  # fmt: skip
+M1200D_1200 = _preset("M1200d-1.2MHz", 1.2e6, 130.0, 512, 0.6, 20.0, 30.0, 0.0025, 40.0,
+                      _OCULUS_SOURCE, useful_range_m=(0.1, 30.0))  # fmt: skip
+M1200D_2100 = _preset("M1200d-2.1MHz", 2.1e6, 60.0, 512, 0.4, 12.0, 10.0, 0.0025, 40.0,
+                      _OCULUS_SOURCE, useful_range_m=(0.1, 10.0))  # fmt: skip
+#: Tritech Gemini 720ik.
+GEMINI_720IK = _preset("Gemini-720ik", 720e3, 130.0, 512, 1.0, 20.0, 120.0, 0.008, 30.0,
+                       _GEMINI_SOURCE, useful_range_m=(0.2, 120.0))  # fmt: skip
 
 PRESETS: dict[str, SonarSpec] = {
     s.name: s
