@@ -52,11 +52,17 @@ FIGURES: dict[str, tuple[str, str]] = {
                     "paper Figs 15-16: a torus on the sea floor"),
     "sonar-tank": ("uhrisim.viz.sonar_figures:make_sonar_tank",
                    "test tank: 30 fan + label images and their statistics vs real frames"),
+    "sonar-presets": ("uhrisim.viz.sonar_figures:make_sonar_presets",
+                      "every sonar preset in the test tank, drawn as its maker's viewer does"),
     "camera": ("uhrisim.viz.camera_figures:make_camera",
                "the diver in clear, coastal and turbid water, near and far, lamps on/off"),
     "sonar-trail": ("uhrisim.experiments.sonar_trail:make_sonar_trail",
                     "issue 15: sonar-only trail, 3 seeds x 10 min, paper + cluttered (~10 min)"),
 }
+
+
+#: The figures whose sonar ``--preset`` picks.
+PRESET_FIGURES = ("sonar-tank", "sonar-pier", "sonar-torus")
 
 
 def _resolve(target: str) -> Callable[..., Any]:
@@ -106,11 +112,17 @@ def check_run_options(duration: float | None, seed: int | None, rtf: float | Non
 def figure(
     name: Annotated[str, typer.Argument(help=f"one of: {', '.join(FIGURES)}")],
     out: Annotated[Path, typer.Option("--out", "-o", help="output folder")] = Path("out/figures"),
+    preset: Annotated[str | None, typer.Option(
+        "--preset", help=f"the sonar of {', '.join(PRESET_FIGURES)} (a sonar preset name)",
+    )] = None,
 ) -> None:
     """Reproduce a figure of the paper into OUT."""
     if name not in FIGURES:
         raise ConfigError(f"unknown figure {name!r}; choose from {', '.join(FIGURES)}")
-    paths = _resolve(FIGURES[name][0])(out)
+    if preset is not None and name not in PRESET_FIGURES:
+        raise ConfigError(f"--preset applies to {', '.join(PRESET_FIGURES)}, not {name!r}")
+    kwargs = {} if preset is None else {"preset": preset}
+    paths = _resolve(FIGURES[name][0])(out, **kwargs)
     for path in paths:
         console.print(Text(f"wrote {path}"))
 
@@ -465,6 +477,69 @@ def sonar_stats(
         summary[key] = "  ".join(f"{a:g}:{v:.2f}" for a, v in zip(axis, values, strict=True)
                                  if a is not None and v is not None)  # fmt: skip
     _print_tree(summary, f"uhrisim sonar-stats {folder}")
+
+
+def _range_window(text: str | None, option: str) -> tuple[float, float] | None:
+    """``MIN:MAX`` metres (0 ≤ MIN < MAX) as a tuple; ConfigError naming the option."""
+    if text is None:
+        return None
+    try:
+        near, far = (float(x) for x in text.split(":"))
+    except ValueError:
+        raise ConfigError(f"--{option} must be MIN:MAX in metres, got {text!r}") from None
+    if not (math.isfinite(near) and math.isfinite(far) and 0.0 <= near < far):
+        raise ConfigError(f"--{option} must have 0 <= MIN < MAX, got {text!r}")
+    return near, far
+
+
+@app.command("sonar-compare")
+@friendly_errors
+def sonar_compare(
+    real: Annotated[Path, typer.Argument(help="folder of real 8-bit fan frames (*.png)")],
+    sim: Annotated[Path, typer.Argument(help="folder of simulated 8-bit fan frames")],
+    preset: Annotated[str | None, typer.Option(
+        "--preset", help="the sonar of both folders: field of view, beam width, range "
+        "resolution (the grain in resolution cells)")] = None,
+    fov: Annotated[float | None, typer.Option(
+        "--fov", help="field of view, degrees (without --preset)")] = None,
+    range_window: Annotated[str | None, typer.Option(
+        "--range", help="the frames' range window MIN:MAX, metres")] = None,
+    sim_preset: Annotated[str | None, typer.Option(
+        "--sim-preset", help="SIM's sonar, when it is not REAL's")] = None,
+    out: Annotated[Path, typer.Option("--out", "-o", help="folder for report.txt, "
+                                      "report.json, compare.png")] = Path("out/sonar-compare"),
+    as_json: Annotated[bool, typer.Option("--json", help="print the JSON report")] = False,
+) -> None:
+    """How far SIM's frames are from REAL's, measure by measure, with a verdict each:
+    intensity histograms (KL, Jensen–Shannon, earth mover's), LBP texture, speckle
+    (Rayleigh/K fits, KS), grain in resolution cells, brightness across the fan and along
+    range, object contrast, zero and saturated pixels (see docs/sonar.md)."""
+    from uhrisim.sensors.sonar.compare import FanGeometry, compare_folders, report_lines
+    from uhrisim.viz.sonar_figures import make_compare_figure
+
+    window = _range_window(range_window, "range")
+    check_option("fov", fov, fov is not None and math.isfinite(fov) and 0.0 < fov < 180.0,
+                 "in (0, 180) degrees")  # fmt: skip
+    if preset is not None and fov is not None:
+        raise ConfigError("give --preset or --fov, not both")
+    geometry = None
+    if preset is not None:
+        geometry = FanGeometry.from_preset(preset, window)
+    elif fov is not None or window is not None:
+        geometry = FanGeometry(fov, window)
+    sim_geometry = None if sim_preset is None else FanGeometry.from_preset(sim_preset, window)
+    report, curves = compare_folders(real, sim, geometry, sim_geometry)
+    out.mkdir(parents=True, exist_ok=True)
+    lines = report_lines(report)
+    (out / "report.json").write_text(json.dumps(report, indent=1) + "\n")
+    (out / "report.txt").write_text("\n".join(lines) + "\n")
+    make_compare_figure(report, curves, out / "compare.png")
+    if as_json:
+        sys.stdout.write(json.dumps(report, indent=2) + "\n")
+        return
+    sys.stdout.write("\n".join(lines) + "\n")  # (plain text: the table keeps its width)
+    sys.stdout.write(f"wrote {out / 'report.txt'}, {out / 'report.json'}, "
+                     f"{out / 'compare.png'}\n")  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -39,7 +39,7 @@ def test_make_sonar_tank(tmp_path: Path) -> None:
     paths = make_sonar_tank(tmp_path, n_frames=3)
     names = {p.name for p in paths}
     assert {"tank_000_fan.png", "tank_002_labels.png", "fan_mask.png", "tank_stats.json",
-            "tank_panel.png"} <= names and len(paths) == 3 * 2 + 3  # fmt: skip
+            "tank_panel.png", "tank_vendor.png"} <= names and len(paths) == 3 * 2 + 4  # fmt: skip
     stats = json.loads((tmp_path / "tank_stats.json").read_text())
     # The statistics written are those sonar-stats finds in the folder (PNG round trip).
     again = image_stats(*load_frames(tmp_path))

@@ -101,6 +101,8 @@ class SonarConfig:
             default: the spec's range resolution).
         fan_edge_loss_db: two-way element directivity at the fan edges (default: the
             preset's); 0 dB: flat.
+        beam_steering: the beams are steered electronically, so a beam at θ off the axis
+            is 1/cos θ wider (default: the preset's ``steered``; ``docs/sonar.md``).
         speckle: speckle with Rayleigh amplitude whose grain is set by the beam width and
             the pulse length. Off: the mean (incoherent) intensity.
         speckle_model: ``"product"`` (default): the mean image times a unit speckle field
@@ -109,12 +111,18 @@ class SonarConfig:
             scatterer amplitudes summed through those patterns (exact at edges and point
             targets, ~0.6 ms more per P900-45 ping). Same statistics on uniform areas.
         tvg: apply time-varied gain ``tvg_spreading_db_per_decade·log10 R + 2αR``, held
-            constant inside ``tvg_min_range_m`` (the receiver's gain range is finite).
+            constant inside ``tvg_min_range_m`` and never above ``tvg_max_gain_db`` (the
+            receiver's gain range is finite at both ends).
+        tvg_max_gain_db: the largest TVG the receiver applies, dB (default: the preset's;
+            None there: unlimited). Beyond the range where the law reaches it, echoes fall.
         gain_db: user gain, dB ≥ 0, added before display compression.
         display_top_db: level (after TVG and gain) mapped to full scale.
         dynamic_range_db: levels ``display_top_db − dynamic_range_db … display_top_db`` are
             the display window, x = 0…1 (``polar``, linear in dB: log compression).
-        display_gamma: contrast of the 8-bit mapping: ``u8 = round(255·x^display_gamma)``.
+        display_gamma: contrast of the 8-bit mapping:
+            ``u8 = round(b + (255 − b)·x^display_gamma)``, b the black level.
+        display_black_level: b, the 8-bit level of the bottom of the display window
+            inside the fan (default: the preset's; 0…254).
         multipath: add the surface ghost (echo via one surface bounce; off by default).
         multipath_loss_db: loss of the ghost path at the surface, dB ≥ 0.
         labels: compute the per-pixel label images (which object gave each pixel's
@@ -168,6 +176,9 @@ class SonarConfig:
     n_sidelobes: int = 1
     pulse_resolution_m: float | None = None
     fan_edge_loss_db: float | None = None
+    beam_steering: bool | None = None
+    tvg_max_gain_db: float | None = None
+    display_black_level: int | None = None
     multipath: bool = False
     multipath_loss_db: float = 6.0
     fan_size_px: int = 512
@@ -205,6 +216,7 @@ class SonarConfig:
         for name in (
             "receiver_bandwidth_hz", "post_tvg_noise_db", "volume_scattering_db",
             "surface_scattering_db", "far_sidelobe_db", "sidelobe_db", "fan_edge_loss_db",
+            "tvg_max_gain_db",
         ):  # fmt: skip
             if getattr(self, name) is not None:
                 finite(name)
@@ -234,6 +246,15 @@ class SonarConfig:
                 raise bad(name, f"must be < 0 dB, got {v!r}")
         if self.fan_edge_loss_db is not None and not 0.0 <= self.fan_edge_loss_db <= 30.0:
             raise bad("fan_edge_loss_db", f"must be in [0, 30] dB, got {self.fan_edge_loss_db!r}")
+        if self.tvg_max_gain_db is not None and self.tvg_max_gain_db <= 0.0:
+            raise bad("tvg_max_gain_db", f"must be > 0 dB, got {self.tvg_max_gain_db!r}")
+        level = self.display_black_level
+        if level is not None and (
+            isinstance(level, bool) or not isinstance(level, int) or not 0 <= level <= 254
+        ):
+            raise bad("display_black_level", f"must be an integer in [0, 254], got {level!r}")
+        if self.beam_steering is not None and not isinstance(self.beam_steering, bool):
+            raise bad("beam_steering", f"must be true or false, got {self.beam_steering!r}")
         if self.range_max_m <= 0.0:
             raise bad("range_max_m", f"must be > 0 m, got {self.range_max_m!r}")
         if self.range_min_m < 0.0:
@@ -362,17 +383,36 @@ class SonarConfig:
         """The ping rate actually used: min(requested, hardware maximum, range cap)."""
         return min(self.rate_hz, self.sonar_spec.max_rate_hz, self.range_rate_cap_hz)
 
+    def _or_preset(self, name: str, spec_name: str) -> object:
+        """The setting ``name``, or the spec's ``spec_name`` where it is None."""
+        value = getattr(self, name)
+        return value if value is not None else getattr(self.sonar_spec, spec_name)
+
     @property
     def beam_sidelobe_db(self) -> float:
         """First horizontal side lobe re the main lobe, dB (config or preset)."""
-        v = self.sidelobe_db
-        return float(v) if v is not None else self.sonar_spec.sidelobe_db
+        return float(self._or_preset("sidelobe_db", "sidelobe_db"))
 
     @property
     def edge_loss_db(self) -> float:
         """Two-way element directivity at the fan edges, dB (config or preset)."""
-        v = self.fan_edge_loss_db
-        return float(v) if v is not None else self.sonar_spec.fan_edge_loss_db
+        return float(self._or_preset("fan_edge_loss_db", "fan_edge_loss_db"))
+
+    @property
+    def steering(self) -> bool:
+        """Whether the beams widen as 1/cos θ off the axis (config or preset)."""
+        return bool(self._or_preset("beam_steering", "steered"))
+
+    @property
+    def tvg_cap_db(self) -> float:
+        """The largest TVG applied, dB (config or preset; inf: unlimited)."""
+        value = self._or_preset("tvg_max_gain_db", "tvg_max_gain_db")
+        return float(value) if value is not None else math.inf
+
+    @property
+    def black_level(self) -> int:
+        """The 8-bit level of the bottom of the display window (config or preset)."""
+        return int(self._or_preset("display_black_level", "display_black_level"))
 
     @property
     def bandwidth_hz(self) -> float:

@@ -32,11 +32,26 @@ class FanMaps(NamedTuple):
     apex: tuple[float, float]  # (column, row) of the apex, pixel-centre coordinates
 
 
+def fractional_beam(
+    theta: NDArray[np.float64], beam_angles: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Fractional beam index of bearings ``theta`` (rad) for beams at ``beam_angles`` (rad,
+    ascending, evenly spaced or not): linear between beam centres, continued beyond the
+    first and last beam with their spacing."""
+    first = beam_angles[1] - beam_angles[0]
+    last = beam_angles[-1] - beam_angles[-2]
+    n = beam_angles.size
+    index = np.interp(theta, beam_angles, np.arange(n, dtype=np.float64))
+    index = np.where(theta < beam_angles[0], (theta - beam_angles[0]) / first, index)
+    return np.where(theta > beam_angles[-1], n - 1 + (theta - beam_angles[-1]) / last, index)
+
+
 def fan_maps(cfg: SonarConfig, beam_angles: NDArray[np.float64]) -> FanMaps:
     """Scan-conversion maps of a physical-mode fan ``cfg.fan_size_px`` pixels across (its
-    larger side) for the beams at ``beam_angles`` (rad, evenly spaced)."""
+    larger side) for the beams at ``beam_angles`` (rad, ascending; the native angles,
+    evenly spaced or not: each fan pixel samples the beams whose centres bracket its
+    bearing). The fan covers the beams' centres and half a beam beyond the outer ones."""
     half_fov = math.radians(cfg.sonar_spec.fov_h_deg) / 2.0
-    dtheta = beam_angles[1] - beam_angles[0]
     r_max = cfg.range_max_m
     width_m = 2.0 * r_max * math.sin(half_fov)
     height_m = r_max
@@ -48,9 +63,11 @@ def fan_maps(cfg: SonarConfig, beam_angles: NDArray[np.float64]) -> FanMaps:
     xs, ys = np.meshgrid(cols, rows)
     rr = np.hypot(xs, ys)
     th = np.arctan2(xs, ys)
-    fx = (th - beam_angles[0]) / dtheta
+    fx = fractional_beam(th, beam_angles)
     fy = (rr - cfg.range_min_m) / cfg.bin_m - 0.5
-    inside = (np.abs(th) <= half_fov + 0.5 * dtheta) & (rr >= cfg.range_min_m) & (rr <= r_max)
+    inside = (fx >= -0.5) & (fx <= beam_angles.size - 0.5) & (rr >= cfg.range_min_m) & (
+        rr <= r_max
+    )
     map_x = np.where(inside, fx, -10.0).astype(np.float32)
     map_y = np.where(inside, fy, -10.0).astype(np.float32)
     return FanMaps(

@@ -8,10 +8,12 @@ vehicle body frame FRD by yaw (about z) after a downward tilt (a pitch of −til
 Precomputed: the ray fan (``rays_per_beam`` elevation slices of equal width δφ, each ray
 their centre, and ``rays_per_beam_azimuth`` rays across each beam); each ray's weight
 b_v(φ)²·D(θ)·ΔΩ (vertical beam pattern, two-way, element directivity across the fan,
-times the solid angle ΔΩ = cos φ·δθ·δφ it stands for); the range bins; the horizontal
-beam-pattern and pulse kernels (power and amplitude); the diffuse intensity of every range
-row (noise, volume reverberation, post-TVG noise); TVG, source level and gain per range
-bin, linear and in log display units; and the scan-conversion maps of the fan (:mod:`.fan`).
+times the solid angle ΔΩ = cos φ·δθ·δφ it stands for, δθ the beam's own share of the
+fan); the range bins; the horizontal beam patterns (power and amplitude), one per run of
+beams of about one width (:func:`beam_blocks`: a steered beam at θ is 1/cos θ wider) and
+the pulse kernels; the diffuse intensity of every range row (noise, volume reverberation,
+post-TVG noise); TVG (held near, capped far), source level and gain per range bin, linear
+and in log display units; and the scan-conversion maps of the fan (:mod:`.fan`).
 """
 
 from __future__ import annotations
@@ -35,6 +37,59 @@ from uhrisim.sensors.sonar.acoustics import (
 )
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.fan import fan_maps
+
+#: Neighbouring beams whose widths (in beam spacings) differ by at most this factor share
+#: one horizontal pattern (a :class:`BeamBlock`), that of their middle beam: each beam's
+#: pattern is within 4 % of its own width (exact on the axis), far finer than the 1/cos θ
+#: broadening it stands for.
+BLOCK_WIDTH_RATIO = 1.04
+
+
+@dataclass(frozen=True)
+class BeamBlock:
+    """Beams [start, stop) formed through one horizontal pattern of −3 dB ``width`` (in
+    beam spacings), sampled across beams: ``power`` (peak 1, side lobes at the preset's
+    level) and ``amplitude`` (signed, amplitude² = power)."""
+
+    start: int
+    stop: int
+    width: float
+    power: NDArray[np.float32]
+    amplitude: NDArray[np.float32]
+
+
+def beam_widths(cfg: SonarConfig, beam_angles: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Each beam's −3 dB width in units of its own beam spacing.
+
+    Steered (a line array, beams formed electronically): the aperture seen from θ is
+    L·cos θ, so the beam widens to W/cos θ (W the width on the axis) while the spacing is
+    the native one. A lens (ARIS): each beam is as wide as its share of the fan, so the
+    width in spacings is W over the mean spacing everywhere."""
+    spec = cfg.sonar_spec
+    width = math.radians(spec.beam_width_h_deg)
+    mean_spacing = float(beam_angles[-1] - beam_angles[0]) / (beam_angles.size - 1)
+    if not cfg.steering:
+        return np.full(beam_angles.size, width / mean_spacing)
+    return width / (np.cos(beam_angles) * np.gradient(beam_angles))
+
+
+def beam_blocks(cfg: SonarConfig, beam_angles: NDArray[np.float64]) -> tuple[BeamBlock, ...]:
+    """The beams grouped into runs whose widths fall in one band of ratio
+    :data:`BLOCK_WIDTH_RATIO` above the narrowest beam's (bands of log width: symmetric
+    about the axis), each run with the pattern of its middle beam's width (on the axis,
+exactly the axis beam's): one run for a lens
+    or a narrow fan, ~45 for a 130° steered fan, whose edge beams are 2.4× wider."""
+    widths = beam_widths(cfg, beam_angles)
+    band = np.floor(np.log(widths / widths.min()) / math.log(BLOCK_WIDTH_RATIO) + 1e-9)
+    cuts = np.flatnonzero(np.diff(band)) + 1
+    blocks = []
+    for a, b in zip([0, *cuts.tolist()], [*cuts.tolist(), widths.size], strict=True):
+        w = float(widths[(a + b) // 2])
+        args = (1.0, w, cfg.beam_sidelobe_db, cfg.n_sidelobes)  # in beam spacings
+        blocks.append(
+            BeamBlock(a, b, w, horizontal_beam_kernel(*args), beam_amplitude_kernel(*args))
+        )
+    return tuple(blocks)
 
 
 def mount_rotation(tilt_deg: float, yaw_deg: float) -> NDArray[np.float64]:
@@ -62,6 +117,7 @@ class SonarGeometry:
     radians, ranges in metres, directions in the sonar frame."""
 
     beam_angles: NDArray[np.float64]
+    beam_spacing: float  # mean spacing of the beam centres, rad
     ray_az: NDArray[np.float64]
     ray_el: NDArray[np.float64]
     dirs_sonar: NDArray[np.float64]
@@ -70,7 +126,8 @@ class SonarGeometry:
     ray_weight: NDArray[np.float64]
     dphi: float
     bin_centres: NDArray[np.float64]
-    beam_kernel: NDArray[np.float32]  # power pattern across beams (peak 1)
+    beam_kernel: NDArray[np.float32]  # power pattern across beams on the axis (peak 1)
+    beam_blocks: tuple[BeamBlock, ...]  # the patterns beam by beam (steered beams widen)
     range_kernel: NDArray[np.float32]  # power envelope along range (sum 1)
     beam_amp: NDArray[np.float32]  # signed amplitude pattern, beam_amp² = beam_kernel
     range_amp: NDArray[np.float32]  # amplitude envelope, range_amp² = range_kernel
@@ -97,11 +154,12 @@ def sonar_geometry(cfg: SonarConfig) -> SonarGeometry:
     spec = cfg.sonar_spec
     n_beams = spec.n_beams
     half_fov = math.radians(spec.fov_h_deg) / 2.0
-    beam_angles = np.linspace(-half_fov, half_fov, n_beams)
-    dtheta = beam_angles[1] - beam_angles[0]
+    beam_angles = spec.beam_angles_rad  # native: evenly spaced, or the maker's table
+    dtheta = float(beam_angles[-1] - beam_angles[0]) / (n_beams - 1)  # mean spacing
+    local = np.gradient(beam_angles)  # each beam's own spacing (its share of the fan)
     sub = cfg.rays_per_beam_azimuth
-    offsets = ((np.arange(sub) + 0.5) / sub - 0.5) * dtheta
-    ray_az_plane = (beam_angles[:, None] + offsets[None, :]).ravel()
+    offsets = ((np.arange(sub) + 0.5) / sub - 0.5)[None, :] * local[:, None]
+    ray_az_plane = (beam_angles[:, None] + offsets).ravel()
     beam_of_az = np.repeat(np.arange(n_beams), sub)
     span = math.radians(spec.beam_width_v_deg) * cfg.elevation_span
     n_el = cfg.rays_per_beam
@@ -113,7 +171,7 @@ def sonar_geometry(cfg: SonarConfig) -> SonarGeometry:
     ce = np.cos(ray_el)
     dirs = np.stack([ce * np.cos(ray_az), ce * np.sin(ray_az), np.sin(ray_el)], axis=1)
     b_v = beam_pattern_gaussian(ray_el, math.radians(spec.beam_width_v_deg))
-    solid_angle = ce * (dtheta / sub) * dphi
+    solid_angle = ce * (np.tile(np.repeat(local, sub), n_el) / sub) * dphi
     directivity = element_directivity(ray_az, half_fov, cfg.edge_loss_db)
     ray_weight = b_v * b_v * directivity * solid_angle
 
@@ -136,9 +194,10 @@ def sonar_geometry(cfg: SonarConfig) -> SonarGeometry:
 
     alpha = cfg.alpha_db_per_m
     r = np.maximum(bin_centres, 0.5 * cfg.bin_m)
-    if cfg.tvg:  # imperfect: the gain is held below tvg_min_range_m
+    if cfg.tvg:  # imperfect: held below tvg_min_range_m, capped at the amplifier's range
         r_tvg = np.maximum(r, cfg.tvg_min_range_m)
         tvg_db = cfg.tvg_spreading_db_per_decade * np.log10(r_tvg) + 2.0 * alpha * r_tvg
+        tvg_db = np.minimum(tvg_db, cfg.tvg_cap_db)
     else:
         tvg_db = np.zeros_like(r)
     base = cfg.gain_db - cfg.display_top_db + tvg_db
@@ -156,6 +215,7 @@ def sonar_geometry(cfg: SonarConfig) -> SonarGeometry:
 
     return SonarGeometry(
         beam_angles=beam_angles,
+        beam_spacing=dtheta,
         ray_az=ray_az,
         ray_el=ray_el,
         dirs_sonar=dirs,
@@ -165,6 +225,7 @@ def sonar_geometry(cfg: SonarConfig) -> SonarGeometry:
         dphi=dphi,
         bin_centres=bin_centres,
         beam_kernel=beam_kernel,
+        beam_blocks=beam_blocks(cfg, beam_angles),
         range_kernel=rk,
         beam_amp=beam_amp,
         range_amp=range_amp,

@@ -28,14 +28,15 @@ class SonarPing:
         t: simulation time of the ping, s.
         position_ned: sonar origin in world NED, m.
         rotation_ned_from_sonar: 3×3 rotation taking sonar-frame vectors to NED.
-        beam_angles_rad: (n_beams,) beam centre angles, > 0 starboard.
+        beam_angles_rad: (n_beams,) beam centre angles, > 0 starboard, ascending: the
+            preset's native ones (evenly spaced, or a lens's measured table).
         bin_ranges_m: (n_bins,) range-bin centres, m.
         polar: (n_bins, n_beams) float32 display intensity 0…1 (row 0 = nearest bin);
             physical mode: the log-compressed level after the image-formation stages
             (docs/sonar.md), linear in dB over the display window; 2013 mode: hit
             occupancy (1 where a ray hit in the cell).
-        polar_u8: the 8-bit image: physical mode ``round(255·polar^display_gamma)`` (the
-            display curve), 2013 mode ``polar`` as 0…255.
+        polar_u8: the 8-bit image: physical mode ``round(b + (255 − b)·polar^γ)`` (the
+            display curve from the black level b), 2013 mode ``polar`` as 0…255.
         fan_u8: Cartesian image. Physical mode: apex at the bottom centre, forward up,
             starboard right, black outside the fan. 2013 mode: the paper's image.
         fan_px_per_m: pixels per metre of ``fan_u8``.

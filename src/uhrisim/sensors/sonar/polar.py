@@ -11,19 +11,21 @@ each a pure function of the previous stage's array and the per-configuration con
    side lobes' share of the echo at that range (one intensity per range row).
 2. Speckle and the beam and pulse patterns, two models (``speckle_model``):
    product (default) — :func:`mean_intensity`, the incoherent mean through the power
-   patterns (beam pattern with side lobes across beams, pulse envelope along range),
+   patterns (each beam's pattern with side lobes across beams, :func:`filter_beams`:
+   steered beams widen off the axis; pulse envelope along range),
    times a unit speckle field |w|² made once per sonar from complex Gaussian scatterer
    sums through the same patterns' amplitudes (:mod:`uhrisim.sensors.sonar.speckle`):
    Rayleigh amplitude, grain a beam wide and a pulse long; coherent —
    :func:`coherent_field`, each cell's echo and diffuse intensity as complex Gaussian
    amplitudes √I·z summed through the amplitude patterns (exact at edges and point
    targets), :func:`coherent_log_intensity`. ``speckle=False``: the mean alone.
-3. :func:`display_level` — TVG (imperfect: held inside ``tvg_min_range_m``), source
+3. :func:`display_level` — TVG (imperfect: held inside ``tvg_min_range_m``, capped at
+   the receiver's largest gain), source
    level, user gain and log compression into the display window:
    ``x = 1 + k·ln(I·SL·TVG·gain / top)``, k = 10/(ln 10 · dynamic range); clipped to
    0…1 by :func:`clip_unit`. This is ``SonarPing.polar`` (linear in dB).
-4. :func:`display_bytes` — the 8-bit mapping a user sees: ``round(255·x^γ)``, γ the
-   contrast (``display_gamma``).
+4. :func:`display_bytes` — the 8-bit mapping a user sees: ``round(b + (255 − b)·x^γ)``,
+   γ the contrast (``display_gamma``), b the black level (``display_black_level``).
 
 ``ImagingSonar._physical_polar`` composes them (one place), over the range rows that
 echo reaches; rows no echo reaches take the diffuse level (times the speckle field),
@@ -32,15 +34,56 @@ which is what the stages give there.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+
+from uhrisim.sensors.sonar.geometry import BeamBlock
 
 #: Image borders mirror (…cb|abc…): a beam at the fan edge receives diffuse power through
 #: its whole pattern, as the beams inside do.
 _MIRROR = cv2.BORDER_REFLECT_101
 #: Beyond a block of rows there is no echo (the blocks are padded by the pulse half-width).
 _ZERO = cv2.BORDER_CONSTANT
+
+
+def _padded(image: NDArray[np.float32], half: int) -> NDArray[np.float32]:
+    """``image`` with ``half`` beams mirrored onto each side (the image's own border)."""
+    return cv2.copyMakeBorder(image, 0, 0, half, half, _MIRROR)
+
+
+def filter_beams(
+    src: NDArray[np.float32],
+    blocks: Sequence[BeamBlock],
+    out: NDArray[np.float32],
+    amplitude: bool = False,
+    margin: int = 0,
+) -> None:
+    """Each beam of ``src`` through its block's horizontal pattern (``power``, or
+    ``amplitude`` when True) into ``out``, image borders mirrored. One OpenCV pass with
+    the pattern of the block with the most beams; each other block (steered beams widening
+    off the axis) then filtered again from its beams and a margin of their neighbours, so
+    that every beam sees exactly its own pattern. ``margin``: ``src`` carries that many
+    columns of its own beyond each side (at least the widest pattern's half-width), used
+    instead of mirroring; ``out`` is then that much narrower."""
+    kernels = [b.amplitude if amplitude else b.power for b in blocks]
+    n = out.shape[1]
+    main = max(range(len(blocks)), key=lambda i: blocks[i].stop - blocks[i].start)
+    if margin == 0:
+        cv2.filter2D(src, cv2.CV_32F, kernels[main].reshape(1, -1), dst=out, borderType=_MIRROR)
+    for i, (block, k) in enumerate(zip(blocks, kernels, strict=True)):
+        if i == main and margin == 0:
+            continue
+        h = k.size // 2
+        # Columns [lo, hi) of src around the block: where they meet the image's border
+        # OpenCV mirrors it, as the image is; elsewhere the h columns beyond are real.
+        lo = block.start + margin - h if margin else max(0, block.start - h)
+        hi = block.stop + margin + h if margin else min(n, block.stop + h)
+        res = cv2.filter2D(src[:, lo:hi], cv2.CV_32F, k.reshape(1, -1), borderType=_MIRROR)
+        first = block.start + margin - lo
+        out[:, block.start : block.stop] = res[:, first : first + block.stop - block.start]
 
 
 def diffuse_rows(
@@ -64,29 +107,46 @@ def coherent_field(
     d_rows: NDArray[np.float64],
     z_re: NDArray[np.float32],
     z_im: NDArray[np.float32],
-    beam_amp: NDArray[np.float32],
+    blocks: Sequence[BeamBlock],
     range_amp: NDArray[np.float32],
     out_re: NDArray[np.float32],
     out_im: NDArray[np.float32],
 ) -> None:
     """Complex beam output of a block of whole rows:
     ``c = h_r ⊛ h_b ⊛ (√(raw + d/P) · z)``, with z unit complex Gaussian draws per cell
-    (E|z|² = 1), the beam amplitude pattern ``h_b`` across beams, the pulse amplitude
-    envelope ``h_r`` along range and P = Σh_b²·Σh_r²: the echo of each cell and the
-    diffuse intensity ``d`` of its row (noise and reverberation are scattered and
-    received through the same patterns) enter as random scatterer amplitudes, so
+    (E|z|² = 1), each beam's amplitude pattern ``h_b`` (its block's) across beams, the
+    pulse amplitude envelope ``h_r`` along range and P = Σh_b²·Σh_r²: the echo of each
+    cell and the diffuse intensity ``d`` of its row (noise and reverberation are scattered
+    and received through the same patterns) enter as random scatterer amplitudes, so
     E|c|² = |h_r|² ⊛ |h_b|² ⊛ raw + d (d taken constant over a pulse length), the mean of
     :func:`mean_intensity`. Borders mirror the image (the edge beams keep their diffuse
     power). Written into ``out_re``/``out_im`` (same shape as ``raw``)."""
-    power = float(np.sum(beam_amp.astype(np.float64) ** 2)) * float(
-        np.sum(range_amp.astype(np.float64) ** 2)
-    )
-    col = (d_rows / power).astype(np.float32)[:, None]
-    amp = np.add(raw, col)  # (numpy broadcasts a column ~3x faster than cv2.repeat + add)
-    cv2.sqrt(amp, amp)
-    for z, out in ((z_re, out_re), (z_im, out_im)):
-        cv2.multiply(amp, z, dst=out)
-        cv2.filter2D(out, cv2.CV_32F, beam_amp.reshape(1, -1), dst=out, borderType=_MIRROR)
+    range_power = float(np.sum(range_amp.astype(np.float64) ** 2))
+
+    def amplitude(raw_cols: NDArray[np.float32], block: BeamBlock) -> NDArray[np.float32]:
+        power = float(np.sum(block.amplitude.astype(np.float64) ** 2)) * range_power
+        # (numpy broadcasts a column ~3x faster than cv2.repeat + add)
+        amp = np.add(raw_cols, (d_rows / power).astype(np.float32)[:, None])
+        return cv2.sqrt(amp, amp)
+
+    if len(blocks) == 1:
+        amp = amplitude(raw, blocks[0])
+        for z, out in ((z_re, out_re), (z_im, out_im)):
+            cv2.multiply(amp, z, dst=out)
+            cv2.filter2D(out, cv2.CV_32F, blocks[0].amplitude.reshape(1, -1), dst=out,
+                         borderType=_MIRROR)  # fmt: skip
+    else:  # each block's scatterers at its own P, its beams through its own pattern
+        pad = max(b.amplitude.size // 2 for b in blocks)
+        raw_p, zr_p, zi_p = (_padded(a, pad) for a in (raw, z_re, z_im))
+        for block in blocks:
+            h = block.amplitude.size // 2
+            cols = slice(block.start + pad - h, block.stop + pad + h)
+            amp = amplitude(raw_p[:, cols], block)
+            for z_p, out in ((zr_p, out_re), (zi_p, out_im)):
+                seg = cv2.filter2D(cv2.multiply(amp, z_p[:, cols]), cv2.CV_32F,
+                                   block.amplitude.reshape(1, -1), borderType=_MIRROR)
+                out[:, block.start : block.stop] = seg[:, h : h + block.stop - block.start]
+    for out in (out_re, out_im):
         cv2.filter2D(out, cv2.CV_32F, range_amp.reshape(-1, 1), dst=out, borderType=_MIRROR)
 
 
@@ -100,15 +160,15 @@ def coherent_log_intensity(
 
 def mean_intensity(
     raw: NDArray[np.float32],
-    beam_pow: NDArray[np.float32],
+    blocks: Sequence[BeamBlock],
     range_pow: NDArray[np.float32],
     d_rows: NDArray[np.float64],
     out: NDArray[np.float32],
 ) -> None:
     """Incoherent (speckle-free) intensity of a block of whole rows:
-    ``|h_r|² ⊛ |h_b|² ⊛ raw + d(row)`` (fan edges mirrored, zero echo beyond the
-    block's rows), into ``out``."""
-    cv2.filter2D(raw, cv2.CV_32F, beam_pow.reshape(1, -1), dst=out, borderType=_MIRROR)
+    ``|h_r|² ⊛ |h_b|² ⊛ raw + d(row)`` with each beam's power pattern ``|h_b|²`` (its
+    block's; fan edges mirrored, zero echo beyond the block's rows), into ``out``."""
+    filter_beams(raw, blocks, out)
     cv2.filter2D(out, cv2.CV_32F, range_pow.reshape(-1, 1), dst=out, borderType=_ZERO)
     np.add(out, d_rows.astype(np.float32)[:, None], out=out)  # (0 logs to −inf, clipped to 0)
 
@@ -132,13 +192,18 @@ def clip_unit(img: NDArray[np.float32]) -> NDArray[np.float32]:
     return img
 
 
-def display_bytes(polar: NDArray[np.float32], gamma: float) -> NDArray[np.uint8]:
-    """The 8-bit display mapping: ``round(255·x^γ)`` of the clipped display level x."""
+def display_bytes(
+    polar: NDArray[np.float32], gamma: float, black: int = 0
+) -> NDArray[np.uint8]:
+    """The 8-bit display mapping ``round(b + (255 − b)·x^γ)`` of the clipped display level
+    x: the contrast curve γ, and the black level b the viewer gives the bottom of the
+    display window (a window's bottom is grey, not black, on real displays)."""
+    scale = 255.0 - black
     if gamma == 1.0:
-        return cv2.convertScaleAbs(polar, alpha=255.0)
-    # Black stays black: 255·(1e-30)^γ < 0.5 for every allowed γ ≥ 0.1 (and OpenCV's
-    # log of 0 and exp of −inf take a slow path, ~10× a normal pass).
+        return cv2.convertScaleAbs(polar, alpha=scale, beta=float(black))
+    # x = 0 stays at the black level: 255·(1e-30)^γ < 0.5 for every allowed γ ≥ 0.1 (and
+    # OpenCV's log of 0 and exp of −inf take a slow path, ~10× a normal pass).
     t = cv2.log(cv2.max(polar, 1e-30))
     np.multiply(t, np.float32(gamma), out=t)
     cv2.exp(t, t)
-    return cv2.convertScaleAbs(t, alpha=255.0)
+    return cv2.convertScaleAbs(t, alpha=scale, beta=float(black))

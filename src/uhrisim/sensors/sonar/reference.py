@@ -34,13 +34,14 @@ def reference_polar(
     + 20 log b_v(φ) + 10 log D(θ), spread evenly over its range footprint R·δφ·tan β; the
     diffuse intensity of each row (noise, ambient − DI, volume reverberation, post-TVG
     noise, the far side lobes' share of the row's echo, and the surface when ``depth_m``
-    is given); then either (``fields`` None) the mean intensity, the beam pattern and
-    range blur as explicit sums of power kernels plus the diffuse intensity, or
+    is given); then either (``fields`` None) the mean intensity, the beam pattern (each
+    beam's own: its block's, steered beams widening off the axis) and range blur as
+    explicit sums of power kernels plus the diffuse intensity, or
     (``fields`` = the ping's (|w|²,) speckle window) that mean times |w|², or
     (``fields`` = the ping's (z_re, z_im) windows) the coherent sum
     Σ h_r·h_b·√(raw + d/P)·z over amplitude kernels and its squared magnitude (image
     borders mirrored; for the mean, the fan edges only); + TVG (held inside
-    tvg_min_range_m) + gain; map
+    tvg_min_range_m, capped at the receiver's largest gain) + gain; map
     [top − DR, top] dB → [0, 1].
     """
     cfg = sonar.config
@@ -49,7 +50,8 @@ def reference_polar(
     n_bins, n_beams = sonar.polar_shape
     alpha = cfg.alpha_db_per_m
     half_fov = math.radians(spec.fov_h_deg) / 2.0
-    dtheta = float(g.beam_angles[1] - g.beam_angles[0])
+    dtheta = g.beam_spacing  # mean beam spacing (kernels, reverberation cells)
+    local = np.gradient(g.beam_angles)  # each beam's own spacing (its rays' solid angle)
     raw = [[0.0] * n_beams for _ in range(n_bins)]
     for k in range(len(idx)):
         i = int(idx[k])
@@ -59,7 +61,7 @@ def reference_polar(
         el_pattern = math.exp(-math.log(2.0) * (phi / (0.5 * math.radians(
             spec.beam_width_v_deg))) ** 2)  # fmt: skip
         directivity = float(element_directivity(float(g.ray_az[i]), half_fov, cfg.edge_loss_db))
-        solid_angle = math.cos(phi) * dtheta / cfg.rays_per_beam_azimuth * g.dphi
+        solid_angle = math.cos(phi) * local[g.ray_beam[i]] / cfg.rays_per_beam_azimuth * g.dphi
         area = R * R * solid_angle / max(c, 1e-12)
         ts_db = 10.0 * math.log10(max(float(mu[k]) * c * c * area, 1e-300))
         tl_db = 20.0 * math.log10(R) + alpha * R
@@ -80,11 +82,13 @@ def reference_polar(
                 overlap_fraction = max(overlap, 0.0) / length
             raw[b][beam] += energy * overlap_fraction
 
-    kb = [float(v) for v in g.beam_kernel]
+    # Each beam's own horizontal pattern: that of the block it belongs to (steered beams
+    # widen off the axis, geometry.beam_blocks).
+    block_of = {j: blk for blk in g.beam_blocks for j in range(blk.start, blk.stop)}
     kr = [float(v) for v in g.range_kernel]
-    ab = [float(v) for v in g.beam_amp]
     ar = [float(v) for v in g.range_amp]
-    hb, hr = len(kb) // 2, len(kr) // 2
+    hr = len(kr) // 2
+    kb_axis = [float(v) for v in g.beam_kernel]  # on the axis: the diffuse terms' pattern
     sl_lin = 10.0 ** (cfg.source_level_db / 10.0)
     noise = 10.0 ** (cfg.noise_floor_db / 10.0)
     if cfg.ambient_noise:
@@ -107,21 +111,22 @@ def reference_polar(
         Rc = max(cfg.range_min_m + (b + 0.5) * cfg.bin_m, 0.5 * cfg.bin_m)
         Rt = max(Rc, cfg.tvg_min_range_m)
         tvg = cfg.tvg_spreading_db_per_decade * math.log10(Rt) + 2.0 * alpha * Rt if cfg.tvg else 0
+        tvg = min(tvg, cfg.tvg_cap_db)
         loss = 10.0 ** (-2.0 * alpha * Rc / 10.0)
         d = noise / sl_lin
         if cfg.volume_scattering_db is not None:
             volume = Rc * Rc * dtheta * psi_v * cfg.bin_m  # m³ of one cell
-            d += 10.0 ** (cfg.volume_scattering_db / 10.0) * volume * loss / Rc**4 * sum(kb)
+            d += 10.0 ** (cfg.volume_scattering_db / 10.0) * volume * loss / Rc**4 * sum(kb_axis)
         if cfg.post_tvg_noise_db is not None:
             d += 10.0 ** ((cfg.post_tvg_noise_db - cfg.source_level_db - tvg) / 10.0)
         if cfg.far_sidelobe_db is not None:
-            d += 10.0 ** (cfg.far_sidelobe_db / 10.0) * sum(kb) * sum(raw[b]) / n_beams
+            d += 10.0 ** (cfg.far_sidelobe_db / 10.0) * sum(kb_axis) * sum(raw[b]) / n_beams
         if depth_m is not None and cfg.surface_scattering_db is not None and Rc > depth_m:
             off_axis = math.asin(depth_m / Rc) + axis_depression_rad
             b_v2 = math.exp(-2.0 * math.log(2.0) * (off_axis / (0.5 * width_v)) ** 2)
             area = Rc * dtheta * cfg.bin_m  # surface patch of one cell
             d += (10.0 ** (cfg.surface_scattering_db / 10.0) * (depth_m / Rc) ** 2 * area
-                  * b_v2 * loss / Rc**4 * sum(kb))  # fmt: skip
+                  * b_v2 * loss / Rc**4 * sum(kb_axis))  # fmt: skip
         diffuse.append(d)
         tvgs.append(tvg)
 
@@ -132,6 +137,9 @@ def reference_polar(
     for b in range(n_bins):
         d, tvg = diffuse[b], tvgs[b]
         for j in range(n_beams):
+            kb = [float(v) for v in block_of[j].power]
+            ab = [float(v) for v in block_of[j].amplitude]
+            hb = len(kb) // 2
             if fields is None or len(fields) == 1:  # the mean, times |w|² if given
                 s = 0.0
                 for u in range(-hr, hr + 1):
@@ -160,11 +168,13 @@ def reference_polar(
     return out
 
 
-def reference_bytes(polar: NDArray[np.float64], gamma: float) -> NDArray[np.uint8]:
-    """The 8-bit display mapping, one pixel at a time: round(255·x^γ)."""
+def reference_bytes(
+    polar: NDArray[np.float64], gamma: float, black: int = 0
+) -> NDArray[np.uint8]:
+    """The 8-bit display mapping, one pixel at a time: round(b + (255 − b)·x^γ)."""
     out = np.zeros(polar.shape, np.uint8)
     for index, x in np.ndenumerate(polar):
-        out[index] = math.floor(255.0 * float(x) ** gamma + 0.5)
+        out[index] = math.floor(black + (255.0 - black) * float(x) ** gamma + 0.5)
     return out
 
 

@@ -19,10 +19,11 @@ a floor stays continuous however few rays are cast), and summed into (range bin,
 cells — rays stop at the first hit, so shadows come only from the geometry; an optional
 surface ghost adds each echo again at the range of its surface-bounce path. The stages of
 :mod:`.polar` then form the display image: diffuse terms (noise, reverberation, far side
-lobes), coherent speckle through the beam pattern (sinc with side lobes across beams) and
-the pulse envelope (along range), TVG, gain and log compression
+lobes), coherent speckle through the beam pattern (sinc with side lobes across beams,
+steered beams 1/cos θ wider off the axis) and the pulse envelope (along range), TVG
+(held near, capped far), gain and log compression
 ``polar = clip(1 + (L − display_top_db)/dynamic_range_db, 0, 1)``, and the 8-bit mapping
-``polar_u8 = round(255·polar^display_gamma)``.
+``polar_u8 = round(b + (255 − b)·polar^display_gamma)`` (b the black level).
 
 2013 mode (``mode="2013"``, DeMarco et al. 2013): hit points projected onto the sonar's
 x–y plane, ×10 px/m, apex at the top-left pixel, Gaussian blur, white fan boundary lines.
@@ -106,7 +107,7 @@ class ImagingSonar:
         self._echoes = EchoAccumulator(self.geometry, config)
         self._fan_labels = FanLabeller(self.geometry)
         self._bank = (
-            SpeckleBank.draw(rng, self.polar_shape, self.geometry.beam_amp,
+            SpeckleBank.draw(rng, self.polar_shape, self.geometry.beam_blocks,
                              self.geometry.range_amp, self.geometry.k_ln,
                              scatterers=config.speckle_model == "coherent")
             if config.speckle and config.mode == "physical" else None
@@ -209,7 +210,7 @@ class ImagingSonar:
                 )
             depression = math.asin(max(-1.0, min(1.0, float(rotation_ned_from_sonar[2, 0]))))
             surface = surface_rows(cfg, g.bin_centres, float(position_ned[2]), depression,
-                                   g.beam_angles[1] - g.beam_angles[0],
+                                   g.beam_spacing,
                                    float(g.beam_kernel.sum()))  # fmt: skip
             polar = self._physical_polar(raw, rows, surface)
         # Hits inside the window (the image may also use hits just outside it).
@@ -227,7 +228,7 @@ class ImagingSonar:
             polar = np.zeros((n_bins, n_beams), dtype=np.float32)
             polar.reshape(-1)[cell] = 1.0
         if cfg.mode == "physical":
-            polar_u8 = display_bytes(polar, cfg.display_gamma)
+            polar_u8 = display_bytes(polar, cfg.display_gamma, cfg.black_level)
         else:
             polar_u8 = cv2.convertScaleAbs(polar, alpha=255.0)
 
@@ -374,12 +375,12 @@ class ImagingSonar:
             blk = img[a:b]
             if coherent:
                 c_re, c_im = self._c_re[a:b], self._c_im[a:b]
-                coherent_field(raw[a:b], d[a:b], z_re[a:b], z_im[a:b], g.beam_amp,
+                coherent_field(raw[a:b], d[a:b], z_re[a:b], z_im[a:b], g.beam_blocks,
                                g.range_amp, c_re, c_im)  # fmt: skip
                 coherent_log_intensity(c_re, c_im, blk)
                 display_level(blk, 2.0 * k, g.row_offset[a:b], blk)
             else:
-                mean_intensity(raw[a:b], g.beam_kernel, g.range_kernel, d[a:b], blk)
+                mean_intensity(raw[a:b], g.beam_blocks, g.range_kernel, d[a:b], blk)
                 cv2.log(blk, blk)
                 display_level(blk, k, g.row_offset[a:b], blk)
             done = b

@@ -7,8 +7,9 @@ ping — so each sonar draws, once, from its own Generator (its named stream,
 * ``w``: the speckle field — unit complex Gaussian scatterer amplitudes passed through
   the beam and pulse amplitude patterns and scaled to E|w|² = 1, kept as its log
   intensity ``k·ln|w|²`` (k: the display's log scale): exponential intensity (Rayleigh
-  amplitude) with the grain of the beam and the pulse; a 2-D bank :data:`ROW_EXTRA`
-  rows and :data:`COL_EXTRA` beams larger than the image. The product model multiplies
+  amplitude) with the grain of the beam and the pulse (each beam's own: steered beams
+  widen off the axis); a 2-D bank :data:`ROW_EXTRA` rows and up to :data:`COL_EXTRA`
+  beams larger than the image (:func:`bank_columns`). The product model multiplies
   the mean image by |w|²; the coherent model uses it in the rows no echo reaches;
 * ``z`` (coherent model only): i.i.d. unit complex Gaussian scatterer amplitudes
   (E|z|² = 1), a flat bank :data:`FLAT_EXTRA` cells longer than the image.
@@ -28,11 +29,15 @@ P900-130 at 100 m); the coherent model adds two (its z bank).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+
+from uhrisim.sensors.sonar.geometry import BLOCK_WIDTH_RATIO, BeamBlock
+from uhrisim.sensors.sonar.polar import filter_beams
 
 #: Extra cells of the flat scatterer bank beyond the image (possible z offsets).
 FLAT_EXTRA = 1 << 18
@@ -51,23 +56,64 @@ def complex_normals(
     return re, im
 
 
+def bank_columns(blocks: Sequence[BeamBlock]) -> int:
+    """How many columns wider than the image the bank of ``blocks`` may be: the largest
+    span (≤ :data:`COL_EXTRA`) over which a window can slide while every beam still gets
+    the pattern of its own width band or a neighbouring one, within
+    ``BLOCK_WIDTH_RATIO``^1.5 (6 %) of its own (all of :data:`COL_EXTRA` for one block or
+    a 45° fan; a few beams for a 130° steered fan, whose edge bands are a few beams long)."""
+    width = np.concatenate([np.full(b.stop - b.start, b.width) for b in blocks])
+    step = BLOCK_WIDTH_RATIO**1.5
+    extra = COL_EXTRA
+    while extra > 0:
+        half = extra // 2
+        moved = [width[np.clip(np.arange(width.size) + d, 0, width.size - 1)]
+                 for d in range(-half, extra - half + 1)]  # fmt: skip
+        worst = max(float(np.max(np.maximum(m / width, width / m))) for m in moved)
+        if worst <= step * (1.0 + 1e-9) or len(blocks) == 1:
+            return extra
+        extra -= 1
+    return 0
+
+
+def bank_blocks(blocks: Sequence[BeamBlock], extra: int) -> tuple[BeamBlock, ...]:
+    """The image's beam blocks laid over a bank ``extra`` columns wider: bank column c
+    takes the pattern of image beam c − extra//2 (the outer blocks extended to the bank's
+    edges), so a window at column offset o ≤ ``extra`` gives beam j the pattern of beam
+    j + o − extra//2 (:func:`bank_columns` keeps that within one width band)."""
+    half = extra // 2
+    last = len(blocks) - 1
+    return tuple(
+        BeamBlock(0 if i == 0 else b.start + half,
+                  b.stop + extra if i == last else b.stop + half, b.width, b.power,
+                  b.amplitude)
+        for i, b in enumerate(blocks)
+    )  # fmt: skip
+
+
 def filtered_field(
     re: NDArray[np.float32],
     im: NDArray[np.float32],
-    beam_amp: NDArray[np.float32],
+    blocks: Sequence[BeamBlock],
     range_amp: NDArray[np.float32],
 ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
     """The complex field ``h_r ⊛ h_b ⊛ z`` scaled to unit mean intensity, cropped by the
-    kernels' half-widths on every side (so no cell sees the border)."""
-    hb, hr = beam_amp.size // 2, range_amp.size // 2
-    power = float(np.sum(beam_amp.astype(np.float64) ** 2)) * float(
-        np.sum(range_amp.astype(np.float64) ** 2)
-    )
-    norm = np.float32(1.0 / np.sqrt(power))
+    kernels' half-widths on every side (so no cell sees the border). Output column j takes
+    the pattern (and scale) of the block that holds it (``blocks`` cover the output's
+    columns); the input is wider by twice the widest pattern's half-width."""
+    hr = range_amp.size // 2
+    range_power = float(np.sum(range_amp.astype(np.float64) ** 2))
+    pad = max(b.amplitude.size // 2 for b in blocks)
     out = []
     for part in (re, im):
-        f = cv2.sepFilter2D(part, cv2.CV_32F, beam_amp, range_amp, borderType=cv2.BORDER_REFLECT)
-        out.append(np.ascontiguousarray(f[hr : f.shape[0] - hr, hb : f.shape[1] - hb]) * norm)
+        f = cv2.sepFilter2D(part, cv2.CV_32F, np.ones(1, np.float32), range_amp,
+                            borderType=cv2.BORDER_REFLECT)[hr : part.shape[0] - hr]  # fmt: skip
+        field = np.empty((f.shape[0], f.shape[1] - 2 * pad), np.float32)
+        filter_beams(f, blocks, field, amplitude=True, margin=pad)
+        for block in blocks:
+            power = np.sum(block.amplitude.astype(np.float64) ** 2) * range_power
+            field[:, block.start : block.stop] *= np.float32(1.0 / np.sqrt(power))
+        out.append(field)
     return out[0], out[1]
 
 
@@ -78,36 +124,41 @@ class SpeckleBank:
     shape: tuple[int, int]  # (n_bins, n_beams) of the image
     z_re: NDArray[np.float32] | None  # flat; None: no scatterer bank (product speckle)
     z_im: NDArray[np.float32] | None
-    k_ln_w2: NDArray[np.float32]  # k·ln|w|², (n_bins + ROW_EXTRA, n_beams + COL_EXTRA)
+    k_ln_w2: NDArray[np.float32]  # k·ln|w|², (n_bins + ROW_EXTRA, n_beams + ≤ COL_EXTRA)
     z_offsets: int = FLAT_EXTRA + 1  # possible z offsets
 
     @staticmethod
     def draw(
         rng: np.random.Generator,
         shape: tuple[int, int],
-        beam_amp: NDArray[np.float32],
+        blocks: Sequence[BeamBlock],
         range_amp: NDArray[np.float32],
         k_ln: float,
         scatterers: bool = True,
     ) -> SpeckleBank:
-        """Draw the banks for an image of ``shape`` from ``rng``; ``k_ln`` scales the
-        stored log intensity (display units per natural-log unit); ``scatterers``: draw
-        the z bank too (the coherent model needs it)."""
+        """Draw the banks for an image of ``shape`` from ``rng``, its beams formed through
+        ``blocks`` (:func:`uhrisim.sensors.sonar.geometry.beam_blocks`); ``k_ln`` scales
+        the stored log intensity (display units per natural-log unit); ``scatterers``:
+        draw the z bank too (the coherent model needs it). With several blocks (steered
+        beams widening off the axis) the bank is :func:`bank_columns` wider, so that
+        wherever a ping's window falls each beam's grain is that of its own width band or
+        the next."""
         n_bins, n_beams = shape
         z_re = z_im = None
         if scatterers:
             z_re, z_im = complex_normals(rng, (n_bins * n_beams + FLAT_EXTRA,))
-        hb, hr = beam_amp.size // 2, range_amp.size // 2
-        big = (n_bins + ROW_EXTRA + 2 * hr, n_beams + COL_EXTRA + 2 * hb)
-        w_re, w_im = filtered_field(*complex_normals(rng, big), beam_amp, range_amp)
+        hb = max(b.amplitude.size // 2 for b in blocks)
+        extra = bank_columns(blocks)
+        big = (n_bins + ROW_EXTRA + 2 * (range_amp.size // 2), n_beams + extra + 2 * hb)
+        layout = bank_blocks(blocks, extra)
+        w_re, w_im = filtered_field(*complex_normals(rng, big), layout, range_amp)
         ln_w2 = cv2.magnitude(w_re, w_im)
         cv2.log(np.maximum(ln_w2, np.float32(1e-30)), ln_w2)
         return SpeckleBank(shape, z_re, z_im, ln_w2 * np.float32(2.0 * k_ln))
 
-    @staticmethod
-    def w_offset(rng: np.random.Generator) -> tuple[int, int]:
+    def w_offset(self, rng: np.random.Generator) -> tuple[int, int]:
         """A ping's random window of the diffuse field: (row, column)."""
-        o = rng.integers(0, (ROW_EXTRA + 1, COL_EXTRA + 1))
+        o = rng.integers(0, (ROW_EXTRA + 1, self.k_ln_w2.shape[1] - self.shape[1] + 1))
         return int(o[0]), int(o[1])
 
     def z(self, offset: int) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
