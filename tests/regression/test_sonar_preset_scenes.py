@@ -24,6 +24,8 @@ from uhrisim.viz.sonar_figures import (
 )
 from uhrisim.world.paper_scenes import pier_scene
 
+pytestmark = pytest.mark.slow  # every preset through two scenes: minutes of CPU
+
 
 @pytest.mark.parametrize("preset", sorted(PRESETS))
 def test_every_preset_renders_the_tank(preset: str) -> None:
