@@ -125,3 +125,16 @@ def test_a_blow_up_in_a_batch_is_reported_by_name():
     xs[1, 7] = 1e200  # a yaw rate no vehicle survives
     with pytest.raises(NumericalError, match="fleet"):
         plant.step(0.0, xs, np.zeros((3, 3)))
+
+
+def test_the_numpy_path_equals_the_compiled_kernel():
+    """With numba (``uhrisim[fast]``) a batch runs the float kernel compiled; the numpy
+    path (``compiled=False``, and every batch without numba) runs the same kernel on
+    arrays: the same numbers, bit for bit."""
+    rng = np.random.default_rng(23)
+    for thrust_map, coupling in (("linear", "paper"), ("quadratic", "rigid-body")):
+        params = videoray.VideoRayParams(thrust_map=thrust_map, coupling=coupling)
+        xs, us = rng.normal(size=(200, 8)), rng.uniform(-200.0, 200.0, (200, 3))
+        fast = videoray.rk4_steps(xs, us, params, 0.006, 8)
+        slow = videoray.rk4_steps(xs, us, params, 0.006, 8, compiled=False)
+        np.testing.assert_array_equal(fast, slow)
