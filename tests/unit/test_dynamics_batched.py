@@ -138,3 +138,7 @@ def test_the_numpy_path_equals_the_compiled_kernel():
         fast = videoray.rk4_steps(xs, us, params, 0.006, 8)
         slow = videoray.rk4_steps(xs, us, params, 0.006, 8, compiled=False)
         np.testing.assert_array_equal(fast, slow)
+        for x, u in zip(xs[:20], us[:20], strict=True):  # one vehicle: floats
+            np.testing.assert_array_equal(videoray.rk4_steps(x, u, params, 0.006, 8),
+                                          videoray.rk4_steps(x, u, params, 0.006, 8,
+                                                             compiled=False))

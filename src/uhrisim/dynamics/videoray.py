@@ -232,8 +232,9 @@ def rk4_steps(x: ArrayLike, u: ArrayLike, params: VideoRayParams, h: float, subs
               compiled: bool = True) -> NDArray[np.float64]:
     """``substeps`` RK4 steps of size ``h`` with the inputs held, for one vehicle (``x``
     (8,), ``u`` (3,)) or N at once (``x`` (N, 8), ``u`` (N, 3)): the one kernel,
-    :func:`rk4_kernel`, on floats, on arrays, or (N vehicles, numba installed,
-    ``compiled``) compiled on floats and looped over the rows (:mod:`uhrisim.core.compiled`).
+    :func:`rk4_kernel`, on floats (one vehicle) or on arrays (N); with numba installed and
+    ``compiled``, the float kernel compiled, looped over the rows for N
+    (:mod:`uhrisim.core.compiled`; the same numbers, bit for bit).
     Equal (to rounding) to :func:`uhrisim.dynamics.integrators.rk4_step` on :func:`xdot`,
     the slow reference a test holds it to. ``coefficients``: those of ``params``, when the
     caller keeps them."""
@@ -241,7 +242,8 @@ def rk4_steps(x: ArrayLike, u: ArrayLike, params: VideoRayParams, h: float, subs
     x = np.asarray(x, dtype=float)
     if x.ndim == 1:
         forces = body_forces(*np.asarray(u, dtype=float).tolist(), params)
-        return np.array(rk4_kernel(*x.tolist(), *forces, coefficients, h, substeps))
+        kernel = (_compiled_kernel() if compiled else None) or _FLOAT_KERNEL
+        return np.array(kernel(*x.tolist(), *forces, tuple(coefficients), h, substeps))
     commands = np.ascontiguousarray(np.asarray(u, dtype=float).T)
     with np.errstate(over="ignore", invalid="ignore"):  # a blow-up is reported by the caller
         forces = body_forces(*commands, params, ARRAYS)
@@ -249,7 +251,7 @@ def rk4_steps(x: ArrayLike, u: ArrayLike, params: VideoRayParams, h: float, subs
         if rows is not None:
             out = np.empty_like(x)
             rows(np.ascontiguousarray(x), np.ascontiguousarray(np.stack(forces, axis=-1)),
-                 coefficients, h, substeps, out)
+                 tuple(coefficients), h, substeps, out)
             return out
         out = rk4_kernel(*np.ascontiguousarray(x.T), *forces, coefficients, h, substeps,
                          ARRAYS)
@@ -314,10 +316,17 @@ _FLOAT_KERNEL = _rk4_kernel_with(FLOATS.cos, FLOATS.sin)
 
 
 @cache
+def _compiled_kernel() -> Any:
+    """The float kernel compiled (one vehicle: no Python per operation); None without
+    numba."""
+    return jit(_FLOAT_KERNEL)
+
+
+@cache
 def _compiled_rows() -> Any:
     """The float kernel compiled, looped over the rows of (N, 8) states and (N, 3) body
     forces into ``out``; None without numba."""
-    kernel = jit(_FLOAT_KERNEL)
+    kernel = _compiled_kernel()
     if kernel is None:
         return None
 
