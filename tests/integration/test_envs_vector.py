@@ -131,3 +131,16 @@ def test_bad_actions_are_refused():
         vec.step(np.zeros((3, 3), dtype=np.float32))
     with pytest.raises(gymnasium.error.InvalidAction, match="finite"):
         vec.step(np.array([[0.0, math.nan, 0.0], [0.0, 0.5, 0.0]], dtype=np.float32))
+
+
+def test_vector_bench_reports_rates_per_size_and_a_plot(tmp_path):
+    from uhrisim.bench import vector
+
+    r = vector.run(quick=True, out_dir=tmp_path)
+    assert set(r["sizes"]) == {"1", "16", "64"}
+    for size in r["sizes"].values():
+        assert size["steps_per_s"] > 0 and size["steps_per_cpu_s"] > 0
+    assert r["target_n1"]["target"] == 5000.0
+    assert r["target_n1"]["vs_single_env"] == pytest.approx(
+        r["sizes"]["1"]["steps_per_cpu_s"] / r["single_env_steps_per_cpu_s"])
+    assert (tmp_path / "vector_steps_per_s.png").stat().st_size > 10_000
