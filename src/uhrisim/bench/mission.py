@@ -1,7 +1,8 @@
 """Real-time factor of the paper's track-and-trail mission, with and without the sonar.
 
-Targets on one core (issue 27; issue 5 asked 10x / 100x): >= 40x real time with
-P900-45 at 15 Hz, >= 500x without sonar. The loop runs without hooks (no recording), after a 2 s warm-up.
+Targets on one core (issue 27; issue 5 asked 10x / 100x): >= 40x real time with the
+P900-45 at 15 Hz, >= 500x without sonar. The loop runs without hooks (no recording),
+after a 2 s warm-up.
 
 Both rates are printed: simulated seconds per wall second and per CPU second of this
 process. On a shared machine the wall rate drops with the load; the CPU rate is what one
