@@ -154,12 +154,19 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         """Reset every sub-environment (``options["reset_mask"]``: only those). ``seed``:
-        sub-environment i gets ``seed + i``, or ``seed[i]`` from a list."""
+        sub-environment i gets ``seed + i``, or ``seed[i]`` from a list.
+        ``options["episode_seeds"]``: the episode each sub-environment flies now (N
+        integers, as the single env's ``episode_seed`` option; later episodes are drawn)."""
         options = dict(options or {})
         mask = np.asarray(options.pop("reset_mask", np.ones(self.num_envs, bool)), bool)
+        episodes = options.pop("episode_seeds", None)
         if options:
             raise EnvArgumentError(f"unknown reset option(s) {sorted(options)}; the vector "
-                                   "env takes reset_mask")
+                                   "env takes reset_mask and episode_seeds")
+        if episodes is not None and (len(episodes) != self.num_envs or not all(
+                isinstance(e, int | np.integer) and 0 <= e <= SEED_SPAN for e in episodes)):
+            raise EnvArgumentError(f"reset option episode_seeds must be {self.num_envs} "
+                                   f"integers in [0, {SEED_SPAN}]")
         seeds = ([seed + i for i in range(self.num_envs)] if isinstance(seed, int)
                  else list(seed) if seed is not None else [None] * self.num_envs)
         if len(seeds) != self.num_envs:
@@ -168,7 +175,7 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         for i in np.flatnonzero(mask):
             if seeds[i] is not None:
                 self._rngs[i] = seeding.np_random(seeds[i])[0]
-        self._begin(np.flatnonzero(mask))
+        self._begin(np.flatnonzero(mask), episodes)
         return self._observe(), self._info(*self._geometry(), None, None)
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
@@ -203,14 +210,16 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
                 self._info(*geometry, terms, reason))
 
     # -- episodes ------------------------------------------------------------------------
-    def _begin(self, envs: np.ndarray) -> None:
-        """Start a new episode in each sub-environment of ``envs``, then fly its first
-        control step at rest, as the single env does."""
+    def _begin(self, envs: np.ndarray, episodes: Any = None) -> None:
+        """Start a new episode in each sub-environment of ``envs`` (``episodes[i]``, or
+        drawn from its generator), then fly its first control step at rest, as the single
+        env does."""
         if envs.size == 0:
             return
         t = self.template
         for i in envs:
-            seed = int(self._rngs[i].integers(0, SEED_SPAN))
+            seed = (int(episodes[i]) if episodes is not None
+                    else int(self._rngs[i].integers(0, SEED_SPAN)))
             try:
                 self._load(i, seed, t.episodes.scenario(seed).scenario)
             except ConfigError as error:
