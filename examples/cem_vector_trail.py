@@ -61,7 +61,7 @@ def main() -> None:
     random_returns = []
     rng = np.random.default_rng(0)
     for seed in TEST_SEEDS:  # seeded random actions on the same episodes
-        obs, _ = test.reset(options={"episode_seeds": [seed] * len(TEST_SEEDS)})
+        test.reset(options={"episode_seeds": [seed] * len(TEST_SEEDS)})
         total, done = 0.0, False
         while not done:
             action = rng.uniform(test.single_action_space.low, test.single_action_space.high)
