@@ -39,24 +39,24 @@ def test_paper_open_loop_runs_are_today_s():
                           REFERENCE["openloop_quadratic_rigid_states"])
 
 
+def _fly(plant, start, inputs):
+    """``start`` and the states after each step of ``plant`` under ``inputs`` (held)."""
+    out = [start]
+    for k, u in enumerate(inputs):
+        out.append(plant.step(k * plant.dt, out[-1], u))
+    return np.array(out)
+
+
 def test_a_batch_of_vehicles_flies_today_s_trajectories():
     plant = VideoRayPlant(videoray.VideoRayParams(), 1.0 / 60.0)
-    states, inputs = REFERENCE["batch_states"], REFERENCE["batch_inputs"]
-    xs, out = states[0], [states[0]]
-    for k in range(len(inputs)):
-        xs = plant.step(k / 60.0, xs, inputs[k])
-        out.append(xs)
-    assert_close_relative(np.array(out), states)
+    states = REFERENCE["batch_states"]
+    assert_close_relative(_fly(plant, states[0], REFERENCE["batch_inputs"]), states)
 
 
 def test_the_diver_s_exact_step_is_today_s():
     plant = DiverPlant(diver.DiverParams(), 1.0 / 20.0)
     legs, states = REFERENCE["diver_inputs"], REFERENCE["diver_states"]
-    x, out = states[0], [states[0]]
-    for k in range(len(legs)):
-        x = plant.step(k / 20.0, x, legs[k])
-        out.append(x)
-    assert_close_relative(np.array(out), states)
+    assert_close_relative(_fly(plant, states[0], legs), states)
     # the same steps for all at once: a batch of the recorded states
     batch = plant.step(0.0, states[:-1], legs)
     assert_close_relative(batch, states[1:], rel=1e-12)
