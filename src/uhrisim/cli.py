@@ -406,10 +406,16 @@ def sweep(
     result = _on_ray("runs", workers, functools.partial(
         run_sweep, sweep_file, out, address=address, workers=workers))
     lines = [f"{len(result.rows)} runs: {len(result.rows) - result.failed} ok "
-             f"({result.skipped} already done), {result.failed} failed"]
+             f"({result.skipped} already done), {result.failed} failed"
+             + _on_nodes(result.nodes)]
     lines += [f"  failed {row['run']}: {row['error']}" for row in result.rows
               if row["status"] == "failed"]
     _print_lines(lines + [f"  wrote {path}" for path in result.files])
+
+
+def _on_nodes(nodes: dict[str, int]) -> str:
+    """``"; on 2 Ray nodes"`` (nothing for work that ran nowhere)."""
+    return f"; on {len(nodes)} Ray node{'s' if len(nodes) != 1 else ''}" if nodes else ""
 
 
 @app.command()
@@ -428,7 +434,8 @@ def dataset(
     result = _on_ray("frames", workers, functools.partial(
         run_dataset, dataset_file, out, address=address, workers=workers,
         shard_frames=shard_frames))
-    _print_lines([f"{result.frames} frames, {result.annotations} annotated instances"]
+    _print_lines([f"{result.frames} frames, {result.annotations} annotated instances"
+                  + _on_nodes(result.nodes)]
                  + [f"  wrote {path}" for path in result.files])
 
 

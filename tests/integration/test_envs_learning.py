@@ -43,3 +43,32 @@ def test_cem_linear_policy_beats_random_and_nears_the_helm():
     assert learned > random + 30.0 and learned_error < 0.5 * random_error
     assert learned > 0.8 * helm and learned_error < helm_error + 0.5
     assert result.mean_scores[-1] > result.mean_scores[0]
+
+
+def test_cem_on_the_native_vector_env_learns_the_trail():
+    """The same search with each iteration's population flown at once in the native
+    vector env (population + mean) x training episodes: the learned policy beats random
+    actions and nears the helm on unseen episodes (examples/cem_vector_trail.py runs it
+    at full scale: 120 s episodes, docs/envs.md)."""
+    from uhrisim.envs.cem import cross_entropy_search_vector, vector_returns
+    from uhrisim.envs.vector import TrailDiverVectorEnv
+
+    settings = {"time_limit_s": 20.0, "randomization": {"clutter": 0}}
+    population = 32
+    vec = TrailDiverVectorEnv(num_envs=(population + 1) * len(TRAIN_SEEDS), **settings)
+    policy = LinearPolicy(vec.single_action_space, FEATURES, SCALES)
+    result = cross_entropy_search_vector(vec, policy, TRAIN_SEEDS, np.random.default_rng(1),
+                                         iterations=10, population=population, elite=6)
+    assert result.env_steps == sorted(result.env_steps) and result.env_steps[0] > 0
+    test = TrailDiverVectorEnv(num_envs=len(TEST_SEEDS), **settings)
+    learned = float(vector_returns(test, policy, result.mean[None, :], TEST_SEEDS)[0][0])
+    still = float(vector_returns(test, policy, np.zeros((1, policy.size)), TEST_SEEDS)[0][0])
+    single = TrailDiverEnv("state", **settings)
+    # the vector env's episodes are the single env's: the learned policy scores the same
+    assert learned == pytest.approx(np.mean([rollout(
+        single, lambda obs: policy.act(result.mean, obs), s)[0] for s in TEST_SEEDS]),
+        abs=1e-6)
+    helm = np.mean([single.helm_episode(episode_seed=s)["return"] for s in TEST_SEEDS])
+    print(f"vector CEM: learned {learned:.1f}, all-zero policy {still:.1f}, helm {helm:.1f}; "
+          f"per iteration {np.round(result.mean_scores, 1)} after {result.env_steps}")
+    assert learned > still + 30.0 and learned > 0.8 * helm

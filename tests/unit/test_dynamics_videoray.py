@@ -116,7 +116,7 @@ def test_fast_single_vehicle_path_matches_numpy_rk4():
             slow = x.copy()
             for k in range(plant.integrator.substeps):
                 slow = rk4_step(vr.xdot, k * h, slow, u, params, h)
-            fast = vr.rk4_single(x, u, params, h, plant.integrator.substeps)
+            fast = vr.rk4_steps(x, u, params, h, plant.integrator.substeps)
             np.testing.assert_allclose(fast, slow, rtol=1e-12, atol=1e-12)
 
 
@@ -125,7 +125,7 @@ def test_fast_path_forces_match_numpy_forces(thrust_map):
     params = vr.VideoRayParams(thrust_map=thrust_map)
     rng = np.random.default_rng(11)
     for u in rng.uniform(-300, 300, (50, 3)):
-        np.testing.assert_allclose(vr._generalized_forces_single(u, params),
+        np.testing.assert_allclose(vr.body_forces(*u, params),
                                    vr.generalized_forces(u, params), rtol=1e-14, atol=1e-15)
 
 

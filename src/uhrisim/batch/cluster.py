@@ -17,10 +17,12 @@ from __future__ import annotations
 
 import contextlib
 import importlib
+import ipaddress
 import logging
 import os
 import re
 import socket
+from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
@@ -35,6 +37,8 @@ LOCAL_RAY_ENV = {"RAY_USAGE_STATS_ENABLED": "0", "RAY_ENABLE_WINDOWS_OR_OSX_CLUS
 #: default, which we keep).
 _TOKEN_NOTICE_LOGGER = "ray._private.authentication.authentication_token_setup"
 LOOPBACK = "127.0.0.1"
+#: Times Ray runs a task again whose worker or node died (Ray's own default, said here).
+TASK_RETRIES = 3
 #: Seconds a TCP connection to ``--address`` may take before it counts as unreachable.
 CONNECT_TIMEOUT_S = 5.0
 
@@ -42,7 +46,9 @@ _HOST_PORT = re.compile(r"^(?P<host>[A-Za-z0-9._-]+|\[[0-9A-Fa-f:]+\]):(?P<port>
 
 
 def _ray(local: bool = False) -> Any:
-    """The ray module; ``local``: set up for a loopback-only local Ray first."""
+    """The ray module; ``local``: set up for a loopback-only Ray first (a local one, or a
+    cluster reached on a loopback address, which Ray would otherwise replace by this
+    machine's network address)."""
     if local:
         os.environ.update(LOCAL_RAY_ENV)  # read when Ray is first imported
     try:
@@ -99,8 +105,8 @@ def ray_session(address: str | None = None, workers: int | None = None) -> Itera
     """
     if workers is not None and workers < 1:
         raise ConfigError(f"must be an integer >= 1, got {workers!r}", where="--workers")
-    check_address(address)
-    ray = _ray(local=address is None)
+    where = check_address(address)
+    ray = _ray(local=where is None or is_loopback(where[0]))
     owned = not ray.is_initialized()
     if owned:
         _init(ray, address, workers)
@@ -109,6 +115,14 @@ def ray_session(address: str | None = None, workers: int | None = None) -> Itera
     finally:
         if owned:
             ray.shutdown()
+
+
+def is_loopback(host: str) -> bool:
+    """Is ``host`` (an IP address or a name) this machine's loopback?"""
+    try:
+        return ipaddress.ip_address(socket.gethostbyname(host)).is_loopback
+    except (OSError, ValueError):
+        return False
 
 
 def start_local_ray(workers: int) -> None:
@@ -135,16 +149,17 @@ def _init(ray: Any, address: str | None, workers: int | None) -> None:
 
 def run_tasks(function: Callable[[Any], Any], items: Sequence[Any], in_flight: int,
               on_result: Callable[[int, Any], None],
-              on_error: Callable[[int, BaseException], None] | None = None) -> None:
+              on_error: Callable[[int, BaseException], None] | None = None) -> Counter[str]:
     """Run ``function(item)`` as one Ray task (1 CPU) per item, at most ``in_flight`` at a
     time, and call ``on_result(index, result)`` in the driver as each one finishes (in
-    completion order). A task that raises, or whose worker died (Ray retries those on
-    another worker first), goes to ``on_error(index, error)`` — the task's own exception
-    — and the others go on; without ``on_error`` that exception is raised here.
+    completion order). A task that raises, or whose worker or node died (Ray retries those
+    elsewhere first, up to 3 times), goes to ``on_error(index, error)`` — the task's own
+    exception — and the others go on; without ``on_error`` that exception is raised here.
     Interrupted (Ctrl-C, an exception from a callback), the tasks still running are
-    cancelled."""
+    cancelled. Returns how many tasks finished on each Ray node (by node id)."""
     ray = _ray()
-    remote = ray.remote(num_cpus=1)(function)
+    remote = ray.remote(num_cpus=1, max_retries=TASK_RETRIES)(_on_node(function))
+    nodes: Counter[str] = Counter()
     pending: dict[Any, int] = {}
     queue = iter(enumerate(items))
 
@@ -161,14 +176,26 @@ def run_tasks(function: Callable[[Any], Any], items: Sequence[Any], in_flight: i
             index = pending.pop(done[0])
             submit()
             try:
-                result = ray.get(done[0])
+                node, result = ray.get(done[0])
             except ray.exceptions.RayError as error:
                 cause = error.cause if isinstance(error, ray.exceptions.RayTaskError) else error
                 if on_error is None:
                     raise cause from None
                 on_error(index, cause)
                 continue
+            nodes[node] += 1
             on_result(index, result)
     finally:
         for ref in pending:
             ray.cancel(ref, force=True)
+    return nodes
+
+
+def _on_node(function: Callable[[Any], Any]) -> Callable[[Any], tuple[str, Any]]:
+    """``function`` returning ``(id of the Ray node it ran on, its result)``."""
+
+    def run(item: Any) -> tuple[str, Any]:
+        return _ray().get_runtime_context().get_node_id(), function(item)
+
+    run.__name__ = run.__qualname__ = getattr(function, "__name__", "task")
+    return run

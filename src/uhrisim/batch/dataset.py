@@ -31,7 +31,7 @@ import json
 import math
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -446,6 +446,7 @@ class DatasetResult:
     frames: int
     annotations: int
     files: list[Path]
+    nodes: dict[str, int] = field(default_factory=dict)  # shards rendered per Ray node id
 
 
 def run_dataset(dataset_path: str | Path, out: str | Path, *, address: str | None = None,
@@ -473,13 +474,13 @@ def run_dataset(dataset_path: str | Path, out: str | Path, *, address: str | Non
             progress(len(records), total)
 
     with ray_session(address, workers) as in_flight:
-        run_tasks(render_shard, shards, in_flight, finished)
+        nodes = dict(run_tasks(render_shard, shards, in_flight, finished))
     records.sort(key=lambda r: r["frame"])
     coco = coco_document(plan.spec, records)
     _write_json(out / "annotations_coco.json", coco)
     files = [out / "annotations_coco.json", write_card(plan.spec, records, coco, out),
              write_preview(records, out)]
-    return DatasetResult(len(records), len(coco["annotations"]), files)
+    return DatasetResult(len(records), len(coco["annotations"]), files, nodes)
 
 
 def coco_document(spec: DatasetFile, records: list[dict[str, Any]]) -> dict[str, Any]:

@@ -127,6 +127,7 @@ class SweepResult:
     rows: list[dict[str, Any]]
     skipped: int
     files: list[Path] = field(default_factory=list)
+    nodes: dict[str, int] = field(default_factory=dict)  # runs finished per Ray node id
 
     @property
     def failed(self) -> int:
@@ -316,11 +317,12 @@ def run_sweep(sweep_path: str | Path, out: str | Path, *, address: str | None = 
         """A run whose worker died (out of memory, a lost node): failed, the rest go on."""
         finished_one(index, _row(todo[index], "failed", one_line(error), {}, None))
 
+    nodes: dict[str, int] = {}
     if todo:
         with ray_session(address, workers) as in_flight:
-            run_tasks(execute_run, [(run, str(out)) for run in todo], in_flight, finished_one,
-                      lost_one)
-    result = SweepResult([r for r in rows if r is not None], skipped)
+            nodes = dict(run_tasks(execute_run, [(run, str(out)) for run in todo], in_flight,
+                                   finished_one, lost_one))
+    result = SweepResult([r for r in rows if r is not None], skipped, nodes=nodes)
     result.files = write_table(result.rows, plan.parameters, out)
     result.files.append(plot_sweep_summary(result.rows, plan.parameters, out / "summary.png",
                                            plan.name))

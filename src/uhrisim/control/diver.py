@@ -9,10 +9,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
+import numpy as np
 from numpy.typing import NDArray
 
+from uhrisim.core.elementwise import ARRAYS, FLOATS, Elementwise
 from uhrisim.dynamics.diver import DiverParams, leg_inputs
+
+_RADIANS_PER_DEGREE = math.pi / 180.0  # math.radians multiplies by the same constant
 
 
 @dataclass(frozen=True)
@@ -29,12 +34,32 @@ class DiverGains:
 
 @dataclass(frozen=True)
 class DiverController:
+    """``inputs(x, desired) -> [u_l, u_r, u_z]`` for one diver, :meth:`inputs_many` for N;
+    both run :meth:`kernel`."""
+
     gains: DiverGains
     params: DiverParams
 
     def inputs(self, x: NDArray, desired_heading_deg: float, desired_speed: float,
                desired_depth: float) -> NDArray:
-        heading_error = math.remainder(math.radians(desired_heading_deg) - x[3], math.tau)
+        _, _, depth, yaw = np.asarray(x[:4], dtype=float).tolist()
+        return np.array(self.kernel(depth, yaw, float(desired_heading_deg),
+                                    float(desired_speed), float(desired_depth)))
+
+    def inputs_many(self, x: NDArray, desired_heading_deg: NDArray, desired_speed: NDArray,
+                    desired_depth: NDArray) -> NDArray:
+        """Leg inputs (N, 3) of N divers: states ``x`` (N, 4), desired values (N,) each."""
+        x = np.asarray(x, dtype=float)
+        return np.stack(self.kernel(x[:, 2], x[:, 3], np.asarray(desired_heading_deg, float),
+                                    np.asarray(desired_speed, float),
+                                    np.asarray(desired_depth, float), ARRAYS), axis=-1)
+
+    def kernel(self, depth: Any, yaw: Any, desired_heading_deg: Any, desired_speed: Any,
+               desired_depth: Any, ops: Elementwise = FLOATS) -> tuple[Any, Any, Any]:
+        """On floats (one diver) or (N,) arrays (``ops``): the leg inputs, the inverse of
+        eqs 10-12 (:func:`~uhrisim.dynamics.diver.leg_inputs`) of the commanded speed, the
+        yaw rate K_h·e (e the wrapped heading error, rad) and the vertical rate K_z·Δz."""
+        heading_error = ops.remainder(desired_heading_deg * _RADIANS_PER_DEGREE - yaw, math.tau)
         yaw_rate = self.gains.heading * heading_error
-        vertical = self.gains.depth * (desired_depth - x[2])
+        vertical = self.gains.depth * (desired_depth - depth)
         return leg_inputs(desired_speed, yaw_rate, vertical, self.params)

@@ -16,10 +16,12 @@ well below the target against the VideoRay's drag.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from uhrisim.core.elementwise import ARRAYS, FLOATS, Elementwise
 from uhrisim.core.frames import heading_deg_from_yaw, wrap_180
 from uhrisim.dynamics.videoray import VideoRayParams
 
@@ -53,35 +55,52 @@ GAIN_PRESETS: dict[str, PGains] = {
 }
 
 
-def feedforward_input(speed: float, params: VideoRayParams) -> float:
-    """Per-thruster input whose two-thruster thrust balances surge drag at ``speed``."""
+def feedforward_input(speed: Any, params: VideoRayParams, ops: Elementwise = FLOATS) -> Any:
+    """Per-thruster input whose two-thruster thrust balances surge drag at ``speed`` (m/s;
+    a float, or an (N,) array with ``ops`` :data:`~uhrisim.core.elementwise.ARRAYS`)."""
     drag = -(params.Xu * speed + params.Xuu * abs(speed) * speed)
     per_thruster = 0.5 * drag
     if params.thrust_map == "linear":
         return per_thruster / params.ct_linear
-    ct = params.ct_forward_quadratic if per_thruster >= 0 else params.ct_reverse_quadratic
-    return float(np.copysign(np.sqrt(abs(per_thruster) / ct), per_thruster))
+    ct = ops.where(per_thruster >= 0, params.ct_forward_quadratic, params.ct_reverse_quadratic)
+    return ops.copysign(ops.sqrt(abs(per_thruster) / ct), per_thruster)
 
 
 @dataclass(frozen=True)
 class VideoRayPController:
-    """Stateless controller: ``inputs(x, desired) -> [port, star, vert]``."""
+    """Stateless controller: ``inputs(x, desired) -> [port, star, vert]`` for one vehicle,
+    :meth:`inputs_many` for N; both run :meth:`kernel`."""
 
     gains: PGains
     params: VideoRayParams
 
     def inputs(self, x: NDArray, desired_heading_deg: float, desired_speed: float,
                desired_depth: float) -> NDArray:
-        g = self.gains
         _, _, depth, yaw, surge = np.asarray(x[:5], dtype=float).tolist()
+        return np.array(self.kernel(depth, yaw, surge, float(desired_heading_deg),
+                                    float(desired_speed), float(desired_depth)))
+
+    def inputs_many(self, x: NDArray, desired_heading_deg: NDArray, desired_speed: NDArray,
+                    desired_depth: NDArray) -> NDArray:
+        """Inputs (N, 3) of N vehicles: states ``x`` (N, 8), desired values (N,) each."""
+        x = np.asarray(x, dtype=float)
+        return np.stack(self.kernel(x[:, 2], x[:, 3], x[:, 4], np.asarray(desired_heading_deg,
+                                    dtype=float), np.asarray(desired_speed, dtype=float),
+                                    np.asarray(desired_depth, dtype=float), ARRAYS), axis=-1)
+
+    def kernel(self, depth: Any, yaw: Any, surge: Any, desired_heading_deg: Any,
+               desired_speed: Any, desired_depth: Any, ops: Elementwise = FLOATS
+               ) -> tuple[Any, Any, Any]:
+        """Eqs 5-9 on floats (one vehicle) or (N,) arrays (``ops``): (port, star, vert)."""
+        g = self.gains
         heading_error = wrap_180(desired_heading_deg - heading_deg_from_yaw(yaw))
         speed_term = g.speed_weight * g.speed * (desired_speed - surge)
         if g.speed_feedforward:
-            speed_term += feedforward_input(desired_speed, self.params)
+            speed_term = speed_term + feedforward_input(desired_speed, self.params, ops)
         heading_term = g.heading_weight * g.heading * heading_error
         port = heading_term + speed_term
         star = -heading_term + speed_term
         vert = -g.depth * (desired_depth - depth)
         limit = self.params.input_limit
-        return np.array([min(max(port, -limit), limit), min(max(star, -limit), limit),
-                         min(max(vert, -limit), limit)])
+        return (ops.clip(port, -limit, limit), ops.clip(star, -limit, limit),
+                ops.clip(vert, -limit, limit))

@@ -16,9 +16,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from uhrisim.core.elementwise import ARRAYS, FLOATS, Elementwise
 
 STATE_SIZE = 4
 
@@ -45,35 +48,36 @@ class DiverParams:
 
 
 def body_rates(u: ArrayLike, params: DiverParams) -> NDArray:
-    """``[forward speed, yaw rate, vertical rate]`` from leg inputs, after saturation."""
+    """``[forward speed, yaw rate, vertical rate]`` from leg inputs, after saturation
+    (``u`` of shape (3,) or (N, 3))."""
     u = np.asarray(u, dtype=float)
-    r, L = params.wheel_radius, params.track
-    speed = np.minimum(np.maximum(0.5 * r * (u[..., 0] + u[..., 1]),
-                                  -params.max_reverse_speed), params.max_speed)
-    yaw_rate = np.minimum(np.maximum(r / L * (u[..., 0] - u[..., 1]), -params.max_turn_rate),
-                          params.max_turn_rate)
-    vertical = np.minimum(np.maximum(u[..., 2], -params.max_vertical_rate),
-                          params.max_vertical_rate)
-    return np.stack([speed, yaw_rate, vertical], axis=-1)
+    return np.stack(body_rates_kernel(u[..., 0], u[..., 1], u[..., 2], params, ARRAYS), axis=-1)
 
 
 def body_rates_single(u: ArrayLike, params: DiverParams) -> tuple[float, float, float]:
-    """Float twin of :func:`body_rates` for one diver (the hot path; tests hold them equal)."""
-    left, right, vertical = np.asarray(u, dtype=float).tolist()
+    """:func:`body_rates` of one diver as floats (the same kernel, no numpy call)."""
+    return body_rates_kernel(*np.asarray(u, dtype=float).tolist(), params)
+
+
+def body_rates_kernel(left: Any, right: Any, vertical: Any, params: DiverParams,
+                      ops: Elementwise = FLOATS) -> tuple[Any, Any, Any]:
+    """Eqs 10-12 with the human limits, on floats or (N,) arrays (``ops``): forward speed
+    (m/s), yaw rate (rad/s), vertical rate (m/s, down) from the leg inputs."""
     r, L = params.wheel_radius, params.track
-    speed = min(max(0.5 * r * (left + right), -params.max_reverse_speed), params.max_speed)
-    yaw_rate = min(max(r / L * (left - right), -params.max_turn_rate), params.max_turn_rate)
-    vertical = min(max(vertical, -params.max_vertical_rate), params.max_vertical_rate)
+    speed = ops.clip(0.5 * r * (left + right), -params.max_reverse_speed, params.max_speed)
+    yaw_rate = ops.clip(r / L * (left - right), -params.max_turn_rate, params.max_turn_rate)
+    vertical = ops.clip(vertical, -params.max_vertical_rate, params.max_vertical_rate)
     return speed, yaw_rate, vertical
 
 
-def leg_inputs(speed: float, yaw_rate: float, vertical_rate: float,
-               params: DiverParams) -> NDArray:
-    """Inverse of :func:`body_rates` (before saturation): ``[u_l, u_r, u_z]`` for one diver."""
+def leg_inputs(speed: Any, yaw_rate: Any, vertical_rate: Any,
+               params: DiverParams) -> tuple[Any, Any, Any]:
+    """Inverse of :func:`body_rates` (before saturation): ``(u_l, u_r, u_z)``, floats or
+    (N,) arrays like the arguments."""
     r, L = params.wheel_radius, params.track
     common = speed / r
     differential = 0.5 * L * yaw_rate / r
-    return np.array([common + differential, common - differential, vertical_rate])
+    return common + differential, common - differential, vertical_rate
 
 
 def xdot(t: float, x: ArrayLike, u: ArrayLike, params: DiverParams) -> NDArray:
@@ -87,21 +91,35 @@ def xdot(t: float, x: ArrayLike, u: ArrayLike, params: DiverParams) -> NDArray:
 
 
 def step_exact(x: ArrayLike, u: ArrayLike, params: DiverParams, dt: float) -> NDArray:
-    """Exact solution of :func:`xdot` over ``dt`` with ``u`` held (a circular arc).
+    """Exact solution of :func:`xdot` over ``dt`` with ``u`` held (a circular arc), for one
+    diver (``x`` (4,), ``u`` (3,)) or N (``x`` (N, 4), ``u`` (N, 3)): the one kernel,
+    :func:`step_exact_kernel`, on floats or arrays. Tests hold it to RK4 on :func:`xdot`."""
+    x = np.asarray(x, dtype=float)
+    if x.ndim == 1:
+        rates = body_rates_kernel(*np.asarray(u, dtype=float).tolist(), params)
+        return np.array(step_exact_kernel(*x.tolist(), *rates, dt))
+    commands = np.asarray(u, dtype=float).T
+    rates = body_rates_kernel(*commands, params, ARRAYS)
+    return np.stack(step_exact_kernel(*x.T, *rates, dt, ARRAYS), axis=-1)
 
-    With speed s, yaw rate w and vertical rate v constant: psi(t) = psi0 + w t and
-    north += (s/w)(sin psi(t) - sin psi0), east -= (s/w)(cos psi(t) - cos psi0); a
-    straight line when w = 0. Tests hold it to RK4 on :func:`xdot`.
-    """
-    north, east, depth, psi = np.asarray(x, dtype=float).tolist()
-    speed, yaw_rate, vertical = body_rates_single(u, params)
+
+def step_exact_kernel(north: Any, east: Any, depth: Any, psi: Any, speed: Any, yaw_rate: Any,
+                      vertical: Any, dt: float, ops: Elementwise = FLOATS) -> tuple[Any, ...]:
+    """The diver state after ``dt`` at constant body rates (:func:`body_rates_kernel`):
+    psi(t) = psi0 + w t and north += (s/w)(sin psi(t) - sin psi0), east -= (s/w)(cos psi(t)
+    - cos psi0); a straight line at the mean heading when |w dt| <= 1e-9. Floats or (N,)
+    arrays (``ops``); returns ``(north, east, depth, psi)``."""
     new_psi = psi + yaw_rate * dt
-    if abs(yaw_rate) * dt > 1e-9:
-        radius = speed / yaw_rate
-        north += radius * (math.sin(new_psi) - math.sin(psi))
-        east -= radius * (math.cos(new_psi) - math.cos(psi))
-    else:
+    turning = abs(yaw_rate) * dt > 1e-9
+    if ops is FLOATS and not turning:  # one diver going straight: skip the arc
         mid = psi + 0.5 * yaw_rate * dt
-        north += speed * dt * math.cos(mid)
-        east += speed * dt * math.sin(mid)
-    return np.array([north, east, depth + vertical * dt, new_psi])
+        return (north + speed * dt * math.cos(mid), east + speed * dt * math.sin(mid),
+                depth + vertical * dt, new_psi)
+    radius = speed / ops.where(turning, yaw_rate, 1.0)
+    d_north = radius * (ops.sin(new_psi) - ops.sin(psi))
+    d_east = -(radius * (ops.cos(new_psi) - ops.cos(psi)))
+    if ops is not FLOATS:  # some of the N divers may go straight
+        mid = psi + 0.5 * yaw_rate * dt
+        d_north = ops.where(turning, d_north, speed * dt * ops.cos(mid))
+        d_east = ops.where(turning, d_east, speed * dt * ops.sin(mid))
+    return north + d_north, east + d_east, depth + vertical * dt, new_psi

@@ -73,12 +73,11 @@ class VideoRayPlant:
         return np.array([*position_ned, yaw, speed, 0.0, 0.0, 0.0])
 
     def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
-        """One physics step; a single vehicle takes the float fast path, a batch numpy."""
-        if np.ndim(x) > 1:
-            return self.integrator.step(t, x, u, self.params)
+        """One physics step of one vehicle (``x`` (8,)) or N (``x`` (N, 8), ``u`` (N, 3)):
+        the same kernel, :func:`uhrisim.dynamics.videoray.rk4_steps`."""
         n = self.integrator.substeps
         return finite_or_raise(
-            videoray.rk4_single(x, u, self.params, self.dt / n, n, self.coefficients),
+            videoray.rk4_steps(x, u, self.params, self.dt / n, n, self.coefficients),
             self.name, t + self.dt)
 
     def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:

@@ -3,7 +3,9 @@
 State layout (docs/conventions.md): ``x = [x_north, y_east, z_down, psi, u, v, w, r]``
 (NED metres, yaw rad = compass heading, FRD body velocities m/s, yaw rate rad/s).
 Inputs: ``[port, starboard, vertical]`` dimensionless thruster commands, saturated at
-+-150. All functions accept a batch: ``x`` of shape ``(..., 8)`` and ``u`` of ``(..., 3)``.
++-150. All functions accept a batch: ``x`` of shape ``(..., 8)`` and ``u`` of ``(..., 3)``;
+:func:`rk4_steps` steps one vehicle or N with the same kernel (the fast path; :func:`xdot`
+with :func:`~uhrisim.dynamics.integrators.rk4_step` is its slow reference).
 
 Coefficients: W. Wang, MASc thesis, Univ. of Waterloo 2006, p. 19 (VideoRay Pro III),
 used by DeMarco et al. for their Pro 4; see shared/reference/vehicles-and-control.md.
@@ -11,12 +13,15 @@ used by DeMarco et al. for their Pro 4; see shared/reference/vehicles-and-contro
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import Literal, NamedTuple
+from functools import cache
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from uhrisim.core.compiled import jit
+from uhrisim.core.elementwise import ARRAYS, FLOATS, Elementwise
 
 STATE_NAMES = ("x", "y", "z", "psi", "u", "v", "w", "r")
 INPUT_NAMES = ("port", "starboard", "vertical")
@@ -174,26 +179,23 @@ def stiffest_eigenvalue(params: VideoRayParams) -> float:
     return float(max(rates))
 
 
-def _thrust_single(command: float, limit: float, linear_ct: float, quadratic: bool,
-                   ct_positive: float, ct_negative: float) -> float:
-    """Float twin of :func:`thruster_forces` for one thruster (held to it by the tests)."""
-    cmd = min(max(command, -limit), limit)
-    if not quadratic:
-        return cmd * linear_ct
-    return cmd * abs(cmd) * (ct_positive if cmd >= 0.0 else ct_negative)
-
-
-def _generalized_forces_single(u: ArrayLike, p: VideoRayParams) -> tuple[float, float, float]:
-    """Float twin of :func:`generalized_forces` for one vehicle: ``(X, Z, N)``."""
-    port_cmd, star_cmd, vert_cmd = np.asarray(u, dtype=float).tolist()
-    quadratic = p.thrust_map == "quadratic"
-    port = _thrust_single(port_cmd, p.input_limit, p.ct_linear, quadratic,
-                          p.ct_forward_quadratic, p.ct_reverse_quadratic)
-    star = _thrust_single(star_cmd, p.input_limit, p.ct_linear, quadratic,
-                          p.ct_forward_quadratic, p.ct_reverse_quadratic)
-    vert = _thrust_single(vert_cmd, p.input_limit, p.ct_vertical_linear, quadratic,
-                          p.ct_vertical_up_quadratic, p.ct_vertical_down_quadratic)
-    return port + star, -vert, p.moment_arm * (port - star)
+def body_forces(port: Any, star: Any, vert: Any, p: VideoRayParams,
+                ops: Elementwise = FLOATS) -> tuple[Any, Any, Any]:
+    """Kernel of :func:`generalized_forces` on the three commands as floats (``ops``
+    :data:`~uhrisim.core.elementwise.FLOATS`, one vehicle) or (N,) arrays
+    (:data:`~uhrisim.core.elementwise.ARRAYS`): ``(X, Z, N)`` in N, N, N m."""
+    limit = p.input_limit
+    port, star, vert = (ops.clip(port, -limit, limit), ops.clip(star, -limit, limit),
+                        ops.clip(vert, -limit, limit))
+    if p.thrust_map == "linear":
+        t_port, t_star, t_vert = port * p.ct_linear, star * p.ct_linear, vert * p.ct_vertical_linear
+    else:
+        forward, reverse = p.ct_forward_quadratic, p.ct_reverse_quadratic
+        t_port = port * abs(port) * ops.where(port >= 0.0, forward, reverse)
+        t_star = star * abs(star) * ops.where(star >= 0.0, forward, reverse)
+        t_vert = vert * abs(vert) * ops.where(vert >= 0.0, p.ct_vertical_up_quadratic,
+                                              p.ct_vertical_down_quadratic)
+    return t_port + t_star, -t_vert, p.moment_arm * (t_port - t_star)
 
 
 class RateCoefficients(NamedTuple):
@@ -225,44 +227,116 @@ class RateCoefficients(NamedTuple):
                    p.m11, p.m33, p.J)
 
 
-def rk4_single(x: ArrayLike, u: ArrayLike, params: VideoRayParams, h: float,
-               substeps: int, coefficients: RateCoefficients | None = None
-               ) -> NDArray[np.float64]:
-    """``substeps`` RK4 steps of size ``h`` for ONE vehicle with inputs held: a fast path
-    on plain floats, equal (to rounding) to :func:`uhrisim.dynamics.integrators.rk4_step`
-    on :func:`xdot` (a test holds it to that reference). ``coefficients``: those of
-    ``params``, when the caller keeps them (they are computed otherwise)."""
-    surge, heave, yaw_moment = _generalized_forces_single(u, params)
-    cu, cv, cr, bu, bv, bw, br, qu, qv, qw, qr, m11, m33, J = (
-        coefficients or RateCoefficients.of(params))
-    fu, fw, fr = surge / m11, heave / m33, yaw_moment / J
-    north, east, depth, psi, su, sv, sw, sr = np.asarray(x, dtype=float).tolist()
-    cos, sin = math.cos, math.sin
+def rk4_steps(x: ArrayLike, u: ArrayLike, params: VideoRayParams, h: float, substeps: int,
+              coefficients: RateCoefficients | None = None,
+              compiled: bool = True) -> NDArray[np.float64]:
+    """``substeps`` RK4 steps of size ``h`` with the inputs held, for one vehicle (``x``
+    (8,), ``u`` (3,)) or N at once (``x`` (N, 8), ``u`` (N, 3)): the one kernel,
+    :func:`rk4_kernel`, on floats (one vehicle) or on arrays (N); with numba installed and
+    ``compiled``, the float kernel compiled, looped over the rows for N
+    (:mod:`uhrisim.core.compiled`; the same numbers, bit for bit).
+    Equal (to rounding) to :func:`uhrisim.dynamics.integrators.rk4_step` on :func:`xdot`,
+    the slow reference a test holds it to. ``coefficients``: those of ``params``, when the
+    caller keeps them."""
+    coefficients = coefficients or RateCoefficients.of(params)
+    x = np.asarray(x, dtype=float)
+    if x.ndim == 1:
+        forces = body_forces(*np.asarray(u, dtype=float).tolist(), params)
+        kernel = (_compiled_kernel() if compiled else None) or _FLOAT_KERNEL
+        return np.array(kernel(*x.tolist(), *forces, tuple(coefficients), h, substeps))
+    commands = np.ascontiguousarray(np.asarray(u, dtype=float).T)
+    with np.errstate(over="ignore", invalid="ignore"):  # a blow-up is reported by the caller
+        forces = body_forces(*commands, params, ARRAYS)
+        rows = _compiled_rows() if compiled else None
+        if rows is not None:
+            out = np.empty_like(x)
+            rows(np.ascontiguousarray(x), np.ascontiguousarray(np.stack(forces, axis=-1)),
+                 tuple(coefficients), h, substeps, out)
+            return out
+        out = rk4_kernel(*np.ascontiguousarray(x.T), *forces, coefficients, h, substeps,
+                         ARRAYS)
+    return np.stack(out, axis=-1)
 
-    def rates(psi: float, uu: float, v: float, w: float, r: float) -> tuple[float, ...]:
-        """d(north, east, u, v, w, r)/dt; d(depth)/dt = w and d(psi)/dt = r need no work."""
-        c, s_ = cos(psi), sin(psi)
-        return (uu * c - v * s_, uu * s_ + v * c,
-                cu * v * r + bu * uu + qu * abs(uu) * uu + fu,
-                cv * uu * r + bv * v + qv * abs(v) * v,
-                bw * w + qw * abs(w) * w + fw,
-                cr * uu * v + br * r + qr * abs(r) * r + fr)
 
-    half, sixth = 0.5 * h, h / 6.0
-    for _ in range(substeps):
-        a1, b1, e1, f1, g1, k1 = rates(psi, su, sv, sw, sr)
-        w2, r2 = sw + half * g1, sr + half * k1
-        a2, b2, e2, f2, g2, k2 = rates(psi + half * sr, su + half * e1, sv + half * f1, w2, r2)
-        w3, r3 = sw + half * g2, sr + half * k2
-        a3, b3, e3, f3, g3, k3 = rates(psi + half * r2, su + half * e2, sv + half * f2, w3, r3)
-        w4, r4 = sw + h * g3, sr + h * k3
-        a4, b4, e4, f4, g4, k4 = rates(psi + h * r3, su + h * e3, sv + h * f3, w4, r4)
-        north += sixth * (a1 + 2.0 * (a2 + a3) + a4)
-        east += sixth * (b1 + 2.0 * (b2 + b3) + b4)
-        depth += sixth * (sw + 2.0 * (w2 + w3) + w4)
-        psi += sixth * (sr + 2.0 * (r2 + r3) + r4)
-        su += sixth * (e1 + 2.0 * (e2 + e3) + e4)
-        sv += sixth * (f1 + 2.0 * (f2 + f3) + f4)
-        sw += sixth * (g1 + 2.0 * (g2 + g3) + g4)
-        sr += sixth * (k1 + 2.0 * (k2 + k3) + k4)
-    return np.array([north, east, depth, psi, su, sv, sw, sr])
+def rk4_kernel(north: Any, east: Any, depth: Any, psi: Any, su: Any, sv: Any, sw: Any, sr: Any,
+               surge: Any, heave: Any, yaw_moment: Any, coefficients: RateCoefficients,
+               h: float, substeps: int, ops: Elementwise = FLOATS) -> tuple[Any, ...]:
+    """The state after ``substeps`` RK4 steps of ``h`` (s) under the body forces ``(surge,
+    heave, yaw_moment)`` (N, N, N m; :func:`body_forces`): paper eqs 1-4 with NED
+    kinematics, as floats (one vehicle) or (N,) arrays (``ops``). Returns the eight state
+    components in :data:`STATE_NAMES` order."""
+    kernel = _FLOAT_KERNEL if ops is FLOATS else _rk4_kernel_with(ops.cos, ops.sin)
+    return kernel(north, east, depth, psi, su, sv, sw, sr, surge, heave, yaw_moment,
+                  coefficients, h, substeps)
+
+
+def _rk4_kernel_with(cos: Any, sin: Any) -> Any:
+    """:func:`rk4_kernel` with its trigonometry bound (a closure numba can compile)."""
+
+    def kernel(north: Any, east: Any, depth: Any, psi: Any, su: Any, sv: Any, sw: Any,
+               sr: Any, surge: Any, heave: Any, yaw_moment: Any, coefficients: Any, h: float,
+               substeps: int) -> tuple[Any, ...]:
+        cu, cv, cr, bu, bv, bw, br, qu, qv, qw, qr, m11, m33, J = coefficients
+        fu, fw, fr = surge / m11, heave / m33, yaw_moment / J
+
+        def rates(psi: Any, uu: Any, v: Any, w: Any, r: Any) -> tuple[Any, ...]:
+            """d(north, east, u, v, w, r)/dt; d(depth)/dt = w, d(psi)/dt = r need no work."""
+            c, s_ = cos(psi), sin(psi)
+            return (uu * c - v * s_, uu * s_ + v * c,
+                    cu * v * r + bu * uu + qu * abs(uu) * uu + fu,
+                    cv * uu * r + bv * v + qv * abs(v) * v,
+                    bw * w + qw * abs(w) * w + fw,
+                    cr * uu * v + br * r + qr * abs(r) * r + fr)
+
+        half, sixth = 0.5 * h, h / 6.0
+        for _ in range(substeps):
+            a1, b1, e1, f1, g1, k1 = rates(psi, su, sv, sw, sr)
+            w2, r2 = sw + half * g1, sr + half * k1
+            a2, b2, e2, f2, g2, k2 = rates(psi + half * sr, su + half * e1, sv + half * f1,
+                                           w2, r2)
+            w3, r3 = sw + half * g2, sr + half * k2
+            a3, b3, e3, f3, g3, k3 = rates(psi + half * r2, su + half * e2, sv + half * f2,
+                                           w3, r3)
+            w4, r4 = sw + h * g3, sr + h * k3
+            a4, b4, e4, f4, g4, k4 = rates(psi + h * r3, su + h * e3, sv + h * f3, w4, r4)
+            north = north + sixth * (a1 + 2.0 * (a2 + a3) + a4)
+            east = east + sixth * (b1 + 2.0 * (b2 + b3) + b4)
+            depth = depth + sixth * (sw + 2.0 * (w2 + w3) + w4)
+            psi = psi + sixth * (sr + 2.0 * (r2 + r3) + r4)
+            su = su + sixth * (e1 + 2.0 * (e2 + e3) + e4)
+            sv = sv + sixth * (f1 + 2.0 * (f2 + f3) + f4)
+            sw = sw + sixth * (g1 + 2.0 * (g2 + g3) + g4)
+            sr = sr + sixth * (k1 + 2.0 * (k2 + k3) + k4)
+        return north, east, depth, psi, su, sv, sw, sr
+
+    return kernel
+
+
+_FLOAT_KERNEL = _rk4_kernel_with(FLOATS.cos, FLOATS.sin)
+
+
+@cache
+def _compiled_kernel() -> Any:
+    """The float kernel compiled (one vehicle: no Python per operation); None without
+    numba."""
+    return jit(_FLOAT_KERNEL)
+
+
+@cache
+def _compiled_rows() -> Any:
+    """The float kernel compiled, looped over the rows of (N, 8) states and (N, 3) body
+    forces into ``out``; None without numba."""
+    kernel = _compiled_kernel()
+    if kernel is None:
+        return None
+
+    def rows(states: Any, forces: Any, coefficients: Any, h: float, substeps: int,
+             out: Any) -> None:
+        for i in range(states.shape[0]):
+            s, f = states[i], forces[i]
+            new = kernel(s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], f[0], f[1], f[2],
+                         coefficients, h, substeps)
+            for j in range(8):
+                out[i, j] = new[j]
+
+    return jit(rows)

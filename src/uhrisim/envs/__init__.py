@@ -24,11 +24,13 @@ from uhrisim.envs.task import RewardWeights
 from uhrisim.envs.trail_diver import EnvArgumentError, TrailDiverEnv
 
 ENTRY_POINT = "uhrisim.envs.trail_diver:TrailDiverEnv"
+VECTOR_ENTRY_POINT = "uhrisim.envs.vector:TrailDiverVectorEnv"
 ENV_IDS = ("uhrisim/TrailDiver-v0", "uhrisim/TrailDiverState-v0")
 
 for _env_id, _observation in zip(ENV_IDS, ("sonar", "state"), strict=True):
     if _env_id not in gymnasium.registry:
         gymnasium.register(id=_env_id, entry_point=ENTRY_POINT,
+                           vector_entry_point=VECTOR_ENTRY_POINT,
                            kwargs={"observation": _observation})
 
 __all__ = ["ENV_IDS", "EnvArgumentError", "Randomization", "RewardWeights", "TrailDiverEnv"]

@@ -59,7 +59,8 @@ class BuildContext(Protocol):
     def rng(self, component: str) -> np.random.Generator: ...
 
 
-def _plant(cfg: AgentConfig, dt: float):
+def plant_for(cfg: AgentConfig, dt: float):
+    """The plant of an agent's model (its parameters from the scenario) for physics step ``dt``."""
     if cfg.model == "videoray":
         v = cfg.videoray
         params = VideoRayParams(J=v.J, moment_arm=v.moment_arm, thrust_map=v.thrust_map,
@@ -74,7 +75,8 @@ def _plant(cfg: AgentConfig, dt: float):
     return KinematicPlant(KinematicParams(), dt, name=cfg.name)
 
 
-def _controller(cfg: AgentConfig, plant):
+def controller_for(cfg: AgentConfig, plant):
+    """The controller of an agent's model (gains from the scenario) for its ``plant``."""
     if cfg.model == "videoray":
         c = cfg.controller
         overrides = {k: v for k, v in c.model_dump().items() if k != "preset" and v is not None}
@@ -207,7 +209,7 @@ def build_agents(sim: BuildContext, sonar_enabled: bool) -> dict[str, Agent]:
     agents: dict[str, Agent] = {}
     for index, cfg in enumerate(sim.scenario.agents):
         try:
-            plant = _plant(cfg, sim.dt)
+            plant = plant_for(cfg, sim.dt)
         except ConfigError as error:  # e.g. a model too stiff for the step
             raise ConfigError(str(error), sim.source.where("agents", index, "model")) from None
         _check_start(sim, index, cfg, agents)
@@ -215,7 +217,7 @@ def build_agents(sim: BuildContext, sonar_enabled: bool) -> dict[str, Agent]:
         state = plant.initial_state(np.array([start.north, start.east, start.depth]),
                                     math.radians(start.heading_deg))
         community = Community(cfg.name)
-        agent = Agent(config=cfg, plant=plant, controller=_controller(cfg, plant),
+        agent = Agent(config=cfg, plant=plant, controller=controller_for(cfg, plant),
                       community=community, state=state, inputs=np.zeros(plant.input_size),
                       radius=COLLISION_RADIUS[cfg.model])
         _add_body(sim, cfg, state)

@@ -10,6 +10,7 @@ Simulation advances. Units and frames: ``docs/conventions.md``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 from numpy.typing import NDArray
@@ -73,9 +74,10 @@ class Agent:
             self.inputs = inputs
         self._nav = None
 
-    @property
+    @cached_property
     def is_diver_body(self) -> bool:
-        """Does this agent look like a diver in the scene (kicking legs and fins)?"""
+        """Does this agent look like a diver in the scene (kicking legs and fins)? (Its
+        configuration is frozen: asked every tick, answered once.)"""
         return self.config.scene_body == "diver"
 
     def nav(self) -> NavState:

@@ -107,6 +107,8 @@ class LoiterParams:
 
 
 VERTEX_SNAP_M = 0.1
+#: The speed ZAIC of BHV_Loiter: (peakwidth, basewidth, summitdelta), m/s.
+LOITER_SPEED_ZAIC = (0.0, 0.3, 0.0)
 
 
 def _polygon(v: object, key: str, where: str) -> tuple[Point, ...]:
@@ -261,5 +263,5 @@ class Loiter(Behavior):
             self._posted = state
         crs = bearing_deg(own.x, own.y, tx, ty)
         return course_speed_objective(
-            ctx, crs, p.speed, (0.0, 0.3, 0.0), self._speed_memo, (p.patience, 100.0 - p.patience)
+            ctx, crs, p.speed, LOITER_SPEED_ZAIC, self._speed_memo, (p.patience, 100.0 - p.patience)
         )

@@ -1,0 +1,115 @@
+"""Benchmark: the native vector env's env steps per second against N (``uhrisim bench
+vector``), with a plot of steps/s against N.
+
+Targets (issue 27), with the default 0.25 s control step (5 physics steps at 20 Hz),
+seeded random actions and the resets of the episodes that end included (autoreset):
+``uhrisim/TrailDiverState-v0`` >= 5 000 env steps/s at N = 1 and >= 100 000 at N = 1024.
+Rates are given per wall second and per CPU second of this process (the machine may be
+shared: the CPU rate is what the cores this process used delivered; the load average is
+printed beside them). The baseline, measured in the same run: the single env on the
+ordinary Simulation (``TrailDiverEnv``), the episodes the vector env reproduces.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+TARGETS = {"n1": 5000.0, "n1024": 100000.0}
+SIZES = (1, 4, 16, 64, 256, 1024)
+QUICK_SIZES = (1, 16, 64)
+
+
+def _vector_rate(num_envs: int, seconds: float) -> dict[str, Any]:
+    """Env steps per wall and per CPU second of a vector env of ``num_envs`` stepped with
+    seeded random actions for about ``seconds`` (after a warm-up that compiles)."""
+    from uhrisim.envs.vector import TrailDiverVectorEnv
+
+    vec = TrailDiverVectorEnv(num_envs=num_envs)
+    vec.reset(seed=0)
+    low, high = vec.single_action_space.low, vec.single_action_space.high
+    actions = np.random.default_rng(0).uniform(low, high, (64, num_envs, 3)).astype(np.float32)
+    for k in range(5):
+        vec.step(actions[k])
+    steps, ended = 0, 0
+    wall, cpu = time.perf_counter(), time.process_time()
+    while time.perf_counter() - wall < seconds or steps < 5:
+        _, _, terminated, truncated, _ = vec.step(actions[steps % len(actions)])
+        ended += int(np.count_nonzero(terminated | truncated))
+        steps += 1
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    return {"num_envs": num_envs, "batch_steps": steps, "episodes_ended": ended,
+            "steps_per_s": steps * num_envs / wall, "steps_per_cpu_s": steps * num_envs / cpu}
+
+
+def _single_rate(steps: int) -> float:
+    """Env steps per CPU second of the single env on the Simulation (resets included)."""
+    from uhrisim.envs.trail_diver import TrailDiverEnv
+
+    env = TrailDiverEnv("state")
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    cpu = time.process_time()
+    for _ in range(steps):
+        _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+        if terminated or truncated:
+            env.reset()
+    return steps / (time.process_time() - cpu)
+
+
+def plot(rows: list[dict[str, Any]], single: float, path: Path) -> Path:
+    """Steps/s against N (log-log), per CPU second and per wall second, with the targets
+    and the single env's rate."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = [r["num_envs"] for r in rows]
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    ax.loglog(n, [r["steps_per_cpu_s"] for r in rows], "o-", label="vector env, per CPU s")
+    ax.loglog(n, [r["steps_per_s"] for r in rows], "s--", label="vector env, per wall s")
+    ax.axhline(single, color="grey", lw=1, label="single env (Simulation), per CPU s")
+    ax.plot([1, 1024], [TARGETS["n1"], TARGETS["n1024"]], "r*", ms=12, label="targets")
+    ax.set_xlabel("N (episodes in one vector env)")
+    ax.set_ylabel("env steps / s (0.25 s each)")
+    ax.set_title("uhrisim/TrailDiverState-v0, native vector env")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def run(quick: bool = False, out_dir: Path = Path("out/bench")) -> dict[str, Any]:
+    try:
+        import gymnasium  # noqa: F401
+    except ImportError as error:
+        return {"status": f"skipped: {error}"}
+    from uhrisim.core.compiled import numba_module
+
+    seconds = 0.3 if quick else 3.0
+    rows = [_vector_rate(n, seconds) for n in (QUICK_SIZES if quick else SIZES)]
+    single = _single_rate(40 if quick else 400)
+    by_n = {r["num_envs"]: r for r in rows}
+    result: dict[str, Any] = {
+        "control_step_s": 0.25, "physics_rate_hz": 20, "random_actions": True,
+        "compiled_kernels": numba_module() is not None,
+        "load_average_1min": os.getloadavg()[0], "cores": len(os.sched_getaffinity(0)),
+        "sizes": {str(r["num_envs"]): r for r in rows},
+        "single_env_steps_per_cpu_s": single,
+    }
+    for key, n in (("n1", 1), ("n1024", 1024)):
+        if n in by_n:
+            rate = by_n[n]["steps_per_cpu_s"]
+            result[f"target_{key}"] = {"steps_per_cpu_s": rate, "target": TARGETS[key],
+                                       "meets_target": rate >= TARGETS[key],
+                                       "vs_single_env": rate / single}
+    result["plot"] = str(plot(rows, single, Path(out_dir) / "vector_steps_per_s.png"))
+    return result

@@ -1,0 +1,38 @@
+"""Optional compilation of the physics kernels with numba (``pip install "uhrisim[fast]"``).
+
+A kernel of :mod:`uhrisim.dynamics` is written once, over the components of a state
+(:mod:`uhrisim.core.elementwise`): numpy runs it on (N,) arrays, one numpy call per
+operation. With numba installed, the *same* kernel, on floats, is compiled and called
+once per vehicle in a compiled loop over the N rows — no numpy call per operation, which
+is what costs at small N. The numpy path stays and the tests hold the two equal.
+
+Set ``UHRISIM_NUMBA=0`` to run numpy only. Compiling costs a second or two, once per
+process, on the first batch (nothing is written to disk).
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+from collections.abc import Callable
+from functools import cache
+from typing import Any
+
+
+@cache
+def numba_module() -> Any:
+    """The numba module, or None when it is not installed or ``UHRISIM_NUMBA=0``."""
+    if os.environ.get("UHRISIM_NUMBA", "1") == "0":
+        return None
+    try:
+        return importlib.import_module("numba")
+    except ImportError:
+        return None
+
+
+def jit(function: Callable[..., Any]) -> Callable[..., Any] | None:
+    """``function`` compiled in numba's nopython mode (lazily, at its first call), or None
+    without numba."""
+    numba = numba_module()
+    return None if numba is None else numba.njit(cache=False, nogil=True)(function)
+

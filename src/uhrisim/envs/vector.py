@@ -1,0 +1,520 @@
+"""A native Gymnasium vector environment of the trail task: N episodes stepped as arrays.
+
+``gymnasium.make_vec("uhrisim/TrailDiverState-v0", num_envs=N,
+vectorization_mode="vector_entry_point")`` gives :class:`TrailDiverVectorEnv`: one process,
+every step a handful of numpy calls over all N episodes, no Python loop over vehicles.
+
+Per episode it keeps what :class:`~uhrisim.envs.trail_diver.TrailDiverEnv` (the
+single env on the ordinary Simulation) has: the episode drawn from its seed by the same
+:class:`~uhrisim.envs.episodes.TrailEpisodes` (start poses, the diver's loiter ring and
+speed, pilings), the same VideoRay and diver models and controllers (the one physics path,
+:func:`uhrisim.dynamics.videoray.rk4_steps`, :func:`uhrisim.dynamics.diver.step_exact`,
+``inputs_many`` of the controllers; paper eqs 1-13), the same tick order (dynamics, the
+diver's 4 Hz pilot, controllers), the same actions, observation, named reward terms,
+termination and truncation (:mod:`uhrisim.envs.task`).
+
+Two parts of the Simulation are replaced by array code for this task, and a test
+(tests/integration/test_envs_vector.py) holds the result to the single envs, step for step:
+
+* the diver's helm (ConstantDepth + Loiter) by a **batched loiter pilot**: it swims the
+  episode's loiter polygon toward one vertex after another, reached within
+  ``capture_radius`` or by slip (the closest approach within ``slip_radius`` and
+  growing: IvP's WaypointEngine rule, as BHV_Loiter has it); its desired heading is the
+  course grid's value nearest the bearing to the vertex, its speed and depth are the
+  helm's own decisions for the behaviors' functions (computed once an episode), and
+  BHV_Loiter itself (:class:`~uhrisim.autonomy.behaviors.loiter.Loiter`) says which
+  vertex comes first. A bearing exactly halfway between two grid courses could round
+  the other way than the helm's argmax; nothing else differs;
+* the collision checks by the Simulation's own rules on arrays: bodies' spheres
+  "touching and approaching", and for the ROV the sea floor and pilings through the
+  Simulation's broad phase over all rows, then its swept-sphere narrow phase
+  (:meth:`~uhrisim.world.scene.Scene.segment_clear`) for the few rows near one. The
+  diver's moves are not checked against the floor and pilings (the randomised loiter
+  ring keeps clear of both).
+
+Autoreset: Gymnasium 1.x ``NEXT_STEP``: the step after an episode ends resets that
+sub-environment (its action is ignored) and returns the new episode's first observation
+with reward 0. Sub-environment ``i`` seeded with ``seed + i`` (``reset(seed=seed)``) or
+``seed[i]`` draws the same episodes as ``TrailDiverEnv`` reset with that seed.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import gymnasium
+import numpy as np
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+from uhrisim.autonomy.behaviors.loiter import LOITER_SPEED_ZAIC
+from uhrisim.autonomy.config import build_behavior_spec, default_domain, parse_domain
+from uhrisim.autonomy.geometry import signed_dist_to_polygon
+from uhrisim.autonomy.zaic import zaic_peak_on_axis
+from uhrisim.core.clock import ticks_for_rate
+from uhrisim.core.elementwise import ARRAYS
+from uhrisim.core.errors import ConfigError
+from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned, wrap_180
+from uhrisim.dynamics.diver import body_rates_kernel
+from uhrisim.envs.task import REWARD_TERMS, THRUSTER_LIMIT
+from uhrisim.envs.trail_diver import SEED_SPAN, EnvArgumentError, TrailDiverEnv
+from uhrisim.scenario.build_world import add_object, build_static_scene
+from uhrisim.scenario.load import ScenarioFile
+from uhrisim.sim.build import COLLISION_RADIUS, controller_for, plant_for
+from uhrisim.world.scene import Scene
+
+
+class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
+    """N episodes of the trail task as arrays (module docstring). Arguments as
+    :class:`~uhrisim.envs.trail_diver.TrailDiverEnv` (``observation="state"`` only, on
+    scenarios whose target is a diver flying a Loiter, whose follower is a VideoRay),
+    plus ``num_envs``."""
+
+    metadata: ClassVar[dict[str, Any]] = {"autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(self, num_envs: int = 1, observation: str = "state", **kwargs: Any) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
+            raise EnvArgumentError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        if observation != "state":
+            raise EnvArgumentError("the vector env has observation='state' only; for sonar "
+                                   "images use vectorization_mode='sync' or 'async'")
+        if kwargs.get("scenario_hook") is not None:
+            raise EnvArgumentError("the vector env does not take scenario_hook (its episodes "
+                                   "are arrays, not scenario files)")
+        # The single env checks the arguments and holds the spaces, episodes and weights.
+        self.template = TrailDiverEnv(observation, **kwargs)
+        t = self.template
+        self.num_envs = num_envs
+        self.single_action_space = t.action_space
+        self.single_observation_space = t.observation_space
+        self.action_space = batch_space(t.action_space, num_envs)
+        self.observation_space = batch_space(t.observation_space, num_envs)
+        self.command, self.weights = t.command, t.weights
+        base = t.episodes.base
+        agents = {a.name: a for a in base.agents}
+        follower, target = agents[t.follower], agents[t.target]
+        if follower.model != "videoray" or target.model != "diver" or not _loiter(target):
+            raise EnvArgumentError("the vector env flies a VideoRay follower behind a diver "
+                                   "target whose helm has a Loiter behavior")
+        self.dt = 1.0 / t.episodes.physics_rate_hz
+        self.ticks_per_step = round(t.control_step_s / self.dt)
+        self.rov_plant, self.diver_plant = plant_for(follower, self.dt), plant_for(target,
+                                                                                  self.dt)
+        self.rov_control = controller_for(follower, self.rov_plant)
+        self.diver_control = controller_for(target, self.diver_plant)
+        self.rov_control_period = _period(follower.control_rate_hz, self.dt)
+        self.diver_control_period = _period(target.control_rate_hz, self.dt)
+        self.pilot_period = ticks_for_rate(target.helm.rate_hz, self.dt, "diver helm rate")
+        where = f"agents.{target.name}.helm.domain"
+        self.domain = (parse_domain(dict(target.helm.domain), where) if target.helm.domain
+                       else default_domain(where))
+        self.rov_radius = COLLISION_RADIUS["videoray"]
+        self.contact_distance = COLLISION_RADIUS["videoray"] + COLLISION_RADIUS["diver"]
+        self._source = ScenarioFile(base.model_copy(update={
+            "world": base.world.model_copy(update={"objects": ()})}), t.episodes.path)
+        self.floor = build_static_scene(self._source)
+        self.shallowest_floor = float(np.min(self.floor.seafloor.depth)) \
+            if self.floor.seafloor is not None else np.inf
+        self._allocate(num_envs)
+        self._rngs = [seeding.np_random(None)[0] for _ in range(num_envs)]
+
+    # -- state ---------------------------------------------------------------------------
+    def _allocate(self, n: int) -> None:
+        z = np.zeros
+        self.rov = z((n, 8))
+        self.rov_inputs = z((n, 3))
+        self.rov_desired = z((n, 3))        # heading (deg), speed (m/s), depth (m)
+        self.rov_hold = z(n, dtype=bool)    # thruster command held for the step
+        self._held = z((n, 3))
+        self.diver = z((n, 4))
+        self.diver_inputs = z((n, 3))
+        self.diver_desired = z((n, 3))
+        self.vertices = z((n, 10, 2))       # NED north, east of the loiter polygon
+        self.vertex_count = np.ones(n, dtype=np.int64)
+        self.direction = np.ones(n, dtype=np.int64)
+        self.target_vertex = z(n, dtype=np.int64)
+        self.closest = np.full(n, np.inf)
+        self.capture_radius, self.slip_radius = z(n), z(n)
+        self.loiter_speed, self.hold_depth = z(n), z(n)
+        slots = self.template.episodes.randomization.clutter + sum(
+            o.type == "cylinder" for o in self.template.episodes.base.world.objects)
+        self.pilings = np.full((n, slots, 3), np.nan)  # north, east, radius (m)
+        self.piling_top = np.full((n, slots), np.inf)  # depth of the top (m)
+        self.ticks = z(n, dtype=np.int64)
+        self.steps = z(n, dtype=np.int64)
+        self.episode_seed = z(n, dtype=np.int64)
+        self.needs_reset = np.ones(n, dtype=bool)
+        self._piling_objects: list[list[Any]] = [[] for _ in range(n)]
+        self._piling_scenes: list[Scene | None] = [None] * n
+        self.max_steps = self.template._max_steps
+
+    # -- the Gymnasium API ---------------------------------------------------------------
+    def reset(self, *, seed: int | list[int | None] | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset every sub-environment (``options["reset_mask"]``: only those). ``seed``:
+        sub-environment i gets ``seed + i``, or ``seed[i]`` from a list.
+        ``options["episode_seeds"]``: the episode each sub-environment flies now (N
+        integers, as the single env's ``episode_seed`` option; later episodes are drawn)."""
+        options = dict(options or {})
+        mask = np.asarray(options.pop("reset_mask", np.ones(self.num_envs, bool)), bool)
+        episodes = options.pop("episode_seeds", None)
+        if options:
+            raise EnvArgumentError(f"unknown reset option(s) {sorted(options)}; the vector "
+                                   "env takes reset_mask and episode_seeds")
+        if episodes is not None and (len(episodes) != self.num_envs or not all(
+                isinstance(e, int | np.integer) and 0 <= e <= SEED_SPAN for e in episodes)):
+            raise EnvArgumentError(f"reset option episode_seeds must be {self.num_envs} "
+                                   f"integers in [0, {SEED_SPAN}]")
+        seeds = ([seed + i for i in range(self.num_envs)] if isinstance(seed, int)
+                 else list(seed) if seed is not None else [None] * self.num_envs)
+        if len(seeds) != self.num_envs:
+            raise EnvArgumentError(f"reset seed list has {len(seeds)} entries, num_envs is "
+                                   f"{self.num_envs}")
+        for i in np.flatnonzero(mask):
+            if seeds[i] is not None:
+                self._rngs[i] = seeding.np_random(seeds[i])[0]
+        self._begin(np.flatnonzero(mask), episodes)
+        return self._observe(), self._info(*self._geometry(), None, None)
+
+    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                           dict[str, Any]]:
+        actions = np.asarray(actions, dtype=np.float64)
+        if actions.shape != (self.num_envs, 3) or not np.all(np.isfinite(actions)):
+            raise gymnasium.error.InvalidAction(
+                f"actions must be {self.num_envs} rows of 3 finite numbers ({self.command}), "
+                f"got shape {actions.shape}")
+        starting = self.needs_reset.copy()
+        live = ~starting
+        actions = np.clip(actions, self.single_action_space.low, self.single_action_space.high)
+        self._act(actions, live)
+        collided = self._run(self.ticks_per_step, live)
+        if starting.any():
+            self._begin(np.flatnonzero(starting))
+        geometry = self._geometry()
+        _, error, range_m, bearing_error, _ = geometry
+        lost = range_m > self.template.lost_range_m
+        terms = self._reward_terms(error, bearing_error, collided, lost)
+        reward = sum(terms.values())
+        terminated = (collided | lost) & live
+        self.steps[live] += 1
+        truncated = live & ~terminated & (self.steps >= self.max_steps)
+        reward[starting] = 0.0
+        for values in terms.values():
+            values[starting] = 0.0
+        self.needs_reset = terminated | truncated
+        reason = np.where(collided, "collision", np.where(lost, "lost", None))
+        reason[~terminated] = None
+        return (self._observe(), reward, terminated, truncated,
+                self._info(*geometry, terms, reason))
+
+    # -- episodes ------------------------------------------------------------------------
+    def _begin(self, envs: np.ndarray, episodes: Any = None) -> None:
+        """Start a new episode in each sub-environment of ``envs`` (``episodes[i]``, or
+        drawn from its generator), then fly its first control step at rest, as the single
+        env does."""
+        if envs.size == 0:
+            return
+        t = self.template
+        for i in envs:
+            seed = (int(episodes[i]) if episodes is not None
+                    else int(self._rngs[i].integers(0, SEED_SPAN)))
+            try:
+                self._load(i, seed, t.episodes.scenario(seed).scenario)
+            except ConfigError as error:
+                raise EnvArgumentError(f"episode {seed}: {error}") from None
+        self.needs_reset[envs] = False
+        self.steps[envs] = 0
+        mask = np.zeros(self.num_envs, bool)
+        mask[envs] = True
+        self._control(mask, first=True)
+        self._run(self.ticks_per_step, mask)
+
+    def _load(self, i: int, seed: int, scenario: Any) -> None:
+        """Sub-environment ``i``'s arrays from the episode's scenario."""
+        t = self.template
+        agents = {a.name: a for a in scenario.agents}
+        rov, diver = agents[t.follower], agents[t.target]
+        self.episode_seed[i] = seed
+        self.ticks[i] = 0
+        s = rov.start
+        self.rov[i] = self.rov_plant.initial_state(np.array([s.north, s.east, s.depth]),
+                                                   math.radians(s.heading_deg))
+        self.rov_desired[i] = (s.heading_deg % 360.0, 0.0, s.depth)
+        self.rov_hold[i] = False
+        d = diver.start
+        self.diver[i] = self.diver_plant.initial_state(np.array([d.north, d.east, d.depth]),
+                                                       math.radians(d.heading_deg))
+        self.diver_desired[i] = (d.heading_deg % 360.0, 0.0, d.depth)
+        loiter, hold = _loiter(diver), _behavior(diver, "ConstantDepth")
+        # BHV_Loiter itself says which vertex it approaches first: vertex 0, unless it starts
+        # farther than acquire_dist outside the polygon (then its acquire rule picks one)
+        behavior = build_behavior_spec("Loiter", [(k, v, "loiter") for k, v in loiter.items()
+                                                  if k != "type"], "loiter").instantiate()
+        x_east, y_north = moos_xy_from_ned(d.north, d.east)
+        first, direction = behavior.index, behavior.direction
+        if signed_dist_to_polygon(x_east, y_north, behavior.vertices) > \
+                behavior.params.acquire_dist:
+            first, direction = behavior.acquire(x_east, y_north, d.heading_deg % 360.0)
+        vertices = [(y, x) for x, y in behavior.vertices]  # MOOS (x east, y north) -> NED
+        k = len(vertices)
+        if k > self.vertices.shape[1]:
+            self.vertices = np.concatenate([self.vertices, np.zeros(
+                (self.num_envs, k - self.vertices.shape[1], 2))], axis=1)
+        self.vertices[i, :k] = vertices
+        self.vertex_count[i] = k
+        self.direction[i] = direction
+        self.target_vertex[i] = first
+        p = behavior.params
+        self.capture_radius[i], self.slip_radius[i] = p.capture_radius, p.slip_radius
+        # The helm's speed and depth decisions: its argmax of the behaviors' ZAICs
+        self.loiter_speed[i] = _decided(self.domain.axis("speed"), p.speed, *LOITER_SPEED_ZAIC)
+        if hold:
+            h = build_behavior_spec("ConstantDepth", [(k, v, "hold") for k, v in hold.items()
+                                                      if k != "type"], "hold").params
+            self.hold_depth[i] = _decided(self.domain.axis("depth"), h.depth, h.peakwidth,
+                                          h.basewidth, h.summitdelta)
+        else:
+            self.hold_depth[i] = d.depth
+        self.closest[i] = np.inf
+        self.pilings[i] = np.nan
+        self.piling_top[i] = np.inf
+        cylinders = [o for o in scenario.world.objects if o.type == "cylinder"]
+        self._piling_objects[i], self._piling_scenes[i] = cylinders, None
+        for j, o in enumerate(cylinders[:self.pilings.shape[1]]):
+            self.pilings[i, j] = (o.position.north, o.position.east, o.radius)
+            self.piling_top[i, j] = o.position.depth - 0.5 * o.height
+
+    # -- a step ----------------------------------------------------------------------------
+    def _act(self, actions: np.ndarray, live: np.ndarray) -> None:
+        """The actions of the live sub-environments, as the single env posts them."""
+        if self.command == "thrusters":
+            self.rov_hold = live.copy()
+            self._held = actions
+            return
+        heading = heading_deg_from_yaw(self.rov[:, 3] + actions[:, 0])
+        depth = np.maximum(0.0, self.rov[:, 2] + actions[:, 2])
+        desired = np.stack([heading, actions[:, 1], depth], axis=-1)
+        self.rov_desired[live] = desired[live]
+
+    def _run(self, ticks: int, mask: np.ndarray) -> np.ndarray:
+        """Advance the sub-environments of ``mask`` by ``ticks`` physics steps; which of
+        them had the ROV touch something."""
+        collided = np.zeros(self.num_envs, bool)
+        rows: slice | np.ndarray = slice(None) if mask.all() else np.flatnonzero(mask)
+        if not mask.any():
+            return collided
+        for _ in range(ticks):
+            diver_before, rov_before = self.diver[rows], self.rov[rows]
+            diver_after = self.diver_plant.step(0.0, diver_before, self.diver_inputs[rows])
+            np.maximum(diver_after[:, 2], 0.0, out=diver_after[:, 2])
+            diver_hit = _approaching(diver_before[:, :3], diver_after[:, :3],
+                                     rov_before[:, :3], self.contact_distance)
+            diver_after[diver_hit, :3] = diver_before[diver_hit, :3]
+            rov_after = self.rov_plant.step(0.0, rov_before, self.rov_inputs[rows])
+            above = rov_after[:, 2] < 0.0
+            rov_after[above, 2] = 0.0
+            rov_after[above, 6] = np.maximum(rov_after[above, 6], 0.0)
+            bodies = _approaching(rov_before[:, :3], rov_after[:, :3], diver_after[:, :3],
+                                  self.contact_distance)
+            free = np.where(bodies, 0.0, self._scene_clear(rows, rov_before[:, :3],
+                                                           rov_after[:, :3]))
+            rov_hit = free < 1.0
+            if rov_hit.any():  # stopped just short of the contact, as the Simulation does
+                cut = np.maximum(0.0, free[rov_hit] - 1e-3)[:, None]
+                before = rov_before[rov_hit, :3]
+                rov_after[rov_hit, :3] = before + (rov_after[rov_hit, :3] - before) * cut
+                rov_after[rov_hit, 4:7] = 0.0
+            self.diver[rows], self.rov[rows] = diver_after, rov_after
+            collided[rows] |= diver_hit | rov_hit
+            self.ticks[rows] += 1
+            self._pilot(mask)
+            self._control(mask)
+        return collided
+
+    def _scene_clear(self, rows: slice | np.ndarray, start: np.ndarray,
+                     end: np.ndarray) -> np.ndarray:
+        """Fraction of each ROV move start→end (rows of ``rows``) free of the sea floor and
+        the pilings: the Simulation's broad phase (within reach of the floor or of a
+        piling's box) over all rows, then its narrow phase, the swept sphere of
+        :meth:`~uhrisim.world.scene.Scene.segment_clear`, for the few rows near one."""
+        margin = self.rov_radius + 0.5
+        depth = end[:, 2] + margin
+        near = np.zeros(len(end), bool)
+        deep = np.flatnonzero(depth >= self.shallowest_floor)
+        if deep.size:
+            floor = np.asarray(self.floor.depth_at(end[deep, 0], end[deep, 1]), dtype=float)
+            with np.errstate(invalid="ignore"):  # NaN off the floor's grid: no floor there
+                near[deep] = depth[deep] >= floor
+        if self.pilings.shape[1]:
+            piles = self.pilings[rows]
+            reach = piles[:, :, 2] + margin
+            with np.errstate(invalid="ignore"):  # NaN slots: no piling there
+                near |= ((np.abs(end[:, None, 0] - piles[:, :, 0]) <= reach)
+                         & (np.abs(end[:, None, 1] - piles[:, :, 1]) <= reach)
+                         & (depth[:, None] >= self.piling_top[rows])).any(axis=1)
+        free = np.ones(len(end))
+        envs = np.arange(self.num_envs)[rows]
+        for k in np.flatnonzero(near):
+            scenes = [self.floor, *self._piling_scene(int(envs[k]))]
+            free[k] = min(scene.segment_clear(start[k], end[k], self.rov_radius)
+                          for scene in scenes)
+        return free
+
+    def _piling_scene(self, i: int) -> list[Scene]:
+        """Sub-environment ``i``'s pilings as a scene (built when first needed)."""
+        if self._piling_scenes[i] is None:
+            scene = Scene()
+            for obj in self._piling_objects[i]:
+                add_object(scene, obj, self._source, f"episode {self.episode_seed[i]}")
+            self._piling_scenes[i] = scene
+        return [self._piling_scenes[i]] if self._piling_objects[i] else []
+
+    def _pilot(self, mask: np.ndarray) -> None:
+        """The diver's loiter pilot of the sub-environments in ``mask``, at its helm's rate
+        (module docstring): arrival at the target vertex by capture or slip (IvP
+        WaypointEngine's rule), then heading, speed and depth on the helm's grid."""
+        due = np.flatnonzero(mask & (self.ticks % self.pilot_period == 0))
+        if due.size == 0:
+            return
+        here = self.diver[due, :2]
+        dist = self._vertex_distance(due, here)
+        capture, closest = self.capture_radius[due], self.closest[due]
+        arrived = (dist <= capture) | ((closest <= self.slip_radius[due])
+                                       & (dist > closest + 1e-9))
+        self.closest[due] = np.where(dist <= capture, closest, np.minimum(closest, dist))
+        moved = due[arrived]
+        if moved.size:
+            self.target_vertex[moved] = ((self.target_vertex[moved] + self.direction[moved])
+                                         % self.vertex_count[moved])
+            fresh = self._vertex_distance(moved, self.diver[moved, :2])
+            self.closest[moved] = np.where(fresh <= self.capture_radius[moved], np.inf, fresh)
+        target = self.vertices[due, self.target_vertex[due]]
+        bearing = np.degrees(np.arctan2(target[:, 1] - here[:, 1],
+                                        target[:, 0] - here[:, 0])) % 360.0
+        course = self.domain.axis("course")  # the grid course nearest the bearing
+        nearest = np.rint((bearing - course.low) / course.delta).astype(np.int64) % course.npts
+        self.diver_desired[due, 0] = course.values[nearest]
+        self.diver_desired[due, 1] = self.loiter_speed[due]
+        self.diver_desired[due, 2] = self.hold_depth[due]
+
+    def _vertex_distance(self, envs: np.ndarray, here: np.ndarray) -> np.ndarray:
+        """Horizontal distance (m) from ``here`` (NED north, east) to each sub-environment's
+        target vertex."""
+        target = self.vertices[envs, self.target_vertex[envs]]
+        return np.hypot(target[:, 0] - here[:, 0], target[:, 1] - here[:, 1])
+
+    def _control(self, mask: np.ndarray, first: bool = False) -> None:
+        """Controllers of the sub-environments in ``mask`` that are due (all at a start)."""
+        for kind, period in (("diver", self.diver_control_period),
+                             ("rov", self.rov_control_period)):
+            due = mask if first or period == 1 else mask & (self.ticks % period == 0)
+            if not due.any():
+                continue
+            idx: slice | np.ndarray = slice(None) if due.all() else np.flatnonzero(due)
+            if kind == "diver":
+                d = self.diver_desired[idx]
+                self.diver_inputs[idx] = self.diver_control.inputs_many(
+                    self.diver[idx], d[:, 0], d[:, 1], d[:, 2])
+                continue
+            d = self.rov_desired[idx]
+            inputs = self.rov_control.inputs_many(self.rov[idx], d[:, 0], d[:, 1], d[:, 2])
+            held = self.rov_hold[idx]
+            if held.any():
+                inputs[held] = self._held[idx][held]
+            self.rov_inputs[idx] = inputs
+
+    # -- what the agent sees -------------------------------------------------------------
+    def _geometry(self) -> tuple[np.ndarray, ...]:
+        """Trail point (N, 3), 3-D error (m), horizontal range (m), bearing error (deg),
+        depth error (m) of every sub-environment (:class:`~uhrisim.envs.task.TrailGeometry`)."""
+        t = self.template
+        trail_range, trail_angle = t._trail
+        wanted = self.diver[:, 3] + math.radians(trail_angle)
+        point = np.stack([self.diver[:, 0] + trail_range * np.cos(wanted),
+                          self.diver[:, 1] + trail_range * np.sin(wanted),
+                          self.diver[:, 2]], axis=-1)
+        rov = self.rov[:, :3]
+        d = rov - self.diver[:, :3]
+        bearing = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
+        return (point, np.linalg.norm(rov - point, axis=1), np.hypot(d[:, 0], d[:, 1]),
+                wrap_180(bearing - np.degrees(wanted)), d[:, 2])
+
+    def _reward_terms(self, error: np.ndarray, bearing_error: np.ndarray,
+                      collided: np.ndarray, lost: np.ndarray) -> dict[str, np.ndarray]:
+        """The named terms of :func:`uhrisim.envs.task.reward_terms`, per sub-environment."""
+        w = self.weights
+        effort = np.mean((self.rov_inputs / THRUSTER_LIMIT) ** 2, axis=1)
+        terms = {
+            "trail_position": w.trail_position * (1.0 - np.minimum(error / w.position_scale_m,
+                                                                   1.0)),
+            "bearing": -w.bearing * np.abs(bearing_error) / 180.0,
+            "collision": np.where(collided, -w.collision, 0.0),
+            "energy": -w.energy * effort,
+            "lost": np.where(lost, -w.lost, 0.0),
+        }
+        assert tuple(terms) == REWARD_TERMS
+        return terms
+
+    def _observe(self) -> np.ndarray:
+        """The state observation of every sub-environment (docs/envs.md), float32."""
+        point = self._geometry()[0]
+        yaw = self.rov[:, 3]
+        c, s = np.cos(yaw), np.sin(yaw)
+
+        def body(v: np.ndarray) -> list[np.ndarray]:
+            return [c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1], v[:, 2]]
+
+        rel = self.diver[:, 3] - yaw
+        u = self.diver_inputs.T
+        speed = np.abs(body_rates_kernel(*u, self.diver_plant.params, ARRAYS)[0])
+        obs = np.stack([*body(point - self.rov[:, :3]), *body(self.diver[:, :3] - self.rov[:, :3]),
+                        np.sin(rel), np.cos(rel), speed, self.rov[:, 4], self.rov[:, 5],
+                        self.rov[:, 6], self.rov[:, 7], self.rov[:, 2]], axis=-1)
+        space = self.single_observation_space
+        return np.clip(obs, space.low, space.high).astype(np.float32)
+
+    def _info(self, point: np.ndarray, error: np.ndarray, range_m: np.ndarray,
+              bearing_error: np.ndarray, depth_error: np.ndarray,
+              terms: dict[str, np.ndarray] | None, reason: np.ndarray | None) -> dict[str, Any]:
+        del point
+        info: dict[str, Any] = {
+            "t": (self.ticks * self.dt), "episode_seed": self.episode_seed.copy(),
+            "position_error_m": error, "range_m": range_m,
+            "bearing_error_deg": bearing_error, "depth_error_m": depth_error}
+        if terms is not None:
+            info["reward_terms"] = terms
+            info["termination"] = reason
+        return info
+
+
+def _loiter(agent: Any) -> dict | None:
+    return _behavior(agent, "Loiter")
+
+
+def _behavior(agent: Any, kind: str) -> dict | None:
+    helm = agent.helm
+    if helm is None:
+        return None
+    return next((dict(b) for b in helm.behaviors if b.get("type") == kind), None)
+
+
+def _period(rate_hz: float | None, dt: float) -> int:
+    return 1 if rate_hz is None else ticks_for_rate(rate_hz, dt, "control_rate_hz")
+
+
+def _decided(axis: Any, summit: float, peakwidth: float, basewidth: float,
+             summitdelta: float) -> float:
+    """The helm's decision on ``axis`` for a ZAIC peak alone: the grid value of its first
+    maximum (the solver's tie rule)."""
+    return float(axis.values[int(np.argmax(zaic_peak_on_axis(axis, summit, peakwidth,
+                                                             basewidth, summitdelta)))])
+
+
+def _approaching(start: np.ndarray, end: np.ndarray, other: np.ndarray,
+                 contact: float) -> np.ndarray:
+    """The Simulation's rule for two bodies: the move start→end ends within ``contact``
+    (m) of ``other``'s centre and closer than it began (rows)."""
+    end_gap = np.linalg.norm(end - other, axis=1)
+    return (end_gap < contact) & (end_gap < np.linalg.norm(start - other, axis=1))

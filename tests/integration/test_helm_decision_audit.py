@@ -1,0 +1,58 @@
+"""Decision audit: the helm decides as it did before its hot paths were compiled and
+reused (tests/data/helm/mission_decisions.npz: every decision of the paper's mission,
+600 s, both helms). Every one of the 4 800 decisions must be equal, bit for bit; and the
+compiled pieces (numba, ``uhrisim[fast]``) equal the numpy ones they stand in for."""
+
+import importlib
+import runpy
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from uhrisim.autonomy import cpa, ivp_build
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "helm"
+
+
+@pytest.mark.slow
+def test_every_decision_of_the_paper_s_mission_is_today_s():
+    reference = np.load(DATA / "mission_decisions.npz")["decisions"]
+    maker = runpy.run_path(str(DATA / "make_mission_decisions.py"))
+    decisions = maker["mission_decisions"]()
+    assert decisions.shape == reference.shape == (4800, 5)
+    differ = ~((decisions == reference) | (np.isnan(decisions) & np.isnan(reference)))
+    rows = np.flatnonzero(differ.any(axis=1))
+    assert rows.size == 0, f"{rows.size} decisions differ, first: {decisions[rows[:3]]} " \
+                           f"instead of {reference[rows[:3]]}"
+
+
+def _numpy_only(monkeypatch):
+    """Run the helm's pieces without numba (the pure-numpy path)."""
+    compiled = importlib.import_module("uhrisim.core.compiled")
+    monkeypatch.setenv("UHRISIM_NUMBA", "0")
+    compiled.numba_module.cache_clear()
+    for cached in (ivp_build._compiled_reflect, cpa._compiled_distance):
+        cached.cache_clear()
+
+
+def test_compiled_reflector_and_cpa_equal_numpy_bit_for_bit(monkeypatch):
+    pytest.importorskip("numba", reason="the [fast] extra is not installed")
+    rng = np.random.default_rng(8)
+    grid = cpa.CpaGrid.over(np.arange(360.0), np.linspace(0.0, 2.0, 41))
+    tables = [rng.uniform(0.0, 100.0, (360, 41)),
+              np.cumsum(rng.normal(size=(360, 26)), axis=0)]
+    pieces = [(3, 3), (3, 2), (9, 6)]
+    situations = [(*rng.normal(0.0, 20.0, 4), rng.uniform(0, 360), rng.uniform(0, 2), 120.0)
+                  for _ in range(20)]
+    compiled = ([ivp_build.reflect(t, p) for t in tables for p in pieces],
+                [grid.distance(*s) for s in situations])
+    _numpy_only(monkeypatch)
+    numpy = ([ivp_build.reflect(t, p) for t in tables for p in pieces],
+             [grid.distance(*s) for s in situations])
+    for fast, slow in zip(compiled[0] + compiled[1], numpy[0] + numpy[1], strict=True):
+        np.testing.assert_array_equal(fast, slow)
+    monkeypatch.delenv("UHRISIM_NUMBA")
+    importlib.import_module("uhrisim.core.compiled").numba_module.cache_clear()
+    ivp_build._compiled_reflect.cache_clear()
+    cpa._compiled_distance.cache_clear()
