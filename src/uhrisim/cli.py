@@ -11,7 +11,9 @@ import functools
 import importlib
 import json
 import math
+import signal
 import sys
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
@@ -22,7 +24,7 @@ from rich.markup import escape
 from rich.table import Table
 from rich.text import Text
 
-from uhrisim.core.errors import ConfigError, UhrisimError
+from uhrisim.core.errors import ConfigError, StopRequested, UhrisimError, UhrisimWarning
 from uhrisim.core.memory import keep_freed_memory
 
 app = typer.Typer(
@@ -41,6 +43,8 @@ err_console = Console(stderr=True)
 def _process_settings() -> None:
     """Process-wide settings of the command (side effects at the edge)."""
     keep_freed_memory()  # no page-fault churn on every sonar ping (see core/memory.py)
+    _stop_on_signals()
+    warnings.simplefilter("ignore", UhrisimWarning)  # each is logged, and shown once so
 
 # Figure name -> "module:function(out_dir) -> list[Path]".
 FIGURES: dict[str, tuple[str, str]] = {
@@ -77,7 +81,9 @@ def report_error(message: object) -> None:
 
 
 def friendly_errors(command: Callable[..., Any]) -> Callable[..., Any]:
-    """Turn uhrisim's own errors into a one-line message and exit status 2."""
+    """Turn uhrisim's own errors into a one-line message and exit status 2, and a stop
+    (Ctrl-C, SIGTERM, SIGHUP: the work has cleaned up by then) into one line and exit
+    status 128 + the signal's number."""
 
     @functools.wraps(command)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
@@ -86,8 +92,24 @@ def friendly_errors(command: Callable[..., Any]) -> Callable[..., Any]:
         except UhrisimError as error:
             report_error(error)
             raise typer.Exit(code=2) from None
+        except KeyboardInterrupt:
+            report_error("interrupted")
+            raise typer.Exit(code=128 + signal.SIGINT) from None
+        except StopRequested as stop:
+            report_error(stop)
+            raise typer.Exit(code=128 + stop.signum) from None
 
     return wrapper
+
+
+def _stop_on_signals() -> None:
+    """SIGTERM and SIGHUP end the command as Ctrl-C does (:class:`StopRequested`)."""
+
+    def stop(signum: int, _frame: Any) -> None:
+        raise StopRequested(signum)
+
+    for signum in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, stop)
 
 
 def check_option(name: str, value: float | None, ok: bool, rule: str) -> None:

@@ -166,7 +166,8 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
         if report is not None:
             summary |= report()
     if error is not None:  # why the run ended early
-        summary["stopped_by"] = str(error) or type(error).__name__
+        summary["stopped_by"] = ("interrupted (SIGINT)" if isinstance(error, KeyboardInterrupt)
+                                 else str(error) or type(error).__name__)
     path = out_dir / "metrics.json"
     path.write_text(json.dumps(strict_json(summary), indent=2, allow_nan=False) + "\n")
     files.append(path)
