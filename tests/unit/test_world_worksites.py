@@ -34,7 +34,7 @@ def test_tool_meshes_fit_their_size_and_hold_their_grasp_point(kind):
 
 
 def test_tool_errors_name_the_problem():
-    with pytest.raises(ConfigError, match="unknown tool kind 'spanner' .*have wrench"):
+    with pytest.raises(ConfigError, match=r"unknown tool kind 'spanner' .*have wrench"):
         make_tool("spanner", "s1")
     with pytest.raises(ConfigError, match=r"Tool\('w'\).grasp_point: must lie inside"):
         Tool("w", "wrench", CATALOGUE["wrench"].hydro, (0.1, 0.1, 0.1), (0.2, 0, 0),
