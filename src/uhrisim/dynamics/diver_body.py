@@ -37,11 +37,13 @@ losses garment by garment; space-suit mobility tests, e.g. Aitchison, NASA NTRS
 20120004286, 2012, measure them for pressure suits); no dry-suit range-of-motion data set
 was found, so the factor is stated once here and can be changed.
 
-**Joint speeds** are assumptions for deliberate work in water (human voluntary joint
-speeds on land exceed several hundred °/s; a diver in a dry suit moving against drag that
-grows with speed squared works an order of magnitude slower): shoulder 90°/s, elbow and
-wrist 120°/s, fingers 144°/s (open to closed in 0.5 s), neck 60°/s, hip 120°/s, knee
-120°/s, ankle 200°/s (a fin blade flexes passively), posture 30°/s.
+**Joint speeds** are assumptions. Arms and head for deliberate work in water (human
+voluntary joint speeds on land exceed several hundred °/s; a diver in a dry suit moving
+against drag that grows with speed squared works far slower): shoulder 90°/s, elbow and
+wrist 120°/s, fingers 144°/s (open to closed in 0.5 s), neck 60°/s, posture 30°/s. Legs
+as fast as walking and finning need (below the swing-phase peaks of walking on land,
+which reach several rad/s at the knee): hip flexion 200°/s, hip abduction 120°/s, knee
+300°/s, ankle 200°/s (a fin blade also flexes passively).
 """
 
 from __future__ import annotations
@@ -126,9 +128,9 @@ _RANGE_DEG: dict[str, tuple[float, float, float]] = {
     "elbow": (0.0, 150.0, 120.0),
     "wrist": (-70.0, 80.0, 120.0),
     "fingers": (0.0, 90.0, 144.0),
-    "hip_flex": (-30.0, 120.0, 120.0),
+    "hip_flex": (-30.0, 120.0, 200.0),
     "hip_abd": (-30.0, 45.0, 120.0),
-    "knee": (0.0, 135.0, 120.0),
+    "knee": (0.0, 135.0, 300.0),
     "ankle": (-50.0, 20.0, 200.0),
 }
 #: The posture joint is no human joint: 0-90° at 30°/s (assumed), not scaled.
