@@ -32,7 +32,8 @@ def test_inertias_and_drag_add_up():
     m = load.hydro.mass + 0.5 * WATER_DENSITY * 1e-4
     assert loaded.m11 == pytest.approx(PAPER.m11 + m)
     assert loaded.m33 == pytest.approx(PAPER.m33 + m)
-    assert loaded.J - PAPER.J == pytest.approx(m * 0.22 ** 2)
+    added_yaw_inertia = loaded.J - PAPER.J
+    assert added_yaw_inertia == pytest.approx(m * 0.22 ** 2)  # parallel-axis theorem
     assert loaded.Xuu == pytest.approx(PAPER.Xuu - 0.5 * WATER_DENSITY * 1.0 * 0.004)
     # the same thrust accelerates the loaded vehicle less: in the ratio of the inertias
     x = np.zeros(8)
