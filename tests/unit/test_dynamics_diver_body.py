@@ -109,6 +109,21 @@ def test_reach_envelope_boundary_and_reasons():
     assert not behind.ok and "within the dry-suit limits" in behind.reason
 
 
+def test_bending_at_the_waist_reaches_lower():
+    """Standing, the grip cannot reach 1.2 m below the shoulders' height; bending at the
+    waist (the smallest bend that works) it can, and the solution stays in the limits."""
+    q0 = SKELETON.zeros()
+    target = SKELETON.shoulder(q0, "right") + np.array([0.5, 0.0, 0.8])
+    assert not db.solve_reach(SKELETON, "right", target, q0).ok
+    bent = db.solve_reach(SKELETON, "right", target, q0, bend=True)
+    assert bent.ok and SKELETON.limit_violations(bent.q) == []
+    waist = bent.q[SKELETON.index("waist")]
+    assert 0.0 < waist <= math.radians(80 * 0.8)
+    np.testing.assert_allclose(SKELETON.grip_point(bent.q, "right"), target, atol=1e-9)
+    far = db.solve_reach(SKELETON, "right", target + np.array([1.0, 0.0, 0.0]), q0, bend=True)
+    assert not far.ok and far.reason.endswith("(even bending at the waist)")
+
+
 def test_limits_are_the_aaos_ranges_times_the_dry_suit_factor():
     def deg(joint):
         j = SKELETON.joints[SKELETON.index(joint)]
@@ -155,7 +170,7 @@ def test_unknown_pose_joint_side_and_kind_are_clear_errors():
         SKELETON.index("right_thumb")
     with pytest.raises(ConfigError, match="must be 'scuba' or 'boots'"):
         db.DiverSkeleton(kind="rebreather")
-    with pytest.raises(ConfigError, match=r"q must have shape \(23,\)"):
+    with pytest.raises(ConfigError, match=r"q must have shape \(24,\)"):
         SKELETON.joint_transforms(np.zeros(3))
 
 

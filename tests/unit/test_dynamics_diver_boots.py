@@ -87,6 +87,29 @@ def test_the_turn_rate_and_the_speed_are_limited():
     assert max(s.speed for s in states) == pytest.approx(PARAMS.max_speed)
 
 
+def test_crouching_lowers_the_hips_stops_walking_and_reaches_a_basket():
+    """Crouching fully (2 s at 0.5 /s) brings the hips down to the legs' deepest reach;
+    the crouched diver does not walk, and bending at the waist its right hand reaches a
+    grasp point 0.25 m above the floor 0.5 m ahead (a wrench in a tool basket)."""
+    from uhrisim.dynamics.diver_body import solve_reach
+
+    floor = seafloor.flat(12.0, 30.0).depth_at
+    states = [s for s, _, _ in walk(floor, lambda t: bt.BootsCommand(0.3, crouch=1.0), 3.0,
+                                    legs=False)]
+    state = states[-1]
+    assert state.crouch == 1.0 and state.speed == 0.0
+    assert state.position[0] < 0.01  # a step's start before the crouch stopped it
+    above = 12.0 - state.position[2]
+    assert above == pytest.approx(bt.leg_reach(PARAMS, 1.0) + SKELETON.body.ankle_height)
+    assert 0.5 < above < 0.65
+    q = bt.leg_angles(state, PARAMS, floor, SKELETON.zeros())
+    assert SKELETON.limit_violations(q) == []
+    target = np.array([0.5, SKELETON.shoulder(q, "right")[1], 12.0 - 0.25])
+    assert solve_reach(SKELETON, "right", target - np.array(state.position), q, bend=True).ok
+    assert not solve_reach(SKELETON, "right", target - np.array(start_on(floor).position),
+                           q, bend=True).ok  # standing, it cannot
+
+
 def test_a_slope_steeper_than_walkable_stops_the_diver():
     floor = seafloor.sloped(10.0, 0.5, extent=40.0).depth_at  # 50 %: deeper to the north
     results = [r for _, _, r in walk(floor, lambda t: bt.BootsCommand(0.3), 2.0)]

@@ -75,8 +75,10 @@ ANKLE_HEIGHT_RATIO = 0.039
 FOOT_LENGTH_RATIO = 0.152
 NECK_HEIGHT_RATIO = 0.845  # between shoulder (0.818) and chin (0.870): assumed pivot
 HEAD_CENTRE_RATIO = 0.936  # eye height
-#: Assumptions (module docstring): hip joint centres' half spacing, grip point on the hand.
+#: Assumptions (module docstring): hip joint centres' half spacing, the trunk's bending
+#: pivot (lumbosacral, above the hip centre), grip point on the hand.
 HIP_HALF_SPACING_M = 0.09
+WAIST_PIVOT_HEIGHT_M = 0.10
 GRIP_FRACTION_OF_HAND = 0.4
 #: Range-of-motion factor of a dry suit (assumption, module docstring).
 DRY_SUIT_ROM_FACTOR = 0.8
@@ -103,6 +105,7 @@ class JointSpec:
 #: What a positive angle of each joint kind means (the rest are "0 = anatomical position").
 JOINT_MEANINGS = {
     "posture": "whole body pitched forward about the hips (0 standing, 90° prone)",
+    "waist": "trunk bent forward over the hips (thoracolumbar flexion)",
     "neck_flex": "chin towards the chest",
     "neck_rot": "face turned to the right",
     "shoulder_flex": "arm raised forward (180°: overhead)",
@@ -120,6 +123,7 @@ JOINT_MEANINGS = {
 #: AAOS (1965) normal active ranges, degrees (negative: the opposite movement), before the
 #: dry-suit factor; and the assumed maximum speeds (°/s). Keys: joint kinds.
 _RANGE_DEG: dict[str, tuple[float, float, float]] = {
+    "waist": (-25.0, 80.0, 45.0),
     "neck_flex": (-45.0, 45.0, 60.0),
     "neck_rot": (-60.0, 60.0, 60.0),
     "shoulder_flex": (-60.0, 180.0, 90.0),
@@ -220,7 +224,9 @@ def _joints(body: Anthropometry, rom_factor: float) -> list[JointSpec]:
     joints = [JointSpec("posture", (0.0, 0.0, 0.0), (0.0, -1.0, 0.0), math.radians(lo),
                         math.radians(hi), math.radians(speed), None)]
     neck = (0.0, 0.0, body.neck_z)
-    joints += [spec("neck_flex", "neck_flex", neck, (0.0, -1.0, 0.0), "posture"),
+    joints += [spec("waist", "waist", (0.0, 0.0, -WAIST_PIVOT_HEIGHT_M), (0.0, -1.0, 0.0),
+                    "posture"),
+               spec("neck_flex", "neck_flex", neck, (0.0, -1.0, 0.0), "waist"),
                spec("neck_rot", "neck_rot", neck, (0.0, 0.0, 1.0), "neck_flex")]
     for side in SIDES:
         s = 1.0 if side == "right" else -1.0
@@ -233,7 +239,7 @@ def _joints(body: Anthropometry, rom_factor: float) -> list[JointSpec]:
         ankle = (0.0, hip[1], body.thigh + body.shank)
         p = f"{side}_"
         joints += [
-            spec("shoulder_flex", p + "shoulder_flex", shoulder, (0.0, 1.0, 0.0), "posture"),
+            spec("shoulder_flex", p + "shoulder_flex", shoulder, (0.0, 1.0, 0.0), "waist"),
             spec("shoulder_abd", p + "shoulder_abd", shoulder, (-s, 0.0, 0.0),
                  p + "shoulder_flex"),
             spec("shoulder_rot", p + "shoulder_rot", shoulder, (0.0, 0.0, -s),
@@ -251,7 +257,7 @@ def _joints(body: Anthropometry, rom_factor: float) -> list[JointSpec]:
 
 def _links(with_fins: bool) -> dict[str, str]:
     """Link name -> the joint that moves it (the last joint of its chain)."""
-    links = {"pelvis": "posture", "torso": "posture", "tank": "posture", "head": "neck_rot"}
+    links = {"pelvis": "posture", "torso": "waist", "tank": "waist", "head": "neck_rot"}
     for side in SIDES:
         p = f"{side}_"
         links |= {p + "upper_arm": p + "shoulder_rot", p + "forearm": p + "elbow",
@@ -426,7 +432,7 @@ class DiverSkeleton:
     def shoulder(self, q: ArrayLike, side: Side) -> NDArray[np.float64]:
         """Posed shoulder centre, body frame (m)."""
         j = self.joints[self.index(f"{side}_shoulder_flex")]
-        t = self.joint_transforms(q)[self.index("posture")]
+        t = self.joint_transforms(q)[self.index("waist")]
         return t[:3, :3] @ np.array(j.pivot) + t[:3, 3]
 
     @property
@@ -548,25 +554,13 @@ def _wrap(a: NDArray[np.float64]) -> NDArray[np.float64]:
     return (a + np.pi) % (2.0 * np.pi) - np.pi
 
 
-def solve_reach(skeleton: DiverSkeleton, side: Side, target_body: ArrayLike,
-                q_now: ArrayLike) -> ReachSolution:
-    """Arm angles that put hand ``side``'s grip point on ``target_body`` (body frame, m).
-
-    Analytic: the elbow angle follows from the shoulder-to-target distance (law of
-    cosines); for each humeral rotation (the arm's swivel, sampled over its range) the
-    shoulder flexion and abduction follow in closed form (two branches). The wrist is set
-    straight; posture, neck, legs and the other arm stay as in ``q_now``. Among the
-    solutions inside every limit the one nearest ``q_now`` is returned; checked by forward
-    kinematics to 1 µm. Position only: the hand's orientation is not solved.
-    """
-    q_now = np.asarray(q_now, dtype=float)
-    if side not in SIDES:
-        raise ConfigError(f"side must be 'left' or 'right', got {side!r}", where="solve_reach")
-    target = np.asarray(target_body, dtype=float).reshape(3)
-    posture = skeleton.joint_transforms(q_now)[skeleton.index("posture")]
+def _solve_arm(skeleton: DiverSkeleton, side: Side, target: NDArray[np.float64],
+               q_now: NDArray[np.float64]) -> ReachSolution:
+    """Arm-only reach (see :func:`solve_reach`)."""
+    trunk = skeleton.joint_transforms(q_now)[skeleton.index("waist")]
     shoulder = np.array(skeleton.joints[skeleton.index(f"{side}_shoulder_flex")].pivot)
-    # the target in the arm's rest frame (undo the posture), relative to the shoulder
-    t = posture[:3, :3].T @ (target - posture[:3, 3]) - shoulder
+    # the target in the arm's rest frame (undo posture and waist), relative to the shoulder
+    t = trunk[:3, :3].T @ (target - trunk[:3, 3]) - shoulder
     d = float(np.linalg.norm(t))
     a = skeleton.body.upper_arm
     b = skeleton.body.forearm + GRIP_FRACTION_OF_HAND * skeleton.body.hand
@@ -622,8 +616,41 @@ def solve_reach(skeleton: DiverSkeleton, side: Side, target_body: ArrayLike,
     return ReachSolution(q_best)
 
 
+#: Waist angles the reach solver tries when ``bend`` is allowed.
+_WAIST_SAMPLES = 29
+
+
+def solve_reach(skeleton: DiverSkeleton, side: Side, target_body: ArrayLike,
+                q_now: ArrayLike, bend: bool = False) -> ReachSolution:
+    """Joint angles that put hand ``side``'s grip point on ``target_body`` (body frame, m).
+
+    Analytic: the elbow angle follows from the shoulder-to-target distance (law of
+    cosines); for each humeral rotation (the arm's swivel, sampled over its range) the
+    shoulder flexion and abduction follow in closed form (two branches). The wrist is set
+    straight; posture, neck, legs and the other arm stay as in ``q_now``. Among the
+    solutions inside every limit the one nearest ``q_now`` is returned; checked by forward
+    kinematics to 1 µm. With ``bend``, when the arm alone cannot, the diver also bends
+    (or straightens) at the waist: the smallest change of the waist angle that works.
+    Position only: the hand's orientation is not solved.
+    """
+    q_now = np.asarray(q_now, dtype=float)
+    if side not in SIDES:
+        raise ConfigError(f"side must be 'left' or 'right', got {side!r}", where="solve_reach")
+    target = np.asarray(target_body, dtype=float).reshape(3)
+    solution = _solve_arm(skeleton, side, target, q_now)
+    if solution.ok or not bend:
+        return solution
+    i = skeleton.index("waist")
+    waists = np.linspace(skeleton.lower[i], skeleton.upper[i], _WAIST_SAMPLES)
+    for waist in sorted(waists, key=lambda w: abs(w - q_now[i])):
+        bent = _solve_arm(skeleton, side, target, skeleton.vector({"waist": waist}, q_now))
+        if bent.ok:
+            return bent
+    return ReachSolution(None, solution.reason + " (even bending at the waist)")
+
+
 def can_reach(skeleton: DiverSkeleton, side: Side, target_body: ArrayLike,
-              q_now: ArrayLike) -> bool:
+              q_now: ArrayLike, bend: bool = False) -> bool:
     """Whether hand ``side`` can put its grip point on ``target_body`` (the reach
-    envelope, with posture and legs as in ``q_now``)."""
-    return solve_reach(skeleton, side, target_body, q_now).ok
+    envelope, with posture and legs as in ``q_now``; ``bend``: at the waist too)."""
+    return solve_reach(skeleton, side, target_body, q_now, bend).ok

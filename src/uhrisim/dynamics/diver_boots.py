@@ -13,6 +13,9 @@ the bottom. Kinematic gait on the floor, free-body physics in the water:
   allows with the knee at ``knee_reach`` of the straight leg, and each leg's hip and
   knee come from planar two-link inverse kinematics, the ankle keeping the sole parallel
   to the floor. Walking up or down a slope steeper than ``max_slope`` stops the diver.
+  To work low (a tool basket on the floor) the diver **crouches**: the legs keep less
+  extension, down to the knee's flexion limit, at ``crouch_rate`` (full depth in 2 s);
+  a crouching diver does not walk.
 * **Buoyancy**: the diver is ``in_water_weight`` heavier than the water it displaces.
   The only way up is gas in the suit (``inflate``: the command's ``suit``); that gas
   follows Boyle's law with depth. When its lift exceeds the weight the diver leaves the
@@ -69,6 +72,7 @@ class BootsParams:
     swing_clearance: float = 0.08
     max_slope: float = 0.3
     knee_reach: float = 0.97
+    crouch_rate: float = 0.5
     in_water_weight: float = 10.0 * fb.GRAVITY
     mass: float = 110.0
     vertical_drag_area: float = 0.15
@@ -80,7 +84,7 @@ class BootsParams:
         for name in ("cruise_speed", "max_speed", "acceleration", "max_turn_rate",
                      "stride_length", "swing_clearance", "max_slope", "in_water_weight",
                      "mass", "vertical_drag_area", "inflate_lps", "dump_lps",
-                     "max_suit_litres"):
+                     "max_suit_litres", "crouch_rate"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ConfigError(f"must be a finite number > 0, got {v!r}",
@@ -104,7 +108,8 @@ class BootsParams:
 @dataclass(frozen=True)
 class BootsState:
     """Hip centre (NED m), heading (rad), walking speed (m/s), gait phase (rad), extra
-    suit gas (surface litres), velocity in the water (NED m/s, afloat only), afloat."""
+    suit gas (surface litres), velocity in the water (NED m/s, afloat only), afloat, and
+    how deep it crouches (0 standing, 1 the deepest its knees allow)."""
 
     position: tuple[float, float, float]
     psi: float = 0.0
@@ -113,15 +118,18 @@ class BootsState:
     suit_litres: float = 0.0
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     afloat: bool = False
+    crouch: float = 0.0
 
 
 class BootsCommand(NamedTuple):
-    """Desired walking speed (m/s), turn rate (rad/s, > 0 to starboard) and suit valve
-    (+1 inflate, 0 hold, -1 dump)."""
+    """Desired walking speed (m/s), turn rate (rad/s, > 0 to starboard), suit valve
+    (+1 inflate, 0 hold, -1 dump) and crouch (0 stand .. 1 deepest; a crouching diver
+    does not walk)."""
 
     speed: float = 0.0
     turn_rate: float = 0.0
     suit: Literal[-1, 0, 1] = 0
+    crouch: float = 0.0
 
 
 class Footfall(NamedTuple):
@@ -176,10 +184,21 @@ def _leg_length(params: BootsParams) -> float:
     return params.skeleton.body.thigh + params.skeleton.body.shank
 
 
+def leg_reach(params: BootsParams, crouch: float) -> float:
+    """Hip-to-ankle distance (m) the legs keep: ``knee_reach`` of the straight leg when
+    standing, down to the knee's flexion limit (less 5°) at ``crouch`` = 1."""
+    sk = params.skeleton
+    thigh, shank = sk.body.thigh, sk.body.shank
+    knee = sk.upper[sk.index("left_knee")] - math.radians(5.0)
+    deepest = math.sqrt(thigh ** 2 + shank ** 2 + 2.0 * thigh * shank * math.cos(knee))
+    standing = params.knee_reach * (thigh + shank)
+    return standing + (deepest - standing) * min(max(crouch, 0.0), 1.0)
+
+
 def standing_hip_depth(state: BootsState, params: BootsParams, floor_depth: FloorDepth) -> float:
-    """Depth (m) of the hip centre with both ankles within ``knee_reach`` of a straight
-    leg: as high as the lower foot allows."""
-    reach = params.knee_reach * _leg_length(params)
+    """Depth (m) of the hip centre with both ankles within :func:`leg_reach` (at the
+    state's crouch): as high as the lower foot allows."""
+    reach = leg_reach(params, state.crouch)
     ankle_h = params.skeleton.body.ankle_height
     sk = params.skeleton
     depth = -math.inf
@@ -277,15 +296,19 @@ def step(state: BootsState, command: BootsCommand, params: BootsParams, dt: floa
                                                          command.turn_rate)) * dt
         if where == "floor":
             notes.append("landed")
-            new = BootsState(tuple(x[:3]), psi, 0.0, state.phase, suit)
+            new = BootsState(tuple(x[:3]), psi, 0.0, state.phase, suit, crouch=state.crouch)
             return BootsStep(replace(new, position=(x[0], x[1], standing_hip_depth(
                 new, params, floor_depth))), [], notes)
         return BootsStep(BootsState(tuple(x[:3]), psi, 0.0, state.phase, suit,
-                                    tuple(x[3:]), True), [], notes)
-    # on the floor: turn, speed up or slow down, walk unless the slope ahead is too steep
+                                    tuple(x[3:]), True, state.crouch), [], notes)
+    # on the floor: crouch or stand up; turn, speed up or slow down, walk unless crouching
+    # or the slope ahead is too steep
+    step_crouch = params.crouch_rate * dt
+    wanted = min(max(command.crouch, 0.0), 1.0)
+    crouch = state.crouch + max(-step_crouch, min(step_crouch, wanted - state.crouch))
     psi = state.psi + max(-params.max_turn_rate, min(params.max_turn_rate,
                                                      command.turn_rate)) * dt
-    target = max(0.0, min(params.max_speed, command.speed))
+    target = max(0.0, min(params.max_speed, command.speed)) if crouch < 0.05 else 0.0
     dv = max(-params.acceleration * dt, min(params.acceleration * dt, target - state.speed))
     speed = state.speed + dv
     probe = replace(state, psi=psi)
@@ -296,7 +319,7 @@ def step(state: BootsState, command: BootsCommand, params: BootsParams, dt: floa
     h = _heading(psi)
     xy = np.asarray(state.position[:2]) + speed * dt * h
     phase = state.phase + 2.0 * math.pi * speed / params.stride_length * dt
-    new = BootsState((xy[0], xy[1], state.position[2]), psi, speed, phase, suit)
+    new = BootsState((xy[0], xy[1], state.position[2]), psi, speed, phase, suit, crouch=crouch)
     footfalls = []
     for side, start in (("left", 0.0), ("right", math.pi)):
         # a foot lands when its cycle wraps from swing into stance

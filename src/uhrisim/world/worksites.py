@@ -451,7 +451,7 @@ class LiftBagSpec:
         folded.apply_translation((0.0, 0.0, -0.05))
         parts = [Part("folded", folded)]
         for litres in BAG_SIZES:
-            a, c = _bag_semi_axes(1e-3 * litres)
+            a, c = bag_semi_axes(1e-3 * litres)
             parts.append(Part(f"bag{litres:g}", ellipsoid((a, a, c), (0.0, 0.0,
                                                                      -self.rigging_m - c))))
         return ArticulatedMesh(parts=tuple(parts))
@@ -465,8 +465,8 @@ class LiftBagSpec:
                          for i in range(1 + len(BAG_SIZES))])
 
 
-def _bag_semi_axes(volume_m3: float) -> tuple[float, float]:
-    """Semi-axes (a, c) of a prolate bag with c = 1.6 a and volume 4/3 π a² c."""
+def bag_semi_axes(volume_m3: float) -> tuple[float, float]:
+    """Semi-axes (a, c) (m) of a swollen bag: prolate, c = 1.6 a, volume 4/3 π a² c."""
     a = (3.0 * volume_m3 / (4.0 * math.pi * 1.6)) ** (1.0 / 3.0)
     return a, 1.6 * a
 
