@@ -102,9 +102,9 @@ def test_crouching_lowers_the_hips_stops_walking_and_reaches_a_basket():
     above = 12.0 - state.position[2]
     reach = bt.leg_reach(PARAMS, 1.0)
     # the foot that limits: the one on the floor farthest from under the hips
-    legs = [math.sqrt(reach ** 2 - forward ** 2) - lift
+    legs = [math.sqrt(reach ** 2 - forward ** 2) + lift
             for forward, lift in bt.foot_offsets(state, PARAMS).values()]
-    assert above == pytest.approx(min(legs) + SKELETON.body.ankle_height, abs=5e-3)
+    assert above == pytest.approx(min(legs) + SKELETON.body.ankle_height, abs=1e-9)
     assert 0.5 < above < 0.65 < 12.0 - start_on(floor).position[2]
     q = bt.leg_angles(state, PARAMS, floor, SKELETON.zeros())
     assert SKELETON.limit_violations(q) == []
