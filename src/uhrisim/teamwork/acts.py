@@ -19,8 +19,9 @@ The rules:
   jaws and its in-water weight does not exceed what they hold. An object someone else
   holds may be grasped too: both then hold it (that is a handover's middle).
 * **release** — the carrier holds something; if nobody else holds it, it is free: it
-  rests where it is when a support (the floor, a basket's bottom) is within 5 cm below
-  it, else it falls (``drop``, counted as a dropped object).
+  rests where it is when a support (the floor, a basket's bottom, a platform) is within
+  5 cm below it, else it falls (``drop``, counted as a dropped object) onto the first
+  support under it.
 * **place** — release at a chosen point: within reach and tolerance, over a support.
 * **hand over** — the receiver grasps (every grasp rule) while the giver still holds;
   at that moment both hold (the event lists both); then the giver releases.
@@ -43,15 +44,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.dynamics.diver_body import DiverSkeleton, ReachSolution, Side, solve_reach
 from uhrisim.teamwork.gripper import GripperSpec, GripperState
-from uhrisim.teamwork.workspace import FloorDepth, Workspace
+from uhrisim.teamwork.workspace import SUPPORT_TOLERANCE_M, FloorDepth, Workspace, pose_matrix
 from uhrisim.world.events import WorldEvent
 
 #: A gloved hand takes what is within this of its palm centre (m; assumed).
 HAND_TOLERANCE_M = 0.05
 #: Fingers closed beyond this fraction count as a closed hand.
 OPEN_HAND_CLOSURE = 0.3
-#: A released object rests when a support is within this below it (m).
-SUPPORT_TOLERANCE_M = 0.05
 #: What each site needs to be worked.
 TOOL_FOR = {"flange": "wrench", "hatch": "hammer", "load": "lift_bag"}
 
@@ -164,24 +163,6 @@ def grasp(ws: Workspace, carrier: Carrier, obj: str, t: float) -> list[WorldEven
     return [WorldEvent(t, "grasp", obj, carrier.name, detail=detail)]
 
 
-def _support_below(ws: Workspace, obj: str, floor_depth: FloorDepth) -> tuple[str, float]:
-    """The nearest support under ``obj`` and the gap (m) from its bottom down to it: the
-    floor, or the inside bottom of a (level) tool basket whose opening it is over."""
-    x, y, z = ws.things[obj].position
-    bottom = z + ws.hydro_of(obj).bottom_offset
-    best = ("floor", float(floor_depth(x, y)) - bottom)
-    for name, basket in ws.things.items():
-        if name == obj or name not in ws.tools or ws.tools[name].kind != "tool_basket":
-            continue
-        length, width, height = ws.tools[name].size
-        local = basket.pose[:3, :3].T @ (np.array([x, y, bottom]) - basket.position)
-        inside = abs(local[0]) < 0.5 * length and abs(local[1]) < 0.5 * width
-        gap = 0.5 * height - 0.01 - local[2]  # down to the basket's inside bottom
-        if inside and -0.01 <= gap < best[1]:
-            best = (f"in:{name}", gap)
-    return best
-
-
 def release(ws: Workspace, carrier: Carrier, t: float, floor_depth: FloorDepth
             ) -> list[WorldEvent]:
     """Let go of what ``carrier`` holds: it rests on a support within 5 cm below it,
@@ -193,19 +174,21 @@ def release(ws: Workspace, carrier: Carrier, t: float, floor_depth: FloorDepth
     if free is None:
         return [WorldEvent(t, "release", obj, carrier.name,
                            detail={"holders": ", ".join(ws.holders_of(obj))})]
-    support, gap = _support_below(ws, obj, floor_depth)
+    support, gap = ws.support_below(obj, floor_depth)
     if gap <= SUPPORT_TOLERANCE_M:
-        _rest_on(ws, obj, support, gap)
+        ws.rest_on(obj, support, gap)
         return [WorldEvent(t, "release", obj, carrier.name, detail={"on": support})]
     return [WorldEvent(t, "drop", obj, carrier.name, detail={"fall_m": round(gap, 3)})]
 
 
-def _rest_on(ws: Workspace, obj: str, support: str, gap: float) -> None:
+def _hang_level(ws: Workspace, obj: str, grasp_ned: NDArray[np.float64]) -> None:
+    """Turn ``obj`` level (keeping its heading) with its grasp point at ``grasp_ned``."""
     thing = ws.things[obj]
-    thing.pose[2, 3] += gap
-    thing.velocity = np.zeros(3)
-    ws.put(obj, thing.position, math.atan2(thing.pose[1, 0], thing.pose[0, 0]),
-           where="floor" if support == "floor" else support)
+    level = pose_matrix(np.zeros(3), math.atan2(thing.pose[1, 0], thing.pose[0, 0]))
+    local = (ws.tools[obj].grasp_offset() if obj in ws.tools
+             else ws.loads[obj].attachment_site())
+    level[:3, 3] = grasp_ned - level[:3, :3] @ local
+    thing.pose = level
 
 
 def place(ws: Workspace, carrier: Carrier, target_ned: ArrayLike, t: float,
@@ -222,13 +205,17 @@ def place(ws: Workspace, carrier: Carrier, target_ned: ArrayLike, t: float,
         return [_failed(t, "place_failed", obj, carrier, reason)]
     if len(ws.holders_of(obj)) > 1:
         return [_failed(t, "place_failed", obj, carrier, "someone else holds it too")]
-    support, gap = _support_below(ws, obj, floor_depth)
+    thing = ws.things[obj]
+    before = thing.pose.copy()
+    _hang_level(ws, obj, target)  # put down level, its grasp point at the target
+    support, gap = ws.support_below(obj, floor_depth)
     if gap > SUPPORT_TOLERANCE_M:
+        thing.pose = before
         return [_failed(t, "place_failed", obj, carrier,
                         f"nothing to put it on within {SUPPORT_TOLERANCE_M:.2f} m "
                         f"({support} {gap:.2f} m below)")]
     ws.let_go(carrier.name)
-    _rest_on(ws, obj, support, gap)
+    ws.rest_on(obj, support, gap)
     return [WorldEvent(t, "place", obj, carrier.name, detail={"on": support})]
 
 

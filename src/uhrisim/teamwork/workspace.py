@@ -40,6 +40,28 @@ from uhrisim.world.worksites import (
 
 FloorDepth = Callable[[float, float], float]
 
+#: A released object rests when a support is within this below it (m).
+SUPPORT_TOLERANCE_M = 0.05
+
+
+@dataclass(frozen=True)
+class Platform:
+    """A level top surface of a fixed structure (a work stand, a structure's deck) that
+    objects can be put on: centre of its top (NED m), size (m, along and across its
+    heading), heading (rad)."""
+
+    name: str
+    top_centre_ned: tuple[float, float, float]
+    size: tuple[float, float]
+    yaw: float = 0.0
+
+    def covers(self, point_ned: ArrayLike) -> bool:
+        """Whether ``point_ned`` lies over (or under) the top surface."""
+        d = np.asarray(point_ned, dtype=float)[:2] - np.asarray(self.top_centre_ned[:2])
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        along, across = c * d[0] + s * d[1], -s * d[0] + c * d[1]
+        return abs(along) <= 0.5 * self.size[0] and abs(across) <= 0.5 * self.size[1]
+
 
 def pose_matrix(position_ned: ArrayLike, yaw: float = 0.0) -> NDArray[np.float64]:
     """4x4 body→NED of a level object at ``position_ned`` heading ``yaw`` (rad)."""
@@ -74,6 +96,7 @@ class Workspace:
     flanges: dict[str, FlangeSpec] = field(default_factory=dict)
     hatches: dict[str, HatchSpec] = field(default_factory=dict)
     bags: dict[str, LiftBagSpec] = field(default_factory=dict)
+    platforms: dict[str, Platform] = field(default_factory=dict)
     things: dict[str, Thing] = field(default_factory=dict)
     flange_states: dict[str, FlangeState] = field(default_factory=dict)
     hatch_states: dict[str, HatchState] = field(default_factory=dict)
@@ -83,12 +106,13 @@ class Workspace:
     @classmethod
     def of(cls, tools: Iterable[Tool] = (), loads: Iterable[LoadSpec] = (),
            flanges: Iterable[FlangeSpec] = (), hatches: Iterable[HatchSpec] = (),
-           bags: Iterable[LiftBagSpec] = ()) -> Workspace:
+           bags: Iterable[LiftBagSpec] = (), platforms: Iterable[Platform] = ()
+           ) -> Workspace:
         """A workspace with these objects and sites (names must be unique); lift bags
         need a tool of kind ``lift_bag`` of the same name."""
         ws = cls()
         for group, items in (("tools", tools), ("loads", loads), ("flanges", flanges),
-                             ("hatches", hatches), ("bags", bags)):
+                             ("hatches", hatches), ("bags", bags), ("platforms", platforms)):
             for item in items:
                 taken = item.name in ws.names() and not (group == "bags" and
                                                           item.name in ws.tools)
@@ -107,8 +131,8 @@ class Workspace:
     # ------------------------------------------------------------------ lookups
     def names(self) -> set[str]:
         """Every object and site name."""
-        return set(self.tools) | set(self.loads) | set(self.flanges) | set(self.hatches) | set(
-            self.bags)
+        return (set(self.tools) | set(self.loads) | set(self.flanges) | set(self.hatches)
+                | set(self.bags) | set(self.platforms))
 
     def thing(self, name: str) -> Thing:
         """The state of object ``name``; ConfigError naming the objects otherwise."""
@@ -143,16 +167,50 @@ class Workspace:
 
     # ------------------------------------------------------------------ placing
     def put(self, obj: str, position_ned: ArrayLike, yaw: float = 0.0,
-            where: str = "floor") -> None:
-        """Place ``obj`` (its reference point at ``position_ned``) at rest; ``where`` may
-        be ``"in:<basket>"`` to put it in a basket (it then moves with the basket)."""
+            where: str = "floor", pitch: float = 0.0) -> None:
+        """Place ``obj`` (its reference point at ``position_ned``, heading ``yaw``, its
+        long axis pitched ``pitch`` rad: -pi/2 stands a tool on its working end) at rest;
+        ``where``: ``"floor"``, ``"on:<platform>"``, ``"in:<basket>"`` (it then moves
+        with the basket) or ``"water"`` (free)."""
         if obj not in self.tools and obj not in self.loads:
             raise ConfigError(f"no object {obj!r} to put", where="Workspace.put")
-        thing = Thing(pose_matrix(position_ned, yaw), where)
+        pose = pose_matrix(position_ned, yaw)
+        c, s = math.cos(pitch), math.sin(pitch)
+        pose[:3, :3] = pose[:3, :3] @ np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+        thing = Thing(pose, where)
         if where.startswith("in:"):
             basket = self.thing(where[3:])
             thing.relative = np.linalg.inv(basket.pose) @ thing.pose
         self.things[obj] = thing
+
+    def support_below(self, obj: str, floor_depth: FloorDepth) -> tuple[str, float]:
+        """The nearest support under ``obj`` and the gap (m) from its bottom down to it:
+        the floor (``"floor"``), a platform's top (``"on:<name>"``) or the inside bottom of
+        a level tool basket whose opening it is over (``"in:<name>"``)."""
+        x, y, z = self.things[obj].position
+        bottom = z + self.hydro_of(obj).bottom_offset
+        best = ("floor", float(floor_depth(x, y)) - bottom)
+        for name, platform in self.platforms.items():
+            gap = platform.top_centre_ned[2] - bottom
+            if platform.covers((x, y)) and -0.01 <= gap < best[1]:
+                best = (f"on:{name}", gap)
+        for name, basket in self.things.items():
+            if name == obj or name not in self.tools or self.tools[name].kind != "tool_basket":
+                continue
+            length, width, height = self.tools[name].size
+            local = basket.pose[:3, :3].T @ (np.array([x, y, bottom]) - basket.position)
+            inside = abs(local[0]) < 0.5 * length and abs(local[1]) < 0.5 * width
+            gap = 0.5 * height - 0.01 - local[2]  # down to the basket's inside bottom
+            if inside and -0.01 <= gap < best[1]:
+                best = (f"in:{name}", gap)
+        return best
+
+    def rest_on(self, obj: str, support: str, gap: float) -> None:
+        """Lower ``obj`` by ``gap`` onto ``support`` (from :meth:`support_below`), level."""
+        thing = self.things[obj]
+        position = thing.position + np.array([0.0, 0.0, gap])
+        yaw = math.atan2(thing.pose[1, 0], thing.pose[0, 0])
+        self.put(obj, position, yaw, where=support)
 
     def carry(self, carrier: str, grip_frame: NDArray[np.float64],
               velocity: ArrayLike = (0.0, 0.0, 0.0)) -> None:
@@ -204,9 +262,8 @@ class Workspace:
             self.bag_states[name], ev = spec.advance(state, dt, t, depth)
             events += ev
         for name, thing in self.things.items():
-            if thing.where not in ("water", "floor", "surface"):
-                continue
-            events += self._move_free(name, thing, dt, t, floor_depth)
+            if thing.where in ("water", "floor", "surface"):
+                events += self._move_free(name, thing, dt, t, floor_depth)
         for thing in self.things.values():  # contents and rigging follow
             if thing.where.startswith("in:"):
                 thing.pose = self.things[thing.where[3:]].pose @ thing.relative
@@ -238,13 +295,18 @@ class Workspace:
                                    area=area, bottom_offset=hydro.bottom_offset)
         elif name in self.bags:
             gas = self.bags[name].gas_m3(self.bag_states[name], float(x[2]))
-        floor = float(floor_depth(x[0], x[1]))
-        x, where = fb.step(x, hydro, dt, floor, gas)
+        support, gap = self.support_below(name, floor_depth)
+        resting_on = float(x[2]) + hydro.bottom_offset + gap  # depth of what is below
+        x, where = fb.step(x, hydro, dt, resting_on, gas)
         before = thing.where
         thing.pose[:3, 3], thing.velocity, thing.where = x[:3], x[3:], where
+        if where == "floor" and support != "floor":
+            self.rest_on(name, support, 0.0)  # in a basket or on a platform
+            where = support
         if where == before:
             return []
-        kind = {("floor", "water"): "lifted_off", ("water", "floor"): "landed",
-                ("water", "surface"): "surfaced", ("surface", "water"): "sank"}
-        return [WorldEvent(t, kind.get((before, where), f"now_{where}"), name,
-                           detail={"depth": float(x[2])})]
+        landed = where == "floor" or where.startswith(("in:", "on:"))
+        kind = ("landed" if before == "water" and landed
+                else {("floor", "water"): "lifted_off", ("water", "surface"): "surfaced",
+                      ("surface", "water"): "sank"}.get((before, where), f"now_{where}"))
+        return [WorldEvent(t, kind, name, detail={"depth": float(x[2]), "on": where})]
