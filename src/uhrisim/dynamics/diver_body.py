@@ -616,12 +616,15 @@ def _solve_arm(skeleton: DiverSkeleton, side: Side, target: NDArray[np.float64],
     return ReachSolution(q_best)
 
 
-#: Waist angles the reach solver tries when ``bend`` is allowed.
-_WAIST_SAMPLES = 29
+#: Waist and posture (the pelvis's forward tilt) angles the reach solver tries when
+#: ``bend`` is allowed.
+_WAIST_SAMPLES = 15
+_TILT_SAMPLES = 7
 
 
 def solve_reach(skeleton: DiverSkeleton, side: Side, target_body: ArrayLike,
-                q_now: ArrayLike, bend: bool = False) -> ReachSolution:
+                q_now: ArrayLike, bend: bool = False, max_tilt: float | None = None
+                ) -> ReachSolution:
     """Joint angles that put hand ``side``'s grip point on ``target_body`` (body frame, m).
 
     Analytic: the elbow angle follows from the shoulder-to-target distance (law of
@@ -630,8 +633,11 @@ def solve_reach(skeleton: DiverSkeleton, side: Side, target_body: ArrayLike,
     straight; posture, neck, legs and the other arm stay as in ``q_now``. Among the
     solutions inside every limit the one nearest ``q_now`` is returned; checked by forward
     kinematics to 1 µm. With ``bend``, when the arm alone cannot, the diver also bends
-    (or straightens) at the waist: the smallest change of the waist angle that works.
-    Position only: the hand's orientation is not solved.
+    (or straightens) at the waist — the smallest change of the waist angle that works —
+    and, if that is not enough, tilts its pelvis too (``posture``: bending over from the
+    hips, as one reaches for the floor; legs on the floor are re-solved by their own
+    inverse kinematics; ``max_tilt`` (rad) caps the tilt, e.g. at what the hips' flexion
+    leaves). Position only: the hand's orientation is not solved.
     """
     q_now = np.asarray(q_now, dtype=float)
     if side not in SIDES:
@@ -640,13 +646,19 @@ def solve_reach(skeleton: DiverSkeleton, side: Side, target_body: ArrayLike,
     solution = _solve_arm(skeleton, side, target, q_now)
     if solution.ok or not bend:
         return solution
-    i = skeleton.index("waist")
-    waists = np.linspace(skeleton.lower[i], skeleton.upper[i], _WAIST_SAMPLES)
-    for waist in sorted(waists, key=lambda w: abs(w - q_now[i])):
-        bent = _solve_arm(skeleton, side, target, skeleton.vector({"waist": waist}, q_now))
-        if bent.ok:
-            return bent
-    return ReachSolution(None, solution.reason + " (even bending at the waist)")
+    i, j = skeleton.index("waist"), skeleton.index("posture")
+    waists = sorted(np.linspace(skeleton.lower[i], skeleton.upper[i], _WAIST_SAMPLES),
+                    key=lambda w: abs(w - q_now[i]))
+    top = skeleton.upper[j] if max_tilt is None else min(skeleton.upper[j], max_tilt)
+    tilts = sorted(np.linspace(skeleton.lower[j], top, _TILT_SAMPLES),
+                   key=lambda p: abs(p - q_now[j]))
+    for tilt in [q_now[j], *tilts]:
+        for waist in waists:
+            bent = _solve_arm(skeleton, side, target,
+                              skeleton.vector({"waist": waist, "posture": tilt}, q_now))
+            if bent.ok:
+                return bent
+    return ReachSolution(None, solution.reason + " (even bending over)")
 
 
 def can_reach(skeleton: DiverSkeleton, side: Side, target_body: ArrayLike,

@@ -223,21 +223,25 @@ def floor_slope_ahead(state: BootsState, floor_depth: FloorDepth, probe: float =
 
 def leg_angles(state: BootsState, params: BootsParams, floor_depth: FloorDepth, q: ArrayLike
                ) -> NDArray[np.float64]:
-    """``q`` with posture 0 and both legs on their sole targets (module docstring):
-    planar two-link IK for hip flexion and knee, hip abduction for the lateral offset,
-    the ankle keeping the sole parallel to the floor's slope along the heading. Clipped
-    into the joint limits."""
+    """``q`` with both legs on their sole targets (module docstring): planar two-link IK
+    for hip flexion and knee, hip abduction for the lateral offset, the ankle keeping the
+    sole parallel to the floor's slope along the heading. The pelvis keeps the forward
+    tilt it has in ``q`` (its ``posture`` angle, bending over to reach low: the hip joints
+    lie on its axis, so the feet stay put and the hips flex the more). Clipped into the
+    joint limits."""
     sk = params.skeleton
     out = np.array(q, dtype=float)
-    out[sk.index("posture")] = 0.0
+    tilt = float(out[sk.index("posture")])
     thigh, shank = sk.body.thigh, sk.body.shank
     c, s = math.cos(state.psi), math.sin(state.psi)
     to_body = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])  # NED -> body (yaw)
+    ct, st = math.cos(tilt), math.sin(tilt)
+    to_pelvis = np.array([[ct, 0.0, st], [0.0, 1.0, 0.0], [-st, 0.0, ct]])  # undo the tilt
     slope = math.atan(floor_slope_ahead(state, floor_depth))
     for side, sole in sole_targets(state, params, floor_depth).items():
         hip = np.array(sk.joints[sk.index(f"{side}_hip_flex")].pivot)
         ankle = to_body @ (sole - np.asarray(state.position)) - [0.0, 0.0, sk.body.ankle_height]
-        v = ankle - hip
+        v = to_pelvis @ ankle - hip
         d = min(float(np.linalg.norm(v)), thigh + shank)
         knee = math.acos(max(-1.0, min(1.0, (d * d - thigh ** 2 - shank ** 2) /
                                        (2.0 * thigh * shank))))
@@ -250,7 +254,7 @@ def leg_angles(state: BootsState, params: BootsParams, floor_depth: FloorDepth, 
         out[sk.index(p + "hip_flex")] = flex
         out[sk.index(p + "hip_abd")] = sigma * beta
         out[sk.index(p + "knee")] = knee
-        out[sk.index(p + "ankle")] = slope - flex + knee
+        out[sk.index(p + "ankle")] = slope + tilt - flex + knee
     return sk.clip(out)
 
 

@@ -138,6 +138,9 @@ def grasp(ws: Workspace, carrier: Carrier, obj: str, t: float) -> list[WorldEven
     held = ws.held_by(carrier.name)
     if held is not None:
         return [_failed(t, "grasp_failed", obj, carrier, f"already holds {held}")]
+    where = ws.things[obj].where
+    if where.startswith("rigged:"):
+        return [_failed(t, "grasp_failed", obj, carrier, f"it is rigged to {where[7:]}")]
     if isinstance(carrier, Hand) and not carrier.is_open():
         return [_failed(t, "grasp_failed", obj, carrier, "the hand is closed")]
     if isinstance(carrier, Jaws) and carrier.state.phase != "closed":
@@ -374,3 +377,55 @@ def between_jaws(ws: Workspace, jaws: Jaws) -> str | None:
         if d <= best_d:
             best, best_d = name, d
     return best
+
+
+@dataclass(frozen=True)
+class ActRequest:
+    """An act a script (or a pilot) asks for this tick; :func:`perform` does it.
+
+    ``kind``: grasp, release, place, hand_over, use, remove_bolt, remove_cover,
+    operate_hatch, inflate. ``carrier``: who acts; ``subject``: the object or site;
+    ``part``: a bolt number; ``flag``: open/on for hatches and bags; ``target``: where to
+    place; ``receiver``: the carrier that takes a handover.
+    """
+
+    kind: str
+    carrier: str
+    subject: str = ""
+    part: int = 0
+    flag: bool = True
+    target: tuple[float, float, float] | None = None
+    receiver: str = ""
+
+
+def perform(request: ActRequest, ws: Workspace, carriers: dict[str, Carrier], t: float,
+            dt: float, floor_depth: FloorDepth) -> list[WorldEvent]:
+    """Do ``request`` with the carriers as they are this tick (name -> Hand or Jaws)."""
+    carrier = carriers.get(request.carrier)
+    if carrier is None:
+        return [WorldEvent(t, f"{request.kind}_failed", request.subject, request.carrier, False,
+                           f"no carrier {request.carrier!r}")]
+    match request.kind:
+        case "grasp":
+            return grasp(ws, carrier, request.subject, t)
+        case "release":
+            return release(ws, carrier, t, floor_depth)
+        case "place":
+            return place(ws, carrier, request.target, t, floor_depth)
+        case "hand_over":
+            receiver = carriers.get(request.receiver)
+            if receiver is None:
+                return [_failed(t, "handover_failed", request.subject, carrier,
+                                f"no carrier {request.receiver!r}")]
+            return hand_over(ws, carrier, receiver, request.subject, t, floor_depth)
+        case "use":
+            return use(ws, carrier, request.subject, request.part, dt, t)
+        case "remove_bolt":
+            return remove_bolt(ws, carrier, request.subject, request.part, t)
+        case "remove_cover":
+            return remove_cover(ws, carrier, request.subject, t)
+        case "operate_hatch":
+            return operate_hatch(ws, carrier, request.subject, request.flag, t)
+        case "inflate":
+            return inflate(ws, carrier, request.subject, request.flag, t)
+    return [_failed(t, "act_failed", request.subject, carrier, f"no act {request.kind!r}")]

@@ -50,6 +50,8 @@ from uhrisim.world.bodies import ArticulatedMesh, Part
 from uhrisim.world.events import WorldEvent
 from uhrisim.world.tools import CATALOGUE
 
+#: Work times compare with this slack (s): a tick's dt summed up stays a float.
+_SLACK_S = 1e-9
 #: Where parts that are gone wait (translation, m): far above the water, out of any view.
 PARKED = np.array([0.0, 0.0, -1.0e4])
 _ALONG_X = {"pitch": math.pi / 2.0}
@@ -136,7 +138,7 @@ class FlangeSpec:
         """'tight', 'loose' or 'removed'."""
         if state.removed[bolt]:
             return "removed"
-        return "loose" if state.work_s[bolt] >= self.loosen_time_s else "tight"
+        return "loose" if state.work_s[bolt] >= self.loosen_time_s - _SLACK_S else "tight"
 
     def bolt_position_site(self, bolt: int) -> NDArray[np.float64]:
         """The nut of ``bolt`` (where a wrench goes), site frame (m). Bolts are numbered
@@ -177,7 +179,7 @@ class FlangeSpec:
         work = list(state.work_s)
         work[bolt] = before + dt
         new = replace(state, work_s=tuple(work))
-        if before < self.loosen_time_s <= work[bolt]:
+        if before < self.loosen_time_s - _SLACK_S <= work[bolt]:
             return new, [WorldEvent(t, "bolt_loosened", self.name, actor,
                                     detail={"bolt": bolt, "work_s": work[bolt]})]
         return new, []
@@ -289,7 +291,7 @@ class HatchSpec:
 
     def status(self, state: HatchState) -> str:
         """'latched', 'closed', 'opening', 'open' or 'closing'."""
-        if state.latch_work_s < self.latch_time_s:
+        if state.latch_work_s < self.latch_time_s - _SLACK_S:
             return "latched"
         if state.opening:
             return "open" if state.angle >= self.open_angle else "opening"
@@ -312,7 +314,7 @@ class HatchSpec:
         """``dt`` s of hammer work on the latch; it frees after ``latch_time_s``."""
         before = state.latch_work_s
         new = replace(state, latch_work_s=before + dt)
-        if before < self.latch_time_s <= new.latch_work_s:
+        if before < self.latch_time_s - _SLACK_S <= new.latch_work_s:
             return new, [WorldEvent(t, "latch_freed", self.name, actor)]
         return new, []
 
