@@ -115,6 +115,28 @@ def test_crouching_lowers_the_hips_stops_walking_and_reaches_a_basket():
     assert not solve_reach(SKELETON, "right", target - np.array(standing), q).ok  # arm alone
 
 
+def test_bending_over_from_the_hips_keeps_the_feet_where_they_are():
+    """Tilting the pelvis forward (posture) the legs are re-solved: both soles stay on the
+    floor (1 mm), the hips flex the more, and a hand reaches the floor 0.4 m ahead. The
+    tilt is capped at what the more flexed hip leaves (max_pelvis_tilt)."""
+    from uhrisim.dynamics.diver_body import solve_reach
+
+    floor = seafloor.flat(10.0, 30.0).depth_at
+    state = start_on(floor)
+    upright = bt.leg_angles(state, PARAMS, floor, SKELETON.zeros())
+    target = np.array([0.4, 0.2, 10.0 - 0.01]) - np.array(state.position)
+    reach = solve_reach(SKELETON, "right", target, upright, bend=True,
+                        max_tilt=bt.max_pelvis_tilt(PARAMS, upright))
+    assert reach.ok and reach.q[SKELETON.index("posture")] > math.radians(30)
+    bent = bt.leg_angles(state, PARAMS, floor, reach.q)
+    assert SKELETON.limit_violations(bent) == []
+    for side, sole in bt.sole_positions(state, PARAMS, bent).items():
+        assert sole == pytest.approx(bt.sole_positions(state, PARAMS, upright)[side], abs=1e-3)
+        assert floor(*sole[:2]) - sole[2] == pytest.approx(0.0, abs=5e-3)
+    flex = SKELETON.index("left_hip_flex")
+    assert bent[flex] > upright[flex] + math.radians(30)
+
+
 def test_a_slope_steeper_than_walkable_stops_the_diver():
     floor = seafloor.sloped(10.0, 0.5, extent=40.0).depth_at  # 50 %: deeper to the north
     results = [r for _, _, r in walk(floor, lambda t: bt.BootsCommand(0.3), 2.0)]

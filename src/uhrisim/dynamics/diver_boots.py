@@ -258,6 +258,18 @@ def leg_angles(state: BootsState, params: BootsParams, floor_depth: FloorDepth, 
     return sk.clip(out)
 
 
+def max_pelvis_tilt(params: BootsParams, q: ArrayLike, margin: float = math.radians(3.0)
+                    ) -> float:
+    """How far (rad) the diver may tilt its pelvis forward with its feet where they are:
+    tilting adds to both hips' flexion, so what the more flexed hip leaves below its
+    limit (less ``margin``)."""
+    sk = params.skeleton
+    q = np.asarray(q, dtype=float)
+    tilt = q[sk.index("posture")]
+    flex = max(q[sk.index(f"{side}_hip_flex")] for side in SIDES) - tilt
+    return float(sk.upper[sk.index("left_hip_flex")] - flex - margin)
+
+
 def sole_positions(state: BootsState, params: BootsParams, q: ArrayLike
                    ) -> dict[Side, NDArray[np.float64]]:
     """Where forward kinematics puts each sole (the point under the ankle), NED (m)."""

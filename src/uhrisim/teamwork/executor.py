@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 
 from uhrisim.core.frames import wrap_pi
 from uhrisim.dynamics.diver_body import SIDES, DiverSkeleton, Side, pose_goal, solve_reach
+from uhrisim.dynamics.diver_boots import BootsParams, max_pelvis_tilt
 from uhrisim.teamwork import orders as od
 from uhrisim.teamwork.acts import HAND_TOLERANCE_M, ActRequest, Hand, site_kind
 from uhrisim.teamwork.workspace import Workspace
@@ -240,14 +241,10 @@ class OrderExecutor:
 
     @staticmethod
     def _tilt_room(view: DiverView) -> float | None:
-        """How far a diver standing on boots may tilt its pelvis: what its hips' flexion
-        leaves (a swimmer: no cap)."""
+        """How far a diver on boots may tilt its pelvis (a swimmer: no cap)."""
         if view.model != "diver_boots":
             return None
-        sk = view.skeleton
-        flex = max(view.q[sk.index(f"{s}_hip_flex")] for s in SIDES)
-        tilt = view.q[sk.index("posture")]
-        return float(sk.upper[sk.index("left_hip_flex")] - (flex - tilt) - math.radians(3.0))
+        return max_pelvis_tilt(BootsParams(skeleton=view.skeleton), view.q)
 
     def _upright(self, view: DiverView) -> NDArray[np.float64]:
         """The body straightened for moving: pelvis level (prone for a swimmer), trunk
