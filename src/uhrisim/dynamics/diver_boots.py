@@ -51,6 +51,7 @@ from typing import Literal, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from uhrisim.core.checks import require_positive
 from uhrisim.core.errors import ConfigError
 from uhrisim.dynamics import free_body as fb
 from uhrisim.dynamics.diver_body import SIDES, DiverSkeleton, Side
@@ -81,14 +82,10 @@ class BootsParams:
     max_suit_litres: float = 30.0
 
     def __post_init__(self) -> None:
-        for name in ("cruise_speed", "max_speed", "acceleration", "max_turn_rate",
-                     "stride_length", "swing_clearance", "max_slope", "in_water_weight",
-                     "mass", "vertical_drag_area", "inflate_lps", "dump_lps",
-                     "max_suit_litres", "crouch_rate"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ConfigError(f"must be a finite number > 0, got {v!r}",
-                                  where=f"BootsParams.{name}")
+        require_positive(self, ("cruise_speed", "max_speed", "acceleration", "max_turn_rate",
+                                "stride_length", "swing_clearance", "max_slope",
+                                "in_water_weight", "mass", "vertical_drag_area", "inflate_lps",
+                                "dump_lps", "max_suit_litres", "crouch_rate"), "BootsParams")
         if self.cruise_speed > self.max_speed:
             raise ConfigError("cruise_speed must not exceed max_speed", where="BootsParams")
         if not 0.8 <= self.knee_reach < 1.0:

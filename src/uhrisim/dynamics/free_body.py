@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from uhrisim.core.checks import require_positive
 from uhrisim.core.errors import ConfigError
 
 WATER_DENSITY = 1025.0  # kg/m³
@@ -63,15 +64,9 @@ class Hydro:
     bottom_offset: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("mass", "volume", "drag_coefficient", "area"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0.0):
-                raise ConfigError(f"must be a finite number > 0, got {v!r}", where=f"Hydro.{name}")
-        for name in ("added_mass_coefficient", "bottom_offset"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0.0):
-                raise ConfigError(f"must be a finite number >= 0, got {v!r}",
-                                  where=f"Hydro.{name}")
+        require_positive(self, ("mass", "volume", "drag_coefficient", "area"), "Hydro")
+        require_positive(self, ("added_mass_coefficient", "bottom_offset"), "Hydro",
+                         allow_zero=True)
 
     def in_water_weight(self, gas_volume: float = 0.0, rho: float = WATER_DENSITY) -> float:
         """Weight minus buoyancy (N, > 0 sinks) with ``gas_volume`` (m³) of buoyant gas."""

@@ -256,6 +256,15 @@ class OrderExecutor:
         i = view.skeleton.index(f"{side}_fingers")
         return view.skeleton.vector({f"{side}_fingers": view.skeleton.upper[i]}, view.q)
 
+    def _on_failure(self, reason: str, t: float) -> Directive | None:
+        """A failed act's answer: out of reach → come closer (None: go on); the hand not
+        there → None (reach again); anything else fails the order."""
+        if reason.startswith(("out of reach", "too close")) or "does not reach" in reason:
+            return self._come_closer(reason, t)
+        if reason.startswith("hand "):
+            return None  # the next tick's reach moves it there
+        return self._finish(t, "failed", reason)
+
     def _come_closer(self, reason: str, t: float) -> Directive | None:
         """Out of reach: approach again 0.1 m closer (None), or fail the order."""
         p = self.params
@@ -336,14 +345,9 @@ class OrderExecutor:
             if e.kind == "grasp" and e.subject == obj and e.ok:
                 self._phase = "secure"
             elif e.kind == "grasp_failed" and e.subject == obj:
-                if e.reason.startswith(("out of reach", "too close")):
-                    retry = self._come_closer(e.reason, t)
-                    if retry is not None:
-                        return retry
-                elif e.reason.startswith("hand "):
-                    self._phase = "reach"
-                else:
-                    return self._finish(t, "failed", e.reason)
+                answer = self._on_failure(e.reason, t)
+                if answer is not None:
+                    return answer
         if self._phase == "secure":
             if view.skeleton.grip_closure(view.q, side) > 0.95:
                 return self._finish(t)
@@ -389,11 +393,9 @@ class OrderExecutor:
             return self._fetch_first(tool, t)
         failed = [e for e in events if not e.ok and e.kind == "use_failed"]
         for e in failed:
-            if "does not reach" not in e.reason:
-                return self._finish(t, "failed", e.reason)
-            retry = self._come_closer(e.reason, t)
-            if retry is not None:
-                return retry
+            answer = self._on_failure(e.reason, t)
+            if answer is not None:
+                return answer
         if self._using and not failed:
             self._worked_s += dt  # last tick's work went in
         self._using = False
@@ -421,12 +423,9 @@ class OrderExecutor:
             if e.ok and e.kind in done and e.subject == request.subject:
                 return self._finish(t)
             if not e.ok and e.subject == request.subject:
-                if e.reason.startswith(("out of reach", "too close")):
-                    retry = self._come_closer(e.reason, t)
-                    if retry is not None:
-                        return retry
-                elif not e.reason.startswith("hand "):
-                    return self._finish(t, "failed", e.reason)
+                answer = self._on_failure(e.reason, t)
+                if answer is not None:
+                    return answer
         side = self._free_hand(ws)
         return self._reach_and_act(view, point, side, request, t,
                                    f"{request.kind} {request.subject}")
@@ -438,12 +437,9 @@ class OrderExecutor:
             if e.kind == "place" and e.subject == obj and e.ok:
                 return self._finish(t)
             if e.kind == "place_failed" and e.subject == obj:
-                if e.reason.startswith(("out of reach", "too close")):
-                    retry = self._come_closer(e.reason, t)
-                    if retry is not None:
-                        return retry
-                elif not e.reason.startswith("hand "):
-                    return self._finish(t, "failed", e.reason)
+                answer = self._on_failure(e.reason, t)
+                if answer is not None:
+                    return answer
         if side is None:
             return self._finish(t, "failed", f"{obj} is not in hand")
         tool = ws.tools[obj]

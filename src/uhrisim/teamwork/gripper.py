@@ -26,14 +26,13 @@ arrive as "open"/"close" (the helm's variable, MOOS and ROS 2 alike, in the inte
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from uhrisim.core.errors import ConfigError
+from uhrisim.core.checks import require_positive
 from uhrisim.world.events import WorldEvent
 
 Phase = Literal["open", "closing", "closed", "opening"]
@@ -52,12 +51,8 @@ class GripperSpec:
     capture_tolerance: float = 0.03
 
     def __post_init__(self) -> None:
-        for name in ("jaw_opening", "close_time_s", "open_time_s", "grip_force_n",
-                     "friction", "capture_tolerance"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ConfigError(f"must be a finite number > 0, got {v!r}",
-                                  where=f"GripperSpec.{name}")
+        require_positive(self, ("jaw_opening", "close_time_s", "open_time_s", "grip_force_n",
+                                "friction", "capture_tolerance"), "GripperSpec")
 
     @property
     def holding_force_n(self) -> float:

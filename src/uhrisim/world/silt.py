@@ -52,6 +52,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from uhrisim.core.checks import require_positive
 from uhrisim.core.errors import ConfigError
 from uhrisim.dynamics.free_body import GRAVITY, WATER_DENSITY
 
@@ -90,11 +91,10 @@ class SiltParams:
         if not all(2e-6 <= d <= 63e-6 for d in self.diameters_m):
             raise ConfigError(f"silt is 2-63 µm (Wentworth), got {self.diameters_m}",
                               where="SiltParams.diameters_m")
-        for name in ("sole_area_m2", "erosion_depth_m", "dry_bulk_density",
-                     "initial_height_m", "initial_sigma_m"):
-            if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
-                raise ConfigError(f"must be > 0, got {getattr(self, name)!r}",
-                                  where=f"SiltParams.{name}")
+        require_positive(self, ("sole_area_m2", "erosion_depth_m", "dry_bulk_density",
+                                "initial_height_m", "initial_sigma_m", "grain_density"),
+                         "SiltParams")
+        require_positive(self, ("diffusivity_m2s",), "SiltParams", allow_zero=True)
 
     @property
     def settling_speeds(self) -> NDArray[np.float64]:

@@ -41,6 +41,7 @@ import numpy as np
 import trimesh
 from numpy.typing import ArrayLike, NDArray
 
+from uhrisim.core.checks import require_positive
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import rot_z
 from uhrisim.dynamics.free_body import ATMOSPHERE_PA, GRAVITY, WATER_DENSITY, Hydro, gas_volume
@@ -123,9 +124,9 @@ class FlangeSpec:
         if not isinstance(self.n_bolts, int) or not 1 <= self.n_bolts <= 32:
             raise ConfigError(f"must be an integer in [1, 32], got {self.n_bolts!r}",
                               where=f"flange {self.name!r}.n_bolts")
-        if not (math.isfinite(self.loosen_time_s) and self.loosen_time_s > 0):
-            raise ConfigError(f"must be > 0 s, got {self.loosen_time_s!r}",
-                              where=f"flange {self.name!r}.loosen_time_s")
+        require_positive(self, ("loosen_time_s", "bolt_circle_radius", "flange_radius",
+                                "cover_thickness", "bolt_diameter", "pipe_radius"),
+                         f"flange {self.name!r}")
 
     def initial_state(self) -> FlangeState:
         return FlangeState((0.0,) * self.n_bolts, (False,) * self.n_bolts)
@@ -278,10 +279,9 @@ class HatchSpec:
 
     def __post_init__(self) -> None:
         _check_name(self.name, "HatchSpec")
-        for name in ("size", "swing_time_s"):
-            if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
-                raise ConfigError(f"must be > 0, got {getattr(self, name)!r}",
-                                  where=f"hatch {self.name!r}.{name}")
+        require_positive(self, ("size", "thickness", "swing_time_s", "open_angle"),
+                         f"hatch {self.name!r}")
+        require_positive(self, ("latch_time_s",), f"hatch {self.name!r}", allow_zero=True)
 
     def initial_state(self) -> HatchState:
         return HatchState()
@@ -394,10 +394,8 @@ class LiftBagSpec:
 
     def __post_init__(self) -> None:
         _check_name(self.name, "LiftBagSpec")
-        for name in ("capacity_litres", "inflate_rate_lps", "rigging_m"):
-            if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
-                raise ConfigError(f"must be > 0, got {getattr(self, name)!r}",
-                                  where=f"lift bag {self.name!r}.{name}")
+        require_positive(self, ("capacity_litres", "inflate_rate_lps", "rigging_m"),
+                         f"lift bag {self.name!r}")
 
     @property
     def fabric(self) -> Hydro:
