@@ -295,6 +295,7 @@ class DiverSkeleton:
     links: Mapping[str, str] = field(init=False)
     _index: Mapping[str, int] = field(init=False, repr=False)
     _parents: NDArray[np.int64] = field(init=False, repr=False)
+    _tables: Mapping[str, NDArray[np.float64]] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.kind not in ("scuba", "boots"):
@@ -311,6 +312,14 @@ class DiverSkeleton:
         object.__setattr__(self, "links", _links(self.kind == "scuba"))
         object.__setattr__(self, "_index", index)
         object.__setattr__(self, "_parents", parents)
+        tables = {"axes": np.array([j.axis for j in joints]),
+                  "pivots": np.array([j.pivot for j in joints]),
+                  "lower": np.array([j.lower for j in joints]),
+                  "upper": np.array([j.upper for j in joints]),
+                  "max_speed": np.array([j.max_speed for j in joints])}
+        for table in tables.values():
+            table.setflags(write=False)
+        object.__setattr__(self, "_tables", tables)
 
     # ------------------------------------------------------------------ tables
     @property
@@ -323,15 +332,18 @@ class DiverSkeleton:
 
     @property
     def lower(self) -> NDArray[np.float64]:
-        return np.array([j.lower for j in self.joints])
+        """(J,) lower limits (rad, read-only)."""
+        return self._tables["lower"]
 
     @property
     def upper(self) -> NDArray[np.float64]:
-        return np.array([j.upper for j in self.joints])
+        """(J,) upper limits (rad, read-only)."""
+        return self._tables["upper"]
 
     @property
     def max_speed(self) -> NDArray[np.float64]:
-        return np.array([j.max_speed for j in self.joints])
+        """(J,) maximum speeds (rad/s, read-only)."""
+        return self._tables["max_speed"]
 
     def index(self, joint: str) -> int:
         """Position of ``joint`` in ``q``; ConfigError naming the joints otherwise."""
@@ -390,8 +402,7 @@ class DiverSkeleton:
         if q.shape != (self.n_joints,):
             raise ConfigError(f"q must have shape ({self.n_joints},), got {q.shape}",
                               where="DiverSkeleton.joint_transforms")
-        axes = np.array([j.axis for j in self.joints])
-        pivots = np.array([j.pivot for j in self.joints])
+        axes, pivots = self._tables["axes"], self._tables["pivots"]
         rot = _rodrigues(axes, q)
         local = np.zeros((self.n_joints, 4, 4))
         local[:, :3, :3] = rot
