@@ -3,8 +3,9 @@
 A :class:`Workspace` is the mutable state the simulation owns for teamwork (habit 3:
 nothing else changes it): the objects (tools and loads) with their poses (4x4 body→NED)
 and where they are — ``"floor"``, ``"water"`` (falling or rising), ``"surface"``,
-``"held"``, ``"in:<basket>"`` (lying in a tool basket, moving with it) or
-``"rigged:<load>"`` (a lift bag made fast to a load) — who holds what (carrier name →
+``"held"``, ``"on:<platform>"`` (on a fixed structure's top, :class:`Platform`),
+``"in:<basket>"`` (lying in a tool basket, moving with it) or ``"rigged:<load>"`` (a
+lift bag made fast to a load) — who holds what (carrier name →
 object; an object may have two holders at a handover), and the state of every work site.
 
 :meth:`Workspace.carry` moves held objects with their carriers' grip frames;
