@@ -316,5 +316,16 @@ def test_max_speed_is_a_ceiling():
     expected = np.clip(100.0 * (1.0 - (SPD - 0.3) / 0.2), 0.0, 100.0)
     np.testing.assert_allclose(obj.values, expected)
     assert c.posts == [("SLACK", pytest.approx(-0.2))]
-    with pytest.raises(ConfigError, match="max_speed must be >= 0"):
-        make("MaxSpeed", max_speed=-1)
+    assert make("MaxSpeed", max_speed=-1).params.max_speed == 0.0  # IvP clips at 0
+
+
+def test_constant_speed_peak_clipped_at_zero():
+    """BHV_ConstantSpeed: a peak at the speed (pw 0, bw 0.2); IvP clips a negative speed
+    to 0; the mismatch is posted."""
+    b = make("ConstantSpeed", speed=0.4, duration="no-time-limit", speed_mismatch_var="MIS")
+    c = ctx(OwnNav(0.0, 0.0, 0.0, 1.0))
+    obj = b.on_run(c)
+    np.testing.assert_allclose(obj.values, np.clip(100.0 * (1 - np.abs(SPD - 0.4) / 0.2), 0, None))
+    assert c.posts == [("MIS", pytest.approx(0.6))]
+    still = make("ConstantSpeed", speed=-1.0, duration="no-time-limit")
+    assert float(SPD[int(np.argmax(still.on_run(ctx(OwnNav(0, 0, 0, 0))).values))]) == 0.0

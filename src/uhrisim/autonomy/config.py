@@ -290,7 +290,8 @@ class HelmConfig:
                         )
                 names[b.name] = b.where
             axes = {"BHV_ConstantDepth": ("depth",), "BHV_ConstantHeading": ("course",),
-                    "BHV_MaxSpeed": ("speed",)}.get(b.kind, ("course", "speed"))
+                    "BHV_ConstantSpeed": ("speed",), "BHV_MaxSpeed": ("speed",)}.get(
+                        b.kind, ("course", "speed"))
             for a in axes:
                 if not self.domain.has(a):
                     raise ConfigError(f"{b.kind} {b.name!r} needs a {a!r} domain axis", b.where)

@@ -1,5 +1,5 @@
-"""IvP behaviors: ConstantDepth, ConstantHeading, MaxSpeed, Loiter, Trail, AvoidCollision,
-Waypoint, StationKeep."""
+"""IvP behaviors: ConstantDepth, ConstantHeading, ConstantSpeed, MaxSpeed, Loiter, Trail,
+AvoidCollision, Waypoint, StationKeep."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ from uhrisim.autonomy.behaviors.base import (
 )
 from uhrisim.autonomy.behaviors.constant_depth import ConstantDepth
 from uhrisim.autonomy.behaviors.constant_heading import ConstantHeading
+from uhrisim.autonomy.behaviors.constant_speed import ConstantSpeed
 from uhrisim.autonomy.behaviors.loiter import Loiter
 from uhrisim.autonomy.behaviors.max_speed import MaxSpeed
 from uhrisim.autonomy.behaviors.station_keep import StationKeep
@@ -21,8 +22,8 @@ from uhrisim.autonomy.behaviors.waypoint import Waypoint
 from uhrisim.core.errors import ConfigError
 
 REGISTRY: dict[str, type[Behavior]] = {
-    cls.KIND: cls for cls in (ConstantDepth, ConstantHeading, MaxSpeed, Loiter, Trail,
-                              AvoidCollision, Waypoint, StationKeep)
+    cls.KIND: cls for cls in (ConstantDepth, ConstantHeading, ConstantSpeed, MaxSpeed, Loiter,
+                              Trail, AvoidCollision, Waypoint, StationKeep)
 }
 
 
@@ -50,6 +51,7 @@ __all__ = [
     "CommonParams",
     "ConstantDepth",
     "ConstantHeading",
+    "ConstantSpeed",
     "ContactInfo",
     "Loiter",
     "MaxSpeed",

@@ -2,7 +2,8 @@
 
 As pHelmIvP's (MOOS-IvP lib_behaviors-marine/BHV_MaxSpeed.cpp): a ZAIC_LEQ with its summit
 at ``max_speed`` (m/s, default 1) — full utility at or below it, falling to zero over
-``basewidth`` (m/s, default 0.5; ``tolerance`` is another name for it) above; with a high
+``basewidth`` (m/s, default 0.5; ``tolerance`` is another name for it) above (both
+clipped at 0, as IvP does); with a high
 priority the fused decision stays at or under the ceiling. ``speed_slack_var`` posts
 max_speed − NAV_SPEED each tick. An assistant lowers the ceiling near a diver through
 ``updates`` such as ``max_speed=0.25``.
@@ -15,7 +16,7 @@ from typing import ClassVar
 
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext
 from uhrisim.autonomy.domain import Objective
-from uhrisim.autonomy.params import setter, to_non_negative, to_str
+from uhrisim.autonomy.params import setter, to_float, to_str
 from uhrisim.autonomy.zaic import zaic_leq
 
 
@@ -28,13 +29,17 @@ class MaxSpeedParams:
     speed_slack_var: str = ""
 
 
+def _clipped(v: object, key: str, where: str) -> float:
+    return max(to_float(v, key, where), 0.0)  # vclip_min(dval, 0)
+
+
 class MaxSpeed(Behavior):
     KIND = "BHV_MaxSpeed"
     Params = MaxSpeedParams
     HANDLERS: ClassVar[dict] = {
-        "max_speed": setter("max_speed", to_non_negative),
-        "basewidth": setter("basewidth", to_non_negative),
-        "tolerance": setter("basewidth", to_non_negative),
+        "max_speed": setter("max_speed", _clipped),
+        "basewidth": setter("basewidth", _clipped),
+        "tolerance": setter("basewidth", _clipped),
         "speed_slack_var": setter("speed_slack_var", to_str),
     }
 
