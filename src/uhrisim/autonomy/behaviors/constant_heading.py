@@ -16,7 +16,13 @@ from typing import ClassVar
 
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext
 from uhrisim.autonomy.domain import Objective
-from uhrisim.autonomy.params import setter, to_float, to_non_negative, to_str
+from uhrisim.autonomy.params import (
+    setter,
+    to_clipped_non_negative,
+    to_float,
+    to_str,
+    to_summitdelta,
+)
 from uhrisim.autonomy.zaic import zaic_peak_on_axis
 from uhrisim.core.frames import wrap_180
 
@@ -33,19 +39,15 @@ class ConstantHeadingParams:
     heading_mismatch_var: str = ""
 
 
-def _summitdelta(v: object, key: str, where: str) -> float:
-    return min(max(to_float(v, key, where), 0.0), 100.0)
-
-
 class ConstantHeading(Behavior):
     KIND = "BHV_ConstantHeading"
     Params = ConstantHeadingParams
     DEFAULT_DURATION = 0.0
     HANDLERS: ClassVar[dict] = {
         "heading": setter("heading", lambda v, k, w: to_float(v, k, w) % 360.0),
-        "peakwidth": setter("peakwidth", to_non_negative),
-        "basewidth": setter("basewidth", to_non_negative),
-        "summitdelta": setter("summitdelta", _summitdelta),
+        "peakwidth": setter("peakwidth", to_clipped_non_negative),
+        "basewidth": setter("basewidth", to_clipped_non_negative),
+        "summitdelta": setter("summitdelta", to_summitdelta),
         "complete_thresh": setter("complete_thresh", to_float),
         "heading_mismatch_var": setter("heading_mismatch_var", to_str),
     }

@@ -14,7 +14,12 @@ from typing import ClassVar
 
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext
 from uhrisim.autonomy.domain import Objective
-from uhrisim.autonomy.params import setter, to_float, to_non_negative, to_str
+from uhrisim.autonomy.params import (
+    setter,
+    to_clipped_non_negative,
+    to_str,
+    to_summitdelta,
+)
 from uhrisim.autonomy.zaic import zaic_peak_on_axis
 
 
@@ -34,11 +39,10 @@ class ConstantSpeed(Behavior):
     Params = ConstantSpeedParams
     DEFAULT_DURATION = 0.0
     HANDLERS: ClassVar[dict] = {
-        "speed": setter("speed", lambda v, k, w: max(to_float(v, k, w), 0.0)),
-        "peakwidth": setter("peakwidth", to_non_negative),
-        "basewidth": setter("basewidth", to_non_negative),
-        "summitdelta": setter("summitdelta", lambda v, k, w: min(max(to_float(v, k, w), 0.0),
-                                                                  100.0)),
+        "speed": setter("speed", to_clipped_non_negative),
+        "peakwidth": setter("peakwidth", to_clipped_non_negative),
+        "basewidth": setter("basewidth", to_clipped_non_negative),
+        "summitdelta": setter("summitdelta", to_summitdelta),
         "speed_mismatch_var": setter("speed_mismatch_var", to_str),
     }
 

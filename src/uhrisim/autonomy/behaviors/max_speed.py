@@ -16,7 +16,7 @@ from typing import ClassVar
 
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext
 from uhrisim.autonomy.domain import Objective
-from uhrisim.autonomy.params import setter, to_float, to_str
+from uhrisim.autonomy.params import setter, to_clipped_non_negative, to_str
 from uhrisim.autonomy.zaic import zaic_leq
 
 
@@ -29,17 +29,13 @@ class MaxSpeedParams:
     speed_slack_var: str = ""
 
 
-def _clipped(v: object, key: str, where: str) -> float:
-    return max(to_float(v, key, where), 0.0)  # vclip_min(dval, 0)
-
-
 class MaxSpeed(Behavior):
     KIND = "BHV_MaxSpeed"
     Params = MaxSpeedParams
     HANDLERS: ClassVar[dict] = {
-        "max_speed": setter("max_speed", _clipped),
-        "basewidth": setter("basewidth", _clipped),
-        "tolerance": setter("basewidth", _clipped),
+        "max_speed": setter("max_speed", to_clipped_non_negative),
+        "basewidth": setter("basewidth", to_clipped_non_negative),
+        "tolerance": setter("basewidth", to_clipped_non_negative),
         "speed_slack_var": setter("speed_slack_var", to_str),
     }
 
