@@ -13,6 +13,16 @@ diver's signals and track; they drive the IvP-style helm only through its variab
     out.gripper_command  # "open" / "close" / None
 """
 
+from __future__ import annotations
+
+from uhrisim.core.errors import MissingExtraError
+
+try:
+    import py_trees  # noqa: F401
+except ImportError as error:  # pragma: no cover - depends on the installed extras
+    raise MissingExtraError('uhrisim.assistant needs py_trees: pip install "uhrisim[hri]"') \
+        from error
+
 from uhrisim.assistant.assistant import HELM_DOMAIN, Assistant
 from uhrisim.assistant.config import AssistantConfig
 from uhrisim.assistant.io import (
