@@ -17,7 +17,7 @@ from typing import ClassVar
 
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext
 from uhrisim.autonomy.domain import Objective
-from uhrisim.autonomy.params import setter, to_float
+from uhrisim.autonomy.params import setter, to_float, to_summitdelta
 from uhrisim.autonomy.zaic import zaic_peak_on_axis
 
 
@@ -37,17 +37,13 @@ def _depth(v: object, key: str, where: str) -> float:
     return max(to_float(v, key, where), 0.0)
 
 
-def _summitdelta(v: object, key: str, where: str) -> float:
-    return min(max(to_float(v, key, where), 0.0), 100.0)
-
-
 class ConstantDepth(Behavior):
     KIND = "BHV_ConstantDepth"
     Params = ConstantDepthParams
     DEFAULT_DURATION = 0.0
     HANDLERS: ClassVar[dict] = {
         "depth": setter("depth", _depth),
-        "summitdelta": setter("summitdelta", _summitdelta),
+        "summitdelta": setter("summitdelta", to_summitdelta),
         **{k: setter(k, to_float) for k in ("peakwidth", "basewidth")},
     }
 
