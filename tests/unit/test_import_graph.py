@@ -9,9 +9,9 @@ else to ``uhrisim.pkg``; a package's ``__init__`` importing its submodules is an
 the package to them.
 
 Layers (DESIGN.md, "Import direction is one-way, bottom to top"): core → dynamics, control,
-world, sensors, autonomy, perception → teamwork → assistant → scenario → sim → record, viz, bridges, envs →
-experiments, bench, batch → cli. A module may import its own layer and those below it;
-within a layer the DAG check alone keeps the order.
+world, sensors, autonomy, perception → teamwork → assistant → scenario → sim → record, viz,
+bridges, envs → experiments, bench, batch → cli. A module may import its own layer and those
+below it; within a layer the DAG check alone keeps the order.
 """
 
 from __future__ import annotations
