@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -56,6 +57,7 @@ def _script(start, segments):
     return at
 
 
+@pytest.mark.slow
 @settings(max_examples=12)
 @given(diver_scripts(), st.sampled_from(TASKS), st.floats(0.5, 10.0))
 def test_guards_are_never_broken(script, task, when):

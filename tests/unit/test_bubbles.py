@@ -54,6 +54,7 @@ def test_bad_settings_are_refused():
         BubbleParams(clusters=0)
 
 
+@pytest.mark.slow
 def test_the_sonar_sees_the_bubbles_rise_away_from_the_diver(tmp_path):
     # A diver hovering 4 m ahead of a still ROV at its depth breathes out: bubble cells
     # appear in the label images, then the burst rises out of the 20 deg beam.

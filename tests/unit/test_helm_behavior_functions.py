@@ -37,6 +37,7 @@ def argmax_cs(obj) -> tuple[float, float]:
     return float(i), float(SPD[j])
 
 
+@pytest.mark.slow
 def test_trail_regimes():
     b = make("Trail", contact="diver", trail_range=2, radius=1, nm_radius=5)
     diver = (0.0, 0.0, 0.0, 1.0)  # at the origin, heading north at 1 m/s -> P = (0, -2)

@@ -31,6 +31,7 @@ def _frame(slate: MarkerSlate, range_m: float, water: str = "I", east: float = 0
     return cam.capture(scene.raycaster(), CAMERA, np.eye(3), 0.0)
 
 
+@pytest.mark.slow
 def test_a_slate_at_2_m_in_clear_water_is_read_in_95_percent_of_frames():
     """Jerlov I, lamps on, sensor noise, the hand moving the slate: 3 seeds x 10 frames."""
     trials = [marker_trial(2.0, "I", True, seed, frames=10) for seed in (1, 2, 3)]
@@ -41,6 +42,7 @@ def test_a_slate_at_2_m_in_clear_water_is_read_in_95_percent_of_frames():
     assert np.abs(errors).max() < 0.05  # m, of 2 m
 
 
+@pytest.mark.slow
 def test_recognition_falls_with_range_and_turbidity():
     """Clear water reads far; coastal 3C only close, and better without the lamps' veil
     at 1 m; coastal 9C not even at 1 m (docs/hri.md has the whole table)."""

@@ -105,6 +105,7 @@ def outcomes(executor):
     return [(od.describe(s.order), s.outcome) for s in executor.steps]
 
 
+@pytest.mark.slow
 def test_the_script_runs_pick_up_use_remove_put_down():
     orders = [od.PickUp("wrench1"), od.UseOn("wrench1", "flange1", 3.0, part=0),
               od.UseOn("wrench1", "flange1", 3.0, part=1), od.Remove("flange1", 0),
