@@ -34,7 +34,7 @@ def test_hook_posts_nav_and_feeds_variables_back():
         link = hookmod.MoosAgentLink("videoray", port=db.port, community="videoray",
                                      nav_rate_hz=10.0, extra_vars=("RETURN",))
         hook = hookmod.MoosBridgeHook([link], time_source="sim", strict=True)
-        sim = simulation.Simulation(source, hooks=[hook], seed=1, sonar_enabled=False)
+        sim = simulation.Simulation(source, hooks=[hook], seed=1, raycast_sensors=False)
         try:
             sim.start()
             assert sim.dt == pytest.approx(1 / 60)

@@ -78,9 +78,9 @@ def test_hook_on_real_simulation(ros_env: int) -> None:
             f = sim.step()
             key = divmod(round(f.t * 1e9), 1_000_000_000)
             truth[key] = np.array(f.agents["videoray"].nav.position_ned, dtype=float)
-            if "videoray" in f.pings:
-                pings[divmod(round(f.pings["videoray"].t * 1e9), 1_000_000_000)] = \
-                    f.pings["videoray"]
+            if "videoray/sonar" in f.pings:
+                pings[divmod(round(f.pings["videoray/sonar"].t * 1e9), 1_000_000_000)] = \
+                    f.pings["videoray/sonar"]
             posts.extend(f.posts)
             ex.spin_once(timeout_sec=0.0)
 

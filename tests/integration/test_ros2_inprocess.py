@@ -276,7 +276,7 @@ def test_lockstep_round_is_answered_by_a_whole_command_group(ros_env: int,
     group has arrived since it began: two of the three desired values are not enough,
     the thrusters alone are; nothing new means silence."""
     name = f"l_{secrets.token_hex(3)}"
-    with Ros2Bridge([AgentBridgeSpec(name, publish_sonar=False)], domain_id=ros_env,
+    with Ros2Bridge([AgentBridgeSpec(name, sonars=())], domain_id=ros_env,
                     reliable_commands=True) as b:
         desired = {k: probe.node.create_publisher(Float64, f"/{name}/cmd/{k}", 10)
                    for k in ("desired_heading", "desired_speed", "desired_depth")}
@@ -305,7 +305,7 @@ def test_lockstep_round_is_answered_by_a_whole_command_group(ros_env: int,
 
 def test_wall_clock_timeout(ros_env: int, probe: Probe) -> None:
     name = f"w_{secrets.token_hex(3)}"
-    with Ros2Bridge([AgentBridgeSpec(name, publish_sonar=False, accept=("desired",))],
+    with Ros2Bridge([AgentBridgeSpec(name, sonars=(), accept=("desired",))],
                     domain_id=ros_env, command_timeout_s=0.2, timeout_clock="wall") as b:
         pub = probe.node.create_publisher(Float64, f"/{name}/cmd/desired_speed", 10)
 
@@ -340,7 +340,7 @@ def test_error_paths(ros_env: int, bridge: Ros2Bridge, agent: str) -> None:
         Ros2Bridge([AgentBridgeSpec("a"), AgentBridgeSpec("a")])
     with pytest.raises(ConfigError, match="command_timeout_s"):
         Ros2Bridge([AgentBridgeSpec("a")], command_timeout_s=0.0)
-    camera = Ros2Bridge([AgentBridgeSpec("cam", publish_sonar=False, publish_camera=True)],
+    camera = Ros2Bridge([AgentBridgeSpec("cam", sonars=(), cameras=("camera",))],
                         domain_id=ros_env, node_name="uhrisim_cam_errors")
     camera.start()
     try:
@@ -356,7 +356,7 @@ def test_error_paths(ros_env: int, bridge: Ros2Bridge, agent: str) -> None:
 
 def test_start_applies_localhost_default(ros_env: int, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.delenv("ROS_AUTOMATIC_DISCOVERY_RANGE")
-    with Ros2Bridge([AgentBridgeSpec(f"e_{secrets.token_hex(3)}", publish_sonar=False)],
+    with Ros2Bridge([AgentBridgeSpec(f"e_{secrets.token_hex(3)}", sonars=())],
                     domain_id=ros_env):
         assert os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
 
@@ -365,13 +365,13 @@ def test_clock_follows_sim_time_and_can_be_throttled(ros_env: int) -> None:
     """/clock goes out once per new simulation time; with clock_rate_hz=10 over 1.00 s
     of 0.01 s ticks the rate gate lets through t = 0.0, 0.1, ..., 1.0: 11 messages."""
     name = f"c_{secrets.token_hex(3)}"
-    with Ros2Bridge([AgentBridgeSpec(name, publish_sonar=False)], domain_id=ros_env,
+    with Ros2Bridge([AgentBridgeSpec(name, sonars=())], domain_id=ros_env,
                     clock_rate_hz=10.0, publish_unsubscribed=True) as b:
         for k in range(101):
             b.publish_clock(k * 0.01)
             b.publish_clock(k * 0.01)  # same time again: nothing new
         assert b.stats()["published"]["/clock"] == 11
-    with Ros2Bridge([AgentBridgeSpec(name, publish_sonar=False)], domain_id=ros_env,
+    with Ros2Bridge([AgentBridgeSpec(name, sonars=())], domain_id=ros_env,
                     publish_unsubscribed=True) as b:
         for k in range(50):
             b.publish_nav(name, k * 0.01, [0, 0, 0], 0.0, [0, 0, 0], 0.0)

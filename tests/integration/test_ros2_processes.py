@@ -238,7 +238,7 @@ def test_docs_example_node_drives_rov_to_point(ros_env: int, tmp_path: Path) -> 
     ENU (x 6, y 8) = 6 m east, 8 m north, depth 2 m: a frame mix-up anywhere would
     send the vehicle elsewhere."""
     agent = f"rov_{secrets.token_hex(3)}"
-    bridge = Ros2Bridge([AgentBridgeSpec(agent, publish_sonar=False, odom_rate_hz=20.0)],
+    bridge = Ros2Bridge([AgentBridgeSpec(agent, sonars=(), odom_rate_hz=20.0)],
                         domain_id=ros_env, command_timeout_s=1.0)
     bridge.start()
     child = Child("ros2_goto_point.py", ["--agent", agent, "--x", "6", "--y", "8",

@@ -68,8 +68,8 @@ def test_tf_chain_places_sonar_hits_and_sonar_image_matches_the_preset(
         pacer.reset(sim.t)
         while sim.t < 8.0:  # the diver is in the sonar's view after about 4 s
             frame = sim.step()
-            if "videoray" in frame.pings:
-                ping = frame.pings["videoray"]
+            if "videoray/sonar" in frame.pings:
+                ping = frame.pings["videoray/sonar"]
                 sec, ns = divmod(round(ping.t * 1e9), 1_000_000_000)
                 pings[f"{sec}.{ns:09d}"] = ping
             if "videoray" in frame.helm:

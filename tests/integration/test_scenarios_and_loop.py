@@ -49,8 +49,8 @@ def test_typo_names_the_key_and_line(tmp_path):
 
 def test_out_of_range_value_names_the_field_path_and_line(tmp_path):
     path = write(tmp_path, "name: x\nagents:\n  - name: rov\n    model: videoray\n"
-                 "    driver: none\n    sensors:\n      - {preset: P900-45, max_range: -3}\n")
-    with pytest.raises(ConfigError, match=r"s\.yaml:7: agents\[0\]\.sensors\[0\]\.max_range"):
+                 "    driver: none\n    sensors:\n      - {preset: P900-45, range_max_m: -3}\n")
+    with pytest.raises(ConfigError, match=r"s\.yaml:7: agents\[0\]\.sensors\[0\]\.range_max_m"):
         load_scenario(path)
 
 
@@ -229,7 +229,7 @@ def test_contacts_from_truth_with_noise_latency_and_dropout_are_deterministic(tm
         (ROOT / "scenarios" / "videoray_trail.bhv").read_text())
     reports = []
     for _ in range(2):
-        sim = Simulation(load_scenario(path), sonar_enabled=False)
+        sim = Simulation(load_scenario(path), raycast_sensors=False)
         box = sim.agents["videoray"].community.mailbox()
         got = []
         for _ in range(round(20.0 / sim.dt)):
@@ -249,7 +249,7 @@ def test_run_killed_with_sigkill_leaves_a_readable_recording(tmp_path):
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     proc = subprocess.Popen(
         [sys.executable, "-m", "uhrisim", "run", str(ROOT / "scenarios" /
-         "track_and_trail.yaml"), "--out", str(out), "--no-sonar", "-q"],
+         "track_and_trail.yaml"), "--out", str(out), "--no-raycast-sensors", "-q"],
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, cwd=ROOT)
     recording = out / "recording.mcap"
 
@@ -284,7 +284,7 @@ def test_metrics_json_of_a_failed_run_says_so(tmp_path):
         return False
 
     with pytest.raises(KeyboardInterrupt):
-        run_scenario(ROOT / "scenarios" / "track_and_trail.yaml", tmp_path, sonar=False,
+        run_scenario(ROOT / "scenarios" / "track_and_trail.yaml", tmp_path, raycast_sensors=False,
                      should_stop=stop_after_two_seconds)
     metrics = json.loads((tmp_path / "metrics.json").read_text())
     assert metrics["completed"] is False

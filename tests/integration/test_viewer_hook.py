@@ -149,7 +149,7 @@ def test_real_simulation_pauses_steps_and_takes_buttons():
     from uhrisim.viz.viewer import attach_viewer
 
     source = load_scenario(SCENARIO)
-    sim = sim_mod.Simulation(source, sonar_enabled=False)
+    sim = sim_mod.Simulation(source, raycast_sensors=False)
     server, hook = attach_viewer(sim, port=0, speed=math.inf)
     assert sim.hooks[-1] is hook
     stop = threading.Event()

@@ -34,7 +34,7 @@ def sweep_file(folder: Path, **fields) -> Path:
 @pytest.mark.parametrize("path", [
     "duration", "agents.videoray.controller.heading", "agents[1].controller.heading",
     "agents.1.start.depth", "world.water.temperature_c", "world.seafloor.roughness",
-    "agents.videoray.sensors.0.max_range", "agents.diver.helm.behaviors.1.speed",
+    "agents.videoray.sensors.0.range_max_m", "agents.diver.helm.behaviors.1.speed",
     "recording.enabled", "metrics.range",
 ])
 def test_known_paths(path):

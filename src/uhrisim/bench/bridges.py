@@ -82,7 +82,8 @@ class _AwaitListener(BaseHook):
 #: Keys (:func:`~uhrisim.bridges.ros2.topics.agent_topics`) a navigation listener leaves
 #: out: the sonar's bulk products and the helm's audit trail (every behavior's share in
 #: each decision, every community posting).
-NOT_NAVIGATION_KEYS = frozenset({"polar", "fan", "points", "image", "helm_decision", "vars"})
+NOT_NAVIGATION_KEYS = frozenset({"sonar/polar", "sonar/fan", "sonar/points", "sonar/image",
+                                 "helm/decision", "vars"})
 
 
 class _Ros2Case:
@@ -120,7 +121,8 @@ class _Ros2Case:
             topics += [("/tf", type_name(TFMessage), qos_label(QOS_TF)),
                        ("/tf_static", type_name(TFMessage), qos_label(QOS_TF_STATIC))]
         for name in AGENTS:
-            spec = AgentBridgeSpec(name, publish_sonar=sonar and name == SONAR_AGENT)
+            spec = AgentBridgeSpec(name, sonars=("sonar",) if sonar and name == SONAR_AGENT
+                                   else ())
             topics += [(f"/{t}", type_name(m), qos_label(q))
                        for key, t, m, q in agent_topics(spec)
                        if self.listener == "every" or key not in NOT_NAVIGATION_KEYS]

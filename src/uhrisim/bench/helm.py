@@ -91,7 +91,7 @@ def _measure_mission(quick: bool) -> dict:
     from uhrisim.sim.simulation import Simulation
 
     settle_s, chunk, chunks = (3.0, 5, 2) if quick else (30.0, 50, 12)
-    sim = Simulation(load_scenario(shipped_scenario()), sonar_enabled=False)
+    sim = Simulation(load_scenario(shipped_scenario()), raycast_sensors=False)
     sim.run(settle_s)
     agents = [(a.driver, a) for a in sim.agents.values() if a.driver is not None]
     best = math.inf

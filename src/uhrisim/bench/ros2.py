@@ -94,7 +94,7 @@ def _run(quick: bool, domain: int, agent: str) -> dict[str, Any]:
     bridge = Ros2Bridge([AgentBridgeSpec(agent)], node_name=f"uhrisim_{agent}", domain_id=domain,
                         publish_unsubscribed=True)
     gated = Ros2Bridge(
-        [AgentBridgeSpec(f"{agent}_g", publish_sonar=False, odom_rate_hz=ODOM_HZ)],
+        [AgentBridgeSpec(f"{agent}_g", sonars=(), odom_rate_hz=ODOM_HZ)],
         node_name=f"uhrisim_{agent}_g", domain_id=domain, publish_clock=False,
         publish_unsubscribed=True,
     )

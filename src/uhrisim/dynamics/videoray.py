@@ -18,6 +18,8 @@ from typing import Literal, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from uhrisim.core.settings import check_settings, setting
+
 STATE_NAMES = ("x", "y", "z", "psi", "u", "v", "w", "r")
 INPUT_NAMES = ("port", "starboard", "vertical")
 STATE_SIZE = 8
@@ -36,7 +38,7 @@ class VideoRayParams:
     m11: float = 1.94  # kg, surge inertia
     m22: float = 6.05  # kg, sway inertia
     m33: float = 3.95  # kg, heave inertia
-    J: float = 0.0118  # kg m^2, yaw inertia
+    J: float = setting(0.0118, "kg m²", gt=0.0, le=100.0, doc="yaw inertia")
     Xu: float = -0.95  # N s/m
     Yv: float = -5.87  # N s/m
     Zw: float = -3.70  # N s/m
@@ -52,11 +54,13 @@ class VideoRayParams:
     ct_reverse_quadratic: float = 1.01e-4
     ct_vertical_up_quadratic: float = 1.19e-4
     ct_vertical_down_quadratic: float = 7.53e-5
-    moment_arm: float = 1.0  # m, lever of the horizontal thrusters about the yaw axis
+    moment_arm: float = setting(1.0, "m", gt=0.0, le=10.0,
+                                doc="lever of the horizontal thrusters about the yaw axis")
     input_limit: float = 150.0
     coupling: Literal["paper", "rigid-body"] = "paper"
 
     def __post_init__(self) -> None:
+        check_settings(self)
         for name in ("m11", "m22", "m33", "J", "ct_linear", "ct_vertical_linear", "input_limit"):
             if not getattr(self, name) > 0.0:
                 value = getattr(self, name)

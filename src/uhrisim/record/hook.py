@@ -72,19 +72,18 @@ def sensor_mounts(agent: Any, frame: Callable[[str], str]
                   ) -> list[tuple[str, str, np.ndarray, np.ndarray]]:
     """The ``/tf_static`` rows of a simulated agent's sensor mounts, as
     :meth:`McapRecorder.write_static_transforms` and the ROS 2 bridge's
-    ``publish_static_transforms`` take them: ``base_link`` → ``sonar`` (its first sonar,
-    the frame of its sonar topics) and ``base_link`` → ``camera_optical`` (its first
-    camera, the frame of its camera topics: x right, y down, z forward). ``frame(name)``
-    is the agent's full frame name (``"rov/sonar"``)."""
+    ``publish_static_transforms`` take them: ``base_link`` → ``<sonar>`` for each sonar
+    (the frame of its topics, named as the sonar) and ``base_link`` →
+    ``<camera>_optical`` for each camera (the frame of its topics: x right, y down, z
+    forward). ``frame(name)`` is the agent's full frame name (``"rov/sonar"``)."""
     rows = []
-    if getattr(agent, "sonars", None):
-        sonar = agent.sonars[0].sonar
-        rows.append((frame("base_link"), frame("sonar"), sonar.mount_position,
-                     sonar.mount_rotation))
-    if getattr(agent, "cameras", None):
-        camera = agent.cameras[0].camera
-        rows.append((frame("base_link"), frame("camera_optical"), camera.mount_position,
-                     optical_rotation(camera.mount_rotation)))
+    for slot in getattr(agent, "sonars", ()):
+        rows.append((frame("base_link"), frame(slot.name), slot.sonar.mount_position,
+                     slot.sonar.mount_rotation))
+    for slot in getattr(agent, "cameras", ()):
+        rows.append((frame("base_link"), frame(f"{slot.name}_optical"),
+                     slot.camera.mount_position,
+                     optical_rotation(slot.camera.mount_rotation)))
     return rows
 
 
@@ -226,8 +225,6 @@ class McapRecordingHook:
         self._flush_period_s = flush_period_s
         self._rec: McapRecorder | None = None
         self._names: dict[str, str] = {}
-        # per recorded agent with a sonar: (centre frequency Hz, sound speed m/s)
-        self._acoustics: dict[str, tuple[float, float]] = {}
 
     @property
     def recorder(self) -> McapRecorder | None:
@@ -256,15 +253,10 @@ class McapRecordingHook:
             markers = scene_markers(sim.scene)
             if markers:
                 self._rec.write_scene_markers(t, markers)
-        self._acoustics = {}
         mounts = []
         for agent_name, agent in getattr(sim, "agents", {}).items():
             name = self._name(agent_name)
             mounts += sensor_mounts(agent, lambda frame, name=name: f"{name}/{frame}")
-            if getattr(agent, "sonars", None):
-                sonar = agent.sonars[0].sonar
-                self._acoustics[name] = (sonar.config.sonar_spec.frequency_hz,
-                                         sonar.config.sound_speed_m_s)
         if mounts:
             self._rec.write_static_transforms(t, mounts)
 
@@ -279,16 +271,17 @@ class McapRecordingHook:
                 nav = snap.nav
                 rec.write_odometry(self._name(agent), t, nav.position_ned, nav.yaw,
                                    nav.velocity_body, nav.yaw_rate)
-        for agent, ping in frame.pings.items():
-            seen = self._pings_seen.get(agent, 0)
-            self._pings_seen[agent] = seen + 1
+        for key, ping in frame.pings.items():
+            seen = self._pings_seen.get(key, 0)
+            self._pings_seen[key] = seen + 1
             if seen % self.sonar_every == 0:
-                self._write_ping(rec, self._name(agent), ping)
-        for agent, image in getattr(frame, "images", {}).items():
-            seen = self._images_seen.get(agent, 0)
-            self._images_seen[agent] = seen + 1
+                self._write_ping(rec, key, ping)
+        for key, image in getattr(frame, "images", {}).items():
+            seen = self._images_seen.get(key, 0)
+            self._images_seen[key] = seen + 1
             if self.record_camera and seen % self.camera_every == 0:
-                self._write_image(rec, self._name(agent), image)
+                agent, sensor = key.split("/", 1)
+                self._write_image(rec, self._name(agent), sensor, image)
         for agent, h in frame.helm.items():
             rec.write_helm_topics(self._name(agent), t, h.heading_deg, h.speed, h.depth,
                                   h.mode)
@@ -304,14 +297,16 @@ class McapRecordingHook:
                                value, str(post.source))
         for ev in frame.events:
             rec.write_event(float(ev.t), str(ev.kind), str(ev.detail))
-        for agent, seen in getattr(frame, "perception", {}).items():
-            name = self._name(agent)
-            depth = float(frame.pings[agent].position_ned[2])
+        for key, seen in getattr(frame, "perception", {}).items():
+            name = self._name(key.split("/", 1)[0])
+            depth = float(frame.pings[key].position_ned[2])
             detections, tracks = perception_markers(seen, depth)
             rec.write_markers(f"/{name}/perception/detections", t, detections)
             rec.write_markers(f"/{name}/perception/tracks", t, tracks)
 
-    def _write_ping(self, rec: McapRecorder, agent: str, ping: Any) -> None:
+    def _write_ping(self, rec: McapRecorder, key: str, ping: Any) -> None:
+        agent_name, sensor = key.split("/", 1)
+        agent = self._name(agent_name)
         points, intensity = cloud_hits(ping.cloud) if self.record_points else (None, None)
         rec.write_sonar(
             agent,
@@ -320,19 +315,21 @@ class McapRecordingHook:
             ping.fan_u8 if self.record_images else None,
             points,
             intensity,
-            f"{agent}/sonar",
+            f"{agent}/{sensor}",
             (ping.position_ned, ping.rotation_ned_from_sonar),
+            sensor=sensor,
         )
-        if self.record_images and agent in self._acoustics:
+        if self.record_images:
             rec.write_sonar_image(agent, float(ping.t), ping.polar_u8, ping.beam_angles_rad,
-                                  ping.bin_ranges_m, *self._acoustics[agent], f"{agent}/sonar")
+                                  ping.bin_ranges_m, ping.info.frequency_hz,
+                                  ping.info.sound_speed_m_s, f"{agent}/{sensor}", sensor=sensor)
 
     @staticmethod
-    def _write_image(rec: McapRecorder, agent: str, image: Any) -> None:
+    def _write_image(rec: McapRecorder, agent: str, sensor: str, image: Any) -> None:
         rec.write_camera(agent, float(image.t), image.rgb, image.depth_m,
                          label_image_mono8(image.labels), image.K,
-                         f"{agent}/camera_optical",
-                         (image.position_ned, image.rotation_ned_from_camera))
+                         f"{agent}/{sensor}_optical",
+                         (image.position_ned, image.rotation_ned_from_camera), sensor=sensor)
 
     def on_end(self, sim: Any, error: BaseException | None) -> None:
         rec = self._rec

@@ -15,7 +15,8 @@ here and only here, with ``uhrisim.core.frames``:
 * a camera optical frame (e.g. ``rov/camera_optical``) follows REP-103's optical
   convention: x right, y down, z along the optical axis.
 
-Topics (``<agent>`` is the community name; the live ROS 2 bridge publishes the same):
+Topics (``<agent>`` is the community name, ``<sonar>`` and ``<camera>`` a sensor's name
+on it, by default ``sonar`` and ``camera``; the live ROS 2 bridge publishes the same):
 
 ==================================  ============================================  ==================
 topic                               type                                          frame
@@ -27,16 +28,16 @@ topic                               type                                        
 ``/tf_static``                      tf2_msgs/msg/TFMessage                        base_link → sonar;
                                                                                   base_link →
                                                                                   camera optical
-``/<agent>/sonar/polar``            sensor_msgs/msg/Image (mono8)                 sonar frame
-``/<agent>/sonar/fan``              sensor_msgs/msg/Image (mono8)                 sonar frame
-``/<agent>/sonar/points``           sensor_msgs/msg/PointCloud2                   sonar frame (FLU)
-``/<agent>/sonar/pose``             geometry_msgs/msg/PoseStamped                 map
-``/<agent>/sonar/image``            marine_acoustic_msgs/msg/ProjectedSonarImage  sonar frame
-``/<agent>/camera/image_raw``       sensor_msgs/msg/Image (rgb8)                  camera optical
-``/<agent>/camera/camera_info``     sensor_msgs/msg/CameraInfo                    camera optical
-``/<agent>/camera/depth``           sensor_msgs/msg/Image (32FC1)                 camera optical
-``/<agent>/camera/labels``          sensor_msgs/msg/Image (mono8)                 camera optical
-``/<agent>/camera/pose``            geometry_msgs/msg/PoseStamped                 map
+``/<agent>/<sonar>/polar``          sensor_msgs/msg/Image (mono8)                 sonar frame
+``/<agent>/<sonar>/fan``            sensor_msgs/msg/Image (mono8)                 sonar frame
+``/<agent>/<sonar>/points``         sensor_msgs/msg/PointCloud2                   sonar frame (FLU)
+``/<agent>/<sonar>/pose``           geometry_msgs/msg/PoseStamped                 map
+``/<agent>/<sonar>/image``          marine_acoustic_msgs/msg/ProjectedSonarImage  sonar frame
+``/<agent>/<camera>/image_raw``      sensor_msgs/msg/Image (rgb8)                  camera optical
+``/<agent>/<camera>/camera_info``     sensor_msgs/msg/CameraInfo                    camera optical
+``/<agent>/<camera>/depth``         sensor_msgs/msg/Image (32FC1)                 camera optical
+``/<agent>/<camera>/labels``        sensor_msgs/msg/Image (mono8)                 camera optical
+``/<agent>/<camera>/pose``          geometry_msgs/msg/PoseStamped                 map
 ``/<agent>/helm/desired_*``         std_msgs/msg/Float64                          —
 ``/<agent>/helm/mode``              std_msgs/msg/String                           —
 ``/<agent>/helm/decision``          uhrisim_msgs/msg/HelmDecision                 —
@@ -459,8 +460,10 @@ class McapRecorder:
         intensity: np.ndarray | None,
         sonar_frame: str,
         sonar_pose_ned: tuple[Sequence[float] | np.ndarray, np.ndarray],
+        sensor: str = "sonar",
     ) -> None:
-        """One sonar ping: polar and fan images, hit points, and the sonar's pose on /tf.
+        """One ping of the agent's sonar named ``sensor``: polar and fan images, hit
+        points, and the sonar's pose on /tf (topics ``/<agent>/<sensor>/...``).
 
         ``polar_u8`` ``(n_bins, n_beams)`` uint8 (row = range bin, column = beam) and
         ``fan_u8`` ``(H, W)`` uint8 go out as mono8 images; either may be ``None``.
@@ -474,6 +477,7 @@ class McapRecorder:
         self._check_open("write_sonar")
         _check_name(agent, "agent", where)
         _check_frame(sonar_frame, where)
+        _check_name(sensor, "sensor", where)
         t_ns = _stamp_ns(t, where)
         pos_ned, rot_ned = _pose(sonar_pose_ned, "sonar", where)
         p_enu, q = pose_enu_from_ned(pos_ned, rot_ned)
@@ -512,25 +516,25 @@ class McapRecorder:
                 cdr.encode_tf_message([(sec, nanosec, self.world_frame, sonar_frame, p_enu,
                                         q)]),
             )
-        self._write(f"/{agent}/sonar/pose", "geometry_msgs/msg/PoseStamped", t_ns,
+        self._write(f"/{agent}/{sensor}/pose", "geometry_msgs/msg/PoseStamped", t_ns,
                     self._pose(sec, nanosec, p_enu, q))
         if polar is not None:
             self._write(
-                f"/{agent}/sonar/polar",
+                f"/{agent}/{sensor}/polar",
                 "sensor_msgs/msg/Image",
                 t_ns,
                 cdr.encode_image(sec, nanosec, sonar_frame, polar),
             )
         if fan is not None:
             self._write(
-                f"/{agent}/sonar/fan",
+                f"/{agent}/{sensor}/fan",
                 "sensor_msgs/msg/Image",
                 t_ns,
                 cdr.encode_image(sec, nanosec, sonar_frame, fan),
             )
         if cloud is not None:
             self._write(
-                f"/{agent}/sonar/points",
+                f"/{agent}/{sensor}/points",
                 "sensor_msgs/msg/PointCloud2",
                 t_ns,
                 cdr.encode_pointcloud2(sec, nanosec, sonar_frame, cloud),
@@ -546,8 +550,10 @@ class McapRecorder:
         K: np.ndarray,
         camera_frame: str,
         camera_pose_ned: tuple[Sequence[float] | np.ndarray, np.ndarray],
+        sensor: str = "camera",
     ) -> None:
-        """One camera frame: the rgb8 image, its CameraInfo (pinhole, no distortion), the
+        """One frame of the agent's camera named ``sensor`` (topics
+        ``/<agent>/<sensor>/...``): the rgb8 image, its CameraInfo (pinhole, no distortion), the
         depth image (32FC1, metres along the optical axis, NaN where nothing was hit;
         REP-118) and the label image (mono8: label id + 1, 0 for open water), each
         optional but the image; and the optical frame's pose on ``/<agent>/camera/pose``
@@ -562,6 +568,7 @@ class McapRecorder:
         where = "McapRecorder.write_camera"
         self._check_open("write_camera")
         _check_name(agent, "agent", where)
+        _check_name(sensor, "sensor", where)
         _check_frame(camera_frame, where)
         t_ns = _stamp_ns(t, where)
         rgb = np.asarray(rgb_u8)
@@ -576,7 +583,7 @@ class McapRecorder:
         if camera_frame not in self._static_children:  # else the mount on /tf_static
             self._write("/tf", "tf2_msgs/msg/TFMessage", t_ns, cdr.encode_tf_message(
                 [(sec, nanosec, self.world_frame, camera_frame, p_enu, q)]))
-        base = f"/{agent}/camera"
+        base = f"/{agent}/{sensor}"
         self._write(f"{base}/pose", "geometry_msgs/msg/PoseStamped", t_ns,
                     self._pose(sec, nanosec, p_enu, q))
         self._write(f"{base}/image_raw", "sensor_msgs/msg/Image", t_ns,
@@ -611,14 +618,17 @@ class McapRecorder:
     def write_sonar_image(self, agent: str, t: float, polar_u8: np.ndarray,
                           beam_angles_rad: Sequence[float] | np.ndarray,
                           ranges_m: Sequence[float] | np.ndarray, frequency_hz: float,
-                          sound_speed_m_s: float, sonar_frame: str) -> None:
-        """One ping as ``/<agent>/sonar/image`` (marine_acoustic_msgs/msg/ProjectedSonarImage,
+                          sound_speed_m_s: float, sonar_frame: str, sensor: str = "sonar"
+                          ) -> None:
+        """One ping of the sonar ``sensor`` as ``/<agent>/<sensor>/image``
+        (marine_acoustic_msgs/msg/ProjectedSonarImage,
         the live bridge's message): the polar image ``(n_bins, n_beams)`` uint8, beam
         azimuths (rad, > 0 starboard) as directions ``(0, sin, cos)`` (the message's Z
         forward, X up), range-bin centres (m), centre frequency (Hz), sound speed (m/s)."""
         where = "McapRecorder.write_sonar_image"
         self._check_open("write_sonar_image")
         _check_name(agent, "agent", where)
+        _check_name(sensor, "sensor", where)
         _check_frame(sonar_frame, where)
         t_ns = _stamp_ns(t, where)
         polar = _mono8(polar_u8, "polar_u8", where)
@@ -629,7 +639,7 @@ class McapRecorder:
                               f"ranges x {angles.size} beams", where=where)
         sec, nanosec = divmod(t_ns, 1_000_000_000)
         directions = np.stack([np.zeros_like(angles), np.sin(angles), np.cos(angles)], -1)
-        self._write(f"/{agent}/sonar/image", "marine_acoustic_msgs/msg/ProjectedSonarImage",
+        self._write(f"/{agent}/{sensor}/image", "marine_acoustic_msgs/msg/ProjectedSonarImage",
                     t_ns, cdr.encode_projected_sonar_image(
                         sec, nanosec, sonar_frame, polar, directions, ranges,
                         float(frequency_hz), float(sound_speed_m_s)))

@@ -33,6 +33,7 @@ from uhrisim.dynamics.videoray import VideoRayParams
 from uhrisim.scenario.build_world import material_named, object_mesh
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import AgentConfig, CameraSensor, Scenario, SonarSensor
+from uhrisim.scenario.sections import part_settings
 from uhrisim.sim.community import Community
 from uhrisim.sim.drivers import HelmDriver, ScriptedDriver
 from uhrisim.sim.script import ScriptDriver
@@ -61,10 +62,7 @@ class BuildContext(Protocol):
 
 def _plant(cfg: AgentConfig, dt: float):
     if cfg.model == "videoray":
-        v = cfg.videoray
-        params = VideoRayParams(J=v.J, moment_arm=v.moment_arm, thrust_map=v.thrust_map,
-                                coupling=v.coupling)
-        return VideoRayPlant(params, dt, name=cfg.name)
+        return VideoRayPlant(VideoRayParams(**part_settings(cfg.videoray)), dt, name=cfg.name)
     if cfg.model == "diver":
         limits = cfg.diver_limits
         params = DiverParams(max_speed=limits.max_speed,
@@ -76,9 +74,8 @@ def _plant(cfg: AgentConfig, dt: float):
 
 def _controller(cfg: AgentConfig, plant):
     if cfg.model == "videoray":
-        c = cfg.controller
-        overrides = {k: v for k, v in c.model_dump().items() if k != "preset" and v is not None}
-        gains = dataclasses.replace(GAIN_PRESETS[c.preset], **overrides)
+        gains = dataclasses.replace(GAIN_PRESETS[cfg.controller.preset],
+                                    **part_settings(cfg.controller, given=True))
         return VideoRayPController(gains, plant.params)
     if cfg.model == "diver":
         return DiverController(DiverGains(), plant.params)
@@ -92,24 +89,17 @@ def _sonar(sim: BuildContext, cfg: AgentConfig, index: int, sensor: SonarSensor)
     water = sim.scenario.world.water
     where = sim.source.where("agents", _agent_index(sim, cfg.name), "sensors", index)
     try:
-        config = SonarConfig(
-            preset=sensor.preset, range_min_m=sensor.min_range, range_max_m=sensor.max_range,
-            rays_per_beam=sensor.rays_per_beam, mount_position_frd=sensor.mount.position,
-            tilt_deg=sensor.mount.tilt_deg, yaw_deg=sensor.mount.yaw_deg,
-            rate_hz=sensor.rate_hz, mode=sensor.mode, speckle=sensor.speckle,
-            labels=sensor.labels,
-            fan_size_px=sensor.fan_width_px, water_temperature_c=water.temperature_c,
-            salinity_psu=water.salinity_psu, ph=water.ph,
-            **sensor.image.model_dump(exclude_unset=True))
+        config = SonarConfig(**part_settings(sensor), water_temperature_c=water.temperature_c,
+                             salinity_psu=water.salinity_psu, ph=water.ph)
     except ConfigError as error:
         raise ConfigError(str(error), where=where) from None
     if config.effective_rate_hz < sensor.rate_hz - 1e-9:
         period = math.ceil(1.0 / (config.effective_rate_hz * sim.dt) - 1e-9)
     else:
         period = ticks_for_rate(sensor.rate_hz, sim.dt, f"{where}: rate_hz")
-    name = f"sonar{index}"
-    sonar = ImagingSonar(config, sim.rng(f"{cfg.name}/{name}"))
-    return SonarSlot(name, sonar, period)
+    # the random stream keeps its name by position (seeds reproduce the runs before names)
+    sonar = ImagingSonar(config, sim.rng(f"{cfg.name}/sonar{index}"))
+    return SonarSlot(sensor.name, sonar, period)
 
 
 def _camera(sim: BuildContext, cfg: AgentConfig, index: int, sensor: CameraSensor):
@@ -120,20 +110,12 @@ def _camera(sim: BuildContext, cfg: AgentConfig, index: int, sensor: CameraSenso
     try:
         water = (measured(w.attenuation, w.single_scattering_albedo) if w.attenuation
                  else jerlov(w.jerlov or "IB"))
-        config = CameraConfig(
-            preset=sensor.preset, width=sensor.width, height=sensor.height,
-            hfov_deg=sensor.hfov_deg, rate_hz=sensor.rate_hz, max_range_m=sensor.max_range,
-            sampling=sensor.sampling,
-            mount_position_frd=sensor.mount.position, tilt_deg=sensor.mount.tilt_deg,
-            yaw_deg=sensor.mount.yaw_deg, water=water, lamps_on=sensor.lamps,
-            lamp_power=sensor.lamp_power, sun_radiance=sensor.sun_radiance,
-            forward_scatter=sensor.forward_scatter, exposure=sensor.exposure,
-            noise=sensor.noise)
+        config = CameraConfig(**part_settings(sensor), water=water)
     except ConfigError as error:
         raise ConfigError(str(error), where=where) from None
     period = ticks_for_rate(sensor.rate_hz, sim.dt, f"{where}: rate_hz")
-    name = f"camera{index}"
-    return CameraSlot(name, UnderwaterCamera(config, sim.rng(f"{cfg.name}/{name}")), period)
+    camera = UnderwaterCamera(config, sim.rng(f"{cfg.name}/camera{index}"))  # as the sonar's
+    return CameraSlot(sensor.name, camera, period)
 
 
 def _agent_index(sim: BuildContext, name: str) -> int:
@@ -199,7 +181,9 @@ def _add_body(sim: BuildContext, cfg: AgentConfig, state) -> None:
                               material or ROV_PLASTIC, position, rotation)
 
 
-def build_agents(sim: BuildContext, sonar_enabled: bool) -> dict[str, Agent]:
+def build_agents(sim: BuildContext, raycast_sensors: bool) -> dict[str, Agent]:
+    """The scenario's agents; ``raycast_sensors`` False builds none of their sonars and
+    cameras (the sensors that cast rays into the scene)."""
     rec = sim.scenario.recording
     if rec.enabled:  # the recorder's odometry rate, like every rate: whole steps
         ticks_for_rate(rec.odometry_rate_hz, sim.dt,
@@ -230,7 +214,7 @@ def build_agents(sim: BuildContext, sonar_enabled: bool) -> dict[str, Agent]:
         elif cfg.driver == "script":
             agent.driver = ScriptedDriver(ScriptDriver(cfg.script))
             agent.driver_period = ticks_for_rate(4.0, sim.dt, f"agents.{cfg.name}.script")
-        if sonar_enabled:
+        if raycast_sensors:
             agent.sonars = [_sonar(sim, cfg, i, s) for i, s in enumerate(cfg.sensors)
                             if s.type == "sonar"]
             agent.cameras = [_camera(sim, cfg, i, s) for i, s in enumerate(cfg.sensors)

@@ -11,9 +11,10 @@ One tick of the physics step ``dt`` does, in this order (DESIGN.md, "data flows 
 4. **navigation**: NAV_* are posted (at each agent's helm rate);
 5. **contacts**: node reports from simulation truth (degraded as configured) reach the
    other agents' contact managers at the contact rate;
-6. **sensors**: sonars that are due ping the scene, cameras that are due take a frame;
-   agents whose contacts come from their sonar run perception on the ping and post
-   the diver track as a contact report (:mod:`uhrisim.sim.sonar_contacts`);
+6. **sensors**: sonars that are due ping the scene, cameras that are due take a frame
+   (each keyed ``"<agent>/<sensor>"``); agents whose contacts come from their sonar run
+   perception on its ping and post the diver track as a contact report
+   (:mod:`uhrisim.sim.sonar_contacts`);
 7. **autonomy**: helms and scripts that are due post DESIRED_*;
 8. **control**: controllers turn DESIRED_* into actuator inputs for the next tick;
 9. **hooks** receive a :class:`~uhrisim.sim.hooks.TickFrame`.
@@ -44,7 +45,14 @@ from uhrisim.sim.build import build_agents, build_events
 from uhrisim.sim.community import Value
 from uhrisim.sim.contacts import TruthContacts
 from uhrisim.sim.drivers import ScriptedDriver
-from uhrisim.sim.hooks import AgentSnapshot, AgentSnapshots, HelmRecord, SimEvent, TickFrame
+from uhrisim.sim.hooks import (
+    AgentSnapshot,
+    AgentSnapshots,
+    HelmRecord,
+    SimEvent,
+    TickFrame,
+    sensor_key,
+)
 from uhrisim.sim.script import ScriptDriver
 from uhrisim.sim.sonar_contacts import SonarContacts
 from uhrisim.sim.state import Agent, ScheduledEvent
@@ -88,13 +96,13 @@ class Simulation:
     """Owns all mutable state; advance it with :meth:`step` or :meth:`run`."""
 
     def __init__(self, source: ScenarioFile, *, seed: int | None = None,
-                 sonar_enabled: bool = True, hooks: Sequence[Hook] = ()) -> None:
+                 raycast_sensors: bool = True, hooks: Sequence[Hook] = ()) -> None:
         self.source = source
         self.scenario = source.scenario
         self.seed = self.scenario.seed if seed is None else seed
         self.dt = 1.0 / self.scenario.physics_rate_hz
         self.tick = 0
-        self.sonar_enabled = sonar_enabled
+        self.raycast_sensors = raycast_sensors  # False: no sonars, no cameras
         self.hooks: list[Hook] = list(hooks)
         self.collisions = 0
         self.events_log: list[SimEvent] = []
@@ -102,7 +110,7 @@ class Simulation:
         self._inbox: list[tuple[str, str, Value, str]] = []
         self._inbox_lock = threading.Lock()
         self.scene: Scene = build_static_scene(source)
-        self.agents: dict[str, Agent] = build_agents(self, sonar_enabled)
+        self.agents: dict[str, Agent] = build_agents(self, raycast_sensors)
         self.bubbles = DiverBubbles(self.scene, self.agents, self.rng)
         self.contacts = TruthContacts(self.agents, self.dt, self.rng)
         self.sonar_contacts = SonarContacts(self.agents, self.dt, source, self.record_event)
@@ -384,15 +392,17 @@ class Simulation:
         c.post("NAV_SPEED", float(nav.speed), t, me)
 
     def _sense(self) -> tuple[dict[str, Any], dict[str, Any]]:
-        """Sonar pings and camera frames of the sensors due now (by agent)."""
+        """Sonar pings and camera frames of the sensors due now, by ``"<agent>/<sensor>"``."""
         pings, images = {}, {}
         for agent in self.agents.values():
             for slot in agent.sonars:
                 if self.tick % slot.period == 0:
-                    pings[agent.name] = self._sense_from(agent, slot.sonar.ping)
+                    pings[sensor_key(agent.name, slot.name)] = self._sense_from(
+                        agent, slot.sonar.ping)
             for cam in agent.cameras:
                 if self.tick % cam.period == 0:
-                    images[agent.name] = self._sense_from(agent, cam.camera.capture)
+                    images[sensor_key(agent.name, cam.name)] = self._sense_from(
+                        agent, cam.camera.capture)
         return pings, images
 
     def _sense_from(self, agent: Agent, sense: Callable[..., Any]) -> Any:

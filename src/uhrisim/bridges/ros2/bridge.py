@@ -341,7 +341,8 @@ class Ros2Bridge:
 
     def frame(self, agent: str, name: str) -> str:
         """The full name of one of ``agent``'s frames (``"base_link"``, ``"odom"``,
-        ``"sonar"``, ``"camera_optical"``), with the ``frame_prefix`` parameter applied."""
+        a sonar's ``"sonar"``, a camera's ``"camera_optical"``), with the ``frame_prefix``
+        parameter applied."""
         return f"{self._io(agent, 'frame').frame_base}/{name}"
 
     def _spin(self) -> None:
@@ -461,13 +462,13 @@ class Ros2Bridge:
         the gate moves on to its next period, as if the odometry had gone out."""
         return self._io(agent, "odometry_due").odometry_due(t_sim)
 
-    def sonar_subscribed(self, agent: str) -> tuple[bool, bool, bool]:
-        """Whether ``/<agent>/sonar/polar``, ``/fan`` and ``/points`` have a matched
+    def sonar_subscribed(self, agent: str, sonar: str = "sonar") -> tuple[bool, bool, bool]:
+        """Whether ``/<agent>/<sonar>/polar``, ``/fan`` and ``/points`` have a matched
         subscriber now (a fraction of a microsecond each; all True with
         ``publish_unsubscribed``). :meth:`publish_sonar` skips the others; a caller may
         skip forming those products (the simulation hook does; the fan image is the
         costly one)."""
-        return self._io(agent, "sonar_subscribed").sonar_subscribed()
+        return self._io(agent, "sonar_subscribed").sonar_subscribed(sonar)
 
     def publish_sonar(
         self,
@@ -478,8 +479,11 @@ class Ros2Bridge:
         points_sonar_frd: ArrayLike | None = None,
         intensity: ArrayLike | None = None,
         sonar_pose_ned: tuple[ArrayLike, ArrayLike] | None = None,
+        sonar: str = "sonar",
     ) -> bool:
-        """Publish the sonar products if the agent's sonar rate gate is due.
+        """Publish the products of the agent's sonar named ``sonar`` (topics
+        ``/<agent>/<sonar>/...``, frame ``"<agent>/<sonar>"``; below for the default
+        name) if that sonar's rate gate is due.
 
         ``polar_u8``: 2-D uint8, rows = range bins, columns = beams, as the sonar model
         forms it -> ``/<agent>/sonar/polar``; ``fan_u8``: 2-D uint8 scan-converted image
@@ -494,13 +498,13 @@ class Ros2Bridge:
         due.
         """
         io = self._io(agent, "publish_sonar")
-        if not io.spec.publish_sonar:
+        if sonar not in io.spec.sonars:
             raise ConfigError(
-                f"agent {agent!r} was configured with publish_sonar=False",
-                "Ros2Bridge.publish_sonar",
-            )
+                f"agent {agent!r} was configured without a sonar {sonar!r} (its sonars: "
+                f"{list(io.spec.sonars)})", "Ros2Bridge.publish_sonar")
         self._advance(t_sim)
-        return io.sonar(t_sim, polar_u8, fan_u8, points_sonar_frd, intensity, sonar_pose_ned)
+        return io.sonar(sonar, t_sim, polar_u8, fan_u8, points_sonar_frd, intensity,
+                        sonar_pose_ned)
 
     def publish_camera(
         self,
@@ -511,8 +515,11 @@ class Ros2Bridge:
         K: ArrayLike,
         camera_pose_ned: tuple[ArrayLike, ArrayLike],
         labels_u8: np.ndarray | None = None,
+        camera: str = "camera",
     ) -> None:
-        """Publish a camera frame: ``rgb_u8`` (H, W, 3) uint8 -> ``/<agent>/camera/image_raw``
+        """Publish a frame of the agent's camera named ``camera`` (topics
+        ``/<agent>/<camera>/...``, frame ``"<agent>/<camera>_optical"``; below for the
+        default name): ``rgb_u8`` (H, W, 3) uint8 -> ``/<agent>/camera/image_raw``
         (sensor_msgs/Image rgb8), ``K`` -> ``/<agent>/camera/camera_info``, ``depth_m``
         (H, W) metres along the optical axis, NaN where nothing was hit ->
         ``/<agent>/camera/depth`` (32FC1, REP-118), ``labels_u8`` (H, W) uint8, label id
@@ -524,9 +531,9 @@ class Ros2Bridge:
         to topics with a subscriber (see ``publish_unsubscribed``)."""
         io = self._io(agent, "publish_camera")
         where = "Ros2Bridge.publish_camera"
-        if not io.spec.publish_camera:
-            raise ConfigError(f"agent {agent!r} was configured with publish_camera=False",
-                              where)
+        if camera not in io.spec.cameras:
+            raise ConfigError(f"agent {agent!r} was configured without a camera {camera!r} "
+                              f"(its cameras: {list(io.spec.cameras)})", where)
         rgb = np.asarray(rgb_u8)
         if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.size == 0:
             raise ConfigError(f"rgb_u8 must be a non-empty (H, W, 3) uint8 array, got "
@@ -538,24 +545,26 @@ class Ros2Bridge:
                 raise ConfigError(f"labels_u8 must have shape {rgb.shape[:2]}, got "
                                   f"{labels.shape}", where)
         self._advance(t_sim)
-        io.camera(t_sim, rgb, depth_m, labels, np.asarray(K, dtype=float), camera_pose_ned)
+        io.camera(camera, t_sim, rgb, depth_m, labels, np.asarray(K, dtype=float),
+                  camera_pose_ned)
 
     def publish_sonar_image(self, agent: str, t_sim: float, polar_u8: np.ndarray,
                             beam_angles_rad: ArrayLike, ranges_m: ArrayLike,
-                            frequency_hz: float, sound_speed_m_s: float) -> None:
-        """Publish ``/<agent>/sonar/image`` (marine_acoustic_msgs/ProjectedSonarImage in
-        ``"<agent>/sonar"``): the polar image ``(n_bins, n_beams)`` uint8 with the beam
+                            frequency_hz: float, sound_speed_m_s: float,
+                            sonar: str = "sonar") -> None:
+        """Publish ``/<agent>/<sonar>/image`` (marine_acoustic_msgs/ProjectedSonarImage in
+        ``"<agent>/<sonar>"``): the polar image ``(n_bins, n_beams)`` uint8 with the beam
         azimuths (rad, > 0 starboard), range-bin centres (m), centre frequency (Hz) and
         sound speed (m/s); see :func:`~.messages.projected_sonar_image_msg`. Only while
         someone subscribes, and only when marine_acoustic_msgs is built. Not rate-gated:
         call it on the calls where :meth:`publish_sonar` published."""
         io = self._io(agent, "publish_sonar_image")
-        io.sonar_image(t_sim, polar_u8, beam_angles_rad, ranges_m, frequency_hz,
+        io.sonar_image(sonar, t_sim, polar_u8, beam_angles_rad, ranges_m, frequency_hz,
                        sound_speed_m_s)
 
-    def sonar_image_subscribed(self, agent: str) -> bool:
-        """Does ``/<agent>/sonar/image`` have a subscriber (form it only then)?"""
-        return self._io(agent, "sonar_image_subscribed").sonar_image_wanted()
+    def sonar_image_subscribed(self, agent: str, sonar: str = "sonar") -> bool:
+        """Does ``/<agent>/<sonar>/image`` have a subscriber (form it only then)?"""
+        return self._io(agent, "sonar_image_subscribed").sonar_image_wanted(sonar)
 
     def publish_static_transforms(
         self, t_sim: float, transforms: Sequence[tuple[str, str, ArrayLike, ArrayLike]]
@@ -600,8 +609,8 @@ class Ros2Bridge:
         every behavior's share; the recording's message), only while someone subscribes;
         fields as :meth:`uhrisim.record.McapRecorder.write_helm_decision`."""
         io = self._io(agent, "publish_helm_decision")
-        if io.extra_wanted("helm_decision"):
-            io.write_extra("helm_decision", uhrisim_msgs.helm_decision_bytes(
+        if io.extra_wanted("helm/decision"):
+            io.write_extra("helm/decision", uhrisim_msgs.helm_decision_bytes(
                 _ns(t_sim), heading_deg, speed, depth, contributions, mode, active, total,
                 all_stop_reason, "Ros2Bridge.publish_helm_decision"))
 

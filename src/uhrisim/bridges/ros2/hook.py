@@ -52,7 +52,7 @@ import numpy as np
 from uhrisim.core.errors import BridgeError, ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw
 from uhrisim.sensors.sonar.cloud import cloud_hits
-from uhrisim.sim.hooks import TickFrame
+from uhrisim.sim.hooks import TickFrame, split_sensor_key
 from uhrisim.sim.simulation import BaseHook, Simulation
 
 from .convert import RateGate, label_image_mono8
@@ -206,16 +206,14 @@ class Ros2BridgeHook(BaseHook):
         self.bridge: Ros2Bridge | None = None
         self._sim: Simulation | None = None
         self._ros: dict[str, str] = {}  # simulation agent name -> ROS namespace
-        # per linked agent: (ROS name, simulation name, publish sonar, accept commands)
-        self._links: list[tuple[str, str, bool, bool]] = []
+        # per linked agent: (ROS name, simulation name, accept commands)
+        self._links: list[tuple[str, str, bool]] = []
         self._accepting = False
         self._publish_wake = self._wake_time = -math.inf
         self._seen: dict[str, int] = {}
         self._active: dict[str, bool] = {}
         self._failing: tuple[str, ...] = ()  # bridge.failing_topics, as last recorded
         self._extras = False  # someone subscribes to vars or /events (refreshed at 10 Hz)
-        # per ROS name of an agent with a sonar: (centre frequency Hz, sound speed m/s)
-        self._acoustics: dict[str, tuple[float, float]] = {}
         self.n_posted = 0
         self.n_rejected = 0
 
@@ -239,8 +237,8 @@ class Ros2BridgeHook(BaseHook):
         specs = [
             AgentBridgeSpec(
                 self._ros[name],
-                publish_sonar=bool(getattr(sim.agents[name], "sonars", ())),
-                publish_camera=bool(getattr(sim.agents[name], "cameras", ())),
+                sonars=tuple(slot.name for slot in sim.agents[name].sonars),
+                cameras=tuple(slot.name for slot in sim.agents[name].cameras),
                 accept=self._accept,
                 sonar_rate_hz=self._sonar_rate,
                 odom_rate_hz=self._odom_rate,
@@ -251,7 +249,7 @@ class Ros2BridgeHook(BaseHook):
         self._sim = sim
         self.bridge = Ros2Bridge(specs, **self._bridge_kw)
         self.bridge.start()
-        self._links = [(spec.name, name, spec.publish_sonar, bool(spec.accept))
+        self._links = [(spec.name, name, bool(spec.accept))
                        for spec, name in zip(self.bridge.agents, self._ros, strict=True)]
         self._accepting = any(accept for *_, accept in self._links)
         self._publish_mounts(sim)
@@ -279,14 +277,9 @@ class Ros2BridgeHook(BaseHook):
         bridge = self.bridge
         assert bridge is not None
         mounts = []
-        self._acoustics = {}
-        for ros, name, publish_sonar, _ in self._links:
+        for ros, name, _ in self._links:
             mounts += sensor_mounts(sim.agents[name],
                                     lambda frame, ros=ros: bridge.frame(ros, frame))
-            if publish_sonar:
-                sonar = sim.agents[name].sonars[0].sonar
-                self._acoustics[ros] = (sonar.config.sonar_spec.frequency_hz,
-                                        sonar.config.sound_speed_m_s)
         if mounts:
             self.bridge.publish_static_transforms(float(sim.t), mounts)
 
@@ -295,7 +288,7 @@ class Ros2BridgeHook(BaseHook):
         error here ends the run; the simulation's close then closes the bridge)."""
         bridge = self.bridge
         assert bridge is not None
-        self._stepped = [ros for ros, *_, accept in self._links if accept]
+        self._stepped = [ros for ros, _, accept in self._links if accept]
         self._lapsed = set()
         self.n_rounds = 0
         if not self._stepped:
@@ -325,7 +318,7 @@ class Ros2BridgeHook(BaseHook):
         rounds: list[str] = []  # lockstep: agents whose answer to this tick is awaited
         if t >= self._publish_wake or pings or helm or images:
             bridge.publish_clock(t)
-            for ros, name, publish_sonar, _ in self._links:
+            for ros, name, _ in self._links:
                 if bridge.odometry_due(ros, t):  # the snapshot only when odometry goes out
                     if ros in self._stepped:
                         rounds.append(ros)
@@ -333,17 +326,6 @@ class Ros2BridgeHook(BaseHook):
                     nav = frame.agents[name].nav
                     bridge.publish_nav(ros, t, nav.position_ned, nav.yaw, nav.velocity_body,
                                        nav.yaw_rate)
-                ping = pings.get(name) if publish_sonar and pings else None
-                if ping is not None:
-                    self._publish_ping(bridge, ros, ping)
-                    seen = frame.perception.get(name)
-                    if seen is not None:
-                        self._publish_perception(bridge, ros, t, seen, ping)
-                image = images.get(name) if images else None
-                if image is not None:
-                    bridge.publish_camera(ros, float(image.t), image.rgb, image.depth_m, image.K,
-                                          (image.position_ned, image.rotation_ned_from_camera),
-                                          label_image_mono8(image.labels))
                 decision = helm.get(name) if helm else None
                 if decision is not None:
                     bridge.publish_helm(ros, t, decision.heading_deg, decision.speed,
@@ -352,6 +334,22 @@ class Ros2BridgeHook(BaseHook):
                         ros, t, decision.heading_deg, decision.speed, decision.depth,
                         decision.contributions, decision.mode, decision.active,
                         decision.total, decision.all_stop_reason or "")
+            for key, ping in pings.items():
+                agent, sensor = split_sensor_key(key)
+                ros = self._ros.get(agent)
+                if ros is not None:
+                    self._publish_ping(bridge, ros, sensor, ping)
+                    seen = frame.perception.get(key)
+                    if seen is not None:
+                        self._publish_perception(bridge, ros, t, seen, ping)
+            for key, image in images.items():
+                agent, sensor = split_sensor_key(key)
+                ros = self._ros.get(agent)
+                if ros is not None:
+                    bridge.publish_camera(ros, float(image.t), image.rgb, image.depth_m,
+                                          image.K, (image.position_ned,
+                                                    image.rotation_ned_from_camera),
+                                          label_image_mono8(image.labels), camera=sensor)
             self._publish_wake = bridge.wake_time
             self._extras = bridge.extras_subscribed()  # checked at most at 10 Hz
             if bridge.failing_topics != self._failing:  # rare: note it in the recording
@@ -362,7 +360,7 @@ class Ros2BridgeHook(BaseHook):
         if rounds:
             self._await_answers(sim, bridge, [r for r in rounds if r not in self._lapsed], t)
         if rounds or (self._accepting and self._command_gate.due(t)):
-            for ros, name, _, accept in self._links:
+            for ros, name, accept in self._links:
                 if accept:
                     self._take_commands(sim, ros, name, bridge.commands(ros, t), frame)
         else:
@@ -404,20 +402,22 @@ class Ros2BridgeHook(BaseHook):
                                        f"{self._lockstep_timeout:g} s: not waited for until "
                                        "it answers again (lockstep lapsed)")
 
-    def _publish_ping(self, bridge: Ros2Bridge, name: str, ping: Any) -> None:
-        """The ping's products that someone subscribes to: the hit cloud and the fan image
-        are formed only then (publish_sonar skips the unread ones)."""
-        polar, fan, hits = bridge.sonar_subscribed(name)
+    @staticmethod
+    def _publish_ping(bridge: Ros2Bridge, ros: str, sonar: str, ping: Any) -> None:
+        """The products of the ping of ``ros``'s sonar ``sonar`` that someone subscribes
+        to: the hit cloud and the fan image are formed only then (publish_sonar skips the
+        unread ones)."""
+        polar, fan, hits = bridge.sonar_subscribed(ros, sonar)
         points, intensity = cloud_hits(ping.cloud) if hits else (None, None)
-        due = bridge.publish_sonar(name, float(ping.t), ping.polar_u8 if polar else None,
+        due = bridge.publish_sonar(ros, float(ping.t), ping.polar_u8 if polar else None,
                                    ping.fan_u8 if fan else None, points, intensity,
                                    sonar_pose_ned=(ping.position_ned,
-                                                   ping.rotation_ned_from_sonar))
-        if due and bridge.sonar_image_subscribed(name):
-            frequency, sound_speed = self._acoustics[name]
-            bridge.publish_sonar_image(name, float(ping.t), ping.polar_u8,
-                                       ping.beam_angles_rad, ping.bin_ranges_m, frequency,
-                                       sound_speed)
+                                                   ping.rotation_ned_from_sonar), sonar=sonar)
+        if due and bridge.sonar_image_subscribed(ros, sonar):
+            bridge.publish_sonar_image(ros, float(ping.t), ping.polar_u8,
+                                       ping.beam_angles_rad, ping.bin_ranges_m,
+                                       ping.info.frequency_hz, ping.info.sound_speed_m_s,
+                                       sonar=sonar)
 
     def _above_floor(self, sim: Simulation, ros: str, name: str, depth: float,
                      frame: TickFrame) -> float:

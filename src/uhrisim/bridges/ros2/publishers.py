@@ -61,13 +61,13 @@ class AgentPublishers:
         self.frame_base = f"{frame_prefix}{spec.name}"
         self.world_frame = world_frame
         self.nav_gate = RateGate(spec.odom_rate_hz)
-        self.sonar_gate = RateGate(spec.sonar_rate_hz)
+        self.sonar_gates = {sonar: RateGate(spec.sonar_rate_hz) for sonar in spec.sonars}
         # odometry and pose go out pre-serialised (a few us instead of ~30 us a message)
         self.odometry = OdometryEncoder(world_frame, f"{self.frame_base}/base_link")
         self.pose = PoseStampedEncoder(world_frame)
         first, *more = tf_chain_frames(self.frame_base, world_frame)
         self.tf = TransformEncoder(*first, *more)  # the /tf chain, one struct
-        self.pubs: dict[str, Any] = {}
+        self.pubs: dict[str, Any] = {}  # key (the topic relative to the agent) -> publisher
         self.topics: dict[str, str] = {}  # key -> resolved topic name, once created
         self.mode_text: str | None = None  # the last helm mode published
         self.tf_pub: Any = None  # the bridge's /tf publisher (None: tf2_msgs not built)
@@ -121,22 +121,25 @@ class AgentPublishers:
         self.nav_gate.due(t_sim)  # nothing to send: pass the slot
         return False
 
-    def sonar_subscribed(self) -> tuple[bool, bool, bool]:
+    def sonar_subscribed(self, sonar: str) -> tuple[bool, bool, bool]:
         """Whether the polar image, the fan image and the points have a subscriber."""
-        if not self.spec.publish_sonar:
+        if sonar not in self.spec.sonars:
             return False, False, False
         p, wanted = self.pubs, self.writer.wanted
-        return wanted(p["polar"]), wanted(p["fan"]), wanted(p["points"])
+        return (wanted(p[f"{sonar}/polar"]), wanted(p[f"{sonar}/fan"]),
+                wanted(p[f"{sonar}/points"]))
 
-    def sonar(self, t_sim: float, polar_u8: np.ndarray | None, fan_u8: np.ndarray | None,
-              points_sonar_frd: ArrayLike | None, intensity: ArrayLike | None,
+    def sonar(self, sonar: str, t_sim: float, polar_u8: np.ndarray | None,
+              fan_u8: np.ndarray | None, points_sonar_frd: ArrayLike | None,
+              intensity: ArrayLike | None,
               sonar_pose_ned: tuple[ArrayLike, ArrayLike] | None) -> bool:
-        """The sonar products given, if the sonar gate is due; True when it was due."""
-        if not self.sonar_gate.due(t_sim):
+        """The products given of the sonar named ``sonar``, if its gate is due; True when
+        it was due."""
+        if not self.sonar_gates[sonar].due(t_sim):
             return False
-        frame = f"{self.frame_base}/sonar"
+        frame = f"{self.frame_base}/{sonar}"
         # every product given is checked, whether or not someone subscribes to it
-        images = [(key, mono8(image, f"Ros2Bridge.publish_sonar.{key}_u8"))
+        images = [(f"{sonar}/{key}", mono8(image, f"Ros2Bridge.publish_sonar.{key}_u8"))
                   for key, image in (("polar", polar_u8), ("fan", fan_u8)) if image is not None]
         xyzi = None if points_sonar_frd is None else cloud_xyzi_flu(points_sonar_frd, intensity)
         pose = None if sonar_pose_ned is None else pose_enu_from_ned(*sonar_pose_ned)
@@ -147,60 +150,63 @@ class AgentPublishers:
         for key, image in images:
             if wanted(pubs[key]):
                 write(pubs[key], encode_image(sec, nanosec, frame, image), self.topics[key])
-        if xyzi is not None and wanted(pubs["points"]):
-            write(pubs["points"], encode_pointcloud2(sec, nanosec, frame, xyzi),
-                  self.topics["points"])
-        if pose is not None and wanted(pubs["sonar_pose"]):
-            write(pubs["sonar_pose"], self.pose(sec, nanosec, *pose), self.topics["sonar_pose"])
+        points, pose_key = f"{sonar}/points", f"{sonar}/pose"
+        if xyzi is not None and wanted(pubs[points]):
+            write(pubs[points], encode_pointcloud2(sec, nanosec, frame, xyzi),
+                  self.topics[points])
+        if pose is not None and wanted(pubs[pose_key]):
+            write(pubs[pose_key], self.pose(sec, nanosec, *pose), self.topics[pose_key])
         return True
 
-    def camera(self, t_sim: float, rgb_u8: np.ndarray, depth_m: np.ndarray | None,
-               labels_u8: np.ndarray | None, K: np.ndarray,
+    def camera(self, camera: str, t_sim: float, rgb_u8: np.ndarray,
+               depth_m: np.ndarray | None, labels_u8: np.ndarray | None, K: np.ndarray,
                camera_pose_ned: tuple[ArrayLike, ArrayLike]) -> None:
-        """A camera frame to the camera topics someone subscribes to: the rgb8 image,
-        its CameraInfo (pinhole, no distortion), the 32FC1 depth image (REP-118), the
-        mono8 label image and the optical frame's pose (x right, y down, z forward;
-        frame ``<agent>/camera_optical``)."""
-        frame = f"{self.frame_base}/camera_optical"
+        """A frame of the camera named ``camera`` to its topics someone subscribes to: the
+        rgb8 image, its CameraInfo (pinhole, no distortion), the 32FC1 depth image
+        (REP-118), the mono8 label image and the optical frame's pose (x right, y down, z
+        forward; frame ``<agent>/<camera>_optical``)."""
+        frame = f"{self.frame_base}/{camera}_optical"
         sec, nanosec = stamp_from_sim_time(t_sim)
         pubs, write, wanted = self.pubs, self.writer.write, self.writer.wanted
-        if wanted(pubs["camera_image"]):
-            write(pubs["camera_image"], encode_image(sec, nanosec, frame, rgb_u8, "rgb8"),
-                  self.topics["camera_image"])
-        if wanted(pubs["camera_info"]):
-            write(pubs["camera_info"], camera_info_msg(t_sim, frame, rgb_u8.shape[:2], K),
-                  self.topics["camera_info"])
-        if depth_m is not None and wanted(pubs["camera_depth"]):
-            write(pubs["camera_depth"], encode_image(
+        image, info, depth, labels, pose_key = (f"{camera}/{product}" for product in (
+            "image_raw", "camera_info", "depth", "labels", "pose"))
+        if wanted(pubs[image]):
+            write(pubs[image], encode_image(sec, nanosec, frame, rgb_u8, "rgb8"),
+                  self.topics[image])
+        if wanted(pubs[info]):
+            write(pubs[info], camera_info_msg(t_sim, frame, rgb_u8.shape[:2], K),
+                  self.topics[info])
+        if depth_m is not None and wanted(pubs[depth]):
+            write(pubs[depth], encode_image(
                 sec, nanosec, frame, np.asarray(depth_m, dtype="<f4"), "32FC1"),
-                self.topics["camera_depth"])
-        if labels_u8 is not None and wanted(pubs["camera_labels"]):
-            write(pubs["camera_labels"], encode_image(sec, nanosec, frame, labels_u8),
-                  self.topics["camera_labels"])
-        if wanted(pubs["camera_pose"]):
+                self.topics[depth])
+        if labels_u8 is not None and wanted(pubs[labels]):
+            write(pubs[labels], encode_image(sec, nanosec, frame, labels_u8),
+                  self.topics[labels])
+        if wanted(pubs[pose_key]):
             position, rotation = camera_pose_ned
             pose = pose_enu_from_ned(position, optical_rotation(rotation))
-            write(pubs["camera_pose"], self.pose(sec, nanosec, *pose),
-                  self.topics["camera_pose"])
+            write(pubs[pose_key], self.pose(sec, nanosec, *pose), self.topics[pose_key])
 
-    def sonar_image_wanted(self) -> bool:
-        """Does ``sonar/image`` (ProjectedSonarImage) exist and have a subscriber?"""
-        pub = self.pubs.get("image")
+    def sonar_image_wanted(self, sonar: str) -> bool:
+        """Does ``<sonar>/image`` (ProjectedSonarImage) exist and have a subscriber?"""
+        pub = self.pubs.get(f"{sonar}/image")
         return pub is not None and self.writer.wanted(pub)
 
-    def sonar_image(self, t_sim: float, polar_u8: np.ndarray, beam_angles_rad: ArrayLike,
-                    ranges_m: ArrayLike, frequency_hz: float, sound_speed_m_s: float) -> None:
-        """``sonar/image`` (the bytes of :func:`~.messages.projected_sonar_image_msg`), if
-        wanted."""
-        if not self.sonar_image_wanted():
+    def sonar_image(self, sonar: str, t_sim: float, polar_u8: np.ndarray,
+                    beam_angles_rad: ArrayLike, ranges_m: ArrayLike, frequency_hz: float,
+                    sound_speed_m_s: float) -> None:
+        """``<sonar>/image`` (the bytes of :func:`~.messages.projected_sonar_image_msg`),
+        if wanted."""
+        if not self.sonar_image_wanted(sonar):
             return
-        raw = projected_sonar_image_bytes(t_sim, f"{self.frame_base}/sonar", polar_u8,
+        raw = projected_sonar_image_bytes(t_sim, f"{self.frame_base}/{sonar}", polar_u8,
                                           beam_angles_rad, ranges_m, frequency_hz,
                                           sound_speed_m_s)
-        self.writer.write(self.pubs["image"], raw, self.topics["image"])
+        self.writer.write(self.pubs[f"{sonar}/image"], raw, self.topics[f"{sonar}/image"])
 
     def extra_wanted(self, key: str) -> bool:
-        """Does the topic ``key`` (``"helm_decision"``, ``"vars"``) exist and have a
+        """Does the topic ``key`` (``"helm/decision"``, ``"vars"``) exist and have a
         subscriber?"""
         pub = self.pubs.get(key)
         return pub is not None and self.writer.wanted(pub)
@@ -221,10 +227,10 @@ class AgentPublishers:
             if value is None:
                 continue
             raw = float64_bytes(float(value))  # a bad value fails, subscribed or not
-            if self.writer.wanted(self.pubs[f"helm_{key}"]):
-                self.writer.write(self.pubs[f"helm_{key}"], raw, self.topics[f"helm_{key}"])
+            if self.writer.wanted(self.pubs[f"helm/{key}"]):
+                self.writer.write(self.pubs[f"helm/{key}"], raw, self.topics[f"helm/{key}"])
         mode = str(mode)
         if mode != self.mode_text:
             self.mode_text = mode
-            self.writer.write(self.pubs["helm_mode"], string_bytes(mode),
-                              self.topics["helm_mode"])
+            self.writer.write(self.pubs["helm/mode"], string_bytes(mode),
+                              self.topics["helm/mode"])

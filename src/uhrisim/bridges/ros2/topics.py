@@ -1,9 +1,10 @@
 """The ROS 2 bridge's topics and their QoS: what goes out per agent, what comes in.
 
-Per agent (namespace ``/<agent>``): ``odom``, ``pose``, the sonar's ``sonar/polar``,
-``sonar/fan``, ``sonar/points``, ``sonar/pose`` and ``sonar/image``
-(marine_acoustic_msgs/ProjectedSonarImage), the camera's ``camera/image_raw``,
-``camera/camera_info``, ``camera/depth``, ``camera/labels`` and ``camera/pose``, the
+Per agent (namespace ``/<agent>``): ``odom``, ``pose``, each sonar's ``<sonar>/polar``,
+``<sonar>/fan``, ``<sonar>/points``, ``<sonar>/pose`` and ``<sonar>/image``
+(marine_acoustic_msgs/ProjectedSonarImage), each camera's ``<camera>/image_raw``,
+``<camera>/camera_info``, ``<camera>/depth``, ``<camera>/labels`` and ``<camera>/pose``
+(a sensor's name: ``sonar`` and ``camera`` unless the scenario names them), the
 helm's ``helm/desired_*``, ``helm/mode`` and ``helm/decision``, the community's ``vars``;
 commands in on ``cmd/desired_*`` and ``cmd/thrusters``. Bridge-wide: ``/clock``,
 ``/scene/markers``, ``/tf``, ``/tf_static`` (the sonar and camera mounts) and ``/events``.
@@ -116,37 +117,41 @@ DESIRED_KEYS = ("desired_heading", "desired_speed", "desired_depth")
 THRUSTERS_KEY = "thrusters"
 
 
+def sonar_topic_keys(sonar: str) -> tuple[str, ...]:
+    """The keys (topics relative to the agent) of one sonar's products."""
+    return tuple(f"{sonar}/{product}" for product in ("polar", "fan", "points", "pose"))
+
+
 def agent_topics(spec: AgentBridgeSpec, sensor_qos: QoSProfile = QOS_SENSOR
                  ) -> list[tuple[str, str, type, QoSProfile]]:
     """``(key, topic, message type, QoS)`` of every topic the bridge publishes for one
     agent (besides the bridge-wide ones), as
     :meth:`~uhrisim.bridges.ros2.bridge.Ros2Bridge.start` creates them; ``sensor_qos`` is
-    that of the sonar images and hits. Names are relative: they resolve in the node's
+    that of the sonar and camera images and hits. A key is the topic relative to the
+    agent (``"odom"``, ``"sonar/polar"``, ``"camera/image_raw"``): each sonar and camera
+    has its topics under its own name. Names are relative: they resolve in the node's
     namespace (``/<agent>/odom`` without one)."""
     ns = spec.name
-    topics = [("odom", f"{ns}/odom", Odometry, QOS_STATE),
-              ("pose", f"{ns}/pose", PoseStamped, QOS_STATE)]
-    if spec.publish_sonar:
-        if importlib.util.find_spec("marine_acoustic_msgs") is not None:
+    keys = [("odom", Odometry, QOS_STATE), ("pose", PoseStamped, QOS_STATE)]
+    projected = importlib.util.find_spec("marine_acoustic_msgs") is not None
+    for sonar in spec.sonars:
+        if projected:
             from marine_acoustic_msgs.msg import ProjectedSonarImage
 
-            topics.append(("image", f"{ns}/sonar/image", ProjectedSonarImage, sensor_qos))
-        topics += [("polar", f"{ns}/sonar/polar", Image, sensor_qos),
-                   ("fan", f"{ns}/sonar/fan", Image, sensor_qos),
-                   ("points", f"{ns}/sonar/points", PointCloud2, sensor_qos),
-                   ("sonar_pose", f"{ns}/sonar/pose", PoseStamped, QOS_STATE)]
-    if spec.publish_camera:
-        topics += [("camera_image", f"{ns}/camera/image_raw", Image, sensor_qos),
-                   ("camera_info", f"{ns}/camera/camera_info", CameraInfo, sensor_qos),
-                   ("camera_depth", f"{ns}/camera/depth", Image, sensor_qos),
-                   ("camera_labels", f"{ns}/camera/labels", Image, sensor_qos),
-                   ("camera_pose", f"{ns}/camera/pose", PoseStamped, QOS_STATE)]
-    topics += [(f"helm_{key}", f"{ns}/helm/{key}", Float64, QOS_STATE)
-               for key in DESIRED_KEYS]
-    topics.append(("helm_mode", f"{ns}/helm/mode", String, QOS_LATCHED))
+            keys.append((f"{sonar}/image", ProjectedSonarImage, sensor_qos))
+        keys += [(f"{sonar}/polar", Image, sensor_qos), (f"{sonar}/fan", Image, sensor_qos),
+                 (f"{sonar}/points", PointCloud2, sensor_qos),
+                 (f"{sonar}/pose", PoseStamped, QOS_STATE)]
+    for camera in spec.cameras:
+        keys += [(f"{camera}/image_raw", Image, sensor_qos),
+                 (f"{camera}/camera_info", CameraInfo, sensor_qos),
+                 (f"{camera}/depth", Image, sensor_qos),
+                 (f"{camera}/labels", Image, sensor_qos),
+                 (f"{camera}/pose", PoseStamped, QOS_STATE)]
+    keys += [(f"helm/{key}", Float64, QOS_STATE) for key in DESIRED_KEYS]
+    keys.append(("helm/mode", String, QOS_LATCHED))
     if importlib.util.find_spec("uhrisim_msgs") is not None:
         from uhrisim_msgs.msg import HelmDecision, Variable
 
-        topics += [("helm_decision", f"{ns}/helm/decision", HelmDecision, QOS_STATE),
-                   ("vars", f"{ns}/vars", Variable, QOS_STATE)]
-    return topics
+        keys += [("helm/decision", HelmDecision, QOS_STATE), ("vars", Variable, QOS_STATE)]
+    return [(key, f"{ns}/{key}", msg_type, qos) for key, msg_type, qos in keys]

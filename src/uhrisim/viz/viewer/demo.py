@@ -160,7 +160,7 @@ def demo_frame(t: float, params: DemoParams = DemoParams(), *, paused: bool = Fa
         },
     }
     if sonar is not None:
-        frame["sonar"] = {"agent": "videoray", "t": float(t), "fan": sonar,
+        frame["sonar"] = {"agent": "videoray", "sensor": "sonar", "t": float(t), "fan": sonar,
                           "fov_deg": params.sonar_fov_deg, "max_range": params.sonar_range}
     return frame
 
@@ -182,7 +182,9 @@ def write_demo_recording(path: Path | str, duration: float = 60.0, dt: float = 0
         ])
         pts = ":".join(f"{e:.3f},{n:.3f}" for n, e in octagon(params))
         rec.write_variable("diver", 0.0, "VIEW_POLYGON", f"pts={{{pts}}},label=loiter", "demo")
+        # the fan's geometry travels with the recording (it has no ProjectedSonarImage)
         rec.write_variable("videoray", 0.0, "SONAR_MAX_RANGE", params.sonar_range, "demo")
+        rec.write_variable("videoray", 0.0, "SONAR_FOV_DEG", params.sonar_fov_deg, "demo")
         for k in range(n_steps + 1):
             t = k * dt
             st = demo_state(t, params)
