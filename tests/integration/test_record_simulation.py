@@ -54,11 +54,11 @@ def test_recording_matches_the_run(tmp_path: Path) -> None:
         assert s.topics[f"/{name}/odom"] == ("nav_msgs/msg/Odometry", len(frames))
     n_pings = {}
     for f in frames:
-        for name in f.pings:
-            n_pings[name] = n_pings.get(name, 0) + 1
-    for name, n in n_pings.items():
-        assert s.topics[f"/{name}/sonar/fan"][1] == n
-        assert s.topics[f"/{name}/sonar/polar"][1] == n
+        for key in f.pings:  # "<agent>/<sonar>": the sonar's topics
+            n_pings[key] = n_pings.get(key, 0) + 1
+    for key, n in n_pings.items():
+        assert s.topics[f"/{key}/fan"][1] == n
+        assert s.topics[f"/{key}/polar"][1] == n
     tracks = read_odometry(path)
     last = frames[-1]
     for name in agents:

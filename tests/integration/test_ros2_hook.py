@@ -32,8 +32,8 @@ from sensor_msgs.msg import Image, PointCloud2  # noqa: E402
 from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
 from visualization_msgs.msg import Marker, MarkerArray  # noqa: E402
 
-from uhrisim.bridges.ros2.bridge import QOS_SCENE  # noqa: E402
 from uhrisim.bridges.ros2.hook import Ros2BridgeHook  # noqa: E402
+from uhrisim.bridges.ros2.topics import QOS_SCENE  # noqa: E402
 from uhrisim.core.frames import enu_from_ned, enu_rotation_from_ned, quaternion_from_matrix  # noqa: E402
 from uhrisim.sensors.sonar.sonar import cloud_hits  # noqa: E402
 

@@ -32,6 +32,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("dynamics", "control", "world", "sensors", "autonomy", "perception"),
     ("scenario",),
     ("sim",),
+    ("ros",),
     ("record", "viz", "bridges", "envs"),
     ("experiments", "bench", "batch"),
     ("cli", "__main__"),

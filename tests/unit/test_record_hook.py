@@ -16,7 +16,8 @@ import pytest
 import trimesh
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.record import McapRecordingHook, iter_messages, read_odometry, ros_name, summarize
+from uhrisim.record import McapRecordingHook, iter_messages, read_odometry, summarize
+from uhrisim.ros.topics import ros_name
 
 
 def nav(north: float, east: float, depth: float, yaw: float) -> Ns:

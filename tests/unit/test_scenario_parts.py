@@ -95,7 +95,7 @@ def test_water_reaches_the_sonar_and_sound_speed_is_not_a_setting(tmp_path: Path
     assert built.sound_speed_m_s == pytest.approx(1412 + 3.21 * 5 + 1.19 * 30 + 0.0167 * 5)
     data["world"]["water"]["sound_speed"] = 1500.0  # follows from the water: not settable
     path.write_text(yaml.safe_dump(data))
-    with pytest.raises(ConfigError, match="world.water.sound_speed: unknown key"):
+    with pytest.raises(ConfigError, match=r"world\.water\.sound_speed: unknown key"):
         load_scenario(path)
 
 

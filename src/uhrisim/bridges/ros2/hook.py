@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import logging
 import math
-import numbers
 import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Literal
@@ -51,24 +50,22 @@ import numpy as np
 
 from uhrisim.core.errors import BridgeError, ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw
-from uhrisim.sensors.sonar.cloud import cloud_hits
+from uhrisim.ros.convert import RateGate
+from uhrisim.ros.markers import SCENE_MAX_TRIANGLES_PER_OBJECT
+from uhrisim.ros.tick import TickWriter
+from uhrisim.ros.topics import ros_name
 from uhrisim.sim.hooks import TickFrame, split_sensor_key
 from uhrisim.sim.simulation import BaseHook, Simulation
 
-from .convert import RateGate, label_image_mono8
 from .limits import CommandEnvelope
 from .spec import COMMAND_GROUPS, AgentBridgeSpec, AgentCommands
 
 if TYPE_CHECKING:
     from .bridge import Ros2Bridge
 
-__all__ = ["Ros2BridgeHook", "decimate_triangle_markers"]
+__all__ = ["Ros2BridgeHook", "command_envelope"]
 
 log = logging.getLogger(__name__)
-
-#: Triangles per scene object sent to ROS viewers; larger meshes (a fine sea floor) are
-#: thinned, every k-th triangle kept, to keep the one-off scene message small and fast.
-SCENE_MAX_TRIANGLES_PER_OBJECT = 20_000
 
 #: Wall seconds a lockstep start waits after finding the controllers (see on_start).
 LOCKSTEP_SETTLE_S = 0.5
@@ -102,22 +99,6 @@ def command_envelope(agent: Any) -> CommandEnvelope:
         max_speed = 100.0 / params.thrust_factor
     return CommandEnvelope(max_speed=max_speed,
                            reverse=bool(getattr(agent.controller, "reverses", False)))
-
-
-def decimate_triangle_markers(
-    markers: Sequence[dict[str, Any]], max_triangles: int = SCENE_MAX_TRIANGLES_PER_OBJECT
-) -> list[dict[str, Any]]:
-    """Copies of ``markers`` whose ``triangle_list`` point lists hold at most
-    ``max_triangles`` triangles (every k-th triangle kept, for display only)."""
-    out = []
-    for m in markers:
-        if m.get("type") == "triangle_list":
-            pts = np.asarray(m["points_ned"], dtype=float).reshape(-1, 3, 3)
-            if len(pts) > max_triangles:
-                step = int(np.ceil(len(pts) / max_triangles))
-                m = {**m, "points_ned": pts[::step].reshape(-1, 3)}
-        out.append(m)
-    return out
 
 
 class Ros2BridgeHook(BaseHook):
@@ -204,6 +185,7 @@ class Ros2BridgeHook(BaseHook):
         self._clearance = depth_clearance_m
         self._command_gate = RateGate(command_poll_hz)
         self.bridge: Ros2Bridge | None = None
+        self._out: TickWriter | None = None  # the tick's products through the bridge
         self._sim: Simulation | None = None
         self._ros: dict[str, str] = {}  # simulation agent name -> ROS namespace
         # per linked agent: (ROS name, simulation name, accept commands)
@@ -226,14 +208,9 @@ class Ros2BridgeHook(BaseHook):
             raise ConfigError(
                 f"ROS 2 hook names unknown agent(s) {unknown}; agents: {', '.join(sim.agents)}"
             )
-        from uhrisim.record.hook import ros_name
-
         self._ros = {name: ros_name(name) for name in names}  # same names as recordings
         if len(set(self._ros.values())) != len(names):
             raise ConfigError(f"ROS 2 hook: agent names collide as ROS names: {self._ros}")
-        for name, ros in self._ros.items():
-            if ros != name:
-                log.info("ROS 2 hook: agent %r is published as /%s", name, ros)
         specs = [
             AgentBridgeSpec(
                 self._ros[name],
@@ -252,7 +229,9 @@ class Ros2BridgeHook(BaseHook):
         self._links = [(spec.name, name, bool(spec.accept))
                        for spec, name in zip(self.bridge.agents, self._ros, strict=True)]
         self._accepting = any(accept for *_, accept in self._links)
-        self._publish_mounts(sim)
+        self._out = TickWriter(self.bridge, names)
+        self._out.start(sim, scene=self._publish_scene,
+                        max_triangles=SCENE_MAX_TRIANGLES_PER_OBJECT)
         if self._lockstep:
             self._await_controllers()
         # simulation times before which nothing is due (see on_tick)
@@ -260,28 +239,6 @@ class Ros2BridgeHook(BaseHook):
         self._seen = dict.fromkeys(names, 0)
         self._active = dict.fromkeys(names, False)
         self._failing = ()
-        if self._publish_scene and getattr(sim, "scene", None) is not None:
-            from uhrisim.record.hook import scene_markers
-
-            markers = decimate_triangle_markers(scene_markers(sim.scene))
-            if markers:
-                self.bridge.publish_scene(float(sim.t), markers)
-
-    def _publish_mounts(self, sim: Simulation) -> None:
-        """``/tf_static``: every linked agent's sensor mounts, ``<agent>/base_link`` ->
-        ``<agent>/sonar`` and -> ``<agent>/camera_optical`` (the frames of its sonar and
-        camera topics; :func:`uhrisim.record.hook.sensor_mounts`, as the recording has
-        them); and each sonar's centre frequency and sound speed for ``sonar/image``."""
-        from uhrisim.record.hook import sensor_mounts
-
-        bridge = self.bridge
-        assert bridge is not None
-        mounts = []
-        for ros, name, _ in self._links:
-            mounts += sensor_mounts(sim.agents[name],
-                                    lambda frame, ros=ros: bridge.frame(ros, frame))
-        if mounts:
-            self.bridge.publish_static_transforms(float(sim.t), mounts)
 
     def _await_controllers(self) -> None:
         """Lockstep start: every agent that accepts commands needs its controller (an
@@ -310,46 +267,35 @@ class Ros2BridgeHook(BaseHook):
             return
         t = float(frame.t)
         pings, helm, images = frame.pings, frame.helm, frame.images
+        out = self._out
+        assert out is not None
         if self._extras and (frame.posts or frame.events):
-            self._publish_extras(bridge, frame)
+            out.posts(frame.posts)
+            out.events(frame.events)
         if t < self._wake_time and not pings and not helm and not images:
             bridge.note_time(t)  # nothing due: most ticks of a 60 Hz loop
             return
         rounds: list[str] = []  # lockstep: agents whose answer to this tick is awaited
         if t >= self._publish_wake or pings or helm or images:
-            bridge.publish_clock(t)
-            for ros, name, _ in self._links:
-                if bridge.odometry_due(ros, t):  # the snapshot only when odometry goes out
-                    if ros in self._stepped:
-                        rounds.append(ros)
-                        self._begin_round(sim, bridge, ros, t)
-                    nav = frame.agents[name].nav
-                    bridge.publish_nav(ros, t, nav.position_ned, nav.yaw, nav.velocity_body,
-                                       nav.yaw_rate)
-                decision = helm.get(name) if helm else None
-                if decision is not None:
-                    bridge.publish_helm(ros, t, decision.heading_deg, decision.speed,
-                                        decision.depth, decision.mode)
-                    bridge.publish_helm_decision(
-                        ros, t, decision.heading_deg, decision.speed, decision.depth,
-                        decision.contributions, decision.mode, decision.active,
-                        decision.total, decision.all_stop_reason or "")
+            bridge.write_clock(t)
+            due = [name for ros, name, _ in self._links if bridge.odometry_due(ros, t)]
+            for name in due:  # the snapshot is taken only when odometry goes out
+                ros = self._ros[name]
+                if ros in self._stepped:
+                    rounds.append(ros)
+                    self._begin_round(sim, bridge, ros, t)
+            out.odometry(t, frame.agents, due)
+            for name, decision in helm.items():
+                out.helm(name, t, decision)
             for key, ping in pings.items():
-                agent, sensor = split_sensor_key(key)
-                ros = self._ros.get(agent)
-                if ros is not None:
-                    self._publish_ping(bridge, ros, sensor, ping)
+                agent, sonar = split_sensor_key(key)
+                if agent in self._ros and bridge.sonar_due(self._ros[agent], sonar, t):
+                    out.ping(key, ping)
                     seen = frame.perception.get(key)
                     if seen is not None:
-                        self._publish_perception(bridge, ros, t, seen, ping)
+                        out.perception(key, t, seen, ping)
             for key, image in images.items():
-                agent, sensor = split_sensor_key(key)
-                ros = self._ros.get(agent)
-                if ros is not None:
-                    bridge.publish_camera(ros, float(image.t), image.rgb, image.depth_m,
-                                          image.K, (image.position_ned,
-                                                    image.rotation_ned_from_camera),
-                                          label_image_mono8(image.labels), camera=sensor)
+                out.image(key, image)
             self._publish_wake = bridge.wake_time
             self._extras = bridge.extras_subscribed()  # checked at most at 10 Hz
             if bridge.failing_topics != self._failing:  # rare: note it in the recording
@@ -367,19 +313,6 @@ class Ros2BridgeHook(BaseHook):
             bridge.note_time(t)
         self._wake_time = min(self._publish_wake, self._command_gate.wake_time
                               if self._accepting else math.inf)
-
-    def _publish_extras(self, bridge: Ros2Bridge, frame: TickFrame) -> None:
-        """The tick's community postings (``<agent>/vars``) and events (``/events``), as
-        the recording has them; only called while someone subscribes to either."""
-        for post in frame.posts:
-            ros = self._ros.get(post.community)
-            if ros is not None:
-                value = post.value if isinstance(post.value, str | numbers.Real) \
-                    else str(post.value)
-                bridge.publish_variable(ros, float(post.t), str(post.var), value,
-                                        str(post.source))
-        for event in frame.events:
-            bridge.publish_event(float(event.t), str(event.kind), str(event.detail))
 
     def _begin_round(self, sim: Simulation, bridge: Ros2Bridge, ros: str, t: float) -> None:
         """A lockstep round for ``ros`` starts; one that had lapsed is waited for again
@@ -402,23 +335,6 @@ class Ros2BridgeHook(BaseHook):
                                        f"{self._lockstep_timeout:g} s: not waited for until "
                                        "it answers again (lockstep lapsed)")
 
-    @staticmethod
-    def _publish_ping(bridge: Ros2Bridge, ros: str, sonar: str, ping: Any) -> None:
-        """The products of the ping of ``ros``'s sonar ``sonar`` that someone subscribes
-        to: the hit cloud and the fan image are formed only then (publish_sonar skips the
-        unread ones)."""
-        polar, fan, hits = bridge.sonar_subscribed(ros, sonar)
-        points, intensity = cloud_hits(ping.cloud) if hits else (None, None)
-        due = bridge.publish_sonar(ros, float(ping.t), ping.polar_u8 if polar else None,
-                                   ping.fan_u8 if fan else None, points, intensity,
-                                   sonar_pose_ned=(ping.position_ned,
-                                                   ping.rotation_ned_from_sonar), sonar=sonar)
-        if due and bridge.sonar_image_subscribed(ros, sonar):
-            bridge.publish_sonar_image(ros, float(ping.t), ping.polar_u8,
-                                       ping.beam_angles_rad, ping.bin_ranges_m,
-                                       ping.info.frequency_hz, ping.info.sound_speed_m_s,
-                                       sonar=sonar)
-
     def _above_floor(self, sim: Simulation, ros: str, name: str, depth: float,
                      frame: TickFrame) -> float:
         """``depth`` (m) clamped to the floor below the vehicle now less the clearance."""
@@ -428,17 +344,6 @@ class Ros2BridgeHook(BaseHook):
         north, east, _ = frame.agents[name].nav.position_ned
         deepest = float(floor.depth_at(float(north), float(east))) - self._clearance
         return self.bridge.depth_above_floor(ros, depth, deepest)
-
-    @staticmethod
-    def _publish_perception(bridge: Ros2Bridge, name: str, t: float, seen: Any,
-                            ping: Any) -> None:
-        """The sonar perception's detections and tracks, as the recorder writes them
-        (``/<agent>/perception/{detections,tracks}``, docs/perception.md)."""
-        from uhrisim.record.hook import perception_markers
-
-        detections, tracks = perception_markers(seen, float(ping.position_ned[2]))
-        bridge.publish_markers(f"{name}/perception/detections", t, detections)
-        bridge.publish_markers(f"{name}/perception/tracks", t, tracks)
 
     def _take_commands(self, sim: Simulation, ros: str, name: str, cmd: AgentCommands,
                        frame: TickFrame) -> None:

@@ -192,8 +192,8 @@ def write_demo_recording(path: Path | str, duration: float = 60.0, dt: float = 0
                 rec.write_odometry(name, t, (n, e, d), math.radians(hd), (v, 0.0, 0.0), 0.0)
             if k % every == 0:
                 rn, re_, rd, rh, _ = st["videoray"]
-                rec.write_sonar("videoray", t, None, demo_fan(t, params), None, None,
-                                "videoray/sonar", ((rn, re_, rd), rot_z(math.radians(rh))))
+                rec.write_sonar("videoray", "sonar", t, None, demo_fan(t, params), None, None,
+                                ((rn, re_, rd), rot_z(math.radians(rh))))
             if k % round(1.0 / dt) == 0:  # 1 Hz helm decisions; DEPLOYING for the first second
                 _, _, _, rh, rv = st["videoray"]
                 rec.write_helm_decision("videoray", t, rh, rv, params.rov_depth, {"trail": 100.0},
