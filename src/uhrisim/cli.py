@@ -163,9 +163,9 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
                        ros_args: tuple[str, ...] = ()) -> Any:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from uhrisim.app.runner import prepare_out_dir, run_scenario
     from uhrisim.bridges.live import live_hooks
     from uhrisim.scenario.load import load_scenario
-    from uhrisim.sim.runner import prepare_out_dir, run_scenario
 
     source = load_scenario(scenario)
     prepare_out_dir(out)  # before the progress bar: a refusal is one line

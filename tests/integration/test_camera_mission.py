@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from uhrisim.app.runner import run_scenario
 from uhrisim.scenario.load import load_scenario
-from uhrisim.sim.runner import run_scenario
 from uhrisim.sim.simulation import Simulation
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -17,9 +17,9 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from uhrisim.app.runner import run_scenario, strict_json
 from uhrisim.cli import app
 from uhrisim.sim import runner as run_module
-from uhrisim.sim.runner import run_scenario, strict_json
 from uhrisim.sim.simulation import BaseHook
 
 ROOT = Path(__file__).resolve().parents[2]

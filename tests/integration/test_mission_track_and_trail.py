@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from uhrisim.app.runner import run_scenario
 from uhrisim.record.reader import read_odometry
-from uhrisim.sim.runner import run_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "track_and_trail.yaml"

@@ -28,9 +28,9 @@ from mcap.reader import make_reader  # noqa: E402
 from mcap_ros2.reader import read_ros2_messages  # noqa: E402
 from rosbags.highlevel import AnyReader  # noqa: E402
 
+from uhrisim.app.runner import run_scenario  # noqa: E402
 from uhrisim.bridges.ros2.hook import Ros2BridgeHook  # noqa: E402
 from uhrisim.record.recover import recover_in_place  # noqa: E402
-from uhrisim.sim.runner import run_scenario  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = [ROOT / "scenarios" / name for name in ("track_and_trail.yaml",

@@ -15,7 +15,7 @@ import pytest
 from uhrisim.core.errors import AssetError, ConfigError
 from uhrisim.record.reader import summarize
 from uhrisim.scenario.load import load_scenario, validate_data
-from uhrisim.sim.simulation import Simulation
+from uhrisim.sim.simulation import BaseHook, Simulation
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = sorted((ROOT / "scenarios").glob("*.yaml"))
@@ -219,6 +219,37 @@ def test_stale_external_thrusters_fall_back_to_the_controller(tmp_path):
     assert any("stale" in e.detail for e in sim.events_log)
 
 
+def test_a_hook_only_observes_its_commands_wait_for_the_next_tick(tmp_path):
+    """Outside inputs — a variable posted, thruster commands — given by a hook during a
+    tick go into the one inbox and take effect at the start of the next tick, in order;
+    the tick the hook observes is left as the loop made it."""
+
+    class Commander(BaseHook):
+        def __init__(self) -> None:
+            self.seen: list[tuple[int, float, object]] = []
+
+        def on_start(self, sim) -> None:
+            self.sim = sim
+
+        def on_tick(self, frame) -> None:
+            rov = self.sim.agents["rov"]
+            self.seen.append((frame.tick, float(rov.inputs[0]),
+                              rov.community.get("DEPLOY", None)))
+            if frame.tick == 3:
+                self.sim.set_actuators("rov", [120.0, 120.0, 0.0], hold_s=1.0)
+                self.sim.post("rov", "DEPLOY", "true", source="test")
+                assert float(rov.inputs[0]) != 120.0  # nothing changed within the tick
+                assert rov.community.get("DEPLOY", None) is None
+
+    hook = Commander()
+    sim = Simulation(load_scenario(write(tmp_path, COLLIDE)), hooks=[hook])
+    for _ in range(5):
+        sim.step()
+    by_tick = {tick: (thrust, deploy) for tick, thrust, deploy in hook.seen}
+    assert by_tick[3][0] != 120.0 and by_tick[3][1] is None
+    assert by_tick[4] == (120.0, "true")  # applied at the start of tick 4
+
+
 def test_contacts_from_truth_with_noise_latency_and_dropout_are_deterministic(tmp_path):
     text = (ROOT / "scenarios" / "track_and_trail.yaml").read_text().replace(
         "      rate_hz: 4\n      alerts:",
@@ -273,7 +304,7 @@ def test_run_killed_with_sigkill_leaves_a_readable_recording(tmp_path):
 
 
 def test_metrics_json_of_a_failed_run_says_so(tmp_path):
-    from uhrisim.sim.runner import run_scenario
+    from uhrisim.app.runner import run_scenario
 
     calls = []
 

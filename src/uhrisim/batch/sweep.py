@@ -226,7 +226,7 @@ def completed_metrics(run_dir: Path) -> dict[str, Any] | None:
 def execute_run(task: tuple[PlannedRun, str]) -> dict[str, Any]:
     """Run one planned run into its folder (a Ray task): a row of the results table. Any
     error becomes ``status = failed`` with its one-line message."""
-    from uhrisim.sim.runner import run_scenario
+    from uhrisim.app.runner import run_scenario
 
     run, out = task
     run_dir = run_folder(run, Path(out))

@@ -2,8 +2,10 @@
 
 One tick of the physics step ``dt`` does, in this order (DESIGN.md, "data flows one way"):
 
-1. **inputs from outside** queued through :meth:`Simulation.post` (bridges, viewer buttons)
-   are posted into the agents' communities;
+1. **inputs from outside** — every one, from the ROS 2 and MOOS bridges, the viewer's
+   buttons, a Gymnasium action or a script — wait in one inbox
+   (:meth:`Simulation.post` of a variable, :meth:`Simulation.set_actuators` of thruster
+   commands) and take effect here, at the start of the tick, in the order they came;
 2. **scripted events** that are due (time reached, or condition true) fire once;
 3. **dynamics**: every agent's model advances one step with the actuator inputs chosen at
    the end of the previous tick; collisions stop the move; body poses go to the scene;
@@ -67,7 +69,9 @@ SURFACE_DEPTH = 0.0  # m; bodies cannot leave the water
 class Hook(Protocol):
     """A read-only observer of the simulation (recorder, metrics, viewer, bridges): told
     of the start, handed every tick's :class:`~uhrisim.sim.hooks.TickFrame`, told of the
-    end (with the error that stopped the run, if one did)."""
+    end (with the error that stopped the run, if one did). It changes nothing itself: what
+    it has to say to the simulation (a command from outside) goes through the inbox,
+    :meth:`Simulation.post` and :meth:`Simulation.set_actuators`, and acts next tick."""
 
     def on_start(self, sim: Simulation) -> None: ...
 
@@ -107,7 +111,9 @@ class Simulation:
         self.collisions = 0
         self.events_log: list[SimEvent] = []
         self._pending_events: list[SimEvent] = []
-        self._inbox: list[tuple[str, str, Value, str]] = []
+        # inputs from outside, applied at the start of the next tick (see _apply_inbox):
+        # ("post", agent, var, value, source) or ("actuators", agent, inputs, until_s)
+        self._inbox: list[tuple[Any, ...]] = []
         self._inbox_lock = threading.Lock()
         self.scene: Scene = build_static_scene(source)
         self.agents: dict[str, Agent] = build_agents(self, raycast_sensors)
@@ -142,18 +148,22 @@ class Simulation:
             raise ConfigError(f"unknown agent {agent!r}; agents: {', '.join(self.agents)}")
         value = checked_value(agent, var, value)
         with self._inbox_lock:
-            self._inbox.append((agent, var, value, source))
+            self._inbox.append(("post", agent, var, value, source))
 
     def set_actuators(self, agent: str, inputs: Sequence[float], hold_s: float = 1.0) -> None:
         """Drive an agent's actuators directly (an external controller), for ``hold_s``
-        simulated seconds; then its own controller takes over again (a safe fallback)."""
-        target = self.agents[agent]
+        simulated seconds from now; then its own controller takes over again (a safe
+        fallback). Checked now, queued in the inbox like :meth:`post` (thread-safe): the
+        controller stage of the next tick applies them."""
+        if agent not in self.agents:
+            raise ConfigError(f"unknown agent {agent!r}; agents: {', '.join(self.agents)}")
+        size = self.agents[agent].inputs.size
         values = np.asarray(inputs, dtype=float)
-        if values.shape != target.inputs.shape or not np.all(np.isfinite(values)):
-            raise ConfigError(f"actuator inputs for {agent!r} must be {target.inputs.size} "
-                              f"finite numbers, got {list(inputs)!r}")
-        target.actuator_override = values
-        target.actuator_override_until = self.t + hold_s
+        if values.shape != (size,) or not np.all(np.isfinite(values)):
+            raise ConfigError(f"actuator inputs for {agent!r} must be {size} finite numbers, "
+                              f"got {list(inputs)!r}")
+        with self._inbox_lock:
+            self._inbox.append(("actuators", agent, values, self.t + hold_s))
 
     def refresh_static_obstacles(self) -> None:
         """Recompute the collision broad phase after the scene's geometry changed."""
@@ -262,10 +272,16 @@ class Simulation:
 
     # -- tick stages ----------------------------------------------------------------------
     def _apply_inbox(self) -> None:
+        """The inputs from outside, in the order they came (the tick's first stage)."""
         with self._inbox_lock:
             inbox, self._inbox = self._inbox, []
-        for agent, var, value, source in inbox:
-            self.agents[agent].community.post(var, value, self.t, source)
+        for kind, agent, *rest in inbox:
+            if kind == "post":
+                var, value, source = rest
+                self.agents[agent].community.post(var, value, self.t, source)
+            else:
+                target = self.agents[agent]
+                target.actuator_override, target.actuator_override_until = rest
 
     def _fire_events(self) -> None:
         for event in self.events:

@@ -22,12 +22,12 @@ from typing import Any
 
 import numpy as np
 
+from uhrisim.app.metrics import TrailMetrics
+from uhrisim.app.perception_metrics import PerceptionMetrics
 from uhrisim.core.errors import AssetError
 from uhrisim.record.hook import McapRecordingHook
 from uhrisim.scenario.load import ScenarioFile, load_scenario
 from uhrisim.sim.hooks import TickFrame, sensor_key
-from uhrisim.sim.metrics import TrailMetrics
-from uhrisim.sim.perception_metrics import PerceptionMetrics
 from uhrisim.sim.simulation import BaseHook, Hook, Simulation
 
 SONAR_STRIP_FRAMES = 6
