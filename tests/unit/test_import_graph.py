@@ -28,7 +28,7 @@ SRC = Path(__file__).resolve().parents[2] / "src"
 #: (its ``__init__`` holds only the version). Place every new package here.
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("", "core"),
-    ("dynamics", "control", "world", "sensors", "autonomy", "perception"),
+    ("dynamics", "control", "world", "sensors", "autonomy", "perception", "vehicles"),
     ("scenario",),
     ("sim",),
     ("ros",),

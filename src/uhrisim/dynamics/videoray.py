@@ -24,6 +24,8 @@ STATE_NAMES = ("x", "y", "z", "psi", "u", "v", "w", "r")
 INPUT_NAMES = ("port", "starboard", "vertical")
 STATE_SIZE = 8
 INPUT_SIZE = 3
+#: The thruster commands' range, ±this (dimensionless; the paper's and the authors' code).
+INPUT_LIMIT = 150.0
 
 
 @dataclass(frozen=True)
@@ -56,11 +58,10 @@ class VideoRayParams:
     ct_vertical_down_quadratic: float = 7.53e-5
     moment_arm: float = setting(1.0, "m", gt=0.0, le=10.0,
                                 doc="lever of the horizontal thrusters about the yaw axis")
-    input_limit: float = 150.0
+    input_limit: float = INPUT_LIMIT
     coupling: Literal["paper", "rigid-body"] = "paper"
 
     def __post_init__(self) -> None:
-        check_settings(self)
         for name in ("m11", "m22", "m33", "J", "ct_linear", "ct_vertical_linear", "input_limit"):
             if not getattr(self, name) > 0.0:
                 value = getattr(self, name)
@@ -72,6 +73,7 @@ class VideoRayParams:
             raise ValueError(f"thrust_map must be 'linear' or 'quadratic', got {self.thrust_map!r}")
         if self.coupling not in ("paper", "rigid-body"):
             raise ValueError(f"coupling must be 'paper' or 'rigid-body', got {self.coupling!r}")
+        check_settings(self)  # the declared ranges (J, moment_arm)
 
 
 def thruster_forces(u: ArrayLike, params: VideoRayParams) -> NDArray[np.float64]:

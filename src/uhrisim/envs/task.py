@@ -31,8 +31,8 @@ import numpy as np
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import wrap_180
 from uhrisim.dynamics.plants import NavState
+from uhrisim.dynamics.videoray import INPUT_LIMIT as THRUSTER_LIMIT  # ±150 (conventions)
 
-THRUSTER_LIMIT = 150.0  # the VideoRay's command range (docs/conventions.md)
 REWARD_TERMS = ("trail_position", "bearing", "collision", "energy", "lost")
 
 

@@ -59,10 +59,17 @@ from uhrisim.core.frames import heading_deg_from_yaw
 from uhrisim.dynamics.plants import NavState
 from uhrisim.envs.episodes import Randomization, ScenarioHook, TrailEpisodes
 from uhrisim.envs.render import render_frame
-from uhrisim.envs.task import RewardWeights, TrailGeometry, body_frd, reward_terms
+from uhrisim.envs.task import (
+    THRUSTER_LIMIT,
+    RewardWeights,
+    TrailGeometry,
+    body_frd,
+    reward_terms,
+)
 from uhrisim.scenario.shipped import shipped_scenario
 from uhrisim.sim.hooks import TickFrame, sensor_key
 from uhrisim.sim.simulation import BaseHook, Simulation
+from uhrisim.vehicles import MODELS
 
 SONAR_SHAPE = (96, 64)  # (range bins, beams) of the observed polar image
 #: The episodes' physics rate (Hz): the shipped scenarios' controllers run at 20 Hz, so a
@@ -79,7 +86,6 @@ YAW_RATE_BOUND = 10.0      # rad/s
 # 1.075 m/s (scenario videoray, linear thrust map; measured through this env).
 DESIRED_LOW = np.array([-math.pi, 0.0, -2.0], dtype=np.float32)
 DESIRED_HIGH = np.array([math.pi, 1.0, 2.0], dtype=np.float32)
-THRUSTER_RANGE = 150.0
 SEED_SPAN = 2**31 - 1
 
 
@@ -205,7 +211,7 @@ class TrailDiverEnv(gymnasium.Env):
                    f"{', '.join(s.name for s in sonars) or 'none'})" if sonar is not None
                    else "no sonar"))
         follower_model = next(a.model for a in self.episodes.base.agents if a.name == follower)
-        if command == "thrusters" and follower_model != "videoray":
+        if command == "thrusters" and not MODELS[follower_model].thrusters:
             raise EnvArgumentError(f"command='thrusters' drives a VideoRay's three thrusters; "
                                    f"{follower!r} is a {follower_model} model: use "
                                    "command='desired'")
@@ -215,7 +221,7 @@ class TrailDiverEnv(gymnasium.Env):
         if command == "desired":
             self.action_space = spaces.Box(DESIRED_LOW, DESIRED_HIGH, dtype=np.float32)
         else:
-            self.action_space = spaces.Box(-THRUSTER_RANGE, THRUSTER_RANGE, (3,),
+            self.action_space = spaces.Box(-THRUSTER_LIMIT, THRUSTER_LIMIT, (3,),
                                            dtype=np.float32)
         if observation == "state":
             self.observation_space = _state_space()

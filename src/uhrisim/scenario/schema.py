@@ -23,12 +23,13 @@ from pydantic import (
 )
 
 from uhrisim.autonomy.params import checked_value
-from uhrisim.control.videoray_p import PGains
+from uhrisim.control.videoray_p import GAIN_PRESETS, PGains
 from uhrisim.dynamics.videoray import VideoRayParams
 from uhrisim.scenario.sections import scenario_section
 from uhrisim.scenario.strict import Strict
 from uhrisim.sensors.camera.config import CameraConfig
 from uhrisim.sensors.sonar.config import SonarConfig
+from uhrisim.vehicles import MODELS
 
 # -0.0 passes ge=0 but numpy refuses it as a scale ("scale < 0"): made +0.0
 NonNegativeFloat = Annotated[float, Field(ge=0.0), AfterValidator(lambda x: x + 0.0)]
@@ -231,7 +232,7 @@ VideoRayModelConfig = scenario_section(
 
 ControllerConfig = scenario_section(
     PGains, "ControllerConfig", overrides=True,
-    fields={"preset": (Literal["ros-node", "ros-node-early", "octave", "mission"], "mission")},
+    fields={"preset": (Literal[tuple(GAIN_PRESETS)], "mission")},  # type: ignore[valid-type]
     doc="P controller of the paper (eqs 5-9): ``preset`` (GAIN_PRESETS), then the gains "
         "given override it (PGains).")
 
@@ -369,7 +370,7 @@ class BubblesConfig(Strict):
 
 class AgentConfig(Strict):
     name: Name
-    model: Literal["videoray", "diver", "kinematic"]
+    model: Literal[tuple(MODELS)]  # type: ignore[valid-type]  # uhrisim.vehicles
     start: Pose = Pose()
     driver: Literal["helm", "script", "external", "none"] = "helm"
     videoray: VideoRayModelConfig = VideoRayModelConfig()
@@ -427,7 +428,7 @@ class AgentConfig(Strict):
     @property
     def scene_body(self) -> str:
         """The 3-D body the agent has in the scene: ``body``, or its model's own."""
-        return self.body or ("diver" if self.model == "diver" else "videoray")
+        return self.body or MODELS[self.model].body
 
     @model_validator(mode="after")
     def _driver_matches(self) -> AgentConfig:

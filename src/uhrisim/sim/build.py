@@ -7,7 +7,6 @@ which calls them; what they build are the records of :mod:`uhrisim.sim.state`.
 
 from __future__ import annotations
 
-import dataclasses
 import difflib
 import math
 from typing import Protocol
@@ -20,16 +19,9 @@ from uhrisim.autonomy.conditions import parse_condition
 from uhrisim.autonomy.config import HelmConfig, parse_domain
 from uhrisim.autonomy.contacts import AlertSpec, ContactManagerConfig
 from uhrisim.autonomy.moos_file import load_helm_from_moos
-from uhrisim.control.diver import DiverController, DiverGains
-from uhrisim.control.marine_pid import MarinePidController, MarinePidGains
-from uhrisim.control.videoray_p import GAIN_PRESETS, VideoRayPController
 from uhrisim.core.clock import ticks_for_rate
 from uhrisim.core.errors import ConfigError, warn_user
 from uhrisim.core.frames import rot_z
-from uhrisim.dynamics.diver import DiverParams
-from uhrisim.dynamics.kinematic import KinematicParams
-from uhrisim.dynamics.plants import DiverPlant, KinematicPlant, VideoRayPlant
-from uhrisim.dynamics.videoray import VideoRayParams
 from uhrisim.scenario.build_world import material_named, object_mesh
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import AgentConfig, CameraSensor, Scenario, SonarSensor
@@ -38,13 +30,10 @@ from uhrisim.sim.community import Community
 from uhrisim.sim.drivers import HelmDriver, ScriptedDriver
 from uhrisim.sim.script import ScriptDriver
 from uhrisim.sim.state import Agent, CameraSlot, ScheduledEvent, SonarSlot
+from uhrisim.vehicles import MODELS
 from uhrisim.world.assets import diver_parts, videoray_mesh
 from uhrisim.world.materials import NEOPRENE, ROV_PLASTIC
 from uhrisim.world.scene import Scene
-
-#: Collision spheres (m): VideoRay hull ~0.38 x 0.29 x 0.22 m; a prone diver with fins is
-#: ~2.3 m long, a 0.6 m sphere covers the torso and tank where contact matters.
-COLLISION_RADIUS = {"videoray": 0.25, "diver": 0.6, "kinematic": 0.5}
 
 
 class BuildContext(Protocol):
@@ -58,28 +47,6 @@ class BuildContext(Protocol):
     scene: Scene
 
     def rng(self, component: str) -> np.random.Generator: ...
-
-
-def _plant(cfg: AgentConfig, dt: float):
-    if cfg.model == "videoray":
-        return VideoRayPlant(VideoRayParams(**part_settings(cfg.videoray)), dt, name=cfg.name)
-    if cfg.model == "diver":
-        limits = cfg.diver_limits
-        params = DiverParams(max_speed=limits.max_speed,
-                             max_turn_rate=math.radians(limits.max_turn_rate_deg),
-                             max_vertical_rate=limits.max_vertical_rate)
-        return DiverPlant(params, dt, name=cfg.name)
-    return KinematicPlant(KinematicParams(), dt, name=cfg.name)
-
-
-def _controller(cfg: AgentConfig, plant):
-    if cfg.model == "videoray":
-        gains = dataclasses.replace(GAIN_PRESETS[cfg.controller.preset],
-                                    **part_settings(cfg.controller, given=True))
-        return VideoRayPController(gains, plant.params)
-    if cfg.model == "diver":
-        return DiverController(DiverGains(), plant.params)
-    return MarinePidController(MarinePidGains())
 
 
 def _sonar(sim: BuildContext, cfg: AgentConfig, index: int, sensor: SonarSensor):
@@ -190,8 +157,9 @@ def build_agents(sim: BuildContext, raycast_sensors: bool) -> dict[str, Agent]:
                        sim.source.where("recording", "odometry_rate_hz"))
     agents: dict[str, Agent] = {}
     for index, cfg in enumerate(sim.scenario.agents):
+        model = MODELS[cfg.model]
         try:
-            plant = _plant(cfg, sim.dt)
+            plant = model.make_plant(cfg, sim.dt, cfg.name)
         except ConfigError as error:  # e.g. a model too stiff for the step
             raise ConfigError(str(error), sim.source.where("agents", index, "model")) from None
         _check_start(sim, index, cfg, agents)
@@ -199,9 +167,9 @@ def build_agents(sim: BuildContext, raycast_sensors: bool) -> dict[str, Agent]:
         state = plant.initial_state(np.array([start.north, start.east, start.depth]),
                                     math.radians(start.heading_deg))
         community = Community(cfg.name)
-        agent = Agent(config=cfg, plant=plant, controller=_controller(cfg, plant),
-                      community=community, state=state, inputs=np.zeros(plant.input_size),
-                      radius=COLLISION_RADIUS[cfg.model])
+        agent = Agent(config=cfg, model=model, plant=plant,
+                      controller=model.make_controller(cfg, plant), community=community,
+                      state=state, inputs=np.zeros(plant.input_size))
         _add_body(sim, cfg, state)
         if cfg.control_rate_hz is not None:
             agent.control_period = ticks_for_rate(
@@ -232,7 +200,7 @@ def _check_start(sim: BuildContext, index: int, cfg: AgentConfig,
     inside = sim.scene.inside_solid(start)
     if inside is not None:
         raise ConfigError(f"agents[{index}].start: {cfg.name} would start {inside}", where)
-    radius = COLLISION_RADIUS[cfg.model]
+    radius = MODELS[cfg.model].collision_radius
     for other in placed.values():
         gap = float(np.linalg.norm(other.nav().position_ned - start))
         if gap < radius + other.radius:

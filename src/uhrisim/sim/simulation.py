@@ -329,10 +329,11 @@ class Simulation:
     def _advance(self, agent: Agent) -> None:
         previous = agent.state  # plants return a new state; this one stays as it was
         new_state = agent.plant.step(self.t, previous, agent.inputs)
+        model = agent.model
         if new_state[2] < SURFACE_DEPTH:  # cannot fly out of the water
             new_state[2] = SURFACE_DEPTH
-            if agent.config.model == "videoray":
-                new_state[6] = max(new_state[6], 0.0)  # no upward heave through the surface
+            if model.surface_stops is not None:  # no upward heave through the surface
+                new_state[model.surface_stops] = max(new_state[model.surface_stops], 0.0)
         start, end = previous[:3], new_state[:3]
         fraction, touched = self._clear_fraction(agent, start.tolist(), end.tolist())
         if fraction < 1.0 and not agent.in_contact:  # count each contact once, at its onset
@@ -341,10 +342,8 @@ class Simulation:
         agent.in_contact = fraction < 1.0
         if fraction < 1.0:
             new_state[:3] = start + (end - start) * max(0.0, fraction - 1e-3)
-            if agent.config.model == "videoray":
-                new_state[4:7] = 0.0  # inelastic stop against the obstacle
-            elif agent.config.model == "kinematic":
-                new_state[4] = 0.0
+            if model.contact_stops is not None:
+                new_state[model.contact_stops] = 0.0  # inelastic stop against the obstacle
         agent.update(state=new_state)
         if agent.is_diver_body:
             speed = abs(agent.nav().speed)

@@ -46,8 +46,6 @@ import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Literal
 
-import numpy as np
-
 from uhrisim.core.errors import BridgeError, ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw
 from uhrisim.ros.convert import RateGate
@@ -82,22 +80,9 @@ _DESIRED_VARS = (
 
 def command_envelope(agent: Any) -> CommandEnvelope:
     """What a simulated agent (``Simulation.agents[name]``) can be commanded to do: its
-    top speed (VideoRay: thrust-drag balance at full forward thrust; diver: its swim-speed
-    limit; kinematic vehicle: 100 % thrust) and whether its controller reverses (none of
-    uhrisim's does: ``reverses`` on the controller says so)."""
-    params = agent.plant.params
-    model = agent.config.model
-    if model == "videoray":
-        from uhrisim.dynamics.videoray import generalized_forces, steady_speed
-
-        lim = params.input_limit
-        surge = float(generalized_forces(np.array([lim, lim, 0.0]), params)[0])
-        max_speed = abs(steady_speed(surge, params.Xu, params.Xuu))
-    elif model == "diver":
-        max_speed = params.max_speed
-    else:  # uSimMarine-style: thrust (%) = thrust_factor x speed, at most 100 %
-        max_speed = 100.0 / params.thrust_factor
-    return CommandEnvelope(max_speed=max_speed,
+    model's top speed (:attr:`uhrisim.vehicles.VehicleModel.max_speed`) and whether its
+    controller reverses (none of uhrisim's does: ``reverses`` on the controller says so)."""
+    return CommandEnvelope(max_speed=agent.model.max_speed(agent.plant.params),
                            reverse=bool(getattr(agent.controller, "reverses", False)))
 
 
