@@ -1,4 +1,4 @@
-"""The paper's mission (reference/helm.md, "The paper's mission"; paper Fig. 19), with two
+"""The paper's mission (docs/reference/helm.md, "The paper's mission"; paper Fig. 19), with two
 helms, two contact managers and kinematic vehicles.
 
 Diver: ConstantDepth + Loiter (octagon radius 20 m around (10, -20)), starts at (10, 0)

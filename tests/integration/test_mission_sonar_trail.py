@@ -239,7 +239,7 @@ def test_trail_holds_on_images_with_a_noise_floor_and_speckle(floor_db):
     # The detector must not rely on clean images: every ping of the real run gets a noise
     # floor (display level ~0.35 and ~0.6) and Rayleigh speckle (unit-exponential
     # intensity, grain over 5 beams) before perception sees it, as a physical image would
-    # have (shared/reference/sonar.md; tests/support/synthetic_sonar.py uses the same model).
+    # have (docs/reference/sonar.md; tests/support/synthetic_sonar.py uses the same model).
     sim = Simulation(load_scenario(SONAR))
     slot = sim.agents["videoray"].sonars[0]
     ping_clean = slot.sonar.ping

@@ -2,7 +2,7 @@
 
 Checks that the recording holds one odometry message per agent per tick, one sonar
 image pair per ping, that the last recorded pose is the simulation's last pose, and
-that two runs of the same scenario and seed give byte-identical files (DESIGN.md
+that two runs of the same scenario and seed give byte-identical files (docs/design.md
 habit 5: the recorder puts no wall-clock time into the file).
 """
 

@@ -2,7 +2,7 @@
 and the share of one CPU core the bridge takes in a 15 Hz sonar + 10 Hz odometry loop.
 
 ``uhrisim bench ros2 [--json]`` prints :func:`run`'s dict. Sizes: a BlueView P900-45
-polar image (256 beams x 2000 range bins of 2.54 cm, ~50 m; reference/sonar.md), a
+polar image (256 beams x 2000 range bins of 2.54 cm, ~50 m; docs/reference/sonar.md), a
 600 x 1000 fan image (10 px/m, the paper's scale) and a 4096-point cloud.
 
 The full run starts one external subscriber process (plain rclpy, loopback discovery,

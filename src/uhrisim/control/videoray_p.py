@@ -43,8 +43,9 @@ class PGains:
         check_settings(self)
 
 
-# Gains found in the authors' code (reference note): the ROS control node (K_h 1, the value
-# it actually ran with; an earlier revision had 0.01), and the Octave simulation.
+# Gains found in the authors' code (docs/reference/vehicles-and-control.md): the ROS control
+# node (K_h 1, the value it actually ran with; an earlier revision had 0.01), and the Octave
+# simulation.
 GAIN_PRESETS: dict[str, PGains] = {
     "ros-node": PGains(heading=1.0, speed=10.0, depth=50.0),
     "ros-node-early": PGains(heading=0.01, speed=10.0, depth=50.0),

@@ -6,7 +6,7 @@ Inputs: ``[port, starboard, vertical]`` dimensionless thruster commands, saturat
 +-150. All functions accept a batch: ``x`` of shape ``(..., 8)`` and ``u`` of ``(..., 3)``.
 
 Coefficients: W. Wang, MASc thesis, Univ. of Waterloo 2006, p. 19 (VideoRay Pro III),
-used by DeMarco et al. for their Pro 4; see shared/reference/vehicles-and-control.md.
+used by DeMarco et al. for their Pro 4; see docs/reference/vehicles-and-control.md.
 """
 
 from __future__ import annotations
@@ -32,9 +32,9 @@ INPUT_LIMIT = 150.0
 class VideoRayParams:
     """Rigid-body + added-mass inertia, damping and thruster constants (SI units).
 
-    Source: Wang 2006 table (reference note); ``J`` defaults to 0.0118 kg m^2 (the
-    authors' ROS node used 0.1; an older script 0.5). ``moment_arm`` = 1 m reproduces
-    the authors' code, which had no arm.
+    Source: Wang 2006 table (docs/reference/vehicles-and-control.md); ``J`` defaults to
+    0.0118 kg m^2 (the authors' ROS node used 0.1; an older script 0.5). ``moment_arm`` =
+    1 m reproduces the authors' code, which had no arm.
     """
 
     m11: float = 1.94  # kg, surge inertia

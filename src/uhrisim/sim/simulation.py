@@ -1,6 +1,6 @@
 """The simulation loop: integer ticks, one documented update order, read-only hooks.
 
-One tick of the physics step ``dt`` does, in this order (DESIGN.md, "data flows one way"):
+One tick of the physics step ``dt`` does, in this order (docs/design.md, "data flows one way"):
 
 1. **inputs from outside** — every one, from the ROS 2 and MOOS bridges, the viewer's
    buttons, a Gymnasium action or a script — wait in one inbox

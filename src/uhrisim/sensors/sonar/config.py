@@ -338,7 +338,7 @@ class SonarConfig:
 
     def floor_bin_coverage_range_m(self, height_m: float) -> float:
         """Range out to which adjacent elevation rays land less than one bin apart on a flat
-        floor ``height_m`` below the sonar (the reference note's ray budget).
+        floor ``height_m`` below the sonar (docs/reference/sonar.md's ray budget).
 
         Near grazing, a ray at slant range R meets the floor at R ≈ h/sin φ, so
         dR/dφ ≈ R²/h; adjacent rays are δφ apart, and every bin is hit while R²·δφ/h < Δr.

@@ -3,7 +3,7 @@
 The BlueView P900-45 row is Table I of DeMarco, West & Howard (OCEANS 2013); the P900-90
 and P900-130 rows are the same family (900 kHz, 1°×20° beams, ~2.5 cm range resolution,
 100 m maximum range) with 512 and 768 beams over 90° and 130°
-(``shared/reference/sonar.md``). Angles are degrees (suffix ``_deg``), ranges metres.
+(``docs/reference/sonar.md``). Angles are degrees (suffix ``_deg``), ranges metres.
 """
 
 from __future__ import annotations
@@ -94,7 +94,7 @@ class SonarSpec:
         return self.fov_h_deg / (self.n_beams - 1)
 
 
-_P900_SOURCE = "DeMarco, West & Howard 2013, Table I; shared/reference/sonar.md (P900 family)"
+_P900_SOURCE = "DeMarco, West & Howard 2013, Table I; docs/reference/sonar.md (P900 family)"
 
 P900_45 = SonarSpec(
     name="P900-45",

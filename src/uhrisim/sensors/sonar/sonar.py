@@ -7,7 +7,7 @@ into the vehicle body frame FRD by yaw (about z) after a downward tilt (a pitch 
 the vehicle rotation then takes it to world NED.
 
 Physical image formation (``mode="physical"``), per ray that hits at slant range R with
-incidence β on a surface of Lambert coefficient μ (``shared/reference/sonar.md``):
+incidence β on a surface of Lambert coefficient μ (``docs/reference/sonar.md``):
 
     EL = SL − 2·TL(R) + TS,     TL = 20 log10 R + αR,     TS = 10 log10(μ·cos²β·A)
 

@@ -29,7 +29,7 @@ class DemoParams:
     rov_depth: float = 5.5  # m
     contact_range: float = 10.0  # m, circle drawn around the ROV
     alert_range: float = 5.0  # m
-    sonar_fov_deg: float = 45.0  # BlueView P900-45 (reference/sonar.md)
+    sonar_fov_deg: float = 45.0  # BlueView P900-45 (docs/reference/sonar.md)
     sonar_range: float = 10.0  # m, display range of the fan
 
 
