@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from tests.support.cli import one_line_error
 from uhrisim.app.runner import run_scenario, strict_json
 from uhrisim.cli import app
 from uhrisim.sim import runner as run_module
@@ -25,15 +26,6 @@ from uhrisim.sim.simulation import BaseHook
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "track_and_trail.yaml"
 cli = CliRunner()
-
-
-def one_line_error(result, *parts: str) -> str:
-    assert result.exit_code == 2, result.output
-    lines = [line for line in result.output.splitlines() if line.strip()]
-    assert len(lines) == 1 and lines[0].startswith("error: "), result.output
-    for part in parts:
-        assert part in lines[0], lines[0]
-    return lines[0]
 
 
 @pytest.mark.parametrize(

@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from tests.support.kinematic_vehicle import Kinematic
 from uhrisim.autonomy import (
     ContactManagerConfig,
     HelmConfig,
@@ -25,8 +26,6 @@ from uhrisim.autonomy import (
 )
 from uhrisim.autonomy.behaviors import Trail
 from uhrisim.autonomy.missions import paper_diver_helm, paper_rov_contacts, paper_rov_helm
-
-from .test_helm_behaviors import Kinematic
 
 DIVER = paper_diver_helm()
 ROV = paper_rov_helm()

@@ -12,12 +12,11 @@ from pathlib import Path
 
 import pytest
 
+from uhrisim.bridges.moos import hook as hookmod
 from uhrisim.bridges.moos.client import MoosClient
 from uhrisim.bridges.moos.testdb import spawn
-
-simulation = pytest.importorskip("uhrisim.sim.simulation")
-load = pytest.importorskip("uhrisim.scenario.load")
-hookmod = pytest.importorskip("uhrisim.bridges.moos.hook")
+from uhrisim.scenario import load
+from uhrisim.sim import simulation
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
 

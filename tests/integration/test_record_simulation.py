@@ -14,9 +14,8 @@ import numpy as np
 import pytest
 
 from uhrisim.record import McapRecordingHook, read_odometry, summarize
-
-simulation = pytest.importorskip("uhrisim.sim.simulation")
-load = pytest.importorskip("uhrisim.scenario.load")
+from uhrisim.scenario import load
+from uhrisim.sim import simulation
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
 DURATION_S = 1.0

@@ -18,8 +18,6 @@ import numpy as np
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
-simulation = pytest.importorskip("uhrisim.sim.simulation")
-load = pytest.importorskip("uhrisim.scenario.load")
 
 from geometry_msgs.msg import PoseStamped  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
@@ -35,7 +33,9 @@ from visualization_msgs.msg import Marker, MarkerArray  # noqa: E402
 from uhrisim.bridges.ros2.hook import Ros2BridgeHook  # noqa: E402
 from uhrisim.bridges.ros2.topics import QOS_SCENE  # noqa: E402
 from uhrisim.core.frames import enu_from_ned, enu_rotation_from_ned, quaternion_from_matrix  # noqa: E402
+from uhrisim.scenario import load  # noqa: E402
 from uhrisim.sensors.sonar.sonar import cloud_hits  # noqa: E402
+from uhrisim.sim import simulation  # noqa: E402
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
 #: /tf_static, latched, where tf2_msgs is built (python -m uhrisim.bridges.ros2.interfaces)

@@ -142,10 +142,10 @@ def test_released_hook_does_not_hold_a_paused_run():
 
 def test_real_simulation_pauses_steps_and_takes_buttons():
     pytest.importorskip("websockets")
-    sim_mod = pytest.importorskip("uhrisim.sim.simulation")
     from websockets.sync.client import connect
 
     from uhrisim.scenario.load import load_scenario
+    from uhrisim.sim import simulation as sim_mod
     from uhrisim.viz.viewer import attach_viewer
 
     source = load_scenario(SCENARIO)

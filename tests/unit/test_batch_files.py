@@ -14,7 +14,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from tests.integration.test_cli_bad_input import one_line_error
+from tests.support.cli import one_line_error
 from uhrisim.batch.params import Draw, apply_path, check_path, split_path
 from uhrisim.batch.sweep import load_sweep
 from uhrisim.cli import app

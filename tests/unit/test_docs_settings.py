@@ -13,4 +13,4 @@ def test_settings_page_is_written_from_the_declarations() -> None:
     assert PAGE.read_text(encoding="utf-8") == render(), (
         "docs/settings.md is out of date: python -m uhrisim.scenario.settings_doc > "
         "docs/settings.md")
-    assert "| `rays_per_beam` | — | 64 | in [2, 512] |" in render()
+    assert "| `rays_per_beam` | — | 64 | in [2, 4096] |" in render()

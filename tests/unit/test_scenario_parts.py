@@ -152,7 +152,7 @@ def test_old_sensor_keys_still_load_with_a_warning(tmp_path: Path) -> None:
 
 def test_a_bad_value_fails_at_load_with_the_declared_range(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match=r"sensors\[0\]\.rays_per_beam: must be in "
-                                          r"\[2, 512\], got 1000"):
-        _build(tmp_path, {"sensors": [{"type": "sonar", "rays_per_beam": 1000}]})
+                                          r"\[2, 4096\], got 5000"):
+        _build(tmp_path, {"sensors": [{"type": "sonar", "rays_per_beam": 5000}]})
     with pytest.raises(ConfigError, match=r"controller\.heading: must be in \[0, 10000\]"):
         _build(tmp_path, {"controller": {"heading": -1.0}})

@@ -140,7 +140,7 @@ class SonarConfig:
                                  "(at most the preset's maximum range)", cost="linear")
     range_resolution_m: float | None = setting(None, "m", gt=0.0,
                                                doc="range-bin size (None: the preset's)")
-    rays_per_beam: int = setting(64, "1", ge=2, le=512, integer=True,
+    rays_per_beam: int = setting(64, "1", ge=2, le=4096, integer=True,
                                  doc="rays cast in elevation per beam", cost="linear")
     rays_per_beam_azimuth: int = setting(1, "1", ge=1, le=64, integer=True,
                                          doc="sub-rays per beam in azimuth", cost="linear")
