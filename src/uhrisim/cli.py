@@ -191,15 +191,15 @@ def bench(
 
 
 def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: int | None,
-                       sonar: bool, quiet: bool = False, ros2: bool = False,
+                       raycast_sensors: bool, quiet: bool = False, ros2: bool = False,
                        moos: bool = False, rtf: float | None = None,
                        view_port: int | None = None, lockstep: bool = False,
                        ros_args: tuple[str, ...] = (), require_helm: bool = False) -> Any:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from uhrisim.app.runner import prepare_out_dir, run_scenario
     from uhrisim.bridges.live import live_hooks
     from uhrisim.scenario.load import load_scenario
-    from uhrisim.sim.runner import prepare_out_dir, run_scenario
 
     source = load_scenario(scenario)
     prepare_out_dir(out)  # before the progress bar: a refusal is one line
@@ -223,7 +223,8 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
     with Progress(*columns, console=err_console, disable=quiet, transient=True) as bar:
         task = bar.add_task(escape(source.scenario.name), total=total)
         try:
-            return run_scenario(source, out, duration=duration, seed=seed, sonar=sonar,
+            return run_scenario(source, out, duration=duration, seed=seed,
+                                raycast_sensors=raycast_sensors,
                                 extra_hooks=hooks, configure=None if view_port is None else attach,
                                 progress=lambda t: bar.update(task, completed=t))
         finally:
@@ -290,7 +291,9 @@ def run(
                                              help="output folder (default out/<name>)")] = None,
     duration: Annotated[float | None, typer.Option(help="simulated seconds")] = None,
     seed: Annotated[int | None, typer.Option(help="root random seed")] = None,
-    no_sonar: Annotated[bool, typer.Option("--no-sonar", help="switch sonars off")] = False,
+    no_raycast_sensors: Annotated[bool, typer.Option(
+        "--no-raycast-sensors",
+        help="no sonars and no cameras (the sensors that cast rays into the scene)")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")] = False,
     ros2: Annotated[bool, typer.Option("--ros2", help="bridge to ROS 2 (loopback only)")] = False,
     moos: Annotated[bool, typer.Option("--moos", help="bridge to MOOSDB(s) on 127.0.0.1")] = False,
@@ -317,7 +320,7 @@ def run(
     check_run_options(duration, seed, rtf, port)
     out = out or Path("out") / scenario.stem
     extra_ros_args = tuple(shlex.split(ros_args))
-    result = _run_with_progress(scenario, out, duration, seed, not no_sonar, quiet,
+    result = _run_with_progress(scenario, out, duration, seed, not no_raycast_sensors, quiet,
                                 ros2=ros2 or bool(extra_ros_args), moos=moos, rtf=rtf,
                                 view_port=port if view else None, lockstep=lockstep,
                                 ros_args=extra_ros_args, require_helm=require_helm)
@@ -332,7 +335,7 @@ def validate(scenario: Annotated[Path, typer.Argument(help="scenario YAML file")
     from uhrisim.sim.simulation import Simulation
 
     source = load_scenario(scenario)
-    Simulation(source, sonar_enabled=True)  # builds helms, sonars, scene: every check
+    Simulation(source)  # builds helms, sonars, cameras, scene: every check
     s = source.scenario
     console.print(Text(f"{scenario}: OK — {len(s.agents)} agents "
                        f"({', '.join(a.name for a in s.agents)}), {s.duration:g} s at "

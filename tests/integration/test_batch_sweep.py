@@ -45,7 +45,7 @@ def local_ray():
 
 def write_sweep(folder: Path, grid: dict, seeds=(1, 2), **extra) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
-    sweep = {"scenario": str(shipped_scenario()), "duration": 3.0, "sonar": False,
+    sweep = {"scenario": str(shipped_scenario()), "duration": 3.0, "raycast_sensors": False,
              "set": {"recording.enabled": False}, "grid": grid, "seeds": list(seeds)} | extra
     path = folder / "sweep.yaml"
     path.write_text(json.dumps(sweep))  # JSON is YAML

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from uhrisim.app.runner import run_scenario
 from uhrisim.scenario.load import load_scenario
-from uhrisim.sim.runner import run_scenario
 from uhrisim.sim.simulation import Simulation
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -31,7 +31,7 @@ def test_camera_steps_at_its_rate_beside_the_sonar():
         tick = sim.step()
         pings += len(tick.pings)
         if tick.images:
-            frames.append(tick.images["videoray"])
+            frames.append(tick.images["videoray/camera"])
     assert len(frames) == 10 and pings == 15  # 10 Hz camera, 15 Hz sonar, for 1 s
     assert [round(f.t, 6) for f in frames] == [round(0.1 * k, 6) for k in range(1, 11)]
     first = frames[0]
@@ -126,7 +126,7 @@ def test_same_seed_same_images_as_recorded(run):
     sim = Simulation(load_scenario(SCENARIO))
     for _ in range(round(0.1 / sim.dt)):
         tick = sim.step()
-    shot = tick.images["videoray"].rgb
+    shot = tick.images["videoray/camera"].rgb
     with AnyReader([run.out_dir / "recording.mcap"]) as reader:
         connection = next(c for c in reader.connections
                           if c.topic == "/videoray/camera/image_raw")

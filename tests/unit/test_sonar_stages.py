@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.unit.test_sonar_image import (
+from tests.support.analytic_sonar import (
     LEVEL,
     ORIGIN,
     AnalyticCaster,

@@ -62,7 +62,7 @@ from uhrisim.envs.task import REWARD_TERMS, THRUSTER_LIMIT
 from uhrisim.envs.trail_diver import SEED_SPAN, EnvArgumentError, TrailDiverEnv
 from uhrisim.scenario.build_world import add_object, build_static_scene
 from uhrisim.scenario.load import ScenarioFile
-from uhrisim.sim.build import COLLISION_RADIUS, controller_for, plant_for
+from uhrisim.vehicles import MODELS
 from uhrisim.world.scene import Scene
 
 
@@ -100,18 +100,19 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
                                    "target whose helm has a Loiter behavior")
         self.dt = 1.0 / t.episodes.physics_rate_hz
         self.ticks_per_step = round(t.control_step_s / self.dt)
-        self.rov_plant, self.diver_plant = plant_for(follower, self.dt), plant_for(target,
-                                                                                  self.dt)
-        self.rov_control = controller_for(follower, self.rov_plant)
-        self.diver_control = controller_for(target, self.diver_plant)
+        rov_model, diver_model = MODELS[follower.model], MODELS[target.model]
+        self.rov_plant = rov_model.make_plant(follower, self.dt, follower.name)
+        self.diver_plant = diver_model.make_plant(target, self.dt, target.name)
+        self.rov_control = rov_model.make_controller(follower, self.rov_plant)
+        self.diver_control = diver_model.make_controller(target, self.diver_plant)
         self.rov_control_period = _period(follower.control_rate_hz, self.dt)
         self.diver_control_period = _period(target.control_rate_hz, self.dt)
         self.pilot_period = ticks_for_rate(target.helm.rate_hz, self.dt, "diver helm rate")
         where = f"agents.{target.name}.helm.domain"
         self.domain = (parse_domain(dict(target.helm.domain), where) if target.helm.domain
                        else default_domain(where))
-        self.rov_radius = COLLISION_RADIUS["videoray"]
-        self.contact_distance = COLLISION_RADIUS["videoray"] + COLLISION_RADIUS["diver"]
+        self.rov_radius = rov_model.collision_radius
+        self.contact_distance = rov_model.collision_radius + diver_model.collision_radius
         self._source = ScenarioFile(base.model_copy(update={
             "world": base.world.model_copy(update={"objects": ()})}), t.episodes.path)
         self.floor = build_static_scene(self._source)

@@ -2,7 +2,7 @@
 
 A :class:`Material` carries the Lambert scattering coefficient ``reflectivity`` (μ, linear,
 0..1) used by the sonar's target-strength term ``TS ≈ 10·log10(μ·cos²β·A)``
-(see ``shared/reference/sonar.md``), and the diffuse (Lambertian) optical reflectance
+(see ``docs/reference/sonar.md``), and the diffuse (Lambertian) optical reflectance
 ``albedo_rgb`` per camera channel (linear, 0..1) that the camera uses
 (:mod:`uhrisim.sensors.camera`).
 

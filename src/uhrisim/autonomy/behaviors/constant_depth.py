@@ -1,7 +1,7 @@
 """BHV_ConstantDepth: hold a depth (subdomain: depth).
 
 Objective: ZAIC peak at ``depth`` with IvP defaults peakwidth 3 m, basewidth 100 m,
-summitdelta 50 (reference/helm.md); no normalisation (BHV_ConstantDepth.cpp:112-120). The
+summitdelta 50 (docs/reference/helm.md); no normalisation (BHV_ConstantDepth.cpp:112-120). The
 depth can follow another vehicle through ``updates`` postings such as ``depth=3.2``.
 
 Its ``duration`` defaults to 0, as in pHelmIvP ("we force the user to provide a duration
@@ -24,7 +24,7 @@ from uhrisim.autonomy.zaic import zaic_peak_on_axis
 @dataclass(frozen=True)
 class ConstantDepthParams:
     """BHV_ConstantDepth parameters: ``depth`` m (positive down); ZAIC ``peakwidth``,
-    ``basewidth`` m and ``summitdelta`` (utility) with IvP's defaults (reference/helm.md).
+    ``basewidth`` m and ``summitdelta`` (utility) with IvP's defaults (docs/reference/helm.md).
     """
 
     depth: float = 0.0
