@@ -171,12 +171,13 @@ def test_recorded_camera_frames_replay_in_the_viewer(run):
     from uhrisim.viz.viewer.replay import ReplayPlayer, load_replay
 
     data = load_replay(run.out_dir / "recording.mcap")
-    ts, images = data.shots["videoray"]
+    ts, images = data.shots["videoray/camera"]
     np.testing.assert_allclose(ts, [0.1, 1.1])
     assert images[0].shape == (240, 320, 3) and images[0].dtype == np.uint8
     player = ReplayPlayer(data, server=None)  # type: ignore[arg-type]
     (shot,) = player.frame_at(1.5)["camera"]
-    assert shot["agent"] == "videoray" and shot["t"] == pytest.approx(1.1)
+    assert (shot["agent"], shot["sensor"]) == ("videoray", "camera")
+    assert shot["t"] == pytest.approx(1.1)
     assert shot["image"] is images[1]
     assert player.frame_at(1.6)["camera"] is None  # already sent
     assert player.frame_at(0.05)["camera"] is None  # nothing recorded yet

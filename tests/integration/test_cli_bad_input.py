@@ -18,9 +18,9 @@ import pytest
 from typer.testing import CliRunner
 
 from tests.support.cli import one_line_error
+from uhrisim.app import runner as run_module
 from uhrisim.app.runner import run_scenario, strict_json
 from uhrisim.cli import app
-from uhrisim.sim import runner as run_module
 from uhrisim.sim.simulation import BaseHook
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -259,7 +259,7 @@ def test_trail_holds_on_images_with_a_noise_floor_and_speckle(floor_db):
     held = counted = 0
     while sim.t < 45.0:
         frame = sim.step()
-        seen = frame.perception.get("videoray")
+        seen = frame.perception.get("videoray/sonar")
         if seen is None or sim.t < 10.0:
             continue
         truth = sim.agents["diver"].nav().position_ned

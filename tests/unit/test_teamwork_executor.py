@@ -64,7 +64,7 @@ class Team:
         self.grips, self.extra_carriers = {}, {}
 
     def view(self):
-        return DiverView("diver1", "diver_boots", SKELETON, self.q,
+        return DiverView("diver1", True, SKELETON, self.q,
                          pose_matrix(self.state.position, self.state.psi), self.state.speed,
                          FLOOR(*self.state.position[:2]))
 
@@ -204,7 +204,7 @@ def test_handing_the_wrench_to_the_rovs_gripper():
 
 # ------------------------------------------------------------------------ validation
 
-SETUP = od.DiverSetup("diver1", "diver_boots", (0.0, 0.0))
+SETUP = od.DiverSetup("diver1", True, (0.0, 0.0))
 EXTENT = (-15.0, 15.0, -15.0, 15.0)
 
 
@@ -274,5 +274,5 @@ def test_a_site_no_walking_path_reaches_is_refused():
         "order 1 (go to flange1): flange1 is 3.0 m above the floor: a walking diver reaches "
         "2.0 m"]
     # a swimming diver goes anywhere
-    swimmer = od.DiverSetup("diver1", "diver", (0.0, 0.0))
+    swimmer = od.DiverSetup("diver1", False, (0.0, 0.0))
     assert validate([od.GoTo("flange1")], ws, ledge.depth_at, swimmer) == []

@@ -58,6 +58,7 @@ from uhrisim.core.elementwise import ARRAYS
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned, wrap_180
 from uhrisim.dynamics.diver import body_rates_kernel
+from uhrisim.dynamics.plants import DiverPlant, VideoRayPlant
 from uhrisim.envs.task import REWARD_TERMS, THRUSTER_LIMIT
 from uhrisim.envs.trail_diver import SEED_SPAN, EnvArgumentError, TrailDiverEnv
 from uhrisim.scenario.build_world import add_object, build_static_scene
@@ -95,14 +96,15 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         base = t.episodes.base
         agents = {a.name: a for a in base.agents}
         follower, target = agents[t.follower], agents[t.target]
-        if follower.model != "videoray" or target.model != "diver" or not _loiter(target):
-            raise EnvArgumentError("the vector env flies a VideoRay follower behind a diver "
-                                   "target whose helm has a Loiter behavior")
         self.dt = 1.0 / t.episodes.physics_rate_hz
         self.ticks_per_step = round(t.control_step_s / self.dt)
         rov_model, diver_model = MODELS[follower.model], MODELS[target.model]
         self.rov_plant = rov_model.make_plant(follower, self.dt, follower.name)
         self.diver_plant = diver_model.make_plant(target, self.dt, target.name)
+        if not (isinstance(self.rov_plant, VideoRayPlant)
+                and isinstance(self.diver_plant, DiverPlant) and _loiter(target)):
+            raise EnvArgumentError("the vector env flies a VideoRay follower behind a diver "
+                                   "target whose helm has a Loiter behavior")
         self.rov_control = rov_model.make_controller(follower, self.rov_plant)
         self.diver_control = diver_model.make_controller(target, self.diver_plant)
         self.rov_control_period = _period(follower.control_rate_hz, self.dt)

@@ -43,8 +43,6 @@ from uhrisim.teamwork.acts import HAND_TOLERANCE_M, ActRequest, Hand, site_kind
 from uhrisim.teamwork.workspace import Workspace
 from uhrisim.world.events import WorldEvent
 
-Model = Literal["diver", "diver_boots"]
-
 
 @dataclass(frozen=True)
 class ExecutorParams:
@@ -63,11 +61,12 @@ class ExecutorParams:
 
 @dataclass(frozen=True)
 class DiverView:
-    """The executor's diver this tick: body pose (4x4 body→NED, origin at the hip
-    centre), joint angles, walking speed, floor depth under it."""
+    """The executor's diver this tick: whether it walks on weighted boots (else it swims),
+    body pose (4x4 body→NED, origin at the hip centre), joint angles, walking speed, floor
+    depth under it."""
 
     name: str
-    model: Model
+    walks: bool
     skeleton: DiverSkeleton
     q: NDArray[np.float64]
     body_pose: NDArray[np.float64]
@@ -205,7 +204,7 @@ class OrderExecutor:
         goal, u = self._stand
         to_goal = goal - here
         distance = float(np.linalg.norm(to_goal))
-        depth = float(point[2]) if view.model == "diver" else None
+        depth = None if view.walks else float(point[2])
         if distance > p.arrive_radius:
             bearing = math.atan2(to_goal[1], to_goal[0])
             error = float(wrap_pi(bearing - view.heading))
@@ -242,14 +241,14 @@ class OrderExecutor:
     @staticmethod
     def _tilt_room(view: DiverView) -> float | None:
         """How far a diver on boots may tilt its pelvis (a swimmer: no cap)."""
-        if view.model != "diver_boots":
+        if not view.walks:
             return None
         return max_pelvis_tilt(BootsParams(skeleton=view.skeleton), view.q)
 
     def _upright(self, view: DiverView) -> NDArray[np.float64]:
         """The body straightened for moving: pelvis level (prone for a swimmer), trunk
         straight, arms as they are."""
-        posture = 0.0 if view.model == "diver_boots" else math.pi / 2
+        posture = 0.0 if view.walks else math.pi / 2
         return view.skeleton.vector({"posture": posture, "waist": 0.0}, view.q)
 
     def _closed_hand(self, view: DiverView, side: Side) -> NDArray[np.float64]:

@@ -253,10 +253,12 @@ def target_point(ws: Workspace, target: str) -> np.ndarray | None:
 
 @dataclass(frozen=True)
 class DiverSetup:
-    """What the validator needs to know of the diver the orders are for."""
+    """What the validator needs to know of the diver the orders are for: its name, whether
+    it walks on weighted boots (else it swims), where it starts, the steepest floor it
+    walks up."""
 
     name: str
-    model: Literal["diver", "diver_boots"]
+    walks: bool
     start_ne: tuple[float, float]
     max_slope: float = 0.3
 
@@ -273,7 +275,7 @@ def validate_orders(orders: Sequence[Order], diver: DiverSetup, ws: Workspace,
     known_carriers = set(carriers) | {f"{diver.name}/{s}_hand" for s in SIDES}
     north, east, reached = (walkable_region(floor_depth, extent, diver.start_ne,
                                             diver.max_slope)
-                            if diver.model == "diver_boots" else (None, None, None))
+                            if diver.walks else (None, None, None))
     holding: dict[str, str] = {}  # object -> hand, as the orders go
     work: dict[tuple[str, int], float] = {}  # seconds of wrench work per bolt so far
     out: set[tuple[str, int]] = set()
@@ -289,7 +291,7 @@ def validate_orders(orders: Sequence[Order], diver: DiverSetup, ws: Workspace,
         if any(n not in ws.names() for n in _referenced(order)):
             continue
         match order:
-            case SetMode(mode="swim") if diver.model == "diver_boots":
+            case SetMode(mode="swim") if diver.walks:
                 fail("a diver on weighted boots walks; swimming needs model: diver")
             case PickUp(obj=obj, hand=hand):
                 if obj not in ws.tools:

@@ -487,7 +487,7 @@ class Ros2Bridge(RosWriter):
     def command_source(self, agent: str) -> tuple[tuple[str, ...], bool]:
         """``agent``'s command topics (resolved names) and whether a publisher is matched
         on one of them now: what to tell a user whose controller is silent."""
-        self._io(agent, "command_source")
+        self._agent_gates(agent, "command_source")
         return self._inbox.topics(agent), self._inbox.has_publisher(agent)
 
     @property
