@@ -44,7 +44,7 @@ browser:
 	  $(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq chromium >/dev/null; }
 
 test: venv-test browser
-	$(PY) -m ruff check src tests
+	$(PY) -m ruff check src tests examples
 	$(PY) -m pytest -n 2 -q
 
 # The whole suite on a busy machine, as CI machines often are: two busy loops keep both
@@ -56,14 +56,14 @@ test-busy: venv-test browser
 # The everyday loop: everything but the tests marked slow (every integration test: missions,
 # child processes, real peers, the browser; tests/conftest.py), under a minute on 2 cores.
 test-fast: venv-test
-	$(PY) -m ruff check src tests
+	$(PY) -m ruff check src tests examples
 	$(PY) -m pytest -n 2 -q -m "not slow"
 
 bench: venv-core
 	$(UHRISIM) bench all
 
 lint: venv-test
-	$(PY) -m ruff check src tests
+	$(PY) -m ruff check src tests examples
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache
