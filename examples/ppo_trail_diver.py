@@ -101,13 +101,15 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--eval-every", type=positive_int, default=50_000, help="env steps")
     parser.add_argument("--checkpoint-every", type=positive_int, default=100_000,
                         help="env steps")
+    parser.add_argument("--keep", type=positive_int, default=3,
+                        help="checkpoints kept (the latest; OUT/best.zip besides)")
     parser.add_argument("--threads", type=int, default=1,
                         help="torch threads (0: torch's default, one per core)")
     parser.add_argument("--env", choices=(STATE_ENV, SONAR_ENV), default=STATE_ENV)
     parser.add_argument("--vector", choices=("native", "process"), default="native",
                         help="native: TrailDiverVectorEnv in this process (state env only); "
                              "process: one env per worker process (SB3's SubprocVecEnv)")
-    parser.add_argument("--envs", type=positive_int, default=16,
+    parser.add_argument("--envs", type=positive_int, default=64,
                         help="sub-environments (worker processes with --vector process)")
     parser.add_argument("--pilings", type=int, default=0,
                         help="random pilings per episode (the env's default is 2; 0 as "
@@ -148,17 +150,28 @@ def statistics_path(model_path: Path) -> Path:
     return model_path.with_name(model_path.stem + "_vecnormalize.pkl")
 
 
-def latest_checkpoint(out: Path) -> tuple[Path, int] | None:
-    """The checkpoint with the most env steps in OUT/checkpoints and its steps, or None."""
+def checkpoints(out: Path) -> list[tuple[int, Path]]:
+    """The complete checkpoints in OUT/checkpoints (model and statistics), as (env steps,
+    model file), fewest steps first."""
     found = []
     for path in (out / "checkpoints").glob("ppo_*.zip"):
         digits = path.stem.removeprefix("ppo_")
         if digits.isdigit() and statistics_path(path).exists():
             found.append((int(digits), path))
-    if not found:
-        return None
-    steps, path = max(found)
-    return path, steps
+    return sorted(found)
+
+
+def latest_checkpoint(out: Path) -> tuple[Path, int] | None:
+    """The checkpoint with the most env steps in OUT/checkpoints and its steps, or None."""
+    found = checkpoints(out)
+    return (found[-1][1], found[-1][0]) if found else None
+
+
+def prune_checkpoints(out: Path, keep: int) -> None:
+    """Delete all but the ``keep`` latest checkpoints."""
+    for _, path in checkpoints(out)[:-keep]:
+        path.unlink()
+        statistics_path(path).unlink()
 
 
 def prepare_run(args: argparse.Namespace) -> tuple[dict[str, Any], tuple[Path, int] | None]:
@@ -218,7 +231,9 @@ def truncate_curve(path: Path, steps: int) -> None:
 class Schedule:
     """When to evaluate, save and stop. ``budget_s``: wall seconds from ``started`` (a
     ``clock()`` reading); ``reserve_s``: what the work after the stop is expected to take
-    (the last evaluation's duration), kept back from the budget."""
+    (the last evaluation's duration), kept back from the budget; ``last_eval`` and
+    ``last_checkpoint``: env steps of the last evaluation and checkpoint (a new run's
+    start: 0; a resumed run's: its checkpoint's)."""
 
     eval_every: int
     checkpoint_every: int
@@ -227,8 +242,8 @@ class Schedule:
     clock: Callable[[], float] = time.monotonic
     started: float | None = None
     reserve_s: float = 0.0
-    last_eval: int = -1
-    last_checkpoint: int = -1
+    last_eval: int = 0
+    last_checkpoint: int = 0
 
     def __post_init__(self) -> None:
         if self.started is None:
@@ -252,14 +267,15 @@ class Schedule:
 
 
 def _crossed(steps: int, last: int, every: int) -> bool:
-    return last < 0 or steps // every > last // every
+    return steps // every > last // every
 
 
 def progress_line(row: dict[str, float], best: float) -> str:
     """One line of progress after an evaluation (a row of the curve)."""
     minutes, seconds = divmod(int(row["wall_s"]), 60)
     helm = row["helm_return"]
-    share = f" (PPO at {100 * row['eval_return'] / helm:.0f} % of it)" if helm > 0 else ""
+    share = (f" (PPO at {100 * row['eval_return'] / helm:.0f} % of it)"
+             if helm > 0 and row["eval_return"] > 0 else "")
     trained = row["train_episode_return"]
     return (f"{int(row['env_steps']):>10,d} steps {minutes:3d}:{seconds:02d} "
             f"{row['steps_per_s']:6.0f} steps/s | evaluation return {row['eval_return']:6.1f}"
@@ -420,7 +436,9 @@ def pin_threads(threads: int) -> None:
             os.environ[name] = str(threads)
 
 
-def train(args: argparse.Namespace) -> None:
+def train(args: argparse.Namespace, started: float) -> None:
+    """Train, evaluate and save as the module docstring says; the budget counts from
+    ``started`` (a ``time.monotonic()`` reading)."""
     settings, checkpoint = prepare_run(args)
     pin_threads(args.threads)
     try:
@@ -436,7 +454,8 @@ def train(args: argparse.Namespace) -> None:
         torch.set_num_threads(args.threads)
         torch.set_num_interop_threads(1)
     schedule = Schedule(args.eval_every, args.checkpoint_every, args.steps,
-                        None if args.minutes is None else 60.0 * args.minutes)
+                        None if args.minutes is None else 60.0 * args.minutes,
+                        started=started)
     out, curve_file = args.out, args.out / "curve.csv"
     print(f"torch {torch.__version__}, {torch.get_num_threads()} thread(s); {settings['envs']} "
           f"{settings['vector']} sub-environments of {settings['env']}; output in {out}",
@@ -467,6 +486,7 @@ def train(args: argparse.Namespace) -> None:
         model.save(path)
         vec.save(str(statistics_path(path)))
         schedule.last_checkpoint = steps
+        prune_checkpoints(out, args.keep)
 
     def evaluate_now(steps: int) -> None:
         nonlocal best
@@ -504,8 +524,9 @@ def train(args: argparse.Namespace) -> None:
     if checkpoint is None:
         evaluate_now(0)
     learning_started = schedule.clock()
-    model.learn(total_timesteps=max(args.steps - model.num_timesteps, 1), callback=Progress(),
-                reset_num_timesteps=False)
+    if model.num_timesteps < args.steps:
+        model.learn(total_timesteps=args.steps - model.num_timesteps, callback=Progress(),
+                    reset_num_timesteps=False)
     steps = model.num_timesteps
     if schedule.last_eval != steps:
         evaluate_now(steps)
@@ -584,9 +605,10 @@ def _training_envs(settings: dict[str, Any], kwargs: dict[str, Any]) -> Any:
 
 
 def main(argv: Sequence[str] | None = None) -> None:
+    started = time.monotonic()
     args = parse_args(argv)
     try:
-        train(args)
+        train(args, started)
     except RunError as error:
         sys.exit(f"ppo_trail_diver: {error}")
 

@@ -62,8 +62,7 @@ class Clock:
 def test_evaluations_and_checkpoints_fall_due_at_each_multiple_once():
     schedule = ppo.Schedule(eval_every=50_000, checkpoint_every=100_000, max_steps=10**9,
                             budget_s=None, clock=Clock())
-    assert schedule.evaluation_due(0) and schedule.checkpoint_due(0)
-    schedule.last_eval = schedule.last_checkpoint = 0
+    assert not schedule.evaluation_due(16) and not schedule.checkpoint_due(16)
     # the vector env advances 16 steps at a time: the first count past a multiple is due
     due = [s for s in range(16, 210_000, 16) if schedule.evaluation_due(s)]
     assert due[0] == 50_000
@@ -141,6 +140,7 @@ def test_resume_takes_the_last_complete_checkpoint_and_the_saved_settings(tmp_pa
     checkpoint(out, 100_000)
     second = checkpoint(out, 200_000)
     checkpoint(out, 300_000, statistics=False)  # killed while saving: not complete
+    assert [s for s, _ in ppo.checkpoints(out)] == [100_000, 200_000]
     (out / "checkpoints" / "ppo_latest.zip").write_bytes(b"not one of ours")
     for steps in (0, 100_000, 200_000, 250_000):
         ppo.append_curve(out / "curve.csv", row(steps, steps / 1000, 1.0))
@@ -179,6 +179,7 @@ def test_progress_line_reports_the_evaluation_beside_the_helm():
                  "1.50 m from the trail point", "helm 260.0, 1.76 m (PPO at 140 % of it)",
                  "best 380.0", "training episodes -"):
         assert part in line, part
+    assert "PPO at" not in ppo.progress_line(row(0, 14.0, -8.7), best=-8.7)
 
 
 def test_the_figure_has_a_panel_per_axis_and_the_stated_size(tmp_path):
@@ -189,3 +190,13 @@ def test_the_figure_has_a_panel_per_axis_and_the_stated_size(tmp_path):
     path = tmp_path / "img" / "curve.png"
     ppo.plot_curve(rows, path, "PPO test")
     assert matplotlib.image.imread(path).shape[:2] == (440, 1100)  # 10 x 4 in at 110 dpi
+
+
+def test_pruning_keeps_the_latest_checkpoints(tmp_path):
+    for steps in (100, 200, 300, 400):
+        checkpoint(tmp_path, steps)
+    ppo.prune_checkpoints(tmp_path, keep=2)
+    assert [s for s, _ in ppo.checkpoints(tmp_path)] == [300, 400]
+    assert sorted(p.name for p in (tmp_path / "checkpoints").iterdir()) == [
+        "ppo_0000000300.zip", "ppo_0000000300_vecnormalize.pkl", "ppo_0000000400.zip",
+        "ppo_0000000400_vecnormalize.pkl"]
