@@ -415,7 +415,8 @@ def plot_curve(rows: Sequence[dict[str, float]], path: Path, title: str) -> None
         ax.plot(x, mean, "o-", ms=3, color="C0", label="PPO, evaluation episodes (± std)")
         ax.plot(x, trained, "-", lw=1, color="C1",
                 label="PPO, training episodes (stochastic)")
-        ax.axhline(helm, color="green", lw=1.2, label="scenario's helm, same episodes")
+        ax.axhline(helm, color="green", lw=1.2,
+                   label=f"scenario's helm, same episodes ({helm:.0f})")
         ax.set_xlabel(label)
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("return per 120 s episode (at most 480)")
@@ -434,6 +435,11 @@ def pin_threads(threads: int) -> None:
     if threads > 0:
         for name in THREAD_VARIABLES:
             os.environ[name] = str(threads)
+
+
+def threads_text(threads: int) -> str:
+    return ("torch's default threads" if threads == 0
+            else f"{threads} torch thread{'s' if threads > 1 else ''}")
 
 
 def train(args: argparse.Namespace, started: float) -> None:
@@ -457,7 +463,7 @@ def train(args: argparse.Namespace, started: float) -> None:
                         None if args.minutes is None else 60.0 * args.minutes,
                         started=started)
     out, curve_file = args.out, args.out / "curve.csv"
-    print(f"torch {torch.__version__}, {torch.get_num_threads()} thread(s); {settings['envs']} "
+    print(f"torch {torch.__version__}, {threads_text(torch.get_num_threads())}; {settings['envs']} "
           f"{settings['vector']} sub-environments of {settings['env']}; output in {out}",
           flush=True)
     kwargs = env_kwargs(settings)
@@ -537,7 +543,7 @@ def train(args: argparse.Namespace, started: float) -> None:
     plot_curve(rows, out / "curve.png",
                f"PPO on {settings['env']}: {int(steps):,d} env steps in "
                f"{rows[-1]['wall_s'] / 60:.1f} min wall ({settings['envs']} {settings['vector']} "
-               f"envs, {args.threads or 'default'} torch thread(s))")
+               f"envs, {threads_text(args.threads)})")
     print(f"stopped after {schedule.elapsed_s():.0f} s at {steps} env steps; wrote "
           f"{curve_file}, {out / 'curve.png'}, {checkpoint_path(out, steps)}", flush=True)
 

@@ -131,7 +131,7 @@ def test_training_checkpoints_resumes_and_keeps_to_its_budget(tmp_path):
     out = tmp_path / "run"
     printed = _train(out, "--steps", "4096", "--eval-every", "2048", "--checkpoint-every",
                      "2048")
-    assert "1 thread(s)" in printed and "helm" in printed
+    assert "1 torch thread;" in printed and "helm" in printed
     assert [r["env_steps"] for r in ppo.read_curve(out / "curve.csv")] == [0, 2048, 4096]
     assert ppo.latest_checkpoint(out)[1] == 4096 and (out / "best.zip").exists()
     printed = _train(out, "--resume", "--steps", "6144", "--eval-every", "2048",
