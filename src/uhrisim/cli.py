@@ -11,7 +11,9 @@ import functools
 import importlib
 import json
 import math
+import signal
 import sys
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
@@ -22,7 +24,7 @@ from rich.markup import escape
 from rich.table import Table
 from rich.text import Text
 
-from uhrisim.core.errors import ConfigError, UhrisimError
+from uhrisim.core.errors import ConfigError, StopRequested, UhrisimError, UhrisimWarning
 from uhrisim.core.memory import keep_freed_memory
 
 app = typer.Typer(
@@ -41,6 +43,8 @@ err_console = Console(stderr=True)
 def _process_settings() -> None:
     """Process-wide settings of the command (side effects at the edge)."""
     keep_freed_memory()  # no page-fault churn on every sonar ping (see core/memory.py)
+    _stop_on_signals()
+    warnings.simplefilter("ignore", UhrisimWarning)  # each is logged, and shown once so
 
 # Figure name -> "module:function(out_dir) -> list[Path]".
 FIGURES: dict[str, tuple[str, str]] = {
@@ -77,7 +81,9 @@ def report_error(message: object) -> None:
 
 
 def friendly_errors(command: Callable[..., Any]) -> Callable[..., Any]:
-    """Turn uhrisim's own errors into a one-line message and exit status 2."""
+    """Turn uhrisim's own errors into a one-line message and exit status 2, and a stop
+    (Ctrl-C, SIGTERM, SIGHUP: the work has cleaned up by then) into one line and exit
+    status 128 + the signal's number."""
 
     @functools.wraps(command)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
@@ -86,8 +92,24 @@ def friendly_errors(command: Callable[..., Any]) -> Callable[..., Any]:
         except UhrisimError as error:
             report_error(error)
             raise typer.Exit(code=2) from None
+        except KeyboardInterrupt:
+            report_error("interrupted")
+            raise typer.Exit(code=128 + signal.SIGINT) from None
+        except StopRequested as stop:
+            report_error(stop)
+            raise typer.Exit(code=128 + stop.signum) from None
 
     return wrapper
+
+
+def _stop_on_signals() -> None:
+    """SIGTERM and SIGHUP end the command as Ctrl-C does (:class:`StopRequested`)."""
+
+    def stop(signum: int, _frame: Any) -> None:
+        raise StopRequested(signum)
+
+    for signum in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, stop)
 
 
 def check_option(name: str, value: float | None, ok: bool, rule: str) -> None:
@@ -169,15 +191,15 @@ def bench(
 
 
 def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: int | None,
-                       sonar: bool, quiet: bool = False, ros2: bool = False,
+                       raycast_sensors: bool, quiet: bool = False, ros2: bool = False,
                        moos: bool = False, rtf: float | None = None,
                        view_port: int | None = None, lockstep: bool = False,
                        ros_args: tuple[str, ...] = (), require_helm: bool = False) -> Any:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from uhrisim.app.runner import prepare_out_dir, run_scenario
     from uhrisim.bridges.live import live_hooks
     from uhrisim.scenario.load import load_scenario
-    from uhrisim.sim.runner import prepare_out_dir, run_scenario
 
     source = load_scenario(scenario)
     prepare_out_dir(out)  # before the progress bar: a refusal is one line
@@ -201,7 +223,8 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
     with Progress(*columns, console=err_console, disable=quiet, transient=True) as bar:
         task = bar.add_task(escape(source.scenario.name), total=total)
         try:
-            return run_scenario(source, out, duration=duration, seed=seed, sonar=sonar,
+            return run_scenario(source, out, duration=duration, seed=seed,
+                                raycast_sensors=raycast_sensors,
                                 extra_hooks=hooks, configure=None if view_port is None else attach,
                                 progress=lambda t: bar.update(task, completed=t))
         finally:
@@ -268,7 +291,9 @@ def run(
                                              help="output folder (default out/<name>)")] = None,
     duration: Annotated[float | None, typer.Option(help="simulated seconds")] = None,
     seed: Annotated[int | None, typer.Option(help="root random seed")] = None,
-    no_sonar: Annotated[bool, typer.Option("--no-sonar", help="switch sonars off")] = False,
+    no_raycast_sensors: Annotated[bool, typer.Option(
+        "--no-raycast-sensors",
+        help="no sonars and no cameras (the sensors that cast rays into the scene)")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")] = False,
     ros2: Annotated[bool, typer.Option("--ros2", help="bridge to ROS 2 (loopback only)")] = False,
     moos: Annotated[bool, typer.Option("--moos", help="bridge to MOOSDB(s) on 127.0.0.1")] = False,
@@ -295,7 +320,7 @@ def run(
     check_run_options(duration, seed, rtf, port)
     out = out or Path("out") / scenario.stem
     extra_ros_args = tuple(shlex.split(ros_args))
-    result = _run_with_progress(scenario, out, duration, seed, not no_sonar, quiet,
+    result = _run_with_progress(scenario, out, duration, seed, not no_raycast_sensors, quiet,
                                 ros2=ros2 or bool(extra_ros_args), moos=moos, rtf=rtf,
                                 view_port=port if view else None, lockstep=lockstep,
                                 ros_args=extra_ros_args, require_helm=require_helm)
@@ -310,7 +335,7 @@ def validate(scenario: Annotated[Path, typer.Argument(help="scenario YAML file")
     from uhrisim.sim.simulation import Simulation
 
     source = load_scenario(scenario)
-    Simulation(source, sonar_enabled=True)  # builds helms, sonars, scene: every check
+    Simulation(source)  # builds helms, sonars, cameras, scene: every check
     s = source.scenario
     console.print(Text(f"{scenario}: OK — {len(s.agents)} agents "
                        f"({', '.join(a.name for a in s.agents)}), {s.duration:g} s at "

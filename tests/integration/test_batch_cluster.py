@@ -162,7 +162,7 @@ def _write_sweep(folder: Path, duration: float, values: list[float]) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "sweep.yaml"
     path.write_text(
-        f"scenario: {shipped_scenario()}\nduration: {duration}\nsonar: false\n"
+        f"scenario: {shipped_scenario()}\nduration: {duration}\nraycast_sensors: false\n"
         "set: {recording.enabled: false}\nseeds: [1, 2]\n"
         f"grid: {{agents.videoray.controller.heading: {values}}}\n")
     return path

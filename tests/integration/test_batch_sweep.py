@@ -45,7 +45,7 @@ def local_ray():
 
 def write_sweep(folder: Path, grid: dict, seeds=(1, 2), **extra) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
-    sweep = {"scenario": str(shipped_scenario()), "duration": 3.0, "sonar": False,
+    sweep = {"scenario": str(shipped_scenario()), "duration": 3.0, "raycast_sensors": False,
              "set": {"recording.enabled": False}, "grid": grid, "seeds": list(seeds)} | extra
     path = folder / "sweep.yaml"
     path.write_text(json.dumps(sweep))  # JSON is YAML
@@ -128,7 +128,7 @@ def test_failed_runs_are_recorded_and_the_others_finish(local_ray, tmp_path):
     for key in [(-1.0, 1.5), (-1.0, 50.0)]:
         error = rows[key]["error"]
         assert rows[key]["status"] == "failed" and "\n" not in error
-        assert "agents[1].controller.heading" in error and "greater than or equal to 0" in error
+        assert "agents[1].controller.heading: must be in [0, 10000] 1/deg, got -1.0" in error
         folder = tmp_path / "out" / RUNS_DIR / rows[key]["run"]
         assert (folder / "error.txt").read_text() == error + "\n"
         assert json.loads((folder / "run.json").read_text())["parameters"][HEADING] == -1.0

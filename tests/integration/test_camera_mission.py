@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from uhrisim.app.runner import run_scenario
 from uhrisim.scenario.load import load_scenario
-from uhrisim.sim.runner import run_scenario
 from uhrisim.sim.simulation import Simulation
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -31,7 +31,7 @@ def test_camera_steps_at_its_rate_beside_the_sonar():
         tick = sim.step()
         pings += len(tick.pings)
         if tick.images:
-            frames.append(tick.images["videoray"])
+            frames.append(tick.images["videoray/camera"])
     assert len(frames) == 10 and pings == 15  # 10 Hz camera, 15 Hz sonar, for 1 s
     assert [round(f.t, 6) for f in frames] == [round(0.1 * k, 6) for k in range(1, 11)]
     first = frames[0]
@@ -126,7 +126,7 @@ def test_same_seed_same_images_as_recorded(run):
     sim = Simulation(load_scenario(SCENARIO))
     for _ in range(round(0.1 / sim.dt)):
         tick = sim.step()
-    shot = tick.images["videoray"].rgb
+    shot = tick.images["videoray/camera"].rgb
     with AnyReader([run.out_dir / "recording.mcap"]) as reader:
         connection = next(c for c in reader.connections
                           if c.topic == "/videoray/camera/image_raw")
@@ -171,12 +171,13 @@ def test_recorded_camera_frames_replay_in_the_viewer(run):
     from uhrisim.viz.viewer.replay import ReplayPlayer, load_replay
 
     data = load_replay(run.out_dir / "recording.mcap")
-    ts, images = data.shots["videoray"]
+    ts, images = data.shots["videoray/camera"]
     np.testing.assert_allclose(ts, [0.1, 1.1])
     assert images[0].shape == (240, 320, 3) and images[0].dtype == np.uint8
     player = ReplayPlayer(data, server=None)  # type: ignore[arg-type]
     (shot,) = player.frame_at(1.5)["camera"]
-    assert shot["agent"] == "videoray" and shot["t"] == pytest.approx(1.1)
+    assert (shot["agent"], shot["sensor"]) == ("videoray", "camera")
+    assert shot["t"] == pytest.approx(1.1)
     assert shot["image"] is images[1]
     assert player.frame_at(1.6)["camera"] is None  # already sent
     assert player.frame_at(0.05)["camera"] is None  # nothing recorded yet

@@ -17,23 +17,15 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from tests.support.cli import one_line_error
+from uhrisim.app import runner as run_module
+from uhrisim.app.runner import run_scenario, strict_json
 from uhrisim.cli import app
-from uhrisim.sim import runner as run_module
-from uhrisim.sim.runner import run_scenario, strict_json
 from uhrisim.sim.simulation import BaseHook
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "track_and_trail.yaml"
 cli = CliRunner()
-
-
-def one_line_error(result, *parts: str) -> str:
-    assert result.exit_code == 2, result.output
-    lines = [line for line in result.output.splitlines() if line.strip()]
-    assert len(lines) == 1 and lines[0].startswith("error: "), result.output
-    for part in parts:
-        assert part in lines[0], lines[0]
-    return lines[0]
 
 
 @pytest.mark.parametrize(
@@ -60,10 +52,10 @@ def test_output_folders_that_cannot_be_written(tmp_path):
     a_file = tmp_path / "taken"
     a_file.write_text("x")
     result = cli.invoke(app, ["run", str(SCENARIO), "--out", str(a_file), "--quiet",
-                              "--duration", "1", "--no-sonar"])
+                              "--duration", "1", "--no-raycast-sensors"])
     one_line_error(result, f"{a_file}: the output folder is a file")
     result = cli.invoke(app, ["run", str(SCENARIO), "--out", "/proc/uhrisim-out", "--quiet",
-                              "--duration", "1", "--no-sonar"])
+                              "--duration", "1", "--no-raycast-sensors"])
     one_line_error(result, "/proc/uhrisim-out: cannot write the run's outputs here")
 
 
@@ -93,7 +85,7 @@ def test_a_missing_extra_is_one_line_naming_it(tmp_path):
     scenario = ROOT / "scenarios" / "ros2_external_helm.yaml"
     child = subprocess.run(
         [sys.executable, "-c", code, "run", str(scenario), "--out", str(tmp_path / "o"),
-         "--duration", "1", "--quiet", "--no-sonar"],
+         "--duration", "1", "--quiet", "--no-raycast-sensors"],
         capture_output=True, text=True, timeout=120,
         env={**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"},
     )
@@ -105,7 +97,7 @@ def test_a_missing_extra_is_one_line_naming_it(tmp_path):
 def test_metrics_are_strict_json(tmp_path):
     assert strict_json({"a": math.inf, "b": [math.nan, 1.0], "c": {"d": -math.inf}}) == {
         "a": None, "b": [None, 1.0], "c": {"d": None}}
-    result = run_scenario(SCENARIO, tmp_path, duration=2.0, sonar=False)
+    result = run_scenario(SCENARIO, tmp_path, duration=2.0, raycast_sensors=False)
 
     def refuse(name: str) -> None:
         raise AssertionError(f"metrics.json holds {name}")
@@ -126,5 +118,5 @@ def test_a_failed_run_is_not_masked_by_a_failing_cleanup(tmp_path, monkeypatch, 
 
     monkeypatch.setattr(run_module, "_write_outputs", broken_outputs)
     with pytest.raises(RuntimeError, match="boom in a hook"):
-        run_scenario(SCENARIO, tmp_path, duration=2.0, sonar=False, extra_hooks=[_Boom()])
+        run_scenario(SCENARIO, tmp_path, duration=2.0, raycast_sensors=False, extra_hooks=[_Boom()])
     assert "could not all be written" in caplog.text and "No space left" in caplog.text

@@ -35,7 +35,7 @@ OPTIONS = st.lists(st.one_of(
     st.tuples(st.just("--seed"), NUMBERS),
     st.tuples(st.just("--rtf"), st.one_of(st.floats(max_value=0.0, allow_nan=False), ODD)),
     st.tuples(st.just("--port"), NUMBERS),
-    st.tuples(st.sampled_from(["--no-sonar", "--quiet", "--bogus", "-q"])),
+    st.tuples(st.sampled_from(["--no-raycast-sensors", "--quiet", "--bogus", "-q"])),
     st.tuples(st.just("--out"), st.sampled_from(["taken", "ok[1]", "/proc/x", ""])),
 ), max_size=4)
 

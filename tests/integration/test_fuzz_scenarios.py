@@ -53,7 +53,8 @@ agents:
       position_noise_std: 0.1
       alerts: [{var: TRAIL_INFO, alert_range: 30}]
     sensors:
-      - {type: sonar, preset: P900-45, rate_hz: 15, max_range: 10, rays_per_beam: 4}
+      - {type: sonar, preset: P900-45, rate_hz: 15, range_min_m: 0.5, range_max_m: 10,
+         rays_per_beam: 4}
   - name: diver
     model: diver
     driver: script
@@ -124,7 +125,7 @@ def test_any_mutation_runs_or_is_refused_in_one_line(tmp_path: Path, mutations):
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     with time_limit(20, str(mutations)):  # a hang fails the example, not the suite
         try:
-            sim = Simulation(load_scenario(path), sonar_enabled=True)
+            sim = Simulation(load_scenario(path), raycast_sensors=True)
             sim.run(0.5)
             event("ran")
         except UhrisimError as error:
@@ -136,6 +137,6 @@ def test_any_mutation_runs_or_is_refused_in_one_line(tmp_path: Path, mutations):
 def test_the_base_document_runs(tmp_path: Path):
     path = tmp_path / "s.yaml"
     path.write_text(yaml.safe_dump(BASE, sort_keys=False))
-    sim = Simulation(load_scenario(path), sonar_enabled=True)
+    sim = Simulation(load_scenario(path), raycast_sensors=True)
     sim.run(1.0)
     assert sim.t == pytest.approx(1.0)

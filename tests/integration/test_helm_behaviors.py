@@ -11,55 +11,17 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tests.support.kinematic_vehicle import Kinematic
 from uhrisim.autonomy import Helm, HelmConfig, NodeReport, format_node_report, load_bhv
 from uhrisim.autonomy.geometry import parse_polygon
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "helm"
 ALERT_VARS = ("TRAIL_INFO", "CONTACT_INFO", "DEPTH_UPDATES", "LOITER_UPDATES")
-
-
-@dataclass
-class Kinematic:
-    x: float
-    y: float
-    heading: float
-    speed: float = 0.0
-    depth: float = 0.0
-    turn_rate: float = 30.0
-    tau: float = 1.0
-    dive_rate: float = 0.5
-    v_max: float = 2.0
-    desired: dict = field(default_factory=dict)
-
-    def step(self, dt: float) -> None:
-        if "DESIRED_HEADING" in self.desired:
-            err = (self.desired["DESIRED_HEADING"] - self.heading + 180.0) % 360.0 - 180.0
-            self.heading = (
-                self.heading + np.clip(err, -self.turn_rate * dt, self.turn_rate * dt)
-            ) % 360.0
-        v_cmd = min(float(self.desired.get("DESIRED_SPEED", 0.0)), self.v_max)
-        self.speed += (v_cmd - self.speed) * (1.0 - math.exp(-dt / self.tau))
-        if "DESIRED_DEPTH" in self.desired:
-            dz = self.desired["DESIRED_DEPTH"] - self.depth
-            self.depth += float(np.clip(dz, -self.dive_rate * dt, self.dive_rate * dt))
-        h = math.radians(self.heading)
-        self.x += self.speed * math.sin(h) * dt
-        self.y += self.speed * math.cos(h) * dt
-
-    def nav(self) -> dict:
-        return {
-            "NAV_X": self.x,
-            "NAV_Y": self.y,
-            "NAV_HEADING": self.heading,
-            "NAV_SPEED": self.speed,
-            "NAV_DEPTH": self.depth,
-        }
 
 
 def run(helm, veh, t_end, contact=None, contact_name="diver", events=None, on_tick=None):

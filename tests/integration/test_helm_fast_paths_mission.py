@@ -47,7 +47,7 @@ def _simulation():
     from uhrisim.scenario.load import load_scenario
     from uhrisim.sim.simulation import Simulation
 
-    return Simulation(load_scenario(SCENARIO), sonar_enabled=False)
+    return Simulation(load_scenario(SCENARIO), raycast_sensors=False)
 
 
 def test_mission_decisions_equal_reference_paths(monkeypatch):

@@ -1,4 +1,4 @@
-"""The paper's mission (reference/helm.md, "The paper's mission"; paper Fig. 19), with two
+"""The paper's mission (docs/reference/helm.md, "The paper's mission"; paper Fig. 19), with two
 helms, two contact managers and kinematic vehicles.
 
 Diver: ConstantDepth + Loiter (octagon radius 20 m around (10, -20)), starts at (10, 0)
@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from tests.support.kinematic_vehicle import Kinematic
 from uhrisim.autonomy import (
     ContactManagerConfig,
     HelmConfig,
@@ -25,8 +26,6 @@ from uhrisim.autonomy import (
 )
 from uhrisim.autonomy.behaviors import Trail
 from uhrisim.autonomy.missions import paper_diver_helm, paper_rov_contacts, paper_rov_helm
-
-from .test_helm_behaviors import Kinematic
 
 DIVER = paper_diver_helm()
 ROV = paper_rov_helm()

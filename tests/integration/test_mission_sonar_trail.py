@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from uhrisim.app.runner import run_scenario
 from uhrisim.scenario.load import load_scenario
-from uhrisim.sim.runner import run_scenario
 from uhrisim.sim.simulation import Simulation
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -161,8 +161,8 @@ agents:
       sonar: {silence_warn: 3.0}
       alerts: [{var: TRAIL_INFO, alert_range: 60}, {var: CONTACT_INFO, alert_range: 60}]
     sensors:
-      - {preset: P900-45, rate_hz: 15, max_range: 8, rays_per_beam: 16,
-         mount: {position: [0.2, 0, 0], tilt_deg: 0}}
+      - {preset: P900-45, rate_hz: 15, range_min_m: 0.5, range_max_m: 8, rays_per_beam: 16,
+         mount_position_frd: [0.2, 0, 0], tilt_deg: 0}
 """
 
 
@@ -239,7 +239,7 @@ def test_trail_holds_on_images_with_a_noise_floor_and_speckle(floor_db):
     # The detector must not rely on clean images: every ping of the real run gets a noise
     # floor (display level ~0.35 and ~0.6) and Rayleigh speckle (unit-exponential
     # intensity, grain over 5 beams) before perception sees it, as a physical image would
-    # have (shared/reference/sonar.md; tests/support/synthetic_sonar.py uses the same model).
+    # have (docs/reference/sonar.md; tests/support/synthetic_sonar.py uses the same model).
     sim = Simulation(load_scenario(SONAR))
     slot = sim.agents["videoray"].sonars[0]
     ping_clean = slot.sonar.ping
@@ -259,7 +259,7 @@ def test_trail_holds_on_images_with_a_noise_floor_and_speckle(floor_db):
     held = counted = 0
     while sim.t < 45.0:
         frame = sim.step()
-        seen = frame.perception.get("videoray")
+        seen = frame.perception.get("videoray/sonar")
         if seen is None or sim.t < 10.0:
             continue
         truth = sim.agents["diver"].nav().position_ned
@@ -268,7 +268,7 @@ def test_trail_holds_on_images_with_a_noise_floor_and_speckle(floor_db):
         held += track is not None and np.hypot(track.north - truth[0],
                                                track.east - truth[1]) <= 1.0
     assert held / counted >= 0.95
-    assert np.median(frame.pings["videoray"].polar) > 0.3  # no pixel near 0: the floor is in
+    assert np.median(frame.pings["videoray/sonar"].polar) > 0.3  # no pixel near 0: the floor is in
 
 
 def test_scenario_settings_reach_the_perception_and_the_rest_keep_its_defaults(tmp_path):

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from uhrisim.app.runner import run_scenario
 from uhrisim.record.reader import read_odometry
-from uhrisim.sim.runner import run_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "track_and_trail.yaml"
@@ -18,7 +18,7 @@ SHORT_RUN_S = 150.0
 @pytest.fixture(scope="module")
 def mission(tmp_path_factory):
     out = tmp_path_factory.mktemp("mission")
-    return run_scenario(SCENARIO, out, duration=SHORT_RUN_S, sonar=False)
+    return run_scenario(SCENARIO, out, duration=SHORT_RUN_S, raycast_sensors=False)
 
 
 def test_outputs_are_written(mission):
@@ -72,7 +72,7 @@ def test_recording_reads_back_with_rosbags(mission):
 
 
 def test_same_seed_gives_identical_metrics_and_poses(tmp_path, mission):
-    again = run_scenario(SCENARIO, tmp_path, duration=SHORT_RUN_S, sonar=False)
+    again = run_scenario(SCENARIO, tmp_path, duration=SHORT_RUN_S, raycast_sensors=False)
     volatile = {"wall_s", "real_time_factor"}
     assert {k: v for k, v in again.metrics.items() if k not in volatile} == {
         k: v for k, v in mission.metrics.items() if k not in volatile}

@@ -44,7 +44,7 @@ def watched_run(port: int, seconds: float, until=None):
     hook = MoosBridgeHook([MoosAgentLink("videoray", port=port, community="videoray")],
                           time_source="sim", strict=True,
                           helm_watch=HelmWatchSection(silence_s=10.0, repeat_s=5.0))
-    sim = Simulation(load_scenario(SCENARIO), hooks=[hook], sonar_enabled=False)
+    sim = Simulation(load_scenario(SCENARIO), hooks=[hook], raycast_sensors=False)
     sim.start()
     deadline = time.monotonic() + 120.0  # bound for a busy machine; mail takes ms
     while until is not None and not until(hook):

@@ -12,12 +12,11 @@ from pathlib import Path
 
 import pytest
 
+from uhrisim.bridges.moos import hook as hookmod
 from uhrisim.bridges.moos.client import MoosClient
 from uhrisim.bridges.moos.testdb import spawn
-
-simulation = pytest.importorskip("uhrisim.sim.simulation")
-load = pytest.importorskip("uhrisim.scenario.load")
-hookmod = pytest.importorskip("uhrisim.bridges.moos.hook")
+from uhrisim.scenario import load
+from uhrisim.sim import simulation
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
 
@@ -34,7 +33,7 @@ def test_hook_posts_nav_and_feeds_variables_back():
         link = hookmod.MoosAgentLink("videoray", port=db.port, community="videoray",
                                      nav_rate_hz=10.0, extra_vars=("RETURN",))
         hook = hookmod.MoosBridgeHook([link], time_source="sim", strict=True)
-        sim = simulation.Simulation(source, hooks=[hook], seed=1, sonar_enabled=False)
+        sim = simulation.Simulation(source, hooks=[hook], seed=1, raycast_sensors=False)
         try:
             sim.start()
             assert sim.dt == pytest.approx(1 / 60)

@@ -25,7 +25,7 @@ def _killed_run(out: Path) -> Path:
     """A real ``uhrisim run`` child, SIGKILLed once its recording has a few chunks."""
     child = subprocess.Popen(
         [sys.executable, "-m", "uhrisim", "run", str(ROOT / "scenarios" / "track_and_trail.yaml"),
-         "--out", str(out), "--quiet", "--no-sonar"],
+         "--out", str(out), "--quiet", "--no-raycast-sensors"],
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )
     recording = out / "recording.mcap"

@@ -1,13 +1,14 @@
 """A run's output folder is a rosbag2 bag with the live bridge's topics (issue 16).
 
 ``uhrisim``'s runner records the track-and-trail mission for 3 s with the ROS 2 bridge
-attached, and the same mission with the VideoRay's camera (camera_trail). The folder must
+attached, the same mission with the VideoRay's camera (camera_trail), and with two sonars
+(a P900-45 and a P900-130) and a camera (videoray_two_sonars). The folder must
 open with ``rosbags.rosbag2.Reader`` (its metadata.yaml: the files, topics, types and
 counts of the MCAP file) and every message must decode with rosbags and with mcap-ros2.
 The recorded topics must be the topics the bridge's node publishes (asked of the ROS graph
 during the run), uhrisim_msgs' helm decisions, community variables and events included,
-and the camera's five topics; the camera's mount is on /tf_static beside the sonar's, and
-its optical frame not on /tf. A recording cut short and recovered is a bag again.
+each sensor's topics under its name; every sensor's mount is on /tf_static, and no sensor
+frame on /tf. A recording cut short and recovered is a bag again.
 """
 
 from __future__ import annotations
@@ -27,15 +28,19 @@ from mcap.reader import make_reader  # noqa: E402
 from mcap_ros2.reader import read_ros2_messages  # noqa: E402
 from rosbags.highlevel import AnyReader  # noqa: E402
 
+from uhrisim.app.runner import run_scenario  # noqa: E402
 from uhrisim.bridges.ros2.hook import Ros2BridgeHook  # noqa: E402
 from uhrisim.record.recover import recover_in_place  # noqa: E402
-from uhrisim.sim.runner import run_scenario  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = [ROOT / "scenarios" / name for name in ("track_and_trail.yaml",
-                                                     "camera_trail.yaml")]
-CAMERA_TOPICS = {f"/videoray/camera/{name}" for name in
-                 ("image_raw", "camera_info", "depth", "labels", "pose")}
+                                                     "camera_trail.yaml",
+                                                     "videoray_two_sonars.yaml")]
+#: the VideoRay's sensors in each scenario: (sonar names, camera names)
+SENSORS = {"track_and_trail": (["sonar"], []), "camera_trail": (["sonar"], ["camera"]),
+           "videoray_two_sonars": (["narrow", "wide"], ["camera"])}
+SONAR_PRODUCTS = ("polar", "fan", "points", "pose", "image")
+CAMERA_PRODUCTS = ("image_raw", "camera_info", "depth", "labels", "pose")
 NODE = "uhrisim_rosbag2_test"
 
 
@@ -94,13 +99,18 @@ def test_run_folder_is_a_rosbag2_bag_with_the_live_topics(ros_env: int, tmp_path
     published = live.topics - {"/rosout", "/parameter_events"}
     recorded = set(declared)
     assert recorded == published
-    assert {"/clock", "/tf", "/tf_static", "/videoray/sonar/image"} <= recorded
+    assert {"/clock", "/tf", "/tf_static"} <= recorded
+    # each sensor's topics under its own name, nothing under any other sensor name
+    sonars, cameras = SENSORS[scenario.stem]
+    sensor_topics = {f"/videoray/{s}/{p}" for s in sonars for p in SONAR_PRODUCTS}
+    sensor_topics |= {f"/videoray/{c}/{p}" for c in cameras for p in CAMERA_PRODUCTS}
+    assert sensor_topics <= recorded
+    others = {t for t in recorded if t.startswith("/videoray/") and t.split("/")[2] not in
+              ("odom", "pose", "helm", "vars")}
+    assert others == sensor_topics
     # the sensor mounts on /tf_static (once), not on /tf (REP 105: map -> odom -> base_link)
-    camera = scenario.stem == "camera_trail"
-    assert CAMERA_TOPICS.issubset(recorded) is camera
-    mounts = [("videoray/base_link", "videoray/sonar")]
-    if camera:
-        mounts.append(("videoray/base_link", "videoray/camera_optical"))
+    mounts = [("videoray/base_link", f"videoray/{s}") for s in sonars]
+    mounts += [("videoray/base_link", f"videoray/{c}_optical") for c in cameras]
     assert static == mounts
     assert tf_children == {"videoray/odom", "videoray/base_link", "diver/odom",
                            "diver/base_link"}

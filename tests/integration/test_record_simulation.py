@@ -2,7 +2,7 @@
 
 Checks that the recording holds one odometry message per agent per tick, one sonar
 image pair per ping, that the last recorded pose is the simulation's last pose, and
-that two runs of the same scenario and seed give byte-identical files (DESIGN.md
+that two runs of the same scenario and seed give byte-identical files (docs/design.md
 habit 5: the recorder puts no wall-clock time into the file).
 """
 
@@ -14,9 +14,8 @@ import numpy as np
 import pytest
 
 from uhrisim.record import McapRecordingHook, read_odometry, summarize
-
-simulation = pytest.importorskip("uhrisim.sim.simulation")
-load = pytest.importorskip("uhrisim.scenario.load")
+from uhrisim.scenario import load
+from uhrisim.sim import simulation
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
 DURATION_S = 1.0
@@ -54,11 +53,11 @@ def test_recording_matches_the_run(tmp_path: Path) -> None:
         assert s.topics[f"/{name}/odom"] == ("nav_msgs/msg/Odometry", len(frames))
     n_pings = {}
     for f in frames:
-        for name in f.pings:
-            n_pings[name] = n_pings.get(name, 0) + 1
-    for name, n in n_pings.items():
-        assert s.topics[f"/{name}/sonar/fan"][1] == n
-        assert s.topics[f"/{name}/sonar/polar"][1] == n
+        for key in f.pings:  # "<agent>/<sonar>": the sonar's topics
+            n_pings[key] = n_pings.get(key, 0) + 1
+    for key, n in n_pings.items():
+        assert s.topics[f"/{key}/fan"][1] == n
+        assert s.topics[f"/{key}/polar"][1] == n
     tracks = read_odometry(path)
     last = frames[-1]
     for name in agents:

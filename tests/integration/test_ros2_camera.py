@@ -72,7 +72,7 @@ def test_camera_frames_reach_another_process(ros_env: int, tmp_path: Path) -> No
         for _ in range(round(1.0 / sim.dt)):  # 1 s: 10 camera frames, paced at real time
             tick = sim.step()
             if tick.images:
-                image = tick.images["videoray"]
+                image = tick.images["videoray/camera"]
                 frames[divmod(round(image.t * 1e9), 1_000_000_000)] = image
             time.sleep(sim.dt)
         time.sleep(1.0)  # in flight

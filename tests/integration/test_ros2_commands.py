@@ -39,7 +39,7 @@ def _fly(ros_env: int, tmp_path: Path, plan: list, node: str, after_done_s: floa
     ``after_done_s`` simulated seconds after the commander is done. Returns the hook,
     the frames' (t, nav, desired) and the commander's stdout lines."""
     hook = Ros2BridgeHook(domain_id=ros_env, node_name=node, command_timeout_s=1.0)
-    sim = Simulation(load_scenario(SCENARIO), sonar_enabled=False, hooks=[hook])
+    sim = Simulation(load_scenario(SCENARIO), raycast_sensors=False, hooks=[hook])
     args = ["--agent", "videoray", "--plan", json.dumps(plan), "--bridge-node", node]
     commander = Child("ros2_command_plan.py", [*args, "--rosout"] if rosout else args,
                       tmp_path)

@@ -10,15 +10,15 @@ import numpy as np
 import pytest
 
 from uhrisim.bridges.ros2 import AgentBridgeSpec, AgentCommands, Pacer, apply_env_defaults
-from uhrisim.bridges.ros2.convert import (
+from uhrisim.bridges.ros2.spec import check_domain_id
+from uhrisim.core.errors import ConfigError, NumericalError
+from uhrisim.ros.convert import (
     RateGate,
     cloud_xyzi_flu,
     odom_fields_from_ned,
     pose_enu_from_ned,
     stamp_from_sim_time,
 )
-from uhrisim.bridges.ros2.spec import check_domain_id
-from uhrisim.core.errors import ConfigError, NumericalError
 
 
 def test_stamp_splits_seconds_and_nanoseconds() -> None:

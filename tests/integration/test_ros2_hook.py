@@ -18,8 +18,6 @@ import numpy as np
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
-simulation = pytest.importorskip("uhrisim.sim.simulation")
-load = pytest.importorskip("uhrisim.scenario.load")
 
 from geometry_msgs.msg import PoseStamped  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
@@ -32,10 +30,12 @@ from sensor_msgs.msg import Image, PointCloud2  # noqa: E402
 from std_msgs.msg import Float64, Float64MultiArray  # noqa: E402
 from visualization_msgs.msg import Marker, MarkerArray  # noqa: E402
 
-from uhrisim.bridges.ros2.bridge import QOS_SCENE  # noqa: E402
 from uhrisim.bridges.ros2.hook import Ros2BridgeHook  # noqa: E402
+from uhrisim.bridges.ros2.topics import QOS_SCENE  # noqa: E402
 from uhrisim.core.frames import enu_from_ned, enu_rotation_from_ned, quaternion_from_matrix  # noqa: E402
+from uhrisim.scenario import load  # noqa: E402
 from uhrisim.sensors.sonar.sonar import cloud_hits  # noqa: E402
+from uhrisim.sim import simulation  # noqa: E402
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
 #: /tf_static, latched, where tf2_msgs is built (python -m uhrisim.bridges.ros2.interfaces)
@@ -78,9 +78,9 @@ def test_hook_on_real_simulation(ros_env: int) -> None:
             f = sim.step()
             key = divmod(round(f.t * 1e9), 1_000_000_000)
             truth[key] = np.array(f.agents["videoray"].nav.position_ned, dtype=float)
-            if "videoray" in f.pings:
-                pings[divmod(round(f.pings["videoray"].t * 1e9), 1_000_000_000)] = \
-                    f.pings["videoray"]
+            if "videoray/sonar" in f.pings:
+                pings[divmod(round(f.pings["videoray/sonar"].t * 1e9), 1_000_000_000)] = \
+                    f.pings["videoray/sonar"]
             posts.extend(f.posts)
             ex.spin_once(timeout_sec=0.0)
 
@@ -281,7 +281,7 @@ def test_an_agent_driven_from_ros_whose_commands_never_come_is_said(
     node = rclpy.create_node("controller", context=ctx, start_parameter_services=False)
     try:
         with (caplog.at_level("WARNING", logger="uhrisim.bridges.ros2.hook"),
-              simulation.Simulation(source, hooks=[hook], sonar_enabled=False) as sim):
+              simulation.Simulation(source, hooks=[hook], raycast_sensors=False) as sim):
             sim.run(5.5)
             speed = node.create_publisher(Float64, "/videoray/cmd/desired_speed", 10)
             deadline = time.monotonic() + 120.0  # discovery: ms to seconds

@@ -44,7 +44,7 @@ def test_uhrisim_msgs_are_the_recordings_definitions() -> None:
     """uhrisim_msgs is built from the definitions every recording embeds: the hash rosidl
     computed equals the one rosbags computes from that text."""
     pytest.importorskip("uhrisim_msgs")
-    from uhrisim.record.msgdefs import own_definition
+    from uhrisim.ros.msgdefs import own_definition
 
     store = typesys.get_typestore(typesys.Stores.ROS2_KILTED)
     msgs, _deps = PACKAGES["uhrisim_msgs"]
@@ -59,23 +59,22 @@ def test_uhrisim_msgs_are_the_recordings_definitions() -> None:
 
 
 def test_pre_serialised_sonar_image_is_what_rclpy_makes() -> None:
-    """The bytes the bridge hands to DDS for /<agent>/sonar/image are rclpy's
+    """The bytes the bridge (and the recording) write for /<agent>/<sonar>/image are rclpy's
     serialisation of the ProjectedSonarImage built field by field (Fast CDR leaves its
     padding bytes unset: equal lengths, and rclpy reads ours back as the message)."""
     import numpy as np
     from marine_acoustic_msgs.msg import ProjectedSonarImage
     from rclpy.serialization import deserialize_message, serialize_message
 
-    from uhrisim.bridges.ros2.messages import (
-        projected_sonar_image_bytes,
-        projected_sonar_image_msg,
-    )
+    from tests.support.ros2_reference import projected_sonar_image_msg
+    from uhrisim.ros.convert import stamp_from_sim_time
+    from uhrisim.ros.messages import sonar_image
 
     polar = np.arange(6 * 4, dtype=np.uint8).reshape(6, 4)
     angles, ranges = np.linspace(-0.3, 0.3, 4), np.linspace(0.5, 3.0, 6)
     args = (12.345, "rov/sonar", polar, angles, ranges, 900e3, 1498.7)
-    ours, theirs = projected_sonar_image_bytes(*args), serialize_message(
-        projected_sonar_image_msg(*args))
+    ours = sonar_image(*stamp_from_sim_time(12.345), *args[1:], "test")
+    theirs = serialize_message(projected_sonar_image_msg(*args))
     assert len(ours) == len(theirs)
     assert deserialize_message(ours, ProjectedSonarImage) == deserialize_message(
         theirs, ProjectedSonarImage)

@@ -38,7 +38,7 @@ def test_two_simulators_in_two_namespaces_on_one_domain(ros_env: int, tmp_path: 
                                                          "-p", "odom_rate_hz:=20.0"])
     hook_b = Ros2BridgeHook(domain_id=ros_env, namespace="/sim_b",
                             ros_args=["-p", "sensor_qos:=reliable", "-p", "clock_qos:=reliable"])
-    sims = [Simulation(load_scenario(SCENARIO), sonar_enabled=sonar, hooks=[hook])
+    sims = [Simulation(load_scenario(SCENARIO), raycast_sensors=sonar, hooks=[hook])
             for hook, sonar in ((hook_a, False), (hook_b, True))]
     plan = [[3.0, {"desired_heading": [90.0], "desired_speed": [0.6], "desired_depth": [2.0]}]]
     commander = Child("ros2_command_plan.py", ["--agent", "sim_a/videoray", "--plan",
@@ -110,7 +110,7 @@ def test_a_bad_parameter_is_one_line_naming_it(ros_env: int, tmp_path: Path) -> 
         bridge.close()
     proc = subprocess.run(
         [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "--out", str(tmp_path / "o"),
-         "--duration", "1", "--no-sonar", "-q", "--ros-args=-p sensor_qos:=fast"],
+         "--duration", "1", "--no-raycast-sensors", "-q", "--ros-args=-p sensor_qos:=fast"],
         capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()

@@ -54,8 +54,8 @@ class LoopResult:
 
 def run_loop(bridge: Ros2Bridge, agent: str, t0: float, duration: float,
              on_tick=None) -> LoopResult:
-    """Stand-in simulation: 100 Hz ticks paced at real time, publishing the known pose
-    and sonar products on every tick (the bridge's rate gates pick 10 / 15 Hz)."""
+    """Stand-in simulation: 100 Hz ticks paced at real time, writing the known pose and
+    sonar products whenever the bridge's rate gates say they are due (10 / 15 Hz)."""
     pacer = Pacer(1.0)
     pacer.reset(t0)
     n = round(duration / DT)
@@ -64,8 +64,12 @@ def run_loop(bridge: Ros2Bridge, agent: str, t0: float, duration: float,
     for k in range(n):
         t = t0 + k * DT
         c0 = time.perf_counter()
-        bridge.publish_nav(agent, t, POS_NED, YAW, VEL_FRD, YAW_RATE)
-        bridge.publish_sonar(agent, t, POLAR, FAN, PTS_FRD, INTENSITY)
+        bridge.write_clock(t)
+        if bridge.odometry_due(agent, t):
+            bridge.write_odometry(agent, t, POS_NED, YAW, VEL_FRD, YAW_RATE)
+        if bridge.sonar_due(agent, "sonar", t):
+            bridge.write_sonar(agent, "sonar", t, POLAR, FAN, PTS_FRD, INTENSITY,
+                               (POS_NED, np.eye(3)))
         max_call = max(max_call, time.perf_counter() - c0)
         if on_tick is not None:
             on_tick(t)
@@ -238,7 +242,7 @@ def test_docs_example_node_drives_rov_to_point(ros_env: int, tmp_path: Path) -> 
     ENU (x 6, y 8) = 6 m east, 8 m north, depth 2 m: a frame mix-up anywhere would
     send the vehicle elsewhere."""
     agent = f"rov_{secrets.token_hex(3)}"
-    bridge = Ros2Bridge([AgentBridgeSpec(agent, publish_sonar=False, odom_rate_hz=20.0)],
+    bridge = Ros2Bridge([AgentBridgeSpec(agent, sonars=(), odom_rate_hz=20.0)],
                         domain_id=ros_env, command_timeout_s=1.0)
     bridge.start()
     child = Child("ros2_goto_point.py", ["--agent", agent, "--x", "6", "--y", "8",
@@ -267,7 +271,9 @@ def test_docs_example_node_drives_rov_to_point(ros_env: int, tmp_path: Path) -> 
             n += u * math.cos(psi) * dt
             e += u * math.sin(psi) * dt
             t += dt
-            bridge.publish_nav(agent, t, [n, e, d], psi, [u, 0.0, 0.0], 0.0)
+            bridge.write_clock(t)
+            if bridge.odometry_due(agent, t):
+                bridge.write_odometry(agent, t, [n, e, d], psi, [u, 0.0, 0.0], 0.0)
             if arrived_t is None and child.poll_line("ARRIVED") is not None:
                 arrived_t = t
             if exit_t is None and child.proc.poll() is not None:

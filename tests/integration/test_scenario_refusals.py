@@ -43,7 +43,7 @@ recording: {odometry_rate_hz: 10}
 def build(tmp_path: Path, text: str) -> Simulation:
     path = tmp_path / "s.yaml"
     path.write_text(text)
-    return Simulation(load_scenario(path), sonar_enabled=False)
+    return Simulation(load_scenario(path), raycast_sensors=False)
 
 
 def test_the_base_scenario_is_valid(tmp_path):

@@ -15,7 +15,7 @@ import pytest
 from uhrisim.core.errors import AssetError, ConfigError
 from uhrisim.record.reader import summarize
 from uhrisim.scenario.load import load_scenario, validate_data
-from uhrisim.sim.simulation import Simulation
+from uhrisim.sim.simulation import BaseHook, Simulation
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = sorted((ROOT / "scenarios").glob("*.yaml"))
@@ -49,8 +49,8 @@ def test_typo_names_the_key_and_line(tmp_path):
 
 def test_out_of_range_value_names_the_field_path_and_line(tmp_path):
     path = write(tmp_path, "name: x\nagents:\n  - name: rov\n    model: videoray\n"
-                 "    driver: none\n    sensors:\n      - {preset: P900-45, max_range: -3}\n")
-    with pytest.raises(ConfigError, match=r"s\.yaml:7: agents\[0\]\.sensors\[0\]\.max_range"):
+                 "    driver: none\n    sensors:\n      - {preset: P900-45, range_max_m: -3}\n")
+    with pytest.raises(ConfigError, match=r"s\.yaml:7: agents\[0\]\.sensors\[0\]\.range_max_m"):
         load_scenario(path)
 
 
@@ -219,6 +219,37 @@ def test_stale_external_thrusters_fall_back_to_the_controller(tmp_path):
     assert any("stale" in e.detail for e in sim.events_log)
 
 
+def test_a_hook_only_observes_its_commands_wait_for_the_next_tick(tmp_path):
+    """Outside inputs — a variable posted, thruster commands — given by a hook during a
+    tick go into the one inbox and take effect at the start of the next tick, in order;
+    the tick the hook observes is left as the loop made it."""
+
+    class Commander(BaseHook):
+        def __init__(self) -> None:
+            self.seen: list[tuple[int, float, object]] = []
+
+        def on_start(self, sim) -> None:
+            self.sim = sim
+
+        def on_tick(self, frame) -> None:
+            rov = self.sim.agents["rov"]
+            self.seen.append((frame.tick, float(rov.inputs[0]),
+                              rov.community.get("DEPLOY", None)))
+            if frame.tick == 3:
+                self.sim.set_actuators("rov", [120.0, 120.0, 0.0], hold_s=1.0)
+                self.sim.post("rov", "DEPLOY", "true", source="test")
+                assert float(rov.inputs[0]) != 120.0  # nothing changed within the tick
+                assert rov.community.get("DEPLOY", None) is None
+
+    hook = Commander()
+    sim = Simulation(load_scenario(write(tmp_path, COLLIDE)), hooks=[hook])
+    for _ in range(5):
+        sim.step()
+    by_tick = {tick: (thrust, deploy) for tick, thrust, deploy in hook.seen}
+    assert by_tick[3][0] != 120.0 and by_tick[3][1] is None
+    assert by_tick[4] == (120.0, "true")  # applied at the start of tick 4
+
+
 def test_contacts_from_truth_with_noise_latency_and_dropout_are_deterministic(tmp_path):
     text = (ROOT / "scenarios" / "track_and_trail.yaml").read_text().replace(
         "      rate_hz: 4\n      alerts:",
@@ -229,7 +260,7 @@ def test_contacts_from_truth_with_noise_latency_and_dropout_are_deterministic(tm
         (ROOT / "scenarios" / "videoray_trail.bhv").read_text())
     reports = []
     for _ in range(2):
-        sim = Simulation(load_scenario(path), sonar_enabled=False)
+        sim = Simulation(load_scenario(path), raycast_sensors=False)
         box = sim.agents["videoray"].community.mailbox()
         got = []
         for _ in range(round(20.0 / sim.dt)):
@@ -249,7 +280,7 @@ def test_run_killed_with_sigkill_leaves_a_readable_recording(tmp_path):
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     proc = subprocess.Popen(
         [sys.executable, "-m", "uhrisim", "run", str(ROOT / "scenarios" /
-         "track_and_trail.yaml"), "--out", str(out), "--no-sonar", "-q"],
+         "track_and_trail.yaml"), "--out", str(out), "--no-raycast-sensors", "-q"],
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, cwd=ROOT)
     recording = out / "recording.mcap"
 
@@ -273,7 +304,7 @@ def test_run_killed_with_sigkill_leaves_a_readable_recording(tmp_path):
 
 
 def test_metrics_json_of_a_failed_run_says_so(tmp_path):
-    from uhrisim.sim.runner import run_scenario
+    from uhrisim.app.runner import run_scenario
 
     calls = []
 
@@ -284,7 +315,7 @@ def test_metrics_json_of_a_failed_run_says_so(tmp_path):
         return False
 
     with pytest.raises(KeyboardInterrupt):
-        run_scenario(ROOT / "scenarios" / "track_and_trail.yaml", tmp_path, sonar=False,
+        run_scenario(ROOT / "scenarios" / "track_and_trail.yaml", tmp_path, raycast_sensors=False,
                      should_stop=stop_after_two_seconds)
     metrics = json.loads((tmp_path / "metrics.json").read_text())
     assert metrics["completed"] is False

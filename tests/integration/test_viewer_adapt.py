@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from uhrisim.sensors.sonar import SonarInfo
 from uhrisim.viz.viewer.adapt import (
     FrameBuilder,
     agent_kind,
@@ -82,8 +83,7 @@ def _post(community, var, value, t=0.0):
 class _Ping:
     t: float
     fan_u8: np.ndarray
-    beam_angles_rad: np.ndarray
-    bin_ranges_m: np.ndarray
+    info: SonarInfo
     fan_rgb: np.ndarray | None = None
 
 
@@ -147,23 +147,24 @@ def test_moos_overlays_become_ned():
 
 def test_pings_observed_between_builds_are_not_lost():
     fan = np.full((40, 30), 7, np.uint8)
-    beams = np.radians(np.linspace(-22.5, 22.5, 256))
-    ping = _Ping(0.3, fan, beams, np.linspace(0.05, 9.95, 100))
+    ping = _Ping(0.3, fan, SonarInfo("P900-45", 9e5, 1500.0, 0.0, 10.0, 45.0, 256, 0.1))
     b = FrameBuilder()
-    b.observe(_tick(0.3, pings={"videoray": ping}))
+    b.observe(_tick(0.3, pings={"videoray/sonar": ping}))
     b.observe(_tick(0.4))
     f = b.build(_tick(0.5))
     (s,) = f["sonar"]
-    assert s["agent"] == "videoray" and s["t"] == 0.3 and s["fan"] is fan
-    assert s["fov_deg"] == pytest.approx(45.0) and s["max_range"] == pytest.approx(9.95)
+    assert s["agent"] == "videoray" and s["sensor"] == "sonar"
+    assert s["t"] == 0.3 and s["fan"] is fan
+    # the fan's field of view and range as the ping carries them
+    assert s["fov_deg"] == 45.0 and s["max_range"] == 10.0
     assert b.build(_tick(0.6))["sonar"] is None  # consumed
 
 
 def test_colour_fan_is_sent_as_rgb():
     bgr = np.zeros((4, 4, 3), np.uint8)
     bgr[..., 0] = 200  # blue in OpenCV's BGR
-    s = sonar_entry("r", _Ping(0.0, np.zeros((4, 4), np.uint8), np.array([-0.1, 0.1]),
-                               np.array([1.0]), fan_rgb=bgr))
+    info = SonarInfo("P900-45", 9e5, 1500.0, 0.0, 1.0, 11.5, 2, 1.0)
+    s = sonar_entry("r/sonar", _Ping(0.0, np.zeros((4, 4), np.uint8), info, fan_rgb=bgr))
     assert s["fan"][0, 0].tolist() == [0, 0, 200]
 
 
@@ -206,11 +207,12 @@ def test_camera_frames_observed_between_builds_are_sent_once():
 
     shot = _Shot(0.3, np.zeros((24, 32, 3), np.uint8))
     tick = _tick(0.3)
-    tick.images = {"videoray": shot}  # what the simulation's TickFrame carries
+    tick.images = {"videoray/camera": shot}  # what the simulation's TickFrame carries
     b = FrameBuilder()
     b.observe(tick)
     b.observe(_tick(0.4))
     f = b.build(_tick(0.5))
     (c,) = f["camera"]
-    assert c["agent"] == "videoray" and c["t"] == 0.3 and c["image"] is shot.rgb
+    assert c["agent"] == "videoray" and c["sensor"] == "camera"
+    assert c["t"] == 0.3 and c["image"] is shot.rgb
     assert b.build(_tick(0.6))["camera"] is None  # consumed

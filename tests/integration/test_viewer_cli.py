@@ -48,7 +48,7 @@ def test_run_view_shows_moving_vehicles_and_buttons_change_the_helm_mode(tmp_pat
     out = tmp_path / "run"
     proc = subprocess.Popen(
         [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "--view", "--port", "0",
-         "--rtf", "3", "--duration", "90", "--no-sonar", "--out", str(out), "-q"],
+         "--rtf", "3", "--duration", "90", "--no-raycast-sensors", "--out", str(out), "-q"],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     try:
         url = read_url(proc.stderr, r"http://127\.0\.0\.1:\d+/", timeout=60)

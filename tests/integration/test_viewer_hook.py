@@ -142,14 +142,14 @@ def test_released_hook_does_not_hold_a_paused_run():
 
 def test_real_simulation_pauses_steps_and_takes_buttons():
     pytest.importorskip("websockets")
-    sim_mod = pytest.importorskip("uhrisim.sim.simulation")
     from websockets.sync.client import connect
 
     from uhrisim.scenario.load import load_scenario
+    from uhrisim.sim import simulation as sim_mod
     from uhrisim.viz.viewer import attach_viewer
 
     source = load_scenario(SCENARIO)
-    sim = sim_mod.Simulation(source, sonar_enabled=False)
+    sim = sim_mod.Simulation(source, raycast_sensors=False)
     server, hook = attach_viewer(sim, port=0, speed=math.inf)
     assert sim.hooks[-1] is hook
     stop = threading.Event()

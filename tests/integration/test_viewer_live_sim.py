@@ -74,8 +74,8 @@ class _Loop:
 
 
 def test_page_shows_the_real_simulation():
-    sim_mod = pytest.importorskip("uhrisim.sim.simulation")
     from uhrisim.scenario.load import load_scenario
+    from uhrisim.sim import simulation as sim_mod
     from uhrisim.viz.viewer import FrameBuilder, ViewerServer
     from uhrisim.viz.viewer.adapt import scene_from_world
 

@@ -81,8 +81,8 @@ class _Sink:
 def test_replay_shows_the_recorded_tracks(tmp_path):
     # A recorded sonar-trail run, replayed: the map overlay at time t holds the tracks
     # recorded at the last ping before t, the diver track next to the recorded diver.
+    from uhrisim.app.runner import run_scenario
     from uhrisim.record.reader import read_odometry
-    from uhrisim.sim.runner import run_scenario
     from uhrisim.viz.viewer.replay import ReplayPlayer, load_replay
 
     run_scenario(SCENARIO, tmp_path, duration=30.0)

@@ -59,14 +59,11 @@ def test_load_replay_gives_back_the_recorded_ned_tracks(recording):
         dh = (tr["heading_deg"] - exp[:, 3] + 180.0) % 360.0 - 180.0
         np.testing.assert_allclose(dh, 0.0, atol=1e-7)
         np.testing.assert_allclose(tr["speed"], exp[:, 4], atol=1e-9)
-    # sonar: one fan per 0.5 s; fov recovered from the fan's shape (W = 2 H sin(fov/2))
-    ts, imgs = data.pings["videoray"]
+    # sonar: one fan per 0.5 s; its fov and range as recorded with it (never guessed)
+    ts, _ = data.pings["videoray/sonar"]
     assert len(ts) == round(DURATION / 0.5) + 1
-    h, w = imgs[0].shape
-    assert data.sonar_fov_deg["videoray"] == pytest.approx(
-        math.degrees(2 * math.asin(w / (2 * h))))
-    assert abs(data.sonar_fov_deg["videoray"] - DemoParams().sonar_fov_deg) < 0.5
-    assert data.sonar_range["videoray"] == DemoParams().sonar_range  # recorded variable
+    assert data.sonar_fov_deg["videoray/sonar"] == DemoParams().sonar_fov_deg
+    assert data.sonar_range["videoray/sonar"] == DemoParams().sonar_range
     # scene markers back in NED: four pilings at (±28, ±8), 0.4 m radius, 14 m tall
     pil = sorted((o["position_ned"][0], o["position_ned"][1]) for o in data.scene["objects"])
     np.testing.assert_allclose(pil, sorted([(28, -8), (28, 8), (-28, -8), (-28, 8)]), atol=1e-9)
@@ -158,8 +155,8 @@ def test_replay_page_shows_the_recorded_tracks(recording):
             patch = img[y - 1 : y + 2, x - 1 : x + 2].reshape(-1, 3)
             assert np.all(np.abs(patch - (245, 197, 24)) <= 12), patch.tolist()
             # the fan of the last ping before 12.3 s (12.0 s) is on screen
-            page.wait_for_function("window.uhri.sonar.videoray && "
-                                   "Math.abs(window.uhri.sonar.videoray.t - 12.0) < 1e-9",
+            page.wait_for_function("window.uhri.sonar['videoray/sonar'] && "
+                                   "Math.abs(window.uhri.sonar['videoray/sonar'].t - 12.0) < 1e-9",
                                    timeout=15_000)
             assert bp.errors() == []
     finally:

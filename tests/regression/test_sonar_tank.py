@@ -4,7 +4,7 @@ the statistics of real forward-looking-sonar tank frames.
 Provenance of the bands: issue 14 (measurements of real FLS frames of tank scenes: the
 in-fan background std/mean sits at 0.34–0.50, median ≈ 0.41; labelled debris is
 1.4–2.4× the background; real fans have no exactly-zero pixels, shadows are grey,
-≈ 20–40 of 255) and ``shared/reference/sonar.md`` ("on 8-bit log-compressed FLS frames of
+≈ 20–40 of 255) and ``docs/reference/sonar.md`` ("on 8-bit log-compressed FLS frames of
 objects in a tank, the in-fan background has std/mean of roughly 0.4–0.5 and labelled
 objects are about 1.5–2× brighter than the background"); see ``docs/sonar.md``.
 """

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import queue
 import secrets
@@ -10,6 +11,7 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import Any
 
 SUPPORT = Path(__file__).resolve().parent
 
@@ -68,6 +70,14 @@ class Child:
         assert self.proc.stdin is not None
         self.proc.stdin.write(text + "\n")
         self.proc.stdin.flush()
+
+    def result(self, timeout: float = 15.0) -> Any:
+        """A listener's answer: ``STOP`` sent, its ``RESULT <json>`` line parsed, and the
+        process ended with status 0."""
+        self.send("STOP")
+        out = json.loads(self.expect("RESULT", timeout=timeout))
+        assert self.finish() == 0
+        return out
 
     def finish(self, timeout: float = 10.0) -> int:
         try:

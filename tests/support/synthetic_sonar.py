@@ -1,6 +1,6 @@
 """Synthetic polar sonar pings with known answers, for the perception tests.
 
-The image model follows ``shared/reference/sonar.md`` ("a physically grounded image"):
+The image model follows ``docs/reference/sonar.md`` ("a physically grounded image"):
 linear intensity = noise floor × unit-exponential speckle (Rayleigh amplitude), speckle
 grain spread over ~5 beams (a 1° beam over 0.176° spacing), plus point targets whose
 echo is a sinc² main lobe across beams (1° wide) and a Gaussian of the pulse across

@@ -14,7 +14,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from tests.integration.test_cli_bad_input import one_line_error
+from tests.support.cli import one_line_error
 from uhrisim.batch.params import Draw, apply_path, check_path, split_path
 from uhrisim.batch.sweep import load_sweep
 from uhrisim.cli import app
@@ -34,7 +34,7 @@ def sweep_file(folder: Path, **fields) -> Path:
 @pytest.mark.parametrize("path", [
     "duration", "agents.videoray.controller.heading", "agents[1].controller.heading",
     "agents.1.start.depth", "world.water.temperature_c", "world.seafloor.roughness",
-    "agents.videoray.sensors.0.max_range", "agents.diver.helm.behaviors.1.speed",
+    "agents.videoray.sensors.0.range_max_m", "agents.diver.helm.behaviors.1.speed",
     "recording.enabled", "metrics.range",
 ])
 def test_known_paths(path):

@@ -54,6 +54,7 @@ def test_bad_settings_are_refused():
         BubbleParams(clusters=0)
 
 
+@pytest.mark.slow
 def test_the_sonar_sees_the_bubbles_rise_away_from_the_diver(tmp_path):
     # A diver hovering 4 m ahead of a still ROV at its depth breathes out: bubble cells
     # appear in the label images, then the burst rises out of the 20 deg beam.
@@ -67,14 +68,14 @@ def test_the_sonar_sees_the_bubbles_rise_away_from_the_diver(tmp_path):
         " bubbles: {period: 2.0}}\n"
         "  - name: rov\n    model: videoray\n    driver: none\n"
         "    start: {north: 0, east: 0, depth: 3, heading_deg: 0}\n"
-        "    sensors: [{preset: P900-45, max_range: 8, rays_per_beam: 32, labels: true,"
-        " rate_hz: 10, mount: {position: [0.2, 0, 0], tilt_deg: 0}}]\n")
+        "    sensors: [{preset: P900-45, range_min_m: 0.5, range_max_m: 8, rays_per_beam: 32,"
+        " labels: true, rate_hz: 10, mount_position_frd: [0.2, 0, 0], tilt_deg: 0}]\n")
     sim = Simulation(load_scenario(path))
     bubbles = sim.scene.labels.index("bubbles")
     seen = []
     while sim.t < 6.0:
         frame = sim.step()
-        ping = frame.pings.get("rov")
+        ping = frame.pings.get("rov/sonar")
         if ping is not None:
             seen.append(int(np.count_nonzero(ping.label_polar == bubbles)))
     assert max(seen) > 20  # strong, visible returns

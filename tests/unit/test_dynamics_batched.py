@@ -70,7 +70,7 @@ def test_the_paper_s_mission_flies_today_s_trajectory():
 
     reference = REFERENCE["mission_states"]  # diver (4) + videoray (8), every 6th tick
     rows = []
-    with Simulation(load_scenario(shipped_scenario()), sonar_enabled=False) as sim:
+    with Simulation(load_scenario(shipped_scenario()), raycast_sensors=False) as sim:
         for _ in range(len(reference) * 6):
             sim.step()
             if sim.tick % 6 == 0:

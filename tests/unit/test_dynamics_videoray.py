@@ -152,7 +152,8 @@ def test_stiff_yaw_mode_needs_small_steps():
 
 
 def test_unstable_step_without_guard_explodes_and_is_reported():
-    # Plain RK4 at 0.1 s diverges (reference note); the integrator names vehicle and time.
+    # Plain RK4 at 0.1 s diverges (docs/reference/vehicles-and-control.md); the integrator
+    # names vehicle and time.
     integrator = FixedStepIntegrator(vr.xdot, dt=0.1, substeps=1, name="rov1")
     x = np.array([0, 0, 0, 0, 0, 0, 0, 3.0])
     with pytest.raises(NumericalError, match=r"vehicle 'rov1', t="):

@@ -37,6 +37,7 @@ def argmax_cs(obj) -> tuple[float, float]:
     return float(i), float(SPD[j])
 
 
+@pytest.mark.slow
 def test_trail_regimes():
     b = make("Trail", contact="diver", trail_range=2, radius=1, nm_radius=5)
     diver = (0.0, 0.0, 0.0, 1.0)  # at the origin, heading north at 1 m/s -> P = (0, -2)
@@ -287,3 +288,45 @@ def test_loiter_acquisition_rules():
     assert not inner.acquire_mode and inner.index == 2
     inner.on_run(ctx(OwnNav(10.0, 18.0, 45.0, 1.0)))  # 2 m from the north edge: on-poly
     assert not inner.acquire_mode
+
+
+def test_constant_heading_peak_snaps_wraps_and_completes():
+    """BHV_ConstantHeading: a wrapping peak at the heading snapped to the grid (pw 10,
+    bw 170, δ 25); complete_thresh completes it; the mismatch is posted."""
+    b = make("ConstantHeading", heading=-10.4, duration="no-time-limit",
+             heading_mismatch_var="HDG_MISMATCH")
+    c = ctx(OwnNav(0.0, 0.0, 20.0, 0.0))
+    obj = b.on_run(c)
+    crs = D.axis("course").values
+    assert obj.axes == ("course",)
+    assert crs[int(np.argmax(obj.values))] == 350.0  # -10.4 -> 349.6 -> grid 350
+    assert obj.values[int(np.where(crs == 355.0)[0][0])] == pytest.approx(100 - 25 * 5 / 10)
+    assert obj.values[int(np.where(crs == 5.0)[0][0])] == pytest.approx(75 * (1 - 5 / 170))
+    assert obj.values[int(np.where(crs == 170.0)[0][0])] == 0.0
+    assert c.posts == [("HDG_MISMATCH", 30.0)]
+    done = make("ConstantHeading", heading=350, complete_thresh=5, duration="no-time-limit")
+    assert done.on_run(ctx(OwnNav(0.0, 0.0, 353.0, 0.0))) is None and done.complete_requested
+
+
+def test_max_speed_is_a_ceiling():
+    """BHV_MaxSpeed: 100 at or below max_speed, down to 0 over basewidth above it."""
+    b = make("MaxSpeed", max_speed=0.3, basewidth=0.2, speed_slack_var="SLACK")
+    c = ctx(OwnNav(0.0, 0.0, 0.0, 0.5))
+    obj = b.on_run(c)
+    assert obj.axes == ("speed",)
+    expected = np.clip(100.0 * (1.0 - (SPD - 0.3) / 0.2), 0.0, 100.0)
+    np.testing.assert_allclose(obj.values, expected)
+    assert c.posts == [("SLACK", pytest.approx(-0.2))]
+    assert make("MaxSpeed", max_speed=-1).params.max_speed == 0.0  # IvP clips at 0
+
+
+def test_constant_speed_peak_clipped_at_zero():
+    """BHV_ConstantSpeed: a peak at the speed (pw 0, bw 0.2); IvP clips a negative speed
+    to 0; the mismatch is posted."""
+    b = make("ConstantSpeed", speed=0.4, duration="no-time-limit", speed_mismatch_var="MIS")
+    c = ctx(OwnNav(0.0, 0.0, 0.0, 1.0))
+    obj = b.on_run(c)
+    np.testing.assert_allclose(obj.values, np.clip(100.0 * (1 - np.abs(SPD - 0.4) / 0.2), 0, None))
+    assert c.posts == [("MIS", pytest.approx(0.6))]
+    still = make("ConstantSpeed", speed=-1.0, duration="no-time-limit")
+    assert float(SPD[int(np.argmax(still.on_run(ctx(OwnNav(0, 0, 0, 0))).values))]) == 0.0

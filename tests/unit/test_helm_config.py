@@ -17,7 +17,7 @@ from uhrisim.core.errors import ConfigError
 DATA = Path(__file__).resolve().parents[1] / "data" / "helm"
 KNOWN = ("TRAIL_INFO", "CONTACT_INFO", "DEPTH_UPDATES", "LOITER_UPDATES")
 
-# The authors' meta_vehicle.bhv as reference/helm.md describes it (mode tree ACTIVE{DEPLOY}
+# The authors' meta_vehicle.bhv as docs/reference/helm.md describes it (mode tree ACTIVE{DEPLOY}
 # INACTIVE with children STATION-KEEPING, RETURNING, TRAILING, LOITERING; Trail and
 # AvoidCollision templates spawned per contact; ConstantDepth; Loiter; Waypoint; StationKeep).
 META_BHV = """\

@@ -1,7 +1,7 @@
 """Hand-computed numbers for the helm's primitives: ZAIC, coupler, CPA, extrapolator, solver.
 
 Every expected value below is worked out in the comment next to it from the definitions
-in reference/helm.md.
+in docs/reference/helm.md.
 """
 
 from __future__ import annotations

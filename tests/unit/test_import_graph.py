@@ -1,4 +1,5 @@
-"""src/uhrisim has no import circles, and imports only downwards through DESIGN.md's layers.
+"""src/uhrisim has no import circles, of modules or of packages, and imports only downwards
+through its layers (docs/layout.md).
 
 The graph is read from the source with ``ast`` (nothing is imported): one node per module
 (a package is its ``__init__``), and an edge for every ``import``/``from ... import`` of a
@@ -8,10 +9,10 @@ uhrisim module anywhere in a module — at module level, inside functions, under
 else to ``uhrisim.pkg``; a package's ``__init__`` importing its submodules is an edge from
 the package to them.
 
-Layers (DESIGN.md, "Import direction is one-way, bottom to top"): core → dynamics, control,
-world, sensors, autonomy, perception → scenario → sim → record, viz, bridges, envs →
-experiments, bench, batch → cli. A module may import its own layer and those below it;
-within a layer the DAG check alone keeps the order.
+Layers (docs/layout.md, "The layers"): core → dynamics, control, world, sensors,
+autonomy, perception, vehicles → teamwork → assistant → scenario → sim → ros → record, viz,
+bridges, envs → app, experiments, bench, batch → cli. A module may import its own layer and
+those below it; within a layer the DAG checks alone keep the order.
 """
 
 from __future__ import annotations
@@ -21,33 +22,23 @@ import textwrap
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-import pytest
-
 SRC = Path(__file__).resolve().parents[2] / "src"
 
 #: Bottom to top. Keys are the top-level names under ``uhrisim``; "" is the root package
 #: (its ``__init__`` holds only the version). Place every new package here.
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("", "core"),
-    ("dynamics", "control", "world", "sensors", "autonomy", "perception"),
+    ("dynamics", "control", "world", "sensors", "autonomy", "perception", "vehicles"),
+    ("teamwork",),
+    ("assistant",),
     ("scenario",),
     ("sim",),
+    ("ros",),
     ("record", "viz", "bridges", "envs"),
-    ("experiments", "bench", "batch"),
+    ("app", "experiments", "bench", "batch"),
     ("cli", "__main__"),
 )
 LAYER_OF = {name: rank for rank, names in enumerate(LAYERS) for name in names}
-
-#: Upward imports that exist today, each with the reason it stays for now. An entry whose
-#: edge has gone fails the test: delete it then.
-KNOWN_UPWARD: Mapping[tuple[str, str], str] = {
-    ("uhrisim.sim.runner", "uhrisim.record.hook"):
-        "the end-to-end runner (recording, metrics, figures) is application code above "
-        "record/ and viz/, kept at uhrisim.sim.runner where callers import it",
-    ("uhrisim.sim.runner", "uhrisim.viz.mission_figures"):
-        "as above: the runner draws the mission figures",
-}
-
 
 def module_files(src: Path, package: str) -> dict[str, tuple[Path, bool]]:
     """Dotted module name -> (file, is a package) for every module of ``package``."""
@@ -215,12 +206,39 @@ def test_every_package_has_a_layer() -> None:
 
 
 def test_lower_layers_never_import_higher_ones() -> None:
-    upward = upward_imports(GRAPH)
-    new = sorted(f"{a} → {b} ({why})" for (a, b), why in upward.items()
-                 if (a, b) not in KNOWN_UPWARD)
-    assert not new, "imports against the layer order of DESIGN.md:\n" + "\n".join(new)
+    upward = sorted(f"{a} → {b} ({why})" for (a, b), why in upward_imports(GRAPH).items())
+    assert not upward, "imports against the layer order of docs/layout.md:\n" + "\n".join(
+        upward)
 
 
-@pytest.mark.parametrize("edge", sorted(KNOWN_UPWARD), ids=" → ".join)
-def test_known_upward_imports_still_exist(edge: tuple[str, str]) -> None:
-    assert edge in upward_imports(GRAPH), f"{edge} is gone: remove it from KNOWN_UPWARD"
+def package_graph(graph: Mapping[str, Iterable[str]], src: Path = SRC,
+                  package: str = "uhrisim") -> dict[str, set[str]]:
+    """Package -> the packages it imports (a module belongs to the package holding it; a
+    package and its own subpackages are one family, not an edge)."""
+    modules = module_files(src, package)
+
+    def home(module: str) -> str:
+        return module if modules[module][1] else module.rpartition(".")[0]
+
+    out: dict[str, set[str]] = {}
+    for a, targets in graph.items():
+        for b in targets:
+            pa, pb = home(a), home(b)
+            if pa != pb and not pb.startswith(f"{pa}.") and not pa.startswith(f"{pb}."):
+                out.setdefault(pa, set()).add(pb)
+    return out
+
+
+def test_packages_have_no_import_circles() -> None:
+    """Not only modules: no package imports one that imports it back (the recorder and
+    the ROS 2 bridge, the loop and the figures once did)."""
+    found = cycles(package_graph(GRAPH))
+    chains = "\n".join("  " + " → ".join(cycle) for cycle in found)
+    assert not found, f"{len(found)} package circle(s) in src/uhrisim:\n{chains}"
+
+
+def test_package_graph_is_read() -> None:
+    graph = package_graph(GRAPH)
+    assert "uhrisim.ros" in graph["uhrisim.record"] and "uhrisim.ros" in graph[
+        "uhrisim.bridges.ros2"]
+    assert "uhrisim.sim" in graph["uhrisim.app"]

@@ -3,7 +3,7 @@
 Provenance: the geodesy numbers are computed here from first principles (arc length on
 a sphere of radius R: 1 m north = 1/R rad; at the equator CMOOSGeodesy's R is the WGS-84
 semi-major axis 6378137 m); MOOS time = wall clock x MOOSTimeWarp (MOOS v10
-MOOSLocalTime); the NODE_REPORT layout is reference/helm.md's.
+MOOSLocalTime); the NODE_REPORT layout is docs/reference/helm.md's.
 """
 
 from __future__ import annotations

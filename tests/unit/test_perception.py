@@ -114,6 +114,7 @@ def _point_blob(north, east, view):
                 0.7, 0.0, False)
 
 
+@pytest.mark.slow
 def test_constant_velocity_target_tracked_with_the_filters_predicted_error():
     # Truth moves by the filter's own model (white-noise acceleration); measurements carry
     # exactly the filter's measurement covariance. Then the normalised estimation error

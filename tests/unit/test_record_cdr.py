@@ -12,8 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from mcap_ros2._dynamic import serialize_dynamic
 
-from uhrisim.record import cdr
-from uhrisim.record.msgdefs import schema_text
+from uhrisim.ros import cdr
+from uhrisim.ros.msgdefs import schema_text
 
 
 def reference(typename: str, message: dict) -> bytes:
@@ -206,8 +206,8 @@ def test_projected_sonar_image_fast_path_equals_the_schema_driven_encoder() -> N
     length modulo 4 (the alignment after the header string)."""
     from mcap_ros2._dynamic import serialize_dynamic
 
-    from uhrisim.record import cdr
-    from uhrisim.record.msgdefs import schema_text
+    from uhrisim.ros import cdr
+    from uhrisim.ros.msgdefs import schema_text
 
     typename = "marine_acoustic_msgs/msg/ProjectedSonarImage"
     reference = serialize_dynamic(typename, schema_text(typename))[typename]
@@ -231,8 +231,8 @@ def test_projected_sonar_image_fast_path_equals_the_schema_driven_encoder() -> N
 def test_transform_encoder_of_a_chain_equals_the_general_encoder() -> None:
     """The one-struct encoder of the /tf chain (two transforms, fixed frames) gives the
     bytes of encode_tf_message, for frame names of every length modulo 4 and 8."""
-    from uhrisim.bridges.ros2.convert import tf_chain, tf_chain_frames
-    from uhrisim.record import cdr
+    from uhrisim.ros import cdr
+    from uhrisim.ros.convert import tf_chain, tf_chain_frames
 
     for world in ("m", "ma", "map", "mapp", "world_ned"):
         for agent in ("a", "ab", "abc", "abcd", "videoray"):

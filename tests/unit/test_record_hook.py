@@ -16,7 +16,8 @@ import pytest
 import trimesh
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.record import McapRecordingHook, iter_messages, read_odometry, ros_name, summarize
+from uhrisim.record import McapRecordingHook, iter_messages, read_odometry, summarize
+from uhrisim.ros.topics import ros_name
 
 
 def nav(north: float, east: float, depth: float, yaw: float) -> Ns:
@@ -44,11 +45,14 @@ def frame(tick: int, dt: float = 0.05, ping: bool = False) -> Ns:
               "diver-1": Ns(nav=nav(5.0, 0.02 * tick, 3.0, math.pi / 2))}
     pings = {}
     if ping:
-        pings["rov"] = Ns(t=t, polar_u8=np.zeros((16, 8), np.uint8),
-                          fan_u8=np.full((10, 12), 9, np.uint8), cloud=cloud(),
-                          hit_points_sonar=np.zeros((0, 3)),
-                          position_ned=np.array([0.1 * tick, 0.0, 2.0]),
-                          rotation_ned_from_sonar=np.eye(3))
+        pings["rov/sonar"] = Ns(t=t, polar_u8=np.zeros((16, 8), np.uint8),
+                                fan_u8=np.full((10, 12), 9, np.uint8), cloud=cloud(),
+                                hit_points_sonar=np.zeros((0, 3)),
+                                position_ned=np.array([0.1 * tick, 0.0, 2.0]),
+                                rotation_ned_from_sonar=np.eye(3),
+                                beam_angles_rad=np.linspace(-0.4, 0.4, 8),
+                                bin_ranges_m=np.linspace(0.1, 1.6, 16),
+                                info=Ns(frequency_hz=9e5, sound_speed_m_s=1500.0))
     helm = {"rov": Ns(heading_deg=90.0, speed=0.5, depth=None,
                       contributions={"trail": 70.0}, total=70.0, mode="TRAIL",
                       active=("trail",), all_stop_reason=None)}
@@ -71,6 +75,7 @@ def test_hook_records_a_run(tmp_path: Path) -> None:
     counts = {k: v[1] for k, v in s.topics.items()}
     assert counts["/rov/odom"] == counts["/diver_1/odom"] == 5  # ticks 0, 2, 4, 6, 8
     assert counts["/rov/sonar/fan"] == counts["/rov/sonar/points"] == 2
+    assert counts["/rov/sonar/image"] == 2  # frequency and sound speed from the ping
     assert counts["/rov/helm/decision"] == counts["/rov/vars"] == 10
     assert counts["/events"] == 1 and counts["/scene/markers"] == 1
     tracks = read_odometry(path)

@@ -13,7 +13,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from uhrisim.bridges.ros2.interfaces import SOURCE_DIR
 from uhrisim.core.errors import ConfigError
-from uhrisim.record.msgdefs import SEPARATOR, known_types, schema_text
+from uhrisim.ros.msgdefs import SEPARATOR, known_types, schema_text
 
 KILTED = get_typestore(Stores.ROS2_KILTED)
 STANDARD = [t for t in known_types() if not t.startswith(("uhrisim_msgs/", "marine_"))]

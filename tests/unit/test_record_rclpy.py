@@ -20,7 +20,7 @@ sensor_msgs = pytest.importorskip("sensor_msgs.msg")
 visualization_msgs = pytest.importorskip("visualization_msgs.msg")
 geometry_msgs = pytest.importorskip("geometry_msgs.msg")
 
-from uhrisim.record import cdr  # noqa: E402
+from uhrisim.ros import cdr  # noqa: E402
 
 
 def same_up_to_padding(ours: bytes, ros_msg) -> None:

@@ -18,10 +18,10 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rosbags.highlevel import AnyReader
 
-from uhrisim.bridges.ros2.convert import optical_rotation
 from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.core.frames import rotation_zyx
 from uhrisim.record import McapRecorder, iter_messages, read_odometry, summarize
+from uhrisim.ros.convert import optical_rotation
 
 AGENTS = ("rov", "diver", "rov2")
 N = 200  # messages of each kind per agent
@@ -54,8 +54,8 @@ def synthetic_run(path: Path, chunk_size: int = 64 * 1024) -> None:
             t = 0.1 * i
             for k, agent in enumerate(AGENTS):
                 rec.write_odometry(agent, t, (i * 0.01, k, 2.0), 0.01 * i, (0.5, 0.0, 0.0), 0.01)
-                rec.write_sonar(agent, t, polar, fan, rng.normal(size=(5, 3)), np.arange(5.0),
-                                f"{agent}/sonar", ((i * 0.01, k, 2.0), np.eye(3)))
+                rec.write_sonar(agent, "sonar", t, polar, fan, rng.normal(size=(5, 3)),
+                                np.arange(5.0), ((i * 0.01, k, 2.0), np.eye(3)))
                 rec.write_helm_decision(agent, t, 90.0, 0.5, 2.0 if k else None,
                                         {"trail": 80.0, "avoid": 20.0}, "TRAIL", ["trail"])
                 rec.write_variable(agent, t, "NAV_SPEED", 0.5, "nav")
@@ -188,7 +188,7 @@ def test_sonar_images_points_and_frame(tmp_path: Path) -> None:
     tilt, heading = math.radians(20.0), math.radians(30.0)
     r_ned = rotation_zyx(0.0, -tilt, heading)  # pitch < 0 is nose down: tilt 20° down
     with McapRecorder(path) as rec:
-        rec.write_sonar("rov", 3.0, polar, fan, pts_frd, np.array([0.25, 0.75]), "rov/sonar",
+        rec.write_sonar("rov", "sonar", 3.0, polar, fan, pts_frd, np.array([0.25, 0.75]),
                         ((1.0, 2.0, 3.0), r_ned))
     got = {m.topic: m.message for m in iter_messages(path)}
     img = got["/rov/sonar/polar"]
@@ -229,9 +229,9 @@ def test_camera_mount_on_tf_static_and_pose_not_on_tf(tmp_path: Path) -> None:
     with McapRecorder(paths["mounted"]) as rec:
         rec.write_static_transforms(0.0, [("rov/base_link", "rov/camera_optical",
                                            (0.3, 0.0, 0.1), optical_rotation(mount))])
-        rec.write_camera("rov", 0.5, rgb, None, labels, k, "rov/camera_optical", pose)
+        rec.write_camera("rov", "camera", 0.5, rgb, None, labels, k, pose)
     with McapRecorder(paths["unmounted"]) as rec:
-        rec.write_camera("rov", 0.5, rgb, None, None, k, "rov/camera_optical", pose)
+        rec.write_camera("rov", "camera", 0.5, rgb, None, None, k, pose)
     got = {m.topic: m.message for m in iter_messages(paths["mounted"])}
     assert set(got) == {"/tf_static", "/rov/camera/image_raw", "/rov/camera/camera_info",
                         "/rov/camera/labels", "/rov/camera/pose"}
@@ -352,11 +352,11 @@ def test_close_is_idempotent_and_writes_after_close_fail(tmp_path: Path) -> None
         (lambda r: r.write_odometry("rov", -1, (0, 0, 0), 0, (0, 0, 0), 0), "time must be"),
         (lambda r: r.write_odometry("rov", 0, (0, 0), 0, (0, 0, 0), 0), "position_ned"),
         (lambda r: r.write_odometry("rov", 0, (0, 0, 0), math.nan, (0, 0, 0), 0), "finite"),
-        (lambda r: r.write_sonar("rov", 0, np.zeros((4, 4)), None, None, None, "rov/sonar",
+        (lambda r: r.write_sonar("rov", "sonar", 0, np.zeros((4, 4)), None, None, None,
                                  ((0, 0, 0), np.eye(3))), "uint8"),
-        (lambda r: r.write_sonar("rov", 0, None, None, np.zeros((3, 2)), None, "rov/sonar",
+        (lambda r: r.write_sonar("rov", "sonar", 0, None, None, np.zeros((3, 2)), None,
                                  ((0, 0, 0), np.eye(3))), r"\(N, 3\)"),
-        (lambda r: r.write_sonar("rov", 0, None, None, None, None, "rov/sonar",
+        (lambda r: r.write_sonar("rov", "sonar", 0, None, None, None, None,
                                  ((0, 0, 0), 2 * np.eye(3))), "rotation"),
         (lambda r: r.write_variable("rov", 0, "X", [1], "me"), "number or a string"),
         (lambda r: r.write_scene_markers(0, [{"ns": "a", "id": 1, "type": "cone"}]), "cone"),

@@ -17,8 +17,8 @@ from tests.support import repository_bounds
 from tests.support.repository_bounds import REPO, outside_repository
 
 # the team's reference folder beside a clone, as a path would spell it (a relative path,
-# a path component of its own, the old override variable); prose that cites a reference
-# note ("shared/reference/sonar.md") is not a path and stays
+# a path component of its own, the old override variable); the notes the code cites are
+# in the repository (docs/reference/sonar.md, tests/unit/test_docs_citations.py)
 _SIBLING_PATH = re.compile(r"\.\./shar[e]d|[\"']shar[e]d[\"']|UHRISIM_REFERENCE_DI[R]")
 
 

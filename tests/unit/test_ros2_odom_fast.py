@@ -14,8 +14,8 @@ import struct
 import numpy as np
 import pytest
 
-from uhrisim.bridges.ros2.convert import odom_fields_from_ned, odom_fields_from_ned_reference
 from uhrisim.core.errors import ConfigError, NumericalError
+from uhrisim.ros.convert import odom_fields_from_ned, odom_fields_from_ned_reference
 
 
 def _bits(f) -> bytes:

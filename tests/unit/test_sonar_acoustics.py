@@ -1,4 +1,4 @@
-"""Acoustics of the imaging sonar against published numbers (shared/reference/sonar.md)."""
+"""Acoustics of the imaging sonar against published numbers (docs/reference/sonar.md)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from uhrisim.sensors.sonar.acoustics import (
     tvg_db,
 )
 
-# Francois-Garrison (1982) at 900 kHz, depth 5 m, pH 8 (shared/reference/sonar.md table).
+# Francois-Garrison (1982) at 900 kHz, depth 5 m, pH 8 (docs/reference/sonar.md table).
 FG_TABLE = [
     # T (°C), sea water S=35, fresh water S=0  (dB/m)
     (5.0, 0.344, 0.312),

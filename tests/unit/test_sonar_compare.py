@@ -69,6 +69,7 @@ def test_k_shape_estimator_on_exact_draws() -> None:
     assert k_shape(rng.exponential(3.0, 1_000_000)) > 100.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("std_range", "std_beams"), [(2.0, 3.0), (3.0, 5.0)])
 def test_speckle_grain_of_known_width_in_resolution_cells(tmp_path, std_range, std_beams):
     # Grain FWHM 2√(2 ln 2)·s along each axis. Give the geometry a "pulse" and a "beam"
@@ -82,6 +83,7 @@ def test_speckle_grain_of_known_width_in_resolution_cells(tmp_path, std_range, s
     assert m["grain_bearing"]["real"] == pytest.approx(1.0, abs=0.1)
 
 
+@pytest.mark.slow
 def test_grain_twice_as_wide_is_seen_twice_as_wide(tmp_path: Path) -> None:
     fine = frames_of(lambda r: sf.grained(r, 1.5, 2.5), 6, 5)
     coarse = frames_of(lambda r: sf.grained(r, 3.0, 5.0), 6, 6)
@@ -106,6 +108,7 @@ def test_a_folder_against_itself_differs_by_nothing(tmp_path: Path) -> None:
     assert report["verdicts"]["match"] == len(report["measures"])
 
 
+@pytest.mark.slow
 def test_histogram_divergences_of_two_known_rayleigh_laws(tmp_path: Path) -> None:
     # σ = 40 against σ = 44: one law lies wholly above the other (F_44 ≤ F_40), so the
     # earth mover's distance is the difference of the means — of the frames' (exactly) and
@@ -213,6 +216,7 @@ def test_bad_folders_name_the_problem_and_the_file(tmp_path: Path, setup, messag
         load_frame_set(folder)
 
 
+@pytest.mark.slow
 def test_the_command_writes_its_report_text_json_and_figure(tmp_path: Path, capsys) -> None:
     import json
 

@@ -121,7 +121,7 @@ agents:
     model: kinematic
     driver: none
     sensors:
-      - {type: sonar, max_range: 10, image: IMAGE}
+      - {type: sonar, range_max_m: 10, IMAGE}
 """
 
 
@@ -130,13 +130,14 @@ def test_scenario_image_settings_reach_the_sonar(tmp_path) -> None:
     from uhrisim.sim.simulation import Simulation
 
     path = tmp_path / "s.yaml"
-    path.write_text(SCENARIO.replace("IMAGE", "{gain_db: 6, post_tvg_noise_db: null, "
-                                     "speckle_model: coherent}"))  # fmt: skip
+    path.write_text(SCENARIO.replace("IMAGE", "gain_db: 6, post_tvg_noise_db: null, "
+                                     "speckle_model: coherent"))  # fmt: skip
     sim = Simulation(load_scenario(path))
     cfg = sim.agents["rov"].sonars[0].sonar.config
     assert (cfg.gain_db, cfg.post_tvg_noise_db, cfg.speckle_model) == (6.0, None, "coherent")
     assert cfg.display_gamma == SonarConfig().display_gamma  # left out: the default
-    path.write_text(SCENARIO.replace("IMAGE", "{gain_db: -3}"))
-    with pytest.raises(ConfigError) as err:
-        Simulation(load_scenario(path))
-    assert "s.yaml:7" in str(err.value) and "SonarConfig.gain_db" in str(err.value)
+    path.write_text(SCENARIO.replace("IMAGE", "gain_db: -3"))
+    with pytest.raises(ConfigError) as err:  # refused at load, by SonarConfig's declaration
+        load_scenario(path)
+    assert "s.yaml:7" in str(err.value) and "sensors[0].gain_db" in str(err.value)
+    assert "must be in [0, 200] dB, got -3" in str(err.value)

@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.unit.test_sonar_image import LEVEL, ORIGIN, AnalyticCaster
+from tests.support.analytic_sonar import LEVEL, ORIGIN, AnalyticCaster
 from uhrisim.core.errors import ConfigError
 from uhrisim.sensors.sonar import PRESETS, ImagingSonar, SonarConfig, get_preset
 from uhrisim.sensors.sonar.beam_tables import ARIS3000_64, ARIS3000_128

@@ -14,9 +14,11 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from tests.unit.test_sonar_image import LEVEL, ORIGIN, Hits
-from tests.unit.test_sonar_stages import (
+from tests.support.analytic_sonar import (
+    LEVEL,
     NO_SCENE,
+    ORIGIN,
+    Hits,
     acf_fwhm,
     diffuse_only,
     level_db,

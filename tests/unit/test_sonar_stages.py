@@ -13,42 +13,23 @@ import math
 import numpy as np
 import pytest
 
-from tests.unit.test_sonar_image import (
+from tests.support.analytic_sonar import (
     LEVEL,
+    NO_SCENE,
     ORIGIN,
     AnalyticCaster,
+    acf_fwhm,
+    diffuse_only,
+    level_db,
     linear_display,
+    rows_at,
     small_cfg,
     window_hits,
 )
-from uhrisim.sensors.sonar import ImagingSonar, SonarConfig, SonarSpec, get_preset
+from uhrisim.sensors.sonar import ImagingSonar, SonarConfig, get_preset
 from uhrisim.sensors.sonar.config import ECHOES_ONLY
 from uhrisim.sensors.sonar.reference import reference_bytes, reference_polar
 from uhrisim.sensors.sonar.speckle import SpeckleBank
-
-NO_SCENE = AnalyticCaster(floor_z=None)
-
-
-def level_db(polar: np.ndarray, cfg: SonarConfig) -> np.ndarray:
-    """Display level in dB (after TVG and gain) from the log-compressed polar image."""
-    return (polar.astype(np.float64) - 1.0) * cfg.dynamic_range_db + cfg.display_top_db
-
-
-def diffuse_only(**kw) -> SonarConfig:
-    """Window 0.5–30 m, no echo (the caster has no scene), speckle off, every diffuse term
-    off unless ``kw`` turns it on; a display window wide enough that nothing clips."""
-    base = dict(
-        spec=SonarSpec("diffuse", 900e3, 8.0, 9, 1.0, 20.0, 100.0, 0.1, 15.0, source="test"),
-        range_min_m=0.5, range_max_m=30.0, rays_per_beam=4, tilt_deg=0.0, speckle=False,
-        mount_position_frd=(0.0, 0.0, 0.0), rate_hz=10.0, dynamic_range_db=400.0,
-        display_top_db=300.0, **ECHOES_ONLY,
-    )  # fmt: skip
-    base.update(kw)
-    return SonarConfig(**base)
-
-
-def rows_at(cfg: SonarConfig, ranges: list[float]) -> list[int]:
-    return [round((r - cfg.range_min_m) / cfg.bin_m - 0.5) for r in ranges]
 
 
 def tvg(cfg: SonarConfig, r: float) -> float:
@@ -156,25 +137,6 @@ def floor_pings(n: int, **kw) -> tuple[SonarConfig, np.ndarray, list[np.ndarray]
     pings = [linear_display(sonar.ping(caster, ORIGIN, LEVEL, 0).polar, cfg) for _ in range(n)]
     return cfg, linear_display(clean.polar, clean_cfg), pings
 
-
-def acf_fwhm(fields: list[np.ndarray], axis: int) -> float:
-    """Full width at half maximum (cells) of the autocorrelation of ``fields`` along
-    ``axis``, linearly interpolated between lags."""
-    lags = range(0, 40)
-    acf = []
-    for lag in lags:
-        num = den = 0.0
-        for f in fields:
-            g = f - f.mean()
-            a = np.take(g, range(0, g.shape[axis] - lag), axis=axis)
-            b = np.take(g, range(lag, g.shape[axis]), axis=axis)
-            num += float((a * b).mean())
-            den += float((g * g).mean())
-        acf.append(num / den)
-    acf = np.array(acf)
-    m = int(np.argmax(acf < 0.5))
-    half = (m - 1) + (acf[m - 1] - 0.5) / (acf[m - 1] - acf[m])
-    return 2.0 * half
 
 
 @pytest.mark.parametrize("model", ["product", "coherent"])

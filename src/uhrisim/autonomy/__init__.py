@@ -1,7 +1,7 @@
 """Autonomy: a MOOS-IvP style behavior-fusion helm, contact manager and ``.bhv`` loader.
 
 Vocabulary and frames are MOOS's (x east, y north, compass degrees, depth down); see
-reference/helm.md and docs/conventions.md. One community per vehicle, each helm tick::
+docs/reference/helm.md and docs/conventions.md. One community per vehicle, each helm tick::
 
     cm_cfg = ContactManagerConfig.from_mapping({"alerts": [...], "relays": [...]})
     cfg = load_bhv("meta_vehicle.bhv", known_vars=cm_cfg.alert_vars, domain=parse_domain(

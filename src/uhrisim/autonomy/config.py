@@ -289,7 +289,9 @@ class HelmConfig:
                             f"{where})", b.where,
                         )
                 names[b.name] = b.where
-            axes = {"BHV_ConstantDepth": ("depth",)}.get(b.kind, ("course", "speed"))
+            axes = {"BHV_ConstantDepth": ("depth",), "BHV_ConstantHeading": ("course",),
+                    "BHV_ConstantSpeed": ("speed",), "BHV_MaxSpeed": ("speed",)}.get(
+                        b.kind, ("course", "speed"))
             for a in axes:
                 if not self.domain.has(a):
                     raise ConfigError(f"{b.kind} {b.name!r} needs a {a!r} domain axis", b.where)

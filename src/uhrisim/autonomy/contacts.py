@@ -1,6 +1,6 @@
 """Node reports and the contact manager (pBasicContactMgr semantics).
 
-NODE_REPORT (reference/helm.md): one comma-separated ``KEY=value`` string, e.g.
+NODE_REPORT (docs/reference/helm.md): one comma-separated ``KEY=value`` string, e.g.
 ``NAME=videoray,X=12.30,Y=-4.10,SPD=1.20,HDG=87.00,DEP=1.50,TYPE=UUV,TIME=12.25,LENGTH=1``.
 Keys are case-insensitive; aliases SPEED/SPD, HEADING/HDG, DEPTH/DEP, LONG/LON; unknown
 keys are kept (in order) and written back by :func:`format_node_report`. Frame: x east,

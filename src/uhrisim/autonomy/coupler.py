@@ -1,6 +1,6 @@
 """Coupling two 1-D functions into one over (course, speed) (IvP ``OF_Coupler``).
 
-reference/helm.md: each function is rescaled to 0..w (w = 50 by default) and the two are
+docs/reference/helm.md: each function is rescaled to 0..w (w = 50 by default) and the two are
 added, F(c, v) = f_c(c) + f_v(v); F is then normalised to 0..100 (OF_Coupler.cpp:74-98).
 
 Rescaling is IvP's ``PDMap::normalize`` (PDMap.cpp:169-183): a constant function (no

@@ -1,6 +1,6 @@
 """The helm's discrete decision domain and objective functions over it.
 
-Conventions (MOOS-IvP, reference/helm.md): ``course`` in compass degrees (0 = north,
+Conventions (MOOS-IvP, docs/reference/helm.md): ``course`` in compass degrees (0 = north,
 clockwise), ``speed`` in m/s, ``depth`` in metres positive down. The paper's mission uses
 course 0..359 (360 points), speed 0..5 m/s (26 points, 0.2 m/s apart) and an optional
 depth 0..100 m (101 points).

@@ -1,6 +1,6 @@
 """Contact dead reckoning: linear extrapolator with speed decay (IvP ``LinearExtrapolator``).
 
-reference/helm.md: with dt = now - report time,
+docs/reference/helm.md: with dt = now - report time,
 
 * dt <= d_s:          the contact travels v * dt along its heading;
 * d_s < dt <= d_e:    its speed decays linearly from v to 0 at d_e, so the distance is
@@ -34,7 +34,7 @@ class Extrapolated:
 @dataclass(frozen=True)
 class LinearExtrapolator:
     """Decay window (s). IvP contact behaviors default to ``decay = 5, 10`` (as recalled
-    from IvPContactBehavior; the reference note gives no values)."""
+    from IvPContactBehavior; docs/reference/helm.md gives no values)."""
 
     decay_start: float = 5.0
     decay_end: float = 10.0

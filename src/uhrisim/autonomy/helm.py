@@ -1,4 +1,4 @@
-"""The behavior-fusion helm, with pHelmIvP's semantics (reference/helm.md "The helm
+"""The behavior-fusion helm, with pHelmIvP's semantics (docs/reference/helm.md "The helm
 cycle"; MOOS-IvP ivp/src/pHelmIvP/HelmIvP.cpp, HelmEngine.cpp, lib_helmivp).
 
 Inputs and outputs stay in the MOOS vocabulary: NAV_X (east, m), NAV_Y (north, m),

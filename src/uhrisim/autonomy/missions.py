@@ -1,4 +1,4 @@
-"""The paper's mission helms in the scenario mapping form (reference/helm.md, "The paper's
+"""The paper's mission helms in the scenario mapping form (docs/reference/helm.md, "The paper's
 mission"), ready for :meth:`HelmConfig.from_mapping` and
 :meth:`ContactManagerConfig.from_mapping`.
 

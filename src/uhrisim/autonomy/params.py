@@ -101,6 +101,16 @@ def to_non_negative(v: object, key: str, where: str) -> float:
     return x
 
 
+def to_summitdelta(v: object, key: str, where: str) -> float:
+    """A ZAIC summit delta: a number, clipped to [0, 100] as IvP behaviors do."""
+    return min(max(to_float(v, key, where), 0.0), 100.0)
+
+
+def to_clipped_non_negative(v: object, key: str, where: str) -> float:
+    """A number clipped at 0 (IvP's ``vclip_min(dval, 0)``: accepted, never refused)."""
+    return max(to_float(v, key, where), 0.0)
+
+
 def to_bool(v: object, key: str, where: str) -> bool:
     if isinstance(v, bool):
         return v

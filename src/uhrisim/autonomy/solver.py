@@ -1,7 +1,7 @@
 """Behavior fusion: decision = argmax over the grid of sum_i priority_i * f_i (IvP solver).
 
 The C++ helm uses branch and bound over piecewise-linear boxes; here every function is a
-table on the discrete grid, so the argmax is exact on the grid (reference/helm.md, step 4).
+table on the discrete grid, so the argmax is exact on the grid (docs/reference/helm.md, step 4).
 
 Separability: axes are grouped into connected components (two axes are connected when
 some function spans both). The sum over independent components separates, so each

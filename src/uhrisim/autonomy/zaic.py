@@ -1,6 +1,6 @@
 """ZAIC 1-D utility functions (IvP ``ZAIC_PEAK``, ``ZAIC_LEQ``, ``ZAIC_HEQ``).
 
-Semantics from reference/helm.md ("ZAIC peak"). With d the distance of x to the summit s
+Semantics from docs/reference/helm.md ("ZAIC peak"). With d the distance of x to the summit s
 (circular when ``wrap_period`` is given, e.g. course: summit 350, x = 10 -> d = 20):
 
 * d <= pw:             U = max - (delta/pw) * d      (U = max when pw <= 0 or delta <= 0)

@@ -1,6 +1,6 @@
 """Ray for sweeps and datasets: connect (or start a loopback-only local Ray), run tasks.
 
-This module is the only place that imports Ray (DESIGN.md: ``batch/`` sits above ``sim/``
+This module is the only place that imports Ray (docs/design.md: ``batch/`` sits above ``sim/``
 and ``envs/``; Ray is imported only there). Addresses (``--address``):
 
 * none: a local Ray started here, loopback only (node IP 127.0.0.1, so every Ray server

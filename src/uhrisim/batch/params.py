@@ -21,6 +21,7 @@ import numpy as np
 from pydantic import BaseModel, model_validator
 
 from uhrisim.core.errors import ConfigError
+from uhrisim.core.files import regular_file_text
 from uhrisim.scenario.schema import Scenario, Strict
 from uhrisim.scenario.yaml_lines import LineMap, load_with_lines
 
@@ -67,7 +68,7 @@ def read_yaml(path: Path, kind: str) -> tuple[Any, LineMap]:
     """The parsed YAML of a ``kind`` file ("sweep", "scenario", "dataset") and the line of
     each key; a missing or unreadable file is a one-line ConfigError."""
     try:
-        text = path.read_text(encoding="utf-8")
+        text = regular_file_text(path)
     except FileNotFoundError:
         raise ConfigError(f"{kind} file not found", where=str(path)) from None
     except (OSError, UnicodeDecodeError) as error:

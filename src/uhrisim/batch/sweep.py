@@ -13,10 +13,10 @@ A sweep file (YAML; paths beside it)::
       - {world.water.temperature_c: 25}
     random: {count: 8, seed: 3, parameters: {contacts_noise: ...}}   # crossed too
     seeds: [1, 2, 3]                    # or {count: 10, start: 0}; default: the scenario's
-    sonar: true                         # run the sonars (images cost time)
+    raycast_sensors: true               # run the sonars and cameras (images cost time)
 
 Each run is the base scenario with its values applied, validated, and identified by the
-SHA-256 of its resolved scenario (every default filled in) and the sonar switch: its
+SHA-256 of its resolved scenario (every default filled in) and the ray-cast sensors switch: its
 folder is ``runs/<first 12 hex digits>``. A run whose folder holds a complete
 ``metrics.json`` (``"completed": true``) is not run again, so a killed sweep restarts where
 it stopped. A run that fails (a value the schema refuses, a build error, a numerical
@@ -78,7 +78,7 @@ class SweepFile(Strict):
     points: tuple[dict[str, Any], ...] | None = Field(None, alias="list")
     random: RandomSection | None = None
     seeds: tuple[Annotated[int, Field(ge=0)], ...] | SeedRange | None = None
-    sonar: bool = True
+    raycast_sensors: bool = True
     duration: PositiveFloat | None = None
 
     @field_validator("grid")
@@ -109,7 +109,7 @@ class PlannedRun:
     data: dict[str, Any]
     run_id: str
     scenario_path: str
-    sonar: bool
+    raycast_sensors: bool
     error: str | None = None  # the scenario refuses these values: failed without running
 
 
@@ -207,9 +207,10 @@ def _plan_run(index: int, point: dict[str, Any], seed: int, base: dict[str, Any]
         identity: Any = scenario.model_dump(mode="json")
     except ConfigError as refused:
         error, identity = str(refused), data
-    digest = hashlib.sha256(json.dumps({"scenario": identity, "sonar": sweep.sonar},
-                                       sort_keys=True, default=str).encode()).hexdigest()
-    return PlannedRun(index, point, seed, data, digest[:12], str(base_path), sweep.sonar,
+    digest = hashlib.sha256(json.dumps(
+        {"scenario": identity, "raycast_sensors": sweep.raycast_sensors},
+        sort_keys=True, default=str).encode()).hexdigest()
+    return PlannedRun(index, point, seed, data, digest[:12], str(base_path), sweep.raycast_sensors,
                       error)
 
 
@@ -226,7 +227,7 @@ def completed_metrics(run_dir: Path) -> dict[str, Any] | None:
 def execute_run(task: tuple[PlannedRun, str]) -> dict[str, Any]:
     """Run one planned run into its folder (a Ray task): a row of the results table. Any
     error becomes ``status = failed`` with its one-line message."""
-    from uhrisim.sim.runner import run_scenario
+    from uhrisim.app.runner import run_scenario
 
     run, out = task
     run_dir = run_folder(run, Path(out))
@@ -234,7 +235,7 @@ def execute_run(task: tuple[PlannedRun, str]) -> dict[str, Any]:
     try:
         scenario = validate_data(run.data, f"run {run.run_id}")
         source = ScenarioFile(scenario, Path(run.scenario_path))
-        metrics = run_scenario(source, run_dir, sonar=run.sonar).metrics or {}
+        metrics = run_scenario(source, run_dir, raycast_sensors=run.raycast_sensors).metrics or {}
         status, error = "ok", None
     except Exception as failure:
         metrics, status, error = {}, "failed", one_line(failure)
@@ -248,7 +249,8 @@ def run_folder(run: PlannedRun, out: Path) -> Path:
     run_dir.mkdir(parents=True, exist_ok=True)
     (run_dir / "run.json").write_text(json.dumps(
         {"run": run.run_id, "parameters": run.parameters, "seed": run.seed,
-         "scenario": run.scenario_path, "sonar": run.sonar}, indent=2, default=str) + "\n")
+         "scenario": run.scenario_path, "raycast_sensors": run.raycast_sensors},
+        indent=2, default=str) + "\n")
     return run_dir
 
 

@@ -79,10 +79,11 @@ class _AwaitListener(BaseHook):
         time.sleep(0.3)  # the graph shows the reader a little before the writer matches it
 
 
-#: Keys (:func:`~uhrisim.bridges.ros2.topics.agent_topics`) a navigation listener leaves
+#: Topics of an agent (:func:`uhrisim.ros.topics.agent_topics`) a navigation listener leaves
 #: out: the sonar's bulk products and the helm's audit trail (every behavior's share in
 #: each decision, every community posting).
-NOT_NAVIGATION_KEYS = frozenset({"polar", "fan", "points", "image", "helm_decision", "vars"})
+NOT_NAVIGATION_KEYS = frozenset({"sonar/polar", "sonar/fan", "sonar/points", "sonar/image",
+                                 "helm/decision", "vars"})
 
 
 class _Ros2Case:
@@ -100,30 +101,29 @@ class _Ros2Case:
         why_not = _ros2_environment()
         if why_not is not None:
             return why_not
-        from uhrisim.bridges.ros2 import AgentBridgeSpec, Ros2BridgeHook
-        from uhrisim.bridges.ros2.topics import QOS_CLOCK, QOS_TF, QOS_TF_STATIC, agent_topics
+        from uhrisim.bridges.ros2 import Ros2BridgeHook
+        from uhrisim.bridges.ros2.bridge import message_class
+        from uhrisim.bridges.ros2.topics import qos_for
+        from uhrisim.ros.topics import GLOBAL_TOPICS, agent_topics
 
-        from ._ros2_listener import Listener, qos_label, type_name
+        from ._ros2_listener import Listener, qos_label
 
         domain = random.SystemRandom().randint(1, 101)
         hook = Ros2BridgeHook(domain_id=domain, node_name="uhrisim_bench", publish_scene=False)
         if self.listener is None:
             return [hook]
-        from rosgraph_msgs.msg import Clock
-
-        topics = [("/clock", type_name(Clock), qos_label(QOS_CLOCK))]
-        try:  # the transforms, where tf2_msgs is built (uhrisim.bridges.ros2.interfaces)
-            from tf2_msgs.msg import TFMessage
-        except ImportError:
-            pass
-        else:
-            topics += [("/tf", type_name(TFMessage), qos_label(QOS_TF)),
-                       ("/tf_static", type_name(TFMessage), qos_label(QOS_TF_STATIC))]
+        wanted = [(key, *GLOBAL_TOPICS[key]) for key in ("clock", "tf", "tf_static")]
         for name in AGENTS:
-            spec = AgentBridgeSpec(name, publish_sonar=sonar and name == SONAR_AGENT)
-            topics += [(f"/{t}", type_name(m), qos_label(q))
-                       for key, t, m, q in agent_topics(spec)
+            sonars = ("sonar",) if sonar and name == SONAR_AGENT else ()
+            wanted += [(f"{name}/{key}", kind, qos) for key, kind, qos in agent_topics(sonars)
                        if self.listener == "every" or key not in NOT_NAVIGATION_KEYS]
+        topics = []
+        for topic, kind, qos in wanted:
+            try:  # the types whose packages are built (uhrisim.bridges.ros2.interfaces)
+                message_class(kind)
+            except ImportError:
+                continue
+            topics.append((f"/{topic}", kind, qos_label(qos_for(qos))))
         listener = stack.enter_context(Listener(topics, domain))
         # closed after the run (last in, first out): count what arrived first
         stack.callback(lambda: self.received.append(sum(listener.counts().values())))

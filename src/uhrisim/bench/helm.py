@@ -109,7 +109,7 @@ def _measure_mission(quick: bool) -> dict:
     from uhrisim.sim.simulation import Simulation
 
     settle_s, timed_s = (3.0, 5.0) if quick else (30.0, 120.0)
-    sim = Simulation(load_scenario(shipped_scenario()), sonar_enabled=False)
+    sim = Simulation(load_scenario(shipped_scenario()), raycast_sensors=False)
     sim.run(settle_s)
     timed = []
     for agent in sim.agents.values():

@@ -29,7 +29,7 @@ def mission_rates(
 ) -> tuple[float, float]:
     """Simulated seconds per wall second and per CPU second (this process, all threads) of
     the mission, after a warm-up of :data:`WARM_UP_S`."""
-    with Simulation(load_scenario(shipped_scenario()), sonar_enabled=sonar, hooks=hooks) as sim:
+    with Simulation(load_scenario(shipped_scenario()), raycast_sensors=sonar, hooks=hooks) as sim:
         sim.run(WARM_UP_S)
         wall, cpu = time.perf_counter(), time.process_time()
         sim.run(seconds)

@@ -25,9 +25,9 @@ import numpy as np
 from mcap_ros2._dynamic import serialize_dynamic
 
 from uhrisim.core.rng import component_rng
-from uhrisim.record import cdr
 from uhrisim.record.mcap_recorder import McapRecorder
-from uhrisim.record.msgdefs import schema_text
+from uhrisim.ros import cdr
+from uhrisim.ros.msgdefs import schema_text
 
 ODOM_TARGET_CALLS_PER_S = 10_000.0
 SONAR_TARGET_PINGS_PER_S = 60.0
@@ -81,7 +81,7 @@ def _bench_sonar(folder: Path, pings: int, compression: str) -> dict[str, Any]:
             t = i / SONAR_RATE_HZ
             polar, fan = frames[i % len(frames)]
             rec.write_odometry("rov", t, (0.1 * i, 0.0, 2.0), 0.0, (0.5, 0.0, 0.0), 0.0)
-            rec.write_sonar("rov", t, polar, fan, points, inten, "rov/sonar", pose)
+            rec.write_sonar("rov", "sonar", t, polar, fan, points, inten, pose)
     dt = time.perf_counter() - t0
     size = path.stat().st_size
     raw = POLAR_SHAPE[0] * POLAR_SHAPE[1] + FAN_SHAPE[0] * FAN_SHAPE[1]

@@ -2,7 +2,7 @@
 and the share of one CPU core the bridge takes in a 15 Hz sonar + 10 Hz odometry loop.
 
 ``uhrisim bench ros2 [--json]`` prints :func:`run`'s dict. Sizes: a BlueView P900-45
-polar image (256 beams x 2000 range bins of 2.54 cm, ~50 m; reference/sonar.md), a
+polar image (256 beams x 2000 range bins of 2.54 cm, ~50 m; docs/reference/sonar.md), a
 600 x 1000 fan image (10 px/m, the paper's scale) and a 4096-point cloud.
 
 The full run starts one external subscriber process (plain rclpy, loopback discovery,
@@ -75,10 +75,9 @@ def run(quick: bool = False) -> dict[str, Any]:
 
 def _run(quick: bool, domain: int, agent: str) -> dict[str, Any]:
     from uhrisim.bridges.ros2 import AgentBridgeSpec, Ros2Bridge
-    from uhrisim.bridges.ros2.topics import agent_topics
+    from uhrisim.bridges.ros2.topics import QOS_SENSOR, QOS_STATE
 
-    from ._ros2_listener import Listener, qos_label, type_name
-
+    from ._ros2_listener import Listener, qos_label
 
     rng = np.random.default_rng(0)
     polar = rng.integers(0, 256, POLAR_SHAPE, dtype=np.uint8)
@@ -94,7 +93,7 @@ def _run(quick: bool, domain: int, agent: str) -> dict[str, Any]:
     bridge = Ros2Bridge([AgentBridgeSpec(agent)], node_name=f"uhrisim_{agent}", domain_id=domain,
                         publish_unsubscribed=True)
     gated = Ros2Bridge(
-        [AgentBridgeSpec(f"{agent}_g", publish_sonar=False, odom_rate_hz=ODOM_HZ)],
+        [AgentBridgeSpec(f"{agent}_g", sonars=(), odom_rate_hz=ODOM_HZ)],
         node_name=f"uhrisim_{agent}_g", domain_id=domain, publish_clock=False,
         publish_unsubscribed=True,
     )
@@ -103,33 +102,40 @@ def _run(quick: bool, domain: int, agent: str) -> dict[str, Any]:
     sub: Listener | None = None
     out: dict[str, Any] = {}
     try:
-        def nav(k: int) -> None:
-            bridge.publish_nav(agent, k * 1e-3, pos, 0.1 * k, vel, 0.0)
+        pose = (pos, np.eye(3))
 
-        def sonar(k: int) -> None:
-            bridge.publish_sonar(agent, k * 1e-3, polar, fan, pts, inten)
+        def nav(k: int) -> None:  # a new time: /clock, odometry, pose and /tf
+            bridge.write_clock(k * 1e-3)
+            bridge.write_odometry(agent, k * 1e-3, pos, 0.1 * k, vel, 0.0)
+
+        def sonar(k: int) -> None:  # a new time: /clock and the three sonar products
+            bridge.write_clock(k * 1e-3)
+            bridge.write_sonar(agent, "sonar", k * 1e-3, polar, fan, pts, inten, pose)
 
         def nav_throttled(k: int) -> None:  # 1 kHz ticks, 10 Hz gate: mostly not due
-            gated.publish_nav(f"{agent}_g", k * 1e-3, pos, 0.1, vel, 0.0)
+            if gated.odometry_due(f"{agent}_g", k * 1e-3):
+                gated.write_odometry(f"{agent}_g", k * 1e-3, pos, 0.1, vel, 0.0)
 
         def clock(k: int) -> None:  # a new simulation time every call
-            bridge.publish_clock(1e3 + k * 1e-3)
+            bridge.write_clock(1e3 + k * 1e-3)
 
         no_sub = {
-            "publish_nav": _time_calls(nav, n_nav),
-            "publish_sonar": _time_calls(sonar, n_sonar),
-            "publish_nav_throttled_tick": _time_calls(nav_throttled, n_nav),
-            "publish_clock": _time_calls(clock, n_nav),
+            "write_odometry": _time_calls(nav, n_nav),
+            "write_sonar": _time_calls(sonar, n_sonar),
+            "write_odometry_throttled_tick": _time_calls(nav_throttled, n_nav),
+            "write_clock": _time_calls(clock, n_nav),
         }
         out["without_subscriber"] = no_sub
         with_sub: dict[str, Any] | None = None
         sustained: dict[str, Any] | None = None
         if not quick:
             odom_topic, polar_topic = f"/{agent}/odom", f"/{agent}/sonar/polar"
-            sub = Listener([(t, type_name(m), qos_label(q))
-                            for _, t, m, q in agent_topics(AgentBridgeSpec(agent))
-                            if t in (odom_topic, polar_topic, f"/{agent}/sonar/fan",
-                                     f"/{agent}/sonar/points")], domain)
+            sub = Listener([(odom_topic, "nav_msgs/msg/Odometry", qos_label(QOS_STATE)),
+                            *[(f"/{agent}/sonar/{key}", kind, qos_label(QOS_SENSOR))
+                              for key, kind in (("polar", "sensor_msgs/msg/Image"),
+                                                ("fan", "sensor_msgs/msg/Image"),
+                                                ("points", "sensor_msgs/msg/PointCloud2"))]],
+                           domain)
             end = time.monotonic() + 20.0
             topics = [odom_topic, polar_topic]
             while not all(bridge.subscriber_count(t) > 0 for t in topics):
@@ -138,8 +144,8 @@ def _run(quick: bool, domain: int, agent: str) -> dict[str, Any]:
                 time.sleep(0.02)
             time.sleep(0.5)
             with_sub = {
-                "publish_nav": _time_calls(nav, n_nav),
-                "publish_sonar": _time_calls(sonar, n_sonar),
+                "write_odometry": _time_calls(nav, n_nav),
+                "write_sonar": _time_calls(sonar, n_sonar),
             }
             c0 = sub.counts()
             k_nav, s_nav = _sustained(nav, sustain_s)
@@ -161,7 +167,7 @@ def _run(quick: bool, domain: int, agent: str) -> dict[str, Any]:
             out["with_external_subscriber"] = with_sub
             out["sustained"] = sustained
         basis = with_sub if with_sub is not None else no_sub
-        nav_us, sonar_us = basis["publish_nav"]["mean_us"], basis["publish_sonar"]["mean_us"]
+        nav_us, sonar_us = basis["write_odometry"]["mean_us"], basis["write_sonar"]["mean_us"]
         frac = (SONAR_HZ * sonar_us + ODOM_HZ * nav_us) * 1e-6
         out["loop_overhead"] = {
             "sonar_hz": SONAR_HZ,

@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 
 from uhrisim.core.elementwise import ARRAYS, FLOATS, Elementwise
 from uhrisim.core.frames import heading_deg_from_yaw, wrap_180
+from uhrisim.core.settings import check_settings, setting
 from uhrisim.dynamics.videoray import VideoRayParams
 
 
@@ -30,21 +31,23 @@ from uhrisim.dynamics.videoray import VideoRayParams
 class PGains:
     """Proportional gains: K_h per degree, K_s per m/s, K_d per metre; mixing weights."""
 
-    heading: float = 1.0
-    speed: float = 10.0
-    depth: float = 50.0
-    heading_weight: float = 0.5
-    speed_weight: float = 0.5
+    heading: float = setting(1.0, "1/deg", ge=0.0, le=1e4,
+                             doc="K_h: thruster input per degree of heading error")
+    speed: float = setting(10.0, "s/m", ge=0.0, le=1e4,
+                           doc="K_s: thruster input per m/s of speed error")
+    depth: float = setting(50.0, "1/m", ge=0.0, le=1e4,
+                           doc="K_d: thruster input per metre of depth error")
+    heading_weight: float = setting(0.5, "1", ge=0.0, le=100.0, doc="w_h, heading mixing")
+    speed_weight: float = setting(0.5, "1", ge=0.0, le=100.0, doc="w_s, speed mixing")
     speed_feedforward: bool = False
 
     def __post_init__(self) -> None:
-        for name in ("heading", "speed", "depth", "heading_weight", "speed_weight"):
-            if getattr(self, name) < 0.0:
-                raise ValueError(f"PGains.{name} must be >= 0")
+        check_settings(self)
 
 
-# Gains found in the authors' code (reference note): the ROS control node (K_h 1, the value
-# it actually ran with; an earlier revision had 0.01), and the Octave simulation.
+# Gains found in the authors' code (docs/reference/vehicles-and-control.md): the ROS control
+# node (K_h 1, the value it actually ran with; an earlier revision had 0.01), and the Octave
+# simulation.
 GAIN_PRESETS: dict[str, PGains] = {
     "ros-node": PGains(heading=1.0, speed=10.0, depth=50.0),
     "ros-node-early": PGains(heading=0.01, speed=10.0, depth=50.0),

@@ -1,4 +1,4 @@
-"""Simulation time is integer ticks of the physics step (DESIGN.md habit 4).
+"""Simulation time is integer ticks of the physics step (docs/design.md habit 4).
 
 Every rate (sonar, helm, controller, contacts, recorder) is a whole number of ticks,
 checked when the simulation is built: :func:`ticks_for_rate` is that check.

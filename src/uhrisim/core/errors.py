@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import signal
 import warnings
 
 
@@ -49,8 +50,26 @@ class BridgeError(UhrisimError, ConnectionError):
     """A ROS 2 / MOOS peer is unreachable or spoke something we cannot accept."""
 
 
+class StopRequested(BaseException):
+    """A stop signal (SIGTERM from ``timeout``, systemd, Ray or ``ros2 launch``; SIGHUP
+    from a closed terminal) ends the run as Ctrl-C does: what runs cleans up (recording
+    closed, metrics.json written with ``completed: false`` and the reason); the command
+    exits with 128 + the signal's number. A BaseException, like KeyboardInterrupt, so
+    that nothing catching ``Exception`` swallows it."""
+
+    def __init__(self, signum: int) -> None:
+        self.signum = int(signum)
+        super().__init__(f"stopped by {signal.Signals(self.signum).name}")
+
+
+class UhrisimWarning(UserWarning):
+    """A warning of uhrisim's own (:func:`warn_user`): logged as well, so the command line
+    shows the log line and not the warning a second time."""
+
+
 def warn_user(message: str, stacklevel: int = 2) -> None:
     """Tell the user a default or a correction was applied: logged (the command line shows
-    it) and raised as a ``UserWarning`` (tests and callers can catch it)."""
+    it) and raised as an :class:`UhrisimWarning`, a ``UserWarning`` (tests and callers can
+    catch it)."""
     logging.getLogger("uhrisim").warning(message)
-    warnings.warn(message, UserWarning, stacklevel=stacklevel + 1)
+    warnings.warn(message, UhrisimWarning, stacklevel=stacklevel + 1)

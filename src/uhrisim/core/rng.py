@@ -1,7 +1,7 @@
 """Explicit, named randomness: one root seed, one Generator per component.
 
 The stream of a component depends only on the root seed and the component's stable
-name, so adding a sensor does not change the diver's noise (DESIGN.md habit 5).
+name, so adding a sensor does not change the diver's noise (docs/design.md habit 5).
 """
 
 from __future__ import annotations

@@ -30,8 +30,8 @@ STATE_SIZE = 4
 class DiverParams:
     """Paper's r and L; limits are realistic defaults for a recreational scuba diver.
 
-    Swim speed 0.3-1.0 m/s (reference note), turn rate ~30 deg/s, ascent/descent rate
-    0.3 m/s (18 m/min, the usual maximum safe ascent rate).
+    Swim speed 0.3-1.0 m/s (docs/reference/vehicles-and-control.md), turn rate ~30 deg/s,
+    ascent/descent rate 0.3 m/s (18 m/min, the usual maximum safe ascent rate).
     """
 
     wheel_radius: float = 1.0  # paper eq 10-12, "r"

@@ -1,7 +1,7 @@
 """A kinematic vehicle with MOOS uSimMarine semantics: what the authors' demo really ran.
 
 In the paper's mission files both the diver and the ROV were moved by uSimMarine driven
-by pMarinePID (shared/reference/vehicles-and-control.md, "What the authors' demo actually
+by pMarinePID (docs/reference/vehicles-and-control.md, "What the authors' demo actually
 ran"). Offering it beside the hydrodynamic model lets a user compare the two.
 
 State ``[x_north, y_east, z_down, psi, speed]`` (NED m, compass yaw rad, m/s); input

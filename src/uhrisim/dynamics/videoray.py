@@ -8,7 +8,7 @@ Inputs: ``[port, starboard, vertical]`` dimensionless thruster commands, saturat
 with :func:`~uhrisim.dynamics.integrators.rk4_step` is its slow reference).
 
 Coefficients: W. Wang, MASc thesis, Univ. of Waterloo 2006, p. 19 (VideoRay Pro III),
-used by DeMarco et al. for their Pro 4; see shared/reference/vehicles-and-control.md.
+used by DeMarco et al. for their Pro 4; see docs/reference/vehicles-and-control.md.
 """
 
 from __future__ import annotations
@@ -22,26 +22,29 @@ from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.core.compiled import jit
 from uhrisim.core.elementwise import ARRAYS, FLOATS, Elementwise
+from uhrisim.core.settings import check_settings, setting
 
 STATE_NAMES = ("x", "y", "z", "psi", "u", "v", "w", "r")
 INPUT_NAMES = ("port", "starboard", "vertical")
 STATE_SIZE = 8
 INPUT_SIZE = 3
+#: The thruster commands' range, ±this (dimensionless; the paper's and the authors' code).
+INPUT_LIMIT = 150.0
 
 
 @dataclass(frozen=True)
 class VideoRayParams:
     """Rigid-body + added-mass inertia, damping and thruster constants (SI units).
 
-    Source: Wang 2006 table (reference note); ``J`` defaults to 0.0118 kg m^2 (the
-    authors' ROS node used 0.1; an older script 0.5). ``moment_arm`` = 1 m reproduces
-    the authors' code, which had no arm.
+    Source: Wang 2006 table (docs/reference/vehicles-and-control.md); ``J`` defaults to
+    0.0118 kg m^2 (the authors' ROS node used 0.1; an older script 0.5). ``moment_arm`` =
+    1 m reproduces the authors' code, which had no arm.
     """
 
     m11: float = 1.94  # kg, surge inertia
     m22: float = 6.05  # kg, sway inertia
     m33: float = 3.95  # kg, heave inertia
-    J: float = 0.0118  # kg m^2, yaw inertia
+    J: float = setting(0.0118, "kg m²", gt=0.0, le=100.0, doc="yaw inertia")
     Xu: float = -0.95  # N s/m
     Yv: float = -5.87  # N s/m
     Zw: float = -3.70  # N s/m
@@ -57,8 +60,9 @@ class VideoRayParams:
     ct_reverse_quadratic: float = 1.01e-4
     ct_vertical_up_quadratic: float = 1.19e-4
     ct_vertical_down_quadratic: float = 7.53e-5
-    moment_arm: float = 1.0  # m, lever of the horizontal thrusters about the yaw axis
-    input_limit: float = 150.0
+    moment_arm: float = setting(1.0, "m", gt=0.0, le=10.0,
+                                doc="lever of the horizontal thrusters about the yaw axis")
+    input_limit: float = INPUT_LIMIT
     coupling: Literal["paper", "rigid-body"] = "paper"
 
     def __post_init__(self) -> None:
@@ -73,6 +77,7 @@ class VideoRayParams:
             raise ValueError(f"thrust_map must be 'linear' or 'quadratic', got {self.thrust_map!r}")
         if self.coupling not in ("paper", "rigid-body"):
             raise ValueError(f"coupling must be 'paper' or 'rigid-body', got {self.coupling!r}")
+        check_settings(self)  # the declared ranges (J, moment_arm)
 
 
 def thruster_forces(u: ArrayLike, params: VideoRayParams) -> NDArray[np.float64]:

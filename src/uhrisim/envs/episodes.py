@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from uhrisim.core.errors import ConfigError
+from uhrisim.core.files import regular_file_text
 from uhrisim.core.rng import component_rng
 from uhrisim.scenario.load import ScenarioFile, validate_data
 from uhrisim.scenario.yaml_lines import load_with_lines
@@ -98,7 +99,7 @@ class TrailEpisodes:
                  physics_rate_hz: float | None = None) -> None:
         self.path = Path(scenario_path)
         try:
-            text = self.path.read_text(encoding="utf-8")
+            text = regular_file_text(self.path)
         except OSError as error:
             raise ConfigError(f"cannot read scenario file: {error}", where=str(self.path)) from None
         self._data, self._lines = load_with_lines(text, str(self.path))

@@ -1,6 +1,6 @@
 """The trail task: reward terms, termination and the relative state of follower and target.
 
-Geometry (NED, m; compass angles) as in :mod:`uhrisim.sim.metrics`: the **trail point**
+Geometry (NED, m; compass angles) as in :mod:`uhrisim.app.metrics`: the **trail point**
 lies ``trail_range`` from the target at compass bearing (target heading + trail angle),
 at the target's depth; the **bearing error** is wrap_180(bearing target→follower −
 (target heading + trail angle)) in degrees; the **range** is the horizontal distance.
@@ -31,8 +31,8 @@ import numpy as np
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import wrap_180
 from uhrisim.dynamics.plants import NavState
+from uhrisim.dynamics.videoray import INPUT_LIMIT as THRUSTER_LIMIT  # ±150 (conventions)
 
-THRUSTER_LIMIT = 150.0  # the VideoRay's command range (docs/conventions.md)
 REWARD_TERMS = ("trail_position", "bearing", "collision", "energy", "lost")
 
 

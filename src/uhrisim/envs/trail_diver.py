@@ -59,11 +59,17 @@ from uhrisim.core.frames import heading_deg_from_yaw
 from uhrisim.dynamics.plants import NavState
 from uhrisim.envs.episodes import Randomization, ScenarioHook, TrailEpisodes
 from uhrisim.envs.render import render_frame
-from uhrisim.envs.task import RewardWeights, TrailGeometry, body_frd, reward_terms
+from uhrisim.envs.task import (
+    THRUSTER_LIMIT,
+    RewardWeights,
+    TrailGeometry,
+    body_frd,
+    reward_terms,
+)
 from uhrisim.scenario.shipped import shipped_scenario
-from uhrisim.sensors.sonar.presets import get_preset
-from uhrisim.sim.hooks import TickFrame
+from uhrisim.sim.hooks import TickFrame, sensor_key
 from uhrisim.sim.simulation import BaseHook, Simulation
+from uhrisim.vehicles import MODELS
 
 SONAR_SHAPE = (96, 64)  # (range bins, beams) of the observed polar image
 #: The episodes' physics rate (Hz): the shipped scenarios' controllers run at 20 Hz, so a
@@ -80,7 +86,6 @@ YAW_RATE_BOUND = 10.0      # rad/s
 # 1.075 m/s (scenario videoray, linear thrust map; measured through this env).
 DESIRED_LOW = np.array([-math.pi, 0.0, -2.0], dtype=np.float32)
 DESIRED_HIGH = np.array([math.pi, 1.0, 2.0], dtype=np.float32)
-THRUSTER_RANGE = 150.0
 SEED_SPAN = 2**31 - 1
 
 
@@ -111,14 +116,14 @@ def _contact_space() -> spaces.Box:
 
 
 class _LatestPing(BaseHook):
-    """Keeps the follower's newest sonar ping (a read-only hook)."""
+    """Keeps the newest ping of one sonar (``key``: ``"<agent>/<sensor>"``; read-only)."""
 
-    def __init__(self, agent: str) -> None:
-        self.agent = agent
+    def __init__(self, key: str) -> None:
+        self.key = key
         self.ping: Any = None
 
     def on_tick(self, frame: TickFrame) -> None:
-        ping = frame.pings.get(self.agent)
+        ping = frame.pings.get(self.key)
         if ping is not None:
             self.ping = ping
 
@@ -135,7 +140,8 @@ class TrailDiverEnv(gymnasium.Env):
     file's 60 Hz within millimetres at a third of the cost — a test holds them; None: the
     scenario file's own);
     ``time_limit_s`` truncation; ``lost_range_m`` horizontal range (m) beyond which the
-    diver is lost; ``include_contact`` (sonar observation only); ``sonar_shape`` (range
+    diver is lost; ``include_contact`` (sonar observation only); ``sonar`` the name of the
+    follower's sonar the observation shows (default: its first); ``sonar_shape`` (range
     bins, beams); ``randomization`` a :class:`Randomization` or a dict of its fields;
     ``reward_weights`` a :class:`RewardWeights` or a dict; ``scenario_hook`` your own
     randomisation ``hook(data, rng)`` (:class:`~uhrisim.envs.episodes.TrailEpisodes`);
@@ -150,7 +156,7 @@ class TrailDiverEnv(gymnasium.Env):
                  target: str = "diver", control_step_s: float = 0.25,
                  physics_rate_hz: float | None = PHYSICS_RATE_HZ,
                  time_limit_s: float = 120.0, lost_range_m: float = 12.0,
-                 include_contact: bool = True,
+                 include_contact: bool = True, sonar: str | None = None,
                  sonar_shape: tuple[int, int] = SONAR_SHAPE,
                  randomization: Randomization | dict | None = None,
                  reward_weights: RewardWeights | dict | None = None,
@@ -195,13 +201,17 @@ class TrailDiverEnv(gymnasium.Env):
         self._max_steps = max(1, round(self.time_limit_s / self.control_step_s))
         self._steps = 0
         self.follower, self.target = follower, target
-        self._sonar_config = next((a.sensors[0] for a in self.episodes.base.agents
-                                   if a.name == follower and a.sensors), None)
+        sonars = [s for a in self.episodes.base.agents if a.name == follower
+                  for s in a.sensors if s.type == "sonar"]
+        self._sonar_config = next((s for s in sonars if sonar in (None, s.name)), None)
         if observation == "sonar" and self._sonar_config is None:
-            raise EnvArgumentError(f"observation='sonar' needs a sonar on {follower!r}; its "
-                                   "scenario agent has no sensors")
+            raise EnvArgumentError(
+                f"observation='sonar' needs a sonar on {follower!r}; its scenario agent has "
+                + (f"no sonar named {sonar!r} (its sonars: "
+                   f"{', '.join(s.name for s in sonars) or 'none'})" if sonar is not None
+                   else "no sonar"))
         follower_model = next(a.model for a in self.episodes.base.agents if a.name == follower)
-        if command == "thrusters" and follower_model != "videoray":
+        if command == "thrusters" and not MODELS[follower_model].thrusters:
             raise EnvArgumentError(f"command='thrusters' drives a VideoRay's three thrusters; "
                                    f"{follower!r} is a {follower_model} model: use "
                                    "command='desired'")
@@ -211,7 +221,7 @@ class TrailDiverEnv(gymnasium.Env):
         if command == "desired":
             self.action_space = spaces.Box(DESIRED_LOW, DESIRED_HIGH, dtype=np.float32)
         else:
-            self.action_space = spaces.Box(-THRUSTER_RANGE, THRUSTER_RANGE, (3,),
+            self.action_space = spaces.Box(-THRUSTER_LIMIT, THRUSTER_LIMIT, (3,),
                                            dtype=np.float32)
         if observation == "state":
             self.observation_space = _state_space()
@@ -265,13 +275,13 @@ class TrailDiverEnv(gymnasium.Env):
             raise gymnasium.error.ResetNeeded("call reset() before render()")
         follower, target = self._navs()
         ping = self._ping_hook.ping if self._ping_hook is not None else None
-        sonar = self._sonar_config
-        half_fov = math.radians(get_preset(sonar.preset).fov_h_deg) / 2.0 if sonar else 0.0
+        info = ping.info if ping is not None else None  # the fan's own range and width
         return render_frame(
             self._sim.scene, follower, target,
             TrailGeometry.of(follower, target, *self._trail).trail_point_ned, self._track,
             ping.fan_u8 if ping is not None else None,
-            sonar.max_range if sonar is not None else None, half_fov, self._sim.t)
+            info.range_max_m if info is not None else None,
+            math.radians(info.fov_deg) / 2.0 if info is not None else 0.0, self._sim.t)
 
     def close(self) -> None:
         if self._sim is not None:
@@ -313,8 +323,9 @@ class TrailDiverEnv(gymnasium.Env):
         except ConfigError as error:  # e.g. a scenario_hook that wrote a bad value
             raise EnvArgumentError(f"episode {episode_seed}: {error}") from None
         sonar = self.observation_kind == "sonar"
-        self._ping_hook = _LatestPing(self.follower) if sonar else None
-        self._sim = Simulation(source, sonar_enabled=sonar,
+        self._ping_hook = _LatestPing(
+            sensor_key(self.follower, self._sonar_config.name)) if sonar else None
+        self._sim = Simulation(source, raycast_sensors=sonar,
                                hooks=[self._ping_hook] if self._ping_hook else ())
         self._sim.start()
         self._done = False
@@ -428,7 +439,7 @@ class TrailDiverEnv(gymnasium.Env):
 
 _ARGUMENTS = ("observation", "command", "scenario", "follower", "target", "control_step_s",
               "physics_rate_hz",
-              "time_limit_s", "lost_range_m", "include_contact", "sonar_shape",
+              "time_limit_s", "lost_range_m", "include_contact", "sonar", "sonar_shape",
               "randomization", "reward_weights", "scenario_hook", "render_mode")
 
 

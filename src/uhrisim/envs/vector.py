@@ -58,11 +58,12 @@ from uhrisim.core.elementwise import ARRAYS
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned, wrap_180
 from uhrisim.dynamics.diver import body_rates_kernel
+from uhrisim.dynamics.plants import DiverPlant, VideoRayPlant
 from uhrisim.envs.task import REWARD_TERMS, THRUSTER_LIMIT
 from uhrisim.envs.trail_diver import SEED_SPAN, EnvArgumentError, TrailDiverEnv
 from uhrisim.scenario.build_world import add_object, build_static_scene
 from uhrisim.scenario.load import ScenarioFile
-from uhrisim.sim.build import COLLISION_RADIUS, controller_for, plant_for
+from uhrisim.vehicles import MODELS
 from uhrisim.world.scene import Scene
 
 
@@ -95,23 +96,25 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         base = t.episodes.base
         agents = {a.name: a for a in base.agents}
         follower, target = agents[t.follower], agents[t.target]
-        if follower.model != "videoray" or target.model != "diver" or not _loiter(target):
-            raise EnvArgumentError("the vector env flies a VideoRay follower behind a diver "
-                                   "target whose helm has a Loiter behavior")
         self.dt = 1.0 / t.episodes.physics_rate_hz
         self.ticks_per_step = round(t.control_step_s / self.dt)
-        self.rov_plant, self.diver_plant = plant_for(follower, self.dt), plant_for(target,
-                                                                                  self.dt)
-        self.rov_control = controller_for(follower, self.rov_plant)
-        self.diver_control = controller_for(target, self.diver_plant)
+        rov_model, diver_model = MODELS[follower.model], MODELS[target.model]
+        self.rov_plant = rov_model.make_plant(follower, self.dt, follower.name)
+        self.diver_plant = diver_model.make_plant(target, self.dt, target.name)
+        if not (isinstance(self.rov_plant, VideoRayPlant)
+                and isinstance(self.diver_plant, DiverPlant) and _loiter(target)):
+            raise EnvArgumentError("the vector env flies a VideoRay follower behind a diver "
+                                   "target whose helm has a Loiter behavior")
+        self.rov_control = rov_model.make_controller(follower, self.rov_plant)
+        self.diver_control = diver_model.make_controller(target, self.diver_plant)
         self.rov_control_period = _period(follower.control_rate_hz, self.dt)
         self.diver_control_period = _period(target.control_rate_hz, self.dt)
         self.pilot_period = ticks_for_rate(target.helm.rate_hz, self.dt, "diver helm rate")
         where = f"agents.{target.name}.helm.domain"
         self.domain = (parse_domain(dict(target.helm.domain), where) if target.helm.domain
                        else default_domain(where))
-        self.rov_radius = COLLISION_RADIUS["videoray"]
-        self.contact_distance = COLLISION_RADIUS["videoray"] + COLLISION_RADIUS["diver"]
+        self.rov_radius = rov_model.collision_radius
+        self.contact_distance = rov_model.collision_radius + diver_model.collision_radius
         self._source = ScenarioFile(base.model_copy(update={
             "world": base.world.model_copy(update={"objects": ()})}), t.episodes.path)
         self.floor = build_static_scene(self._source)

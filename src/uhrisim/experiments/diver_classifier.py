@@ -26,6 +26,7 @@ import yaml
 from uhrisim.perception.classify import FEATURES, DiverClassifier, track_features
 from uhrisim.perception.pipeline import SonarPerception
 from uhrisim.scenario.load import ScenarioFile, validate_data
+from uhrisim.sim.hooks import sensor_key
 from uhrisim.sim.simulation import Simulation
 from uhrisim.sim.sonar_contacts import perception_params
 
@@ -56,9 +57,10 @@ def collect(path: Path, seed: int, duration: float) -> tuple[np.ndarray, np.ndar
     target_label = sim.scene.labels.index(
         sim.scene.bodies[sim.scene.body_names.index(target)].label)
     rows, classes = [], []
+    key = sensor_key(observer, sim.agents[observer].sonars[0].name)
     while sim.t < duration:
         frame = sim.step()
-        ping = frame.pings.get(observer)
+        ping = frame.pings.get(key)
         if ping is None:
             continue
         seen = perception.process(ping)

@@ -18,8 +18,8 @@ import json
 from pathlib import Path
 from typing import Any
 
+from uhrisim.app.runner import run_scenario, strict_json
 from uhrisim.scenario.shipped import shipped_scenario
-from uhrisim.sim.runner import run_scenario, strict_json
 from uhrisim.viz.figures import save_figure, subplots
 
 SCENARIOS = ("track_and_trail_sonar", "track_and_trail_sonar_clutter")

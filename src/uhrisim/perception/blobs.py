@@ -4,7 +4,7 @@ extent and intensity.
 Connected components (8-connectivity) of the CFAR mask are the *parts*; parts whose
 intensity-weighted centres lie within ``merge_radius_m`` of each other (single linkage, in
 the sonar's horizontal plane) are one *blob* — a diver is "a cluster of a few bright
-blobs about 1 m across (tank, head, fins)" (``shared/reference/sonar.md``). Positions
+blobs about 1 m across (tank, head, fins)" (``docs/reference/sonar.md``). Positions
 are in the sonar plane (x forward, y starboard, m: an imaging sonar measures no
 elevation, so z = 0) and in local NED (north, east, m) through the ping's pose.
 """

@@ -15,7 +15,7 @@ statistic CFAR on sub-blocks (Rohling 1983; Gandhi & Kassam 1988), so a diver th
 covers a hundred beams at 2 m does not raise its own threshold as a small guard window
 would let it. The image is first averaged over a small window (non-coherent integration
 against speckle grain, which spans several beams because each beam is ~1° wide over
-~0.18° spacing, ``shared/reference/sonar.md``). On a clean image (no noise floor: σ = 0)
+~0.18° spacing, ``docs/reference/sonar.md``). On a clean image (no noise floor: σ = 0)
 the ``min_contrast``/``min_level`` terms do the work, so the detector works on both.
 
 Ego-motion compensation (:class:`BackgroundModel`): a running mean of the image kept in

@@ -1,12 +1,13 @@
 """Recording runs: MCAP files with ROS 2 message schemas, and reading them back.
 
-``McapRecorder`` is the simulation's read-only recording hook; ``reader`` reads the
+``McapRecorder`` is the MCAP output of the ROS translation (:mod:`uhrisim.ros`),
+``McapRecordingHook`` the simulation's read-only recording hook; ``reader`` reads the
 files back (tolerating a run killed half-way). Frames: ROS REP-103 (ENU world, FLU
-body) inside the files, converted from uhrisim's NED/FRD at the recorder only.
+body) inside the files, converted from uhrisim's NED/FRD by :mod:`uhrisim.ros.convert`.
 """
 
-from uhrisim.record.hook import McapRecordingHook, ros_name, scene_markers
-from uhrisim.record.mcap_recorder import MARKER_TYPES, McapRecorder
+from uhrisim.record.hook import McapRecordingHook
+from uhrisim.record.mcap_recorder import McapRecorder
 from uhrisim.record.reader import (
     DecodedMessage,
     OdometryTrack,
@@ -19,7 +20,6 @@ from uhrisim.record.reader import (
 from uhrisim.record.recover import is_complete, recover, recover_in_place
 
 __all__ = [
-    "MARKER_TYPES",
     "DecodedMessage",
     "McapRecorder",
     "McapRecordingHook",
@@ -31,7 +31,5 @@ __all__ = [
     "read_odometry",
     "recover",
     "recover_in_place",
-    "ros_name",
-    "scene_markers",
     "summarize",
 ]

@@ -42,7 +42,7 @@ from mcap_ros2.decoder import DecoderFactory
 
 from uhrisim.core.errors import AssetError
 from uhrisim.core.frames import enu_from_ned, enu_rotation_from_ned, flu_from_frd
-from uhrisim.record import cdr
+from uhrisim.ros import cdr
 
 logger = logging.getLogger(__name__)
 

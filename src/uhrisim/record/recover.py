@@ -22,7 +22,7 @@ from uhrisim.record.rosbag2 import write_metadata
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["is_complete", "recover", "recover_in_place"]
+__all__ = ["is_complete", "recover", "recover_in_place", "starts_as_mcap"]
 
 PARTIAL_SUFFIX = ".partial"
 
@@ -86,12 +86,37 @@ def recover_in_place(path: Path | str) -> int | None:
     path = Path(path)
     if not path.is_file():
         raise UhrisimError(f"{path}: no such recording")
+    if not starts_as_mcap(path):
+        raise UhrisimError(f"{path}: not an MCAP recording (no MCAP magic and header at its "
+                           "start): left as it is")
     if is_complete(path):
         return None
     partial = path.with_name(path.name + PARTIAL_SUFFIX)
     if partial.exists():
         raise UhrisimError(f"{partial} already exists: move it away to recover {path} again")
-    path.rename(partial)
-    count = recover(partial, path)
-    write_metadata(path)
+    try:
+        path.rename(partial)
+    except OSError as error:
+        raise UhrisimError(f"{path}: cannot recover it here ({error.strerror}): copy the "
+                           "folder somewhere writable and recover the copy") from None
+    try:
+        count = recover(partial, path)
+        write_metadata(path)
+    except OSError as error:  # a full disk, say: the cut file goes back where it was
+        path.unlink(missing_ok=True)
+        partial.rename(path)
+        raise UhrisimError(f"{path}: recovery failed ({error.strerror}); the recording is "
+                           "left as it was") from None
     return count
+
+
+def starts_as_mcap(path: Path | str) -> bool:
+    """Whether the file starts as an MCAP file does: the magic, then a Header record
+    (opcode 0x01, a length that fits in the file). Nothing else is ever renamed."""
+    path = Path(path)
+    with path.open("rb") as f:
+        head = f.read(len(MCAP_MAGIC) + 9)
+    if len(head) < len(MCAP_MAGIC) + 9 or head[: len(MCAP_MAGIC)] != MCAP_MAGIC:
+        return False
+    opcode, length = head[len(MCAP_MAGIC)], int.from_bytes(head[len(MCAP_MAGIC) + 1:], "little")
+    return opcode == 0x01 and length <= path.stat().st_size

@@ -13,6 +13,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from uhrisim.core.errors import ConfigError
+from uhrisim.core.files import regular_file_text
 from uhrisim.scenario.schema import Scenario
 from uhrisim.scenario.yaml_lines import LineMap, line_of, load_with_lines
 
@@ -89,7 +90,7 @@ def load_scenario(path: str | Path) -> ScenarioFile:
     """Read, parse (safe YAML) and validate a scenario file."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = regular_file_text(path)
     except FileNotFoundError:
         raise ConfigError("scenario file not found", where=str(path)) from None
     except (OSError, UnicodeDecodeError) as error:

@@ -1,20 +1,19 @@
-"""The scenario file format: strict, typed, frozen (DESIGN.md habit 6).
+"""The scenario file format: strict, typed, frozen (docs/design.md habit 6).
 
-Every default lives here. Unknown keys are errors with a did-you-mean; values out of
-range fail with the field path (the loader adds the file line). Positions are NED
+Every default lives once: here, or for a part of the simulator (sonar, camera, VideoRay,
+its controller) in the part's own declaration, which the section embeds
+(:mod:`uhrisim.scenario.sections`). Unknown keys are errors with a did-you-mean; values
+out of range fail with the field path (the loader adds the file line). Positions are NED
 (``north``, ``east``, ``depth``), headings compass degrees, everything else SI.
 """
 
 from __future__ import annotations
 
 import difflib
-from types import UnionType
-from typing import Annotated, Any, Literal, Union, get_args, get_origin
+from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import (
     AfterValidator,
-    BaseModel,
-    ConfigDict,
     Discriminator,
     Field,
     PositiveFloat,
@@ -22,51 +21,21 @@ from pydantic import (
     field_validator,
     model_validator,
 )
-from pydantic_core import PydanticCustomError
 
 from uhrisim.autonomy.params import checked_value
+from uhrisim.control.videoray_p import GAIN_PRESETS, PGains
+from uhrisim.dynamics.videoray import VideoRayParams
+from uhrisim.scenario.sections import scenario_section
+from uhrisim.scenario.strict import Strict
+from uhrisim.sensors.camera.config import CameraConfig
+from uhrisim.sensors.sonar.config import SonarConfig
+from uhrisim.vehicles import MODELS
 
 # -0.0 passes ge=0 but numpy refuses it as a scale ("scale < 0"): made +0.0
 NonNegativeFloat = Annotated[float, Field(ge=0.0), AfterValidator(lambda x: x + 0.0)]
 HeadingDeg = Annotated[float, Field(ge=-360.0, le=360.0)]
-
-
-def _numeric_only(field: Any) -> bool:
-    """Whether a field takes numbers and never a boolean (float/int, constrained or not,
-    optional or not)."""
-    kinds = set(get_args(field.annotation)) if get_origin(field.annotation) in (
-        Union, UnionType) else {field.annotation}
-    kinds = {get_args(k)[0] if get_origin(k) is Annotated else k for k in kinds}
-    kinds.discard(type(None))
-    return bool(kinds) and kinds <= {float, int}
-
-
-class Strict(BaseModel):
-    """Base of every scenario section: frozen, and unknown keys are errors with a hint."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True,
-                              allow_inf_nan=False)
-
-    @model_validator(mode="before")
-    @classmethod
-    def _reject_unknown_keys(cls, data: Any) -> Any:
-        if isinstance(data, dict):
-            known = set(cls.model_fields)
-            known |= {f.alias for f in cls.model_fields.values() if f.alias}
-            for key in data:
-                if key not in known:
-                    close = difflib.get_close_matches(str(key), sorted(known), n=1)
-                    hint = (f"did you mean {close[0]!r}?" if close
-                            else f"known keys: {', '.join(sorted(known))}")
-                    raise PydanticCustomError("unknown_key", "unknown key '{key}'; {hint}",
-                                              {"key": key, "hint": hint})
-                field = cls.model_fields.get(key) or next(
-                    f for f in cls.model_fields.values() if f.alias == key)
-                if isinstance(data[key], bool) and _numeric_only(field):
-                    # YAML reads yes/no/on/off as booleans: "duration: yes" is not 1 s
-                    raise PydanticCustomError("bool_for_number", "must be a number, got {value}",
-                                              {"key": key, "value": str(data[key])})
-        return data
+#: A name that is also one ROS name token: agents, sensors, labels.
+Name = Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")]
 
 
 class Vec3(Strict):
@@ -87,12 +56,12 @@ class Pose(Vec3):
 
 
 class Water(Strict):
-    """Water properties: sound speed and absorption inputs (Francois-Garrison)."""
+    """The water, as the sonars' absorption and sound speed read it (Francois-Garrison;
+    the sound speed follows from temperature and salinity, it is not set)."""
 
     temperature_c: Annotated[float, Field(ge=-2.0, le=40.0)] = 15.0
     salinity_psu: Annotated[float, Field(ge=0.0, le=45.0)] = 35.0
-    ph: Annotated[float, Field(ge=6.0, le=9.0)] = 8.0
-    sound_speed: Annotated[float, Field(ge=1300.0, le=1700.0)] = 1500.0
+    ph: Annotated[float, Field(ge=6.0, le=9.5)] = 8.0
 
 
 class FlatFloor(Strict):
@@ -184,51 +153,24 @@ class World(Strict):
     objects: tuple[SceneObject, ...] = ()
 
 
-class SonarMount(Strict):
-    """Sonar pose on the vehicle: body FRD position (m), tilt (deg, > 0 down), yaw (deg)."""
-
-    position: tuple[float, float, float] = (0.15, 0.0, 0.0)
-    tilt_deg: Annotated[float, Field(ge=-90.0, le=90.0)] = 10.0
-    yaw_deg: HeadingDeg = 0.0
+#: The keys a sensor section had before it took its part's names (read with a warning).
+_MOUNT_KEYS = {"mount.position": "mount_position_frd", "mount.tilt_deg": "tilt_deg",
+               "mount.yaw_deg": "yaw_deg"}
 
 
-class SonarImage(Strict):
-    """Image-formation settings of a physical-mode sonar (docs/sonar.md); a key left out
-    keeps the default, ``null`` switches an optional term off. Checked by SonarConfig."""
+class SonarSensor(scenario_section(
+        SonarConfig, "SonarSettings",
+        exclude=("spec", "water_temperature_c", "salinity_psu", "water_depth_m", "ph"))):
+    """An imaging sonar: every setting of :class:`~uhrisim.sensors.sonar.SonarConfig`
+    under its own name, default and bounds (docs/settings.md), the water from
+    ``world.water``. ``name``: what its outputs are keyed and published by
+    (``<agent>/<name>``; default: :func:`default_sensor_names`)."""
 
-    gain_db: float | None = None
-    display_top_db: float | None = None
-    dynamic_range_db: float | None = None
-    display_gamma: float | None = None
-    source_level_db: float | None = None
-    noise_floor_db: float | None = None
-    ambient_noise: bool | None = None
-    sea_state: float | None = None
-    post_tvg_noise_db: float | None = None
-    volume_scattering_db: float | None = None
-    surface_scattering_db: float | None = None
-    far_sidelobe_db: float | None = None
-    sidelobe_db: float | None = None
-    fan_edge_loss_db: float | None = None
-    tvg_min_range_m: float | None = None
-    speckle_model: Literal["product", "coherent"] | None = None
-    multipath: bool | None = None
-    multipath_loss_db: float | None = None
-
-
-class SonarSensor(Strict):
     type: Literal["sonar"] = "sonar"
-    preset: str = "P900-45"
-    rate_hz: PositiveFloat = 15.0
-    min_range: NonNegativeFloat = 0.5
-    max_range: PositiveFloat = 30.0
-    rays_per_beam: Annotated[int, Field(ge=1, le=512)] = 32
-    mode: Literal["physical", "2013"] = "physical"
-    speckle: bool = True
-    labels: bool = False  # per-pixel object label images (training data); ~+50 % per ping
-    fan_width_px: Annotated[int, Field(ge=64, le=4096)] = 512
-    mount: SonarMount = SonarMount()
-    image: SonarImage = SonarImage()
+    name: Name | None = None
+    legacy_keys: ClassVar[dict[str, str]] = {
+        "min_range": "range_min_m", "max_range": "range_max_m", "fan_width_px": "fan_size_px",
+        **_MOUNT_KEYS, "image.*": "*"}
 
 
 class CameraWater(Strict):
@@ -246,34 +188,16 @@ class CameraWater(Strict):
         return self
 
 
-class CameraMount(Strict):
-    """Camera pose on the vehicle (None: the preset's): body FRD position (m), tilt (deg,
-    > 0 down), yaw (deg)."""
-
-    position: tuple[float, float, float] | None = None
-    tilt_deg: Annotated[float, Field(ge=-90.0, le=90.0)] | None = None
-    yaw_deg: HeadingDeg = 0.0
-
-
-class CameraSensor(Strict):
-    """An underwater colour camera (docs/camera.md); None: the preset's value."""
+class CameraSensor(scenario_section(CameraConfig, "CameraSettings", exclude=("water",))):
+    """An underwater colour camera (docs/camera.md): every setting of
+    :class:`~uhrisim.sensors.camera.CameraConfig` under its own name, default and bounds
+    (None: the preset's value), and the water it looks through."""
 
     type: Literal["camera"]
-    preset: Literal["videoray-pro4"] = "videoray-pro4"
-    rate_hz: PositiveFloat = 10.0
-    width: Annotated[int, Field(ge=1, le=8192)] | None = None
-    height: Annotated[int, Field(ge=1, le=8192)] | None = None
-    hfov_deg: Annotated[float, Field(gt=0.0, lt=180.0)] | None = None
-    max_range: PositiveFloat = 30.0
-    sampling: Literal["adaptive", "full"] = "adaptive"  # rays: adaptive, or one per pixel
+    name: Name | None = None  # default: see default_sensor_names
     water: CameraWater = CameraWater()
-    lamps: bool = True
-    lamp_power: NonNegativeFloat = 1.0
-    sun_radiance: NonNegativeFloat = 1.0
-    forward_scatter: bool = True
-    exposure: PositiveFloat | Literal["auto"] = "auto"
-    noise: bool = True
-    mount: CameraMount = CameraMount()
+    legacy_keys: ClassVar[dict[str, str]] = {"max_range": "max_range_m", "lamps": "lamps_on",
+                                             **_MOUNT_KEYS}
 
 
 def _sensor_kind(value: Any) -> str:
@@ -289,23 +213,28 @@ Sensor = Annotated[
 ]
 
 
-class VideoRayModelConfig(Strict):
-    J: PositiveFloat = 0.0118
-    moment_arm: PositiveFloat = 1.0
-    thrust_map: Literal["linear", "quadratic"] = "linear"
-    coupling: Literal["paper", "rigid-body"] = "paper"
+def default_sensor_names(sensors: tuple[SonarSensor | CameraSensor, ...]) -> list[str]:
+    """Each sensor's name: its own ``name``, else its type for the first sensor of that
+    type on the agent and the type with its ordinal after (``sonar``, ``sonar_2``,
+    ``camera``): stable, and the ROS topics of an agent with one sonar stay
+    ``/<agent>/sonar/...``."""
+    names, seen = [], {"sonar": 0, "camera": 0}
+    for sensor in sensors:
+        seen[sensor.type] += 1
+        ordinal = seen[sensor.type]
+        names.append(sensor.name or (sensor.type if ordinal == 1 else f"{sensor.type}_{ordinal}"))
+    return names
 
 
-class ControllerConfig(Strict):
-    """P controller of the paper (eqs 5-9); ``preset`` then explicit gains override it."""
+VideoRayModelConfig = scenario_section(
+    VideoRayParams, "VideoRayModelConfig", include=("J", "moment_arm", "thrust_map", "coupling"),
+    doc="The VideoRay's model settings a scenario may change (VideoRayParams).")
 
-    preset: Literal["ros-node", "ros-node-early", "octave", "mission"] = "mission"
-    heading: NonNegativeFloat | None = None
-    speed: NonNegativeFloat | None = None
-    depth: NonNegativeFloat | None = None
-    heading_weight: NonNegativeFloat | None = None
-    speed_weight: NonNegativeFloat | None = None
-    speed_feedforward: bool | None = None
+ControllerConfig = scenario_section(
+    PGains, "ControllerConfig", overrides=True,
+    fields={"preset": (Literal[tuple(GAIN_PRESETS)], "mission")},  # type: ignore[valid-type]
+    doc="P controller of the paper (eqs 5-9): ``preset`` (GAIN_PRESETS), then the gains "
+        "given override it (PGains).")
 
 
 class DiverLimits(Strict):
@@ -387,8 +316,9 @@ class SonarContactsConfig(Strict):
     (``uhrisim.perception``: DetectorParams, BlobParams, TrackerParams,
     PerceptionParams)."""
 
-    name: Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")] = "diver"
+    name: Name = "diver"
     vehicle_type: str = "DIVER"
+    sensor: Name | None = None  # the sonar perception reads; None: the agent's first sonar
     k_sigma: PositiveFloat | None = None
     min_contrast: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
     min_level: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
@@ -442,8 +372,8 @@ class BubblesConfig(Strict):
 
 
 class AgentConfig(Strict):
-    name: Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")]
-    model: Literal["videoray", "diver", "kinematic"]
+    name: Name
+    model: Literal[tuple(MODELS)]  # type: ignore[valid-type]  # uhrisim.vehicles
     start: Pose = Pose()
     driver: Literal["helm", "script", "external", "none"] = "helm"
     videoray: VideoRayModelConfig = VideoRayModelConfig()
@@ -462,11 +392,34 @@ class AgentConfig(Strict):
     material: str | None = None
     bubbles: BubblesConfig | None = None  # exhaled bubble plume (open-circuit scuba)
     # The body's label in the sonar's label images; default: its kind ("diver" or "rov").
-    label: Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")] | None = None
+    label: Name | None = None
     vehicle_type: str | None = None
     length: PositiveFloat | None = None
 
     _script_order = field_validator("script")(_legs_in_time_order)
+
+    @field_validator("sensors")
+    @classmethod
+    def _named_sensors(cls, sensors: tuple[SonarSensor | CameraSensor, ...]
+                       ) -> tuple[SonarSensor | CameraSensor, ...]:
+        """Every sensor named (:func:`default_sensor_names`), no two alike."""
+        names = default_sensor_names(sensors)
+        repeated = sorted({n for n in names if names.count(n) > 1})
+        if repeated:
+            raise ValueError(f"sensor names on one agent must be unique; repeated: "
+                             f"{', '.join(repeated)} (give each a 'name')")
+        return tuple(s if s.name == n else s.model_copy(update={"name": n})
+                     for s, n in zip(sensors, names, strict=True))
+
+    def sensor_named(self, name: str) -> SonarSensor | CameraSensor | None:
+        return next((s for s in self.sensors if s.name == name), None)
+
+    @property
+    def perception_sonar(self) -> str | None:
+        """The name of the sonar whose pings perception reads (``contacts.sonar.sensor``,
+        else the first sonar); None without one."""
+        return self.contacts.sonar.sensor or next(
+            (s.name for s in self.sensors if s.type == "sonar"), None)
 
     @field_validator("start")
     @classmethod
@@ -478,10 +431,15 @@ class AgentConfig(Strict):
     @property
     def scene_body(self) -> str:
         """The 3-D body the agent has in the scene: ``body``, or its model's own."""
-        return self.body or ("diver" if self.model == "diver" else "videoray")
+        return self.body or MODELS[self.model].body
 
     @model_validator(mode="after")
     def _driver_matches(self) -> AgentConfig:
+        chosen = self.contacts.sonar.sensor
+        if chosen is not None and getattr(self.sensor_named(chosen), "type", None) != "sonar":
+            sonars = [s.name for s in self.sensors if s.type == "sonar"]
+            raise ValueError(f"contacts.sonar.sensor names no sonar {chosen!r} of agent "
+                             f"{self.name!r}; its sonars: {', '.join(sonars) or 'none'}")
         if self.driver == "helm" and self.helm is None:
             raise ValueError(f"agent {self.name!r} is driven by its helm but has no 'helm' section")
         if self.driver == "script" and not self.script:
@@ -569,7 +527,7 @@ class Ros2Section(Strict):
     lockstep_timeout_s: PositiveFloat = 10.0  # wall s a round may wait for the answers
     # The bridge node: its name, namespace (every topic under it, /clock and /tf too) and
     # ROS arguments as after --ros-args (remappings, -p parameters: docs/bridges-ros2.md)
-    node_name: Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")] = "uhrisim"
+    node_name: Name = "uhrisim"
     namespace: Annotated[str, Field(pattern=r"^(/?[A-Za-z][A-Za-z0-9_]*)*/?$")] = ""
     ros_args: tuple[str, ...] = ()
 

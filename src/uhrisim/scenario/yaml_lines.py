@@ -27,8 +27,9 @@ MAX_DEPTH = 64
 
 
 def _walk(root: yaml.Node, source: str) -> LineMap:
-    """Lines of every key path; refuses duplicate keys (naming both lines), a document
-    that expands past MAX_VALUES values, or one nested deeper than MAX_DEPTH."""
+    """Lines of every key path; refuses a key that is not a plain value, duplicate keys
+    (naming both lines), a document that expands past MAX_VALUES values, or one nested
+    deeper than MAX_DEPTH."""
     lines: LineMap = {}
     stack: list[tuple[yaml.Node, tuple[Any, ...]]] = [(root, ())]
     values = 0
@@ -46,8 +47,12 @@ def _walk(root: yaml.Node, source: str) -> LineMap:
         if isinstance(node, yaml.MappingNode):
             seen: dict[Any, int] = {}
             for key_node, value_node in node.value:
-                key = key_node.value
                 key_line = key_node.start_mark.line + 1
+                if not isinstance(key_node, yaml.ScalarNode):
+                    kind = "a list" if isinstance(key_node, yaml.SequenceNode) else "a mapping"
+                    raise ConfigError(f"a key must be a name, not {kind} ('? ...' keys)",
+                                      f"{source}:{key_line}")
+                key = key_node.value
                 if isinstance(key, str) and key != "<<":
                     if key in seen:
                         raise ConfigError(f"duplicate key {key!r} (first at line {seen[key]})",

@@ -7,7 +7,6 @@ which calls them; what they build are the records of :mod:`uhrisim.sim.state`.
 
 from __future__ import annotations
 
-import dataclasses
 import difflib
 import math
 from typing import Protocol
@@ -20,30 +19,21 @@ from uhrisim.autonomy.conditions import parse_condition
 from uhrisim.autonomy.config import HelmConfig, parse_domain
 from uhrisim.autonomy.contacts import AlertSpec, ContactManagerConfig
 from uhrisim.autonomy.moos_file import load_helm_from_moos
-from uhrisim.control.diver import DiverController, DiverGains
-from uhrisim.control.marine_pid import MarinePidController, MarinePidGains
-from uhrisim.control.videoray_p import GAIN_PRESETS, VideoRayPController
 from uhrisim.core.clock import ticks_for_rate
 from uhrisim.core.errors import ConfigError, warn_user
 from uhrisim.core.frames import rot_z
-from uhrisim.dynamics.diver import DiverParams
-from uhrisim.dynamics.kinematic import KinematicParams
-from uhrisim.dynamics.plants import DiverPlant, KinematicPlant, VideoRayPlant
-from uhrisim.dynamics.videoray import VideoRayParams
 from uhrisim.scenario.build_world import material_named, object_mesh
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import AgentConfig, CameraSensor, Scenario, SonarSensor
+from uhrisim.scenario.sections import part_settings
 from uhrisim.sim.community import Community
 from uhrisim.sim.drivers import HelmDriver, ScriptedDriver
 from uhrisim.sim.script import ScriptDriver
 from uhrisim.sim.state import Agent, CameraSlot, ScheduledEvent, SonarSlot
+from uhrisim.vehicles import MODELS
 from uhrisim.world.assets import diver_parts, videoray_mesh
 from uhrisim.world.materials import NEOPRENE, ROV_PLASTIC
 from uhrisim.world.scene import Scene
-
-#: Collision spheres (m): VideoRay hull ~0.38 x 0.29 x 0.22 m; a prone diver with fins is
-#: ~2.3 m long, a 0.6 m sphere covers the torso and tank where contact matters.
-COLLISION_RADIUS = {"videoray": 0.25, "diver": 0.6, "kinematic": 0.5}
 
 
 class BuildContext(Protocol):
@@ -59,34 +49,6 @@ class BuildContext(Protocol):
     def rng(self, component: str) -> np.random.Generator: ...
 
 
-def plant_for(cfg: AgentConfig, dt: float):
-    """The plant of an agent's model (its parameters from the scenario) for physics step ``dt``."""
-    if cfg.model == "videoray":
-        v = cfg.videoray
-        params = VideoRayParams(J=v.J, moment_arm=v.moment_arm, thrust_map=v.thrust_map,
-                                coupling=v.coupling)
-        return VideoRayPlant(params, dt, name=cfg.name)
-    if cfg.model == "diver":
-        limits = cfg.diver_limits
-        params = DiverParams(max_speed=limits.max_speed,
-                             max_turn_rate=math.radians(limits.max_turn_rate_deg),
-                             max_vertical_rate=limits.max_vertical_rate)
-        return DiverPlant(params, dt, name=cfg.name)
-    return KinematicPlant(KinematicParams(), dt, name=cfg.name)
-
-
-def controller_for(cfg: AgentConfig, plant):
-    """The controller of an agent's model (gains from the scenario) for its ``plant``."""
-    if cfg.model == "videoray":
-        c = cfg.controller
-        overrides = {k: v for k, v in c.model_dump().items() if k != "preset" and v is not None}
-        gains = dataclasses.replace(GAIN_PRESETS[c.preset], **overrides)
-        return VideoRayPController(gains, plant.params)
-    if cfg.model == "diver":
-        return DiverController(DiverGains(), plant.params)
-    return MarinePidController(MarinePidGains())
-
-
 def _sonar(sim: BuildContext, cfg: AgentConfig, index: int, sensor: SonarSensor):
     from uhrisim.sensors.sonar.config import SonarConfig
     from uhrisim.sensors.sonar.sonar import ImagingSonar
@@ -94,24 +56,17 @@ def _sonar(sim: BuildContext, cfg: AgentConfig, index: int, sensor: SonarSensor)
     water = sim.scenario.world.water
     where = sim.source.where("agents", _agent_index(sim, cfg.name), "sensors", index)
     try:
-        config = SonarConfig(
-            preset=sensor.preset, range_min_m=sensor.min_range, range_max_m=sensor.max_range,
-            rays_per_beam=sensor.rays_per_beam, mount_position_frd=sensor.mount.position,
-            tilt_deg=sensor.mount.tilt_deg, yaw_deg=sensor.mount.yaw_deg,
-            rate_hz=sensor.rate_hz, mode=sensor.mode, speckle=sensor.speckle,
-            labels=sensor.labels,
-            fan_size_px=sensor.fan_width_px, water_temperature_c=water.temperature_c,
-            salinity_psu=water.salinity_psu, ph=water.ph,
-            **sensor.image.model_dump(exclude_unset=True))
+        config = SonarConfig(**part_settings(sensor), water_temperature_c=water.temperature_c,
+                             salinity_psu=water.salinity_psu, ph=water.ph)
     except ConfigError as error:
         raise ConfigError(str(error), where=where) from None
     if config.effective_rate_hz < sensor.rate_hz - 1e-9:
         period = math.ceil(1.0 / (config.effective_rate_hz * sim.dt) - 1e-9)
     else:
         period = ticks_for_rate(sensor.rate_hz, sim.dt, f"{where}: rate_hz")
-    name = f"sonar{index}"
-    sonar = ImagingSonar(config, sim.rng(f"{cfg.name}/{name}"))
-    return SonarSlot(name, sonar, period)
+    # the random stream keeps its name by position (seeds reproduce the runs before names)
+    sonar = ImagingSonar(config, sim.rng(f"{cfg.name}/sonar{index}"))
+    return SonarSlot(sensor.name, sonar, period)
 
 
 def _camera(sim: BuildContext, cfg: AgentConfig, index: int, sensor: CameraSensor):
@@ -122,20 +77,12 @@ def _camera(sim: BuildContext, cfg: AgentConfig, index: int, sensor: CameraSenso
     try:
         water = (measured(w.attenuation, w.single_scattering_albedo) if w.attenuation
                  else jerlov(w.jerlov or "IB"))
-        config = CameraConfig(
-            preset=sensor.preset, width=sensor.width, height=sensor.height,
-            hfov_deg=sensor.hfov_deg, rate_hz=sensor.rate_hz, max_range_m=sensor.max_range,
-            sampling=sensor.sampling,
-            mount_position_frd=sensor.mount.position, tilt_deg=sensor.mount.tilt_deg,
-            yaw_deg=sensor.mount.yaw_deg, water=water, lamps_on=sensor.lamps,
-            lamp_power=sensor.lamp_power, sun_radiance=sensor.sun_radiance,
-            forward_scatter=sensor.forward_scatter, exposure=sensor.exposure,
-            noise=sensor.noise)
+        config = CameraConfig(**part_settings(sensor), water=water)
     except ConfigError as error:
         raise ConfigError(str(error), where=where) from None
     period = ticks_for_rate(sensor.rate_hz, sim.dt, f"{where}: rate_hz")
-    name = f"camera{index}"
-    return CameraSlot(name, UnderwaterCamera(config, sim.rng(f"{cfg.name}/{name}")), period)
+    camera = UnderwaterCamera(config, sim.rng(f"{cfg.name}/camera{index}"))  # as the sonar's
+    return CameraSlot(sensor.name, camera, period)
 
 
 def _agent_index(sim: BuildContext, name: str) -> int:
@@ -201,15 +148,18 @@ def _add_body(sim: BuildContext, cfg: AgentConfig, state) -> None:
                               material or ROV_PLASTIC, position, rotation)
 
 
-def build_agents(sim: BuildContext, sonar_enabled: bool) -> dict[str, Agent]:
+def build_agents(sim: BuildContext, raycast_sensors: bool) -> dict[str, Agent]:
+    """The scenario's agents; ``raycast_sensors`` False builds none of their sonars and
+    cameras (the sensors that cast rays into the scene)."""
     rec = sim.scenario.recording
     if rec.enabled:  # the recorder's odometry rate, like every rate: whole steps
         ticks_for_rate(rec.odometry_rate_hz, sim.dt,
                        sim.source.where("recording", "odometry_rate_hz"))
     agents: dict[str, Agent] = {}
     for index, cfg in enumerate(sim.scenario.agents):
+        model = MODELS[cfg.model]
         try:
-            plant = plant_for(cfg, sim.dt)
+            plant = model.make_plant(cfg, sim.dt, cfg.name)
         except ConfigError as error:  # e.g. a model too stiff for the step
             raise ConfigError(str(error), sim.source.where("agents", index, "model")) from None
         _check_start(sim, index, cfg, agents)
@@ -217,9 +167,9 @@ def build_agents(sim: BuildContext, sonar_enabled: bool) -> dict[str, Agent]:
         state = plant.initial_state(np.array([start.north, start.east, start.depth]),
                                     math.radians(start.heading_deg))
         community = Community(cfg.name)
-        agent = Agent(config=cfg, plant=plant, controller=controller_for(cfg, plant),
-                      community=community, state=state, inputs=np.zeros(plant.input_size),
-                      radius=COLLISION_RADIUS[cfg.model])
+        agent = Agent(config=cfg, model=model, plant=plant,
+                      controller=model.make_controller(cfg, plant), community=community,
+                      state=state, inputs=np.zeros(plant.input_size))
         _add_body(sim, cfg, state)
         if cfg.control_rate_hz is not None:
             agent.control_period = ticks_for_rate(
@@ -232,7 +182,7 @@ def build_agents(sim: BuildContext, sonar_enabled: bool) -> dict[str, Agent]:
         elif cfg.driver == "script":
             agent.driver = ScriptedDriver(ScriptDriver(cfg.script))
             agent.driver_period = ticks_for_rate(4.0, sim.dt, f"agents.{cfg.name}.script")
-        if sonar_enabled:
+        if raycast_sensors:
             agent.sonars = [_sonar(sim, cfg, i, s) for i, s in enumerate(cfg.sensors)
                             if s.type == "sonar"]
             agent.cameras = [_camera(sim, cfg, i, s) for i, s in enumerate(cfg.sensors)
@@ -250,7 +200,7 @@ def _check_start(sim: BuildContext, index: int, cfg: AgentConfig,
     inside = sim.scene.inside_solid(start)
     if inside is not None:
         raise ConfigError(f"agents[{index}].start: {cfg.name} would start {inside}", where)
-    radius = COLLISION_RADIUS[cfg.model]
+    radius = MODELS[cfg.model].collision_radius
     for other in placed.values():
         gap = float(np.linalg.norm(other.nav().position_ned - start))
         if gap < radius + other.radius:

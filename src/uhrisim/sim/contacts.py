@@ -20,9 +20,6 @@ from uhrisim.core.clock import ticks_for_rate
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned
 from uhrisim.sim.state import Agent
 
-VEHICLE_TYPES = {"videoray": "UUV", "diver": "DIVER", "kinematic": "UUV"}
-VEHICLE_LENGTHS = {"videoray": 0.38, "diver": 2.3, "kinematic": 1.0}  # m
-
 
 def node_report_of(agent: Agent, t: float, position_noise: np.ndarray | None = None) -> str:
     """The NODE_REPORT string of ``agent`` at time ``t`` (truth plus optional noise, m)."""
@@ -36,9 +33,9 @@ def node_report_of(agent: Agent, t: float, position_noise: np.ndarray | None = N
         name=agent.name, x=round(float(x_east), 3), y=round(float(y_north), 3),
         speed=round(nav.speed, 3), heading=round(float(heading_deg_from_yaw(nav.yaw)), 2),
         depth=round(float(nav.position_ned[2]), 3), time=round(t, 3),
-        type=cfg.vehicle_type or VEHICLE_TYPES[cfg.model],
+        type=cfg.vehicle_type or agent.model.vehicle_type,
         mode=str(agent.community.get("MODE", "")),
-        length=cfg.length or VEHICLE_LENGTHS[cfg.model])
+        length=cfg.length or agent.model.length)
     return format_node_report(report)
 
 

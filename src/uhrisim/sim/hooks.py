@@ -21,6 +21,19 @@ if TYPE_CHECKING:
     from uhrisim.sensors.sonar.ping import SonarPing
 
 
+def sensor_key(agent: str, sensor: str) -> str:
+    """The key of a sensor's outputs in a :class:`TickFrame`: ``"<agent>/<sensor>"``
+    (e.g. ``"videoray/sonar"``); the ROS topics and frames of the sensor use the same
+    two names."""
+    return f"{agent}/{sensor}"
+
+
+def split_sensor_key(key: str) -> tuple[str, str]:
+    """``(agent, sensor)`` of a :func:`sensor_key` (neither name holds a ``/``)."""
+    agent, _, sensor = key.partition("/")
+    return agent, sensor
+
+
 @dataclass(frozen=True)
 class AgentSnapshot:
     """One agent at one tick: truth navigation, actuator inputs, desired values, helm mode."""
@@ -104,7 +117,9 @@ class AgentSnapshots(Mapping[str, AgentSnapshot]):
 @dataclass(frozen=True)
 class TickFrame:
     """Everything new at one tick; ``pings``/``images``/``helm`` hold only this tick's
-    outputs (``images``: camera frames by agent).
+    outputs. Sonar pings, camera frames (``images``) and the sonar perception of a ping
+    are keyed by sensor, ``"<agent>/<sensor>"`` (:func:`sensor_key`): an agent may carry
+    several of each; ``helm`` is keyed by agent.
 
     ``agents`` is an :class:`AgentSnapshots` when the simulation makes the frame: read it
     during ``on_tick`` (the frame :meth:`Simulation.step` returns has every snapshot).
@@ -118,5 +133,6 @@ class TickFrame:
     posts: tuple[Post, ...] = ()
     events: tuple[SimEvent, ...] = ()
     images: Mapping[str, CameraFrame] = field(default_factory=dict)  # camera frames
-    # Sonar perception of this tick by agent (uhrisim.perception.pipeline.PerceptionFrame)
+    # What sonar perception made of this tick's pings, by the key of the ping
+    # (uhrisim.perception.pipeline.PerceptionFrame)
     perception: Mapping[str, Any] = field(default_factory=dict)

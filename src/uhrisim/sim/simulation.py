@@ -1,9 +1,11 @@
 """The simulation loop: integer ticks, one documented update order, read-only hooks.
 
-One tick of the physics step ``dt`` does, in this order (DESIGN.md, "data flows one way"):
+One tick of the physics step ``dt`` does, in this order (docs/design.md, "data flows one way"):
 
-1. **inputs from outside** queued through :meth:`Simulation.post` (bridges, viewer buttons)
-   are posted into the agents' communities;
+1. **inputs from outside** — every one, from the ROS 2 and MOOS bridges, the viewer's
+   buttons, a Gymnasium action or a script — wait in one inbox
+   (:meth:`Simulation.post` of a variable, :meth:`Simulation.set_actuators` of thruster
+   commands) and take effect here, at the start of the tick, in the order they came;
 2. **scripted events** that are due (time reached, or condition true) fire once;
 3. **dynamics**: every agent's model advances one step with the actuator inputs chosen at
    the end of the previous tick; collisions stop the move; body poses go to the scene;
@@ -11,9 +13,10 @@ One tick of the physics step ``dt`` does, in this order (DESIGN.md, "data flows 
 4. **navigation**: NAV_* are posted (at each agent's helm rate);
 5. **contacts**: node reports from simulation truth (degraded as configured) reach the
    other agents' contact managers at the contact rate;
-6. **sensors**: sonars that are due ping the scene, cameras that are due take a frame;
-   agents whose contacts come from their sonar run perception on the ping and post
-   the diver track as a contact report (:mod:`uhrisim.sim.sonar_contacts`);
+6. **sensors**: sonars that are due ping the scene, cameras that are due take a frame
+   (each keyed ``"<agent>/<sensor>"``); agents whose contacts come from their sonar run
+   perception on its ping and post the diver track as a contact report
+   (:mod:`uhrisim.sim.sonar_contacts`);
 7. **autonomy**: helms and scripts that are due post DESIRED_*;
 8. **control**: controllers turn DESIRED_* into actuator inputs for the next tick;
 9. **hooks** receive a :class:`~uhrisim.sim.hooks.TickFrame`.
@@ -44,7 +47,14 @@ from uhrisim.sim.build import build_agents, build_events
 from uhrisim.sim.community import Value
 from uhrisim.sim.contacts import TruthContacts
 from uhrisim.sim.drivers import ScriptedDriver
-from uhrisim.sim.hooks import AgentSnapshot, AgentSnapshots, HelmRecord, SimEvent, TickFrame
+from uhrisim.sim.hooks import (
+    AgentSnapshot,
+    AgentSnapshots,
+    HelmRecord,
+    SimEvent,
+    TickFrame,
+    sensor_key,
+)
 from uhrisim.sim.script import ScriptDriver
 from uhrisim.sim.sonar_contacts import SonarContacts
 from uhrisim.sim.state import Agent, ScheduledEvent
@@ -59,7 +69,9 @@ SURFACE_DEPTH = 0.0  # m; bodies cannot leave the water
 class Hook(Protocol):
     """A read-only observer of the simulation (recorder, metrics, viewer, bridges): told
     of the start, handed every tick's :class:`~uhrisim.sim.hooks.TickFrame`, told of the
-    end (with the error that stopped the run, if one did)."""
+    end (with the error that stopped the run, if one did). It changes nothing itself: what
+    it has to say to the simulation (a command from outside) goes through the inbox,
+    :meth:`Simulation.post` and :meth:`Simulation.set_actuators`, and acts next tick."""
 
     def on_start(self, sim: Simulation) -> None: ...
 
@@ -88,21 +100,23 @@ class Simulation:
     """Owns all mutable state; advance it with :meth:`step` or :meth:`run`."""
 
     def __init__(self, source: ScenarioFile, *, seed: int | None = None,
-                 sonar_enabled: bool = True, hooks: Sequence[Hook] = ()) -> None:
+                 raycast_sensors: bool = True, hooks: Sequence[Hook] = ()) -> None:
         self.source = source
         self.scenario = source.scenario
         self.seed = self.scenario.seed if seed is None else seed
         self.dt = 1.0 / self.scenario.physics_rate_hz
         self.tick = 0
-        self.sonar_enabled = sonar_enabled
+        self.raycast_sensors = raycast_sensors  # False: no sonars, no cameras
         self.hooks: list[Hook] = list(hooks)
         self.collisions = 0
         self.events_log: list[SimEvent] = []
         self._pending_events: list[SimEvent] = []
-        self._inbox: list[tuple[str, str, Value, str]] = []
+        # inputs from outside, applied at the start of the next tick (see _apply_inbox):
+        # ("post", agent, var, value, source) or ("actuators", agent, inputs, until_s)
+        self._inbox: list[tuple[Any, ...]] = []
         self._inbox_lock = threading.Lock()
         self.scene: Scene = build_static_scene(source)
-        self.agents: dict[str, Agent] = build_agents(self, sonar_enabled)
+        self.agents: dict[str, Agent] = build_agents(self, raycast_sensors)
         self.bubbles = DiverBubbles(self.scene, self.agents, self.rng)
         self.contacts = TruthContacts(self.agents, self.dt, self.rng)
         self.sonar_contacts = SonarContacts(self.agents, self.dt, source, self.record_event)
@@ -134,18 +148,22 @@ class Simulation:
             raise ConfigError(f"unknown agent {agent!r}; agents: {', '.join(self.agents)}")
         value = checked_value(agent, var, value)
         with self._inbox_lock:
-            self._inbox.append((agent, var, value, source))
+            self._inbox.append(("post", agent, var, value, source))
 
     def set_actuators(self, agent: str, inputs: Sequence[float], hold_s: float = 1.0) -> None:
         """Drive an agent's actuators directly (an external controller), for ``hold_s``
-        simulated seconds; then its own controller takes over again (a safe fallback)."""
-        target = self.agents[agent]
+        simulated seconds from now; then its own controller takes over again (a safe
+        fallback). Checked now, queued in the inbox like :meth:`post` (thread-safe): the
+        controller stage of the next tick applies them."""
+        if agent not in self.agents:
+            raise ConfigError(f"unknown agent {agent!r}; agents: {', '.join(self.agents)}")
+        size = self.agents[agent].inputs.size
         values = np.asarray(inputs, dtype=float)
-        if values.shape != target.inputs.shape or not np.all(np.isfinite(values)):
-            raise ConfigError(f"actuator inputs for {agent!r} must be {target.inputs.size} "
-                              f"finite numbers, got {list(inputs)!r}")
-        target.actuator_override = values
-        target.actuator_override_until = self.t + hold_s
+        if values.shape != (size,) or not np.all(np.isfinite(values)):
+            raise ConfigError(f"actuator inputs for {agent!r} must be {size} finite numbers, "
+                              f"got {list(inputs)!r}")
+        with self._inbox_lock:
+            self._inbox.append(("actuators", agent, values, self.t + hold_s))
 
     def refresh_static_obstacles(self) -> None:
         """Recompute the collision broad phase after the scene's geometry changed."""
@@ -254,10 +272,16 @@ class Simulation:
 
     # -- tick stages ----------------------------------------------------------------------
     def _apply_inbox(self) -> None:
+        """The inputs from outside, in the order they came (the tick's first stage)."""
         with self._inbox_lock:
             inbox, self._inbox = self._inbox, []
-        for agent, var, value, source in inbox:
-            self.agents[agent].community.post(var, value, self.t, source)
+        for kind, agent, *rest in inbox:
+            if kind == "post":
+                var, value, source = rest
+                self.agents[agent].community.post(var, value, self.t, source)
+            else:
+                target = self.agents[agent]
+                target.actuator_override, target.actuator_override_until = rest
 
     def _fire_events(self) -> None:
         for event in self.events:
@@ -305,10 +329,11 @@ class Simulation:
     def _advance(self, agent: Agent) -> None:
         previous = agent.state  # plants return a new state; this one stays as it was
         new_state = agent.plant.step(self.t, previous, agent.inputs)
+        model = agent.model
         if new_state[2] < SURFACE_DEPTH:  # cannot fly out of the water
             new_state[2] = SURFACE_DEPTH
-            if agent.config.model == "videoray":
-                new_state[6] = max(new_state[6], 0.0)  # no upward heave through the surface
+            if model.surface_stops is not None:  # no upward heave through the surface
+                new_state[model.surface_stops] = max(new_state[model.surface_stops], 0.0)
         start, end = previous[:3], new_state[:3]
         fraction, touched = self._clear_fraction(agent, start.tolist(), end.tolist())
         if fraction < 1.0 and not agent.in_contact:  # count each contact once, at its onset
@@ -317,10 +342,8 @@ class Simulation:
         agent.in_contact = fraction < 1.0
         if fraction < 1.0:
             new_state[:3] = start + (end - start) * max(0.0, fraction - 1e-3)
-            if agent.config.model == "videoray":
-                new_state[4:7] = 0.0  # inelastic stop against the obstacle
-            elif agent.config.model == "kinematic":
-                new_state[4] = 0.0
+            if model.contact_stops is not None:
+                new_state[model.contact_stops] = 0.0  # inelastic stop against the obstacle
         agent.update(state=new_state)
         if agent.is_diver_body:
             speed = abs(agent.nav().speed)
@@ -384,15 +407,17 @@ class Simulation:
         c.post("NAV_SPEED", float(nav.speed), t, me)
 
     def _sense(self) -> tuple[dict[str, Any], dict[str, Any]]:
-        """Sonar pings and camera frames of the sensors due now (by agent)."""
+        """Sonar pings and camera frames of the sensors due now, by ``"<agent>/<sensor>"``."""
         pings, images = {}, {}
         for agent in self.agents.values():
             for slot in agent.sonars:
                 if self.tick % slot.period == 0:
-                    pings[agent.name] = self._sense_from(agent, slot.sonar.ping)
+                    pings[sensor_key(agent.name, slot.name)] = self._sense_from(
+                        agent, slot.sonar.ping)
             for cam in agent.cameras:
                 if self.tick % cam.period == 0:
-                    images[agent.name] = self._sense_from(agent, cam.camera.capture)
+                    images[sensor_key(agent.name, cam.name)] = self._sense_from(
+                        agent, cam.camera.capture)
         return pings, images
 
     def _sense_from(self, agent: Agent, sense: Callable[..., Any]) -> Any:

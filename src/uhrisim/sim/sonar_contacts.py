@@ -1,7 +1,8 @@
 """Contact reports from an agent's own sonar (``contacts.source: sonar``).
 
-Every ping of the observer's sonar goes through its :class:`SonarPerception` (detect →
-blobs → track → classify). At the contacts rate the track taken for the diver becomes a
+Every ping of the observer's sonar (``contacts.sonar.sensor``, default its first) goes
+through its :class:`SonarPerception` (detect → blobs → track → classify). At the contacts
+rate the track taken for the diver becomes a
 NODE_REPORT for the observer's contact manager, as pHelmIvP would get it from a
 sonar-tracking process: ``NAME=<name>,X,Y`` (MOOS x east, y north, from the track),
 ``SPD``/``HDG`` from the track's velocity (the heading is held while the speed is below
@@ -40,6 +41,7 @@ from uhrisim.perception.tracker import TrackerParams
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import SonarContactsConfig
 from uhrisim.sensors.sonar.ping import SonarPing
+from uhrisim.sim.hooks import sensor_key
 from uhrisim.sim.state import Agent
 
 MIN_HEADING_SPEED = 0.1  # m/s: below it a track's heading is noise; the last one is held
@@ -82,6 +84,7 @@ class _Observer:
     config: SonarContactsConfig
     perception: SonarPerception
     period: int
+    key: str  # the sensor key of the sonar it reads ("<agent>/<sensor>")
     frame: PerceptionFrame | None = None
     held: bool = False
     last_xy: tuple[float, float] | None = None
@@ -111,19 +114,21 @@ class SonarContacts:
                     f"agent {agent.name!r} takes its contacts from its sonar, but it has no "
                     "sonar (add one under 'sensors', and do not switch sonars off)", where)
             params = perception_params(cfg.sonar, source, where)
+            sonar = agent.config.perception_sonar
             self.observers.append(_Observer(
                 agent, cfg.sonar, SonarPerception(params),
-                ticks_for_rate(cfg.rate_hz, dt, f"agents.{agent.name}.contacts.rate_hz")))
+                ticks_for_rate(cfg.rate_hz, dt, f"agents.{agent.name}.contacts.rate_hz"),
+                sensor_key(agent.name, str(sonar))))
 
     def step(self, tick: int, t: float, pings: Mapping[str, SonarPing]
              ) -> dict[str, PerceptionFrame]:
-        """Process this tick's pings (time ``t``, s) and post the reports that are due;
-        returns the perception frames of this tick by agent."""
+        """Process this tick's pings (time ``t``, s; by sensor key) and post the reports
+        that are due; returns the perception frames of this tick by the key of the ping."""
         frames: dict[str, PerceptionFrame] = {}
         for obs in self.observers:
-            ping = pings.get(obs.agent.name)
+            ping = pings.get(obs.key)
             if ping is not None:
-                obs.frame = frames[obs.agent.name] = self._perceive(obs, ping, t)
+                obs.frame = frames[obs.key] = self._perceive(obs, ping, t)
             if tick % obs.period == 0 and obs.frame is not None:
                 self._report(obs, t)
         return frames

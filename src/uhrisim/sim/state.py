@@ -19,6 +19,7 @@ from uhrisim.dynamics.plants import NavState
 from uhrisim.scenario.schema import AgentConfig, EventConfig
 from uhrisim.sim.community import Community
 from uhrisim.sim.hooks import HelmRecord
+from uhrisim.vehicles import Controller, Driver, Plant, Sensor, VehicleModel
 
 
 @dataclass
@@ -26,7 +27,7 @@ class SonarSlot:
     """A sonar on an agent with its tick period."""
 
     name: str
-    sonar: Any  # uhrisim.sensors.sonar.sonar.ImagingSonar
+    sonar: Sensor  # uhrisim.sensors.sonar.sonar.ImagingSonar
     period: int
 
 
@@ -35,7 +36,7 @@ class CameraSlot:
     """A camera on an agent with its tick period."""
 
     name: str
-    camera: Any  # uhrisim.sensors.camera.UnderwaterCamera
+    camera: Sensor  # uhrisim.sensors.camera.UnderwaterCamera
     period: int
 
 
@@ -44,13 +45,13 @@ class Agent:
     """Mutable per-agent state owned by the Simulation (hand out snapshots, not this)."""
 
     config: AgentConfig
-    plant: Any
-    controller: Any
+    model: VehicleModel
+    plant: Plant
+    controller: Controller
     community: Community
     state: NDArray
     inputs: NDArray
-    radius: float
-    driver: Any = None
+    driver: Driver | None = None
     driver_period: int = 1
     control_period: int = 1
     sonars: list[SonarSlot] = field(default_factory=list)
@@ -65,6 +66,11 @@ class Agent:
     @property
     def name(self) -> str:
         return self.config.name
+
+    @property
+    def radius(self) -> float:
+        """The collision sphere's radius (m), the model's."""
+        return self.model.collision_radius
 
     def update(self, state: NDArray | None = None, inputs: NDArray | None = None) -> None:
         """Replace the state and/or the actuator inputs (the only way the loop changes them)."""

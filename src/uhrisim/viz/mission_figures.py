@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -53,15 +53,20 @@ def plot_range_bearing(series: dict[str, np.ndarray], trail_range: float, path: 
     return save_figure(fig, path)
 
 
-def plot_sonar_strip(frames: Sequence[tuple[float, np.ndarray]], path: Path) -> Path:
-    """A row of fan images (uint8, apex bottom-centre) with their times."""
-    n = max(1, len(frames))
-    fig, axes = subplots(1, n, figsize=(2.6 * n, 2.6), squeeze=False)
-    for ax, (t, image) in zip(axes[0], frames, strict=False):
-        ax.imshow(image, cmap="copper", vmin=0, vmax=255)
-        ax.set_title(f"t = {t:.0f} s", fontsize=9)
-        ax.axis("off")
-    for ax in axes[0][len(frames):]:
-        ax.axis("off")
-    fig.suptitle("ROV sonar (P900-45 fan)", fontsize=10)
+def plot_sonar_strip(rows: Mapping[str, Sequence[tuple[float, np.ndarray]]],
+                     path: Path) -> Path:
+    """One row of fan images (uint8, apex bottom-centre) with their times per sonar;
+    ``rows`` maps each row's title (e.g. ``"videoray/sonar (P900-45)"``) to its frames."""
+    n = max(1, *(len(frames) for frames in rows.values()))
+    fig, axes = subplots(len(rows), n, figsize=(2.6 * n, 2.6 * len(rows)), squeeze=False)
+    for row, (title, frames) in zip(axes, rows.items(), strict=True):
+        for ax, (t, image) in zip(row, frames, strict=False):
+            ax.imshow(image, cmap="copper", vmin=0, vmax=255)
+            ax.set_title(f"t = {t:.0f} s", fontsize=9)
+            ax.axis("off")
+        for ax in row[len(frames):]:
+            ax.axis("off")
+        row[0].text(-0.05, 0.5, title, transform=row[0].transAxes, rotation=90,
+                    ha="right", va="center", fontsize=9)
+    fig.suptitle("sonar fans", fontsize=10)
     return save_figure(fig, path)

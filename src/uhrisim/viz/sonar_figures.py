@@ -294,16 +294,19 @@ def tank_frames(
     """Run ``scenarios/sonar_tank.yaml`` (with ``preset``'s sonar and a fan
     ``fan_width_px`` wide if given) until its sonar has pinged ``n_frames`` times: (the
     pings, the fan mask, the scene labels of the background — the sea floor)."""
+    from uhrisim.sim.hooks import sensor_key
     from uhrisim.sim.simulation import Simulation
 
     sim = Simulation(tank_scenario(preset, fan_width_px), seed=seed)
     agent = sim.scenario.agents[0].name
+    slot = sim.agents[agent].sonars[0]
+    key = sensor_key(agent, slot.name)
     pings: list[SonarPing] = []
     while len(pings) < n_frames:
-        ping = sim.step().pings.get(agent)
+        ping = sim.step().pings.get(key)
         if ping is not None:
             pings.append(ping)
-    sonar = sim.agents[agent].sonars[0].sonar
+    sonar = slot.sonar
     return pings, sonar.geometry.fan_mask, {sim.scene.label_id("seafloor")}
 
 

@@ -90,7 +90,9 @@ def diver_kick_phase_rate(speed_mps: float) -> float:
     return 2.0 * math.pi * min(abs(s) / DIVER_STRIDE_M, DIVER_MAX_KICK_HZ)
 
 
-def _ellipsoid(semi_axes: tuple[float, float, float], centre: tuple[float, float, float]):
+def ellipsoid(semi_axes: tuple[float, float, float],
+              centre: tuple[float, float, float]) -> trimesh.Trimesh:
+    """An ellipsoid with ``semi_axes`` (m, along x, y, z) centred on ``centre`` (320 faces)."""
     m = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
     m.apply_scale(semi_axes)
     m.apply_translation(centre)
@@ -110,7 +112,7 @@ def diver_parts(
     """
     core = trimesh.util.concatenate(
         [
-            _ellipsoid((0.34, 0.19, 0.12), (0.55, 0.0, 0.0)),  # torso, x 0.21..0.89
+            ellipsoid((0.34, 0.19, 0.12), (0.55, 0.0, 0.0)),  # torso, x 0.21..0.89
             prim.sphere(0.11, (0.99, 0.0, -0.02), subdivisions=2),  # head
             prim.capsule(0.05, 0.48, (0.55, -0.24, 0.03), count=(8, 8), **_ALONG_X),  # arms
             prim.capsule(0.05, 0.48, (0.55, 0.24, 0.03), count=(8, 8), **_ALONG_X),

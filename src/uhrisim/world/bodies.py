@@ -79,13 +79,16 @@ class Part:
 
     ``chain`` is ordered proximal→distal (hip, then ankle): the distal joint's pivot is
     expressed in the rest pose and is carried along by the proximal joints.
-    ``material`` overrides the body's material for this part when given.
+    ``material`` overrides the body's material for this part when given; ``label``
+    (e.g. ``"hand"``) gives the part its own label ``"<body label>/<label>"`` in label
+    images (None: the body's label).
     """
 
     name: str
     mesh: trimesh.Trimesh
     chain: tuple[Joint, ...] = ()
     material: Material | None = None
+    label: str | None = None
 
     def transform(self, phase: float) -> NDArray[np.float64]:
         """4x4 map from rest-pose body coordinates to posed body coordinates."""
@@ -160,8 +163,14 @@ class ArticulatedMesh:
 
     def triangles_at(self, phase: float, pose: ArrayLike | None = None) -> NDArray[np.float64]:
         """(F, 3, 3) posed triangles; in the body frame, or through the 4x4 ``pose``."""
+        return self.triangles_posed(self.part_transforms(phase), pose)
+
+    def triangles_posed(self, transforms: Sequence[NDArray[np.float64]],
+                        pose: ArrayLike | None = None) -> NDArray[np.float64]:
+        """(F, 3, 3) triangles with every part moved by its rest→posed 4x4 of
+        ``transforms``; in the body frame, or through the 4x4 ``pose``."""
         out = []
-        for p, t in zip(self.parts, self.part_transforms(phase), strict=True):
+        for p, t in zip(self.parts, transforms, strict=True):
             m = t if pose is None else np.asarray(pose, dtype=float) @ t
             tri = p.mesh.vertices.view(np.ndarray)[p.mesh.faces]
             out.append(tri @ m[:3, :3].T + m[:3, 3])
@@ -169,12 +178,22 @@ class ArticulatedMesh:
 
     def mesh_at(self, phase: float = 0.0) -> trimesh.Trimesh:
         """The whole body as one Trimesh in the body frame at ``phase``."""
+        return self.mesh_posed(self.part_transforms(phase))
+
+    def mesh_posed(self, transforms: Sequence[NDArray[np.float64]]) -> trimesh.Trimesh:
+        """The whole body as one Trimesh in the body frame, every part moved by its
+        rest→posed 4x4 of ``transforms``."""
         meshes = []
-        for p, t in zip(self.parts, self.part_transforms(phase), strict=True):
+        for p, t in zip(self.parts, transforms, strict=True):
             m = p.mesh.copy()
             m.apply_transform(t)
             meshes.append(m)
         return trimesh.util.concatenate(meshes)
+
+    def part_labels(self, body_label: str) -> tuple[str, ...]:
+        """Label of every part: ``body_label``, or ``"<body_label>/<part label>"``."""
+        return tuple(body_label if p.label is None else f"{body_label}/{p.label}"
+                     for p in self.parts)
 
     def part_materials(self, default: Material) -> tuple[Material, ...]:
         """Material of every part (its own, else ``default``)."""

@@ -15,7 +15,7 @@ until they reach the surface (depth ≤ 0) or live ``max_age_s``. An air–water
 reflects almost all of the incident sound (impedance ratio ~3500), so the spheres get a
 bright material (``AIR_BUBBLE``); through the ray caster they are strong, moving,
 short-lived returns that leave the diver — what real FLS images of open-circuit divers
-show (``shared/reference/sonar.md``: "bubbles from open-circuit scuba add strong, moving
+show (``docs/reference/sonar.md``: "bubbles from open-circuit scuba add strong, moving
 returns").
 
 :class:`BubblePlume` is pure kinematics: given the bursts released so far (time, origin,

@@ -2,7 +2,7 @@
 
 A :class:`Material` carries the Lambert scattering coefficient ``reflectivity`` (μ, linear,
 0..1) used by the sonar's target-strength term ``TS ≈ 10·log10(μ·cos²β·A)``
-(see ``shared/reference/sonar.md``), and the diffuse (Lambertian) optical reflectance
+(see ``docs/reference/sonar.md``), and the diffuse (Lambertian) optical reflectance
 ``albedo_rgb`` per camera channel (linear, 0..1) that the camera uses
 (:mod:`uhrisim.sensors.camera`).
 
@@ -14,6 +14,10 @@ grain size, frequency and grazing angle (sandy seabeds are commonly quoted aroun
 much brighter). The optical albedos are plausible diffuse reflectances (pale sand
 brighter than mud, a black neoprene suit about 5 %, the VideoRay's yellow hull). Expose
 them in scenarios and calibrate against real data where it matters.
+
+A material may also carry a :class:`PlanarTexture`: a picture printed on one plane of the
+object (a diver's slate with a fiducial marker), whose albedo the camera looks up where a
+ray hits that plane; everywhere else on the object the material's ``albedo_rgb`` holds.
 """
 
 from __future__ import annotations
@@ -21,7 +25,75 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
 from uhrisim.core.errors import ConfigError
+
+
+@dataclass(frozen=True, eq=False)
+class PlanarTexture:
+    """A picture on a plane of an object: diffuse albedo by where a ray hits (camera only).
+
+    Everything is in the object's own frame: a dynamic body's body frame (FRD, m), world
+    NED for a static object. The picture's top-left corner is ``origin``; ``right`` and
+    ``down`` are unit vectors along its rows and columns; it is ``width_m`` × ``height_m``.
+    ``image`` is (rows, cols, 3) linear albedo in [0, 1], row 0 at the top. A hit sees the
+    texel it falls in (nearest: printed cells stay sharp-edged) when it lies within
+    ``tolerance_m`` of the plane and inside the picture; elsewhere the material's own
+    albedo holds. The picture shows from both sides of its plane (mirrored from behind);
+    a slate's back face, ``thickness`` away, is beyond the tolerance. Compared by identity.
+    """
+
+    image: NDArray[np.float32]
+    origin: tuple[float, float, float]
+    right: tuple[float, float, float]
+    down: tuple[float, float, float]
+    width_m: float
+    height_m: float
+    tolerance_m: float = 1e-3
+
+    def __post_init__(self) -> None:
+        where = "PlanarTexture"
+        img = np.asarray(self.image, dtype=np.float32)
+        if img.ndim != 3 or img.shape[2] != 3 or min(img.shape[:2]) < 1:
+            raise ConfigError(f"image must be (rows, cols, 3), got {img.shape}", where)
+        if not (np.all(np.isfinite(img)) and img.min() >= 0.0 and img.max() <= 1.0):
+            raise ConfigError("image albedos must be finite and in [0, 1]", where)
+        img.setflags(write=False)
+        object.__setattr__(self, "image", img)
+        right, down = (np.asarray(v, dtype=float).reshape(-1) for v in (self.right, self.down))
+        if right.shape != (3,) or down.shape != (3,):
+            raise ConfigError("right and down must be 3-vectors", where)
+        if (abs(right @ right - 1.0) > 1e-6 or abs(down @ down - 1.0) > 1e-6
+                or abs(right @ down) > 1e-6):
+            raise ConfigError("right and down must be orthogonal unit vectors", where)
+        for name in ("width_m", "height_m", "tolerance_m"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0.0):
+                raise ConfigError(f"{name} must be a finite number > 0, got {v!r}", where)
+        for name in ("origin", "right", "down"):
+            object.__setattr__(self, name, tuple(float(c) for c in np.asarray(
+                getattr(self, name), dtype=float).reshape(3)))
+
+    @property
+    def normal(self) -> NDArray[np.float64]:
+        """Unit normal of the picture's plane, right × down: it points away from whoever
+        reads the picture (as an OpenCV camera's z axis does)."""
+        return np.cross(self.right, self.down)
+
+    def albedo_at(self, points: ArrayLike) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+        """(N, 3) albedo of the texel under each of the (N, 3) points (object frame, m)
+        and (N,) whether the point is on the picture; rows off it read texel (0, 0)."""
+        rel = np.asarray(points, dtype=float) - np.asarray(self.origin)
+        u = rel @ np.asarray(self.right)
+        v = rel @ np.asarray(self.down)
+        on = ((np.abs(rel @ self.normal) <= self.tolerance_m)
+              & (u >= 0.0) & (u < self.width_m) & (v >= 0.0) & (v < self.height_m))
+        rows, cols = self.image.shape[:2]
+        col = np.where(on, np.floor(u / self.width_m * cols), 0).astype(np.intp)
+        row = np.where(on, np.floor(v / self.height_m * rows), 0).astype(np.intp)
+        return self.image[np.minimum(row, rows - 1), np.minimum(col, cols - 1)], on
 
 
 @dataclass(frozen=True)
@@ -32,11 +104,13 @@ class Material:
         name: human-readable name (e.g. ``"sand"``).
         reflectivity: Lambert scattering coefficient μ, linear, in [0, 1] (sonar).
         albedo_rgb: diffuse reflectance per camera channel (R, G, B), linear, in [0, 1].
+        texture: a picture on one plane of the object (None: one albedo all over).
     """
 
     name: str
     reflectivity: float
     albedo_rgb: tuple[float, float, float] = (0.5, 0.5, 0.5)
+    texture: PlanarTexture | None = None
 
     def __post_init__(self) -> None:
         r = self.reflectivity
@@ -54,6 +128,9 @@ class Material:
                 where=f"Material({self.name!r}).albedo_rgb",
             )
         object.__setattr__(self, "albedo_rgb", tuple(float(v) for v in albedo))
+        if self.texture is not None and not isinstance(self.texture, PlanarTexture):
+            raise ConfigError(f"must be a PlanarTexture or None, got {self.texture!r}",
+                              where=f"Material({self.name!r}).texture")
 
 
 # Defaults (see module docstring: chosen for plausible contrast, not measured).

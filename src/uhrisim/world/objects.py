@@ -43,8 +43,11 @@ class DynamicBody:
         label_id: int,
         material: Material,
         face_material: NDArray[np.int32] | None = None,
+        face_label: NDArray[np.int32] | None = None,
     ) -> None:
-        """``face_material``: (F,) index into ``Scene.materials`` of every face (None: 0)."""
+        """``face_material``: (F,) index into ``Scene.materials`` of every face (None: 0);
+        ``face_label``: (F,) index into ``Scene.labels`` of every face (None: ``label_id``,
+        parts may carry their own, see :class:`~uhrisim.world.bodies.Part`)."""
         self.name = name
         self.geometry = geometry
         self.label = label
@@ -58,6 +61,12 @@ class DynamicBody:
             else np.asarray(face_material, dtype=np.int32)
         )
         self.face_material.setflags(write=False)
+        self.face_label = (
+            np.full(geometry.n_faces, label_id, np.int32)
+            if face_label is None
+            else np.asarray(face_label, dtype=np.int32)
+        )
+        self.face_label.setflags(write=False)
         self.position = np.zeros(3)
         self.rotation = np.eye(3)
         self.kick_phase = 0.0
@@ -72,6 +81,6 @@ class DynamicBody:
 
     def mesh_world(self) -> trimesh.Trimesh:
         """The posed body as one Trimesh in NED (for plotting and export; not a hot path)."""
-        mesh = self.geometry.mesh_at(self.kick_phase)
+        mesh = self.geometry.mesh_posed(self.part_transforms)
         mesh.apply_transform(self.pose_matrix())
         return mesh

@@ -311,9 +311,9 @@ class ReferenceRayCaster(RayCaster):
         for bi, b in enumerate(self._scene.bodies):
             if b.name in exclude:
                 continue
-            t = b.geometry.triangles_at(b.kick_phase, b.pose_matrix())
+            t = b.geometry.triangles_posed(b.part_transforms, b.pose_matrix())
             tris.append(t)
-            labels.append(np.full(len(t), b.label_id, dtype=np.int32))
+            labels.append(b.face_label)
             refl.append(b.face_reflectivity)
             body.append(np.full(len(t), bi, dtype=np.int32))
             mat.append(b.face_material)
@@ -680,8 +680,8 @@ class EmbreeRayCaster(RayCaster):
             hit = hit[t[hit] < best[body_idx[hit]]]  # a tie keeps the static surface
             sel = body_idx[hit]
             best[sel] = np.maximum(t[hit], 0.0)
-            label[sel] = b.label_id
             body_faces = bvh.face_map[face[hit]]
+            label[sel] = b.face_label[body_faces]
             refl[sel] = b.face_reflectivity[body_faces]
             material[sel] = b.face_material[body_faces]
             normal[sel] = nrm[hit]

@@ -146,8 +146,10 @@ class Scene:
         geometry = ArticulatedMesh.from_any(mesh_or_parts, name)
         ids = [self._material_id(m) for m in geometry.part_materials(material)]
         face_material = np.repeat(np.array(ids, np.int32), np.diff(geometry.face_offsets))
+        label_ids = [self._label_id(x) for x in geometry.part_labels(label)]
+        face_label = np.repeat(np.array(label_ids, np.int32), np.diff(geometry.face_offsets))
         body = DynamicBody(
-            name, geometry, label, self._label_id(label), material, face_material
+            name, geometry, label, self._label_id(label), material, face_material, face_label
         )
         self._body_index[name] = len(self._bodies)
         self._bodies.append(body)
@@ -196,6 +198,23 @@ class Scene:
             if k != b.kick_phase:
                 b.kick_phase = k
                 b.part_transforms = b.geometry.part_transforms(k)
+
+    def set_part_transforms(self, name: str, transforms: ArrayLike) -> None:
+        """Re-pose an articulated body's parts directly: ``transforms`` (n_parts, 4, 4),
+        each part's rest→posed map in the body frame (e.g. from the joint angles of
+        :class:`~uhrisim.dynamics.diver_body.DiverSkeleton`). Cheap: stores the matrices;
+        a later ``set_pose`` with a ``kick_phase`` replaces them."""
+        i = self._body_index.get(name)
+        if i is None:
+            raise ConfigError(f"no dynamic body named {name!r}", where="Scene.set_part_transforms")
+        b = self._bodies[i]
+        t = np.array(transforms, dtype=float)
+        if t.shape != (len(b.geometry.parts), 4, 4) or not np.all(np.isfinite(t)):
+            raise ConfigError(
+                f"must be {len(b.geometry.parts)} finite 4x4 matrices, got shape {t.shape}",
+                where=f"Scene.set_part_transforms({name!r})",
+            )
+        b.part_transforms = list(t)
 
     # ------------------------------------------------------------------ queries
     @property
@@ -284,7 +303,7 @@ class Scene:
         """(2, 3) NED axis-aligned bounds of all static and posed dynamic geometry."""
         boxes = [o.mesh.bounds for o in self._static]
         for b in self._bodies:
-            tri = b.geometry.triangles_at(b.kick_phase, b.pose_matrix()).reshape(-1, 3)
+            tri = b.geometry.triangles_posed(b.part_transforms, b.pose_matrix()).reshape(-1, 3)
             boxes.append(np.array([tri.min(axis=0), tri.max(axis=0)]))
         if not boxes:
             raise ConfigError("scene is empty", where="Scene.bounds")

@@ -35,7 +35,7 @@ def mission_decisions(seconds: float = MISSION_S) -> np.ndarray:
     """Rows (tick, agent index in the scenario, heading deg, speed m/s, depth m)."""
     source = load_scenario(shipped_scenario())
     hook = Decisions([a.name for a in source.scenario.agents])
-    with Simulation(source, sonar_enabled=False, hooks=[hook]) as sim:
+    with Simulation(source, raycast_sensors=False, hooks=[hook]) as sim:
         sim.run(seconds)
     return np.array(hook.rows)
 

@@ -49,7 +49,7 @@ def main() -> None:
         divers.append(x)
     out["diver_inputs"], out["diver_states"] = legs, np.array(divers)
     # the paper's mission (no sonar): both agents' states every MISSION_EVERY ticks
-    with Simulation(load_scenario(shipped_scenario()), sonar_enabled=False) as sim:
+    with Simulation(load_scenario(shipped_scenario()), raycast_sensors=False) as sim:
         rows = []
         for _ in range(round(MISSION_S * 60)):
             sim.step()

@@ -1,4 +1,5 @@
-"""IvP behaviors: ConstantDepth, Loiter, Trail, AvoidCollision, Waypoint, StationKeep."""
+"""IvP behaviors: ConstantDepth, ConstantHeading, ConstantSpeed, MaxSpeed, Loiter, Trail,
+AvoidCollision, Waypoint, StationKeep."""
 
 from __future__ import annotations
 
@@ -11,14 +12,18 @@ from uhrisim.autonomy.behaviors.base import (
     OwnNav,
 )
 from uhrisim.autonomy.behaviors.constant_depth import ConstantDepth
+from uhrisim.autonomy.behaviors.constant_heading import ConstantHeading
+from uhrisim.autonomy.behaviors.constant_speed import ConstantSpeed
 from uhrisim.autonomy.behaviors.loiter import Loiter
+from uhrisim.autonomy.behaviors.max_speed import MaxSpeed
 from uhrisim.autonomy.behaviors.station_keep import StationKeep
 from uhrisim.autonomy.behaviors.trail import Trail
 from uhrisim.autonomy.behaviors.waypoint import Waypoint
 from uhrisim.core.errors import ConfigError
 
 REGISTRY: dict[str, type[Behavior]] = {
-    cls.KIND: cls for cls in (ConstantDepth, Loiter, Trail, AvoidCollision, Waypoint, StationKeep)
+    cls.KIND: cls for cls in (ConstantDepth, ConstantHeading, ConstantSpeed, MaxSpeed, Loiter,
+                              Trail, AvoidCollision, Waypoint, StationKeep)
 }
 
 
@@ -45,8 +50,11 @@ __all__ = [
     "BehaviorContext",
     "CommonParams",
     "ConstantDepth",
+    "ConstantHeading",
+    "ConstantSpeed",
     "ContactInfo",
     "Loiter",
+    "MaxSpeed",
     "OwnNav",
     "StationKeep",
     "Trail",

@@ -1,7 +1,7 @@
 """BHV_AvoidCollision: keep the closest point of approach to a contact large.
 
 As pHelmIvP does it (MOOS-IvP ivp/src/lib_behaviors-marine/BHV_AvoidCollision.cpp,
-AOF_AvoidCollision.cpp; reference/helm.md):
+AOF_AvoidCollision.cpp; docs/reference/helm.md):
 
 * relevance r = pct, pct^2 or pct^1.5 (``pwt_grade`` linear, quadratic, quasi) with
   pct = (outer - range)/(outer - inner): 0 at and beyond ``pwt_outer_dist``, 1 at

@@ -1,7 +1,7 @@
 """BHV_ConstantDepth: hold a depth (subdomain: depth).
 
 Objective: ZAIC peak at ``depth`` with IvP defaults peakwidth 3 m, basewidth 100 m,
-summitdelta 50 (reference/helm.md); no normalisation (BHV_ConstantDepth.cpp:112-120). The
+summitdelta 50 (docs/reference/helm.md); no normalisation (BHV_ConstantDepth.cpp:112-120). The
 depth can follow another vehicle through ``updates`` postings such as ``depth=3.2``.
 
 Its ``duration`` defaults to 0, as in pHelmIvP ("we force the user to provide a duration
@@ -17,14 +17,14 @@ from typing import ClassVar
 
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext
 from uhrisim.autonomy.domain import Objective
-from uhrisim.autonomy.params import setter, to_float
+from uhrisim.autonomy.params import setter, to_float, to_summitdelta
 from uhrisim.autonomy.zaic import zaic_peak_on_axis
 
 
 @dataclass(frozen=True)
 class ConstantDepthParams:
     """BHV_ConstantDepth parameters: ``depth`` m (positive down); ZAIC ``peakwidth``,
-    ``basewidth`` m and ``summitdelta`` (utility) with IvP's defaults (reference/helm.md).
+    ``basewidth`` m and ``summitdelta`` (utility) with IvP's defaults (docs/reference/helm.md).
     """
 
     depth: float = 0.0
@@ -37,17 +37,13 @@ def _depth(v: object, key: str, where: str) -> float:
     return max(to_float(v, key, where), 0.0)
 
 
-def _summitdelta(v: object, key: str, where: str) -> float:
-    return min(max(to_float(v, key, where), 0.0), 100.0)
-
-
 class ConstantDepth(Behavior):
     KIND = "BHV_ConstantDepth"
     Params = ConstantDepthParams
     DEFAULT_DURATION = 0.0
     HANDLERS: ClassVar[dict] = {
         "depth": setter("depth", _depth),
-        "summitdelta": setter("summitdelta", _summitdelta),
+        "summitdelta": setter("summitdelta", to_summitdelta),
         **{k: setter(k, to_float) for k in ("peakwidth", "basewidth")},
     }
 

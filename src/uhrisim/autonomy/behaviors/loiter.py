@@ -1,6 +1,6 @@
 """BHV_Loiter: loop the vertices of a convex polygon.
 
-reference/helm.md. Course: ZAIC peak at the bearing to the next vertex (pw 0, bw 180,
+docs/reference/helm.md. Course: ZAIC peak at the bearing to the next vertex (pw 0, bw 180,
 wrap: linear to zero at +-180 deg); speed: peak at ``speed`` (pw 0, bw 0.3, a triangle);
 coupled ``patience`` / 100 - ``patience`` (default 50/50; BHV_Loiter.cpp:532) and
 normalised to 0..100. Vertices are snapped to 0.1 m (as pHelmIvP does). Vertices advance
@@ -9,7 +9,7 @@ on ``capture_radius`` or by slip (``slip_radius``). As in pHelmIvP (BHV_Loiter.c
 goes from idle to running, and each tick while it is farther than ``acquire_dist``
 outside the polygon (*acquire mode*). ``clockwise = true | false | best``.
 
-Acquire vertex (IvP ``LoiterEngine`` semantics, re-implemented; the reference note is
+Acquire vertex (IvP ``LoiterEngine`` semantics, re-implemented; docs/reference/helm.md is
 silent). With turn(k) = the signed turn (deg, right/clockwise positive) from the approach
 own -> vertex k onto the onward edge k -> k+dir:
 

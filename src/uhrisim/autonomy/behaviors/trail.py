@@ -1,6 +1,6 @@
 """BHV_Trail: keep station at ``trail_range`` from a contact at ``trail_angle``.
 
-reference/helm.md and MOOS-IvP's BHV_Trail.cpp. The trail point P is ``trail_range``
+docs/reference/helm.md and MOOS-IvP's BHV_Trail.cpp. The trail point P is ``trail_range``
 from the contact (as last reported) at ``trail_angle`` relative to the contact's heading
 (180 = straight behind; ``trail_angle_type = absolute`` makes it a compass bearing). With
 D = own distance to P:

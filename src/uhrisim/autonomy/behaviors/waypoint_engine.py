@@ -2,7 +2,7 @@
 
 A point is reached when the distance is within ``capture_radius``, or by "slip": the
 closest distance seen so far is within ``slip_radius`` and the distance has begun to grow
-(reference/helm.md, Loiter).
+(docs/reference/helm.md, Loiter).
 """
 
 from __future__ import annotations

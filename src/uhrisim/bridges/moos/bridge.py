@@ -1,6 +1,6 @@
 """MOOS bridge for one simulated agent: posts what uSimMarine would, takes DESIRED_* back.
 
-Frames and units at this edge (docs/conventions.md, reference/helm.md):
+Frames and units at this edge (docs/conventions.md, docs/reference/helm.md):
 
 ============  =================================  =============================
 MOOS var      meaning                            from the simulator (NED)

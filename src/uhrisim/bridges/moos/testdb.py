@@ -1,7 +1,7 @@
 """A small MOOSDB in pure Python, for tests, benchmarks and trying the bridge without MOOS.
 
 It speaks the real MOOS v10 protocol (see :mod:`uhrisim.bridges.moos.wire`), with the
-behaviour seen in ``shared/reference/moos-trace.jsonl``:
+behaviour seen in ``tests/data/moos/moos-trace.jsonl``:
 
 * handshake: 32-byte protocol string, then a packet with one ``i`` message whose key is
   ``asynchronous`` (a v10 asynchronous client) or empty (an old synchronous client) and

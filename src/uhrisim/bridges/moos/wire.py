@@ -1,6 +1,6 @@
 """MOOS v10 wire protocol: messages, packets, the handshake and an incremental stream parser.
 
-Facts (``shared/reference/moos-wire.md``; MOOS v10 ``MOOSCore/Core/libMOOS/Comms``:
+Facts (``docs/reference/moos-wire.md``; MOOS v10 ``MOOSCore/Core/libMOOS/Comms``:
 CMOOSMsg, CMOOSCommPkt, MOOSAsyncCommClient), checked byte for byte against the real
 MOOSDB traffic in ``moos-trace.jsonl``:
 

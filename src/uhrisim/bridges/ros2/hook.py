@@ -42,35 +42,30 @@ from __future__ import annotations
 
 import logging
 import math
-import numbers
 import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Literal
 
-import numpy as np
-
 from uhrisim.bridges.helm_watch import OutsideHelmWatch, driven_from_outside, say_loudly
 from uhrisim.core.errors import BridgeError, ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw
+from uhrisim.ros.convert import RateGate
+from uhrisim.ros.markers import SCENE_MAX_TRIANGLES_PER_OBJECT
+from uhrisim.ros.tick import TickWriter
+from uhrisim.ros.topics import ros_name
 from uhrisim.scenario.schema import HelmWatchSection
-from uhrisim.sensors.sonar.cloud import cloud_hits
-from uhrisim.sim.hooks import TickFrame
+from uhrisim.sim.hooks import TickFrame, split_sensor_key
 from uhrisim.sim.simulation import BaseHook, Simulation
 
-from .convert import RateGate, label_image_mono8
 from .limits import CommandEnvelope
 from .spec import COMMAND_GROUPS, AgentBridgeSpec, AgentCommands
 
 if TYPE_CHECKING:
     from .bridge import Ros2Bridge
 
-__all__ = ["Ros2BridgeHook", "decimate_triangle_markers"]
+__all__ = ["Ros2BridgeHook", "command_envelope"]
 
 log = logging.getLogger(__name__)
-
-#: Triangles per scene object sent to ROS viewers; larger meshes (a fine sea floor) are
-#: thinned, every k-th triangle kept, to keep the one-off scene message small and fast.
-SCENE_MAX_TRIANGLES_PER_OBJECT = 20_000
 
 #: Wall seconds a lockstep start waits after finding the controllers (see on_start).
 LOCKSTEP_SETTLE_S = 0.5
@@ -87,39 +82,10 @@ _DESIRED_VARS = (
 
 def command_envelope(agent: Any) -> CommandEnvelope:
     """What a simulated agent (``Simulation.agents[name]``) can be commanded to do: its
-    top speed (VideoRay: thrust-drag balance at full forward thrust; diver: its swim-speed
-    limit; kinematic vehicle: 100 % thrust) and whether its controller reverses (none of
-    uhrisim's does: ``reverses`` on the controller says so)."""
-    params = agent.plant.params
-    model = agent.config.model
-    if model == "videoray":
-        from uhrisim.dynamics.videoray import generalized_forces, steady_speed
-
-        lim = params.input_limit
-        surge = float(generalized_forces(np.array([lim, lim, 0.0]), params)[0])
-        max_speed = abs(steady_speed(surge, params.Xu, params.Xuu))
-    elif model == "diver":
-        max_speed = params.max_speed
-    else:  # uSimMarine-style: thrust (%) = thrust_factor x speed, at most 100 %
-        max_speed = 100.0 / params.thrust_factor
-    return CommandEnvelope(max_speed=max_speed,
+    model's top speed (:attr:`uhrisim.vehicles.VehicleModel.max_speed`) and whether its
+    controller reverses (none of uhrisim's does: ``reverses`` on the controller says so)."""
+    return CommandEnvelope(max_speed=agent.model.max_speed(agent.plant.params),
                            reverse=bool(getattr(agent.controller, "reverses", False)))
-
-
-def decimate_triangle_markers(
-    markers: Sequence[dict[str, Any]], max_triangles: int = SCENE_MAX_TRIANGLES_PER_OBJECT
-) -> list[dict[str, Any]]:
-    """Copies of ``markers`` whose ``triangle_list`` point lists hold at most
-    ``max_triangles`` triangles (every k-th triangle kept, for display only)."""
-    out = []
-    for m in markers:
-        if m.get("type") == "triangle_list":
-            pts = np.asarray(m["points_ned"], dtype=float).reshape(-1, 3, 3)
-            if len(pts) > max_triangles:
-                step = int(np.ceil(len(pts) / max_triangles))
-                m = {**m, "points_ned": pts[::step].reshape(-1, 3)}
-        out.append(m)
-    return out
 
 
 class Ros2BridgeHook(BaseHook):
@@ -209,18 +175,17 @@ class Ros2BridgeHook(BaseHook):
         self._clearance = depth_clearance_m
         self._command_gate = RateGate(command_poll_hz)
         self.bridge: Ros2Bridge | None = None
+        self._out: TickWriter | None = None  # the tick's products through the bridge
         self._sim: Simulation | None = None
         self._ros: dict[str, str] = {}  # simulation agent name -> ROS namespace
-        # per linked agent: (ROS name, simulation name, publish sonar, accept commands)
-        self._links: list[tuple[str, str, bool, bool]] = []
+        # per linked agent: (ROS name, simulation name, accept commands)
+        self._links: list[tuple[str, str, bool]] = []
         self._accepting = False
         self._publish_wake = self._wake_time = -math.inf
         self._seen: dict[str, int] = {}
         self._active: dict[str, bool] = {}
         self._failing: tuple[str, ...] = ()  # bridge.failing_topics, as last recorded
         self._extras = False  # someone subscribes to vars or /events (refreshed at 10 Hz)
-        # per ROS name of an agent with a sonar: (centre frequency Hz, sound speed m/s)
-        self._acoustics: dict[str, tuple[float, float]] = {}
         self.n_posted = 0
         self.n_rejected = 0
         self._watch_settings = helm_watch or HelmWatchSection()
@@ -235,19 +200,14 @@ class Ros2BridgeHook(BaseHook):
             raise ConfigError(
                 f"ROS 2 hook names unknown agent(s) {unknown}; agents: {', '.join(sim.agents)}"
             )
-        from uhrisim.record.hook import ros_name
-
         self._ros = {name: ros_name(name) for name in names}  # same names as recordings
         if len(set(self._ros.values())) != len(names):
             raise ConfigError(f"ROS 2 hook: agent names collide as ROS names: {self._ros}")
-        for name, ros in self._ros.items():
-            if ros != name:
-                log.info("ROS 2 hook: agent %r is published as /%s", name, ros)
         specs = [
             AgentBridgeSpec(
                 self._ros[name],
-                publish_sonar=bool(getattr(sim.agents[name], "sonars", ())),
-                publish_camera=bool(getattr(sim.agents[name], "cameras", ())),
+                sonars=tuple(slot.name for slot in sim.agents[name].sonars),
+                cameras=tuple(slot.name for slot in sim.agents[name].cameras),
                 accept=self._accept,
                 sonar_rate_hz=self._sonar_rate,
                 odom_rate_hz=self._odom_rate,
@@ -258,25 +218,21 @@ class Ros2BridgeHook(BaseHook):
         self._sim = sim
         self.bridge = Ros2Bridge(specs, **self._bridge_kw)
         self.bridge.start()
-        self._links = [(spec.name, name, spec.publish_sonar, bool(spec.accept))
+        self._links = [(spec.name, name, bool(spec.accept))
                        for spec, name in zip(self.bridge.agents, self._ros, strict=True)]
         self._accepting = any(accept for *_, accept in self._links)
-        self._publish_mounts(sim)
+        self._out = TickWriter(self.bridge, names)
+        self._out.start(sim, scene=self._publish_scene,
+                        max_triangles=SCENE_MAX_TRIANGLES_PER_OBJECT)
         if self._lockstep:
             self._await_controllers()
         # simulation times before which nothing is due (see on_tick)
         self._publish_wake = self._wake_time = -math.inf
         self._seen = dict.fromkeys(names, 0)
         self._active = dict.fromkeys(names, False)
-        self.watches = {name: self._watch(sim, ros) for ros, name, _, accept in self._links
+        self.watches = {name: self._watch(sim, ros) for ros, name, accept in self._links
                         if accept and driven_from_outside(sim.agents[name])}
         self._failing = ()
-        if self._publish_scene and getattr(sim, "scene", None) is not None:
-            from uhrisim.record.hook import scene_markers
-
-            markers = decimate_triangle_markers(scene_markers(sim.scene))
-            if markers:
-                self.bridge.publish_scene(float(sim.t), markers)
 
     def _watch(self, sim: Simulation, ros: str) -> OutsideHelmWatch:
         """The watch of an agent driven from ROS, started now."""
@@ -296,33 +252,12 @@ class Ros2BridgeHook(BaseHook):
         watch.start(sim.t)
         return watch
 
-    def _publish_mounts(self, sim: Simulation) -> None:
-        """``/tf_static``: every linked agent's sensor mounts, ``<agent>/base_link`` ->
-        ``<agent>/sonar`` and -> ``<agent>/camera_optical`` (the frames of its sonar and
-        camera topics; :func:`uhrisim.record.hook.sensor_mounts`, as the recording has
-        them); and each sonar's centre frequency and sound speed for ``sonar/image``."""
-        from uhrisim.record.hook import sensor_mounts
-
-        bridge = self.bridge
-        assert bridge is not None
-        mounts = []
-        self._acoustics = {}
-        for ros, name, publish_sonar, _ in self._links:
-            mounts += sensor_mounts(sim.agents[name],
-                                    lambda frame, ros=ros: bridge.frame(ros, frame))
-            if publish_sonar:
-                sonar = sim.agents[name].sonars[0].sonar
-                self._acoustics[ros] = (sonar.config.sonar_spec.frequency_hz,
-                                        sonar.config.sound_speed_m_s)
-        if mounts:
-            self.bridge.publish_static_transforms(float(sim.t), mounts)
-
     def _await_controllers(self) -> None:
         """Lockstep start: every agent that accepts commands needs its controller (an
         error here ends the run; the simulation's close then closes the bridge)."""
         bridge = self.bridge
         assert bridge is not None
-        self._stepped = [ros for ros, *_, accept in self._links if accept]
+        self._stepped = [ros for ros, _, accept in self._links if accept]
         self._lapsed = set()
         self.n_rounds = 0
         if not self._stepped:
@@ -344,41 +279,35 @@ class Ros2BridgeHook(BaseHook):
             return
         t = float(frame.t)
         pings, helm, images = frame.pings, frame.helm, frame.images
+        out = self._out
+        assert out is not None
         if self._extras and (frame.posts or frame.events):
-            self._publish_extras(bridge, frame)
+            out.posts(frame.posts)
+            out.events(frame.events)
         if t < self._wake_time and not pings and not helm and not images:
             bridge.note_time(t)  # nothing due: most ticks of a 60 Hz loop
             return
         rounds: list[str] = []  # lockstep: agents whose answer to this tick is awaited
         if t >= self._publish_wake or pings or helm or images:
-            bridge.publish_clock(t)
-            for ros, name, publish_sonar, _ in self._links:
-                if bridge.odometry_due(ros, t):  # the snapshot only when odometry goes out
-                    if ros in self._stepped:
-                        rounds.append(ros)
-                        self._begin_round(sim, bridge, ros, t)
-                    nav = frame.agents[name].nav
-                    bridge.publish_nav(ros, t, nav.position_ned, nav.yaw, nav.velocity_body,
-                                       nav.yaw_rate)
-                ping = pings.get(name) if publish_sonar and pings else None
-                if ping is not None:
-                    self._publish_ping(bridge, ros, ping)
-                    seen = frame.perception.get(name)
+            bridge.write_clock(t)
+            due = [name for ros, name, _ in self._links if bridge.odometry_due(ros, t)]
+            for name in due:  # the snapshot is taken only when odometry goes out
+                ros = self._ros[name]
+                if ros in self._stepped:
+                    rounds.append(ros)
+                    self._begin_round(sim, bridge, ros, t)
+            out.odometry(t, frame.agents, due)
+            for name, decision in helm.items():
+                out.helm(name, t, decision)
+            for key, ping in pings.items():
+                agent, sonar = split_sensor_key(key)
+                if agent in self._ros and bridge.sonar_due(self._ros[agent], sonar, t):
+                    out.ping(key, ping)
+                    seen = frame.perception.get(key)
                     if seen is not None:
-                        self._publish_perception(bridge, ros, t, seen, ping)
-                image = images.get(name) if images else None
-                if image is not None:
-                    bridge.publish_camera(ros, float(image.t), image.rgb, image.depth_m, image.K,
-                                          (image.position_ned, image.rotation_ned_from_camera),
-                                          label_image_mono8(image.labels))
-                decision = helm.get(name) if helm else None
-                if decision is not None:
-                    bridge.publish_helm(ros, t, decision.heading_deg, decision.speed,
-                                        decision.depth, decision.mode)
-                    bridge.publish_helm_decision(
-                        ros, t, decision.heading_deg, decision.speed, decision.depth,
-                        decision.contributions, decision.mode, decision.active,
-                        decision.total, decision.all_stop_reason or "")
+                        out.perception(key, t, seen, ping)
+            for key, image in images.items():
+                out.image(key, image)
             self._publish_wake = bridge.wake_time
             self._extras = bridge.extras_subscribed()  # checked at most at 10 Hz
             if bridge.failing_topics != self._failing:  # rare: note it in the recording
@@ -389,26 +318,13 @@ class Ros2BridgeHook(BaseHook):
         if rounds:
             self._await_answers(sim, bridge, [r for r in rounds if r not in self._lapsed], t)
         if rounds or (self._accepting and self._command_gate.due(t)):
-            for ros, name, _, accept in self._links:
+            for ros, name, accept in self._links:
                 if accept:
                     self._take_commands(sim, ros, name, bridge.commands(ros, t), frame)
         else:
             bridge.note_time(t)
         self._wake_time = min(self._publish_wake, self._command_gate.wake_time
                               if self._accepting else math.inf)
-
-    def _publish_extras(self, bridge: Ros2Bridge, frame: TickFrame) -> None:
-        """The tick's community postings (``<agent>/vars``) and events (``/events``), as
-        the recording has them; only called while someone subscribes to either."""
-        for post in frame.posts:
-            ros = self._ros.get(post.community)
-            if ros is not None:
-                value = post.value if isinstance(post.value, str | numbers.Real) \
-                    else str(post.value)
-                bridge.publish_variable(ros, float(post.t), str(post.var), value,
-                                        str(post.source))
-        for event in frame.events:
-            bridge.publish_event(float(event.t), str(event.kind), str(event.detail))
 
     def _begin_round(self, sim: Simulation, bridge: Ros2Bridge, ros: str, t: float) -> None:
         """A lockstep round for ``ros`` starts; one that had lapsed is waited for again
@@ -431,21 +347,6 @@ class Ros2BridgeHook(BaseHook):
                                        f"{self._lockstep_timeout:g} s: not waited for until "
                                        "it answers again (lockstep lapsed)")
 
-    def _publish_ping(self, bridge: Ros2Bridge, name: str, ping: Any) -> None:
-        """The ping's products that someone subscribes to: the hit cloud and the fan image
-        are formed only then (publish_sonar skips the unread ones)."""
-        polar, fan, hits = bridge.sonar_subscribed(name)
-        points, intensity = cloud_hits(ping.cloud) if hits else (None, None)
-        due = bridge.publish_sonar(name, float(ping.t), ping.polar_u8 if polar else None,
-                                   ping.fan_u8 if fan else None, points, intensity,
-                                   sonar_pose_ned=(ping.position_ned,
-                                                   ping.rotation_ned_from_sonar))
-        if due and bridge.sonar_image_subscribed(name):
-            frequency, sound_speed = self._acoustics[name]
-            bridge.publish_sonar_image(name, float(ping.t), ping.polar_u8,
-                                       ping.beam_angles_rad, ping.bin_ranges_m, frequency,
-                                       sound_speed)
-
     def _above_floor(self, sim: Simulation, ros: str, name: str, depth: float,
                      frame: TickFrame) -> float:
         """``depth`` (m) clamped to the floor below the vehicle now less the clearance."""
@@ -455,17 +356,6 @@ class Ros2BridgeHook(BaseHook):
         north, east, _ = frame.agents[name].nav.position_ned
         deepest = float(floor.depth_at(float(north), float(east))) - self._clearance
         return self.bridge.depth_above_floor(ros, depth, deepest)
-
-    @staticmethod
-    def _publish_perception(bridge: Ros2Bridge, name: str, t: float, seen: Any,
-                            ping: Any) -> None:
-        """The sonar perception's detections and tracks, as the recorder writes them
-        (``/<agent>/perception/{detections,tracks}``, docs/perception.md)."""
-        from uhrisim.record.hook import perception_markers
-
-        detections, tracks = perception_markers(seen, float(ping.position_ned[2]))
-        bridge.publish_markers(f"{name}/perception/detections", t, detections)
-        bridge.publish_markers(f"{name}/perception/tracks", t, tracks)
 
     def _take_commands(self, sim: Simulation, ros: str, name: str, cmd: AgentCommands,
                        frame: TickFrame) -> None:

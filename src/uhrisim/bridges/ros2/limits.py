@@ -26,9 +26,7 @@ from typing import Any
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import wrap_360
-
-#: VideoRay thruster command range (docs/conventions.md): dimensionless, saturated here.
-THRUSTER_LIMIT = 150.0
+from uhrisim.dynamics.videoray import INPUT_LIMIT as THRUSTER_LIMIT  # ±150, dimensionless
 
 #: Seconds between two log lines of one topic and reason (wall clock).
 LOG_PERIOD_S = 5.0

@@ -37,20 +37,22 @@ def _check_rate(value: float | None, where: str) -> None:
 class AgentBridgeSpec:
     """What the bridge publishes and accepts for one agent (a ROS namespace ``/<name>``).
 
+    ``sonars`` and ``cameras`` name the agent's sensors whose topics it publishes
+    (``/<name>/<sensor>/...``, frames ``<name>/<sonar>`` and ``<name>/<camera>_optical``).
     ``odom_rate_hz`` / ``sonar_rate_hz`` throttle publishing in *simulation* time
-    (``None``: every call publishes). ``publish_camera`` adds the camera topics (every
-    frame the simulation makes goes out). ``accept`` lists the command groups subscribed
+    (``None``: every call publishes; the sonar rate per sonar); every camera frame the
+    simulation makes goes out. ``accept`` lists the command groups subscribed
     (:data:`COMMAND_GROUPS`); ``()`` makes the agent publish-only (e.g. the diver's
     ground truth). ``envelope``: what the vehicle can be commanded to do (speeds, reverse,
     thrusters; :mod:`.limits`), against which every command is checked.
     """
 
     name: str
-    publish_sonar: bool = True
+    sonars: tuple[str, ...] = ("sonar",)
     accept: tuple[str, ...] = COMMAND_GROUPS
     sonar_rate_hz: float | None = None
     odom_rate_hz: float | None = None
-    publish_camera: bool = False
+    cameras: tuple[str, ...] = ()
     envelope: CommandEnvelope = field(default_factory=CommandEnvelope)
 
     def __post_init__(self) -> None:
@@ -68,6 +70,16 @@ class AgentBridgeSpec:
                 where=f"{where}.accept",
             )
         object.__setattr__(self, "accept", accept)
+        sensors = [*self.sonars, *self.cameras]
+        for sensor in sensors:
+            if not isinstance(sensor, str) or not ROS_NAME_TOKEN.match(sensor):
+                raise ConfigError(f"sensor name {sensor!r} is not a ROS name token",
+                                  where=f"{where}.sonars")
+        if len(set(sensors)) != len(sensors):
+            raise ConfigError(f"sensor names must be unique, got {sensors}",
+                              where=f"{where}.sonars")
+        object.__setattr__(self, "sonars", tuple(self.sonars))
+        object.__setattr__(self, "cameras", tuple(self.cameras))
         _check_rate(self.sonar_rate_hz, f"{where}.sonar_rate_hz")
         _check_rate(self.odom_rate_hz, f"{where}.odom_rate_hz")
 

@@ -1,28 +1,17 @@
-"""The ROS 2 bridge's topics and their QoS: what goes out per agent, what comes in.
+"""The QoS the ROS 2 bridge offers each kind of topic, and what commands come in.
 
-Per agent (namespace ``/<agent>``): ``odom``, ``pose``, the sonar's ``sonar/polar``,
-``sonar/fan``, ``sonar/points``, ``sonar/pose`` and ``sonar/image``
-(marine_acoustic_msgs/ProjectedSonarImage), the camera's ``camera/image_raw``,
-``camera/camera_info``, ``camera/depth``, ``camera/labels`` and ``camera/pose``, the
-helm's ``helm/desired_*``, ``helm/mode`` and ``helm/decision``, the community's ``vars``;
-commands in on ``cmd/desired_*`` and ``cmd/thrusters``. Bridge-wide: ``/clock``,
-``/scene/markers``, ``/tf``, ``/tf_static`` (the sonar and camera mounts) and ``/events``.
-The topics whose message packages have no wheels exist when :mod:`.interfaces` has built
-them. docs/bridges-ros2.md has the table
-with frames, units and rates; the QoS profiles below say why each is what it is.
+The topics themselves — names, message types and QoS kinds — are the ROS translation's
+(:mod:`uhrisim.ros.topics`), the same the recording has; here each kind gets its
+profile, with why it is what it is. Commands come in on ``<agent>/cmd/desired_*`` and
+``<agent>/cmd/thrusters``. docs/bridges-ros2.md has the table with frames, units and
+rates.
 """
 
 from __future__ import annotations
 
-import importlib.util
-
-from geometry_msgs.msg import PoseStamped
-from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import CameraInfo, Image, PointCloud2
-from std_msgs.msg import Float64, String
 
-from .spec import AgentBridgeSpec
+from uhrisim.ros.topics import DESIRED_KEYS
 
 #: Odometry, pose, helm and scene: reliable, keep the last 10, volatile. A reliable
 #: publisher matches reliable and best-effort subscribers alike; keep-last means a slow
@@ -109,44 +98,25 @@ QOS_CLOCK_RELIABLE = QoSProfile(
     durability=DurabilityPolicy.VOLATILE,
 )
 
-#: Keys of the desired values (std_msgs/Float64): the helm's ``/<agent>/helm/<key>`` out,
-#: the commands ``/<agent>/cmd/<key>`` in.
-DESIRED_KEYS = ("desired_heading", "desired_speed", "desired_depth")
+#: Per-ping marker arrays (sonar perception): reliable, so RViz2's default subscriber
+#: gets them.
+QOS_MARKERS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                         reliability=ReliabilityPolicy.RELIABLE)
+
+#: The profile of each kind of topic (:data:`uhrisim.ros.topics.QosKind`) and of the
+#: commands; the sensor and clock kinds have a reliable variant the node's parameters
+#: choose (:mod:`.params`).
+QOS_BY_KIND: dict[str, QoSProfile] = {
+    "state": QOS_STATE, "sensor": QOS_SENSOR, "latched": QOS_LATCHED, "tf": QOS_TF,
+    "tf_static": QOS_TF_STATIC, "clock": QOS_CLOCK, "scene": QOS_SCENE,
+    "markers": QOS_MARKERS, "command": QOS_COMMAND}
+
+
+def qos_for(kind: str) -> QoSProfile:
+    """The QoS profile of a kind of topic."""
+    return QOS_BY_KIND[kind]
+
+
 #: Command key of the thruster inputs (``/<agent>/cmd/thrusters``, Float64MultiArray).
 THRUSTERS_KEY = "thrusters"
-
-
-def agent_topics(spec: AgentBridgeSpec, sensor_qos: QoSProfile = QOS_SENSOR
-                 ) -> list[tuple[str, str, type, QoSProfile]]:
-    """``(key, topic, message type, QoS)`` of every topic the bridge publishes for one
-    agent (besides the bridge-wide ones), as
-    :meth:`~uhrisim.bridges.ros2.bridge.Ros2Bridge.start` creates them; ``sensor_qos`` is
-    that of the sonar images and hits. Names are relative: they resolve in the node's
-    namespace (``/<agent>/odom`` without one)."""
-    ns = spec.name
-    topics = [("odom", f"{ns}/odom", Odometry, QOS_STATE),
-              ("pose", f"{ns}/pose", PoseStamped, QOS_STATE)]
-    if spec.publish_sonar:
-        if importlib.util.find_spec("marine_acoustic_msgs") is not None:
-            from marine_acoustic_msgs.msg import ProjectedSonarImage
-
-            topics.append(("image", f"{ns}/sonar/image", ProjectedSonarImage, sensor_qos))
-        topics += [("polar", f"{ns}/sonar/polar", Image, sensor_qos),
-                   ("fan", f"{ns}/sonar/fan", Image, sensor_qos),
-                   ("points", f"{ns}/sonar/points", PointCloud2, sensor_qos),
-                   ("sonar_pose", f"{ns}/sonar/pose", PoseStamped, QOS_STATE)]
-    if spec.publish_camera:
-        topics += [("camera_image", f"{ns}/camera/image_raw", Image, sensor_qos),
-                   ("camera_info", f"{ns}/camera/camera_info", CameraInfo, sensor_qos),
-                   ("camera_depth", f"{ns}/camera/depth", Image, sensor_qos),
-                   ("camera_labels", f"{ns}/camera/labels", Image, sensor_qos),
-                   ("camera_pose", f"{ns}/camera/pose", PoseStamped, QOS_STATE)]
-    topics += [(f"helm_{key}", f"{ns}/helm/{key}", Float64, QOS_STATE)
-               for key in DESIRED_KEYS]
-    topics.append(("helm_mode", f"{ns}/helm/mode", String, QOS_LATCHED))
-    if importlib.util.find_spec("uhrisim_msgs") is not None:
-        from uhrisim_msgs.msg import HelmDecision, Variable
-
-        topics += [("helm_decision", f"{ns}/helm/decision", HelmDecision, QOS_STATE),
-                   ("vars", f"{ns}/vars", Variable, QOS_STATE)]
-    return topics
+__all__ = ["DESIRED_KEYS", "QOS_BY_KIND", "THRUSTERS_KEY", "qos_for"]

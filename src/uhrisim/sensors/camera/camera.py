@@ -19,6 +19,7 @@ from uhrisim.sensors.camera import formation as fm
 from uhrisim.sensors.camera.config import CameraConfig
 from uhrisim.sensors.camera.geometry import camera_geometry
 from uhrisim.sensors.camera.sampling import AdaptiveGrid, same_object
+from uhrisim.sensors.camera.textures import SceneTextures
 from uhrisim.sensors.sonar.geometry import mount_rotation, mounted_pose
 from uhrisim.world.raycast import RayCaster, RayHits
 
@@ -128,8 +129,9 @@ class UnderwaterCamera:
         h, w = self.shape
         origin, R = self.camera_pose(position_ned, rotation_body_to_ned)
         scene = raycaster.scene
-        albedo = np.array([m.albedo_rgb for m in getattr(scene, "materials", ())]
-                          or [[0.0] * 3], _F32)
+        materials = tuple(getattr(scene, "materials", ()))
+        albedo = np.array([m.albedo_rgb for m in materials] or [[0.0] * 3], _F32)
+        textures = SceneTextures.of(materials, tuple(getattr(scene, "bodies", ())))
 
         def form(rays: _Rays) -> tuple[RayHits, NDArray, NDArray, NDArray]:
             # einsum, not @: a BLAS product of these skinny shapes spawns threads, which
@@ -137,14 +139,14 @@ class UnderwaterCamera:
             hits = raycaster.cast(origin, np.einsum("ij,kj->ik", rays.dirs_cam, R),
                                   cfg.max_range_m, exclude)
             r = hits.distance.astype(_F32)
-            light, fs = self._light(hits, r, rays, origin, R, albedo)
+            light, fs = self._light(hits, r, rays, origin, R, albedo, textures)
             return hits, r, light, fs
 
         if self._grid is None:  # one ray per pixel
             hits, range_m, light, fs = form(self._rays(R, None))
             labels = hits.label.astype(np.int16)
         else:
-            light, fs, range_m, labels = self._adaptive(form, R)
+            light, fs, range_m, labels = self._adaptive(form, R, textures)
         light, fs = light.reshape(h, w, 3), fs.reshape(h, w, 3)
         radiance = light
         if cfg.forward_scatter and cfg.forward_scatter_spread > 0.0:
@@ -166,10 +168,13 @@ class UnderwaterCamera:
             position_ned=origin, rotation_ned_from_camera=R)
 
     def _adaptive(self, form: Callable[[_Rays], tuple[RayHits, NDArray, NDArray, NDArray]],
-                  R: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+                  R: NDArray[np.float64], textures: SceneTextures | None
+                  ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         """Adaptive sampling (:mod:`.sampling`): ``form`` the coarse grid's rays, then the
-        rays of the cells that are not smooth; everything else interpolated. Returns the
-        (H·W, 3) light and forward-scatter source, (H·W,) range and labels."""
+        rays of the cells that are not smooth (a cell with a corner on a textured
+        material never is: its picture varies within a surface); everything else
+        interpolated. Returns the (H·W, 3) light and forward-scatter source, (H·W,) range
+        and labels."""
         grid, geo = self._grid, self.geometry
         assert grid is not None
         hc, wc = grid.coarse_shape
@@ -178,6 +183,10 @@ class UnderwaterCamera:
         inverse_depth = 1.0 / (range_c * coarse.cos_axis)  # 0 for open water
         same = same_object(*(a.reshape(hc, wc) for a in (hits_c.label, hits_c.body,
                                                          hits_c.material)))
+        if textures is not None:
+            textured = textures.textured(hits_c.material).reshape(hc, wc)
+            same &= ~(textured[:-1, :-1] | textured[:-1, 1:] | textured[1:, :-1]
+                      | textured[1:, 1:])
         r_seen = np.where(np.isfinite(range_c), range_c, _F32(0.0))
         points = coarse.dirs_cam * r_seen[:, None]
         normals = np.einsum("ij,jk->ik", hits_c.normal, R)  # camera frame; water: 0
@@ -226,16 +235,22 @@ class UnderwaterCamera:
 
     def _light(self, hits: RayHits, range_m: NDArray[np.float32], rays: _Rays,
                origin: NDArray[np.float64], R: NDArray[np.float64],
-               albedo_table: NDArray[np.float32]
+               albedo_table: NDArray[np.float32], textures: SceneTextures | None
                ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
         """(N, 3) radiance reaching the camera along ``rays`` without forward scatter —
         direct light and both veils — and (N, 3) the forward-scatter source
-        J·(exp(−G·r) − exp(−c·r)): the stages of :mod:`.formation`."""
+        J·(exp(−G·r) − exp(−c·r)): the stages of :mod:`.formation`. Hits on a textured
+        material take their albedo from the picture (:mod:`.textures`)."""
         cfg, geo, water = self.config, self.geometry, self.config.water
         paths = rays.paths
         hit = np.flatnonzero(hits.material >= 0)
         r_hit = range_m[hit]
-        albedo = np.take(albedo_table, np.take(hits.material, hit), axis=0)
+        material = np.take(hits.material, hit)
+        albedo = np.take(albedo_table, material, axis=0)
+        if textures is not None and textures.textured(material).any():
+            points = origin + np.einsum("ij,kj->ik", np.take(rays.dirs_cam, hit, axis=0), R) \
+                * np.take(hits.distance, hit)[:, None]
+            albedo = textures.albedo(albedo, material, np.take(hits.body, hit), points)
         normal_ned = np.take(hits.normal, hit, axis=0).astype(_F32)
         depth_hit = np.take(paths.down, hit) * r_hit + _F32(origin[2])
         source = fm.daylight_on_surface(albedo, depth_hit, -normal_ned[:, 2], water,

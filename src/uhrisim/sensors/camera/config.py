@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
+from uhrisim.core.settings import check_settings, setting
 from uhrisim.sensors.camera.water import WaterOptics, jerlov
 
 
@@ -69,14 +70,6 @@ PRESETS: dict[str, CameraSpec] = {
 }
 
 
-def _positive_int(value: object, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise ConfigError(f"must be a positive whole number of pixels, got {value!r}", name)
-    if value > 8192:
-        raise ConfigError(f"must be at most 8192 pixels, got {value!r}", name)
-    return int(value)
-
-
 def _finite(value: object, name: str, lo: float = -math.inf, hi: float = math.inf,
             lo_open: bool = False) -> float:
     try:
@@ -94,32 +87,42 @@ class CameraConfig:
     """A validated camera configuration (every default here or in the preset)."""
 
     preset: str = "videoray-pro4"
-    width: int | None = None
-    height: int | None = None
-    hfov_deg: float | None = None
+    width: int | None = setting(None, "px", ge=1, le=8192, integer=True,
+                                doc="image width (None: the preset's)", cost="linear")
+    height: int | None = setting(None, "px", ge=1, le=8192, integer=True,
+                                 doc="image height (None: the preset's)", cost="linear")
+    hfov_deg: float | None = setting(None, "deg", gt=0.0, lt=180.0,
+                                     doc="horizontal field of view (None: the preset's or K's)")
     #: full intrinsic matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (pixels); overrides hfov
     K: tuple[tuple[float, float, float], ...] | None = None
-    rate_hz: float = 10.0
-    max_range_m: float = 30.0
+    rate_hz: float = setting(10.0, "Hz", gt=0.0, le=1000.0, doc="frame rate", cost="linear")
+    max_range_m: float = setting(30.0, "m", gt=0.0, le=1e4, doc="farthest surface seen")
     #: "adaptive": rays on every second pixel, more only where the image needs them
     #: (:mod:`.sampling`); "full": one ray per pixel
     sampling: Literal["adaptive", "full"] = "adaptive"
-    mount_position_frd: tuple[float, float, float] | None = None
-    tilt_deg: float | None = None
-    yaw_deg: float = 0.0
+    mount_position_frd: tuple[float, float, float] | None = setting(
+        None, "m", doc="camera centre in the body frame FRD (None: the preset's)")
+    tilt_deg: float | None = setting(None, "deg", ge=-90.0, le=90.0,
+                                     doc="tilt of the optical axis, > 0 down (None: the preset's)")
+    yaw_deg: float = setting(0.0, "deg", ge=-360.0, le=360.0,
+                             doc="yaw of the optical axis from the bow, > 0 starboard")
     water: WaterOptics = field(default_factory=lambda: jerlov("IB"))
     lamps_on: bool = True
-    lamp_power: float = 1.0  # multiplies every lamp's intensity
-    sun_radiance: float = 1.0  # down-welling radiance just below the surface (relative)
+    lamp_power: float = setting(1.0, "1", ge=0.0, le=1e6, doc="multiplies every lamp's intensity")
+    sun_radiance: float = setting(1.0, "relative", ge=0.0, le=1e6,
+                                  doc="down-welling radiance just below the surface")
     forward_scatter: bool = True
-    #: forward-scatter blur: angular spread (rad) per unit scattering depth b·r (Jaffe's B)
-    forward_scatter_spread: float = 0.01
-    exposure: float | str = "auto"  # radiance gain to full scale, or "auto"
-    auto_exposure_target: float = 0.25  # mean linear level auto exposure aims for
-    max_gain: float = 2000.0  # auto exposure never amplifies more than this
+    forward_scatter_spread: float = setting(
+        0.01, "rad", ge=0.0, le=1.0, doc="forward-scatter blur per unit scattering depth b·r")
+    exposure: float | Literal["auto"] = "auto"  # radiance gain to full scale, or "auto"
+    auto_exposure_target: float = setting(0.25, "1", gt=0.0, le=1.0,
+                                          doc="mean linear level auto exposure aims for")
+    max_gain: float = setting(2000.0, "1", gt=0.0, le=1e12,
+                              doc="auto exposure never amplifies more than this")
     noise: bool = True
-    full_well_e: float = 6000.0  # electrons at full scale (shot noise)
-    read_noise_e: float = 8.0  # electrons rms
+    full_well_e: float = setting(6000.0, "e⁻", ge=1.0, le=1e9,
+                                 doc="electrons at full scale (shot noise)")
+    read_noise_e: float = setting(8.0, "e⁻", ge=0.0, le=1e6, doc="read noise, rms")
 
     def __post_init__(self) -> None:
         spec = PRESETS.get(self.preset)
@@ -128,11 +131,10 @@ class CameraConfig:
                 f"unknown camera preset {self.preset!r}; known: {', '.join(PRESETS)}",
                 "camera.preset",
             )
-        width = _positive_int(spec.width if self.width is None else self.width, "camera.width")
-        height = _positive_int(
-            spec.height if self.height is None else self.height, "camera.height")
-        object.__setattr__(self, "width", width)
-        object.__setattr__(self, "height", height)
+        check_settings(self, "camera")  # the declared bounds, before the preset fills in
+        object.__setattr__(self, "width", int(spec.width if self.width is None else self.width))
+        object.__setattr__(self, "height",
+                           int(spec.height if self.height is None else self.height))
         if self.K is not None:
             k = np.asarray(self.K, dtype=float)
             if k.shape != (3, 3) or not np.all(np.isfinite(k)) or not (
@@ -145,15 +147,13 @@ class CameraConfig:
                 raise ConfigError("give either K or hfov_deg, not both", "camera.hfov_deg")
             # the field of view K gives across the image's width (at the principal point)
             hfov = math.degrees(math.atan2(k[0, 2] + 0.5, k[0, 0])
-                                + math.atan2(width - 0.5 - k[0, 2], k[0, 0]))
+                                + math.atan2(self.width - 0.5 - k[0, 2], k[0, 0]))
+            if not 0.0 < hfov < 180.0:
+                raise ConfigError(f"must be in (0, 180) degrees for a pinhole camera, got "
+                                  f"{hfov!r} from K", "camera.hfov_deg")
         else:
             hfov = spec.hfov_deg if self.hfov_deg is None else self.hfov_deg
-        object.__setattr__(self, "hfov_deg", _finite(hfov, "camera.hfov_deg", 0.0, 180.0, True))
-        if self.hfov_deg >= 180.0:
-            raise ConfigError(
-                f"must be < 180 degrees for a pinhole camera, got {hfov!r}", "camera.hfov_deg")
-        _finite(self.rate_hz, "camera.rate_hz", 0.0, 1000.0, True)
-        _finite(self.max_range_m, "camera.max_range_m", 0.0, 1e4, True)
+        object.__setattr__(self, "hfov_deg", float(hfov))
         if self.sampling not in ("adaptive", "full"):
             raise ConfigError(f"must be 'adaptive' or 'full', got {self.sampling!r}",
                               "camera.sampling")
@@ -161,23 +161,14 @@ class CameraConfig:
             self.mount_position_frd)
         if len(tuple(mount)) != 3:
             raise ConfigError(f"must be 3 numbers (m, FRD), got {mount!r}", "camera.mount.position")
-        object.__setattr__(self, "mount_position_frd", tuple(
-            _finite(v, "camera.mount.position") for v in mount))
-        tilt = spec.tilt_deg if self.tilt_deg is None else self.tilt_deg
-        object.__setattr__(self, "tilt_deg", _finite(tilt, "camera.mount.tilt_deg", -90.0, 90.0))
-        _finite(self.yaw_deg, "camera.mount.yaw_deg", -360.0, 360.0)
+        object.__setattr__(self, "mount_position_frd", tuple(float(v) for v in mount))
+        object.__setattr__(self, "tilt_deg",
+                           float(spec.tilt_deg if self.tilt_deg is None else self.tilt_deg))
         if not isinstance(self.water, WaterOptics):
             raise ConfigError(f"expected WaterOptics, got {type(self.water).__name__}",
                               "camera.water")
-        _finite(self.lamp_power, "camera.lamp_power", 0.0)
-        _finite(self.sun_radiance, "camera.sun_radiance", 0.0)
-        _finite(self.forward_scatter_spread, "camera.forward_scatter_spread", 0.0, 1.0)
         if self.exposure != "auto":
             _finite(self.exposure, "camera.exposure", 0.0, math.inf, True)
-        _finite(self.auto_exposure_target, "camera.auto_exposure_target", 0.0, 1.0, True)
-        _finite(self.max_gain, "camera.max_gain", 0.0, math.inf, True)
-        _finite(self.full_well_e, "camera.full_well_e", 1.0)
-        _finite(self.read_noise_e, "camera.read_noise_e", 0.0)
 
     @property
     def spec(self) -> CameraSpec:

@@ -3,8 +3,10 @@ stages of :mod:`.formation` to it).
 
 Pixel by pixel, in float64: the surface radiance from the lamps and the daylight, the
 direct attenuation, and both veiling-light integrals summed numerically with a fine
-midpoint rule along the ray (no table, no closed form). Forward scatter and the sensor
-are left out (compare with ``forward_scatter=False``, before exposure).
+midpoint rule along the ray (no table, no closed form). A hit on a textured material
+reads its texel here with plain scalar arithmetic (the hit point taken into the body's
+frame, then the picture's row and column). Forward scatter and the sensor are left out
+(compare with ``forward_scatter=False``, before exposure).
 """
 
 from __future__ import annotations
@@ -17,7 +19,32 @@ from numpy.typing import NDArray
 from uhrisim.sensors.camera.config import CameraConfig
 from uhrisim.sensors.camera.geometry import lamp_beam_kappa, pixel_directions
 from uhrisim.world.materials import Material
+from uhrisim.world.objects import DynamicBody
 from uhrisim.world.raycast import RayHits
+
+
+def _surface_albedo(material: Material, point_ned: NDArray, body: DynamicBody | None
+                    ) -> NDArray:
+    """(3,) albedo of ``material`` at a hit point (NED): its texel where it has a picture
+    under the point, else its one albedo. ``body``: the one-part body hit (None: static)."""
+    texture = material.texture
+    if texture is None:
+        return np.asarray(material.albedo_rgb)
+    p = np.asarray(point_ned, dtype=float)
+    if body is not None:
+        p = body.rotation.T @ (p - body.position)
+        part = body.part_transforms[0]
+        p = part[:3, :3].T @ (p - part[:3, 3])
+    rel = p - np.asarray(texture.origin)
+    u = float(rel @ np.asarray(texture.right))
+    v = float(rel @ np.asarray(texture.down))
+    off = float(rel @ np.cross(texture.right, texture.down))
+    if abs(off) > texture.tolerance_m or not (0.0 <= u < texture.width_m
+                                              and 0.0 <= v < texture.height_m):
+        return np.asarray(material.albedo_rgb)
+    rows, cols = texture.image.shape[:2]
+    return np.asarray(texture.image[int(v / texture.height_m * rows),
+                                    int(u / texture.width_m * cols)], dtype=float)
 
 
 def _lamp_light(point: NDArray, normal: NDArray | None, config: CameraConfig) -> NDArray:
@@ -41,9 +68,11 @@ def reference_radiance(
     rotation_ned_from_camera: NDArray[np.float64],
     materials: tuple[Material, ...],
     steps: int = 20000,
+    bodies: tuple[DynamicBody, ...] = (),
 ) -> NDArray[np.float64]:
     """(H, W, 3) radiance at the camera (before forward scatter and the sensor) for the
-    ray hits of every pixel (row-major), computed one pixel at a time."""
+    ray hits of every pixel (row-major), computed one pixel at a time. ``bodies``: the
+    scene's bodies (``hits.body`` indexes them), needed where a body is textured."""
     water = config.water
     b, c, kd = water.b, water.c, water.k_d
     h, w = int(config.height), int(config.width)  # type: ignore[arg-type]
@@ -57,7 +86,10 @@ def reference_radiance(
         d_z = float(R[2] @ d_cam)
         r = float(hits.distance[i])
         if math.isfinite(r):
-            rho = np.asarray(materials[int(hits.material[i])].albedo_rgb)
+            material, body = materials[int(hits.material[i])], int(hits.body[i])
+            textured_body = bodies[body] if material.texture is not None and body >= 0 else None
+            rho = _surface_albedo(material, np.asarray(position_cam_ned) + r * (R @ d_cam),
+                                  textured_body)
             n_ned = hits.normal[i]
             depth = z0 + r * d_z
             j = rho * L0 * np.exp(-kd * max(depth, 0.0)) * 0.5 * (1.0 - n_ned[2])

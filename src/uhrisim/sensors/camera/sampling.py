@@ -1,7 +1,8 @@
 """Adaptive pixel sampling: one ray per pixel only where the image needs it.
 
-The scene's surfaces carry one albedo each (no textures), so within one surface the
-image varies smoothly; it changes abruptly only at the edges of objects and at creases.
+The scene's surfaces carry one albedo each (a textured one aside: the camera casts every
+ray on it), so within one surface the image varies smoothly; it changes abruptly only at
+the edges of objects and at creases.
 ``sampling="adaptive"`` therefore casts rays at every second pixel in each direction
 (the *coarse grid*, plus the last row and column), and looks at each cell between four
 coarse samples: when all four saw the same object (label, body, material, or all open

@@ -12,7 +12,7 @@ from uhrisim.sensors.sonar.cloud import SonarCloud
 from uhrisim.sensors.sonar.config import COLORMAPS, ECHOES_ONLY, SonarConfig
 from uhrisim.sensors.sonar.fan import image_2013
 from uhrisim.sensors.sonar.geometry import mount_rotation
-from uhrisim.sensors.sonar.ping import SonarPing
+from uhrisim.sensors.sonar.ping import SonarInfo, SonarPing
 from uhrisim.sensors.sonar.presets import PRESETS, SonarSpec, get_preset
 from uhrisim.sensors.sonar.sonar import ImagingSonar
 
@@ -23,6 +23,7 @@ __all__ = [
     "ImagingSonar",
     "SonarCloud",
     "SonarConfig",
+    "SonarInfo",
     "SonarPing",
     "SonarSpec",
     "get_preset",

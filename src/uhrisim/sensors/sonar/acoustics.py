@@ -9,7 +9,7 @@ References:
     R. E. Francois and G. R. Garrison, "Sound absorption based on ocean measurements.
     Part II: Boric acid contribution and equation for total absorption", J. Acoust. Soc.
     Am. 72(6), 1879–1890 (1982). Valid 0.2–1000 kHz, −2…22 °C (used here to 25 °C, as the
-    reference table in ``shared/reference/sonar.md`` does).
+    reference table in ``docs/reference/sonar.md`` does).
     Lambert's law for diffuse backscatter, e.g. Urick, *Principles of Underwater Sound*, 3rd
     ed., §8.
 """

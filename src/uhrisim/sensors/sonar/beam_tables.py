@@ -4,8 +4,8 @@ ascending from port to starboard).
 Source: Sound Metrics, ``aris-file-sdk`` (github.com/SoundMetrics/aris-file-sdk),
 ``beam-width-metrics/BeamWidths_ARIS3000_128.h`` and ``BeamWidths_ARIS3000_64.h``: "average
 of 4 ARIS 3000 beampatterns for beam centers, smoothed as average of 5 beam spacings"
-(Copyright 2010-2015 Sound Metrics Corp.; only the centre column is kept). The maker's
-``docs/understanding-aris-data.md`` explains why they are not evenly spaced: "the acoustic
+(Copyright 2010-2015 Sound Metrics Corp.; only the centre column is kept). The SDK's page
+"Understanding ARIS data" explains why they are not evenly spaced: "the acoustic
 lens introduces a non-linear beam spacing". ARIS files number beam 0 as the right-most
 (starboard) beam; the tables here run from port to starboard, the polar image's column
 order (``docs/conventions.md``), so column j is ARIS beam ``n_beams − 1 − j``. The tables

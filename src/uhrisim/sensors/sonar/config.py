@@ -14,6 +14,7 @@ from typing import Literal
 import cv2
 
 from uhrisim.core.errors import ConfigError, warn_user
+from uhrisim.core.settings import check_settings, setting
 from uhrisim.sensors.sonar.acoustics import absorption_db_per_m, sound_speed_fg
 from uhrisim.sensors.sonar.presets import SonarSpec, get_preset
 
@@ -142,54 +143,85 @@ class SonarConfig:
 
     preset: str = "P900-45"
     spec: SonarSpec | None = None
-    range_min_m: float = 0.0
-    range_max_m: float = 30.0
-    range_resolution_m: float | None = None
-    rays_per_beam: int = 64
-    rays_per_beam_azimuth: int = 1
-    elevation_span: float = 1.0
-    mount_position_frd: tuple[float, float, float] = (0.2, 0.0, 0.0)
-    tilt_deg: float = 10.0
-    yaw_deg: float = 0.0
-    rate_hz: float = 15.0
+    range_min_m: float = setting(0.0, "m", ge=0.0, doc="near end of the range window")
+    range_max_m: float = setting(30.0, "m", gt=0.0, doc="far end of the range window "
+                                 "(at most the preset's maximum range)", cost="linear")
+    range_resolution_m: float | None = setting(None, "m", gt=0.0,
+                                               doc="range-bin size (None: the preset's)")
+    rays_per_beam: int = setting(64, "1", ge=2, le=4096, integer=True,
+                                 doc="rays cast in elevation per beam", cost="linear")
+    rays_per_beam_azimuth: int = setting(1, "1", ge=1, le=64, integer=True,
+                                         doc="sub-rays per beam in azimuth", cost="linear")
+    elevation_span: float = setting(1.0, "1", gt=0.0, le=3.0,
+                                    doc="rays cover ± this × the -3 dB vertical half-aperture")
+    mount_position_frd: tuple[float, float, float] = setting(
+        (0.2, 0.0, 0.0), "m", doc="sonar origin in the vehicle body frame FRD")
+    tilt_deg: float = setting(10.0, "deg", gt=-90.0, lt=90.0, doc="tilt of the axis, > 0 down")
+    yaw_deg: float = setting(0.0, "deg", ge=-360.0, le=360.0,
+                             doc="yaw of the axis from the bow, > 0 starboard")
+    rate_hz: float = setting(15.0, "Hz", gt=0.0, doc="requested ping rate (capped by the "
+                             "preset and by the two-way travel time)", cost="linear")
     mode: Literal["physical", "2013"] = "physical"
-    source_level_db: float = 210.0
-    noise_floor_db: float = 65.0
+    source_level_db: float = setting(210.0, "dB re 1 µPa at 1 m", ge=150.0, le=260.0,
+                                     doc="source level")
+    noise_floor_db: float = setting(65.0, "dB re 1 µPa²", ge=-200.0, le=260.0,
+                                    doc="receiver self-noise per cell (below the source level)")
     ambient_noise: bool = True
-    sea_state: float = 1.0
-    receiver_bandwidth_hz: float | None = None
-    post_tvg_noise_db: float | None = 146.0
-    volume_scattering_db: float | None = -70.0
-    surface_scattering_db: float | None = -40.0
-    far_sidelobe_db: float | None = -30.0
+    sea_state: float = setting(1.0, "1", ge=0.0, le=9.0, doc="sea state of the wind noise")
+    receiver_bandwidth_hz: float | None = setting(
+        None, "Hz", gt=0.0, doc="receiver bandwidth (None: c / (2 · pulse resolution))")
+    post_tvg_noise_db: float | None = setting(
+        146.0, "dB", ge=-200.0, le=400.0, doc="noise after the TVG amplifier (None: off)")
+    volume_scattering_db: float | None = setting(
+        -70.0, "dB re 1/m", ge=-200.0, le=0.0, doc="volume backscattering strength (None: off)")
+    surface_scattering_db: float | None = setting(
+        -40.0, "dB", ge=-200.0, lt=0.0, doc="Lambert coefficient of the surface (None: off)")
+    far_sidelobe_db: float | None = setting(
+        -30.0, "dB", ge=-200.0, lt=0.0, doc="integrated far side-lobe level (None: off)")
     tvg: bool = True
-    tvg_spreading_db_per_decade: float = 40.0
-    tvg_min_range_m: float = 1.0
-    gain_db: float = 0.0
-    display_top_db: float = 180.0
-    dynamic_range_db: float = 60.0
-    display_gamma: float = 2.5
+    tvg_spreading_db_per_decade: float = setting(40.0, "dB/decade", ge=0.0, le=100.0,
+                                                 doc="spreading term of the TVG")
+    tvg_min_range_m: float = setting(1.0, "m", ge=0.0, doc="TVG held constant inside this")
+    gain_db: float = setting(0.0, "dB", ge=0.0, le=200.0, doc="user gain")
+    display_top_db: float = setting(180.0, "dB", ge=-200.0, le=400.0,
+                                    doc="level mapped to full scale")
+    dynamic_range_db: float = setting(60.0, "dB", gt=0.0, le=400.0,
+                                      doc="display window below the top")
+    display_gamma: float = setting(2.5, "1", ge=0.1, le=10.0, doc="contrast of the 8-bit curve")
     speckle: bool = True
     speckle_model: Literal["product", "coherent"] = "product"
     labels: bool = False
-    sidelobe_db: float | None = None
-    n_sidelobes: int = 1
-    pulse_resolution_m: float | None = None
-    fan_edge_loss_db: float | None = None
-    beam_steering: bool | None = None
-    tvg_max_gain_db: float | None = None
-    display_black_level: int | None = None
+    sidelobe_db: float | None = setting(None, "dB", ge=-200.0, lt=0.0,
+                                        doc="first side lobe (None: the preset's)")
+    n_sidelobes: int = setting(1, "1", ge=0, le=16, integer=True,
+                               doc="side lobes modelled each side")
+    pulse_resolution_m: float | None = setting(None, "m", gt=0.0,
+                                               doc="pulse length as range (None: the preset's)")
+    fan_edge_loss_db: float | None = setting(None, "dB", ge=0.0, le=30.0,
+                                             doc="two-way loss at the fan edges "
+                                                 "(None: the preset's)")
+    beam_steering: bool | None = None  # steered beams widen as 1/cos (None: the preset's)
+    tvg_max_gain_db: float | None = setting(None, "dB", gt=0.0, le=200.0,
+                                            doc="the TVG's largest gain (None: the preset's)")
+    display_black_level: int | None = setting(None, "1", ge=0, le=254, integer=True,
+                                              doc="8-bit level of no echo inside the fan "
+                                                  "(None: the preset's)")
     multipath: bool = False
-    multipath_loss_db: float = 6.0
-    fan_size_px: int = 512
+    multipath_loss_db: float = setting(6.0, "dB", ge=0.0, le=200.0,
+                                       doc="loss of the surface ghost's path")
+    fan_size_px: int = setting(512, "px", ge=16, le=4096, integer=True,
+                               doc="larger side of the fan image", cost="quadratic")
     colormap: str | None = None
-    water_temperature_c: float = 15.0
-    salinity_psu: float = 35.0
-    water_depth_m: float = 5.0
-    ph: float = 8.0
-    px_per_m_2013: float = 10.0
-    blur_ksize_2013: int = 5
-    blur_sigma_2013: float = 1.5
+    water_temperature_c: float = setting(15.0, "°C", ge=-2.0, le=40.0, doc="water temperature")
+    salinity_psu: float = setting(35.0, "psu", ge=0.0, le=45.0, doc="salinity")
+    water_depth_m: float = setting(5.0, "m", ge=0.0, le=11000.0,
+                                   doc="depth for absorption and sound speed")
+    ph: float = setting(8.0, "1", ge=6.0, le=9.5, doc="pH of the water")
+    px_per_m_2013: float = setting(10.0, "px/m", gt=0.0, le=1000.0,
+                                   doc="2013 image scale", cost="quadratic")
+    blur_ksize_2013: int = setting(5, "px", ge=1, le=99, integer=True,
+                                   doc="2013 Gaussian blur kernel (odd)")
+    blur_sigma_2013: float = setting(1.5, "px", ge=0.0, le=100.0, doc="2013 Gaussian blur σ")
     layout_2013: Literal["port-edge", "literal"] = "port-edge"
 
     # -- validation -------------------------------------------------------------------
@@ -199,66 +231,15 @@ class SonarConfig:
         def bad(name: str, msg: str) -> ConfigError:
             return ConfigError(msg, where=f"SonarConfig.{name}")
 
-        def finite(name: str) -> float:
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise bad(name, f"must be a finite number, got {v!r}")
-            return float(v)
-
-        for name in (
-            "range_min_m", "range_max_m", "elevation_span", "tilt_deg", "yaw_deg", "rate_hz",
-            "source_level_db", "noise_floor_db", "tvg_spreading_db_per_decade", "gain_db",
-            "display_top_db", "dynamic_range_db", "water_temperature_c", "sea_state",
-            "salinity_psu", "water_depth_m", "ph", "px_per_m_2013", "blur_sigma_2013",
-            "tvg_min_range_m", "display_gamma", "multipath_loss_db",
-        ):  # fmt: skip
-            finite(name)
-        for name in (
-            "receiver_bandwidth_hz", "post_tvg_noise_db", "volume_scattering_db",
-            "surface_scattering_db", "far_sidelobe_db", "sidelobe_db", "fan_edge_loss_db",
-            "tvg_max_gain_db",
-        ):  # fmt: skip
-            if getattr(self, name) is not None:
-                finite(name)
+        check_settings(self)  # every declared bound (uhrisim.core.settings)
         if self.noise_floor_db >= self.source_level_db:
             raise bad(
                 "noise_floor_db",
                 f"{self.noise_floor_db} dB is not below source_level_db "
                 f"({self.source_level_db} dB): no echo could rise above the noise",
             )
-        if self.gain_db < 0.0:
-            raise bad("gain_db", f"must be >= 0 dB (a receiver gain), got {self.gain_db!r}")
-        if not 0.1 <= self.display_gamma <= 10.0:
-            raise bad("display_gamma", f"must be in [0.1, 10], got {self.display_gamma!r}")
-        if not 0.0 <= self.sea_state <= 9.0:
-            raise bad("sea_state", f"must be in [0, 9], got {self.sea_state!r}")
-        if self.tvg_min_range_m < 0.0:
-            raise bad("tvg_min_range_m", f"must be >= 0 m, got {self.tvg_min_range_m!r}")
-        if self.multipath_loss_db < 0.0:
-            raise bad("multipath_loss_db", f"must be >= 0 dB, got {self.multipath_loss_db!r}")
-        if self.receiver_bandwidth_hz is not None and self.receiver_bandwidth_hz <= 0.0:
-            raise bad(
-                "receiver_bandwidth_hz", f"must be > 0 Hz, got {self.receiver_bandwidth_hz!r}"
-            )
-        for name in ("sidelobe_db", "far_sidelobe_db", "surface_scattering_db"):
-            v = getattr(self, name)
-            if v is not None and v >= 0.0:
-                raise bad(name, f"must be < 0 dB, got {v!r}")
-        if self.fan_edge_loss_db is not None and not 0.0 <= self.fan_edge_loss_db <= 30.0:
-            raise bad("fan_edge_loss_db", f"must be in [0, 30] dB, got {self.fan_edge_loss_db!r}")
-        if self.tvg_max_gain_db is not None and self.tvg_max_gain_db <= 0.0:
-            raise bad("tvg_max_gain_db", f"must be > 0 dB, got {self.tvg_max_gain_db!r}")
-        level = self.display_black_level
-        if level is not None and (
-            isinstance(level, bool) or not isinstance(level, int) or not 0 <= level <= 254
-        ):
-            raise bad("display_black_level", f"must be an integer in [0, 254], got {level!r}")
         if self.beam_steering is not None and not isinstance(self.beam_steering, bool):
             raise bad("beam_steering", f"must be true or false, got {self.beam_steering!r}")
-        if self.range_max_m <= 0.0:
-            raise bad("range_max_m", f"must be > 0 m, got {self.range_max_m!r}")
-        if self.range_min_m < 0.0:
-            raise bad("range_min_m", f"must be >= 0 m, got {self.range_min_m!r}")
         if self.range_min_m >= self.range_max_m:
             raise bad(
                 "range_min_m",
@@ -269,62 +250,26 @@ class SonarConfig:
                 "range_max_m",
                 f"{self.range_max_m} m is beyond the {spec.name} maximum of {spec.max_range_m} m",
             )
-        if self.range_resolution_m is not None:
-            finite("range_resolution_m")
-            if self.range_resolution_m <= 0.0:
-                raise bad("range_resolution_m", f"must be > 0 m, got {self.range_resolution_m!r}")
-            if self.range_resolution_m > self.range_max_m - self.range_min_m:
-                raise bad("range_resolution_m", "must be smaller than the range window")
-        if self.pulse_resolution_m is not None:
-            finite("pulse_resolution_m")
-            if self.pulse_resolution_m <= 0.0:
-                raise bad("pulse_resolution_m", f"must be > 0 m, got {self.pulse_resolution_m!r}")
-        for name, lo in (
-            ("rays_per_beam", 2), ("rays_per_beam_azimuth", 1), ("fan_size_px", 16),
-            ("n_sidelobes", 0),
-        ):  # fmt: skip
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-                raise bad(name, f"must be an integer >= {lo}, got {v!r}")
-        if not 0.0 < self.elevation_span <= 3.0:
-            raise bad("elevation_span", f"must be in (0, 3], got {self.elevation_span!r}")
-        mount = self.mount_position_frd
-        if len(mount) != 3 or not all(
-            isinstance(m, (int, float)) and math.isfinite(m) for m in mount
-        ):
-            raise bad("mount_position_frd", f"must be 3 finite numbers (m), got {mount!r}")
-        if not -90.0 < self.tilt_deg < 90.0:
-            raise bad("tilt_deg", f"must be in (-90, 90) degrees, got {self.tilt_deg!r}")
-        if self.rate_hz <= 0.0:
-            raise bad("rate_hz", f"must be > 0 Hz, got {self.rate_hz!r}")
-        if self.speckle_model not in ("product", "coherent"):
-            raise bad(
-                "speckle_model", f"must be 'product' or 'coherent', got {self.speckle_model!r}"
-            )
-        if self.mode not in ("physical", "2013"):
-            raise bad("mode", f"must be 'physical' or '2013', got {self.mode!r}")
-        if self.dynamic_range_db <= 0.0:
-            raise bad("dynamic_range_db", f"must be > 0 dB, got {self.dynamic_range_db!r}")
+        r = self.range_resolution_m
+        if r is not None and r > self.range_max_m - self.range_min_m:
+            raise bad("range_resolution_m", "must be smaller than the range window")
+        if len(self.mount_position_frd) != 3:
+            raise bad("mount_position_frd",
+                      f"must be 3 finite numbers (m), got {self.mount_position_frd!r}")
+        for name, allowed in (("mode", ("physical", "2013")),
+                              ("speckle_model", ("product", "coherent")),
+                              ("layout_2013", ("port-edge", "literal"))):
+            if getattr(self, name) not in allowed:
+                raise bad(name, f"must be one of {', '.join(map(repr, allowed))}, "
+                                f"got {getattr(self, name)!r}")
         if self.colormap is not None and self.colormap not in COLORMAPS:
             raise bad(
                 "colormap",
                 f"unknown colour map {self.colormap!r} (known: {', '.join(sorted(COLORMAPS))})",
             )
-        if not -2.0 <= self.water_temperature_c <= 40.0:
-            raise bad("water_temperature_c", "must be in [-2, 40] °C")
-        if not 0.0 <= self.salinity_psu <= 45.0:
-            raise bad("salinity_psu", "must be in [0, 45] psu")
-        if not 0.0 <= self.water_depth_m <= 11000.0:
-            raise bad("water_depth_m", "must be in [0, 11000] m")
-        if not 6.0 <= self.ph <= 9.5:
-            raise bad("ph", "must be in [6, 9.5]")
-        if self.px_per_m_2013 <= 0.0:
-            raise bad("px_per_m_2013", f"must be > 0, got {self.px_per_m_2013!r}")
-        k = self.blur_ksize_2013
-        if isinstance(k, bool) or not isinstance(k, int) or k < 1 or k % 2 == 0:
-            raise bad("blur_ksize_2013", f"must be an odd integer >= 1, got {k!r}")
-        if self.layout_2013 not in ("port-edge", "literal"):
-            raise bad("layout_2013", f"must be 'port-edge' or 'literal', got {self.layout_2013!r}")
+        if self.blur_ksize_2013 % 2 == 0:
+            raise bad("blur_ksize_2013", f"must be an odd integer >= 1, got "
+                                         f"{self.blur_ksize_2013!r}")
 
         cap = self.range_rate_cap_hz
         if self.rate_hz > min(cap, spec.max_rate_hz):
@@ -428,7 +373,7 @@ class SonarConfig:
 
     def floor_bin_coverage_range_m(self, height_m: float) -> float:
         """Range out to which adjacent elevation rays land less than one bin apart on a flat
-        floor ``height_m`` below the sonar (the reference note's ray budget).
+        floor ``height_m`` below the sonar (docs/reference/sonar.md's ray budget).
 
         Near grazing, a ray at slant range R meets the floor at R ≈ h/sin φ, so
         dR/dφ ≈ R²/h; adjacent rays are δφ apart, and every bin is hit while R²·δφ/h < Δr.

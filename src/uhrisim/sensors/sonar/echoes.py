@@ -1,7 +1,7 @@
 """The echo of each ray and the raw echo image: echoes summed into (range bin, beam) cells.
 
 A ray that hits at slant range R with incidence β on a surface of Lambert coefficient μ
-returns, relative to the source level (``shared/reference/sonar.md``),
+returns, relative to the source level (``docs/reference/sonar.md``),
 ``b_v(φ)²·D(θ)·ΔΩ·μ·cos β·R⁻²·10^(−2αR/10)`` (two-way spreading and absorption, Lambert
 scattering off the patch R²ΔΩ/cos β the ray stands for, the element directivity D across
 the fan; the weight b_v(φ)²·D(θ)·ΔΩ is precomputed, :mod:`uhrisim.sensors.sonar.geometry`).

@@ -21,6 +21,25 @@ from uhrisim.sensors.sonar.cloud import SonarCloud
 
 
 @dataclass(frozen=True)
+class SonarInfo:
+    """What the consumers of a sonar's pings (recorders, bridges, viewers, environments)
+    need to know of the sonar, carried by every ping so none of them re-derives or
+    guesses it: ``preset`` name, centre ``frequency_hz``, ``sound_speed_m_s`` of the water,
+    the range window ``range_min_m`` … ``range_max_m`` (m), the horizontal field of view
+    ``fov_deg`` (the outer beams' centres point at its edges), ``n_beams`` and the
+    range-bin size ``bin_m`` (m)."""
+
+    preset: str
+    frequency_hz: float
+    sound_speed_m_s: float
+    range_min_m: float
+    range_max_m: float
+    fov_deg: float
+    n_beams: int
+    bin_m: float
+
+
+@dataclass(frozen=True)
 class SonarPing:
     """One ping.
 
@@ -58,6 +77,7 @@ class SonarPing:
             window, sonar frame and NED, m.
         hit_labels: (M,) int32 scene labels of those hits.
         mode: ``"physical"`` or ``"2013"``.
+        info: the sonar that made it (:class:`SonarInfo`).
     """
 
     t: float
@@ -74,6 +94,7 @@ class SonarPing:
     hit_points_sonar: NDArray[np.float64]
     hit_points_ned: NDArray[np.float64]
     hit_labels: NDArray[np.int32]
+    info: SonarInfo
     form_fan_images: Callable[[], tuple[Any, Any, Any]] = field(repr=False, compare=False)
     mode: str = "physical"
     fan_layout: str = "bottom-centre"

@@ -1,7 +1,7 @@
 """Slow, obviously-correct reference of the physical image formation.
 
 Plain Python loops over rays, cells and kernel taps, written straight from the sonar
-equation in ``shared/reference/sonar.md``; tests hold :class:`ImagingSonar`'s vectorised
+equation in ``docs/reference/sonar.md``; tests hold :class:`ImagingSonar`'s vectorised
 path to it. Use small configurations only (it is O(cells × kernel taps) in Python).
 """
 

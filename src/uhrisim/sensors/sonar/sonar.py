@@ -7,7 +7,7 @@ into the vehicle body frame FRD by yaw (about z) after a downward tilt (a pitch 
 the vehicle rotation then takes it to world NED.
 
 Physical image formation (``mode="physical"``), per ray that hits at slant range R with
-incidence β on a surface of Lambert coefficient μ (``shared/reference/sonar.md``):
+incidence β on a surface of Lambert coefficient μ (``docs/reference/sonar.md``):
 
     EL = SL − 2·TL(R) + TS,     TL = 20 log10 R + αR,     TS = 10 log10(μ·cos²β·A)
 
@@ -57,7 +57,7 @@ from uhrisim.sensors.sonar.geometry import (
     surface_rows,
 )
 from uhrisim.sensors.sonar.labels import FanLabeller, unlabelled
-from uhrisim.sensors.sonar.ping import SonarPing
+from uhrisim.sensors.sonar.ping import SonarInfo, SonarPing
 from uhrisim.sensors.sonar.polar import (
     clip_unit,
     coherent_field,
@@ -103,6 +103,10 @@ class ImagingSonar:
         # Two-way absorption per metre in natural-log units (the config derives α on access).
         self._two_alpha_ln = 2.0 * config.alpha_db_per_m * _LN10_OVER_10
         self.geometry = sonar_geometry(config)
+        spec = config.sonar_spec
+        self.info = SonarInfo(spec.name, spec.frequency_hz, config.sound_speed_m_s,
+                              config.range_min_m, config.range_max_m, spec.fov_h_deg,
+                              spec.n_beams, config.bin_m)
         # The stages that keep scratch images between pings (a ping is not re-entrant).
         self._echoes = EchoAccumulator(self.geometry, config)
         self._fan_labels = FanLabeller(self.geometry)
@@ -283,6 +287,7 @@ class ImagingSonar:
             hit_points_sonar=pts_sonar,
             hit_points_ned=pts_ned,
             hit_labels=labels,
+            info=self.info,
             form_fan_images=fan_images,
             mode=cfg.mode,
             fan_layout="bottom-centre" if cfg.mode == "physical" else cfg.layout_2013,

@@ -5,8 +5,8 @@ every tick, and ``server.publish(builder.build(tick_frame, paused=..., speed_fac
 rtf=...))`` on the ticks it wants to show (every tick is fine too: publish is O(1)).
 It reads the simulation's ``TickFrame`` by duck typing (``t``, ``agents`` mapping of
 snapshots with ``name``, ``model``, ``mode`` and ``nav`` — ``position_ned`` (m),
-``yaw`` (rad, compass), ``speed`` (m/s) — and ``pings`` / ``images`` / ``posts``), so the viewer
-does not import the simulation.
+``yaw`` (rad, compass), ``speed`` (m/s) — and ``pings`` / ``images`` (keyed
+``"<agent>/<sensor>"``) / ``posts``), so the viewer does not import the simulation.
 
 Overlays come from two places: fixed ones given at construction (e.g. contact and
 alert range circles from the scenario), and pMarineViewer-style postings seen in
@@ -102,9 +102,11 @@ def sonar_marks(seen: Any) -> list[dict[str, Any]]:
     return marks
 
 
-def sonar_entry(agent: str, ping: Any, seen: Any = None) -> dict[str, Any]:
-    """A frame's ``sonar`` entry from a ``SonarPing``: fan image, fov (deg), range (m),
-    and the perception's tracks on the fan (:func:`sonar_marks`) when ``seen`` is given.
+def sonar_entry(key: str, ping: Any, seen: Any = None) -> dict[str, Any]:
+    """A frame's ``sonar`` entry from the ``SonarPing`` of the sonar ``key``
+    (``"<agent>/<sensor>"``): fan image, fov (deg) and range (m) as the ping carries them
+    (``ping.info``), and the perception's tracks on the fan (:func:`sonar_marks`) when
+    ``seen`` is given.
 
     Uses the colour-mapped ``fan_rgb`` (BGR in the ping, RGB here) when present, else the
     grey ``fan_u8``. The arrays are referenced, not copied: ``ViewerServer.publish``
@@ -112,22 +114,24 @@ def sonar_entry(agent: str, ping: Any, seen: Any = None) -> dict[str, Any]:
     """
     rgb = getattr(ping, "fan_rgb", None)
     fan = rgb[:, :, ::-1] if rgb is not None else ping.fan_u8
-    beams = np.asarray(ping.beam_angles_rad, dtype=float)
-    bins = np.asarray(ping.bin_ranges_m, dtype=float)
+    agent, _, sensor = key.partition("/")
     return {
         "agent": agent,
+        "sensor": sensor,
         "t": float(ping.t),
         "fan": fan,
-        "fov_deg": float(np.degrees(beams.max() - beams.min())) if beams.size else 0.0,
-        "max_range": float(bins.max()) if bins.size else 0.0,
+        "fov_deg": float(ping.info.fov_deg),
+        "max_range": float(ping.info.range_max_m),
         "marks": sonar_marks(seen) if seen is not None else [],
     }
 
 
-def camera_entry(agent: str, frame: Any) -> dict[str, Any]:
-    """A frame's ``camera`` entry from a ``CameraFrame``: the sRGB picture (referenced,
-    not copied: ``ViewerServer.publish`` copies it)."""
-    return {"agent": agent, "t": float(frame.t), "image": frame.rgb}
+def camera_entry(key: str, frame: Any) -> dict[str, Any]:
+    """A frame's ``camera`` entry from the ``CameraFrame`` of the camera ``key``
+    (``"<agent>/<sensor>"``): the sRGB picture (referenced, not copied:
+    ``ViewerServer.publish`` copies it)."""
+    agent, _, sensor = key.partition("/")
+    return {"agent": agent, "sensor": sensor, "t": float(frame.t), "image": frame.rgb}
 
 
 class FrameBuilder:
@@ -188,10 +192,10 @@ class FrameBuilder:
         ping is missed when frames are built at the viewer's rate only.
         """
         self._take_posts(getattr(tick, "posts", ()))
-        for agent, ping in (getattr(tick, "pings", None) or {}).items():
-            self._pending_pings[agent] = ping
-        for agent, image in (getattr(tick, "images", None) or {}).items():
-            self._pending_images[agent] = image
+        for key, ping in (getattr(tick, "pings", None) or {}).items():
+            self._pending_pings[key] = ping
+        for key, image in (getattr(tick, "images", None) or {}).items():
+            self._pending_images[key] = image
         self._perception.update(getattr(tick, "perception", None) or {})
 
     def build(
@@ -203,7 +207,7 @@ class FrameBuilder:
         rtf: float | None = None,
     ) -> dict[str, Any]:
         """The frame for ``tick`` (a ``TickFrame``), with every ping observed since the
-        last build (the newest per agent)."""
+        last build (the newest per sonar)."""
         self.observe(tick)
         agents = []
         pos: dict[str, np.ndarray] = {}
@@ -232,13 +236,14 @@ class FrameBuilder:
         rng = None
         if pair is not None and pair[0] in pos and pair[1] in pos:
             rng = float(np.linalg.norm(pos[pair[0]] - pos[pair[1]]))
-        sonar = [sonar_entry(a, ping, self._perception.get(a))
-                 for a, ping in self._pending_pings.items()]
-        tracks = [{"agent": a, "id": int(tr.id), "kind": track_kind(seen, tr),
-                   "north": float(tr.north), "east": float(tr.east)}
-                  for a, seen in self._perception.items() for tr in seen.tracks]
+        sonar = [sonar_entry(key, ping, self._perception.get(key))
+                 for key, ping in self._pending_pings.items()]
+        tracks = [{"agent": key.partition("/")[0], "id": int(tr.id),
+                   "kind": track_kind(seen, tr), "north": float(tr.north),
+                   "east": float(tr.east)}
+                  for key, seen in self._perception.items() for tr in seen.tracks]
         self._pending_pings = {}
-        camera = [camera_entry(a, image) for a, image in self._pending_images.items()]
+        camera = [camera_entry(key, image) for key, image in self._pending_images.items()]
         self._pending_images = {}
         return {
             "t": float(tick.t),

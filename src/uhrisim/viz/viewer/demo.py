@@ -29,7 +29,7 @@ class DemoParams:
     rov_depth: float = 5.5  # m
     contact_range: float = 10.0  # m, circle drawn around the ROV
     alert_range: float = 5.0  # m
-    sonar_fov_deg: float = 45.0  # BlueView P900-45 (reference/sonar.md)
+    sonar_fov_deg: float = 45.0  # BlueView P900-45 (docs/reference/sonar.md)
     sonar_range: float = 10.0  # m, display range of the fan
 
 
@@ -160,7 +160,7 @@ def demo_frame(t: float, params: DemoParams = DemoParams(), *, paused: bool = Fa
         },
     }
     if sonar is not None:
-        frame["sonar"] = {"agent": "videoray", "t": float(t), "fan": sonar,
+        frame["sonar"] = {"agent": "videoray", "sensor": "sonar", "t": float(t), "fan": sonar,
                           "fov_deg": params.sonar_fov_deg, "max_range": params.sonar_range}
     return frame
 
@@ -182,7 +182,9 @@ def write_demo_recording(path: Path | str, duration: float = 60.0, dt: float = 0
         ])
         pts = ":".join(f"{e:.3f},{n:.3f}" for n, e in octagon(params))
         rec.write_variable("diver", 0.0, "VIEW_POLYGON", f"pts={{{pts}}},label=loiter", "demo")
+        # the fan's geometry travels with the recording (it has no ProjectedSonarImage)
         rec.write_variable("videoray", 0.0, "SONAR_MAX_RANGE", params.sonar_range, "demo")
+        rec.write_variable("videoray", 0.0, "SONAR_FOV_DEG", params.sonar_fov_deg, "demo")
         for k in range(n_steps + 1):
             t = k * dt
             st = demo_state(t, params)
@@ -190,8 +192,8 @@ def write_demo_recording(path: Path | str, duration: float = 60.0, dt: float = 0
                 rec.write_odometry(name, t, (n, e, d), math.radians(hd), (v, 0.0, 0.0), 0.0)
             if k % every == 0:
                 rn, re_, rd, rh, _ = st["videoray"]
-                rec.write_sonar("videoray", t, None, demo_fan(t, params), None, None,
-                                "videoray/sonar", ((rn, re_, rd), rot_z(math.radians(rh))))
+                rec.write_sonar("videoray", "sonar", t, None, demo_fan(t, params), None, None,
+                                ((rn, re_, rd), rot_z(math.radians(rh))))
             if k % round(1.0 / dt) == 0:  # 1 Hz helm decisions; DEPLOYING for the first second
                 _, _, _, rh, rv = st["videoray"]
                 rec.write_helm_decision("videoray", t, rh, rv, params.rov_depth, {"trail": 100.0},

@@ -29,6 +29,7 @@ from typing import Any
 
 from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.sim.pacing import Pacer
+from uhrisim.vehicles import MODELS
 from uhrisim.viz.viewer.adapt import FrameBuilder
 from uhrisim.viz.viewer.protocol import Command
 
@@ -181,7 +182,6 @@ class ViewerHook:
             self._rtf_mark = (now, t)
 
 
-_MODEL_KINDS = {"videoray": "rov", "diver": "diver", "kinematic": "vehicle"}
 
 
 def attach_viewer(
@@ -210,7 +210,8 @@ def attach_viewer(
     circles: list[dict[str, Any]] = []
     kinds: dict[str, str] = {}
     for a in getattr(scenario, "agents", ()):
-        kinds[a.name] = _MODEL_KINDS.get(getattr(a, "model", ""), "vehicle")
+        model = MODELS.get(getattr(a, "model", ""))
+        kinds[a.name] = model.viewer_kind if model is not None else "vehicle"
         seen: set[float] = set()
         for alert in getattr(getattr(a, "contacts", None), "alerts", ()):
             r = float(alert.alert_range)

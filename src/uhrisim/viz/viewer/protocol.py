@@ -14,10 +14,12 @@ Server → page messages::
      "max_fps": float, "history": {agent: [[t, north, east, depth], ...]},
      "replay": {"t_start": float, "t_end": float} | null}
     {"type": "frame", "seq": int, ...the published frame without "sonar"...}
-    {"type": "sonar", "seq": int, "agent": str, "t": float, "fan_png_b64": str,
-     "fov_deg": float, "max_range": float,
+    {"type": "sonar", "seq": int, "agent": str, "sensor": str, "t": float,
+     "fan_png_b64": str, "fov_deg": float, "max_range": float,
      "marks": [{"id": int, "kind": "diver"|"track"|"tentative", "range": m,
                 "bearing_deg": deg (> 0 starboard)}, ...]}   # sonar perception tracks
+    {"type": "camera", "seq": int, "agent": str, "sensor": str, "t": float,
+     "png_b64": str}
 
 Units and frames as in docs/conventions.md and docs/viewer.md: positions NED metres,
 headings compass degrees.

@@ -1,8 +1,11 @@
 """Replay an MCAP recording in the web viewer, with a time slider.
 
 The recording is the one ``uhrisim.record.McapRecorder`` writes (topics in its module
-docstring): ``/<agent>/odom`` (nav_msgs/Odometry, ENU/FLU), ``/<agent>/sonar/fan``
-(sensor_msgs/Image mono8), ``/<agent>/camera/image_raw`` (sensor_msgs/Image rgb8),
+docstring): ``/<agent>/odom`` (nav_msgs/Odometry, ENU/FLU), each sonar's
+``/<agent>/<sonar>/fan`` (sensor_msgs/Image mono8) and its field of view and range from
+the first ``/<agent>/<sonar>/image`` (marine_acoustic_msgs/ProjectedSonarImage: beam
+directions and range bins), each camera's ``/<agent>/<camera>/image_raw``
+(sensor_msgs/Image rgb8),
 ``/<agent>/vars`` (uhrisim_msgs/Variable) and
 ``/scene/markers`` (visualization_msgs/MarkerArray, ENU), and the helm's mode from
 ``/<agent>/helm/decision`` (else a ``MODE`` variable). Odometry is read with
@@ -11,10 +14,10 @@ the same file with ``uhrisim.record.reader.iter_messages`` and converted back to
 with ``uhrisim.core.frames``. The page receives exactly the live frame schema, so the
 same page shows live runs and replays.
 
-Display-only assumptions, stated once: the fan image's apex is at the bottom centre and
-it spans the full field of view, so ``fov = 2 asin(width / (2 height))`` unless a
-``SONAR_FOV_DEG`` variable was recorded; the fan's range is ``SONAR_MAX_RANGE`` (or
-``SONAR_RANGE``) if recorded, else ``default_sonar_range`` — it only sizes the 3-D wedge.
+A sonar's field of view and range are never guessed: without a ProjectedSonarImage they
+come from the agent's recorded ``SONAR_FOV_DEG`` and ``SONAR_MAX_RANGE`` variables (a
+recording made without the sonar images), else they are unknown (0: the page draws no
+range arcs and no 3-D wedge).
 """
 
 from __future__ import annotations
@@ -53,8 +56,10 @@ MAX_PLAYBACK_SPEED = 100.0
 _MARKER_BOX, _MARKER_SPHERE, _MARKER_CYLINDER, _MARKER_TRIANGLES = 1, 2, 3, 11
 _MARKER_DELETE, _MARKER_DELETEALL = 2, 3
 _ODOM = re.compile(r"^/([^/]+)/odom$")
-_FAN = re.compile(r"^/([^/]+)/sonar/fan$")
-_CAMERA = re.compile(r"^/([^/]+)/camera/image_raw$")
+_FAN = re.compile(r"^/([^/]+/[^/]+)/fan$")  # group 1: the sensor key "<agent>/<sonar>"
+_CAMERA = re.compile(r"^/([^/]+/[^/]+)/image_raw$")
+_PROJECTED = re.compile(r"^/([^/]+/[^/]+)/image$")
+PROJECTED_SONAR_IMAGE = "marine_acoustic_msgs/msg/ProjectedSonarImage"
 _VARS = re.compile(r"^/([^/]+)/vars$")
 _HELM = re.compile(r"^/([^/]+)/helm/decision$")
 _TRACKS = re.compile(r"^/([^/]+)/perception/tracks$")
@@ -64,7 +69,7 @@ _HELM_MODE = "__helm_mode"  # key under which helm decisions' modes are kept
 
 @dataclass
 class _Pings:
-    """Decoded fan images of one agent, thinned online to stay within a byte budget."""
+    """Decoded images of one sensor, thinned online to stay within a byte budget."""
 
     t: list[float] = field(default_factory=list)
     images: list[np.ndarray] = field(default_factory=list)
@@ -92,13 +97,13 @@ class ReplayData:
 
     tracks: dict[str, dict[str, np.ndarray]]  # t, north, east, depth, heading_deg, speed
     kinds: dict[str, str]
-    pings: dict[str, tuple[np.ndarray, list[np.ndarray]]]
+    pings: dict[str, tuple[np.ndarray, list[np.ndarray]]]  # by sensor key "<agent>/<sonar>"
     variables: dict[str, dict[str, tuple[list[float], list[float | str]]]]
     scene: dict[str, Any]
     t_start: float
     t_end: float
-    sonar_fov_deg: dict[str, float]
-    sonar_range: dict[str, float]
+    sonar_fov_deg: dict[str, float]  # by sensor key; 0: unknown
+    sonar_range: dict[str, float]  # m, by sensor key; 0: unknown
     shots: dict[str, tuple[np.ndarray, list[np.ndarray]]] = field(default_factory=dict)
     # sonar perception tracks per agent: (times, [[{id, kind, north, east}, ...] per ping])
     perception: dict[str, tuple[list[float], list[list[dict[str, Any]]]]] = field(
@@ -178,9 +183,7 @@ def _kind_of(name: str, has_sonar: bool) -> str:
     return "rov" if kind == "vehicle" and has_sonar else kind
 
 
-def load_replay(
-    recording: Path | str, default_sonar_range: float = 20.0
-) -> ReplayData:
+def load_replay(recording: Path | str) -> ReplayData:
     """Read a uhrisim MCAP recording into :class:`ReplayData` (tolerates truncated files)."""
     from uhrisim.record.reader import iter_messages, read_odometry
 
@@ -274,19 +277,15 @@ def load_replay(
 
     fov: dict[str, float] = {}
     rng: dict[str, float] = {}
-    for agent, p in pings.items():
-        av = variables.get(agent, {})
-        if "SONAR_FOV_DEG" in av:
-            fov[agent] = float(av["SONAR_FOV_DEG"][1][-1])
-        else:
-            h, w = p.images[0].shape if p.images else (1, 1)
-            fov[agent] = math.degrees(2 * math.asin(min(w / (2.0 * h), 1.0)))
-        rng[agent] = default_sonar_range
-        for key in ("SONAR_MAX_RANGE", "SONAR_RANGE"):
-            if key in av:
-                rng[agent] = float(av[key][1][-1])
-                break
-    kinds = {a: _kind_of(a, a in pings) for a in tracks}
+    geometry = _sonar_geometry(path, [t for t, (kind, _) in summarize(path).topics.items()
+                                      if kind == PROJECTED_SONAR_IMAGE])
+    for key in pings:
+        av = variables.get(key.partition("/")[0], {})
+        recorded = (float(av["SONAR_FOV_DEG"][1][-1]) if "SONAR_FOV_DEG" in av else 0.0,
+                    float(av["SONAR_MAX_RANGE"][1][-1]) if "SONAR_MAX_RANGE" in av else 0.0)
+        fov[key], rng[key] = geometry.get(key, recorded)
+    sonar_agents = {key.partition("/")[0] for key in pings}
+    kinds = {a: _kind_of(a, a in sonar_agents) for a in tracks}
     return ReplayData(
         tracks=tracks,
         kinds=kinds,
@@ -302,10 +301,40 @@ def load_replay(
     )
 
 
+def fan_geometry(beam_angles_rad: Any, bin_ranges_m: Any) -> tuple[float, float]:
+    """(field of view deg, range m) of a recorded sonar image from its beam angles (rad)
+    and range-bin centres (m), as a ProjectedSonarImage carries them: the span of the
+    beam centres (the outer beams point at the fan's edges) and the far end of the last
+    bin (bins of equal size; 0 when the image is empty)."""
+    beams = np.asarray(beam_angles_rad, dtype=float).reshape(-1)
+    bins = np.asarray(bin_ranges_m, dtype=float).reshape(-1)
+    fov = float(np.degrees(beams.max() - beams.min())) if beams.size else 0.0
+    half_bin = 0.5 * float(bins[-1] - bins[-2]) if bins.size > 1 else 0.0
+    return fov, float(bins[-1]) + half_bin if bins.size else 0.0
+
+
+def _sonar_geometry(path: Path, topics: list[str]) -> dict[str, tuple[float, float]]:
+    """Per sonar key, (field of view deg, range m) from the first ProjectedSonarImage
+    on each of ``topics`` (:func:`fan_geometry`)."""
+    from uhrisim.record.reader import iter_messages
+
+    out: dict[str, tuple[float, float]] = {}
+    wanted = {t for t in topics if _PROJECTED.match(t)}
+    for dm in iter_messages(path, sorted(wanted)) if wanted else ():
+        key = _PROJECTED.match(dm.topic).group(1)  # type: ignore[union-attr]
+        if key not in out:
+            d = dm.message.beam_directions
+            angles = np.arctan2([v.y for v in d], [v.z for v in d])
+            out[key] = fan_geometry(angles, np.asarray(dm.message.ranges, dtype=float))
+            if len(out) == len(wanted):
+                break
+    return out
+
+
 def _due(store: dict[str, tuple[np.ndarray, list[np.ndarray]]], t: float,
          sent: dict[str, int]) -> list[tuple[str, float, np.ndarray]]:
-    """Per agent, the latest image at or before ``t`` not sent yet: (agent, its time, the
-    image); ``sent`` remembers what went out."""
+    """Per sensor key, the latest image at or before ``t`` not sent yet: (key, its time,
+    the image); ``sent`` remembers what went out."""
     out = []
     for name, (ts, images) in store.items():
         i = int(np.searchsorted(ts, t, side="right")) - 1
@@ -443,12 +472,13 @@ class ReplayPlayer:
                 "mode": "" if mode is None else str(mode), **vals,
             })
             pos[name] = (vals["north"], vals["east"], vals["depth"])
-        sonars = [{"agent": name, "t": ti, "fan": image,
-                   "fov_deg": self.data.sonar_fov_deg[name],
-                   "max_range": self.data.sonar_range[name]}
-                  for name, ti, image in _due(self.data.pings, t, self._sent_ping)]
-        camera = [{"agent": name, "t": ti, "image": image}
-                  for name, ti, image in _due(self.data.shots, t, self._sent_shot)]
+        sonars = [{"agent": key.partition("/")[0], "sensor": key.partition("/")[2], "t": ti,
+                   "fan": image, "fov_deg": self.data.sonar_fov_deg[key],
+                   "max_range": self.data.sonar_range[key]}
+                  for key, ti, image in _due(self.data.pings, t, self._sent_ping)]
+        camera = [{"agent": key.partition("/")[0], "sensor": key.partition("/")[2],
+                   "t": ti, "image": image}
+                  for key, ti, image in _due(self.data.shots, t, self._sent_shot)]
         rng = None
         if self._pair is not None:
             a, b = pos[self._pair[0]], pos[self._pair[1]]
@@ -512,7 +542,6 @@ def serve_replay(
     *,
     max_fps: float = 20.0,
     start: bool = True,
-    default_sonar_range: float = 20.0,
 ) -> ViewerServer:
     """Serve the viewer over an MCAP recording; the page gets a time slider.
 
@@ -521,7 +550,7 @@ def serve_replay(
     odometry sample at ×1; the page's pause / resume / speed / step act on playback, the
     slider seeks.
     """
-    data = load_replay(recording, default_sonar_range=default_sonar_range)
+    data = load_replay(recording)
     server = ViewerServer(data.scene, [], host=host, port=port, max_fps=max_fps)
     player = ReplayPlayer(data, server)
     server.mode = "replay"

@@ -231,10 +231,11 @@ class ViewerServer:
         the fan image as ``"fan"`` (uint8 array, H×W or H×W×3) instead of
         ``"fan_png_b64"``: it is copied here (cheap) and PNG-encoded in the server thread,
         once per ping, only while a page is connected. ``frame["sonar"]`` may also be a
-        list of such dicts (several agents pinged in the same tick). ``frame["camera"]``, a
-        list of ``{"agent", "t", "image"}`` (uint8 H×W×3 RGB), goes the same way: copied,
-        PNG-encoded in the server thread at most ``max_sonar_fps`` times a second per
-        agent, sent as ``camera`` messages.
+        list of such dicts (several sonars pinged in the same tick); each names its
+        ``agent`` and ``sensor`` and carries its ``fov_deg`` and ``max_range`` (m).
+        ``frame["camera"]``, a list of ``{"agent", "sensor", "t", "image"}`` (uint8 H×W×3
+        RGB), goes the same way: copied, PNG-encoded in the server thread at most
+        ``max_sonar_fps`` times a second per sensor, sent as ``camera`` messages.
         """
         sonar = frame.get("sonar")
         self._seq += 1
@@ -245,11 +246,11 @@ class ViewerServer:
                 if fan is not None:
                     ping = {**ping, "fan": np.array(fan, copy=True)}
                 with self._sonar_lock:
-                    self._sonar[str(ping.get("agent", ""))] = (seq, ping)
+                    self._sonar[_image_key(ping)] = (seq, ping)
         for shot in frame.get("camera") or ():
             shot = {**shot, "kind": "camera", "image": np.array(shot["image"], copy=True)}
             with self._sonar_lock:  # one queue for both kinds of image, keyed apart
-                self._sonar[f"camera:{shot.get('agent', '')}"] = (seq, shot)
+                self._sonar[f"camera:{_image_key(shot)}"] = (seq, shot)
         self._latest = (seq, frame)
 
     def drain_commands(self) -> list[Command]:
@@ -478,12 +479,15 @@ class ViewerServer:
 
     def _encode_sonar(self, seq: int, agent: str, sonar: dict[str, Any]) -> str | None:
         """The ``sonar`` message of a ping, or the ``camera`` message of a camera frame
-        (entries of kind "camera", keyed ``camera:<agent>``); None if not encodable."""
+        (entries of kind "camera", keyed ``camera:<agent>/<sensor>``); None if not
+        encodable (a ping without its field of view and range, too: the viewer never
+        guesses them)."""
         try:
             if sonar.get("kind") == "camera":
                 b64 = encode_png_b64(sonar["image"], self._sonar_max_px)
                 self.cameras_encoded += 1
                 head = {"type": "camera", "seq": seq, "agent": str(sonar.get("agent", "")),
+                        "sensor": str(sonar.get("sensor", "camera")),
                         "t": float(sonar.get("t", math.nan))}
                 key = "png_b64"
             else:
@@ -494,10 +498,11 @@ class ViewerServer:
                 head = {
                     "type": "sonar",
                     "seq": seq,
-                    "agent": agent,
+                    "agent": str(sonar.get("agent", "")),
+                    "sensor": str(sonar.get("sensor", "sonar")),
                     "t": float(sonar.get("t", math.nan)),
-                    "fov_deg": float(sonar.get("fov_deg", 130.0)),
-                    "max_range": float(sonar.get("max_range", 10.0)),
+                    "fov_deg": float(sonar["fov_deg"]),
+                    "max_range": float(sonar["max_range"]),
                     "marks": list(sonar.get("marks", [])),
                 }
                 key = "fan_png_b64"
@@ -542,3 +547,10 @@ class ViewerServer:
                 if sent_sonar.get(agent) != seq and text:
                     sent_sonar[agent] = seq
                     await ws.send(text)
+
+
+def _image_key(entry: dict[str, Any]) -> str:
+    """``"<agent>/<sensor>"`` of a sonar or camera entry (its sensor named by its kind
+    when the entry does not say)."""
+    default = "camera" if entry.get("kind") == "camera" else "sonar"
+    return f"{entry.get('agent', '')}/{entry.get('sensor', default)}"

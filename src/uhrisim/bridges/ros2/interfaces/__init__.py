@@ -4,7 +4,7 @@
 ``marine_acoustic_msgs`` (PingInfo, SonarImageData, ProjectedSonarImage) from the
 ``.msg`` files next to this module, and uhrisim's own ``uhrisim_msgs`` (HelmDecision,
 BehaviorContribution, Variable, Event) from the definitions every recording embeds
-(:mod:`uhrisim.record.msgdefs`), with the rosidl generator wheels of the ``ros2`` extra
+(:mod:`uhrisim.ros.msgdefs`), with the rosidl generator wheels of the ``ros2`` extra
 (CMake, a C/C++ compiler), and installs them into the Python environment's
 prefix exactly where a wheel puts its files: the types are the real ones a ROS 2
 installation has (same names, same type hashes), usable from rclpy in any process of
@@ -35,7 +35,7 @@ def msg_text(package: str, name: str) -> str:
     path = SOURCE_DIR / package / "msg" / f"{name}.msg"
     if path.is_file():
         return path.read_text()
-    from uhrisim.record.msgdefs import own_definition
+    from uhrisim.ros.msgdefs import own_definition
 
     return own_definition(f"{package}/msg/{name}")
 

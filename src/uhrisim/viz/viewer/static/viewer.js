@@ -26,8 +26,8 @@ const state = {
   tracks: null, // replay: name -> {t:[], n:[], e:[], d:[]}
   replay: null,
   selected: null,
-  sonar: {}, // agent -> {t, fov_deg, max_range, img}
-  camera: {}, // agent -> {t, img}
+  sonar: {}, // "<agent>/<sensor>" -> {agent, sensor, t, fov_deg, max_range, img, marks}
+  camera: {}, // "<agent>/<sensor>" -> {agent, sensor, t, img}
   camerasReceived: 0,
   plots: { range: [], depth: {}, speed: {} },
   framesReceived: 0,
@@ -161,8 +161,8 @@ function onSonar(s) {
   state.sonarsReceived += 1;
   const img = new Image();
   img.onload = () => {
-    state.sonar[s.agent] = { t: s.t, fov_deg: s.fov_deg, max_range: s.max_range, img,
-      marks: s.marks || [] };
+    state.sonar[`${s.agent}/${s.sensor}`] = { agent: s.agent, sensor: s.sensor, t: s.t,
+      fov_deg: s.fov_deg, max_range: s.max_range, img, marks: s.marks || [] };
     dirty.sonar = dirty.view3d = true;
   };
   img.src = "data:image/png;base64," + s.fan_png_b64;
@@ -172,7 +172,7 @@ function onCamera(m) {
   state.camerasReceived += 1;
   const img = new Image();
   img.onload = () => {
-    state.camera[m.agent] = { t: m.t, img };
+    state.camera[`${m.agent}/${m.sensor}`] = { agent: m.agent, sensor: m.sensor, t: m.t, img };
     $("camera-panel").classList.remove("hidden");
     $("side").classList.add("with-camera");
     dirty.camera = true;
@@ -597,9 +597,17 @@ function trailsFor(t) {
   return out;
 }
 
-// ---------- image panels: the selected agent's latest image (or the first agent's),
-// letterboxed on black; returns where it was drawn (s is null when there is none yet)
-function drawLatestImage(canvasId, images) {
+// ---------- image panels: the latest image of each sensor of the selected agent (or of
+// the first agent that has one), side by side, each letterboxed on black; returns where
+// each was drawn (empty when there is none yet)
+function sensorsShown(images) {
+  const keys = Object.keys(images).sort();
+  const agent = keys.some((k) => images[k].agent === state.selected)
+    ? state.selected : (keys.length ? images[keys[0]].agent : null);
+  return keys.filter((k) => images[k].agent === agent);
+}
+
+function drawLatestImages(canvasId, images) {
   const c = $(canvasId);
   const dpr = sizeCanvas(c);
   const ctx = c.getContext("2d");
@@ -607,27 +615,36 @@ function drawLatestImage(canvasId, images) {
   const w = c.clientWidth, h = c.clientHeight;
   ctx.fillStyle = "#000";
   ctx.fillRect(0, 0, w, h);
-  let name = state.selected;
-  if (!images[name]) name = Object.keys(images)[0];
-  const s = images[name];
-  if (!s) return { ctx, s: null };
-  const k = Math.min(w / s.img.width, h / s.img.height);
-  const dw = s.img.width * k, dh = s.img.height * k;
-  const x0 = (w - dw) / 2, y0 = (h - dh) / 2;
-  ctx.imageSmoothingEnabled = true;
-  ctx.drawImage(s.img, x0, y0, dw, dh);
-  return { ctx, name, s, x0, y0, dw, dh };
+  const keys = sensorsShown(images);
+  const tile = w / Math.max(1, keys.length);
+  const drawn = keys.map((key, i) => {
+    const s = images[key];
+    const k = Math.min(tile / s.img.width, h / s.img.height);
+    const dw = s.img.width * k, dh = s.img.height * k;
+    const x0 = i * tile + (tile - dw) / 2, y0 = (h - dh) / 2;
+    ctx.imageSmoothingEnabled = true;
+    ctx.drawImage(s.img, x0, y0, dw, dh);
+    return { key, s, x0, y0, dw, dh };
+  });
+  return { ctx, drawn };
 }
 
 // ---------- sonar panel
 function drawSonar() {
-  const { ctx, name, s, x0, y0, dw, dh } = drawLatestImage("sonar", state.sonar);
-  if (!s) {
+  const { ctx, drawn } = drawLatestImages("sonar", state.sonar);
+  if (!drawn.length) {
     label(ctx, "no sonar image yet", 10, 20, "#777");
     $("sonar-caption").textContent = "";
     return;
   }
-  // range arcs, assuming the fan's apex at the bottom centre and max range at the top
+  for (const { s, x0, y0, dw, dh } of drawn) drawFanOverlay(ctx, s, x0, y0, dw, dh);
+  $("sonar-caption").textContent = drawn.map(({ key, s }) =>
+    `${key} · t=${fmt(s.t, 1)} s · ${fmt(s.fov_deg, 0)}° · ${fmt(s.max_range, 0)} m`).join("  |  ");
+}
+
+// range arcs and perception tracks on one fan, its apex at the bottom centre and its
+// range at the top
+function drawFanOverlay(ctx, s, x0, y0, dw, dh) {
   if (s.max_range > 0 && s.fov_deg > 0 && s.fov_deg < 180) {
     const ax = x0 + dw / 2, ay = y0 + dh, half = (s.fov_deg * DEG) / 2;
     const step = niceStep(s.max_range / 4);
@@ -643,7 +660,6 @@ function drawSonar() {
       ctx.fillText(`${r} m`, ax + rp * Math.sin(half) + 3, ay - rp * Math.cos(half));
     }
   }
-  // perception tracks on the fan (apex at the bottom centre, max range at the top)
   if (s.max_range > 0) {
     const ax = x0 + dw / 2, ay = y0 + dh;
     for (const m of s.marks || []) {
@@ -655,16 +671,13 @@ function drawSonar() {
       ctx.stroke();
     }
   }
-  $("sonar-caption").textContent =
-    `${name} · t=${fmt(s.t, 1)} s · ${fmt(s.fov_deg, 0)}° · ${fmt(s.max_range, 0)} m`;
 }
 
 // ---------- camera panel
 function drawCamera() {
-  const { name, s } = drawLatestImage("camera", state.camera);
-  if (!s) return;
-  $("camera-caption").textContent =
-    `${name} · t=${fmt(s.t, 1)} s · ${s.img.width}×${s.img.height}`;
+  const { drawn } = drawLatestImages("camera", state.camera);
+  $("camera-caption").textContent = drawn.map(({ key, s }) =>
+    `${key} · t=${fmt(s.t, 1)} s · ${s.img.width}×${s.img.height}`).join("  |  ");
 }
 
 // ---------- plots
@@ -889,7 +902,7 @@ const view3d = {
       g.add(hull);
     }
     this.scene.add(g);
-    return { group: g, wedge: null, wedgeKey: "" };
+    return { group: g, wedges: [], wedgeKey: "" };
   },
 
   // Translucent horizontal fan: apex at the vehicle, ±fov/2 about forward, radius max_range.
@@ -917,15 +930,14 @@ const view3d = {
       const obj = this.agentObjs[a.name] || (this.agentObjs[a.name] = this.agentObject(a));
       obj.group.position.copy(this.v(a.north, a.east, a.depth));
       obj.group.rotation.y = -a.heading_deg * DEG;
-      const s = state.sonar[a.name];
-      if (s) {
-        const key = `${s.fov_deg}/${s.max_range}`;
-        if (obj.wedgeKey !== key) {
-          if (obj.wedge) obj.group.remove(obj.wedge);
-          obj.wedge = this.wedge(s.fov_deg, s.max_range);
-          obj.wedgeKey = key;
-          obj.group.add(obj.wedge);
-        }
+      // one wedge per sonar of the agent, as wide and long as its fan
+      const fans = Object.values(state.sonar).filter((s) => s.agent === a.name);
+      const key = fans.map((s) => `${s.fov_deg}/${s.max_range}`).sort().join(",");
+      if (fans.length && obj.wedgeKey !== key) {
+        for (const w of obj.wedges) obj.group.remove(w);
+        obj.wedges = fans.map((s) => this.wedge(s.fov_deg, s.max_range));
+        for (const w of obj.wedges) obj.group.add(w);
+        obj.wedgeKey = key;
       }
     }
     const sel = state.agents[state.selected];

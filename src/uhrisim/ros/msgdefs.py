@@ -184,7 +184,7 @@ _OWN: dict[str, str] = {
     "uhrisim_msgs/msg/BehaviorContribution": "string name\nfloat64 value\n",
     # One helm cycle: the decision (compass heading, speed, depth; each may be absent,
     # e.g. all-stop), the helm mode, the active behaviors and each behavior's
-    # contribution with their total (DESIGN.md habit 8).
+    # contribution with their total (docs/design.md habit 8).
     "uhrisim_msgs/msg/HelmDecision": (
         "std_msgs/Header header\n"
         "bool has_heading\n"

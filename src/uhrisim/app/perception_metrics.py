@@ -29,17 +29,20 @@ from typing import Any
 
 import numpy as np
 
-from uhrisim.sim.hooks import TickFrame
+from uhrisim.sim.hooks import TickFrame, sensor_key
 from uhrisim.sim.simulation import BaseHook, Simulation
 
 MIN_TARGET_CELLS = 10
 
 
 class PerceptionMetrics(BaseHook):
-    """Scores the perception of ``observer`` on ``target`` (agent names)."""
+    """Scores the perception of ``observer`` on ``target`` (agent names), from the pings
+    of the observer's sonar named ``sonar``."""
 
-    def __init__(self, observer: str, target: str, hold_radius_m: float = 1.0) -> None:
+    def __init__(self, observer: str, target: str, hold_radius_m: float = 1.0,
+                 sonar: str = "sonar") -> None:
         self.observer, self.target = observer, target
+        self.key = sensor_key(observer, sonar)
         self.hold_radius_m = hold_radius_m
         self._target_label: int | None = None
         self._floor_label: int | None = None
@@ -67,10 +70,10 @@ class PerceptionMetrics(BaseHook):
         self._floor_label = labels.index("seafloor") if "seafloor" in labels else -2
 
     def on_tick(self, frame: TickFrame) -> None:
-        seen = frame.perception.get(self.observer)
+        seen = frame.perception.get(self.key)
         if seen is None:
             return
-        ping = frame.pings[self.observer]
+        ping = frame.pings[self.key]
         self.pings += 1
         self._score_detections(seen, ping)
         target = frame.agents[self.target].nav.position_ned

@@ -1,7 +1,7 @@
 """uhrisim's own messages (``uhrisim_msgs``: HelmDecision, Variable, Event) serialised,
 for the recorder and the live ROS 2 bridge alike.
 
-Their definitions are :mod:`uhrisim.record.msgdefs`' (embedded in every recording; the
+Their definitions are :mod:`uhrisim.ros.msgdefs`' (embedded in every recording; the
 live bridge builds the ROS 2 package from the same text,
 :mod:`uhrisim.bridges.ros2.interfaces`); the bytes are CDR made by ``mcap_ros2``'s
 schema-driven encoder. Each function checks its input and raises a ConfigError naming
@@ -19,7 +19,7 @@ from typing import Any
 from mcap_ros2._dynamic import serialize_dynamic
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.record.msgdefs import schema_text
+from uhrisim.ros.msgdefs import schema_text
 
 HELM_DECISION = "uhrisim_msgs/msg/HelmDecision"
 VARIABLE = "uhrisim_msgs/msg/Variable"

@@ -15,19 +15,19 @@ import json
 import logging
 import math
 import tempfile
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from uhrisim.app.metrics import TrailMetrics
+from uhrisim.app.perception_metrics import PerceptionMetrics
 from uhrisim.core.errors import AssetError
 from uhrisim.record.hook import McapRecordingHook
 from uhrisim.scenario.load import ScenarioFile, load_scenario
-from uhrisim.sim.hooks import TickFrame
-from uhrisim.sim.metrics import TrailMetrics
-from uhrisim.sim.perception_metrics import PerceptionMetrics
+from uhrisim.sim.hooks import TickFrame, sensor_key
 from uhrisim.sim.simulation import BaseHook, Hook, Simulation
 
 SONAR_STRIP_FRAMES = 6
@@ -36,18 +36,23 @@ log = logging.getLogger(__name__)
 
 
 class SonarStripHook(BaseHook):
-    """Keeps a few fan images spread over the run, for the sonar strip figure."""
+    """Keeps a few fan images of each sonar spread over the run, for the sonar strip
+    figure: ``frames[key]`` for each sonar key ``"<agent>/<sensor>"`` of ``titles``
+    (key -> the figure's title of its row)."""
 
-    def __init__(self, agent: str, duration: float, count: int = SONAR_STRIP_FRAMES) -> None:
-        self.agent = agent
-        self.times = list(np.linspace(0.0, duration, count + 1)[1:] - duration / (2 * count))
-        self.frames: list[tuple[float, np.ndarray]] = []
+    def __init__(self, titles: Mapping[str, str], duration: float,
+                 count: int = SONAR_STRIP_FRAMES) -> None:
+        times = list(np.linspace(0.0, duration, count + 1)[1:] - duration / (2 * count))
+        self.titles = dict(titles)
+        self.times = {key: list(times) for key in titles}
+        self.frames: dict[str, list[tuple[float, np.ndarray]]] = {key: [] for key in titles}
 
     def on_tick(self, frame: TickFrame) -> None:
-        ping = frame.pings.get(self.agent)
-        if ping is not None and self.times and frame.t >= self.times[0]:
-            self.times.pop(0)
-            self.frames.append((frame.t, ping.fan_u8.copy()))
+        for key, due in self.times.items():
+            ping = frame.pings.get(key)
+            if ping is not None and due and frame.t >= due[0]:
+                due.pop(0)
+                self.frames[key].append((frame.t, ping.fan_u8.copy()))
 
 
 @dataclass
@@ -60,12 +65,14 @@ class RunResult:
 
 
 def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
-                 duration: float | None = None, seed: int | None = None, sonar: bool = True,
+                 duration: float | None = None, seed: int | None = None,
+                 raycast_sensors: bool = True,
                  extra_hooks: Sequence[Hook] = (),
                  progress: Callable[[float], None] | None = None,
                  should_stop: Callable[[], bool] | None = None,
                  configure: Callable[[Simulation], None] | None = None) -> RunResult:
-    """Build the simulation, run it, and write recording, metrics and figures."""
+    """Build the simulation, run it, and write recording, metrics and figures
+    (``raycast_sensors`` False: no sonars and cameras, :class:`Simulation`)."""
     if not isinstance(source, ScenarioFile):
         source = load_scenario(source)
     scenario = source.scenario
@@ -84,17 +91,19 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
     metrics = TrailMetrics(scenario.metrics) if scenario.metrics else None
     if metrics:
         hooks.append(metrics)
-    observers = [a.name for a in scenario.agents if a.contacts.source == "sonar"]
-    if scenario.metrics and observers and sonar:  # its summary joins metrics.json
-        extra_hooks = [PerceptionMetrics(observers[0], scenario.metrics.target),
+    observers = [a for a in scenario.agents
+                 if a.contacts.source == "sonar" and a.perception_sonar is not None]
+    if scenario.metrics and observers and raycast_sensors:  # its summary joins metrics.json
+        extra_hooks = [PerceptionMetrics(observers[0].name, scenario.metrics.target,
+                                         sonar=str(observers[0].perception_sonar)),
                        *extra_hooks]
-    sonar_agents = [a.name for a in scenario.agents
-                    if any(s.type == "sonar" for s in a.sensors)]
-    strip = SonarStripHook(sonar_agents[0], duration) if sonar and sonar_agents else None
+    sonars = {sensor_key(a.name, str(s.name)): f"{a.name}/{s.name} ({s.preset})"
+              for a in scenario.agents for s in a.sensors if s.type == "sonar"}
+    strip = SonarStripHook(sonars, duration) if raycast_sensors and sonars else None
     if strip:
         hooks.append(strip)
     hooks.extend(extra_hooks)
-    sim = Simulation(source, seed=seed, sonar_enabled=sonar, hooks=hooks)
+    sim = Simulation(source, seed=seed, raycast_sensors=raycast_sensors, hooks=hooks)
     if configure is not None:
         configure(sim)
     try:
@@ -159,14 +168,16 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
                                       out_dir / "trajectory.png", acquired_at))
         files.append(figs.plot_range_bearing(series, metrics.config.range,
                                              out_dir / "range_bearing.png", acquired_at))
-    if strip is not None and strip.frames:
-        files.append(figs.plot_sonar_strip(strip.frames, out_dir / "sonar_strip.png"))
+    if strip is not None and any(strip.frames.values()):
+        rows = {strip.titles[key]: frames for key, frames in strip.frames.items() if frames}
+        files.append(figs.plot_sonar_strip(rows, out_dir / "sonar_strip.png"))
     for hook in extra_hooks:  # perception; live bridges: messages, failures, rounds
         report = getattr(hook, "summary", None)
         if report is not None:
             summary |= report()
     if error is not None:  # why the run ended early
-        summary["stopped_by"] = str(error) or type(error).__name__
+        summary["stopped_by"] = ("interrupted (SIGINT)" if isinstance(error, KeyboardInterrupt)
+                                 else str(error) or type(error).__name__)
     path = out_dir / "metrics.json"
     path.write_text(json.dumps(strict_json(summary), indent=2, allow_nan=False) + "\n")
     files.append(path)

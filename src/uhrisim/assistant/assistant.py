@@ -1,0 +1,95 @@
+"""The assistant: signals in, a task, a tick of the tree, helm postings out, traced.
+
+One :meth:`Assistant.step` per helm tick (4 Hz in the paper): take the signals recognized
+since the last tick (below ``min_confidence``: ignored and logged), tick the tree
+(:mod:`.trees`), post the helm variables that changed (while backing off: the manual
+override and DESIRED_* every tick), and keep the tick in :attr:`Assistant.trace`.
+
+Signals: a command replaces the task in hand (its branch starts from its beginning);
+the same command again changes nothing; ``done`` ends the task; ``ok`` is logged;
+``bring_tool X`` for a tool the map does not have and ``light_here S`` for an unknown
+site are refused (logged). With no task the ROV does ``default_task``.
+"""
+
+from __future__ import annotations
+
+import py_trees
+
+from uhrisim.assistant.behaviours import TreeContext
+from uhrisim.assistant.config import AssistantConfig
+from uhrisim.assistant.io import AssistantInputs, AssistantOutputs, Posting
+from uhrisim.assistant.trees import active_path, build_tree
+from uhrisim.perception.signals import Command, RecognizedSignal
+
+#: the decision domain of the helm in ``assistant/data/assistant.bhv`` (pHelmIvP style)
+HELM_DOMAIN = ("course:0:359:360", "speed:0:1.0:101", "depth:0:50:5001:optional")
+_OVERRIDE_VARS = ("DESIRED_HEADING", "DESIRED_SPEED", "DESIRED_DEPTH")
+
+
+class Assistant:
+    """The diver's assistant above the helm (module docstring)."""
+
+    def __init__(self, config: AssistantConfig | None = None) -> None:
+        self.config = config or AssistantConfig()
+        self.ctx = TreeContext(self.config)
+        self.root, self._tasks = build_tree(self.ctx)
+        self._posted: dict[str, str | float] = {}
+        #: every tick's outputs, in order
+        self.trace: list[AssistantOutputs] = []
+
+    def step(self, inputs: AssistantInputs) -> AssistantOutputs:
+        """One tick: what to post, the gripper command, the task, the active path."""
+        ctx = self.ctx
+        ctx.inputs = inputs
+        ctx.wants, ctx.events = {}, []
+        ctx.override, ctx.gripper_command = False, None
+        if ctx.diver is not None:
+            ctx.last_diver = ctx.diver
+        for signal in sorted(inputs.signals, key=lambda s: s.t):
+            self._take(signal)
+        if ctx.task is None and self.config.default_task != "idle":
+            self._start(Command(self.config.default_task), "by default")
+        self.root.tick_once()
+        active = active_path(self.root)
+        wants: dict[str, str | float] = {"MOOS_MANUAL_OVERRIDE": str(ctx.override).lower()}
+        wants |= ctx.wants
+        wants["ASSIST_TASK"] = str(ctx.task) if ctx.task is not None else "idle"
+        wants["ASSIST_ACTIVE"] = active
+        posts: list[Posting] = []
+        for var, value in wants.items():
+            if self._posted.get(var) != value or (ctx.override and var in _OVERRIDE_VARS):
+                posts.append((var, value))
+                self._posted[var] = value
+        out = AssistantOutputs(inputs.t, tuple(posts), ctx.gripper_command,  # type: ignore[arg-type]
+                               wants["ASSIST_TASK"], active, tuple(ctx.events))  # type: ignore[arg-type]
+        self.trace.append(out)
+        return out
+
+    def _start(self, command: Command, why: str) -> None:
+        ctx = self.ctx
+        if ctx.task is not None:
+            ctx.event(f"task {ctx.task} replaced by {command}")
+        ctx.task = command
+        ctx.plan.clear()
+        self._tasks.stop(py_trees.common.Status.INVALID)
+        ctx.event(f"task {command} {why}")
+
+    def _take(self, signal: RecognizedSignal) -> None:
+        ctx, c = self.ctx, signal.command
+        heard = f"{c} ({signal.channel}, confidence {signal.confidence:.2f})"
+        if signal.confidence < self.config.min_confidence:
+            ctx.event(f"ignored {heard}: below {self.config.min_confidence:g}")
+        elif c.name == "ok":
+            ctx.event(f"ok {heard}")
+        elif c.name == "done":
+            if ctx.task is not None:
+                ctx.finish_task(f"done: {heard}")
+                self._tasks.stop(py_trees.common.Status.INVALID)
+        elif c.name == "bring_tool" and c.argument not in ctx.now.tools and (
+                ctx.now.gripper.holding != c.argument):
+            ctx.event(f"refused {heard}: no tool {c.argument!r} on the map")
+        elif c.name == "light_here" and c.argument is not None and (
+                c.argument not in ctx.now.sites):
+            ctx.event(f"refused {heard}: no work site {c.argument!r} on the map")
+        elif c != ctx.task:
+            self._start(c, f"from {heard}")

@@ -1,0 +1,394 @@
+"""The tree's leaves: conditions, the helm's motion primitives, the gripper, waiting.
+
+Every leaf reads the tick's :class:`TreeContext` (the inputs, the task, the plan) and
+writes only into it: the helm variables it wants this tick, a gripper command, events.
+The :class:`~uhrisim.assistant.assistant.Assistant` turns that into postings. Time is
+the simulation's (``inputs.t``), never the wall clock: the same inputs give the same
+decisions.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import py_trees
+from numpy.typing import NDArray
+
+from uhrisim.assistant.config import AssistantConfig
+from uhrisim.assistant.geometry import bearing_deg, horizontal, segment_distance, separations
+from uhrisim.assistant.io import AssistantInputs, DiverTrack, HelmMode, moos_xy
+from uhrisim.core.frames import wrap_180
+from uhrisim.perception.signals import Command
+
+Status = py_trees.common.Status
+Point = NDArray[np.float64]
+
+
+@dataclass
+class TreeContext:
+    """What the leaves share: the parameters, this tick's inputs, the task in hand and
+    its plan (values fixed when a step starts), and this tick's wishes."""
+
+    config: AssistantConfig
+    inputs: AssistantInputs | None = None
+    task: Command | None = None
+    last_diver: DiverTrack | None = None  # the last fresh track
+    plan: dict[str, object] = field(default_factory=dict)
+    wants: dict[str, str | float] = field(default_factory=dict)
+    override: bool = False
+    gripper_command: str | None = None
+    events: list[str] = field(default_factory=list)
+
+    @property
+    def now(self) -> AssistantInputs:
+        assert self.inputs is not None
+        return self.inputs
+
+    @property
+    def t(self) -> float:
+        return self.now.t
+
+    @property
+    def rov(self) -> Point:
+        return self.now.rov.position_ned
+
+    @property
+    def diver(self) -> DiverTrack | None:
+        """The diver's track if it is fresh (younger than ``lost_after_s``), else None."""
+        d = self.now.diver
+        return d if d is not None and d.age_s <= self.config.lost_after_s else None
+
+    def want(self, var: str, value: str | float) -> None:
+        self.wants[var] = value
+
+    def event(self, text: str) -> None:
+        self.events.append(text)
+
+    def finish_task(self, how: str) -> None:
+        if self.task is not None:
+            self.event(f"task {self.task} {how}")
+        self.task = None
+        self.plan.clear()
+
+
+class Leaf(py_trees.behaviour.Behaviour):
+    """A leaf bound to the shared context."""
+
+    def __init__(self, name: str, ctx: TreeContext) -> None:
+        super().__init__(name)
+        self.ctx = ctx
+
+
+class Check(Leaf):
+    """SUCCESS when ``predicate(ctx)`` holds, else FAILURE."""
+
+    def __init__(self, name: str, ctx: TreeContext, predicate: Callable[[TreeContext], bool]
+                 ) -> None:
+        super().__init__(name, ctx)
+        self.predicate = predicate
+
+    def update(self) -> Status:
+        return Status.SUCCESS if self.predicate(self.ctx) else Status.FAILURE
+
+
+class Do(Leaf):
+    """Runs ``action(ctx)`` and succeeds (a plan step, an event, finishing the task)."""
+
+    def __init__(self, name: str, ctx: TreeContext, action: Callable[[TreeContext], None]
+                 ) -> None:
+        super().__init__(name, ctx)
+        self.action = action
+
+    def update(self) -> Status:
+        self.action(self.ctx)
+        return Status.SUCCESS
+
+
+def _depth(value: float) -> str:
+    return f"depth={max(value, 0.0):.2f}"
+
+
+class Drive(Leaf):
+    """A helm motion primitive toward a target that may move (the diver does): the
+    target is re-posted only when it has moved ``repost_m`` since it was last posted, so
+    the helm's behavior is not reset every tick. Subclasses say what to post and when
+    they have arrived."""
+
+    MODE: HelmMode = "FACE"
+    repost_m = 0.1
+
+    def __init__(self, name: str, ctx: TreeContext,
+                 target: Callable[[TreeContext], Point | None]) -> None:
+        super().__init__(name, ctx)
+        self.target = target
+        self._posted: Point | None = None
+
+    def initialise(self) -> None:
+        self._posted = None
+
+    def update(self) -> Status:
+        p = self.target(self.ctx)
+        if p is None:
+            return Status.FAILURE
+        if self._posted is None or np.linalg.norm(p - self._posted) > self.repost_m:
+            self._posted = p
+        self.ctx.want("ASSIST_MODE", self.MODE)
+        self.ctx.want("DEPTH_UPDATES", _depth(self._posted[2]))
+        self.post(self._posted)
+        return Status.SUCCESS if self.arrived(p) else Status.RUNNING
+
+    def post(self, point: Point) -> None:
+        raise NotImplementedError
+
+    def arrived(self, point: Point) -> bool:
+        cfg = self.ctx.config
+        d = point - self.ctx.rov
+        return (math.hypot(d[0], d[1]) <= self.tolerance()
+                and abs(d[2]) <= cfg.depth_tolerance_m)
+
+    def tolerance(self) -> float:
+        return self.ctx.config.position_tolerance_m
+
+
+class GoTo(Drive):
+    """Transit to a point (helm GOTO: BHV_Waypoint), the way round the diver when the
+    straight line would pass nearer his body than the goal itself and within a guard
+    + 0.5 m: first to a point beside him, ``standoff_m`` out on the side the ROV starts
+    from."""
+
+    MODE = "GOTO"
+
+    def __init__(self, name: str, ctx: TreeContext,
+                 target: Callable[[TreeContext], Point | None], speed: float) -> None:
+        super().__init__(name, ctx, self._via)
+        self.final = target
+        self.speed = speed
+        self._side: float | None = None  # +1: the diver's left, -1: his right
+        self._beside_done = False
+
+    def initialise(self) -> None:
+        super().initialise()
+        self._side, self._beside_done = None, False
+
+    def _via(self, ctx: TreeContext) -> Point | None:
+        goal = self.final(ctx)
+        diver = ctx.diver
+        if goal is None or diver is None or self._beside_done:
+            return goal
+        cfg = ctx.config
+        body = diver.position_ned, diver.neck
+        closest = min(segment_distance(p, *body) for p in np.linspace(ctx.rov, goal, 25))
+        if closest >= min(segment_distance(goal, *body) - 0.05, cfg.body_guard_m + 0.5):
+            return goal
+        left = horizontal(np.cross(diver.forward, [0.0, 0.0, 1.0]))
+        if self._side is None:
+            self._side = 1.0 if left @ (ctx.rov - diver.position_ned) >= 0.0 else -1.0
+        beside = diver.position_ned + cfg.standoff_m * self._side * left
+        beside[2] = goal[2]
+        if np.linalg.norm((beside - ctx.rov)[:2]) <= cfg.position_tolerance_m:
+            self._beside_done = True  # beside him: the rest of the way is clear
+            return goal
+        return beside
+
+    def post(self, point: Point) -> None:
+        self.ctx.want("WPT_UPDATES", f"points={moos_xy(point)} # speed={self.speed:.2f}")
+
+    def arrived(self, point: Point) -> bool:  # only at the final goal
+        goal = self.final(self.ctx)
+        return goal is not None and super().arrived(goal)
+
+
+class Approach(Drive):
+    """Close in on a point, slowing as it nears (helm APPROACH: BHV_StationKeep with its
+    speed graded inside outer_radius), to ``tolerance_m``."""
+
+    MODE = "APPROACH"
+    repost_m = 0.01
+
+    def __init__(self, name: str, ctx: TreeContext,
+                 target: Callable[[TreeContext], Point | None], tolerance_m: float) -> None:
+        super().__init__(name, ctx, target)
+        self.tolerance_m = tolerance_m
+
+    def post(self, point: Point) -> None:
+        v = self.ctx.config.creep_speed
+        self.ctx.want("STATION_UPDATES",
+                      f"station_pt={moos_xy(point)} # outer_speed={v:.2f} # transit_speed={v:.2f}")
+
+    def tolerance(self) -> float:
+        return self.tolerance_m
+
+
+class Face(Leaf):
+    """Turn in place to a heading and hold still (helm FACE). SUCCESS once within
+    ``heading_tolerance_deg``; with ``hold`` it keeps RUNNING (holding the heading)."""
+
+    def __init__(self, name: str, ctx: TreeContext,
+                 heading: Callable[[TreeContext], float | None],
+                 depth: Callable[[TreeContext], float] | None = None, hold: bool = False
+                 ) -> None:
+        super().__init__(name, ctx)
+        self.heading = heading
+        self.depth = depth
+        self.hold = hold
+
+    def update(self) -> Status:
+        h = self.heading(self.ctx)
+        if h is None:
+            return Status.FAILURE
+        self.ctx.want("ASSIST_MODE", "FACE")
+        self.ctx.want("HEADING_UPDATES", f"heading={round(h) % 360}")
+        if self.depth is not None:
+            self.ctx.want("DEPTH_UPDATES", _depth(self.depth(self.ctx)))
+        error = abs(float(wrap_180(self.ctx.now.rov.heading_deg - h)))
+        if not self.hold and error <= self.ctx.config.heading_tolerance_deg:
+            return Status.SUCCESS
+        return Status.RUNNING
+
+
+class HoldAt(Leaf):
+    """Keep station at a point facing a heading, for good: FACE while within
+    ``redrive_m`` of it, else drive back — APPROACH when it is within 1 m, GOTO (the way
+    round the diver) when it has moved farther (he turned: his front is elsewhere)."""
+
+    def __init__(self, name: str, ctx: TreeContext,
+                 point: Callable[[TreeContext], Point | None],
+                 heading: Callable[[TreeContext], float | None]) -> None:
+        super().__init__(name, ctx)
+        self.point = point
+        self.approach = Approach(f"{name}: back", ctx, point,
+                                 ctx.config.position_tolerance_m / 3.0)
+        self.transit = GoTo(f"{name}: round", ctx, point, ctx.config.near_speed)
+        self.face = Face(f"{name}: face", ctx, heading,
+                         lambda c: float(p[2]) if (p := point(c)) is not None else 0.0, hold=True)
+        self._drive: Drive | None = None
+
+    def initialise(self) -> None:
+        self._drive = None
+
+    def update(self) -> Status:
+        p = self.point(self.ctx)
+        if p is None:
+            return Status.FAILURE
+        off = float(np.linalg.norm((p - self.ctx.rov)[:2]))
+        if self._drive is None and off > self.ctx.config.redrive_m:
+            self._drive = self.transit if off > 1.0 else self.approach
+            self._drive.initialise()
+        if self._drive is self.transit and off <= 1.0:
+            self._drive = self.approach
+            self._drive.initialise()
+        if self._drive is not None and self._drive.update() == Status.SUCCESS:
+            self._drive = None
+        if self._drive is None:
+            self.face.update()
+        return Status.RUNNING
+
+
+class Follow(Leaf):
+    """Trail the diver (helm FOLLOW: BHV_Trail) at ``follow_range_m``, at his depth."""
+
+    def update(self) -> Status:
+        diver = self.ctx.diver
+        if diver is None:
+            return Status.FAILURE
+        self.ctx.want("ASSIST_MODE", "FOLLOW")
+        self.ctx.want("TRAIL_UPDATES", f"trail_range={self.ctx.config.follow_range_m:g}")
+        self.ctx.want("DEPTH_UPDATES", _depth(diver.position_ned[2]))
+        return Status.RUNNING
+
+
+class BackOff(Leaf):
+    """Back away from ``source`` (a diver), facing it: the helm is parked
+    (MOOS_MANUAL_OVERRIDE) and DESIRED_* posted here — astern at ``backoff_speed`` ×
+    cos(heading error), so every moment's motion opens the range. SUCCESS once
+    ``done(ctx)``."""
+
+    def __init__(self, name: str, ctx: TreeContext,
+                 source: Callable[[TreeContext], DiverTrack | None],
+                 done: Callable[[TreeContext], bool]) -> None:
+        super().__init__(name, ctx)
+        self.source = source
+        self.done = done
+
+    def update(self) -> Status:
+        diver = self.source(self.ctx)
+        if diver is None:
+            return Status.FAILURE
+        if self.done(self.ctx):
+            return Status.SUCCESS
+        rov = self.ctx.now.rov
+        facing = bearing_deg(rov.position_ned, diver.position_ned)
+        error = math.radians(float(wrap_180(rov.heading_deg - facing)))
+        self.ctx.override = True
+        self.ctx.want("DESIRED_HEADING", round(facing, 1))
+        self.ctx.want("DESIRED_SPEED", round(-self.ctx.config.backoff_speed * math.cos(error), 3))
+        self.ctx.want("DESIRED_DEPTH", round(float(rov.position_ned[2]), 2))
+        return Status.RUNNING
+
+
+class Gripper(Leaf):
+    """Open or close the gripper and wait for it: SUCCESS when open, or closed on an
+    object; FAILURE when it closed on nothing (a missed grasp)."""
+
+    def __init__(self, name: str, ctx: TreeContext, close: bool) -> None:
+        super().__init__(name, ctx)
+        self.close = close
+
+    def update(self) -> Status:
+        g = self.ctx.now.gripper
+        command = "close" if self.close else "open"
+        self.ctx.gripper_command = command
+        self.ctx.want("GRIPPER_CMD", command)
+        if not self.close:
+            return Status.SUCCESS if g.phase == "open" else Status.RUNNING
+        if g.phase != "closed":
+            return Status.RUNNING
+        if g.holding is None:
+            self.ctx.event("grasp missed: the gripper closed on nothing")
+            return Status.FAILURE
+        return Status.SUCCESS
+
+
+class WaitUntil(Leaf):
+    """Hold still (FACE at the heading held when the wait began) until ``predicate``
+    (SUCCESS) or ``timeout_s`` of simulation time (FAILURE)."""
+
+    def __init__(self, name: str, ctx: TreeContext,
+                 predicate: Callable[[TreeContext], bool], timeout_s: float) -> None:
+        super().__init__(name, ctx)
+        self.predicate = predicate
+        self.timeout_s = timeout_s
+        self._start = 0.0
+        self._heading = 0.0
+
+    def initialise(self) -> None:
+        self._start = self.ctx.t
+        self._heading = self.ctx.now.rov.heading_deg
+
+    def update(self) -> Status:
+        if self.predicate(self.ctx):
+            return Status.SUCCESS
+        if self.ctx.t - self._start > self.timeout_s:
+            self.ctx.event(f"{self.name}: gave up after {self.timeout_s:g} s")
+            return Status.FAILURE
+        self.ctx.want("ASSIST_MODE", "FACE")
+        self.ctx.want("HEADING_UPDATES", f"heading={round(self._heading) % 360}")
+        return Status.RUNNING
+
+
+class SpeedCeiling(Leaf):
+    """Every tick: the helm's speed ceiling — ``near_speed`` while the ROV is within
+    ``slow_radius_m`` + ``slow_lead_m`` of the diver's body or head (the lead lets it slow
+    down before it is inside), else ``cruise_speed``. Always SUCCESS."""
+
+    def update(self) -> Status:
+        cfg = self.ctx.config
+        diver = self.ctx.diver or self.ctx.last_diver
+        near = diver is not None and min(separations(self.ctx.rov, diver)) < (
+            cfg.slow_radius_m + cfg.slow_lead_m)
+        limit = cfg.near_speed if near else cfg.cruise_speed
+        self.ctx.want("MAXSPEED_UPDATES", f"max_speed={limit:.2f}")
+        return Status.SUCCESS

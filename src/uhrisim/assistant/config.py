@@ -1,0 +1,103 @@
+"""The assistant's parameters: its guards, speeds and distances (docs/hri.md).
+
+Distances are from the ROV's centre (m). The guards are hard limits the tree never lets
+the ROV break by its own motion: ``body_guard_m`` from the diver's body (the segment
+from the pelvis up to the neck) and ``head_guard_m`` from the head. A handover needs
+the ROV at arm's reach — its jaws at the diver's hand, which a 1.75 m diver holds about
+0.6 m ahead of the body at chest height — so the defaults leave room for that: the ROV's
+centre then sits about 0.9 m from the body and the head. The diver's hands are not
+guarded: touching the ROV at arm's reach is the point of a handover.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+
+from uhrisim.core.errors import ConfigError
+from uhrisim.perception.signals import COMMANDS
+
+
+@dataclass(frozen=True)
+class AssistantConfig:
+    """Parameters (SI units; module docstring). ``default_task``: what the ROV does with
+    no command in hand ("idle": hold where it is, facing the diver; or a command such
+    as "follow_me")."""
+
+    body_guard_m: float = 0.6
+    head_guard_m: float = 0.7
+    trigger_margin_m: float = 0.15  # back off when closer than a guard + this
+    clearance_m: float = 0.2  # a target near the diver keeps a guard + this
+    backoff_to_m: float = 0.5  # back off until a guard + this
+    backoff_speed: float = 0.2  # m/s astern
+    slow_radius_m: float = 1.5  # within it the ROV moves at most near_speed ...
+    slow_lead_m: float = 1.4  # ... and the ceiling lowered this much farther out: from
+    # cruise_speed, a 1 s speed time constant and a 0.25 s helm tick need about that
+    near_speed: float = 0.2
+    cruise_speed: float = 0.5
+    creep_speed: float = 0.08  # the last approach to a grasp or a hand
+    max_closing_speed: float = 0.3  # within slow_radius: faster closing, stop
+    lost_after_s: float = 3.0  # a track older than this is lost
+    lost_standoff_m: float = 2.5  # back off this far from where the diver was last seen
+    min_confidence: float = 0.6  # signals below it are ignored (and logged)
+    follow_range_m: float = 3.0  # beyond slow_radius_m + slow_lead_m: free to keep up
+    standoff_m: float = 2.0  # waiting distance in front of the diver before a handover
+    reach_m: float = 1.0  # come here: the ROV's centre from the diver's body, at arm's reach
+    light_standoff_m: float = 1.5  # light here: horizontal distance from the work
+    light_above_m: float = 0.4  # ... and height above it
+    basket_standoff_m: float = 1.0  # where a grasp's last approach starts
+    handover_gap_m: float = 0.1  # the jaws stop this short of the diver's hand
+    handover_wait_s: float = 30.0  # then back off and offer again
+    grasp_tolerance_m: float = 0.025  # jaws to grasp point before closing
+    position_tolerance_m: float = 0.3
+    depth_tolerance_m: float = 0.15
+    heading_tolerance_deg: float = 5.0
+    redrive_m: float = 0.3  # holding a station: drive back when pushed off this far
+    surface_depth_m: float = 0.5  # go up: the depth to rise to
+    fetch_attempts: int = 3
+    jaw_frd: tuple[float, float, float] = (0.25, 0.0, 0.14)  # the gripper's jaw centre
+    default_task: str = "idle"
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name == "jaw_frd":
+                if len(v) != 3 or not all(math.isfinite(float(c)) for c in v):
+                    raise ConfigError(f"must be 3 finite numbers, got {v!r}",
+                                      "assistant.jaw_frd")
+            elif f.name == "default_task":
+                if v not in ("idle", *COMMANDS) or v in ("bring_tool", "ok", "done"):
+                    raise ConfigError(f"must be idle or a command without an argument, got "
+                                      f"{v!r}", "assistant.default_task")
+            elif f.name == "fetch_attempts":
+                if not (isinstance(v, int) and v >= 1):
+                    raise ConfigError(f"must be an integer >= 1, got {v!r}",
+                                      "assistant.fetch_attempts")
+            elif isinstance(v, bool) or not isinstance(v, (int, float)) or not (
+                    math.isfinite(v) and v > 0.0):
+                raise ConfigError(f"must be a finite number > 0, got {v!r}",
+                                  f"assistant.{f.name}")
+        if self.clearance_m <= self.trigger_margin_m:
+            raise ConfigError("must exceed trigger_margin_m, or the ROV's own targets would "
+                              "set off its guard", "assistant.clearance_m")
+        if self.backoff_to_m <= self.clearance_m:
+            raise ConfigError("must exceed clearance_m", "assistant.backoff_to_m")
+        if self.near_speed > self.cruise_speed or self.creep_speed > self.near_speed:
+            raise ConfigError("need creep_speed <= near_speed <= cruise_speed", "assistant")
+
+    @staticmethod
+    def from_mapping(data: Mapping[str, object] | None, where: str = "assistant"
+                     ) -> AssistantConfig:
+        """From a scenario's mapping; unknown keys and bad values name the field."""
+        data = dict(data or {})
+        known = {f.name for f in fields(AssistantConfig)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ConfigError(f"unknown parameter(s) {unknown}", where)
+        if "jaw_frd" in data:
+            data["jaw_frd"] = tuple(data["jaw_frd"])  # type: ignore[arg-type]
+        try:
+            return AssistantConfig(**data)  # type: ignore[arg-type]
+        except ConfigError as error:  # "assistant.field: ..." -> "<where>.field: ..."
+            raise ConfigError(str(error).replace("assistant", where, 1)) from None

@@ -1,0 +1,313 @@
+"""The changing world of a team: where every object is, who holds it, each site's state.
+
+A :class:`Workspace` is the mutable state the simulation owns for teamwork (habit 3:
+nothing else changes it): the objects (tools and loads) with their poses (4x4 body→NED)
+and where they are — ``"floor"``, ``"water"`` (falling or rising), ``"surface"``,
+``"held"``, ``"on:<platform>"`` (on a fixed structure's top, :class:`Platform`),
+``"in:<basket>"`` (lying in a tool basket, moving with it) or ``"rigged:<load>"`` (a
+lift bag made fast to a load) — who holds what (carrier name →
+object; an object may have two holders at a handover), and the state of every work site.
+
+:meth:`Workspace.carry` moves held objects with their carriers' grip frames;
+:meth:`Workspace.step` advances the physics (free objects fall or rise, lift bags
+inflate, loads lift, hatches swing, basket contents follow) and returns the events.
+The acts (:mod:`uhrisim.teamwork.acts`) change holders and site states.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from uhrisim.core.errors import ConfigError
+from uhrisim.core.frames import rot_z
+from uhrisim.dynamics import free_body as fb
+from uhrisim.world.events import WorldEvent
+from uhrisim.world.tools import Tool
+from uhrisim.world.worksites import (
+    FlangeSpec,
+    FlangeState,
+    HatchSpec,
+    HatchState,
+    LiftBagSpec,
+    LiftBagState,
+    LoadSpec,
+    bag_semi_axes,
+)
+
+FloorDepth = Callable[[float, float], float]
+
+#: A released object rests when a support is within this below it (m).
+SUPPORT_TOLERANCE_M = 0.05
+
+
+@dataclass(frozen=True)
+class Platform:
+    """A level top surface of a fixed structure (a work stand, a structure's deck) that
+    objects can be put on: centre of its top (NED m), size (m, along and across its
+    heading), heading (rad)."""
+
+    name: str
+    top_centre_ned: tuple[float, float, float]
+    size: tuple[float, float]
+    yaw: float = 0.0
+
+    def covers(self, point_ned: ArrayLike) -> bool:
+        """Whether ``point_ned`` lies over (or under) the top surface."""
+        d = np.asarray(point_ned, dtype=float)[:2] - np.asarray(self.top_centre_ned[:2])
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        along, across = c * d[0] + s * d[1], -s * d[0] + c * d[1]
+        return abs(along) <= 0.5 * self.size[0] and abs(across) <= 0.5 * self.size[1]
+
+
+def pose_matrix(position_ned: ArrayLike, yaw: float = 0.0) -> NDArray[np.float64]:
+    """4x4 body→NED of a level object at ``position_ned`` heading ``yaw`` (rad)."""
+    m = np.eye(4)
+    m[:3, :3] = rot_z(yaw)
+    m[:3, 3] = np.asarray(position_ned, dtype=float)
+    return m
+
+
+@dataclass
+class Thing:
+    """An object's state: pose (4x4 body→NED), velocity (NED m/s), where it is, and
+    its pose relative to what carries it (a basket, a grip)."""
+
+    pose: NDArray[np.float64]
+    where: str = "floor"
+    velocity: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
+    relative: NDArray[np.float64] | None = None
+
+    @property
+    def position(self) -> NDArray[np.float64]:
+        return self.pose[:3, 3]
+
+
+@dataclass
+class Workspace:
+    """Objects, holders and site states (module docstring). Build it, then
+    :meth:`put` every object where it starts."""
+
+    tools: dict[str, Tool] = field(default_factory=dict)
+    loads: dict[str, LoadSpec] = field(default_factory=dict)
+    flanges: dict[str, FlangeSpec] = field(default_factory=dict)
+    hatches: dict[str, HatchSpec] = field(default_factory=dict)
+    bags: dict[str, LiftBagSpec] = field(default_factory=dict)
+    platforms: dict[str, Platform] = field(default_factory=dict)
+    things: dict[str, Thing] = field(default_factory=dict)
+    flange_states: dict[str, FlangeState] = field(default_factory=dict)
+    hatch_states: dict[str, HatchState] = field(default_factory=dict)
+    bag_states: dict[str, LiftBagState] = field(default_factory=dict)
+    holders: dict[str, str] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, tools: Iterable[Tool] = (), loads: Iterable[LoadSpec] = (),
+           flanges: Iterable[FlangeSpec] = (), hatches: Iterable[HatchSpec] = (),
+           bags: Iterable[LiftBagSpec] = (), platforms: Iterable[Platform] = ()
+           ) -> Workspace:
+        """A workspace with these objects and sites (names must be unique); lift bags
+        need a tool of kind ``lift_bag`` of the same name."""
+        ws = cls()
+        for group, items in (("tools", tools), ("loads", loads), ("flanges", flanges),
+                             ("hatches", hatches), ("bags", bags), ("platforms", platforms)):
+            for item in items:
+                taken = item.name in ws.names() and not (group == "bags" and
+                                                          item.name in ws.tools)
+                if taken:
+                    raise ConfigError(f"name {item.name!r} is used twice", where="Workspace")
+                getattr(ws, group)[item.name] = item
+        for bag in ws.bags:
+            if bag not in ws.tools or ws.tools[bag].kind != "lift_bag":
+                raise ConfigError(f"lift bag {bag!r} needs a lift_bag tool of that name",
+                                  where="Workspace")
+        ws.flange_states = {n: s.initial_state() for n, s in ws.flanges.items()}
+        ws.hatch_states = {n: s.initial_state() for n, s in ws.hatches.items()}
+        ws.bag_states = {n: s.initial_state() for n, s in ws.bags.items()}
+        return ws
+
+    # ------------------------------------------------------------------ lookups
+    def names(self) -> set[str]:
+        """Every object and site name."""
+        return (set(self.tools) | set(self.loads) | set(self.flanges) | set(self.hatches)
+                | set(self.bags) | set(self.platforms))
+
+    def thing(self, name: str) -> Thing:
+        """The state of object ``name``; ConfigError naming the objects otherwise."""
+        try:
+            return self.things[name]
+        except KeyError:
+            have = ", ".join(sorted(self.things)) or "none"
+            raise ConfigError(f"no object {name!r} (have {have})", where="Workspace") from None
+
+    def held_by(self, carrier: str) -> str | None:
+        """The object ``carrier`` holds, or None."""
+        return self.holders.get(carrier)
+
+    def holders_of(self, obj: str) -> tuple[str, ...]:
+        """Who holds ``obj`` (two at a handover), in the order they took it."""
+        return tuple(c for c, o in self.holders.items() if o == obj)
+
+    def hydro_of(self, obj: str) -> fb.Hydro:
+        return self.tools[obj].hydro if obj in self.tools else self.loads[obj].hydro
+
+    def grasp_point(self, obj: str) -> NDArray[np.float64]:
+        """Where a hand or jaw takes ``obj``, NED (m): a tool's grasp point, a load's
+        lifting eye."""
+        t = self.thing(obj)
+        local = (self.tools[obj].grasp_offset() if obj in self.tools
+                 else self.loads[obj].attachment_site())
+        return t.pose[:3, :3] @ local + t.pose[:3, 3]
+
+    def grip_width(self, obj: str) -> float:
+        """What a hand or jaw closes on (m)."""
+        return self.tools[obj].grasp_width if obj in self.tools else 0.02
+
+    # ------------------------------------------------------------------ placing
+    def put(self, obj: str, position_ned: ArrayLike, yaw: float = 0.0,
+            where: str = "floor", pitch: float = 0.0) -> None:
+        """Place ``obj`` (its reference point at ``position_ned``, heading ``yaw``, its
+        long axis pitched ``pitch`` rad: -pi/2 stands a tool on its working end) at rest;
+        ``where``: ``"floor"``, ``"on:<platform>"``, ``"in:<basket>"`` (it then moves
+        with the basket) or ``"water"`` (free)."""
+        if obj not in self.tools and obj not in self.loads:
+            raise ConfigError(f"no object {obj!r} to put", where="Workspace.put")
+        pose = pose_matrix(position_ned, yaw)
+        c, s = math.cos(pitch), math.sin(pitch)
+        pose[:3, :3] = pose[:3, :3] @ np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+        thing = Thing(pose, where)
+        if where.startswith("in:"):
+            basket = self.thing(where[3:])
+            thing.relative = np.linalg.inv(basket.pose) @ thing.pose
+        self.things[obj] = thing
+
+    def support_below(self, obj: str, floor_depth: FloorDepth) -> tuple[str, float]:
+        """The nearest support under ``obj`` and the gap (m) from its bottom down to it:
+        the floor (``"floor"``), a platform's top (``"on:<name>"``) or the inside bottom of
+        a level tool basket whose opening it is over (``"in:<name>"``)."""
+        x, y, z = self.things[obj].position
+        bottom = z + self.hydro_of(obj).bottom_offset
+        best = ("floor", float(floor_depth(x, y)) - bottom)
+        for name, platform in self.platforms.items():
+            gap = platform.top_centre_ned[2] - bottom
+            if platform.covers((x, y)) and -0.01 <= gap < best[1]:
+                best = (f"on:{name}", gap)
+        for name, basket in self.things.items():
+            if name == obj or name not in self.tools or self.tools[name].kind != "tool_basket":
+                continue
+            length, width, height = self.tools[name].size
+            local = basket.pose[:3, :3].T @ (np.array([x, y, bottom]) - basket.position)
+            inside = abs(local[0]) < 0.5 * length and abs(local[1]) < 0.5 * width
+            gap = 0.5 * height - 0.01 - local[2]  # down to the basket's inside bottom
+            if inside and -0.01 <= gap < best[1]:
+                best = (f"in:{name}", gap)
+        return best
+
+    def rest_on(self, obj: str, support: str, gap: float) -> None:
+        """Lower ``obj`` by ``gap`` onto ``support`` (from :meth:`support_below`), level."""
+        thing = self.things[obj]
+        position = thing.position + np.array([0.0, 0.0, gap])
+        yaw = math.atan2(thing.pose[1, 0], thing.pose[0, 0])
+        self.put(obj, position, yaw, where=support)
+
+    def carry(self, carrier: str, grip_frame: NDArray[np.float64],
+              velocity: ArrayLike = (0.0, 0.0, 0.0)) -> None:
+        """Move what ``carrier`` holds with its 4x4 grip frame (NED). A shared object
+        follows its first holder."""
+        obj = self.held_by(carrier)
+        if obj is None or self.holders_of(obj)[0] != carrier:
+            return
+        thing = self.things[obj]
+        thing.pose = grip_frame @ thing.relative
+        thing.velocity = np.asarray(velocity, dtype=float)
+
+    def take(self, carrier: str, obj: str, grip_frame: NDArray[np.float64]) -> None:
+        """Record that ``carrier`` holds ``obj`` with its grip frame now (NED)."""
+        thing = self.thing(obj)
+        if not self.holders_of(obj):
+            thing.relative = np.linalg.inv(grip_frame) @ thing.pose
+            thing.where = "held"
+            thing.velocity = np.zeros(3)
+        self.holders[carrier] = obj
+
+    def let_go(self, carrier: str) -> str | None:
+        """``carrier`` lets go; returns the object if nobody holds it any more (it is then
+        free in the water: :meth:`step` decides whether it rests or moves)."""
+        obj = self.holders.pop(carrier, None)
+        if obj is None:
+            return None
+        remaining = self.holders_of(obj)
+        if remaining:
+            first = remaining[0]
+            del self.holders[first]  # re-take by the new first holder keeps the pose
+            self.holders[first] = obj
+            return None
+        thing = self.things[obj]
+        thing.where, thing.relative = "water", None
+        return obj
+
+    # ------------------------------------------------------------------ physics
+    def step(self, t: float, dt: float, floor_depth: FloorDepth) -> list[WorldEvent]:
+        """Advance the free objects, lift bags, loads, hatches and basket contents by
+        ``dt`` s (module docstring); return their events."""
+        events: list[WorldEvent] = []
+        for name, spec in self.hatches.items():
+            self.hatch_states[name], ev = spec.advance(self.hatch_states[name], dt, t)
+            events += ev
+        for name, spec in self.bags.items():
+            state = self.bag_states[name]
+            depth = float(self.thing(name).position[2])
+            self.bag_states[name], ev = spec.advance(state, dt, t, depth)
+            events += ev
+        for name, thing in self.things.items():
+            if thing.where in ("water", "floor", "surface"):
+                events += self._move_free(name, thing, dt, t, floor_depth)
+        for thing in self.things.values():  # contents and rigging follow
+            if thing.where.startswith("in:"):
+                thing.pose = self.things[thing.where[3:]].pose @ thing.relative
+            elif thing.where.startswith("rigged:"):
+                load = self.things[thing.where[7:]]
+                eye = self.loads[thing.where[7:]].attachment_site()
+                thing.pose = pose_matrix(load.pose[:3, :3] @ eye + load.pose[:3, 3],
+                                         math.atan2(load.pose[1, 0], load.pose[0, 0]))
+        return events
+
+    def _bag_gas(self, load: str, depth: float) -> tuple[float, list[str]]:
+        """Gas (m³) of the bags rigged to ``load`` at ``depth``, and their names."""
+        rigged = [b for b, s in self.bag_states.items() if s.attached_to == load]
+        return sum(self.bags[b].gas_m3(self.bag_states[b], depth) for b in rigged), rigged
+
+    def _move_free(self, name: str, thing: Thing, dt: float, t: float,
+                   floor_depth: FloorDepth) -> list[WorldEvent]:
+        x = np.concatenate([thing.position, thing.velocity])
+        hydro = self.hydro_of(name)
+        gas = 0.0
+        if name in self.loads:
+            gas, rigged = self._bag_gas(name, float(x[2]))
+            if rigged:  # load and bags rise as one; the swollen bags drag with C_d 1
+                bag_area = math.pi * bag_semi_axes(gas)[0] ** 2
+                area = hydro.area + bag_area
+                hydro = fb.combine(hydro, *(self.bags[b].fabric for b in rigged),
+                                   drag_coefficient=(hydro.drag_coefficient * hydro.area
+                                                     + bag_area) / area,
+                                   area=area, bottom_offset=hydro.bottom_offset)
+        elif name in self.bags:
+            gas = self.bags[name].gas_m3(self.bag_states[name], float(x[2]))
+        support, gap = self.support_below(name, floor_depth)
+        resting_on = float(x[2]) + hydro.bottom_offset + gap  # depth of what is below
+        x, where = fb.step(x, hydro, dt, resting_on, gas)
+        before = thing.where
+        thing.pose[:3, 3], thing.velocity, thing.where = x[:3], x[3:], where
+        if where == "floor" and support != "floor":
+            self.rest_on(name, support, 0.0)  # in a basket or on a platform
+            where = support
+        if where == before:
+            return []
+        landed = where == "floor" or where.startswith(("in:", "on:"))
+        kind = ("landed" if before == "water" and landed
+                else {("floor", "water"): "lifted_off", ("water", "surface"): "surfaced",
+                      ("surface", "water"): "sank"}.get((before, where), f"now_{where}"))
+        return [WorldEvent(t, kind, name, detail={"depth": float(x[2]), "on": where})]

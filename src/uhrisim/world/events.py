@@ -1,0 +1,42 @@
+"""Events: every change of an object's or a site's state, and every act, with its reason.
+
+Work sites (:mod:`uhrisim.world.worksites`), the workspace and the acts of
+:mod:`uhrisim.teamwork` return lists of :class:`WorldEvent`; the simulation records them
+(the recording's events topic) and the metrics count them (grasp attempts and successes,
+objects dropped, task steps).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class WorldEvent:
+    """One thing that happened.
+
+    Attributes:
+        t: simulation time (s).
+        kind: what happened, a fixed word (``"bolt_loosened"``, ``"grasp"``, ...).
+        subject: the object or site it happened to.
+        actor: who did it (``"diver1/right_hand"``, ``"rov/gripper"``), "" for physics.
+        ok: False for an act that failed.
+        reason: why it failed, or a short note; one line.
+        detail: numbers or names that go with it (progress, distances, holders).
+    """
+
+    t: float
+    kind: str
+    subject: str
+    actor: str = ""
+    ok: bool = True
+    reason: str = ""
+    detail: Mapping[str, float | str] = field(default_factory=dict)
+
+    def line(self) -> str:
+        """One human-readable line (logs, the viewer's event list)."""
+        who = f"{self.actor}: " if self.actor else ""
+        status = "" if self.ok else "FAILED "
+        why = f" ({self.reason})" if self.reason else ""
+        return f"t={self.t:.2f} s {who}{status}{self.kind} {self.subject}{why}"

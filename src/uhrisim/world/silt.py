@@ -1,0 +1,229 @@
+"""Silt kicked up by a walking diver: puffs that spread, drift and settle (Stokes).
+
+Every footfall of the weighted-boots diver on a soft floor (mud) resuspends a puff of
+sediment (:meth:`SiltCloud.release`). A puff holds a few grain-size classes (silt is
+2-63 µm, Wentworth 1922). Each class:
+
+* **settles** at its Stokes speed ``w_s = (rho_s - rho_w) g d² / (18 mu)`` (Stokes 1851;
+  valid while the grain Reynolds number ``w_s d / nu`` is below ~0.5: 0.2 for 63 µm
+  quartz in sea water, so through the whole silt range);
+* starts as a layer ``initial_height_m`` thick over the floor, uniform in height, whose
+  top falls at ``w_s`` with no vertical mixing in still water (the dilute limit of
+  Kynch's sedimentation theory, 1952): inside the layer the concentration stays, the
+  suspended mass falls linearly, ``M(t) = M0 (1 - w_s t / H0)``, and what leaves it lies
+  on the floor;
+* **spreads** horizontally as a Gaussian whose variance grows by ``2 K t``
+  (``sigma² = sigma0² + 2 K t``; Fickian diffusion with the horizontal eddy diffusivity
+  K, default 2e-4 m²/s, Okubo's 1971 diffusion diagram at the 1 m scale), and drifts with
+  the current.
+
+So the concentration of class c of a puff released at (x0, y0) at time t0 is
+
+    C = M0_c / (2 pi sigma² H0) exp(-r² / (2 sigma²))
+        for 0 <= height above the floor <= H0 - w_s (t - t0), else 0
+
+and spreading conserves mass exactly (tested), as does settling (suspended + deposited
+= released).
+
+The source strength is the sediment under a boot sole eroded to ``erosion_depth_m``:
+``M0 = sole area x erosion depth x dry bulk density`` (defaults, **assumed**: a 0.32 m x
+0.13 m sole, 1 mm eroded per step, a soft mud of dry bulk density 500 kg/m³: 21 g per
+step), split over the classes by ``mass_fractions``.
+
+What the sensors need: :meth:`SiltCloud.concentration` at points and
+:meth:`SiltCloud.path_integral` along a ray (kg/m²); :func:`beam_attenuation` turns a
+concentration into extra beam attenuation for the camera's water model (mass-specific
+attenuation of mineral particles, ~0.5 m²/g, range 0.2-1: Boss et al., Limnol. Oceanogr.
+Methods 7:803-810, 2009), :func:`volume_backscatter_db` into the sonar's volume
+backscattering strength (Rayleigh scattering by small fluid spheres: Anderson, JASA 22,
+1950; Medwin & Clay, *Fundamentals of Acoustical Oceanography*, 1998, §7.5).
+
+Sea water here: density 1025 kg/m³, dynamic viscosity 1.08e-3 Pa s (35 g/kg at 20 °C,
+Sharqawy, Lienhard & Zubair, Desalination and Water Treatment 16:354-380, 2010); quartz
+grains 2650 kg/m³.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from uhrisim.core.checks import require_positive
+from uhrisim.core.errors import ConfigError
+from uhrisim.dynamics.free_body import GRAVITY, WATER_DENSITY
+
+SEAWATER_VISCOSITY = 1.08e-3  # Pa s
+QUARTZ_DENSITY = 2650.0  # kg/m³
+SOUND_SPEED = 1500.0  # m/s
+
+
+def stokes_speed(diameter_m: float, grain_density: float = QUARTZ_DENSITY,
+                 viscosity: float = SEAWATER_VISCOSITY, rho: float = WATER_DENSITY) -> float:
+    """Stokes settling speed (m/s) of a sphere of ``diameter_m`` (module docstring)."""
+    return (grain_density - rho) * GRAVITY * diameter_m ** 2 / (18.0 * viscosity)
+
+
+@dataclass(frozen=True)
+class SiltParams:
+    """A soft floor's silt and how a footfall stirs it (SI; module docstring)."""
+
+    diameters_m: tuple[float, ...] = (8e-6, 20e-6, 45e-6)
+    mass_fractions: tuple[float, ...] = (0.3, 0.4, 0.3)
+    grain_density: float = QUARTZ_DENSITY
+    sole_area_m2: float = 0.32 * 0.13
+    erosion_depth_m: float = 1e-3
+    dry_bulk_density: float = 500.0
+    initial_height_m: float = 0.3
+    initial_sigma_m: float = 0.2
+    diffusivity_m2s: float = 2e-4
+    current_ne: tuple[float, float] = (0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        if len(self.diameters_m) != len(self.mass_fractions) or not self.diameters_m:
+            raise ConfigError("needs one mass fraction per diameter", where="SiltParams")
+        if abs(sum(self.mass_fractions) - 1.0) > 1e-9 or min(self.mass_fractions) < 0:
+            raise ConfigError(f"must be >= 0 and add up to 1, got {self.mass_fractions}",
+                              where="SiltParams.mass_fractions")
+        if not all(2e-6 <= d <= 63e-6 for d in self.diameters_m):
+            raise ConfigError(f"silt is 2-63 µm (Wentworth), got {self.diameters_m}",
+                              where="SiltParams.diameters_m")
+        require_positive(self, ("sole_area_m2", "erosion_depth_m", "dry_bulk_density",
+                                "initial_height_m", "initial_sigma_m", "grain_density"),
+                         "SiltParams")
+        require_positive(self, ("diffusivity_m2s",), "SiltParams", allow_zero=True)
+
+    @property
+    def settling_speeds(self) -> NDArray[np.float64]:
+        """(K,) Stokes speed of every class (m/s)."""
+        return np.array([stokes_speed(d, self.grain_density) for d in self.diameters_m])
+
+    @property
+    def footfall_mass_kg(self) -> float:
+        """Sediment one footfall resuspends (kg)."""
+        return self.sole_area_m2 * self.erosion_depth_m * self.dry_bulk_density
+
+
+@dataclass
+class SiltCloud:
+    """All puffs released so far, and what has settled (module docstring).
+
+    ``floor_depth(north, east)`` gives the floor depth (m, down) under points (arrays);
+    the layers lie on it. Mutable: the simulation releases puffs; queries read it.
+    """
+
+    params: SiltParams
+    floor_depth: Callable[[ArrayLike, ArrayLike], ArrayLike]
+    _t0: list[float] = field(default_factory=list)
+    _origin: list[tuple[float, float]] = field(default_factory=list)
+    _mass: list[NDArray[np.float64]] = field(default_factory=list)  # (K,) per puff
+    _released_kg: float = 0.0
+
+    def release(self, t: float, position_ned: ArrayLike, mass_kg: float | None = None) -> None:
+        """A footfall at ``t`` (s) at ``position_ned`` (the floor under it is what counts):
+        ``mass_kg`` (default: the params' footfall mass) split over the classes."""
+        m = self.params.footfall_mass_kg if mass_kg is None else float(mass_kg)
+        if not (math.isfinite(m) and m >= 0.0):
+            raise ConfigError(f"must be >= 0 kg, got {mass_kg!r}", where="SiltCloud.release")
+        p = np.asarray(position_ned, dtype=float)
+        self._t0.append(float(t))
+        self._origin.append((float(p[0]), float(p[1])))
+        self._mass.append(m * np.asarray(self.params.mass_fractions))
+        self._released_kg += m
+
+    @property
+    def n_puffs(self) -> int:
+        return len(self._t0)
+
+    @property
+    def released_kg(self) -> float:
+        return self._released_kg
+
+    def _state(self, t: float) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray]:
+        """Per puff: centre (P, 2), sigma (P,), age (P,); per puff and class: mass inside
+        (P, K) and layer top height (P, K) at ``t`` (puffs not yet released: mass 0)."""
+        p = self.params
+        age = t - np.asarray(self._t0)
+        born = age >= 0.0
+        age = np.maximum(age, 0.0)
+        centre = np.asarray(self._origin).reshape(-1, 2) + np.outer(age, p.current_ne)
+        sigma = np.sqrt(p.initial_sigma_m ** 2 + 2.0 * p.diffusivity_m2s * age)
+        top = np.maximum(p.initial_height_m - np.outer(age, p.settling_speeds), 0.0)
+        mass = np.asarray(self._mass).reshape(-1, len(p.diameters_m)) * born[:, None]
+        return centre, sigma, age, mass, top
+
+    def suspended_kg(self, t: float) -> NDArray[np.float64]:
+        """(K,) mass of each class still in the water at ``t`` (kg)."""
+        if not self._t0:
+            return np.zeros(len(self.params.diameters_m))
+        _, _, _, mass, top = self._state(t)
+        return np.sum(mass * top / self.params.initial_height_m, axis=0)
+
+    def deposited_kg(self, t: float) -> NDArray[np.float64]:
+        """(K,) mass of each class settled back onto the floor by ``t`` (kg)."""
+        if not self._t0:
+            return np.zeros(len(self.params.diameters_m))
+        _, _, _, mass, _ = self._state(t)
+        return mass.sum(axis=0) - self.suspended_kg(t)
+
+    def concentration(self, points_ned: ArrayLike, t: float) -> NDArray[np.float64]:
+        """Mass concentration (kg/m³) at (N, 3) NED points at ``t`` (all classes)."""
+        pts = np.atleast_2d(np.asarray(points_ned, dtype=float))
+        if not self._t0:
+            return np.zeros(len(pts))
+        centre, sigma, _, mass, top = self._state(t)
+        height = np.asarray(self.floor_depth(pts[:, 0], pts[:, 1]), dtype=float) - pts[:, 2]
+        height = np.where(np.isfinite(height), height, -1.0)  # off the floor: no silt
+        r2 = ((pts[:, None, 0] - centre[None, :, 0]) ** 2
+              + (pts[:, None, 1] - centre[None, :, 1]) ** 2)  # (N, P)
+        spread = np.exp(-0.5 * r2 / sigma ** 2) / (2.0 * math.pi * sigma ** 2)  # 1/m²
+        inside = ((height[:, None, None] >= 0.0)
+                  & (height[:, None, None] <= top[None])).astype(float)
+        per_height = mass / self.params.initial_height_m  # kg/m, (P, K)
+        return np.einsum("np,npk,pk->n", spread, inside, per_height)
+
+    def path_integral(self, origin_ned: ArrayLike, direction: ArrayLike, length: float,
+                      t: float, samples: int = 256) -> float:
+        """∫ C ds (kg/m²) along the ray from ``origin_ned`` along unit ``direction`` for
+        ``length`` m (midpoint rule on ``samples`` points)."""
+        o = np.asarray(origin_ned, dtype=float)
+        d = np.asarray(direction, dtype=float)
+        ds = length / samples
+        s = (np.arange(samples) + 0.5) * ds
+        return float(self.concentration(o + s[:, None] * d, t).sum() * ds)
+
+
+def beam_attenuation(concentration_kg_m3: ArrayLike, mass_specific_m2_g: float = 0.5
+                     ) -> NDArray[np.float64] | float:
+    """Extra beam attenuation (1/m) of silt at ``concentration_kg_m3`` (module docstring:
+    ``c = k C`` with k in m²/g; 1 kg/m³ = 1000 g/m³)."""
+    return mass_specific_m2_g * 1e3 * np.asarray(concentration_kg_m3, dtype=float)
+
+
+def volume_backscatter_db(concentration_kg_m3: ArrayLike, frequency_hz: float,
+                          diameter_m: float = 20e-6, grain_density: float = QUARTZ_DENSITY,
+                          grain_sound_speed: float = 5500.0) -> NDArray[np.float64]:
+    """Volume backscattering strength S_v (dB re 1/m) of silt grains of ``diameter_m`` at
+    ``concentration_kg_m3``: ``S_v = 10 log10(n sigma_bs)``, n grains per m³, sigma_bs of a
+    small fluid sphere (Rayleigh, ka << 1)::
+
+        sigma_bs = k⁴ a⁶ [ (1 - g h²) / (3 g h²) + (1 - g) / (1 + 2 g) ]²
+
+    with g and h the grain/water density and sound-speed ratios (quartz treated as a fluid
+    sphere: a stated simplification). -inf where the concentration is 0."""
+    a = 0.5 * diameter_m
+    k = 2.0 * math.pi * frequency_hz / SOUND_SPEED
+    if k * a > 0.5:
+        raise ConfigError(f"ka = {k * a:.2f}: outside the Rayleigh regime (ka << 1)",
+                          where="volume_backscatter_db")
+    g = grain_density / WATER_DENSITY
+    h = grain_sound_speed / SOUND_SPEED
+    form = (1.0 - g * h * h) / (3.0 * g * h * h) + (1.0 - g) / (1.0 + 2.0 * g)
+    sigma_bs = k ** 4 * a ** 6 * form ** 2
+    grain_mass = grain_density * math.pi / 6.0 * diameter_m ** 3
+    n = np.asarray(concentration_kg_m3, dtype=float) / grain_mass
+    with np.errstate(divide="ignore"):
+        return 10.0 * np.log10(n * sigma_bs)

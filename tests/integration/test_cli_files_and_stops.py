@@ -1,0 +1,106 @@
+"""Files that are not ours, and stops (issue 29): only a regular text file of a sane size
+is read, a file that is not a cut MCAP is never touched, and SIGTERM, SIGHUP and Ctrl-C
+all end a run the same clean way (the rosbag2 folder complete, metrics.json saying why),
+each in one line. The command runs in its own process, as a user's shell runs it."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from rosbags.highlevel import AnyReader
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENARIO = ROOT / "scenarios" / "track_and_trail.yaml"
+
+
+def uhrisim(*args: str, timeout: float = 300.0) -> subprocess.CompletedProcess:
+    """The command in a child process (a FIFO that blocked would time out, not hang)."""
+    return subprocess.run([sys.executable, "-m", "uhrisim", *args], capture_output=True,
+                          text=True, timeout=timeout, cwd=ROOT)
+
+
+def one_error_line(done: subprocess.CompletedProcess, status: int = 2) -> str:
+    assert done.returncode == status, done.stderr
+    lines = [line for line in (done.stdout + done.stderr).splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), lines
+    return lines[0]
+
+
+def test_only_a_regular_text_file_of_a_sane_size_is_read(tmp_path):
+    fifo = tmp_path / "scenario.yaml"
+    os.mkfifo(fifo)  # opening it would block until a writer came: never opened
+    big = tmp_path / "big.yaml"
+    big.write_bytes(b"#" * (17 * 1024 * 1024))
+    for path, why in ((fifo, "a FIFO"), (Path("/dev/zero"), "a device"), (tmp_path, "a folder"),
+                      (big, "larger than 16 MiB")):
+        line = one_error_line(uhrisim("validate", str(path)))
+        assert line == f"error: {path}: cannot read scenario file: {why}" + (
+            ", not a file to read" if why.startswith("a ") else ""), line
+
+
+def test_a_key_that_is_not_a_name_is_one_line(tmp_path):
+    path = tmp_path / "keys.yaml"
+    path.write_text("name: x\n? [a, b]\n: 3\n")
+    assert one_error_line(uhrisim("validate", str(path))) == (
+        f"error: {path}:2: a key must be a name, not a list ('? ...' keys)")
+
+
+@pytest.mark.parametrize("command", ["recover", "view"])
+def test_a_file_that_is_no_recording_is_never_touched(tmp_path, command):
+    notes = tmp_path / "notes.txt"
+    notes.write_text("the user's own notes\n" * 100)
+    before = notes.read_bytes()
+    line = one_error_line(uhrisim(command, str(notes)))
+    assert "not an MCAP recording" in line and "left as it is" in line
+    assert notes.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]  # no .partial
+
+
+def test_a_warning_is_said_once(tmp_path):
+    scenario = tmp_path / "warns.yaml"
+    scenario.write_text(f"name: w\nduration: 1\nagents:\n  - name: rov\n    model: videoray\n"
+                        f"    start: {{north: 0, east: 0, depth: 1}}\n"
+                        f"    helm: {{bhv_file: {ROOT / 'scenarios' / 'videoray_trail.bhv'}}}\n")
+    done = uhrisim("validate", str(scenario))
+    assert done.returncode == 0, done.stderr
+    said = [line for line in done.stderr.splitlines() if "no decision domain given" in line]
+    assert len(said) == 1, done.stderr
+
+
+@pytest.mark.parametrize(("stop", "line", "reason"), [
+    (signal.SIGTERM, "error: stopped by SIGTERM", "stopped by SIGTERM"),
+    (signal.SIGHUP, "error: stopped by SIGHUP", "stopped by SIGHUP"),
+    (signal.SIGINT, "error: interrupted", "interrupted (SIGINT)"),
+])
+def test_a_stop_signal_ends_the_run_cleanly(tmp_path, stop, line, reason):
+    out = tmp_path / "run"
+    run = subprocess.Popen(
+        [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "-o", str(out), "-q",
+         "--duration", "600"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        cwd=ROOT, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    recording = out / "recording.mcap"
+
+    def size() -> int:
+        return recording.stat().st_size if recording.exists() else 0
+
+    deadline = time.monotonic() + 300.0  # start-up on a busy machine; then it records
+    while size() < 2 * 1024 * 1024:  # the static scene at the start is 1.6 MB: more
+        assert run.poll() is None and time.monotonic() < deadline, run.stderr.read()
+        time.sleep(0.1)  # is the mission's messages as it flies
+    run.send_signal(stop)
+    stdout, stderr = run.communicate(timeout=300)
+    assert run.returncode == 128 + stop, stderr
+    assert [x for x in (stdout + stderr).splitlines() if x.strip()] == [line]
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["completed"] is False and 0 < metrics["simulated_s"] < 600
+    assert metrics["stopped_by"] == reason
+    with AnyReader([out]) as bag:  # a complete rosbag2 folder: metadata.yaml and all
+        assert "/videoray/odom" in {c.topic for c in bag.connections}
+        assert bag.message_count > 0

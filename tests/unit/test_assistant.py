@@ -1,0 +1,274 @@
+"""The diver's assistant against a scripted diver in a small kinematic world
+(tests/support/assistant_world.py: the real helm with the shipped assistant.bhv, a ROV
+point obeying DESIRED_* with a first-order lag, a gripper, a diver who grips).
+
+Each behavior: the task is done as the tree says, the guard distances hold, the speed
+near the diver stays under the ceiling, and every tick's decision is traced."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+
+from tests.support.assistant_world import DiverState, World, hovering
+from uhrisim.assistant import (
+    Assistant,
+    AssistantConfig,
+    AssistantInputs,
+    DiverTrack,
+    GripperStatus,
+    RovNav,
+)
+from uhrisim.assistant.geometry import bearing_deg, jaw_offset
+from uhrisim.core.errors import ConfigError
+from uhrisim.perception.signals import Command, RecognizedSignal
+
+CFG = AssistantConfig()
+DIVER = (6.0, 2.0, 4.0)
+
+
+def _guards_kept(w: World) -> None:
+    body, head = w.min_separation()
+    assert body >= CFG.body_guard_m and head >= CFG.head_guard_m, (body, head)
+
+
+def _slow_near_the_diver(w: World) -> None:
+    """Within slow_radius of the diver the helm never asks for more than near_speed
+    (ahead or astern), and the ROV — slowing with its speed lag from the ceiling lowered
+    slow_lead_m farther out — is within 5 % of it."""
+    near = [r for r in w.records if min(r.body, r.head) < CFG.slow_radius_m]
+    assert near
+    assert max(abs(r.desired_speed) for r in near) <= CFG.near_speed + 1e-9
+    assert max(abs(r.speed) for r in near) <= 1.05 * CFG.near_speed
+
+
+def _tips(w: World) -> list[str]:
+    return [a.rsplit("/", 1)[-1] for a in w.actives()]
+
+
+def test_hand_over_fetches_the_tool_and_the_diver_gets_it():
+    w = World(hovering(DIVER, 200.0), tools={"lift_bag": np.array([-3.0, 4.0, 6.0])},
+              signals={1.0: Command("bring_tool", "lift_bag")})
+    w.run(200, until=lambda w: w.assistant.ctx.task is None and w.t > 2.0)
+    w.run(w.t + 1.0)
+    assert w.diver_has == {"lift_bag"} and w.phase == "open"
+    assert _tips(w) == ["idle", "to the tool", "creep to the grasp", "grip", "lift clear",
+                        "stand off in front", "face him", "creep to his hand",
+                        "hold still until he grips", "release", "back away", "done", "idle"]
+    assert "handed over lift_bag" in w.events()
+    assert "task bring_tool lift_bag done" in w.events()
+    commands = [c for out in w.trace for v, c in out.posts if v == "GRIPPER_CMD"]
+    assert commands == ["open", "close", "open"]
+    _guards_kept(w)
+    _slow_near_the_diver(w)
+    # the gripper closed with the jaws on the grasp point (the world takes it within 3 cm)
+    assert w.trace[-1].task == "idle"
+
+
+def test_a_missed_grasp_is_tried_again():
+    """The tool is nudged 5 cm as the jaws close the first time: the grasp misses, the
+    fetch starts over (from a new plan) and the second grip holds it."""
+    w = World(hovering(DIVER, 200.0), tools={"wrench": np.array([-2.0, 3.0, 5.0])},
+              signals={1.0: Command("bring_tool", "wrench")})
+    nudged = []
+
+    def nudge(world: World) -> bool:
+        if world.phase == "closing" and not nudged:
+            world.tools["wrench"] = world.tools["wrench"] + (0.05, 0.0, 0.0)
+            nudged.append(world.t)
+        return world.holding == "wrench"
+
+    w.run(200, until=nudge)
+    assert nudged and w.holding == "wrench"
+    assert "grasp missed: the gripper closed on nothing" in w.events()
+    assert _tips(w).count("creep to the grasp") == 2
+
+
+def test_handover_offered_again_when_the_diver_does_not_take_it():
+    """The diver does not take it before 70 s: the ROV holds still for handover_wait_s,
+    backs away, and offers again; a later offer is taken."""
+    cfg = AssistantConfig(handover_wait_s=10.0)
+
+    def script(t):
+        return DiverState(DIVER, 200.0, grips=t > 70.0)
+
+    w = World(script, tools={"hammer": np.array([0.0, 3.0, 4.0])}, config=cfg,
+              signals={1.0: Command("bring_tool", "hammer")})
+    w.run(250, until=lambda w: "hammer" in w.diver_has and w.assistant.ctx.task is None)
+    assert w.diver_has == {"hammer"}
+    assert any("gave up after 10 s" in e for e in w.events())
+    assert _tips(w).count("creep to his hand") >= 2
+    _guards_kept(w)
+
+
+def test_come_here_holds_at_arms_reach_facing_the_diver():
+    w = World(hovering(DIVER, 200.0), signals={1.0: Command("come_here")})
+    w.run(90)
+    d = np.array(DIVER)
+    fwd = np.array([math.cos(math.radians(200.0)), math.sin(math.radians(200.0)), 0.0])
+    goal = d + CFG.reach_m * fwd
+    assert np.linalg.norm((w.rov.position - goal)[:2]) < 0.15
+    assert abs(w.rov.position[2] - (d[2] - 0.3)) < 0.05
+    facing = bearing_deg(w.rov.position, d)
+    assert abs((w.rov.heading - facing + 180.0) % 360.0 - 180.0) < CFG.heading_tolerance_deg
+    assert _tips(w)[-1] == "hold at arm's reach"
+    _guards_kept(w)
+    _slow_near_the_diver(w)
+
+
+def test_come_here_goes_round_a_diver_who_faces_away():
+    """The ROV starts behind him: it goes round his side to his front, never through him."""
+    w = World(hovering((6.0, 0.0, 4.0), 0.0), signals={1.0: Command("come_here")})
+    w.run(120)
+    assert w.rov.position[0] > 6.5  # in front of him (he faces north)
+    _guards_kept(w)
+
+
+def test_follow_trails_the_swimming_diver():
+    def swim(t):
+        return DiverState((6.0 + 0.3 * t, 0.0, 4.0), 0.0, 0.3)
+
+    w = World(swim, signals={1.0: Command("follow_me")})
+    w.run(90)
+    d = np.array(swim(w.t).position)
+    behind = d - w.rov.position
+    assert 2.6 < behind[0] < 3.5 and abs(behind[1]) < 0.5 and abs(behind[2]) < 0.2
+    _guards_kept(w)
+
+
+def test_light_here_holds_camera_and_lamps_on_the_work():
+    site = np.array([7.0, 3.0, 5.0])
+    w = World(hovering(DIVER, 200.0), sites={"flange": site},
+              signals={1.0: Command("light_here", "flange")})
+    w.run(90)
+    rov = w.rov.position
+    assert abs(np.linalg.norm((rov - site)[:2]) - CFG.light_standoff_m) < 0.3
+    assert abs((site[2] - rov[2]) - CFG.light_above_m) < 0.05
+    facing = bearing_deg(rov, site)
+    assert abs((w.rov.heading - facing + 180.0) % 360.0 - 180.0) < CFG.heading_tolerance_deg
+    _guards_kept(w)
+
+
+def test_go_up_rises_and_stop_holds_still():
+    w = World(hovering(DIVER, 200.0), signals={1.0: Command("go_up")})
+    w.run(40)
+    assert abs(w.rov.position[2] - CFG.surface_depth_m) < 0.05
+    assert np.linalg.norm(w.rov.position[:2]) < 0.3
+    w = World(hovering(DIVER, 200.0), signals={1.0: Command("follow_me"), 12.0: Command("stop")})
+    w.run(14)
+    here = w.rov.position.copy()
+    w.run(40)
+    assert np.linalg.norm(w.rov.position - here) < 0.5 and abs(w.rov.speed) < 0.01
+    assert w.trace[-1].task == "stop"
+
+
+def test_a_lost_diver_aborts_the_task_and_the_rov_backs_off():
+    """The diver is last seen at 29.75 s: once the track is older than lost_after_s the
+    task is aborted (the next tick), the helm is
+    parked and the ROV backs astern, facing where he was, to lost_standoff_m; then holds."""
+    def script(t):
+        return DiverState(DIVER, 200.0, seen=t < 30.0)
+
+    w = World(script, signals={1.0: Command("come_here")})
+    w.run(80)
+    aborted = [o.t for o in w.trace if "task come_here aborted: the diver track is lost"
+               in o.events]
+    assert aborted == [29.75 + CFG.lost_after_s + 0.25]
+    backing = [r for r in w.records if r.override]
+    assert backing and all(r.desired_speed < 0.0 for r in backing)
+    assert np.linalg.norm((w.rov.position - DIVER)[:2]) >= CFG.lost_standoff_m - 0.05
+    assert _tips(w)[-2:] == ["back off from where he was", "hold, lost"]
+    overrides = [(o.t, v) for o in w.trace for k, v in o.posts if k == "MOOS_MANUAL_OVERRIDE"]
+    assert [v for _, v in overrides] == ["false", "true", "false"]
+
+
+def test_a_diver_closing_in_sets_off_the_guard_and_the_rov_backs_away():
+    """The diver drifts at 0.1 m/s towards the ROV holding at arm's reach: the ROV backs
+    away astern and the guard distances hold."""
+    def script(t):
+        n = 6.0 - 0.1 * max(0.0, t - 40.0)
+        return DiverState((n, 0.0, 4.0), 180.0, 0.1 if t > 40.0 else 0.0)
+
+    w = World(script, signals={1.0: Command("come_here")})
+    w.run(80)
+    assert any(e.startswith("guard: ") for e in w.events())
+    assert any(r.override for r in w.records)
+    _guards_kept(w)
+
+
+def test_signals_low_confidence_unknown_tool_done_and_repeats():
+    a = Assistant()
+    rov = RovNav((0.0, 0.0, 3.0), 0.0)
+    diver = DiverTrack((6.0, 0.0, 4.0), 180.0)
+
+    def tick(t, *signals):
+        return a.step(AssistantInputs(t, rov, diver, GripperStatus(), signals,
+                                      tools={"wrench": np.array([3.0, 3.0, 6.0])}))
+
+    def sig(text, confidence=0.9, channel="marker"):
+        return RecognizedSignal(Command.parse(text), channel, confidence, 0.0)
+
+    out = tick(0.0, sig("follow_me", 0.4))
+    assert out.task == "idle" and out.events == (
+        "ignored follow_me (marker, confidence 0.40): below 0.6",)
+    out = tick(0.25, sig("bring_tool crowbar"))
+    assert out.task == "idle" and "no tool 'crowbar' on the map" in out.events[0]
+    out = tick(0.5, sig("come_here", channel="gesture"))
+    assert out.task == "come_here"
+    assert ("ASSIST_TASK", "come_here") in out.posts
+    out = tick(0.75, sig("come_here"))
+    assert out.events == ()  # the same command again: nothing restarts
+    out = tick(1.0, sig("done"))
+    assert out.task == "idle" and out.events[0].startswith("task come_here done")
+    out = tick(1.25, sig("bring_tool wrench"))
+    assert out.task == "bring_tool wrench" and out.gripper_command == "open"
+
+
+def test_default_task_follow_me():
+    a = Assistant(AssistantConfig(default_task="follow_me"))
+    out = a.step(AssistantInputs(0.0, RovNav((0.0, 0.0, 3.0), 0.0),
+                                 DiverTrack((6.0, 0.0, 4.0), 0.0)))
+    assert out.task == "follow_me" and ("ASSIST_MODE", "FOLLOW") in out.posts
+
+
+def test_decisions_are_traced_and_reproducible():
+    """Every tick has its active path and postings; the same world twice, the same trace."""
+    def run():
+        return World(hovering(DIVER, 200.0), tools={"lift_bag": np.array([-3.0, 4.0, 6.0])},
+                     signals={1.0: Command("bring_tool", "lift_bag")}).run(60)
+
+    first, second = run(), run()
+    assert len(first.trace) == 240  # 4 Hz for 60 s
+    assert all(o.active.startswith("assistant/decide/") for o in first.trace)
+    assert [(o.t, o.posts, o.active, o.events) for o in first.trace] == [
+        (o.t, o.posts, o.active, o.events) for o in second.trace]
+    # the posts are changes only: a variable is posted again only with a new value
+    last: dict[str, object] = {}
+    for o in first.trace:
+        for var, value in o.posts:
+            if not var.startswith("DESIRED_"):
+                assert last.get(var) != value
+            last[var] = value
+
+
+def test_jaws_are_where_the_gripper_is():
+    np.testing.assert_allclose(jaw_offset(90.0, CFG), (0.0, 0.25, 0.14), atol=1e-12)
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(body_guard_m=0.0), "assistant.body_guard_m: must be a finite number > 0"),
+    (dict(clearance_m=0.05), "assistant.clearance_m: must exceed trigger_margin_m"),
+    (dict(default_task="bring_tool"), "assistant.default_task: must be idle or a command"),
+    (dict(fetch_attempts=0), "assistant.fetch_attempts: must be an integer >= 1"),
+])
+def test_bad_parameters_are_one_line_errors(kw, message):
+    with pytest.raises(ConfigError, match=message):
+        AssistantConfig(**kw)
+    with pytest.raises(ConfigError, match=re.escape(message.replace("assistant.",
+                                                                     "agents[1].assistant."))):
+        AssistantConfig.from_mapping(kw, "agents[1].assistant")
+    with pytest.raises(ConfigError, match=r"assistant: unknown parameter\(s\) \['speed'\]"):
+        AssistantConfig.from_mapping({"speed": 1})

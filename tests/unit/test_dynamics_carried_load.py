@@ -1,0 +1,112 @@
+"""A carried load in the VideoRay's eqs 1-4: inertia, heave force, hover thrust, trim."""
+
+import math
+
+import numpy as np
+import pytest
+
+from uhrisim.dynamics import carried_load as cl
+from uhrisim.dynamics import videoray
+from uhrisim.dynamics.free_body import GRAVITY, WATER_DENSITY, Hydro
+from uhrisim.dynamics.integrators import rk4_step
+
+PAPER = videoray.VideoRayParams()  # linear map, 4 N at full vertical input
+QUADRATIC = videoray.VideoRayParams(thrust_map="quadratic")
+GRIPPER = (0.22, 0.0, 0.13)
+
+
+def loaded_xdot(load):
+    """``xdot_loaded`` with the signature the integrators take: f(t, x, u, params)."""
+    return lambda t, x, u, params: cl.xdot_loaded(t, x, u, params, load)
+
+
+def tool_of(kgf_in_water, volume=1e-4, position=GRIPPER):
+    """A compact tool whose in-water weight is ``kgf_in_water`` kilograms-force."""
+    mass = kgf_in_water + WATER_DENSITY * volume
+    return cl.CarriedLoad(Hydro(mass, volume, 1.0, 0.004), position)
+
+
+def test_inertias_and_drag_add_up():
+    load = tool_of(0.3)
+    loaded = cl.loaded_params(PAPER, load)
+    m = load.hydro.mass + 0.5 * WATER_DENSITY * 1e-4
+    assert loaded.m11 == pytest.approx(PAPER.m11 + m)
+    assert loaded.m33 == pytest.approx(PAPER.m33 + m)
+    added_yaw_inertia = loaded.J - PAPER.J
+    assert added_yaw_inertia == pytest.approx(m * 0.22 ** 2)  # parallel-axis theorem
+    assert loaded.Xuu == pytest.approx(PAPER.Xuu - 0.5 * WATER_DENSITY * 1.0 * 0.004)
+    # the same thrust accelerates the loaded vehicle less: in the ratio of the inertias
+    x = np.zeros(8)
+    u = np.array([100.0, 100.0, 0.0])
+    ratio = (videoray.xdot(0, x, u, loaded)[4] / videoray.xdot(0, x, u, PAPER)[4])
+    assert ratio == pytest.approx(PAPER.m11 / loaded.m11)
+
+
+def test_a_held_tool_pulls_the_vehicle_down_with_its_in_water_weight():
+    load = tool_of(0.3)
+    loaded = cl.loaded_params(PAPER, load)
+    d = cl.xdot_loaded(0.0, np.zeros(8), np.zeros(3), PAPER, load)
+    assert d[6] == pytest.approx(0.3 * GRAVITY / loaded.m33)
+    # batch-aware like videoray.xdot
+    batch = cl.xdot_loaded(0.0, np.zeros((5, 8)), np.zeros((5, 3)), PAPER, load)
+    np.testing.assert_allclose(batch, np.broadcast_to(d, (5, 8)))
+
+
+@pytest.mark.parametrize("params", [PAPER, QUADRATIC], ids=["linear", "quadratic"])
+def test_the_extra_hover_thrust_equals_the_weight_through_the_thruster_map(params):
+    """0.2 kgf in water: the hover command's thrust is exactly W = 1.96 N (linear map:
+    73.5 units; quadratic: sqrt(W / Ct_up) = 128.4 units), and with it the vehicle holds
+    depth: from rest, 60 s of RK4 on the loaded eqs 1-4 leave it where it was."""
+    load = tool_of(0.2)
+    hover = cl.hover_command(params, load)
+    assert not hover.saturated and hover.steady_heave == 0.0
+    thrust = float(videoray.thruster_forces(np.array([0.0, 0.0, hover.command]), params)[2])
+    assert thrust == pytest.approx(0.2 * GRAVITY, rel=1e-12)
+    if params.thrust_map == "linear":
+        assert hover.command == pytest.approx(0.2 * GRAVITY / (4.0 / 150.0))
+    x = np.array([0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    u = np.array([0.0, 0.0, hover.command])
+    for _ in range(3600):
+        x = rk4_step(loaded_xdot(load), 0.0, x, u, params, 1 / 60)
+    assert x[2] == pytest.approx(5.0, abs=1e-9) and abs(x[6]) < 1e-12
+    # without the extra thrust it sinks
+    assert cl.xdot_loaded(0.0, x, np.zeros(3), params, load)[6] > 0.0
+
+
+@pytest.mark.parametrize("params", [PAPER, QUADRATIC], ids=["linear", "quadratic"])
+def test_a_tool_heavier_than_the_vertical_thrust_saturates_and_sinks(params):
+    """1 kgf in water (9.81 N) needs more than the vertical thruster gives (4 N with the
+    authors' linear map, 2.68 N with Wang's quadratic one): the command saturates at the
+    limit and the vehicle sinks at the steady speed where heave damping takes the rest;
+    RK4 on the loaded equations reaches that speed."""
+    load = tool_of(1.0)
+    assert cl.max_hover_weight(params) < load.in_water_weight
+    hover = cl.hover_command(params, load)
+    assert hover.saturated and hover.command == params.input_limit
+    assert hover.needed_command > params.input_limit
+    loaded = cl.loaded_params(params, load)
+    rest = load.in_water_weight - cl.max_hover_weight(params)
+    w = hover.steady_heave
+    assert loaded.Zw * w + loaded.Zww * abs(w) * w + rest == pytest.approx(0.0, abs=1e-9)
+    x = np.array([0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    u = np.array([0.0, 0.0, hover.command])
+    for _ in range(600):
+        x = rk4_step(loaded_xdot(load), 0.0, x, u, params, 1 / 60)
+    assert x[6] == pytest.approx(w, rel=1e-6) and x[2] > 5.0
+
+
+def test_the_paper_vehicle_holds_at_most_0_41_kgf():
+    assert cl.max_hover_weight(PAPER) / GRAVITY == pytest.approx(4.0 / GRAVITY)  # 0.408
+    assert cl.max_hover_weight(QUADRATIC) == pytest.approx(1.19e-4 * 150 ** 2)  # 2.68 N
+
+
+def test_an_off_centre_load_trims_the_vehicle():
+    load = tool_of(0.2, position=(0.2, 0.0, 0.1))
+    roll, pitch = cl.trim_angles(load)
+    righting = cl.VIDEORAY_MASS_KG * GRAVITY * cl.VIDEORAY_BG_M
+    assert roll == 0.0
+    assert pitch == pytest.approx(-math.asin(0.2 * 0.2 * GRAVITY / righting))  # bow down
+    assert math.degrees(pitch) == pytest.approx(-19.5, abs=0.5)
+    starboard = cl.trim_angles(tool_of(0.1, position=(0.0, 0.1, 0.1)))
+    assert starboard[0] > 0.0  # starboard side down
+    assert math.isnan(cl.trim_angles(tool_of(1.0, position=(0.3, 0.0, 0.1)))[1])

@@ -1,0 +1,102 @@
+"""The articulated diver's meshes: posed from joint angles, each part labelled in ray hits."""
+
+import math
+
+import numpy as np
+import pytest
+
+from uhrisim.core.errors import ConfigError
+from uhrisim.dynamics import diver_body as db
+from uhrisim.world import Scene, materials
+from uhrisim.world.diver_figure import diver_figure, figure_transforms, flutter_kick, posed_figure
+
+SCUBA = db.DiverSkeleton()
+BOOTS = db.DiverSkeleton(kind="boots")
+DEPTH = 6.0
+
+
+def scene_with(skeleton, q, backend):
+    scene = Scene()
+    scene.add_dynamic("diver1", diver_figure(skeleton), "diver", materials.NEOPRENE,
+                      position_ned=(0.0, 0.0, DEPTH))
+    scene.set_part_transforms("diver1", figure_transforms(skeleton, q))
+    return scene, scene.raycaster(backend)
+
+
+def test_parts_follow_the_links_and_carry_the_issue_labels():
+    scuba = diver_figure(SCUBA)
+    assert [p.name for p in scuba.parts] == list(SCUBA.links)
+    assert set(scuba.part_labels("diver")) == {
+        "diver", "diver/head", "diver/tank", "diver/arm", "diver/hand", "diver/fins"}
+    boots = diver_figure(BOOTS)
+    assert set(boots.part_labels("diver")) == {
+        "diver", "diver/head", "diver/tank", "diver/arm", "diver/hand", "diver/boots"}
+    # the zero configuration is the rest pose: every transform is the identity
+    np.testing.assert_allclose(figure_transforms(SCUBA, SCUBA.zeros()),
+                               np.broadcast_to(np.eye(4), (len(scuba.parts), 4, 4)))
+
+
+def test_standing_commercial_diver_is_as_tall_as_the_stature_with_a_helmet():
+    bounds = posed_figure(BOOTS, BOOTS.zeros()).bounds
+    assert bounds[1][2] == pytest.approx(BOOTS.body.hip_height)  # soles on z = hip height
+    height = bounds[1][2] - bounds[0][2]
+    assert db.STATURE_M < height < db.STATURE_M + 0.08  # the helmet's top above the scalp
+
+
+def test_swimming_diver_is_prone_and_about_2_3_m_long_with_fins():
+    bounds = posed_figure(SCUBA, db.pose_goal(SCUBA, "swim")).bounds
+    length = bounds[1][0] - bounds[0][0]
+    assert 2.1 < length < 2.5  # the procedural swimmer of world.assets: ~2.3 m with fins
+    assert bounds[1][2] - bounds[0][2] < 0.75  # flat: no more than 0.75 m top to bottom
+
+
+@pytest.mark.parametrize("backend", ["embree", "reference"])
+def test_ray_hits_name_the_posed_part(backend):
+    """A ray straight down onto the grip point of the reaching right hand hits a part
+    labelled diver/hand; one onto the tank, diver/tank; the torso is plain diver. Both ray
+    casters agree, and they see the pose set by set_part_transforms."""
+    q = db.pose_goal(SCUBA, "reach", SCUBA.zeros())
+    scene, caster = scene_with(SCUBA, q, backend)
+    offset = np.array([0.0, 0.0, DEPTH])
+    grip = SCUBA.grip_point(q, "right") + offset
+    tank = np.array([-0.3, 0.0, -0.25]) + offset
+    torso = np.array([0.0, 0.0, -0.25]) + offset
+    origins = np.array([grip, tank, torso]) + np.array([[0, 0, -1.0], [-1.0, 0, 0], [1.0, 0, 0]])
+    directions = np.array([[0, 0, 1.0], [1.0, 0, 0], [-1.0, 0, 0]])
+    hits = caster.cast(origins, directions, max_range=3.0)
+    assert [scene.labels[i] for i in hits.label] == ["diver/hand", "diver/tank", "diver"]
+    # the flat hand (3 cm thick about the grip point) faces down: the ray stops 1.5 cm short
+    assert hits.distance[0] == pytest.approx(1.0 - 0.5 * 0.03, abs=0.005)
+
+
+def test_embree_and_reference_agree_on_a_fan_over_a_posed_diver():
+    q = db.pose_goal(SCUBA, "work", db.pose_goal(SCUBA, "swim"))
+    rng = np.random.default_rng(3)
+    directions = rng.normal(size=(400, 3)) * [0.3, 0.3, 1.0] + [0.0, 0.0, 1.0]
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    origin = np.array([0.0, 0.0, DEPTH - 2.0])
+    out = []
+    for backend in ("embree", "reference"):
+        scene, caster = scene_with(SCUBA, q, backend)
+        hits = caster.cast(origin, directions, max_range=5.0)
+        out.append((hits.distance, [scene.labels[i] if i >= 0 else "" for i in hits.label]))
+    np.testing.assert_allclose(out[0][0], out[1][0], rtol=1e-9)
+    assert out[0][1] == out[1][1]
+    assert {"diver", "diver/arm", "diver/hand"} <= set(out[0][1])
+
+
+def test_set_part_transforms_checks_its_input():
+    scene, _ = scene_with(SCUBA, SCUBA.zeros(), "reference")
+    with pytest.raises(ConfigError, match="must be 20 finite 4x4 matrices"):
+        scene.set_part_transforms("diver1", np.eye(4)[None])
+    with pytest.raises(ConfigError, match="no dynamic body named 'rov'"):
+        scene.set_part_transforms("rov", np.eye(4)[None])
+
+
+def test_flutter_kick_swings_the_legs_in_opposite_phase_within_the_limits():
+    swim = db.pose_goal(SCUBA, "swim")
+    for phase in np.linspace(0.0, 2.0 * math.pi, 17):
+        q = flutter_kick(SCUBA, swim, phase)
+        assert SCUBA.limit_violations(q) == []
+        left, right = q[SCUBA.index("left_hip_flex")], q[SCUBA.index("right_hip_flex")]
+        assert left == pytest.approx(-right, abs=1e-12)
