@@ -387,6 +387,52 @@ def demo(
 
 
 
+scenarios_app = typer.Typer(
+    help="The example scenarios shipped inside the package: list them, or copy one to edit.",
+    no_args_is_help=False)
+app.add_typer(scenarios_app, name="scenarios")
+
+
+@scenarios_app.callback(invoke_without_command=True)
+@friendly_errors
+def scenarios(ctx: typer.Context) -> None:
+    """List the shipped scenarios (run one with uhrisim run $(uhrisim scenarios path NAME))."""
+    if ctx.invoked_subcommand is not None:
+        return
+    from uhrisim.scenario.shipped import scenario_summary, shipped_scenario, shipped_scenarios
+
+    table = Table(title="shipped scenarios (uhrisim scenarios copy NAME DIR to edit one)")
+    table.add_column("name")
+    table.add_column("what it is")
+    for name in shipped_scenarios():
+        table.add_row(name.removesuffix(".yaml"), scenario_summary(shipped_scenario(name)))
+    console.print(table)
+
+
+@scenarios_app.command("copy")
+@friendly_errors
+def scenarios_copy(
+    name: Annotated[str, typer.Argument(help="shipped scenario name (uhrisim scenarios)")],
+    destination: Annotated[Path, typer.Argument(help="folder to copy into (created)")],
+) -> None:
+    """Copy a shipped scenario and the behavior/MOOS files it names into DESTINATION."""
+    from uhrisim.scenario.shipped import copy_scenario
+
+    for path in copy_scenario(name, destination):
+        console.print(Text(f"  wrote {path}"))
+
+
+@scenarios_app.command("path")
+@friendly_errors
+def scenarios_path(
+    name: Annotated[str, typer.Argument(help="shipped scenario name (uhrisim scenarios)")],
+) -> None:
+    """Print the installed path of a shipped scenario (to run it as it is)."""
+    from uhrisim.scenario.shipped import shipped_scenario
+
+    sys.stdout.write(f"{shipped_scenario(name)}\n")
+
+
 RayAddress = Annotated[str | None, typer.Option(
     help="Ray cluster: 'auto' or ray://host:port (default: a local Ray, loopback only)")]
 RayWorkers = Annotated[int | None, typer.Option(help="Ray tasks at a time (default: all CPUs)")]

@@ -11,8 +11,8 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 def load_example(name: str) -> ModuleType:
-    """examples/NAME.py as a module named NAME (kept in ``sys.modules``, which dataclasses
-    need)."""
+    """The script ``examples/<name>.py`` as a module named ``name`` (kept in
+    ``sys.modules``, which dataclasses need)."""
     if name in sys.modules:
         return sys.modules[name]
     spec = importlib.util.spec_from_file_location(name, EXAMPLES / f"{name}.py")
