@@ -130,3 +130,15 @@ def test_coco_masks_are_the_label_images(first):
         assert f"| {cat['id']} | {cat['name']} | " in card and f" | {shown} |" in card
     preview = cv2.imread(str(first / "preview.png"))
     assert preview.shape == (4 * 192, 4 * 192, 3)
+
+
+def test_frames_renders_the_first_frames_of_the_same_dataset(local_ray, first, tmp_path):
+    """--frames 4: the first four frames of the 20-frame dataset, byte for byte."""
+    few = tmp_path / "few"
+    result = run_dataset(dataset_file(few, seed=5), few / "out", workers=2, shard_frames=3,
+                         frames=4)
+    assert result.frames == 4
+    fans = tree(few / "out")
+    whole = tree(first)
+    names = [n for n in fans if n.startswith("fan/")]
+    assert len(names) == 4 and all(fans[n] == whole[n] for n in names)

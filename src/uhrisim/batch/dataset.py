@@ -451,17 +451,20 @@ class DatasetResult:
 
 def run_dataset(dataset_path: str | Path, out: str | Path, *, address: str | None = None,
                 workers: int | None = None, shard_frames: int = 25,
+                frames: int | None = None,
                 progress: Callable[[int, int], None] | None = None) -> DatasetResult:
-    """Render the whole dataset on Ray (``shard_frames`` frames a task) and write the COCO
-    file, the dataset card and the preview. ``progress(frames done, frames)``."""
-    if shard_frames < 1:
-        raise ConfigError(f"must be an integer >= 1, got {shard_frames!r}",
-                          where="--shard-frames")
+    """Render the dataset on Ray (``shard_frames`` frames a task) and write the COCO
+    file, the dataset card and the preview. ``frames``: that many frames instead of the
+    file's count (frame i is the same frame either way: a small try, or more).
+    ``progress(frames done, frames)``."""
+    for option, value in (("--shard-frames", shard_frames), ("--frames", frames)):
+        if value is not None and value < 1:
+            raise ConfigError(f"must be an integer >= 1, got {value!r}", where=option)
     plan = load_dataset(dataset_path)
     check_address(address)  # before anything is written
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    total = plan.spec.frames
+    total = plan.spec.frames if frames is None else frames
     shards = [(plan, a, min(a + shard_frames, total), str(out))
               for a in range(0, total, shard_frames)]
     records: list[dict[str, Any]] = []
