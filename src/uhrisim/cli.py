@@ -633,17 +633,28 @@ def sonar_stats(
 ) -> None:
     """Speckle contrast, object/background ratio, zero pixels and brightness profiles of
     sonar fan images with label images (see docs/sonar.md)."""
-    from uhrisim.sensors.sonar.stats import image_stats, load_frames
+    from uhrisim.sensors.sonar.stats import (
+        GEOMETRY_FILE,
+        image_stats,
+        load_frames,
+        load_px_per_m,
+    )
 
-    stats = image_stats(*load_frames(folder))
+    px_per_m = load_px_per_m(folder)
+    stats = image_stats(*load_frames(folder), px_per_m=px_per_m)
     if as_json:
         sys.stdout.write(json.dumps(stats, indent=2) + "\n")
         return
     summary = {k: v for k, v in stats.items() if k != "per_frame"}
-    for key in ("range_profile", "bearing_profile"):
-        axis, values = summary.pop(key).values()
-        summary[key] = "  ".join(f"{a:g}:{v:.2f}" for a, v in zip(axis, values, strict=True)
-                                 if a is not None and v is not None)  # fmt: skip
+    axes = {"range_profile": ("range_m" if px_per_m else "range_px"),
+            "bearing_profile": "bearing_deg"}
+    for key, axis_name in axes.items():
+        profile = summary.pop(key)
+        pairs = zip(profile[axis_name], profile["relative_brightness"], strict=True)
+        label = {"range_m": "range m", "range_px": f"range px (no {GEOMETRY_FILE})",
+                 "bearing_deg": "bearing deg"}[axis_name]
+        summary[f"{key} ({label}: brightness/mean)"] = "  ".join(
+            f"{a:.3g}:{v:.2f}" for a, v in pairs if a is not None and v is not None)
     _print_tree(summary, f"uhrisim sonar-stats {folder}")
 
 
