@@ -26,7 +26,7 @@ Torch's threads are pinned (``--threads``, default 1; docs/envs.md has the measu
 effect). ``TrailDiverState-v0`` runs on the native vector env (one process, all episodes
 as arrays; ``--vector process`` for Gymnasium-style envs in worker processes, as the
 sonar env ``--env uhrisim/TrailDiver-v0`` needs, with PPO's "MultiInputPolicy").
-Everything but :func:`train` runs without torch (tests/unit/test_ppo_example.py).
+Everything but :func:`train` runs without torch (tests/integration/test_envs_ppo_example.py).
 """
 
 from __future__ import annotations
