@@ -10,7 +10,7 @@ What it runs (outputs in ``out/docs/``) and what it replaces:
 * ``uhrisim figure sonar-tank`` -> ``docs/img/sonar_tank_fan.png`` (the maker's view);
   ``uhrisim figure sonar-presets`` -> ``docs/img/presets/``;
 * ``uhrisim figure camera`` -> ``docs/img/camera_grid.jpg``;
-* ``uhrisim sweep ... --limit 8`` -> ``docs/img/sweep_summary.png``;
+* ``uhrisim sweep`` of the example file (18 runs) -> ``docs/img/sweep_summary.png``;
 * ``uhrisim dataset ... --frames 16`` -> ``docs/img/dataset_preview.png``;
 * the viewer during the mission (``tests/support/browser.py``) -> ``docs/img/viewer.png``.
 
@@ -25,6 +25,7 @@ import argparse
 import json
 import re
 import shutil
+import textwrap
 import subprocess
 import sys
 from pathlib import Path
@@ -46,8 +47,7 @@ def demo_paragraph(metrics: dict) -> str:
         + ("never acquires the trail" if acquired is None else
            f"acquires the trail after {acquired:.1f} s and then holds it with a range error "
            f"of {r['rms']:.2f} m RMS (p95 {r['p95_abs']:.2f} m), a bearing error of "
-           f"{b['rms']:.1f}° RMS, the diver's depth within {1000 * d['p95_abs']:.0f} mm "
-           f"(p95)")
+           f"{b['rms']:.1f}° RMS, the diver's depth within {1000 * d['max_abs']:.1f} mm")
         + f", a minimum separation of {metrics['min_separation_m']:.2f} m and "
         + ("no collision." if collisions == 0 else f"{collisions} collisions.")
     )
@@ -58,7 +58,8 @@ def replace_demo_numbers(readme: str, metrics: dict) -> str:
     pattern = re.compile(re.escape(START) + r".*?" + re.escape(END), re.S)
     if not pattern.search(readme):
         raise SystemExit(f"README.md has no {START} ... {END} section")
-    return pattern.sub(lambda _: f"{START}\n{demo_paragraph(metrics)}\n{END}", readme)
+    text = textwrap.fill(demo_paragraph(metrics), width=90)
+    return pattern.sub(lambda _: f"{START}\n{text}\n{END}", readme)
 
 
 def uhrisim(*args: str | Path) -> None:
@@ -94,7 +95,7 @@ def main(argv: list[str] | None = None) -> None:
     camera = step(work / "camera", reuse, "figure", "camera", "--out", work / "camera")
     _to_jpeg(camera / "camera_grid.png", IMG / "camera_grid.jpg", width=1000)
     sweep = step(work / "sweep", reuse, "sweep", "scenarios/batch/sweep_trail_gains.yaml",
-                 "--out", work / "sweep", "--limit", "8")
+                 "--out", work / "sweep")
     shutil.copy2(sweep / "summary.png", IMG / "sweep_summary.png")
     data = step(work / "dataset", reuse, "dataset", "scenarios/batch/dataset_sonar_objects.yaml",
                 "--out", work / "dataset", "--frames", "16")

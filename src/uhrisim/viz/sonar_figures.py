@@ -283,7 +283,7 @@ def tank_scenario(preset: str | None = None, fan_width_px: int | None = None):
         get_preset(preset)  # an unknown name fails here, naming the known ones
         data["agents"][0]["sensors"][0]["preset"] = preset
     if fan_width_px is not None:
-        data["agents"][0]["sensors"][0]["fan_width_px"] = fan_width_px
+        data["agents"][0]["sensors"][0]["fan_size_px"] = fan_width_px
     return ScenarioFile(validate_data(data, str(path), lines), path, lines)
 
 
