@@ -570,11 +570,16 @@ def preview_legend(categories: list[dict[str, Any]], width: int) -> np.ndarray:
     return legend
 
 
+#: Outline and legend colours of the categories in ``preview.png``, BGR (matplotlib's
+#: "tab10": ten colours told apart at a glance), cycled.
+CATEGORY_COLOURS = ((180, 119, 31), (14, 127, 255), (44, 160, 44), (40, 39, 214),
+                    (189, 103, 148), (75, 86, 140), (194, 119, 227), (127, 127, 127),
+                    (34, 189, 188), (207, 190, 23))
+
+
 def category_colour(category_id: int) -> tuple[int, int, int]:
     """The BGR colour of a category's outlines and legend swatch in ``preview.png``."""
-    hue = (37 * category_id) % 180
-    colour = cv2.cvtColor(np.uint8([[[hue, 255, 255]]]), cv2.COLOR_HSV2BGR)[0, 0]
-    return int(colour[0]), int(colour[1]), int(colour[2])
+    return CATEGORY_COLOURS[(category_id - 1) % len(CATEGORY_COLOURS)]
 
 
 def write_preview(records: list[dict[str, Any]], out: Path,
