@@ -25,9 +25,9 @@ import argparse
 import json
 import re
 import shutil
-import textwrap
 import subprocess
 import sys
+import textwrap
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
