@@ -10,7 +10,7 @@ OUT ?= out
 TEST_EXTRAS := dev,ros2,viewer,gym,batch,fast,hri
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: demo test test-fast test-busy bench lint clean venv-core venv-test browser
+.PHONY: demo test test-fast test-busy bench lint clean venv-core venv-test browser docs-figures
 
 $(VENV)/.python-ok:
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "uhrisim needs Python 3.11 or newer, found " + sys.version.split()[0])'
@@ -44,7 +44,7 @@ browser:
 	  $(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq chromium >/dev/null; }
 
 test: venv-test browser
-	$(PY) -m ruff check src tests
+	$(PY) -m ruff check src tests examples docs
 	$(PY) -m pytest -n 2 -q
 
 # The whole suite on a busy machine, as CI machines often are: two busy loops keep both
@@ -56,14 +56,18 @@ test-busy: venv-test browser
 # The everyday loop: everything but the tests marked slow (every integration test: missions,
 # child processes, real peers, the browser; tests/conftest.py), under a minute on 2 cores.
 test-fast: venv-test
-	$(PY) -m ruff check src tests
+	$(PY) -m ruff check src tests examples docs
 	$(PY) -m pytest -n 2 -q -m "not slow"
 
 bench: venv-core
 	$(UHRISIM) bench all
 
+# The README's and docs' figures and the README's demo numbers, from real runs (~30 min).
+docs-figures: venv-test
+	$(PY) docs/make_figures.py
+
 lint: venv-test
-	$(PY) -m ruff check src tests
+	$(PY) -m ruff check src tests examples docs
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache

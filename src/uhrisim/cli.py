@@ -7,6 +7,7 @@ every option is checked before any work starts. Nothing here computes physics.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import importlib
 import json
@@ -14,7 +15,7 @@ import math
 import signal
 import sys
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -129,6 +130,10 @@ def check_run_options(duration: float | None, seed: int | None, rtf: float | Non
     check_option("port", port, port is not None and 0 <= port <= 65535, "in 0..65535")
 
 
+#: The figures that run missions: ``--seeds`` and ``--duration`` size them.
+MISSION_FIGURES = ("sonar-trail",)
+
+
 @app.command()
 @friendly_errors
 def figure(
@@ -137,16 +142,46 @@ def figure(
     preset: Annotated[str | None, typer.Option(
         "--preset", help=f"the sonar of {', '.join(PRESET_FIGURES)} (a sonar preset name)",
     )] = None,
+    seeds: Annotated[str | None, typer.Option(
+        "--seeds", help=f"{', '.join(MISSION_FIGURES)}: the seeds, comma-separated (fewer "
+                        "seeds, a quicker figure)")] = None,
+    duration: Annotated[float | None, typer.Option(
+        help=f"{', '.join(MISSION_FIGURES)}: simulated seconds per mission")] = None,
 ) -> None:
     """Reproduce a figure of the paper into OUT."""
     if name not in FIGURES:
         raise ConfigError(f"unknown figure {name!r}; choose from {', '.join(FIGURES)}")
     if preset is not None and name not in PRESET_FIGURES:
         raise ConfigError(f"--preset applies to {', '.join(PRESET_FIGURES)}, not {name!r}")
-    kwargs = {} if preset is None else {"preset": preset}
-    paths = _resolve(FIGURES[name][0])(out, **kwargs)
+    if (seeds is not None or duration is not None) and name not in MISSION_FIGURES:
+        raise ConfigError(f"--seeds and --duration apply to {', '.join(MISSION_FIGURES)}, "
+                          f"not {name!r}")
+    kwargs: dict[str, Any] = {} if preset is None else {"preset": preset}
+    if duration is not None:
+        check_option("duration", duration, math.isfinite(duration) and duration > 0,
+                     "a number of seconds > 0")
+        kwargs["duration"] = duration
+    if seeds is not None:
+        kwargs["seeds"] = _seed_list(seeds)
+    if name in MISSION_FIGURES:
+        with _progress(f"figure {name}", None, "s simulated", _simulated_columns(),
+                       simulated=True) as update:
+            paths = _resolve(FIGURES[name][0])(out, progress=update, **kwargs)
+    else:
+        paths = _resolve(FIGURES[name][0])(out, **kwargs)
     for path in paths:
         console.print(Text(f"wrote {path}"))
+
+
+def _seed_list(text: str) -> tuple[int, ...]:
+    """``"11,12"`` -> (11, 12); a one-line error for anything but integers >= 0."""
+    try:
+        seeds = tuple(int(part) for part in text.split(","))
+    except ValueError:
+        seeds = ()
+    if not seeds or any(seed < 0 for seed in seeds):
+        raise ConfigError(f"--seeds: expected integers >= 0 separated by commas, got {text!r}")
+    return seeds
 
 
 def _print_tree(result: dict[str, Any], title: str) -> None:
@@ -195,8 +230,6 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
                        moos: bool = False, rtf: float | None = None,
                        view_port: int | None = None, lockstep: bool = False,
                        ros_args: tuple[str, ...] = (), require_helm: bool = False) -> Any:
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
     from uhrisim.app.runner import prepare_out_dir, run_scenario
     from uhrisim.bridges.live import live_hooks
     from uhrisim.scenario.load import load_scenario
@@ -217,19 +250,49 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
                                         f"{server.url}  (serving on 127.0.0.1 only)"))
 
     total = source.scenario.duration if duration is None else duration
-    columns = (TextColumn("[bold]{task.description}"), BarColumn(),
-               TextColumn("{task.completed:>6.0f}/{task.total:.0f} s simulated"),
-               TimeElapsedColumn())
-    with Progress(*columns, console=err_console, disable=quiet, transient=True) as bar:
-        task = bar.add_task(escape(source.scenario.name), total=total)
+    with _progress(source.scenario.name, total, "s simulated", _simulated_columns(),
+                   quiet=quiet, simulated=True) as update:
         try:
             return run_scenario(source, out, duration=duration, seed=seed,
                                 raycast_sensors=raycast_sensors,
                                 extra_hooks=hooks, configure=None if view_port is None else attach,
-                                progress=lambda t: bar.update(task, completed=t))
+                                progress=update)
         finally:
             for server in servers:
                 server.close()
+
+
+#: Wall seconds between progress lines off a terminal (logs, pipes, CI).
+PROGRESS_EVERY_S = 10.0
+
+
+@contextlib.contextmanager
+def _progress(what: str, total: float | None, unit: str, columns: tuple[Any, ...],
+              quiet: bool = False, simulated: bool = False
+              ) -> Iterator[Callable[..., None]]:
+    """``update(done, total=None)`` for a long step: a Rich progress bar on a terminal
+    (cleared at the end), one line every PROGRESS_EVERY_S s off one (``app.progress``),
+    nothing when ``quiet``; all on stderr."""
+    from rich.progress import Progress
+
+    from uhrisim.app.progress import ProgressLines
+
+    if quiet or not err_console.is_terminal:
+        lines = ProgressLines(what, total, unit, every_s=PROGRESS_EVERY_S, simulated=simulated,
+                              write=lambda line: err_console.print(Text(line), soft_wrap=True))
+
+        def update_lines(done: float, new_total: float | None = None) -> None:
+            if not quiet:
+                lines.update(done, new_total)
+
+        yield update_lines
+        if not quiet:
+            lines.finish()
+        return
+    with Progress(*columns, console=err_console, transient=True) as bar:
+        task = bar.add_task(escape(what), total=total)
+        yield lambda done, new_total=None: bar.update(
+            task, completed=done, **({} if new_total is None else {"total": new_total}))
 
 
 def _print_metrics(result: Any) -> None:
@@ -356,7 +419,13 @@ def view(
 
     check_option("port", port, 0 <= port <= 65535, "in 0..65535")
     _recover_if_cut(recording, recover_in_place)
+    size_mb = recording.stat().st_size / 1e6 if recording.is_file() else 0.0
+    err_console.print(Text(f"indexing {recording} ({size_mb:.0f} MB): reading tracks, sonar "
+                           "and camera frames…"), highlight=False, soft_wrap=True)
+    started = time.monotonic()
     server = serve_replay(recording, port=port)
+    err_console.print(Text(f"indexed in {time.monotonic() - started:.1f} s"), highlight=False,
+                      soft_wrap=True)
     console.print(Text.assemble((f"replay of {recording}: ", "bold"),
                                 f"{server.url}  (Ctrl-C to stop)"))
     try:
@@ -387,29 +456,86 @@ def demo(
 
 
 
+scenarios_app = typer.Typer(
+    help="The example scenarios shipped inside the package: list them, or copy one to edit.",
+    no_args_is_help=False)
+app.add_typer(scenarios_app, name="scenarios")
+
+
+@scenarios_app.callback(invoke_without_command=True)
+@friendly_errors
+def scenarios(ctx: typer.Context) -> None:
+    """List the shipped scenarios (run one with uhrisim run $(uhrisim scenarios path NAME))."""
+    if ctx.invoked_subcommand is not None:
+        return
+    from uhrisim.scenario.shipped import scenario_summary, shipped_scenario, shipped_scenarios
+
+    table = Table(title="shipped scenarios (uhrisim scenarios copy NAME DIR to edit one)")
+    table.add_column("name")
+    table.add_column("what it is")
+    for name in shipped_scenarios():
+        table.add_row(name.removesuffix(".yaml"), scenario_summary(shipped_scenario(name)))
+    console.print(table)
+
+
+@scenarios_app.command("copy")
+@friendly_errors
+def scenarios_copy(
+    name: Annotated[str, typer.Argument(help="shipped scenario name (uhrisim scenarios)")],
+    destination: Annotated[Path, typer.Argument(help="folder to copy into (created)")],
+) -> None:
+    """Copy a shipped scenario and the behavior/MOOS files it names into DESTINATION."""
+    from uhrisim.scenario.shipped import copy_scenario
+
+    for path in copy_scenario(name, destination):
+        console.print(Text(f"  wrote {path}"))
+
+
+@scenarios_app.command("path")
+@friendly_errors
+def scenarios_path(
+    name: Annotated[str, typer.Argument(help="shipped scenario name (uhrisim scenarios)")],
+) -> None:
+    """Print the installed path of a shipped scenario (to run it as it is)."""
+    from uhrisim.scenario.shipped import shipped_scenario
+
+    sys.stdout.write(f"{shipped_scenario(name)}\n")
+
+
 RayAddress = Annotated[str | None, typer.Option(
     help="Ray cluster: 'auto' or ray://host:port (default: a local Ray, loopback only)")]
 RayWorkers = Annotated[int | None, typer.Option(help="Ray tasks at a time (default: all CPUs)")]
 
 
-def _on_ray(what: str, workers: int | None, work: Callable[..., Any]) -> Any:
-    """``work(progress=...)`` with a progress bar of ``what`` on stderr (it clears itself
-    at the end), ``--workers`` checked first."""
+def _on_ray(what: str, unit: str, workers: int | None, work: Callable[..., Any]) -> Any:
+    """``work(progress=...)`` with the progress of ``what`` (a count of ``unit``) on
+    stderr (``_progress``), ``--workers`` checked first."""
+    check_option("workers", workers, workers is not None and workers >= 1, "an integer >= 1")
+    with _progress(what, None, unit, _count_columns(unit)) as update:
+        return work(progress=update)
+
+
+def _simulated_columns() -> tuple[Any, ...]:
+    """The progress bar's columns for simulated seconds."""
+    from rich.progress import BarColumn, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+    return (TextColumn("[bold]{task.description}"), BarColumn(),
+            TextColumn("{task.completed:>6.0f}/{task.total:.0f} s simulated"),
+            TimeElapsedColumn(), TimeRemainingColumn())
+
+
+def _count_columns(what: str) -> tuple[Any, ...]:
+    """The progress bar's columns for a count of ``what`` (runs, frames, missions)."""
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
-        Progress,
         TextColumn,
         TimeElapsedColumn,
         TimeRemainingColumn,
     )
 
-    check_option("workers", workers, workers is not None and workers >= 1, "an integer >= 1")
-    columns = (TextColumn(f"[bold]{what}"), BarColumn(), MofNCompleteColumn(),
-               TimeElapsedColumn(), TimeRemainingColumn())
-    with Progress(*columns, console=err_console, transient=True) as bar:
-        task = bar.add_task(what, total=None)
-        return work(progress=lambda done, total: bar.update(task, completed=done, total=total))
+    return (TextColumn(f"[bold]{what}"), BarColumn(), MofNCompleteColumn(),
+            TimeElapsedColumn(), TimeRemainingColumn())
 
 
 def _print_lines(lines: list[str]) -> None:
@@ -424,13 +550,19 @@ def sweep(
     out: Annotated[Path, typer.Option("--out", "-o", help="output folder")],
     address: RayAddress = None,
     workers: RayWorkers = None,
+    limit: Annotated[int | None, typer.Option(
+        help="only the first N planned runs (a small try; a later full sweep skips them)")
+    ] = None,
 ) -> None:
     """Run a parameter sweep on Ray: a run folder per run, results.parquet/.csv, summary.png."""
     from uhrisim.batch.sweep import run_sweep
 
-    result = _on_ray("runs", workers, functools.partial(
-        run_sweep, sweep_file, out, address=address, workers=workers))
-    lines = [f"{len(result.rows)} runs: {len(result.rows) - result.failed} ok "
+    check_option("limit", limit, limit is None or limit >= 1, "an integer >= 1")
+    result = _on_ray("sweep", "runs", workers, functools.partial(
+        run_sweep, sweep_file, out, address=address, workers=workers, limit=limit))
+    of_planned = (f" (the first {len(result.rows)} of {result.planned} planned)"
+                  if result.planned > len(result.rows) else "")
+    lines = [f"{len(result.rows)} runs{of_planned}: {len(result.rows) - result.failed} ok "
              f"({result.skipped} already done), {result.failed} failed"
              + _on_nodes(result.nodes)]
     lines += [f"  failed {row['run']}: {row['error']}" for row in result.rows
@@ -451,14 +583,18 @@ def dataset(
     address: RayAddress = None,
     workers: RayWorkers = None,
     shard_frames: Annotated[int, typer.Option(help="frames per Ray task")] = 25,
+    frames: Annotated[int | None, typer.Option(
+        help="render N frames instead of the file's count (frame i is the same either way)")
+    ] = None,
 ) -> None:
     """Render a labelled sonar dataset on Ray: images, label images, COCO, card, preview."""
     from uhrisim.batch.dataset import run_dataset
 
     check_option("shard-frames", shard_frames, shard_frames >= 1, "an integer >= 1")
-    result = _on_ray("frames", workers, functools.partial(
+    check_option("frames", frames, frames is None or frames >= 1, "an integer >= 1")
+    result = _on_ray("dataset", "frames", workers, functools.partial(
         run_dataset, dataset_file, out, address=address, workers=workers,
-        shard_frames=shard_frames))
+        shard_frames=shard_frames, frames=frames))
     _print_lines([f"{result.frames} frames, {result.annotations} annotated instances"
                   + _on_nodes(result.nodes)]
                  + [f"  wrote {path}" for path in result.files])
@@ -497,17 +633,28 @@ def sonar_stats(
 ) -> None:
     """Speckle contrast, object/background ratio, zero pixels and brightness profiles of
     sonar fan images with label images (see docs/sonar.md)."""
-    from uhrisim.sensors.sonar.stats import image_stats, load_frames
+    from uhrisim.sensors.sonar.stats import (
+        GEOMETRY_FILE,
+        image_stats,
+        load_frames,
+        load_px_per_m,
+    )
 
-    stats = image_stats(*load_frames(folder))
+    px_per_m = load_px_per_m(folder)
+    stats = image_stats(*load_frames(folder), px_per_m=px_per_m)
     if as_json:
         sys.stdout.write(json.dumps(stats, indent=2) + "\n")
         return
     summary = {k: v for k, v in stats.items() if k != "per_frame"}
-    for key in ("range_profile", "bearing_profile"):
-        axis, values = summary.pop(key).values()
-        summary[key] = "  ".join(f"{a:g}:{v:.2f}" for a, v in zip(axis, values, strict=True)
-                                 if a is not None and v is not None)  # fmt: skip
+    axes = {"range_profile": ("range_m" if px_per_m else "range_px"),
+            "bearing_profile": "bearing_deg"}
+    for key, axis_name in axes.items():
+        profile = summary.pop(key)
+        pairs = zip(profile[axis_name], profile["relative_brightness"], strict=True)
+        label = {"range_m": "range m", "range_px": f"range px (no {GEOMETRY_FILE})",
+                 "bearing_deg": "bearing deg"}[axis_name]
+        summary[f"{key} ({label}: brightness/mean)"] = "  ".join(
+            f"{a:.3g}:{v:.2f}" for a, v in pairs if a is not None and v is not None)
     _print_tree(summary, f"uhrisim sonar-stats {folder}")
 
 

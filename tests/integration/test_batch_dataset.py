@@ -129,4 +129,21 @@ def test_coco_masks_are_the_label_images(first):
         shown = len(coco.getAnnIds(catIds=[cat["id"]]))
         assert f"| {cat['id']} | {cat['name']} | " in card and f" | {shown} |" in card
     preview = cv2.imread(str(first / "preview.png"))
-    assert preview.shape == (4 * 192, 4 * 192, 3)
+    assert preview.shape == (4 * 192 + 26, 4 * 192, 3)  # 16 tiles, one legend row
+    legend = preview[4 * 192:]
+    from uhrisim.batch.dataset import category_colour
+
+    for cat in coco.loadCats(coco.getCatIds()):  # each class has its swatch in the legend
+        assert (legend == category_colour(cat["id"])).all(axis=2).sum() >= 100, cat
+
+
+def test_frames_renders_the_first_frames_of_the_same_dataset(local_ray, first, tmp_path):
+    """--frames 4: the first four frames of the 20-frame dataset, byte for byte."""
+    few = tmp_path / "few"
+    result = run_dataset(dataset_file(few, seed=5), few / "out", workers=2, shard_frames=3,
+                         frames=4)
+    assert result.frames == 4
+    fans = tree(few / "out")
+    whole = tree(first)
+    names = [n for n in fans if n.startswith("fan/")]
+    assert len(names) == 4 and all(fans[n] == whole[n] for n in names)

@@ -202,3 +202,17 @@ def test_the_command_joins_an_existing_ray(local_ray, tmp_path, how):
     table = pa_parquet.read_table(tmp_path / "out" / "results.parquet").to_pylist()
     assert sorted(r[RANGE] for r in table) == [2.0, 3.0]
     assert local_ray.get(local_ray.remote(lambda: 42).remote()) == 42  # still running
+
+
+def test_limit_runs_the_first_planned_runs_and_a_full_sweep_then_skips_them(local_ray,
+                                                                           tmp_path):
+    grid = {RANGE: [2.0, 3.0]}
+    path, out = write_sweep(tmp_path, grid, seeds=(1, 2, 3)), tmp_path / "out"
+    seen: list[tuple[int, int]] = []
+    small = run_sweep(path, out, workers=2, limit=2, progress=lambda d, t: seen.append((d, t)))
+    assert {r["run"] for r in small.rows} == {p.name for p in (out / RUNS_DIR).iterdir()}
+    assert len(small.rows) == 2 and small.planned == 6 and small.failed == 0
+    assert {(r[RANGE], r["seed"]) for r in small.rows} == {(2.0, 1), (2.0, 2)}
+    assert seen[0] == (0, 2) and seen[-1] == (2, 2)
+    whole = run_sweep(path, out, workers=2)
+    assert len(whole.rows) == 6 and whole.skipped == 2

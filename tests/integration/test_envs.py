@@ -306,25 +306,6 @@ def test_render_shows_map_and_sonar_fan():
     assert frame[:, 400:].max() > 100
 
 
-def test_ppo_example_evaluates_against_the_helm_without_torch():
-    """examples/ppo_trail_diver.py's evaluation (the part that needs no torch) on a real
-    env: a policy that holds still scores below the helm on the same episode."""
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[2] / "examples" / "ppo_trail_diver.py"
-    spec = importlib.util.spec_from_file_location("ppo_trail_diver", path)
-    example = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(example)
-
-    class HoldStill:  # rescaled actions: heading change 0, speed 0, depth change 0
-        def predict(self, obs, deterministic=True):
-            return np.array([0.0, -1.0, 0.0], dtype=np.float32), None
-
-    still, helm = example.evaluate(HoldStill(), "uhrisim/TrailDiverState-v0", [3])
-    assert helm > still + 10.0
-
-
 def test_bench_gym_reports_rates_and_targets():
     from uhrisim.bench import run_benchmark
 

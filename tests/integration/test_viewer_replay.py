@@ -191,3 +191,25 @@ def test_odometry_only_recording(tmp_path):
     assert (a["north"], a["east"], a["heading_deg"], a["speed"]) == pytest.approx(
         (0.0, 2.5, 90.0, 1.0))
     assert f["sonar"] is None and f["plots"]["range_to_diver"] is None
+
+
+def test_replay_draws_the_sonar_at_the_range_it_was_recorded_with(tmp_path):
+    """A real mission recorded with a 7.5 m sonar (not the presets' 10 m or the old
+    assumed 20 m) replays with a 7.5 m fan: the range comes from the recording's
+    ProjectedSonarImage (issue 32)."""
+    from uhrisim.app.runner import run_scenario
+    from uhrisim.scenario.load import load_scenario
+    from uhrisim.scenario.shipped import copy_scenario
+
+    scenario = copy_scenario("track_and_trail", tmp_path / "scenario")[0]
+    text = scenario.read_text()
+    assert text.count("range_max_m: 10 ") == 1
+    scenario.write_text(text.replace("range_max_m: 10 ", "range_max_m: 7.5 "))
+    run_scenario(load_scenario(scenario), tmp_path / "run", duration=3.0, seed=1)
+    data = load_replay(tmp_path / "run" / "recording.mcap")
+    assert data.sonar_range["videoray/sonar"] == pytest.approx(7.5, abs=0.03)
+    assert data.sonar_fov_deg["videoray/sonar"] == pytest.approx(45.0, abs=0.03)
+    player = ReplayPlayer(data, _Sink())  # type: ignore[arg-type]
+    fans = player.frame_at(2.5)["sonar"]
+    assert [f["max_range"] for f in fans] == [pytest.approx(7.5, abs=0.03)] * len(fans)
+    assert fans, "no sonar frame due by 2.5 s"

@@ -199,3 +199,32 @@ def test_confidence_intervals_and_bins_of_the_summary_figure():
     assert len(groups) == BINS and {g.size for g in groups} == {10} and xs == sorted(xs)
     groups, xs, labels = _groups(["P900-90", "P900-45", "P900-90"])  # categories
     assert labels == ["P900-90", "P900-45"] and xs == [0.0, 1.0]
+
+
+def test_the_sweep_summary_is_a_grid_labelled_in_words_with_units(tmp_path):
+    import cv2
+
+    from uhrisim.batch.figures import human_label, plot_sweep_summary, summary_figure
+
+    assert human_label("range_error_m.rms") == "range error RMS (m)"
+    assert human_label("min_separation_m") == "minimum separation (m)"
+    assert human_label("agents.videoray.controller.heading") == "videoray controller heading"
+    assert human_label("perception.held_pct") == "perception held (%)"
+    rng = np.random.default_rng(0)
+    rows = [{"run": f"r{i}", "status": "ok", "seed": i % 3, "gain": g,
+             "time_to_acquire_s": 10 + g + rng.random(), "min_separation_m": 1 + rng.random(),
+             "range_error_m.rms": 0.2 * g + rng.random() / 10, "collisions": i % 2,
+             "bearing_error_deg.rms": 5 + rng.random()}
+            for i, g in enumerate([0.5, 1.0, 2.0] * 3)]
+    fig = summary_figure(rows, ["gain"], "trail gains")
+    panels = [ax for ax in fig.axes if ax.axison]
+    assert len(panels) == 5
+    assert {ax.get_title() for ax in panels} == {
+        "time to acquire (s)", "minimum separation (m)", "collisions",
+        "range error RMS (m)", "bearing error RMS (deg)"}
+    assert {ax.get_xlabel() for ax in panels} == {"gain"}
+    # laid out as a grid (3 across), not one tall column
+    width, height = fig.get_size_inches()
+    assert width > height
+    image = cv2.imread(str(plot_sweep_summary(rows, ["gain"], tmp_path / "s.png")))
+    assert image.shape[1] > image.shape[0]

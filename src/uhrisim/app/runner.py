@@ -29,6 +29,7 @@ from uhrisim.record.hook import McapRecordingHook
 from uhrisim.scenario.load import ScenarioFile, load_scenario
 from uhrisim.sim.hooks import TickFrame, sensor_key
 from uhrisim.sim.simulation import BaseHook, Hook, Simulation
+from uhrisim.viz.fan_plot import FanView, in_sonar_plane
 
 SONAR_STRIP_FRAMES = 6
 
@@ -38,21 +39,26 @@ log = logging.getLogger(__name__)
 class SonarStripHook(BaseHook):
     """Keeps a few fan images of each sonar spread over the run, for the sonar strip
     figure: ``frames[key]`` for each sonar key ``"<agent>/<sensor>"`` of ``titles``
-    (key -> the figure's title of its row)."""
+    (key -> the figure's title of its row), each ``(t, FanView, target)`` with the
+    ``target`` agent's place in the fan (starboard m, forward m; None without a target)."""
 
     def __init__(self, titles: Mapping[str, str], duration: float,
-                 count: int = SONAR_STRIP_FRAMES) -> None:
+                 count: int = SONAR_STRIP_FRAMES, target: str | None = None) -> None:
         times = list(np.linspace(0.0, duration, count + 1)[1:] - duration / (2 * count))
         self.titles = dict(titles)
+        self.target = target
         self.times = {key: list(times) for key in titles}
-        self.frames: dict[str, list[tuple[float, np.ndarray]]] = {key: [] for key in titles}
+        self.frames: dict[str, list[tuple[float, FanView, tuple[float, float] | None]]] = {
+            key: [] for key in titles}
 
     def on_tick(self, frame: TickFrame) -> None:
         for key, due in self.times.items():
             ping = frame.pings.get(key)
             if ping is not None and due and frame.t >= due[0]:
                 due.pop(0)
-                self.frames[key].append((frame.t, ping.fan_u8.copy()))
+                agent = frame.agents.get(self.target) if self.target else None
+                where = None if agent is None else in_sonar_plane(ping, agent.nav.position_ned)
+                self.frames[key].append((frame.t, FanView.of_ping(ping), where))
 
 
 @dataclass
@@ -99,7 +105,8 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
                        *extra_hooks]
     sonars = {sensor_key(a.name, str(s.name)): f"{a.name}/{s.name} ({s.preset})"
               for a in scenario.agents for s in a.sensors if s.type == "sonar"}
-    strip = SonarStripHook(sonars, duration) if raycast_sensors and sonars else None
+    strip = SonarStripHook(sonars, duration, target=scenario.metrics.target
+                           if scenario.metrics else None) if raycast_sensors and sonars else None
     if strip:
         hooks.append(strip)
     hooks.extend(extra_hooks)

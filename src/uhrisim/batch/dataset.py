@@ -77,6 +77,7 @@ BEARING_FRACTION = 0.8
 BAND_FRACTION = 0.8
 PREVIEW_FRAMES = 16
 PREVIEW_TILE_PX = 192
+LEGEND_ROW_PX = 26  # one row of the preview's class legend
 #: Sonar settings the frame generator sets itself.
 _OWN_SETTINGS = ("preset", "spec", "range_max_m", "tilt_deg", "yaw_deg", "mount_position_frd",
                  "labels", "water_temperature_c", "salinity_psu", "water_depth_m", "ph")
@@ -451,17 +452,20 @@ class DatasetResult:
 
 def run_dataset(dataset_path: str | Path, out: str | Path, *, address: str | None = None,
                 workers: int | None = None, shard_frames: int = 25,
+                frames: int | None = None,
                 progress: Callable[[int, int], None] | None = None) -> DatasetResult:
-    """Render the whole dataset on Ray (``shard_frames`` frames a task) and write the COCO
-    file, the dataset card and the preview. ``progress(frames done, frames)``."""
-    if shard_frames < 1:
-        raise ConfigError(f"must be an integer >= 1, got {shard_frames!r}",
-                          where="--shard-frames")
+    """Render the dataset on Ray (``shard_frames`` frames a task) and write the COCO
+    file, the dataset card and the preview. ``frames``: that many frames instead of the
+    file's count (frame i is the same frame either way: a small try, or more).
+    ``progress(frames done, frames)``."""
+    for option, value in (("--shard-frames", shard_frames), ("--frames", frames)):
+        if value is not None and value < 1:
+            raise ConfigError(f"must be an integer >= 1, got {value!r}", where=option)
     plan = load_dataset(dataset_path)
     check_address(address)  # before anything is written
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    total = plan.spec.frames
+    total = plan.spec.frames if frames is None else frames
     shards = [(plan, a, min(a + shard_frames, total), str(out))
               for a in range(0, total, shard_frames)]
     records: list[dict[str, Any]] = []
@@ -479,7 +483,7 @@ def run_dataset(dataset_path: str | Path, out: str | Path, *, address: str | Non
     coco = coco_document(plan.spec, records)
     _write_json(out / "annotations_coco.json", coco)
     files = [out / "annotations_coco.json", write_card(plan.spec, records, coco, out),
-             write_preview(records, out)]
+             write_preview(records, out, coco["categories"])]
     return DatasetResult(len(records), len(coco["annotations"]), files, nodes)
 
 
@@ -551,9 +555,38 @@ def _counts(counter: Counter) -> str:
     return ", ".join(f"{k} {v}" for k, v in sorted(counter.items())) or "none"
 
 
-def write_preview(records: list[dict[str, Any]], out: Path) -> Path:
+def preview_legend(categories: list[dict[str, Any]], width: int) -> np.ndarray:
+    """Rows of ``[swatch] name`` for each category, :data:`LEGEND_ROW_PX` high, four to
+    a row (BGR, dark background)."""
+    per_row = 4
+    rows = max(1, math.ceil(len(categories) / per_row))
+    legend = np.full((rows * LEGEND_ROW_PX, width, 3), 24, np.uint8)
+    cell = width // per_row
+    for i, category in enumerate(categories):
+        x, y = (i % per_row) * cell + 8, (i // per_row) * LEGEND_ROW_PX
+        legend[y + 6:y + LEGEND_ROW_PX - 6, x:x + 16] = category_colour(category["id"])
+        cv2.putText(legend, f"{category['id']} {category['name']}", (x + 22, y + 18),
+                    cv2.FONT_HERSHEY_SIMPLEX, 0.45, (235, 235, 235), 1, cv2.LINE_AA)
+    return legend
+
+
+#: Outline and legend colours of the categories in ``preview.png``, BGR (matplotlib's
+#: "tab10": ten colours told apart at a glance), cycled.
+CATEGORY_COLOURS = ((180, 119, 31), (14, 127, 255), (44, 160, 44), (40, 39, 214),
+                    (189, 103, 148), (75, 86, 140), (194, 119, 227), (127, 127, 127),
+                    (34, 189, 188), (207, 190, 23))
+
+
+def category_colour(category_id: int) -> tuple[int, int, int]:
+    """The BGR colour of a category's outlines and legend swatch in ``preview.png``."""
+    return CATEGORY_COLOURS[(category_id - 1) % len(CATEGORY_COLOURS)]
+
+
+def write_preview(records: list[dict[str, Any]], out: Path,
+                  categories: list[dict[str, Any]]) -> Path:
     """``preview.png``: the first frames' fan images (colour-mapped) in a grid, each
-    instance outlined in its own colour."""
+    instance outlined in its category's colour, and below them the legend of the
+    categories (COCO ``categories``: id, name)."""
     tiles = []
     for record in records[:PREVIEW_FRAMES]:
         fan = cv2.imread(str(out / record["files"]["fan"]), cv2.IMREAD_GRAYSCALE)
@@ -562,9 +595,7 @@ def write_preview(records: list[dict[str, Any]], out: Path) -> Path:
         for instance in record["instances"][1:]:
             mask = (labels == instance["id"]).astype(np.uint8)
             contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-            hue = (37 * instance["category_id"]) % 180
-            colour = cv2.cvtColor(np.uint8([[[hue, 255, 255]]]), cv2.COLOR_HSV2BGR)[0, 0]
-            cv2.drawContours(image, contours, -1, [int(c) for c in colour], 1)
+            cv2.drawContours(image, contours, -1, category_colour(instance["category_id"]), 1)
         scale = PREVIEW_TILE_PX / max(image.shape[:2])
         image = cv2.resize(image, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
         tile = np.zeros((PREVIEW_TILE_PX, PREVIEW_TILE_PX, 3), np.uint8)
@@ -577,6 +608,7 @@ def write_preview(records: list[dict[str, Any]], out: Path) -> Path:
     while len(tiles) % columns:
         tiles.append(np.zeros_like(tiles[0]))
     grid = np.vstack([np.hstack(tiles[i:i + columns]) for i in range(0, len(tiles), columns)])
+    grid = np.vstack([grid, preview_legend(categories, grid.shape[1])])
     path = out / "preview.png"
     _write_png(path, grid)
     return path

@@ -9,11 +9,15 @@ values (presets, materials) are categories in the order they first appear.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from matplotlib.figure import Figure
 from scipy import stats
+
+from uhrisim.viz.figures import save_figure, subplots
 
 BINS = 6
 #: Columns of the table that are bookkeeping, not outcomes.
@@ -81,49 +85,75 @@ def _groups(values: list[Any]) -> tuple[list[np.ndarray], list[float], list[str]
     return groups, xs, [str(d) for d in distinct]
 
 
-def plot_sweep_summary(rows: list[dict[str, Any]], parameters: list[str], path: Path,
-                       title: str = "sweep") -> Path:
-    """Draw the summary figure of the completed runs into ``path`` (PNG)."""
-    import matplotlib
+#: Units by the end of a metric's or parameter's name (the project's naming habit).
+UNIT_SUFFIXES = {"_s": "s", "_m": "m", "_deg": "deg", "_pct": "%", "_hz": "Hz", "_mps": "m/s",
+                 "_db": "dB"}
+#: Words for the last part of a name (what the reader calls it).
+WORDS = {"rms": "RMS", "min": "minimum", "max": "maximum", "pct": "%"}
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
+def human_label(name: str) -> str:
+    """A column name as a reader says it, with its unit: ``range_error_m.rms`` -> "range
+    error RMS (m)", ``agents.videoray.controller.heading`` -> "videoray controller
+    heading", ``min_separation_m`` -> "minimum separation (m)"."""
+    parts = name.removeprefix("agents.").split(".")
+    unit = ""
+    words = []
+    for part in parts:
+        for suffix, symbol in UNIT_SUFFIXES.items():
+            if part.endswith(suffix) and len(part) > len(suffix):
+                part, unit = part[:-len(suffix)], symbol
+                break
+        words += [WORDS.get(w, w) for w in part.split("_")]
+    text = " ".join(words)
+    return f"{text} ({unit})" if unit else text
+
+
+def summary_figure(rows: list[dict[str, Any]], parameters: list[str], title: str = "sweep"
+                   ) -> Figure:
+    """The summary figure of the completed runs: a grid of panels, one per metric and
+    swept parameter (about three across), each metric's mean and 95 % CI per value over
+    the runs' own values, labelled in words with units."""
     ok = [row for row in rows if row["status"] == "ok"]
     metrics = metric_columns(ok, parameters)
     shown = parameters or ["seed"]
-    n_rows, n_cols = max(1, len(metrics)), len(shown)
-    fig, axes = plt.subplots(n_rows, n_cols, figsize=(3.6 * n_cols, 2.4 * n_rows + 0.6),
-                             squeeze=False)
-    for col, parameter in enumerate(shown):
+    panels = [(metric, parameter) for parameter in shown for metric in metrics] or [(None, "")]
+    n_cols = min(3, len(panels))
+    n_rows = math.ceil(len(panels) / n_cols)
+    fig, axes = subplots(n_rows, n_cols, figsize=(4.4 * n_cols, 3.3 * n_rows + 0.5),
+                         squeeze=False, layout="constrained")
+    flat = list(axes.flat)
+    for ax in flat[len(panels):]:
+        ax.axis("off")
+    for ax, (metric, parameter) in zip(flat, panels, strict=False):
+        if metric is None:
+            ax.text(0.5, 0.5, "no completed run with a varying metric",
+                    ha="center", va="center", transform=ax.transAxes)
+            continue
         values = [row.get(parameter) for row in ok]
         groups, xs, labels = _groups([str(v) if isinstance(v, list | dict) else v
-                                      for v in values]) if ok else ([], [], [])
-        for r in range(n_rows):
-            ax = axes[r][col]
-            if not metrics:
-                ax.text(0.5, 0.5, "no completed run with a varying metric",
-                        ha="center", va="center", transform=ax.transAxes)
-                continue
-            column = numeric_column(ok, metrics[r])
-            cis = [mean_ci95(column[g]) for g in groups]
-            ax.errorbar(xs, [m for m, _ in cis], yerr=[h for _, h in cis], fmt="o-",
-                        capsize=3, lw=1)
-            ax.scatter(np.repeat(xs, [g.size for g in groups]),
-                       np.concatenate([column[g] for g in groups]) if groups else [],
-                       s=6, alpha=0.35, color="grey")
-            if not all(isinstance(v, int | float) for v in values):
-                ax.set_xticks(xs, labels, rotation=30, fontsize=7)
-            if col == 0:
-                ax.set_ylabel(metrics[r], fontsize=8)
-            if r == n_rows - 1:
-                ax.set_xlabel(parameter, fontsize=8)
-            ax.grid(alpha=0.3)
+                                      for v in values])
+        column = numeric_column(ok, metric)
+        cis = [mean_ci95(column[g]) for g in groups]
+        ax.errorbar(xs, [m for m, _ in cis], yerr=[h for _, h in cis], fmt="o-",
+                    capsize=3, lw=1, label="mean, 95 % CI")
+        ax.scatter(np.repeat(xs, [g.size for g in groups]),
+                   np.concatenate([column[g] for g in groups]) if groups else [],
+                   s=8, alpha=0.4, color="grey", label="runs")
+        if not all(isinstance(v, int | float) for v in values):
+            ax.set_xticks(xs, labels, rotation=30, fontsize=8)
+        ax.set_title(human_label(metric), fontsize=10)
+        ax.set_xlabel(human_label(parameter), fontsize=9)
+        ax.grid(alpha=0.3)
+    if metrics:
+        flat[0].legend(fontsize=7)
     failed = len(rows) - len(ok)
     fig.suptitle(f"{title}: {len(ok)} completed runs ({failed} failed), mean and 95 % CI "
-                 "per value",
-                 fontsize=10)
-    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.35 / fig.get_figheight()))
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+                 "per value", fontsize=11)
+    return fig
+
+
+def plot_sweep_summary(rows: list[dict[str, Any]], parameters: list[str], path: Path,
+                       title: str = "sweep") -> Path:
+    """Draw :func:`summary_figure` into ``path`` (PNG)."""
+    return save_figure(summary_figure(rows, parameters, title), path, dpi=100)

@@ -128,6 +128,7 @@ class SweepResult:
     skipped: int
     files: list[Path] = field(default_factory=list)
     nodes: dict[str, int] = field(default_factory=dict)  # runs finished per Ray node id
+    planned: int = 0  # runs the sweep file plans (more than rows with a --limit)
 
     @property
     def failed(self) -> int:
@@ -283,18 +284,23 @@ def flatten(metrics: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 def run_sweep(sweep_path: str | Path, out: str | Path, *, address: str | None = None,
-              workers: int | None = None,
+              workers: int | None = None, limit: int | None = None,
               progress: Callable[[int, int], None] | None = None) -> SweepResult:
     """Plan the sweep, run what is not done yet on Ray, write the table and the figure.
 
+    ``limit``: only the first ``limit`` planned runs (a small try of a big sweep; the same
+    runs, seeds and folders as in the whole sweep, so a later full run skips them).
     ``progress(done, total)`` is called as runs finish (skipped ones count as done)."""
+    if limit is not None and limit < 1:
+        raise ConfigError(f"must be an integer >= 1, got {limit!r}", where="--limit")
     plan = load_sweep(sweep_path)
     check_address(address)  # before anything is written
     out = Path(out)
     (out / RUNS_DIR).mkdir(parents=True, exist_ok=True)
-    rows: list[dict[str, Any] | None] = [None] * len(plan.runs)
+    runs = plan.runs[:limit]
+    rows: list[dict[str, Any] | None] = [None] * len(runs)
     todo: list[PlannedRun] = []
-    for run in plan.runs:
+    for run in runs:
         finished = completed_metrics(out / RUNS_DIR / run.run_id)
         if run.error is not None:  # refused by the schema: recorded, never run
             (run_folder(run, out) / "error.txt").write_text(run.error + "\n")
@@ -304,16 +310,16 @@ def run_sweep(sweep_path: str | Path, out: str | Path, *, address: str | None = 
         else:
             todo.append(run)
     skipped = sum(r is not None and r["status"] == "ok" for r in rows)
-    done = len(plan.runs) - len(todo)
+    done = len(runs) - len(todo)
     if progress:
-        progress(done, len(plan.runs))
+        progress(done, len(runs))
 
     def finished_one(index: int, row: dict[str, Any]) -> None:
         nonlocal done
         rows[todo[index].index] = row
         done += 1
         if progress:
-            progress(done, len(plan.runs))
+            progress(done, len(runs))
 
     def lost_one(index: int, error: BaseException) -> None:
         """A run whose worker died (out of memory, a lost node): failed, the rest go on."""
@@ -324,7 +330,8 @@ def run_sweep(sweep_path: str | Path, out: str | Path, *, address: str | None = 
         with ray_session(address, workers) as in_flight:
             nodes = dict(run_tasks(execute_run, [(run, str(out)) for run in todo], in_flight,
                                    finished_one, lost_one))
-    result = SweepResult([r for r in rows if r is not None], skipped, nodes=nodes)
+    result = SweepResult([r for r in rows if r is not None], skipped, nodes=nodes,
+                         planned=len(plan.runs))
     result.files = write_table(result.rows, plan.parameters, out)
     result.files.append(plot_sweep_summary(result.rows, plan.parameters, out / "summary.png",
                                            plan.name))

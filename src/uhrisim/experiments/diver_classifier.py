@@ -26,12 +26,11 @@ import yaml
 from uhrisim.perception.classify import FEATURES, DiverClassifier, track_features
 from uhrisim.perception.pipeline import SonarPerception
 from uhrisim.scenario.load import ScenarioFile, validate_data
+from uhrisim.scenario.shipped import shipped_scenario
 from uhrisim.sim.hooks import sensor_key
 from uhrisim.sim.simulation import Simulation
 from uhrisim.sim.sonar_contacts import perception_params
 
-ROOT = Path(__file__).resolve().parents[3]
-DEFAULT_SCENARIO = ROOT / "scenarios" / "track_and_trail_sonar_clutter.yaml"
 STD_FLOOR = 0.02
 
 
@@ -96,11 +95,13 @@ def fit(path: Path, seeds: list[int], duration: float) -> dict[str, Any]:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path)
-    parser.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO)
+    parser.add_argument("--scenario", type=Path, default=None,
+                        help="scenario (default: the shipped track_and_trail_sonar_clutter)")
     parser.add_argument("--seeds", type=int, nargs="+", default=[11, 12])
     parser.add_argument("--duration", type=float, default=180.0)
     args = parser.parse_args(argv)
-    params = fit(args.scenario, args.seeds, args.duration)
+    scenario = args.scenario or shipped_scenario("track_and_trail_sonar_clutter.yaml")
+    params = fit(scenario, args.seeds, args.duration)
     args.out.write_text(json.dumps(params, indent=2) + "\n")
     print(params["provenance"])
 

@@ -15,6 +15,7 @@ diver held by a confirmed track ≥ 95 % of the time; the cluttered variant — 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -82,17 +83,24 @@ def plot(rows: list[dict[str, Any]], path: Path) -> Path:
 
 
 def make_sonar_trail(out_dir: Path, duration: float = DURATION_S,
-                     seeds: tuple[int, ...] = SEEDS) -> list[Path]:
-    """Run every scenario and seed, write the summary and the figure (module docstring)."""
+                     seeds: tuple[int, ...] = SEEDS,
+                     progress: Callable[[float, float], None] | None = None) -> list[Path]:
+    """Run every scenario and seed, write the summary and the figure (module docstring).
+    ``progress(simulated s done, simulated s in all)`` as the missions run."""
     out_dir.mkdir(parents=True, exist_ok=True)
     rows = []
-    for scenario in SCENARIOS:
-        for seed in seeds:
-            result = run_scenario(shipped_scenario(f"{scenario}.yaml"),
-                                  out_dir / f"{scenario}_seed{seed}", duration=duration,
-                                  seed=seed)
-            assert result.metrics is not None
-            rows.append(summarise(scenario, seed, result.metrics, duration))
+    missions = [(scenario, seed) for scenario in SCENARIOS for seed in seeds]
+    total = duration * len(missions)
+    for done, (scenario, seed) in enumerate(missions):
+        def mission_progress(t: float, before: float = done * duration) -> None:
+            if progress is not None:
+                progress(before + t, total)
+
+        result = run_scenario(shipped_scenario(f"{scenario}.yaml"),
+                              out_dir / f"{scenario}_seed{seed}", duration=duration,
+                              seed=seed, progress=mission_progress)
+        assert result.metrics is not None
+        rows.append(summarise(scenario, seed, result.metrics, duration))
     summary = out_dir / "sonar_trail_summary.json"
     summary.write_text(json.dumps(strict_json({"duration_s": duration, "runs": rows,
                                                "all_meet_bands": all(r["meets_bands"]

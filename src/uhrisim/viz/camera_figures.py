@@ -14,8 +14,10 @@ ROV's lamps on and off (docs/camera.md).
 
 The scene: sand 8 m down, a pier beam behind the diver, the camera 5 m deep looking
 north and slightly down; the diver at the camera's depth, side-on, 1.5 m (near) or
-5 m (far) away. The camera exposes automatically (as the ROV's does), so brightness does
-not compare between panels; the contrast in the titles and the table does, and so do
+5 m (far) away. The camera exposes automatically (as the ROV's does) with the lamps on,
+and the lamps-off panel beside it keeps that exposure (:func:`render_pair`), so the two
+compare: the lamps add light where they point. Between water types and distances
+brightness does not compare; the contrast in the titles and the table does, and so do
 the radiances in the table.
 """
 
@@ -43,7 +45,9 @@ CAMERA_DEPTH = 5.0
 SEED = 19
 
 
-def _scene(distance: float) -> Scene:
+def diver_scene(distance: float) -> Scene:
+    """Sand 8 m down, a pier beam behind, the diver side-on at the camera's depth,
+    ``distance`` metres ahead (the module docstring)."""
     scene = Scene()
     scene.add_static(prim.box((60.0, 60.0, 1.0), (20.0, 0.0, 8.5)), "seafloor", SAND)
     scene.add_static(prim.box((0.4, 0.4, 9.0), (distance + 3.0, 1.2, 4.0)), "piling", CONCRETE)
@@ -52,13 +56,20 @@ def _scene(distance: float) -> Scene:
     return scene
 
 
-def _render(water: str, distance: float, lamps: bool):
+def _render(water: str, distance: float, lamps: bool, exposure: float | str = "auto"):
     camera = UnderwaterCamera(
         CameraConfig(width=480, height=360, water=jerlov(water), tilt_deg=5.0,
-                     mount_position_frd=(0.0, 0.0, 0.0), lamps_on=lamps),
+                     mount_position_frd=(0.0, 0.0, 0.0), lamps_on=lamps, exposure=exposure),
         component_rng(SEED, f"figure/camera/{water}"))
-    return camera.capture(_scene(distance).raycaster(), (0.0, 0.0, CAMERA_DEPTH), rot_z(0.0),
-                          0.0)
+    return camera.capture(diver_scene(distance).raycaster(), (0.0, 0.0, CAMERA_DEPTH),
+                          rot_z(0.0), 0.0)
+
+
+def render_pair(water: str, distance: float):
+    """(lamps on, lamps off) frames at one exposure: the lamps-on frame's automatic one,
+    as a camera whose exposure is held while its lamps are switched sees them."""
+    lit = _render(water, distance, True)
+    return lit, _render(water, distance, False, exposure=lit.gain)
 
 
 def _contrast(frame) -> tuple[float, float, float]:
@@ -89,9 +100,9 @@ def make_camera(out_dir: Path) -> list[Path]:
              "background_radiance_g", "contrast_g")]
     for i, (label, water) in enumerate(WATERS):
         c = jerlov(water).c
-        for j, ((where, distance), lamps) in enumerate(
-                (d, lamps) for d in DISTANCES for lamps in (True, False)):
-            frame = _render(water, distance, lamps)
+        frames = [(d, lamps, frame) for d in DISTANCES
+                  for lamps, frame in zip((True, False), render_pair(water, d[1]), strict=True)]
+        for j, ((where, distance), lamps, frame) in enumerate(frames):
             name = f"camera_{label}_{where}_{'lamps' if lamps else 'nolamps'}.png"
             cv2.imwrite(str(out / name), cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2BGR))
             files.append(out / name)

@@ -18,7 +18,9 @@ def subplots(nrows: int = 1, ncols: int = 1, **kwargs: Any) -> tuple[Figure, Any
 
 
 def save_figure(fig: Figure, path: Path, dpi: int = 120) -> Path:
-    """Lay out and write ``path`` (format from its suffix); return ``path``."""
-    fig.tight_layout()
+    """Lay out (tightly, unless the figure has its own layout engine, as figures with
+    colour bars do) and write ``path`` (format from its suffix); return ``path``."""
+    if fig.get_layout_engine() is None:
+        fig.tight_layout()
     fig.savefig(path, dpi=dpi)
     return path

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 
+from uhrisim.viz.fan_plot import FanView, crop_window, draw_fan, level_bar
 from uhrisim.viz.figures import save_figure, subplots
 
 
@@ -53,20 +55,30 @@ def plot_range_bearing(series: dict[str, np.ndarray], trail_range: float, path: 
     return save_figure(fig, path)
 
 
-def plot_sonar_strip(rows: Mapping[str, Sequence[tuple[float, np.ndarray]]],
+def plot_sonar_strip(rows: Mapping[str, Sequence[tuple[float, FanView,
+                                                     tuple[float, float] | None]]],
                      path: Path) -> Path:
-    """One row of fan images (uint8, apex bottom-centre) with their times per sonar;
-    ``rows`` maps each row's title (e.g. ``"videoray/sonar (P900-45)"``) to its frames."""
+    """A row of fan images per sonar, each cropped to the diver (a 5 m square about it,
+    :func:`crop_window`; the whole fan when the diver is out of range), with metric axes,
+    range arcs, bearing lines and the display level's colour bar; ``rows`` maps each
+    row's title (e.g. ``"videoray/sonar (P900-45)"``) to its ``(t, fan, diver's
+    (starboard, forward) m or None)``."""
     n = max(1, *(len(frames) for frames in rows.values()))
-    fig, axes = subplots(len(rows), n, figsize=(2.6 * n, 2.6 * len(rows)), squeeze=False)
+    fig, axes = subplots(len(rows), n, figsize=(3.6 * n, 3.9 * len(rows)), squeeze=False,
+                         layout="constrained")
     for row, (title, frames) in zip(axes, rows.items(), strict=True):
-        for ax, (t, image) in zip(row, frames, strict=False):
-            ax.imshow(image, cmap="copper", vmin=0, vmax=255)
-            ax.set_title(f"t = {t:.0f} s", fontsize=9)
-            ax.axis("off")
+        for k, (ax, (t, view, target)) in enumerate(zip(row, frames, strict=False)):
+            image = draw_fan(ax, view, window=crop_window(view, target), colorbar=False)
+            where = "" if target is None else \
+                f", diver {math.hypot(*target):.1f} m {math.degrees(math.atan2(*target)):+.0f}°"
+            if target is not None:
+                ax.plot(*target, "+", color="tab:cyan", ms=10, mew=1.2)
+            ax.set_title(f"t = {t:.0f} s{where}", fontsize=9)
+            if k:
+                ax.set_ylabel("")
         for ax in row[len(frames):]:
             ax.axis("off")
-        row[0].text(-0.05, 0.5, title, transform=row[0].transAxes, rotation=90,
-                    ha="right", va="center", fontsize=9)
-    fig.suptitle("sonar fans", fontsize=10)
+        row[0].set_ylabel(f"{title}\nforward (m)", fontsize=9)
+        level_bar(image, list(row))
+    fig.suptitle("sonar fans about the diver (+: its true place)", fontsize=10)
     return save_figure(fig, path)

@@ -29,7 +29,13 @@ from matplotlib.collections import PolyCollection
 
 from uhrisim.core.rng import component_rng
 from uhrisim.sensors.sonar import PRESETS, ImagingSonar, SonarConfig, SonarPing, get_preset
-from uhrisim.sensors.sonar.stats import image_stats, object_label_image
+from uhrisim.sensors.sonar.stats import (
+    GEOMETRY_FILE,
+    image_stats,
+    object_label_image,
+    write_fan_geometry,
+)
+from uhrisim.viz.fan_plot import FanView, draw_fan, nice_step
 from uhrisim.viz.figures import save_figure, subplots
 
 SEED = 2013
@@ -113,25 +119,18 @@ def _label_image(ping: SonarPing, names: list[str]) -> np.ndarray:
 
 
 def _panel(phys: SonarPing, paper_mode: SonarPing, title: str, path: Path) -> None:
-    fig, axes = subplots(1, 3, figsize=(15.0, 5.5))
+    fig, axes = subplots(1, 3, figsize=(15.0, 5.5), layout="constrained")
     r = phys.bin_ranges_m
     th = np.degrees(phys.beam_angles_rad)
-    axes[0].imshow(
-        phys.polar, origin="lower", aspect="auto", cmap="bone",
+    polar = axes[0].imshow(
+        phys.polar, origin="lower", aspect="auto", cmap="bone", vmin=0.0, vmax=1.0,
         extent=(th[0], th[-1], r[0], r[-1]),
     )  # fmt: skip
+    fig.colorbar(polar, ax=axes[0], shrink=0.85, label="display intensity (0-1, linear in dB)")
     axes[0].set_xlabel("beam angle (deg, + starboard)")
     axes[0].set_ylabel("range (m)")
     axes[0].set_title("polar image (beams × range bins)")
-    H, W = phys.fan_u8.shape
-    s = phys.fan_px_per_m
-    c0, r0 = phys.fan_apex_px
-    axes[1].imshow(
-        phys.fan_u8, cmap="bone",
-        extent=((-0.5 - c0) / s, (W - 0.5 - c0) / s, (r0 - H + 0.5) / s, (r0 + 0.5) / s),
-    )  # fmt: skip
-    axes[1].set_xlabel("starboard (m)")
-    axes[1].set_ylabel("forward (m)")
+    draw_fan(axes[1], FanView.of_ping(phys), cmap="bone")
     axes[1].set_title("physical fan (apex bottom-centre)")
     axes[2].imshow(paper_mode.fan_u8, cmap="gray")
     axes[2].set_xlabel("column (px, 10 px/m)")
@@ -151,10 +150,13 @@ def _write(paper, pose_name: str, range_max_m: float, stem: str, title: str,
     paths = [
         out / f"{stem}_scene_top.png",
         out / f"{stem}_2013.png",
-        out / f"{stem}_fan.png",
-        out / f"{stem}_labels.png",
+        out / f"{stem}_fan_colour.png",
+        out / f"{stem}_labels_colour.png",
         out / f"{stem}_panel.png",
         out / f"{stem}_polar.npy",
+        out / f"{stem}_fan.png",
+        out / f"{stem}_labels.png",
+        out / GEOMETRY_FILE,
     ]
     _top_view(paper, phys, float(phys.bin_ranges_m[-1]), f"{title}: scene from above", paths[0])
     cv2.imwrite(str(paths[1]), paper_mode.fan_u8)
@@ -162,6 +164,11 @@ def _write(paper, pose_name: str, range_max_m: float, stem: str, title: str,
     cv2.imwrite(str(paths[3]), _label_image(phys, paper.scene.labels))
     _panel(phys, paper_mode, title, paths[4])
     np.save(paths[5], phys.polar)
+    # the pair uhrisim sonar-stats and sonar-compare read: 8-bit fan, 16-bit object labels
+    cv2.imwrite(str(paths[6]), phys.fan_u8)
+    cv2.imwrite(str(paths[7]), object_label_image(phys.label_fan,
+                                                  {paper.scene.label_id("seafloor")}))
+    write_fan_geometry(out, phys)
     return paths
 
 
@@ -190,13 +197,6 @@ VENDOR_PALETTES = {"P900": "copper", "M900": "copper", "ARIS": "gray", "M750d": 
                    "M1200d": "inferno", "Gemini": "bone"}  # fmt: skip
 
 
-def _nice_step(span: float) -> float:
-    """A 1-2-5 step giving about five divisions of ``span``."""
-    raw = span / 5.0
-    power = 10.0 ** math.floor(math.log10(raw))
-    return next(m * power for m in (1.0, 2.0, 5.0, 10.0) if m * power >= raw)
-
-
 def vendor_fan(ping: SonarPing, fan_mask: np.ndarray, preset: str) -> np.ndarray:
     """``ping``'s fan drawn as a maker's viewer draws one: the 8-bit fan through the
     maker's palette (:data:`VENDOR_PALETTES`), black outside ``fan_mask``, range arcs at a
@@ -215,7 +215,7 @@ def vendor_fan(ping: SonarPing, fan_mask: np.ndarray, preset: str) -> np.ndarray
     half = math.degrees(ping.fan_half_fov_rad)
     far = float(ping.bin_ranges_m[-1])
     grey, font = (150, 150, 150), cv2.FONT_HERSHEY_SIMPLEX
-    step = _nice_step(far)
+    step = nice_step(far)
     r = step
     while r <= far + 1e-9:
         radius = round(r * scale)
@@ -283,7 +283,7 @@ def tank_scenario(preset: str | None = None, fan_width_px: int | None = None):
         get_preset(preset)  # an unknown name fails here, naming the known ones
         data["agents"][0]["sensors"][0]["preset"] = preset
     if fan_width_px is not None:
-        data["agents"][0]["sensors"][0]["fan_width_px"] = fan_width_px
+        data["agents"][0]["sensors"][0]["fan_size_px"] = fan_width_px
     return ScenarioFile(validate_data(data, str(path), lines), path, lines)
 
 
@@ -335,26 +335,28 @@ def make_sonar_tank(out_dir: Path, n_frames: int = 30, preset: str | None = None
             paths.append(path)
     mask_path = out / "fan_mask.png"
     cv2.imwrite(str(mask_path), mask.astype(np.uint8) * 255)
-    stats = image_stats(fans, labels, mask)
+    stats = image_stats(fans, labels, mask, px_per_m=pings[0].fan_px_per_m)
     stats["preset"] = name
     stats["real_frame_bands"] = REAL_FRAME_BANDS
     stats_path = out / "tank_stats.json"
     stats_path.write_text(json.dumps(stats, indent=1))
     panel = out / "tank_panel.png"
-    _tank_panel(fans, labels, stats, pings[0].fan_px_per_m, panel, name)
+    _tank_panel(pings, labels, stats, panel, name)
     vendor = out / "tank_vendor.png"
     cv2.imwrite(str(vendor), vendor_fan(pings[0], mask, name))
-    return [*paths, mask_path, stats_path, panel, vendor]
+    return [*paths, mask_path, stats_path, panel, vendor, write_fan_geometry(out, pings[0])]
 
 
-def _tank_panel(fans, labels, stats: dict, px_per_m: float, path: Path, name: str) -> None:
-    fig, axes = subplots(2, 3, figsize=(15.0, 8.5))
-    for k, i in enumerate((0, len(fans) // 2, len(fans) - 1)):
-        axes[0, k].imshow(fans[i], cmap="gray", vmin=0, vmax=255)
-        axes[0, k].contour(labels[i] > 0, levels=[0.5], colors="tab:red", linewidths=0.6)
+def _tank_panel(pings, labels, stats: dict, path: Path, name: str) -> None:
+    fig, axes = subplots(2, 3, figsize=(15.0, 9.5), layout="constrained")
+    for k, i in enumerate((0, len(pings) // 2, len(pings) - 1)):
+        view = FanView.of_ping(pings[i])
+        draw_fan(axes[0, k], view, cmap="gray", grid_colour="tab:olive")
+        left, right, bottom, top = view.extent
+        axes[0, k].contour(labels[i] > 0, levels=[0.5], colors="tab:red", linewidths=0.6,
+                           extent=(left, right, top, bottom), origin="upper")
         axes[0, k].set_title(f"frame {i} (objects outlined)")
-        axes[0, k].set_axis_off()
-    r = np.array(stats["range_profile"]["range_px"], float) / px_per_m
+    r = np.array(stats["range_profile"]["range_m"], float)
     axes[1, 0].plot(r, np.array(stats["range_profile"]["relative_brightness"], float), "o-")
     axes[1, 0].set_xlabel("range (m)")
     axes[1, 0].set_ylabel("background brightness / mean")

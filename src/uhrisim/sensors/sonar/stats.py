@@ -19,6 +19,7 @@ are non-zero in some frame.
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -103,10 +104,11 @@ def image_stats(
     mask: NDArray[np.bool_],
     n_range_bins: int = 20,
     n_bearing_bins: int = 15,
+    px_per_m: float | None = None,
 ) -> dict:
     """Per-frame statistics, their medians over the frames and the range and bearing
-    profiles of the background (a JSON-ready dict; ranges in pixels from the apex,
-    bearings in degrees)."""
+    profiles of the background (a JSON-ready dict; ranges in pixels from the apex and,
+    with the fans' ``px_per_m``, in metres; bearings in degrees)."""
     if not fans:
         raise ConfigError("no frames", where="sonar-stats")
     frames = [frame_stats(f, lab, mask) for f, lab in zip(fans, labels, strict=True)]
@@ -125,7 +127,8 @@ def image_stats(
         "frames_with_objects": len(ratios),
         "median_zero_fraction": float(np.median([f.zero_fraction for f in frames])),
         "max_zero_fraction": float(max(f.zero_fraction for f in frames)),
-        "range_profile": {"range_px": clean(r_c), "relative_brightness": clean(r_prof)},
+        "range_profile": {"range_px": clean(r_c), "relative_brightness": clean(r_prof)}
+        | ({} if px_per_m is None else {"range_m": clean(r_c / px_per_m)}),
         "bearing_profile": {"bearing_deg": clean(b_c), "relative_brightness": clean(b_prof)},
         "per_frame": [
             {
@@ -147,6 +150,40 @@ def object_label_image(label_fan: NDArray[np.int16], background: set[int]) -> ND
     for b in background:
         out[label_fan == b] = 0
     return out.astype(np.uint16)
+
+
+#: The file beside fan images that gives their scale: ``{"px_per_m": ...}``.
+GEOMETRY_FILE = "fan_geometry.json"
+
+
+def write_fan_geometry(folder: Path, ping) -> Path:
+    """Write :data:`GEOMETRY_FILE` for the fans of ``ping``'s sonar into ``folder``; where
+    fans of another scale were written there before, ``px_per_m`` becomes null (ranges
+    then stay in pixels)."""
+    path = Path(folder) / GEOMETRY_FILE
+    scale: float | None = float(ping.fan_px_per_m)
+    if path.is_file() and load_px_per_m(folder) != scale:
+        scale = None
+    path.write_text(json.dumps({"px_per_m": scale}) + "\n")
+    return path
+
+
+def load_px_per_m(folder: Path) -> float | None:
+    """The fans' pixels per metre from ``folder``'s :data:`GEOMETRY_FILE`, None without
+    one; a one-line error when it is unreadable."""
+    path = Path(folder) / GEOMETRY_FILE
+    if not path.is_file():
+        return None
+    try:
+        value = json.loads(path.read_text())["px_per_m"]
+        if value is None:  # fans of several scales
+            return None
+        value = float(value)
+    except (ValueError, KeyError, TypeError) as error:
+        raise ConfigError(f"not a fan geometry file ({error})", where=str(path)) from None
+    if not (math.isfinite(value) and value > 0):
+        raise ConfigError(f"px_per_m must be > 0, got {value!r}", where=str(path))
+    return value
 
 
 def load_frames(

@@ -639,7 +639,7 @@ function drawSonar() {
   }
   for (const { s, x0, y0, dw, dh } of drawn) drawFanOverlay(ctx, s, x0, y0, dw, dh);
   $("sonar-caption").textContent = drawn.map(({ key, s }) =>
-    `${key} · t=${fmt(s.t, 1)} s · ${fmt(s.fov_deg, 0)}° · ${fmt(s.max_range, 0)} m`).join("  |  ");
+    `${key} · t=${fmt(s.t, 1)} s · ${fmt(s.fov_deg, 0)}° · ${fmt(s.max_range, Number.isInteger(s.max_range) ? 0 : 1)} m`).join("  |  ");
 }
 
 // range arcs and perception tracks on one fan, its apex at the bottom centre and its
