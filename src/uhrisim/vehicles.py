@@ -33,6 +33,7 @@ from uhrisim.dynamics.diver_boots import BootsParams, FloorDepth, leg_angles
 from uhrisim.dynamics.kinematic import KinematicParams
 from uhrisim.dynamics.plants import (
     BootsPlant,
+    carrying,
     DiverPlant,
     KinematicPlant,
     NavState,
@@ -116,7 +117,9 @@ class VehicleModel:
     ``thrusters``: it takes [port, starboard, vertical] thruster commands;
     ``max_speed(plant params)`` (m/s): the fastest it can be commanded to go.
     ``diver``: a diver's articulated body and how orders drive it (:class:`DiverBody`),
-    None for a vehicle.
+    None for a vehicle; ``carrying(plant, load)``: its plant with a
+    :class:`~uhrisim.dynamics.carried_load.CarriedLoad` in its gripper (None: nothing),
+    for a vehicle that can carry one.
     """
 
     name: str
@@ -132,6 +135,7 @@ class VehicleModel:
     thrusters: bool
     max_speed: Callable[[Any], float]
     diver: DiverBody | None = None
+    carrying: Callable[[Any, Any], Plant] | None = None
 
 
 def _videoray_plant(cfg: Any, dt: float, name: str, floor: FloorDepth | None = None
@@ -215,7 +219,7 @@ MODELS: dict[str, VehicleModel] = {m.name: m for m in (
     VehicleModel("videoray", _videoray_plant, _videoray_controller, collision_radius=0.25,
                  contact_stops=slice(4, 7), surface_stops=6, vehicle_type="UUV", length=0.38,
                  body="videoray", viewer_kind="rov", thrusters=True,
-                 max_speed=_videoray_max_speed),
+                 max_speed=_videoray_max_speed, carrying=carrying),
     VehicleModel("diver", _diver_plant,
                  lambda cfg, plant: DiverController(DiverGains(), plant.params),
                  collision_radius=0.6, contact_stops=None, surface_stops=None,

@@ -11,8 +11,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import NumericalError
-from uhrisim.dynamics import diver, diver_boots, kinematic, videoray
-from uhrisim.dynamics.integrators import FixedStepIntegrator
+from uhrisim.dynamics import carried_load, diver, diver_boots, kinematic, videoray
+from uhrisim.dynamics.integrators import FixedStepIntegrator, rk4_step
 
 
 def finite_or_raise(x: NDArray, vehicle: str, t: float) -> NDArray:
@@ -197,3 +197,32 @@ class BootsPlant:
         turn = 0.0 if u is None else float(np.clip(u[1], -self.params.max_turn_rate,
                                                     self.params.max_turn_rate))
         return NavState(x[0:3].copy(), yaw, velocity, turn)
+
+
+@dataclass(frozen=True)
+class LoadedVideoRayPlant(VideoRayPlant):
+    """The VideoRay with ``load`` in its gripper: eqs 1-4 with the load's mass, added mass
+    and drag and its in-water weight as a heave force
+    (:func:`uhrisim.dynamics.carried_load.xdot_loaded`), by classical RK4 with the
+    unloaded plant's sub-steps (a heavier vehicle is no stiffer)."""
+
+    load: carried_load.CarriedLoad | None = None
+
+    def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
+        if self.load is None:
+            return super().step(t, x, u)
+        n = self.integrator.substeps
+        h = self.dt / n
+        for k in range(n):
+            x = rk4_step(self._xdot, t + k * h, x, u, self.params, h)
+        return finite_or_raise(x, self.name, t + self.dt)
+
+    def _xdot(self, t: float, x: NDArray, u: NDArray, params: videoray.VideoRayParams
+              ) -> NDArray:
+        return carried_load.xdot_loaded(t, x, u, params, self.load)
+
+
+def carrying(plant: VideoRayPlant, load: carried_load.CarriedLoad | None
+             ) -> LoadedVideoRayPlant:
+    """``plant`` with ``load`` in its gripper (None: nothing)."""
+    return LoadedVideoRayPlant(plant.params, plant.dt, plant.name, plant.substeps, load=load)

@@ -479,9 +479,8 @@ class AgentConfig(Strict):
         if self.orders and model.diver is None:
             raise ValueError(f"agent {self.name!r}: only a diver carries out orders; "
                              f"{self.model} is not one")
-        if self.gripper is not None and not model.thrusters:
-            raise ValueError(f"agent {self.name!r}: a gripper goes on a thruster-driven "
-                             f"vehicle; {self.model} is not one")
+        if self.gripper is not None and model.carrying is None:
+            raise ValueError(f"agent {self.name!r}: {self.model} carries no gripper")
         return self
 
 

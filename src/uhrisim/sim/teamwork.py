@@ -43,6 +43,7 @@ from numpy.typing import NDArray
 from uhrisim.core.clock import ticks_for_rate
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import rot_z
+from uhrisim.dynamics.carried_load import CarriedLoad
 from uhrisim.dynamics.diver_body import DiverSkeleton, step_motion
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.sections import part_settings
@@ -115,10 +116,11 @@ class DiverBodyState:
 
 @dataclass
 class GripperSlot:
-    """A vehicle's gripper: its spec and state."""
+    """A vehicle's gripper: its spec and state, and what its plant carries."""
 
     spec: gr.GripperSpec
     state: gr.GripperState = field(default_factory=gr.GripperState)
+    carrying: str | None = None
 
 
 class TeamStage:
@@ -138,12 +140,12 @@ class TeamStage:
         self.silt = (SiltCloud(SiltParams(current_ne=world.silt.current_ne), scene.depth_at)
                      if world.silt is not None and world.silt.soft else None)
         self.events: list[WorldEvent] = []  # every event of the run, in order
-        for index, agent in enumerate(agents.values()):
-            cfg, diver = agent.config, agent.model.diver
-            if diver is not None:
-                self.divers[agent.name] = self._diver_body(index, agent)
-            if cfg.gripper is not None:
+        for index, agent in enumerate(agents.values()):  # what grippers hold is placed
+            if agent.config.gripper is not None:         # before the orders are checked
                 self.grippers[agent.name] = self._gripper(index, agent)
+        for index, agent in enumerate(agents.values()):
+            if agent.model.diver is not None:
+                self.divers[agent.name] = self._diver_body(index, agent)
         self._add_bodies()
         self._scene_bodies = frozenset(self.workspace.things) | frozenset(
             self.workspace.flanges) | frozenset(self.workspace.hatches) | frozenset(
@@ -274,10 +276,27 @@ class TeamStage:
             slot.state = gr.GripperState("closed", 1.0 - width / slot.spec.jaw_opening)
             grip = jaws.grip_frame()
             # the tool hangs level with its grasp point in the jaws
-            ws.put(cfg.holds, grip[:3, 3] - ws.tools[cfg.holds].grasp_offset,
-                   float(agent.state[3]))
+            yaw = float(agent.state[3])
+            ws.put(cfg.holds, grip[:3, 3] - rot_z(yaw) @ ws.tools[cfg.holds].grasp_offset(), yaw)
             ws.take(jaws.name, cfg.holds, grip)
+        self._carry_in_dynamics(agent, slot)
         return slot
+
+    def _carry_in_dynamics(self, agent: Agent, slot: GripperSlot) -> None:
+        """The vehicle's plant carries what its gripper holds (its mass, added mass, drag
+        and in-water weight in eqs 1-4), or nothing."""
+        ws = self.workspace
+        held = ws.held_by(f"{agent.name}/gripper")
+        if held == slot.carrying:
+            return
+        load = None
+        if held is not None:
+            nav = agent.nav()
+            body = pose_matrix(nav.position_ned, nav.yaw)
+            centre = np.linalg.inv(body) @ np.append(ws.thing(held).position, 1.0)
+            load = CarriedLoad(ws.hydro_of(held), tuple(centre[:3]))
+        agent.plant = agent.model.carrying(agent.plant, load)
+        slot.carrying = held
 
     def _add_bodies(self) -> None:
         ws, scene = self.workspace, self.scene
@@ -326,6 +345,8 @@ class TeamStage:
             events += acts.perform(request, ws, carriers, t, dt, self.floor)
         for name, carrier in carriers.items():
             ws.carry(name, carrier.grip_frame())
+        for name, slot in self.grippers.items():
+            self._carry_in_dynamics(self.agents[name], slot)
         events += ws.step(t, dt, self.floor)
         if self.silt is not None:
             for name, body in self.divers.items():
