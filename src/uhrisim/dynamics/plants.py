@@ -202,11 +202,18 @@ class BootsPlant:
 @dataclass(frozen=True)
 class LoadedVideoRayPlant(VideoRayPlant):
     """The VideoRay with ``load`` in its gripper: eqs 1-4 with the load's mass, added mass
-    and drag and its in-water weight as a heave force
-    (:func:`uhrisim.dynamics.carried_load.xdot_loaded`), by classical RK4 with the
-    unloaded plant's sub-steps (a heavier vehicle is no stiffer)."""
+    and drag (:func:`~uhrisim.dynamics.carried_load.loaded_params`) and its in-water
+    weight as a heave force — :func:`~uhrisim.dynamics.carried_load.xdot_loaded`, its
+    parameters worked out once — by classical RK4 with the unloaded plant's sub-steps (a
+    heavier vehicle is no stiffer). ``params`` stay the unloaded vehicle's."""
 
     load: carried_load.CarriedLoad | None = None
+    loaded: videoray.VideoRayParams | None = field(init=False, default=None)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.load is not None:
+            object.__setattr__(self, "loaded", carried_load.loaded_params(self.params, self.load))
 
     def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
         if self.load is None:
@@ -214,12 +221,14 @@ class LoadedVideoRayPlant(VideoRayPlant):
         n = self.integrator.substeps
         h = self.dt / n
         for k in range(n):
-            x = rk4_step(self._xdot, t + k * h, x, u, self.params, h)
+            x = rk4_step(self._xdot, t + k * h, x, u, self.loaded, h)
         return finite_or_raise(x, self.name, t + self.dt)
 
-    def _xdot(self, t: float, x: NDArray, u: NDArray, params: videoray.VideoRayParams
+    def _xdot(self, t: float, x: NDArray, u: NDArray, loaded: videoray.VideoRayParams
               ) -> NDArray:
-        return carried_load.xdot_loaded(t, x, u, params, self.load)
+        out = videoray.xdot(t, x, u, loaded)
+        out[..., 6] += carried_load.heave_bias(self.load) / loaded.m33
+        return out
 
 
 def carrying(plant: VideoRayPlant, load: carried_load.CarriedLoad | None
