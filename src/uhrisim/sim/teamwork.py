@@ -403,7 +403,11 @@ class TeamStage:
         slot.state, changed = gr.command(slot.spec, slot.state, close, t, actor)
         events += changed
         if not close and held is not None:
+            others = [h for h in ws.holders_of(held) if h != actor]
             events += acts.release(ws, jaws, t, self.floor)
+            if command == "give" and others:  # the gripper's side of a hand-over
+                events.append(WorldEvent(t, "handover", held, actor, detail={
+                    "holders": ", ".join([actor, *others]), "to": ", ".join(others)}))
         width = ws.grip_width(between) if between is not None else None
         slot.state, moved = gr.advance(slot.spec, slot.state, self.dt, t, actor, width)
         events += moved
