@@ -62,11 +62,15 @@ FIGURES: dict[str, tuple[str, str]] = {
                "the diver in clear, coastal and turbid water, near and far, lamps on/off"),
     "sonar-trail": ("uhrisim.experiments.sonar_trail:make_sonar_trail",
                     "issue 15: sonar-only trail, 3 seeds x 10 min, paper + cluttered (~10 min)"),
+    "team-timeline": ("uhrisim.viz.team_figures:make_team_timeline",
+                      "a run's diver orders as a Gantt chart (--run RUN_FOLDER)"),
 }
 
 
 #: The figures whose sonar ``--preset`` picks.
 PRESET_FIGURES = ("sonar-tank", "sonar-pier", "sonar-torus")
+#: The figures that draw a run (``--run``).
+RUN_FIGURES = ("team-timeline",)
 
 
 def _resolve(target: str) -> Callable[..., Any]:
@@ -137,13 +141,19 @@ def figure(
     preset: Annotated[str | None, typer.Option(
         "--preset", help=f"the sonar of {', '.join(PRESET_FIGURES)} (a sonar preset name)",
     )] = None,
+    run: Annotated[Path | None, typer.Option(
+        "--run", help="the run folder a run figure draws (team-timeline)")] = None,
 ) -> None:
-    """Reproduce a figure of the paper into OUT."""
+    """Reproduce a figure of the paper into OUT (or draw one of a run: --run)."""
     if name not in FIGURES:
         raise ConfigError(f"unknown figure {name!r}; choose from {', '.join(FIGURES)}")
     if preset is not None and name not in PRESET_FIGURES:
         raise ConfigError(f"--preset applies to {', '.join(PRESET_FIGURES)}, not {name!r}")
-    kwargs = {} if preset is None else {"preset": preset}
+    if run is not None and name not in RUN_FIGURES:
+        raise ConfigError(f"--run applies to {', '.join(RUN_FIGURES)}, not {name!r}")
+    kwargs: dict[str, Any] = {} if preset is None else {"preset": preset}
+    if name in RUN_FIGURES:
+        kwargs["run"] = run
     paths = _resolve(FIGURES[name][0])(out, **kwargs)
     for path in paths:
         console.print(Text(f"wrote {path}"))
