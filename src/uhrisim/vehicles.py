@@ -33,11 +33,11 @@ from uhrisim.dynamics.diver_boots import BootsParams, FloorDepth, leg_angles
 from uhrisim.dynamics.kinematic import KinematicParams
 from uhrisim.dynamics.plants import (
     BootsPlant,
-    carrying,
     DiverPlant,
     KinematicPlant,
     NavState,
     VideoRayPlant,
+    carrying,
 )
 from uhrisim.dynamics.videoray import VideoRayParams, generalized_forces, steady_speed
 from uhrisim.world.diver_figure import flutter_kick

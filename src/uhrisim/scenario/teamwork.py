@@ -4,8 +4,8 @@ gripper and the diver's skeleton (docs/teamwork.md, "In a scenario").
 Tools and sites live under ``world`` (``world.tools``, ``world.sites``, ``world.silt``);
 a diver's ``orders`` and ``skeleton`` and a vehicle's ``gripper`` under its agent. Each
 order is a mapping named by its first key (``{use: wrench1, at: flange1, seconds: 20,
-bolt: 0}``; YAML reads a bare ``on`` key as true, so the keys are ``at`` and ``onto``) and becomes one :mod:`uhrisim.teamwork.orders` order (:meth:`order`). What
-can only be checked against the built world (names, reach, walking paths, the tools'
+bolt: 0}``; YAML reads a bare ``on`` key as true, so the keys are ``at`` and ``onto``)
+and becomes one :mod:`uhrisim.teamwork.orders` order (its ``order()``). What can only be checked against the built world (names, reach, walking paths, the tools'
 whereabouts) is checked when the simulation is built (:mod:`uhrisim.sim.teamwork`),
 each problem one line with its order's file:line — ``uhrisim validate`` does that too.
 """
@@ -39,8 +39,9 @@ class ToolConfig(Strict):
     """A tool (``uhrisim.world.tools``: its mass, size, grasp point and label by kind),
     where it starts: ``at`` (its reference point), heading and pitch (deg; -90 stands a
     tool on its working end), and what it rests in or on (``in: basket1``,
-    ``onto: stand1``; default: the floor; YAML reads a bare ``on`` key as true). A ``lift_bag`` is also a lift bag site with
-    ``capacity_litres`` and ``inflate_rate_lps``."""
+    ``onto: stand1``; default: the floor; YAML reads a bare ``on`` key as true). A
+    ``lift_bag`` is also a lift bag site with ``capacity_litres`` and
+    ``inflate_rate_lps``."""
 
     kind: Literal[TOOL_KINDS]  # type: ignore[valid-type]
     name: ObjectName

@@ -22,6 +22,7 @@ from uhrisim.autonomy.moos_file import load_helm_from_moos
 from uhrisim.core.clock import ticks_for_rate
 from uhrisim.core.errors import ConfigError, warn_user
 from uhrisim.core.frames import rot_z
+from uhrisim.dynamics.diver_body import DiverSkeleton
 from uhrisim.scenario.build_world import material_named, object_mesh
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import AgentConfig, CameraSensor, Scenario, SonarSensor
@@ -30,7 +31,6 @@ from uhrisim.sim.community import Community
 from uhrisim.sim.drivers import HelmDriver, ScriptedDriver
 from uhrisim.sim.script import ScriptDriver
 from uhrisim.sim.state import Agent, CameraSlot, ScheduledEvent, SonarSlot
-from uhrisim.dynamics.diver_body import DiverSkeleton
 from uhrisim.vehicles import MODELS, Plant, VehicleModel
 from uhrisim.world.assets import diver_parts, videoray_mesh
 from uhrisim.world.diver_figure import diver_figure

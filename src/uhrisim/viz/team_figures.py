@@ -37,7 +37,7 @@ def plot_team_timeline(steps: list[dict[str, Any]], path: Path) -> Path:
     divers = sorted({s["diver"] for s in steps})
     rows = [(d, s) for d in divers for s in steps if s["diver"] == d]
     fig, ax = subplots(figsize=(10, 0.32 * len(rows) + 1.5))
-    for row, (diver, step) in enumerate(rows):
+    for row, (_, step) in enumerate(rows):
         ax.barh(row, step["end"] - step["start"], left=step["start"], height=0.7,
                 color=_COLOURS.get(step["outcome"], "#999999"),
                 hatch="//" if step["fetched"] else None, edgecolor="black", linewidth=0.4)
