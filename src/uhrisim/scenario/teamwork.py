@@ -5,8 +5,9 @@ Tools and sites live under ``world`` (``world.tools``, ``world.sites``, ``world.
 a diver's ``orders`` and ``skeleton`` and a vehicle's ``gripper`` under its agent. Each
 order is a mapping named by its first key (``{use: wrench1, at: flange1, seconds: 20,
 bolt: 0}``; YAML reads a bare ``on`` key as true, so the keys are ``at`` and ``onto``)
-and becomes one :mod:`uhrisim.teamwork.orders` order (its ``order()``). What can only be checked against the built world (names, reach, walking paths, the tools'
-whereabouts) is checked when the simulation is built (:mod:`uhrisim.sim.teamwork`),
+and becomes one :mod:`uhrisim.teamwork.orders` order (its ``order()``). What can only
+be checked against the built world (names, reach, walking paths, the tools' whereabouts)
+is checked when the simulation is built (:mod:`uhrisim.sim.teamwork`),
 each problem one line with its order's file:line — ``uhrisim validate`` does that too.
 """
 
@@ -65,49 +66,45 @@ class ToolConfig(Strict):
         return f"in:{self.in_}" if self.in_ else f"on:{self.onto}" if self.onto else "floor"
 
 
-class FlangeSite(Strict):
+class SiteBase(Strict):
+    """A work site or structure: its name, where it is (``at``), its heading (deg)."""
+
+    name: ObjectName
+    at: Place
+    heading_deg: Angle = 0.0
+
+
+class FlangeSite(SiteBase):
     """A bolted blind flange (``uhrisim.world.worksites.FlangeSpec``): the centre of its
     cover at ``at``, facing ``heading_deg``; ``bolts`` loosened by ``loosen_s`` of wrench
     work each."""
 
     type: Literal["flange"]
-    name: ObjectName
-    at: Place
-    heading_deg: Angle = 0.0
     bolts: Annotated[int, Field(ge=1, le=16)] = 4
     loosen_s: PositiveFloat = 20.0
 
 
-class HatchSite(Strict):
+class HatchSite(SiteBase):
     """A hatch (``HatchSpec``): latched until ``latch_s`` of hammer work."""
 
     type: Literal["hatch"]
-    name: ObjectName
-    at: Place
-    heading_deg: Angle = 0.0
     size: Annotated[float, Field(gt=0.1, le=3.0)] = 0.6
     latch_s: PositiveFloat = 10.0
 
 
-class LoadSite(Strict):
+class LoadSite(SiteBase):
     """A flooded steel load (``steel_load``) of ``mass_kg`` inside ``size`` (m)."""
 
     type: Literal["load"]
-    name: ObjectName
-    at: Place
-    heading_deg: Angle = 0.0
     mass_kg: Annotated[float, Field(gt=0.0, le=5000.0)]
     size: tuple[PositiveFloat, PositiveFloat, PositiveFloat] = (0.6, 0.4, 0.4)
 
 
-class PlatformSite(Strict):
+class PlatformSite(SiteBase):
     """A work stand: a level top (``at``: its centre) of ``size`` (m, along and across
     its heading) on a column down to the floor — objects can be put on it."""
 
     type: Literal["platform"]
-    name: ObjectName
-    at: Place
-    heading_deg: Angle = 0.0
     size: tuple[PositiveFloat, PositiveFloat] = (0.4, 0.4)
 
 
