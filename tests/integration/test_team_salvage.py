@@ -128,3 +128,22 @@ def test_validate_refuses_orders_that_cannot_be_carried_out(tmp_path, old, new, 
     assert f"{path}:" in line  # the order's file and line
     number = int(line.split(f"{path}:")[1].split(":")[0])
     assert path.read_text().splitlines()[number - 1].lstrip().startswith("- {")
+
+
+def test_the_divers_joints_are_recorded_as_joint_states(boots):
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([boots.out_dir / "recording.mcap"]) as reader:
+        connections = [c for c in reader.connections if c.topic == "/diver1/joint_states"]
+        assert [c.msgtype for c in connections] == ["sensor_msgs/msg/JointState"]
+        messages = [reader.deserialize(raw, c.msgtype)
+                    for c, _, raw in reader.messages(connections=connections)]
+    assert len(messages) == round(212.0 * 10)  # at the odometry rate
+    first = messages[0]
+    assert first.header.frame_id == "diver1/base_link" and len(first.name) == 24
+    names = list(first.name)
+    knee = np.array([m.position[names.index("left_knee")] for m in messages])
+    # walking bends the knee, never past its dry-suit limit (108 deg)
+    assert knee.max() > np.radians(10.0) and knee.max() <= np.radians(108.0) + 1e-9
+    fingers = np.array([m.position[names.index("right_fingers")] for m in messages])
+    assert fingers.max() > np.radians(60.0)  # the hand closed on the wrench

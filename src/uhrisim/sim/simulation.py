@@ -237,8 +237,9 @@ class Simulation:
         snapshots = AgentSnapshots(tuple(self.agents), self._snapshot_of)
         if build_frame:
             snapshots.take_all()
+        joints = self.team.joint_samples() if self.team is not None else {}
         frame = TickFrame(self.tick, t, snapshots, pings, helm, posts,
-                          tuple(self._pending_events), images, perception)
+                          tuple(self._pending_events), images, perception, joints)
         self._pending_events.clear()
         for hook in self.hooks:
             hook.on_tick(frame)

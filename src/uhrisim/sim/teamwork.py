@@ -48,6 +48,7 @@ from uhrisim.dynamics.diver_body import DiverSkeleton, step_motion
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.sections import part_settings
 from uhrisim.scenario.teamwork import FlangeSite, HatchSite, LoadSite, PlatformSite
+from uhrisim.sim.hooks import JointSample
 from uhrisim.sim.state import Agent
 from uhrisim.teamwork import acts
 from uhrisim.teamwork import gripper as gr
@@ -421,6 +422,12 @@ class TeamStage:
         while body.reported < len(steps) and steps[body.reported].ended is not None:
             self.record("order", order_detail(name, body.reported, steps[body.reported]))
             body.reported += 1
+
+    def joint_samples(self) -> dict[str, JointSample]:
+        """Every articulated diver's joints now (for the hooks: recorder, bridges)."""
+        return {name: JointSample(body.skeleton.joint_names, tuple(body.q.tolist()),
+                                  tuple(body.qdot.tolist()))
+                for name, body in self.divers.items()}
 
     def pose_scene(self) -> None:
         """Move the scene's tools, loads, sites' parts and articulated divers to now."""
