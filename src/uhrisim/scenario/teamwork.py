@@ -211,17 +211,21 @@ _ORDER_KEYS = {"go_to": GoToOrder, "pick_up": PickUpOrder, "use": UseOrder,
 
 
 def _order_kind(value: Any) -> str | None:
+    """The tag of an order: its first key and "order" (a tag that is no key of the
+    mapping, so error paths go on to the field)."""
     if isinstance(value, dict):
-        return next((k for k in value if k in _ORDER_KEYS), None)
-    return next((k for k, cls in _ORDER_KEYS.items() if isinstance(value, cls)), None)
+        key = next((k for k in value if k in _ORDER_KEYS), None)
+    else:
+        key = next((k for k, cls in _ORDER_KEYS.items() if isinstance(value, cls)), None)
+    return None if key is None else f"{key} order"
 
 
 OrderConfig = Annotated[
-    Annotated[GoToOrder, Tag("go_to")] | Annotated[PickUpOrder, Tag("pick_up")]
-    | Annotated[UseOrder, Tag("use")] | Annotated[RemoveOrder, Tag("remove")]
-    | Annotated[OperateOrder, Tag("operate")] | Annotated[PutDownOrder, Tag("put_down")]
-    | Annotated[HandOrder, Tag("hand")] | Annotated[WaitOrder, Tag("wait_until")]
-    | Annotated[SignalOrder, Tag("signal")] | Annotated[ModeOrder, Tag("mode")],
+    Annotated[GoToOrder, Tag("go_to order")] | Annotated[PickUpOrder, Tag("pick_up order")]
+    | Annotated[UseOrder, Tag("use order")] | Annotated[RemoveOrder, Tag("remove order")]
+    | Annotated[OperateOrder, Tag("operate order")] | Annotated[PutDownOrder, Tag("put_down order")]
+    | Annotated[HandOrder, Tag("hand order")] | Annotated[WaitOrder, Tag("wait_until order")]
+    | Annotated[SignalOrder, Tag("signal order")] | Annotated[ModeOrder, Tag("mode order")],
     Discriminator(_order_kind, custom_error_type="order",
                   custom_error_message="an order is a mapping whose first key is one of "
                   + ", ".join(_ORDER_KEYS)),

@@ -2,8 +2,9 @@
 loads move, silt is stirred up (docs/teamwork.md).
 
 :class:`TeamStage` owns the :class:`~uhrisim.teamwork.workspace.Workspace` (every tool,
-site and load of ``world.tools`` / ``world.sites``), each diver's articulated body
-(joint angles, the order executor if it has ``orders``), each vehicle's gripper, and the
+site and load of ``world.tools`` / ``world.sites``), the articulated body of each diver
+with ``orders`` or drawn as the figure (joint angles, its order executor), each
+vehicle's gripper, and the
 silt cloud of a soft floor. Built with the simulation (problems with the orders are
 refused then, one line each with the order's file:line), it runs after the bodies
 move and before the sensors, every ``1 / RATE_HZ`` s:
@@ -144,8 +145,9 @@ class TeamStage:
         for index, agent in enumerate(agents.values()):  # what grippers hold is placed
             if agent.config.gripper is not None:         # before the orders are checked
                 self.grippers[agent.name] = self._gripper(index, agent)
-        for index, agent in enumerate(agents.values()):
-            if agent.model.diver is not None:
+        for index, agent in enumerate(agents.values()):  # divers with orders or a figure
+            if agent.model.diver is not None and (agent.config.orders or
+                                                  agent.config.scene_body == "figure"):
                 self.divers[agent.name] = self._diver_body(index, agent)
         self._add_bodies()
         self._scene_bodies = frozenset(self.workspace.things) | frozenset(
