@@ -63,11 +63,15 @@ FIGURES: dict[str, tuple[str, str]] = {
                "the diver in clear, coastal and turbid water, near and far, lamps on/off"),
     "sonar-trail": ("uhrisim.experiments.sonar_trail:make_sonar_trail",
                     "issue 15: sonar-only trail, 3 seeds x 10 min, paper + cluttered (~10 min)"),
+    "team-timeline": ("uhrisim.viz.team_figures:make_team_timeline",
+                      "a run's diver orders as a Gantt chart (--run RUN_FOLDER)"),
 }
 
 
 #: The figures whose sonar ``--preset`` picks.
 PRESET_FIGURES = ("sonar-tank", "sonar-pier", "sonar-torus")
+#: The figures that draw a run (``--run``).
+RUN_FIGURES = ("team-timeline",)
 
 
 def _resolve(target: str) -> Callable[..., Any]:
@@ -147,8 +151,10 @@ def figure(
                         "seeds, a quicker figure)")] = None,
     duration: Annotated[float | None, typer.Option(
         help=f"{', '.join(MISSION_FIGURES)}: simulated seconds per mission")] = None,
+    run: Annotated[Path | None, typer.Option(
+        "--run", help="the run folder a run figure draws (team-timeline)")] = None,
 ) -> None:
-    """Reproduce a figure of the paper into OUT."""
+    """Reproduce a figure of the paper into OUT (or draw one of a run: --run)."""
     if name not in FIGURES:
         raise ConfigError(f"unknown figure {name!r}; choose from {', '.join(FIGURES)}")
     if preset is not None and name not in PRESET_FIGURES:
@@ -156,6 +162,8 @@ def figure(
     if (seeds is not None or duration is not None) and name not in MISSION_FIGURES:
         raise ConfigError(f"--seeds and --duration apply to {', '.join(MISSION_FIGURES)}, "
                           f"not {name!r}")
+    if run is not None and name not in RUN_FIGURES:
+        raise ConfigError(f"--run applies to {', '.join(RUN_FIGURES)}, not {name!r}")
     kwargs: dict[str, Any] = {} if preset is None else {"preset": preset}
     if duration is not None:
         check_option("duration", duration, math.isfinite(duration) and duration > 0,
@@ -163,6 +171,8 @@ def figure(
         kwargs["duration"] = duration
     if seeds is not None:
         kwargs["seeds"] = _seed_list(seeds)
+    if name in RUN_FIGURES:
+        kwargs["run"] = run
     if name in MISSION_FIGURES:
         with _progress(f"figure {name}", None, "s simulated", _simulated_columns(),
                        simulated=True) as update:

@@ -1,7 +1,7 @@
 """The vehicle models a scenario can put in the water, and the parts each is made of.
 
 One :class:`VehicleModel` per ``agents[].model`` name (``videoray``, ``diver``,
-``kinematic``) in :data:`MODELS`: how to make its plant and its controller from its
+``diver_boots``, ``kinematic``) in :data:`MODELS`: how to make its plant and its controller from its
 scenario sections, and the facts the rest of the simulator needs of it — its collision
 sphere, how it stops against an obstacle and at the surface, what it reports as a
 contact (MOOS TYPE and length), the 3-D body it has, how fast it can be commanded to go,
@@ -23,13 +23,24 @@ from typing import Any, Literal, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from uhrisim.control.diver import DiverController, DiverGains
+from uhrisim.control.diver import DiverController, DiverGains, WalkerController
 from uhrisim.control.marine_pid import MarinePidController, MarinePidGains
 from uhrisim.control.videoray_p import GAIN_PRESETS, VideoRayPController
-from uhrisim.dynamics.diver import DiverParams
+from uhrisim.core.errors import ConfigError
+from uhrisim.dynamics.diver import DiverParams, leg_inputs
+from uhrisim.dynamics.diver_body import Anthropometry, DiverSkeleton
+from uhrisim.dynamics.diver_boots import BootsParams, FloorDepth, leg_angles
 from uhrisim.dynamics.kinematic import KinematicParams
-from uhrisim.dynamics.plants import DiverPlant, KinematicPlant, NavState, VideoRayPlant
+from uhrisim.dynamics.plants import (
+    BootsPlant,
+    DiverPlant,
+    KinematicPlant,
+    NavState,
+    VideoRayPlant,
+    carrying,
+)
 from uhrisim.dynamics.videoray import VideoRayParams, generalized_forces, steady_speed
+from uhrisim.world.diver_figure import flutter_kick
 
 
 class Plant(Protocol):
@@ -71,11 +82,33 @@ class Sensor(Protocol):
 
 
 @dataclass(frozen=True)
+class DiverBody:
+    """What the teamwork stage (:mod:`uhrisim.sim.teamwork`) needs of a diver model:
+
+    ``skeleton(agent config, plant)``: its articulated body
+    (:class:`~uhrisim.dynamics.diver_body.DiverSkeleton`); ``directed_inputs(plant, x,
+    speed, turn_rate, depth)``: the plant inputs that carry out an order executor's
+    directive (m/s, rad/s, m or None; :mod:`uhrisim.teamwork.executor`); ``legs(plant, x,
+    q, kick_phase)``: ``q`` with the legs as the body moves them (rad); ``footfalls(plant,
+    x_before, x_after)``: the soles (NED m) set down between two states (they stir silt);
+    ``walks``: it walks on the sea floor (weighted boots), else it swims.
+    """
+
+    skeleton: Callable[[Any, Any], DiverSkeleton]
+    directed_inputs: Callable[[Any, NDArray, float, float, float | None], NDArray]
+    legs: Callable[[Any, NDArray, NDArray, float], NDArray]
+    footfalls: Callable[[Any, NDArray, NDArray], list[NDArray]]
+    walks: bool
+
+
+@dataclass(frozen=True)
 class VehicleModel:
     """One vehicle model (module docstring).
 
-    ``make_plant(agent config, dt, name)`` and ``make_controller(agent config, plant)``
-    build its parts from the agent's scenario sections. ``collision_radius`` (m) of the
+    ``make_plant(agent config, dt, name, floor)`` and ``make_controller(agent config,
+    plant)`` build its parts from the agent's scenario sections (``floor``: the sea
+    floor's depth (m) at (north, east), None without one; a model that ``walks`` on it
+    refuses None). ``collision_radius`` (m) of the
     sphere the loop keeps clear of the scene and the other agents; ``contact_stops``: the
     state components (velocities) an obstacle sets to zero; ``surface_stops``: the
     component (heave, down positive) the surface keeps from going up; ``vehicle_type``
@@ -83,23 +116,31 @@ class VehicleModel:
     the scene (``videoray`` or ``diver``); ``viewer_kind``: how the viewer draws it;
     ``thrusters``: it takes [port, starboard, vertical] thruster commands;
     ``max_speed(plant params)`` (m/s): the fastest it can be commanded to go.
+    ``diver``: a diver's articulated body and how orders drive it (:class:`DiverBody`),
+    None for a vehicle; ``carrying(plant, load)``: its plant with a
+    :class:`~uhrisim.dynamics.carried_load.CarriedLoad` in its gripper (None: nothing),
+    for a vehicle that can carry one.
     """
 
     name: str
-    make_plant: Callable[[Any, float, str], Plant]
+    make_plant: Callable[..., Plant]
     make_controller: Callable[[Any, Plant], Controller]
     collision_radius: float
     contact_stops: slice | None
     surface_stops: int | None
     vehicle_type: str
     length: float
-    body: Literal["videoray", "diver"]
+    body: Literal["videoray", "diver", "figure"]
     viewer_kind: Literal["rov", "diver", "vehicle"]
     thrusters: bool
     max_speed: Callable[[Any], float]
+    diver: DiverBody | None = None
+    carrying: Callable[[Any, Any], Plant] | None = None
 
 
-def _videoray_plant(cfg: Any, dt: float, name: str) -> VideoRayPlant:
+def _videoray_plant(cfg: Any, dt: float, name: str, floor: FloorDepth | None = None
+                    ) -> VideoRayPlant:
+    del floor
     return VideoRayPlant(VideoRayParams(**cfg.videoray.model_dump()), dt, name=name)
 
 
@@ -117,11 +158,59 @@ def _videoray_max_speed(params: VideoRayParams) -> float:
     return abs(steady_speed(surge, params.Xu, params.Xuu))
 
 
-def _diver_plant(cfg: Any, dt: float, name: str) -> DiverPlant:
+def _diver_plant(cfg: Any, dt: float, name: str, floor: FloorDepth | None = None
+                 ) -> DiverPlant:
+    del floor
     limits = cfg.diver_limits
     return DiverPlant(DiverParams(max_speed=limits.max_speed,
                                   max_turn_rate=math.radians(limits.max_turn_rate_deg),
                                   max_vertical_rate=limits.max_vertical_rate), dt, name=name)
+
+
+def _skeleton(cfg: Any, kind: Literal["scuba", "boots"]) -> DiverSkeleton:
+    section = cfg.skeleton
+    return DiverSkeleton(Anthropometry(section.stature_m), kind, section.rom_factor)
+
+
+def _boots_plant(cfg: Any, dt: float, name: str, floor: FloorDepth | None = None
+                 ) -> BootsPlant:
+    if floor is None:
+        raise ConfigError("a diver on weighted boots walks on the sea floor: give the "
+                          "scenario a world.seafloor")
+    return BootsPlant(BootsParams(skeleton=_skeleton(cfg, "boots")), dt, floor, name=name)
+
+
+#: Vertical rate (m/s) per metre of depth error of a swimming diver carrying out orders.
+SWIM_DEPTH_GAIN = 0.5
+
+
+def _swimmer_inputs(plant: DiverPlant, x: NDArray, speed: float, turn_rate: float,
+                    depth: float | None) -> NDArray:
+    vertical = 0.0 if depth is None else SWIM_DEPTH_GAIN * (depth - float(x[2]))
+    return np.array(leg_inputs(speed, turn_rate, vertical, plant.params))
+
+
+def _walker_inputs(plant: BootsPlant, x: NDArray, speed: float, turn_rate: float,
+                   depth: float | None) -> NDArray:
+    del plant, x, depth  # a walker stays on the floor
+    return np.array([speed, turn_rate, 0.0, 0.0])
+
+
+def _swimmer_legs(plant: DiverPlant, x: NDArray, q: NDArray, kick_phase: float) -> NDArray:
+    del plant, x
+    return flutter_kick(_SCUBA, q, kick_phase)
+
+
+def _walker_legs(plant: BootsPlant, x: NDArray, q: NDArray, kick_phase: float) -> NDArray:
+    del kick_phase
+    return leg_angles(plant.boots_state(x), plant.params, plant.floor_depth, q)
+
+
+def _walker_footfalls(plant: BootsPlant, before: NDArray, after: NDArray) -> list[NDArray]:
+    return [f.position for f in plant.footfalls(before, after)]
+
+
+_SCUBA = DiverSkeleton()  # the swimmer's legs kick alike whatever its stature
 
 
 #: Collision spheres (m): VideoRay hull ~0.38 x 0.29 x 0.22 m; a prone diver with fins is
@@ -130,19 +219,31 @@ MODELS: dict[str, VehicleModel] = {m.name: m for m in (
     VehicleModel("videoray", _videoray_plant, _videoray_controller, collision_radius=0.25,
                  contact_stops=slice(4, 7), surface_stops=6, vehicle_type="UUV", length=0.38,
                  body="videoray", viewer_kind="rov", thrusters=True,
-                 max_speed=_videoray_max_speed),
+                 max_speed=_videoray_max_speed, carrying=carrying),
     VehicleModel("diver", _diver_plant,
                  lambda cfg, plant: DiverController(DiverGains(), plant.params),
                  collision_radius=0.6, contact_stops=None, surface_stops=None,
                  vehicle_type="DIVER", length=2.3, body="diver", viewer_kind="diver",
-                 thrusters=False, max_speed=lambda params: params.max_speed),
+                 thrusters=False, max_speed=lambda params: params.max_speed,
+                 diver=DiverBody(lambda cfg, plant: _skeleton(cfg, "scuba"), _swimmer_inputs,
+                                 _swimmer_legs, lambda plant, before, after: [],
+                                 walks=False)),
     # uSimMarine-style: thrust (%) = thrust_factor x speed, at most 100 %; looks like a ROV
     VehicleModel("kinematic",
-                 lambda cfg, dt, name: KinematicPlant(KinematicParams(), dt, name=name),
+                 lambda cfg, dt, name, floor=None: KinematicPlant(KinematicParams(), dt, name=name),
                  lambda cfg, plant: MarinePidController(MarinePidGains()),
                  collision_radius=0.5, contact_stops=slice(4, 5), surface_stops=None,
                  vehicle_type="UUV", length=1.0, body="videoray", viewer_kind="vehicle",
                  thrusters=False, max_speed=lambda params: 100.0 / params.thrust_factor),
+    # the commercial diver on weighted boots (the paper's next diver model): a standing
+    # diver's 0.6 m sphere is centred at the hips, 0.93 m above the soles
+    VehicleModel("diver_boots", _boots_plant,
+                 lambda cfg, plant: WalkerController(DiverGains()),
+                 collision_radius=0.6, contact_stops=None, surface_stops=None,
+                 vehicle_type="DIVER", length=0.5, body="figure", viewer_kind="diver",
+                 thrusters=False, max_speed=lambda params: params.max_speed,
+                 diver=DiverBody(lambda cfg, plant: plant.params.skeleton, _walker_inputs,
+                                 _walker_legs, _walker_footfalls, walks=True)),
 )}
 
 def vehicle_model(name: str) -> VehicleModel:

@@ -110,3 +110,30 @@ def test_an_off_centre_load_trims_the_vehicle():
     starboard = cl.trim_angles(tool_of(0.1, position=(0.0, 0.1, 0.1)))
     assert starboard[0] > 0.0  # starboard side down
     assert math.isnan(cl.trim_angles(tool_of(1.0, position=(0.3, 0.0, 0.1)))[1])
+
+
+def test_the_loop_plant_carrying_a_tool_is_held_to_xdot_loaded():
+    """The plant the simulation swaps in while the gripper holds something
+    (LoadedVideoRayPlant) steps eqs 1-4 with the load exactly as RK4 on
+    ``xdot_loaded`` does, sinks at the steady speed ``hover_command`` predicts with a
+    1 kgf tool, and with nothing held is the unloaded plant."""
+    from uhrisim.dynamics.plants import VideoRayPlant, carrying
+
+    load = tool_of(1.0)
+    base = VideoRayPlant(PAPER, 1 / 60)
+    plant = carrying(base, load)
+    x0 = np.array([0.0, 0.0, 5.0, 0.3, 0.2, 0.0, 0.1, 0.05])
+    u = np.array([40.0, 60.0, PAPER.input_limit])
+    x, reference = x0, x0
+    n = base.integrator.substeps
+    for _ in range(60):
+        x = plant.step(0.0, x, u)
+        for _ in range(n):
+            reference = rk4_step(loaded_xdot(load), 0.0, reference, u, PAPER, 1 / 60 / n)
+    np.testing.assert_allclose(x, reference, rtol=1e-12, atol=1e-12)
+    still = np.array([0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    for _ in range(1800):
+        still = plant.step(0.0, still, np.array([0.0, 0.0, PAPER.input_limit]))
+    assert still[6] == pytest.approx(cl.hover_command(PAPER, load).steady_heave, rel=1e-4)
+    empty = carrying(base, None)
+    np.testing.assert_array_equal(empty.step(0.0, x0, u), base.step(0.0, x0, u))

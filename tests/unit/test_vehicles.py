@@ -22,7 +22,7 @@ SRC = Path(__file__).resolve().parents[2] / "src" / "uhrisim"
 def test_each_model_builds_a_plant_and_controller_that_step(name: str) -> None:
     model = vehicle_model(name)
     cfg = AgentConfig(name="a", model=name, driver="none")
-    plant = model.make_plant(cfg, 1.0 / 60.0, "a")
+    plant = model.make_plant(cfg, 1.0 / 60.0, "a", lambda north, east: 10.0)  # a flat floor
     x = plant.initial_state(np.array([0.0, 0.0, 2.0]), 0.0)
     u = model.make_controller(cfg, plant).inputs(x, 90.0, 0.5, 3.0)
     assert u.shape == (plant.input_size,) and np.all(np.isfinite(u))

@@ -24,6 +24,7 @@ import numpy as np
 
 from uhrisim.app.metrics import TrailMetrics
 from uhrisim.app.perception_metrics import PerceptionMetrics
+from uhrisim.app.team_metrics import TeamMetrics
 from uhrisim.core.errors import AssetError
 from uhrisim.record.hook import McapRecordingHook
 from uhrisim.scenario.load import ScenarioFile, load_scenario
@@ -111,6 +112,10 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
         hooks.append(strip)
     hooks.extend(extra_hooks)
     sim = Simulation(source, seed=seed, raycast_sensors=raycast_sensors, hooks=hooks)
+    if sim.team is not None:  # a team mission: its summary joins metrics.json
+        team = TeamMetrics()
+        sim.hooks.append(team)
+        extra_hooks = [*extra_hooks, team]
     if configure is not None:
         configure(sim)
     try:

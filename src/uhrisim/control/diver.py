@@ -63,3 +63,19 @@ class DiverController:
         yaw_rate = self.gains.heading * heading_error
         vertical = self.gains.depth * (desired_depth - depth)
         return leg_inputs(desired_speed, yaw_rate, vertical, self.params)
+
+
+@dataclass(frozen=True)
+class WalkerController:
+    """The diver on weighted boots (:class:`~uhrisim.dynamics.plants.BootsPlant`) driven
+    by DESIRED_*: walking speed as commanded, turn rate ``K_h * e`` (e the wrapped heading
+    error, rad); it stays on the floor (suit valve held, standing): the desired depth is
+    not a command a walking diver follows."""
+
+    gains: DiverGains = DiverGains()
+
+    def inputs(self, x: NDArray, desired_heading_deg: float, desired_speed: float,
+               desired_depth: float) -> NDArray:
+        del desired_depth
+        error = math.remainder(desired_heading_deg * _RADIANS_PER_DEGREE - float(x[3]), math.tau)
+        return np.array([desired_speed, self.gains.heading * error, 0.0, 0.0])

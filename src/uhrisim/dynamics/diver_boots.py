@@ -333,12 +333,19 @@ def step(state: BootsState, command: BootsCommand, params: BootsParams, dt: floa
     xy = np.asarray(state.position[:2]) + speed * dt * h
     phase = state.phase + 2.0 * math.pi * speed / params.stride_length * dt
     new = BootsState((xy[0], xy[1], state.position[2]), psi, speed, phase, suit, crouch=crouch)
-    footfalls = []
-    for side, start in (("left", 0.0), ("right", math.pi)):
-        # a foot lands when its cycle wraps from swing into stance
-        before = math.floor((state.phase + start) / (2.0 * math.pi))
-        after = math.floor((phase + start) / (2.0 * math.pi))
-        if after > before:
-            footfalls.append(Footfall(side, sole_targets(new, params, floor_depth)[side]))
+    footfalls = footfalls_between(state.phase, new, params, floor_depth)
     depth = standing_hip_depth(new, params, floor_depth)
     return BootsStep(replace(new, position=(xy[0], xy[1], depth)), footfalls, notes)
+
+
+def footfalls_between(phase_before: float, state: BootsState, params: BootsParams,
+                      floor_depth: FloorDepth) -> list[Footfall]:
+    """The feet set down while the gait phase went from ``phase_before`` (rad) to
+    ``state.phase``: a foot lands when its cycle wraps from swing into stance."""
+    out = []
+    for side, start in (("left", 0.0), ("right", math.pi)):
+        before = math.floor((phase_before + start) / (2.0 * math.pi))
+        after = math.floor((state.phase + start) / (2.0 * math.pi))
+        if after > before:
+            out.append(Footfall(side, sole_targets(state, params, floor_depth)[side]))
+    return out

@@ -5,14 +5,14 @@ of them: ``step(t, x, u) -> x`` over one physics step and ``nav(x) -> NavState``
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import NumericalError
-from uhrisim.dynamics import diver, kinematic, videoray
-from uhrisim.dynamics.integrators import FixedStepIntegrator
+from uhrisim.dynamics import carried_load, diver, diver_boots, kinematic, videoray
+from uhrisim.dynamics.integrators import FixedStepIntegrator, rk4_step
 
 
 def finite_or_raise(x: NDArray, vehicle: str, t: float) -> NDArray:
@@ -131,3 +131,107 @@ class KinematicPlant:
     def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:
         del u
         return NavState(x[0:3].copy(), float(x[3]), np.array([x[4], 0.0, 0.0]), 0.0)
+
+
+@dataclass(frozen=True)
+class BootsPlant:
+    """The commercial diver on weighted boots (:mod:`uhrisim.dynamics.diver_boots`) as a
+    plant: it walks on ``floor_depth`` (depth (m) at north, east), rises only on suit gas.
+
+    State (12,): hip centre NED (m), heading (rad), walking speed (m/s), gait phase (rad),
+    suit gas (surface L), velocity afloat (NED m/s), afloat (0/1), crouch (0..1) — the
+    fields of :class:`~uhrisim.dynamics.diver_boots.BootsState` in order. Inputs (4,):
+    speed (m/s), turn rate (rad/s), suit valve (+1 inflate, 0 hold, -1 dump), crouch.
+    """
+
+    params: diver_boots.BootsParams
+    dt: float
+    floor_depth: diver_boots.FloorDepth
+    name: str = "diver"
+    kind = "diver_boots"
+    state_size = 12
+    input_size = 4
+
+    def initial_state(self, position_ned: NDArray, yaw: float, speed: float = 0.0) -> NDArray:
+        """Standing on the floor under ``position_ned`` (its depth is replaced by the
+        standing hip depth there)."""
+        standing = diver_boots.BootsState((float(position_ned[0]), float(position_ned[1]), 0.0),
+                                          yaw, speed)
+        depth = diver_boots.standing_hip_depth(standing, self.params, self.floor_depth)
+        return self.array(replace(standing, position=(standing.position[0],
+                                                      standing.position[1], depth)))
+
+    @staticmethod
+    def array(state: diver_boots.BootsState) -> NDArray:
+        """A :class:`BootsState` as this plant's state vector."""
+        return np.array([*state.position, state.psi, state.speed, state.phase,
+                         state.suit_litres, *state.velocity, float(state.afloat), state.crouch])
+
+    @staticmethod
+    def boots_state(x: NDArray) -> diver_boots.BootsState:
+        """This plant's state vector as a :class:`BootsState`."""
+        return diver_boots.BootsState((float(x[0]), float(x[1]), float(x[2])), float(x[3]),
+                                      float(x[4]), float(x[5]), float(x[6]),
+                                      (float(x[7]), float(x[8]), float(x[9])), bool(x[10] > 0.5),
+                                      float(x[11]))
+
+    def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
+        command = diver_boots.BootsCommand(float(u[0]), float(u[1]), int(np.sign(u[2])),
+                                           float(u[3]))
+        result = diver_boots.step(self.boots_state(x), command, self.params, self.dt,
+                                  self.floor_depth)
+        return finite_or_raise(self.array(result.state), self.name, t + self.dt)
+
+    def footfalls(self, before: NDArray, after: NDArray) -> list[diver_boots.Footfall]:
+        """The feet set down between two consecutive states (for the silt they stir)."""
+        return diver_boots.footfalls_between(float(before[5]), self.boots_state(after),
+                                             self.params, self.floor_depth)
+
+    def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:
+        yaw = float(x[3])
+        if x[10] > 0.5:  # afloat: its water velocity, in the body frame
+            c, s = math.cos(yaw), math.sin(yaw)
+            velocity = np.array([c * x[7] + s * x[8], -s * x[7] + c * x[8], x[9]])
+        else:
+            velocity = np.array([x[4], 0.0, 0.0])
+        turn = 0.0 if u is None else float(np.clip(u[1], -self.params.max_turn_rate,
+                                                    self.params.max_turn_rate))
+        return NavState(x[0:3].copy(), yaw, velocity, turn)
+
+
+@dataclass(frozen=True)
+class LoadedVideoRayPlant(VideoRayPlant):
+    """The VideoRay with ``load`` in its gripper: eqs 1-4 with the load's mass, added mass
+    and drag (:func:`~uhrisim.dynamics.carried_load.loaded_params`) and its in-water
+    weight as a heave force — :func:`~uhrisim.dynamics.carried_load.xdot_loaded`, its
+    parameters worked out once — by classical RK4 with the unloaded plant's sub-steps (a
+    heavier vehicle is no stiffer). ``params`` stay the unloaded vehicle's."""
+
+    load: carried_load.CarriedLoad | None = None
+    loaded: videoray.VideoRayParams | None = field(init=False, default=None)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.load is not None:
+            object.__setattr__(self, "loaded", carried_load.loaded_params(self.params, self.load))
+
+    def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
+        if self.load is None:
+            return super().step(t, x, u)
+        n = self.integrator.substeps
+        h = self.dt / n
+        for k in range(n):
+            x = rk4_step(self._xdot, t + k * h, x, u, self.loaded, h)
+        return finite_or_raise(x, self.name, t + self.dt)
+
+    def _xdot(self, t: float, x: NDArray, u: NDArray, loaded: videoray.VideoRayParams
+              ) -> NDArray:
+        out = videoray.xdot(t, x, u, loaded)
+        out[..., 6] += carried_load.heave_bias(self.load) / loaded.m33
+        return out
+
+
+def carrying(plant: VideoRayPlant, load: carried_load.CarriedLoad | None
+             ) -> LoadedVideoRayPlant:
+    """``plant`` with ``load`` in its gripper (None: nothing)."""
+    return LoadedVideoRayPlant(plant.params, plant.dt, plant.name, plant.substeps, load=load)

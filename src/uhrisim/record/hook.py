@@ -123,6 +123,7 @@ class McapRecordingHook:
         if frame.tick % self.odom_every == 0:
             rec.write_clock(t)
             out.odometry(t, frame.agents)
+            out.joints(t, getattr(frame, "joints", {}))
         for key, ping in frame.pings.items():
             seen = self._pings_seen.get(key, 0)
             self._pings_seen[key] = seen + 1

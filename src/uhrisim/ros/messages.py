@@ -127,6 +127,23 @@ def string(text: str) -> bytes:
     return buf.getvalue()
 
 
+def joint_state(sec: int, nanosec: int, frame: str, names: Iterable[str], position: Any,
+                velocity: Any) -> bytes:
+    """sensor_msgs/JointState: joint names, angles (rad) and rates (rad/s); no efforts."""
+    names = list(names)
+    buf = cdr.CdrBuffer()
+    buf.header(sec, nanosec, frame)
+    buf.u32(len(names))
+    for name in names:
+        buf.string(name)
+    for values in (np.asarray(position, dtype=float), np.asarray(velocity, dtype=float)):
+        buf.u32(values.size)
+        if values.size:
+            buf.f64s(values.tolist())
+    buf.u32(0)  # effort
+    return buf.getvalue()
+
+
 def static_transforms(sec: int, nanosec: int,
                       transforms: Iterable[tuple[str, str, Any, Any]], where: str) -> bytes:
     """tf2_msgs/TFMessage of ``(parent, child, position_frd (3,) m, rotation_frd (3x3)

@@ -81,6 +81,10 @@ _OWN: dict[str, str] = {
         "uint32 binning_y\n"
         "sensor_msgs/RegionOfInterest roi\n"
     ),
+    "sensor_msgs/msg/JointState": (
+        "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\n"
+        "float64[] effort\n"
+    ),
     "sensor_msgs/msg/CompressedImage": "std_msgs/Header header\nstring format\nuint8[] data\n",
     "sensor_msgs/msg/PointField": (
         "uint8 INT8=1\n"

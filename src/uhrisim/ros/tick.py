@@ -86,6 +86,15 @@ class TickWriter:
                 self.out.write_odometry(ros, t, nav.position_ned, nav.yaw,
                                         nav.velocity_body, nav.yaw_rate)
 
+    def joints(self, t: float, joints: Mapping[str, Any]) -> None:
+        """The articulated divers' joints (``TickFrame.joints``) on
+        ``<agent>/joint_states``."""
+        for name, sample in joints.items():
+            ros = self.ros(name)
+            if ros is not None:
+                self.out.write_joint_state(ros, t, sample.names, sample.position,
+                                           sample.velocity)
+
     def ping(self, key: str, ping: Any, images: bool = True, points: bool = True) -> None:
         """The ping of the sonar ``key`` (``"<agent>/<sonar>"``): its images (with
         ``images``: polar, fan, ProjectedSonarImage), hits (with ``points``) and pose;

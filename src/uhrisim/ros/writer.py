@@ -32,6 +32,7 @@ from uhrisim.ros.topics import (
     CAMERA_TOPICS,
     DESIRED_KEYS,
     GLOBAL_TOPICS,
+    JOINT_STATE,
     SONAR_TOPICS,
     WORLD_FRAME,
     QosKind,
@@ -115,6 +116,19 @@ class RosWriter:
                        a.pose(sec, nanosec, f.position_enu, f.orientation_xyzw))
         if self.wants("tf"):
             self._emit("tf", *GLOBAL_TOPICS["tf"], t_ns, a.tf(sec, nanosec, f))
+
+    def write_joint_state(self, agent: str, t: float, names: Sequence[str], position: Any,
+                          velocity: Any) -> None:
+        """An articulated diver's joints on ``<agent>/joint_states``
+        (sensor_msgs/JointState, frame ``<agent>/base_link``): angles (rad) and rates
+        (rad/s) in the order of ``names``."""
+        where = f"{type(self).__name__}.write_joint_state"
+        t_ns, sec, nanosec = self._begin("write_joint_state", t)
+        a = self.agent(agent, where)
+        if self.wants(topic := a.topic("joint_states")):
+            self._emit(topic, JOINT_STATE, "state", t_ns,
+                       msg.joint_state(sec, nanosec, a.frame("base_link"), names, position,
+                                       velocity))
 
     def write_static_transforms(self, t: float,
                                 transforms: Sequence[tuple[str, str, Any, Any]]) -> None:

@@ -27,6 +27,14 @@ from uhrisim.control.videoray_p import GAIN_PRESETS, PGains
 from uhrisim.dynamics.videoray import VideoRayParams
 from uhrisim.scenario.sections import scenario_section
 from uhrisim.scenario.strict import Strict
+from uhrisim.scenario.teamwork import (
+    GripperSection,
+    OrderConfig,
+    Silt,
+    Site,
+    SkeletonSection,
+    ToolConfig,
+)
 from uhrisim.sensors.camera.config import CameraConfig
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.vehicles import MODELS
@@ -148,9 +156,24 @@ SceneObject = Annotated[
 
 
 class World(Strict):
+    """The water, the sea floor, static objects, and for teamwork the tools, work sites
+    and silt (:mod:`uhrisim.scenario.teamwork`)."""
+
     water: Water = Water()
     seafloor: SeaFloor | None = None
     objects: tuple[SceneObject, ...] = ()
+    tools: tuple[ToolConfig, ...] = ()
+    sites: tuple[Site, ...] = ()
+    silt: Silt | None = None
+
+    @model_validator(mode="after")
+    def _unique_names(self) -> World:
+        names = [t.name for t in self.tools] + [s.name for s in self.sites]
+        repeated = sorted({n for n in names if names.count(n) > 1})
+        if repeated:
+            raise ValueError(f"tool and site names must be unique; repeated: "
+                             f"{', '.join(repeated)}")
+        return self
 
 
 #: The keys a sensor section had before it took its part's names (read with a warning).
@@ -375,7 +398,8 @@ class AgentConfig(Strict):
     name: Name
     model: Literal[tuple(MODELS)]  # type: ignore[valid-type]  # uhrisim.vehicles
     start: Pose = Pose()
-    driver: Literal["helm", "script", "external", "none"] = "helm"
+    # "orders": a diver carries out its ``orders`` (uhrisim.teamwork.executor)
+    driver: Literal["helm", "script", "external", "orders", "none"] = "helm"
     videoray: VideoRayModelConfig = VideoRayModelConfig()
     controller: ControllerConfig = ControllerConfig()
     # How often the controller turns DESIRED_* into actuator inputs; None: every physics
@@ -388,13 +412,17 @@ class AgentConfig(Strict):
     sensors: tuple[Sensor, ...] = ()
     # The 3-D body in the scene (what sonars see); default: the model's own (a kinematic
     # vehicle looks like the VideoRay).
-    body: Literal["videoray", "diver"] | None = None
+    body: Literal["videoray", "diver", "figure"] | None = None
     material: str | None = None
     bubbles: BubblesConfig | None = None  # exhaled bubble plume (open-circuit scuba)
     # The body's label in the sonar's label images; default: its kind ("diver" or "rov").
     label: Name | None = None
     vehicle_type: str | None = None
     length: PositiveFloat | None = None
+    # teamwork (docs/teamwork.md): a diver's body and orders, a vehicle's gripper
+    skeleton: SkeletonSection = SkeletonSection()
+    orders: tuple[OrderConfig, ...] = ()
+    gripper: GripperSection | None = None
 
     _script_order = field_validator("script")(_legs_in_time_order)
 
@@ -444,6 +472,15 @@ class AgentConfig(Strict):
             raise ValueError(f"agent {self.name!r} is driven by its helm but has no 'helm' section")
         if self.driver == "script" and not self.script:
             raise ValueError(f"agent {self.name!r} is driven by a script but has no 'script' legs")
+        model = MODELS[self.model]
+        if (self.driver == "orders") != bool(self.orders):
+            raise ValueError(f"agent {self.name!r}: 'orders' go with driver: orders (and "
+                             "driver: orders needs orders)")
+        if self.orders and model.diver is None:
+            raise ValueError(f"agent {self.name!r}: only a diver carries out orders; "
+                             f"{self.model} is not one")
+        if self.gripper is not None and model.carrying is None:
+            raise ValueError(f"agent {self.name!r}: {self.model} carries no gripper")
         return self
 
 
@@ -617,6 +654,15 @@ class Scenario(Strict):
         if duplicates:
             raise ValueError(f"agent names must be unique; repeated: {', '.join(duplicates)}")
         return agents
+
+    @model_validator(mode="after")
+    def _walkers_have_a_floor(self) -> Scenario:
+        for agent in self.agents:
+            diver = MODELS[agent.model].diver
+            if diver is not None and diver.walks and self.world.seafloor is None:
+                raise ValueError(f"agent {agent.name!r} ({agent.model}) walks on the sea "
+                                 "floor: give the scenario a world.seafloor")
+        return self
 
     @model_validator(mode="after")
     def _references_exist(self) -> Scenario:

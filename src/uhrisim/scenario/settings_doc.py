@@ -14,6 +14,7 @@ from uhrisim.dynamics.videoray import VideoRayParams
 from uhrisim.scenario.schema import ControllerConfig, SonarSensor, VideoRayModelConfig
 from uhrisim.sensors.camera import CameraConfig
 from uhrisim.sensors.sonar import SonarConfig
+from uhrisim.teamwork.gripper import GripperSpec
 
 #: (title, the part, its scenario section and where it lives, in the scenario and in code)
 PARTS = (
@@ -25,6 +26,8 @@ PARTS = (
      "`agents[].videoray`", "`uhrisim.dynamics.videoray.VideoRayParams`"),
     ("VideoRay controller gains", PGains, ControllerConfig.model_fields,
      "`agents[].controller` (after its `preset`)", "`uhrisim.control.videoray_p.PGains`"),
+    ("VideoRay gripper", GripperSpec, None, "`agents[].gripper`",
+     "`uhrisim.teamwork.gripper.GripperSpec`"),
 )
 
 HEADER = """# Settings: every numeric setting of the simulator's parts, with its unit and range

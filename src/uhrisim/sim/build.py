@@ -22,6 +22,7 @@ from uhrisim.autonomy.moos_file import load_helm_from_moos
 from uhrisim.core.clock import ticks_for_rate
 from uhrisim.core.errors import ConfigError, warn_user
 from uhrisim.core.frames import rot_z
+from uhrisim.dynamics.diver_body import DiverSkeleton
 from uhrisim.scenario.build_world import material_named, object_mesh
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import AgentConfig, CameraSensor, Scenario, SonarSensor
@@ -30,8 +31,9 @@ from uhrisim.sim.community import Community
 from uhrisim.sim.drivers import HelmDriver, ScriptedDriver
 from uhrisim.sim.script import ScriptDriver
 from uhrisim.sim.state import Agent, CameraSlot, ScheduledEvent, SonarSlot
-from uhrisim.vehicles import MODELS
+from uhrisim.vehicles import MODELS, Plant, VehicleModel
 from uhrisim.world.assets import diver_parts, videoray_mesh
+from uhrisim.world.diver_figure import diver_figure
 from uhrisim.world.materials import NEOPRENE, ROV_PLASTIC
 from uhrisim.world.scene import Scene
 
@@ -136,11 +138,17 @@ def _helm_driver(sim: BuildContext, cfg: AgentConfig, community: Community) -> H
     return HelmDriver(autonomy, community.mailbox())
 
 
-def _add_body(sim: BuildContext, cfg: AgentConfig, state) -> None:
+def _add_body(sim: BuildContext, cfg: AgentConfig, model: VehicleModel, plant: Plant,
+              state) -> None:
     position, rotation = state[:3], rot_z(state[3])
     material = material_named(cfg.material, f"agents.{cfg.name}.material") \
         if cfg.material else None
-    if cfg.scene_body == "diver":
+    if cfg.scene_body == "figure":  # the articulated diver, posed by the teamwork stage
+        skeleton = (model.diver.skeleton(cfg, plant) if model.diver is not None
+                    else DiverSkeleton())
+        sim.scene.add_dynamic(cfg.name, diver_figure(skeleton), cfg.label or "diver",
+                              material or NEOPRENE, position, rotation)
+    elif cfg.scene_body == "diver":
         sim.scene.add_dynamic(cfg.name, diver_parts(material or NEOPRENE), cfg.label or "diver",
                               material or NEOPRENE, position, rotation, 0.0)
     else:
@@ -156,10 +164,11 @@ def build_agents(sim: BuildContext, raycast_sensors: bool) -> dict[str, Agent]:
         ticks_for_rate(rec.odometry_rate_hz, sim.dt,
                        sim.source.where("recording", "odometry_rate_hz"))
     agents: dict[str, Agent] = {}
+    floor = sim.scene.depth_at if sim.scene.seafloor is not None else None
     for index, cfg in enumerate(sim.scenario.agents):
         model = MODELS[cfg.model]
         try:
-            plant = model.make_plant(cfg, sim.dt, cfg.name)
+            plant = model.make_plant(cfg, sim.dt, cfg.name, floor)
         except ConfigError as error:  # e.g. a model too stiff for the step
             raise ConfigError(str(error), sim.source.where("agents", index, "model")) from None
         _check_start(sim, index, cfg, agents)
@@ -170,7 +179,7 @@ def build_agents(sim: BuildContext, raycast_sensors: bool) -> dict[str, Agent]:
         agent = Agent(config=cfg, model=model, plant=plant,
                       controller=model.make_controller(cfg, plant), community=community,
                       state=state, inputs=np.zeros(plant.input_size))
-        _add_body(sim, cfg, state)
+        _add_body(sim, cfg, model, plant, state)
         if cfg.control_rate_hz is not None:
             agent.control_period = ticks_for_rate(
                 cfg.control_rate_hz, sim.dt,

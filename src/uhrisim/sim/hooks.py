@@ -63,6 +63,15 @@ class HelmRecord:
 
 
 @dataclass(frozen=True)
+class JointSample:
+    """An articulated diver's joints at one tick: names, angles (rad), rates (rad/s)."""
+
+    names: tuple[str, ...]
+    position: tuple[float, ...]
+    velocity: tuple[float, ...]
+
+
+@dataclass(frozen=True)
 class SimEvent:
     """Something noteworthy: a collision, a scripted event firing, a bridge going down."""
 
@@ -136,3 +145,6 @@ class TickFrame:
     # What sonar perception made of this tick's pings, by the key of the ping
     # (uhrisim.perception.pipeline.PerceptionFrame)
     perception: Mapping[str, Any] = field(default_factory=dict)
+    # The articulated divers' joints by agent (uhrisim.sim.teamwork): names, angles
+    # (rad), rates (rad/s)
+    joints: Mapping[str, JointSample] = field(default_factory=dict)

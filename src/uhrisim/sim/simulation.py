@@ -10,6 +10,8 @@ One tick of the physics step ``dt`` does, in this order (docs/design.md, "data f
 3. **dynamics**: every agent's model advances one step with the actuator inputs chosen at
    the end of the previous tick; collisions stop the move; body poses go to the scene;
    divers' bubble bursts that are due leave their regulators (:mod:`uhrisim.sim.bubbles`);
+   **teamwork** (:mod:`uhrisim.sim.teamwork`, when the scenario has tools, sites,
+   orders or a gripper): divers carry out their orders, grippers grip, objects move;
 4. **navigation**: NAV_* are posted (at each agent's helm rate);
 5. **contacts**: node reports from simulation truth (degraded as configured) reach the
    other agents' contact managers at the contact rate;
@@ -58,6 +60,7 @@ from uhrisim.sim.hooks import (
 from uhrisim.sim.script import ScriptDriver
 from uhrisim.sim.sonar_contacts import SonarContacts
 from uhrisim.sim.state import Agent, ScheduledEvent
+from uhrisim.sim.teamwork import TeamStage
 from uhrisim.world.assets import diver_kick_phase_rate
 from uhrisim.world.scene import Scene
 
@@ -118,6 +121,8 @@ class Simulation:
         self.scene: Scene = build_static_scene(source)
         self.agents: dict[str, Agent] = build_agents(self, raycast_sensors)
         self.bubbles = DiverBubbles(self.scene, self.agents, self.rng)
+        team = TeamStage(source, self.scene, self.agents, self.dt, self.record_event)
+        self.team: TeamStage | None = team if team.active else None
         self.contacts = TruthContacts(self.agents, self.dt, self.rng)
         self.sonar_contacts = SonarContacts(self.agents, self.dt, source, self.record_event)
         self.events: list[ScheduledEvent] = build_events(self)
@@ -168,7 +173,8 @@ class Simulation:
     def refresh_static_obstacles(self) -> None:
         """Recompute the collision broad phase after the scene's geometry changed."""
         self._static_boxes = static_obstacle_boxes(self.scene)
-        self._not_obstacles = frozenset(self.agents) | self.bubbles.body_names
+        self._not_obstacles = frozenset(self.agents) | self.bubbles.body_names | (
+            self.team.body_names if self.team is not None else frozenset())
         self._has_movable_objects = any(n not in self._not_obstacles
                                         for n in self.scene.body_names)
 
@@ -206,6 +212,9 @@ class Simulation:
         self.tick += 1
         t = self.t
         self.bubbles.release(t)
+        if self.team is not None:
+            self.team.step(self.tick, t)
+            self._scene_dirty = True
         for agent in self.agents.values():
             if self.tick % agent.driver_period == 0:
                 self._post_nav(agent)
@@ -228,8 +237,9 @@ class Simulation:
         snapshots = AgentSnapshots(tuple(self.agents), self._snapshot_of)
         if build_frame:
             snapshots.take_all()
+        joints = self.team.joint_samples() if self.team is not None else {}
         frame = TickFrame(self.tick, t, snapshots, pings, helm, posts,
-                          tuple(self._pending_events), images, perception)
+                          tuple(self._pending_events), images, perception, joints)
         self._pending_events.clear()
         for hook in self.hooks:
             hook.on_tick(frame)
@@ -360,6 +370,8 @@ class Simulation:
             self.scene.set_pose(agent.name, nav.position_ned, rot_z(nav.yaw),
                                 agent.kick_phase if agent.is_diver_body else None)
         self.bubbles.pose(self.t)
+        if self.team is not None:
+            self.team.pose_scene()
         self._scene_dirty = False
 
     def _clear_fraction(self, agent: Agent, start: list[float], end: list[float]
@@ -436,6 +448,9 @@ class Simulation:
             agent.actuator_override = None
             self.record_event("actuators", f"{agent.name}: external thruster commands went "
                               "stale; own controller resumed")
+        if agent.directed is not None:  # a diver carrying out its orders
+            agent.update(inputs=agent.directed)
+            return
         heading, speed, depth = agent.desired()
         agent.update(inputs=agent.controller.inputs(agent.state, heading, speed, depth))
 

@@ -61,6 +61,9 @@ class Agent:
     actuator_override_until: float = -1.0
     in_contact: bool = False  # touching another body or the scene since the last tick
     last_helm: HelmRecord | None = None
+    # a diver carrying out orders: the inputs its executor's directive chose (the
+    # teamwork stage sets them; they replace the controller's)
+    directed: NDArray | None = None
     _nav: NavState | None = None  # cache; cleared by every change of state or inputs
 
     @property

@@ -32,7 +32,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from uhrisim.core.checks import require_positive
+from uhrisim.core.settings import check_settings, setting
 from uhrisim.world.events import WorldEvent
 
 Phase = Literal["open", "closing", "closed", "opening"]
@@ -42,17 +42,19 @@ Phase = Literal["open", "closing", "closed", "opening"]
 class GripperSpec:
     """The gripper's geometry and performance (module docstring; SI)."""
 
-    position_frd: tuple[float, float, float] = (0.25, 0.0, 0.14)
-    jaw_opening: float = 0.06
-    close_time_s: float = 1.5
-    open_time_s: float = 1.5
-    grip_force_n: float = 30.0
-    friction: float = 0.4
-    capture_tolerance: float = 0.03
+    position_frd: tuple[float, float, float] = setting(
+        (0.25, 0.0, 0.14), "m", ge=-1.0, le=1.0, doc="jaw centre in the body frame (FRD)")
+    jaw_opening: float = setting(0.06, "m", gt=0.0, le=0.5, doc="gap of the open jaws")
+    close_time_s: float = setting(1.5, "s", gt=0.0, le=60.0, doc="time to close fully")
+    open_time_s: float = setting(1.5, "s", gt=0.0, le=60.0, doc="time to open fully")
+    grip_force_n: float = setting(30.0, "N", gt=0.0, le=1000.0, doc="squeeze of the jaws")
+    friction: float = setting(0.4, "1", gt=0.0, le=2.0,
+                              doc="jaw-object friction coefficient (holds 2 μ F)")
+    capture_tolerance: float = setting(0.03, "m", gt=0.0, le=0.2,
+                                       doc="how far off the jaw centre an object is caught")
 
     def __post_init__(self) -> None:
-        require_positive(self, ("jaw_opening", "close_time_s", "open_time_s", "grip_force_n",
-                                "friction", "capture_tolerance"), "GripperSpec")
+        check_settings(self)
 
     @property
     def holding_force_n(self) -> float:

@@ -1,0 +1,449 @@
+"""The teamwork stage of the loop: divers carry out their orders, grippers grip, tools and
+loads move, silt is stirred up (docs/teamwork.md).
+
+:class:`TeamStage` owns the :class:`~uhrisim.teamwork.workspace.Workspace` (every tool,
+site and load of ``world.tools`` / ``world.sites``), the articulated body of each diver
+with ``orders`` or drawn as the figure (joint angles, its order executor), each
+vehicle's gripper, and the
+silt cloud of a soft floor. Built with the simulation (problems with the orders are
+refused then, one line each with the order's file:line), it runs after the bodies
+move and before the sensors, every ``1 / RATE_HZ`` s:
+
+1. every diver with orders: its executor's directive becomes the plant's inputs
+   (``VehicleModel.diver.directed_inputs``; held until the next stage tick); the upper
+   body moves towards the directive's joint goal (``step_motion``), the legs as the body
+   moves them (walking on the floor, or the flutter kick);
+2. every gripper follows its agent's ``GRIPPER`` variable (``open``, ``close``,
+   ``catch``: close once an object lies between the jaws; ``give``: open once someone
+   else holds what it holds); jaws that close on an object grasp it;
+3. the acts asked for are performed (:func:`uhrisim.teamwork.acts.perform`);
+4. held objects follow their carriers' grip frames; the workspace steps (free objects
+   fall or rise, bags inflate, loads lift);
+5. footfalls on a soft floor release silt;
+6. the events go back to the executors and into the simulation's events
+   (``teamwork``: one line each; ``order``: a step that ended, :func:`order_detail`).
+
+The scene follows: tools, sites and loads are dynamic bodies posed from the workspace
+(parts of sites by their state), the articulated divers by their joint angles. They
+are not obstacles to the agents' collision spheres (hands and jaws work at them).
+Deterministic: nothing here draws random numbers.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import trimesh
+from numpy.typing import NDArray
+
+from uhrisim.core.clock import ticks_for_rate
+from uhrisim.core.errors import ConfigError
+from uhrisim.core.frames import rot_z
+from uhrisim.dynamics.carried_load import CarriedLoad
+from uhrisim.dynamics.diver_body import DiverSkeleton, step_motion
+from uhrisim.scenario.load import ScenarioFile
+from uhrisim.scenario.sections import part_settings
+from uhrisim.scenario.teamwork import FlangeSite, HatchSite, LoadSite, PlatformSite
+from uhrisim.sim.hooks import JointSample
+from uhrisim.sim.state import Agent
+from uhrisim.teamwork import acts
+from uhrisim.teamwork import gripper as gr
+from uhrisim.teamwork import orders as od
+from uhrisim.teamwork.executor import DiverView, OrderExecutor, StepRecord
+from uhrisim.teamwork.workspace import Platform, Workspace, pose_matrix
+from uhrisim.world import worksites as sites
+from uhrisim.world.diver_figure import figure_transforms
+from uhrisim.world.events import WorldEvent
+from uhrisim.world.materials import CONCRETE, STEEL
+from uhrisim.world.scene import Scene
+from uhrisim.world.silt import SiltCloud, SiltParams
+from uhrisim.world.tools import make_tool
+
+#: How often the stage runs (Hz): the executors, the arms, the grippers, the objects.
+RATE_HZ = 20.0
+
+#: The walking paths the validator looks for lie this far around the diver and the
+#: objects (m).
+_MARGIN_M = 5.0
+
+#: Where a tool with no depth given is first put, above what it rests on (m).
+_DROP_HEIGHT_M = 3.0
+
+
+def order_detail(diver: str, index: int, step: StepRecord) -> str:
+    """The ``order`` event's text for a step that ended: ``"<diver> #<index> <outcome>
+    <start>-<end> s: <order>[ (<reason>)]"`` (:func:`parse_order_detail` reads it)."""
+    reason = f" ({step.reason})" if step.reason else ""
+    fetched = " [fetch]" if step.fetched else ""
+    return (f"{diver} #{index} {step.outcome} {step.started:.3f}-{step.ended:.3f} s: "
+            f"{od.describe(step.order)}{fetched}{reason}")
+
+
+_ORDER_DETAIL = re.compile(r"^(?P<diver>\S+) #(?P<index>\d+) (?P<outcome>\w+) "
+                           r"(?P<start>[-\d.]+)-(?P<end>[-\d.]+) s: (?P<order>.*?)"
+                           r"(?P<fetch> \[fetch\])?(?: \((?P<reason>.*)\))?$")
+
+
+def parse_order_detail(detail: str) -> dict[str, Any] | None:
+    """The fields of an :func:`order_detail` text (None if it is not one): diver, index,
+    outcome, start and end (s), order, fetched, reason."""
+    m = _ORDER_DETAIL.match(detail)
+    if m is None:
+        return None
+    return {"diver": m["diver"], "index": int(m["index"]), "outcome": m["outcome"],
+            "start": float(m["start"]), "end": float(m["end"]), "order": m["order"],
+            "fetched": m["fetch"] is not None, "reason": m["reason"] or ""}
+
+
+@dataclass
+class DiverBodyState:
+    """A diver's articulated body in the stage: joint angles and speeds (rad, rad/s), the
+    goal the arms move to, its executor (None: no orders), the plant state at the last
+    stage tick (for footfalls) and how many of its steps were reported."""
+
+    skeleton: DiverSkeleton
+    q: NDArray[np.float64]
+    qdot: NDArray[np.float64]
+    goal: NDArray[np.float64]
+    executor: OrderExecutor | None
+    last_state: NDArray[np.float64]
+    reported: int = 0
+    note: str = ""
+
+
+@dataclass
+class GripperSlot:
+    """A vehicle's gripper: its spec and state, and what its plant carries."""
+
+    spec: gr.GripperSpec
+    state: gr.GripperState = field(default_factory=gr.GripperState)
+    carrying: str | None = None
+
+
+class TeamStage:
+    """The teamwork stage (module docstring). ``record(kind, detail)`` logs an event."""
+
+    def __init__(self, source: ScenarioFile, scene: Scene, agents: dict[str, Agent],
+                 dt: float, record: Callable[[str, str], None]) -> None:
+        self.source, self.scene, self.agents = source, scene, agents
+        self.record = record
+        world = source.scenario.world
+        self.floor = scene.depth_at
+        self.period = ticks_for_rate(RATE_HZ, dt, "teamwork stage")
+        self.dt = self.period * dt
+        self.workspace = self._workspace()
+        self.divers: dict[str, DiverBodyState] = {}
+        self.grippers: dict[str, GripperSlot] = {}
+        self.silt = (SiltCloud(SiltParams(current_ne=world.silt.current_ne), scene.depth_at)
+                     if world.silt is not None and world.silt.soft else None)
+        self.events: list[WorldEvent] = []  # every event of the run, in order
+        for index, agent in enumerate(agents.values()):  # what grippers hold is placed
+            if agent.config.gripper is not None:         # before the orders are checked
+                self.grippers[agent.name] = self._gripper(index, agent)
+        for index, agent in enumerate(agents.values()):  # divers with orders or a figure
+            if agent.model.diver is not None and (agent.config.orders or
+                                                  agent.config.scene_body == "figure"):
+                self.divers[agent.name] = self._diver_body(index, agent)
+        self._add_bodies()
+        self._scene_bodies = frozenset(self.workspace.things) | frozenset(
+            self.workspace.flanges) | frozenset(self.workspace.hatches) | frozenset(
+            self.workspace.platforms)
+
+    @property
+    def active(self) -> bool:
+        """Whether there is anything for the stage to do."""
+        return bool(self.workspace.things or self.divers or self.grippers
+                    or self.workspace.flanges or self.workspace.hatches)
+
+    @property
+    def body_names(self) -> frozenset[str]:
+        """The scene bodies of tools, sites and loads (not obstacles to the agents)."""
+        return self._scene_bodies
+
+    # ------------------------------------------------------------------ building
+    def _where(self, *path: Any) -> str:
+        return self.source.where(*path)
+
+    def _workspace(self) -> Workspace:
+        world = self.source.scenario.world
+        tools = [make_tool(t.kind, t.name) for t in world.tools]
+        bags = [sites.LiftBagSpec(t.name, t.capacity_litres, t.inflate_rate_lps)
+                for t in world.tools if t.kind == "lift_bag"]
+        flanges, hatches, loads, platforms = [], [], [], []
+        for i, site in enumerate(world.sites):
+            at = site.at
+            if at.depth is None and not isinstance(site, LoadSite):
+                raise ConfigError(f"world.sites[{i}] ({site.name}): give at.depth",
+                                  self._where("world", "sites", i, "at"))
+            yaw = math.radians(site.heading_deg)
+            try:
+                match site:
+                    case FlangeSite():
+                        flanges.append(sites.FlangeSpec(site.name, (at.north, at.east, at.depth),
+                                                        yaw, site.bolts,
+                                                        loosen_time_s=site.loosen_s))
+                    case HatchSite():
+                        hatches.append(sites.HatchSpec(site.name, (at.north, at.east, at.depth),
+                                                       yaw, site.size, latch_time_s=site.latch_s))
+                    case LoadSite():
+                        loads.append(sites.steel_load(site.name, site.mass_kg, site.size))
+                    case PlatformSite():
+                        platforms.append(Platform(site.name, (at.north, at.east, at.depth),
+                                                  site.size, yaw))
+            except ConfigError as error:
+                raise ConfigError(str(error), self._where("world", "sites", i)) from None
+        ws = Workspace.of(tools, loads, flanges, hatches, bags, platforms)
+        # baskets first: what lies in one is placed relative to it
+        placed = sorted(range(len(world.tools)),
+                        key=lambda i: world.tools[i].kind != "tool_basket")
+        for i in placed:
+            self._place(ws, world.tools[i], ("world", "tools", i))
+        for i, site in enumerate(world.sites):
+            if isinstance(site, LoadSite):
+                self._place(ws, site, ("world", "sites", i))
+        return ws
+
+    def _place(self, ws: Workspace, item: Any, path: tuple[Any, ...]) -> None:
+        """Put a tool or load where the scenario says; with no depth, it rests on what is
+        under it (the floor, a platform, a basket's bottom)."""
+        where = getattr(item, "where", "floor")
+        support = where.partition(":")[2]
+        if support and support not in ws.names():
+            raise ConfigError(f"{item.name} rests {where.replace(':', ' ')}, which is no "
+                              f"tool basket or platform here", self._where(*path))
+        at = item.at
+        yaw = math.radians(item.heading_deg)
+        pitch = math.radians(getattr(item, "pitch_deg", 0.0))
+        if at.depth is not None:
+            ws.put(item.name, (at.north, at.east, at.depth), yaw, where=where, pitch=pitch)
+            return
+        above = float(self.floor(at.north, at.east)) - _DROP_HEIGHT_M
+        ws.put(item.name, (at.north, at.east, above), yaw, pitch=pitch)
+        rests_on, gap = ws.support_below(item.name, self.floor)
+        if where != "floor" and rests_on != where:
+            raise ConfigError(f"{item.name} at ({at.north:g}, {at.east:g}) is not over "
+                              f"{support}: give its position", self._where(*path))
+        ws.rest_on(item.name, rests_on, gap)
+
+    def _diver_body(self, index: int, agent: Agent) -> DiverBodyState:
+        cfg, diver = agent.config, agent.model.diver
+        skeleton = diver.skeleton(cfg, agent.plant)
+        q = diver.legs(agent.plant, agent.state, skeleton.vector(
+            {"posture": 0.0 if diver.walks else math.pi / 2}), 0.0)
+        executor = None
+        if cfg.orders:
+            orders = [o.order() for o in cfg.orders]
+            self._validate(index, agent, orders)
+            executor = OrderExecutor(agent.name, orders,
+                                     mode="walk" if diver.walks else "swim")
+        return DiverBodyState(skeleton, q, np.zeros_like(q), q.copy(), executor,
+                              agent.state.copy())
+
+    def _validate(self, index: int, agent: Agent, orders: list[od.Order]) -> None:
+        """Refuse orders that cannot be carried out: the first problem, one line, at its
+        order's file:line."""
+        setup = od.DiverSetup(agent.name, agent.model.diver.walks,
+                              (agent.config.start.north, agent.config.start.east))
+        ws = self.workspace
+        points = [setup.start_ne] + [tuple(p[:2]) for p in (
+            od.target_point(ws, n) for n in sorted(ws.names())) if p is not None]
+        lo, hi = np.min(points, axis=0) - _MARGIN_M, np.max(points, axis=0) + _MARGIN_M
+        extent = (float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1]))
+        carriers = [f"{name}/gripper" for name, a in self.agents.items()
+                    if a.config.gripper is not None]
+        problems = od.validate_orders(orders, setup, self.workspace, self.floor, extent,
+                                      carriers)
+        if problems:
+            first = problems[0]
+            k = int(first.split()[1]) - 1
+            raise ConfigError(f"agents[{index}].orders[{k}]: {first}",
+                              self._where("agents", index, "orders", k))
+
+    def _gripper(self, index: int, agent: Agent) -> GripperSlot:
+        cfg = agent.config.gripper
+        slot = GripperSlot(gr.GripperSpec(**part_settings(cfg)))
+        agent.community.post("GRIPPER", cfg.command, 0.0, "scenario")
+        if cfg.holds is not None:
+            ws = self.workspace
+            if cfg.holds not in ws.tools:
+                raise ConfigError(f"the gripper of {agent.name} holds {cfg.holds!r}, which is "
+                                  f"no tool (tools: {', '.join(sorted(ws.tools)) or 'none'})",
+                                  self._where("agents", index, "gripper", "holds"))
+            jaws = self._jaws(agent.name, slot)
+            width = ws.grip_width(cfg.holds)
+            slot.state = gr.GripperState("closed", 1.0 - width / slot.spec.jaw_opening)
+            grip = jaws.grip_frame()
+            # the tool hangs level with its grasp point in the jaws
+            yaw = float(agent.state[3])
+            ws.put(cfg.holds, grip[:3, 3] - rot_z(yaw) @ ws.tools[cfg.holds].grasp_offset(), yaw)
+            ws.take(jaws.name, cfg.holds, grip)
+        self._carry_in_dynamics(agent, slot)
+        return slot
+
+    def _carry_in_dynamics(self, agent: Agent, slot: GripperSlot) -> None:
+        """The vehicle's plant carries what its gripper holds (its mass, added mass, drag
+        and in-water weight in eqs 1-4), or nothing."""
+        ws = self.workspace
+        held = ws.held_by(f"{agent.name}/gripper")
+        if held == slot.carrying:
+            return
+        load = None
+        if held is not None:
+            nav = agent.nav()
+            body = pose_matrix(nav.position_ned, nav.yaw)
+            centre = np.linalg.inv(body) @ np.append(ws.thing(held).position, 1.0)
+            load = CarriedLoad(ws.hydro_of(held), tuple(centre[:3]))
+        agent.plant = agent.model.carrying(agent.plant, load)
+        slot.carrying = held
+
+    def _add_bodies(self) -> None:
+        ws, scene = self.workspace, self.scene
+        for name, tool in ws.tools.items():
+            scene.add_dynamic(name, tool.mesh(), tool.label, STEEL, *_pose(ws.things[name].pose))
+        for name, load in ws.loads.items():
+            scene.add_dynamic(name, load.parts(), "load", STEEL, *_pose(ws.things[name].pose))
+        for name, spec in ws.flanges.items():
+            scene.add_dynamic(name, spec.parts(), "flange", STEEL, *_pose(spec.pose()))
+        for name, spec in ws.hatches.items():
+            scene.add_dynamic(name, spec.parts(), "hatch", STEEL, *_pose(spec.pose()))
+        for name, platform in ws.platforms.items():  # a column from its top to the floor
+            top = np.asarray(platform.top_centre_ned)
+            height = max(float(self.floor(top[0], top[1])) - top[2], 0.05)
+            column = trimesh.creation.box((*platform.size, height))
+            column.apply_translation((0.0, 0.0, 0.5 * height))
+            scene.add_dynamic(name, column, "platform", CONCRETE, top, rot_z(platform.yaw))
+
+    def _jaws(self, name: str, slot: GripperSlot) -> acts.Jaws:
+        agent = self.agents[name]
+        nav = agent.nav()
+        return acts.Jaws(name, slot.spec, slot.state, pose_matrix(nav.position_ned, nav.yaw))
+
+    # ------------------------------------------------------------------ the tick
+    def step(self, tick: int, t: float) -> None:
+        """One stage tick (module docstring), if ``tick`` is one."""
+        if tick % self.period:
+            return
+        ws, dt = self.workspace, self.dt
+        requests: list[acts.ActRequest] = []
+        grips = {f"{name}/gripper": self._jaws(name, slot).grip_frame()[:3, 3]
+                 for name, slot in self.grippers.items()}
+        for name, body in self.divers.items():
+            request = self._move_diver(self.agents[name], body, grips, t)
+            if request is not None:
+                requests.append(request)
+        events: list[WorldEvent] = []
+        carriers: dict[str, acts.Carrier] = {}
+        for name, body in self.divers.items():
+            view = self._view(self.agents[name], body)
+            carriers |= {h.name: h for h in (view.hand("left"), view.hand("right"))}
+        for name, slot in self.grippers.items():
+            events += self._work_gripper(name, slot, t, requests)
+            carriers[f"{name}/gripper"] = self._jaws(name, slot)
+        for request in requests:
+            events += acts.perform(request, ws, carriers, t, dt, self.floor)
+        for name, carrier in carriers.items():
+            ws.carry(name, carrier.grip_frame())
+        for name, slot in self.grippers.items():
+            self._carry_in_dynamics(self.agents[name], slot)
+        events += ws.step(t, dt, self.floor)
+        if self.silt is not None:
+            for name, body in self.divers.items():
+                agent = self.agents[name]
+                for sole in agent.model.diver.footfalls(agent.plant, body.last_state,
+                                                        agent.state):
+                    self.silt.release(t, sole)
+        for name, body in self.divers.items():
+            body.last_state = self.agents[name].state.copy()
+            if body.executor is not None:
+                body.executor.observe(events)
+                self._report_steps(name, body)
+        for event in events:
+            self.events.append(event)
+            self.record("teamwork", event.line())
+
+    def _view(self, agent: Agent, body: DiverBodyState) -> DiverView:
+        nav = agent.nav()
+        diver = agent.model.diver
+        floor = float(self.floor(*nav.position_ned[:2]))
+        return DiverView(agent.name, diver.walks, body.skeleton, body.q,
+                         pose_matrix(nav.position_ned, nav.yaw), nav.speed, floor)
+
+    def _move_diver(self, agent: Agent, body: DiverBodyState, grips: dict[str, NDArray],
+                    t: float) -> acts.ActRequest | None:
+        """Run the executor (if any), set the plant's inputs, move the arms and legs."""
+        diver = agent.model.diver
+        request = None
+        if body.executor is not None:
+            d = body.executor.tick(self._view(agent, body), self.workspace, grips, t, self.dt)
+            agent.directed = diver.directed_inputs(agent.plant, agent.state, d.speed,
+                                                   d.turn_rate, d.depth)
+            if d.arm_goal is not None:
+                body.goal = np.array(d.arm_goal, dtype=float)
+            request, body.note = d.act, d.note
+        body.q, body.qdot = step_motion(body.skeleton, body.q, body.qdot, body.goal, self.dt)
+        body.q = diver.legs(agent.plant, agent.state, body.q, agent.kick_phase)
+        return request
+
+    def _work_gripper(self, name: str, slot: GripperSlot, t: float,
+                      requests: list[acts.ActRequest]) -> list[WorldEvent]:
+        """Follow the agent's GRIPPER command; jaws that close on an object grasp it,
+        jaws that open let go."""
+        ws, actor = self.workspace, f"{name}/gripper"
+        command = str(self.agents[name].community.get("GRIPPER", "open"))
+        held = ws.held_by(actor)
+        jaws = self._jaws(name, slot)
+        between = None if held else acts.between_jaws(ws, jaws)
+        close = {"open": False, "close": True,
+                 "catch": held is not None or between is not None,
+                 "give": held is not None and len(ws.holders_of(held)) == 1}.get(command,
+                                                                                 False)
+        events: list[WorldEvent] = []
+        slot.state, changed = gr.command(slot.spec, slot.state, close, t, actor)
+        events += changed
+        if not close and held is not None:
+            others = [h for h in ws.holders_of(held) if h != actor]
+            events += acts.release(ws, jaws, t, self.floor)
+            if command == "give" and others:  # the gripper's side of a hand-over
+                events.append(WorldEvent(t, "handover", held, actor, detail={
+                    "holders": ", ".join([actor, *others]), "to": ", ".join(others)}))
+        width = ws.grip_width(between) if between is not None else None
+        slot.state, moved = gr.advance(slot.spec, slot.state, self.dt, t, actor, width)
+        events += moved
+        if between is not None and any(e.kind == "gripper_closed" and "on_width" in e.detail
+                                       for e in moved):
+            requests.append(acts.ActRequest("grasp", actor, between))
+        return events
+
+    def _report_steps(self, name: str, body: DiverBodyState) -> None:
+        steps = body.executor.steps
+        while body.reported < len(steps) and steps[body.reported].ended is not None:
+            self.record("order", order_detail(name, body.reported, steps[body.reported]))
+            body.reported += 1
+
+    def joint_samples(self) -> dict[str, JointSample]:
+        """Every articulated diver's joints now (for the hooks: recorder, bridges)."""
+        return {name: JointSample(body.skeleton.joint_names, tuple(body.q.tolist()),
+                                  tuple(body.qdot.tolist()))
+                for name, body in self.divers.items()}
+
+    def pose_scene(self) -> None:
+        """Move the scene's tools, loads, sites' parts and articulated divers to now."""
+        ws, scene = self.workspace, self.scene
+        for name, thing in ws.things.items():
+            scene.set_pose(name, *_pose(thing.pose))
+        for name, spec in ws.flanges.items():
+            scene.set_part_transforms(name, spec.part_transforms(ws.flange_states[name]))
+        for name, spec in ws.hatches.items():
+            scene.set_part_transforms(name, spec.part_transforms(ws.hatch_states[name]))
+        for name, body in self.divers.items():
+            if self.agents[name].config.scene_body == "figure":
+                scene.set_part_transforms(name, figure_transforms(body.skeleton, body.q))
+
+
+def _pose(m: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    return m[:3, 3].copy(), m[:3, :3].copy()
