@@ -14,11 +14,13 @@ class UhrisimError(Exception):
 class ConfigError(UhrisimError, ValueError):
     """A scenario, parameter or command-line value is invalid.
 
-    ``where`` names the file/field/line so the message points at the problem.
+    ``where`` names the file/field/line so the message points at the problem;
+    ``problem`` is the message without it.
     """
 
     def __init__(self, message: str, where: str | None = None) -> None:
         self.where = where
+        self.problem = message
         super().__init__(f"{where}: {message}" if where else message)
 
 
