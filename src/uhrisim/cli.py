@@ -24,7 +24,13 @@ from rich.markup import escape
 from rich.table import Table
 from rich.text import Text
 
-from uhrisim.core.errors import ConfigError, StopRequested, UhrisimError, UhrisimWarning
+from uhrisim.core.errors import (
+    ConfigError,
+    StopRequested,
+    UhrisimError,
+    UhrisimWarning,
+    shortened,
+)
 from uhrisim.core.memory import keep_freed_memory
 
 app = typer.Typer(
@@ -76,12 +82,13 @@ def _resolve(target: str) -> Callable[..., Any]:
 
 def report_error(message: object) -> None:
     """``error: <message>`` on stderr, the message as plain text (never Rich markup)."""
-    err_console.print(Text.assemble(("error: ", "bold red"), str(message)), highlight=False,
-                      soft_wrap=True)
+    err_console.print(Text.assemble(("error: ", "bold red"), shortened(str(message), 2000)),
+                      highlight=False, soft_wrap=True)
 
 
 def friendly_errors(command: Callable[..., Any]) -> Callable[..., Any]:
-    """Turn uhrisim's own errors into a one-line message and exit status 2, and a stop
+    """Turn uhrisim's own errors and the file system's refusals (a path too long, a
+    read-only folder) into a one-line message and exit status 2, and a stop
     (Ctrl-C, SIGTERM, SIGHUP: the work has cleaned up by then) into one line and exit
     status 128 + the signal's number."""
 
@@ -91,6 +98,11 @@ def friendly_errors(command: Callable[..., Any]) -> Callable[..., Any]:
             return command(*args, **kwargs)
         except UhrisimError as error:
             report_error(error)
+            raise typer.Exit(code=2) from None
+        except OSError as error:  # the file system said no: a name too long, a read-only
+            if error.filename is None:  # folder, no permission; a path, so the user's to fix
+                raise
+            report_error(f"{shortened(str(error.filename), 200)}: {error.strerror or error}")
             raise typer.Exit(code=2) from None
         except KeyboardInterrupt:
             report_error("interrupted")
@@ -143,6 +155,9 @@ def figure(
         raise ConfigError(f"unknown figure {name!r}; choose from {', '.join(FIGURES)}")
     if preset is not None and name not in PRESET_FIGURES:
         raise ConfigError(f"--preset applies to {', '.join(PRESET_FIGURES)}, not {name!r}")
+    from uhrisim.app.runner import prepare_out_dir
+
+    prepare_out_dir(out)  # a file, a device or a folder that cannot be written: one line
     kwargs = {} if preset is None else {"preset": preset}
     paths = _resolve(FIGURES[name][0])(out, **kwargs)
     for path in paths:
@@ -194,7 +209,8 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
                        raycast_sensors: bool, quiet: bool = False, ros2: bool = False,
                        moos: bool = False, rtf: float | None = None,
                        view_port: int | None = None, lockstep: bool = False,
-                       ros_args: tuple[str, ...] = (), require_helm: bool = False) -> Any:
+                       ros_args: tuple[str, ...] = (), require_helm: bool = False,
+                       used: str = "keep") -> Any:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from uhrisim.app.runner import prepare_out_dir, run_scenario
@@ -202,7 +218,7 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
     from uhrisim.scenario.load import load_scenario
 
     source = load_scenario(scenario)
-    prepare_out_dir(out)  # before the progress bar: a refusal is one line
+    prepare_out_dir(out, used)  # before the progress bar: a refusal is one line
     hooks = live_hooks(source.scenario, ros2=ros2, moos=moos, real_time_factor=rtf,
                        paced_elsewhere=view_port is not None, lockstep=lockstep,
                        ros_args=ros_args, require_helm=require_helm)
@@ -313,17 +329,24 @@ def run(
                                "outside helm (MOOS or ROS 2) does not drive it: MALCONFIG, "
                                "parked, an all-stop or no commands (bridges.helm_watch)")
     ] = False,
+    overwrite: Annotated[bool, typer.Option(
+        "--overwrite", help="replace the outputs of an earlier run in OUT (its files are "
+                            "deleted first); without it a non-empty OUT is refused")] = False,
 ) -> None:
     """Run a scenario: the recording (a rosbag2 folder), metrics.json and figures go to OUT."""
     import shlex
 
     check_run_options(duration, seed, rtf, port)
     out = out or Path("out") / scenario.stem
-    extra_ros_args = tuple(shlex.split(ros_args))
+    try:
+        extra_ros_args = tuple(shlex.split(ros_args))
+    except ValueError as error:  # "No closing quotation", "No escaped character"
+        raise ConfigError(f"--ros-args: {error} in {shortened(ros_args, 200)!r}") from None
     result = _run_with_progress(scenario, out, duration, seed, not no_raycast_sensors, quiet,
                                 ros2=ros2 or bool(extra_ros_args), moos=moos, rtf=rtf,
                                 view_port=port if view else None, lockstep=lockstep,
-                                ros_args=extra_ros_args, require_helm=require_helm)
+                                ros_args=extra_ros_args, require_helm=require_helm,
+                                used="clear" if overwrite else "refuse")
     _print_metrics(result)
 
 

@@ -14,17 +14,18 @@ from __future__ import annotations
 import json
 import logging
 import math
+import shutil
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 from uhrisim.app.metrics import TrailMetrics
 from uhrisim.app.perception_metrics import PerceptionMetrics
-from uhrisim.core.errors import AssetError
+from uhrisim.core.errors import AssetError, shortened
 from uhrisim.record.hook import McapRecordingHook
 from uhrisim.scenario.load import ScenarioFile, load_scenario
 from uhrisim.sim.hooks import TickFrame, sensor_key
@@ -121,17 +122,45 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
     return RunResult(out_dir, summary, files)
 
 
-def prepare_out_dir(out_dir: Path) -> None:
-    """Create the output folder, or say in one line why a run could not write there."""
-    if out_dir.exists() and not out_dir.is_dir():
-        raise AssetError(f"{out_dir}: the output folder is a file")
+#: Free space an output folder must have before a run starts (a run records ~1 MB per
+#: simulated second with a sonar; this only catches a disk that is already full).
+MIN_FREE_BYTES = 16 * 1024 * 1024
+
+
+def prepare_out_dir(out_dir: Path, used: Literal["keep", "refuse", "clear"] = "keep") -> None:
+    """Create the output folder, or say in one line why a run could not write there.
+
+    ``used``: what to do with a folder that already holds files: ``keep`` them (the
+    library's runs, figures), ``refuse`` (``uhrisim run``: a second run must not silently
+    replace the first), ``clear`` them first (``uhrisim run --overwrite``; only a folder of
+    files, as a run leaves it: a folder holding folders is refused)."""
     try:
+        if out_dir.exists() and not out_dir.is_dir():
+            raise AssetError(f"{out_dir}: the output folder is a file")
+        held = sorted(out_dir.iterdir()) if out_dir.is_dir() else []
+        if held and used == "refuse":
+            raise AssetError(f"{out_dir}: the output folder is not empty ({len(held)} "
+                             "entries, a run's outputs?); give --overwrite to replace them, "
+                             "or another --out")
+        if held and used == "clear":
+            folders = [p.name for p in held if p.is_dir() and not p.is_symlink()]
+            if folders:
+                raise AssetError(f"{out_dir}: --overwrite clears only a run's output folder, "
+                                 f"and this one holds folders ({', '.join(folders[:3])}); "
+                                 "choose another --out")
+            for path in held:
+                path.unlink()
         out_dir.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryFile(dir=out_dir):
             pass
+        free = shutil.disk_usage(out_dir).free
+    except AssetError:
+        raise
     except OSError as error:
-        raise AssetError(f"{out_dir}: cannot write the run's outputs here "
-                         f"({error.strerror or error})") from None
+        raise AssetError(f"{shortened(str(out_dir), 200)}: cannot write the run's outputs "
+                         f"here ({error.strerror or error})") from None
+    if free < MIN_FREE_BYTES:
+        raise AssetError(f"{out_dir}: the disk is full ({free // 1024} KiB free)")
 
 
 def strict_json(value: Any) -> Any:

@@ -7,6 +7,18 @@ import signal
 import warnings
 
 
+#: The most characters of a message that quotes a value: a bad value of 1.5 million
+#: characters is quoted by its start and its length, not repeated whole.
+MESSAGE_LIMIT = 400
+
+
+def shortened(text: str, limit: int = MESSAGE_LIMIT) -> str:
+    """``text``, or its first ``limit`` characters and how many there were."""
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}... ({len(text)} characters in all)"
+
+
 class UhrisimError(Exception):
     """Base class of every error uhrisim raises on purpose."""
 
@@ -20,8 +32,8 @@ class ConfigError(UhrisimError, ValueError):
 
     def __init__(self, message: str, where: str | None = None) -> None:
         self.where = where
-        self.problem = message
-        super().__init__(f"{where}: {message}" if where else message)
+        self.problem = message = shortened(message)
+        super().__init__(f"{shortened(where)}: {message}" if where else message)
 
 
 class NumericalError(UhrisimError, ArithmeticError):

@@ -20,6 +20,7 @@ from pydantic import (
     field_validator,
     model_validator,
 )
+from pydantic_core import PydanticCustomError
 
 from uhrisim.autonomy.params import checked_value
 from uhrisim.control.videoray_p import GAIN_PRESETS, PGains
@@ -681,19 +682,24 @@ class Scenario(Strict):
     @model_validator(mode="after")
     def _references_exist(self) -> Scenario:
         names = {a.name for a in self.agents}
-        refs = [(e.post.agent, "events.post.agent") for e in self.events if e.post]
-        refs += [(e.agent, "events.agent") for e in self.events if e.agent]
-        refs += [(b.agent, "buttons.agent") for b in self.buttons]
-        refs += [(link.agent, "bridges.ros2.links.agent") for link in self.bridges.ros2.links]
-        refs += [(link.agent, "bridges.moos.links.agent") for link in self.bridges.moos.links]
+        refs = [(e.post.agent, ("events", i, "post", "agent"))
+                for i, e in enumerate(self.events) if e.post]
+        refs += [(e.agent, ("events", i, "agent")) for i, e in enumerate(self.events) if e.agent]
+        refs += [(b.agent, ("buttons", i, "agent")) for i, b in enumerate(self.buttons)]
+        refs += [(link.agent, ("bridges", "ros2", "links", i, "agent"))
+                 for i, link in enumerate(self.bridges.ros2.links)]
+        refs += [(link.agent, ("bridges", "moos", "links", i, "agent"))
+                 for i, link in enumerate(self.bridges.moos.links)]
         if self.metrics:
-            refs += [(self.metrics.follower, "metrics.follower"),
-                     (self.metrics.target, "metrics.target")]
-        for name, field in refs:
+            refs += [(self.metrics.follower, ("metrics", "follower")),
+                     (self.metrics.target, ("metrics", "target"))]
+        for name, path in refs:
             if name not in names:
                 close = difflib.get_close_matches(name, sorted(names), n=1)
                 hint = f"; did you mean {close[0]!r}?" if close else ""
-                raise ValueError(f"{field} names unknown agent {name!r}{hint}")
+                raise PydanticCustomError(  # at the line of the field that names it
+                    "at_path", "names unknown agent {name}{hint}",
+                    {"path": path, "name": repr(name), "hint": hint})
         return self
 
     def movable_labels(self) -> set[str]:
