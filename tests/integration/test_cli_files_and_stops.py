@@ -104,3 +104,76 @@ def test_a_stop_signal_ends_the_run_cleanly(tmp_path, stop, line, reason):
     with AnyReader([out]) as bag:  # a complete rosbag2 folder: metadata.yaml and all
         assert "/videoray/odom" in {c.topic for c in bag.connections}
         assert bag.message_count > 0
+
+
+def test_a_second_run_into_a_used_folder_is_refused_unless_overwrite(tmp_path):
+    out = tmp_path / "run"
+    first = uhrisim("run", str(SCENARIO), "-o", str(out), "-q", "--duration", "1",
+                    "--no-raycast-sensors")
+    assert first.returncode == 0, first.stderr
+    (out / "recording.mcap.partial").write_bytes(b"left by an earlier killed run")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    line = one_error_line(uhrisim("run", str(SCENARIO), "-o", str(out), "-q", "--duration",
+                                  "1", "--no-raycast-sensors"))
+    assert "not empty" in line and "--overwrite" in line, line
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # nothing touched
+    again = uhrisim("run", str(SCENARIO), "-o", str(out), "-q", "--duration", "2",
+                    "--no-raycast-sensors", "--overwrite")
+    assert again.returncode == 0, again.stderr
+    assert not (out / "recording.mcap.partial").exists()  # the earlier run's files went
+    assert json.loads((out / "metrics.json").read_text())["simulated_s"] == pytest.approx(2.0)
+    (out / "notes").mkdir()  # a folder of the user's, not a run's output folder
+    line = one_error_line(uhrisim("run", str(SCENARIO), "-o", str(out), "-q", "--duration",
+                                  "1", "--no-raycast-sensors", "--overwrite"))
+    assert "holds folders (notes)" in line and (out / "metrics.json").exists(), line
+
+
+def test_command_lines_the_file_system_refuses_are_one_line(tmp_path):
+    long_path = tmp_path / ("a" * 5000)  # a name longer than any file system allows
+    cases = [
+        (("run", str(SCENARIO), "-o", str(tmp_path / "o"), "--ros-args=\"x"),
+         "error: --ros-args: No closing quotation in '\"x'"),
+        (("figure", "openloop", "--out", "/dev/null"),
+         "error: /dev/null: the output folder is a file"),
+        (("run", str(SCENARIO), "-o", str(long_path)), "(File name too long)"),
+        (("recover", str(long_path)), "File name too long"),
+    ]
+    for args, says in cases:
+        line = one_error_line(uhrisim(*args))
+        assert says in line and len(line) < 600, line
+
+
+def _read_only(folder: Path, command: list[str]) -> list[str]:
+    """``command`` run where ``folder`` cannot be written: its mode for a user; for root
+    (who writes anyway) a read-only bind mount of it in a mount namespace of its own."""
+    if os.geteuid() != 0:
+        folder.chmod(0o555)
+        return command
+    probe = subprocess.run(["unshare", "-m", "mount", "--bind", "-o", "ro", str(folder),
+                            str(folder)], capture_output=True)
+    if probe.returncode != 0:
+        pytest.skip("running as root without mount namespaces: no folder is read-only")
+    return ["unshare", "-m", "sh", "-c", f'mount --bind -o ro "{folder}" "{folder}" && '
+            + " ".join(f'"{part}"' for part in command)]
+
+
+def test_recover_in_a_read_only_folder_is_one_line_and_leaves_the_file(tmp_path):
+    """A cut recording in a folder that cannot be written: refused, the file untouched."""
+    out = tmp_path / "run"
+    done = uhrisim("run", str(SCENARIO), "-o", str(out), "-q", "--duration", "2",
+                   "--no-raycast-sensors")
+    assert done.returncode == 0, done.stderr
+    cut = (out / "recording.mcap").read_bytes()[:-2000]  # no footer: a killed run's file
+    folder = tmp_path / "read-only"
+    folder.mkdir()
+    (folder / "recording.mcap").write_bytes(cut)
+    try:
+        command = _read_only(folder, [sys.executable, "-m", "uhrisim", "recover", str(folder)])
+        line = one_error_line(subprocess.run(command, capture_output=True, text=True,
+                                             timeout=300, cwd=ROOT))
+        assert "cannot recover it here" in line, line
+        assert "Permission denied" in line or "Read-only file system" in line, line
+        assert (folder / "recording.mcap").read_bytes() == cut
+        assert sorted(p.name for p in folder.iterdir()) == ["recording.mcap"]
+    finally:
+        folder.chmod(0o755)

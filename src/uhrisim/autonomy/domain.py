@@ -29,7 +29,7 @@ __all__ = ["Domain", "DomainAxis", "Objective"]
 #: The most points on one decision axis, and in the whole domain: the helm's cost (every
 #: behavior's objective function is an array over the domain, every helm iteration).
 MAX_AXIS_POINTS = 10_000
-MAX_DOMAIN_POINTS = 4_000_000
+MAX_DOMAIN_POINTS = 50_000_000
 
 
 @dataclass(frozen=True)
