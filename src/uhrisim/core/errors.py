@@ -6,7 +6,6 @@ import logging
 import signal
 import warnings
 
-
 #: The most characters of a message that quotes a value: a bad value of 1.5 million
 #: characters is quoted by its start and its length, not repeated whole.
 MESSAGE_LIMIT = 400
