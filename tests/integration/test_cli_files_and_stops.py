@@ -7,10 +7,12 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -177,3 +179,31 @@ def test_recover_in_a_read_only_folder_is_one_line_and_leaves_the_file(tmp_path)
         assert sorted(p.name for p in folder.iterdir()) == ["recording.mcap"]
     finally:
         folder.chmod(0o755)
+
+
+def _file_size_limit(limit: int) -> Callable[[], None]:
+    """``ulimit -f``: a write past ``limit`` bytes fails with EFBIG (SIGXFSZ, which would
+    kill the process instead, is ignored, as shells running under a limit often do)."""
+
+    def apply() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    return apply
+
+
+def test_a_file_size_limit_ends_the_run_with_one_line_and_a_readable_recording(tmp_path):
+    out = tmp_path / "run"
+    done = subprocess.run(
+        [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "-o", str(out), "-q",
+         "--duration", "120"], capture_output=True, text=True, timeout=600, cwd=ROOT,
+        preexec_fn=_file_size_limit(3 * 1024 * 1024))  # the static scene and ~10 s fit
+    line = one_error_line(done)
+    assert "recording.mcap: cannot write the recording on (File too large)" in line, line
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["completed"] is False and 0 < metrics["simulated_s"] < 120
+    assert "File too large" in metrics["stopped_by"]
+    with AnyReader([out]) as bag:  # complete up to the failure: metadata.yaml and all
+        odometry = [c for c in bag.connections if c.topic == "/videoray/odom"]
+        last = max(t for _, t, _ in bag.messages(connections=odometry))
+    assert 0 < last / 1e9 <= metrics["simulated_s"] + 1.0

@@ -188,8 +188,20 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
                                "collisions": sim.collisions,
                                "real_time_factor": sim.t / sim.wall_time if sim.wall_time
                                else None}
-    if metrics is not None and sim.tick > 0:
+    measured = metrics is not None and sim.tick > 0
+    if measured:
         summary |= metrics.summary()
+    for hook in extra_hooks:  # perception; live bridges: messages, failures, rounds
+        report = getattr(hook, "summary", None)
+        if report is not None:
+            summary |= report()
+    if error is not None:  # why the run ended early
+        summary["stopped_by"] = ("interrupted (SIGINT)" if isinstance(error, KeyboardInterrupt)
+                                 else str(error) or type(error).__name__)
+    path = out_dir / "metrics.json"  # first: on a full disk the figures may not fit
+    path.write_text(json.dumps(strict_json(summary), indent=2, allow_nan=False) + "\n")
+    files.append(path)
+    if measured:
         series = metrics.series()
         acquired = summary["time_to_acquire_s"]
         acquired_at = None if acquired is None else float(series["t"][0] + acquired)
@@ -200,14 +212,4 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
     if strip is not None and any(strip.frames.values()):
         rows = {strip.titles[key]: frames for key, frames in strip.frames.items() if frames}
         files.append(figs.plot_sonar_strip(rows, out_dir / "sonar_strip.png"))
-    for hook in extra_hooks:  # perception; live bridges: messages, failures, rounds
-        report = getattr(hook, "summary", None)
-        if report is not None:
-            summary |= report()
-    if error is not None:  # why the run ended early
-        summary["stopped_by"] = ("interrupted (SIGINT)" if isinstance(error, KeyboardInterrupt)
-                                 else str(error) or type(error).__name__)
-    path = out_dir / "metrics.json"
-    path.write_text(json.dumps(strict_json(summary), indent=2, allow_nan=False) + "\n")
-    files.append(path)
     return summary

@@ -23,8 +23,9 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from uhrisim.core.errors import ConfigError
+from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.record.mcap_recorder import McapRecorder
+from uhrisim.record.recover import recover_in_place
 from uhrisim.record.rosbag2 import write_metadata
 from uhrisim.ros.tick import TickWriter
 
@@ -144,11 +145,18 @@ class McapRecordingHook:
         rec = self._rec
         if rec is None:
             return
-        if error is not None and not rec.closed:
+        if error is not None and not rec.closed and not rec.cut:
             rec.write_event(float(getattr(sim, "t", 0.0)), "error",
                             f"{type(error).__name__}: {error}")
         was_open = not rec.closed
         rec.close()
+        if rec.cut and was_open:  # a full disk: complete it if there is room for that
+            try:
+                recover_in_place(self.path)
+            except UhrisimError as failed:
+                logger.error("the recording stays cut (uhrisim recover completes it once "
+                          "there is room): %s", failed)
+            return  # recover_in_place wrote metadata.yaml with the complete file
         if self.rosbag2_metadata and was_open:
             write_metadata(self.path)
 
