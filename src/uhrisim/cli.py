@@ -10,6 +10,7 @@ from __future__ import annotations
 import functools
 import importlib
 import json
+import logging
 import math
 import signal
 import sys
@@ -45,11 +46,73 @@ console = Console()
 err_console = Console(stderr=True)
 
 
+#: How many times one warning (one message template) is said before its repeats are only
+#: counted, and summarised in one line when the command ends.
+REPEATS_SAID = 3
+
+
+class _RepeatsSummarised(logging.Filter):
+    """Lets each message template of uhrisim's log through :data:`REPEATS_SAID` times;
+    counts the rest (20 000 objects over the recording's triangle budget are three lines
+    and a summary, not 20 000 lines)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.seen: dict[tuple[str, str], list[Any]] = {}  # template: [count, first message]
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        entry = self.seen.setdefault((record.name, str(record.msg)), [0, record.getMessage()])
+        entry[0] += 1
+        return entry[0] <= REPEATS_SAID
+
+    def summary(self) -> list[str]:
+        """One line per template said more often than shown; the counts start again."""
+        lines = [f"... and {count - REPEATS_SAID} more like: {shortened(first, 200)}"
+                 for count, first in self.seen.values() if count > REPEATS_SAID]
+        self.seen.clear()
+        return lines
+
+
+_REPEATS = _RepeatsSummarised()
+
+
+class _StderrHandler(logging.StreamHandler):
+    """Python's last-resort handler as a handler of its own: warnings and errors, plain,
+    on whatever ``sys.stderr`` is when one is written."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.setLevel(logging.WARNING)
+        self.addFilter(_REPEATS)
+
+    @property
+    def stream(self) -> Any:  # type: ignore[override]
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, _value: Any) -> None:
+        pass
+
+
+def _log_to_stderr() -> None:
+    """uhrisim's warnings on stderr, as plain lines, each repeated one summarised."""
+    logger = logging.getLogger("uhrisim")
+    if not any(isinstance(h, _StderrHandler) for h in logger.handlers):
+        logger.addHandler(_StderrHandler())
+    _REPEATS.seen.clear()
+
+
+def _say_repeats() -> None:
+    for line in _REPEATS.summary():
+        err_console.print(Text(line), highlight=False, soft_wrap=True)
+
+
 @app.callback()
 def _process_settings() -> None:
     """Process-wide settings of the command (side effects at the edge)."""
     keep_freed_memory()  # no page-fault churn on every sonar ping (see core/memory.py)
     _stop_on_signals()
+    _log_to_stderr()
     warnings.simplefilter("ignore", UhrisimWarning)  # each is logged, and shown once so
 
 # Figure name -> "module:function(out_dir) -> list[Path]".
@@ -95,7 +158,10 @@ def friendly_errors(command: Callable[..., Any]) -> Callable[..., Any]:
     @functools.wraps(command)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         try:
-            return command(*args, **kwargs)
+            try:
+                return command(*args, **kwargs)
+            finally:
+                _say_repeats()  # before the error line, which stays the last
         except UhrisimError as error:
             report_error(error)
             raise typer.Exit(code=2) from None

@@ -207,3 +207,20 @@ def test_a_file_size_limit_ends_the_run_with_one_line_and_a_readable_recording(t
         odometry = [c for c in bag.connections if c.topic == "/videoray/odom"]
         last = max(t for _, t, _ in bag.messages(connections=odometry))
     assert 0 < last / 1e9 <= metrics["simulated_s"] + 1.0
+
+
+def test_a_repeated_warning_is_summarised(tmp_path):
+    """199 spheres of 1280 triangles overrun the recording's 200 000-triangle budget for
+    the scene: 43 objects left out, said three times and then counted in one line."""
+    spheres = "".join(f"    - {{type: sphere, label: s{i}, radius: 0.2, position: "
+                      f"{{north: {i % 20}, east: {i // 20 + 3}, depth: 6}}}}\n" for i in range(199))
+    scenario = tmp_path / "spheres.yaml"
+    scenario.write_text("name: spheres\nduration: 1\nworld:\n  seafloor: {type: flat, depth: 8}\n"
+                        f"  objects:\n{spheres}agents:\n  - name: rov\n    model: videoray\n"
+                        "    driver: none\n    start: {north: -5, east: 0, depth: 1}\n")
+    done = uhrisim("run", str(scenario), "-o", str(tmp_path / "run"), "-q", "--duration", "0.5",
+                   "--no-raycast-sensors")
+    assert done.returncode == 0, done.stderr
+    said = [line for line in done.stderr.splitlines() if "triangle budget" in line]
+    assert len(said) == 4, done.stderr
+    assert said[3].startswith("... and 40 more like: scene object 's156' (1280 triangles)")

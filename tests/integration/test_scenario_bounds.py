@@ -101,8 +101,8 @@ CASES = [
     ("more objects than a scene may hold", "  objects:\n",
      "  objects:\n" + "".join(f"    - {{type: sphere, label: s{i}, radius: 0.1, position: "
                               f"{{north: {i % 40}, east: {i // 40}, depth: 5}}}}\n"
-                              for i in range(1001)), 5,
-     "world.objects: Tuple should have at most 1000 items"),
+                              for i in range(201)), 5,
+     "world.objects: Tuple should have at most 200 items"),
     ("metrics naming a missing agent", "{follower: rov, target: diver}",
      "{follower: rov, target: nobody}", 25, "metrics.target: names unknown agent 'nobody'"),
     ("a button naming a missing agent", "metrics:",

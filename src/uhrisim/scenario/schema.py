@@ -62,8 +62,9 @@ HORIZON_M = 1.0e5
 Horizontal = Annotated[float, Field(ge=-HORIZON_M, le=HORIZON_M)]
 #: Depth of a point, m: from 100 m above the surface (a pier's top) to the deepest ocean.
 PointDepth = Annotated[float, Field(ge=-100.0, le=11_000.0)]
-#: Most objects in one scene (each is geometry every ray may hit; the scene's cost).
-MAX_OBJECTS = 1000
+#: Most objects in one scene: each is geometry every ray may hit (200 spheres of 1280
+#: triangles take ~170 MB more to validate than none).
+MAX_OBJECTS = 200
 
 
 def _variable_name(name: str) -> str:
