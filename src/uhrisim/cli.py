@@ -420,11 +420,11 @@ def run(
 @friendly_errors
 def validate(scenario: Annotated[Path, typer.Argument(help="scenario YAML file")]) -> None:
     """Check a scenario file (and the behavior files it names) without running it."""
+    from uhrisim.app.runner import build_run
     from uhrisim.scenario.load import load_scenario
-    from uhrisim.sim.simulation import Simulation
 
     source = load_scenario(scenario)
-    Simulation(source)  # builds helms, sonars, cameras, scene: every check
+    build_run(source)  # what run builds (helms, sensors, scene, metrics): every check
     s = source.scenario
     console.print(Text(f"{scenario}: OK — {len(s.agents)} agents "
                        f"({', '.join(a.name for a in s.agents)}), {s.duration:g} s at "

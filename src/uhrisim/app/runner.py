@@ -89,21 +89,10 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
             chunk_size=rec.chunk_kib * 1024,
             odom_every=max(1, round(scenario.physics_rate_hz / rec.odometry_rate_hz))))
         files += [out_dir / "recording.mcap", out_dir / "metadata.yaml"]
-    metrics = TrailMetrics(scenario.metrics) if scenario.metrics else None
-    if metrics:
-        hooks.append(metrics)
-    observers = [a for a in scenario.agents
-                 if a.contacts.source == "sonar" and a.perception_sonar is not None]
-    if scenario.metrics and observers and raycast_sensors:  # its summary joins metrics.json
-        extra_hooks = [PerceptionMetrics(observers[0].name, scenario.metrics.target,
-                                         sonar=str(observers[0].perception_sonar)),
-                       *extra_hooks]
-    sonars = {sensor_key(a.name, str(s.name)): f"{a.name}/{s.name} ({s.preset})"
-              for a in scenario.agents for s in a.sensors if s.type == "sonar"}
-    strip = SonarStripHook(sonars, duration) if raycast_sensors and sonars else None
-    if strip:
-        hooks.append(strip)
-    hooks.extend(extra_hooks)
+    measuring = _Measuring(scenario, duration, raycast_sensors)
+    metrics, strip = measuring.metrics, measuring.strip
+    extra_hooks = [*measuring.reports, *extra_hooks]
+    hooks += [*measuring.hooks, *extra_hooks]
     sim = Simulation(source, seed=seed, raycast_sensors=raycast_sensors, hooks=hooks)
     if configure is not None:
         configure(sim)
@@ -125,6 +114,34 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
 #: Free space an output folder must have before a run starts (a run records ~1 MB per
 #: simulated second with a sonar; this only catches a disk that is already full).
 MIN_FREE_BYTES = 16 * 1024 * 1024
+
+
+class _Measuring:
+    """What a run measures besides its recording: the trail metrics, the perception
+    metrics (their summaries join metrics.json) and the sonar strip."""
+
+    def __init__(self, scenario: Any, duration: float, raycast_sensors: bool) -> None:
+        self.metrics = TrailMetrics(scenario.metrics) if scenario.metrics else None
+        observers = [a for a in scenario.agents
+                     if a.contacts.source == "sonar" and a.perception_sonar is not None]
+        self.reports: list[Hook] = [
+            PerceptionMetrics(observers[0].name, scenario.metrics.target,
+                              sonar=str(observers[0].perception_sonar))
+        ] if scenario.metrics and observers and raycast_sensors else []
+        sonars = {sensor_key(a.name, str(s.name)): f"{a.name}/{s.name} ({s.preset})"
+                  for a in scenario.agents for s in a.sensors if s.type == "sonar"}
+        self.strip = SonarStripHook(sonars, duration) if raycast_sensors and sonars else None
+        self.hooks: list[Hook] = [h for h in (self.metrics, self.strip) if h is not None]
+
+
+def build_run(source: ScenarioFile, raycast_sensors: bool = True) -> Simulation:
+    """Everything :func:`run_scenario` builds but its output files: the simulation (scene,
+    sensors, helms, drivers) with the metrics it measures (``uhrisim validate``: a scene
+    that validates, runs)."""
+    scenario = source.scenario
+    measuring = _Measuring(scenario, scenario.duration, raycast_sensors)
+    return Simulation(source, raycast_sensors=raycast_sensors,
+                      hooks=[*measuring.hooks, *measuring.reports])
 
 
 def prepare_out_dir(out_dir: Path, used: Literal["keep", "refuse", "clear"] = "keep") -> None:
