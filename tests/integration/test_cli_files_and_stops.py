@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import os
 import resource
+import shlex
 import signal
 import subprocess
 import sys
@@ -145,18 +146,25 @@ def test_command_lines_the_file_system_refuses_are_one_line(tmp_path):
         assert says in line and len(line) < 600, line
 
 
+def _with_mount(mount: list[str], command: list[str], then: str = "") -> list[str]:
+    """``command`` run in a mount namespace of its own where ``mount`` (the arguments of
+    ``mount``) was mounted first, and the shell line ``then`` after it (the mount goes
+    with the namespace); the test is skipped where that is not allowed."""
+    probe = subprocess.run(["unshare", "-m", "mount", *mount], capture_output=True)
+    if probe.returncode != 0:
+        pytest.skip(f"no mount namespace here: {probe.stderr.decode().strip()}")
+    line = " ".join(shlex.quote(part) for part in ["mount", *mount]) + " && " + " ".join(
+        shlex.quote(part) for part in command)
+    return ["unshare", "-m", "sh", "-c", f"{line}; status=$?; {then or 'true'}; exit $status"]
+
+
 def _read_only(folder: Path, command: list[str]) -> list[str]:
     """``command`` run where ``folder`` cannot be written: its mode for a user; for root
-    (who writes anyway) a read-only bind mount of it in a mount namespace of its own."""
+    (who writes anyway) a read-only bind mount of it."""
     if os.geteuid() != 0:
         folder.chmod(0o555)
         return command
-    probe = subprocess.run(["unshare", "-m", "mount", "--bind", "-o", "ro", str(folder),
-                            str(folder)], capture_output=True)
-    if probe.returncode != 0:
-        pytest.skip("running as root without mount namespaces: no folder is read-only")
-    return ["unshare", "-m", "sh", "-c", f'mount --bind -o ro "{folder}" "{folder}" && '
-            + " ".join(f'"{part}"' for part in command)]
+    return _with_mount(["--bind", "-o", "ro", str(folder), str(folder)], command)
 
 
 def test_recover_in_a_read_only_folder_is_one_line_and_leaves_the_file(tmp_path):
@@ -200,6 +208,7 @@ def test_a_file_size_limit_ends_the_run_with_one_line_and_a_readable_recording(t
         preexec_fn=_file_size_limit(3 * 1024 * 1024))  # the static scene and ~10 s fit
     line = one_error_line(done)
     assert "recording.mcap: cannot write the recording on (File too large)" in line, line
+    assert "the recording is complete up to there" in line, line
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["completed"] is False and 0 < metrics["simulated_s"] < 120
     assert "File too large" in metrics["stopped_by"]
@@ -224,3 +233,27 @@ def test_a_repeated_warning_is_summarised(tmp_path):
     said = [line for line in done.stderr.splitlines() if "triangle budget" in line]
     assert len(said) == 4, done.stderr
     assert said[3].startswith("... and 40 more like: scene object 's156' (1280 triangles)")
+
+
+def test_a_full_disk_ends_the_run_with_one_line_and_a_recording_cut_at_a_chunk(tmp_path):
+    """A 24 MiB tmpfs fills mid-run: one line; metrics.json says why; the recording ends at
+    its last whole chunk (no room for a complete copy there), which uhrisim recover
+    completes once it has room."""
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    out = disk / "run"
+    done = subprocess.run(_with_mount(
+        ["-t", "tmpfs", "-o", "size=24m", "tmpfs", str(disk)],
+        [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "-o", str(out), "-q",
+         "--duration", "600"],
+        then=f"cp -r {shlex.quote(str(out))} {shlex.quote(str(tmp_path))}"),
+        capture_output=True, text=True, timeout=600, cwd=ROOT)
+    line = one_error_line(done)
+    assert "cannot write the recording on (No space left on device)" in line, line
+    assert "no room to complete it: free some and run uhrisim recover" in line, line
+    copy = tmp_path / "run"  # the folder copied off the full disk, as a user would
+    metrics = json.loads((copy / "metrics.json").read_text())
+    assert metrics["completed"] is False and "No space left" in metrics["stopped_by"]
+    assert uhrisim("recover", str(copy)).returncode == 0
+    with AnyReader([copy]) as bag:
+        assert bag.message_count > 0 and "/videoray/odom" in {c.topic for c in bag.connections}

@@ -27,6 +27,7 @@ from uhrisim.app.metrics import TrailMetrics
 from uhrisim.app.perception_metrics import PerceptionMetrics
 from uhrisim.core.errors import AssetError, shortened
 from uhrisim.record.hook import McapRecordingHook
+from uhrisim.record.mcap_recorder import RecordingCutError
 from uhrisim.scenario.load import ScenarioFile, load_scenario
 from uhrisim.sim.hooks import TickFrame, sensor_key
 from uhrisim.sim.simulation import BaseHook, Hook, Simulation
@@ -81,13 +82,15 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
     prepare_out_dir(out_dir)
     hooks: list[Hook] = []
     files: list[Path] = []
+    recording: McapRecordingHook | None = None
     if scenario.recording.enabled:
         rec = scenario.recording
-        hooks.append(McapRecordingHook(
+        recording = McapRecordingHook(
             out_dir / "recording.mcap", record_images=rec.sonar, sonar_every=rec.sonar_every,
             record_camera=rec.camera, camera_every=rec.camera_every,
             chunk_size=rec.chunk_kib * 1024,
-            odom_every=max(1, round(scenario.physics_rate_hz / rec.odometry_rate_hz))))
+            odom_every=max(1, round(scenario.physics_rate_hz / rec.odometry_rate_hz)))
+        hooks.append(recording)
         files += [out_dir / "recording.mcap", out_dir / "metadata.yaml"]
     measuring = _Measuring(scenario, duration, raycast_sensors)
     metrics, strip = measuring.metrics, measuring.strip
@@ -99,12 +102,15 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
     try:
         sim.run(duration, progress=progress, should_stop=should_stop)
     except BaseException as error:
+        disk_full = isinstance(error, RecordingCutError)
         try:  # what was measured until the failure, without masking it
             sim.close(error)
             _write_outputs(sim, out_dir, metrics, strip, files, False, extra_hooks, error)
-        except Exception as cleanup:
-            log.error("after the run failed, its outputs could not all be written: %s",
-                      cleanup)
+        except Exception as cleanup:  # on a full disk the figures cannot be: said below
+            (log.info if disk_full else log.error)(
+                "after the run failed, its outputs could not all be written: %s", cleanup)
+        if disk_full and recording is not None and recording.cut_outcome:
+            raise AssetError(f"{error}; {recording.cut_outcome}") from None
         raise
     sim.close(None)
     summary = _write_outputs(sim, out_dir, metrics, strip, files, True, extra_hooks)

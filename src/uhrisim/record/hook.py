@@ -99,6 +99,8 @@ class McapRecordingHook:
         self._flush_period_s = flush_period_s
         self._rec: McapRecorder | None = None
         self._tick: TickWriter | None = None
+        #: After the file could not be written on (a full disk): what became of it.
+        self.cut_outcome: str | None = None
 
     @property
     def recorder(self) -> McapRecorder | None:
@@ -152,11 +154,13 @@ class McapRecordingHook:
         rec.close()
         if rec.cut and was_open:  # a full disk: complete it if there is room for that
             try:
-                recover_in_place(self.path)
-            except UhrisimError as failed:
-                logger.error("the recording stays cut (uhrisim recover completes it once "
-                          "there is room): %s", failed)
-            return  # recover_in_place wrote metadata.yaml with the complete file
+                recover_in_place(self.path)  # (writes metadata.yaml too)
+                self.cut_outcome = ("the recording is complete up to there, the cut file "
+                                    f"kept as {self.path.name}.partial")
+            except UhrisimError:
+                self.cut_outcome = ("the recording ends at its last whole chunk; no room to "
+                                    "complete it: free some and run uhrisim recover")
+            return
         if self.rosbag2_metadata and was_open:
             write_metadata(self.path)
 
