@@ -11,6 +11,7 @@ import contextlib
 import functools
 import importlib
 import json
+import logging
 import math
 import signal
 import sys
@@ -25,7 +26,13 @@ from rich.markup import escape
 from rich.table import Table
 from rich.text import Text
 
-from uhrisim.core.errors import ConfigError, StopRequested, UhrisimError, UhrisimWarning
+from uhrisim.core.errors import (
+    ConfigError,
+    StopRequested,
+    UhrisimError,
+    UhrisimWarning,
+    shortened,
+)
 from uhrisim.core.memory import keep_freed_memory
 
 app = typer.Typer(
@@ -40,11 +47,73 @@ console = Console()
 err_console = Console(stderr=True)
 
 
+#: How many times one warning (one message template) is said before its repeats are only
+#: counted, and summarised in one line when the command ends.
+REPEATS_SAID = 3
+
+
+class _RepeatsSummarised(logging.Filter):
+    """Lets each message template of uhrisim's log through :data:`REPEATS_SAID` times;
+    counts the rest (20 000 objects over the recording's triangle budget are three lines
+    and a summary, not 20 000 lines)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.seen: dict[tuple[str, str], list[Any]] = {}  # template: [count, first message]
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        entry = self.seen.setdefault((record.name, str(record.msg)), [0, record.getMessage()])
+        entry[0] += 1
+        return entry[0] <= REPEATS_SAID
+
+    def summary(self) -> list[str]:
+        """One line per template said more often than shown; the counts start again."""
+        lines = [f"... and {count - REPEATS_SAID} more like: {shortened(first, 200)}"
+                 for count, first in self.seen.values() if count > REPEATS_SAID]
+        self.seen.clear()
+        return lines
+
+
+_REPEATS = _RepeatsSummarised()
+
+
+class _StderrHandler(logging.StreamHandler):
+    """Python's last-resort handler as a handler of its own: warnings and errors, plain,
+    on whatever ``sys.stderr`` is when one is written."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.setLevel(logging.WARNING)
+        self.addFilter(_REPEATS)
+
+    @property
+    def stream(self) -> Any:  # type: ignore[override]
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, _value: Any) -> None:
+        pass
+
+
+def _log_to_stderr() -> None:
+    """uhrisim's warnings on stderr, as plain lines, each repeated one summarised."""
+    logger = logging.getLogger("uhrisim")
+    if not any(isinstance(h, _StderrHandler) for h in logger.handlers):
+        logger.addHandler(_StderrHandler())
+    _REPEATS.seen.clear()
+
+
+def _say_repeats() -> None:
+    for line in _REPEATS.summary():
+        err_console.print(Text(line), highlight=False, soft_wrap=True)
+
+
 @app.callback()
 def _process_settings() -> None:
     """Process-wide settings of the command (side effects at the edge)."""
     keep_freed_memory()  # no page-fault churn on every sonar ping (see core/memory.py)
     _stop_on_signals()
+    _log_to_stderr()
     warnings.simplefilter("ignore", UhrisimWarning)  # each is logged, and shown once so
 
 # Figure name -> "module:function(out_dir) -> list[Path]".
@@ -81,21 +150,30 @@ def _resolve(target: str) -> Callable[..., Any]:
 
 def report_error(message: object) -> None:
     """``error: <message>`` on stderr, the message as plain text (never Rich markup)."""
-    err_console.print(Text.assemble(("error: ", "bold red"), str(message)), highlight=False,
-                      soft_wrap=True)
+    err_console.print(Text.assemble(("error: ", "bold red"), shortened(str(message), 2000)),
+                      highlight=False, soft_wrap=True)
 
 
 def friendly_errors(command: Callable[..., Any]) -> Callable[..., Any]:
-    """Turn uhrisim's own errors into a one-line message and exit status 2, and a stop
+    """Turn uhrisim's own errors and the file system's refusals (a path too long, a
+    read-only folder) into a one-line message and exit status 2, and a stop
     (Ctrl-C, SIGTERM, SIGHUP: the work has cleaned up by then) into one line and exit
     status 128 + the signal's number."""
 
     @functools.wraps(command)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         try:
-            return command(*args, **kwargs)
+            try:
+                return command(*args, **kwargs)
+            finally:
+                _say_repeats()  # before the error line, which stays the last
         except UhrisimError as error:
             report_error(error)
+            raise typer.Exit(code=2) from None
+        except OSError as error:  # the file system said no: a name too long, a read-only
+            if error.filename is None:  # folder, no permission; a path, so the user's to fix
+                raise
+            report_error(f"{shortened(str(error.filename), 200)}: {error.strerror or error}")
             raise typer.Exit(code=2) from None
         except KeyboardInterrupt:
             report_error("interrupted")
@@ -159,6 +237,9 @@ def figure(
         raise ConfigError(f"unknown figure {name!r}; choose from {', '.join(FIGURES)}")
     if preset is not None and name not in PRESET_FIGURES:
         raise ConfigError(f"--preset applies to {', '.join(PRESET_FIGURES)}, not {name!r}")
+    from uhrisim.app.runner import prepare_out_dir
+
+    prepare_out_dir(out)  # a file, a device or a folder that cannot be written: one line
     if (seeds is not None or duration is not None) and name not in MISSION_FIGURES:
         raise ConfigError(f"--seeds and --duration apply to {', '.join(MISSION_FIGURES)}, "
                           f"not {name!r}")
@@ -239,13 +320,14 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
                        raycast_sensors: bool, quiet: bool = False, ros2: bool = False,
                        moos: bool = False, rtf: float | None = None,
                        view_port: int | None = None, lockstep: bool = False,
-                       ros_args: tuple[str, ...] = (), require_helm: bool = False) -> Any:
+                       ros_args: tuple[str, ...] = (), require_helm: bool = False,
+                       used: str = "keep") -> Any:
     from uhrisim.app.runner import prepare_out_dir, run_scenario
     from uhrisim.bridges.live import live_hooks
     from uhrisim.scenario.load import load_scenario
 
     source = load_scenario(scenario)
-    prepare_out_dir(out)  # before the progress bar: a refusal is one line
+    prepare_out_dir(out, used)  # before the progress bar: a refusal is one line
     hooks = live_hooks(source.scenario, ros2=ros2, moos=moos, real_time_factor=rtf,
                        paced_elsewhere=view_port is not None, lockstep=lockstep,
                        ros_args=ros_args, require_helm=require_helm)
@@ -386,17 +468,24 @@ def run(
                                "outside helm (MOOS or ROS 2) does not drive it: MALCONFIG, "
                                "parked, an all-stop or no commands (bridges.helm_watch)")
     ] = False,
+    overwrite: Annotated[bool, typer.Option(
+        "--overwrite", help="replace the outputs of an earlier run in OUT (its files are "
+                            "deleted first); without it a non-empty OUT is refused")] = False,
 ) -> None:
     """Run a scenario: the recording (a rosbag2 folder), metrics.json and figures go to OUT."""
     import shlex
 
     check_run_options(duration, seed, rtf, port)
     out = out or Path("out") / scenario.stem
-    extra_ros_args = tuple(shlex.split(ros_args))
+    try:
+        extra_ros_args = tuple(shlex.split(ros_args))
+    except ValueError as error:  # "No closing quotation", "No escaped character"
+        raise ConfigError(f"--ros-args: {error} in {shortened(ros_args, 200)!r}") from None
     result = _run_with_progress(scenario, out, duration, seed, not no_raycast_sensors, quiet,
                                 ros2=ros2 or bool(extra_ros_args), moos=moos, rtf=rtf,
                                 view_port=port if view else None, lockstep=lockstep,
-                                ros_args=extra_ros_args, require_helm=require_helm)
+                                ros_args=extra_ros_args, require_helm=require_helm,
+                                used="clear" if overwrite else "refuse")
     _print_metrics(result)
 
 
@@ -404,11 +493,11 @@ def run(
 @friendly_errors
 def validate(scenario: Annotated[Path, typer.Argument(help="scenario YAML file")]) -> None:
     """Check a scenario file (and the behavior files it names) without running it."""
+    from uhrisim.app.runner import build_run
     from uhrisim.scenario.load import load_scenario
-    from uhrisim.sim.simulation import Simulation
 
     source = load_scenario(scenario)
-    Simulation(source)  # builds helms, sonars, cameras, scene: every check
+    build_run(source)  # what run builds (helms, sensors, scene, metrics): every check
     s = source.scenario
     console.print(Text(f"{scenario}: OK — {len(s.agents)} agents "
                        f"({', '.join(a.name for a in s.agents)}), {s.duration:g} s at "

@@ -7,10 +7,13 @@ from __future__ import annotations
 
 import json
 import os
+import resource
+import shlex
 import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -104,3 +107,153 @@ def test_a_stop_signal_ends_the_run_cleanly(tmp_path, stop, line, reason):
     with AnyReader([out]) as bag:  # a complete rosbag2 folder: metadata.yaml and all
         assert "/videoray/odom" in {c.topic for c in bag.connections}
         assert bag.message_count > 0
+
+
+def test_a_second_run_into_a_used_folder_is_refused_unless_overwrite(tmp_path):
+    out = tmp_path / "run"
+    first = uhrisim("run", str(SCENARIO), "-o", str(out), "-q", "--duration", "1",
+                    "--no-raycast-sensors")
+    assert first.returncode == 0, first.stderr
+    (out / "recording.mcap.partial").write_bytes(b"left by an earlier killed run")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    line = one_error_line(uhrisim("run", str(SCENARIO), "-o", str(out), "-q", "--duration",
+                                  "1", "--no-raycast-sensors"))
+    assert "not empty" in line and "--overwrite" in line, line
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # nothing touched
+    again = uhrisim("run", str(SCENARIO), "-o", str(out), "-q", "--duration", "2",
+                    "--no-raycast-sensors", "--overwrite")
+    assert again.returncode == 0, again.stderr
+    assert not (out / "recording.mcap.partial").exists()  # the earlier run's files went
+    assert json.loads((out / "metrics.json").read_text())["simulated_s"] == pytest.approx(2.0)
+    (out / "notes").mkdir()  # a folder of the user's, not a run's output folder
+    line = one_error_line(uhrisim("run", str(SCENARIO), "-o", str(out), "-q", "--duration",
+                                  "1", "--no-raycast-sensors", "--overwrite"))
+    assert "holds folders (notes)" in line and (out / "metrics.json").exists(), line
+
+
+def test_command_lines_the_file_system_refuses_are_one_line(tmp_path):
+    long_path = tmp_path / ("a" * 5000)  # a name longer than any file system allows
+    cases = [
+        (("run", str(SCENARIO), "-o", str(tmp_path / "o"), "--ros-args=\"x"),
+         "error: --ros-args: No closing quotation in '\"x'"),
+        (("figure", "openloop", "--out", "/dev/null"),
+         "error: /dev/null: the output folder is a file"),
+        (("run", str(SCENARIO), "-o", str(long_path)), "(File name too long)"),
+        (("recover", str(long_path)), "File name too long"),
+    ]
+    for args, says in cases:
+        line = one_error_line(uhrisim(*args))
+        assert says in line and len(line) < 600, line
+
+
+def _with_mount(mount: list[str], command: list[str], then: str = "") -> list[str]:
+    """``command`` run in a mount namespace of its own where ``mount`` (the arguments of
+    ``mount``) was mounted first, and the shell line ``then`` after it (the mount goes
+    with the namespace); the test is skipped where that is not allowed."""
+    probe = subprocess.run(["unshare", "-m", "mount", *mount], capture_output=True)
+    if probe.returncode != 0:
+        pytest.skip(f"no mount namespace here: {probe.stderr.decode().strip()}")
+    line = " ".join(shlex.quote(part) for part in ["mount", *mount]) + " && " + " ".join(
+        shlex.quote(part) for part in command)
+    return ["unshare", "-m", "sh", "-c", f"{line}; status=$?; {then or 'true'}; exit $status"]
+
+
+def _read_only(folder: Path, command: list[str]) -> list[str]:
+    """``command`` run where ``folder`` cannot be written: its mode for a user; for root
+    (who writes anyway) a read-only bind mount of it."""
+    if os.geteuid() != 0:
+        folder.chmod(0o555)
+        return command
+    return _with_mount(["--bind", "-o", "ro", str(folder), str(folder)], command)
+
+
+def test_recover_in_a_read_only_folder_is_one_line_and_leaves_the_file(tmp_path):
+    """A cut recording in a folder that cannot be written: refused, the file untouched."""
+    out = tmp_path / "run"
+    done = uhrisim("run", str(SCENARIO), "-o", str(out), "-q", "--duration", "2",
+                   "--no-raycast-sensors")
+    assert done.returncode == 0, done.stderr
+    cut = (out / "recording.mcap").read_bytes()[:-2000]  # no footer: a killed run's file
+    folder = tmp_path / "read-only"
+    folder.mkdir()
+    (folder / "recording.mcap").write_bytes(cut)
+    try:
+        command = _read_only(folder, [sys.executable, "-m", "uhrisim", "recover", str(folder)])
+        line = one_error_line(subprocess.run(command, capture_output=True, text=True,
+                                             timeout=300, cwd=ROOT))
+        assert "cannot recover it here" in line, line
+        assert "Permission denied" in line or "Read-only file system" in line, line
+        assert (folder / "recording.mcap").read_bytes() == cut
+        assert sorted(p.name for p in folder.iterdir()) == ["recording.mcap"]
+    finally:
+        folder.chmod(0o755)
+
+
+def _file_size_limit(limit: int) -> Callable[[], None]:
+    """``ulimit -f``: a write past ``limit`` bytes fails with EFBIG (SIGXFSZ, which would
+    kill the process instead, is ignored, as shells running under a limit often do)."""
+
+    def apply() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    return apply
+
+
+def test_a_file_size_limit_ends_the_run_with_one_line_and_a_readable_recording(tmp_path):
+    out = tmp_path / "run"
+    done = subprocess.run(
+        [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "-o", str(out), "-q",
+         "--duration", "120"], capture_output=True, text=True, timeout=600, cwd=ROOT,
+        preexec_fn=_file_size_limit(3 * 1024 * 1024))  # the static scene and ~10 s fit
+    line = one_error_line(done)
+    assert "recording.mcap: cannot write the recording on (File too large)" in line, line
+    assert "the recording is complete up to there" in line, line
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["completed"] is False and 0 < metrics["simulated_s"] < 120
+    assert "File too large" in metrics["stopped_by"]
+    with AnyReader([out]) as bag:  # complete up to the failure: metadata.yaml and all
+        odometry = [c for c in bag.connections if c.topic == "/videoray/odom"]
+        last = max(t for _, t, _ in bag.messages(connections=odometry))
+    assert 0 < last / 1e9 <= metrics["simulated_s"] + 1.0
+
+
+def test_a_repeated_warning_is_summarised(tmp_path):
+    """199 spheres of 1280 triangles overrun the recording's 200 000-triangle budget for
+    the scene: 43 objects left out, said three times and then counted in one line."""
+    spheres = "".join(f"    - {{type: sphere, label: s{i}, radius: 0.2, position: "
+                      f"{{north: {i % 20}, east: {i // 20 + 3}, depth: 6}}}}\n" for i in range(199))
+    scenario = tmp_path / "spheres.yaml"
+    scenario.write_text("name: spheres\nduration: 1\nworld:\n  seafloor: {type: flat, depth: 8}\n"
+                        f"  objects:\n{spheres}agents:\n  - name: rov\n    model: videoray\n"
+                        "    driver: none\n    start: {north: -5, east: 0, depth: 1}\n")
+    done = uhrisim("run", str(scenario), "-o", str(tmp_path / "run"), "-q", "--duration", "0.5",
+                   "--no-raycast-sensors")
+    assert done.returncode == 0, done.stderr
+    said = [line for line in done.stderr.splitlines() if "triangle budget" in line]
+    assert len(said) == 4, done.stderr
+    assert said[3].startswith("... and 40 more like: scene object 's156' (1280 triangles)")
+
+
+def test_a_full_disk_ends_the_run_with_one_line_and_a_recording_cut_at_a_chunk(tmp_path):
+    """A 24 MiB tmpfs fills mid-run: one line; metrics.json says why; the recording ends at
+    its last whole chunk (no room for a complete copy there), which uhrisim recover
+    completes once it has room."""
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    out = disk / "run"
+    done = subprocess.run(_with_mount(
+        ["-t", "tmpfs", "-o", "size=24m", "tmpfs", str(disk)],
+        [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "-o", str(out), "-q",
+         "--duration", "600"],
+        then=f"cp -r {shlex.quote(str(out))} {shlex.quote(str(tmp_path))}"),
+        capture_output=True, text=True, timeout=600, cwd=ROOT)
+    line = one_error_line(done)
+    assert "cannot write the recording on (No space left on device)" in line, line
+    assert "no room to complete it: free some and run uhrisim recover" in line, line
+    copy = tmp_path / "run"  # the folder copied off the full disk, as a user would
+    metrics = json.loads((copy / "metrics.json").read_text())
+    assert metrics["completed"] is False and "No space left" in metrics["stopped_by"]
+    assert uhrisim("recover", str(copy)).returncode == 0
+    with AnyReader([copy]) as bag:
+        assert bag.message_count > 0 and "/videoray/odom" in {c.topic for c in bag.connections}

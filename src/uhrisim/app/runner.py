@@ -14,19 +14,21 @@ from __future__ import annotations
 import json
 import logging
 import math
+import shutil
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 from uhrisim.app.metrics import TrailMetrics
 from uhrisim.app.perception_metrics import PerceptionMetrics
 from uhrisim.app.team_metrics import TeamMetrics
-from uhrisim.core.errors import AssetError
+from uhrisim.core.errors import AssetError, shortened
 from uhrisim.record.hook import McapRecordingHook
+from uhrisim.record.mcap_recorder import RecordingCutError
 from uhrisim.scenario.load import ScenarioFile, load_scenario
 from uhrisim.sim.hooks import TickFrame, sensor_key
 from uhrisim.sim.simulation import BaseHook, Hook, Simulation
@@ -87,30 +89,20 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
     prepare_out_dir(out_dir)
     hooks: list[Hook] = []
     files: list[Path] = []
+    recording: McapRecordingHook | None = None
     if scenario.recording.enabled:
         rec = scenario.recording
-        hooks.append(McapRecordingHook(
+        recording = McapRecordingHook(
             out_dir / "recording.mcap", record_images=rec.sonar, sonar_every=rec.sonar_every,
             record_camera=rec.camera, camera_every=rec.camera_every,
             chunk_size=rec.chunk_kib * 1024,
-            odom_every=max(1, round(scenario.physics_rate_hz / rec.odometry_rate_hz))))
+            odom_every=max(1, round(scenario.physics_rate_hz / rec.odometry_rate_hz)))
+        hooks.append(recording)
         files += [out_dir / "recording.mcap", out_dir / "metadata.yaml"]
-    metrics = TrailMetrics(scenario.metrics) if scenario.metrics else None
-    if metrics:
-        hooks.append(metrics)
-    observers = [a for a in scenario.agents
-                 if a.contacts.source == "sonar" and a.perception_sonar is not None]
-    if scenario.metrics and observers and raycast_sensors:  # its summary joins metrics.json
-        extra_hooks = [PerceptionMetrics(observers[0].name, scenario.metrics.target,
-                                         sonar=str(observers[0].perception_sonar)),
-                       *extra_hooks]
-    sonars = {sensor_key(a.name, str(s.name)): f"{a.name}/{s.name} ({s.preset})"
-              for a in scenario.agents for s in a.sensors if s.type == "sonar"}
-    strip = SonarStripHook(sonars, duration, target=scenario.metrics.target
-                           if scenario.metrics else None) if raycast_sensors and sonars else None
-    if strip:
-        hooks.append(strip)
-    hooks.extend(extra_hooks)
+    measuring = _Measuring(scenario, duration, raycast_sensors)
+    metrics, strip = measuring.metrics, measuring.strip
+    extra_hooks = [*measuring.reports, *extra_hooks]
+    hooks += [*measuring.hooks, *extra_hooks]
     sim = Simulation(source, seed=seed, raycast_sensors=raycast_sensors, hooks=hooks)
     if sim.team is not None:  # a team mission: its summary joins metrics.json
         team = TeamMetrics()
@@ -121,29 +113,90 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
     try:
         sim.run(duration, progress=progress, should_stop=should_stop)
     except BaseException as error:
+        disk_full = isinstance(error, RecordingCutError)
         try:  # what was measured until the failure, without masking it
             sim.close(error)
             _write_outputs(sim, out_dir, metrics, strip, files, False, extra_hooks, error)
-        except Exception as cleanup:
-            log.error("after the run failed, its outputs could not all be written: %s",
-                      cleanup)
+        except Exception as cleanup:  # on a full disk the figures cannot be: said below
+            (log.info if disk_full else log.error)(
+                "after the run failed, its outputs could not all be written: %s", cleanup)
+        if disk_full and recording is not None and recording.cut_outcome:
+            raise AssetError(f"{error}; {recording.cut_outcome}") from None
         raise
     sim.close(None)
     summary = _write_outputs(sim, out_dir, metrics, strip, files, True, extra_hooks)
     return RunResult(out_dir, summary, files)
 
 
-def prepare_out_dir(out_dir: Path) -> None:
-    """Create the output folder, or say in one line why a run could not write there."""
-    if out_dir.exists() and not out_dir.is_dir():
-        raise AssetError(f"{out_dir}: the output folder is a file")
+#: Free space an output folder must have before a run starts (a run records ~1 MB per
+#: simulated second with a sonar; this only catches a disk that is already full).
+MIN_FREE_BYTES = 16 * 1024 * 1024
+
+
+class _Measuring:
+    """What a run measures besides its recording: the trail metrics, the perception
+    metrics (their summaries join metrics.json) and the sonar strip."""
+
+    def __init__(self, scenario: Any, duration: float, raycast_sensors: bool) -> None:
+        self.metrics = TrailMetrics(scenario.metrics) if scenario.metrics else None
+        observers = [a for a in scenario.agents
+                     if a.contacts.source == "sonar" and a.perception_sonar is not None]
+        self.reports: list[Hook] = [
+            PerceptionMetrics(observers[0].name, scenario.metrics.target,
+                              sonar=str(observers[0].perception_sonar))
+        ] if scenario.metrics and observers and raycast_sensors else []
+        sonars = {sensor_key(a.name, str(s.name)): f"{a.name}/{s.name} ({s.preset})"
+                  for a in scenario.agents for s in a.sensors if s.type == "sonar"}
+        self.strip = SonarStripHook(sonars, duration, target=scenario.metrics.target
+                                    if scenario.metrics else None) \
+            if raycast_sensors and sonars else None
+        self.hooks: list[Hook] = [h for h in (self.metrics, self.strip) if h is not None]
+
+
+def build_run(source: ScenarioFile, raycast_sensors: bool = True) -> Simulation:
+    """Everything :func:`run_scenario` builds but its output files: the simulation (scene,
+    sensors, helms, drivers) with the metrics it measures (``uhrisim validate``: a scene
+    that validates, runs)."""
+    scenario = source.scenario
+    measuring = _Measuring(scenario, scenario.duration, raycast_sensors)
+    return Simulation(source, raycast_sensors=raycast_sensors,
+                      hooks=[*measuring.hooks, *measuring.reports])
+
+
+def prepare_out_dir(out_dir: Path, used: Literal["keep", "refuse", "clear"] = "keep") -> None:
+    """Create the output folder, or say in one line why a run could not write there.
+
+    ``used``: what to do with a folder that already holds files: ``keep`` them (the
+    library's runs, figures), ``refuse`` (``uhrisim run``: a second run must not silently
+    replace the first), ``clear`` them first (``uhrisim run --overwrite``; only a folder of
+    files, as a run leaves it: a folder holding folders is refused)."""
     try:
+        if out_dir.exists() and not out_dir.is_dir():
+            raise AssetError(f"{out_dir}: the output folder is a file")
+        held = sorted(out_dir.iterdir()) if out_dir.is_dir() else []
+        if held and used == "refuse":
+            raise AssetError(f"{out_dir}: the output folder is not empty ({len(held)} "
+                             "entries, a run's outputs?); give --overwrite to replace them, "
+                             "or another --out")
+        if held and used == "clear":
+            folders = [p.name for p in held if p.is_dir() and not p.is_symlink()]
+            if folders:
+                raise AssetError(f"{out_dir}: --overwrite clears only a run's output folder, "
+                                 f"and this one holds folders ({', '.join(folders[:3])}); "
+                                 "choose another --out")
+            for path in held:
+                path.unlink()
         out_dir.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryFile(dir=out_dir):
             pass
+        free = shutil.disk_usage(out_dir).free
+    except AssetError:
+        raise
     except OSError as error:
-        raise AssetError(f"{out_dir}: cannot write the run's outputs here "
-                         f"({error.strerror or error})") from None
+        raise AssetError(f"{shortened(str(out_dir), 200)}: cannot write the run's outputs "
+                         f"here ({error.strerror or error})") from None
+    if free < MIN_FREE_BYTES:
+        raise AssetError(f"{out_dir}: the disk is full ({free // 1024} KiB free)")
 
 
 def strict_json(value: Any) -> Any:
@@ -171,8 +224,20 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
                                "collisions": sim.collisions,
                                "real_time_factor": sim.t / sim.wall_time if sim.wall_time
                                else None}
-    if metrics is not None and sim.tick > 0:
+    measured = metrics is not None and sim.tick > 0
+    if measured:
         summary |= metrics.summary()
+    for hook in extra_hooks:  # perception; live bridges: messages, failures, rounds
+        report = getattr(hook, "summary", None)
+        if report is not None:
+            summary |= report()
+    if error is not None:  # why the run ended early
+        summary["stopped_by"] = ("interrupted (SIGINT)" if isinstance(error, KeyboardInterrupt)
+                                 else str(error) or type(error).__name__)
+    path = out_dir / "metrics.json"  # first: on a full disk the figures may not fit
+    path.write_text(json.dumps(strict_json(summary), indent=2, allow_nan=False) + "\n")
+    files.append(path)
+    if measured:
         series = metrics.series()
         acquired = summary["time_to_acquire_s"]
         acquired_at = None if acquired is None else float(series["t"][0] + acquired)
@@ -183,14 +248,4 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
     if strip is not None and any(strip.frames.values()):
         rows = {strip.titles[key]: frames for key, frames in strip.frames.items() if frames}
         files.append(figs.plot_sonar_strip(rows, out_dir / "sonar_strip.png"))
-    for hook in extra_hooks:  # perception; live bridges: messages, failures, rounds
-        report = getattr(hook, "summary", None)
-        if report is not None:
-            summary |= report()
-    if error is not None:  # why the run ended early
-        summary["stopped_by"] = ("interrupted (SIGINT)" if isinstance(error, KeyboardInterrupt)
-                                 else str(error) or type(error).__name__)
-    path = out_dir / "metrics.json"
-    path.write_text(json.dumps(strict_json(summary), indent=2, allow_nan=False) + "\n")
-    files.append(path)
     return summary

@@ -201,7 +201,7 @@ def axis_from(name: str, v: object, where: str) -> DomainAxis:
         if not 0.0 < delta <= high - low:
             raise ConfigError(f"domain axis {name!r}: delta must be in (0, {high - low:g}]",
                               where)
-        npts = int((high - low) / delta + 1)
+        npts = int(min((high - low) / delta + 1, 2.0**62))  # too many is refused below
     else:
         n = to_float(parts[2], name, where)
         if n != int(n) or n < 1:
@@ -210,7 +210,10 @@ def axis_from(name: str, v: object, where: str) -> DomainAxis:
         npts = int(n)
     if high == low and npts != 1:
         raise ConfigError(f"domain axis {name!r}: low == high needs npts 1", where)
-    return DomainAxis(name, low, high, npts, optional=optional, wrap=name == "course")
+    try:
+        return DomainAxis(name, low, high, npts, optional=optional, wrap=name == "course")
+    except ConfigError as error:
+        raise ConfigError(error.problem, where) from None
 
 
 def parse_domain(v: object, where: str = "domain") -> Domain:
@@ -224,7 +227,10 @@ def parse_domain(v: object, where: str = "domain") -> Domain:
             axes.append(axis_from(name.strip(), rest, where))
     else:
         raise ConfigError("domain must be a mapping or a list of 'name:low:high:npts'", where)
-    return Domain(tuple(axes))
+    try:
+        return Domain(tuple(axes))
+    except ConfigError as error:
+        raise ConfigError(error.problem, where) from None
 
 
 def _items_of(m: Mapping[str, Any], where: str) -> list[tuple[str, object, str]]:

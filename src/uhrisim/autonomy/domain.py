@@ -11,6 +11,7 @@ order); a function over fewer variables is constant along the others.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
@@ -23,6 +24,12 @@ from numpy.typing import NDArray
 from uhrisim.core.errors import ConfigError
 
 __all__ = ["Domain", "DomainAxis", "Objective"]
+
+
+#: The most points on one decision axis, and in the whole domain: the helm's cost (every
+#: behavior's objective function is an array over the domain, every helm iteration).
+MAX_AXIS_POINTS = 10_000
+MAX_DOMAIN_POINTS = 50_000_000
 
 
 @dataclass(frozen=True)
@@ -43,6 +50,10 @@ class DomainAxis:
     def __post_init__(self) -> None:
         if self.npts < 1:
             raise ConfigError(f"axis {self.name!r} needs npts >= 1, got {self.npts}", "domain")
+        if self.npts > MAX_AXIS_POINTS:
+            raise ConfigError(f"axis {self.name!r} has {self.npts:g} points, more than "
+                              f"{MAX_AXIS_POINTS} (pHelmIvP's usual course axis has 360)",
+                              "domain")
         if self.npts > 1 and not self.high > self.low:
             raise ConfigError(f"axis {self.name!r} needs high > low", "domain")
 
@@ -84,6 +95,11 @@ class Domain:
         names = [a.name for a in self.axes]
         if len(set(names)) != len(names):
             raise ConfigError(f"duplicate domain axis in {names}", "domain")
+        points = math.prod(axis.npts for axis in self.axes)
+        if points > MAX_DOMAIN_POINTS:
+            raise ConfigError(f"the decision domain has {points:g} points, more than "
+                              f"{MAX_DOMAIN_POINTS} (course 360 x speed 21 x depth 101 has "
+                              "763560)", "domain")
 
     @classmethod
     def paper(cls, with_depth: bool = True) -> Domain:

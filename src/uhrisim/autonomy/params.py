@@ -35,6 +35,7 @@ __all__ = [
     "to_point_or_present",
     "to_points",
     "to_positive",
+    "to_priority",
     "to_str",
 ]
 
@@ -98,6 +99,19 @@ def to_non_negative(v: object, key: str, where: str) -> float:
     x = to_float(v, key, where)
     if x < 0.0:
         raise ConfigError(f"{key} must be >= 0, got {v!r}", where)
+    return x
+
+
+#: The largest priority weight a behavior may have: pHelmIvP missions use 0 to a few
+#: thousand, and the solver sums priority x objective (0-100) over the behaviors.
+MAX_PRIORITY = 1.0e6
+
+
+def to_priority(v: object, key: str, where: str) -> float:
+    """A behavior's priority weight, in [0, :data:`MAX_PRIORITY`]."""
+    x = to_non_negative(v, key, where)
+    if x > MAX_PRIORITY:
+        raise ConfigError(f"{key} must be <= {MAX_PRIORITY:g}, got {v!r}", where)
     return x
 
 

@@ -6,6 +6,17 @@ import logging
 import signal
 import warnings
 
+#: The most characters of a message that quotes a value: a bad value of 1.5 million
+#: characters is quoted by its start and its length, not repeated whole.
+MESSAGE_LIMIT = 400
+
+
+def shortened(text: str, limit: int = MESSAGE_LIMIT) -> str:
+    """``text``, or its first ``limit`` characters and how many there were."""
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}... ({len(text)} characters in all)"
+
 
 class UhrisimError(Exception):
     """Base class of every error uhrisim raises on purpose."""
@@ -14,12 +25,14 @@ class UhrisimError(Exception):
 class ConfigError(UhrisimError, ValueError):
     """A scenario, parameter or command-line value is invalid.
 
-    ``where`` names the file/field/line so the message points at the problem.
+    ``where`` names the file/field/line so the message points at the problem;
+    ``problem`` is the message without it.
     """
 
     def __init__(self, message: str, where: str | None = None) -> None:
         self.where = where
-        super().__init__(f"{where}: {message}" if where else message)
+        self.problem = message = shortened(message)
+        super().__init__(f"{shortened(where)}: {message}" if where else message)
 
 
 class NumericalError(UhrisimError, ArithmeticError):

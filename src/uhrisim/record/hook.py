@@ -23,8 +23,9 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from uhrisim.core.errors import ConfigError
+from uhrisim.core.errors import ConfigError, UhrisimError
 from uhrisim.record.mcap_recorder import McapRecorder
+from uhrisim.record.recover import recover_in_place
 from uhrisim.record.rosbag2 import write_metadata
 from uhrisim.ros.tick import TickWriter
 
@@ -98,6 +99,8 @@ class McapRecordingHook:
         self._flush_period_s = flush_period_s
         self._rec: McapRecorder | None = None
         self._tick: TickWriter | None = None
+        #: After the file could not be written on (a full disk): what became of it.
+        self.cut_outcome: str | None = None
 
     @property
     def recorder(self) -> McapRecorder | None:
@@ -145,11 +148,20 @@ class McapRecordingHook:
         rec = self._rec
         if rec is None:
             return
-        if error is not None and not rec.closed:
+        if error is not None and not rec.closed and not rec.cut:
             rec.write_event(float(getattr(sim, "t", 0.0)), "error",
                             f"{type(error).__name__}: {error}")
         was_open = not rec.closed
         rec.close()
+        if rec.cut and was_open:  # a full disk: complete it if there is room for that
+            try:
+                recover_in_place(self.path)  # (writes metadata.yaml too)
+                self.cut_outcome = ("the recording is complete up to there, the cut file "
+                                    f"kept as {self.path.name}.partial")
+            except UhrisimError:
+                self.cut_outcome = ("the recording ends at its last whole chunk; no room to "
+                                    "complete it: free some and run uhrisim recover")
+            return
         if self.rosbag2_metadata and was_open:
             write_metadata(self.path)
 

@@ -37,7 +37,7 @@ from mcap.writer import LIBRARY_IDENTIFIER, CompressionType
 from mcap.writer import Writer as McapWriter
 
 from uhrisim import __version__ as uhrisim_version
-from uhrisim.core.errors import ConfigError, UhrisimError
+from uhrisim.core.errors import AssetError, ConfigError, UhrisimError
 from uhrisim.record.rosbag2 import channel_metadata
 from uhrisim.ros.messages import stamp_ns
 from uhrisim.ros.msgdefs import schema_text
@@ -56,6 +56,15 @@ def _library_identifier() -> str:
     return f"uhrisim/{uhrisim_version}; {LIBRARY_IDENTIFIER}"
 
 
+class RecordingCutError(AssetError):
+    """The recording could not be written on (a full disk, a file-size limit): the run
+    stops; the file ends at the last whole record, as a killed run's does."""
+
+    def __init__(self, path: Path, why: str, size: int) -> None:
+        super().__init__(f"{path}: cannot write the recording on ({why}) after "
+                         f"{size / 1e6:.1f} MB: the run stopped there")
+
+
 class _UnbufferedSink:
     """Append-only file that hands every write straight to the OS (no user-space buffer).
 
@@ -64,15 +73,26 @@ class _UnbufferedSink:
     """
 
     def __init__(self, path: Path) -> None:
+        self.path = path
         self._fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
         self._pos = 0
+        #: Why the file could not be written (a full disk, a file-size limit): None if it
+        #: could. After a failure the file ends where the last whole write ended.
+        self.failure: str | None = None
 
     def write(self, data: bytes | bytearray | memoryview) -> int:
+        if self.failure is not None:
+            raise RecordingCutError(self.path, self.failure, self._pos)
         view = memoryview(data).cast("B")
         total = len(view)
-        while view:
-            written = os.write(self._fd, view)
-            view = view[written:]
+        try:
+            while view:
+                written = os.write(self._fd, view)
+                view = view[written:]
+        except OSError as error:  # ENOSPC, EFBIG (ulimit -f, with SIGXFSZ ignored), EDQUOT
+            self.failure = error.strerror or str(error)
+            os.ftruncate(self._fd, self._pos)  # a cut at a record boundary, as a SIGKILL's
+            raise RecordingCutError(self.path, self.failure, self._pos) from None
         self._pos += total
         return total
 
@@ -219,13 +239,21 @@ class McapRecorder(RosWriter):
             return
         self._writer.flush()
 
+    @property
+    def cut(self) -> str | None:
+        """Why the file could not be written to its end (None: it could): it then ends
+        at its last whole record, and :func:`uhrisim.record.recover.recover_in_place`
+        completes it."""
+        return self._sink.failure
+
     def close(self) -> None:
         """Write the summary and footer and close the file. Idempotent."""
         if self._closed:
             return
         self._closed = True
         try:
-            self._writer.finish()
+            if self._sink.failure is None:  # else the file stays cut (see ``cut``)
+                self._writer.finish()
         finally:
             self._sink.close()
         logger.info(

@@ -76,6 +76,8 @@ def validate_data(data: Any, source: str, lines: LineMap | None = None,
         message = first["msg"]
         if first["type"] in ("unknown_key", "bool_for_number"):  # raised for the mapping
             loc = (*loc, first["ctx"]["key"])
+        elif first["type"] == "at_path":  # a check of the whole that names one field
+            loc = _data_path(tuple(first["ctx"]["path"]), data)
         elif first["type"] == "missing":
             message = f"missing required key {first['loc'][-1]!r}"
         message = message.removeprefix("Value error, ")

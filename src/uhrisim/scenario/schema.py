@@ -16,16 +16,17 @@ from pydantic import (
     AfterValidator,
     Discriminator,
     Field,
-    PositiveFloat,
     Tag,
     field_validator,
     model_validator,
 )
+from pydantic_core import PydanticCustomError
 
 from uhrisim.autonomy.params import checked_value
 from uhrisim.control.videoray_p import GAIN_PRESETS, PGains
+from uhrisim.core.errors import ConfigError
 from uhrisim.dynamics.videoray import VideoRayParams
-from uhrisim.scenario.sections import scenario_section
+from uhrisim.scenario.sections import declared_as, scenario_section
 from uhrisim.scenario.strict import Strict
 from uhrisim.scenario.teamwork import (
     GripperSection,
@@ -38,9 +39,50 @@ from uhrisim.scenario.teamwork import (
 from uhrisim.sensors.camera.config import CameraConfig
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.vehicles import MODELS
+from uhrisim.world.bubbles import BubbleParams
 
 # -0.0 passes ge=0 but numpy refuses it as a scale ("scale < 0"): made +0.0
 NonNegativeFloat = Annotated[float, Field(ge=0.0), AfterValidator(lambda x: x + 0.0)]
+
+# The physical ranges of the scenario's own numbers (the parts' settings declare theirs in
+# their dataclasses, docs/settings.md). A value beyond them is a typo or a unit slip, and
+# would overflow the models or their cost: refused at load with the field's line.
+#: Sizes, extents, ranges and distances, m: up to 10 km.
+Length = Annotated[float, Field(gt=0.0, le=1.0e4)]
+NonNegativeLength = Annotated[NonNegativeFloat, Field(le=1.0e4)]
+#: Depths of water, m: down to the deepest ocean.
+WaterDepth = Annotated[float, Field(gt=0.0, le=11_000.0)]
+#: Durations and times, s: up to 10^7 s (116 days).
+Seconds = Annotated[float, Field(gt=0.0, le=1.0e7)]
+NonNegativeSeconds = Annotated[NonNegativeFloat, Field(le=1.0e7)]
+#: Rates, Hz.
+RateHz = Annotated[float, Field(gt=0.0, le=1000.0)]
+#: Speeds through the water, m/s (the VideoRay's top speed is ~1.6 m/s, a diver's ~1).
+Speed = Annotated[float, Field(gt=0.0, le=10.0)]
+NonNegativeSpeed = Annotated[NonNegativeFloat, Field(le=10.0)]
+#: A time-scaling factor (MOOS time warp, real-time factor).
+Factor = Annotated[float, Field(gt=0.0, le=1000.0)]
+#: A count of steps or cells.
+Count = Annotated[int, Field(ge=1, le=1_000_000)]
+#: How far from the origin a scene reaches horizontally, m: the local NED frame is a flat
+#: tangent plane, good to ~100 km (and a sonar at 10^7 m loses its metres to rounding).
+HORIZON_M = 1.0e5
+Horizontal = Annotated[float, Field(ge=-HORIZON_M, le=HORIZON_M)]
+#: Depth of a point, m: from 100 m above the surface (a pier's top) to the deepest ocean.
+PointDepth = Annotated[float, Field(ge=-100.0, le=11_000.0)]
+#: Most objects in one scene: each is geometry every ray may hit (200 spheres of 1280
+#: triangles take ~170 MB more to validate than none).
+MAX_OBJECTS = 200
+
+
+def _variable_name(name: str) -> str:
+    if not name or any(c.isspace() for c in name):
+        raise ValueError(f"a MOOS variable name must be one word, got {name!r}")
+    return name
+
+
+#: A MOOS variable name: not empty, no white space.
+VarName = Annotated[str, AfterValidator(_variable_name)]
 HeadingDeg = Annotated[float, Field(ge=-360.0, le=360.0)]
 #: A name that is also one ROS name token: agents, sensors, labels.
 Name = Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")]
@@ -49,9 +91,9 @@ Name = Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")]
 class Vec3(Strict):
     """A point in world NED (m)."""
 
-    north: float = 0.0
-    east: float = 0.0
-    depth: float = 0.0
+    north: Horizontal = 0.0
+    east: Horizontal = 0.0
+    depth: PointDepth = 0.0
 
     def as_list(self) -> list[float]:
         return [self.north, self.east, self.depth]
@@ -74,29 +116,29 @@ class Water(Strict):
 
 class FlatFloor(Strict):
     type: Literal["flat"]
-    depth: PositiveFloat = 10.0
-    extent: PositiveFloat = 200.0
+    depth: WaterDepth = 10.0
+    extent: Length = 200.0
 
 
 class SlopedFloor(Strict):
     type: Literal["sloped"]
-    depth: PositiveFloat = 10.0
+    depth: WaterDepth = 10.0
     slope: Annotated[float, Field(ge=-1.0, le=1.0)] = 0.05
     direction_deg: HeadingDeg = 0.0
-    extent: PositiveFloat = 200.0
+    extent: Length = 200.0
 
 
 class GridFloor(Strict):
     type: Literal["grid"]
     file: str
-    spacing: PositiveFloat = 1.0
+    spacing: Length = 1.0
 
 
 class ProceduralFloor(Strict):
     type: Literal["procedural"]
-    depth: PositiveFloat = 10.0
-    roughness: NonNegativeFloat = 1.0
-    extent: PositiveFloat = 200.0
+    depth: WaterDepth = 10.0
+    roughness: Annotated[NonNegativeFloat, Field(le=100.0)] = 1.0
+    extent: Length = 200.0
     seed: Annotated[int, Field(ge=0)] = 0
 
 
@@ -117,36 +159,36 @@ class ObjectBase(Strict):
 
 class BoxObject(ObjectBase):
     type: Literal["box"]
-    size: tuple[PositiveFloat, PositiveFloat, PositiveFloat]
+    size: tuple[Length, Length, Length]
 
 
 class CylinderObject(ObjectBase):
     type: Literal["cylinder"]
-    radius: PositiveFloat
-    height: PositiveFloat
+    radius: Length
+    height: Length
 
 
 class SphereObject(ObjectBase):
     type: Literal["sphere"]
-    radius: PositiveFloat
+    radius: Length
 
 
 class TorusObject(ObjectBase):
     type: Literal["torus"]
-    major_radius: PositiveFloat
-    minor_radius: PositiveFloat
+    major_radius: Length
+    minor_radius: Length
 
 
 class CapsuleObject(ObjectBase):
     type: Literal["capsule"]
-    radius: PositiveFloat
-    height: PositiveFloat
+    radius: Length
+    height: Length
 
 
 class MeshObject(ObjectBase):
     type: Literal["mesh"]
     file: str
-    scale: PositiveFloat = 1.0
+    scale: Annotated[float, Field(gt=0.0, le=1.0e4)] = 1.0
 
 
 SceneObject = Annotated[
@@ -161,7 +203,7 @@ class World(Strict):
 
     water: Water = Water()
     seafloor: SeaFloor | None = None
-    objects: tuple[SceneObject, ...] = ()
+    objects: Annotated[tuple[SceneObject, ...], Field(max_length=MAX_OBJECTS)] = ()
     tools: tuple[ToolConfig, ...] = ()
     sites: tuple[Site, ...] = ()
     silt: Silt | None = None
@@ -196,12 +238,16 @@ class SonarSensor(scenario_section(
         **_MOUNT_KEYS, "image.*": "*"}
 
 
+#: A beam attenuation coefficient, 1/m (clearest ocean ~0.05, a turbid harbour ~10).
+Attenuation = Annotated[float, Field(gt=0.0, le=100.0)]
+
+
 class CameraWater(Strict):
     """The water the camera looks through: a Jerlov type (docs/camera.md), or a measured
     beam attenuation c per channel (1/m, R G B) split by the single-scattering albedo."""
 
     jerlov: Literal["I", "IA", "IB", "II", "III", "1C", "3C", "7C", "9C"] | None = None
-    attenuation: tuple[PositiveFloat, PositiveFloat, PositiveFloat] | None = None
+    attenuation: tuple[Attenuation, Attenuation, Attenuation] | None = None
     single_scattering_albedo: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.8
 
     @model_validator(mode="after")
@@ -261,9 +307,9 @@ ControllerConfig = scenario_section(
 
 
 class DiverLimits(Strict):
-    max_speed: PositiveFloat = 1.0
-    max_turn_rate_deg: PositiveFloat = 30.0
-    max_vertical_rate: PositiveFloat = 0.3
+    max_speed: Speed = 1.0
+    max_turn_rate_deg: Annotated[float, Field(gt=0.0, le=360.0)] = 30.0
+    max_vertical_rate: Speed = 0.3
 
 
 class HelmSection(Strict):
@@ -273,12 +319,12 @@ class HelmSection(Strict):
     (uhrisim's helm expands it); a ``moos_file`` is read as MOOS and pHelmIvP read it,
     without nsplug."""
 
-    rate_hz: PositiveFloat = 4.0
+    rate_hz: RateHz = 4.0
     bhv_file: str | None = None
     moos_file: str | None = None
     moos_process: str = "pHelmIvP"
     macros: dict[str, str | float] = Field(default_factory=dict)
-    initialize: dict[str, str | float | bool] = Field(default_factory=dict)
+    initialize: dict[VarName, str | float | bool] = Field(default_factory=dict)
     modes: tuple[str, ...] = ()
     behaviors: tuple[dict[str, Any], ...] = ()
     domain: dict[str, Any] = Field(default_factory=dict)
@@ -302,10 +348,10 @@ class HelmSection(Strict):
 class ScriptLeg(Strict):
     """One leg of a scripted diver: from time ``t`` hold heading/speed/depth, or go to a point."""
 
-    t: NonNegativeFloat
+    t: NonNegativeSeconds
     heading_deg: HeadingDeg | None = None
-    speed: NonNegativeFloat = 0.5
-    depth: NonNegativeFloat | None = None
+    speed: NonNegativeSpeed = 0.5
+    depth: Annotated[NonNegativeFloat, Field(le=11_000.0)] | None = None
     goto: Vec3 | None = None
 
     @model_validator(mode="after")
@@ -326,10 +372,10 @@ def _legs_in_time_order(legs: tuple[ScriptLeg, ...]) -> tuple[ScriptLeg, ...]:
 class AlertConfig(Strict):
     """A contact-manager alert (MOOS pContactMgrV20 style)."""
 
-    var: str = "TRAIL_INFO"
+    var: VarName = "TRAIL_INFO"
     pattern: str = "name=$[VNAME] # contact=$[VNAME]"
-    alert_range: PositiveFloat = 40.0
-    cpa_range: PositiveFloat = 50.0
+    alert_range: Length = 40.0
+    cpa_range: Length = 50.0
 
 
 class SonarContactsConfig(Strict):
@@ -342,20 +388,20 @@ class SonarContactsConfig(Strict):
     name: Name = "diver"
     vehicle_type: str = "DIVER"
     sensor: Name | None = None  # the sonar perception reads; None: the agent's first sonar
-    k_sigma: PositiveFloat | None = None
+    k_sigma: Annotated[float, Field(gt=0.0, le=1000.0)] | None = None
     min_contrast: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
     min_level: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
-    min_range: NonNegativeFloat | None = None
-    min_cells: Annotated[int, Field(ge=1)] | None = None
-    merge_radius: NonNegativeFloat | None = None
-    confirm: tuple[Annotated[int, Field(ge=1)], Annotated[int, Field(ge=1)]] | None = None
-    max_coast: PositiveFloat | None = None
-    accel_std: PositiveFloat | None = None
+    min_range: NonNegativeLength | None = None
+    min_cells: Count | None = None
+    merge_radius: NonNegativeLength | None = None
+    confirm: tuple[Count, Count] | None = None
+    max_coast: Seconds | None = None
+    accel_std: Annotated[float, Field(gt=0.0, le=1000.0)] | None = None
     diver_probability: Annotated[float, Field(gt=0.0, lt=1.0)] | None = None
     classifier: str | None = None  # JSON file beside the scenario; None: the shipped one
-    lost_var: str = "DIVER_LOST"
-    search_var: str = "DIVER_SEARCH_UPDATES"
-    silence_warn: PositiveFloat = 30.0  # s without a detection before an event says so
+    lost_var: VarName = "DIVER_LOST"
+    search_var: VarName = "DIVER_SEARCH_UPDATES"
+    silence_warn: Seconds = 30.0  # s without a detection before an event says so
 
     @model_validator(mode="after")
     def _m_of_n(self) -> SonarContactsConfig:
@@ -371,9 +417,9 @@ class ContactsConfig(Strict):
 
     source: Literal["truth", "sonar"] = "truth"
     sonar: SonarContactsConfig = SonarContactsConfig()
-    rate_hz: PositiveFloat = 4.0
-    position_noise_std: NonNegativeFloat = 0.0
-    latency: NonNegativeFloat = 0.0
+    rate_hz: RateHz = 4.0
+    position_noise_std: NonNegativeLength = 0.0
+    latency: NonNegativeSeconds = 0.0
     dropout: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.0
     alerts: tuple[AlertConfig, ...] = ()
 
@@ -382,16 +428,32 @@ class BubblesConfig(Strict):
     """A diver's exhaled bubble plume (uhrisim.world.bubbles): a burst every ``period`` s
     of ``clusters`` clouds of ``bubbles_per_cluster`` air spheres (``radius`` m) rising at
     ``rise_speed`` m/s, spreading at ``spread_speed`` m/s (σ per axis) and drifting with
-    ``current`` (north, east, m/s) until the surface or ``max_age`` s."""
+    ``current`` (north, east, m/s) until the surface or ``max_age`` s. Ranges and the
+    plume's cost bound: :class:`~uhrisim.world.bubbles.BubbleParams`."""
 
-    period: PositiveFloat = 4.0
-    clusters: Annotated[int, Field(ge=1, le=10)] = 3
-    bubbles_per_cluster: Annotated[int, Field(ge=1, le=50)] = 6
-    radius: Annotated[float, Field(gt=0.0, le=0.5)] = 0.03
-    rise_speed: PositiveFloat = 0.3
-    spread_speed: NonNegativeFloat = 0.12
-    current: tuple[float, float] = (0.0, 0.0)
-    max_age: PositiveFloat = 12.0
+    period: declared_as(BubbleParams, "period_s") = 4.0
+    clusters: declared_as(BubbleParams, "clusters") = 3
+    bubbles_per_cluster: declared_as(BubbleParams, "bubbles_per_cluster") = 6
+    radius: declared_as(BubbleParams, "radius_m") = 0.03
+    rise_speed: declared_as(BubbleParams, "rise_speed") = 0.3
+    spread_speed: declared_as(BubbleParams, "spread_speed") = 0.12
+    current: declared_as(BubbleParams, "current_ned") = (0.0, 0.0)
+    max_age: declared_as(BubbleParams, "max_age_s") = 12.0
+
+    @model_validator(mode="after")
+    def _affordable(self) -> BubblesConfig:
+        try:
+            self.params()  # the plume's cost bound
+        except ConfigError as error:
+            raise ValueError(error.problem) from None
+        return self
+
+    def params(self) -> BubbleParams:
+        """The plume's parameters."""
+        return BubbleParams(period_s=self.period, clusters=self.clusters,
+                            bubbles_per_cluster=self.bubbles_per_cluster, radius_m=self.radius,
+                            rise_speed=self.rise_speed, spread_speed=self.spread_speed,
+                            current_ned=tuple(self.current), max_age_s=self.max_age)
 
 
 class AgentConfig(Strict):
@@ -404,7 +466,7 @@ class AgentConfig(Strict):
     controller: ControllerConfig = ControllerConfig()
     # How often the controller turns DESIRED_* into actuator inputs; None: every physics
     # step. (The authors' ROS control node ran at 10 Hz.)
-    control_rate_hz: PositiveFloat | None = None
+    control_rate_hz: RateHz | None = None
     diver_limits: DiverLimits = DiverLimits()
     helm: HelmSection | None = None
     script: tuple[ScriptLeg, ...] = ()
@@ -418,7 +480,7 @@ class AgentConfig(Strict):
     # The body's label in the sonar's label images; default: its kind ("diver" or "rov").
     label: Name | None = None
     vehicle_type: str | None = None
-    length: PositiveFloat | None = None
+    length: Length | None = None
     # teamwork (docs/teamwork.md): a diver's body and orders, a vehicle's gripper
     skeleton: SkeletonSection = SkeletonSection()
     orders: tuple[OrderConfig, ...] = ()
@@ -486,7 +548,7 @@ class AgentConfig(Strict):
 
 class PostAction(Strict):
     agent: str
-    var: str
+    var: VarName
     value: str | float | bool
 
     @model_validator(mode="after")
@@ -503,7 +565,7 @@ class MoveAction(Strict):
 class EventConfig(Strict):
     """A scripted event outside the agents: at a time, or once when a condition holds."""
 
-    at: NonNegativeFloat | None = None
+    at: NonNegativeSeconds | None = None
     when: str | None = None
     post: PostAction | None = None
     move_object: MoveAction | None = None
@@ -532,11 +594,11 @@ class EventConfig(Strict):
 
 class RecordingConfig(Strict):
     enabled: bool = True
-    odometry_rate_hz: PositiveFloat = 10.0
+    odometry_rate_hz: RateHz = 10.0
     sonar: bool = True
-    sonar_every: Annotated[int, Field(ge=1)] = 1  # every N-th ping (~300 MB/min at 15 Hz)
+    sonar_every: Count = 1  # every N-th ping (~300 MB/min at 15 Hz)
     camera: bool = True
-    camera_every: Annotated[int, Field(ge=1)] = 1  # every N-th camera frame
+    camera_every: Count = 1  # every N-th camera frame
     chunk_kib: Annotated[int, Field(ge=16, le=65536)] = 512
 
 
@@ -555,13 +617,13 @@ class Ros2Section(Strict):
 
     enabled: bool = False
     links: tuple[Ros2Link, ...] = ()  # empty: every agent, accepting every command
-    odom_rate_hz: PositiveFloat = 10.0
+    odom_rate_hz: RateHz = 10.0
     domain_id: Annotated[int, Field(ge=0, le=232)] | None = None
-    command_timeout_s: PositiveFloat = 1.0
+    command_timeout_s: Seconds = 1.0
     # Wait each odometry period for the controllers' answers (repeatable runs with
     # outside nodes; docs/bridges-ros2.md "Lockstep"); `uhrisim run --lockstep` too.
     lockstep: bool = False
-    lockstep_timeout_s: PositiveFloat = 10.0  # wall s a round may wait for the answers
+    lockstep_timeout_s: Seconds = 10.0  # wall s a round may wait for the answers
     # The bridge node: its name, namespace (every topic under it, /clock and /tf too) and
     # ROS arguments as after --ros-args (remappings, -p parameters: docs/bridges-ros2.md)
     node_name: Name = "uhrisim"
@@ -576,18 +638,18 @@ class MoosLink(Strict):
     host: str = "127.0.0.1"
     port: Annotated[int, Field(ge=1, le=65535)] = 9000
     community: str | None = None
-    nav_rate_hz: PositiveFloat = 10.0
-    subscribe: tuple[str, ...] = DESIRED_VARS
-    extra_vars: tuple[str, ...] = ()
+    nav_rate_hz: RateHz = 10.0
+    subscribe: tuple[VarName, ...] = DESIRED_VARS
+    extra_vars: tuple[VarName, ...] = ()
     vehicle_type: str = "UUV"  # NODE_REPORT TYPE (pContactMgrV20 filters may use it)
-    node_report_var: str = "NODE_REPORT"  # NODE_REPORT_LOCAL when pShare forwards it
+    node_report_var: VarName = "NODE_REPORT"  # NODE_REPORT_LOCAL when pShare forwards it
 
 
 class MoosSection(Strict):
     """MOOS-IvP bridge; ``uhrisim run --moos`` switches it on."""
 
     enabled: bool = False
-    time_warp: PositiveFloat = 1.0  # MOOSTimeWarp of the community: the run is paced to it
+    time_warp: Factor = 1.0  # MOOSTimeWarp of the community: the run is paced to it
     links: tuple[MoosLink, ...] = ()  # empty: every agent, ports 9000, 9001, ...
 
 
@@ -595,8 +657,8 @@ class HelmWatchSection(Strict):
     """How loudly an outside helm that does not drive its agent is reported
     (:mod:`uhrisim.bridges.helm_watch`; docs/bridges-moos.md)."""
 
-    silence_s: PositiveFloat = 10.0  # simulated s without commands (or parked) before a warning
-    repeat_s: PositiveFloat = 5.0  # a lasting problem is said again at most this often (s)
+    silence_s: Seconds = 10.0  # simulated s without commands (or parked) before a warning
+    repeat_s: Seconds = 5.0  # a lasting problem is said again at most this often (s)
     required: bool = False  # end the run as failed at the first one (uhrisim run --require-helm)
 
 
@@ -605,7 +667,7 @@ class BridgesConfig(Strict):
     moos: MoosSection = MoosSection()
     helm_watch: HelmWatchSection = HelmWatchSection()
     # Live bridges pace the run to wall clock x this factor; null runs free (lockstep).
-    real_time_factor: PositiveFloat | None = 1.0
+    real_time_factor: Factor | None = 1.0
 
 
 class TrailMetricConfig(Strict):
@@ -613,11 +675,11 @@ class TrailMetricConfig(Strict):
 
     follower: str
     target: str
-    range: PositiveFloat = 2.0
+    range: Length = 2.0
     angle_deg: HeadingDeg = 180.0
-    acquire_range_tolerance: PositiveFloat = 1.0
-    acquire_bearing_tolerance_deg: PositiveFloat = 30.0
-    acquire_hold_s: PositiveFloat = 10.0
+    acquire_range_tolerance: Length = 1.0
+    acquire_bearing_tolerance_deg: Annotated[float, Field(gt=0.0, le=180.0)] = 30.0
+    acquire_hold_s: Seconds = 10.0
 
 
 class ButtonConfig(PostAction):
@@ -630,7 +692,7 @@ class Scenario(Strict):
     name: str
     description: str = ""
     seed: Annotated[int, Field(ge=0)] = 0
-    duration: PositiveFloat = 600.0
+    duration: Seconds = 600.0
     # The physics step is dt = 1 / physics_rate_hz. 60 Hz makes the usual rates whole
     # numbers of steps (sonar 15 Hz = 4, helm 4 Hz = 15, odometry 10 Hz = 6).
     physics_rate_hz: Annotated[float, Field(ge=10.0, le=10000.0)] = 60.0
@@ -667,19 +729,24 @@ class Scenario(Strict):
     @model_validator(mode="after")
     def _references_exist(self) -> Scenario:
         names = {a.name for a in self.agents}
-        refs = [(e.post.agent, "events.post.agent") for e in self.events if e.post]
-        refs += [(e.agent, "events.agent") for e in self.events if e.agent]
-        refs += [(b.agent, "buttons.agent") for b in self.buttons]
-        refs += [(link.agent, "bridges.ros2.links.agent") for link in self.bridges.ros2.links]
-        refs += [(link.agent, "bridges.moos.links.agent") for link in self.bridges.moos.links]
+        refs = [(e.post.agent, ("events", i, "post", "agent"))
+                for i, e in enumerate(self.events) if e.post]
+        refs += [(e.agent, ("events", i, "agent")) for i, e in enumerate(self.events) if e.agent]
+        refs += [(b.agent, ("buttons", i, "agent")) for i, b in enumerate(self.buttons)]
+        refs += [(link.agent, ("bridges", "ros2", "links", i, "agent"))
+                 for i, link in enumerate(self.bridges.ros2.links)]
+        refs += [(link.agent, ("bridges", "moos", "links", i, "agent"))
+                 for i, link in enumerate(self.bridges.moos.links)]
         if self.metrics:
-            refs += [(self.metrics.follower, "metrics.follower"),
-                     (self.metrics.target, "metrics.target")]
-        for name, field in refs:
+            refs += [(self.metrics.follower, ("metrics", "follower")),
+                     (self.metrics.target, ("metrics", "target"))]
+        for name, path in refs:
             if name not in names:
                 close = difflib.get_close_matches(name, sorted(names), n=1)
                 hint = f"; did you mean {close[0]!r}?" if close else ""
-                raise ValueError(f"{field} names unknown agent {name!r}{hint}")
+                raise PydanticCustomError(  # at the line of the field that names it
+                    "at_path", "names unknown agent {name}{hint}",
+                    {"path": path, "name": repr(name), "hint": hint})
         return self
 
     def movable_labels(self) -> set[str]:

@@ -34,6 +34,16 @@ def _checked(quantity: Quantity) -> AfterValidator:
     return AfterValidator(check)
 
 
+def declared_as(part: type, name: str) -> Any:
+    """The type of the field ``name`` of the dataclass ``part`` checked by its declaration
+    (:func:`setting`), for a scenario field of another name: ``period: declared_as(
+    BubbleParams, "period_s") = 4.0``."""
+    field = next(f for f in dataclasses.fields(part) if f.name == name)
+    quantity = quantity_of(field)
+    assert quantity is not None, f"{part.__name__}.{name} is not a declared setting"
+    return Annotated[typing.get_type_hints(part)[name], quantity, _checked(quantity)]
+
+
 def scenario_section(part: type, name: str, *, exclude: tuple[str, ...] = (),
                      include: tuple[str, ...] | None = None, overrides: bool = False,
                      fields: dict[str, Any] | None = None, doc: str = "") -> type[Strict]:

@@ -17,14 +17,30 @@ from pydantic_core import PydanticCustomError
 from uhrisim.core.errors import warn_user
 
 
+def _kinds(annotation: Any) -> set[Any]:
+    """The types an annotation allows, unwrapped of ``Annotated`` and ``None``."""
+    kinds = set(get_args(annotation)) if get_origin(annotation) in (Union, UnionType) else {
+        annotation}
+    kinds = {get_args(k)[0] if get_origin(k) is Annotated else k for k in kinds}
+    kinds.discard(type(None))
+    return kinds
+
+
+def _numeric(kinds: set[Any]) -> bool:
+    return bool(kinds) and kinds <= {float, int}
+
+
 def _numeric_only(field: Any) -> bool:
     """Whether a field takes numbers and never a boolean (float/int, constrained or not,
     optional or not)."""
-    kinds = set(get_args(field.annotation)) if get_origin(field.annotation) in (
-        Union, UnionType) else {field.annotation}
-    kinds = {get_args(k)[0] if get_origin(k) is Annotated else k for k in kinds}
-    kinds.discard(type(None))
-    return bool(kinds) and kinds <= {float, int}
+    return _numeric(_kinds(field.annotation))
+
+
+def _numbers_only(field: Any) -> bool:
+    """Whether a field takes a list of numbers (a tuple of float/int) and no booleans."""
+    tuples = [k for k in _kinds(field.annotation) if get_origin(k) is tuple]
+    return len(tuples) == 1 and all(
+        _numeric(_kinds(item)) for item in get_args(tuples[0]) if item is not Ellipsis)
 
 
 class Strict(BaseModel):
@@ -59,6 +75,11 @@ class Strict(BaseModel):
                     # YAML reads yes/no/on/off as booleans: "duration: yes" is not 1 s
                     raise PydanticCustomError("bool_for_number", "must be a number, got {value}",
                                               {"key": key, "value": str(data[key])})
+                if (isinstance(data[key], list | tuple) and _numbers_only(field)
+                        and any(isinstance(item, bool) for item in data[key])):
+                    raise PydanticCustomError(
+                        "bool_for_number", "must be numbers, got {value}",
+                        {"key": key, "value": str([*data[key]])})
         return data
 
 

@@ -15,20 +15,12 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 from uhrisim.core.frames import rot_z
-from uhrisim.scenario.schema import BubblesConfig
 from uhrisim.sim.state import Agent
-from uhrisim.world.bubbles import AIR_BUBBLE, PARKED_NED, BubbleParams, BubblePlume, cluster_mesh
+from uhrisim.world.bubbles import AIR_BUBBLE, PARKED_NED, BubblePlume, cluster_mesh
 from uhrisim.world.scene import Scene
 
 BUBBLES_LABEL = "bubbles"
 _EYE3 = np.eye(3)
-
-
-def bubble_params(cfg: BubblesConfig) -> BubbleParams:
-    return BubbleParams(period_s=cfg.period, clusters=cfg.clusters,
-                        bubbles_per_cluster=cfg.bubbles_per_cluster, radius_m=cfg.radius,
-                        rise_speed=cfg.rise_speed, spread_speed=cfg.spread_speed,
-                        current_ned=tuple(cfg.current), max_age_s=cfg.max_age)
 
 
 class DiverBubbles:
@@ -43,7 +35,7 @@ class DiverBubbles:
             if cfg is None:
                 continue
             stream = rng(f"{agent.name}/bubbles")
-            plume = BubblePlume(bubble_params(cfg), stream)
+            plume = BubblePlume(cfg.params(), stream)
             names = [f"{agent.name}_bubbles_{i}" for i in range(plume.n_clouds)]
             for name in names:
                 scene.add_dynamic(name, cluster_mesh(plume.params, stream), BUBBLES_LABEL,

@@ -33,6 +33,7 @@ import trimesh
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
+from uhrisim.core.settings import check_settings, setting
 from uhrisim.world.materials import Material
 
 #: Air bubbles: near-total reflection at the air–water interface (a default, like the
@@ -43,31 +44,46 @@ AIR_BUBBLE = Material("air_bubble", 0.6)
 PARKED_NED = np.array([0.0, 0.0, -1.0e4])
 
 
+#: Most cloud bodies a plume may keep alive at once (bursts alive x clusters): each is a
+#: mesh in the scene that every sonar ray and camera ray may hit.
+MAX_CLOUDS = 200
+
+
 @dataclass(frozen=True)
 class BubbleParams:
-    """Settings of a diver's bubble plume (SI; module docstring)."""
+    """Settings of a diver's bubble plume (SI; module docstring), declared with their
+    physical ranges (:mod:`uhrisim.core.settings`); the plume's cost is bounded too: at most
+    :data:`MAX_CLOUDS` clouds alive at once."""
 
-    period_s: float = 4.0
-    clusters: int = 3
-    bubbles_per_cluster: int = 6
-    radius_m: float = 0.03
-    cluster_radius_m: float = 0.12
-    rise_speed: float = 0.3
-    spread_speed: float = 0.12
-    current_ned: tuple[float, float] = (0.0, 0.0)
-    max_age_s: float = 12.0
-    regulator_frd: tuple[float, float, float] = (0.95, 0.0, -0.15)
+    period_s: float = setting(4.0, "s", ge=0.5, le=60.0, cost="linear",
+                              doc="time between breaths (12-20 a minute at work)")
+    clusters: int = setting(3, "1", ge=1, le=10, integer=True, cost="linear",
+                            doc="clouds per breath")
+    bubbles_per_cluster: int = setting(6, "1", ge=1, le=50, integer=True, cost="linear",
+                                       doc="air spheres per cloud")
+    radius_m: float = setting(0.03, "m", gt=0.0, le=0.5, doc="radius of one air sphere")
+    cluster_radius_m: float = setting(0.12, "m", gt=0.0, le=5.0,
+                                      doc="radius of the ball a cloud's spheres fill")
+    rise_speed: float = setting(0.3, "m/s", gt=0.0, le=2.0,
+                                doc="rise speed (a few mm to cm bubbles: 0.2-0.4 m/s)")
+    spread_speed: float = setting(0.12, "m/s", ge=0.0, le=2.0,
+                                  doc="spreading speed of a cloud, sigma per axis")
+    current_ned: tuple[float, float] = setting((0.0, 0.0), "m/s", ge=-5.0, le=5.0,
+                                               doc="current (north, east) carrying the clouds")
+    max_age_s: float = setting(12.0, "s", gt=0.0, le=600.0, cost="linear",
+                               doc="a cloud's life if it does not reach the surface first")
+    regulator_frd: tuple[float, float, float] = setting(
+        (0.95, 0.0, -0.15), "m", ge=-5.0, le=5.0, doc="where the breath leaves the diver (FRD)")
 
     def __post_init__(self) -> None:
-        for name in ("period_s", "radius_m", "cluster_radius_m", "rise_speed", "max_age_s"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ConfigError(f"must be a finite number > 0, got {v!r}",
-                                  f"BubbleParams.{name}")
-        for name in ("clusters", "bubbles_per_cluster"):
-            v = getattr(self, name)
-            if not isinstance(v, int) or v < 1:
-                raise ConfigError(f"must be an integer >= 1, got {v!r}", f"BubbleParams.{name}")
+        check_settings(self)
+        clouds = self.bursts_alive * self.clusters
+        if clouds > MAX_CLOUDS:
+            raise ConfigError(
+                f"a breath every {self.period_s:g} s whose clouds live {self.max_age_s:g} s "
+                f"keeps {self.bursts_alive} breaths x {self.clusters} clouds = {clouds} "
+                f"alive, more than {MAX_CLOUDS} (a longer period, a shorter max_age or fewer "
+                "clusters)", "BubbleParams")
 
     @property
     def bursts_alive(self) -> int:

@@ -2,7 +2,7 @@
 
 Common parameters (IvP ``IvPBehavior::setParam``, IvPBehavior.cpp:178-324; a leading
 ``_`` is ignored, case does not matter): ``name`` (alias ``descriptor``; letters, digits
-and ``_-[]()#@+``), ``pwt``/``priwt``/``priority`` (>= 0, default 100), ``condition``
+and ``_-[]()#@+``), ``pwt``/``priwt``/``priority`` (0 to 10^6, default 100), ``condition``
 (repeatable, AND-ed), ``endflag``, ``runflag``, ``idleflag``, ``activeflag``,
 ``inactiveflag``, ``spawnflag`` (repeatable ``VAR = value``; also spelt ``end_flag``...),
 ``updates`` (variable whose "param=value # ..." postings update the behavior at run time),
@@ -28,7 +28,14 @@ from typing import Any, ClassVar
 
 from uhrisim.autonomy.conditions import Condition, Value, parse_condition
 from uhrisim.autonomy.domain import Domain, Objective
-from uhrisim.autonomy.params import Flag, parse_flag, to_bool, to_float, to_non_negative, to_str
+from uhrisim.autonomy.params import (
+    Flag,
+    parse_flag,
+    to_bool,
+    to_float,
+    to_priority,
+    to_str,
+)
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned
 
@@ -159,7 +166,7 @@ _FLAGS = {
 COMMON_HANDLERS: dict[str, Callable] = {
     "name": _set("name", _name),
     "descriptor": _set("name", _name),
-    **{k: _set("priority", to_non_negative) for k in ("pwt", "priwt", "priority")},
+    **{k: _set("priority", to_priority) for k in ("pwt", "priwt", "priority")},
     "condition": _append("conditions", _cond),
     **{k: _append(f, parse_flag) for k, f in _FLAGS.items()},
     **{k.replace("flag", "_flag"): _append(f, parse_flag) for k, f in _FLAGS.items()},

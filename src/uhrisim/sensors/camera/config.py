@@ -82,6 +82,11 @@ def _finite(value: object, name: str, lo: float = -math.inf, hi: float = math.in
     return v
 
 
+#: The most pixels a camera may have: its pixel rays and lamp tables take ~90 MB a
+#: megapixel (1920 x 1200, a machine-vision sensor, fits).
+MAX_PIXELS = 2_500_000
+
+
 @dataclass(frozen=True)
 class CameraConfig:
     """A validated camera configuration (every default here or in the preset)."""
@@ -96,7 +101,7 @@ class CameraConfig:
     #: full intrinsic matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (pixels); overrides hfov
     K: tuple[tuple[float, float, float], ...] | None = None
     rate_hz: float = setting(10.0, "Hz", gt=0.0, le=1000.0, doc="frame rate", cost="linear")
-    max_range_m: float = setting(30.0, "m", gt=0.0, le=1e4, doc="farthest surface seen")
+    max_range_m: float = setting(30.0, "m", ge=0.1, le=1e4, doc="farthest surface seen")
     #: "adaptive": rays on every second pixel, more only where the image needs them
     #: (:mod:`.sampling`); "full": one ray per pixel
     sampling: Literal["adaptive", "full"] = "adaptive"
@@ -135,6 +140,10 @@ class CameraConfig:
         object.__setattr__(self, "width", int(spec.width if self.width is None else self.width))
         object.__setattr__(self, "height",
                            int(spec.height if self.height is None else self.height))
+        if self.width * self.height > MAX_PIXELS:
+            raise ConfigError(
+                f"{self.width} x {self.height} pixels is more than {MAX_PIXELS / 1e6:g} "
+                "megapixels (the camera's ray tables take ~90 MB a megapixel)", "camera.width")
         if self.K is not None:
             k = np.asarray(self.K, dtype=float)
             if k.shape != (3, 3) or not np.all(np.isfinite(k)) or not (
