@@ -67,7 +67,7 @@ CASES = [
      "axis 'course' has 1e+308 points"),
     ("a helm domain of 1e8 points", "speed: [0, 2, 21], depth: [0, 20, 21]",
      "speed: [0, 2, 10000], depth: [0, 20, 21]", 12,
-     "the decision domain has 7.56e+07 points, more than 50000000"),
+     "the decision domain's required axes have 7.56e+07 points together, more than 50000000"),
     ("a behavior priority of 1e308", "duration: no-time-limit}",
      "duration: no-time-limit, priority: 1e308}", 12, "priority must be <= 1e+06"),
     ("an agent 1e7 m from the scene", "start: {north: 0, east: 0, depth: 1,",

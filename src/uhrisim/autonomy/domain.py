@@ -26,8 +26,11 @@ from uhrisim.core.errors import ConfigError
 __all__ = ["Domain", "DomainAxis", "Objective"]
 
 
-#: The most points on one decision axis, and in the whole domain: the helm's cost (every
-#: behavior's objective function is an array over the domain, every helm iteration).
+#: The most points on one decision axis, and over the domain's required (non-optional)
+#: axes together: the helm's cost. Every behavior's objective function is an array over
+#: the axes it spans, every helm iteration; the solver maximises independent axes apart
+#: (:mod:`uhrisim.autonomy.solver`), and an optional axis (depth) is one behavior's
+#: alone (ConstantDepth), so a 1 cm depth axis costs its own points, not their product.
 MAX_AXIS_POINTS = 10_000
 MAX_DOMAIN_POINTS = 50_000_000
 
@@ -95,11 +98,11 @@ class Domain:
         names = [a.name for a in self.axes]
         if len(set(names)) != len(names):
             raise ConfigError(f"duplicate domain axis in {names}", "domain")
-        points = math.prod(axis.npts for axis in self.axes)
+        points = math.prod(axis.npts for axis in self.axes if not axis.optional)
         if points > MAX_DOMAIN_POINTS:
-            raise ConfigError(f"the decision domain has {points:g} points, more than "
-                              f"{MAX_DOMAIN_POINTS} (course 360 x speed 21 x depth 101 has "
-                              "763560)", "domain")
+            raise ConfigError(f"the decision domain's required axes have {points:g} points "
+                              f"together, more than {MAX_DOMAIN_POINTS} (course 360 x speed 21 "
+                              "x depth 101 have 763560)", "domain")
 
     @classmethod
     def paper(cls, with_depth: bool = True) -> Domain:

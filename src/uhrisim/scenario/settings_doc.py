@@ -72,7 +72,7 @@ finishes in bounded time and memory and a scene that validates runs:
 `uhrisim.world.bubbles.MAX_CLOUDS` |
 | points on one axis of a helm's decision domain | {MAX_AXIS_POINTS:_} | \
 `uhrisim.autonomy.domain.MAX_AXIS_POINTS` |
-| points in a helm's whole decision domain | {MAX_DOMAIN_POINTS:_} | \
+| points over a helm's required (non-optional) decision axes together | {MAX_DOMAIN_POINTS:_} | \
 `uhrisim.autonomy.domain.MAX_DOMAIN_POINTS` |
 | a behavior's priority weight (`pwt`) | {MAX_PRIORITY:g} | \
 `uhrisim.autonomy.params.MAX_PRIORITY` |
