@@ -8,6 +8,7 @@ every option is checked before any work starts. Nothing here computes physics.
 from __future__ import annotations
 
 import functools
+import gc
 import importlib
 import json
 import math
@@ -306,8 +307,9 @@ def run(
     view: Annotated[bool, typer.Option("--view", help="watch live in the browser")] = False,
     port: Annotated[int, typer.Option(help="viewer port on 127.0.0.1 (0 = any)")] = 8765,
     ros_args: Annotated[str, typer.Option(
-        "--ros-args", help='ROS 2 node arguments, e.g. --ros-args="-r __ns:=/sim_a -p '
-                           'sensor_qos:=reliable" (implies --ros2)')] = "",
+        "--ros-args", help="ROS 2 node arguments, as ros2 run takes them: everything "
+                           "after --ros-args (up to --) goes to ROS, e.g. --ros-args -r "
+                           "__ns:=/sim_a -p sensor_qos:=reliable (implies --ros2)")] = "",
     require_helm: Annotated[bool, typer.Option(
         "--require-helm", help="end the run as failed (exit status 2) when an agent's "
                                "outside helm (MOOS or ROS 2) does not drive it: MALCONFIG, "
@@ -578,7 +580,8 @@ def main(argv: list[str] | None = None) -> int:
     """The ``uhrisim`` command: the app, with command-line usage errors (an option that is
     not a number, an unknown option) also reported in one line. Returns the exit status."""
     try:
-        status = app(args=argv, prog_name="uhrisim", standalone_mode=False)
+        status = app(args=_gather_ros_args(sys.argv[1:] if argv is None else argv),
+                     prog_name="uhrisim", standalone_mode=False)
     except _USAGE_ERROR as error:
         message = error.format_message()
         if message:  # empty: no arguments at all, and the help was printed
@@ -588,7 +591,29 @@ def main(argv: list[str] | None = None) -> int:
     except typer.Abort:
         report_error("interrupted")
         return 130
+    finally:  # the work is done and written: the interpreter's exit need not walk every
+        gc.freeze()  # object of a run's heap again (seconds after a ROS run, under load)
     return status if isinstance(status, int) else 0
+
+
+def _gather_ros_args(argv: list[str]) -> list[str]:
+    """ROS's own syntax, as ``ros2 run`` takes it: every argument after a bare
+    ``--ros-args`` up to ``--`` (or the end) belongs to ROS; they become one
+    ``--ros-args=...`` option (its value quoted as a shell would split it back)."""
+    import shlex
+
+    rest: list[str] = []
+    ros: list[str] = []
+    i = 0
+    while i < len(argv):
+        if argv[i] != "--ros-args":
+            rest.append(argv[i])
+            i += 1
+            continue
+        end = argv.index("--", i) if "--" in argv[i:] else len(argv)
+        ros += argv[i + 1:end]
+        i = end + 1
+    return [*rest, f"--ros-args={shlex.join(ros)}"] if ros else rest
 
 
 #: Click's UsageError (bad or unknown option, missing argument), whichever click typer

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import shlex
 import subprocess
 import sys
 import time
@@ -115,3 +116,25 @@ def test_a_bad_parameter_is_one_line_naming_it(ros_env: int, tmp_path: Path) -> 
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error:") and "sensor_qos" in lines[0]
+
+
+def test_ros_syntax_after_ros_args_goes_to_ros(ros_env: int, tmp_path: Path) -> None:
+    """As ``ros2 run`` takes them: every argument after a bare ``--ros-args`` up to ``--``
+    goes to ROS (the remapping and the parameter reach the node: the bad parameter stops
+    the start, named), and what follows ``--`` is uhrisim's again (``--duration``)."""
+    del ros_env
+    proc = subprocess.run(
+        [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "--out", str(tmp_path / "o"),
+         "--no-raycast-sensors", "-q", "--ros-args", "-r", "__ns:=/sim_a", "-p",
+         "sensor_qos:=fast", "--", "--duration", "1"],
+        capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "sensor_qos" in lines[0] and "fast" in lines[0], lines
+    from uhrisim.cli import _gather_ros_args
+
+    gathered = _gather_ros_args(["run", "x.yaml", "--ros-args", "-r", "__ns:=/sim_a", "-p",
+                                 "note:=a b", "--", "-q"])
+    assert gathered[:3] == ["run", "x.yaml", "-q"] and gathered[3].startswith("--ros-args=")
+    assert shlex.split(gathered[3].partition("=")[2]) == ["-r", "__ns:=/sim_a", "-p",
+                                                           "note:=a b"]

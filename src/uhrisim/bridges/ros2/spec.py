@@ -99,6 +99,11 @@ class AgentCommands:
     ``age_s`` is the age of the newest command (in the timeout's clock, s), or ``None``.
     ``received_count`` counts every command message accepted for the agent so far (it
     changes when something new arrived, e.g. to forward each one exactly once).
+    ``lapsed``: the desired topics (``"desired_heading"``, ``"desired_speed"``,
+    ``"desired_depth"``) whose value is older than the timeout: every value refused or
+    none sent since, or none ever sent while the first desired value of any kind is older
+    than the timeout; empty until a desired value has arrived. The caller falls back per
+    topic: zero speed, hold the heading and the depth of that moment.
 
     Units: ``desired_heading_deg`` compass degrees [0, 360); ``desired_speed`` m/s;
     ``desired_depth`` m, positive down; ``thrusters`` ``(port, starboard, vertical)``,
@@ -110,6 +115,7 @@ class AgentCommands:
     desired_depth: float | None = None
     thrusters: tuple[float, float, float] | None = None
     stale: bool = False
+    lapsed: frozenset[str] = frozenset()
     age_s: float | None = None
     received_count: int = 0
 
