@@ -121,7 +121,8 @@ def test_a_bad_parameter_is_one_line_naming_it(ros_env: int, tmp_path: Path) -> 
 def test_ros_syntax_after_ros_args_goes_to_ros(ros_env: int, tmp_path: Path) -> None:
     """As ``ros2 run`` takes them: every argument after a bare ``--ros-args`` up to ``--``
     goes to ROS (the remapping and the parameter reach the node: the bad parameter stops
-    the start, named), and what follows ``--`` is uhrisim's again (``--duration``)."""
+    the start, named), and what follows ``--`` is uhrisim's again (``--duration``). A run
+    in a namespace records its topics under their live names (issue 30)."""
     del ros_env
     proc = subprocess.run(
         [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "--out", str(tmp_path / "o"),
@@ -131,6 +132,20 @@ def test_ros_syntax_after_ros_args_goes_to_ros(ros_env: int, tmp_path: Path) -> 
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "sensor_qos" in lines[0] and "fast" in lines[0], lines
+    ok = subprocess.run(
+        [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "--out", str(tmp_path / "ns"),
+         "--no-raycast-sensors", "-q", "--ros-args", "-r", "__ns:=/sim_a", "--",
+         "--duration", "1"], capture_output=True, text=True, timeout=300)
+    assert ok.returncode == 0, ok.stderr
+    # the bag's topics are the live names: under the namespace, /clock and /tf included
+    import yaml
+
+    meta = yaml.safe_load((tmp_path / "ns" / "metadata.yaml").read_text())
+    topics = {t["topic_metadata"]["name"]
+              for t in meta["rosbag2_bagfile_information"]["topics_with_message_count"]}
+    assert {"/sim_a/clock", "/sim_a/tf", "/sim_a/videoray/odom"} <= topics
+    assert all(t.startswith("/sim_a/") for t in topics), topics
+
     from uhrisim.cli import _gather_ros_args
 
     gathered = _gather_ros_args(["run", "x.yaml", "--ros-args", "-r", "__ns:=/sim_a", "-p",

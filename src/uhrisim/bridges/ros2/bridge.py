@@ -199,6 +199,12 @@ class Ros2Bridge(RosWriter):
         """The agent specs, in the order given."""
         return tuple(self._specs.values())
 
+    @property
+    def namespace(self) -> str:
+        """The node's namespace once started (``""``: the root, else ``"/name"``)."""
+        ns = self._node.get_namespace() if self._node is not None else self._namespace
+        return ns.rstrip("/")
+
     def start(self) -> None:
         """Create the context, node, publishers, subscriptions and the executor thread.
 

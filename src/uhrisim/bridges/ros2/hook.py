@@ -60,7 +60,7 @@ from uhrisim.sim.hooks import TickFrame, split_sensor_key
 from uhrisim.sim.simulation import BaseHook, Simulation
 
 from .limits import CommandEnvelope
-from .spec import COMMAND_GROUPS, AgentBridgeSpec, AgentCommands
+from .spec import COMMAND_GROUPS, AgentBridgeSpec, AgentCommands, node_namespace
 
 if TYPE_CHECKING:
     from .bridge import Ros2Bridge
@@ -164,6 +164,8 @@ class Ros2BridgeHook(BaseHook):
             "namespace": namespace,
             "ros_args": tuple(ros_args),
         }
+        #: the node's namespace ("" or "/name"): a recording of this run uses it too
+        self.ros_namespace = node_namespace(namespace, tuple(ros_args))
         self._lockstep = lockstep
         self._lockstep_timeout = lockstep_timeout_s
         self._lockstep_start_timeout = lockstep_start_timeout_s
@@ -222,6 +224,9 @@ class Ros2BridgeHook(BaseHook):
         self._sim = sim
         self.bridge = Ros2Bridge(specs, **self._bridge_kw)
         self.bridge.start()
+        if self.bridge.namespace != self.ros_namespace:  # e.g. a node-specific remapping
+            log.warning("ROS 2 node namespace %r, not %r: the recording's topics are not "
+                        "the live ones", self.bridge.namespace, self.ros_namespace)
         self._links = [(spec.name, name, bool(spec.accept))
                        for spec, name in zip(self.bridge.agents, self._ros, strict=True)]
         self._accepting = any(accept for *_, accept in self._links)

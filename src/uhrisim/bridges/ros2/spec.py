@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections.abc import MutableMapping
+from collections.abc import MutableMapping, Sequence
 from dataclasses import dataclass, field
 
 from uhrisim.core.errors import ConfigError
@@ -16,7 +16,7 @@ from uhrisim.core.errors import ConfigError
 from .limits import THRUSTER_LIMIT, CommandEnvelope
 
 __all__ = ["COMMAND_GROUPS", "ENV_DEFAULTS", "THRUSTER_LIMIT", "AgentBridgeSpec",
-           "AgentCommands", "apply_env_defaults", "check_domain_id"]
+           "AgentCommands", "apply_env_defaults", "check_domain_id", "node_namespace"]
 
 #: Command groups an agent may accept from ROS 2: ``"desired"`` = the three
 #: ``/<agent>/cmd/desired_*`` topics (what the built-in helm would produce),
@@ -149,6 +149,17 @@ def apply_env_defaults(environ: MutableMapping[str, str] | None = None) -> dict[
             env[key] = value
             applied[key] = value
     return applied
+
+
+def node_namespace(namespace: str, ros_args: Sequence[str]) -> str:
+    """The namespace a node made with ``namespace`` and ``ros_args`` gets: the last
+    ``-r``/``--remap __ns:=...`` of ``ros_args`` wins (as rcl does), normalised to ``""``
+    (the root) or ``"/name"``."""
+    for flag, value in zip(ros_args, ros_args[1:], strict=False):
+        if flag in ("-r", "--remap") and value.startswith("__ns:="):
+            namespace = value.partition(":=")[2]
+    namespace = namespace.strip().rstrip("/")
+    return namespace if not namespace or namespace.startswith("/") else f"/{namespace}"
 
 
 def check_domain_id(domain_id: int | None) -> int | None:
