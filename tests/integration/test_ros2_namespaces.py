@@ -153,3 +153,42 @@ def test_ros_syntax_after_ros_args_goes_to_ros(ros_env: int, tmp_path: Path) -> 
     assert gathered[:3] == ["run", "x.yaml", "-q"] and gathered[3].startswith("--ros-args=")
     assert shlex.split(gathered[3].partition("=")[2]) == ["-r", "__ns:=/sim_a", "-p",
                                                            "note:=a b"]
+
+
+def test_a_second_simulator_of_the_same_name_is_told_and_leaves_clock_alone(
+        ros_env: int, tmp_path: Path) -> None:
+    """Two simulators, both ``/uhrisim`` in the root namespace on one domain (the other a
+    ``uhrisim run --ros2`` process): each sees the other in the ROS graph, says so (a
+    bridge event; on the other's console, a warning) and publishes no more ``/clock``,
+    so nodes on ``use_sim_time`` never see two clocks interleaved."""
+    console = tmp_path / "other.err"
+    with console.open("w") as err:
+        other = subprocess.Popen([sys.executable, "-m", "uhrisim", "run", str(SCENARIO),
+                                  "--out", str(tmp_path / "other"), "--no-raycast-sensors",
+                                  "-q", "--ros2"], stdout=subprocess.DEVNULL, stderr=err)
+    hook = Ros2BridgeHook(domain_id=ros_env)
+    sim = Simulation(load_scenario(SCENARIO), raycast_sensors=False, hooks=[hook])
+
+    def told() -> tuple[bool, bool]:  # (this one, the other one)
+        return (any("another node named 'uhrisim'" in e.detail for e in sim.events_log),
+                "another node named 'uhrisim'" in console.read_text())
+
+    try:
+        sim.start()
+        pacer = Pacer(real_time_factor=1.0)
+        pacer.reset(sim.t)
+        deadline = time.monotonic() + 300.0  # the other's start and discovery
+        while not all(told()):
+            assert time.monotonic() < deadline and other.poll() is None, told()
+            pacer.wait(sim.step().t)
+        assert hook.bridge is not None and not hook.bridge.publishes_clock
+    finally:
+        sim.close()
+        other.send_signal(2)  # SIGINT
+        try:
+            other.wait(timeout=120.0)
+        finally:
+            if other.poll() is None:
+                other.kill()
+    assert other.returncode == 130
+    assert "publishes no /clock" in console.read_text()

@@ -200,6 +200,11 @@ class Ros2Bridge(RosWriter):
         return tuple(self._specs.values())
 
     @property
+    def node_name(self) -> str:
+        """The node's name (after any ``__node:=`` remapping, once started)."""
+        return self._node.get_name() if self._node is not None else self._node_name
+
+    @property
     def namespace(self) -> str:
         """The node's namespace once started (``""``: the root, else ``"/name"``)."""
         ns = self._node.get_namespace() if self._node is not None else self._namespace
@@ -387,6 +392,24 @@ class Ros2Bridge(RosWriter):
         if self._publish_clock and t != self._t_clock_published and self._clock_gate.due(t):
             super().write_clock(t)
             self._t_clock_published = t
+
+    def twin_count(self) -> int:
+        """How many *other* nodes on the domain have this node's name and namespace (a
+        second simulator started the same way: its ``/clock`` and topics would mix with
+        ours). A ROS graph query, cheap; discovery may take a moment to show a twin."""
+        self._check_open("twin_count")
+        me = (self._node.get_name(), self._node.get_namespace())
+        return sum(1 for pair in self._node.get_node_names_and_namespaces()
+                   if pair == me) - 1
+
+    def stop_clock(self) -> None:
+        """Publish no more ``/clock`` (another simulator's clock is on the topic)."""
+        self._publish_clock = False
+
+    @property
+    def publishes_clock(self) -> bool:
+        """Does :meth:`write_clock` still publish ``/clock``?"""
+        return self._publish_clock
 
     # ----------------------------------------------------------------- rates
     def note_time(self, t_sim: float) -> None:

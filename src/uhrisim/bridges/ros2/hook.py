@@ -192,6 +192,7 @@ class Ros2BridgeHook(BaseHook):
         self._fallen_back: dict[str, frozenset[str]] = {}
         self._failing: tuple[str, ...] = ()  # bridge.failing_topics, as last recorded
         self._extras = False  # someone subscribes to vars or /events (refreshed at 10 Hz)
+        self._twin_seen = False  # another node of our name and namespace was seen
         self.n_posted = 0
         self.n_rejected = 0
         self._watch_settings = helm_watch or HelmWatchSection()
@@ -243,6 +244,7 @@ class Ros2BridgeHook(BaseHook):
         self.watches = {name: self._watch(sim, ros) for ros, name, accept in self._links
                         if accept and driven_from_outside(sim.agents[name])}
         self._failing = ()
+        self._twin_seen = False
 
     def _watch(self, sim: Simulation, ros: str) -> OutsideHelmWatch:
         """The watch of an agent driven from ROS, started now."""
@@ -320,6 +322,14 @@ class Ros2BridgeHook(BaseHook):
                 out.image(key, image)
             self._publish_wake = bridge.wake_time
             self._extras = bridge.extras_subscribed()  # checked at most at 10 Hz
+            if not self._twin_seen and bridge.twin_count() > 0:
+                self._twin_seen = True
+                bridge.stop_clock()
+                self._announce(sim, f"ros2: another node named {bridge.node_name!r} in "
+                                    f"namespace {bridge.namespace or '/'!r} on this domain "
+                                    "(a second simulator?): this one publishes no /clock "
+                                    "from now on; give each simulator its own namespace "
+                                    "(--ros-args -r __ns:=/sim_a) or node name")
             if bridge.failing_topics != self._failing:  # rare: note it in the recording
                 new = bridge.failing_topics[len(self._failing):]
                 self._failing = bridge.failing_topics
