@@ -131,9 +131,10 @@ def test_bad_commands_are_refused_or_clamped_counted_and_on_rosout(ros_env: int,
 
     # on /rosout, from the bridge's node, rate-limited: in 4 s one line per topic and
     # reason (then one every 5 s), not one per rejection
-    rosout = [line for line in lines if line.startswith("ROSOUT") and " rejected: " in line]
-    assert any("/videoray/cmd/desired_speed rejected: negative speed" in x for x in rosout)
-    assert any("/videoray/cmd/thrusters rejected: wrong length" in x for x in rosout)
+    rosout = [line for line in lines if line.startswith("ROSOUT") and "command on " in line]
+    assert any("/videoray/cmd/desired_speed refused: negative speed" in x for x in rosout)
+    assert any("/videoray/cmd/thrusters refused: wrong length" in x for x in rosout)
+    assert any("/videoray/cmd/desired_depth clamped: below the floor" in x for x in rosout)
     assert all(line.split()[1] == "30" for line in rosout)  # WARN
     assert len(rosout) == sum(len(t) for t in reasons.values()) == 6
 
