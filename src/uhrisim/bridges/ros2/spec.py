@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 import os
 import re
+from pathlib import Path
 from collections.abc import MutableMapping, Sequence
 from dataclasses import dataclass, field
 
@@ -139,12 +140,23 @@ class AgentCommands:
 ENV_DEFAULTS: dict[str, str] = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
 
 
+#: uhrisim's Fast DDS profile: an 8 MiB shared-memory segment (a ping's three images,
+#: ~600 kB, exceed the default 512 kB one: best-effort subscribers lost messages), UDP on
+#: loopback only. Set as ``FASTDDS_DEFAULT_PROFILES_FILE`` unless the user set their own.
+FASTDDS_PROFILE = Path(__file__).with_name("fastdds_profile.xml")
+
+
 def apply_env_defaults(environ: MutableMapping[str, str] | None = None) -> dict[str, str]:
     """Set each of :data:`ENV_DEFAULTS` that is missing from ``environ`` (default
-    ``os.environ``, which rcl reads when a context starts); return those it set."""
+    ``os.environ``, which rcl reads when a context starts), and
+    ``FASTDDS_DEFAULT_PROFILES_FILE`` = :data:`FASTDDS_PROFILE` when the middleware is Fast
+    DDS (ROS 2's default) and no profile is set; return those it set."""
     env = os.environ if environ is None else environ
     applied: dict[str, str] = {}
-    for key, value in ENV_DEFAULTS.items():
+    defaults = dict(ENV_DEFAULTS)
+    if env.get("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp").startswith("rmw_fastrtps"):
+        defaults["FASTDDS_DEFAULT_PROFILES_FILE"] = str(FASTDDS_PROFILE)
+    for key, value in defaults.items():
         if not env.get(key):
             env[key] = value
             applied[key] = value
