@@ -189,7 +189,7 @@ def test_speed_ages_on_its_own(ros_env: int, tmp_path: Path, case: str) -> None:
     plans = {"refused": [go, [4.0, {**fresh, "desired_speed": [-5.0]}]],
              "stopped": [go, [4.0, fresh]],
              "never": [[4.0, fresh]]}
-    hook, sim, track, lines = _fly(ros_env, tmp_path, plans[case], f"uhrisim_speed_{case}",
+    _hook, sim, track, lines = _fly(ros_env, tmp_path, plans[case], f"uhrisim_speed_{case}",
                                    0.5, rosout=True)
     t_lapse = _lapse(sim, "desired_speed")
     assert not any("safe stop" in e.detail for e in sim.events_log if e.t < t_lapse + 1.0)

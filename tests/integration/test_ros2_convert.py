@@ -10,8 +10,7 @@ import numpy as np
 import pytest
 
 from uhrisim.bridges.ros2 import AgentBridgeSpec, AgentCommands, Pacer, apply_env_defaults
-from uhrisim.bridges.ros2.spec import FASTDDS_PROFILE
-from uhrisim.bridges.ros2.spec import check_domain_id
+from uhrisim.bridges.ros2.spec import FASTDDS_PROFILE, check_domain_id
 from uhrisim.core.errors import ConfigError, NumericalError
 from uhrisim.ros.convert import (
     RateGate,

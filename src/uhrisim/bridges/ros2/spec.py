@@ -8,9 +8,10 @@ from __future__ import annotations
 import math
 import os
 import re
-from pathlib import Path
 from collections.abc import MutableMapping, Sequence
 from dataclasses import dataclass, field
+from itertools import pairwise
+from pathlib import Path
 
 from uhrisim.core.errors import ConfigError
 
@@ -167,7 +168,7 @@ def node_namespace(namespace: str, ros_args: Sequence[str]) -> str:
     """The namespace a node made with ``namespace`` and ``ros_args`` gets: the last
     ``-r``/``--remap __ns:=...`` of ``ros_args`` wins (as rcl does), normalised to ``""``
     (the root) or ``"/name"``."""
-    for flag, value in zip(ros_args, ros_args[1:], strict=False):
+    for flag, value in pairwise(ros_args):
         if flag in ("-r", "--remap") and value.startswith("__ns:="):
             namespace = value.partition(":=")[2]
     namespace = namespace.strip().rstrip("/")
