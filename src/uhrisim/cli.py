@@ -195,7 +195,8 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
                        raycast_sensors: bool, quiet: bool = False, ros2: bool = False,
                        moos: bool = False, rtf: float | None = None,
                        view_port: int | None = None, lockstep: bool = False,
-                       ros_args: tuple[str, ...] = (), require_helm: bool = False) -> Any:
+                       ros_args: tuple[str, ...] = (), require_helm: bool = False,
+                       foxglove_port: int | None = None) -> Any:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from uhrisim.app.runner import prepare_out_dir, run_scenario
@@ -206,7 +207,8 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
     prepare_out_dir(out)  # before the progress bar: a refusal is one line
     hooks = live_hooks(source.scenario, ros2=ros2, moos=moos, real_time_factor=rtf,
                        paced_elsewhere=view_port is not None, lockstep=lockstep,
-                       ros_args=ros_args, require_helm=require_helm)
+                       ros_args=ros_args, require_helm=require_helm,
+                       foxglove_port=foxglove_port)
     servers: list[Any] = []
 
     def attach(sim: Any) -> None:
@@ -315,17 +317,24 @@ def run(
                                "outside helm (MOOS or ROS 2) does not drive it: MALCONFIG, "
                                "parked, an all-stop or no commands (bridges.helm_watch)")
     ] = False,
+    foxglove: Annotated[bool, typer.Option(
+        "--foxglove", help="serve the run live to Foxglove (ws://127.0.0.1:PORT; the "
+                           "recording's channels; needs uhrisim[foxglove])")] = False,
+    foxglove_port: Annotated[int, typer.Option(
+        "--foxglove-port", help="Foxglove server port on 127.0.0.1 (0 = any)")] = 8765,
 ) -> None:
     """Run a scenario: the recording (a rosbag2 folder), metrics.json and figures go to OUT."""
     import shlex
 
     check_run_options(duration, seed, rtf, port)
+    check_option("foxglove-port", foxglove_port, 0 <= foxglove_port <= 65535, "in 0..65535")
     out = out or Path("out") / scenario.stem
     extra_ros_args = tuple(shlex.split(ros_args))
     result = _run_with_progress(scenario, out, duration, seed, not no_raycast_sensors, quiet,
                                 ros2=ros2 or bool(extra_ros_args), moos=moos, rtf=rtf,
                                 view_port=port if view else None, lockstep=lockstep,
-                                ros_args=extra_ros_args, require_helm=require_helm)
+                                ros_args=extra_ros_args, require_helm=require_helm,
+                                foxglove_port=foxglove_port if foxglove else None)
     _print_metrics(result)
 
 
