@@ -396,11 +396,15 @@ class Ros2Bridge(RosWriter):
     def twin_count(self) -> int:
         """How many *other* nodes on the domain have this node's name and namespace (a
         second simulator started the same way: its ``/clock`` and topics would mix with
-        ours). A ROS graph query, cheap; discovery may take a moment to show a twin."""
+        ours). A ROS graph query, cheap; discovery may take a moment to show a twin. 0
+        once ROS is shut down under the bridge (the run goes on, see :mod:`.writer`)."""
         self._check_open("twin_count")
-        me = (self._node.get_name(), self._node.get_namespace())
-        return sum(1 for pair in self._node.get_node_names_and_namespaces()
-                   if pair == me) - 1
+        try:
+            me = (self._node.get_name(), self._node.get_namespace())
+            names = self._node.get_node_names_and_namespaces()
+        except Exception:  # rclpy's InvalidHandle / RCLError: the context is gone
+            return 0
+        return max(0, sum(1 for pair in names if pair == me) - 1)
 
     def stop_clock(self) -> None:
         """Publish no more ``/clock`` (another simulator's clock is on the topic)."""
