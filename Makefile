@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 UHRISIM := $(VENV)/bin/uhrisim
 OUT ?= out
 # Extras the test suite needs: every optional part is tested for real.
-TEST_EXTRAS := dev,ros2,viewer,gym,batch,fast,hri
+TEST_EXTRAS := dev,ros2,viewer,gym,batch,fast,hri,foxglove
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: demo test test-fast test-busy bench lint clean venv-core venv-test browser docs-figures

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import gc
 import importlib
 import json
 import logging
@@ -321,7 +322,7 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
                        moos: bool = False, rtf: float | None = None,
                        view_port: int | None = None, lockstep: bool = False,
                        ros_args: tuple[str, ...] = (), require_helm: bool = False,
-                       used: str = "keep") -> Any:
+                       used: str = "keep", foxglove_port: int | None = None) -> Any:
     from uhrisim.app.runner import prepare_out_dir, run_scenario
     from uhrisim.bridges.live import live_hooks
     from uhrisim.scenario.load import load_scenario
@@ -330,7 +331,8 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
     prepare_out_dir(out, used)  # before the progress bar: a refusal is one line
     hooks = live_hooks(source.scenario, ros2=ros2, moos=moos, real_time_factor=rtf,
                        paced_elsewhere=view_port is not None, lockstep=lockstep,
-                       ros_args=ros_args, require_helm=require_helm)
+                       ros_args=ros_args, require_helm=require_helm,
+                       foxglove_port=foxglove_port)
     servers: list[Any] = []
 
     def attach(sim: Any) -> None:
@@ -461,8 +463,9 @@ def run(
     view: Annotated[bool, typer.Option("--view", help="watch live in the browser")] = False,
     port: Annotated[int, typer.Option(help="viewer port on 127.0.0.1 (0 = any)")] = 8765,
     ros_args: Annotated[str, typer.Option(
-        "--ros-args", help='ROS 2 node arguments, e.g. --ros-args="-r __ns:=/sim_a -p '
-                           'sensor_qos:=reliable" (implies --ros2)')] = "",
+        "--ros-args", help="ROS 2 node arguments, as ros2 run takes them: everything "
+                           "after --ros-args (up to --) goes to ROS, e.g. --ros-args -r "
+                           "__ns:=/sim_a -p sensor_qos:=reliable (implies --ros2)")] = "",
     require_helm: Annotated[bool, typer.Option(
         "--require-helm", help="end the run as failed (exit status 2) when an agent's "
                                "outside helm (MOOS or ROS 2) does not drive it: MALCONFIG, "
@@ -471,11 +474,17 @@ def run(
     overwrite: Annotated[bool, typer.Option(
         "--overwrite", help="replace the outputs of an earlier run in OUT (its files are "
                             "deleted first); without it a non-empty OUT is refused")] = False,
+    foxglove: Annotated[bool, typer.Option(
+        "--foxglove", help="serve the run live to Foxglove (ws://127.0.0.1:PORT; the "
+                           "recording's channels; needs uhrisim[foxglove])")] = False,
+    foxglove_port: Annotated[int, typer.Option(
+        "--foxglove-port", help="Foxglove server port on 127.0.0.1 (0 = any)")] = 8765,
 ) -> None:
     """Run a scenario: the recording (a rosbag2 folder), metrics.json and figures go to OUT."""
     import shlex
 
     check_run_options(duration, seed, rtf, port)
+    check_option("foxglove-port", foxglove_port, 0 <= foxglove_port <= 65535, "in 0..65535")
     out = out or Path("out") / scenario.stem
     try:
         extra_ros_args = tuple(shlex.split(ros_args))
@@ -485,7 +494,8 @@ def run(
                                 ros2=ros2 or bool(extra_ros_args), moos=moos, rtf=rtf,
                                 view_port=port if view else None, lockstep=lockstep,
                                 ros_args=extra_ros_args, require_helm=require_helm,
-                                used="clear" if overwrite else "refuse")
+                                used="clear" if overwrite else "refuse",
+                                foxglove_port=foxglove_port if foxglove else None)
     _print_metrics(result)
 
 
@@ -824,7 +834,8 @@ def main(argv: list[str] | None = None) -> int:
     """The ``uhrisim`` command: the app, with command-line usage errors (an option that is
     not a number, an unknown option) also reported in one line. Returns the exit status."""
     try:
-        status = app(args=argv, prog_name="uhrisim", standalone_mode=False)
+        status = app(args=_gather_ros_args(sys.argv[1:] if argv is None else argv),
+                     prog_name="uhrisim", standalone_mode=False)
     except _USAGE_ERROR as error:
         message = error.format_message()
         if message:  # empty: no arguments at all, and the help was printed
@@ -834,7 +845,29 @@ def main(argv: list[str] | None = None) -> int:
     except typer.Abort:
         report_error("interrupted")
         return 130
+    finally:  # the work is done and written: the interpreter's exit need not walk every
+        gc.freeze()  # object of a run's heap again (seconds after a ROS run, under load)
     return status if isinstance(status, int) else 0
+
+
+def _gather_ros_args(argv: list[str]) -> list[str]:
+    """ROS's own syntax, as ``ros2 run`` takes it: every argument after a bare
+    ``--ros-args`` up to ``--`` (or the end) belongs to ROS; they become one
+    ``--ros-args=...`` option (its value quoted as a shell would split it back)."""
+    import shlex
+
+    rest: list[str] = []
+    ros: list[str] = []
+    i = 0
+    while i < len(argv):
+        if argv[i] != "--ros-args":
+            rest.append(argv[i])
+            i += 1
+            continue
+        end = argv.index("--", i) if "--" in argv[i:] else len(argv)
+        ros += argv[i + 1:end]
+        i = end + 1
+    return [*rest, f"--ros-args={shlex.join(ros)}"] if ros else rest
 
 
 #: Click's UsageError (bad or unknown option, missing argument), whichever click typer

@@ -61,7 +61,7 @@ def test_recording_reads_back_with_rosbags(mission):
             if connection.topic == "/videoray/odom":
                 msg = reader.deserialize(raw, connection.msgtype)
                 odom_types.add(connection.msgtype)
-                assert msg.header.frame_id == "map"
+                assert msg.header.frame_id == "videoray/odom"  # REP 105
                 assert msg.child_frame_id == "videoray/base_link"
     assert odom_types == {"nav_msgs/msg/Odometry"}
     # Odometry at 10 Hz for 150 s (ticks 6, 12, ... of the 60 Hz physics).

@@ -66,7 +66,7 @@ def test_uhrisim_recover_makes_a_killed_run_readable_everywhere(tmp_path):
         messages = list(bag.messages(connections=odom))
         first = bag.deserialize(messages[0][2], odom[0].msgtype)
     assert len(messages) == before.topics["/videoray/odom"][1] > 10
-    assert first.header.frame_id == "map" and first.child_frame_id == "videoray/base_link"
+    assert first.header.frame_id == "videoray/odom" and first.child_frame_id == "videoray/base_link"
 
     # a complete recording is left alone; a second recovery says so
     again = CliRunner().invoke(app, ["recover", str(recording)])

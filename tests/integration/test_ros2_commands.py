@@ -34,11 +34,12 @@ FLOOR_DEPTH = 10.0  # m, the scenario's flat floor
 
 
 def _fly(ros_env: int, tmp_path: Path, plan: list, node: str, after_done_s: float,
-         rosout: bool = False):
+         rosout: bool = False, timeout_s: float = 1.0):
     """Run the scenario paced at real time while the plan is published; go on
     ``after_done_s`` simulated seconds after the commander is done. Returns the hook,
     the frames' (t, nav, desired) and the commander's stdout lines."""
-    hook = Ros2BridgeHook(domain_id=ros_env, node_name=node, command_timeout_s=1.0)
+    hook = Ros2BridgeHook(domain_id=ros_env, node_name=node,
+                          command_timeout_s=timeout_s)
     sim = Simulation(load_scenario(SCENARIO), raycast_sensors=False, hooks=[hook])
     args = ["--agent", "videoray", "--plan", json.dumps(plan), "--bridge-node", node]
     commander = Child("ros2_command_plan.py", [*args, "--rosout"] if rosout else args,
@@ -130,9 +131,10 @@ def test_bad_commands_are_refused_or_clamped_counted_and_on_rosout(ros_env: int,
 
     # on /rosout, from the bridge's node, rate-limited: in 4 s one line per topic and
     # reason (then one every 5 s), not one per rejection
-    rosout = [line for line in lines if line.startswith("ROSOUT")]
-    assert any("/videoray/cmd/desired_speed rejected: negative speed" in x for x in rosout)
-    assert any("/videoray/cmd/thrusters rejected: wrong length" in x for x in rosout)
+    rosout = [line for line in lines if line.startswith("ROSOUT") and "command on " in line]
+    assert any("/videoray/cmd/desired_speed refused: negative speed" in x for x in rosout)
+    assert any("/videoray/cmd/thrusters refused: wrong length" in x for x in rosout)
+    assert any("/videoray/cmd/desired_depth clamped: below the floor" in x for x in rosout)
     assert all(line.split()[1] == "30" for line in rosout)  # WARN
     assert len(rosout) == sum(len(t) for t in reasons.values()) == 6
 
@@ -160,3 +162,88 @@ def test_stale_thruster_command_stops_without_turning(ros_env: int, tmp_path: Pa
     assert abs(surge[-1]) < 0.1  # stopped
     desired = track[-1][2]
     assert desired[0] == pytest.approx(heading[at_stale], abs=0.5) and desired[1] == 0.0
+
+
+def _lapse(sim: Simulation, topic: str) -> float:
+    """The simulated time (s) of the one ``bridge`` event saying nothing was accepted on
+    ``/videoray/cmd/<topic>``."""
+    times = [e.t for e in sim.events_log
+             if e.kind == "bridge" and f"/videoray/cmd/{topic}" in e.detail]
+    assert len(times) == 1, [e.detail for e in sim.events_log]
+    return times[0]
+
+
+def _rosout_says(lines: list[str], *words: str) -> bool:
+    return any(line.startswith("ROSOUT 30") and all(w in line for w in words)
+               for line in lines)
+
+
+@pytest.mark.parametrize("case", ["refused", "stopped", "never"])
+def test_speed_ages_on_its_own(ros_env: int, tmp_path: Path, case: str) -> None:
+    """Heading and depth stay fresh while the speed is refused (-5 m/s: the VideoRay
+    cannot reverse), stops being sent, or was never sent: one command timeout (1 s
+    simulated) after the last speed accepted (or the first command) the desired speed
+    is 0 and the ROV slows to a stop, said in the recording and on /rosout."""
+    fresh = {"desired_heading": [90.0], "desired_depth": [2.0]}
+    go = [1.5, {**fresh, "desired_speed": [0.8]}]
+    plans = {"refused": [go, [4.0, {**fresh, "desired_speed": [-5.0]}]],
+             "stopped": [go, [4.0, fresh]],
+             "never": [[4.0, fresh]]}
+    _hook, sim, track, lines = _fly(ros_env, tmp_path, plans[case], f"uhrisim_speed_{case}",
+                                   0.5, rosout=True)
+    t_lapse = _lapse(sim, "desired_speed")
+    assert not any("safe stop" in e.detail for e in sim.events_log if e.t < t_lapse + 1.0)
+    t = np.array([t for t, _, _ in track])
+    desired = np.array([d for _, _, d in track])
+    surge = np.array([nav.velocity_body[0] for _, nav, _ in track])
+    after = t > t_lapse + 1.0 / 20.0  # the fallback acts on the next tick
+    assert np.all(desired[after, 1] == 0.0)
+    if case != "never":
+        moving = t < t_lapse - 0.5
+        assert desired[moving, 1].max() == pytest.approx(0.8) and surge.max() > 0.3
+        accepted = [e.t for e in sim.events_log if "external commands active" in e.detail]
+        assert 0.9 < t_lapse - (accepted[0] + 1.5) < 1.4  # 1 s after the last 0.8 m/s
+    assert surge[-1] < surge[np.searchsorted(t, t_lapse)] - 0.1 or surge.max() < 0.05
+    assert np.all(np.abs(desired[after, 0] - 90.0) < 1e-9)  # the others still in force
+    assert _rosout_says(lines, "/videoray/cmd/desired_speed", "speed 0")
+
+
+@pytest.mark.parametrize(("topic", "sent_s", "timeout_s"),
+                         [("desired_heading", 0.2, 0.5), ("desired_depth", 1.5, 1.0)])
+def test_heading_and_depth_hold_where_they_are(ros_env: int, tmp_path: Path, topic: str,
+                                               sent_s: float, timeout_s: float) -> None:
+    """The ROV turns to 260 deg (from 90) or dives to 6 m (from 2); the heading or depth
+    then stops being sent while the rest stays fresh: one timeout later (0.5 s for the
+    heading: the ROV turns fast) the desired
+    heading or depth is the vehicle's own at that moment (not the old target), and it
+    holds there; said in the recording and on /rosout."""
+    target = {"desired_heading": 260.0, "desired_depth": 6.0}
+    fresh = {"desired_heading": [90.0], "desired_speed": [0.3], "desired_depth": [2.0]}
+    fresh[topic] = [target[topic]]
+    rest = {k: v for k, v in fresh.items() if k != topic}
+    plan = [[sent_s, fresh], [5.0, rest]]  # it turns or dives, then holds
+    _hook, sim, track, lines = _fly(ros_env, tmp_path, plan, f"uhrisim_hold_{topic}",
+                                    0.5, rosout=True, timeout_s=timeout_s)
+    t_lapse = _lapse(sim, topic)
+    t = np.array([t for t, _, _ in track])
+    column = {"desired_heading": 0, "desired_depth": 2}[topic]
+    desired = np.array([d[column] for _, _, d in track])
+    if topic == "desired_heading":
+        actual = np.array([math.degrees(nav.yaw) % 360.0 for _, nav, _ in track])
+        unit = "deg"
+    else:
+        actual = np.array([nav.position_ned[2] for _, nav, _ in track])
+        unit = "m"
+    at = np.searchsorted(t, t_lapse)
+    held = desired[np.searchsorted(t, t_lapse + 0.1)]
+    assert held == pytest.approx(actual[at], abs=0.1)  # where it was, to the log's digits
+    start = {"desired_heading": 90.0, "desired_depth": 2.0}[topic]
+    assert abs(held - start) > 0.1 * abs(target[topic] - start)  # it had moved ...
+    assert abs(held - target[topic]) > 0.1 * abs(target[topic] - start)  # ... not arrived
+    t_end = min((e.t for e in sim.events_log if "safe stop" in e.detail),  # commander ends
+                default=math.inf)
+    after = (t > t_lapse + 0.1) & (t < t_end)
+    assert np.all(desired[after] == held)
+    tolerance = {"desired_heading": 15.0, "desired_depth": 0.6}[topic]
+    assert abs(actual[-1] - held) < tolerance  # it stays near where it was
+    assert _rosout_says(lines, f"/videoray/cmd/{topic}", f"hold {topic.split('_')[1]}", unit)

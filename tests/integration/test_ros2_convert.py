@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from uhrisim.bridges.ros2 import AgentBridgeSpec, AgentCommands, Pacer, apply_env_defaults
-from uhrisim.bridges.ros2.spec import check_domain_id
+from uhrisim.bridges.ros2.spec import FASTDDS_PROFILE, check_domain_id
 from uhrisim.core.errors import ConfigError, NumericalError
 from uhrisim.ros.convert import (
     RateGate,
@@ -236,9 +236,18 @@ def test_specs_validate() -> None:
 
 
 def test_env_defaults_only_fill_missing() -> None:
+    """Loopback discovery and uhrisim's Fast DDS profile (an existing file, shipped
+    with the package), each only where the user has not chosen."""
     env: dict[str, str] = {}
-    assert apply_env_defaults(env) == {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
-    assert env == {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}  # nothing else is set
-    env2 = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET"}
+    profile = str(FASTDDS_PROFILE)
+    assert FASTDDS_PROFILE.is_file() and "<segment_size>8388608<" in FASTDDS_PROFILE.read_text()
+    expected = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
+                "FASTDDS_DEFAULT_PROFILES_FILE": profile}
+    assert apply_env_defaults(env) == expected
+    assert env == expected  # nothing else is set
+    env2 = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET", "FASTDDS_DEFAULT_PROFILES_FILE": "my.xml"}
     assert apply_env_defaults(env2) == {}
-    assert env2["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "SUBNET"
+    assert env2 == {"ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET",
+                    "FASTDDS_DEFAULT_PROFILES_FILE": "my.xml"}
+    env3 = {"RMW_IMPLEMENTATION": "rmw_cyclonedds_cpp"}  # another middleware: no profile
+    assert apply_env_defaults(env3) == {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}

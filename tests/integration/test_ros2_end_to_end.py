@@ -65,7 +65,7 @@ def test_external_nodes_see_the_rov_and_drive_it_to_a_goal(ros_env: int, tmp_pat
     # Frames: before any command the ROV holds its start pose, NED (3, 4, 2) facing east,
     # which is ENU (4, 3, -2) with the identity orientation.
     first = result["/videoray/odom"]["first"]
-    assert first["frame_id"] == "map" and first["child_frame_id"] == "videoray/base_link"
+    assert first["frame_id"] == "videoray/odom" and first["child_frame_id"] == "videoray/base_link"
     np.testing.assert_allclose(first["position"], [4.0, 3.0, -2.0], atol=0.05)
     np.testing.assert_allclose(first["orientation"], [0, 0, 0, 1], atol=0.01)
 

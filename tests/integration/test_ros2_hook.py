@@ -114,7 +114,7 @@ def test_hook_on_real_simulation(ros_env: int) -> None:
             ned = truth[(m.header.stamp.sec, m.header.stamp.nanosec)]
             p = m.pose.pose.position
             np.testing.assert_allclose([p.x, p.y, p.z], enu_from_ned(ned), atol=1e-9)
-            assert m.header.frame_id == "map" and m.child_frame_id == "videoray/base_link"
+            assert m.header.frame_id == "videoray/odom" and m.child_frame_id == "videoray/base_link"
 
         def stamp(m) -> tuple[int, int]:
             return (m.header.stamp.sec, m.header.stamp.nanosec)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import shlex
 import subprocess
 import sys
 import time
@@ -115,3 +116,79 @@ def test_a_bad_parameter_is_one_line_naming_it(ros_env: int, tmp_path: Path) -> 
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error:") and "sensor_qos" in lines[0]
+
+
+def test_ros_syntax_after_ros_args_goes_to_ros(ros_env: int, tmp_path: Path) -> None:
+    """As ``ros2 run`` takes them: every argument after a bare ``--ros-args`` up to ``--``
+    goes to ROS (the remapping and the parameter reach the node: the bad parameter stops
+    the start, named), and what follows ``--`` is uhrisim's again (``--duration``). A run
+    in a namespace records its topics under their live names (issue 30)."""
+    del ros_env
+    proc = subprocess.run(
+        [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "--out", str(tmp_path / "o"),
+         "--no-raycast-sensors", "-q", "--ros-args", "-r", "__ns:=/sim_a", "-p",
+         "sensor_qos:=fast", "--", "--duration", "1"],
+        capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "sensor_qos" in lines[0] and "fast" in lines[0], lines
+    ok = subprocess.run(
+        [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "--out", str(tmp_path / "ns"),
+         "--no-raycast-sensors", "-q", "--ros-args", "-r", "__ns:=/sim_a", "--",
+         "--duration", "1"], capture_output=True, text=True, timeout=300)
+    assert ok.returncode == 0, ok.stderr
+    # the bag's topics are the live names: under the namespace, /clock and /tf included
+    import yaml
+
+    meta = yaml.safe_load((tmp_path / "ns" / "metadata.yaml").read_text())
+    topics = {t["topic_metadata"]["name"]
+              for t in meta["rosbag2_bagfile_information"]["topics_with_message_count"]}
+    assert {"/sim_a/clock", "/sim_a/tf", "/sim_a/videoray/odom"} <= topics
+    assert all(t.startswith("/sim_a/") for t in topics), topics
+
+    from uhrisim.cli import _gather_ros_args
+
+    gathered = _gather_ros_args(["run", "x.yaml", "--ros-args", "-r", "__ns:=/sim_a", "-p",
+                                 "note:=a b", "--", "-q"])
+    assert gathered[:3] == ["run", "x.yaml", "-q"] and gathered[3].startswith("--ros-args=")
+    assert shlex.split(gathered[3].partition("=")[2]) == ["-r", "__ns:=/sim_a", "-p",
+                                                           "note:=a b"]
+
+
+def test_a_second_simulator_of_the_same_name_is_told_and_leaves_clock_alone(
+        ros_env: int, tmp_path: Path) -> None:
+    """Two simulators, both ``/uhrisim`` in the root namespace on one domain (the other a
+    ``uhrisim run --ros2`` process): each sees the other in the ROS graph, says so (a
+    bridge event; on the other's console, a warning) and publishes no more ``/clock``,
+    so nodes on ``use_sim_time`` never see two clocks interleaved."""
+    console = tmp_path / "other.err"
+    with console.open("w") as err:
+        other = subprocess.Popen([sys.executable, "-m", "uhrisim", "run", str(SCENARIO),
+                                  "--out", str(tmp_path / "other"), "--no-raycast-sensors",
+                                  "-q", "--ros2"], stdout=subprocess.DEVNULL, stderr=err)
+    hook = Ros2BridgeHook(domain_id=ros_env)
+    sim = Simulation(load_scenario(SCENARIO), raycast_sensors=False, hooks=[hook])
+
+    def told() -> tuple[bool, bool]:  # (this one, the other one)
+        return (any("another node named 'uhrisim'" in e.detail for e in sim.events_log),
+                "another node named 'uhrisim'" in console.read_text())
+
+    try:
+        sim.start()
+        pacer = Pacer(real_time_factor=1.0)
+        pacer.reset(sim.t)
+        deadline = time.monotonic() + 300.0  # the other's start and discovery
+        while not all(told()):
+            assert time.monotonic() < deadline and other.poll() is None, told()
+            pacer.wait(sim.step().t)
+        assert hook.bridge is not None and not hook.bridge.publishes_clock
+    finally:
+        sim.close()
+        other.send_signal(2)  # SIGINT
+        try:
+            other.wait(timeout=120.0)
+        finally:
+            if other.poll() is None:
+                other.kill()
+    assert other.returncode == 130
+    assert "publishes no /clock" in console.read_text()

@@ -139,7 +139,7 @@ def test_external_subscriber_rates_and_frames(ros_env: int, tmp_path: Path) -> N
         assert (n - 1) / (wall[-1] - wall[0]) == pytest.approx(rate, rel=0.15)
 
     odom = rec[f"/{agent}/odom"]["first"]
-    assert odom["frame_id"] == "map" and odom["child_frame_id"] == f"{agent}/base_link"
+    assert odom["frame_id"] == f"{agent}/odom" and odom["child_frame_id"] == f"{agent}/base_link"
     assert odom["stamp"] == [0, 0]
     np.testing.assert_allclose(odom["position"], [4.0, 3.0, -2.0], atol=1e-12)
     np.testing.assert_allclose(odom["orientation"], [0.0, 0.0, 0.0, 1.0], atol=1e-12)

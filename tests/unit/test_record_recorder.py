@@ -134,7 +134,7 @@ def test_known_ned_pose_comes_out_right_in_enu(tmp_path: Path) -> None:
         msgs = {c.topic: reader.deserialize(raw, c.msgtype)
                 for c, _t, raw in reader.messages() if c.topic.endswith("/odom")}
     m = msgs["/rov/odom"]
-    assert m.header.frame_id == "map" and m.child_frame_id == "rov/base_link"
+    assert m.header.frame_id == "rov/odom" and m.child_frame_id == "rov/base_link"  # REP 105
     assert (m.header.stamp.sec, m.header.stamp.nanosec) == (1, 500_000_000)
     p = m.pose.pose.position
     assert (p.x, p.y, p.z) == pytest.approx((4.0, 3.0, -2.0), abs=1e-12)

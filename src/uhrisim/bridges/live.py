@@ -74,7 +74,7 @@ def moos_hook(scenario: Scenario, require_helm: bool = False) -> Hook:
 def live_hooks(scenario: Scenario, *, ros2: bool = False, moos: bool = False,
                real_time_factor: float | None = None, paced_elsewhere: bool = False,
                lockstep: bool = False, ros_args: tuple[str, ...] = (),
-               require_helm: bool = False) -> list[Hook]:
+               require_helm: bool = False, foxglove_port: int | None = None) -> list[Hook]:
     """The bridge hooks the scenario (or the command line) asks for, plus pacing.
 
     ``real_time_factor`` overrides the scenario's; with MOOS on, the default pace is its
@@ -82,6 +82,8 @@ def live_hooks(scenario: Scenario, *, ros2: bool = False, moos: bool = False,
     switches the ROS 2 bridge on, in lockstep; ``ros_args`` go to its node.
     ``require_helm``: an agent's outside helm that does not drive ends the run as failed
     (``bridges.helm_watch.required``; :mod:`uhrisim.bridges.helm_watch`).
+    ``foxglove_port``: serve the run live to Foxglove on 127.0.0.1 at this port
+    (:mod:`uhrisim.bridges.foxglove`; paced at real time unless told otherwise).
     """
     bridges = scenario.bridges
     hooks: list[Hook] = []
@@ -92,9 +94,13 @@ def live_hooks(scenario: Scenario, *, ros2: bool = False, moos: bool = False,
                                require_helm=require_helm))
     if use_moos:
         hooks.append(moos_hook(scenario, require_helm))
-    if (use_ros2 or use_moos) and not paced_elsewhere:
+    if foxglove_port is not None:
+        from .foxglove import FoxgloveHook
+
+        hooks.append(FoxgloveHook(port=foxglove_port))
+    if (use_ros2 or use_moos or foxglove_port is not None) and not paced_elsewhere:
         factor = real_time_factor if real_time_factor is not None else (
-            bridges.moos.time_warp if use_moos else bridges.real_time_factor)
+            bridges.moos.time_warp if use_moos else bridges.real_time_factor or 1.0)
         if factor is not None and factor > 0:
             hooks.append(PacingHook(factor))
     return hooks

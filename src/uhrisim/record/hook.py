@@ -111,9 +111,12 @@ class McapRecordingHook:
         scenario = getattr(sim, "scenario", None)
         if scenario is not None and getattr(scenario, "name", None):
             meta["scenario"] = str(scenario.name)
+        # a live ROS 2 bridge in a namespace: the bag's topics are its live names
+        namespace = next((h.ros_namespace for h in getattr(sim, "hooks", ())
+                          if getattr(h, "ros_namespace", "")), "")
         self._rec = McapRecorder(
             self.path, chunk_size=self._chunk_size, flush_period_s=self._flush_period_s,
-            metadata={"uhrisim": meta},
+            metadata={"uhrisim": meta}, namespace=namespace,
         )
         self._tick = TickWriter(self._rec)
         self._tick.start(sim, scene=self.record_scene)

@@ -143,6 +143,7 @@ class McapRecorder(RosWriter):
         compression: str = "zstd",
         flush_period_s: float | None = None,
         metadata: Mapping[str, Mapping[str, str]] | None = None,
+        namespace: str = "",
     ) -> None:
         where = "McapRecorder"
         if int(chunk_size) < 1:
@@ -179,6 +180,7 @@ class McapRecorder(RosWriter):
         self._counts: dict[str, int] = {}
         self._last_flush_ns = 0
         self._closed = False
+        self._prefix = namespace.rstrip("/")  # "" or "/sim_a"
 
     # ------------------------------------------------------------------ plumbing
     @property
@@ -215,10 +217,10 @@ class McapRecorder(RosWriter):
         return channel_id
 
     def _emit(self, topic: str, typename: str, qos: QosKind, t_ns: int, data: bytes) -> None:
-        """Append one message on ``/<topic>`` (``qos``: the rosbag2 metadata knows the
-        latched topics by name)."""
+        """Append one message on ``<namespace>/<topic>`` (``qos``: the rosbag2 metadata
+        knows the latched topics by name)."""
         del qos
-        topic = f"/{topic}"
+        topic = f"{self._prefix}/{topic}"
         channel_id = self._channel(topic, typename)
         seq = self._sequence[channel_id]
         self._sequence[channel_id] = seq + 1

@@ -221,7 +221,8 @@ class AgentMessages:
         self.world_frame = world_frame
         #: the agent's frames are ``<frame_base>/base_link``, ``/odom``, ``/<sonar>``
         self.frame_base = f"{frame_prefix}{agent}"
-        self._odometry = cdr.OdometryEncoder(world_frame, self.frame("base_link"))
+        # REP 105: odometry in the agent's odom frame (map -> odom is the identity on /tf)
+        self._odometry = cdr.OdometryEncoder(self.frame("odom"), self.frame("base_link"))
         self._pose = cdr.PoseStampedEncoder(world_frame)
         first, *more = tf_chain_frames(self.frame_base, world_frame)
         self._tf = cdr.TransformEncoder(*first, *more)

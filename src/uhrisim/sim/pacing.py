@@ -20,12 +20,15 @@ merely slower than real time therefore runs at its own best speed.
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
 from uhrisim.core.errors import ConfigError
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -83,6 +86,10 @@ class Pacer:
         """Simulation seconds per wall second, or None when running free."""
         return self._factor
 
+    def clock(self) -> float:
+        """The pacer's wall clock now (monotonic s, or the injected clock's)."""
+        return self._clock()
+
     @property
     def free_running(self) -> bool:
         """True when the pacer never sleeps."""
@@ -132,17 +139,43 @@ class Pacer:
         return PacerStats(self._lag, self._slept, self._slips, self._waits)
 
 
-class PacingHook:
-    """Paces a simulation to ``real_time_factor`` x wall time (for live bridges)."""
+#: Simulated seconds over which a paced run's achieved speed is judged.
+PACE_WINDOW_S = 10.0
+#: A window below this fraction of the asked real-time factor is "behind".
+BEHIND_FRACTION = 0.9
 
-    def __init__(self, real_time_factor: float | None) -> None:
-        self.pacer = Pacer(real_time_factor)
+
+class PacingHook:
+    """Paces a simulation to ``real_time_factor`` x wall time (for live bridges), and
+    warns once (log) when a window of :data:`PACE_WINDOW_S` simulated seconds ran below
+    :data:`BEHIND_FRACTION` of it: the machine cannot keep up, and nodes on wall time see
+    a slow world. ``pacer``: the pacer to use (tests: one with a fake clock)."""
+
+    def __init__(self, real_time_factor: float | None, pacer: Pacer | None = None) -> None:
+        self.pacer = pacer or Pacer(real_time_factor)
+        self._window: tuple[float, float] | None = None  # (t_sim, wall) at its start
+        #: windows that ran below the asked factor so far
+        self.behind = 0
 
     def on_start(self, sim) -> None:
         self.pacer.reset(sim.t)
+        self._window = (float(sim.t), self.pacer.clock())
 
     def on_tick(self, frame) -> None:
         self.pacer.wait(frame.t)
+        factor, window = self.pacer.real_time_factor, self._window
+        if factor is None or window is None or frame.t - window[0] < PACE_WINDOW_S:
+            return
+        now = self.pacer.clock()
+        achieved = (frame.t - window[0]) / max(now - window[1], 1e-9)
+        self._window = (float(frame.t), now)
+        if achieved < BEHIND_FRACTION * factor:
+            self.behind += 1
+            if self.behind == 1:
+                log.warning("the paced run falls behind: %.2fx real time over the last "
+                            "%g simulated s, %gx asked (the machine cannot keep up; ROS "
+                            "nodes on use_sim_time follow /clock, nodes on wall time see a "
+                            "slow world)", achieved, PACE_WINDOW_S, factor)
 
     def on_end(self, sim, error) -> None:
         del sim, error

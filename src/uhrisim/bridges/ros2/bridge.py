@@ -54,8 +54,9 @@ __all__ = ["Ros2Bridge"]
 
 log = logging.getLogger(__name__)
 
-#: Longest wait of the command executor for something to do (s).
-_IDLE_SPIN_S = 1.0
+#: Longest wait of the command executor for something to do (s): also the longest a
+#: close waits for it when its wake-up races a turn (~1 ms of CPU an idle turn).
+_IDLE_SPIN_S = 0.2
 
 
 def _poll_until(condition: Callable[[], bool], timeout_s: float) -> bool:
@@ -198,6 +199,17 @@ class Ros2Bridge(RosWriter):
         """The agent specs, in the order given."""
         return tuple(self._specs.values())
 
+    @property
+    def node_name(self) -> str:
+        """The node's name (after any ``__node:=`` remapping, once started)."""
+        return self._node.get_name() if self._node is not None else self._node_name
+
+    @property
+    def namespace(self) -> str:
+        """The node's namespace once started (``""``: the root, else ``"/name"``)."""
+        ns = self._node.get_namespace() if self._node is not None else self._namespace
+        return ns.rstrip("/")
+
     def start(self) -> None:
         """Create the context, node, publishers, subscriptions and the executor thread.
 
@@ -298,7 +310,6 @@ class Ros2Bridge(RosWriter):
         assert ex is not None
         while not self._stop.is_set():
             try:
-                # an idle turn costs ~1 ms of CPU; close() wakes the executor at once
                 ex.spin_once(timeout_sec=_IDLE_SPIN_S)
             except ExternalShutdownException:
                 break
@@ -325,6 +336,8 @@ class Ros2Bridge(RosWriter):
             self._node.destroy_node()
         if self._context is not None:
             self._context.try_shutdown()
+            # the DDS participant goes now, not at the interpreter's exit (seconds there)
+            self._context.destroy()
         log.info("ROS 2 bridge %r closed", self._node_name)
 
     def __enter__(self) -> Ros2Bridge:
@@ -379,6 +392,28 @@ class Ros2Bridge(RosWriter):
         if self._publish_clock and t != self._t_clock_published and self._clock_gate.due(t):
             super().write_clock(t)
             self._t_clock_published = t
+
+    def twin_count(self) -> int:
+        """How many *other* nodes on the domain have this node's name and namespace (a
+        second simulator started the same way: its ``/clock`` and topics would mix with
+        ours). A ROS graph query, cheap; discovery may take a moment to show a twin. 0
+        once ROS is shut down under the bridge (the run goes on, see :mod:`.writer`)."""
+        self._check_open("twin_count")
+        try:
+            me = (self._node.get_name(), self._node.get_namespace())
+            names = self._node.get_node_names_and_namespaces()
+        except Exception:  # rclpy's InvalidHandle / RCLError: the context is gone
+            return 0
+        return max(0, sum(1 for pair in names if pair == me) - 1)
+
+    def stop_clock(self) -> None:
+        """Publish no more ``/clock`` (another simulator's clock is on the topic)."""
+        self._publish_clock = False
+
+    @property
+    def publishes_clock(self) -> bool:
+        """Does :meth:`write_clock` still publish ``/clock``?"""
+        return self._publish_clock
 
     # ----------------------------------------------------------------- rates
     def note_time(self, t_sim: float) -> None:
@@ -440,6 +475,17 @@ class Ros2Bridge(RosWriter):
         """
         self._agent_gates(agent, "commands")
         return self._inbox.commands(agent, t_sim)
+
+    def say(self, text: str, warn: bool = True) -> None:
+        """One line from the node's logger (``/rosout`` and the console): a warning, or
+        information with ``warn=False``; nothing before :meth:`start` or after close."""
+        if not self.started:
+            return
+        # rclpy fixes one severity per call site: one call each
+        if warn:
+            self._node.get_logger().warning(text)
+        else:
+            self._node.get_logger().info(text)
 
     # ----------------------------------------------------------------- introspection
     def stats(self) -> dict[str, Any]:

@@ -7,6 +7,9 @@ that accepts ``"thrusters"`` on ``/<agent>/cmd/thrusters``, std_msgs/Float64Mult
 ``(port, starboard, vertical)``. Every value passes the agent's
 :class:`~uhrisim.bridges.ros2.limits.CommandValidator` first: refused values are not
 stored (the previous command stays, and ages), clamped ones are stored clamped.
+Each desired value ages on its own: one older than the timeout (refused since, or no
+longer sent) is *lapsed*, and so is one never sent once the first desired value of any
+kind is older than the timeout (:attr:`~uhrisim.bridges.ros2.spec.AgentCommands.lapsed`).
 
 The subscriptions' callbacks run on the bridge's executor thread and store under a lock;
 the simulation thread reads the latest values (:meth:`CommandInbox.commands`). A
@@ -63,6 +66,7 @@ class _AgentInbox:
         self.slots: dict[str, _Slot] = {}
         self.received = 0  # command messages accepted so far
         self.answered: set[str] = set()  # command keys received since begin_round
+        self.desired_since: _Slot | None = None  # the first desired_* value's receipt
 
     def has_answered(self) -> bool:
         """Since the last :meth:`CommandInbox.begin_round`, a whole command group this
@@ -124,7 +128,9 @@ class CommandInbox:
     def _store(self, agent: str, key: str, value: Any) -> None:
         with self._lock:
             inbox = self._agents[agent]
-            inbox.slots[key] = _Slot(value, self._t_sim_latest, time.monotonic())
+            slot = inbox.slots[key] = _Slot(value, self._t_sim_latest, time.monotonic())
+            if inbox.desired_since is None and key in DESIRED_KEYS:
+                inbox.desired_since = slot
             inbox.received += 1
             inbox.answered.add(key)
             self._answers.notify_all()
@@ -159,18 +165,25 @@ class CommandInbox:
             self._t_sim_latest = t
             slots = dict(inbox.slots)
             received = inbox.received
-        ages = {
-            k: (t - s.t_sim) if self._timeout_clock == "sim" else (now_wall - s.t_wall)
-            for k, s in slots.items()
-        }
-        fresh = {k: slots[k].value for k, age in ages.items() if age <= self._timeout}
+            since = inbox.desired_since
+
+        def age(slot: _Slot) -> float:
+            return (t - slot.t_sim) if self._timeout_clock == "sim" else (now_wall - slot.t_wall)
+
+        ages = {k: age(s) for k, s in slots.items()}
+        fresh = {k: slots[k].value for k, a in ages.items() if a <= self._timeout}
         newest = min(ages.values()) if ages else None
+        # a desired value never sent ages from the first desired value of any kind
+        lapsed = frozenset() if since is None else frozenset(
+            k for k in DESIRED_KEYS
+            if (ages[k] if k in ages else age(since)) > self._timeout)
         return AgentCommands(
             desired_heading_deg=fresh.get("desired_heading"),
             desired_speed=fresh.get("desired_speed"),
             desired_depth=fresh.get("desired_depth"),
             thrusters=fresh.get(THRUSTERS_KEY),
             stale=bool(slots) and not fresh,
+            lapsed=lapsed,
             age_s=newest,
             received_count=received,
         )

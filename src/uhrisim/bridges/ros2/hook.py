@@ -21,11 +21,13 @@ uses:
 * Every command is checked against the agent's envelope first (:mod:`.limits`: speeds
   within what the vehicle can do, no reverse unless its controller reverses, depth within
   [0, floor below it - ``depth_clearance_m``], thrusters within ±150 and three of them).
-* When commands stop (all older than ``command_timeout_s``, see
-  :class:`~uhrisim.bridges.ros2.spec.AgentCommands`) the hook performs the safe stop
-  once: ``DESIRED_HEADING`` = the heading at that moment, ``DESIRED_SPEED = 0`` and
-  ``DESIRED_DEPTH`` = the current depth, and records a ``bridge`` event; another event
-  marks commands becoming active again. A thruster override outlives the command timeout
+* Each desired topic ages on its own (:attr:`~uhrisim.bridges.ros2.spec.AgentCommands.lapsed`):
+  one with nothing accepted for ``command_timeout_s`` (refused, silent, or never sent
+  while the others are) falls back once: ``DESIRED_SPEED = 0``, ``DESIRED_HEADING`` /
+  ``DESIRED_DEPTH`` = the heading / depth at that moment. When every command is older
+  than the timeout the hook performs the safe stop once (all three fallbacks). Each such
+  transition, and commands becoming active again, is a ``bridge`` event and a line from
+  the node's logger (``/rosout`` and the console). A thruster override outlives the command timeout
   by one command poll, so the safe stop's setpoints are in place before the vehicle's
   own controller takes over again: it does not turn back to an old heading.
 
@@ -52,13 +54,13 @@ from uhrisim.core.frames import heading_deg_from_yaw
 from uhrisim.ros.convert import RateGate
 from uhrisim.ros.markers import SCENE_MAX_TRIANGLES_PER_OBJECT
 from uhrisim.ros.tick import TickWriter
-from uhrisim.ros.topics import ros_name
+from uhrisim.ros.topics import DESIRED_KEYS, ros_name
 from uhrisim.scenario.schema import HelmWatchSection
 from uhrisim.sim.hooks import TickFrame, split_sensor_key
 from uhrisim.sim.simulation import BaseHook, Simulation
 
 from .limits import CommandEnvelope
-from .spec import COMMAND_GROUPS, AgentBridgeSpec, AgentCommands
+from .spec import COMMAND_GROUPS, AgentBridgeSpec, AgentCommands, node_namespace
 
 if TYPE_CHECKING:
     from .bridge import Ros2Bridge
@@ -162,6 +164,8 @@ class Ros2BridgeHook(BaseHook):
             "namespace": namespace,
             "ros_args": tuple(ros_args),
         }
+        #: the node's namespace ("" or "/name"): a recording of this run uses it too
+        self.ros_namespace = node_namespace(namespace, tuple(ros_args))
         self._lockstep = lockstep
         self._lockstep_timeout = lockstep_timeout_s
         self._lockstep_start_timeout = lockstep_start_timeout_s
@@ -184,8 +188,11 @@ class Ros2BridgeHook(BaseHook):
         self._publish_wake = self._wake_time = -math.inf
         self._seen: dict[str, int] = {}
         self._active: dict[str, bool] = {}
+        # per agent: the desired topics lapsed at the last poll (their fallbacks posted)
+        self._fallen_back: dict[str, frozenset[str]] = {}
         self._failing: tuple[str, ...] = ()  # bridge.failing_topics, as last recorded
         self._extras = False  # someone subscribes to vars or /events (refreshed at 10 Hz)
+        self._twin_seen = False  # another node of our name and namespace was seen
         self.n_posted = 0
         self.n_rejected = 0
         self._watch_settings = helm_watch or HelmWatchSection()
@@ -218,6 +225,9 @@ class Ros2BridgeHook(BaseHook):
         self._sim = sim
         self.bridge = Ros2Bridge(specs, **self._bridge_kw)
         self.bridge.start()
+        if self.bridge.namespace != self.ros_namespace:  # e.g. a node-specific remapping
+            log.warning("ROS 2 node namespace %r, not %r: the recording's topics are not "
+                        "the live ones", self.bridge.namespace, self.ros_namespace)
         self._links = [(spec.name, name, bool(spec.accept))
                        for spec, name in zip(self.bridge.agents, self._ros, strict=True)]
         self._accepting = any(accept for *_, accept in self._links)
@@ -230,9 +240,11 @@ class Ros2BridgeHook(BaseHook):
         self._publish_wake = self._wake_time = -math.inf
         self._seen = dict.fromkeys(names, 0)
         self._active = dict.fromkeys(names, False)
+        self._fallen_back: dict[str, frozenset[str]] = dict.fromkeys(names, frozenset())
         self.watches = {name: self._watch(sim, ros) for ros, name, accept in self._links
                         if accept and driven_from_outside(sim.agents[name])}
         self._failing = ()
+        self._twin_seen = False
 
     def _watch(self, sim: Simulation, ros: str) -> OutsideHelmWatch:
         """The watch of an agent driven from ROS, started now."""
@@ -310,6 +322,14 @@ class Ros2BridgeHook(BaseHook):
                 out.image(key, image)
             self._publish_wake = bridge.wake_time
             self._extras = bridge.extras_subscribed()  # checked at most at 10 Hz
+            if not self._twin_seen and bridge.twin_count() > 0:
+                self._twin_seen = True
+                bridge.stop_clock()
+                self._announce(sim, f"ros2: another node named {bridge.node_name!r} in "
+                                    f"namespace {bridge.namespace or '/'!r} on this domain "
+                                    "(a second simulator?): this one publishes no /clock "
+                                    "from now on; give each simulator its own namespace "
+                                    "(--ros-args -r __ns:=/sim_a) or node name")
             if bridge.failing_topics != self._failing:  # rare: note it in the recording
                 new = bridge.failing_topics[len(self._failing):]
                 self._failing = bridge.failing_topics
@@ -379,27 +399,49 @@ class Ros2BridgeHook(BaseHook):
                     log.warning("ROS 2 %s: thruster command rejected: %s", name, exc)
         if watch is not None:
             watch.check(frame.t)
+        newly_lapsed = cmd.lapsed - self._fallen_back[name]
+        self._fallen_back[name] = cmd.lapsed
         active = cmd.received and not cmd.stale
         if active != self._active[name]:
             self._active[name] = active
             if active:
-                sim.record_event("bridge", f"ros2 {name}: external commands active")
+                self._announce(sim, f"ros2 {ros}: external commands active", warn=False)
             else:
-                self._safe_stop(sim, name, frame)
+                held = self._fall_back(sim, name, DESIRED_KEYS, frame)
+                self._announce(sim, f"ros2 {ros}: commands stale for {self._timeout:g} s: "
+                                    f"safe stop ({held})")
+        elif active and newly_lapsed:
+            keys = [k for k in DESIRED_KEYS if k in newly_lapsed]
+            held = self._fall_back(sim, name, keys, frame)
+            topics = ", ".join(f"/{ros}/cmd/{k}" for k in keys)
+            self._announce(sim, f"ros2 {ros}: nothing accepted on {topics} for "
+                                f"{self._timeout:g} s: {held}")
 
-    def _safe_stop(self, sim: Simulation, name: str, frame: TickFrame) -> None:
-        """Commands went stale: hold the heading and depth of this moment, speed 0."""
+    def _fall_back(self, sim: Simulation, name: str, keys: Sequence[str],
+                   frame: TickFrame) -> str:
+        """Post the fallback of each desired topic of ``keys`` (speed 0, hold the heading
+        and the depth of this moment); returns what was held, in words."""
         nav = frame.agents[name].nav
-        heading = float(heading_deg_from_yaw(nav.yaw))
+        # rounded first, then wrapped: 359.96 deg reads "0.0", never "360.0"
+        heading = round(float(heading_deg_from_yaw(nav.yaw)), 1) % 360.0
         depth = float(nav.position_ned[2])
-        sim.post(name, "DESIRED_HEADING", heading, source="ros2")
-        sim.post(name, "DESIRED_SPEED", 0.0, source="ros2")
-        sim.post(name, "DESIRED_DEPTH", depth, source="ros2")
-        sim.record_event(
-            "bridge",
-            f"ros2 {name}: commands stale for {self._timeout:g} s: safe stop "
-            f"(speed 0, hold heading {heading:.1f} deg, hold depth {depth:.2f} m)",
-        )
+        fallbacks = {"desired_heading": ("DESIRED_HEADING", heading,
+                                         f"hold heading {heading:.1f} deg"),
+                     "desired_speed": ("DESIRED_SPEED", 0.0, "speed 0"),
+                     "desired_depth": ("DESIRED_DEPTH", depth, f"hold depth {depth:.2f} m")}
+        said = []
+        for key in sorted(keys, key=list(fallbacks).index):
+            var, value, words = fallbacks[key]
+            sim.post(name, var, value, source="ros2")
+            said.append(words)
+        return ", ".join(said)
+
+    def _announce(self, sim: Simulation, text: str, warn: bool = True) -> None:
+        """A safety transition: a ``bridge`` event in the recording (and on ``/events``)
+        and a line from the node's logger (``/rosout`` and the console)."""
+        sim.record_event("bridge", text)
+        if self.bridge is not None:
+            self.bridge.say(text, warn=warn)
 
     def on_end(self, sim: Simulation, error: BaseException | None) -> None:
         del sim, error

@@ -140,18 +140,18 @@ class CommandValidator:
         clipped = tuple(min(lim, max(-lim, x)) for x in vals)
         if clipped != tuple(vals):
             self._count(topic, "thruster input beyond the limit", clamped=True,
-                        detail=f"{vals} clamped to ±{lim:g}")
+                        detail=f"{vals} -> within ±{lim:g}")
         return clipped
 
     # ----------------------------------------------------------------- bookkeeping
     def _refuse(self, topic: str, reason: str, detail: str) -> None:
-        self._count(topic, reason, clamped=False, detail=f"{detail}; refused")
+        self._count(topic, reason, clamped=False, detail=detail)
         return None
 
     def _clamp(self, topic: str, reason: str, value: float, clamped: float,
                unit: str) -> float:
         self._count(topic, reason, clamped=True,
-                    detail=f"{value:g} {unit} clamped to {clamped:g} {unit}")
+                    detail=f"{value:g} {unit} -> {clamped:g} {unit}")
         return clamped
 
     def _count(self, topic: str, reason: str, *, clamped: bool, detail: str) -> None:
@@ -171,4 +171,5 @@ class CommandValidator:
             self._logged[(topic, reason)] = _LogSlot(now)
         if self.log is not None:
             more = f" ({suppressed} more since the last report)" if suppressed else ""
-            self.log(f"command on {topic} rejected: {reason}: {detail}{more}")
+            verb = "clamped" if clamped else "refused"
+            self.log(f"command on {topic} {verb}: {reason}: {detail}{more}")

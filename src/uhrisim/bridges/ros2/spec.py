@@ -8,15 +8,17 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections.abc import MutableMapping
+from collections.abc import MutableMapping, Sequence
 from dataclasses import dataclass, field
+from itertools import pairwise
+from pathlib import Path
 
 from uhrisim.core.errors import ConfigError
 
 from .limits import THRUSTER_LIMIT, CommandEnvelope
 
 __all__ = ["COMMAND_GROUPS", "ENV_DEFAULTS", "THRUSTER_LIMIT", "AgentBridgeSpec",
-           "AgentCommands", "apply_env_defaults", "check_domain_id"]
+           "AgentCommands", "apply_env_defaults", "check_domain_id", "node_namespace"]
 
 #: Command groups an agent may accept from ROS 2: ``"desired"`` = the three
 #: ``/<agent>/cmd/desired_*`` topics (what the built-in helm would produce),
@@ -99,6 +101,11 @@ class AgentCommands:
     ``age_s`` is the age of the newest command (in the timeout's clock, s), or ``None``.
     ``received_count`` counts every command message accepted for the agent so far (it
     changes when something new arrived, e.g. to forward each one exactly once).
+    ``lapsed``: the desired topics (``"desired_heading"``, ``"desired_speed"``,
+    ``"desired_depth"``) whose value is older than the timeout: every value refused or
+    none sent since, or none ever sent while the first desired value of any kind is older
+    than the timeout; empty until a desired value has arrived. The caller falls back per
+    topic: zero speed, hold the heading and the depth of that moment.
 
     Units: ``desired_heading_deg`` compass degrees [0, 360); ``desired_speed`` m/s;
     ``desired_depth`` m, positive down; ``thrusters`` ``(port, starboard, vertical)``,
@@ -110,6 +117,7 @@ class AgentCommands:
     desired_depth: float | None = None
     thrusters: tuple[float, float, float] | None = None
     stale: bool = False
+    lapsed: frozenset[str] = frozenset()
     age_s: float | None = None
     received_count: int = 0
 
@@ -133,16 +141,38 @@ class AgentCommands:
 ENV_DEFAULTS: dict[str, str] = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
 
 
+#: uhrisim's Fast DDS profile: an 8 MiB shared-memory segment (a ping's three images,
+#: ~600 kB, exceed the default 512 kB one: best-effort subscribers lost messages), UDP on
+#: loopback only. Set as ``FASTDDS_DEFAULT_PROFILES_FILE`` unless the user set their own.
+FASTDDS_PROFILE = Path(__file__).with_name("fastdds_profile.xml")
+
+
 def apply_env_defaults(environ: MutableMapping[str, str] | None = None) -> dict[str, str]:
     """Set each of :data:`ENV_DEFAULTS` that is missing from ``environ`` (default
-    ``os.environ``, which rcl reads when a context starts); return those it set."""
+    ``os.environ``, which rcl reads when a context starts), and
+    ``FASTDDS_DEFAULT_PROFILES_FILE`` = :data:`FASTDDS_PROFILE` when the middleware is Fast
+    DDS (ROS 2's default) and no profile is set; return those it set."""
     env = os.environ if environ is None else environ
     applied: dict[str, str] = {}
-    for key, value in ENV_DEFAULTS.items():
+    defaults = dict(ENV_DEFAULTS)
+    if env.get("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp").startswith("rmw_fastrtps"):
+        defaults["FASTDDS_DEFAULT_PROFILES_FILE"] = str(FASTDDS_PROFILE)
+    for key, value in defaults.items():
         if not env.get(key):
             env[key] = value
             applied[key] = value
     return applied
+
+
+def node_namespace(namespace: str, ros_args: Sequence[str]) -> str:
+    """The namespace a node made with ``namespace`` and ``ros_args`` gets: the last
+    ``-r``/``--remap __ns:=...`` of ``ros_args`` wins (as rcl does), normalised to ``""``
+    (the root) or ``"/name"``."""
+    for flag, value in pairwise(ros_args):
+        if flag in ("-r", "--remap") and value.startswith("__ns:="):
+            namespace = value.partition(":=")[2]
+    namespace = namespace.strip().rstrip("/")
+    return namespace if not namespace or namespace.startswith("/") else f"/{namespace}"
 
 
 def check_domain_id(domain_id: int | None) -> int | None:
