@@ -62,6 +62,9 @@ FIGURES: dict[str, tuple[str, str]] = {
                "the diver in clear, coastal and turbid water, near and far, lamps on/off"),
     "sonar-trail": ("uhrisim.experiments.sonar_trail:make_sonar_trail",
                     "issue 15: sonar-only trail, 3 seeds x 10 min, paper + cluttered (~10 min)"),
+    "signal-range": ("uhrisim.experiments.signal_range:make_signal_range",
+                     "issue 26: markers, gestures and the sonar wave read vs range, water, "
+                     "lamps (~1 h)"),
 }
 
 
