@@ -3,7 +3,7 @@
 A scene (sand floor at 12 m, daylight) with the articulated diver (``world/diver_figure.
 py``) and his slate; each helm tick the diver is put where the world's script has him,
 posed by a :class:`~uhrisim.perception.signalling.SignalPerformer` (his gesture or the
-ready pose, the slate held up in front of his chest or hidden behind him), and the ROV's
+ready pose, the slate held up in front of his chest or put away), and the ROV's
 camera (VideoRay optics at 320 × 240, clear water, lamps on) renders him from the ROV's
 pose; :class:`~uhrisim.perception.signal_readers.SignalReaders` reads the picture.
 """
@@ -27,6 +27,7 @@ from uhrisim.world.scene import Scene
 from uhrisim.world.slate import MarkerSlate
 
 SLATE_AHEAD_M, SLATE_ABOVE_M = 0.45, 0.35
+HIDDEN = np.array([0.0, 0.0, 100.0])  # a slate put away: under the sea floor
 
 
 class SignalEye:
@@ -61,8 +62,8 @@ class SignalEye:
         held = self.performer.slate_id(t)
         ahead = np.array([math.cos(heading), math.sin(heading), 0.0])
         for marker_id in self.slates:
-            where = SLATE_AHEAD_M if marker_id == held else -2.0  # hidden behind him
-            position = np.array(diver.position) + where * ahead - (0, 0, SLATE_ABOVE_M)
+            position = (np.array(diver.position) + SLATE_AHEAD_M * ahead - (0, 0, SLATE_ABOVE_M)
+                        if marker_id == held else HIDDEN)
             self.scene.set_pose(f"slate{marker_id}", position, body)
         frame = self.camera.capture(self.caster, world.rov.position.copy(),
                                     rot_z(math.radians(world.rov.heading)), t)

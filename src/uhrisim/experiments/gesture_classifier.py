@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -49,6 +50,7 @@ from uhrisim.world.scene import Scene
 
 CAMERA_DEPTH_M = 8.0
 FLOOR_DEPTH_M = 12.0
+FLOOR_SIZE_M = 2000.0  # its edge beyond sight: no horizon line for the silhouette to catch
 #: the hip centre sits this far below the camera (the camera level with his chest)
 HIP_BELOW_CAMERA_M = 0.35
 WINDOW_S, RATE_HZ = 10.0, 4.0
@@ -87,15 +89,16 @@ class EpisodeRenderer:
         self.gestures = gestures or GestureSet.load()
         self.skeleton = DiverSkeleton()
         self.scene = Scene()
-        self.scene.add_static(prim.box((80.0, 80.0, 1.0), (0.0, 0.0, FLOOR_DEPTH_M + 0.5)),
-                              "seafloor", SAND)
+        floor = prim.box((FLOOR_SIZE_M, FLOOR_SIZE_M, 1.0), (0.0, 0.0, FLOOR_DEPTH_M + 0.5))
+        self.scene.add_static(floor, "seafloor", SAND)
         self.scene.add_dynamic("diver", diver_figure(self.skeleton), "diver", NEOPRENE,
                                position_ned=(3.0, 0.0, CAMERA_DEPTH_M + HIP_BELOW_CAMERA_M))
         self.caster = self.scene.raycaster()
 
-    def descriptors(self, ep: GestureEpisode) -> tuple[NDArray[np.float64], int]:
-        """(frame descriptors of the window ending after the gesture, the index of the
-        frame half-way through the gesture)."""
+    def frames(self, ep: GestureEpisode, extra_s: float = 0.0
+               ) -> Iterator[tuple[float, NDArray[np.uint8]]]:
+        """(t, picture) of the window ending after the gesture (t = 0 at its start),
+        and ``extra_s`` more of him holding its last pose."""
         rng = np.random.default_rng(np.random.SeedSequence([ep.seed, 26, len(ep.klass)]))
         motion, noise = rng.spawn(2)
         side = "left" if motion.random() < 0.5 else "right"
@@ -111,10 +114,8 @@ class EpisodeRenderer:
                                                lamps_on=ep.lamps, tilt_deg=0.0), noise)
         self.scene.set_pose("diver", (ep.range_m, 0.0, CAMERA_DEPTH_M + HIP_BELOW_CAMERA_M),
                             rot_z(math.pi + math.radians(ep.heading_deg)))
-        n = round(WINDOW_S * RATE_HZ)
-        times = end - WINDOW_S + (np.arange(n) + 1) / RATE_HZ
-        out = []
-        for t in times:
+        n = round((WINDOW_S + extra_s) * RATE_HZ)
+        for t in end - WINDOW_S + (np.arange(n) + 1) / RATE_HZ:
             joints = pose_at(frames, t) if name != NONE else dict(frames[0].joints)
             q = self.skeleton.vector(joints)
             for index, period, phase in sway:
@@ -123,9 +124,19 @@ class EpisodeRenderer:
                                                                       self.skeleton.clip(q)))
             frame = camera.capture(self.caster, np.array([0.0, 0.0, CAMERA_DEPTH_M]),
                                    np.eye(3), float(t))
-            out.append(frame_descriptor(frame.rgb))
-        half = int(np.searchsorted(times, 0.5 * duration))
-        return np.array(out), half
+            yield float(t), frame.rgb
+
+    def descriptors(self, ep: GestureEpisode) -> tuple[NDArray[np.float64], int]:
+        """(frame descriptors of the window ending after the gesture, the index of the
+        frame half-way through the gesture)."""
+        times, out = [], []
+        for t, rgb in self.frames(ep):
+            times.append(t)
+            out.append(frame_descriptor(rgb))
+        name, _, count = ep.klass.partition(":")
+        duration = 0.0 if name == NONE else self.gestures.gestures[name].duration_s(
+            int(count) if count else None)
+        return np.array(out), int(np.searchsorted(times, 0.5 * duration))
 
 
 def episode_samples(renderer: EpisodeRenderer, ep: GestureEpisode

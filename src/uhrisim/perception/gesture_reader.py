@@ -1,17 +1,22 @@
 """Reading the diver's gestures from the ROV's camera pictures.
 
 **Per frame** (:func:`frame_descriptor`), from the 8-bit picture only (no label image):
-the grey picture is binned to at most 320 columns; the water's veil (and the floor) is
-taken as each row's median, and the pixels that differ from it by more than
-``4·σ_noise`` (σ from the median absolute deviation, at least 4 grey levels) are the
-silhouette; an opening removes speckle; parts less than :data:`GROUP_PX` pixels apart
-form a group, and the groups of at least :data:`KEEP_SHARE` of the largest one's pixels
-are the diver (his body, limbs and shadow on the floor).
-Its pixels, relative to their centroid and scaled by the square root of its area, fill a
-grid of :data:`GRID_ROWS` rows × :data:`GRID_COLS` columns of |x| (the picture folded
-about the centroid, so a gesture made with either arm reads the same) — the share of the
-silhouette in each cell — and three shape numbers: width, height and height of the top
-above the centroid, over the scale. Nothing found: a row of NaN.
+the picture is binned to at most 320 columns; the water's veil (and the floor) is taken
+as the running median along each row over :data:`BACKGROUND_PX` pixels (wider than a
+diver's body, and it follows the horizon's curve), colour by colour, and the pixels that
+differ from it in any colour by more than ``4·σ`` of that colour (σ from the median
+absolute deviation) and at least 4 levels are the silhouette (the grey neoprene stands
+out from the blue water by colour more than by brightness); an opening removes speckle;
+parts less than :data:`GROUP_PX` pixels apart form a group, and the groups of at least
+:data:`KEEP_SHARE` of the largest one's pixels are the diver (his body, limbs and shadow
+on the floor). Its scale is its median row width (the torso's, about; arms and head are few rows); its
+pixels, measured down from its top (the head, or a raised hand) and sideways from its
+median column, in that scale, fill a grid of :data:`GRID_ROWS` rows × :data:`GRID_COLS`
+columns of |x| (the picture folded about the median column, so a gesture made with
+either arm reads the same) — each cell's filled area — and three shape numbers: the
+grid's filled area, its farthest |x| and its mean depth below the top. The grid ends
+five torso widths down (about the hips), so the legs and his shadow on the floor, which
+change with range, stay out of it. Nothing found: a row of NaN.
 
 **Per window** (:func:`window_features`): the last ``window_s`` of frame descriptors
 (a gesture's whole motion fits): their mean, their standard deviation, the mean of the
@@ -41,7 +46,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
@@ -50,12 +54,15 @@ from uhrisim.core.errors import ConfigError
 from uhrisim.perception.gestures import GestureSet
 from uhrisim.perception.signals import Command, RecognizedSignal, load_json
 
-GRID_ROWS, GRID_COLS = 6, 3
-#: grid extent in units of the silhouette's scale: |x| in [0, 1.2), y in [-1.8, 1.2)
-GRID_X, GRID_Y = (0.0, 1.2), (-1.8, 1.2)
+GRID_ROWS, GRID_COLS = 5, 3
+#: grid extent in units of the silhouette's scale (its median row width, ~ the torso's):
+#: |x| from the median column in [0, 3), y down from the top in [0, 5)
+GRID_X, GRID_Y = (0.0, 3.0), (0.0, 5.0)
 FRAME_FEATURES = GRID_ROWS * GRID_COLS + 3
 MIN_AREA_PX = 12
 GROUP_PX = 3
+THRESHOLD_SIGMA, MIN_LEVELS = 4.0, 4.0
+BACKGROUND_PX = 81
 KEEP_SHARE = 0.15
 MAX_COLUMNS = 320
 #: frame-to-frame grid change (summed absolute share) that counts as the arms moving
@@ -63,21 +70,25 @@ MOVING = 0.08
 NONE = "none"
 
 
-def _grey(rgb: NDArray[np.uint8]) -> NDArray[np.float32]:
-    grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY).astype(np.float32)
-    factor = max(1, math.ceil(grey.shape[1] / MAX_COLUMNS))
+def _binned(rgb: NDArray[np.uint8]) -> NDArray[np.float32]:
+    """The picture as float, binned to at most MAX_COLUMNS columns."""
+    image = rgb.astype(np.float32)
+    factor = max(1, math.ceil(image.shape[1] / MAX_COLUMNS))
     if factor > 1:
-        h, w = (grey.shape[0] // factor) * factor, (grey.shape[1] // factor) * factor
-        grey = grey[:h, :w].reshape(h // factor, factor, w // factor, factor).mean(axis=(1, 3))
-    return grey
+        h, w = (image.shape[0] // factor) * factor, (image.shape[1] // factor) * factor
+        image = image[:h, :w].reshape(h // factor, factor, w // factor, factor, -1).mean(
+            axis=(1, 3))
+    return image
 
 
 def silhouette(rgb: NDArray[np.uint8]) -> NDArray[np.bool_]:
     """The diver's silhouette in the binned picture (module docstring); may be empty."""
-    grey = _grey(rgb)
-    residual = grey - np.median(grey, axis=1, keepdims=True)
-    sigma = 1.4826 * float(np.median(np.abs(residual)))
-    mask = ndimage.binary_opening(np.abs(residual) > max(4.0 * sigma, 4.0))
+    image = _binned(rgb)
+    background = ndimage.median_filter(image, size=(1, BACKGROUND_PX, 1), mode="nearest")
+    residual = np.abs(image - background)
+    sigma = np.maximum(1.4826 * np.median(residual, axis=(0, 1)), 1.0)
+    outlier = (residual > np.maximum(THRESHOLD_SIGMA * sigma, MIN_LEVELS)).any(axis=2)
+    mask = ndimage.binary_opening(outlier)
     labels, n = ndimage.label(ndimage.binary_dilation(mask, iterations=GROUP_PX))
     if n == 0:
         return mask
@@ -88,17 +99,19 @@ def silhouette(rgb: NDArray[np.uint8]) -> NDArray[np.bool_]:
 
 
 def frame_descriptor(rgb: NDArray[np.uint8]) -> NDArray[np.float64]:
-    """(FRAME_FEATURES,) grid shares and shape numbers of one picture; NaN if no diver."""
-    rows, cols = np.nonzero(silhouette(rgb))
+    """(FRAME_FEATURES,) grid fills and shape numbers of one picture; NaN if no diver."""
+    mask = silhouette(rgb)
+    rows, cols = np.nonzero(mask)
     if rows.size < MIN_AREA_PX:
         return np.full(FRAME_FEATURES, np.nan)
-    scale = math.sqrt(rows.size)
-    x = np.abs(cols - cols.mean()) / scale
-    y = (rows - rows.mean()) / scale
+    widths = mask.sum(axis=1)
+    scale = max(2.0, float(np.median(widths[widths > 0])))
+    x = np.abs(cols - np.median(cols)) / scale
+    y = (rows - rows.min()) / scale
     grid, _, _ = np.histogram2d(y, x, (GRID_ROWS, GRID_COLS), (GRID_Y, GRID_X))
-    shape = [(cols.max() - cols.min() + 1) / scale, (rows.max() - rows.min() + 1) / scale,
-             (rows.mean() - rows.min()) / scale]
-    return np.concatenate([grid.ravel() / rows.size, shape])
+    inside = y < GRID_Y[1]
+    shape = [inside.sum() / scale ** 2, x[inside].max(), y[inside].mean()]
+    return np.concatenate([grid.ravel() / scale ** 2, shape])
 
 
 def window_features(descriptors: NDArray[np.float64], rate_hz: float) -> NDArray[np.float64]:

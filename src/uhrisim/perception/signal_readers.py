@@ -45,7 +45,7 @@ class SignalReaders:
                                     self.min_marker_confidence)
         if self.gestures is not None:
             found += self.gestures.feed(frame.t, frame.rgb)
-        return self._once(found)
+        return self.once(found)
 
     def ping(self, ping: SonarPing, range_m: float | None, bearing_rad: float | None
              ) -> list[RecognizedSignal]:
@@ -53,9 +53,10 @@ class SignalReaders:
         > 0 starboard) in it, None if he is not tracked."""
         if self.sonar is None:
             return []
-        return self._once(self.sonar.feed(ping, range_m, bearing_rad))
+        return self.once(self.sonar.feed(ping, range_m, bearing_rad))
 
-    def _once(self, found: list[RecognizedSignal]) -> list[RecognizedSignal]:
+    def once(self, found: list[RecognizedSignal]) -> list[RecognizedSignal]:
+        """The signals of ``found`` that are new (module docstring); kept in ``said``."""
         out = []
         for signal in found:
             text = str(signal.command)
