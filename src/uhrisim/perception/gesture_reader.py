@@ -9,7 +9,9 @@ absolute deviation) and at least 4 levels are the silhouette (the grey neoprene 
 out from the blue water by colour more than by brightness); an opening removes speckle;
 parts less than :data:`GROUP_PX` pixels apart form a group, and the groups of at least
 :data:`KEEP_SHARE` of the largest one's pixels are the diver (his body, limbs and shadow
-on the floor). Its scale is its median row width (the torso's, about; arms and head are few rows); its
+on the floor).
+
+Its scale is its median row width (the torso's, about; arms and head are few rows); its
 pixels, measured down from its top (the head, or a raised hand) and sideways from its
 median column, in that scale, fill a grid of :data:`GRID_ROWS` rows × :data:`GRID_COLS`
 columns of |x| (the picture folded about the median column, so a gesture made with
