@@ -33,6 +33,8 @@ def _run(water: str):
     return world, eye, signal_metrics(issued, eye.readers.said, world.trace)
 
 
+@pytest.mark.xfail(strict=True, reason="the shipped gesture classifier is below the bar "
+                   "(docs/hri.md): the bring_tool gesture is not read")
 @pytest.mark.slow
 def test_in_clear_water_the_rov_reads_the_gesture_fetches_hands_over_and_follows():
     world, eye, m = _run("I")

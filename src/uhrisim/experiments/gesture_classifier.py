@@ -13,7 +13,7 @@ frame rate. The label is the script's truth (the gesture, ``bring_tool:<count>``
 the same frames give a ``none`` sample: the window that ends half-way through the
 gesture. Episodes of class ``none`` are the diver at rest.
 
-    python -m uhrisim.experiments.gesture_classifier OUT.json [--episodes 14] [--seed 1]
+    python -m uhrisim.experiments.gesture_classifier OUT.json [--episodes 6] [--seed 1]
     python -m uhrisim.experiments.gesture_classifier --evaluate [--range 3] [--water I]
 
 The first wrote the shipped ``perception/data/gesture_classifier.json`` (Jerlov I water
@@ -220,7 +220,7 @@ def held_out_episodes(classes: list[str], range_m: float, water: str, lamps: boo
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path, nargs="?")
-    parser.add_argument("--episodes", type=int, default=14, help="training episodes per class")
+    parser.add_argument("--episodes", type=int, default=6, help="training episodes per class")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--evaluate", action="store_true")
     parser.add_argument("--range", type=float, default=3.0)

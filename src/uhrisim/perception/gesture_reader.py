@@ -2,8 +2,9 @@
 
 **Per frame** (:func:`frame_descriptor`), from the 8-bit picture only (no label image):
 the picture is binned to at most 320 columns; the water's veil (and the floor) is taken
-as the running median along each row over :data:`BACKGROUND_PX` pixels (wider than a
-diver's body, and it follows the horizon's curve), colour by colour, and the pixels that
+as the running median along each row over :data:`BACKGROUND_PX` pixels, of every
+:data:`BACKGROUND_STEP` th pixel (wider than a diver's body, and it follows the horizon's
+curve), colour by colour, and the pixels that
 differ from it in any colour by more than ``4·σ`` of that colour (σ from the median
 absolute deviation) and at least 4 levels are the silhouette (the grey neoprene stands
 out from the blue water by colour more than by brightness); an opening removes speckle;
@@ -64,7 +65,7 @@ FRAME_FEATURES = GRID_ROWS * GRID_COLS + 3
 MIN_AREA_PX = 12
 GROUP_PX = 3
 THRESHOLD_SIGMA, MIN_LEVELS = 4.0, 4.0
-BACKGROUND_PX = 81
+BACKGROUND_PX, BACKGROUND_STEP = 80, 8
 KEEP_SHARE = 0.15
 MAX_COLUMNS = 320
 #: frame-to-frame grid change (summed absolute share) that counts as the arms moving
@@ -86,7 +87,10 @@ def _binned(rgb: NDArray[np.uint8]) -> NDArray[np.float32]:
 def silhouette(rgb: NDArray[np.uint8]) -> NDArray[np.bool_]:
     """The diver's silhouette in the binned picture (module docstring); may be empty."""
     image = _binned(rgb)
-    background = ndimage.median_filter(image, size=(1, BACKGROUND_PX, 1), mode="nearest")
+    coarse = ndimage.median_filter(image[:, ::BACKGROUND_STEP],
+                                   size=(1, BACKGROUND_PX // BACKGROUND_STEP + 1, 1),
+                                   mode="nearest")
+    background = np.repeat(coarse, BACKGROUND_STEP, axis=1)[:, :image.shape[1]]
     residual = np.abs(image - background)
     sigma = np.maximum(1.4826 * np.median(residual, axis=(0, 1)), 1.0)
     outlier = (residual > np.maximum(THRESHOLD_SIGMA * sigma, MIN_LEVELS)).any(axis=2)
