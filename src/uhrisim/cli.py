@@ -135,6 +135,9 @@ FIGURES: dict[str, tuple[str, str]] = {
                     "issue 15: sonar-only trail, 3 seeds x 10 min, paper + cluttered (~10 min)"),
     "team-timeline": ("uhrisim.viz.team_figures:make_team_timeline",
                       "a run's diver orders as a Gantt chart (--run RUN_FOLDER)"),
+    "signal-range": ("uhrisim.experiments.signal_range:make_signal_range",
+                     "issue 26: markers, gestures and the sonar wave read vs range, water, "
+                     "lamps (~1 h)"),
 }
 
 

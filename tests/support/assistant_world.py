@@ -105,6 +105,8 @@ class World:
     tools: dict[str, np.ndarray] = field(default_factory=dict)
     sites: dict[str, np.ndarray] = field(default_factory=dict)
     signals: dict[float, Command] = field(default_factory=dict)  # t -> command (gesture)
+    #: the ROV's own readers, called every helm tick: (world, diver) -> signals read
+    perceive: Callable[[World, DiverState], tuple[RecognizedSignal, ...]] | None = None
     config: AssistantConfig = field(default_factory=AssistantConfig)
 
     def __post_init__(self) -> None:
@@ -197,6 +199,8 @@ class World:
         track = self.diver_track(d)
         due = [c for t, c in self.signals.items() if self.t - DT * HELM_EVERY < t <= self.t]
         signals = tuple(RecognizedSignal(c, "gesture", 0.9, self.t) for c in due)
+        if self.perceive is not None:
+            signals += self.perceive(self, d)
         status = GripperStatus(self.phase, self.holding, ("diver",) if self.shared else ())
         out = self.assistant.step(AssistantInputs(
             self.t, RovNav(self.rov.position.copy(), self.rov.heading, self.rov.speed), track,

@@ -33,6 +33,7 @@ speeds with its acceleration time to spare (:meth:`GestureSet.check_motion`).
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -105,6 +106,18 @@ class Gesture:
 
     def duration_s(self, count: int | None = None) -> float:
         return self.timeline(count=count)[-1].t
+
+
+def pose_at(frames: tuple[Keyframe, ...], t: float) -> dict[str, float]:
+    """Joint angles (rad, by name) ``t`` s into a timeline: linear between keyframes, the
+    first before it starts and the last after it ends."""
+    if t <= frames[0].t:
+        return dict(frames[0].joints)
+    for a, b in itertools.pairwise(frames):
+        if t <= b.t:
+            w = (t - a.t) / (b.t - a.t)
+            return {j: (1 - w) * a.joints.get(j, 0.0) + w * b.joints[j] for j in b.joints}
+    return dict(frames[-1].joints)
 
 
 @dataclass(frozen=True)

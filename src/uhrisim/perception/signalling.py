@@ -1,0 +1,77 @@
+"""The diver's side of a signal: what his body shows while his script says one.
+
+A script's ``signal`` (a command on a channel) becomes, from its start time: for a
+``gesture`` (or the ``sonar`` wave), the gesture's joint angles over its timeline
+(:func:`~uhrisim.perception.gestures.pose_at`, the signalling arm ``side``) and then his
+``signal_ready`` pose again; for a ``marker``, the slate with the command's id held up
+for ``slate_hold_s``. Whoever renders the diver (the simulation loop, a test world, the
+figure) asks :meth:`SignalPerformer.joints` and :meth:`SignalPerformer.slate_id` each
+frame; :attr:`SignalPerformer.issued` is the truth the metrics count against
+(:mod:`uhrisim.assistant.metrics`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from uhrisim.core.errors import ConfigError
+from uhrisim.perception.gestures import GestureSet, Keyframe, Side, pose_at
+from uhrisim.perception.markers import MarkerCommands
+from uhrisim.perception.signals import Channel, Command
+
+
+@dataclass(frozen=True)
+class Performance:
+    """One signal being made: start (s), command, channel, duration (s), and the gesture's
+    keyframes or the slate's marker id."""
+
+    t: float
+    command: Command
+    channel: Channel
+    duration_s: float
+    frames: tuple[Keyframe, ...] = ()
+    marker_id: int | None = None
+
+
+@dataclass
+class SignalPerformer:
+    """Turns the script's signals into the diver's poses and slate (module docstring)."""
+
+    gestures: GestureSet = field(default_factory=GestureSet.load)
+    markers: MarkerCommands = field(default_factory=MarkerCommands.load)
+    side: Side = "right"
+    slate_hold_s: float = 3.0
+    issued: list[Performance] = field(default_factory=list)
+
+    def signal(self, t: float, command: Command, channel: Channel) -> Performance:
+        """Start making ``command`` on ``channel`` at ``t`` (s); ConfigError when the
+        language has no gesture, or the slate no marker, for it."""
+        if channel == "marker":
+            ids = [i for i, c in self.markers.commands.items() if c == command]
+            if not ids:
+                raise ConfigError(f"no marker on the slate says {command}", "signal")
+            done = Performance(t, command, channel, self.slate_hold_s, marker_id=min(ids))
+        else:
+            gesture, count = self.gestures.for_command(command, channel)
+            frames = gesture.timeline(self.side, count)
+            done = Performance(t, command, channel, frames[-1].t, frames)
+        self.issued.append(done)
+        return done
+
+    def _current(self, t: float) -> Performance | None:
+        now = [p for p in self.issued if p.t <= t < p.t + p.duration_s]
+        return now[-1] if now else None
+
+    def joints(self, t: float) -> dict[str, float]:
+        """The arm and trunk joint angles (rad, by name) at ``t``: a gesture's, or the
+        ``signal_ready`` pose between gestures."""
+        p = self._current(t)
+        if p is None or not p.frames:
+            plain = next(g for g in self.gestures.gestures.values() if g.count_period_s is None)
+            return dict(plain.timeline(self.side)[0].joints)  # every gesture starts there
+        return pose_at(p.frames, t - p.t)
+
+    def slate_id(self, t: float) -> int | None:
+        """The marker id held up at ``t``, or None."""
+        p = self._current(t)
+        return None if p is None else p.marker_id
