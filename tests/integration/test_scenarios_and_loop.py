@@ -209,6 +209,31 @@ events:
         "moved 'gate' to [4.0, 0.0, 3.0]", "added object 'buoy'"]
 
 
+def test_an_object_an_event_drops_onto_a_still_vehicle_is_a_collision(tmp_path):
+    """The vehicle does not move into the object, so only the event can see it: counted
+    once, logged with the object and the place; an object put beside it is not."""
+    gate = ("    - {type: box, label: gate, movable: true, size: [0.5, 4, 4],\n"
+            "       position: {north: 30, east: 0, depth: 3}}\n")
+    text = COLLIDE.replace("  objects:\n", "  objects:\n" + gate) + """
+events:
+  - {at: 1, add_object: {type: box, label: crate, size: [1, 1, 1],
+                         position: {north: 0, east: 3, depth: 3}}}
+  - {at: 2, add_object: {type: box, label: skip, size: [1, 1, 1],
+                         position: {north: 0.3, east: 0, depth: 2.9}}}
+  - {at: 3, move_object: {label: gate, position: {north: 0, east: 0, depth: 3}}}
+"""
+    sim = Simulation(load_scenario(write(tmp_path, text)))
+    sim.run(1.5)
+    assert sim.collisions == 0  # the crate landed 3 m away
+    sim.run(1.0)
+    assert sim.collisions == 1
+    sim.run(1.0)
+    assert sim.collisions == 2
+    hits = [e.detail for e in sim.events_log if e.kind == "collision"]
+    assert hits[0].startswith("rov touched 'skip', which an event added onto it at NED [0.0")
+    assert hits[1].startswith("rov touched 'gate', which an event moved onto it at NED")
+
+
 def test_stale_external_thrusters_fall_back_to_the_controller(tmp_path):
     sim = Simulation(load_scenario(write(tmp_path, COLLIDE)))
     sim.set_actuators("rov", [100.0, 100.0, 0.0], hold_s=1.0)

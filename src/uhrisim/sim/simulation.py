@@ -42,7 +42,7 @@ from uhrisim.autonomy.params import checked_value
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned, rot_z
 from uhrisim.core.rng import component_rng
-from uhrisim.scenario.build_world import add_object, build_static_scene
+from uhrisim.scenario.build_world import add_object, build_static_scene, object_mesh
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.sim.bubbles import DiverBubbles
 from uhrisim.sim.build import build_agents, build_events
@@ -97,6 +97,17 @@ class BaseHook:
 
     def summary(self) -> dict[str, Any]:
         return {}
+
+
+def _sphere_samples() -> NDArray[np.float64]:
+    """The unit sphere sampled at its centre and 26 points: the faces, edges and corners
+    of a cube, normalised (for an object that appears where an agent is)."""
+    cube = np.array(list(np.ndindex(3, 3, 3)), dtype=float) - 1.0
+    norms = np.linalg.norm(cube, axis=1, keepdims=True)
+    return cube / np.where(norms > 0.0, norms, 1.0)
+
+
+SPHERE_SAMPLES = _sphere_samples()
 
 
 class Simulation:
@@ -318,6 +329,7 @@ class Simulation:
             add_object(self.scene, obj, self.source, where)
             self.refresh_static_obstacles()
             self.record_event("event", f"added object {obj.label!r}")
+            self._count_struck(obj, where, "added")
         elif cfg.move_object is not None:
             move = cfg.move_object
             if move.label not in self.scene.body_names:
@@ -327,6 +339,10 @@ class Simulation:
             _, rotation, _ = self.scene.pose(move.label)
             self.scene.set_pose(move.label, np.array(move.position.as_list()), rotation)
             self.record_event("event", f"moved {move.label!r} to {move.position.as_list()}")
+            placed = self._object_configs()[move.label].model_copy(
+                update={"position": move.position})
+            self._count_struck(placed, self.source.where("events", event.index, "move_object"),
+                               "moved")
         elif cfg.script is not None:
             agent = self.agents[cfg.agent]
             if isinstance(agent.driver, ScriptedDriver):
@@ -335,6 +351,30 @@ class Simulation:
                 agent.driver = ScriptedDriver(ScriptDriver(cfg.script))
                 agent.driver_period = max(1, round(0.25 / self.dt))
             self.record_event("event", f"new script for {cfg.agent} ({len(cfg.script)} legs)")
+
+    def _object_configs(self) -> dict[str, Any]:
+        """The scenario's objects by label: the world's and those its events add."""
+        scenario = self.source.scenario
+        added = [e.add_object for e in scenario.events if e.add_object is not None]
+        return {o.label: o for o in (*scenario.world.objects, *added)}
+
+    def _count_struck(self, obj: Any, where: str, how: str) -> None:
+        """An object an event put where an agent is: a collision of that agent (it did not
+        move into the object, so the moving-sphere check of :meth:`_advance` cannot see
+        it). The agent's sphere is sampled at its centre and 26 points of its surface."""
+        mesh = object_mesh(obj, self.source, where)
+        if not mesh.is_watertight:
+            return
+        low, high = mesh.bounds
+        for agent in self.agents.values():
+            centre = agent.state[:3]
+            if np.any(centre + agent.radius < low) or np.any(centre - agent.radius > high):
+                continue
+            if bool(np.any(mesh.contains(centre + agent.radius * SPHERE_SAMPLES))):
+                self.collisions += 1
+                agent.in_contact = True
+                self.record_event("collision", f"{agent.name} touched {obj.label!r}, which an "
+                                  f"event {how} onto it at NED {np.round(centre, 2).tolist()}")
 
     def _advance(self, agent: Agent) -> None:
         previous = agent.state  # plants return a new state; this one stays as it was
