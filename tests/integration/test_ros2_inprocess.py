@@ -470,8 +470,8 @@ def test_preserialised_odometry_and_pose_equal_the_messages() -> None:
 
     rng = np.random.default_rng(11)
     for agent in ("rov", "videoray", "diver_2"):
-        odometry, pose = OdometryEncoder(WORLD_FRAME, f"{agent}/base_link"), PoseStampedEncoder(
-            WORLD_FRAME)
+        odometry = OdometryEncoder(f"{agent}/odom", f"{agent}/base_link")
+        pose = PoseStampedEncoder(WORLD_FRAME)
         for _ in range(20):
             pos, yaw, vel = rng.uniform(-50, 50, 3), rng.uniform(-4, 4), rng.uniform(-1, 1, 3)
             r, t = rng.uniform(-0.5, 0.5), rng.uniform(0.0, 1e5)
@@ -482,6 +482,7 @@ def test_preserialised_odometry_and_pose_equal_the_messages() -> None:
                            f.angular_flu)
             assert deserialize_message(raw, Odometry) == expected
             want_pose = PoseStamped(header=expected.header, pose=expected.pose.pose)
+            want_pose.header.frame_id = WORLD_FRAME  # the pose in the world; odometry in odom
             raw_pose = pose(sec, nanosec, f.position_enu, f.orientation_xyzw)
             assert deserialize_message(raw_pose, PoseStamped) == want_pose
 

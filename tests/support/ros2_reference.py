@@ -114,11 +114,12 @@ def odometry_msg(
     velocity_body_frd: ArrayLike,
     yaw_rate: float,
 ) -> Odometry:
-    """nav_msgs/Odometry (``"map"`` -> ``"<agent>/base_link"``, REP-103) from NED/FRD
-    truth; see :func:`~uhrisim.ros.convert.odom_fields_from_ned`."""
+    """nav_msgs/Odometry (``"<agent>/odom"`` -> ``"<agent>/base_link"``: REP 105's odom
+    frame, REP-103 axes) from NED/FRD truth; see
+    :func:`~uhrisim.ros.convert.odom_fields_from_ned`."""
     f = odom_fields_from_ned(position_ned, yaw_rad, velocity_body_frd, yaw_rate)
     odom = Odometry()
-    _set_stamp(odom.header, t_sim, WORLD_FRAME)
+    _set_stamp(odom.header, t_sim, f"{agent}/odom")
     odom.child_frame_id = f"{agent}/base_link"
     pp = odom.pose.pose
     pp.position.x, pp.position.y, pp.position.z = f.position_enu

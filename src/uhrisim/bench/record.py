@@ -116,7 +116,7 @@ def _bench_encoder(n: int) -> dict[str, Any]:
         fast = cdr.encode_odometry(1, 2, "map", "rov/base_link", v[0:3], v[3:7], v[7:10],
                                    v[10:13])
     t_fast = (time.perf_counter() - t0) / n
-    packer = cdr.OdometryEncoder("map", "rov/base_link")
+    packer = cdr.OdometryEncoder("rov/odom", "rov/base_link")
     t0 = time.perf_counter()
     for _ in range(n):
         packed = packer(1, 2, v[0:3], v[3:7], v[7:10], v[10:13])
