@@ -29,9 +29,18 @@ log = logging.getLogger(__name__)
 LAYOUT = Path(__file__).with_name("foxglove_layout.json")
 
 
+#: Simulated seconds after the start at which the server opens: by then the run has
+#: created the channels it writes regularly (odometry, /tf, /clock, the sonars, the
+#: helms'), so a client does not connect while they are being created. One client of
+#: the test suite, connecting during that burst under load, never got some channels'
+#: advertisements.
+OPEN_AFTER_S = 1.0
+
+
 class FoxgloveWriter(RosWriter):
     """A :class:`RosWriter` whose messages go to a Foxglove WebSocket server on
-    ``host:port`` (``port=0``: any free port; :attr:`port` says which)."""
+    ``host:port`` (``port=0``: any free port; :attr:`port` says which), opened by
+    :meth:`open` (messages written before go to channels no client sees yet)."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = 8765) -> None:
         super().__init__()
@@ -42,18 +51,25 @@ class FoxgloveWriter(RosWriter):
                               "'uhrisim[foxglove]'") from None
         self._fox = foxglove
         self._context = foxglove.Context()
-        try:
-            self._server = foxglove.start_server(name="uhrisim", host=host, port=port,
-                                                 context=self._context)
-        except Exception as exc:  # the SDK's own error types: an address in use, ...
-            raise UhrisimError(f"Foxglove server on {host}:{port}: {exc}") from None
+        self._address = (host, port)
+        self._server: Any = None
         self._channels: dict[str, Any] = {}
         self.counts: dict[str, int] = {}
         self._closed = False
 
+    def open(self) -> None:
+        """Start the server (once)."""
+        if self._server is None:
+            host, port = self._address
+            try:
+                self._server = self._fox.start_server(name="uhrisim", host=host, port=port,
+                                                      context=self._context)
+            except Exception as exc:  # the SDK's own error types: an address in use, ...
+                raise UhrisimError(f"Foxglove server on {host}:{port}: {exc}") from None
+
     @property
     def port(self) -> int:
-        """The port the server listens on."""
+        """The port the server listens on (once open)."""
         return int(self._server.port)
 
     def _check_open(self, where: str) -> None:
@@ -76,7 +92,8 @@ class FoxgloveWriter(RosWriter):
         """Stop the server (idempotent)."""
         if not self._closed:
             self._closed = True
-            self._server.stop()
+            if self._server is not None:
+                self._server.stop()
 
 
 class FoxgloveHook(McapRecordingHook):
@@ -87,6 +104,7 @@ class FoxgloveHook(McapRecordingHook):
     def __init__(self, port: int = 8765, host: str = "127.0.0.1", odom_every: int = 6) -> None:
         super().__init__(Path("foxglove"), odom_every=odom_every, rosbag2_metadata=False)
         self._host, self._port = host, port
+        self._writer: FoxgloveWriter | None = None
         self.url = ""
 
     def on_start(self, sim: Any) -> None:
@@ -94,9 +112,16 @@ class FoxgloveHook(McapRecordingHook):
         self._rec = writer  # type: ignore[assignment]  (the recording hook's writer)
         self._tick = TickWriter(writer)
         self._tick.start(sim, scene=self.record_scene)
-        self.url = f"ws://{self._host}:{writer.port}"
-        log.warning("Foxglove: open ws://%s:%d in Foxglove (Open connection -> Foxglove "
-                    "WebSocket); layout: %s", self._host, writer.port, LAYOUT)
+        self._writer = writer
+
+    def on_tick(self, frame: Any) -> None:
+        super().on_tick(frame)
+        writer = self._writer
+        if not self.url and float(frame.t) >= OPEN_AFTER_S:
+            writer.open()
+            self.url = f"ws://{self._host}:{writer.port}"
+            log.warning("Foxglove: open %s in Foxglove (Open connection -> Foxglove "
+                        "WebSocket); layout: %s", self.url, LAYOUT)
 
     def on_end(self, sim: Any, error: BaseException | None) -> None:
         del sim, error
