@@ -102,7 +102,7 @@ def _bench_encoder(n: int) -> dict[str, Any]:
     ref = serialize_dynamic(typename, schema_text(typename))[typename]
     v = [1.0, 2.0, 3.0, 0.0, 0.0, 0.3, 0.95, 0.5, 0.0, 0.0, 0.0, 0.0, 0.1]
     msg = {
-        "header": {"stamp": {"sec": 1, "nanosec": 2}, "frame_id": "map"},
+        "header": {"stamp": {"sec": 1, "nanosec": 2}, "frame_id": "rov/odom"},
         "child_frame_id": "rov/base_link",
         "pose": {"pose": {"position": dict(zip("xyz", v[0:3], strict=True)),
                           "orientation": dict(zip("xyzw", v[3:7], strict=True))},
@@ -113,7 +113,7 @@ def _bench_encoder(n: int) -> dict[str, Any]:
     }
     t0 = time.perf_counter()
     for _ in range(n):
-        fast = cdr.encode_odometry(1, 2, "map", "rov/base_link", v[0:3], v[3:7], v[7:10],
+        fast = cdr.encode_odometry(1, 2, "rov/odom", "rov/base_link", v[0:3], v[3:7], v[7:10],
                                    v[10:13])
     t_fast = (time.perf_counter() - t0) / n
     packer = cdr.OdometryEncoder("rov/odom", "rov/base_link")
