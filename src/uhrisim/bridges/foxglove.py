@@ -104,7 +104,6 @@ class FoxgloveHook(McapRecordingHook):
     def __init__(self, port: int = 8765, host: str = "127.0.0.1", odom_every: int = 6) -> None:
         super().__init__(Path("foxglove"), odom_every=odom_every, rosbag2_metadata=False)
         self._host, self._port = host, port
-        self._writer: FoxgloveWriter | None = None
         self.url = ""
 
     def on_start(self, sim: Any) -> None:
@@ -112,12 +111,12 @@ class FoxgloveHook(McapRecordingHook):
         self._rec = writer  # type: ignore[assignment]  (the recording hook's writer)
         self._tick = TickWriter(writer)
         self._tick.start(sim, scene=self.record_scene)
-        self._writer = writer
 
     def on_tick(self, frame: Any) -> None:
         super().on_tick(frame)
-        writer = self._writer
-        if not self.url and float(frame.t) >= OPEN_AFTER_S:
+        writer = self._rec
+        if (not self.url and isinstance(writer, FoxgloveWriter)
+                and float(frame.t) >= OPEN_AFTER_S):
             writer.open()
             self.url = f"ws://{self._host}:{writer.port}"
             log.warning("Foxglove: open %s in Foxglove (Open connection -> Foxglove "

@@ -749,8 +749,11 @@ class Scenario(Strict):
                     {"path": path, "name": repr(name), "hint": hint})
         return self
 
+    def all_objects(self) -> tuple[SceneObject, ...]:
+        """Every object of the scenario: the world's, then those its events add."""
+        added = tuple(e.add_object for e in self.events if e.add_object is not None)
+        return (*self.world.objects, *added)
+
     def movable_labels(self) -> set[str]:
         """Labels of the objects events may move: movable ones, in the world or added."""
-        movable = {o.label for o in self.world.objects if o.movable}
-        return movable | {e.add_object.label for e in self.events
-                          if e.add_object is not None and e.add_object.movable}
+        return {o.label for o in self.all_objects() if o.movable}

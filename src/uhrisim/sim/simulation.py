@@ -339,8 +339,9 @@ class Simulation:
             _, rotation, _ = self.scene.pose(move.label)
             self.scene.set_pose(move.label, np.array(move.position.as_list()), rotation)
             self.record_event("event", f"moved {move.label!r} to {move.position.as_list()}")
-            placed = self._object_configs()[move.label].model_copy(
-                update={"position": move.position})
+            moved = next(o for o in self.source.scenario.all_objects()
+                         if o.movable and o.label == move.label)
+            placed = moved.model_copy(update={"position": move.position})
             self._count_struck(placed, self.source.where("events", event.index, "move_object"),
                                "moved")
         elif cfg.script is not None:
@@ -351,12 +352,6 @@ class Simulation:
                 agent.driver = ScriptedDriver(ScriptDriver(cfg.script))
                 agent.driver_period = max(1, round(0.25 / self.dt))
             self.record_event("event", f"new script for {cfg.agent} ({len(cfg.script)} legs)")
-
-    def _object_configs(self) -> dict[str, Any]:
-        """The scenario's objects by label: the world's and those its events add."""
-        scenario = self.source.scenario
-        added = [e.add_object for e in scenario.events if e.add_object is not None]
-        return {o.label: o for o in (*scenario.world.objects, *added)}
 
     def _count_struck(self, obj: Any, where: str, how: str) -> None:
         """An object an event put where an agent is: a collision of that agent (it did not
