@@ -46,6 +46,7 @@ from typing import Any, ClassVar
 import gymnasium
 import numpy as np
 from gymnasium.utils import seeding
+from pydantic import ValidationError
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
@@ -63,6 +64,7 @@ from uhrisim.envs.task import REWARD_TERMS, THRUSTER_LIMIT
 from uhrisim.envs.trail_diver import SEED_SPAN, EnvArgumentError, TrailDiverEnv
 from uhrisim.scenario.build_world import add_object, build_static_scene
 from uhrisim.scenario.load import ScenarioFile
+from uhrisim.scenario.schema import CylinderObject, Pose
 from uhrisim.vehicles import MODELS
 from uhrisim.world.scene import Scene
 
@@ -179,6 +181,7 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
             if seeds[i] is not None:
                 self._rngs[i] = seeding.np_random(seeds[i])[0]
         self._begin(np.flatnonzero(mask), episodes)
+        self._run(self.ticks_per_step, mask)
         return self._observe(), self._info(*self._geometry(), None, None)
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
@@ -192,9 +195,8 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         live = ~starting
         actions = np.clip(actions, self.single_action_space.low, self.single_action_space.high)
         self._act(actions, live)
-        collided = self._run(self.ticks_per_step, live)
-        if starting.any():
-            self._begin(np.flatnonzero(starting))
+        self._begin(np.flatnonzero(starting))
+        collided = self._run(self.ticks_per_step, np.ones(self.num_envs, bool))
         geometry = self._geometry()
         _, error, range_m, bearing_error, _ = geometry
         lost = range_m > self.template.lost_range_m
@@ -215,8 +217,9 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
     # -- episodes ------------------------------------------------------------------------
     def _begin(self, envs: np.ndarray, episodes: Any = None) -> None:
         """Start a new episode in each sub-environment of ``envs`` (``episodes[i]``, or
-        drawn from its generator), then fly its first control step at rest, as the single
-        env does."""
+        drawn from its generator) with its controllers at rest; the step that follows
+        (:meth:`_run`, with the live ones) is its first control step, as the single env's
+        reset flies it."""
         if envs.size == 0:
             return
         t = self.template
@@ -224,33 +227,37 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
             seed = (int(episodes[i]) if episodes is not None
                     else int(self._rngs[i].integers(0, SEED_SPAN)))
             try:
-                self._load(i, seed, t.episodes.scenario(seed).scenario)
-            except ConfigError as error:
+                self._load(i, seed, t.episodes.episode_data(seed))
+            except (ConfigError, ValidationError) as error:
                 raise EnvArgumentError(f"episode {seed}: {error}") from None
         self.needs_reset[envs] = False
         self.steps[envs] = 0
         mask = np.zeros(self.num_envs, bool)
         mask[envs] = True
         self._control(mask, first=True)
-        self._run(self.ticks_per_step, mask)
 
-    def _load(self, i: int, seed: int, scenario: Any) -> None:
-        """Sub-environment ``i``'s arrays from the episode's scenario."""
+    def _load(self, i: int, seed: int, data: dict[str, Any]) -> None:
+        """Sub-environment ``i``'s arrays from the episode's data
+        (:meth:`~uhrisim.envs.episodes.TrailEpisodes.episode_data`: the scenario file's,
+        validated when the env was made, randomised within its bounds); the few sections
+        read here are validated by their own models."""
         t = self.template
-        agents = {a.name: a for a in scenario.agents}
+        agents = {a["name"]: a for a in data["agents"]}
         rov, diver = agents[t.follower], agents[t.target]
         self.episode_seed[i] = seed
         self.ticks[i] = 0
-        s = rov.start
+        s = Pose.model_validate(rov.get("start", {}))
         self.rov[i] = self.rov_plant.initial_state(np.array([s.north, s.east, s.depth]),
                                                    math.radians(s.heading_deg))
         self.rov_desired[i] = (s.heading_deg % 360.0, 0.0, s.depth)
         self.rov_hold[i] = False
-        d = diver.start
+        d = Pose.model_validate(diver.get("start", {}))
         self.diver[i] = self.diver_plant.initial_state(np.array([d.north, d.east, d.depth]),
                                                        math.radians(d.heading_deg))
         self.diver_desired[i] = (d.heading_deg % 360.0, 0.0, d.depth)
-        loiter, hold = _loiter(diver), _behavior(diver, "ConstantDepth")
+        behaviors = (diver.get("helm") or {}).get("behaviors", ())
+        loiter = next(b for b in behaviors if b.get("type") == "Loiter")
+        hold = next((b for b in behaviors if b.get("type") == "ConstantDepth"), None)
         # BHV_Loiter itself says which vertex it approaches first: vertex 0, unless it starts
         # farther than acquire_dist outside the polygon (then its acquire rule picks one)
         behavior = build_behavior_spec("Loiter", [(k, v, "loiter") for k, v in loiter.items()
@@ -283,7 +290,9 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         self.closest[i] = np.inf
         self.pilings[i] = np.nan
         self.piling_top[i] = np.inf
-        cylinders = [o for o in scenario.world.objects if o.type == "cylinder"]
+        cylinders = [CylinderObject.model_validate(o)
+                     for o in (data.get("world") or {}).get("objects", ())
+                     if o.get("type") == "cylinder"]
         self._piling_objects[i], self._piling_scenes[i] = cylinders, None
         for j, o in enumerate(cylinders[:self.pilings.shape[1]]):
             self.pilings[i, j] = (o.position.north, o.position.east, o.radius)
