@@ -76,13 +76,15 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
     plus ``num_envs``."""
 
     metadata: ClassVar[dict[str, Any]] = {"autoreset_mode": AutoresetMode.NEXT_STEP}
+    #: The single env's observation this class makes (a subclass makes another).
+    OBSERVATION: ClassVar[str] = "state"
 
     def __init__(self, num_envs: int = 1, observation: str = "state", **kwargs: Any) -> None:
         if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
             raise EnvArgumentError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-        if observation != "state":
-            raise EnvArgumentError("the vector env has observation='state' only; for sonar "
-                                   "images use vectorization_mode='sync' or 'async'")
+        if observation != self.OBSERVATION:
+            raise EnvArgumentError(f"{type(self).__name__} makes observation="
+                                   f"{self.OBSERVATION!r}, not {observation!r}")
         if kwargs.get("scenario_hook") is not None:
             raise EnvArgumentError("the vector env does not take scenario_hook (its episodes "
                                    "are arrays, not scenario files)")
@@ -341,9 +343,14 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
             self.diver[rows], self.rov[rows] = diver_after, rov_after
             collided[rows] |= diver_hit | rov_hit
             self.ticks[rows] += 1
+            self._moved(rows)
             self._pilot(mask)
             self._control(mask)
         return collided
+
+    def _moved(self, rows: slice | np.ndarray) -> None:
+        """After each physics tick of the sub-environments ``rows``, before their
+        controllers: what a subclass keeps track of (nothing here)."""
 
     def _scene_clear(self, rows: slice | np.ndarray, start: np.ndarray,
                      end: np.ndarray) -> np.ndarray:
