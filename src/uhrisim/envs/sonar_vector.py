@@ -139,33 +139,40 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         of all N fans, then each episode's image formation (module docstring)."""
         bins, beams = self.template.sonar_shape
         out = np.zeros((self.num_envs, bins, beams), dtype=np.uint8)
-        sonars = [s for s in self.sonars if s is not None]
-        if len(sonars) < self.num_envs:
+        if any(s is None for s in self.sonars):
             return out
-        poses = [s.sonar_pose(self.rov[i, :3], rot_z(self.rov[i, 3]))
-                 for i, s in enumerate(sonars)]
-        dirs = np.stack([s.geometry.dirs_sonar @ R.T for s, (_, R) in zip(
-            sonars, poses, strict=True)])
-        origins = np.stack([p for p, _ in poses])
-        far = max(s.cast_window_m[1] for s in sonars)
-        body = np.zeros((self.num_envs, 4, 4))
-        body[:, 3, 3] = 1.0
-        body[:, :3, :3] = [rot_z(y) for y in self.diver[:, 3]]
-        body[:, :3, 3] = self.diver[:, :3]
-        hits = self.caster.cast_fans(origins, dirs, far, {
-            self.template.target: (body, self.kick_phase)})
-        n_rays = dirs.shape[1]
-        distance = hits.distance.reshape(self.num_envs, n_rays)
-        normal = hits.normal.reshape(self.num_envs, n_rays, 3)
-        reflectivity = hits.reflectivity.reshape(self.num_envs, n_rays)
-        label = hits.label.reshape(self.num_envs, n_rays)
-        self._pilings_hit(origins, dirs, distance, normal, reflectivity, label)
-        for i, s in enumerate(sonars):
+        poses, dirs, distance, normal, reflectivity, label = self._cast_fans()
+        for i, s in enumerate(self.sonars):
+            assert s is not None
             fan = fan_hits(distance[i], normal[i], reflectivity[i], label[i], dirs[i],
                            s.cast_window_m)
             ping = s.form_image(float(self.ticks[i] * self.dt), *poses[i], *fan)
             out[i] = cv2.resize(ping.polar_u8, (beams, bins), interpolation=cv2.INTER_AREA)
         return out
+
+    def _cast_fans(self) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray,
+                                  np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Each sonar's pose (origin NED, rotation sonar → NED), its rays in NED (N, R, 3)
+        and their first hits (N, R): distance (m, inf on a miss), unit normal (N, R, 3),
+        Lambert μ and scene label: the sea floor and the diver in one
+        :meth:`~uhrisim.world.raycast.EmbreeRayCaster.cast_fans`, then the pilings."""
+        sonars = [s for s in self.sonars if s is not None]
+        poses = [s.sonar_pose(self.rov[i, :3], rot_z(self.rov[i, 3]))
+                 for i, s in enumerate(sonars)]
+        dirs = np.stack([s.geometry.dirs_sonar @ R.T for s, (_, R) in zip(
+            sonars, poses, strict=True)])
+        origins = np.stack([p for p, _ in poses])
+        body = np.zeros((self.num_envs, 4, 4))
+        body[:, 3, 3] = 1.0
+        body[:, :3, :3] = [rot_z(y) for y in self.diver[:, 3]]
+        body[:, :3, 3] = self.diver[:, :3]
+        hits = self.caster.cast_fans(origins, dirs, max(s.cast_window_m[1] for s in sonars),
+                                     {self.template.target: (body, self.kick_phase)})
+        shape = dirs.shape[:2]
+        distance, normal = hits.distance.reshape(shape), hits.normal.reshape(*shape, 3)
+        reflectivity, label = hits.reflectivity.reshape(shape), hits.label.reshape(shape)
+        self._pilings_hit(origins, dirs, distance, normal, reflectivity, label)
+        return poses, dirs, distance, normal, reflectivity, label
 
     def _pilings_hit(self, origins: np.ndarray, dirs: np.ndarray, distance: np.ndarray,
                      normal: np.ndarray, reflectivity: np.ndarray, label: np.ndarray) -> None:
