@@ -207,10 +207,11 @@ def reflect(values: NDArray[np.float64], piece: tuple[int, int]) -> NDArray[np.f
 
 
 def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-def]
-    """:func:`reflect` piece by piece in loops (compiled by numba): the fit of :func:`fit_pieces_reference` (with the
-    corners' range of the first :func:`normalize`), the first normalisation (with the
-    second's range), the second applied while each piece's block of the table is written;
-    each value computed by the same floating-point operations as the numpy path."""
+    """:func:`reflect` piece by piece in loops (compiled by numba): the fit of
+    :func:`fit_pieces_reference` (with the corners' range of the first :func:`normalize`),
+    the first normalisation (with the second's range), the second applied while each
+    piece's block of the table is written; each value computed by the same floating-point
+    operations as the numpy path."""
     n_pc, n_ps = c_lo.shape[0], s_lo.shape[0]
     b = np.empty((n_pc, n_ps))
     mc = np.empty((n_pc, n_ps))

@@ -37,7 +37,7 @@ import cv2
 import numpy as np
 
 from uhrisim.core.elementwise import ARRAYS
-from uhrisim.core.frames import rot_z
+from uhrisim.core.frames import rot_z, wrap_pi
 from uhrisim.core.rng import component_rng
 from uhrisim.dynamics.diver import body_rates_kernel
 from uhrisim.envs.task import body_frd
@@ -77,6 +77,11 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         self.scene.add_dynamic(target.name, diver_parts(material), target.label or "diver",
                                material, np.zeros(3), np.eye(3), 0.0)
         self.caster = self.scene.raycaster("embree")
+        sonar = ImagingSonar(SonarConfig(**part_settings(t._sonar_config)),
+                             np.random.default_rng(0))
+        rays_body = sonar.geometry.dirs_sonar @ sonar.mount_rotation.T
+        #: The widest horizontal angle (rad) of a ray from the ROV's heading.
+        self.half_view = float(np.max(np.abs(np.arctan2(rays_body[:, 1], rays_body[:, 0]))))
         self.piling_reflectivity = np.zeros(self.pilings.shape[:2])
 
     def _allocate(self, n: int) -> None:
@@ -180,36 +185,54 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         top down to the floor, with a top cap), in array code over all fans, piling slot
         by slot; where one is nearer than the hit so far, it replaces it (in place; label
         -1). The side: the nearer root of |o + t d - c|² = r² in the horizontal plane."""
-        a = dirs[..., 0] ** 2 + dirs[..., 1] ** 2  # (N, R)
+        far = max(s.cast_window_m[1] for s in self.sonars if s is not None)
         for j in range(self.pilings.shape[1]):
-            north, east, radius = self.pilings[:, j].T  # (N,) each; NaN: no piling
-            top = self.piling_top[:, j]
-            rel_n, rel_e = origins[:, 0] - north, origins[:, 1] - east
+            seen = self._in_view(origins, self.pilings[:, j], far)
+            if seen.size == 0:
+                continue
+            o, d = origins[seen], dirs[seen]
+            north, east, radius = self.pilings[seen, j].T  # (M,) each
+            top = self.piling_top[seen, j]
+            rel_n, rel_e = o[:, 0] - north, o[:, 1] - east
+            a = d[..., 0] ** 2 + d[..., 1] ** 2  # (M, R)
             c = rel_n ** 2 + rel_e ** 2 - radius ** 2  # > 0: the sonar is outside it
             with np.errstate(invalid="ignore"):
-                b = dirs[..., 0] * rel_n[:, None] + dirs[..., 1] * rel_e[:, None]
+                b = d[..., 0] * rel_n[:, None] + d[..., 1] * rel_e[:, None]
                 disc = b * b - a * c[:, None]
                 fan, ray = np.nonzero((disc >= 0.0) & (b < 0.0) & (c[:, None] > 0.0))
             t_side = (-b[fan, ray] - np.sqrt(disc[fan, ray])) / a[fan, ray]
-            z = origins[fan, 2] + t_side * dirs[fan, ray, 2]
-            keep = (z >= top[fan]) & (t_side < distance[fan, ray])
+            z = o[fan, 2] + t_side * d[fan, ray, 2]
+            keep = (z >= top[fan]) & (t_side < distance[seen[fan], ray])
             fan, ray, t_side = fan[keep], ray[keep], t_side[keep]
-            point = origins[fan] + t_side[:, None] * dirs[fan, ray]
+            point = o[fan] + t_side[:, None] * d[fan, ray]
             hit_normal = np.zeros_like(point)
             hit_normal[:, 0] = (point[:, 0] - north[fan]) / radius[fan]
             hit_normal[:, 1] = (point[:, 1] - east[fan]) / radius[fan]
-            self._replace(j, (fan, ray), t_side, hit_normal, distance, normal, reflectivity,
+            self._replace(j, (seen[fan], ray), t_side, hit_normal, distance, normal, reflectivity,
                           label)
             with np.errstate(invalid="ignore"):  # the top cap, seen from above it
-                fan, ray = np.nonzero((origins[:, 2] < top)[:, None] & (dirs[..., 2] > 0.0))
-            t_cap = (top[fan] - origins[fan, 2]) / dirs[fan, ray, 2]
-            at_n = rel_n[fan] + t_cap * dirs[fan, ray, 0]
-            at_e = rel_e[fan] + t_cap * dirs[fan, ray, 1]
-            keep = (at_n ** 2 + at_e ** 2 <= radius[fan] ** 2) & (t_cap < distance[fan, ray])
+                fan, ray = np.nonzero((o[:, 2] < top)[:, None] & (d[..., 2] > 0.0))
+            t_cap = (top[fan] - o[fan, 2]) / d[fan, ray, 2]
+            at_n = rel_n[fan] + t_cap * d[fan, ray, 0]
+            at_e = rel_e[fan] + t_cap * d[fan, ray, 1]
+            keep = (at_n ** 2 + at_e ** 2 <= radius[fan] ** 2) & (t_cap < distance[seen[fan], ray])
             up = np.zeros((np.count_nonzero(keep), 3))
             up[:, 2] = -1.0
-            self._replace(j, (fan[keep], ray[keep]), t_cap[keep], up, distance, normal,
+            self._replace(j, (seen[fan[keep]], ray[keep]), t_cap[keep], up, distance, normal,
                           reflectivity, label)
+
+    def _in_view(self, origins: np.ndarray, piling: np.ndarray, far: float) -> np.ndarray:
+        """The fans (indices) that may see ``piling`` ((N, 3): north, east, radius; NaN:
+        none): within ``far`` m of it and with it inside their horizontal field of view
+        (:attr:`half_view`, around the ROV's heading)."""
+        rel = piling[:, :2] - origins[:, :2]
+        rho = np.hypot(rel[:, 0], rel[:, 1])
+        with np.errstate(invalid="ignore"):
+            spread = np.arcsin(np.minimum(piling[:, 2] / rho, 1.0))
+            off = np.abs(wrap_pi(np.arctan2(rel[:, 1], rel[:, 0]) - self.rov[:, 3]))
+            return np.flatnonzero((rho - piling[:, 2] <= far)
+                                  & ((off <= self.half_view + spread + 0.01)
+                                     | (rho <= piling[:, 2])))
 
     def _replace(self, slot: int, rows: tuple[np.ndarray, np.ndarray], t: np.ndarray,
                  hit_normal: np.ndarray, distance: np.ndarray, normal: np.ndarray,

@@ -46,9 +46,9 @@ from typing import Any, ClassVar
 import gymnasium
 import numpy as np
 from gymnasium.utils import seeding
-from pydantic import ValidationError
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
+from pydantic import ValidationError
 
 from uhrisim.autonomy.behaviors.loiter import LOITER_SPEED_ZAIC
 from uhrisim.autonomy.config import build_behavior_spec, default_domain, parse_domain
