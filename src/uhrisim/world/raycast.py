@@ -571,12 +571,14 @@ class _BodyBVH:
         limit: NDArray[np.float64],
         rots: NDArray[np.float64],
         trans: NDArray[np.float64],
+        spans: tuple[NDArray[np.float64], NDArray[np.float64]],
     ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
         """:meth:`trace` for N fans of R rays, fan i from ``origins[i]`` along ``d[i]``
-        ((N, R, 3)) against the body posed for it: group g by ``rots[i, g]``,
-        ``trans[i, g]`` ((N, G, 3, 3), (N, G, 3)); ``limit`` (N·R,). Each group is one
-        Embree query over the rays of all fans that meet its posed bounding sphere and
-        rest-frame box. Returns the N·R rows as :meth:`trace` does."""
+        ((N, R, 3); ``spans`` their least and greatest component per axis, (N, 3) each)
+        against the body posed for it: group g by ``rots[i, g]``, ``trans[i, g]`` ((N, G,
+        3, 3), (N, G, 3)); ``limit`` (N·R,). Each group is one Embree query over the rays
+        of all fans that meet its posed bounding sphere and rest-frame box. Returns the N·R
+        rows as :meth:`trace` does."""
         n_fans, n_rays = d.shape[:2]
         flat = d.reshape(-1, 3)
         face = np.full(len(flat), -1, dtype=np.int64)
@@ -599,12 +601,17 @@ class _BodyBVH:
         lo, hi = centres.min(axis=1), centres.max(axis=1)
         whole = 0.5 * (lo + hi)
         reach = np.max(np.linalg.norm(centres - whole[:, None], axis=2) + self.radii, axis=1)
-        v = whole - origins
-        tca = np.einsum("nrk,nk->nr", d, v)
+        r = reach * (1.0 + 1e-6) + 1e-6
+        fans = np.flatnonzero(_fans_reach(origins, spans, float(np.max(bound, initial=0.0)),
+                                          whole - r[:, None], whole + r[:, None]))
+        v = whole[fans] - origins[fans]
+        tca = np.einsum("nrk,nk->nr", d[fans], v)
         d2 = np.einsum("nk,nk->n", v, v)[:, None] - tca * tca
-        r = (reach * (1.0 + 1e-6) + 1e-6)[:, None]
-        body_rows = np.flatnonzero((d2 <= r * r) & (tca + r >= 0.0)
-                                   & (tca - r <= bound.reshape(n_fans, n_rays)))
+        rf = r[fans, None]
+        near = (d2 <= rf * rf) & (tca + rf >= 0.0) & (tca - rf <= bound.reshape(
+            n_fans, n_rays)[fans])
+        fan_at, ray_at = np.nonzero(near)
+        body_rows = fans[fan_at] * n_rays + ray_at
         for g, mesh in enumerate(self.groups):
             near = near_sphere(body_rows, centres[:, g], np.full(n_fans, mesh.radius))
             if len(near) == 0:
@@ -766,10 +773,23 @@ class EmbreeRayCaster(RayCaster):
         hits of the N·R rays, fan by fan (row i·R + k: fan i, ray k)."""
         d3 = np.asarray(directions, dtype=float)
         n_fans, n_rays = d3.shape[:2]
-        o, d, r = validate_rays(np.repeat(np.asarray(origins, float).reshape(-1, 3), n_rays,
-                                          axis=0), d3.reshape(-1, 3), max_range)
+        o_fans = np.asarray(origins, dtype=float).reshape(n_fans, 3)
+        if not np.all(np.isfinite(o_fans)):
+            raise ConfigError("origins must be finite", where="EmbreeRayCaster.cast_fans")
+        _, d, r = validate_rays(np.zeros(3), d3.reshape(-1, 3), max_range)
+        bounds = np.ascontiguousarray(d3.transpose(0, 2, 1))  # (N, 3, R): per-axis reach
+        spans = (bounds.min(axis=2), bounds.max(axis=2))
         self._sync()
-        hits = self._cast(o, d, r, frozenset(self._scene.body_names))  # static only
+        hits = RayHits.empty(len(d))
+        static = self._static
+        fans = (np.arange(n_fans) if static is None else
+                np.flatnonzero(_fans_reach(o_fans, spans, r, static.box_lo, static.box_hi)))
+        if static is not None and fans.size:  # the static geometry, for the fans that reach it
+            rows = (fans[:, None] * n_rays + np.arange(n_rays)).ravel()
+            seen = self._cast(np.repeat(o_fans[fans], n_rays, axis=0), d[rows], r,
+                              frozenset(self._scene.body_names))
+            for field in ("distance", "label", "normal", "reflectivity", "body", "material"):
+                getattr(hits, field)[rows] = getattr(seen, field)
         limit = np.minimum(hits.distance, r)
         bodies = self._scene.bodies
         for name, (pose, phases) in poses.items():
@@ -784,11 +804,26 @@ class EmbreeRayCaster(RayCaster):
                                   phases if phases is not None else [None] * n_fans)])
             frames = pose[:, None] @ parts[:, bvh.group_part]  # (N, G, 4, 4) group → NED
             rows = np.arange(len(d))
-            face, t, nrm = bvh.trace_fans(o[::n_rays], d.reshape(n_fans, n_rays, 3),
-                                          limit, frames[..., :3, :3], frames[..., :3, 3])
+            face, t, nrm = bvh.trace_fans(o_fans, d3, limit, frames[..., :3, :3],
+                                          frames[..., :3, 3], spans)
             _keep_nearer(hits, rows, bi, b, bvh.face_map, face, t, nrm)
             np.minimum(hits.distance, r, out=limit)
         return hits
+
+
+def _fans_reach(origins: NDArray[np.float64],
+                spans: tuple[NDArray[np.float64], NDArray[np.float64]], max_range: float,
+                box_lo: NDArray[np.float64], box_hi: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Which fans (origins (N, 3); ``spans`` the least and greatest direction component
+    of each fan's rays per axis, (N, 3) each) may reach the box [box_lo, box_hi] within
+    ``max_range``: the box of all their segments' points meets it (conservative; per axis,
+    o + t·d for t in [0, max_range] spans o + max_range·min(d, 0) to
+    o + max_range·max(d, 0))."""
+    if not np.isfinite(max_range):
+        return np.ones(len(origins), dtype=bool)
+    near = origins + max_range * np.minimum(spans[0], 0.0)
+    far = origins + max_range * np.maximum(spans[1], 0.0)
+    return np.all((far >= box_lo) & (near <= box_hi), axis=1)
 
 
 def _keep_nearer(hits: RayHits, rows: NDArray[np.intp], bi: int, b: DynamicBody,
