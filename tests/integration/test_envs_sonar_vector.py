@@ -63,3 +63,11 @@ def test_pilings_in_array_code_are_the_single_env_s_cylinder_meshes():
     assert np.count_nonzero(on_piling != ours) < 0.02 * on_piling.sum()
     both = on_piling & ours
     np.testing.assert_allclose(distance[0, both], mesh.distance[both], atol=5e-3)
+
+
+def test_scenarios_with_more_to_see_are_refused_by_name():
+    from uhrisim.envs import EnvArgumentError
+    from uhrisim.scenario.shipped import shipped_scenario
+
+    with pytest.raises(EnvArgumentError, match="the bubbles of 'diver'"):
+        TrailDiverSonarVectorEnv(scenario=shipped_scenario("track_and_trail_sonar_clutter"))

@@ -22,7 +22,10 @@ unseen):
   the observation's polar image averaged down (``cv2.INTER_AREA``) as the single env does.
 
 What differs from N single envs: the pilings' shape above, and the single env's refusal
-of a sonar inside geometry (not checked here: the ROV's collisions keep it out). A test
+of a sonar inside geometry (not checked here: the ROV's collisions keep it out). A
+scenario with more in the water than the sea floor, the two agents and fixed cylinders
+(other agents, the diver's bubbles, boxes, meshes, movable objects) is refused with a
+one-line error naming them. A test
 (tests/integration/test_envs_vector.py) holds the observations, rewards and ends to the
 single envs' with the pilings cleared, and the images with pilings to within a few grey
 levels.
@@ -69,6 +72,15 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
             raise EnvArgumentError("the sonar vector env sees a diver target with the "
                                    f"kicking diver body; {target.name!r} has "
                                    f"scene_body {target.scene_body!r}")
+        unseen = ([f"agent {a.name!r}" for a in agents.values()
+                   if a.name not in (follower.name, target.name)]
+                  + [f"the bubbles of {target.name!r}"] * (target.bubbles is not None)
+                  + [f"object {o.label!r} ({o.type})" for o in t.episodes.base.world.objects
+                     if o.type != "cylinder" or o.movable])
+        if unseen:
+            raise EnvArgumentError("the sonar vector env images the sea floor, the diver and "
+                                   "fixed cylinders only; this scenario also has "
+                                   + ", ".join(unseen) + " (use vectorization_mode='sync')")
         self.sonar_index = next(k for k, s in enumerate(follower.sensors)
                                 if s is t._sonar_config)
         self.scene = build_static_scene(self._source)  # the shared sea floor
