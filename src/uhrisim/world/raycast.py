@@ -586,17 +586,6 @@ class _BodyBVH:
         normal = np.zeros((len(flat), 3))
         centres = np.einsum("ngij,gj->ngi", rots, self.centres) + trans
 
-        def near_sphere(rows: NDArray[np.intp], centre: NDArray[np.float64],
-                        radius: NDArray[np.float64]) -> NDArray[np.intp]:
-            """Of the rays ``rows``, those that may meet their fan's sphere (``centre``
-            (N, 3), ``radius`` (N,)) within ``bound`` (_RayCuller's conservative test)."""
-            fan = rows // n_rays
-            v = centre[fan] - origins[fan]
-            tca = row_dots(flat[rows], v)
-            d2 = row_dots(v, v) - tca * tca
-            r = radius[fan] * (1.0 + 1e-6) + 1e-6
-            return rows[(d2 <= r * r) & (tca + r >= 0.0) & (tca - r <= bound[rows])]
-
         # The whole body's sphere per fan (it encloses every posed group's) culls first.
         lo, hi = centres.min(axis=1), centres.max(axis=1)
         whole = 0.5 * (lo + hi)
@@ -611,9 +600,17 @@ class _BodyBVH:
         near = (d2 <= rf * rf) & (tca + rf >= 0.0) & (tca - rf <= bound.reshape(
             n_fans, n_rays)[fans])
         fan_at, ray_at = np.nonzero(near)
-        body_rows = fans[fan_at] * n_rays + ray_at
+        body_fan = fans[fan_at]
+        body_rows = body_fan * n_rays + ray_at
+        body_d = flat[body_rows]
         for g, mesh in enumerate(self.groups):
-            near = near_sphere(body_rows, centres[:, g], np.full(n_fans, mesh.radius))
+            # the group's sphere (_RayCuller's conservative test) on the rays near the body
+            v = (centres[:, g] - origins)[body_fan]
+            tca = row_dots(body_d, v)
+            d2 = row_dots(v, v) - tca * tca
+            rg = mesh.radius * (1.0 + 1e-6) + 1e-6
+            near = body_rows[(d2 <= rg * rg) & (tca + rg >= 0.0)
+                             & (tca - rg <= bound[body_rows])]
             if len(near) == 0:
                 continue
             fan = near // n_rays
