@@ -115,7 +115,7 @@ def test_sub_environments_are_independent_of_the_batch():
 
 @pytest.mark.parametrize("kwargs, message", [
     ({"num_envs": 0}, "num_envs must be an integer >= 1"),
-    ({"observation": "sonar"}, "observation='state' only"),
+    ({"observation": "sonar"}, "makes observation=.state., not .sonar."),
     ({"obsevation": "state"}, "did you mean 'observation'"),
     ({"scenario_hook": lambda data, rng: None}, "does not take scenario_hook"),
 ])
@@ -144,3 +144,4 @@ def test_vector_bench_reports_rates_per_size_and_a_plot(tmp_path):
     assert r["target_n1"]["vs_single_env"] == pytest.approx(
         r["sizes"]["1"]["steps_per_cpu_s"] / r["single_env_steps_per_cpu_s"])
     assert (tmp_path / "vector_steps_per_s.png").stat().st_size > 10_000
+    assert r["sonar"]["sizes"]["4"]["steps_per_cpu_s"] > 0

@@ -208,15 +208,18 @@ def reflect(values: NDArray[np.float64], piece: tuple[int, int]) -> NDArray[np.f
 
 def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-def]
     """:func:`reflect` piece by piece in loops (compiled by numba): the fit of
-    :func:`fit_pieces_reference`, :func:`normalize` twice and the table, each value
-    computed by the same floating-point operations as the numpy path."""
+    :func:`fit_pieces_reference` (with the corners' range of the first :func:`normalize`),
+    the first normalisation (with the second's range), the second applied while each
+    piece's block of the table is written; each value computed by the same floating-point
+    operations as the numpy path."""
     n_pc, n_ps = c_lo.shape[0], s_lo.shape[0]
     b = np.empty((n_pc, n_ps))
     mc = np.empty((n_pc, n_ps))
     ms = np.empty((n_pc, n_ps))
-    vc = np.empty(5)
-    vs = np.empty(5)
+    vc = np.empty(5, dtype=np.int64)
+    vs = np.empty(5, dtype=np.int64)
     v = np.empty(5)
+    lo, hi = np.inf, -np.inf
     for i in range(n_pc):
         c0, c1 = c_lo[i], c_hi[i]
         for j in range(n_ps):
@@ -228,45 +231,51 @@ def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-
             vc[3], vs[3] = c1, s1
             vc[4], vs[4] = c0 + (c1 - c0) // 2, s0 + (s1 - s0) // 2
             for k in range(count):
-                v[k] = F[int(vc[k]), int(vs[k])]
+                v[k] = F[vc[k], vs[k]]
             slope_c = 0.0 if c1 == c0 else (((v[1] - v[0]) + (v[3] - v[2])) / 2.0) / (c1 - c0)
             slope_s = 0.0 if s1 == s0 else (((v[2] - v[0]) + (v[3] - v[1])) / 2.0) / (s1 - s0)
-            hi, lo = -np.inf, np.inf
+            v_hi, v_lo = -np.inf, np.inf
             for k in range(count):
-                hi, lo = max(hi, v[k]), min(lo, v[k])
+                v_hi, v_lo = max(v_hi, v[k]), min(v_lo, v[k])
             total = 0.0
             upper, lower = np.inf, -np.inf
             for k in range(count):
-                plane = slope_c * vc[k] + slope_s * vs[k]
+                plane = slope_c * float(vc[k]) + slope_s * float(vs[k])
                 total = total + (v[k] - plane) if k else v[k] - plane
-                upper, lower = min(upper, hi - plane), max(lower, lo - plane)
+                upper, lower = min(upper, v_hi - plane), max(lower, v_lo - plane)
             intercept = total / count
             if intercept > upper:
                 intercept = upper
             if intercept < lower:
                 intercept = lower
             b[i, j], mc[i, j], ms[i, j] = intercept, slope_c, slope_s
-    for _ in range(2):  # normalize(0, 100), twice
+            for c in (c0, c1):
+                for s in (s0, s1):
+                    corner = intercept + slope_c * c + slope_s * s
+                    lo, hi = min(lo, corner), max(hi, corner)
+    if hi - lo > 0.0:  # normalize(0, 100), the first time
+        k1 = 100.0 / (hi - lo)
+        lo1 = lo
         lo, hi = np.inf, -np.inf
         for i in range(n_pc):
             for j in range(n_ps):
+                b[i, j] = (b[i, j] + (0.0 - lo1)) * k1
+                mc[i, j] = mc[i, j] * k1
+                ms[i, j] = ms[i, j] * k1
                 for c in (c_lo[i], c_hi[i]):
                     for s in (s_lo[j], s_hi[j]):
                         corner = b[i, j] + mc[i, j] * c + ms[i, j] * s
                         lo, hi = min(lo, corner), max(hi, corner)
-        if not hi - lo > 0.0:
-            continue
-        k = 100.0 / (hi - lo)
-        for i in range(n_pc):
-            for j in range(n_ps):
-                b[i, j] = (b[i, j] + (0.0 - lo)) * k
-                mc[i, j] = mc[i, j] * k
-                ms[i, j] = ms[i, j] * k
+    scaled = hi - lo > 0.0  # normalize(0, 100), the second time (a constant stays)
+    k2 = 100.0 / (hi - lo) if scaled else 1.0
     for i in range(n_pc):
         for j in range(n_ps):
+            bij, mcij, msij = b[i, j], mc[i, j], ms[i, j]
+            if scaled:
+                bij, mcij, msij = (bij + (0.0 - lo)) * k2, mcij * k2, msij * k2
             for c in range(c_lo[i], c_hi[i] + 1):
                 for s in range(s_lo[j], s_hi[j] + 1):
-                    out[c, s] = b[i, j] + mc[i, j] * float(c) + ms[i, j] * float(s)
+                    out[c, s] = bij + mcij * float(c) + msij * float(s)
 
 
 @cache

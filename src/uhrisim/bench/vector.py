@@ -3,7 +3,8 @@ vector``), with a plot of steps/s against N.
 
 Targets (issue 27), with the default 0.25 s control step (5 physics steps at 20 Hz),
 seeded random actions and the resets of the episodes that end included (autoreset):
-``uhrisim/TrailDiverState-v0`` >= 5 000 env steps/s at N = 1 and >= 100 000 at N = 1024.
+``uhrisim/TrailDiverState-v0`` >= 5 000 env steps/s at N = 1 and >= 100 000 at N = 1024;
+``uhrisim/TrailDiver-v0`` (a P900-45 ping of 8 192 rays each step) >= 1 000 at N = 64.
 Rates are given per wall second and per CPU second of this process (the machine may be
 shared: the CPU rate is what the cores this process used delivered; the load average is
 printed beside them). The baseline, measured in the same run: the single env on the
@@ -22,14 +23,20 @@ import numpy as np
 TARGETS = {"n1": 5000.0, "n1024": 100000.0}
 SIZES = (1, 4, 16, 64, 256, 1024)
 QUICK_SIZES = (1, 16, 64)
+#: ``uhrisim/TrailDiver-v0``'s vector env (one ping per step): >= 1 000 env steps/s at N = 64.
+SONAR_TARGET = {"num_envs": 64, "steps_per_s": 1000.0}
+SONAR_SIZES = (1, 4, 16, 64)
+QUICK_SONAR_SIZES = (4,)
 
 
-def _vector_rate(num_envs: int, seconds: float) -> dict[str, Any]:
-    """Env steps per wall and per CPU second of a vector env of ``num_envs`` stepped with
-    seeded random actions for about ``seconds`` (after a warm-up that compiles)."""
+def _vector_rate(num_envs: int, seconds: float, sonar: bool = False) -> dict[str, Any]:
+    """Env steps per wall and per CPU second of a vector env of ``num_envs`` (the sonar
+    one for ``sonar``) stepped with seeded random actions for about ``seconds`` (after a
+    warm-up that compiles)."""
+    from uhrisim.envs.sonar_vector import TrailDiverSonarVectorEnv
     from uhrisim.envs.vector import TrailDiverVectorEnv
 
-    vec = TrailDiverVectorEnv(num_envs=num_envs)
+    vec = (TrailDiverSonarVectorEnv if sonar else TrailDiverVectorEnv)(num_envs=num_envs)
     vec.reset(seed=0)
     low, high = vec.single_action_space.low, vec.single_action_space.high
     actions = np.random.default_rng(0).uniform(low, high, (64, num_envs, 3)).astype(np.float32)
@@ -46,11 +53,11 @@ def _vector_rate(num_envs: int, seconds: float) -> dict[str, Any]:
             "steps_per_s": steps * num_envs / wall, "steps_per_cpu_s": steps * num_envs / cpu}
 
 
-def _single_rate(steps: int) -> float:
+def _single_rate(steps: int, observation: str = "state") -> float:
     """Env steps per CPU second of the single env on the Simulation (resets included)."""
     from uhrisim.envs.trail_diver import TrailDiverEnv
 
-    env = TrailDiverEnv("state")
+    env = TrailDiverEnv(observation)
     env.reset(seed=0)
     env.action_space.seed(0)
     cpu = time.process_time()
@@ -112,4 +119,22 @@ def run(quick: bool = False, out_dir: Path = Path("out/bench")) -> dict[str, Any
                                        "meets_target": rate >= TARGETS[key],
                                        "vs_single_env": rate / single}
     result["plot"] = str(plot(rows, single, Path(out_dir) / "vector_steps_per_s.png"))
+    result["sonar"] = _sonar_rates(quick, seconds)
     return result
+
+
+def _sonar_rates(quick: bool, seconds: float) -> dict[str, Any]:
+    """``uhrisim/TrailDiver-v0``'s vector env (P900-45, 8 192 rays a ping, one ping a
+    step) against N, and the single sonar env (not in ``quick``)."""
+    rows = [_vector_rate(n, seconds, sonar=True)
+            for n in (QUICK_SONAR_SIZES if quick else SONAR_SIZES)]
+    out: dict[str, Any] = {"sizes": {str(r["num_envs"]): r for r in rows}}
+    if not quick:
+        single = _single_rate(40, "sonar")
+        n = SONAR_TARGET["num_envs"]
+        rate = out["sizes"][str(n)]["steps_per_cpu_s"]
+        out["single_env_steps_per_cpu_s"] = single
+        out[f"target_n{n}"] = {"steps_per_cpu_s": rate, "target": SONAR_TARGET["steps_per_s"],
+                               "meets_target": rate >= SONAR_TARGET["steps_per_s"],
+                               "vs_single_env": rate / single}
+    return out

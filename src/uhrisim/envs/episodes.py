@@ -11,8 +11,8 @@ y north) only where the helm's behaviors speak them.
 
 from __future__ import annotations
 
-import copy
 import math
+import pickle
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -128,7 +128,13 @@ class TrailEpisodes:
         """The episode of ``seed`` (a non-negative integer): the file's data randomised
         from the stream ``"envs/episode"`` of ``seed``; the follower is driven from
         outside (``driver: external``), or by its own helm for ``follower_helm``."""
-        data = copy.deepcopy(self._data)
+        return ScenarioFile(validate_data(self.episode_data(seed, follower_helm),
+                                          str(self.path), self._lines), self.path, self._lines)
+
+    def episode_data(self, seed: int, follower_helm: bool = False) -> dict[str, Any]:
+        """:meth:`scenario`'s data before validation (a fresh copy the caller may keep):
+        for those who read a few fields of many episodes (the vector env)."""
+        data = pickle.loads(pickle.dumps(self._data, pickle.HIGHEST_PROTOCOL))  # plain YAML
         data["seed"] = int(seed)
         data["physics_rate_hz"] = self.physics_rate_hz
         agents = {a["name"]: a for a in data["agents"]}
@@ -153,8 +159,7 @@ class TrailEpisodes:
             self._draw_clutter(rng, data, follower, loiter)
         if self.hook is not None:
             self.hook(data, component_rng(int(seed), "envs/episode/hook"))
-        return ScenarioFile(validate_data(data, str(self.path), self._lines), self.path,
-                            self._lines)
+        return data
 
     def _draw_starts(self, rng: np.random.Generator, follower: dict, target: dict) -> None:
         start = target.setdefault("start", {})

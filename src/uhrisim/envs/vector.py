@@ -48,6 +48,7 @@ import numpy as np
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
+from pydantic import ValidationError
 
 from uhrisim.autonomy.behaviors.loiter import LOITER_SPEED_ZAIC
 from uhrisim.autonomy.config import build_behavior_spec, default_domain, parse_domain
@@ -63,6 +64,7 @@ from uhrisim.envs.task import REWARD_TERMS, THRUSTER_LIMIT
 from uhrisim.envs.trail_diver import SEED_SPAN, EnvArgumentError, TrailDiverEnv
 from uhrisim.scenario.build_world import add_object, build_static_scene
 from uhrisim.scenario.load import ScenarioFile
+from uhrisim.scenario.schema import CylinderObject, Pose
 from uhrisim.vehicles import MODELS
 from uhrisim.world.scene import Scene
 
@@ -74,13 +76,15 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
     plus ``num_envs``."""
 
     metadata: ClassVar[dict[str, Any]] = {"autoreset_mode": AutoresetMode.NEXT_STEP}
+    #: The single env's observation this class makes (a subclass makes another).
+    OBSERVATION: ClassVar[str] = "state"
 
     def __init__(self, num_envs: int = 1, observation: str = "state", **kwargs: Any) -> None:
         if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
             raise EnvArgumentError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-        if observation != "state":
-            raise EnvArgumentError("the vector env has observation='state' only; for sonar "
-                                   "images use vectorization_mode='sync' or 'async'")
+        if observation != self.OBSERVATION:
+            raise EnvArgumentError(f"{type(self).__name__} makes observation="
+                                   f"{self.OBSERVATION!r}, not {observation!r}")
         if kwargs.get("scenario_hook") is not None:
             raise EnvArgumentError("the vector env does not take scenario_hook (its episodes "
                                    "are arrays, not scenario files)")
@@ -179,6 +183,7 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
             if seeds[i] is not None:
                 self._rngs[i] = seeding.np_random(seeds[i])[0]
         self._begin(np.flatnonzero(mask), episodes)
+        self._run(self.ticks_per_step, mask)
         return self._observe(), self._info(*self._geometry(), None, None)
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
@@ -192,9 +197,8 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         live = ~starting
         actions = np.clip(actions, self.single_action_space.low, self.single_action_space.high)
         self._act(actions, live)
-        collided = self._run(self.ticks_per_step, live)
-        if starting.any():
-            self._begin(np.flatnonzero(starting))
+        self._begin(np.flatnonzero(starting))
+        collided = self._run(self.ticks_per_step, np.ones(self.num_envs, bool))
         geometry = self._geometry()
         _, error, range_m, bearing_error, _ = geometry
         lost = range_m > self.template.lost_range_m
@@ -215,8 +219,9 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
     # -- episodes ------------------------------------------------------------------------
     def _begin(self, envs: np.ndarray, episodes: Any = None) -> None:
         """Start a new episode in each sub-environment of ``envs`` (``episodes[i]``, or
-        drawn from its generator), then fly its first control step at rest, as the single
-        env does."""
+        drawn from its generator) with its controllers at rest; the step that follows
+        (:meth:`_run`, with the live ones) is its first control step, as the single env's
+        reset flies it."""
         if envs.size == 0:
             return
         t = self.template
@@ -224,33 +229,37 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
             seed = (int(episodes[i]) if episodes is not None
                     else int(self._rngs[i].integers(0, SEED_SPAN)))
             try:
-                self._load(i, seed, t.episodes.scenario(seed).scenario)
-            except ConfigError as error:
+                self._load(i, seed, t.episodes.episode_data(seed))
+            except (ConfigError, ValidationError) as error:
                 raise EnvArgumentError(f"episode {seed}: {error}") from None
         self.needs_reset[envs] = False
         self.steps[envs] = 0
         mask = np.zeros(self.num_envs, bool)
         mask[envs] = True
         self._control(mask, first=True)
-        self._run(self.ticks_per_step, mask)
 
-    def _load(self, i: int, seed: int, scenario: Any) -> None:
-        """Sub-environment ``i``'s arrays from the episode's scenario."""
+    def _load(self, i: int, seed: int, data: dict[str, Any]) -> None:
+        """Sub-environment ``i``'s arrays from the episode's data
+        (:meth:`~uhrisim.envs.episodes.TrailEpisodes.episode_data`: the scenario file's,
+        validated when the env was made, randomised within its bounds); the few sections
+        read here are validated by their own models."""
         t = self.template
-        agents = {a.name: a for a in scenario.agents}
+        agents = {a["name"]: a for a in data["agents"]}
         rov, diver = agents[t.follower], agents[t.target]
         self.episode_seed[i] = seed
         self.ticks[i] = 0
-        s = rov.start
+        s = Pose.model_validate(rov.get("start", {}))
         self.rov[i] = self.rov_plant.initial_state(np.array([s.north, s.east, s.depth]),
                                                    math.radians(s.heading_deg))
         self.rov_desired[i] = (s.heading_deg % 360.0, 0.0, s.depth)
         self.rov_hold[i] = False
-        d = diver.start
+        d = Pose.model_validate(diver.get("start", {}))
         self.diver[i] = self.diver_plant.initial_state(np.array([d.north, d.east, d.depth]),
                                                        math.radians(d.heading_deg))
         self.diver_desired[i] = (d.heading_deg % 360.0, 0.0, d.depth)
-        loiter, hold = _loiter(diver), _behavior(diver, "ConstantDepth")
+        behaviors = (diver.get("helm") or {}).get("behaviors", ())
+        loiter = next(b for b in behaviors if b.get("type") == "Loiter")
+        hold = next((b for b in behaviors if b.get("type") == "ConstantDepth"), None)
         # BHV_Loiter itself says which vertex it approaches first: vertex 0, unless it starts
         # farther than acquire_dist outside the polygon (then its acquire rule picks one)
         behavior = build_behavior_spec("Loiter", [(k, v, "loiter") for k, v in loiter.items()
@@ -283,7 +292,9 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         self.closest[i] = np.inf
         self.pilings[i] = np.nan
         self.piling_top[i] = np.inf
-        cylinders = [o for o in scenario.world.objects if o.type == "cylinder"]
+        cylinders = [CylinderObject.model_validate(o)
+                     for o in (data.get("world") or {}).get("objects", ())
+                     if o.get("type") == "cylinder"]
         self._piling_objects[i], self._piling_scenes[i] = cylinders, None
         for j, o in enumerate(cylinders[:self.pilings.shape[1]]):
             self.pilings[i, j] = (o.position.north, o.position.east, o.radius)
@@ -332,9 +343,14 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
             self.diver[rows], self.rov[rows] = diver_after, rov_after
             collided[rows] |= diver_hit | rov_hit
             self.ticks[rows] += 1
+            self._moved(rows)
             self._pilot(mask)
             self._control(mask)
         return collided
+
+    def _moved(self, rows: slice | np.ndarray) -> None:
+        """After each physics tick of the sub-environments ``rows``, before their
+        controllers: what a subclass keeps track of (nothing here)."""
 
     def _scene_clear(self, rows: slice | np.ndarray, start: np.ndarray,
                      end: np.ndarray) -> np.ndarray:
@@ -519,5 +535,11 @@ def _approaching(start: np.ndarray, end: np.ndarray, other: np.ndarray,
                  contact: float) -> np.ndarray:
     """The Simulation's rule for two bodies: the move start→end ends within ``contact``
     (m) of ``other``'s centre and closer than it began (rows)."""
-    end_gap = np.linalg.norm(end - other, axis=1)
-    return (end_gap < contact) & (end_gap < np.linalg.norm(start - other, axis=1))
+    end_gap = _row_norms(end - other)
+    return (end_gap < contact) & (end_gap < _row_norms(start - other))
+
+
+def _row_norms(v: np.ndarray) -> np.ndarray:
+    """|v| of each row of (N, 3) ``v``: ``np.linalg.norm(v, axis=1)``'s sum, in its order,
+    without its dispatch."""
+    return np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])

@@ -36,7 +36,7 @@ import itertools
 import logging
 import weakref
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Protocol
@@ -431,15 +431,15 @@ class _EmbreeMesh:
         (slab test; conservative). Local frame: ``o`` (3,) one shared origin or (N, 3),
         ``d_cols`` (3, N) unit directions, ``limit`` (N,) m.
 
-        With a shared origin, an axis whose slab holds the origin is skipped (it could only
-        shorten the segment): a vehicle above a sea floor tests one slab, not three."""
+        An axis whose slab holds every origin is skipped (it could only shorten the
+        segments): a vehicle above a sea floor tests one slab, not three."""
         enter = np.zeros(len(limit))
         leave = np.array(limit, dtype=float)
         for k in range(3):
             lo, hi = self.box_lo[k], self.box_hi[k]
-            if o.ndim == 1 and lo <= o[k] <= hi:
-                continue
             o_k = o[k] if o.ndim == 1 else o[:, k]
+            if np.all((lo <= o_k) & (o_k <= hi)):  # every ray starts within the slab
+                continue
             with np.errstate(divide="ignore", invalid="ignore"):
                 inv = 1.0 / d_cols[k]
                 t_lo, t_hi = (lo - o_k) * inv, (hi - o_k) * inv
@@ -564,6 +564,72 @@ class _BodyBVH:
         return face, np.where(face >= 0, bound, np.inf), normal
 
 
+    def trace_fans(
+        self,
+        origins: NDArray[np.float64],
+        d: NDArray[np.float64],
+        limit: NDArray[np.float64],
+        rots: NDArray[np.float64],
+        trans: NDArray[np.float64],
+        spans: tuple[NDArray[np.float64], NDArray[np.float64]],
+    ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+        """:meth:`trace` for N fans of R rays, fan i from ``origins[i]`` along ``d[i]``
+        ((N, R, 3); ``spans`` their least and greatest component per axis, (N, 3) each)
+        against the body posed for it: group g by ``rots[i, g]``, ``trans[i, g]`` ((N, G,
+        3, 3), (N, G, 3)); ``limit`` (N·R,). Each group is one Embree query over the rays
+        of all fans that meet its posed bounding sphere and rest-frame box. Returns the N·R
+        rows as :meth:`trace` does."""
+        n_fans, n_rays = d.shape[:2]
+        flat = d.reshape(-1, 3)
+        face = np.full(len(flat), -1, dtype=np.int64)
+        bound = np.array(limit, dtype=float)
+        normal = np.zeros((len(flat), 3))
+        centres = np.einsum("ngij,gj->ngi", rots, self.centres) + trans
+
+        # The whole body's sphere per fan (it encloses every posed group's) culls first.
+        lo, hi = centres.min(axis=1), centres.max(axis=1)
+        whole = 0.5 * (lo + hi)
+        reach = np.max(np.linalg.norm(centres - whole[:, None], axis=2) + self.radii, axis=1)
+        r = reach * (1.0 + 1e-6) + 1e-6
+        fans = np.flatnonzero(_fans_reach(origins, spans, float(np.max(bound, initial=0.0)),
+                                          whole - r[:, None], whole + r[:, None]))
+        v = whole[fans] - origins[fans]
+        tca = np.einsum("nrk,nk->nr", d[fans], v)
+        d2 = np.einsum("nk,nk->n", v, v)[:, None] - tca * tca
+        rf = r[fans, None]
+        near = (d2 <= rf * rf) & (tca + rf >= 0.0) & (tca - rf <= bound.reshape(
+            n_fans, n_rays)[fans])
+        fan_at, ray_at = np.nonzero(near)
+        body_fan = fans[fan_at]
+        body_rows = body_fan * n_rays + ray_at
+        body_d = flat[body_rows]
+        for g, mesh in enumerate(self.groups):
+            # the group's sphere (_RayCuller's conservative test) on the rays near the body
+            v = (centres[:, g] - origins)[body_fan]
+            tca = row_dots(body_d, v)
+            d2 = row_dots(v, v) - tca * tca
+            rg = mesh.radius * (1.0 + 1e-6) + 1e-6
+            near = body_rows[(d2 <= rg * rg) & (tca + rg >= 0.0)
+                             & (tca - rg <= bound[body_rows])]
+            if len(near) == 0:
+                continue
+            fan = near // n_rays
+            R = rots[:, g]
+            o_local = np.einsum("nij,ni->nj", R, origins - trans[:, g])[fan]  # R^T (o - t)
+            d_local = np.einsum("mij,mi->mj", R[fan], flat[near])  # R^T d
+            box = mesh.box_candidates(o_local, d_local.T, bound[near])
+            if len(box) == 0:
+                continue
+            sel = near[box]
+            f, t, nrm = mesh.intersect(o_local[box], d_local[box], bound[sel])
+            hit = np.flatnonzero(f >= 0)
+            rows = sel[hit]
+            bound[rows] = t[hit]
+            face[rows] = f[hit] + self.face_offset[g]
+            normal[rows] = np.einsum("mij,mj->mi", R[fan[box[hit]]], nrm[hit])  # R n
+        return face, np.where(face >= 0, bound, np.inf), normal
+
+
 class EmbreeRayCaster(RayCaster):
     """Embree-backed caster: static BVH built once, one BVH per rigid group of each body."""
 
@@ -676,16 +742,8 @@ class EmbreeRayCaster(RayCaster):
                 rots,
                 trans,
             )
-            hit = np.flatnonzero(face >= 0)
-            hit = hit[t[hit] < best[body_idx[hit]]]  # a tie keeps the static surface
-            sel = body_idx[hit]
-            best[sel] = np.maximum(t[hit], 0.0)
-            body_faces = bvh.face_map[face[hit]]
-            label[sel] = b.face_label[body_faces]
-            refl[sel] = b.face_reflectivity[body_faces]
-            material[sel] = b.face_material[body_faces]
-            normal[sel] = nrm[hit]
-            body[sel] = bi
+            hits = RayHits(best, label, normal, refl, body, material)
+            _keep_nearer(hits, body_idx, bi, b, bvh.face_map, face, t, nrm)
         return RayHits(
             distance=best,
             label=label,
@@ -694,6 +752,93 @@ class EmbreeRayCaster(RayCaster):
             body=body,
             material=material,
         )
+
+    def cast_fans(
+        self,
+        origins: ArrayLike,
+        directions: ArrayLike,
+        max_range: float,
+        poses: Mapping[str, tuple[ArrayLike, ArrayLike | None]],
+    ) -> RayHits:
+        """First hits of N fans of R rays (N sensors in N worlds at once): fan i from
+        ``origins[i]`` ((N, 3), NED m) along ``directions[i]`` ((N, R, 3), unit), within
+        ``max_range`` m. The scene's static geometry is every fan's; each body named in
+        ``poses`` stands, in fan i's world, at ``pose[i]`` (4x4 body→NED, ``pose`` (N, 4,
+        4)) with kick phase ``phases[i]`` (``poses[name] = (pose, phases)``; phases None:
+        the rest pose); bodies not named are not seen. One Embree query for the static
+        geometry and one per rigid group of each body, over all N·R rays. Returns the
+        hits of the N·R rays, fan by fan (row i·R + k: fan i, ray k)."""
+        d3 = np.asarray(directions, dtype=float)
+        n_fans, n_rays = d3.shape[:2]
+        o_fans = np.asarray(origins, dtype=float).reshape(n_fans, 3)
+        if not np.all(np.isfinite(o_fans)):
+            raise ConfigError("origins must be finite", where="EmbreeRayCaster.cast_fans")
+        _, d, r = validate_rays(np.zeros(3), d3.reshape(-1, 3), max_range)
+        bounds = np.ascontiguousarray(d3.transpose(0, 2, 1))  # (N, 3, R): per-axis reach
+        spans = (bounds.min(axis=2), bounds.max(axis=2))
+        self._sync()
+        hits = RayHits.empty(len(d))
+        static = self._static
+        fans = (np.arange(n_fans) if static is None else
+                np.flatnonzero(_fans_reach(o_fans, spans, r, static.box_lo, static.box_hi)))
+        if static is not None and fans.size:  # the static geometry, for the fans that reach it
+            rows = (fans[:, None] * n_rays + np.arange(n_rays)).ravel()
+            seen = self._cast(np.repeat(o_fans[fans], n_rays, axis=0), d[rows], r,
+                              frozenset(self._scene.body_names))
+            for field in ("distance", "label", "normal", "reflectivity", "body", "material"):
+                getattr(hits, field)[rows] = getattr(seen, field)
+        limit = np.minimum(hits.distance, r)
+        bodies = self._scene.bodies
+        for name, (pose, phases) in poses.items():
+            bi = next((i for i, b in enumerate(bodies) if b.name == name), None)
+            if bi is None:
+                raise ConfigError(f"no dynamic body named {name!r}",
+                                  where="EmbreeRayCaster.cast_fans")
+            b, bvh = bodies[bi], self._parts[name]
+            pose = np.asarray(pose, dtype=float).reshape(n_fans, 4, 4)
+            parts = np.array([b.geometry.part_transforms(float(k)) if phases is not None
+                              else b.part_transforms for k in (
+                                  phases if phases is not None else [None] * n_fans)])
+            frames = pose[:, None] @ parts[:, bvh.group_part]  # (N, G, 4, 4) group → NED
+            rows = np.arange(len(d))
+            face, t, nrm = bvh.trace_fans(o_fans, d3, limit, frames[..., :3, :3],
+                                          frames[..., :3, 3], spans)
+            _keep_nearer(hits, rows, bi, b, bvh.face_map, face, t, nrm)
+            np.minimum(hits.distance, r, out=limit)
+        return hits
+
+
+def _fans_reach(origins: NDArray[np.float64],
+                spans: tuple[NDArray[np.float64], NDArray[np.float64]], max_range: float,
+                box_lo: NDArray[np.float64], box_hi: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Which fans (origins (N, 3); ``spans`` the least and greatest direction component
+    of each fan's rays per axis, (N, 3) each) may reach the box [box_lo, box_hi] within
+    ``max_range``: the box of all their segments' points meets it (conservative; per axis,
+    o + t·d for t in [0, max_range] spans o + max_range·min(d, 0) to
+    o + max_range·max(d, 0))."""
+    if not np.isfinite(max_range):
+        return np.ones(len(origins), dtype=bool)
+    near = origins + max_range * np.minimum(spans[0], 0.0)
+    far = origins + max_range * np.maximum(spans[1], 0.0)
+    return np.all((far >= box_lo) & (near <= box_hi), axis=1)
+
+
+def _keep_nearer(hits: RayHits, rows: NDArray[np.intp], bi: int, b: DynamicBody,
+                 face_map: NDArray[np.int64], face: NDArray[np.int64],
+                 t: NDArray[np.float64], nrm: NDArray[np.float64]) -> None:
+    """Body ``b`` (index ``bi``) hit by the rays ``rows`` of ``hits`` (its group-numbered
+    ``face``, distance ``t``, NED normal ``nrm``; -1 a miss) where nearer than what
+    ``hits`` holds (a tie keeps the static surface), written into ``hits``."""
+    hit = np.flatnonzero(face >= 0)
+    hit = hit[t[hit] < hits.distance[rows[hit]]]
+    sel = rows[hit]
+    hits.distance[sel] = np.maximum(t[hit], 0.0)
+    body_faces = face_map[face[hit]]
+    hits.label[sel] = b.face_label[body_faces]
+    hits.reflectivity[sel] = b.face_reflectivity[body_faces]
+    hits.material[sel] = b.face_material[body_faces]
+    hits.normal[sel] = nrm[hit]
+    hits.body[sel] = bi
 
 
 class _RayCuller:

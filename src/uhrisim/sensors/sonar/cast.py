@@ -70,10 +70,8 @@ def cast_fan(
             f"sonar at NED {np.round(origin_ned, 3).tolist()} is inside geometry ({inside})",
             where="SonarConfig.mount_position_frd",
         )
-    near_m, far_m = window_m
-    hits = raycaster.cast(origin_ned, dirs_ned, far_m, exclude=exclude)  # one shared origin
+    hits = raycaster.cast(origin_ned, dirs_ned, window_m[1], exclude=exclude)  # one shared origin
     distance = np.asarray(hits.distance, dtype=np.float64)
-    cos_all = np.abs(row_dots(np.asarray(hits.normal, np.float64), dirs_ned))
     near = np.count_nonzero(distance < INSIDE_GEOMETRY_RANGE_M)
     if near > INSIDE_GEOMETRY_FRACTION * distance.size:
         raise ConfigError(
@@ -81,14 +79,29 @@ def cast_fan(
             f"{near}/{distance.size} rays hit closer than {INSIDE_GEOMETRY_RANGE_M} m",
             where="SonarConfig.mount_position_frd",
         )
-    valid = (distance >= near_m) & (distance < far_m)
-    idx = np.flatnonzero(valid)
+    return fan_hits(distance, hits.normal, hits.reflectivity, hits.label, dirs_ned, window_m)
+
+
+def fan_hits(
+    distance: NDArray[np.float64],
+    normal: NDArray[np.float64],
+    reflectivity: NDArray[np.float64],
+    label: NDArray[np.integer],
+    dirs_ned: NDArray[np.float64],
+    window_m: tuple[float, float],
+) -> FanHits:
+    """The hits of a cast fan (per ray: ``distance`` m, inf on a miss; unit NED
+    ``normal``; Lambert ``reflectivity``; scene ``label``) with slant range in
+    ``window_m`` = [near, far) (m), ``dirs_ned`` (N, 3) the rays' directions."""
+    near_m, far_m = window_m
+    cos_all = np.abs(row_dots(np.asarray(normal, np.float64), dirs_ned))
+    idx = np.flatnonzero((distance >= near_m) & (distance < far_m))
     return FanHits(
         idx=idx,
         r=distance[idx],
         cos_inc=cos_all[idx],
-        mu=np.asarray(hits.reflectivity, dtype=np.float64)[idx],
-        labels=np.asarray(hits.label)[idx].astype(np.int32),
+        mu=np.asarray(reflectivity, dtype=np.float64)[idx],
+        labels=np.asarray(label)[idx].astype(np.int32),
     )
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Literal
 
 import cv2
@@ -298,16 +299,17 @@ class SonarConfig:
         """Number of range bins in the window."""
         return max(1, math.ceil((self.range_max_m - self.range_min_m) / self.bin_m - 1e-9))
 
-    @property
+    @cached_property
     def sound_speed_m_s(self) -> float:
         """Sound speed (m/s) from the Francois–Garrison expression for the configured water."""
         return float(
             sound_speed_fg(self.water_temperature_c, self.salinity_psu, self.water_depth_m)
         )
 
-    @property
+    @cached_property
     def alpha_db_per_m(self) -> float:
-        """Absorption α (dB/m) at the sonar frequency (Francois & Garrison 1982)."""
+        """Absorption α (dB/m) at the sonar frequency (Francois & Garrison 1982; worked
+        out once per configuration, every ping reads it)."""
         return float(
             absorption_db_per_m(
                 self.sonar_spec.frequency_hz,

@@ -1,0 +1,256 @@
+"""The native vector environment of ``uhrisim/TrailDiver-v0``: N episodes with sonar images.
+
+``gymnasium.make_vec("uhrisim/TrailDiver-v0", num_envs=N,
+vectorization_mode="vector_entry_point")`` gives :class:`TrailDiverSonarVectorEnv`: the
+batched episodes of :class:`~uhrisim.envs.vector.TrailDiverVectorEnv` (dynamics,
+controllers, the diver's loiter pilot, collisions, rewards, autoreset; one process) and,
+at the end of every step, one ping of each follower's sonar, as the single env's
+Simulation pings it (the last physics tick of the control step, the sonar's own body
+unseen):
+
+* **one cast for all N sonars**: the N fans (each sonar's mount on its ROV, its rays
+  rotated into NED) go to Embree together
+  (:meth:`~uhrisim.world.raycast.EmbreeRayCaster.cast_fans`): one query against the
+  shared sea floor, one per rigid part group of the diver's body, posed per episode (its
+  position, heading and flutter-kick phase, accumulated as the Simulation does); the
+  episodes' pilings, vertical cylinders, are intersected in array code for all N fans at
+  once (exact cylinders: the single env's are 32-sided meshes, a few millimetres apart);
+* **the image of each ping** by that episode's own
+  :class:`~uhrisim.sensors.sonar.sonar.ImagingSonar` (its configuration with the
+  episode's water, its speckle drawn from the episode's seed, as the Simulation builds
+  it): :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.form_image` once per episode, then
+  the observation's polar image averaged down (``cv2.INTER_AREA``) as the single env does.
+
+What differs from N single envs: the pilings' shape above, and the single env's refusal
+of a sonar inside geometry (not checked here: the ROV's collisions keep it out). A
+scenario with more in the water than the sea floor, the two agents and fixed cylinders
+(other agents, the diver's bubbles, boxes, meshes, movable objects) is refused with a
+one-line error naming them. A test
+(tests/integration/test_envs_vector.py) holds the observations, rewards and ends to the
+single envs' with the pilings cleared, and the images with pilings to within a few grey
+levels.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import cv2
+import numpy as np
+
+from uhrisim.core.elementwise import ARRAYS
+from uhrisim.core.frames import rot_z, wrap_pi
+from uhrisim.core.rng import component_rng
+from uhrisim.dynamics.diver import body_rates_kernel
+from uhrisim.envs.task import body_frd
+from uhrisim.envs.trail_diver import EnvArgumentError
+from uhrisim.envs.vector import TrailDiverVectorEnv
+from uhrisim.scenario.build_world import build_static_scene, material_named
+from uhrisim.scenario.schema import SonarSensor, Water
+from uhrisim.scenario.sections import part_settings
+from uhrisim.sensors.sonar.cast import fan_hits
+from uhrisim.sensors.sonar.config import SonarConfig
+from uhrisim.sensors.sonar.sonar import ImagingSonar
+from uhrisim.world.assets import DIVER_MAX_KICK_HZ, DIVER_STRIDE_M, diver_parts
+from uhrisim.world.materials import NEOPRENE
+
+
+class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
+    """N episodes of the trail task with the sonar observation (module docstring).
+    Arguments as :class:`~uhrisim.envs.trail_diver.TrailDiverEnv` with
+    ``observation="sonar"``, plus ``num_envs``."""
+
+    OBSERVATION: ClassVar[str] = "sonar"
+
+    def __init__(self, num_envs: int = 1, observation: str = "sonar", **kwargs: Any) -> None:
+        super().__init__(num_envs, observation, **kwargs)
+        t = self.template
+        agents = {a.name: a for a in t.episodes.base.agents}
+        follower, target = agents[t.follower], agents[t.target]
+        if target.scene_body != "diver":
+            raise EnvArgumentError("the sonar vector env sees a diver target with the "
+                                   f"kicking diver body; {target.name!r} has "
+                                   f"scene_body {target.scene_body!r}")
+        unseen = ([f"agent {a.name!r}" for a in agents.values()
+                   if a.name not in (follower.name, target.name)]
+                  + [f"the bubbles of {target.name!r}"] * (target.bubbles is not None)
+                  + [f"object {o.label!r} ({o.type})" for o in t.episodes.base.world.objects
+                     if o.type != "cylinder" or o.movable])
+        if unseen:
+            raise EnvArgumentError("the sonar vector env images the sea floor, the diver and "
+                                   "fixed cylinders only; this scenario also has "
+                                   + ", ".join(unseen) + " (use vectorization_mode='sync')")
+        self.sonar_index = next(k for k, s in enumerate(follower.sensors)
+                                if s is t._sonar_config)
+        self.scene = build_static_scene(self._source)  # the shared sea floor
+        material = (material_named(target.material, f"agents.{target.name}.material")
+                    if target.material else NEOPRENE)
+        self.scene.add_dynamic(target.name, diver_parts(material), target.label or "diver",
+                               material, np.zeros(3), np.eye(3), 0.0)
+        self.caster = self.scene.raycaster("embree")
+        sonar = ImagingSonar(SonarConfig(**part_settings(t._sonar_config)),
+                             np.random.default_rng(0))
+        rays_body = sonar.geometry.dirs_sonar @ sonar.mount_rotation.T
+        #: The widest horizontal angle (rad) of a ray from the ROV's heading.
+        self.half_view = float(np.max(np.abs(np.arctan2(rays_body[:, 1], rays_body[:, 0]))))
+        self.piling_reflectivity = np.zeros(self.pilings.shape[:2])
+
+    def _allocate(self, n: int) -> None:
+        super()._allocate(n)
+        self.kick_phase = np.zeros(n)
+        self.sonars: list[ImagingSonar | None] = [None] * n
+
+    # -- episodes ------------------------------------------------------------------------
+    def _load(self, i: int, seed: int, data: dict[str, Any]) -> None:
+        """The episode's arrays (:meth:`TrailDiverVectorEnv._load`), its diver at rest
+        (kick phase 0) and its sonar as the Simulation builds it: the scenario sensor's
+        settings with the episode's water, speckle from the episode's seed."""
+        super()._load(i, seed, data)
+        t = self.template
+        self.kick_phase[i] = 0.0
+        follower = next(a for a in data["agents"] if a["name"] == t.follower)
+        sensor = SonarSensor.model_validate(follower["sensors"][self.sonar_index])
+        water = Water.model_validate((data.get("world") or {}).get("water", {}))
+        config = SonarConfig(**part_settings(sensor), water_temperature_c=water.temperature_c,
+                             salinity_psu=water.salinity_psu, ph=water.ph)
+        self.sonars[i] = ImagingSonar(config, component_rng(
+            seed, f"{t.follower}/sonar{self.sonar_index}"))
+        self.piling_reflectivity[i] = 0.0
+        for j, o in enumerate(self._piling_objects[i][:self.pilings.shape[1]]):
+            self.piling_reflectivity[i, j] = material_named(o.material, o.label).reflectivity
+
+    def _moved(self, rows: slice | np.ndarray) -> None:
+        """The diver's flutter-kick phase, as the Simulation advances it each tick
+        (:func:`~uhrisim.world.assets.diver_kick_phase_rate` of its speed)."""
+        speed = np.abs(body_rates_kernel(*self.diver_inputs[rows].T, self.diver_plant.params,
+                                         ARRAYS)[0])
+        rate = 2.0 * math.pi * np.minimum(speed / DIVER_STRIDE_M, DIVER_MAX_KICK_HZ)
+        self.kick_phase[rows] += rate * self.dt
+
+    # -- what the agent sees -------------------------------------------------------------
+    def _observe(self) -> dict[str, np.ndarray]:
+        """Sonar image, own navigation and (``include_contact``) the diver as a contact,
+        per sub-environment (docs/envs.md), as the single env observes them."""
+        t = self.template
+        space = self.single_observation_space
+        rov, diver = self.rov, self.diver
+        yaw = rov[:, 3]
+        nav = np.concatenate([rov[:, :3], np.sin(yaw)[:, None], np.cos(yaw)[:, None],
+                              rov[:, 4:8]], axis=1)
+        obs = {"sonar": self._ping(),
+               "nav": np.clip(nav, space["nav"].low, space["nav"].high).astype(np.float32)}
+        if t.include_contact:
+            rel = diver[:, 3] - yaw
+            speed = np.abs(body_rates_kernel(*self.diver_inputs.T, self.diver_plant.params,
+                                             ARRAYS)[0])
+            rows = [np.concatenate([body_frd(diver[i, :3] - rov[i, :3], yaw[i]),
+                                    [math.sin(rel[i]), math.cos(rel[i]), speed[i]]])
+                    for i in range(self.num_envs)]
+            obs["contact"] = np.clip(np.array(rows), space["contact"].low,
+                                     space["contact"].high).astype(np.float32)
+        return obs
+
+    def _ping(self) -> np.ndarray:
+        """Every sub-environment's sonar image now, (N, range bins, beams) uint8: one cast
+        of all N fans, then each episode's image formation (module docstring)."""
+        bins, beams = self.template.sonar_shape
+        out = np.zeros((self.num_envs, bins, beams), dtype=np.uint8)
+        if any(s is None for s in self.sonars):
+            return out
+        poses, dirs, distance, normal, reflectivity, label = self._cast_fans()
+        for i, s in enumerate(self.sonars):
+            assert s is not None
+            fan = fan_hits(distance[i], normal[i], reflectivity[i], label[i], dirs[i],
+                           s.cast_window_m)
+            ping = s.form_image(float(self.ticks[i] * self.dt), *poses[i], *fan)
+            out[i] = cv2.resize(ping.polar_u8, (beams, bins), interpolation=cv2.INTER_AREA)
+        return out
+
+    def _cast_fans(self) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray,
+                                  np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Each sonar's pose (origin NED, rotation sonar → NED), its rays in NED (N, R, 3)
+        and their first hits (N, R): distance (m, inf on a miss), unit normal (N, R, 3),
+        Lambert μ and scene label: the sea floor and the diver in one
+        :meth:`~uhrisim.world.raycast.EmbreeRayCaster.cast_fans`, then the pilings."""
+        sonars = [s for s in self.sonars if s is not None]
+        poses = [s.sonar_pose(self.rov[i, :3], rot_z(self.rov[i, 3]))
+                 for i, s in enumerate(sonars)]
+        dirs = np.stack([s.geometry.dirs_sonar @ R.T for s, (_, R) in zip(
+            sonars, poses, strict=True)])
+        origins = np.stack([p for p, _ in poses])
+        body = np.zeros((self.num_envs, 4, 4))
+        body[:, 3, 3] = 1.0
+        body[:, :3, :3] = [rot_z(y) for y in self.diver[:, 3]]
+        body[:, :3, 3] = self.diver[:, :3]
+        hits = self.caster.cast_fans(origins, dirs, max(s.cast_window_m[1] for s in sonars),
+                                     {self.template.target: (body, self.kick_phase)})
+        shape = dirs.shape[:2]
+        distance, normal = hits.distance.reshape(shape), hits.normal.reshape(*shape, 3)
+        reflectivity, label = hits.reflectivity.reshape(shape), hits.label.reshape(shape)
+        self._pilings_hit(origins, dirs, distance, normal, reflectivity, label)
+        return poses, dirs, distance, normal, reflectivity, label
+
+    def _pilings_hit(self, origins: np.ndarray, dirs: np.ndarray, distance: np.ndarray,
+                     normal: np.ndarray, reflectivity: np.ndarray, label: np.ndarray) -> None:
+        """Each fan's rays against its episode's pilings (vertical cylinders from their
+        top down to the floor, with a top cap), in array code over all fans, piling slot
+        by slot; where one is nearer than the hit so far, it replaces it (in place; label
+        -1). The side: the nearer root of |o + t d - c|² = r² in the horizontal plane."""
+        far = max(s.cast_window_m[1] for s in self.sonars if s is not None)
+        for j in range(self.pilings.shape[1]):
+            seen = self._in_view(origins, self.pilings[:, j], far)
+            if seen.size == 0:
+                continue
+            o, d = origins[seen], dirs[seen]
+            north, east, radius = self.pilings[seen, j].T  # (M,) each
+            top = self.piling_top[seen, j]
+            rel_n, rel_e = o[:, 0] - north, o[:, 1] - east
+            a = d[..., 0] ** 2 + d[..., 1] ** 2  # (M, R)
+            c = rel_n ** 2 + rel_e ** 2 - radius ** 2  # > 0: the sonar is outside it
+            with np.errstate(invalid="ignore"):
+                b = d[..., 0] * rel_n[:, None] + d[..., 1] * rel_e[:, None]
+                disc = b * b - a * c[:, None]
+                fan, ray = np.nonzero((disc >= 0.0) & (b < 0.0) & (c[:, None] > 0.0))
+            t_side = (-b[fan, ray] - np.sqrt(disc[fan, ray])) / a[fan, ray]
+            z = o[fan, 2] + t_side * d[fan, ray, 2]
+            keep = (z >= top[fan]) & (t_side < distance[seen[fan], ray])
+            fan, ray, t_side = fan[keep], ray[keep], t_side[keep]
+            point = o[fan] + t_side[:, None] * d[fan, ray]
+            hit_normal = np.zeros_like(point)
+            hit_normal[:, 0] = (point[:, 0] - north[fan]) / radius[fan]
+            hit_normal[:, 1] = (point[:, 1] - east[fan]) / radius[fan]
+            self._replace(j, (seen[fan], ray), t_side, hit_normal, distance, normal, reflectivity,
+                          label)
+            with np.errstate(invalid="ignore"):  # the top cap, seen from above it
+                fan, ray = np.nonzero((o[:, 2] < top)[:, None] & (d[..., 2] > 0.0))
+            t_cap = (top[fan] - o[fan, 2]) / d[fan, ray, 2]
+            at_n = rel_n[fan] + t_cap * d[fan, ray, 0]
+            at_e = rel_e[fan] + t_cap * d[fan, ray, 1]
+            keep = (at_n ** 2 + at_e ** 2 <= radius[fan] ** 2) & (t_cap < distance[seen[fan], ray])
+            up = np.zeros((np.count_nonzero(keep), 3))
+            up[:, 2] = -1.0
+            self._replace(j, (seen[fan[keep]], ray[keep]), t_cap[keep], up, distance, normal,
+                          reflectivity, label)
+
+    def _in_view(self, origins: np.ndarray, piling: np.ndarray, far: float) -> np.ndarray:
+        """The fans (indices) that may see ``piling`` ((N, 3): north, east, radius; NaN:
+        none): within ``far`` m of it and with it inside their horizontal field of view
+        (:attr:`half_view`, around the ROV's heading)."""
+        rel = piling[:, :2] - origins[:, :2]
+        rho = np.hypot(rel[:, 0], rel[:, 1])
+        with np.errstate(invalid="ignore"):
+            spread = np.arcsin(np.minimum(piling[:, 2] / rho, 1.0))
+            off = np.abs(wrap_pi(np.arctan2(rel[:, 1], rel[:, 0]) - self.rov[:, 3]))
+            return np.flatnonzero((rho - piling[:, 2] <= far)
+                                  & ((off <= self.half_view + spread + 0.01)
+                                     | (rho <= piling[:, 2])))
+
+    def _replace(self, slot: int, rows: tuple[np.ndarray, np.ndarray], t: np.ndarray,
+                 hit_normal: np.ndarray, distance: np.ndarray, normal: np.ndarray,
+                 reflectivity: np.ndarray, label: np.ndarray) -> None:
+        """Rays ``rows`` (fan, ray) now hit piling ``slot`` at ``t`` m, ``hit_normal``."""
+        distance[rows] = t
+        normal[rows] = hit_normal
+        reflectivity[rows] = self.piling_reflectivity[rows[0], slot]
+        label[rows] = -1

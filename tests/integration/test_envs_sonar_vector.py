@@ -1,0 +1,73 @@
+"""The sonar vector env (uhrisim.envs.sonar_vector): N episodes with one cast of all N
+sonars per step, held to N single envs (the Simulation pinging its sonar) on the same
+seeds, and its pilings (array code) to the single env's cylinder meshes."""
+
+import math
+
+import numpy as np
+import pytest
+
+gymnasium = pytest.importorskip("gymnasium", reason="the [gym] extra is not installed")
+
+from uhrisim.envs import TrailDiverEnv  # noqa: E402
+from uhrisim.envs.sonar_vector import TrailDiverSonarVectorEnv  # noqa: E402
+from uhrisim.scenario.build_world import add_object, build_static_scene  # noqa: E402
+
+
+def _toward_diver(contact):
+    """Ahead at half speed toward the diver (body-frame contact), matching its depth."""
+    return np.array([math.atan2(contact[1], contact[0]), 0.5, contact[2]], dtype=np.float32)
+
+
+def test_make_vec_steps_the_single_envs_episodes_with_their_sonar_images():
+    seeds, kwargs = [1, 0], {"lost_range_m": 30.0}
+    vec = gymnasium.make_vec("uhrisim/TrailDiver-v0", num_envs=2,
+                             vectorization_mode="vector_entry_point", **kwargs)
+    assert isinstance(vec, TrailDiverSonarVectorEnv)
+    singles = [TrailDiverEnv("sonar", **kwargs) for _ in seeds]
+    v_obs, _ = vec.reset(seed=seeds)
+    obs = [env.reset(seed=s)[0] for env, s in zip(singles, seeds, strict=True)]
+    seen = 0
+    for _ in range(6):
+        assert v_obs in vec.observation_space
+        for i, o in enumerate(obs):
+            for key in ("sonar", "nav", "contact"):
+                np.testing.assert_array_equal(v_obs[key][i], o[key], err_msg=key)
+        seen += int(np.count_nonzero(v_obs["sonar"] > 100))
+        actions = np.stack([_toward_diver(v_obs["contact"][i]) for i in range(2)])
+        v_obs, v_reward, v_term, v_trunc, _ = vec.step(actions)
+        for i, env in enumerate(singles):
+            obs[i], reward, terminated, truncated, _ = env.step(actions[i])
+            assert v_reward[i] == pytest.approx(reward, abs=1e-12)
+            assert (v_term[i], v_trunc[i]) == (terminated, truncated)
+    assert seen > 0  # the diver's echo was in the images compared
+
+
+def test_pilings_in_array_code_are_the_single_env_s_cylinder_meshes():
+    """A ROV 3 m from a piling, facing it: the rays the array code stops on the piling
+    are those the mesh stops (but for a few grazing ones), at the same range to 5 mm."""
+    vec = TrailDiverSonarVectorEnv(num_envs=1)
+    vec.reset(seed=[3])
+    north, east, radius = vec.pilings[0, 0]
+    vec.rov[0, :4] = (north - 3.0 - radius, east, 1.5, 0.0)  # due south of it, heading north
+    _, dirs, distance, normal, _, _ = vec._cast_fans()
+    scene = build_static_scene(vec._source)
+    for obj in vec._piling_objects[0]:
+        add_object(scene, obj, vec._source, "test")
+    origin = vec.sonars[0].sonar_pose(vec.rov[0, :3], np.eye(3))[0]
+    mesh = scene.raycaster("embree").cast(origin, dirs[0], vec.sonars[0].cast_window_m[1])
+    on_piling = mesh.label == scene.label_id(vec._piling_objects[0][0].label)
+    ours = distance[0] < np.inf
+    ours &= np.abs(normal[0, :, 2]) < 0.5  # the array code's hits on the piling's side
+    assert on_piling.sum() > 500
+    assert np.count_nonzero(on_piling != ours) < 0.02 * on_piling.sum()
+    both = on_piling & ours
+    np.testing.assert_allclose(distance[0, both], mesh.distance[both], atol=5e-3)
+
+
+def test_scenarios_with_more_to_see_are_refused_by_name():
+    from uhrisim.envs import EnvArgumentError
+    from uhrisim.scenario.shipped import shipped_scenario
+
+    with pytest.raises(EnvArgumentError, match="the bubbles of 'diver'"):
+        TrailDiverSonarVectorEnv(scenario=shipped_scenario("track_and_trail_sonar_clutter"))
