@@ -42,6 +42,7 @@ from uhrisim.autonomy.params import checked_value
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned, rot_z
 from uhrisim.core.rng import component_rng
+from uhrisim.core.stops import raise_pending_stop
 from uhrisim.scenario.build_world import add_object, build_static_scene, object_mesh
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.sim.bubbles import DiverBubbles
@@ -206,6 +207,7 @@ class Simulation:
         """One tick; a frame is made only if someone looks, and its agent snapshots are
         taken as hooks read them (all of them for ``build_frame``)."""
         self.start()
+        raise_pending_stop()  # a stop signal some library swallowed (core/stops.py)
         self._apply_inbox()
         self._fire_events()
         for agent in self.agents.values():
