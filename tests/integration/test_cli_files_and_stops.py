@@ -259,7 +259,8 @@ def test_a_full_disk_ends_the_run_with_one_line_and_a_complete_recording(tmp_pat
     with AnyReader([copy]) as bag:  # rosbags: metadata.yaml, summary and footer
         odometry = [c for c in bag.connections if c.topic == "/videoray/odom"]
         last = max(t for _, t, _ in bag.messages(connections=odometry))
+        count = bag.message_count
     assert 0 < last / 1e9 <= metrics["simulated_s"] + 1.0
     with (copy / "recording.mcap").open("rb") as f:  # mcap's seeking reader: the summary
         summary = make_reader(f).get_summary()
-    assert summary is not None and summary.statistics.message_count == bag.message_count
+    assert summary is not None and summary.statistics.message_count == count > 0

@@ -90,7 +90,9 @@ def recover_in_place(path: Path | str) -> int | None:
     if not starts_as_mcap(path):
         raise UhrisimError(f"{path}: not an MCAP recording (no MCAP magic and header at its "
                            "start): left as it is")
-    headroom_path(path).unlink(missing_ok=True)  # a killed run's: its space is needed now
+    headroom = headroom_path(path)
+    if headroom.exists():  # a killed run's: its space is needed now
+        headroom.unlink()
     if is_complete(path):
         return None
     partial = path.with_name(path.name + PARTIAL_SUFFIX)
