@@ -45,7 +45,7 @@ browser:
 
 test: venv-test browser
 	$(PY) -m ruff check src tests examples docs
-	$(PY) -m pytest -n 2 -q
+	$(PY) -m pytest -n 2 -q --durations=25
 
 # The whole suite on a busy machine, as CI machines often are: two busy loops keep both
 # cores at 100 % while it runs (it must pass so too; tests wait for what they wait for).

@@ -1,19 +1,25 @@
 """``python -m uhrisim`` is the ``uhrisim`` command (:func:`entry`, also the console
 script)."""
 
+import signal
 import sys
 
 
 def entry() -> int:
-    """The command, with a Ctrl-C while it is still starting (importing) said in one line
-    as later ones are: ``error: interrupted``, exit status 130."""
+    """The command, with a stop signal while it is still starting (importing) said in one
+    line as later ones are (``error: interrupted``, exit status 130; SIGTERM 143)."""
+    from uhrisim.core.errors import StopRequested
+    from uhrisim.core.stops import catch_stop_signals, stop_message
+
+    catch_stop_signals()
     try:
         from uhrisim.cli import main
 
         return main()
-    except KeyboardInterrupt:
-        sys.stderr.write("error: interrupted\n")
-        return 130
+    except (KeyboardInterrupt, StopRequested) as stop:
+        signum = getattr(stop, "signum", signal.SIGINT)
+        sys.stderr.write(f"error: {stop_message(signum)}\n")
+        return 128 + signum
 
 
 if __name__ == "__main__":

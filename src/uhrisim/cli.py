@@ -35,6 +35,7 @@ from uhrisim.core.errors import (
     shortened,
 )
 from uhrisim.core.memory import keep_freed_memory
+from uhrisim.core.stops import catch_stop_signals, pending_stop, stop_handled, stop_message
 
 app = typer.Typer(
     name="uhrisim",
@@ -113,7 +114,7 @@ def _say_repeats() -> None:
 def _process_settings() -> None:
     """Process-wide settings of the command (side effects at the edge)."""
     keep_freed_memory()  # no page-fault churn on every sonar ping (see core/memory.py)
-    _stop_on_signals()
+    catch_stop_signals()
     _log_to_stderr()
     warnings.simplefilter("ignore", UhrisimWarning)  # each is logged, and shown once so
 
@@ -179,24 +180,13 @@ def friendly_errors(command: Callable[..., Any]) -> Callable[..., Any]:
                 raise
             report_error(f"{shortened(str(error.filename), 200)}: {error.strerror or error}")
             raise typer.Exit(code=2) from None
-        except KeyboardInterrupt:
-            report_error("interrupted")
-            raise typer.Exit(code=128 + signal.SIGINT) from None
-        except StopRequested as stop:
-            report_error(stop)
-            raise typer.Exit(code=128 + stop.signum) from None
+        except (KeyboardInterrupt, StopRequested) as stop:
+            stop_handled()
+            signum = getattr(stop, "signum", signal.SIGINT)
+            report_error(stop_message(signum))
+            raise typer.Exit(code=128 + signum) from None
 
     return wrapper
-
-
-def _stop_on_signals() -> None:
-    """SIGTERM and SIGHUP end the command as Ctrl-C does (:class:`StopRequested`)."""
-
-    def stop(signum: int, _frame: Any) -> None:
-        raise StopRequested(signum)
-
-    for signum in (signal.SIGTERM, signal.SIGHUP):
-        signal.signal(signum, stop)
 
 
 def check_option(name: str, value: float | None, ok: bool, rule: str) -> None:
@@ -845,11 +835,17 @@ def main(argv: list[str] | None = None) -> int:
             ctx = getattr(error, "ctx", None)
             report_error(f"{message} (see {ctx.command_path if ctx else 'uhrisim'} --help)")
         return 2
-    except typer.Abort:
+    except typer.Abort:  # click's word for a Ctrl-C outside the commands
+        stop_handled()
         report_error("interrupted")
         return 130
     finally:  # the work is done and written: the interpreter's exit need not walk every
         gc.freeze()  # object of a run's heap again (seconds after a ROS run, under load)
+    signum = pending_stop()
+    if signum is not None:  # a stop that a library swallowed: the work went on to its end
+        stop_handled()
+        report_error(stop_message(signum))
+        return 128 + signum
     return status if isinstance(status, int) else 0
 
 

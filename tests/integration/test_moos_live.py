@@ -185,10 +185,13 @@ def test_wildcard_registration_and_duplicate_name_poison(db):
 
 def test_strict_connect_to_nothing_raises_and_lax_connect_waits(db):
     port = free_port()
-    t0 = time.monotonic()
     with pytest.raises(BridgeError, match=rf"127\.0\.0\.1:{port}.*refused"):
         MoosAgentBridge("rov", port=port, strict=True)
-    assert time.monotonic() - t0 < 2.0  # the first refusal is reported, not the timeout
+    # the first refusal is reported, not the timeout: an hour's timeout ends at once
+    client = MoosClient()
+    with pytest.raises(BridgeError, match="refused"):
+        client.connect("127.0.0.1", port, "probe", strict=True, timeout_s=3600.0)
+    assert client.n_attempts == 1
     # lax: returns at once, retries in the background, connects when a DB appears
     bridge = MoosAgentBridge("rov", port=port)
     try:
@@ -412,8 +415,9 @@ def test_client_talks_like_the_real_client_to_a_replayed_real_db():
 def test_posts_faster_than_coalesce_arrive_complete_in_order_and_in_time(db, coalesce_s):
     """Posts that follow each other sooner than ``coalesce_s`` share packets, yet every
     one arrives, in posting order, with its own value and stamp; the last of a burst is
-    sent by the client's thread within about ``coalesce_s`` (nothing waits for a later
-    post), and a post after a quiet spell goes out at once."""
+    sent by the client's thread without a later post to carry it, and a post after a
+    quiet spell is written by the caller's thread before ``notify`` returns. (How soon:
+    ``uhrisim bench moos``, ``burst_latency``.)"""
     pub, sub = MoosClient(coalesce_s=coalesce_s), MoosClient()
     try:
         sub.connect("127.0.0.1", db.port, f"co_sub_{int(coalesce_s * 1000)}", strict=True)
@@ -425,22 +429,19 @@ def test_posts_faster_than_coalesce_arrive_complete_in_order_and_in_time(db, coa
         time.sleep(max(0.05, 2 * coalesce_s))
         sub.drain()
         got: list[MoosMessage] = []
-        t0 = time.monotonic()
         for i in range(200):
             pub.notify_many([(key, float(i)), (key + "_S", f"s{i}")], time=1000.0 + i)
-        assert wait_until(lambda: got.extend(sub.drain()) or len(got) >= 200, 5.0, 0.001)
-        elapsed = time.monotonic() - t0
+        assert wait_until(lambda: got.extend(sub.drain()) or len(got) >= 200, 120.0, 0.001)
         assert [m.dval for m in got] == [float(i) for i in range(200)]
         assert [m.time for m in got] == [1000.0 + i for i in range(200)]
-        assert elapsed < coalesce_s + 1.0
-        # a lone post after a quiet spell is written at once by the caller's thread
-        time.sleep(coalesce_s + 0.05)
-        t1 = time.monotonic()
+        # a lone post after a quiet spell is written by the caller's thread, at once
+        sent = pub.n_sent  # all of it: the burst's last posts have arrived
+        time.sleep(coalesce_s + 0.05)  # (at least that long: the spell is quiet)
         pub.notify(key, 1e6)
+        assert pub.n_sent == sent + 1  # written before notify returned, not queued
         msgs: list[MoosMessage] = []
-        assert wait_until(lambda: msgs.extend(sub.drain()) or bool(msgs), 2.0, 0.0005)
+        assert wait_until(lambda: msgs.extend(sub.drain()) or bool(msgs), 120.0, 0.0005)
         assert msgs[0].dval == 1e6
-        assert time.monotonic() - t1 < 0.5
         assert pub.dropped_out == 0
     finally:
         pub.close()

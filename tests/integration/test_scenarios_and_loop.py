@@ -11,10 +11,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 
 from uhrisim.core.errors import AssetError, ConfigError
 from uhrisim.record.reader import summarize
 from uhrisim.scenario.load import load_scenario, validate_data
+from uhrisim.sim.overlap import CLEARANCE_M, push_out, sphere_overlaps
 from uhrisim.sim.simulation import BaseHook, Simulation
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -232,6 +234,40 @@ events:
     hits = [e.detail for e in sim.events_log if e.kind == "collision"]
     assert hits[0].startswith("rov touched 'skip', which an event added onto it at NED [0.0")
     assert hits[1].startswith("rov touched 'gate', which an event moved onto it at NED")
+
+
+def test_a_vehicle_an_event_buries_is_pushed_out_the_shortest_way(tmp_path):
+    """A crate dropped 0.3 m ahead of the ROV's centre shoves it back, out of the crate by
+    its radius (the crate's near face is at north -0.2 m), at rest; nothing else moves it
+    and it is not counted again."""
+    text = COLLIDE + """
+events:
+  - {at: 1, add_object: {type: box, label: skip, size: [1, 1, 1],
+                         position: {north: 0.3, east: 0, depth: 3}}}
+"""
+    sim = Simulation(load_scenario(write(tmp_path, text)))
+    rov = sim.agents["rov"]
+    sim.run(0.9)
+    before = rov.state[:3].copy()
+    sim.run(0.2)
+    after = rov.state[:3]
+    assert after[0] == pytest.approx(-0.2 - rov.radius - CLEARANCE_M, abs=1e-3)
+    assert after[1:] == pytest.approx(before[1:], abs=1e-2)
+    skip = trimesh.creation.box(extents=[1.0, 1.0, 1.0])
+    skip.apply_translation([0.3, 0.0, 3.0])
+    assert not sphere_overlaps(skip, after, rov.radius)
+    sim.run(2.0)
+    assert sim.collisions == 1
+
+
+def test_push_out_takes_the_shortest_way_from_inside_and_from_outside():
+    box = trimesh.creation.box(extents=[2.0, 2.0, 2.0])  # faces at ±1 m
+    inside = push_out(box, np.array([0.7, 0.1, 0.0]), 0.5)
+    assert inside == pytest.approx([1.0 + 0.5 + CLEARANCE_M, 0.1, 0.0])
+    grazing = push_out(box, np.array([0.0, -1.2, 0.3]), 0.5)  # centre outside, sphere in
+    assert grazing == pytest.approx([0.0, -1.0 - 0.5 - CLEARANCE_M, 0.3])
+    for centre in (inside, grazing):
+        assert not sphere_overlaps(box, centre, 0.5)
 
 
 def test_stale_external_thrusters_fall_back_to_the_controller(tmp_path):

@@ -7,6 +7,10 @@
   variables incl. NODE_REPORT and the lat/long conversion), connected and disconnected.
   This is what the simulation loop pays; the I/O happens on the client's thread.
 * ``wire``: encode/decode rates of the protocol code itself.
+* ``burst_latency``: per ``coalesce_s`` of the posting client, the time from the last post
+  of a burst of 200 (nothing posted after it) to its arrival in the other client, and
+  from a lone post after a quiet spell to its arrival (the test suite checks that both
+  arrive without a later post; this measures how soon).
 
 Targets: a 10 Hz bridge for a handful of agents needs well under 1 % of a core
 (publish_nav < 100 us), and a MOOS community's traffic (a few thousand
@@ -61,6 +65,39 @@ def _throughput(port: int, n: int, batch: int) -> dict[str, Any]:
         sub.close()
 
 
+def _latency(port: int, coalesce_s: float) -> dict[str, float]:
+    """Seconds from the last post of a burst, and from a lone post, to their arrival."""
+    pub, sub = MoosClient(coalesce_s=coalesce_s), MoosClient()
+    key = f"LAT_{int(coalesce_s * 1000)}"
+    try:
+        pub.connect("127.0.0.1", port, f"lat_pub_{key}", strict=True)
+        sub.connect("127.0.0.1", port, f"lat_sub_{key}", strict=True)
+        sub.register(key)
+        deadline = time.monotonic() + 5.0
+        while time.monotonic() < deadline and not any(m.key == key for m in sub.drain()):
+            pub.notify(key, -1.0)
+            time.sleep(0.01)
+
+        def arrival(value: float) -> float:
+            """Seconds until ``value`` arrives (after the post just made)."""
+            start = time.perf_counter()
+            while not any(m.key == key and m.dval == value for m in sub.drain()):
+                time.sleep(0.0002)
+            return time.perf_counter() - start
+
+        time.sleep(coalesce_s + 0.05)
+        for i in range(199):
+            pub.notify(key, float(i))
+        pub.notify(key, 199.0)
+        burst = arrival(199.0)
+        time.sleep(coalesce_s + 0.05)
+        pub.notify(key, 1e6)
+        return {"last_of_burst_s": burst, "lone_post_s": arrival(1e6)}
+    finally:
+        pub.close()
+        sub.close()
+
+
 def run(quick: bool = False) -> dict[str, Any]:
     n = 5_000 if quick else 100_000
     min_time = 0.05 if quick else 0.5
@@ -71,6 +108,8 @@ def run(quick: bool = False) -> dict[str, Any]:
             "batched_8": _throughput(db.port, n, 8),
             "single": _throughput(db.port, n // 5, 1),
         }
+        out["burst_latency"] = {f"coalesce_{c:g}_s": _latency(db.port, c)
+                                for c in (0.0, 0.005, 0.2)}
         bridge = MoosAgentBridge("bench", port=db.port, strict=True)
         try:
             k = [0]

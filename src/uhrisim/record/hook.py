@@ -24,8 +24,8 @@ from pathlib import Path
 from typing import Any
 
 from uhrisim.core.errors import ConfigError, UhrisimError
+from uhrisim.record.finish import finish_in_place
 from uhrisim.record.mcap_recorder import McapRecorder
-from uhrisim.record.recover import recover_in_place
 from uhrisim.record.rosbag2 import write_metadata
 from uhrisim.ros.tick import TickWriter
 
@@ -156,12 +156,12 @@ class McapRecordingHook:
                             f"{type(error).__name__}: {error}")
         was_open = not rec.closed
         rec.close()
-        if rec.cut and was_open:  # a full disk: complete it if there is room for that
+        if rec.cut and was_open:  # a full disk: completed where it lies, in the headroom
             try:
-                recover_in_place(self.path)  # (writes metadata.yaml too)
-                self.cut_outcome = ("the recording is complete up to there, the cut file "
-                                    f"kept as {self.path.name}.partial")
-            except UhrisimError:
+                finish_in_place(self.path)
+                write_metadata(self.path)
+                self.cut_outcome = "the recording is complete up to there"
+            except (UhrisimError, OSError):
                 self.cut_outcome = ("the recording ends at its last whole chunk; no room to "
                                     "complete it: free some and run uhrisim recover")
             return

@@ -27,6 +27,7 @@ lose.
 
 from __future__ import annotations
 
+import errno
 import logging
 import os
 from collections.abc import Mapping
@@ -38,6 +39,7 @@ from mcap.writer import Writer as McapWriter
 
 from uhrisim import __version__ as uhrisim_version
 from uhrisim.core.errors import AssetError, ConfigError, UhrisimError
+from uhrisim.record.finish import Headroom, size_limit_with_headroom
 from uhrisim.record.rosbag2 import channel_metadata
 from uhrisim.ros.messages import stamp_ns
 from uhrisim.ros.msgdefs import schema_text
@@ -76,6 +78,9 @@ class _UnbufferedSink:
         self.path = path
         self._fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
         self._pos = 0
+        #: Under a file-size limit (``ulimit -f``) the data stop short of it, leaving the
+        #: file room for its summary (:func:`~uhrisim.record.finish.size_limit_with_headroom`).
+        self._size_limit = size_limit_with_headroom()
         #: Why the file could not be written (a full disk, a file-size limit): None if it
         #: could. After a failure the file ends where the last whole write ended.
         self.failure: str | None = None
@@ -86,6 +91,8 @@ class _UnbufferedSink:
         view = memoryview(data).cast("B")
         total = len(view)
         try:
+            if self._size_limit is not None and self._pos + total > self._size_limit:
+                raise OSError(errno.EFBIG, os.strerror(errno.EFBIG))
             while view:
                 written = os.write(self._fd, view)
                 view = view[written:]
@@ -166,6 +173,7 @@ class McapRecorder(RosWriter):
             self._sink = _UnbufferedSink(self.path)
         except OSError as exc:
             raise UhrisimError(f"{self.path}: cannot open for writing ({exc.strerror})") from exc
+        self._headroom = Headroom(self.path)
         self._writer = McapWriter(
             self._sink,
             chunk_size=int(chunk_size),
@@ -244,12 +252,13 @@ class McapRecorder(RosWriter):
     @property
     def cut(self) -> str | None:
         """Why the file could not be written to its end (None: it could): it then ends
-        at its last whole record, and :func:`uhrisim.record.recover.recover_in_place`
-        completes it."""
+        at its last whole record, and :func:`uhrisim.record.finish.finish_in_place`
+        completes it in the room :meth:`close` gave back."""
         return self._sink.failure
 
     def close(self) -> None:
-        """Write the summary and footer and close the file. Idempotent."""
+        """Write the summary and footer and close the file, and give back the disk space
+        held for a summary (:class:`~uhrisim.record.finish.Headroom`). Idempotent."""
         if self._closed:
             return
         self._closed = True
@@ -258,6 +267,7 @@ class McapRecorder(RosWriter):
                 self._writer.finish()
         finally:
             self._sink.close()
+            self._headroom.release()
         logger.info(
             "recorded %d messages on %d topics to %s (%d bytes)",
             sum(self._counts.values()), len(self._counts), self.path, self._sink.tell(),

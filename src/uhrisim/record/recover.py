@@ -17,6 +17,7 @@ from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 
 from uhrisim.core.errors import UhrisimError
+from uhrisim.record.finish import headroom_path
 from uhrisim.record.reader import MCAP_MAGIC, _scan, _ScanState
 from uhrisim.record.rosbag2 import write_metadata
 
@@ -81,14 +82,17 @@ def recover_in_place(path: Path | str) -> int | None:
     """Make the recording at ``path`` complete if a killed run cut it short: the cut file
     is kept as ``<path>.partial`` and a complete one, with every message of its complete
     chunks, takes its place, with the folder's rosbag2 ``metadata.yaml``
-    (:mod:`uhrisim.record.rosbag2`). Returns the messages copied, or None if it was
-    complete."""
+    (:mod:`uhrisim.record.rosbag2`); the headroom file a killed run left is deleted.
+    Returns the messages copied, or None if it was complete."""
     path = Path(path)
     if not path.is_file():
         raise UhrisimError(f"{path}: no such recording")
     if not starts_as_mcap(path):
         raise UhrisimError(f"{path}: not an MCAP recording (no MCAP magic and header at its "
                            "start): left as it is")
+    headroom = headroom_path(path)
+    if headroom.exists():  # a killed run's: its space is needed now
+        headroom.unlink()
     if is_complete(path):
         return None
     partial = path.with_name(path.name + PARTIAL_SUFFIX)

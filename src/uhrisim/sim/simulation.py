@@ -42,6 +42,7 @@ from uhrisim.autonomy.params import checked_value
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned, rot_z
 from uhrisim.core.rng import component_rng
+from uhrisim.core.stops import raise_pending_stop
 from uhrisim.scenario.build_world import add_object, build_static_scene, object_mesh
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.sim.bubbles import DiverBubbles
@@ -57,6 +58,7 @@ from uhrisim.sim.hooks import (
     TickFrame,
     sensor_key,
 )
+from uhrisim.sim.overlap import push_out, sphere_overlaps
 from uhrisim.sim.script import ScriptDriver
 from uhrisim.sim.sonar_contacts import SonarContacts
 from uhrisim.sim.state import Agent, ScheduledEvent
@@ -97,17 +99,6 @@ class BaseHook:
 
     def summary(self) -> dict[str, Any]:
         return {}
-
-
-def _sphere_samples() -> NDArray[np.float64]:
-    """The unit sphere sampled at its centre and 26 points: the faces, edges and corners
-    of a cube, normalised (for an object that appears where an agent is)."""
-    cube = np.array(list(np.ndindex(3, 3, 3)), dtype=float) - 1.0
-    norms = np.linalg.norm(cube, axis=1, keepdims=True)
-    return cube / np.where(norms > 0.0, norms, 1.0)
-
-
-SPHERE_SAMPLES = _sphere_samples()
 
 
 class Simulation:
@@ -216,6 +207,7 @@ class Simulation:
         """One tick; a frame is made only if someone looks, and its agent snapshots are
         taken as hooks read them (all of them for ``build_frame``)."""
         self.start()
+        raise_pending_stop()  # a stop signal some library swallowed (core/stops.py)
         self._apply_inbox()
         self._fire_events()
         for agent in self.agents.values():
@@ -356,20 +348,27 @@ class Simulation:
     def _count_struck(self, obj: Any, where: str, how: str) -> None:
         """An object an event put where an agent is: a collision of that agent (it did not
         move into the object, so the moving-sphere check of :meth:`_advance` cannot see
-        it). The agent's sphere is sampled at its centre and 26 points of its surface."""
+        it), and the agent is pushed out the shortest way, at rest
+        (:mod:`uhrisim.sim.overlap`)."""
         mesh = object_mesh(obj, self.source, where)
         if not mesh.is_watertight:
             return
-        low, high = mesh.bounds
         for agent in self.agents.values():
             centre = agent.state[:3]
-            if np.any(centre + agent.radius < low) or np.any(centre - agent.radius > high):
+            if not sphere_overlaps(mesh, centre, agent.radius):
                 continue
-            if bool(np.any(mesh.contains(centre + agent.radius * SPHERE_SAMPLES))):
-                self.collisions += 1
-                agent.in_contact = True
-                self.record_event("collision", f"{agent.name} touched {obj.label!r}, which an "
-                                  f"event {how} onto it at NED {np.round(centre, 2).tolist()}")
+            self.collisions += 1
+            agent.in_contact = True
+            state = agent.state.copy()
+            state[:3] = push_out(mesh, centre, agent.radius)
+            state[2] = max(state[2], SURFACE_DEPTH)
+            if agent.model.contact_stops is not None:
+                state[agent.model.contact_stops] = 0.0
+            agent.update(state=state)
+            self._scene_dirty = True
+            self.record_event("collision", f"{agent.name} touched {obj.label!r}, which an "
+                              f"event {how} onto it at NED {np.round(centre, 2).tolist()}; "
+                              f"pushed out to {np.round(state[:3], 2).tolist()}")
 
     def _advance(self, agent: Agent) -> None:
         previous = agent.state  # plants return a new state; this one stays as it was

@@ -1,0 +1,61 @@
+"""Stop signals of the command line: SIGINT (Ctrl-C), SIGTERM (``timeout``, systemd, Ray,
+``ros2 launch``) and SIGHUP (a closed terminal).
+
+A stop raises where it lands — :class:`KeyboardInterrupt` for Ctrl-C,
+:class:`~uhrisim.core.errors.StopRequested` for the others — so that what runs cleans up
+(recording closed, metrics written). Some libraries swallow an exception raised inside
+their callbacks (the JIT compiler's ctypes callback prints "Exception ignored" and goes
+on; a schema validator built during start-up can do the same), so every stop is also
+remembered until it is handled: the simulation loop raises a remembered stop at its next
+tick (:func:`raise_pending_stop`) and the command line at its end
+(:func:`pending_stop`). Without :func:`catch_stop_signals` (a library user, the tests)
+nothing is remembered and nothing changes.
+"""
+
+from __future__ import annotations
+
+import signal
+from types import FrameType
+
+from uhrisim.core.errors import StopRequested
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+_pending: list[int] = []  # the signals received and not yet handled, in order
+
+
+def stop_exception(signum: int) -> BaseException:
+    """What a stop signal raises: KeyboardInterrupt for SIGINT, StopRequested otherwise."""
+    return KeyboardInterrupt() if signum == signal.SIGINT else StopRequested(signum)
+
+
+def _on_stop(signum: int, _frame: FrameType | None) -> None:
+    _pending.append(signum)
+    raise stop_exception(signum)
+
+
+def catch_stop_signals() -> None:
+    """Stop signals raise and are remembered (call from the main thread)."""
+    for signum in STOP_SIGNALS:
+        signal.signal(signum, _on_stop)
+
+
+def pending_stop() -> int | None:
+    """The first stop signal received and not yet handled, or None."""
+    return _pending[0] if _pending else None
+
+
+def stop_handled() -> None:
+    """The stop was handled (its exception reached the command line): forget it."""
+    _pending.clear()
+
+
+def stop_message(signum: int) -> str:
+    """The command line's words for a stop: ``interrupted`` or ``stopped by SIGTERM``."""
+    return "interrupted" if signum == signal.SIGINT else str(StopRequested(signum))
+
+
+def raise_pending_stop() -> None:
+    """Raise a stop that was received but swallowed on its way (until it is handled)."""
+    signum = pending_stop()
+    if signum is not None:
+        raise stop_exception(signum)

@@ -1,0 +1,85 @@
+"""A stop signal that a library swallows (an exception raised inside its callback, printed
+as "Exception ignored" and dropped) still stops the run at its next tick, and a command
+that went on to its end still ends as a stop: one line, 128 + the signal's number."""
+
+import os
+import signal
+from pathlib import Path
+
+import pytest
+
+from uhrisim.cli import main
+from uhrisim.core import stops
+from uhrisim.core.errors import StopRequested
+from uhrisim.scenario.load import load_scenario
+from uhrisim.sim.simulation import Simulation
+
+SCENE = """
+name: still
+physics_rate_hz: 20
+world:
+  seafloor: {type: flat, depth: 10}
+agents:
+  - name: rov
+    model: videoray
+    driver: external
+    start: {north: 0, east: 0, depth: 3, heading_deg: 0}
+"""
+
+
+@pytest.fixture
+def scene(tmp_path) -> Path:
+    path = tmp_path / "still.yaml"
+    path.write_text(SCENE)
+    return path
+
+
+@pytest.fixture
+def caught_stops():
+    """The command line's handlers for the test, pytest's own back afterwards."""
+    saved = {signum: signal.getsignal(signum) for signum in stops.STOP_SIGNALS}
+    stops.catch_stop_signals()
+    yield
+    stops.stop_handled()
+    for signum, handler in saved.items():
+        signal.signal(signum, handler)
+
+
+def swallowed(signum: int) -> None:
+    """The signal lands inside a library's callback, which drops what it raises."""
+    try:
+        os.kill(os.getpid(), signum)
+        signal.sigtimedwait([], 0)  # let the handler run here, inside the try
+    except BaseException:  # the library's swallowing, which is what is tested
+        pass
+
+
+def test_a_swallowed_stop_is_raised_at_the_next_tick(caught_stops, scene):
+    sim = Simulation(load_scenario(scene))
+    sim.step()
+    swallowed(signal.SIGTERM)
+    assert stops.pending_stop() == signal.SIGTERM
+    with pytest.raises(StopRequested, match="stopped by SIGTERM"):
+        sim.step()
+    stops.stop_handled()  # (the command line does this when the stop reaches it)
+    swallowed(signal.SIGINT)
+    with pytest.raises(KeyboardInterrupt):
+        sim.step()
+
+
+def test_without_the_command_lines_handlers_nothing_is_remembered(scene):
+    sim = Simulation(load_scenario(scene))
+    with pytest.raises(KeyboardInterrupt):  # Python's own handler: raised, not remembered
+        os.kill(os.getpid(), signal.SIGINT)
+        signal.sigtimedwait([], 0)
+    assert stops.pending_stop() is None
+    sim.step()
+
+
+def test_a_command_that_went_on_past_a_swallowed_stop_ends_as_a_stop(caught_stops, capsys,
+                                                                     scene):
+    swallowed(signal.SIGHUP)
+    status = main(["validate", str(scene)])
+    assert status == 128 + signal.SIGHUP
+    assert capsys.readouterr().err.strip().splitlines()[-1] == "error: stopped by SIGHUP"
+    assert stops.pending_stop() is None
