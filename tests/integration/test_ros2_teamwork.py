@@ -25,12 +25,12 @@ pytest.importorskip("rclpy")
 pytest.importorskip("tf2_msgs", reason="uhrisim ros2-interfaces")
 pytest.importorskip("uhrisim_msgs", reason="uhrisim ros2-interfaces")
 
-from tests.support.children import Child  # noqa: E402
-from uhrisim.bridges.ros2.hook import Ros2BridgeHook  # noqa: E402
-from uhrisim.ros.convert import pose_enu_from_ned  # noqa: E402
-from uhrisim.scenario.load import load_scenario  # noqa: E402
-from uhrisim.sim.pacing import Pacer  # noqa: E402
-from uhrisim.sim.simulation import Simulation  # noqa: E402
+from tests.support.children import Child
+from uhrisim.bridges.ros2.hook import Ros2BridgeHook
+from uhrisim.ros.convert import pose_enu_from_ned
+from uhrisim.scenario.load import load_scenario
+from uhrisim.sim.pacing import Pacer
+from uhrisim.sim.simulation import Simulation
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "salvage_team.yaml"
 NODE = "uhrisim_team_test"
