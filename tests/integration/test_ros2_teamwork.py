@@ -25,11 +25,10 @@ pytest.importorskip("rclpy")
 pytest.importorskip("tf2_msgs", reason="uhrisim ros2-interfaces")
 pytest.importorskip("uhrisim_msgs", reason="uhrisim ros2-interfaces")
 
-from tests.support.children import Child
+from tests.support.children import Child, run_paced_for
 from uhrisim.bridges.ros2.hook import Ros2BridgeHook
 from uhrisim.ros.convert import pose_enu_from_ned
 from uhrisim.scenario.load import load_scenario
-from uhrisim.sim.pacing import Pacer
 from uhrisim.sim.simulation import Simulation
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "salvage_team.yaml"
@@ -47,25 +46,14 @@ def test_objects_joints_and_team_events_live(ros_env: int, tmp_path: Path) -> No
     listener = Child("ros2_team_listener.py", ["--diver", "diver1", "--node", NODE], tmp_path)
     poses: dict[str, dict[str, tuple]] = {}  # stamp -> object -> (xyz, q) in ENU
     joints: dict[str, tuple] = {}
-    try:
-        sim.start()
-        listener.expect("READY", timeout=30.0)
-        assert hook.bridge.wait_for_subscribers(["/tf", "/diver1/joint_states", "/events"],
-                                                20.0)
-        pacer = Pacer(real_time_factor=4.0)
-        pacer.reset(sim.t)
-        while sim.t < 9.0:
-            frame = sim.step()
-            poses[_key(frame.t)] = {name: pose_enu_from_ned(th.pose[:3, 3], th.pose[:3, :3])
-                                    for name, th in sim.team.workspace.things.items()}
-            joints[_key(frame.t)] = frame.joints["diver1"]
-            pacer.wait(frame.t)
-        pacer.wait(sim.t + 1.0)  # the last messages arrive
-        result = listener.result()
-    finally:
-        sim.close()
-        if listener.proc.poll() is None:
-            listener.proc.kill()
+
+    def keep(frame) -> None:
+        poses[_key(frame.t)] = {name: pose_enu_from_ned(th.pose[:3, 3], th.pose[:3, :3])
+                                for name, th in sim.team.workspace.things.items()}
+        joints[_key(frame.t)] = frame.joints["diver1"]
+
+    result = run_paced_for(sim, listener, ["/tf", "/diver1/joint_states", "/events"],
+                           9.0, 4.0, keep)
 
     # every object a frame on /tf at the simulation's pose of that tick
     objects = set(poses[next(iter(poses))])
