@@ -247,8 +247,6 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
                    completed: bool, extra_hooks: Sequence[Hook],
                    error: BaseException | None = None,
                    figures: bool = True) -> dict[str, Any]:
-    from uhrisim.viz import mission_figures as figs
-
     summary: dict[str, Any] = {"scenario": sim.scenario.name, "seed": sim.seed,
                                "completed": completed, "simulated_s": sim.t,
                                "collisions": sim.collisions,
@@ -267,7 +265,11 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
     path = out_dir / "metrics.json"  # first: on a full disk the figures may not fit
     path.write_text(json.dumps(strict_json(summary), indent=2, allow_nan=False) + "\n")
     files.append(path)
-    if measured and figures:
+    if not figures:
+        return summary
+    from uhrisim.viz import mission_figures as figs  # matplotlib: ~1 s to import
+
+    if measured:
         series = metrics.series()
         acquired = summary["time_to_acquire_s"]
         acquired_at = None if acquired is None else float(series["t"][0] + acquired)
@@ -275,7 +277,7 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
                                       out_dir / "trajectory.png", acquired_at))
         files.append(figs.plot_range_bearing(series, metrics.config.range,
                                              out_dir / "range_bearing.png", acquired_at))
-    if figures and strip is not None and any(strip.frames.values()):
+    if strip is not None and any(strip.frames.values()):
         rows = {strip.titles[key]: frames for key, frames in strip.frames.items() if frames}
         files.append(figs.plot_sonar_strip(rows, out_dir / "sonar_strip.png"))
     return summary
