@@ -6,7 +6,9 @@ long the run takes to exit after SIGINT or SIGTERM.
 15 Hz sonar, 10 Hz odometry and /clock; paced at real time) in its own process, as
 ``uhrisim run ... --ros2``; a plain-rclpy listener (:mod:`uhrisim.bench._ros2_listener`)
 subscribes best effort to every topic the bridge publishes for the ROV and the world.
-The rates are counted over ``RATE_WINDOW_S`` wall seconds of the first run. Each run is
+The rates are counted over ``RATE_WINDOW_S`` wall seconds of the first run, and every
+message it received is compared with what the run published (metrics.json: only this
+listener subscribes, so every message written was written for it). Each run is
 then stopped by a signal (SIGINT and SIGTERM in turn), timed from the signal to the
 process's exit; a run still alive ``HANG_S`` after its signal gets SIGABRT, on which
 Python's faulthandler (``PYTHONFAULTHANDLER=1``) prints every thread's stack: the
@@ -15,6 +17,7 @@ benchmark reports it (the stop's target is 2 s, the escalation of ``ros2 launch`
 
 from __future__ import annotations
 
+import json
 import os
 import random
 import signal
@@ -70,21 +73,35 @@ def _one_run(scenario: Path, domain: int, signum: int, rates: bool,
                     last, t1 = listener.counts(), time.monotonic()
                     out["rates_hz"] = {topic: round((last[topic] - first[topic]) / (t1 - t0), 2)
                                        for topic in EXPECTED_HZ}
-            sent = time.monotonic()
-            run.send_signal(signum)
-            try:
-                run.wait(timeout=HANG_S)
-            except subprocess.TimeoutExpired:
-                run.send_signal(signal.SIGABRT)  # faulthandler: every thread's stack
-                run.wait(timeout=30.0)
-                out["hang_stacks"] = err_path.read_text()[-6000:]
-            out["stop_s"] = round(time.monotonic() - sent, 3)
-            out["exit_status"] = run.returncode
+                out |= _stop(run, signum, err_path)
+                if rates:  # every message the run wrote (only this listener subscribed)
+                    received = listener.counts()
+                    metrics = json.loads((work / f"out-{domain}" / "metrics.json").read_text())
+                    published = metrics["ros2"]["published"]
+                    out["delivered"] = {topic: f"{received[topic]}/{published.get(topic, 0)}"
+                                        for topic in EXPECTED_HZ}
+                    out["real_time_factor"] = metrics["real_time_factor"]
             out["bag_complete"] = (work / f"out-{domain}" / "metadata.yaml").exists()
         finally:
             if run.poll() is None:
                 run.kill()
                 run.wait()
+    return out
+
+
+def _stop(run: subprocess.Popen, signum: int, err_path: Path) -> dict[str, Any]:
+    """Send ``signum`` to ``run`` and time its exit (its stacks dumped after HANG_S)."""
+    out: dict[str, Any] = {}
+    sent = time.monotonic()
+    run.send_signal(signum)
+    try:
+        run.wait(timeout=HANG_S)
+    except subprocess.TimeoutExpired:
+        run.send_signal(signal.SIGABRT)  # faulthandler: every thread's stack
+        run.wait(timeout=30.0)
+        out["hang_stacks"] = err_path.read_text()[-6000:]
+    out["stop_s"] = round(time.monotonic() - sent, 3)
+    out["exit_status"] = run.returncode
     return out
 
 
@@ -106,7 +123,9 @@ def run(quick: bool = False, stops: int | None = None) -> dict[str, Any]:
     runs = [_one_run(scenario, domains[k], (signal.SIGINT, signal.SIGTERM)[k % 2], k == 0,
                      work) for k in range(n)]
     result: dict[str, Any] = {"scenario": scenario.name, "expected_hz": EXPECTED_HZ,
-                              "best_effort_rates_hz": runs[0].get("rates_hz")}
+                              "best_effort_rates_hz": runs[0].get("rates_hz"),
+                              "received_of_published": runs[0].get("delivered"),
+                              "real_time_factor": runs[0].get("real_time_factor")}
     for k, name in enumerate(("SIGINT", "SIGTERM")):
         mine = runs[k::2]
         times = [r["stop_s"] for r in mine]
