@@ -727,6 +727,24 @@ def recover(
                            f"(the cut file is kept as {recording}.partial)"))
 
 
+@app.command("ros2-interfaces")
+def ros2_interfaces(
+    into: Annotated[Path | None, typer.Option(
+        "--into", metavar="VENV", help="another virtual environment: the ros2 extra's "
+        "wheels are installed there, then the packages built into it")] = None,
+    force: Annotated[bool, typer.Option("--force", help="rebuild every package")] = False,
+    no_deps: Annotated[bool, typer.Option(
+        "--no-deps", help="with --into: do not install the ros2 extra's wheels")] = False,
+) -> None:
+    """Build tf2_msgs, marine_acoustic_msgs and uhrisim_msgs (no wheels) into a Python
+    environment, for the ROS 2 bridge and for nodes that subscribe to its topics."""
+    from uhrisim.bridges.ros2.interfaces.__main__ import main as build_interfaces
+
+    argv = (["--into", str(into)] if into is not None else []) + (
+        ["--force"] if force else []) + (["--no-deps"] if no_deps else [])
+    raise typer.Exit(build_interfaces(argv))
+
+
 @app.command("sonar-stats")
 @friendly_errors
 def sonar_stats(

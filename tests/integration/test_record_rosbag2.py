@@ -4,7 +4,8 @@
 attached, the same mission with the VideoRay's camera (camera_trail), and with two sonars
 (a P900-45 and a P900-130) and a camera (videoray_two_sonars). The folder must
 open with ``rosbags.rosbag2.Reader`` (its metadata.yaml: the files, topics, types and
-counts of the MCAP file) and every message must decode with rosbags and with mcap-ros2.
+counts of the MCAP file; each topic's type hash the one rosidl gives the live publisher)
+and every message must decode with rosbags and with mcap-ros2.
 The recorded topics must be the topics the bridge's node publishes (asked of the ROS graph
 during the run), uhrisim_msgs' helm decisions, community variables and events included,
 each sensor's topics under its name; every sensor's mount is on /tf_static, and no sensor
@@ -48,7 +49,7 @@ class LiveTopics:
     """Asks the ROS graph, late in the run, which topics the bridge's node publishes."""
 
     def __init__(self, bridge_hook: Ros2BridgeHook) -> None:
-        self.hook, self.topics = bridge_hook, None
+        self.hook, self.topics, self.type_hashes = bridge_hook, None, {}
 
     def on_start(self, sim) -> None: ...
     def on_end(self, sim, error) -> None: ...
@@ -58,6 +59,9 @@ class LiveTopics:
             node = self.hook.bridge._node
             self.topics = {name for name, _types in
                            node.get_publisher_names_and_types_by_node(NODE, "/")}
+            for topic in self.topics:  # the type hash rosidl gave each live type
+                for info in node.get_publishers_info_by_topic(topic):
+                    self.type_hashes[topic] = str(info.topic_type_hash)
 
 
 @pytest.mark.parametrize("scenario", SCENARIOS, ids=lambda path: path.stem)
@@ -100,6 +104,10 @@ def test_run_folder_is_a_rosbag2_bag_with_the_live_topics(ros_env: int, tmp_path
     recorded = set(declared)
     assert recorded == published
     assert {"/clock", "/tf", "/tf_static"} <= recorded
+    # metadata.yaml's type hashes (computed from the recorded schemas) are rosidl's
+    recorded_hashes = {t["topic_metadata"]["name"]: t["topic_metadata"]["type_description_hash"]
+                       for t in meta["topics_with_message_count"]}
+    assert recorded_hashes == {t: live.type_hashes[t] for t in recorded}
     # each sensor's topics under its own name, nothing under any other sensor name
     sonars, cameras = SENSORS[scenario.stem]
     sensor_topics = {f"/videoray/{s}/{p}" for s in sonars for p in SONAR_PRODUCTS}

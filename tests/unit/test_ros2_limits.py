@@ -50,7 +50,24 @@ def test_reports_are_rate_limited_and_say_how_many_were_suppressed() -> None:
     assert len(lines) == 1 and v.refused == 50
     time.sleep(0.25)
     v.thrusters("rov", [1.0])
-    assert len(lines) == 2 and "(49 more since the last report)" in lines[1]
+    assert len(lines) == 2
+    assert lines[1].endswith("(49 more since the last report: 49× 1 values, need 3)")
+
+
+def test_suppressed_counts_are_per_value() -> None:
+    """A report's suppressed count never mixes values: each value with its own count,
+    the most frequent first, beyond four the rest summed up."""
+    lines: list[str] = []
+    now = [0.0]
+    v = CommandValidator({"rov": CommandEnvelope(max_speed=1.0)}, log=lines.append,
+                         log_period_s=5.0, clock=lambda: now[0])
+    for speed in [-5.0] * 7 + [-7.0] * 3 + [-1.0, -2.0, -3.0, -4.0]:
+        v.desired("rov", "desired_speed", speed)
+    now[0] = 5.0
+    v.desired("rov", "desired_speed", -5.0)
+    assert len(lines) == 2 and lines[1].endswith(
+        "(13 more since the last report: 6× -5 m/s, 3× -7 m/s, 1× -1 m/s, 1× -2 m/s, "
+        "2× 2 other values)")
 
 
 def test_envelope_checks_its_fields() -> None:

@@ -15,8 +15,11 @@ import json
 import logging
 import math
 import shutil
+import signal
 import tempfile
-from collections.abc import Callable, Mapping, Sequence
+import threading
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -26,7 +29,7 @@ import numpy as np
 from uhrisim.app.metrics import TrailMetrics
 from uhrisim.app.perception_metrics import PerceptionMetrics
 from uhrisim.app.team_metrics import TeamMetrics
-from uhrisim.core.errors import AssetError, shortened
+from uhrisim.core.errors import AssetError, StopRequested, shortened
 from uhrisim.record.hook import McapRecordingHook
 from uhrisim.record.mcap_recorder import RecordingCutError
 from uhrisim.scenario.load import ScenarioFile, load_scenario
@@ -114,9 +117,14 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
         sim.run(duration, progress=progress, should_stop=should_stop)
     except BaseException as error:
         disk_full = isinstance(error, RecordingCutError)
+        stopped = isinstance(error, KeyboardInterrupt | StopRequested)
         try:  # what was measured until the failure, without masking it
-            sim.close(error)
-            _write_outputs(sim, out_dir, metrics, strip, files, False, extra_hooks, error)
+            with stop_signals_deferred():  # a second Ctrl-C must not cut the bag
+                sim.close(error)
+                # stopped by a signal: out at once (ros2 launch escalates after 5 s), the
+                # figures (seconds of matplotlib) are left out
+                _write_outputs(sim, out_dir, metrics, strip, files, False, extra_hooks,
+                               error, figures=not stopped)
         except Exception as cleanup:  # on a full disk the figures cannot be: said below
             (log.info if disk_full else log.error)(
                 "after the run failed, its outputs could not all be written: %s", cleanup)
@@ -213,12 +221,32 @@ def strict_json(value: Any) -> Any:
     return value
 
 
+@contextmanager
+def stop_signals_deferred() -> Iterator[None]:
+    """While a stopped run writes its recording and metrics (main thread only): another
+    SIGINT, SIGTERM or SIGHUP is noted, not raised; afterwards it is raised."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    arrived: list[int] = []
+    kept = {signum: signal.getsignal(signum)
+            for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    for signum in kept:
+        signal.signal(signum, lambda signum, _frame: arrived.append(signum))
+    try:
+        yield
+    finally:
+        for signum, handler in kept.items():
+            signal.signal(signum, handler)
+    if arrived:
+        raise StopRequested(arrived[0])
+
+
 def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
                    strip: SonarStripHook | None, files: list[Path],
                    completed: bool, extra_hooks: Sequence[Hook],
-                   error: BaseException | None = None) -> dict[str, Any]:
-    from uhrisim.viz import mission_figures as figs
-
+                   error: BaseException | None = None,
+                   figures: bool = True) -> dict[str, Any]:
     summary: dict[str, Any] = {"scenario": sim.scenario.name, "seed": sim.seed,
                                "completed": completed, "simulated_s": sim.t,
                                "collisions": sim.collisions,
@@ -237,6 +265,10 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
     path = out_dir / "metrics.json"  # first: on a full disk the figures may not fit
     path.write_text(json.dumps(strict_json(summary), indent=2, allow_nan=False) + "\n")
     files.append(path)
+    if not figures:
+        return summary
+    from uhrisim.viz import mission_figures as figs  # matplotlib: ~1 s to import
+
     if measured:
         series = metrics.series()
         acquired = summary["time_to_acquire_s"]

@@ -27,8 +27,8 @@ def ros2_hook(scenario: Scenario, lockstep: bool = False,
     section = scenario.bridges.ros2
     links = section.links
     agents = [link.agent for link in links] if links else None
-    accept = sorted({group for link in links for group in link.accept}) if links \
-        else ("desired", "thrusters")
+    accept = ({link.agent: link.accept for link in links} if links
+              else ("desired", "thrusters"))  # links: each its own; else divers none
     return Ros2BridgeHook(agents, accept=accept, odom_rate_hz=section.odom_rate_hz,
                           domain_id=section.domain_id,
                           command_timeout_s=section.command_timeout_s,

@@ -130,6 +130,7 @@ class McapRecordingHook:
             rec.write_clock(t)
             out.odometry(t, frame.agents)
             out.joints(t, getattr(frame, "joints", {}))
+            out.objects(t)
         for key, ping in frame.pings.items():
             seen = self._pings_seen.get(key, 0)
             self._pings_seen[key] = seen + 1

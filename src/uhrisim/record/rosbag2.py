@@ -13,8 +13,10 @@ recorded as the live bridge offers them (reliable, transient local, keep last 1)
 ``ros2 bag play`` latches them again; the others get rosbag2's default (none listed).
 rosbag2 keeps them twice, in each MCAP channel's metadata (``offered_qos_profiles``, a
 YAML text: :func:`channel_metadata`, which the recorder uses) and in ``metadata.yaml``,
-made here from the former; readers match the two. Type description hashes are left
-empty (optional in the format).
+made here from the former; readers match the two. Each topic's
+``type_description_hash`` is the RIHS01 hash of its type, computed from the schema the
+recording holds (:func:`uhrisim.record.typehash.rihs01`), as ``ros2 bag record`` writes
+it.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import yaml
 from mcap.reader import make_reader
 
 from uhrisim.core.errors import UhrisimError
+from uhrisim.record.typehash import rihs01
 
 __all__ = ["METADATA_NAME", "channel_metadata", "write_metadata"]
 
@@ -77,6 +80,8 @@ def write_metadata(mcap_path: Path | str) -> Path:
     topics = []
     for channel_id, channel in sorted(summary.channels.items()):
         schema = summary.schemas.get(channel.schema_id)
+        type_hash = (rihs01(schema.name, schema.data.decode()) if schema is not None
+                     and schema.encoding == "ros2msg" else "")
         qos = yaml.safe_load(channel.metadata.get("offered_qos_profiles", "")) or []
         topics.append({
             "topic_metadata": {
@@ -84,7 +89,7 @@ def write_metadata(mcap_path: Path | str) -> Path:
                 "type": schema.name if schema is not None else "",
                 "serialization_format": channel.message_encoding,
                 "offered_qos_profiles": qos,
-                "type_description_hash": "",
+                "type_description_hash": type_hash,
             },
             "message_count": int(counts.get(channel_id, 0)),
         })

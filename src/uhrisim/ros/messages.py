@@ -162,7 +162,13 @@ def sensor_to_world(sec: int, nanosec: int, world_frame: str, frame: str, p_enu:
                     q: Any) -> bytes:
     """tf2_msgs/TFMessage ``world_frame -> frame`` (a sensor frame without a mount on
     ``/tf_static``)."""
-    return cdr.encode_tf_message([(sec, nanosec, world_frame, frame, p_enu, q)])
+    return transforms([(sec, nanosec, world_frame, frame, p_enu, q)])
+
+
+def transforms(rows: Iterable[tuple[int, int, str, str, Any, Any]]) -> bytes:
+    """tf2_msgs/TFMessage of ``(sec, nanosec, parent, child, xyz, quaternion xyzw)``
+    rows, already in ROS frames."""
+    return cdr.encode_tf_message(list(rows))
 
 
 @cache

@@ -40,6 +40,7 @@ class TickWriter:
         self.out = out
         self.linked = None if agents is None else frozenset(agents)
         self._names: dict[str, str | None] = {}
+        self._workspace: Any = None  # the teamwork stage's objects (uhrisim.sim.teamwork)
 
     def ros(self, agent: str) -> str | None:
         """The ROS name ``agent`` is written under (None: not written)."""
@@ -61,6 +62,7 @@ class TickWriter:
         at most this many triangles per object, for live viewers)."""
         t = float(getattr(sim, "t", 0.0))
         agents = getattr(sim, "agents", {})
+        self._workspace = getattr(getattr(sim, "team", None), "workspace", None)
         mounts = []
         for name, agent in agents.items():
             ros = self.ros(name)
@@ -85,6 +87,14 @@ class TickWriter:
                 nav = agents[name].nav
                 self.out.write_odometry(ros, t, nav.position_ned, nav.yaw,
                                         nav.velocity_body, nav.yaw_rate)
+
+    def objects(self, t: float) -> None:
+        """Every tool and load of the teamwork world (none without one) as a frame on
+        ``tf``, ``map -> <object>``, where it is now: resting, falling, or carried."""
+        if self._workspace is not None:
+            self.out.write_object_transforms(t, [
+                (ros_name(name), thing.pose[:3, 3], thing.pose[:3, :3])
+                for name, thing in self._workspace.things.items()])
 
     def joints(self, t: float, joints: Mapping[str, Any]) -> None:
         """The articulated divers' joints (``TickFrame.joints``) on

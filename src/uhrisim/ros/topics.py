@@ -81,17 +81,22 @@ def camera_frame(camera: str) -> str:
     return f"{camera}_optical"
 
 
-def agent_topics(sonars: tuple[str, ...] = (), cameras: tuple[str, ...] = ()
-                 ) -> list[tuple[str, str, QosKind]]:
+def agent_topics(sonars: tuple[str, ...] = (), cameras: tuple[str, ...] = (),
+                 helm: bool = True, joints: bool = False) -> list[tuple[str, str, QosKind]]:
     """``(topic relative to the agent, message type, QoS kind)`` of every topic written
-    for an agent with these sonars and cameras (by name)."""
+    for an agent with these sonars and cameras (by name), with the helm's topics when it
+    has a helm and ``joint_states`` when it is articulated (``joints``)."""
     topics: list[tuple[str, str, QosKind]] = [("odom", ODOMETRY, "state"),
                                               ("pose", POSE, "state")]
     topics += [(f"{s}/{key}", kind, qos) for s in sonars for key, (kind, qos)
                in SONAR_TOPICS.items()]
     topics += [(f"{c}/{key}", kind, qos) for c in cameras for key, (kind, qos)
                in CAMERA_TOPICS.items()]
-    topics += [(f"helm/{key}", FLOAT64, "state") for key in DESIRED_KEYS]
-    topics += [("helm/mode", STRING, "latched"), ("helm/decision", HELM_DECISION, "state"),
-               ("vars", VARIABLE, "state")]
+    if helm:
+        topics += [(f"helm/{key}", FLOAT64, "state") for key in DESIRED_KEYS]
+        topics += [("helm/mode", STRING, "latched"),
+                   ("helm/decision", HELM_DECISION, "state")]
+    if joints:
+        topics.append(("joint_states", JOINT_STATE, "state"))
+    topics.append(("vars", VARIABLE, "state"))
     return topics

@@ -130,6 +130,21 @@ class RosWriter:
                        msg.joint_state(sec, nanosec, a.frame("base_link"), names, position,
                                        velocity))
 
+    def write_object_transforms(self, t: float,
+                                objects: Iterable[tuple[str, Any, Any]]) -> None:
+        """Where movable objects (tools, loads) are: ``tf`` ``map -> <object>``, one
+        message of every ``(name, position_ned (3,) m, rotation (3x3) object -> NED)``
+        (the object's own axes as FRD, written FLU as the scene markers are)."""
+        where = f"{type(self).__name__}.write_object_transforms"
+        t_ns, sec, nanosec = self._begin("write_object_transforms", t)
+        rows = []
+        for name, position_ned, rotation_ned in objects:
+            frame = msg.check_frame(f"{self.frame_prefix}{name}", where)
+            rows.append((sec, nanosec, self.world_frame, frame,
+                         *pose_enu_from_ned(position_ned, rotation_ned)))
+        if rows and self.wants("tf"):
+            self._emit("tf", *GLOBAL_TOPICS["tf"], t_ns, msg.transforms(rows))
+
     def write_static_transforms(self, t: float,
                                 transforms: Sequence[tuple[str, str, Any, Any]]) -> None:
         """``tf_static`` (one message with every static transform): each ``(parent,

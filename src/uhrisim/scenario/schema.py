@@ -609,14 +609,16 @@ class Ros2Link(Strict):
     """One agent on ROS 2: what it publishes and which commands it accepts."""
 
     agent: str
-    accept: tuple[Literal["desired", "thrusters"], ...] = ("desired", "thrusters")
+    # Command groups taken from ROS; unset: both for a vehicle or a diver driven from
+    # outside (driver external/none), none for any other diver (ground truth only)
+    accept: tuple[Literal["desired", "thrusters"], ...] | None = None
 
 
 class Ros2Section(Strict):
     """ROS 2 bridge (docs/bridges-ros2.md); ``uhrisim run --ros2`` switches it on."""
 
     enabled: bool = False
-    links: tuple[Ros2Link, ...] = ()  # empty: every agent, accepting every command
+    links: tuple[Ros2Link, ...] = ()  # empty: every agent, each accepting its default
     odom_rate_hz: RateHz = 10.0
     domain_id: Annotated[int, Field(ge=0, le=232)] | None = None
     command_timeout_s: Seconds = 1.0

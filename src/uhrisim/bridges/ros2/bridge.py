@@ -251,7 +251,8 @@ class Ros2Bridge(RosWriter):
         topics = [(key, kind, qos) for key, (kind, qos) in GLOBAL_TOPICS.items()
                   if key != "clock" or self._publish_clock]
         topics += [(f"{spec.name}/{key}", kind, qos) for spec in self._specs.values()
-                   for key, kind, qos in agent_topics(spec.sonars, spec.cameras)]
+                   for key, kind, qos in agent_topics(spec.sonars, spec.cameras, spec.helm,
+                                                      spec.joints)]
         missing: set[str] = set()
         for topic, typename, kind in topics:
             self._create(topic, typename, kind, missing)

@@ -45,7 +45,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, Literal
 
 from uhrisim.bridges.helm_watch import OutsideHelmWatch, driven_from_outside, say_loudly
@@ -56,6 +56,7 @@ from uhrisim.ros.markers import SCENE_MAX_TRIANGLES_PER_OBJECT
 from uhrisim.ros.tick import TickWriter
 from uhrisim.ros.topics import DESIRED_KEYS, ros_name
 from uhrisim.scenario.schema import HelmWatchSection
+from uhrisim.sim.drivers import HelmDriver
 from uhrisim.sim.hooks import TickFrame, split_sensor_key
 from uhrisim.sim.simulation import BaseHook, Simulation
 
@@ -95,8 +96,13 @@ class Ros2BridgeHook(BaseHook):
 
     ``agents``: the agents to bridge (default: all). Each is published under the ROS name
     the recorder uses (:func:`uhrisim.record.hook.ros_name`; usually the agent's name).
-    ``accept``: command groups taken from ROS for every linked agent
-    (:data:`~uhrisim.bridges.ros2.spec.COMMAND_GROUPS`; ``()`` = publish only).
+    ``accept``: command groups taken from ROS (:data:`~uhrisim.bridges.ros2.spec.COMMAND_GROUPS`;
+    ``()`` = publish only): a sequence for every linked vehicle and every diver driven
+    from outside (``driver: external`` or ``none``) — any other diver is ground truth only
+    — or a mapping agent -> groups (None: that default; an agent it does not name
+    accepts nothing).
+    An agent without a helm of its own (driven from outside, or scripted) has no
+    ``helm/*`` topics; an articulated diver has ``joint_states``.
     ``odom_rate_hz``: odometry rate in simulated time (``None``: every tick);
     ``sonar_rate_hz``: ``None`` publishes every ping the simulation makes.
     ``publish_scene``: send the static scene as ``/scene/markers`` at start.
@@ -124,7 +130,7 @@ class Ros2BridgeHook(BaseHook):
         self,
         agents: Sequence[str] | None = None,
         *,
-        accept: Sequence[str] = COMMAND_GROUPS,
+        accept: Sequence[str] | Mapping[str, Sequence[str] | None] = COMMAND_GROUPS,
         odom_rate_hz: float | None = 10.0,
         sonar_rate_hz: float | None = None,
         publish_scene: bool = True,
@@ -149,7 +155,10 @@ class Ros2BridgeHook(BaseHook):
                 raise ConfigError(f"must be a positive number of seconds, got {value!r}",
                                   f"Ros2BridgeHook.{name}")
         self._names = None if agents is None else tuple(agents)
-        self._accept = tuple(accept)
+        self._accept: tuple[str, ...] | dict[str, tuple[str, ...] | None] = (
+            {name: None if groups is None else tuple(groups)
+             for name, groups in accept.items()}
+            if isinstance(accept, Mapping) else tuple(accept))
         self._odom_rate = odom_rate_hz
         self._sonar_rate = sonar_rate_hz
         self._publish_scene = publish_scene
@@ -210,15 +219,18 @@ class Ros2BridgeHook(BaseHook):
         self._ros = {name: ros_name(name) for name in names}  # same names as recordings
         if len(set(self._ros.values())) != len(names):
             raise ConfigError(f"ROS 2 hook: agent names collide as ROS names: {self._ros}")
+        articulated = set(sim.team.joint_samples()) if sim.team is not None else set()
         specs = [
             AgentBridgeSpec(
                 self._ros[name],
                 sonars=tuple(slot.name for slot in sim.agents[name].sonars),
                 cameras=tuple(slot.name for slot in sim.agents[name].cameras),
-                accept=self._accept,
+                accept=self._accepted(name, sim.agents[name]),
                 sonar_rate_hz=self._sonar_rate,
                 odom_rate_hz=self._odom_rate,
                 envelope=command_envelope(sim.agents[name]),
+                helm=isinstance(sim.agents[name].driver, HelmDriver),
+                joints=name in articulated,
             )
             for name in names
         ]
@@ -245,6 +257,18 @@ class Ros2BridgeHook(BaseHook):
                         if accept and driven_from_outside(sim.agents[name])}
         self._failing = ()
         self._twin_seen = False
+
+    def _accepted(self, name: str, agent: Any) -> tuple[str, ...]:
+        """The command groups agent ``name`` takes from ROS (see the class)."""
+        if isinstance(self._accept, dict):
+            named = self._accept.get(name, ())  # an agent not named: nothing
+            if named is not None:
+                return named
+            default = COMMAND_GROUPS  # named without groups: its default
+        else:
+            default = self._accept
+        ground_truth = agent.model.diver is not None and not driven_from_outside(agent)
+        return () if ground_truth else default
 
     def _watch(self, sim: Simulation, ros: str) -> OutsideHelmWatch:
         """The watch of an agent driven from ROS, started now."""
@@ -309,6 +333,11 @@ class Ros2BridgeHook(BaseHook):
                     rounds.append(ros)
                     self._begin_round(sim, bridge, ros, t)
             out.odometry(t, frame.agents, due)
+            if frame.joints:
+                out.joints(t, {name: frame.joints[name] for name in due
+                               if name in frame.joints})
+            if due:
+                out.objects(t)
             for name, decision in helm.items():
                 out.helm(name, t, decision)
             for key, ping in pings.items():

@@ -11,7 +11,8 @@ depends on where the vehicle is when the command takes effect, so the simulation
 applies it (:meth:`CommandValidator.depth_above_floor`) when it takes a depth command.
 Every refusal and clamp is counted per topic and reason (:meth:`CommandValidator.counts`)
 and reported to a log function, rate-limited per topic and reason (the first at once,
-then at most one a ``log_period_s`` with how many were suppressed): the bridge hands
+then at most one a ``log_period_s`` with how many of each value were suppressed): the
+bridge hands
 rclpy's logger here, so rejections appear on ``/rosout``.
 """
 
@@ -21,7 +22,7 @@ import math
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from uhrisim.core.errors import ConfigError
@@ -30,6 +31,8 @@ from uhrisim.dynamics.videoray import INPUT_LIMIT as THRUSTER_LIMIT  # ±150, di
 
 #: Seconds between two log lines of one topic and reason (wall clock).
 LOG_PERIOD_S = 5.0
+#: Distinct suppressed values a report lists one by one (the rest are summed up).
+LISTED_VALUES = 4
 
 
 @dataclass(frozen=True)
@@ -61,8 +64,23 @@ class CommandEnvelope:
 
 @dataclass
 class _LogSlot:
+    """One topic and reason's last report (wall time) and what was suppressed since:
+    value (the report's detail) -> how many times."""
+
     t_wall: float
-    suppressed: int = 0
+    suppressed: dict[str, int] = field(default_factory=dict)
+
+    def summary(self) -> str:
+        """`` (N more since the last report: 3× -5 m/s, 2× -7 m/s)``, or ``""``."""
+        if not self.suppressed:
+            return ""
+        ranked = sorted(self.suppressed.items(), key=lambda kv: -kv[1])
+        parts = [f"{n}× {detail}" for detail, n in ranked[:LISTED_VALUES]]
+        rest = ranked[LISTED_VALUES:]
+        if rest:
+            parts.append(f"{sum(n for _, n in rest)}× {len(rest)} other values")
+        total = sum(self.suppressed.values())
+        return f" ({total} more since the last report: {', '.join(parts)})"
 
 
 class CommandValidator:
@@ -71,13 +89,15 @@ class CommandValidator:
     ``log`` (settable) receives one line per reported rejection (the bridge sets its
     node's rclpy logger's ``warning``: the line goes to ``/rosout``). Thread-safe: the
     bridge's executor thread checks what arrives, the simulation thread the floor limit,
-    and reads the counts.
+    and reads the counts. ``clock``: wall seconds (monotonic) for the reports' rate limit.
     """
 
     def __init__(self, envelopes: dict[str, CommandEnvelope],
                  log: Callable[[str], Any] | None = None,
-                 log_period_s: float = LOG_PERIOD_S) -> None:
+                 log_period_s: float = LOG_PERIOD_S,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self._envelopes = dict(envelopes)
+        self._clock = clock  # wall seconds, for the reports' rate limit
         self.log = log
         self._log_period = log_period_s
         self._lock = threading.Lock()
@@ -155,7 +175,7 @@ class CommandValidator:
         return clamped
 
     def _count(self, topic: str, reason: str, *, clamped: bool, detail: str) -> None:
-        now = time.monotonic()
+        now = self._clock()
         with self._lock:
             reasons = self._counts.setdefault(topic, {})
             reasons[reason] = reasons.get(reason, 0) + 1
@@ -165,11 +185,10 @@ class CommandValidator:
                 self.refused += 1
             slot = self._logged.get((topic, reason))
             if slot is not None and now - slot.t_wall < self._log_period:
-                slot.suppressed += 1
+                slot.suppressed[detail] = slot.suppressed.get(detail, 0) + 1
                 return
-            suppressed = 0 if slot is None else slot.suppressed
+            more = "" if slot is None else slot.summary()
             self._logged[(topic, reason)] = _LogSlot(now)
         if self.log is not None:
-            more = f" ({suppressed} more since the last report)" if suppressed else ""
             verb = "clamped" if clamped else "refused"
             self.log(f"command on {topic} {verb}: {reason}: {detail}{more}")

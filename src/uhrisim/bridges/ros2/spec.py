@@ -46,7 +46,10 @@ class AgentBridgeSpec:
     simulation makes goes out. ``accept`` lists the command groups subscribed
     (:data:`COMMAND_GROUPS`); ``()`` makes the agent publish-only (e.g. the diver's
     ground truth). ``envelope``: what the vehicle can be commanded to do (speeds, reverse,
-    thrusters; :mod:`.limits`), against which every command is checked.
+    thrusters; :mod:`.limits`), against which every command is checked. ``helm``: the
+    agent has a helm of its own whose decisions go out on ``/<name>/helm/*`` (False: those
+    topics are not advertised); ``joints``: an articulated body whose joints go out on
+    ``/<name>/joint_states``.
     """
 
     name: str
@@ -56,6 +59,8 @@ class AgentBridgeSpec:
     odom_rate_hz: float | None = None
     cameras: tuple[str, ...] = ()
     envelope: CommandEnvelope = field(default_factory=CommandEnvelope)
+    helm: bool = True
+    joints: bool = False
 
     def __post_init__(self) -> None:
         where = f"AgentBridgeSpec({self.name!r})"

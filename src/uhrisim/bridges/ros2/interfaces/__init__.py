@@ -1,19 +1,19 @@
 """ROS 2 interface packages that have no wheels, built at install time (see PROVENANCE.md).
 
-``python -m uhrisim.bridges.ros2.interfaces`` builds ``tf2_msgs`` (TFMessage) and
-``marine_acoustic_msgs`` (PingInfo, SonarImageData, ProjectedSonarImage) from the
-``.msg`` files next to this module, and uhrisim's own ``uhrisim_msgs`` (HelmDecision,
-BehaviorContribution, Variable, Event) from the definitions every recording embeds
-(:mod:`uhrisim.ros.msgdefs`), with the rosidl generator wheels of the ``ros2`` extra
-(CMake, a C/C++ compiler), and installs them into the Python environment's
-prefix exactly where a wheel puts its files: the types are the real ones a ROS 2
-installation has (same names, same type hashes), usable from rclpy in any process of
-that environment. ``make venv-test`` runs it.
+``uhrisim ros2-interfaces`` (``python -m uhrisim.bridges.ros2.interfaces``) builds
+``tf2_msgs`` (TFMessage) and ``marine_acoustic_msgs`` (PingInfo, SonarImageData,
+ProjectedSonarImage) from the ``.msg`` files next to this module, and uhrisim's own
+``uhrisim_msgs`` (HelmDecision, BehaviorContribution, Variable, Event) from the
+definitions every recording embeds (:mod:`uhrisim.ros.msgdefs`), with the rosidl
+generator wheels of the ``ros2`` extra (CMake, a C/C++ compiler), and installs them into
+the Python environment's prefix exactly where a wheel puts its files: the types are the
+real ones a ROS 2 installation has (same names, same type hashes), usable from rclpy in
+any process of that environment (``--into VENV``: another environment's). ``make
+venv-test`` runs it.
 """
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 #: The interface packages built here: package -> (its .msg files, packages it depends on).
@@ -40,11 +40,6 @@ def msg_text(package: str, name: str) -> str:
     return own_definition(f"{package}/msg/{name}")
 
 
-def missing() -> list[str]:
-    """The packages of :data:`PACKAGES` that this Python environment cannot import."""
-    return [pkg for pkg in PACKAGES if importlib.util.find_spec(pkg) is None]
-
-
 def build_hint() -> str:
     """What to run to build the missing packages (one line, for error messages)."""
-    return "python -m uhrisim.bridges.ros2.interfaces (needs CMake and a C/C++ compiler)"
+    return "uhrisim ros2-interfaces (needs CMake and a C/C++ compiler)"

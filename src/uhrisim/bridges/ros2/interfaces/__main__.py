@@ -1,5 +1,13 @@
-"""Build the interface packages of :mod:`uhrisim.bridges.ros2.interfaces` that this
-environment lacks (``--force``: all of them) and install them into ``sys.prefix``.
+"""Build the interface packages of :mod:`uhrisim.bridges.ros2.interfaces` that a Python
+environment lacks (``--force``: all of them) and install them into its prefix.
+
+Without ``--into`` the environment is this one (``sys.prefix``); with ``--into VENV``
+it is another virtual environment (or any Python prefix with ``bin/python``): a node's
+own venv, which needs no uhrisim. There the ``ros2`` extra's wheels (rclpy, the message
+wheels and the build tools: rosidl generators, ament, catkin_pkg, CMake, Ninja) are
+first installed with that environment's pip (``--no-deps``: skip this), the packages
+built with its CMake and Python, and checked by importing them in a process of that
+environment.
 
 Each package gets a generated ``package.xml`` and ``CMakeLists.txt`` (the usual
 ``rosidl_generate_interfaces`` of an interface package) and is configured, built and
@@ -10,14 +18,18 @@ every package imports afterwards; 2 with one ``error:`` line otherwise.
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import os
 import shutil
 import subprocess
 import sys
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
-from . import PACKAGES, missing, msg_text
+from packaging.requirements import Requirement
+
+from . import PACKAGES, msg_text
 
 _PACKAGE_XML = """<?xml version="1.0"?>
 <package format="3">
@@ -61,6 +73,61 @@ ament_package()
 """
 
 
+@dataclass(frozen=True)
+class Target:
+    """The Python environment the packages are built for and installed into."""
+
+    python: Path   # its interpreter
+    prefix: Path   # its sys.prefix: where share/, lib/ and site-packages are
+
+    @property
+    def bindir(self) -> Path:
+        return self.python.parent
+
+    def which(self, tool: str) -> str | None:
+        """``tool`` from the environment's bin folder first, then from PATH."""
+        return shutil.which(tool, path=str(self.bindir) + os.pathsep
+                            + os.environ.get("PATH", ""))
+
+    def missing(self) -> list[str]:
+        """The packages of :data:`PACKAGES` the environment cannot import."""
+        probe = ("import importlib.util, sys; print(' '.join(p for p in sys.argv[1:] "
+                 "if importlib.util.find_spec(p) is None))")
+        out = subprocess.run([str(self.python), "-c", probe, *PACKAGES], check=True,
+                             capture_output=True, text=True).stdout
+        return out.split()
+
+
+def this_environment() -> Target:
+    return Target(Path(sys.executable), Path(sys.prefix))
+
+
+def environment_at(venv: Path) -> Target:
+    """The environment whose interpreter is ``venv/bin/python`` (ValueError with the
+    reason when there is none)."""
+    python = venv / "bin" / "python"
+    if not python.exists():
+        raise ValueError(f"{venv}: no bin/python there (create it with python -m venv {venv})")
+    prefix = subprocess.run([str(python), "-c", "import sys; print(sys.prefix)"],
+                            check=True, capture_output=True, text=True).stdout.strip()
+    return Target(python, Path(prefix))
+
+
+def ros2_requirements() -> list[str]:
+    """The ``ros2`` extra's requirements (pyproject.toml), for another environment's pip:
+    the extra's own marker dropped, the Python-version marker kept (that pip judges it)."""
+    out = []
+    for text in importlib.metadata.requires("uhrisim") or []:
+        req = Requirement(text)
+        marker = str(req.marker or "")
+        if 'extra == "ros2"' not in marker:
+            continue
+        kept = marker.replace(' and extra == "ros2"', "").replace('extra == "ros2"', "")
+        req.marker = None
+        out.append(f"{req}; {kept}" if kept else str(req))
+    return out
+
+
 def _source_tree(name: str, root: Path) -> Path:
     """Write package ``name``'s source folder under ``root``; return it."""
     msgs, deps = PACKAGES[name]
@@ -81,46 +148,69 @@ def _run(cmd: list[str], env: dict[str, str], log: Path) -> None:
         subprocess.run(cmd, env=env, stdout=out, stderr=subprocess.STDOUT, check=True)
 
 
-def build(name: str, prefix: Path, work: Path) -> None:
-    """Configure, build and install package ``name`` into ``prefix`` (CalledProcessError
+def build(name: str, target: Target, work: Path) -> None:
+    """Configure, build and install package ``name`` into ``target`` (CalledProcessError
     on failure; the tool's output is in ``work/<name>.log``)."""
     src = _source_tree(name, work)
-    bindir = str(Path(sys.executable).parent)
-    env = {**os.environ, "AMENT_PREFIX_PATH": str(prefix),
-           "PATH": bindir + os.pathsep + os.environ.get("PATH", "")}
-    cmake = shutil.which("cmake", path=env["PATH"]) or "cmake"
-    generator = ["-G", "Ninja"] if shutil.which("ninja", path=env["PATH"]) else []
+    env = {**os.environ, "AMENT_PREFIX_PATH": str(target.prefix),
+           "PATH": str(target.bindir) + os.pathsep + os.environ.get("PATH", "")}
+    cmake = target.which("cmake") or "cmake"
+    generator = ["-G", "Ninja"] if target.which("ninja") else []
     log = work / f"{name}.log"
     _run([cmake, "-S", str(src), "-B", str(src / "build"), *generator,
-          "-DCMAKE_BUILD_TYPE=Release", f"-DCMAKE_PREFIX_PATH={prefix}",
-          f"-DCMAKE_INSTALL_PREFIX={prefix}", f"-DPython3_EXECUTABLE={sys.executable}",
+          "-DCMAKE_BUILD_TYPE=Release", f"-DCMAKE_PREFIX_PATH={target.prefix}",
+          f"-DCMAKE_INSTALL_PREFIX={target.prefix}", f"-DPython3_EXECUTABLE={target.python}",
           "-DBUILD_TESTING=OFF"], env, log)
     _run([cmake, "--build", str(src / "build"), "--parallel", "2"], env, log)
     _run([cmake, "--install", str(src / "build")], env, log)
 
 
+def install_requirements(target: Target) -> None:
+    """Install the ``ros2`` extra's wheels into ``target`` with its own pip (its index
+    settings; CalledProcessError on failure, pip's own message on stderr)."""
+    subprocess.run([str(target.python), "-m", "pip", "install", "-q",
+                    *ros2_requirements()], check=True)
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m uhrisim.bridges.ros2.interfaces",
+    parser = argparse.ArgumentParser(prog="uhrisim ros2-interfaces",
                                      description=__doc__.splitlines()[0])
     parser.add_argument("--force", action="store_true", help="rebuild every package")
+    parser.add_argument("--into", type=Path, metavar="VENV",
+                        help="another virtual environment (default: this one)")
+    parser.add_argument("--no-deps", action="store_true",
+                        help="with --into: do not install the ros2 extra's wheels there")
     args = parser.parse_args(argv)
-    if shutil.which("cmake", path=str(Path(sys.executable).parent) + os.pathsep
-                    + os.environ.get("PATH", "")) is None:
+    try:
+        target = this_environment() if args.into is None else environment_at(args.into)
+        if args.into is not None and not args.no_deps:
+            install_requirements(target)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except subprocess.CalledProcessError:
+        print(f"error: installing the ros2 extra's wheels into {args.into} failed "
+              "(pip's message above)", file=sys.stderr)
+        return 2
+    if target.which("cmake") is None:
         print("error: building ROS 2 interfaces needs CMake (pip install cmake)",
               file=sys.stderr)
         return 2
-    todo = list(PACKAGES) if args.force else missing()
-    prefix = Path(sys.prefix)
-    for name in todo:
+    for name in list(PACKAGES) if args.force else target.missing():
         work = Path(tempfile.mkdtemp(prefix=f"uhrisim-{name}-"))
         try:
-            build(name, prefix, work)
+            build(name, target, work)
         except (subprocess.CalledProcessError, OSError) as exc:
             print(f"error: building {name} failed ({exc}); see {work / (name + '.log')}",
                   file=sys.stderr)
             return 2
         shutil.rmtree(work, ignore_errors=True)
-        print(f"built {name} into {prefix}")
+        print(f"built {name} into {target.prefix}")
+    left = target.missing()
+    if left:
+        print(f"error: {', '.join(left)} built but not importable in {target.python}",
+              file=sys.stderr)
+        return 2
     return 0
 
 
