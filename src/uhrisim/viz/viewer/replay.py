@@ -380,6 +380,7 @@ class ReplayPlayer:
         self._dirty = True
         self._sent_ping: dict[str, int] = {}
         self._sent_shot: dict[str, int] = {}
+        self._jumped = False  # the next frame follows a seek (the page breaks its plots)
         dts = [np.median(np.diff(tr["t"])) for tr in data.tracks.values() if len(tr["t"]) > 1]
         self.step_s = float(min(dts)) if dts else 0.1
         rovs = [a for a, k in data.kinds.items() if k == "rov"]
@@ -422,6 +423,7 @@ class ReplayPlayer:
         self.t = min(max(t, self.data.t_start), self.data.t_end)
         self._sent_ping.clear()
         self._sent_shot.clear()
+        self._jumped = True
         self._dirty = True
 
     def tick(self, wall: float) -> None:
@@ -435,7 +437,9 @@ class ReplayPlayer:
         self._last_wall = wall
         if self._dirty:
             self._dirty = False
-            self.server.publish(self.frame_at(self.t))
+            frame = self.frame_at(self.t)
+            frame["jump"], self._jumped = self._jumped, False
+            self.server.publish(frame)
 
     # -------------------------------------------------------------- frames
     def _var_at(self, agent: str, name: str, t: float) -> float | str | None:

@@ -152,7 +152,8 @@ function onFrame(f) {
   if (!state.view.userMoved && !drag && (state.view.fitted !== "agents" || state.framesReceived <= 3)) {
     fitView();
   }
-  pushPlots(f);
+  pushPlots(f, f.jump || state.seeking);
+  state.seeking = false;
   updateBar(f);
   dirty.map = dirty.plots = dirty.view3d = true;
 }
@@ -185,22 +186,25 @@ function resetHistories() {
   if (state.mode !== "replay") state.trails = {};
 }
 
-function pushPlots(f) {
+// A frame that jumps in time (a replay seek: f.jump, or one the page asked for) starts new plot segments: a null
+// sample marks the gap, so the line is not drawn across time that was skipped.
+function pushPlots(f, jump) {
   const p = f.plots || {};
   const t = f.t;
   const cut = (arr) => {
     while (arr.length && arr[0][0] < t - PLOT_WINDOW) arr.shift();
   };
-  if (p.range_to_diver !== undefined && p.range_to_diver !== null) {
-    state.plots.range.push([t, p.range_to_diver]);
-  }
-  cut(state.plots.range);
+  const add = (arr, v) => {
+    if (jump && arr.length) arr.push([t, null]);
+    arr.push([t, v]);
+    cut(arr);
+  };
+  if (p.range_to_diver !== undefined && p.range_to_diver !== null) add(state.plots.range, p.range_to_diver);
+  else cut(state.plots.range);
   for (const key of ["depth", "speed"]) {
     for (const [name, v] of Object.entries(p[key] || {})) {
       if (v === null) continue;
-      const arr = state.plots[key][name] || (state.plots[key][name] = []);
-      arr.push([t, v]);
-      cut(arr);
+      add(state.plots[key][name] || (state.plots[key][name] = []), v);
     }
   }
 }
@@ -251,7 +255,7 @@ $("speed").onchange = (ev) => {
 };
 $("slider").addEventListener("input", (ev) => {
   sliderDragging = true;
-  send({ type: "seek", t: parseFloat(ev.target.value) });
+  if (send({ type: "seek", t: parseFloat(ev.target.value) })) state.seeking = true;
 });
 $("slider").addEventListener("change", () => {
   sliderDragging = false;
@@ -454,7 +458,7 @@ function drawMap() {
     }
     if (poly.label) {
       const [x, y] = worldToScreen(poly.points[0][0], poly.points[0][1]);
-      queued.push({ text: poly.label, x: x + 5, y: y - 5, color: "#bbb" });
+      queued.push({ text: poly.label, ax: x, ay: y, gap: 4, color: "#bbb" });
     }
   }
   // trails
@@ -481,8 +485,8 @@ function drawMap() {
     ctx.stroke();
     ctx.setLineDash([]);
     ctx.globalAlpha = 1;
-    if (cir.label) queued.push({ text: cir.label, x: x + cir.radius * state.view.scale * 0.71 + 3,
-      y: y - cir.radius * state.view.scale * 0.71, color: "#999" });
+    if (cir.label) queued.push({ text: cir.label, ax: x + cir.radius * state.view.scale * 0.71,
+      ay: y - cir.radius * state.view.scale * 0.71, gap: 3, color: "#999" });
   }
   // sonar perception tracks: green the diver track, orange other confirmed, grey tentative
   for (const tr of ov.tracks || []) {
@@ -493,7 +497,7 @@ function drawMap() {
     ctx.arc(x, y, 6, 0, 2 * Math.PI);
     ctx.stroke();
     if (tr.kind !== "tentative") {
-      queued.push({ text: `T${tr.id}`, x: x + 8, y: y - 6, color: TRACK_COLORS[tr.kind] });
+      queued.push({ text: `T${tr.id}`, ax: x, ay: y, gap: 8, color: TRACK_COLORS[tr.kind] });
     }
   }
   // points (trail point, waypoints)
@@ -505,31 +509,25 @@ function drawMap() {
     ctx.moveTo(x - 5, y - 5); ctx.lineTo(x + 5, y + 5);
     ctx.moveTo(x + 5, y - 5); ctx.lineTo(x - 5, y + 5);
     ctx.stroke();
-    if (pt.label) queued.push({ text: pt.label, x: x + 7, y: y + 4, color: "#aaa" });
+    if (pt.label) queued.push({ text: pt.label, ax: x, ay: y, gap: 6, color: "#aaa" });
   }
-  // labels first (nudged down so they don't overlap), then the vehicles on top of them
+  // labels: the vehicles' first, then the rest; each at the first spot around its
+  // anchor that covers no label and no vehicle placed before it (a leader line when the
+  // spot is away from the anchor)
   const agents = Object.values(state.agents);
   const size = (a) => Math.max(REAL_LENGTH[SHAPES[a.kind] ? a.kind : "vehicle"] * state.view.scale, 18);
+  const obstacles = agents.map((a) => {
+    const [x, y] = worldToScreen(a.north, a.east);
+    const r = size(a) / 2;
+    return { x: x - r, y: y - r, w: 2 * r, h: 2 * r };
+  });
   const labels = agents.map((a) => {
     const [x, y] = worldToScreen(a.north, a.east);
-    const len = size(a);
     const mode = a.mode ? ` ${a.mode}` : "";
-    return { text: `${a.name}  d=${fmt(a.depth, 1)} m${mode}`, x: x + len * 0.6,
-      y: y + len * 0.6, color: state.colors[a.name] || "#fff" };
+    return { text: `${a.name}  d=${fmt(a.depth, 1)} m${mode}`, ax: x, ay: y,
+      gap: size(a) / 2 + 3, color: state.colors[a.name] || "#fff" };
   });
-  ctx.font = "12px system-ui, 'DejaVu Sans', sans-serif";
-  const placed = [];
-  for (const l of [...labels, ...queued]) {
-    const w = ctx.measureText(l.text).width;
-    let y = l.y;
-    for (let tries = 0; tries < 8; tries++) {
-      const hit = placed.find((p) => l.x < p.x + p.w && p.x < l.x + w && Math.abs(y - p.y) < 14);
-      if (!hit) break;
-      y = hit.y + 14;
-    }
-    placed.push({ x: l.x, y, w });
-    label(ctx, l.text, l.x, y, l.color);
-  }
+  state.labelBoxes = placeLabels(ctx, [...labels, ...queued], obstacles);
   for (const a of agents) {
     const [x, y] = worldToScreen(a.north, a.east);
     const kind = SHAPES[a.kind] ? a.kind : "vehicle";
@@ -566,6 +564,50 @@ function drawMap() {
   ctx.closePath();
   ctx.fill();
   label(ctx, "N", w - 28, 58, "#fff");
+}
+
+const LABEL_H = 14; // px: a 12 px label's box
+const overlaps = (a, b) => a.x < b.x + b.w && b.x < a.x + a.w && a.y < b.y + b.h && b.y < a.y + a.h;
+
+// Place labels {text, ax, ay (anchor, px), gap (px from the anchor), color} in order:
+// each takes the first of eight spots around its anchor, at growing distance, whose box
+// meets no box taken before and no obstacle; returns the boxes {text, x, y, w, h, ax, ay}
+// (y: top) after drawing them.
+function placeLabels(ctx, items, obstacles) {
+  ctx.font = "12px system-ui, 'DejaVu Sans', sans-serif";
+  const taken = [];
+  const boxes = [];
+  for (const l of items) {
+    const w = ctx.measureText(l.text).width + 2, h = LABEL_H;
+    let best = null;
+    for (let ring = 0; ring < 6 && !best; ring++) {
+      const g = l.gap + ring * 12;
+      const spots = [[g, -h / 2], [g, g * 0.3], [g, -h - g * 0.3], [-w - g, -h / 2],
+        [-w / 2, -h - g], [-w / 2, g], [-w - g, g * 0.3], [-w - g, -h - g * 0.3]];
+      for (const [dx, dy] of spots) {
+        const box = { x: l.ax + dx, y: l.ay + dy, w, h };
+        if (!taken.some((b) => overlaps(box, b)) && !obstacles.some((b) => overlaps(box, b))) {
+          best = box;
+          break;
+        }
+      }
+    }
+    if (!best) best = { x: l.ax + l.gap, y: l.ay - h / 2, w, h }; // crowded: at its anchor
+    taken.push(best);
+    if (Math.hypot(best.x + (best.x < l.ax ? w : 0) - l.ax, best.y + h / 2 - l.ay) > l.gap + 14) {
+      ctx.strokeStyle = l.color;
+      ctx.globalAlpha = 0.5;
+      ctx.lineWidth = 1;
+      ctx.beginPath();
+      ctx.moveTo(l.ax, l.ay);
+      ctx.lineTo(best.x < l.ax ? best.x + w : best.x, best.y + h / 2);
+      ctx.stroke();
+      ctx.globalAlpha = 1;
+    }
+    label(ctx, l.text, best.x + 1, best.y + 11, l.color);
+    boxes.push({ text: l.text, ...best, ax: l.ax, ay: l.ay });
+  }
+  return boxes;
 }
 
 function label(ctx, text, x, y, color) {
@@ -607,7 +649,7 @@ function sensorsShown(images) {
   return keys.filter((k) => images[k].agent === agent);
 }
 
-function drawLatestImages(canvasId, images) {
+function drawLatestImages(canvasId, images, zoom = 1) {
   const c = $(canvasId);
   const dpr = sizeCanvas(c);
   const ctx = c.getContext("2d");
@@ -616,61 +658,113 @@ function drawLatestImages(canvasId, images) {
   ctx.fillStyle = "#000";
   ctx.fillRect(0, 0, w, h);
   const keys = sensorsShown(images);
-  const tile = w / Math.max(1, keys.length);
+  const tw = w / Math.max(1, keys.length);
   const drawn = keys.map((key, i) => {
     const s = images[key];
-    const k = Math.min(tile / s.img.width, h / s.img.height);
-    const dw = s.img.width * k, dh = s.img.height * k;
-    const x0 = i * tile + (tile - dw) / 2, y0 = (h - dh) / 2;
+    const tile = { x: i * tw, y: 0, w: tw, h };
+    const k = Math.min(tw / s.img.width, h / s.img.height);
+    // zoomed about the bottom centre of the picture (a sonar fan's apex)
+    const dw = s.img.width * k * zoom, dh = s.img.height * k * zoom;
+    const ax = i * tw + tw / 2, ay = (h + s.img.height * k) / 2;
+    ctx.save();
+    ctx.beginPath();
+    ctx.rect(tile.x, tile.y, tile.w, tile.h);
+    ctx.clip();
     ctx.imageSmoothingEnabled = true;
-    ctx.drawImage(s.img, x0, y0, dw, dh);
-    return { key, s, x0, y0, dw, dh };
+    ctx.drawImage(s.img, ax - dw / 2, ay - dh, dw, dh);
+    ctx.restore();
+    return { key, s, tile, ax, ay, dw, dh };
   });
   return { ctx, drawn };
 }
 
 // ---------- sonar panel
+// Zoom: the wheel over the panel shows the near part of the fan (range / zoom), the apex
+// fixed at the bottom centre; double-click shows the whole fan again.
+const SONAR_ZOOM_MAX = 8;
+state.sonarZoom = 1;
+// key -> {shown_range (m), px_per_m, apex [x, y] (CSS px), arcs: [m], bearings: [deg]}
+state.sonarView = {};
+$("sonar").addEventListener("wheel", (ev) => {
+  ev.preventDefault();
+  state.sonarZoom = Math.min(Math.max(state.sonarZoom * Math.exp(-ev.deltaY * 0.0015), 1),
+    SONAR_ZOOM_MAX);
+  dirty.sonar = true;
+}, { passive: false });
+$("sonar").addEventListener("dblclick", () => { state.sonarZoom = 1; dirty.sonar = true; });
+
 function drawSonar() {
-  const { ctx, drawn } = drawLatestImages("sonar", state.sonar);
+  const { ctx, drawn } = drawLatestImages("sonar", state.sonar, state.sonarZoom);
   if (!drawn.length) {
     label(ctx, "no sonar image yet", 10, 20, "#777");
     $("sonar-caption").textContent = "";
     return;
   }
-  for (const { s, x0, y0, dw, dh } of drawn) drawFanOverlay(ctx, s, x0, y0, dw, dh);
+  state.sonarView = {};
+  for (const d of drawn) state.sonarView[d.key] = drawFanOverlay(ctx, d);
+  const zoom = state.sonarZoom > 1.01 ? ` · ×${state.sonarZoom.toFixed(1)}` : "";
   $("sonar-caption").textContent = drawn.map(({ key, s }) =>
-    `${key} · t=${fmt(s.t, 1)} s · ${fmt(s.fov_deg, 0)}° · ${fmt(s.max_range, Number.isInteger(s.max_range) ? 0 : 1)} m`).join("  |  ");
+    `${key} · t=${fmt(s.t, 1)} s · ${fmt(s.fov_deg, 0)}° · ${fmt(s.max_range, Number.isInteger(s.max_range) ? 0 : 1)} m`).join("  |  ") + zoom;
 }
 
-// range arcs and perception tracks on one fan, its apex at the bottom centre and its
-// range at the top
-function drawFanOverlay(ctx, s, x0, y0, dw, dh) {
-  if (s.max_range > 0 && s.fov_deg > 0 && s.fov_deg < 180) {
-    const ax = x0 + dw / 2, ay = y0 + dh, half = (s.fov_deg * DEG) / 2;
-    const step = niceStep(s.max_range / 4);
+// Range arcs (nice steps, labelled in m), bearing rays (labelled in degrees, > 0 to
+// starboard) and perception tracks on one fan drawn with its apex at (ax, ay), dh px
+// for its full range times the zoom; returns what was drawn (for tests).
+function drawFanOverlay(ctx, { s, tile, ax, ay, dh }) {
+  const out = { shown_range: 0, px_per_m: 0, apex: [ax, ay], arcs: [], bearings: [] };
+  if (!(s.max_range > 0)) return out;
+  const pxPerM = dh / s.max_range;
+  const shown = s.max_range / state.sonarZoom;
+  out.shown_range = shown;
+  out.px_per_m = pxPerM;
+  ctx.save();
+  ctx.beginPath();
+  ctx.rect(tile.x, tile.y, tile.w, tile.h);
+  ctx.clip();
+  ctx.font = "10px system-ui, sans-serif";
+  if (s.fov_deg > 0 && s.fov_deg < 180) {
+    const half = (s.fov_deg * DEG) / 2;
+    const step = niceStep(shown / 5);
     ctx.strokeStyle = "rgba(120,220,255,0.35)";
     ctx.lineWidth = 1;
-    for (let r = step; r <= s.max_range + 1e-9; r += step) {
-      const rp = (r / s.max_range) * dh;
+    const digits = Math.max(0, -Math.floor(Math.log10(step) + 1e-9));
+    for (let k = 1; k * step <= shown + 1e-9; k++) {
+      const r = k * step, rp = r * pxPerM;
       ctx.beginPath();
       ctx.arc(ax, ay, rp, -Math.PI / 2 - half, -Math.PI / 2 + half);
       ctx.stroke();
-      ctx.font = "10px system-ui, sans-serif";
-      ctx.fillStyle = "rgba(160,230,255,0.8)";
-      ctx.fillText(`${r} m`, ax + rp * Math.sin(half) + 3, ay - rp * Math.cos(half));
+      ctx.fillStyle = "rgba(160,230,255,0.85)";
+      ctx.fillText(`${r.toFixed(digits)} m`, ax + rp * Math.sin(half) + 3, ay - rp * Math.cos(half));
+      out.arcs.push(Number(r.toFixed(digits)));
     }
-  }
-  if (s.max_range > 0) {
-    const ax = x0 + dw / 2, ay = y0 + dh;
-    for (const m of s.marks || []) {
-      const rp = (m.range / s.max_range) * dh, b = m.bearing_deg * DEG;
-      ctx.strokeStyle = TRACK_COLORS[m.kind] || "#888";
-      ctx.lineWidth = m.kind === "diver" ? 2 : 1;
+    // bearing rays every 5, 10, 15 or 30 degrees, labelled just inside the far edge
+    const bStep = [5, 10, 15, 30].find((b) => s.fov_deg / b <= 8) || 45;
+    const far = Math.min(shown * pxPerM, ay - tile.y - 4);
+    ctx.textAlign = "center";
+    for (let b = -Math.floor(s.fov_deg / 2 / bStep) * bStep; b <= s.fov_deg / 2 + 1e-9; b += bStep) {
+      const rad = b * DEG;
+      ctx.strokeStyle = "rgba(120,220,255,0.22)";
       ctx.beginPath();
-      ctx.arc(ax + rp * Math.sin(b), ay - rp * Math.cos(b), 7, 0, 2 * Math.PI);
+      ctx.moveTo(ax, ay);
+      ctx.lineTo(ax + far * Math.sin(rad), ay - far * Math.cos(rad));
       ctx.stroke();
+      ctx.fillStyle = "rgba(160,230,255,0.85)";
+      const text = b === 0 ? "0°" : `${b > 0 ? "+" : "−"}${Math.abs(b)}°`;
+      ctx.fillText(text, ax + (far - 6) * Math.sin(rad), ay - (far - 6) * Math.cos(rad) + 8);
+      out.bearings.push(b);
     }
+    ctx.textAlign = "left";
   }
+  for (const m of s.marks || []) {
+    const rp = m.range * pxPerM, b = m.bearing_deg * DEG;
+    ctx.strokeStyle = TRACK_COLORS[m.kind] || "#888";
+    ctx.lineWidth = m.kind === "diver" ? 2 : 1;
+    ctx.beginPath();
+    ctx.arc(ax + rp * Math.sin(b), ay - rp * Math.cos(b), 7, 0, 2 * Math.PI);
+    ctx.stroke();
+  }
+  ctx.restore();
+  return out;
 }
 
 // ---------- camera panel
@@ -681,6 +775,34 @@ function drawCamera() {
 }
 
 // ---------- plots
+// "Nice" tick values (1, 2, 5 × 10^k apart) covering [lo, hi], about `count` of them, and
+// their labels with just enough decimals that no two read the same.
+function niceTicks(lo, hi, count) {
+  const step = niceStep((hi - lo) / Math.max(count, 1));
+  const digits = Math.max(0, -Math.floor(Math.log10(step) + 1e-9));
+  const ticks = [];
+  for (let k = Math.ceil(lo / step - 1e-9); k * step <= hi + step * 1e-9; k++) {
+    const value = k * step;
+    ticks.push({ value, text: value.toFixed(digits) });
+  }
+  return ticks;
+}
+state.niceTicks = niceTicks; // for tests
+
+// Polyline segments of one series: a null value (a gap) ends a segment.
+function segmentsOf(arr) {
+  const out = [];
+  let cur = [];
+  for (const p of arr) {
+    if (p[1] === null) {
+      if (cur.length) out.push(cur);
+      cur = [];
+    } else cur.push(p);
+  }
+  if (cur.length) out.push(cur);
+  return out;
+}
+
 function drawPlots() {
   const c = $("plots");
   const dpr = sizeCanvas(c);
@@ -696,15 +818,23 @@ function drawPlots() {
     { title: "depth (m)", series: state.plots.depth, invert: true },
     { title: "speed (m/s)", series: state.plots.speed, invert: false },
   ];
-  const rh = h / rows.length;
+  const axisH = 16; // the time axis under the last row
+  const rh = (h - axisH) / rows.length;
+  const x0 = 44, x1 = w - 6;
+  const tx = (t) => x0 + ((t - t0) / PLOT_WINDOW) * (x1 - x0);
+  const timeTicks = niceTicks(t0, t1, Math.max(2, Math.floor((x1 - x0) / 60)))
+    .filter((k) => k.value >= Math.max(t0, 0) - 1e-9);
+  const layout = { time: timeTicks.map((k) => ({ ...k, x: tx(k.value) })), rows: [] };
+  ctx.font = "10px system-ui, sans-serif";
   rows.forEach((row, i) => {
-    const y0 = i * rh + 14, y1 = (i + 1) * rh - 4, x0 = 40, x1 = w - 6;
+    const y0 = i * rh + 14, y1 = (i + 1) * rh - 4;
     let vmin = Infinity, vmax = -Infinity;
     for (const arr of Object.values(row.series)) for (const p of arr) {
+      if (p[1] === null || p[0] < t0) continue;
       vmin = Math.min(vmin, p[1]); vmax = Math.max(vmax, p[1]);
     }
     label(ctx, row.title, 4, i * rh + 11, "#8fb");
-    if (row.series !== null && !("range" in row.series)) {  // legend: agent names in colour
+    if (!("range" in row.series)) {  // legend: agent names in colour
       let lx = w - 6;
       ctx.font = "10px system-ui, sans-serif";
       for (const name of Object.keys(row.series).reverse()) {
@@ -713,28 +843,63 @@ function drawPlots() {
         ctx.fillText(name, lx, i * rh + 11);
       }
     }
+    // vertical time grid
+    ctx.strokeStyle = "rgba(120,170,210,0.12)";
+    ctx.beginPath();
+    for (const k of layout.time) { ctx.moveTo(k.x, y0); ctx.lineTo(k.x, y1); }
+    ctx.stroke();
     ctx.strokeStyle = "#24435e";
     ctx.strokeRect(x0, y0, x1 - x0, y1 - y0);
+    const entry = { title: row.title, ticks: [], segments: {} };
+    layout.rows.push(entry);
     if (!isFinite(vmin)) return;
     if (vmax - vmin < 1e-6) { vmin -= 0.5; vmax += 0.5; }
     const pad = (vmax - vmin) * 0.08;
     vmin -= pad; vmax += pad;
     const ty = (v) => (row.invert ? y0 + ((v - vmin) / (vmax - vmin)) * (y1 - y0)
       : y1 - ((v - vmin) / (vmax - vmin)) * (y1 - y0));
-    const tx = (t) => x0 + ((t - t0) / PLOT_WINDOW) * (x1 - x0);
-    ctx.font = "10px system-ui, sans-serif";
-    ctx.fillStyle = "#7f98ad";
-    ctx.fillText((row.invert ? vmin : vmax).toFixed(1), 2, y0 + 8);
-    ctx.fillText((row.invert ? vmax : vmin).toFixed(1), 2, y1);
+    // value ticks: nice numbers, a label each, a faint grid line
+    const ticks = niceTicks(vmin, vmax, Math.max(2, Math.min(5, Math.floor((y1 - y0) / 14))));
+    ctx.textAlign = "right";
+    for (const k of ticks) {
+      const y = ty(k.value);
+      entry.ticks.push({ ...k, y });
+      ctx.strokeStyle = "rgba(120,170,210,0.12)";
+      ctx.beginPath(); ctx.moveTo(x0, y); ctx.lineTo(x1, y); ctx.stroke();
+      ctx.fillStyle = "#7f98ad";
+      ctx.fillText(k.text, x0 - 3, y + 3);
+    }
+    ctx.textAlign = "left";
+    ctx.save();
+    ctx.beginPath();
+    ctx.rect(x0, y0, x1 - x0, y1 - y0);
+    ctx.clip();
     for (const [name, arr] of Object.entries(row.series)) {
-      if (arr.length < 2) continue;
       ctx.strokeStyle = name === "range" ? "#8fb" : state.colors[name] || "#ccc";
       ctx.lineWidth = 1.5;
-      ctx.beginPath();
-      arr.forEach((p, j) => (j === 0 ? ctx.moveTo(tx(p[0]), ty(p[1])) : ctx.lineTo(tx(p[0]), ty(p[1]))));
-      ctx.stroke();
+      const segs = segmentsOf(arr);
+      entry.segments[name] = segs.map((seg) => seg.map((p) => [tx(p[0]), ty(p[1])]));
+      for (const seg of entry.segments[name]) {
+        ctx.beginPath();
+        seg.forEach(([x, y], j) => (j === 0 ? ctx.moveTo(x, y) : ctx.lineTo(x, y)));
+        if (seg.length === 1) ctx.arc(seg[0][0], seg[0][1], 0.8, 0, 2 * Math.PI);
+        ctx.stroke();
+      }
     }
+    ctx.restore();
   });
+  // time axis: seconds of simulated time
+  const ya = h - axisH + 2;
+  ctx.fillStyle = "#7f98ad";
+  ctx.strokeStyle = "#24435e";
+  ctx.textAlign = "center";
+  for (const k of layout.time) {
+    ctx.beginPath(); ctx.moveTo(k.x, ya - 6); ctx.lineTo(k.x, ya - 2); ctx.stroke();
+    ctx.fillText(k.text, k.x, ya + 9);
+  }
+  ctx.textAlign = "left";
+  ctx.fillText("t (s)", 4, ya + 9);
+  state.plotLayout = layout;
 }
 
 // ------------------------------------------------------------------ 3-D view
