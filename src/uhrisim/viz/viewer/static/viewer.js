@@ -11,6 +11,11 @@ const TRAIL_MAX = 4000; // points per agent kept for live trails
 const TRAIL_MIN_DT = 0.25; // s between live trail points
 const TRACK_COLORS = { diver: "#3f3", track: "#f90", tentative: "#888" }; // sonar tracks
 
+// tools by kind, loads and sites (map and 3-D view)
+const TEAM_COLORS = { wrench: "#c0c8d0", hammer: "#b08a5a", light: "#fff3a0",
+  lift_bag: "#ff9f1c", basket: "#9c7b4f", load: "#8a8f99", flange: "#6fa8dc",
+  hatch: "#76b57b", other: "#d0d0d0" };
+const teamColor = (kind) => TEAM_COLORS[kind] || TEAM_COLORS.other;
 const KIND_COLORS = { rov: "#f5c518", diver: "#ff7a45", vehicle: "#4fd1ff" };
 const EXTRA_COLORS = ["#9be564", "#d783ff", "#ff5c8a", "#5ce1e6", "#ffd6a5"];
 
@@ -29,6 +34,8 @@ const state = {
   sonar: {}, // "<agent>/<sensor>" -> {agent, sensor, t, fov_deg, max_range, img, marks}
   camera: {}, // "<agent>/<sensor>" -> {agent, sensor, t, img}
   camerasReceived: 0,
+  team: null, // the frame's team entry (tools, sites, progress, diver figures), or null
+  teamDrawn: null, // what the map drew of it (for tests)
   plots: { range: [], depth: {}, speed: {} },
   framesReceived: 0,
   sonarsReceived: 0,
@@ -152,6 +159,8 @@ function onFrame(f) {
   if (!state.view.userMoved && !drag && (state.view.fitted !== "agents" || state.framesReceived <= 3)) {
     fitView();
   }
+  state.team = f.team || null;
+  if (state.team) updateTeamPanel(state.team);
   pushPlots(f, f.jump || state.seeking);
   state.seeking = false;
   updateBar(f);
@@ -175,7 +184,6 @@ function onCamera(m) {
   img.onload = () => {
     state.camera[`${m.agent}/${m.sensor}`] = { agent: m.agent, sensor: m.sensor, t: m.t, img };
     $("camera-panel").classList.remove("hidden");
-    $("side").classList.add("with-camera");
     dirty.camera = true;
   };
   img.src = "data:image/png;base64," + m.png_b64;
@@ -207,6 +215,41 @@ function pushPlots(f, jump) {
       add(state.plots[key][name] || (state.plots[key][name] = []), v);
     }
   }
+}
+
+// The task panel: each diver's orders done / total and what it does now, every site's
+// state, who holds what, the latest teamwork and order events.
+function updateTeamPanel(team) {
+  $("team-panel").classList.remove("hidden");
+  const box = $("team");
+  box.textContent = "";
+  const add = (cls, text, parent = box) => {
+    const el = document.createElement("div");
+    el.className = cls;
+    el.textContent = text;
+    parent.appendChild(el);
+    return el;
+  };
+  for (const [name, p] of Object.entries(team.progress || {})) {
+    const d = add("diver", "");
+    d.dataset.diver = name;
+    const total = p.total === null || p.total === undefined ? "?" : p.total;
+    const failed = p.failed ? " · FAILED" : "";
+    add("count", `${name}: ${p.done}/${total} orders done${failed}`, d);
+    const bar = add("bar", "", d);
+    const fill = document.createElement("div");
+    fill.style.width = `${p.total ? Math.min(100, (100 * p.done) / p.total) : 0}%`;
+    bar.appendChild(fill);
+    const now = p.current ? `now: ${p.current}` : p.last ? `last: ${p.last}` : "no order";
+    add("current", now, d);
+  }
+  for (const site of team.sites || []) add("site", `${site.name}: ${site.text}`);
+  for (const o of team.objects || []) {
+    if (o.held_by && o.held_by.length) add("site", `${o.name} held by ${o.held_by.join(" + ")}`);
+  }
+  for (const ev of (team.log || []).slice(-4)) add("log", `${fmt(ev.t, 1)} s ${ev.text.replace(/^t=[\d.]+ s /, "")}`);
+  const n = Object.keys(team.progress || {}).length;
+  $("team-caption").textContent = n ? `${n} diver${n > 1 ? "s" : ""}` : "";
 }
 
 let sliderDragging = false;
@@ -511,6 +554,7 @@ function drawMap() {
     ctx.stroke();
     if (pt.label) queued.push({ text: pt.label, ax: x, ay: y, gap: 6, color: "#aaa" });
   }
+  state.teamDrawn = state.team ? drawTeam(ctx, state.team, queued) : null;
   // labels: the vehicles' first, then the rest; each at the first spot around its
   // anchor that covers no label and no vehicle placed before it (a leader line when the
   // spot is away from the anchor)
@@ -546,6 +590,19 @@ function drawMap() {
     ctx.stroke();
     ctx.restore();
   }
+  // the divers' posed figures over their glyphs
+  ctx.strokeStyle = "#ffffff";
+  ctx.lineWidth = 1.5;
+  for (const fig of figuresOnTop) {
+    ctx.beginPath();
+    for (const [i, j] of fig.bones) {
+      const [x1, y1] = worldToScreen(fig.points[i][0], fig.points[i][1]);
+      const [x2, y2] = worldToScreen(fig.points[j][0], fig.points[j][1]);
+      ctx.moveTo(x1, y1); ctx.lineTo(x2, y2);
+    }
+    ctx.stroke();
+  }
+  figuresOnTop = [];
   // scale bar
   const barM = niceStep(120 / state.view.scale);
   const barPx = barM * state.view.scale;
@@ -565,6 +622,48 @@ function drawMap() {
   ctx.fill();
   label(ctx, "N", w - 28, 58, "#fff");
 }
+
+// Tools and loads (diamonds; ringed when held), sites (squares with their state as
+// label) and the divers' posed figures (stick figures over the glyph); returns what
+// was drawn: {objects: [{name, x, y}], sites: [{name, x, y}], figures: {name: bones}}.
+function drawTeam(ctx, team, queued) {
+  const out = { objects: [], sites: [], figures: {} };
+  for (const site of team.sites || []) {
+    if (site.kind === "lift_bag" && !(site.litres > 0) && !site.attached_to) continue;
+    const [x, y] = worldToScreen(site.north, site.east);
+    ctx.strokeStyle = teamColor(site.kind);
+    ctx.lineWidth = 2;
+    const r = site.kind === "lift_bag" ? 4 + 6 * Math.min(1, site.litres / site.capacity_litres) : 6;
+    ctx.strokeRect(x - r, y - r, 2 * r, 2 * r);
+    queued.push({ text: `${site.name}: ${site.text}`, ax: x, ay: y, gap: r + 3,
+      color: teamColor(site.kind) });
+    out.sites.push({ name: site.name, x, y });
+  }
+  for (const o of team.objects || []) {
+    const [x, y] = worldToScreen(o.north, o.east);
+    ctx.fillStyle = teamColor(o.kind);
+    ctx.beginPath();
+    ctx.moveTo(x, y - 5); ctx.lineTo(x + 5, y); ctx.lineTo(x, y + 5); ctx.lineTo(x - 5, y);
+    ctx.closePath();
+    ctx.fill();
+    const held = o.held_by && o.held_by.length;
+    if (held) {
+      ctx.strokeStyle = "#fff";
+      ctx.lineWidth = 1.5;
+      ctx.beginPath();
+      ctx.arc(x, y, 8, 0, 2 * Math.PI);
+      ctx.stroke();
+    }
+    if (!held) queued.push({ text: o.name, ax: x, ay: y, gap: 6, color: teamColor(o.kind) });
+    out.objects.push({ name: o.name, x, y });
+  }
+  for (const [name, fig] of Object.entries(team.figures || {})) {
+    out.figures[name] = fig.bones.length;
+    figuresOnTop.push(fig);
+  }
+  return out;
+}
+let figuresOnTop = []; // stroked after the vehicles' glyphs
 
 const LABEL_H = 14; // px: a 12 px label's box
 const overlaps = (a, b) => a.x < b.x + b.w && b.x < a.x + a.w && a.y < b.y + b.h && b.y < a.y + a.h;
@@ -910,6 +1009,8 @@ const view3d = {
   camera: null,
   staticGroup: null,
   agentObjs: {},
+  teamObjs: {}, // "<what>:<name>" -> mesh of a tool, load or site
+  figureObjs: {}, // diver -> THREE.LineSegments of its posed figure
   orbit: { az: -0.6, el: 0.55, dist: 45 },
   target: [0, 0, 0],
   pendingScene: null,
@@ -1067,7 +1168,87 @@ const view3d = {
       g.add(hull);
     }
     this.scene.add(g);
-    return { group: g, wedges: [], wedgeKey: "" };
+    return { group: g, body: [...g.children], wedges: [], wedgeKey: "" };
+  },
+
+  // Tools and loads as small boxes, a flange's cover coloured from red (all bolts in)
+  // to green (all out), a hatch's lid at its angle, a lift bag as a sphere of its gas
+  // volume, each diver's posed figure as white line segments.
+  updateTeam(team) {
+    const THREE = this.THREE;
+    const seen = new Set();
+    const place = (key, make, n, e, d) => {
+      let m = this.teamObjs[key];
+      if (!m) {
+        m = this.teamObjs[key] = make();
+        this.scene.add(m);
+      }
+      m.position.copy(this.v(n, e, d));
+      seen.add(key);
+      return m;
+    };
+    const mat = (kind) => new THREE.MeshLambertMaterial({ color: new THREE.Color(teamColor(kind)) });
+    for (const o of (team && team.objects) || []) {
+      if (o.kind === "lift_bag") continue; // drawn as its site, by its gas volume
+      place(`o:${o.name}`, () => new THREE.Mesh(new THREE.BoxGeometry(0.25, 0.12, 0.25),
+        mat(o.kind)), o.north, o.east, o.depth);
+    }
+    for (const site of (team && team.sites) || []) {
+      if (site.kind === "lift_bag") {
+        const m = place(`s:${site.name}`, () => new THREE.Mesh(new THREE.SphereGeometry(1, 16, 12),
+          mat("lift_bag")), site.north, site.east, site.depth);
+        const litres = Math.max(site.litres, 0.5); // an empty bag: a folded bundle
+        m.scale.setScalar(Math.cbrt((3 * litres * 1e-3) / (4 * Math.PI)));
+      } else if (site.kind === "flange") {
+        const m = place(`s:${site.name}`, () => new THREE.Mesh(
+          new THREE.CylinderGeometry(0.115, 0.115, 0.05, 24), mat("flange")),
+          site.north, site.east, site.depth);
+        const k = site.bolts ? site.bolts_out / site.bolts : 0;
+        m.material.color.setRGB(0.9 * (1 - k) + 0.2 * k, 0.25 * (1 - k) + 0.8 * k, 0.2);
+        m.visible = site.cover_on;
+      } else if (site.kind === "hatch") {
+        const m = place(`s:${site.name}`, () => new THREE.Mesh(new THREE.BoxGeometry(0.6, 0.02, 0.6),
+          mat("hatch")), site.north, site.east, site.depth);
+        m.rotation.x = -site.angle_deg * DEG;
+      }
+    }
+    for (const [key, m] of Object.entries(this.teamObjs)) {
+      if (!seen.has(key)) {
+        this.scene.remove(m);
+        delete this.teamObjs[key];
+      }
+    }
+    const figures = (team && team.figures) || {};
+    for (const [name, fig] of Object.entries(figures)) {
+      let lines = this.figureObjs[name];
+      const n = fig.bones.length * 2;
+      if (!lines || lines.geometry.attributes.position.count !== n) {
+        if (lines) this.scene.remove(lines);
+        const geo = new THREE.BufferGeometry();
+        geo.setAttribute("position", new THREE.BufferAttribute(new Float32Array(3 * n), 3));
+        lines = this.figureObjs[name] = new THREE.LineSegments(geo,
+          new THREE.LineBasicMaterial({ color: 0xffffff }));
+        this.scene.add(lines);
+      }
+      const pos = lines.geometry.attributes.position;
+      fig.bones.forEach(([i, j], k) => {
+        for (const [slot, p] of [[2 * k, fig.points[i]], [2 * k + 1, fig.points[j]]]) {
+          pos.setXYZ(slot, p[1], -p[2], -p[0]);
+        }
+      });
+      pos.needsUpdate = true;
+      lines.geometry.computeBoundingSphere();
+    }
+    for (const [name, lines] of Object.entries(this.figureObjs)) {
+      if (!(name in figures)) {
+        this.scene.remove(lines);
+        delete this.figureObjs[name];
+      }
+    }
+    // a diver drawn as its figure hides its primitive body (the sonar wedge stays)
+    for (const [name, obj] of Object.entries(this.agentObjs)) {
+      for (const m of obj.body) m.visible = !(name in figures);
+    }
   },
 
   // Translucent horizontal fan: apex at the vehicle, ±fov/2 about forward, radius max_range.
@@ -1105,6 +1286,7 @@ const view3d = {
         obj.wedgeKey = key;
       }
     }
+    this.updateTeam(state.team);
     const sel = state.agents[state.selected];
     const t = sel ? [sel.north, sel.east, sel.depth] : this.target;
     const o = this.orbit;
@@ -1152,6 +1334,7 @@ new ResizeObserver(() => {
 })
   .observe(document.body);
 
+state.view3d = view3d; // for tests
 view3d.init().catch((e) => {
   state.errors.push(String(e));
   $("view3d").innerHTML = '<div class="nogl">3-D view failed to start.</div>';
