@@ -64,11 +64,18 @@ def run(tmp_path_factory):
     return out, frames.last
 
 
+@pytest.fixture(scope="module")
+def browser():
+    """One headless page for both tests (starting Chromium costs seconds)."""
+    with headless_page() as bp:
+        yield bp
+
+
 def _png(buf: bytes) -> np.ndarray:
     return cv2.imdecode(np.frombuffer(buf, np.uint8), cv2.IMREAD_COLOR)[:, :, ::-1].astype(int)
 
 
-def test_live_team_panel_map_and_3d(run):
+def test_live_team_panel_map_and_3d(run, browser):
     _, frame = run
     team = frame["team"]
     progress = team["progress"]["diver1"]
@@ -76,76 +83,76 @@ def test_live_team_panel_map_and_3d(run):
     server = ViewerServer({}, [], port=0, max_fps=20)
     url = server.start()
     try:
-        with headless_page() as bp:
-            page = bp.page
-            server.publish(frame)
-            page.goto(url)
-            page.wait_for_function("window.uhri.team && window.uhri.teamDrawn && "
-                                   "window.uhri.gl", timeout=20_000)
-            text = page.locator("#team").inner_text()
-            assert f"diver1: {progress['done']}/18 orders done" in text
-            assert f"now: {progress['current']}" in text
-            assert "flange1: 0/4 bolts out" in text
-            drawn = page.evaluate("window.uhri.teamDrawn")
-            assert sorted(o["name"] for o in drawn["objects"]) == sorted(
-                o["name"] for o in team["objects"])
-            fig = team["figures"]["diver1"]
-            assert drawn["figures"] == {"diver1": len(fig["bones"])} and len(fig["bones"]) >= 27
+        bp, page = browser, browser.page
+        server.publish(frame)
+        page.goto(url)
+        page.wait_for_function("window.uhri.team && window.uhri.teamDrawn && "
+                               "window.uhri.gl", timeout=20_000)
+        text = page.locator("#team").inner_text()
+        assert f"diver1: {progress['done']}/18 orders done" in text
+        assert f"now: {progress['current']}" in text
+        assert "flange1: 0/4 bolts out" in text
+        drawn = page.evaluate("window.uhri.teamDrawn")
+        assert sorted(o["name"] for o in drawn["objects"]) == sorted(
+            o["name"] for o in team["objects"])
+        fig = team["figures"]["diver1"]
+        assert drawn["figures"] == {"diver1": len(fig["bones"])} and len(fig["bones"]) >= 27
 
-            # zoomed on the diver, its bones are white on the map where the points project
-            n, e = np.mean(np.array(fig["points"])[:, :2], axis=0)
-            page.evaluate(f"""() => {{ const v = window.uhri.view;
-                v.cn = {n}; v.ce = {e}; v.scale = 150; v.userMoved = true;
-                window.uhri.redraw(); }}""")
-            page.wait_for_timeout(300)
-            img = _png(page.locator("#map").screenshot())
-            white = np.all(img > 235, axis=2)
-            hits = 0
-            for i, j in fig["bones"]:
-                a, b = np.array(fig["points"][i]), np.array(fig["points"][j])
-                mid = page.evaluate(f"window.uhri.worldToScreen({(a[0] + b[0]) / 2}, "
-                                    f"{(a[1] + b[1]) / 2})")
-                x, y = (round(v) for v in mid)
-                hits += bool(white[y - 1:y + 2, x - 1:x + 2].any())
-            assert hits >= 0.8 * len(fig["bones"]), f"{hits} of {len(fig['bones'])} bones seen"
+        # zoomed on the diver, its bones are white on the map where the points project
+        n, e = np.mean(np.array(fig["points"])[:, :2], axis=0)
+        page.evaluate(f"""() => {{ const v = window.uhri.view;
+            v.cn = {n}; v.ce = {e}; v.scale = 150; v.userMoved = true;
+            window.uhri.redraw(); }}""")
+        page.wait_for_timeout(300)
+        img = _png(page.locator("#map").screenshot())
+        white = np.all(img > 235, axis=2)
+        hits = 0
+        for i, j in fig["bones"]:
+            a, b = np.array(fig["points"][i]), np.array(fig["points"][j])
+            mid = page.evaluate(f"window.uhri.worldToScreen({(a[0] + b[0]) / 2}, "
+                                f"{(a[1] + b[1]) / 2})")
+            x, y = (round(v) for v in mid)
+            hits += bool(white[y - 1:y + 2, x - 1:x + 2].any())
+        assert hits >= 0.8 * len(fig["bones"]), f"{hits} of {len(fig['bones'])} bones seen"
 
-            # 3-D: a mesh per tool and load (the bag as its site), flange and bag sites,
-            # the figure instead of the primitive diver
-            v3 = page.evaluate("""() => { const v = window.uhri.view3d;
-                return {keys: Object.keys(v.teamObjs).sort(),
-                        figures: Object.keys(v.figureObjs),
-                        body: v.agentObjs.diver1.body.map((m) => m.visible)}; }""")
-            want = sorted([f"o:{o['name']}" for o in team["objects"] if o["kind"] != "lift_bag"]
-                          + [f"s:{s['name']}" for s in team["sites"]
-                             if s["kind"] in ("flange", "hatch", "lift_bag")])
-            assert v3["keys"] == want
-            assert v3["figures"] == ["diver1"] and not any(v3["body"])
-            assert bp.errors() == []
+        # 3-D: a mesh per tool and load (the bag as its site), flange and bag sites,
+        # the figure instead of the primitive diver
+        v3 = page.evaluate("""() => { const v = window.uhri.view3d;
+            return {keys: Object.keys(v.teamObjs).sort(),
+                    figures: Object.keys(v.figureObjs),
+                    body: v.agentObjs.diver1.body.map((m) => m.visible)}; }""")
+        want = sorted([f"o:{o['name']}" for o in team["objects"] if o["kind"] != "lift_bag"]
+                      + [f"s:{s['name']}" for s in team["sites"]
+                         if s["kind"] in ("flange", "hatch", "lift_bag")])
+        assert v3["keys"] == want
+        assert v3["figures"] == ["diver1"] and not any(v3["body"])
+        page.goto("about:blank")  # leave before the server goes (no reconnect attempts)
+        assert bp.errors() == []
     finally:
         server.close()
 
 
-def test_replay_shows_the_recorded_progress_and_pose(run):
+def test_replay_shows_the_recorded_progress_and_pose(run, browser):
     out, _ = run
     metrics = json.loads((out / "metrics.json").read_text())["team"]["divers"]["diver1"]
     server = serve_replay(out / "recording.mcap", port=0)
     try:
-        with headless_page() as bp:
-            page = bp.page
-            page.goto(server.url)
-            page.wait_for_function("window.uhri.replay && window.uhri.framesReceived > 0",
-                                   timeout=20_000)
-            t_end = page.evaluate("window.uhri.replay.t_end")
-            page.evaluate(f"""() => {{ const s = document.getElementById('slider');
-                s.value = {t_end}; s.dispatchEvent(new Event('input')); }}""")
-            page.wait_for_function(f"window.uhri.frame.t >= {t_end} - 1e-6 && window.uhri.team",
-                                   timeout=20_000)
-            page.wait_for_timeout(200)
-            text = page.locator("#team").inner_text()
-            assert f"diver1: {metrics['orders_done']}/{metrics['orders']} orders done" in text
-            assert "last: pick up wrench1 (done)" in text
-            drawn = page.evaluate("window.uhri.teamDrawn")
-            assert drawn["figures"]["diver1"] >= 27
-            assert bp.errors() == []
+        bp, page = browser, browser.page
+        page.goto(server.url)
+        page.wait_for_function("window.uhri.replay && window.uhri.framesReceived > 0",
+                               timeout=20_000)
+        t_end = page.evaluate("window.uhri.replay.t_end")
+        page.evaluate(f"""() => {{ const s = document.getElementById('slider');
+            s.value = {t_end}; s.dispatchEvent(new Event('input')); }}""")
+        page.wait_for_function(f"window.uhri.frame.t >= {t_end} - 1e-6 && window.uhri.team",
+                               timeout=20_000)
+        page.wait_for_timeout(200)
+        text = page.locator("#team").inner_text()
+        assert f"diver1: {metrics['orders_done']}/{metrics['orders']} orders done" in text
+        assert "last: pick up wrench1 (done)" in text
+        drawn = page.evaluate("window.uhri.teamDrawn")
+        assert drawn["figures"]["diver1"] >= 27
+        page.goto("about:blank")
+        assert bp.errors() == []
     finally:
         server.close()

@@ -874,15 +874,18 @@ function drawCamera() {
 }
 
 // ---------- plots
-// "Nice" tick values (1, 2, 5 × 10^k apart) covering [lo, hi], about `count` of them, and
-// their labels with just enough decimals that no two read the same.
+// "Nice" tick values (1, 2, 5 × 10^k apart) covering [lo, hi], about `count` of them and
+// at least two, with labels of just enough decimals that no two read the same.
 function niceTicks(lo, hi, count) {
-  const step = niceStep((hi - lo) / Math.max(count, 1));
-  const digits = Math.max(0, -Math.floor(Math.log10(step) + 1e-9));
-  const ticks = [];
-  for (let k = Math.ceil(lo / step - 1e-9); k * step <= hi + step * 1e-9; k++) {
-    const value = k * step;
-    ticks.push({ value, text: value.toFixed(digits) });
+  let ticks = [];
+  for (let want = Math.max(count, 1); ticks.length < 2 && want < 1000; want *= 2) {
+    const step = niceStep((hi - lo) / want);
+    const digits = Math.max(0, -Math.floor(Math.log10(step) + 1e-9));
+    ticks = [];
+    for (let k = Math.ceil(lo / step - 1e-9); k * step <= hi + step * 1e-9; k++) {
+      const value = k * step;
+      ticks.push({ value, text: value.toFixed(digits) });
+    }
   }
   return ticks;
 }
