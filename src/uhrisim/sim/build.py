@@ -34,7 +34,7 @@ from uhrisim.sim.state import Agent, CameraSlot, ScheduledEvent, SonarSlot
 from uhrisim.vehicles import MODELS, Plant, VehicleModel
 from uhrisim.world.assets import diver_parts, videoray_mesh
 from uhrisim.world.diver_figure import diver_figure
-from uhrisim.world.materials import NEOPRENE, ROV_PLASTIC
+from uhrisim.world.materials import DIVER_PART_MATERIALS, NEOPRENE, ROV_PLASTIC
 from uhrisim.world.scene import Scene
 
 
@@ -146,7 +146,9 @@ def _add_body(sim: BuildContext, cfg: AgentConfig, model: VehicleModel, plant: P
     if cfg.scene_body == "figure":  # the articulated diver, posed by the teamwork stage
         skeleton = (model.diver.skeleton(cfg, plant) if model.diver is not None
                     else DiverSkeleton())
-        sim.scene.add_dynamic(cfg.name, diver_figure(skeleton), cfg.label or "diver",
+        sim.scene.add_dynamic(cfg.name, diver_figure(skeleton, part_materials=(
+                                  None if material else DIVER_PART_MATERIALS)),
+                              cfg.label or "diver",
                               material or NEOPRENE, position, rotation)
     elif cfg.scene_body == "diver":
         sim.scene.add_dynamic(cfg.name, diver_parts(material or NEOPRENE), cfg.label or "diver",
