@@ -8,6 +8,7 @@ returns the reason a test should skip (None when a browser can run).
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import shutil
 import tempfile
@@ -133,6 +134,74 @@ def mission_screenshot(path: str, sim_seconds: float = 150.0) -> None:
                 raise RuntimeError(f"page reported errors: {bp.errors()}")
     finally:
         sim.close()
+        server.close()
+
+
+def team_screenshot(path: str, sim_seconds: float = 150.0) -> None:
+    """Save a screenshot of the page during the salvage mission (no ray-cast sensors),
+    the map zoomed on the diver: tools, sites, the posed diver, the task panel."""
+    import threading
+    from pathlib import Path
+
+    from uhrisim.app.runner import build_run
+    from uhrisim.scenario.load import load_scenario
+    from uhrisim.viz.viewer import attach_viewer
+
+    scenario = Path(__file__).resolve().parents[2] / "scenarios" / "salvage_team.yaml"
+    sim = build_run(load_scenario(scenario), raycast_sensors=False)
+    server, _ = attach_viewer(sim, port=0, speed=math.inf)
+    run = threading.Thread(target=sim.run, args=(sim_seconds,), daemon=True)
+    try:
+        with headless_page(width=1400, height=860) as bp:
+            bp.page.goto(server.url)
+            bp.page.wait_for_function("window.uhri && window.uhri.scene !== null")
+            run.start()
+            run.join()
+            bp.page.wait_for_function(f"window.uhri.frame && window.uhri.frame.t >= "
+                                      f"{sim_seconds} - 0.5", timeout=60_000)
+            bp.page.evaluate("""() => { const d = Object.values(window.uhri.agents)
+                .find((a) => a.kind === "diver"); const v = window.uhri.view;
+                v.cn = d.north; v.ce = d.east - 1; v.scale = 70; v.userMoved = true;
+                window.uhri.redraw(); }""")
+            bp.page.wait_for_timeout(1500)
+            bp.page.screenshot(path=path)
+            if bp.errors():
+                raise RuntimeError(f"page reported errors: {bp.errors()}")
+    finally:
+        sim.close()
+        server.close()
+
+
+def replay_screenshot(path: str, recording: str, t_first: float, t_then: float) -> None:
+    """Save a screenshot of the replay page: played ×5 from ``t_first`` (s) for about
+    20 s, then a seek to ``t_then`` (a gap in the plots), played on a little, paused,
+    the sonar zoomed ×2."""
+    from uhrisim.viz.viewer.replay import serve_replay
+
+    server = serve_replay(recording, port=0)
+    seek = "(t) => { const s = document.getElementById('slider'); s.value = t; " \
+           "s.dispatchEvent(new Event('input')); s.dispatchEvent(new Event('change')); }"
+    try:
+        with headless_page(width=1400, height=860) as bp:
+            page = bp.page
+            page.goto(server.url)
+            page.wait_for_function("window.uhri.replay && window.uhri.framesReceived > 0",
+                                   timeout=300_000)
+            page.evaluate(seek, t_first)
+            page.select_option("#speed", "5")
+            page.wait_for_timeout(4000)
+            page.evaluate(seek, t_then)
+            page.wait_for_timeout(2000)
+            page.click("#btn-pause")
+            box = page.locator("#sonar").bounding_box()
+            page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+            page.mouse.wheel(0, -462)  # × 2
+            page.keyboard.press("f")
+            page.wait_for_timeout(1000)
+            page.screenshot(path=path)
+            if bp.errors():
+                raise RuntimeError(f"page reported errors: {bp.errors()}")
+    finally:
         server.close()
 
 

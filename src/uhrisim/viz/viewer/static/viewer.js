@@ -160,7 +160,10 @@ function onFrame(f) {
     fitView();
   }
   state.team = f.team || null;
-  if (state.team) updateTeamPanel(state.team);
+  const tm = state.team;
+  if (tm && (Object.keys(tm.progress || {}).length || (tm.sites || []).length || (tm.log || []).length)) {
+    updateTeamPanel(tm);
+  }
   pushPlots(f, f.jump || state.seeking);
   state.seeking = false;
   updateBar(f);
@@ -654,7 +657,8 @@ function drawTeam(ctx, team, queued) {
       ctx.arc(x, y, 8, 0, 2 * Math.PI);
       ctx.stroke();
     }
-    if (!held) queued.push({ text: o.name, ax: x, ay: y, gap: 6, color: teamColor(o.kind) });
+    const isSite = (team.sites || []).some((site) => site.name === o.name);
+    if (!held && !isSite) queued.push({ text: o.name, ax: x, ay: y, gap: 6, color: teamColor(o.kind) });
     out.objects.push({ name: o.name, x, y });
   }
   for (const [name, fig] of Object.entries(team.figures || {})) {
@@ -836,9 +840,10 @@ function drawFanOverlay(ctx, { s, tile, ax, ay, dh }) {
       ctx.fillText(`${r.toFixed(digits)} m`, ax + rp * Math.sin(half) + 3, ay - rp * Math.cos(half));
       out.arcs.push(Number(r.toFixed(digits)));
     }
-    // bearing rays every 5, 10, 15 or 30 degrees, labelled just inside the far edge
-    const bStep = [5, 10, 15, 30].find((b) => s.fov_deg / b <= 8) || 45;
+    // bearing rays every 5, 10, 15, 30 or 45 degrees (at most 8, labels 34 px apart at
+    // least), labelled just inside the far edge
     const far = Math.min(shown * pxPerM, ay - tile.y - 4);
+    const bStep = [5, 10, 15, 30].find((b) => s.fov_deg / b <= 8 && far * b * DEG >= 34) || 45;
     ctx.textAlign = "center";
     for (let b = -Math.floor(s.fov_deg / 2 / bStep) * bStep; b <= s.fov_deg / 2 + 1e-9; b += bStep) {
       const rad = b * DEG;
@@ -961,7 +966,11 @@ function drawPlots() {
     const ty = (v) => (row.invert ? y0 + ((v - vmin) / (vmax - vmin)) * (y1 - y0)
       : y1 - ((v - vmin) / (vmax - vmin)) * (y1 - y0));
     // value ticks: nice numbers, a label each, a faint grid line
-    const ticks = niceTicks(vmin, vmax, Math.max(2, Math.min(5, Math.floor((y1 - y0) / 14))));
+    let ticks = [];
+    for (let n = Math.max(2, Math.min(5, Math.floor((y1 - y0) / 16))); n >= 1; n--) {
+      ticks = niceTicks(vmin, vmax, n); // fewer ticks until their labels are 12 px apart
+      if (ticks.length < 2 || Math.abs(ty(ticks[1].value) - ty(ticks[0].value)) >= 12) break;
+    }
     ctx.textAlign = "right";
     for (const k of ticks) {
       const y = ty(k.value);
