@@ -4,7 +4,7 @@ Frames of the stand-in trailing mission (``uhrisim.viz.viewer.demo``: the ROV 2 
 the diver, the trail point on top of it) are published one by one; the page reports
 what it drew (``window.uhri.labelBoxes``, ``plotLayout``, ``sonarView``). Checks:
 
-* no two label boxes intersect, none covers a vehicle, although the diver, the ROV and
+* no two label boxes intersect, none covers a vehicle or leaves the map, although the diver, the ROV and
   the trail point are within a few pixels of one another at the fitted scale;
 * every plot has value ticks at nice numbers (1, 2 or 5 × 10^k apart), strictly
   monotonic on screen, with distinct labels; the time axis has ticks in seconds;
@@ -80,7 +80,8 @@ def test_labels_ticks_gaps_and_sonar_zoom():
             page.wait_for_timeout(300)
             st = page.evaluate("""() => ({boxes: window.uhri.labelBoxes,
                 plots: window.uhri.plotLayout, sonar: window.uhri.sonarView,
-                scale: window.uhri.view.scale,
+                size: [document.getElementById("map").clientWidth,
+                       document.getElementById("map").clientHeight],
                 agents: Object.values(window.uhri.agents).map(
                     (a) => window.uhri.worldToScreen(a.north, a.east))})""")
 
@@ -91,7 +92,10 @@ def test_labels_ticks_gaps_and_sonar_zoom():
             (x1, y1), (x2, y2) = st["agents"]
             assert np.hypot(x1 - x2, y1 - y2) < 40, "the test wants the vehicles crowded"
             boxes = st["boxes"]
+            width, height = st["size"]
             for i, a in enumerate(boxes):
+                assert 0 <= a["x"] and a["x"] + a["w"] <= width, a  # on the map
+                assert 0 <= a["y"] and a["y"] + a["h"] <= height, a
                 for b in boxes[i + 1:]:
                     assert not _boxes_intersect(a, b), (a, b)
                 for x, y in st["agents"]:  # no label on a vehicle's centre

@@ -574,7 +574,7 @@ function drawMap() {
     return { text: `${a.name}  d=${fmt(a.depth, 1)} m${mode}`, ax: x, ay: y,
       gap: size(a) / 2 + 3, color: state.colors[a.name] || "#fff" };
   });
-  state.labelBoxes = placeLabels(ctx, [...labels, ...queued], obstacles);
+  state.labelBoxes = placeLabels(ctx, [...labels, ...queued], obstacles, { w, h });
   for (const a of agents) {
     const [x, y] = worldToScreen(a.north, a.east);
     const kind = SHAPES[a.kind] ? a.kind : "vehicle";
@@ -674,9 +674,9 @@ const overlaps = (a, b) => a.x < b.x + b.w && b.x < a.x + a.w && a.y < b.y + b.h
 
 // Place labels {text, ax, ay (anchor, px), gap (px from the anchor), color} in order:
 // each takes the first of eight spots around its anchor, at growing distance, whose box
-// meets no box taken before and no obstacle; returns the boxes {text, x, y, w, h, ax, ay}
-// (y: top) after drawing them.
-function placeLabels(ctx, items, obstacles) {
+// meets no box taken before and no obstacle and lies inside `bounds` {w, h}; returns the
+// boxes {text, x, y, w, h, ax, ay} (y: top) after drawing them.
+function placeLabels(ctx, items, obstacles, bounds) {
   ctx.font = "12px system-ui, 'DejaVu Sans', sans-serif";
   const taken = [];
   const boxes = [];
@@ -689,7 +689,8 @@ function placeLabels(ctx, items, obstacles) {
         [-w / 2, -h - g], [-w / 2, g], [-w - g, g * 0.3], [-w - g, -h - g * 0.3]];
       for (const [dx, dy] of spots) {
         const box = { x: l.ax + dx, y: l.ay + dy, w, h };
-        if (!taken.some((b) => overlaps(box, b)) && !obstacles.some((b) => overlaps(box, b))) {
+        const inside = box.x >= 0 && box.y >= 0 && box.x + w <= bounds.w && box.y + h <= bounds.h;
+        if (inside && !taken.some((b) => overlaps(box, b)) && !obstacles.some((b) => overlaps(box, b))) {
           best = box;
           break;
         }
