@@ -574,6 +574,9 @@ function drawMap() {
     return { text: `${a.name}  d=${fmt(a.depth, 1)} m${mode}`, ax: x, ay: y,
       gap: size(a) / 2 + 3, color: state.colors[a.name] || "#fff" };
   });
+  for (const o of (state.teamDrawn && state.teamDrawn.objects) || []) {
+    obstacles.push({ x: o.x - 8, y: o.y - 8, w: 16, h: 16 }); // a tool's diamond and ring
+  }
   state.labelBoxes = placeLabels(ctx, [...labels, ...queued], obstacles, { w, h });
   for (const a of agents) {
     const [x, y] = worldToScreen(a.north, a.east);
