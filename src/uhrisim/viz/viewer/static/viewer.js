@@ -661,7 +661,7 @@ function drawTeam(ctx, team, queued) {
       ctx.stroke();
     }
     const isSite = (team.sites || []).some((site) => site.name === o.name);
-    if (!held && !isSite) queued.push({ text: o.name, ax: x, ay: y, gap: 6, color: teamColor(o.kind) });
+    if (!held && !isSite) queued.push({ text: o.name, ax: x, ay: y, gap: 9, color: teamColor(o.kind) });
     out.objects.push({ name: o.name, x, y });
   }
   for (const [name, fig] of Object.entries(team.figures || {})) {
