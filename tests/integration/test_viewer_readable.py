@@ -4,8 +4,9 @@ Frames of the stand-in trailing mission (``uhrisim.viz.viewer.demo``: the ROV 2 
 the diver, the trail point on top of it) are published one by one; the page reports
 what it drew (``window.uhri.labelBoxes``, ``plotLayout``, ``sonarView``). Checks:
 
-* no two label boxes intersect, none covers a vehicle or leaves the map, although the diver, the ROV and
-  the trail point are within a few pixels of one another at the fitted scale;
+* no two label boxes intersect, none covers a vehicle or leaves the map, although the
+  diver, the ROV and the trail point are within a few pixels of one another at the
+  fitted scale;
 * every plot has value ticks at nice numbers (1, 2 or 5 × 10^k apart), strictly
   monotonic on screen, with distinct labels; the time axis has ticks in seconds;
 * a replay-style jump in time (``frame["jump"]``) leaves a gap: the range series is
@@ -94,8 +95,8 @@ def test_labels_ticks_gaps_and_sonar_zoom():
             boxes = st["boxes"]
             width, height = st["size"]
             for i, a in enumerate(boxes):
-                assert 0 <= a["x"] and a["x"] + a["w"] <= width, a  # on the map
-                assert 0 <= a["y"] and a["y"] + a["h"] <= height, a
+                assert a["x"] >= 0 and a["x"] + a["w"] <= width, a  # on the map
+                assert a["y"] >= 0 and a["y"] + a["h"] <= height, a
                 for b in boxes[i + 1:]:
                     assert not _boxes_intersect(a, b), (a, b)
                 for x, y in st["agents"]:  # no label on a vehicle's centre
