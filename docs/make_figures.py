@@ -12,7 +12,10 @@ What it runs (outputs in ``out/docs/``) and what it replaces:
 * ``uhrisim figure camera`` -> ``docs/img/camera_grid.jpg``;
 * ``uhrisim sweep`` of the example file (18 runs) -> ``docs/img/sweep_summary.png``;
 * ``uhrisim dataset ... --frames 16`` -> ``docs/img/dataset_preview.png``;
-* the viewer during the mission (``tests/support/browser.py``) -> ``docs/img/viewer.png``.
+* the viewer (``tests/support/browser.py``) during the mission -> ``docs/img/viewer.png``;
+  replaying the demo's recording (played, then a seek: the plots' gap; the sonar zoomed)
+  -> ``docs/img/viewer_replay.png``; during the salvage mission (tools, sites, the posed
+  diver, the task panel) -> ``docs/img/viewer_team.png``.
 
 ``--reuse`` keeps what an earlier run left in ``out/docs/`` (a step whose outputs exist is
 not run again). Benchmarks are not rerun here: their figures in the README are measured
@@ -100,7 +103,7 @@ def main(argv: list[str] | None = None) -> None:
     data = step(work / "dataset", reuse, "dataset", "scenarios/batch/dataset_sonar_objects.yaml",
                 "--out", work / "dataset", "--frames", "16")
     shutil.copy2(data / "preview.png", IMG / "dataset_preview.png")
-    _viewer_screenshot(IMG / "viewer.png")
+    _viewer_screenshots(demo / "recording.mcap")
 
 
 def _to_jpeg(source: Path, target: Path, width: int) -> None:
@@ -112,15 +115,22 @@ def _to_jpeg(source: Path, target: Path, width: int) -> None:
     cv2.imwrite(str(target), image, [cv2.IMWRITE_JPEG_QUALITY, 88])
 
 
-def _viewer_screenshot(target: Path) -> None:
+def _viewer_screenshots(demo_recording: Path) -> None:
     sys.path.insert(0, str(ROOT))
-    from tests.support.browser import chromium_unavailable, mission_screenshot
+    from tests.support.browser import (
+        chromium_unavailable,
+        mission_screenshot,
+        replay_screenshot,
+        team_screenshot,
+    )
 
     why = chromium_unavailable()
     if why is not None:
-        print(f"viewer screenshot skipped: {why}")
+        print(f"viewer screenshots skipped: {why}")
         return
-    mission_screenshot(str(target))
+    mission_screenshot(str(IMG / "viewer.png"))
+    replay_screenshot(str(IMG / "viewer_replay.png"), str(demo_recording), 240.0, 300.0)
+    team_screenshot(str(IMG / "viewer_team.png"))
 
 
 if __name__ == "__main__":

@@ -8,6 +8,7 @@ returns the reason a test should skip (None when a browser can run).
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import shutil
 import tempfile
@@ -105,21 +106,15 @@ def headless_page(
         shutil.rmtree(profile, ignore_errors=True)
 
 
-def mission_screenshot(path: str, sim_seconds: float = 150.0) -> None:
-    """Save a screenshot of the page during the real track-and-trail mission.
-
-    ``python tests/support/browser.py docs/img/viewer.png`` regenerates the README image.
-    """
+def _live_screenshot(path: str, sim: Any, sim_seconds: float, speed: float,
+                     arrange: str | None = None) -> None:
+    """Run ``sim`` for ``sim_seconds`` at ``speed`` × real time in the viewer, then save a
+    screenshot of the page (after the JS ``arrange`` function, given the page state)."""
     import threading
-    from pathlib import Path
 
-    from uhrisim.scenario.load import load_scenario
-    from uhrisim.sim.simulation import Simulation
     from uhrisim.viz.viewer import attach_viewer
 
-    scenario = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
-    sim = Simulation(load_scenario(scenario))
-    server, _ = attach_viewer(sim, port=0, speed=20.0)
+    server, _ = attach_viewer(sim, port=0, speed=speed)
     run = threading.Thread(target=sim.run, args=(sim_seconds,), daemon=True)
     try:
         with headless_page(width=1400, height=860) as bp:
@@ -127,12 +122,80 @@ def mission_screenshot(path: str, sim_seconds: float = 150.0) -> None:
             bp.page.wait_for_function("window.uhri && window.uhri.scene !== null")
             run.start()
             run.join()
+            bp.page.wait_for_function(f"window.uhri.frame && window.uhri.frame.t >= "
+                                      f"{sim_seconds} - 0.5", timeout=60_000)
+            if arrange is not None:
+                bp.page.evaluate(arrange)
             bp.page.wait_for_timeout(2500)
             bp.page.screenshot(path=path)
             if bp.errors():
                 raise RuntimeError(f"page reported errors: {bp.errors()}")
     finally:
         sim.close()
+        server.close()
+
+
+def mission_screenshot(path: str, sim_seconds: float = 150.0) -> None:
+    """Save a screenshot of the page during the real track-and-trail mission.
+
+    ``python tests/support/browser.py docs/img/viewer.png`` regenerates the README image.
+    """
+    from pathlib import Path
+
+    from uhrisim.scenario.load import load_scenario
+    from uhrisim.sim.simulation import Simulation
+
+    scenario = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
+    _live_screenshot(path, Simulation(load_scenario(scenario)), sim_seconds, 20.0)
+
+
+def team_screenshot(path: str, sim_seconds: float = 150.0) -> None:
+    """Save a screenshot of the page during the salvage mission (no ray-cast sensors),
+    the map zoomed on the diver: tools, sites, the posed diver, the task panel."""
+    from pathlib import Path
+
+    from uhrisim.app.runner import build_run
+    from uhrisim.scenario.load import load_scenario
+
+    scenario = Path(__file__).resolve().parents[2] / "scenarios" / "salvage_team.yaml"
+    sim = build_run(load_scenario(scenario), raycast_sensors=False)
+    _live_screenshot(path, sim, sim_seconds, math.inf, """() => {
+        const d = Object.values(window.uhri.agents).find((a) => a.kind === "diver");
+        const v = window.uhri.view;
+        v.cn = d.north; v.ce = d.east - 1; v.scale = 70; v.userMoved = true;
+        window.uhri.redraw(); }""")
+
+
+def replay_screenshot(path: str, recording: str, t_first: float, t_then: float) -> None:
+    """Save a screenshot of the replay page: played ×5 from ``t_first`` (s) for about
+    20 s, then a seek to ``t_then`` (a gap in the plots), played on a little, paused,
+    the sonar zoomed ×2."""
+    from uhrisim.viz.viewer.replay import serve_replay
+
+    server = serve_replay(recording, port=0)
+    seek = "(t) => { const s = document.getElementById('slider'); s.value = t; " \
+           "s.dispatchEvent(new Event('input')); s.dispatchEvent(new Event('change')); }"
+    try:
+        with headless_page(width=1400, height=860) as bp:
+            page = bp.page
+            page.goto(server.url)
+            page.wait_for_function("window.uhri.replay && window.uhri.framesReceived > 0",
+                                   timeout=300_000)
+            page.evaluate(seek, t_first)
+            page.select_option("#speed", "5")
+            page.wait_for_timeout(4000)
+            page.evaluate(seek, t_then)
+            page.wait_for_timeout(2000)
+            page.click("#btn-pause")
+            box = page.locator("#sonar").bounding_box()
+            page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+            page.mouse.wheel(0, -462)  # × 2
+            page.keyboard.press("f")
+            page.wait_for_timeout(1000)
+            page.screenshot(path=path)
+            if bp.errors():
+                raise RuntimeError(f"page reported errors: {bp.errors()}")
+    finally:
         server.close()
 
 

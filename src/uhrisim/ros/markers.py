@@ -62,6 +62,7 @@ MARKER_HEIGHT_M = 0.1  # thickness of the flat detection and track markers
 # Marker colours by material name (r, g, b, a); others get the default.
 _MATERIAL_RGBA = {
     "sand": (0.76, 0.70, 0.50, 1.0),
+    "sand_rippled": (0.76, 0.70, 0.50, 1.0),
     "mud": (0.45, 0.38, 0.30, 1.0),
     "rock": (0.50, 0.50, 0.50, 1.0),
     "concrete": (0.70, 0.70, 0.68, 1.0),

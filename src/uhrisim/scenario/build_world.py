@@ -24,7 +24,7 @@ from uhrisim.scenario.schema import (
 )
 from uhrisim.world import meshes, seafloor
 from uhrisim.world import primitives as prim
-from uhrisim.world.materials import DEFAULT_MATERIALS, SAND, Material
+from uhrisim.world.materials import DEFAULT_MATERIALS, SAND_RIPPLED, Material
 from uhrisim.world.scene import Scene
 
 
@@ -61,9 +61,10 @@ def object_mesh(obj: SceneObject, source: ScenarioFile, where: str, posed: bool 
     raise ConfigError(f"unsupported object type {type(obj).__name__}", where=where)
 
 
-def build_static_scene(source: ScenarioFile, floor_material: Material = SAND) -> Scene:
-    """Scene with the scenario's sea floor (of ``floor_material``) and objects (dynamic
-    bodies are added later)."""
+def build_static_scene(source: ScenarioFile, floor_material: Material = SAND_RIPPLED
+                       ) -> Scene:
+    """Scene with the scenario's sea floor (of ``floor_material``: rippled sand unless
+    told) and objects (dynamic bodies are added later)."""
     world = source.scenario.world
     scene = Scene()
     try:

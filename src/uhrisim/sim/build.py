@@ -34,7 +34,7 @@ from uhrisim.sim.state import Agent, CameraSlot, ScheduledEvent, SonarSlot
 from uhrisim.vehicles import MODELS, Plant, VehicleModel
 from uhrisim.world.assets import diver_parts, videoray_mesh
 from uhrisim.world.diver_figure import diver_figure
-from uhrisim.world.materials import NEOPRENE, ROV_PLASTIC
+from uhrisim.world.materials import DIVER_PART_MATERIALS, DRY_SUIT, NEOPRENE, ROV_PLASTIC
 from uhrisim.world.scene import Scene
 
 
@@ -146,11 +146,15 @@ def _add_body(sim: BuildContext, cfg: AgentConfig, model: VehicleModel, plant: P
     if cfg.scene_body == "figure":  # the articulated diver, posed by the teamwork stage
         skeleton = (model.diver.skeleton(cfg, plant) if model.diver is not None
                     else DiverSkeleton())
-        sim.scene.add_dynamic(cfg.name, diver_figure(skeleton), cfg.label or "diver",
+        sim.scene.add_dynamic(cfg.name, diver_figure(skeleton, part_materials=(
+                                  None if material else DIVER_PART_MATERIALS)),
+                              cfg.label or "diver",
                               material or NEOPRENE, position, rotation)
-    elif cfg.scene_body == "diver":
-        sim.scene.add_dynamic(cfg.name, diver_parts(material or NEOPRENE), cfg.label or "diver",
-                              material or NEOPRENE, position, rotation, 0.0)
+    elif cfg.scene_body == "diver":  # dressed as the figure unless given a material
+        parts = (diver_parts(material) if material else
+                 diver_parts(DRY_SUIT, DIVER_PART_MATERIALS["tank"], DIVER_PART_MATERIALS["fins"]))
+        sim.scene.add_dynamic(cfg.name, parts, cfg.label or "diver",
+                              material or DRY_SUIT, position, rotation, 0.0)
     else:
         sim.scene.add_dynamic(cfg.name, videoray_mesh(), cfg.label or "rov",
                               material or ROV_PLASTIC, position, rotation)

@@ -12,7 +12,7 @@ ROV's lamps on and off (docs/camera.md).
   diver's pixels of |L − L_b| / (L + L_b) (green channel; the dark suit and the bright
   tank both count).
 
-The scene: sand 8 m down, a pier beam behind the diver, the camera 5 m deep looking
+The scene: rippled sand 8 m down, a pier beam behind the diver, the camera 5 m deep looking
 north and slightly down; the diver at the camera's depth, side-on, 1.5 m (near) or
 5 m (far) away. The camera exposes automatically (as the ROV's does) with the lamps on,
 and the lamps-off panel beside it keeps that exposure (:func:`render_pair`), so the two
@@ -35,7 +35,7 @@ from uhrisim.core.rng import component_rng
 from uhrisim.sensors.camera import CameraConfig, UnderwaterCamera, jerlov
 from uhrisim.viz.figures import save_figure, subplots
 from uhrisim.world import primitives as prim
-from uhrisim.world.materials import CONCRETE, SAND
+from uhrisim.world.materials import CONCRETE, SAND_RIPPLED
 from uhrisim.world.paper_scenes import add_diver
 from uhrisim.world.scene import Scene
 
@@ -46,10 +46,10 @@ SEED = 19
 
 
 def diver_scene(distance: float) -> Scene:
-    """Sand 8 m down, a pier beam behind, the diver side-on at the camera's depth,
+    """Rippled sand 8 m down, a pier beam behind, the diver side-on at the camera's depth,
     ``distance`` metres ahead (the module docstring)."""
     scene = Scene()
-    scene.add_static(prim.box((60.0, 60.0, 1.0), (20.0, 0.0, 8.5)), "seafloor", SAND)
+    scene.add_static(prim.box((60.0, 60.0, 1.0), (20.0, 0.0, 8.5)), "seafloor", SAND_RIPPLED)
     scene.add_static(prim.box((0.4, 0.4, 9.0), (distance + 3.0, 1.2, 4.0)), "piling", CONCRETE)
     # side-on (heading east), centred on the optical axis
     add_diver(scene, "diver", (distance, -0.55, CAMERA_DEPTH), 90.0, kick_phase=0.6)

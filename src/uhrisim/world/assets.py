@@ -100,7 +100,8 @@ def ellipsoid(semi_axes: tuple[float, float, float],
 
 
 def diver_parts(
-    material: Material = NEOPRENE, tank_material: Material = ALUMINIUM
+    material: Material = NEOPRENE, tank_material: Material = ALUMINIUM,
+    fin_material: Material | None = None,
 ) -> ArticulatedMesh:
     """The diver as rigid parts with flutter-kick joints (pass to ``Scene.add_dynamic``).
 
@@ -108,7 +109,8 @@ def diver_parts(
     back (and the scuba tank) at −z (up), prone. Parts: ``core`` (torso, head, arms),
     ``tank`` (``tank_material``), ``left_leg``/``right_leg`` (thigh+shin, hinged at the
     hips about body y) and ``left_fin``/``right_fin`` (hinged at the ankles, carried by
-    the legs). Legs kick in opposite phase. About 2,000 triangles.
+    the legs; ``fin_material``, None: the body's). Legs kick in opposite phase. About
+    2,000 triangles.
     """
     core = trimesh.util.concatenate(
         [
@@ -134,7 +136,7 @@ def diver_parts(
         )
         fin = prim.box((_FIN_LEN, 0.22, 0.02), (_ANKLE_X - 0.5 * _FIN_LEN + 0.05, y, 0.0))
         parts.append(Part(f"{side}_leg", leg, (hip,)))
-        parts.append(Part(f"{side}_fin", fin, (hip, ankle)))
+        parts.append(Part(f"{side}_fin", fin, (hip, ankle), material=fin_material))
     return ArticulatedMesh(tuple(parts))
 
 

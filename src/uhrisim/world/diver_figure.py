@@ -34,6 +34,7 @@ sphere (Kirby Morgan SuperLite class); the boots 0.32 × 0.13 × 0.12 m.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 import trimesh
@@ -131,22 +132,29 @@ def _part_label(skeleton: DiverSkeleton, link: str) -> str | None:
     return LINK_LABELS[link]
 
 
-def diver_figure(skeleton: DiverSkeleton, tank_material: Material = ALUMINIUM
+def diver_figure(skeleton: DiverSkeleton, tank_material: Material = ALUMINIUM,
+                 part_materials: Mapping[str | None, Material] | None = None
                  ) -> ArticulatedMesh:
     """The articulated diver's parts, one per link of ``skeleton`` (module docstring).
 
     Parts follow ``skeleton.links`` order; each carries its joint chain (rest pivots and
     axes, zero amplitude: the figure is posed by :func:`figure_transforms`, not by a kick
-    phase), its label and, for the cylinder, ``tank_material``.
+    phase), its label and its material: with ``part_materials`` (e.g.
+    ``uhrisim.world.materials.DIVER_PART_MATERIALS``) the one of its label (None: the
+    body's parts; ``"helmet"``: the commercial diver's head), else ``tank_material`` for
+    the cylinder and the body's material for the rest.
     """
     meshes = _link_meshes(skeleton)
     parts = []
     for link, joint in skeleton.links.items():
         chain = tuple(Joint(skeleton.joints[i].pivot, skeleton.joints[i].axis, 0.0)
                       for i in skeleton.chain(joint))
-        parts.append(Part(link, meshes[link], chain,
-                          material=tank_material if link == "tank" else None,
-                          label=_part_label(skeleton, link)))
+        label = _part_label(skeleton, link)
+        material = tank_material if link == "tank" else None
+        if part_materials is not None:
+            key = "helmet" if skeleton.kind == "boots" and link == "head" else label
+            material = part_materials.get(key, material)
+        parts.append(Part(link, meshes[link], chain, material=material, label=label))
     return ArticulatedMesh(tuple(parts))
 
 

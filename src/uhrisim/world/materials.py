@@ -18,6 +18,13 @@ them in scenarios and calibrate against real data where it matters.
 A material may also carry a :class:`PlanarTexture`: a picture printed on one plane of the
 object (a diver's slate with a fiducial marker), whose albedo the camera looks up where a
 ray hits that plane; everywhere else on the object the material's ``albedo_rgb`` holds.
+Or a :class:`RippleTexture`: sand ripples, an albedo that varies across the ripples'
+crests (lit flanks and crests pale, troughs darker) with a mottle of finer grain.
+
+The articulated diver wears a part material each (:data:`DIVER_PART_MATERIALS`): a dark
+dry suit, a yellow-painted cylinder, bright fins, gloves, a hood and mask; the commercial
+diver's helmet is yellow and his boots black rubber. Each keeps the reflectivity its part
+had (neoprene, the cylinder aluminium), so the sonar sees the diver as before.
 """
 
 from __future__ import annotations
@@ -96,6 +103,56 @@ class PlanarTexture:
         return self.image[np.minimum(row, rows - 1), np.minimum(col, cols - 1)], on
 
 
+@dataclass(frozen=True, eq=False)
+class RippleTexture:
+    """Sand ripples as an albedo pattern on a static surface (camera only; world NED, m).
+
+    Along ``direction_deg`` (compass, across the crests) the albedo is multiplied by
+    ``1 + contrast·r(s)`` with ``s`` the distance along it over ``wavelength_m`` and ``r``
+    an asymmetric ripple profile in [-1, 1] (a sine and its second harmonic: steep lee
+    sides, long stoss sides, as wave-formed ripples of 5–20 cm wavelength are), the
+    crests bending gently (``meander_m`` amplitude over 4 wavelengths) and a fine mottle
+    of ``grain`` relative amplitude. Deterministic; every point is "on" the texture.
+    """
+
+    wavelength_m: float = 0.12
+    direction_deg: float = 30.0
+    contrast: float = 0.25
+    meander_m: float = 0.02
+    grain: float = 0.06
+
+    def __post_init__(self) -> None:
+        for name in ("wavelength_m", "contrast", "meander_m", "grain"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0.0):
+                raise ConfigError(f"{name} must be a finite number >= 0, got {v!r}",
+                                  "RippleTexture")
+        if self.wavelength_m <= 0.0 or self.contrast + self.grain >= 1.0:
+            raise ConfigError("wavelength_m must be > 0 and contrast + grain < 1",
+                              "RippleTexture")
+
+    def factor(self, points: ArrayLike) -> NDArray[np.float32]:
+        """(N,) albedo factor at (N, 3) points (NED, m); its mean over a ripple is 1."""
+        p = np.asarray(points, dtype=float).reshape(-1, 3)
+        a = math.radians(self.direction_deg)
+        across = p[:, 0] * math.cos(a) + p[:, 1] * math.sin(a)
+        along = -p[:, 0] * math.sin(a) + p[:, 1] * math.cos(a)
+        k = 2.0 * math.pi / self.wavelength_m
+        s = across + self.meander_m * np.sin(k * along / 4.0)
+        profile = (np.sin(k * s) + 0.35 * np.sin(2.0 * k * s)) / 1.2
+        grain = np.sin(37.0 * p[:, 0] + 11.0 * np.sin(23.0 * p[:, 1])) * np.cos(
+            41.0 * p[:, 1] + 7.0 * np.sin(29.0 * p[:, 0]))
+        return (1.0 + self.contrast * profile + self.grain * grain).astype(np.float32)
+
+    def albedo_over(self, albedo_rgb: ArrayLike, points: ArrayLike
+                    ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+        """(N, 3) albedo of a surface of ``albedo_rgb`` at (N, 3) points (NED, m), and
+        (N,) True: the ripples cover the whole surface."""
+        f = self.factor(points)
+        albedo = np.clip(np.asarray(albedo_rgb, np.float32)[None, :] * f[:, None], 0.0, 1.0)
+        return albedo, np.ones(len(f), bool)
+
+
 @dataclass(frozen=True)
 class Material:
     """A surface's acoustic and optical properties.
@@ -104,13 +161,14 @@ class Material:
         name: human-readable name (e.g. ``"sand"``).
         reflectivity: Lambert scattering coefficient μ, linear, in [0, 1] (sonar).
         albedo_rgb: diffuse reflectance per camera channel (R, G, B), linear, in [0, 1].
-        texture: a picture on one plane of the object (None: one albedo all over).
+        texture: a picture on one plane of the object, or sand ripples (None: one albedo
+            all over).
     """
 
     name: str
     reflectivity: float
     albedo_rgb: tuple[float, float, float] = (0.5, 0.5, 0.5)
-    texture: PlanarTexture | None = None
+    texture: PlanarTexture | RippleTexture | None = None
 
     def __post_init__(self) -> None:
         r = self.reflectivity
@@ -128,9 +186,22 @@ class Material:
                 where=f"Material({self.name!r}).albedo_rgb",
             )
         object.__setattr__(self, "albedo_rgb", tuple(float(v) for v in albedo))
-        if self.texture is not None and not isinstance(self.texture, PlanarTexture):
-            raise ConfigError(f"must be a PlanarTexture or None, got {self.texture!r}",
-                              where=f"Material({self.name!r}).texture")
+        if self.texture is not None and not isinstance(self.texture,
+                                                       (PlanarTexture, RippleTexture)):
+            raise ConfigError(f"must be a PlanarTexture, a RippleTexture or None, got "
+                              f"{self.texture!r}", where=f"Material({self.name!r}).texture")
+
+    def albedo_at(self, points: ArrayLike) -> NDArray[np.float32]:
+        """(N, 3) albedo at (N, 3) points in the object's frame (static: NED, m): the
+        texture's where it has one, ``albedo_rgb`` elsewhere."""
+        p = np.asarray(points, dtype=float).reshape(-1, 3)
+        base = np.broadcast_to(np.asarray(self.albedo_rgb, np.float32), (len(p), 3))
+        if self.texture is None:
+            return base.copy()
+        if isinstance(self.texture, RippleTexture):
+            return self.texture.albedo_over(self.albedo_rgb, p)[0]
+        texel, on = self.texture.albedo_at(p)
+        return np.where(on[:, None], texel, base).astype(np.float32)
 
 
 # Defaults (see module docstring: chosen for plausible contrast, not measured).
@@ -143,7 +214,28 @@ WOOD = Material("wood", 0.1, (0.35, 0.25, 0.15))
 NEOPRENE = Material("neoprene", 0.05, (0.05, 0.05, 0.06))
 ALUMINIUM = Material("aluminium", 0.6, (0.60, 0.60, 0.62))
 ROV_PLASTIC = Material("rov_plastic", 0.15, (0.70, 0.55, 0.05))
+#: Sand as a scenario's sea floor is drawn: the same sand, rippled (:class:`RippleTexture`).
+SAND_RIPPLED = Material("sand_rippled", SAND.reflectivity, SAND.albedo_rgb, RippleTexture())
+
+# The articulated diver's part materials (module docstring). Reflectivities: neoprene's,
+# the cylinder's aluminium's; albedos plausible for the colours named.
+DRY_SUIT = Material("dry_suit", NEOPRENE.reflectivity, (0.035, 0.04, 0.055))  # black-blue
+HOOD_MASK = Material("hood_mask", NEOPRENE.reflectivity, (0.12, 0.13, 0.15))  # hood, skirt
+GLOVES = Material("gloves", NEOPRENE.reflectivity, (0.55, 0.38, 0.28))  # tan, skin-like
+FIN_BLADES = Material("fin_blades", NEOPRENE.reflectivity, (0.03, 0.20, 0.55))  # blue
+BOOT_RUBBER = Material("boot_rubber", NEOPRENE.reflectivity, (0.02, 0.02, 0.02))
+TANK_PAINT = Material("tank_paint", ALUMINIUM.reflectivity, (0.75, 0.58, 0.04))  # yellow
+HELMET_PAINT = Material("helmet_paint", ALUMINIUM.reflectivity, (0.80, 0.62, 0.05))
+
+#: Material of each part label of the articulated diver (uhrisim.world.diver_figure;
+#: None: the body's own parts, the suit; "helmet": the commercial diver's head).
+DIVER_PART_MATERIALS: dict[str | None, Material] = {
+    None: DRY_SUIT, "arm": DRY_SUIT, "head": HOOD_MASK, "hand": GLOVES, "fins": FIN_BLADES,
+    "boots": BOOT_RUBBER, "tank": TANK_PAINT, "helmet": HELMET_PAINT,
+}
 
 DEFAULT_MATERIALS: dict[str, Material] = {
-    m.name: m for m in (SAND, MUD, ROCK, CONCRETE, STEEL, WOOD, NEOPRENE, ALUMINIUM, ROV_PLASTIC)
+    m.name: m for m in (SAND, MUD, ROCK, CONCRETE, STEEL, WOOD, NEOPRENE, ALUMINIUM, ROV_PLASTIC,
+                        SAND_RIPPLED, DRY_SUIT, HOOD_MASK, GLOVES, FIN_BLADES, BOOT_RUBBER,
+                        TANK_PAINT, HELMET_PAINT)
 }

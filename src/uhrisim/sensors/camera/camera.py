@@ -171,8 +171,8 @@ class UnderwaterCamera:
                   R: NDArray[np.float64], textures: SceneTextures | None
                   ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         """Adaptive sampling (:mod:`.sampling`): ``form`` the coarse grid's rays, then the
-        rays of the cells that are not smooth (a cell with a corner on a textured
-        material never is: its picture varies within a surface); everything else
+        rays of the cells that are not smooth (a cell with a corner on a sharp picture
+        never is: its printed cells vary within a surface); everything else
         interpolated. Returns the (H·W, 3) light and forward-scatter source, (H·W,) range
         and labels."""
         grid, geo = self._grid, self.geometry
@@ -184,7 +184,7 @@ class UnderwaterCamera:
         same = same_object(*(a.reshape(hc, wc) for a in (hits_c.label, hits_c.body,
                                                          hits_c.material)))
         if textures is not None:
-            textured = textures.textured(hits_c.material).reshape(hc, wc)
+            textured = textures.sharp(hits_c.material).reshape(hc, wc)
             same &= ~(textured[:-1, :-1] | textured[:-1, 1:] | textured[1:, :-1]
                       | textured[1:, 1:])
         r_seen = np.where(np.isfinite(range_c), range_c, _F32(0.0))
@@ -240,7 +240,7 @@ class UnderwaterCamera:
         """(N, 3) radiance reaching the camera along ``rays`` without forward scatter —
         direct light and both veils — and (N, 3) the forward-scatter source
         J·(exp(−G·r) − exp(−c·r)): the stages of :mod:`.formation`. Hits on a textured
-        material take their albedo from the picture (:mod:`.textures`)."""
+        material take their albedo from its texture (:mod:`.textures`)."""
         cfg, geo, water = self.config, self.geometry, self.config.water
         paths = rays.paths
         hit = np.flatnonzero(hits.material >= 0)

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from uhrisim.sensors.camera.config import CameraConfig
 from uhrisim.sensors.camera.geometry import lamp_beam_kappa, pixel_directions
-from uhrisim.world.materials import Material
+from uhrisim.world.materials import Material, RippleTexture
 from uhrisim.world.objects import DynamicBody
 from uhrisim.world.raycast import RayHits
 
@@ -30,6 +30,8 @@ def _surface_albedo(material: Material, point_ned: NDArray, body: DynamicBody | 
     texture = material.texture
     if texture is None:
         return np.asarray(material.albedo_rgb)
+    if isinstance(texture, RippleTexture):  # static floors only: the point as it is
+        return np.asarray(texture.albedo_over(material.albedo_rgb, point_ned)[0][0], float)
     p = np.asarray(point_ned, dtype=float)
     if body is not None:
         p = body.rotation.T @ (p - body.position)

@@ -1,11 +1,15 @@
-"""Textures for the camera: the albedo of a hit on a picture printed on an object.
+"""Textures for the camera: the albedo of a hit on a picture printed on an object, or on
+a rippled sand floor.
 
 A :class:`~uhrisim.world.materials.Material` may carry a
-:class:`~uhrisim.world.materials.PlanarTexture` (a diver's slate with a fiducial marker).
-Its picture is given in the object's own frame, so a hit point is taken there first:
-through the posed body's pose (and its one part's transform) for a dynamic body, as it
-is (NED) for a static object. Only materials with a texture cost anything; a scene
-without one never reaches this module.
+:class:`~uhrisim.world.materials.PlanarTexture` (a diver's slate with a fiducial marker)
+or a :class:`~uhrisim.world.materials.RippleTexture` (sand ripples). A texture is given
+in the object's own frame, so a hit point is taken there first: through the posed body's
+pose (and its one part's transform) for a dynamic body, as it is (NED) for a static
+object. Only materials with a texture cost anything; a scene without one never reaches
+this module. A picture is *sharp* (printed cells: the adaptive sampler renders every
+pixel on it exactly); ripples vary smoothly over a coarse cell and are interpolated
+like shading.
 """
 
 from __future__ import annotations
@@ -22,28 +26,35 @@ from uhrisim.world.objects import DynamicBody
 
 @dataclass(frozen=True)
 class SceneTextures:
-    """The textured materials of a scene: (material id, texture) pairs, a (M + 1,) table
-    of which material ids are textured (its last entry, read by id -1, is False) and the
-    scene's bodies (hit body ids index them)."""
+    """The textured materials of a scene: (material id, material) pairs, (M + 1,) tables
+    of which material ids are textured and which have a sharp picture (their last entry,
+    read by id -1, is False) and the scene's bodies (hit body ids index them)."""
 
-    by_material: tuple[tuple[int, PlanarTexture], ...]
+    by_material: tuple[tuple[int, Material], ...]
     is_textured: NDArray[np.bool_]
+    is_sharp: NDArray[np.bool_]
     bodies: tuple[DynamicBody, ...]
 
     @staticmethod
     def of(materials: tuple[Material, ...], bodies: tuple[DynamicBody, ...]
            ) -> SceneTextures | None:
         """The scene's textures, or None when no material has one."""
-        pairs = tuple((i, m.texture) for i, m in enumerate(materials) if m.texture is not None)
+        pairs = tuple((i, m) for i, m in enumerate(materials) if m.texture is not None)
         if not pairs:
             return None
-        table = np.zeros(len(materials) + 1, bool)
-        table[[i for i, _ in pairs]] = True
-        return SceneTextures(pairs, table, bodies)
+        textured = np.zeros(len(materials) + 1, bool)
+        textured[[i for i, _ in pairs]] = True
+        sharp = np.zeros(len(materials) + 1, bool)
+        sharp[[i for i, m in pairs if isinstance(m.texture, PlanarTexture)]] = True
+        return SceneTextures(pairs, textured, sharp, bodies)
 
     def textured(self, material: NDArray[np.integer]) -> NDArray[np.bool_]:
         """Whether each hit's material (id, -1 for open water) has a texture."""
         return np.take(self.is_textured, material)
+
+    def sharp(self, material: NDArray[np.integer]) -> NDArray[np.bool_]:
+        """Whether each hit's material (id, -1 for open water) has a sharp picture."""
+        return np.take(self.is_sharp, material)
 
     def _object_frame(self, body: int, points_ned: NDArray[np.float64]) -> NDArray[np.float64]:
         """Points (N, 3) NED in the frame of body ``body`` (-1: static, NED itself)."""
@@ -61,15 +72,15 @@ class SceneTextures:
     def albedo(self, albedo: NDArray[np.float32], material: NDArray[np.integer],
                body: NDArray[np.integer], points_ned: NDArray[np.float64]
                ) -> NDArray[np.float32]:
-        """(N, 3) ``albedo`` of N hits with each textured hit's texel put in (a copy
-        where anything changed); ``material``, ``body``: (N,) ids, ``points_ned`` (N, 3)."""
+        """(N, 3) ``albedo`` of N hits with each textured hit's albedo from its texture
+        (a copy where anything changed); ``material``, ``body``: (N,) ids, ``points_ned``
+        (N, 3)."""
         out = albedo
-        for material_id, texture in self.by_material:
+        for material_id, mat in self.by_material:
             rows = np.flatnonzero(material == material_id)
             for b in np.unique(body[rows]):
                 sel = rows[body[rows] == b]
-                texel, on = texture.albedo_at(self._object_frame(int(b), points_ned[sel]))
                 if out is albedo:
                     out = albedo.copy()
-                out[sel[on]] = texel[on]
+                out[sel] = mat.albedo_at(self._object_frame(int(b), points_ned[sel]))
         return out

@@ -147,6 +147,9 @@ class FrameBuilder:
     range_pair:
         ``(rov, diver)`` agent names for the range plot; default: the first ROV and the
         first diver seen.
+
+    ``team`` (set it before the first tick): a :class:`~uhrisim.viz.viewer.team.TeamView`
+    whose entry goes into every frame as ``team`` (None: no team mission).
     """
 
     def __init__(
@@ -163,6 +166,7 @@ class FrameBuilder:
         self._pending_pings: dict[str, Any] = {}
         self._pending_images: dict[str, Any] = {}
         self._perception: dict[str, Any] = {}  # the newest PerceptionFrame per agent
+        self.team: Any = None
 
     def _take_posts(self, posts: Sequence[Any]) -> None:
         for p in posts:
@@ -197,6 +201,8 @@ class FrameBuilder:
         for key, image in (getattr(tick, "images", None) or {}).items():
             self._pending_images[key] = image
         self._perception.update(getattr(tick, "perception", None) or {})
+        if self.team is not None:
+            self.team.observe(getattr(tick, "events", ()))
 
     def build(
         self,
@@ -261,6 +267,7 @@ class FrameBuilder:
             },
             "sonar": sonar or None,
             "camera": camera or None,
+            "team": None if self.team is None else self.team.entry(),
             "plots": {
                 "range_to_diver": rng,
                 "depth": {a["name"]: a["depth"] for a in agents},

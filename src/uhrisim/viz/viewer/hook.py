@@ -32,6 +32,7 @@ from uhrisim.sim.pacing import Pacer
 from uhrisim.vehicles import MODELS
 from uhrisim.viz.viewer.adapt import FrameBuilder
 from uhrisim.viz.viewer.protocol import Command
+from uhrisim.viz.viewer.team import TeamView
 
 log = logging.getLogger(__name__)
 
@@ -97,6 +98,9 @@ class ViewerHook:
     def on_start(self, sim: Any) -> None:
         self._sim = sim
         self._ended = False
+        team = getattr(sim, "team", None)
+        if team is not None and team.active and self.builder.team is None:
+            self.builder.team = TeamView(team)
 
     def on_tick(self, frame: Any) -> None:
         if self._steps > 0:

@@ -33,7 +33,9 @@ from typing import Any
 import numpy as np
 
 from uhrisim.core.errors import AssetError
-from uhrisim.core.frames import enu_from_ned, enu_rotation_from_ned
+from uhrisim.core.frames import enu_from_ned, enu_rotation_from_ned, rot_z
+from uhrisim.dynamics.diver_body import DiverSkeleton
+from uhrisim.sim.teamwork import parse_order_detail
 from uhrisim.viz.viewer.adapt import (
     agent_kind,
     decimate_mesh,
@@ -42,6 +44,7 @@ from uhrisim.viz.viewer.adapt import (
 )
 from uhrisim.viz.viewer.protocol import Command
 from uhrisim.viz.viewer.server import ViewerServer
+from uhrisim.viz.viewer.team import LOG_LENGTH, figure_points
 
 log = logging.getLogger(__name__)
 
@@ -65,6 +68,9 @@ _HELM = re.compile(r"^/([^/]+)/helm/decision$")
 _TRACKS = re.compile(r"^/([^/]+)/perception/tracks$")
 _TRACK_TEXT = re.compile(r"^track (\d+) \((diver|track|tentative)\)")
 _HELM_MODE = "__helm_mode"  # key under which helm decisions' modes are kept
+_JOINTS = re.compile(r"^/([^/]+)/joint_states$")
+_EVENTS = "/events"
+_TEAM_EVENT_KINDS = ("teamwork", "order")
 
 
 @dataclass
@@ -108,6 +114,13 @@ class ReplayData:
     # sonar perception tracks per agent: (times, [[{id, kind, north, east}, ...] per ping])
     perception: dict[str, tuple[list[float], list[list[dict[str, Any]]]]] = field(
         default_factory=dict)
+    # articulated divers' joints per agent: (times (N,), joint names, angles (N, J) rad)
+    joints: dict[str, tuple[np.ndarray, tuple[str, ...], np.ndarray]] = field(
+        default_factory=dict)
+    # teamwork and order events in time order: (t, kind, detail)
+    team_events: list[tuple[float, str, str]] = field(default_factory=list)
+    # orders per diver, from the run's metrics.json beside the recording (when there)
+    order_totals: dict[str, int] = field(default_factory=dict)
 
 
 def _image_u8(msg: Any, encodings: tuple[str, ...] = ("mono8", "8uc1")) -> np.ndarray | None:
@@ -214,9 +227,11 @@ def load_replay(recording: Path | str) -> ReplayData:
     topics = [
         t for t in summarize(path).topics
         if _FAN.match(t) or _CAMERA.match(t) or _VARS.match(t) or _HELM.match(t)
-        or _TRACKS.match(t)
-        or t == "/scene/markers"
+        or _TRACKS.match(t) or _JOINTS.match(t)
+        or t in ("/scene/markers", _EVENTS)
     ]
+    joints: dict[str, tuple[list[float], tuple[str, ...], list[list[float]]]] = {}
+    team_events: list[tuple[float, str, str]] = []
     perception: dict[str, tuple[list[float], list[list[dict[str, Any]]]]] = {}
     total = 0
     for dm in iter_messages(path, topics) if topics else ():
@@ -250,6 +265,13 @@ def load_replay(recording: Path | str) -> ReplayData:
             ts, seen = perception.setdefault(m.group(1), ([], []))
             ts.append(t)
             seen.append(_tracks_of(dm.message.markers))
+        elif (m := _JOINTS.match(dm.topic)) is not None:
+            ts, _, qs = joints.setdefault(m.group(1), ([], tuple(dm.message.name), []))
+            ts.append(t)
+            qs.append(list(dm.message.position))
+        elif dm.topic == _EVENTS:
+            if dm.message.kind in _TEAM_EVENT_KINDS:
+                team_events.append((t, str(dm.message.kind), str(dm.message.detail)))
         elif dm.topic == "/scene/markers":
             for mk in dm.message.markers:
                 if mk.action == _MARKER_DELETEALL:
@@ -298,7 +320,24 @@ def load_replay(recording: Path | str) -> ReplayData:
         sonar_range=rng,
         shots={a: (np.asarray(p.t), p.images) for a, p in shots.items()},
         perception=perception,
+        joints={a: (np.asarray(ts), names, np.asarray(qs, dtype=float))
+                for a, (ts, names, qs) in joints.items()},
+        team_events=team_events,
+        order_totals=_order_totals(path),
     )
+
+
+def _order_totals(recording: Path) -> dict[str, int]:
+    """Orders per diver from the run's ``metrics.json`` next to the recording ({} when
+    there is none or it has no team section)."""
+    import json
+
+    metrics = recording.parent / "metrics.json"
+    try:
+        divers = json.loads(metrics.read_text())["team"]["divers"]
+        return {name: int(d["orders"]) for name, d in divers.items()}
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
 
 
 def fan_geometry(beam_angles_rad: Any, bin_ranges_m: Any) -> tuple[float, float]:
@@ -380,11 +419,13 @@ class ReplayPlayer:
         self._dirty = True
         self._sent_ping: dict[str, int] = {}
         self._sent_shot: dict[str, int] = {}
+        self._jumped = False  # the next frame follows a seek (the page breaks its plots)
         dts = [np.median(np.diff(tr["t"])) for tr in data.tracks.values() if len(tr["t"]) > 1]
         self.step_s = float(min(dts)) if dts else 0.1
         rovs = [a for a, k in data.kinds.items() if k == "rov"]
         divers = [a for a, k in data.kinds.items() if k == "diver"]
         self._pair = (rovs[0], divers[0]) if rovs and divers else None
+        self._skeleton = DiverSkeleton()  # the recorded joints' figure (default build)
 
     # -------------------------------------------------------------- control
     def on_message(self, msg: Command | dict[str, Any]) -> bool:
@@ -422,6 +463,7 @@ class ReplayPlayer:
         self.t = min(max(t, self.data.t_start), self.data.t_end)
         self._sent_ping.clear()
         self._sent_shot.clear()
+        self._jumped = True
         self._dirty = True
 
     def tick(self, wall: float) -> None:
@@ -435,7 +477,9 @@ class ReplayPlayer:
         self._last_wall = wall
         if self._dirty:
             self._dirty = False
-            self.server.publish(self.frame_at(self.t))
+            frame = self.frame_at(self.t)
+            frame["jump"], self._jumped = self._jumped, False
+            self.server.publish(frame)
 
     # -------------------------------------------------------------- frames
     def _var_at(self, agent: str, name: str, t: float) -> float | str | None:
@@ -492,12 +536,48 @@ class ReplayPlayer:
             "overlays": self._overlays(t),
             "sonar": sonars or None,
             "camera": camera or None,
+            "team": self._team(t, agents),
             "plots": {
                 "range_to_diver": rng,
                 "depth": {n: p[2] for n, p in pos.items()},
                 "speed": {a["name"]: a["speed"] for a in agents},
             },
         }
+
+    def _team(self, t: float, agents: list[dict[str, Any]]) -> dict[str, Any] | None:
+        """The frame's ``team`` entry at ``t`` from the recorded joint states and events
+        (uhrisim.viz.viewer.team): each diver's figure, its progress through its orders
+        (done so far; the total from metrics.json), the latest events. Tools' poses and
+        sites' states are not in the recording: none are drawn."""
+        data = self.data
+        if not data.joints and not data.team_events:
+            return None
+        figures = {}
+        where = {a["name"]: a for a in agents}
+        for name, (ts, names, qs) in data.joints.items():
+            i = int(np.searchsorted(ts, t, side="right")) - 1
+            a = where.get(name)
+            if i < 0 or a is None or tuple(names) != self._skeleton.joint_names:
+                continue
+            figures[name] = figure_points(self._skeleton, qs[i],
+                                          (a["north"], a["east"], a["depth"]),
+                                          rot_z(math.radians(a["heading_deg"])))
+        k = bisect.bisect_right(data.team_events, (t, "\uffff"))
+        progress: dict[str, dict[str, Any]] = {}
+        for _, kind, detail in data.team_events[:k]:
+            step = parse_order_detail(detail) if kind == "order" else None
+            if step is None:
+                continue
+            p = progress.setdefault(step["diver"], {
+                "done": 0, "total": data.order_totals.get(step["diver"]),
+                "current": None, "failed": False})
+            p["done"] += step["outcome"] == "done" and not step["fetched"]
+            p["failed"] = step["outcome"] == "failed"
+            p["last"] = f"{step['order']} ({step['outcome']})"
+        log = [{"t": round(te, 2), "kind": kind, "text": detail}
+               for te, kind, detail in data.team_events[max(0, k - LOG_LENGTH):k]]
+        return {"objects": [], "sites": [], "progress": progress, "figures": figures,
+                "log": log}
 
     def _overlays(self, t: float) -> dict[str, list[dict[str, Any]]]:
         """pMarineViewer-style VIEW_POLYGON / VIEW_POINT postings (MOOS x east, y north)."""

@@ -11,6 +11,11 @@ const TRAIL_MAX = 4000; // points per agent kept for live trails
 const TRAIL_MIN_DT = 0.25; // s between live trail points
 const TRACK_COLORS = { diver: "#3f3", track: "#f90", tentative: "#888" }; // sonar tracks
 
+// tools by kind, loads and sites (map and 3-D view)
+const TEAM_COLORS = { wrench: "#c0c8d0", hammer: "#b08a5a", light: "#fff3a0",
+  lift_bag: "#ff9f1c", basket: "#9c7b4f", load: "#8a8f99", flange: "#6fa8dc",
+  hatch: "#76b57b", other: "#d0d0d0" };
+const teamColor = (kind) => TEAM_COLORS[kind] || TEAM_COLORS.other;
 const KIND_COLORS = { rov: "#f5c518", diver: "#ff7a45", vehicle: "#4fd1ff" };
 const EXTRA_COLORS = ["#9be564", "#d783ff", "#ff5c8a", "#5ce1e6", "#ffd6a5"];
 
@@ -29,6 +34,8 @@ const state = {
   sonar: {}, // "<agent>/<sensor>" -> {agent, sensor, t, fov_deg, max_range, img, marks}
   camera: {}, // "<agent>/<sensor>" -> {agent, sensor, t, img}
   camerasReceived: 0,
+  team: null, // the frame's team entry (tools, sites, progress, diver figures), or null
+  teamDrawn: null, // what the map drew of it (for tests)
   plots: { range: [], depth: {}, speed: {} },
   framesReceived: 0,
   sonarsReceived: 0,
@@ -152,7 +159,13 @@ function onFrame(f) {
   if (!state.view.userMoved && !drag && (state.view.fitted !== "agents" || state.framesReceived <= 3)) {
     fitView();
   }
-  pushPlots(f);
+  state.team = f.team || null;
+  const tm = state.team;
+  if (tm && (Object.keys(tm.progress || {}).length || (tm.sites || []).length || (tm.log || []).length)) {
+    updateTeamPanel(tm);
+  }
+  pushPlots(f, f.jump || state.seeking);
+  state.seeking = false;
   updateBar(f);
   dirty.map = dirty.plots = dirty.view3d = true;
 }
@@ -174,7 +187,6 @@ function onCamera(m) {
   img.onload = () => {
     state.camera[`${m.agent}/${m.sensor}`] = { agent: m.agent, sensor: m.sensor, t: m.t, img };
     $("camera-panel").classList.remove("hidden");
-    $("side").classList.add("with-camera");
     dirty.camera = true;
   };
   img.src = "data:image/png;base64," + m.png_b64;
@@ -185,24 +197,62 @@ function resetHistories() {
   if (state.mode !== "replay") state.trails = {};
 }
 
-function pushPlots(f) {
+// A frame that jumps in time (a replay seek: f.jump, or one the page asked for) starts new plot segments: a null
+// sample marks the gap, so the line is not drawn across time that was skipped.
+function pushPlots(f, jump) {
   const p = f.plots || {};
   const t = f.t;
   const cut = (arr) => {
     while (arr.length && arr[0][0] < t - PLOT_WINDOW) arr.shift();
   };
-  if (p.range_to_diver !== undefined && p.range_to_diver !== null) {
-    state.plots.range.push([t, p.range_to_diver]);
-  }
-  cut(state.plots.range);
+  const add = (arr, v) => {
+    if (jump && arr.length) arr.push([t, null]);
+    arr.push([t, v]);
+    cut(arr);
+  };
+  if (p.range_to_diver !== undefined && p.range_to_diver !== null) add(state.plots.range, p.range_to_diver);
+  else cut(state.plots.range);
   for (const key of ["depth", "speed"]) {
     for (const [name, v] of Object.entries(p[key] || {})) {
       if (v === null) continue;
-      const arr = state.plots[key][name] || (state.plots[key][name] = []);
-      arr.push([t, v]);
-      cut(arr);
+      add(state.plots[key][name] || (state.plots[key][name] = []), v);
     }
   }
+}
+
+// The task panel: each diver's orders done / total and what it does now, every site's
+// state, who holds what, the latest teamwork and order events.
+function updateTeamPanel(team) {
+  $("team-panel").classList.remove("hidden");
+  const box = $("team");
+  box.textContent = "";
+  const add = (cls, text, parent = box) => {
+    const el = document.createElement("div");
+    el.className = cls;
+    el.textContent = text;
+    parent.appendChild(el);
+    return el;
+  };
+  for (const [name, p] of Object.entries(team.progress || {})) {
+    const d = add("diver", "");
+    d.dataset.diver = name;
+    const total = p.total === null || p.total === undefined ? "?" : p.total;
+    const failed = p.failed ? " · FAILED" : "";
+    add("count", `${name}: ${p.done}/${total} orders done${failed}`, d);
+    const bar = add("bar", "", d);
+    const fill = document.createElement("div");
+    fill.style.width = `${p.total ? Math.min(100, (100 * p.done) / p.total) : 0}%`;
+    bar.appendChild(fill);
+    const now = p.current ? `now: ${p.current}` : p.last ? `last: ${p.last}` : "no order";
+    add("current", now, d);
+  }
+  for (const site of team.sites || []) add("site", `${site.name}: ${site.text}`);
+  for (const o of team.objects || []) {
+    if (o.held_by && o.held_by.length) add("site", `${o.name} held by ${o.held_by.join(" + ")}`);
+  }
+  for (const ev of (team.log || []).slice(-4)) add("log", `${fmt(ev.t, 1)} s ${ev.text.replace(/^t=[\d.]+ s /, "")}`);
+  const n = Object.keys(team.progress || {}).length;
+  $("team-caption").textContent = n ? `${n} diver${n > 1 ? "s" : ""}` : "";
 }
 
 let sliderDragging = false;
@@ -251,7 +301,7 @@ $("speed").onchange = (ev) => {
 };
 $("slider").addEventListener("input", (ev) => {
   sliderDragging = true;
-  send({ type: "seek", t: parseFloat(ev.target.value) });
+  if (send({ type: "seek", t: parseFloat(ev.target.value) })) state.seeking = true;
 });
 $("slider").addEventListener("change", () => {
   sliderDragging = false;
@@ -454,7 +504,7 @@ function drawMap() {
     }
     if (poly.label) {
       const [x, y] = worldToScreen(poly.points[0][0], poly.points[0][1]);
-      queued.push({ text: poly.label, x: x + 5, y: y - 5, color: "#bbb" });
+      queued.push({ text: poly.label, ax: x, ay: y, gap: 4, color: "#bbb" });
     }
   }
   // trails
@@ -481,8 +531,8 @@ function drawMap() {
     ctx.stroke();
     ctx.setLineDash([]);
     ctx.globalAlpha = 1;
-    if (cir.label) queued.push({ text: cir.label, x: x + cir.radius * state.view.scale * 0.71 + 3,
-      y: y - cir.radius * state.view.scale * 0.71, color: "#999" });
+    if (cir.label) queued.push({ text: cir.label, ax: x + cir.radius * state.view.scale * 0.71,
+      ay: y - cir.radius * state.view.scale * 0.71, gap: 3, color: "#999" });
   }
   // sonar perception tracks: green the diver track, orange other confirmed, grey tentative
   for (const tr of ov.tracks || []) {
@@ -493,7 +543,7 @@ function drawMap() {
     ctx.arc(x, y, 6, 0, 2 * Math.PI);
     ctx.stroke();
     if (tr.kind !== "tentative") {
-      queued.push({ text: `T${tr.id}`, x: x + 8, y: y - 6, color: TRACK_COLORS[tr.kind] });
+      queued.push({ text: `T${tr.id}`, ax: x, ay: y, gap: 8, color: TRACK_COLORS[tr.kind] });
     }
   }
   // points (trail point, waypoints)
@@ -505,31 +555,29 @@ function drawMap() {
     ctx.moveTo(x - 5, y - 5); ctx.lineTo(x + 5, y + 5);
     ctx.moveTo(x + 5, y - 5); ctx.lineTo(x - 5, y + 5);
     ctx.stroke();
-    if (pt.label) queued.push({ text: pt.label, x: x + 7, y: y + 4, color: "#aaa" });
+    if (pt.label) queued.push({ text: pt.label, ax: x, ay: y, gap: 6, color: "#aaa" });
   }
-  // labels first (nudged down so they don't overlap), then the vehicles on top of them
+  state.teamDrawn = state.team ? drawTeam(ctx, state.team, queued) : null;
+  // labels: the vehicles' first, then the rest; each at the first spot around its
+  // anchor that covers no label and no vehicle placed before it (a leader line when the
+  // spot is away from the anchor)
   const agents = Object.values(state.agents);
   const size = (a) => Math.max(REAL_LENGTH[SHAPES[a.kind] ? a.kind : "vehicle"] * state.view.scale, 18);
+  const obstacles = agents.map((a) => {
+    const [x, y] = worldToScreen(a.north, a.east);
+    const r = size(a) / 2;
+    return { x: x - r, y: y - r, w: 2 * r, h: 2 * r };
+  });
   const labels = agents.map((a) => {
     const [x, y] = worldToScreen(a.north, a.east);
-    const len = size(a);
     const mode = a.mode ? ` ${a.mode}` : "";
-    return { text: `${a.name}  d=${fmt(a.depth, 1)} m${mode}`, x: x + len * 0.6,
-      y: y + len * 0.6, color: state.colors[a.name] || "#fff" };
+    return { text: `${a.name}  d=${fmt(a.depth, 1)} m${mode}`, ax: x, ay: y,
+      gap: size(a) / 2 + 3, color: state.colors[a.name] || "#fff" };
   });
-  ctx.font = "12px system-ui, 'DejaVu Sans', sans-serif";
-  const placed = [];
-  for (const l of [...labels, ...queued]) {
-    const w = ctx.measureText(l.text).width;
-    let y = l.y;
-    for (let tries = 0; tries < 8; tries++) {
-      const hit = placed.find((p) => l.x < p.x + p.w && p.x < l.x + w && Math.abs(y - p.y) < 14);
-      if (!hit) break;
-      y = hit.y + 14;
-    }
-    placed.push({ x: l.x, y, w });
-    label(ctx, l.text, l.x, y, l.color);
+  for (const o of (state.teamDrawn && state.teamDrawn.objects) || []) {
+    obstacles.push({ x: o.x - 8, y: o.y - 8, w: 16, h: 16 }); // a tool's diamond and ring
   }
+  state.labelBoxes = placeLabels(ctx, [...labels, ...queued], obstacles, { w, h });
   for (const a of agents) {
     const [x, y] = worldToScreen(a.north, a.east);
     const kind = SHAPES[a.kind] ? a.kind : "vehicle";
@@ -548,6 +596,19 @@ function drawMap() {
     ctx.stroke();
     ctx.restore();
   }
+  // the divers' posed figures over their glyphs
+  ctx.strokeStyle = "#ffffff";
+  ctx.lineWidth = 1.5;
+  for (const fig of figuresOnTop) {
+    ctx.beginPath();
+    for (const [i, j] of fig.bones) {
+      const [x1, y1] = worldToScreen(fig.points[i][0], fig.points[i][1]);
+      const [x2, y2] = worldToScreen(fig.points[j][0], fig.points[j][1]);
+      ctx.moveTo(x1, y1); ctx.lineTo(x2, y2);
+    }
+    ctx.stroke();
+  }
+  figuresOnTop = [];
   // scale bar
   const barM = niceStep(120 / state.view.scale);
   const barPx = barM * state.view.scale;
@@ -566,6 +627,94 @@ function drawMap() {
   ctx.closePath();
   ctx.fill();
   label(ctx, "N", w - 28, 58, "#fff");
+}
+
+// Tools and loads (diamonds; ringed when held), sites (squares with their state as
+// label) and the divers' posed figures (stick figures over the glyph); returns what
+// was drawn: {objects: [{name, x, y}], sites: [{name, x, y}], figures: {name: bones}}.
+function drawTeam(ctx, team, queued) {
+  const out = { objects: [], sites: [], figures: {} };
+  for (const site of team.sites || []) {
+    if (site.kind === "lift_bag" && !(site.litres > 0) && !site.attached_to) continue;
+    const [x, y] = worldToScreen(site.north, site.east);
+    ctx.strokeStyle = teamColor(site.kind);
+    ctx.lineWidth = 2;
+    const r = site.kind === "lift_bag" ? 4 + 6 * Math.min(1, site.litres / site.capacity_litres) : 6;
+    ctx.strokeRect(x - r, y - r, 2 * r, 2 * r);
+    queued.push({ text: `${site.name}: ${site.text}`, ax: x, ay: y, gap: r + 3,
+      color: teamColor(site.kind) });
+    out.sites.push({ name: site.name, x, y });
+  }
+  for (const o of team.objects || []) {
+    const [x, y] = worldToScreen(o.north, o.east);
+    ctx.fillStyle = teamColor(o.kind);
+    ctx.beginPath();
+    ctx.moveTo(x, y - 5); ctx.lineTo(x + 5, y); ctx.lineTo(x, y + 5); ctx.lineTo(x - 5, y);
+    ctx.closePath();
+    ctx.fill();
+    const held = o.held_by && o.held_by.length;
+    if (held) {
+      ctx.strokeStyle = "#fff";
+      ctx.lineWidth = 1.5;
+      ctx.beginPath();
+      ctx.arc(x, y, 8, 0, 2 * Math.PI);
+      ctx.stroke();
+    }
+    const isSite = (team.sites || []).some((site) => site.name === o.name);
+    if (!held && !isSite) queued.push({ text: o.name, ax: x, ay: y, gap: 9, color: teamColor(o.kind) });
+    out.objects.push({ name: o.name, x, y });
+  }
+  for (const [name, fig] of Object.entries(team.figures || {})) {
+    out.figures[name] = fig.bones.length;
+    figuresOnTop.push(fig);
+  }
+  return out;
+}
+let figuresOnTop = []; // stroked after the vehicles' glyphs
+
+const LABEL_H = 14; // px: a 12 px label's box
+const overlaps = (a, b) => a.x < b.x + b.w && b.x < a.x + a.w && a.y < b.y + b.h && b.y < a.y + a.h;
+
+// Place labels {text, ax, ay (anchor, px), gap (px from the anchor), color} in order:
+// each takes the first of eight spots around its anchor, at growing distance, whose box
+// meets no box taken before and no obstacle and lies inside `bounds` {w, h}; returns the
+// boxes {text, x, y, w, h, ax, ay} (y: top) after drawing them.
+function placeLabels(ctx, items, obstacles, bounds) {
+  ctx.font = "12px system-ui, 'DejaVu Sans', sans-serif";
+  const taken = [];
+  const boxes = [];
+  for (const l of items) {
+    const w = ctx.measureText(l.text).width + 2, h = LABEL_H;
+    let best = null;
+    for (let ring = 0; ring < 6 && !best; ring++) {
+      const g = l.gap + ring * 12;
+      const spots = [[g, -h / 2], [g, g * 0.3], [g, -h - g * 0.3], [-w - g, -h / 2],
+        [-w / 2, -h - g], [-w / 2, g], [-w - g, g * 0.3], [-w - g, -h - g * 0.3]];
+      for (const [dx, dy] of spots) {
+        const box = { x: l.ax + dx, y: l.ay + dy, w, h };
+        const inside = box.x >= 0 && box.y >= 0 && box.x + w <= bounds.w && box.y + h <= bounds.h;
+        if (inside && !taken.some((b) => overlaps(box, b)) && !obstacles.some((b) => overlaps(box, b))) {
+          best = box;
+          break;
+        }
+      }
+    }
+    if (!best) best = { x: l.ax + l.gap, y: l.ay - h / 2, w, h }; // crowded: at its anchor
+    taken.push(best);
+    if (Math.hypot(best.x + (best.x < l.ax ? w : 0) - l.ax, best.y + h / 2 - l.ay) > l.gap + 14) {
+      ctx.strokeStyle = l.color;
+      ctx.globalAlpha = 0.5;
+      ctx.lineWidth = 1;
+      ctx.beginPath();
+      ctx.moveTo(l.ax, l.ay);
+      ctx.lineTo(best.x < l.ax ? best.x + w : best.x, best.y + h / 2);
+      ctx.stroke();
+      ctx.globalAlpha = 1;
+    }
+    label(ctx, l.text, best.x + 1, best.y + 11, l.color);
+    boxes.push({ text: l.text, ...best, ax: l.ax, ay: l.ay });
+  }
+  return boxes;
 }
 
 function label(ctx, text, x, y, color) {
@@ -607,7 +756,7 @@ function sensorsShown(images) {
   return keys.filter((k) => images[k].agent === agent);
 }
 
-function drawLatestImages(canvasId, images) {
+function drawLatestImages(canvasId, images, zoom = 1) {
   const c = $(canvasId);
   const dpr = sizeCanvas(c);
   const ctx = c.getContext("2d");
@@ -616,61 +765,114 @@ function drawLatestImages(canvasId, images) {
   ctx.fillStyle = "#000";
   ctx.fillRect(0, 0, w, h);
   const keys = sensorsShown(images);
-  const tile = w / Math.max(1, keys.length);
+  const tw = w / Math.max(1, keys.length);
   const drawn = keys.map((key, i) => {
     const s = images[key];
-    const k = Math.min(tile / s.img.width, h / s.img.height);
-    const dw = s.img.width * k, dh = s.img.height * k;
-    const x0 = i * tile + (tile - dw) / 2, y0 = (h - dh) / 2;
+    const tile = { x: i * tw, y: 0, w: tw, h };
+    const k = Math.min(tw / s.img.width, h / s.img.height);
+    // zoomed about the bottom centre of the picture (a sonar fan's apex)
+    const dw = s.img.width * k * zoom, dh = s.img.height * k * zoom;
+    const ax = i * tw + tw / 2, ay = (h + s.img.height * k) / 2;
+    ctx.save();
+    ctx.beginPath();
+    ctx.rect(tile.x, tile.y, tile.w, tile.h);
+    ctx.clip();
     ctx.imageSmoothingEnabled = true;
-    ctx.drawImage(s.img, x0, y0, dw, dh);
-    return { key, s, x0, y0, dw, dh };
+    ctx.drawImage(s.img, ax - dw / 2, ay - dh, dw, dh);
+    ctx.restore();
+    return { key, s, tile, ax, ay, dw, dh };
   });
   return { ctx, drawn };
 }
 
 // ---------- sonar panel
+// Zoom: the wheel over the panel shows the near part of the fan (range / zoom), the apex
+// fixed at the bottom centre; double-click shows the whole fan again.
+const SONAR_ZOOM_MAX = 8;
+state.sonarZoom = 1;
+// key -> {shown_range (m), px_per_m, apex [x, y] (CSS px), arcs: [m], bearings: [deg]}
+state.sonarView = {};
+$("sonar").addEventListener("wheel", (ev) => {
+  ev.preventDefault();
+  state.sonarZoom = Math.min(Math.max(state.sonarZoom * Math.exp(-ev.deltaY * 0.0015), 1),
+    SONAR_ZOOM_MAX);
+  dirty.sonar = true;
+}, { passive: false });
+$("sonar").addEventListener("dblclick", () => { state.sonarZoom = 1; dirty.sonar = true; });
+
 function drawSonar() {
-  const { ctx, drawn } = drawLatestImages("sonar", state.sonar);
+  const { ctx, drawn } = drawLatestImages("sonar", state.sonar, state.sonarZoom);
   if (!drawn.length) {
     label(ctx, "no sonar image yet", 10, 20, "#777");
     $("sonar-caption").textContent = "";
     return;
   }
-  for (const { s, x0, y0, dw, dh } of drawn) drawFanOverlay(ctx, s, x0, y0, dw, dh);
+  state.sonarView = {};
+  for (const d of drawn) state.sonarView[d.key] = drawFanOverlay(ctx, d);
+  const zoom = state.sonarZoom > 1.01 ? ` · ×${state.sonarZoom.toFixed(1)}` : "";
   $("sonar-caption").textContent = drawn.map(({ key, s }) =>
-    `${key} · t=${fmt(s.t, 1)} s · ${fmt(s.fov_deg, 0)}° · ${fmt(s.max_range, Number.isInteger(s.max_range) ? 0 : 1)} m`).join("  |  ");
+    `${key} · t=${fmt(s.t, 1)} s · ${fmt(s.fov_deg, 0)}° · ${fmt(s.max_range, Number.isInteger(s.max_range) ? 0 : 1)} m`).join("  |  ") + zoom;
 }
 
-// range arcs and perception tracks on one fan, its apex at the bottom centre and its
-// range at the top
-function drawFanOverlay(ctx, s, x0, y0, dw, dh) {
-  if (s.max_range > 0 && s.fov_deg > 0 && s.fov_deg < 180) {
-    const ax = x0 + dw / 2, ay = y0 + dh, half = (s.fov_deg * DEG) / 2;
-    const step = niceStep(s.max_range / 4);
+// Range arcs (nice steps, labelled in m), bearing rays (labelled in degrees, > 0 to
+// starboard) and perception tracks on one fan drawn with its apex at (ax, ay), dh px
+// for its full range times the zoom; returns what was drawn (for tests).
+function drawFanOverlay(ctx, { s, tile, ax, ay, dh }) {
+  const out = { shown_range: 0, px_per_m: 0, apex: [ax, ay], arcs: [], bearings: [] };
+  if (!(s.max_range > 0)) return out;
+  const pxPerM = dh / s.max_range;
+  const shown = s.max_range / state.sonarZoom;
+  out.shown_range = shown;
+  out.px_per_m = pxPerM;
+  ctx.save();
+  ctx.beginPath();
+  ctx.rect(tile.x, tile.y, tile.w, tile.h);
+  ctx.clip();
+  ctx.font = "10px system-ui, sans-serif";
+  if (s.fov_deg > 0 && s.fov_deg < 180) {
+    const half = (s.fov_deg * DEG) / 2;
+    const step = niceStep(shown / 5);
     ctx.strokeStyle = "rgba(120,220,255,0.35)";
     ctx.lineWidth = 1;
-    for (let r = step; r <= s.max_range + 1e-9; r += step) {
-      const rp = (r / s.max_range) * dh;
+    const digits = Math.max(0, -Math.floor(Math.log10(step) + 1e-9));
+    for (let k = 1; k * step <= shown + 1e-9; k++) {
+      const r = k * step, rp = r * pxPerM;
       ctx.beginPath();
       ctx.arc(ax, ay, rp, -Math.PI / 2 - half, -Math.PI / 2 + half);
       ctx.stroke();
-      ctx.font = "10px system-ui, sans-serif";
-      ctx.fillStyle = "rgba(160,230,255,0.8)";
-      ctx.fillText(`${r} m`, ax + rp * Math.sin(half) + 3, ay - rp * Math.cos(half));
+      ctx.fillStyle = "rgba(160,230,255,0.85)";
+      ctx.fillText(`${r.toFixed(digits)} m`, ax + rp * Math.sin(half) + 3, ay - rp * Math.cos(half));
+      out.arcs.push(Number(r.toFixed(digits)));
     }
-  }
-  if (s.max_range > 0) {
-    const ax = x0 + dw / 2, ay = y0 + dh;
-    for (const m of s.marks || []) {
-      const rp = (m.range / s.max_range) * dh, b = m.bearing_deg * DEG;
-      ctx.strokeStyle = TRACK_COLORS[m.kind] || "#888";
-      ctx.lineWidth = m.kind === "diver" ? 2 : 1;
+    // bearing rays every 5, 10, 15, 30 or 45 degrees (at most 8, labels 34 px apart at
+    // least), labelled just inside the far edge
+    const far = Math.min(shown * pxPerM, ay - tile.y - 4);
+    const bStep = [5, 10, 15, 30].find((b) => s.fov_deg / b <= 8 && far * b * DEG >= 34) || 45;
+    ctx.textAlign = "center";
+    for (let b = -Math.floor(s.fov_deg / 2 / bStep) * bStep; b <= s.fov_deg / 2 + 1e-9; b += bStep) {
+      const rad = b * DEG;
+      ctx.strokeStyle = "rgba(120,220,255,0.22)";
       ctx.beginPath();
-      ctx.arc(ax + rp * Math.sin(b), ay - rp * Math.cos(b), 7, 0, 2 * Math.PI);
+      ctx.moveTo(ax, ay);
+      ctx.lineTo(ax + far * Math.sin(rad), ay - far * Math.cos(rad));
       ctx.stroke();
+      ctx.fillStyle = "rgba(160,230,255,0.85)";
+      const text = b === 0 ? "0°" : `${b > 0 ? "+" : "−"}${Math.abs(b)}°`;
+      ctx.fillText(text, ax + (far - 6) * Math.sin(rad), ay - (far - 6) * Math.cos(rad) + 8);
+      out.bearings.push(b);
     }
+    ctx.textAlign = "left";
   }
+  for (const m of s.marks || []) {
+    const rp = m.range * pxPerM, b = m.bearing_deg * DEG;
+    ctx.strokeStyle = TRACK_COLORS[m.kind] || "#888";
+    ctx.lineWidth = m.kind === "diver" ? 2 : 1;
+    ctx.beginPath();
+    ctx.arc(ax + rp * Math.sin(b), ay - rp * Math.cos(b), 7, 0, 2 * Math.PI);
+    ctx.stroke();
+  }
+  ctx.restore();
+  return out;
 }
 
 // ---------- camera panel
@@ -681,6 +883,37 @@ function drawCamera() {
 }
 
 // ---------- plots
+// "Nice" tick values (1, 2, 5 × 10^k apart) covering [lo, hi], about `count` of them and
+// at least two, with labels of just enough decimals that no two read the same.
+function niceTicks(lo, hi, count) {
+  let ticks = [];
+  for (let want = Math.max(count, 1); ticks.length < 2 && want < 1000; want *= 2) {
+    const step = niceStep((hi - lo) / want);
+    const digits = Math.max(0, -Math.floor(Math.log10(step) + 1e-9));
+    ticks = [];
+    for (let k = Math.ceil(lo / step - 1e-9); k * step <= hi + step * 1e-9; k++) {
+      const value = k * step;
+      ticks.push({ value, text: value.toFixed(digits) });
+    }
+  }
+  return ticks;
+}
+state.niceTicks = niceTicks; // for tests
+
+// Polyline segments of one series: a null value (a gap) ends a segment.
+function segmentsOf(arr) {
+  const out = [];
+  let cur = [];
+  for (const p of arr) {
+    if (p[1] === null) {
+      if (cur.length) out.push(cur);
+      cur = [];
+    } else cur.push(p);
+  }
+  if (cur.length) out.push(cur);
+  return out;
+}
+
 function drawPlots() {
   const c = $("plots");
   const dpr = sizeCanvas(c);
@@ -696,15 +929,23 @@ function drawPlots() {
     { title: "depth (m)", series: state.plots.depth, invert: true },
     { title: "speed (m/s)", series: state.plots.speed, invert: false },
   ];
-  const rh = h / rows.length;
+  const axisH = 16; // the time axis under the last row
+  const rh = (h - axisH) / rows.length;
+  const x0 = 44, x1 = w - 6;
+  const tx = (t) => x0 + ((t - t0) / PLOT_WINDOW) * (x1 - x0);
+  const timeTicks = niceTicks(t0, t1, Math.max(2, Math.floor((x1 - x0) / 60)))
+    .filter((k) => k.value >= Math.max(t0, 0) - 1e-9);
+  const layout = { time: timeTicks.map((k) => ({ ...k, x: tx(k.value) })), rows: [] };
+  ctx.font = "10px system-ui, sans-serif";
   rows.forEach((row, i) => {
-    const y0 = i * rh + 14, y1 = (i + 1) * rh - 4, x0 = 40, x1 = w - 6;
+    const y0 = i * rh + 14, y1 = (i + 1) * rh - 4;
     let vmin = Infinity, vmax = -Infinity;
     for (const arr of Object.values(row.series)) for (const p of arr) {
+      if (p[1] === null || p[0] < t0) continue;
       vmin = Math.min(vmin, p[1]); vmax = Math.max(vmax, p[1]);
     }
     label(ctx, row.title, 4, i * rh + 11, "#8fb");
-    if (row.series !== null && !("range" in row.series)) {  // legend: agent names in colour
+    if (!("range" in row.series)) {  // legend: agent names in colour
       let lx = w - 6;
       ctx.font = "10px system-ui, sans-serif";
       for (const name of Object.keys(row.series).reverse()) {
@@ -713,28 +954,67 @@ function drawPlots() {
         ctx.fillText(name, lx, i * rh + 11);
       }
     }
+    // vertical time grid
+    ctx.strokeStyle = "rgba(120,170,210,0.12)";
+    ctx.beginPath();
+    for (const k of layout.time) { ctx.moveTo(k.x, y0); ctx.lineTo(k.x, y1); }
+    ctx.stroke();
     ctx.strokeStyle = "#24435e";
     ctx.strokeRect(x0, y0, x1 - x0, y1 - y0);
+    const entry = { title: row.title, ticks: [], segments: {} };
+    layout.rows.push(entry);
     if (!isFinite(vmin)) return;
     if (vmax - vmin < 1e-6) { vmin -= 0.5; vmax += 0.5; }
     const pad = (vmax - vmin) * 0.08;
     vmin -= pad; vmax += pad;
     const ty = (v) => (row.invert ? y0 + ((v - vmin) / (vmax - vmin)) * (y1 - y0)
       : y1 - ((v - vmin) / (vmax - vmin)) * (y1 - y0));
-    const tx = (t) => x0 + ((t - t0) / PLOT_WINDOW) * (x1 - x0);
-    ctx.font = "10px system-ui, sans-serif";
-    ctx.fillStyle = "#7f98ad";
-    ctx.fillText((row.invert ? vmin : vmax).toFixed(1), 2, y0 + 8);
-    ctx.fillText((row.invert ? vmax : vmin).toFixed(1), 2, y1);
+    // value ticks: nice numbers, a label each, a faint grid line
+    let ticks = [];
+    for (let n = Math.max(2, Math.min(5, Math.floor((y1 - y0) / 16))); n >= 1; n--) {
+      ticks = niceTicks(vmin, vmax, n); // fewer ticks until their labels are 12 px apart
+      if (ticks.length < 2 || Math.abs(ty(ticks[1].value) - ty(ticks[0].value)) >= 12) break;
+    }
+    ctx.textAlign = "right";
+    for (const k of ticks) {
+      const y = ty(k.value);
+      entry.ticks.push({ ...k, y });
+      ctx.strokeStyle = "rgba(120,170,210,0.12)";
+      ctx.beginPath(); ctx.moveTo(x0, y); ctx.lineTo(x1, y); ctx.stroke();
+      ctx.fillStyle = "#7f98ad";
+      ctx.fillText(k.text, x0 - 3, y + 3);
+    }
+    ctx.textAlign = "left";
+    ctx.save();
+    ctx.beginPath();
+    ctx.rect(x0, y0, x1 - x0, y1 - y0);
+    ctx.clip();
     for (const [name, arr] of Object.entries(row.series)) {
-      if (arr.length < 2) continue;
       ctx.strokeStyle = name === "range" ? "#8fb" : state.colors[name] || "#ccc";
       ctx.lineWidth = 1.5;
-      ctx.beginPath();
-      arr.forEach((p, j) => (j === 0 ? ctx.moveTo(tx(p[0]), ty(p[1])) : ctx.lineTo(tx(p[0]), ty(p[1]))));
-      ctx.stroke();
+      const segs = segmentsOf(arr);
+      entry.segments[name] = segs.map((seg) => seg.map((p) => [tx(p[0]), ty(p[1])]));
+      for (const seg of entry.segments[name]) {
+        ctx.beginPath();
+        seg.forEach(([x, y], j) => (j === 0 ? ctx.moveTo(x, y) : ctx.lineTo(x, y)));
+        if (seg.length === 1) ctx.arc(seg[0][0], seg[0][1], 0.8, 0, 2 * Math.PI);
+        ctx.stroke();
+      }
     }
+    ctx.restore();
   });
+  // time axis: seconds of simulated time
+  const ya = h - axisH + 2;
+  ctx.fillStyle = "#7f98ad";
+  ctx.strokeStyle = "#24435e";
+  ctx.textAlign = "center";
+  for (const k of layout.time) {
+    ctx.beginPath(); ctx.moveTo(k.x, ya - 6); ctx.lineTo(k.x, ya - 2); ctx.stroke();
+    ctx.fillText(k.text, k.x, ya + 9);
+  }
+  ctx.textAlign = "left";
+  ctx.fillText("t (s)", 4, ya + 9);
+  state.plotLayout = layout;
 }
 
 // ------------------------------------------------------------------ 3-D view
@@ -745,6 +1025,8 @@ const view3d = {
   camera: null,
   staticGroup: null,
   agentObjs: {},
+  teamObjs: {}, // "<what>:<name>" -> mesh of a tool, load or site
+  figureObjs: {}, // diver -> THREE.LineSegments of its posed figure
   orbit: { az: -0.6, el: 0.55, dist: 45 },
   target: [0, 0, 0],
   pendingScene: null,
@@ -902,7 +1184,87 @@ const view3d = {
       g.add(hull);
     }
     this.scene.add(g);
-    return { group: g, wedges: [], wedgeKey: "" };
+    return { group: g, body: [...g.children], wedges: [], wedgeKey: "" };
+  },
+
+  // Tools and loads as small boxes, a flange's cover coloured from red (all bolts in)
+  // to green (all out), a hatch's lid at its angle, a lift bag as a sphere of its gas
+  // volume, each diver's posed figure as white line segments.
+  updateTeam(team) {
+    const THREE = this.THREE;
+    const seen = new Set();
+    const place = (key, make, n, e, d) => {
+      let m = this.teamObjs[key];
+      if (!m) {
+        m = this.teamObjs[key] = make();
+        this.scene.add(m);
+      }
+      m.position.copy(this.v(n, e, d));
+      seen.add(key);
+      return m;
+    };
+    const mat = (kind) => new THREE.MeshLambertMaterial({ color: new THREE.Color(teamColor(kind)) });
+    for (const o of (team && team.objects) || []) {
+      if (o.kind === "lift_bag") continue; // drawn as its site, by its gas volume
+      place(`o:${o.name}`, () => new THREE.Mesh(new THREE.BoxGeometry(0.25, 0.12, 0.25),
+        mat(o.kind)), o.north, o.east, o.depth);
+    }
+    for (const site of (team && team.sites) || []) {
+      if (site.kind === "lift_bag") {
+        const m = place(`s:${site.name}`, () => new THREE.Mesh(new THREE.SphereGeometry(1, 16, 12),
+          mat("lift_bag")), site.north, site.east, site.depth);
+        const litres = Math.max(site.litres, 0.5); // an empty bag: a folded bundle
+        m.scale.setScalar(Math.cbrt((3 * litres * 1e-3) / (4 * Math.PI)));
+      } else if (site.kind === "flange") {
+        const m = place(`s:${site.name}`, () => new THREE.Mesh(
+          new THREE.CylinderGeometry(0.115, 0.115, 0.05, 24), mat("flange")),
+          site.north, site.east, site.depth);
+        const k = site.bolts ? site.bolts_out / site.bolts : 0;
+        m.material.color.setRGB(0.9 * (1 - k) + 0.2 * k, 0.25 * (1 - k) + 0.8 * k, 0.2);
+        m.visible = site.cover_on;
+      } else if (site.kind === "hatch") {
+        const m = place(`s:${site.name}`, () => new THREE.Mesh(new THREE.BoxGeometry(0.6, 0.02, 0.6),
+          mat("hatch")), site.north, site.east, site.depth);
+        m.rotation.x = -site.angle_deg * DEG;
+      }
+    }
+    for (const [key, m] of Object.entries(this.teamObjs)) {
+      if (!seen.has(key)) {
+        this.scene.remove(m);
+        delete this.teamObjs[key];
+      }
+    }
+    const figures = (team && team.figures) || {};
+    for (const [name, fig] of Object.entries(figures)) {
+      let lines = this.figureObjs[name];
+      const n = fig.bones.length * 2;
+      if (!lines || lines.geometry.attributes.position.count !== n) {
+        if (lines) this.scene.remove(lines);
+        const geo = new THREE.BufferGeometry();
+        geo.setAttribute("position", new THREE.BufferAttribute(new Float32Array(3 * n), 3));
+        lines = this.figureObjs[name] = new THREE.LineSegments(geo,
+          new THREE.LineBasicMaterial({ color: 0xffffff }));
+        this.scene.add(lines);
+      }
+      const pos = lines.geometry.attributes.position;
+      fig.bones.forEach(([i, j], k) => {
+        for (const [slot, p] of [[2 * k, fig.points[i]], [2 * k + 1, fig.points[j]]]) {
+          pos.setXYZ(slot, p[1], -p[2], -p[0]);
+        }
+      });
+      pos.needsUpdate = true;
+      lines.geometry.computeBoundingSphere();
+    }
+    for (const [name, lines] of Object.entries(this.figureObjs)) {
+      if (!(name in figures)) {
+        this.scene.remove(lines);
+        delete this.figureObjs[name];
+      }
+    }
+    // a diver drawn as its figure hides its primitive body (the sonar wedge stays)
+    for (const [name, obj] of Object.entries(this.agentObjs)) {
+      for (const m of obj.body) m.visible = !(name in figures);
+    }
   },
 
   // Translucent horizontal fan: apex at the vehicle, ±fov/2 about forward, radius max_range.
@@ -940,6 +1302,7 @@ const view3d = {
         obj.wedgeKey = key;
       }
     }
+    this.updateTeam(state.team);
     const sel = state.agents[state.selected];
     const t = sel ? [sel.north, sel.east, sel.depth] : this.target;
     const o = this.orbit;
@@ -987,6 +1350,7 @@ new ResizeObserver(() => {
 })
   .observe(document.body);
 
+state.view3d = view3d; // for tests
 view3d.init().catch((e) => {
   state.errors.push(String(e));
   $("view3d").innerHTML = '<div class="nogl">3-D view failed to start.</div>';
