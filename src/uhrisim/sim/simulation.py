@@ -468,12 +468,14 @@ class Simulation:
         return pings, images
 
     def _sense_from(self, agent: Agent, sense: Callable[..., Any]) -> Any:
-        """``sense(raycaster, position NED, rotation body→NED, t, exclude=...)`` from the
-        agent's pose now, the agent's own body unseen."""
+        """``sense(raycaster, position NED, rotation body→NED, t, exclude=..., medium=...)``
+        from the agent's pose now, the agent's own body unseen, through the silt in the
+        water (None: none)."""
         self._sync_scene()
         nav = agent.nav()
+        medium = self.team.medium(self.t) if self.team is not None else None
         return sense(self.raycaster, nav.position_ned, rot_z(nav.yaw), self.t,
-                     exclude=frozenset({agent.name}))
+                     exclude=frozenset({agent.name}), medium=medium)
 
     def _control(self, agent: Agent) -> None:
         if agent.actuator_override is not None:

@@ -61,7 +61,7 @@ from uhrisim.world.diver_figure import figure_transforms
 from uhrisim.world.events import WorldEvent
 from uhrisim.world.materials import CONCRETE, STEEL
 from uhrisim.world.scene import Scene
-from uhrisim.world.silt import SiltCloud, SiltParams
+from uhrisim.world.silt import SiltCloud, SiltMedium, SiltParams
 from uhrisim.world.tools import make_tool
 
 #: How often the stage runs (Hz): the executors, the arms, the grippers, the objects.
@@ -424,6 +424,10 @@ class TeamStage:
         while body.reported < len(steps) and steps[body.reported].ended is not None:
             self.record("order", order_detail(name, body.reported, steps[body.reported]))
             body.reported += 1
+
+    def medium(self, t: float) -> SiltMedium | None:
+        """The silt in the water at ``t`` as the sensors see it (None: no silt stirred)."""
+        return SiltMedium(self.silt, t) if self.silt is not None and self.silt.n_puffs else None
 
     def joint_samples(self) -> dict[str, JointSample]:
         """Every articulated diver's joints now (for the hooks: recorder, bridges)."""
