@@ -303,8 +303,9 @@ class TeamStage:
 
     def _add_bodies(self) -> None:
         ws, scene = self.workspace, self.scene
-        for name, tool in ws.tools.items():
-            scene.add_dynamic(name, tool.mesh(), tool.label, STEEL, *_pose(ws.things[name].pose))
+        for name, tool in ws.tools.items():  # a lift bag swells: all its sizes, one shown
+            shape = ws.bags[name].parts() if name in ws.bags else tool.mesh()
+            scene.add_dynamic(name, shape, tool.label, STEEL, *_pose(ws.things[name].pose))
         for name, load in ws.loads.items():
             scene.add_dynamic(name, load.parts(), "load", STEEL, *_pose(ws.things[name].pose))
         for name, spec in ws.flanges.items():
@@ -440,6 +441,10 @@ class TeamStage:
         ws, scene = self.workspace, self.scene
         for name, thing in ws.things.items():
             scene.set_pose(name, *_pose(thing.pose))
+        for name, spec in ws.bags.items():
+            state = ws.bag_states[name]
+            scene.set_part_transforms(name, spec.part_transforms(
+                state, float(ws.things[name].position[2])))
         for name, spec in ws.flanges.items():
             scene.set_part_transforms(name, spec.part_transforms(ws.flange_states[name]))
         for name, spec in ws.hatches.items():

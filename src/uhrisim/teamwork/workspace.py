@@ -263,7 +263,8 @@ class Workspace:
             self.bag_states[name], ev = spec.advance(state, dt, t, depth)
             events += ev
         for name, thing in self.things.items():
-            if thing.where in ("water", "floor", "surface"):
+            if thing.where in ("water", "floor", "surface") or (
+                    thing.where.startswith("on:") and name in self.loads):
                 events += self._move_free(name, thing, dt, t, floor_depth)
         for thing in self.things.values():  # contents and rigging follow
             if thing.where.startswith("in:"):
@@ -302,12 +303,17 @@ class Workspace:
         before = thing.where
         thing.pose[:3, 3], thing.velocity, thing.where = x[:3], x[3:], where
         if where == "floor" and support != "floor":
-            self.rest_on(name, support, 0.0)  # in a basket or on a platform
+            if before == support:  # still resting there (pinned by the step)
+                thing.where = support
+            else:
+                self.rest_on(name, support, 0.0)  # in a basket or on a platform
             where = support
         if where == before:
             return []
         landed = where == "floor" or where.startswith(("in:", "on:"))
+        rested = before == "floor" or before.startswith("on:")
         kind = ("landed" if before == "water" and landed
-                else {("floor", "water"): "lifted_off", ("water", "surface"): "surfaced",
+                else "lifted_off" if rested and where == "water"
+                else {("water", "surface"): "surfaced",
                       ("surface", "water"): "sank"}.get((before, where), f"now_{where}"))
         return [WorldEvent(t, kind, name, detail={"depth": float(x[2]), "on": where})]
