@@ -422,7 +422,8 @@ class Simulation:
                     start, centre):  # touching and approaching
                 return 0.0, other.name
         if self._near_static(agent, end):
-            self._sync_scene()
+            if self._has_movable_objects:  # else every body is excluded: poses do not matter
+                self._sync_scene()
             free = self.scene.segment_clear(np.array(start), np.array(end), agent.radius,
                                             exclude=self._not_obstacles)
             if free < 1.0:
