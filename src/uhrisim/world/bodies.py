@@ -98,6 +98,12 @@ class Part:
         return m
 
 
+#: A part posed farther than this (m) from its body's origin is hidden: a part that is
+#: gone (a removed bolt, a bag size not in use) is parked far away, and the ray caster
+#: skips it.
+HIDDEN_BEYOND_M = 1.0e3
+
+
 @dataclass(frozen=True)
 class ArticulatedMesh:
     """A body made of rigid parts; a plain rigid mesh is one part with no joints.

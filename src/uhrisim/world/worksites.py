@@ -53,7 +53,8 @@ from uhrisim.world.tools import CATALOGUE
 
 #: Work times compare with this slack (s): a tick's dt summed up stays a float.
 _SLACK_S = 1e-9
-#: Where parts that are gone wait (translation, m): far above the water, out of any view.
+#: Where parts that are gone wait (translation, m): far above the water, out of any view
+#: (beyond bodies.HIDDEN_BEYOND_M: the ray caster skips them).
 PARKED = np.array([0.0, 0.0, -1.0e4])
 _ALONG_X = {"pitch": math.pi / 2.0}
 
