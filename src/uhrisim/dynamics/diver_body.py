@@ -535,6 +535,8 @@ def step_motion(skeleton: DiverSkeleton, q: ArrayLike, qdot: ArrayLike, goal: Ar
     v = np.asarray(qdot, dtype=float)
     vmax = skeleton.max_speed
     error = skeleton.clip(goal) - q
+    if not (error.any() or v.any()):  # still, on the goal: stays (the common case)
+        return q.copy(), v.copy()
     distance = np.abs(error)
     slowest = float((distance / vmax).max())
     cruise = np.minimum(distance / slowest, vmax) if slowest > 0.0 else np.zeros_like(vmax)

@@ -263,8 +263,7 @@ class Workspace:
             self.bag_states[name], ev = spec.advance(state, dt, t, depth)
             events += ev
         for name, thing in self.things.items():
-            if thing.where in ("water", "floor", "surface") or (
-                    thing.where.startswith("on:") and name in self.loads):
+            if self._may_move(name, thing):
                 events += self._move_free(name, thing, dt, t, floor_depth)
         for thing in self.things.values():  # contents and rigging follow
             if thing.where.startswith("in:"):
@@ -275,6 +274,18 @@ class Workspace:
                 thing.pose = pose_matrix(load.pose[:3, :3] @ eye + load.pose[:3, 3],
                                          math.atan2(load.pose[1, 0], load.pose[0, 0]))
         return events
+
+    def _may_move(self, name: str, thing: Thing) -> bool:
+        """Whether the physics must step ``name``: free in the water or at the surface, or
+        resting (on the floor or a platform) and lighter than water — a bag with gas in it or
+        a load with such a bag rigged may be (what rests heavier than water stays)."""
+        if thing.where in ("water", "surface"):
+            return True
+        if thing.where != "floor" and not thing.where.startswith("on:"):
+            return False  # held, in a basket, rigged: moved by what it is with
+        gassed = [b for b, s in self.bag_states.items() if s.gas_surface_litres > 0.0]
+        return (name in gassed or any(self.bag_states[b].attached_to == name for b in gassed)
+                or self.hydro_of(name).in_water_weight() < 0.0)
 
     def _bag_gas(self, load: str, depth: float) -> tuple[float, list[str]]:
         """Gas (m³) of the bags rigged to ``load`` at ``depth``, and their names."""
