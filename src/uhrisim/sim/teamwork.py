@@ -348,7 +348,8 @@ class TeamStage:
         for request in requests:
             events += acts.perform(request, ws, carriers, t, dt, self.floor)
         for name, carrier in carriers.items():
-            ws.carry(name, carrier.grip_frame())
+            if ws.held_by(name) is not None:  # an empty hand's frame is not needed
+                ws.carry(name, carrier.grip_frame())
         for name, slot in self.grippers.items():
             self._carry_in_dynamics(self.agents[name], slot)
         events += ws.step(t, dt, self.floor)
