@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from uhrisim.dynamics import diver_boots as bt
-from uhrisim.dynamics.free_body import GRAVITY, WATER_DENSITY
 from uhrisim.dynamics.diver_body import solve_reach
+from uhrisim.dynamics.free_body import GRAVITY, WATER_DENSITY
 from uhrisim.teamwork import acts
 from uhrisim.teamwork import gripper as gr
 from uhrisim.teamwork.workspace import Platform, Workspace, pose_matrix

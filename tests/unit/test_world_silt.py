@@ -129,7 +129,8 @@ def test_closed_form_ray_integrals_match_the_sampled_path_integral():
     ends = np.full(len(d), 8.0)
     ends[1] = 0.2
     for t in (3.0, 200.0):
-        slow = np.array([c.path_integral(origin, di, e, t, 4000) for di, e in zip(d, ends)])
+        slow = np.array([c.path_integral(origin, di, e, t, 4000)
+                         for di, e in zip(d, ends, strict=True)])
         fast = c.ray_integrals(origin, d, ends, t, np.ones(3))
         assert slow.max() > 0.1
         np.testing.assert_allclose(fast, slow, rtol=2e-3, atol=1e-6 * slow.max())

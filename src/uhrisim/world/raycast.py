@@ -491,9 +491,10 @@ class _EmbreeMesh:
 
 class _BodyBVH:
     """A dynamic body for Embree: one scene per group of rigid parts that move together
-    (identical joint chains; every part apart if the body is ``posed_apart``), built once in the rest pose; ``face_offset`` numbers the
-    groups' faces consecutively and ``face_map`` takes those numbers to the body's own face
-    order (for per-face reflectivity)."""
+    (identical joint chains; every part apart if the body is ``posed_apart``), built once
+    in the rest pose; ``face_offset`` numbers the groups' faces consecutively and
+    ``face_map`` takes those numbers to the body's own face order (for per-face
+    reflectivity)."""
 
     def __init__(self, device: object, geometry: ArticulatedMesh) -> None:
         chains: dict[tuple, list[int]] = {}

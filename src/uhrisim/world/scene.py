@@ -353,11 +353,9 @@ class Scene:
         if length == 0.0:
             return 1.0
         d = np.array([dx, dy, dz]) / length
-        # a unit vector across the motion (d x helper), then v = d x u
-        if abs(d[0]) < 0.9:  # helper (1, 0, 0)
-            u = np.array([0.0, d[2], -d[1]])
-        else:  # helper (0, 1, 0)
-            u = np.array([-d[2], 0.0, d[0]])
+        # a unit vector across the motion, d x (1, 0, 0) or d x (0, 1, 0); then v = d x u
+        u = (np.array([0.0, d[2], -d[1]]) if abs(d[0]) < 0.9
+             else np.array([-d[2], 0.0, d[0]]))
         u /= math.sqrt(float(u @ u))
         v = np.array([d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2],
                       d[0] * u[1] - d[1] * u[0]])
