@@ -66,6 +66,17 @@ class SeaFloor:
         object.__setattr__(self, "_lists", (n.tolist(), e.tolist(), z.tolist()))
 
     @property
+    def max_slope(self) -> float:
+        """The steepest slope of the floor's triangles, |∇depth| (m/m): a point lies at
+        most this times its horizontal distance higher than the floor under another."""
+        dn, de = np.diff(self.north)[:, None], np.diff(self.east)[None, :]
+        z = self.depth
+        z00, z10, z11, z01 = z[:-1, :-1], z[1:, :-1], z[1:, 1:], z[:-1, 1:]
+        lower = np.hypot((z10 - z00) / dn, (z11 - z10) / de)  # as in _interpolate
+        upper = np.hypot((z11 - z01) / dn, (z01 - z00) / de)
+        return float(max(lower.max(), upper.max()))
+
+    @property
     def mesh(self) -> trimesh.Trimesh:
         """Triangle mesh of the floor in NED (cached; two triangles per grid cell)."""
         if self._mesh is None:
