@@ -340,7 +340,7 @@ class TeamStage:
         events: list[WorldEvent] = []
         carriers: dict[str, acts.Carrier] = {}
         for name, body in self.divers.items():
-            view = self._view(self.agents[name], body)
+            view = self._view(self.agents[name], body, floor=False)  # its hands
             carriers |= {h.name: h for h in (view.hand("left"), view.hand("right"))}
         for name, slot in self.grippers.items():
             events += self._work_gripper(name, slot, t, requests)
@@ -368,12 +368,13 @@ class TeamStage:
             self.events.append(event)
             self.record("teamwork", event.line())
 
-    def _view(self, agent: Agent, body: DiverBodyState) -> DiverView:
+    def _view(self, agent: Agent, body: DiverBodyState, floor: bool = True) -> DiverView:
+        """The executor's view of a diver now (``floor``: with the floor depth under it)."""
         nav = agent.nav()
         diver = agent.model.diver
-        floor = float(self.floor(*nav.position_ned[:2]))
+        depth = float(self.floor(*nav.position_ned[:2])) if floor else math.nan
         return DiverView(agent.name, diver.walks, body.skeleton, body.q,
-                         pose_matrix(nav.position_ned, nav.yaw), nav.speed, floor)
+                         pose_matrix(nav.position_ned, nav.yaw), nav.speed, depth)
 
     def _move_diver(self, agent: Agent, body: DiverBodyState, grips: dict[str, NDArray],
                     t: float) -> acts.ActRequest | None:

@@ -24,7 +24,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.core.frames import rot_z
 from uhrisim.dynamics import free_body as fb
 from uhrisim.world.events import WorldEvent
 from uhrisim.world.tools import Tool
@@ -66,10 +65,10 @@ class Platform:
 
 def pose_matrix(position_ned: ArrayLike, yaw: float = 0.0) -> NDArray[np.float64]:
     """4x4 body→NED of a level object at ``position_ned`` heading ``yaw`` (rad)."""
-    m = np.eye(4)
-    m[:3, :3] = rot_z(yaw)
-    m[:3, 3] = np.asarray(position_ned, dtype=float)
-    return m
+    n, e, d = (float(v) for v in position_ned)  # type: ignore[union-attr]
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0, n], [s, c, 0.0, e], [0.0, 0.0, 1.0, d],
+                     [0.0, 0.0, 0.0, 1.0]])
 
 
 @dataclass
@@ -283,6 +282,8 @@ class Workspace:
             return True
         if thing.where != "floor" and not thing.where.startswith("on:"):
             return False  # held, in a basket, rigged: moved by what it is with
+        if name in self.tools and name not in self.bags:
+            return self.tools[name].hydro.in_water_weight() < 0.0
         gassed = [b for b, s in self.bag_states.items() if s.gas_surface_litres > 0.0]
         return (name in gassed or any(self.bag_states[b].attached_to == name for b in gassed)
                 or self.hydro_of(name).in_water_weight() < 0.0)
