@@ -259,8 +259,9 @@ class UnderwaterCamera:
         across_rows, across_cols = _linear_weights(rows, h), _linear_weights(cols, w)
 
         def fill(grid: NDArray) -> NDArray[np.float32]:
-            return np.einsum("ya,abc,xb->yxc", across_rows,
-                             grid.reshape(len(rows), len(cols), -1), across_cols).astype(_F32)
+            """(H, W, C) bilinear fill of the grid's values (rows, then columns)."""
+            by_row = across_rows @ grid.reshape(len(rows), -1).astype(_F32)  # (H, cols·C)
+            return np.matmul(across_cols, by_row.reshape(h, len(cols), -1))
 
         return through_cloud(radiance, fill(tau)[..., 0], fill(background))
 
