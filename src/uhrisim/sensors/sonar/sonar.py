@@ -76,6 +76,12 @@ __all__ = ["ImagingSonar", "cloud_hits"]
 _LN10_OVER_10 = math.log(10.0) / 10.0
 
 
+#: Elevation rays per beam that sample a medium's volume scatterers (:meth:`volume_echoes`).
+VOLUME_ELEVATIONS = 8
+#: Range cell (m) in which a medium's volume scatterers are integrated.
+VOLUME_CELL_M = 0.1
+
+
 class VolumeScatterers(Protocol):
     """Scatterers spread through the water near the sonar (a silt cloud:
     :class:`uhrisim.world.silt.SiltMedium`)."""
@@ -196,16 +202,34 @@ class ImagingSonar:
         collects, in each bin before what it hits (rays ``idx`` hit at ``r``), the
         volume reverberation of :func:`.geometry.diffuse_terms` with the local
         ``s_v``: ``w_ray·∫s_v dR·R⁻²·10^(−2αR/10)`` (the scattering volume R²ΔΩ dR of the
-        ray, b_v² and D in its weight w_ray). Returns (bins, beams, echoes re SL)."""
+        ray, b_v² and D in its weight w_ray). Returns (bins, beams, echoes re SL).
+
+        A cloud is smooth on the scale of the fan's sampling, so the volume is sampled
+        coarser than the echoes: :data:`VOLUME_ELEVATIONS` elevation rays per beam (each
+        standing for its neighbours' weight too) and range cells of about
+        :data:`VOLUME_CELL_M`, each spread evenly over its bins."""
         cfg, g = self.config, self.geometry
+        n_el = cfg.rays_per_beam
+        n_az = len(g.ray_beam) // n_el
+        step = max(1, n_el // VOLUME_ELEVATIONS)
+        rays = (np.arange(step // 2, n_el, step)[:, None] * n_az + np.arange(n_az)).ravel()
         ends = np.full(len(dirs_ned), cfg.range_max_m)
         ends[idx] = np.minimum(r, cfg.range_max_m)
-        edges = cfg.range_min_m + cfg.bin_m * np.arange(cfg.n_bins + 1)
-        ray, bins, sv_dr = medium.backscatter(position_ned, dirs_ned, ends, edges,
-                                              cfg.sonar_spec.frequency_hz)
-        rc = g.bin_centres[bins]
-        echo = g.ray_weight[ray] * sv_dr * np.exp(-self._two_alpha_ln * rc) / (rc * rc)
-        return bins, g.ray_beam[ray], echo
+        merge = max(1, round(VOLUME_CELL_M / cfg.bin_m))
+        edges = cfg.range_min_m + cfg.bin_m * np.arange(0, cfg.n_bins + merge, merge)
+        edges[-1] = min(edges[-1], cfg.range_min_m + cfg.bin_m * cfg.n_bins)
+        cell_ray, cell, sv_dr = medium.backscatter(position_ned, dirs_ned[rays], ends[rays],
+                                                   edges, cfg.sonar_spec.frequency_hz)
+        ray = rays[cell_ray]
+        rc = 0.5 * (edges[cell] + edges[cell + 1])
+        echo = (step * g.ray_weight[ray] * sv_dr * np.exp(-self._two_alpha_ln * rc)
+                / (rc * rc))
+        # each cell's echo over its bins, by their share of its length
+        first = cell * merge
+        count = np.minimum(first + merge, cfg.n_bins) - first
+        bins = np.repeat(first, count) + (np.arange(count.sum())
+                                          - np.repeat(np.cumsum(count) - count, count))
+        return bins, np.repeat(g.ray_beam[ray], count), np.repeat(echo / count, count)
 
     def ray_intensity(
         self,
