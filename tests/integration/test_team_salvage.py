@@ -88,14 +88,20 @@ def test_the_timeline_figure_draws_the_recorded_steps(boots, tmp_path):
     assert path.stat().st_size > 10_000
 
 
-def test_the_scuba_diver_finishes_every_order(tmp_path):
+def test_the_scuba_diver_finishes_every_order_and_takes_the_light(tmp_path):
     result = run_scenario(SCUBA, tmp_path, duration=222.0, raycast_sensors=False)
-    diver = result.metrics["team"]["divers"]["diver1"]
+    team = result.metrics["team"]
+    diver = team["divers"]["diver1"]
     assert result.metrics["collisions"] == 0
-    assert diver["orders"] == diver["orders_done"] == 16 and diver["completed_s"] < 222.0
+    assert diver["orders"] == diver["orders_done"] == 18 and diver["completed_s"] < 222.0
     saved = json.loads((tmp_path / "metrics.json").read_text())
-    assert saved["team"]["divers"]["diver1"]["orders_done"] == 16
-    assert saved["team"]["hold_s"]["rov1/gripper"] == pytest.approx(222.0, abs=0.1)
+    assert saved["team"]["divers"]["diver1"]["orders_done"] == 18
+    # the swimmer takes the light from the VideoRay's gripper, whose jaws and body it
+    # reaches from a shoulder's standoff, never touching the vehicle
+    assert team["handovers"]["successes"] == 1 and team["drops"] == 0
+    handed = next(s for s in diver["steps"] if s["order"] == "pick up light1")["end_s"]
+    assert team["hold_s"]["rov1/gripper"] == pytest.approx(handed, abs=1.0)
+    assert team["min_separation_m"] > 0.85
 
 
 def test_the_same_seed_gives_the_same_team_run(tmp_path):

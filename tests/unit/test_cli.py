@@ -36,7 +36,7 @@ def test_bench_prints_one_json_object_with_rates():
 
 def test_every_issue_benchmark_is_registered():
     assert {"dynamics", "sonar", "helm", "mission", "bridges", "raycast", "viewer",
-            "camera"} <= set(
+            "camera", "team"} <= set(
         available())
 
 

@@ -8,6 +8,7 @@ import pytest
 
 from uhrisim.dynamics import diver_boots as bt
 from uhrisim.dynamics.diver_body import solve_reach
+from uhrisim.dynamics.free_body import GRAVITY, WATER_DENSITY
 from uhrisim.teamwork import acts
 from uhrisim.teamwork import gripper as gr
 from uhrisim.teamwork.workspace import Platform, Workspace, pose_matrix
@@ -377,3 +378,33 @@ def test_a_lift_bag_rigged_and_inflated_raises_the_load_once_its_lift_exceeds_th
     assert lifted_at == pytest.approx(expected, abs=2 * DT)
     assert ws.things["valve1"].position[2] < FLOOR_DEPTH - 0.2 - 1.0  # it is on its way up
     np.testing.assert_allclose(ws.things["bag1"].position, ws.grasp_point("valve1"))
+
+
+@pytest.mark.parametrize("support", ["floor", "on:stand1"])
+@pytest.mark.parametrize(("margin", "lifts"), [(1.02, True), (0.98, False)])
+def test_a_rigged_load_lifts_off_its_support_only_when_rho_g_v_exceeds_its_weight(
+        support, margin, lifts):
+    """The 40 kg valve on the floor or on the stand, its bag given the gas whose lift
+    rho g V at the load's depth is 2 % over or under the in-water weight of load and bag."""
+    ws = world()
+    if support == "floor":
+        ws.put("valve1", (5.0, 0.0, FLOOR_DEPTH - 0.2))
+    else:  # on the stand's top, 1.1 m over the floor
+        ws.put("valve1", (0.45, 0.1, FLOOR_DEPTH - 1.1 - 0.2), where=support)
+    bag = ws.bags["bag1"]
+    ws.things["bag1"].where = "rigged:valve1"
+    weight = (ws.loads["valve1"].hydro.in_water_weight() + bag.fabric.in_water_weight())
+    depth = float(ws.things["valve1"].position[2])
+    pressure = 1.0 + WATER_DENSITY * GRAVITY * depth / 101325.0
+    litres = margin * weight / (WATER_DENSITY * GRAVITY) * 1e3 * pressure
+    ws.bag_states["bag1"] = ws_.LiftBagState("valve1", gas_surface_litres=litres)
+    assert bag.lift_n(ws.bag_states["bag1"], depth) == pytest.approx(margin * weight)
+    events = []
+    for k in range(round(2.0 / DT)):
+        events += [e for e in ws.step(k * DT, DT, FLOOR) if e.subject == "valve1"]
+    rose = depth - float(ws.things["valve1"].position[2])
+    if lifts:
+        assert [(e.kind, e.subject) for e in events] == [("lifted_off", "valve1")]
+        assert ws.things["valve1"].where == "water" and rose > 0.01
+    else:
+        assert events == [] and ws.things["valve1"].where == support and rose == 0.0

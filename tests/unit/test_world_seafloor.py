@@ -98,3 +98,17 @@ def test_height_grid_errors_name_the_file(tmp_path) -> None:
         sf.from_height_grid(one_d, 1.0)
     with pytest.raises(ConfigError, match="extent"):
         sf.flat(8.0, (0.0, -1.0, 0.0, 1.0))
+
+
+
+def test_max_slope_bounds_the_floor_anywhere_near_a_point():
+    assert sf.flat(12.0, 50.0).max_slope == 0.0
+    assert sf.sloped(10.0, 0.25, direction_deg=30.0, extent=20.0).max_slope == pytest.approx(0.25)
+    floor = sf.procedural(4, extent=20.0, roughness=0.5, correlation_length=2.0)
+    # the depth changes by at most max_slope times the horizontal distance
+    rng = np.random.default_rng(0)
+    a = rng.uniform(-15, 15, (500, 2))
+    b = a + rng.normal(0.0, 0.5, (500, 2))
+    dz = np.abs(floor.depth_at(b[:, 0], b[:, 1]) - floor.depth_at(a[:, 0], a[:, 1]))
+    assert floor.max_slope > 0.05
+    assert np.all(dz <= floor.max_slope * np.linalg.norm(b - a, axis=1) + 1e-9)

@@ -114,3 +114,30 @@ def test_bad_parameters():
         sl.SiltParams(mass_fractions=(0.5, 0.4, 0.3))
     with pytest.raises(ConfigError, match="silt is 2-63"):
         sl.SiltParams(diameters_m=(1e-4, 2e-5, 3e-5))
+
+
+def test_closed_form_ray_integrals_match_the_sampled_path_integral():
+    c = cloud()
+    for k in range(12):  # a walk of footfalls, released over 6 s
+        c.release(0.5 * k, (0.3 * k, 0.1 * k, FLOOR_DEPTH), mass_kg=0.02)
+    origin = np.array([-2.0, 0.5, FLOOR_DEPTH - 0.2])
+    rng = np.random.default_rng(3)
+    d = rng.normal(size=(40, 3)) * (1.0, 1.0, 0.15)
+    d[0] = (1.0, 0.1, 0.02)
+    d[1] = (0.0, 0.0, 1.0)  # straight down: no horizontal motion
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    ends = np.full(len(d), 8.0)
+    ends[1] = 0.2
+    for t in (3.0, 200.0):
+        slow = np.array([c.path_integral(origin, di, e, t, 4000)
+                         for di, e in zip(d, ends, strict=True)])
+        fast = c.ray_integrals(origin, d, ends, t, np.ones(3))
+        assert slow.max() > 0.1
+        np.testing.assert_allclose(fast, slow, rtol=2e-3, atol=1e-6 * slow.max())
+        # linear in the per-class weights, and per range bin the bins add up to the ray
+        by_class = [c.ray_integrals(origin, d, ends, t, w) for w in np.eye(3)]
+        np.testing.assert_allclose(sum(by_class), fast, rtol=1e-12)
+        ray, _, value = c.ray_integrals(origin, d, ends, t, np.ones(3),
+                                        edges=np.linspace(0, 8, 161))
+        np.testing.assert_allclose(np.bincount(ray, value, minlength=len(d)), fast,
+                                   rtol=1e-9, atol=1e-12)

@@ -296,6 +296,10 @@ class DiverSkeleton:
     _index: Mapping[str, int] = field(init=False, repr=False)
     _parents: NDArray[np.int64] = field(init=False, repr=False)
     _tables: Mapping[str, NDArray[np.float64]] = field(init=False, repr=False)
+    #: the last :meth:`joint_transforms` (its q's bytes, the read-only result): a tick
+    #: asks for the same pose several times (both hands, the reach, the acts)
+    _last: list[tuple[bytes, NDArray[np.float64]]] = field(
+        init=False, repr=False, compare=False, default_factory=list)
 
     def __post_init__(self) -> None:
         if self.kind not in ("scuba", "boots"):
@@ -402,6 +406,9 @@ class DiverSkeleton:
         if q.shape != (self.n_joints,):
             raise ConfigError(f"q must have shape ({self.n_joints},), got {q.shape}",
                               where="DiverSkeleton.joint_transforms")
+        key = q.tobytes()
+        if self._last and self._last[0][0] == key:
+            return self._last[0][1]
         axes, pivots = self._tables["axes"], self._tables["pivots"]
         rot = _rodrigues(axes, q)
         local = np.zeros((self.n_joints, 4, 4))
@@ -411,6 +418,8 @@ class DiverSkeleton:
         out = np.empty_like(local)
         for i, parent in enumerate(self._parents):
             out[i] = local[i] if parent < 0 else out[parent] @ local[i]
+        out.setflags(write=False)
+        self._last[:] = [(key, out)]
         return out
 
     def link_transforms(self, q: ArrayLike) -> dict[str, NDArray[np.float64]]:
@@ -526,6 +535,8 @@ def step_motion(skeleton: DiverSkeleton, q: ArrayLike, qdot: ArrayLike, goal: Ar
     v = np.asarray(qdot, dtype=float)
     vmax = skeleton.max_speed
     error = skeleton.clip(goal) - q
+    if not (error.any() or v.any()):  # still, on the goal: stays (the common case)
+        return q.copy(), v.copy()
     distance = np.abs(error)
     slowest = float((distance / vmax).max())
     cruise = np.minimum(distance / slowest, vmax) if slowest > 0.0 else np.zeros_like(vmax)

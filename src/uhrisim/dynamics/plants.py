@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from uhrisim.core.errors import NumericalError
 from uhrisim.dynamics import carried_load, diver, diver_boots, kinematic, videoray
-from uhrisim.dynamics.integrators import FixedStepIntegrator, rk4_step
+from uhrisim.dynamics.integrators import FixedStepIntegrator
 
 
 def finite_or_raise(x: NDArray, vehicle: str, t: float) -> NDArray:
@@ -204,31 +204,29 @@ class LoadedVideoRayPlant(VideoRayPlant):
     """The VideoRay with ``load`` in its gripper: eqs 1-4 with the load's mass, added mass
     and drag (:func:`~uhrisim.dynamics.carried_load.loaded_params`) and its in-water
     weight as a heave force — :func:`~uhrisim.dynamics.carried_load.xdot_loaded`, its
-    parameters worked out once — by classical RK4 with the unloaded plant's sub-steps (a
-    heavier vehicle is no stiffer). ``params`` stay the unloaded vehicle's."""
+    parameters worked out once — by the unloaded plant's RK4 kernel
+    (:func:`~uhrisim.dynamics.videoray.rk4_steps`) and sub-steps (a heavier vehicle is no
+    stiffer). ``params`` stay the unloaded vehicle's."""
 
     load: carried_load.CarriedLoad | None = None
     loaded: videoray.VideoRayParams | None = field(init=False, default=None)
+    loaded_coefficients: videoray.RateCoefficients | None = field(init=False, default=None)
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.load is not None:
-            object.__setattr__(self, "loaded", carried_load.loaded_params(self.params, self.load))
+            loaded = carried_load.loaded_params(self.params, self.load)
+            object.__setattr__(self, "loaded", loaded)
+            object.__setattr__(self, "loaded_coefficients", videoray.RateCoefficients.of(loaded))
 
     def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
         if self.load is None:
             return super().step(t, x, u)
         n = self.integrator.substeps
-        h = self.dt / n
-        for k in range(n):
-            x = rk4_step(self._xdot, t + k * h, x, u, self.loaded, h)
-        return finite_or_raise(x, self.name, t + self.dt)
-
-    def _xdot(self, t: float, x: NDArray, u: NDArray, loaded: videoray.VideoRayParams
-              ) -> NDArray:
-        out = videoray.xdot(t, x, u, loaded)
-        out[..., 6] += carried_load.heave_bias(self.load) / loaded.m33
-        return out
+        return finite_or_raise(
+            videoray.rk4_steps(x, u, self.loaded, self.dt / n, n, self.loaded_coefficients,
+                               heave_bias=carried_load.heave_bias(self.load)),
+            self.name, t + self.dt)
 
 
 def carrying(plant: VideoRayPlant, load: carried_load.CarriedLoad | None

@@ -234,7 +234,7 @@ class RateCoefficients(NamedTuple):
 
 def rk4_steps(x: ArrayLike, u: ArrayLike, params: VideoRayParams, h: float, substeps: int,
               coefficients: RateCoefficients | None = None,
-              compiled: bool = True) -> NDArray[np.float64]:
+              compiled: bool = True, heave_bias: float = 0.0) -> NDArray[np.float64]:
     """``substeps`` RK4 steps of size ``h`` with the inputs held, for one vehicle (``x``
     (8,), ``u`` (3,)) or N at once (``x`` (N, 8), ``u`` (N, 3)): the one kernel,
     :func:`rk4_kernel`, on floats (one vehicle) or on arrays (N); with numba installed and
@@ -242,16 +242,19 @@ def rk4_steps(x: ArrayLike, u: ArrayLike, params: VideoRayParams, h: float, subs
     (:mod:`uhrisim.core.compiled`; the same numbers, bit for bit).
     Equal (to rounding) to :func:`uhrisim.dynamics.integrators.rk4_step` on :func:`xdot`,
     the slow reference a test holds it to. ``coefficients``: those of ``params``, when the
-    caller keeps them."""
+    caller keeps them. ``heave_bias``: a constant extra heave force (N, down), such as a
+    carried load's in-water weight."""
     coefficients = coefficients or RateCoefficients.of(params)
     x = np.asarray(x, dtype=float)
     if x.ndim == 1:
-        forces = body_forces(*np.asarray(u, dtype=float).tolist(), params)
+        surge, heave, yaw = body_forces(*np.asarray(u, dtype=float).tolist(), params)
+        forces = (surge, heave + heave_bias, yaw)
         kernel = (_compiled_kernel() if compiled else None) or _FLOAT_KERNEL
         return np.array(kernel(*x.tolist(), *forces, tuple(coefficients), h, substeps))
     commands = np.ascontiguousarray(np.asarray(u, dtype=float).T)
     with np.errstate(over="ignore", invalid="ignore"):  # a blow-up is reported by the caller
-        forces = body_forces(*commands, params, ARRAYS)
+        surge, heave, yaw = body_forces(*commands, params, ARRAYS)
+        forces = (surge, heave + heave_bias, yaw)
         rows = _compiled_rows() if compiled else None
         if rows is not None:
             out = np.empty_like(x)

@@ -133,6 +133,7 @@ class Simulation:
         self.refresh_static_obstacles()
         floor = self.scene.seafloor
         self._shallowest_floor = float(np.min(floor.depth)) if floor is not None else np.inf
+        self._floor_slope = floor.max_slope if floor is not None else 0.0
         self._scene_dirty = False
         self._started = False
         self._closed = False
@@ -420,22 +421,27 @@ class Simulation:
             if end_distance < agent.radius + other.radius and end_distance < math.dist(
                     start, centre):  # touching and approaching
                 return 0.0, other.name
-        if self._near_static(agent, end):
-            self._sync_scene()
+        if self._near_static(agent, end, math.dist(start, end)):
+            if self._has_movable_objects:  # else every body is excluded: poses do not matter
+                self._sync_scene()
             free = self.scene.segment_clear(np.array(start), np.array(end), agent.radius,
                                             exclude=self._not_obstacles)
             if free < 1.0:
                 return free, f"the scene at NED {np.round(end, 2).tolist()}"
         return 1.0, ""
 
-    def _near_static(self, agent: Agent, point: list[float]) -> bool:
-        """Cheap broad phase: is ``point`` (NED, m) within reach of any static geometry?"""
+    def _near_static(self, agent: Agent, point: list[float], step_m: float) -> bool:
+        """Cheap broad phase: is ``point`` (NED, m), the end of a move of ``step_m``, within
+        reach of any static geometry? A hit of the narrow phase's ray bundle lies within
+        radius + step of the end, where the floor is at most max slope x that shallower
+        than under it."""
         if self._has_movable_objects:
             return True  # movable objects have no precomputed bounds: always look closely
-        margin = agent.radius + 0.5
-        if point[2] + margin >= self._shallowest_floor and point[2] + margin >= float(
+        reach = (agent.radius + step_m) * (1.0 + self._floor_slope) + 1e-6
+        if point[2] + reach >= self._shallowest_floor and point[2] + reach >= float(
                 self.scene.depth_at(point[0], point[1])):
             return True
+        margin = agent.radius + 0.5
         lows, highs = self._static_boxes
         if lows.size == 0:
             return False
@@ -467,12 +473,14 @@ class Simulation:
         return pings, images
 
     def _sense_from(self, agent: Agent, sense: Callable[..., Any]) -> Any:
-        """``sense(raycaster, position NED, rotation body→NED, t, exclude=...)`` from the
-        agent's pose now, the agent's own body unseen."""
+        """``sense(raycaster, position NED, rotation body→NED, t, exclude=..., medium=...)``
+        from the agent's pose now, the agent's own body unseen, through the silt in the
+        water (None: none)."""
         self._sync_scene()
         nav = agent.nav()
+        medium = self.team.medium(self.t) if self.team is not None else None
         return sense(self.raycaster, nav.position_ned, rot_z(nav.yaw), self.t,
-                     exclude=frozenset({agent.name}))
+                     exclude=frozenset({agent.name}), medium=medium)
 
     def _control(self, agent: Agent) -> None:
         if agent.actuator_override is not None:

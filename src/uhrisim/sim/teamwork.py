@@ -61,7 +61,7 @@ from uhrisim.world.diver_figure import figure_transforms
 from uhrisim.world.events import WorldEvent
 from uhrisim.world.materials import CONCRETE, STEEL
 from uhrisim.world.scene import Scene
-from uhrisim.world.silt import SiltCloud, SiltParams
+from uhrisim.world.silt import SiltCloud, SiltMedium, SiltParams
 from uhrisim.world.tools import make_tool
 
 #: How often the stage runs (Hz): the executors, the arms, the grippers, the objects.
@@ -303,8 +303,9 @@ class TeamStage:
 
     def _add_bodies(self) -> None:
         ws, scene = self.workspace, self.scene
-        for name, tool in ws.tools.items():
-            scene.add_dynamic(name, tool.mesh(), tool.label, STEEL, *_pose(ws.things[name].pose))
+        for name, tool in ws.tools.items():  # a lift bag swells: all its sizes, one shown
+            shape = ws.bags[name].parts() if name in ws.bags else tool.mesh()
+            scene.add_dynamic(name, shape, tool.label, STEEL, *_pose(ws.things[name].pose))
         for name, load in ws.loads.items():
             scene.add_dynamic(name, load.parts(), "load", STEEL, *_pose(ws.things[name].pose))
         for name, spec in ws.flanges.items():
@@ -339,7 +340,7 @@ class TeamStage:
         events: list[WorldEvent] = []
         carriers: dict[str, acts.Carrier] = {}
         for name, body in self.divers.items():
-            view = self._view(self.agents[name], body)
+            view = self._view(self.agents[name], body, floor=False)  # its hands
             carriers |= {h.name: h for h in (view.hand("left"), view.hand("right"))}
         for name, slot in self.grippers.items():
             events += self._work_gripper(name, slot, t, requests)
@@ -347,7 +348,8 @@ class TeamStage:
         for request in requests:
             events += acts.perform(request, ws, carriers, t, dt, self.floor)
         for name, carrier in carriers.items():
-            ws.carry(name, carrier.grip_frame())
+            if ws.held_by(name) is not None:  # an empty hand's frame is not needed
+                ws.carry(name, carrier.grip_frame())
         for name, slot in self.grippers.items():
             self._carry_in_dynamics(self.agents[name], slot)
         events += ws.step(t, dt, self.floor)
@@ -366,12 +368,13 @@ class TeamStage:
             self.events.append(event)
             self.record("teamwork", event.line())
 
-    def _view(self, agent: Agent, body: DiverBodyState) -> DiverView:
+    def _view(self, agent: Agent, body: DiverBodyState, floor: bool = True) -> DiverView:
+        """The executor's view of a diver now (``floor``: with the floor depth under it)."""
         nav = agent.nav()
         diver = agent.model.diver
-        floor = float(self.floor(*nav.position_ned[:2]))
+        depth = float(self.floor(*nav.position_ned[:2])) if floor else math.nan
         return DiverView(agent.name, diver.walks, body.skeleton, body.q,
-                         pose_matrix(nav.position_ned, nav.yaw), nav.speed, floor)
+                         pose_matrix(nav.position_ned, nav.yaw), nav.speed, depth)
 
     def _move_diver(self, agent: Agent, body: DiverBodyState, grips: dict[str, NDArray],
                     t: float) -> acts.ActRequest | None:
@@ -425,6 +428,10 @@ class TeamStage:
             self.record("order", order_detail(name, body.reported, steps[body.reported]))
             body.reported += 1
 
+    def medium(self, t: float) -> SiltMedium | None:
+        """The silt in the water at ``t`` as the sensors see it (None: no silt stirred)."""
+        return SiltMedium(self.silt, t) if self.silt is not None and self.silt.n_puffs else None
+
     def joint_samples(self) -> dict[str, JointSample]:
         """Every articulated diver's joints now (for the hooks: recorder, bridges)."""
         return {name: JointSample(body.skeleton.joint_names, tuple(body.q.tolist()),
@@ -436,6 +443,10 @@ class TeamStage:
         ws, scene = self.workspace, self.scene
         for name, thing in ws.things.items():
             scene.set_pose(name, *_pose(thing.pose))
+        for name, spec in ws.bags.items():
+            state = ws.bag_states[name]
+            scene.set_part_transforms(name, spec.part_transforms(
+                state, float(ws.things[name].position[2])))
         for name, spec in ws.flanges.items():
             scene.set_part_transforms(name, spec.part_transforms(ws.flange_states[name]))
         for name, spec in ws.hatches.items():

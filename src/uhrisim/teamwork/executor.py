@@ -10,8 +10,9 @@ at most one :class:`~uhrisim.teamwork.acts.ActRequest`. The simulation moves the
 performs the act (:func:`uhrisim.teamwork.acts.perform`) and hands the events back
 (:meth:`OrderExecutor.observe`).
 
-Each order goes through phases: **approach** (walk or swim to stand ``standoff`` from the
-point, the working hand's shoulder in line with it, facing it, upright), **reach** (the
+Each order goes through phases: **approach** (walk or swim until the working hand's
+shoulder is ``standoff`` short of the point and in line with it, facing it, upright: a
+prone swimmer's shoulders lie half a body ahead of its hips, a walker's above them), **reach** (the
 arm puts the hand on the point, the diver bending at the waist and over from the hips if
 it must: a diver on boots reaches the floor so), **act** (ask for the act; each tick for
 ``UseOn``) and **finish** (close the hand).
@@ -51,7 +52,7 @@ class ExecutorParams:
     cruise_speed: float = 0.3
     turn_gain: float = 1.5  # rad/s per rad of heading error
     arrive_radius: float = 0.1
-    standoff: float = 0.45  # hip centre to the work point, horizontally, m
+    standoff: float = 0.45  # working shoulder to the work point, horizontally, m
     min_standoff: float = 0.2
     lateral: float = 0.2  # the body stands this far aside so the hand's shoulder is in line
     hand_settle: float = 0.01  # the hand is there when within this of its goal, m
@@ -188,8 +189,8 @@ class OrderExecutor:
     # ------------------------------------------------------------------ geometry
     def _approach(self, view: DiverView, point: NDArray[np.float64], side: Side,
                   standoff: float) -> tuple[bool, Directive]:
-        """Walk or swim to stand ``standoff`` from ``point`` facing it, the ``side``
-        shoulder in line; (arrived, directive). Where to stand is chosen once per
+        """Walk or swim until the ``side`` shoulder is ``standoff`` short of ``point`` and
+        in line with it, facing it; (arrived, directive). Where to stand is chosen once per
         approach, on the line from where the diver was to the point."""
         p = self.params
         here = view.position[:2]
@@ -199,8 +200,9 @@ class OrderExecutor:
                 towards = np.array([math.cos(view.heading), math.sin(view.heading)])
             u = towards / np.linalg.norm(towards)
             sign = 1.0 if side == "right" else -1.0
-            self._stand = (point[:2] - standoff * u - sign * p.lateral * np.array([-u[1], u[0]]),
-                           u)
+            ahead = self._shoulder_ahead(view, side)
+            self._stand = (point[:2] - (standoff + ahead) * u
+                           - sign * p.lateral * np.array([-u[1], u[0]]), u)
         goal, u = self._stand
         to_goal = goal - here
         distance = float(np.linalg.norm(to_goal))
@@ -237,6 +239,14 @@ class OrderExecutor:
             goal = view.skeleton.vector({f"{side}_fingers": 0.0}, goal)
         there = np.linalg.norm(hand.grip_frame()[:3, 3] - point) < self.params.hand_settle
         return ("there" if there else "moving"), goal, ""
+
+    def _shoulder_ahead(self, view: DiverView, side: Side) -> float:
+        """How far (m) the ``side`` shoulder lies ahead of the hip centre in the posture
+        the diver moves in (prone swimmer: about the trunk's length; upright: ~0)."""
+        skeleton = view.skeleton
+        i = skeleton.index(f"{side}_shoulder_flex")
+        t = skeleton.joint_transforms(self._upright(view))[i]
+        return float((t[:3, :3] @ np.asarray(skeleton.joints[i].pivot) + t[:3, 3])[0])
 
     @staticmethod
     def _tilt_room(view: DiverView) -> float | None:

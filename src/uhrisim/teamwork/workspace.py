@@ -24,7 +24,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.core.frames import rot_z
 from uhrisim.dynamics import free_body as fb
 from uhrisim.world.events import WorldEvent
 from uhrisim.world.tools import Tool
@@ -66,10 +65,10 @@ class Platform:
 
 def pose_matrix(position_ned: ArrayLike, yaw: float = 0.0) -> NDArray[np.float64]:
     """4x4 body→NED of a level object at ``position_ned`` heading ``yaw`` (rad)."""
-    m = np.eye(4)
-    m[:3, :3] = rot_z(yaw)
-    m[:3, 3] = np.asarray(position_ned, dtype=float)
-    return m
+    n, e, d = (float(v) for v in position_ned)  # type: ignore[union-attr]
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0, n], [s, c, 0.0, e], [0.0, 0.0, 1.0, d],
+                     [0.0, 0.0, 0.0, 1.0]])
 
 
 @dataclass
@@ -263,7 +262,7 @@ class Workspace:
             self.bag_states[name], ev = spec.advance(state, dt, t, depth)
             events += ev
         for name, thing in self.things.items():
-            if thing.where in ("water", "floor", "surface"):
+            if self._may_move(name, thing):
                 events += self._move_free(name, thing, dt, t, floor_depth)
         for thing in self.things.values():  # contents and rigging follow
             if thing.where.startswith("in:"):
@@ -274,6 +273,20 @@ class Workspace:
                 thing.pose = pose_matrix(load.pose[:3, :3] @ eye + load.pose[:3, 3],
                                          math.atan2(load.pose[1, 0], load.pose[0, 0]))
         return events
+
+    def _may_move(self, name: str, thing: Thing) -> bool:
+        """Whether the physics must step ``name``: free in the water or at the surface, or
+        resting (on the floor or a platform) and lighter than water — a bag with gas in it or
+        a load with such a bag rigged may be (what rests heavier than water stays)."""
+        if thing.where in ("water", "surface"):
+            return True
+        if thing.where != "floor" and not thing.where.startswith("on:"):
+            return False  # held, in a basket, rigged: moved by what it is with
+        if name in self.tools and name not in self.bags:
+            return self.tools[name].hydro.in_water_weight() < 0.0
+        gassed = [b for b, s in self.bag_states.items() if s.gas_surface_litres > 0.0]
+        return (name in gassed or any(self.bag_states[b].attached_to == name for b in gassed)
+                or self.hydro_of(name).in_water_weight() < 0.0)
 
     def _bag_gas(self, load: str, depth: float) -> tuple[float, list[str]]:
         """Gas (m³) of the bags rigged to ``load`` at ``depth``, and their names."""
@@ -302,12 +315,17 @@ class Workspace:
         before = thing.where
         thing.pose[:3, 3], thing.velocity, thing.where = x[:3], x[3:], where
         if where == "floor" and support != "floor":
-            self.rest_on(name, support, 0.0)  # in a basket or on a platform
+            if before == support:  # still resting there (pinned by the step)
+                thing.where = support
+            else:
+                self.rest_on(name, support, 0.0)  # in a basket or on a platform
             where = support
         if where == before:
             return []
         landed = where == "floor" or where.startswith(("in:", "on:"))
+        rested = before == "floor" or before.startswith("on:")
         kind = ("landed" if before == "water" and landed
-                else {("floor", "water"): "lifted_off", ("water", "surface"): "surfaced",
+                else "lifted_off" if rested and where == "water"
+                else {("water", "surface"): "surfaced",
                       ("surface", "water"): "sank"}.get((before, where), f"now_{where}"))
         return [WorldEvent(t, kind, name, detail={"depth": float(x[2]), "on": where})]

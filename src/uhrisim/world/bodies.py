@@ -98,11 +98,22 @@ class Part:
         return m
 
 
+#: A part posed farther than this (m) from its body's origin is hidden: a part that is
+#: gone (a removed bolt, a bag size not in use) is parked far away, and the ray caster
+#: skips it.
+HIDDEN_BEYOND_M = 1.0e3
+
+
 @dataclass(frozen=True)
 class ArticulatedMesh:
-    """A body made of rigid parts; a plain rigid mesh is one part with no joints."""
+    """A body made of rigid parts; a plain rigid mesh is one part with no joints.
+
+    ``posed_apart``: every part is posed on its own by ``Scene.set_part_transforms`` (a
+    work site's parts by its state: a bolt gone, a lid open, a bag's size), so the ray
+    caster must not move parts that share a (here empty) joint chain as one group."""
 
     parts: tuple[Part, ...]
+    posed_apart: bool = False
     _face_offsets: NDArray[np.int64] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:

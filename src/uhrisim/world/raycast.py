@@ -46,7 +46,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import row_dots
-from uhrisim.world.bodies import ArticulatedMesh
+from uhrisim.world.bodies import HIDDEN_BEYOND_M, ArticulatedMesh
 from uhrisim.world.objects import DynamicBody, StaticObject
 
 log = logging.getLogger(__name__)
@@ -491,14 +491,15 @@ class _EmbreeMesh:
 
 class _BodyBVH:
     """A dynamic body for Embree: one scene per group of rigid parts that move together
-    (identical joint chains), built once in the rest pose; ``face_offset`` numbers the
-    groups' faces consecutively and ``face_map`` takes those numbers to the body's own face
-    order (for per-face reflectivity)."""
+    (identical joint chains; every part apart if the body is ``posed_apart``), built once
+    in the rest pose; ``face_offset`` numbers the groups' faces consecutively and
+    ``face_map`` takes those numbers to the body's own face order (for per-face
+    reflectivity)."""
 
     def __init__(self, device: object, geometry: ArticulatedMesh) -> None:
         chains: dict[tuple, list[int]] = {}
         for i, p in enumerate(geometry.parts):
-            chains.setdefault(p.chain, []).append(i)
+            chains.setdefault(i if geometry.posed_apart else p.chain, []).append(i)
         offsets = geometry.face_offsets
         self.groups: list[_EmbreeMesh] = []
         group_part, face_maps = [], []
@@ -526,12 +527,14 @@ class _BodyBVH:
         limit: NDArray[np.float64],
         rots: NDArray[np.float64],
         trans: NDArray[np.float64],
+        shown: NDArray[np.bool_] | None = None,
     ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
         """Nearest hit on the posed body within ``limit`` (N,) m for rays from ``o`` ((3,)
         one shared origin, or (N, 3)) along ``d`` (N, 3), NED. Group g is posed by
         ``rots[g]``, ``trans[g]`` (group frame → NED). Each group traces only the rays that
         meet its bounding sphere and then its rest-frame bounding box (much tighter than
         the sphere for limbs), the groups in turn, each within the nearest hit so far.
+        ``shown``: which groups to trace (None: all; hidden parts are skipped).
         Returns (body face or -1, distance or inf, NED normal facing the ray origin, zero on
         a miss)."""
         n = len(d)
@@ -541,6 +544,8 @@ class _BodyBVH:
         cull = _RayCuller(o, d)
         centres = np.einsum("gij,gj->gi", rots, self.centres) + trans
         for g, mesh in enumerate(self.groups):
+            if shown is not None and not shown[g]:
+                continue
             near = cull.candidates(bound, centres[g], mesh.radius)  # cheap sphere test first
             if len(near) == 0:
                 continue
@@ -729,9 +734,15 @@ class EmbreeRayCaster(RayCaster):
             frames = np.array([pose @ b.part_transforms[i] for i in bvh.group_part])  # → NED
             rots, trans = frames[:, :3, :3], frames[:, :3, 3]
             centres = np.einsum("gij,gj->gi", rots, bvh.centres) + trans
-            # Whole-body bounding sphere (encloses every posed group's sphere) culls first.
-            bc = 0.5 * (centres.min(axis=0) + centres.max(axis=0))
-            br = float(np.max(np.linalg.norm(centres - bc, axis=1) + bvh.radii))
+            # hidden parts (parked far away: HIDDEN_BEYOND_M) are skipped
+            shown = np.einsum("gi,gi->g", trans - pose[:3, 3], trans - pose[:3, 3]) \
+                < HIDDEN_BEYOND_M ** 2
+            if not shown.any():
+                continue
+            # Whole-body bounding sphere (encloses every shown group's sphere) culls first.
+            seen = centres[shown]
+            bc = 0.5 * (seen.min(axis=0) + seen.max(axis=0))
+            br = float(np.max(np.linalg.norm(seen - bc, axis=1) + bvh.radii[shown]))
             body_idx = cull.candidates(np.minimum(best, max_range), bc, br)
             if len(body_idx) == 0:
                 continue
@@ -741,6 +752,7 @@ class EmbreeRayCaster(RayCaster):
                 np.minimum(best[body_idx], max_range),
                 rots,
                 trans,
+                None if shown.all() else shown,
             )
             hits = RayHits(best, label, normal, refl, body, material)
             _keep_nearer(hits, body_idx, bi, b, bvh.face_map, face, t, nrm)

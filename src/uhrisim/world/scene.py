@@ -13,6 +13,7 @@ list, so all pilings can share ``"piling"``) and a :class:`~uhrisim.world.materi
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 
@@ -347,25 +348,41 @@ class Scene:
             )
         if not (np.all(np.isfinite(s)) and np.all(np.isfinite(e))):
             raise ConfigError("start/end must be finite", where="Scene.segment_clear")
-        length = float(np.linalg.norm(e - s))
+        dx, dy, dz = (float(v) for v in e - s)
+        length = math.sqrt(dx * dx + dy * dy + dz * dz)
         if length == 0.0:
             return 1.0
-        d = (e - s) / length
-        helper = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        u = np.cross(d, helper)
-        u /= np.linalg.norm(u)
-        v = np.cross(d, u)
-        offsets = [np.zeros(3) + r * d]
-        if r > 0.0:
-            k = max(int(n_ring), 3)
-            for rho, count, shift in ((r, k, 0.0), (0.6 * r, max(k // 2, 3), 0.5)):
-                ang = 2.0 * np.pi * (np.arange(count) + shift) / count
-                ring = rho * (np.cos(ang)[:, None] * u + np.sin(ang)[:, None] * v)
-                offsets.extend(ring + np.sqrt(max(r * r - rho * rho, 0.0)) * d)
-        origins = s + np.array(offsets)
+        d = np.array([dx, dy, dz]) / length
+        # a unit vector across the motion, d x (1, 0, 0) or d x (0, 1, 0); then v = d x u
+        u = (np.array([0.0, d[2], -d[1]]) if abs(d[0]) < 0.9
+             else np.array([-d[2], 0.0, d[0]]))
+        u /= math.sqrt(float(u @ u))
+        v = np.array([d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2],
+                      d[0] * u[1] - d[1] * u[0]])
+        # bundle points in the (d, u, v) frame: the front point, the rings (module docstring)
+        frame = _ring_offsets(r, max(int(n_ring), 3))
+        origins = s + frame @ np.stack([d, u, v])
         dirs = np.tile(d, (len(origins), 1))
         if self._collision_caster is None:
             self._collision_caster = self.raycaster("embree")
         hits = self._collision_caster.cast(origins, dirs, length, exclude)
         travel = float(np.min(hits.distance))
         return 1.0 if not np.isfinite(travel) else min(max(travel / length, 0.0), 1.0)
+
+
+@functools.lru_cache(maxsize=16)
+def _ring_offsets(r: float, k: int) -> NDArray[np.float64]:
+    """(1 + k + k // 2, 3) points of :meth:`Scene.segment_clear`'s ray bundle in the
+    frame (along the motion, across u, across v) of a sphere of radius ``r``: its front
+    point, a ring of ``k`` on the equator and an inner ring of ``max(k // 2, 3)`` at
+    0.6 r, each pushed forward onto the leading hemisphere (read-only)."""
+    rows = [(r, 0.0, 0.0)]
+    if r > 0.0:
+        for rho, count, shift in ((r, k, 0.0), (0.6 * r, max(k // 2, 3), 0.5)):
+            ahead = math.sqrt(max(r * r - rho * rho, 0.0))
+            for i in range(count):
+                angle = 2.0 * math.pi * (i + shift) / count
+                rows.append((ahead, rho * math.cos(angle), rho * math.sin(angle)))
+    out = np.array(rows)
+    out.setflags(write=False)
+    return out

@@ -14,6 +14,7 @@ and :func:`procedural` (Gaussian-correlated random relief, deterministic from a 
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,6 +40,8 @@ class SeaFloor:
     east: NDArray[np.float64]
     depth: NDArray[np.float64]
     _mesh: trimesh.Trimesh | None = field(default=None, init=False, repr=False, compare=False)
+    #: the grid as lists, for one point at a time (:meth:`_depth_at_point`)
+    _lists: tuple[list, list, list] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         n = np.array(self.north, dtype=float)
@@ -60,6 +63,18 @@ class SeaFloor:
         object.__setattr__(self, "north", n)
         object.__setattr__(self, "east", e)
         object.__setattr__(self, "depth", z)
+        object.__setattr__(self, "_lists", (n.tolist(), e.tolist(), z.tolist()))
+
+    @property
+    def max_slope(self) -> float:
+        """The steepest slope of the floor's triangles, |∇depth| (m/m): a point lies at
+        most this times its horizontal distance higher than the floor under another."""
+        dn, de = np.diff(self.north)[:, None], np.diff(self.east)[None, :]
+        z = self.depth
+        z00, z10, z11, z01 = z[:-1, :-1], z[1:, :-1], z[1:, 1:], z[:-1, 1:]
+        lower = np.hypot((z10 - z00) / dn, (z11 - z10) / de)  # as in _interpolate
+        upper = np.hypot((z11 - z01) / dn, (z01 - z00) / de)
+        return float(max(lower.max(), upper.max()))
 
     @property
     def mesh(self) -> trimesh.Trimesh:
@@ -99,18 +114,27 @@ class SeaFloor:
         """
         n, e = self.north, self.east
         if np.ndim(x_north) == 0 and np.ndim(y_east) == 0:
-            x, y = float(x_north), float(y_east)  # type: ignore[arg-type]
-            if not (n[0] <= x <= n[-1] and e[0] <= y <= e[-1]):
-                return math.nan
-            i = min(max(int(np.searchsorted(n, x, side="right")) - 1, 0), len(n) - 2)
-            j = min(max(int(np.searchsorted(e, y, side="right")) - 1, 0), len(e) - 2)
-            return float(self._interpolate(i, j, x, y))
+            return self._depth_at_point(float(x_north), float(y_east))  # type: ignore[arg-type]
         x, y = np.broadcast_arrays(np.asarray(x_north, dtype=float), np.asarray(y_east, float))
         inside = (x >= n[0]) & (x <= n[-1]) & (y >= e[0]) & (y <= e[-1])
         i = np.clip(np.searchsorted(n, x, side="right") - 1, 0, len(n) - 2)
         j = np.clip(np.searchsorted(e, y, side="right") - 1, 0, len(e) - 2)
         out = np.where(inside, self._interpolate(i, j, x, y), np.nan)
         return float(out) if out.ndim == 0 else out
+
+    def _depth_at_point(self, x: float, y: float) -> float:
+        """:meth:`depth_at` of one point, in plain floats."""
+        n, e, z = self._lists
+        if not (n[0] <= x <= n[-1] and e[0] <= y <= e[-1]):
+            return math.nan
+        i = min(max(bisect.bisect_right(n, x) - 1, 0), len(n) - 2)
+        j = min(max(bisect.bisect_right(e, y) - 1, 0), len(e) - 2)
+        s = (x - n[i]) / (n[i + 1] - n[i])  # along north, 0..1
+        t = (y - e[j]) / (e[j + 1] - e[j])  # along east, 0..1
+        z00, z10, z11, z01 = z[i][j], z[i + 1][j], z[i + 1][j + 1], z[i][j + 1]
+        if s >= t:  # the cell's triangles as in _interpolate
+            return z00 + s * (z10 - z00) + t * (z11 - z10)
+        return z00 + t * (z01 - z00) + s * (z11 - z01)
 
     def _interpolate(self, i: Any, j: Any, x: Any, y: Any) -> Any:
         """Depth at (x, y) inside grid cell (i, j) (arrays or numbers), on the cell's two

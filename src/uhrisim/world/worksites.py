@@ -53,7 +53,8 @@ from uhrisim.world.tools import CATALOGUE
 
 #: Work times compare with this slack (s): a tick's dt summed up stays a float.
 _SLACK_S = 1e-9
-#: Where parts that are gone wait (translation, m): far above the water, out of any view.
+#: Where parts that are gone wait (translation, m): far above the water, out of any view
+#: (beyond bodies.HIDDEN_BEYOND_M: the ray caster skips them).
 PARKED = np.array([0.0, 0.0, -1.0e4])
 _ALONG_X = {"pitch": math.pi / 2.0}
 
@@ -234,7 +235,7 @@ class FlangeSpec:
                                  sections=6, **_ALONG_X)
             parts.append(Part(f"bolt{bolt}", trimesh.util.concatenate([shank, head]),
                               label="bolt"))
-        return ArticulatedMesh(tuple(parts))
+        return ArticulatedMesh(tuple(parts), posed_apart=True)
 
     def part_transforms(self, state: FlangeState) -> NDArray[np.float64]:
         """Rest→posed transform of every part: a loose bolt backed out 2 cm, a removed bolt
@@ -355,7 +356,7 @@ class HatchSpec:
             frame.append(prim.box((lx, ly, 0.1), (x, y, 0.05 + th)))
         lid = prim.box((s, s, th), (0.5 * s, 0.0, 0.5 * th))
         return ArticulatedMesh((Part("coaming", trimesh.util.concatenate(frame)),
-                                Part("lid", lid, label="lid")))
+                                Part("lid", lid, label="lid")), posed_apart=True)
 
     def part_transforms(self, state: HatchState) -> NDArray[np.float64]:
         """The lid rotated about the hinge (the site's y axis) by its angle, free edge up."""
@@ -445,23 +446,31 @@ class LiftBagSpec:
         return replace(state, gas_surface_litres=gas), []
 
     def parts(self) -> ArticulatedMesh:
-        """The folded bag and one swollen bag per size of :data:`BAG_SIZES` (site frame:
-        origin at the attachment point, the bag above it)."""
-        folded = CATALOGUE["lift_bag"].mesh()
-        folded.apply_translation((0.0, 0.0, -0.05))
-        parts = [Part("folded", folded)]
+        """The folded bag (the tool catalogue's, as a free or carried bag shows) and one
+        swollen bag per size of :data:`BAG_SIZES` (rigged: origin at the load's lifting
+        eye, the bag above it on its rigging)."""
+        parts = [Part("folded", CATALOGUE["lift_bag"].mesh())]
         for litres in BAG_SIZES:
             a, c = bag_semi_axes(1e-3 * litres)
             parts.append(Part(f"bag{litres:g}", ellipsoid((a, a, c), (0.0, 0.0,
                                                                      -self.rigging_m - c))))
-        return ArticulatedMesh(parts=tuple(parts))
+        return ArticulatedMesh(tuple(parts), posed_apart=True)
+
+    def shown_part(self, state: LiftBagState, depth: float) -> int:
+        """Which part shows: 0 the folded bag, else the drawn size nearest above the gas
+        at ``depth`` (m)."""
+        litres = 1e3 * self.gas_m3(state, depth)
+        return 0 if litres < 0.5 * BAG_SIZES[0] else 1 + min(
+            (i for i, s in enumerate(BAG_SIZES) if s >= litres), default=len(BAG_SIZES) - 1)
 
     def part_transforms(self, state: LiftBagState, depth: float) -> NDArray[np.float64]:
-        """Show the folded bag, or the drawn size that holds the gas at ``depth``."""
-        litres = 1e3 * self.gas_m3(state, depth)
-        shown = 0 if litres < 0.5 * BAG_SIZES[0] else 1 + min(
-            (i for i, s in enumerate(BAG_SIZES) if s >= litres), default=len(BAG_SIZES) - 1)
-        return np.array([np.eye(4) if i == shown else _parked()
+        """Show the folded bag (rigged: on top of the lifting eye), or the drawn size that
+        holds the gas at ``depth`` (m)."""
+        shown = self.shown_part(state, depth)
+        folded = np.eye(4)
+        if state.attached_to is not None:
+            folded[2, 3] = -0.05
+        return np.array([(folded if i == 0 else np.eye(4)) if i == shown else _parked()
                          for i in range(1 + len(BAG_SIZES))])
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,10 +21,30 @@ from uhrisim.sensors.camera.config import CameraConfig
 from uhrisim.sensors.camera.geometry import camera_geometry
 from uhrisim.sensors.camera.sampling import AdaptiveGrid, same_object
 from uhrisim.sensors.camera.textures import SceneTextures
+from uhrisim.sensors.camera.water import through_cloud
 from uhrisim.sensors.sonar.geometry import mount_rotation, mounted_pose
 from uhrisim.world.raycast import RayCaster, RayHits
 
 _F32 = np.float32
+#: a local cloud's optical depth and veil are computed every this many pixels
+_MEDIUM_STEP = 8
+
+
+class TurbidMedium(Protocol):
+    """A local cloud in the water (:class:`uhrisim.world.silt.SiltMedium`)."""
+
+    def optical_depth(self, origin_ned: NDArray[np.float64], directions: NDArray[np.float64],
+                      ends: NDArray[np.float32]) -> NDArray[np.float64]:
+        """(N,) extra optical depth along rays from ``origin_ned`` up to ``ends`` (m)."""
+        ...
+
+
+def _linear_weights(samples: NDArray[np.intp], n: int) -> NDArray[np.float32]:
+    """(n, len(samples)) weights that interpolate linearly, at every index 0…n−1, between
+    values given at the increasing indices ``samples`` (which start at 0, end at n − 1)."""
+    eye = np.eye(len(samples), dtype=np.float64)
+    at = np.arange(n)
+    return np.stack([np.interp(at, samples, col) for col in eye], axis=1).astype(_F32)
 
 
 @dataclass(frozen=True)
@@ -122,9 +143,12 @@ class UnderwaterCamera:
         rotation_body_to_ned: NDArray[np.float64],
         t: float,
         exclude: frozenset[str] = frozenset(),
+        medium: TurbidMedium | None = None,
     ) -> CameraFrame:
         """Render one frame from the vehicle pose (position NED m, rotation body→NED);
-        ``exclude`` names bodies the camera cannot see (its own vehicle)."""
+        ``exclude`` names bodies the camera cannot see (its own vehicle); ``medium``: a
+        local cloud in the water (silt) that veils what lies behind it
+        (:meth:`_through_medium`)."""
         cfg, geo = self.config, self.geometry
         h, w = self.shape
         origin, R = self.camera_pose(position_ned, rotation_body_to_ned)
@@ -153,6 +177,8 @@ class UnderwaterCamera:
             radiance = light + fm.forward_scatter(
                 fs, range_m.reshape(h, w), cfg.water, cfg.forward_scatter_spread,
                 float(geo.K[0, 0]))
+        if medium is not None:
+            radiance = self._through_medium(radiance, range_m, origin, R, medium)
         gain = fm.exposure_gain(radiance, cfg)
         noise = None
         if self._noise_pool is not None:
@@ -207,6 +233,37 @@ class UnderwaterCamera:
             labels[exact] = hits_e.label
         range_m[grid.coarse] = range_c
         return light, fs, range_m, labels
+
+    def _through_medium(self, radiance: NDArray[np.float32], range_m: NDArray[np.float32],
+                        origin: NDArray[np.float64], R: NDArray[np.float64],
+                        medium: TurbidMedium) -> NDArray[np.float32]:
+        """``radiance`` (H, W, 3) seen through ``medium`` by Koschmieder's law
+        (:func:`.water.through_cloud`). The optical depth and the water's path radiance
+        L_∞ (daylight veil and lamp backscatter of a ray into open water) are computed on
+        a grid of every ``_MEDIUM_STEP``-th pixel (a cloud is smooth on that scale: its
+        puffs are tens of centimetres wide) and interpolated bilinearly."""
+        geo, cfg = self.geometry, self.config
+        h, w = self.shape
+        rows = np.unique(np.append(np.arange(0, h, _MEDIUM_STEP), h - 1))
+        cols = np.unique(np.append(np.arange(0, w, _MEDIUM_STEP), w - 1))
+        pixels = (rows[:, None] * w + cols[None, :]).reshape(-1)
+        dirs = np.einsum("ij,kj->ik", np.take(geo.dirs_cam, pixels, axis=0), R)
+        tau = medium.optical_depth(origin, dirs, np.take(range_m, pixels))
+        if not np.any(tau > 0.0):
+            return radiance
+        paths = self._daylight_paths(R).take(pixels)
+        far = np.full(len(pixels), np.inf, _F32)
+        background = fm.sun_veiling(paths, far, float(origin[2]), cfg.water, cfg.sun_radiance)
+        if geo.backscatter_table is not None:
+            background += fm.lamp_backscatter(geo, np.take(geo.cell_of_pixel, pixels), far)
+        across_rows, across_cols = _linear_weights(rows, h), _linear_weights(cols, w)
+
+        def fill(grid: NDArray) -> NDArray[np.float32]:
+            """(H, W, C) bilinear fill of the grid's values (rows, then columns)."""
+            by_row = across_rows @ grid.reshape(len(rows), -1).astype(_F32)  # (H, cols·C)
+            return np.matmul(across_cols, by_row.reshape(h, len(cols), -1))
+
+        return through_cloud(radiance, fill(tau)[..., 0], fill(background))
 
     def _daylight_paths(self, R: NDArray[np.float64]) -> fm.DaylightPaths:
         """The rays' daylight factors for camera rotation ``R`` (cached on its tilt: the

@@ -22,6 +22,15 @@ Sources (see ``docs/camera.md``):
 * ``K_d ≈ 1.0395·(a + b_b)/μ₀`` with the sun at the zenith (μ₀ = 1): H. R. Gordon, "Can
   the Lambert-Beer law be applied to the diffuse attenuation coefficient of ocean
   water?", Limnol. Oceanogr. 34(8) 1389 (1989).
+
+Local turbidity (a silt cloud a diver kicks up: :class:`uhrisim.world.silt.SiltMedium`)
+adds beam attenuation where it is; :func:`through_cloud` applies it to an image by
+Koschmieder's law (H. Koschmieder, Beitr. Phys. freien Atm. 12, 1924; for water S. Q.
+Duntley, "The visibility of submerged objects", 1952): along a ray of extra optical depth
+τ the radiance becomes ``L·exp(−τ) + L_∞·(1 − exp(−τ))``, L_∞ the equilibrium (path)
+radiance of the water in that direction — the cloud assumed to scatter like the water's
+own particles in the same light field, so a thick cloud looks like open water there. The
+apparent contrast of anything behind the cloud falls as exp(−τ).
 """
 
 from __future__ import annotations
@@ -169,3 +178,12 @@ def measured(
     return WaterOptics(
         "measured", tuple((1.0 - w0) * v for v in c), tuple(w0 * v for v in c), 0.0
     )
+
+
+def through_cloud(radiance: NDArray[np.float32], optical_depth: NDArray[np.float32],
+                  background: NDArray[np.float32]) -> NDArray[np.float32]:
+    """Koschmieder's law (module docstring): (H, W, 3) ``radiance`` seen through a
+    local cloud of extra (H, W) ``optical_depth``, against the water's (H, W, 3) path
+    radiance ``background`` in each pixel's direction (a new array)."""
+    transmittance = np.exp(-optical_depth)[..., None].astype(radiance.dtype)
+    return background + (radiance - background) * transmittance

@@ -39,6 +39,7 @@ and the point cloud); :mod:`.ping` holds what a ping produces.
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 import cv2
 import numpy as np
@@ -73,6 +74,24 @@ from uhrisim.sensors.sonar.speckle import SpeckleBank
 __all__ = ["ImagingSonar", "cloud_hits"]
 
 _LN10_OVER_10 = math.log(10.0) / 10.0
+
+
+#: Elevation rays per beam that sample a medium's volume scatterers (:meth:`volume_echoes`).
+VOLUME_ELEVATIONS = 8
+#: Range cell (m) in which a medium's volume scatterers are integrated.
+VOLUME_CELL_M = 0.1
+
+
+class VolumeScatterers(Protocol):
+    """Scatterers spread through the water near the sonar (a silt cloud:
+    :class:`uhrisim.world.silt.SiltMedium`)."""
+
+    def backscatter(self, origin_ned: NDArray[np.float64], directions: NDArray[np.float64],
+                    ends: NDArray[np.float64], edges: NDArray[np.float64],
+                    frequency_hz: float) -> tuple[NDArray, NDArray, NDArray]:
+        """(ray, bin, ∫ s_v dR over the bin) along rays up to ``ends`` (m), range bin
+        ``edges`` (m)."""
+        ...
 
 
 class ImagingSonar:
@@ -156,9 +175,12 @@ class ImagingSonar:
         rotation_body_to_ned: NDArray[np.float64],
         t: float,
         exclude: frozenset[str] = frozenset(),
+        medium: VolumeScatterers | None = None,
     ) -> SonarPing:
         """Cast the fan from the mount on a vehicle at ``position_ned`` (m, NED) with
-        ``rotation_body_to_ned`` (vehicle FRD → NED) and form the image.
+        ``rotation_body_to_ned`` (vehicle FRD → NED) and form the image. ``medium``: local
+        volume scatterers in the water (a silt cloud), whose backscatter along each ray,
+        up to what it hits, adds to the echoes (:meth:`volume_echoes`).
 
         Raises ConfigError (naming ``SonarConfig.mount_position_frd``) if the sonar sits
         inside geometry: below the sea floor or inside a watertight static mesh of the
@@ -167,7 +189,47 @@ class ImagingSonar:
         p_s, R_s = self.sonar_pose(position_ned, rotation_body_to_ned)
         dirs = self.geometry.dirs_sonar @ R_s.T
         hits = cast_fan(raycaster, p_s, dirs, self.cast_window_m, exclude)
-        return self.form_image(t, p_s, R_s, *hits)
+        volume = None
+        if medium is not None and self.config.mode == "physical":
+            volume = self.volume_echoes(medium, p_s, dirs, hits[0], hits[1])
+        return self.form_image(t, p_s, R_s, *hits, volume=volume)
+
+    def volume_echoes(self, medium: VolumeScatterers, position_ned: NDArray[np.float64],
+                      dirs_ned: NDArray[np.float64], idx: NDArray[np.int64],
+                      r: NDArray[np.float64]
+                      ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
+        """Echoes of the medium's volume scatterers per (range bin, beam): every ray
+        collects, in each bin before what it hits (rays ``idx`` hit at ``r``), the
+        volume reverberation of :func:`.geometry.diffuse_terms` with the local
+        ``s_v``: ``w_ray·∫s_v dR·R⁻²·10^(−2αR/10)`` (the scattering volume R²ΔΩ dR of the
+        ray, b_v² and D in its weight w_ray). Returns (bins, beams, echoes re SL).
+
+        A cloud is smooth on the scale of the fan's sampling, so the volume is sampled
+        coarser than the echoes: :data:`VOLUME_ELEVATIONS` elevation rays per beam (each
+        standing for its neighbours' weight too) and range cells of about
+        :data:`VOLUME_CELL_M`, each spread evenly over its bins."""
+        cfg, g = self.config, self.geometry
+        n_el = cfg.rays_per_beam
+        n_az = len(g.ray_beam) // n_el
+        step = max(1, n_el // VOLUME_ELEVATIONS)
+        rays = (np.arange(step // 2, n_el, step)[:, None] * n_az + np.arange(n_az)).ravel()
+        ends = np.full(len(dirs_ned), cfg.range_max_m)
+        ends[idx] = np.minimum(r, cfg.range_max_m)
+        merge = max(1, round(VOLUME_CELL_M / cfg.bin_m))
+        edges = cfg.range_min_m + cfg.bin_m * np.arange(0, cfg.n_bins + merge, merge)
+        edges[-1] = min(edges[-1], cfg.range_min_m + cfg.bin_m * cfg.n_bins)
+        cell_ray, cell, sv_dr = medium.backscatter(position_ned, dirs_ned[rays], ends[rays],
+                                                   edges, cfg.sonar_spec.frequency_hz)
+        ray = rays[cell_ray]
+        rc = 0.5 * (edges[cell] + edges[cell + 1])
+        echo = (step * g.ray_weight[ray] * sv_dr * np.exp(-self._two_alpha_ln * rc)
+                / (rc * rc))
+        # each cell's echo over its bins, by their share of its length
+        first = cell * merge
+        count = np.minimum(first + merge, cfg.n_bins) - first
+        bins = np.repeat(first, count) + (np.arange(count.sum())
+                                          - np.repeat(np.cumsum(count) - count, count))
+        return bins, np.repeat(g.ray_beam[ray], count), np.repeat(echo / count, count)
 
     def ray_intensity(
         self,
@@ -190,10 +252,13 @@ class ImagingSonar:
         cos_inc: NDArray[np.float64],
         mu: NDArray[np.float64],
         labels: NDArray[np.int32],
+        volume: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]] | None = None,
     ) -> SonarPing:
         """Form a ping from the hits of rays ``idx`` (indices into the ray fan) at slant
         ranges ``r`` (m, inside the window) with |cos incidence| ``cos_inc``, Lambert μ
-        ``mu`` and scene ``labels``. Pure apart from drawing speckle from ``self.rng``."""
+        ``mu`` and scene ``labels``; ``volume``: echoes of volume scatterers as (bins,
+        beams, echoes) (:meth:`volume_echoes`). Pure apart from drawing speckle from
+        ``self.rng``."""
         g = self.geometry
         cfg = self.config
         n_bins, n_beams = self.polar_shape
@@ -216,6 +281,9 @@ class ImagingSonar:
             surface = surface_rows(cfg, g.bin_centres, float(position_ned[2]), depression,
                                    g.beam_spacing,
                                    float(g.beam_kernel.sum()))  # fmt: skip
+            if volume is not None and len(volume[2]):
+                np.add.at(raw, (volume[0], volume[1]), volume[2].astype(np.float32))
+                rows = None  # volume echo may lie in any row
             polar = self._physical_polar(raw, rows, surface)
         # Hits inside the window (the image may also use hits just outside it).
         win = (r >= cfg.range_min_m) & (r < cfg.range_max_m)
