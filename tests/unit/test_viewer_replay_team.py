@@ -9,6 +9,8 @@ back to the events that made them.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -26,7 +28,7 @@ EVENTS = [
     WorldEvent(8.0, "grasp", "wrench1", "rov1/gripper"),  # a hand-over: both hold it,
     WorldEvent(8.0, "handover", "wrench1", "diver1/right_hand"),
     WorldEvent(8.0, "release", "wrench1", "diver1/right_hand"),  # then the giver lets go
-    WorldEvent(9.0, "bag_attached", "bag1", "diver1/right_hand", detail={"load": "valve1"}),
+    WorldEvent(9.0, "bag_attached", "bag1", "diver1/right_hand", reason="on valve1"),
     WorldEvent(10.0, "bag_inflating", "bag1", "diver1/right_hand"),
     WorldEvent(12.0, "bag_full", "bag1", detail={"litres": 100.0}),
 ]
@@ -76,8 +78,8 @@ def test_event_lines_parse_back():
     for event in EVENTS:
         back = parse_line(event.line())
         assert back is not None
-        assert (back.t, back.kind, back.subject, back.actor, back.ok) == (
-            event.t, event.kind, event.subject, event.actor, event.ok)
+        assert (back.t, back.kind, back.subject, back.actor, back.ok, back.reason) == (
+            event.t, event.kind, event.subject, event.actor, event.ok, event.reason)
     assert parse_line("not an event") is None
 
 
@@ -106,10 +108,19 @@ def test_site_states_as_the_events_tell(player):
     assert sites["hatch1"]["text"] == "opening" and not sites["hatch1"]["open"]
     _, sites = _team(player, 11.0)
     assert sites["hatch1"]["text"] == "open" and sites["hatch1"]["angle_deg"] == 110.0
-    # the bag is on the load nearest to it when it was made fast, not the far crate
+    # the bag is on the load its event names
     assert sites["bag1"]["text"] == "inflating on valve1"
     assert sites["bag1"]["attached_to"] == "valve1" and sites["bag1"]["litres"] is None
     _, sites = _team(player, 15.0)
     assert sites["bag1"]["text"] == "100/100 L on valve1"
     assert sites["valve1"]["height_m"] == pytest.approx(0.75)  # 11.5 -> 10.75 m deep
     assert sites["crate1"]["height_m"] == 0.0
+
+
+def test_bag_without_a_named_load_goes_on_the_nearest(player):
+    """A recording made before bag_attached named the load: the load nearest the bag."""
+    data = player.data
+    events = [(t, k, d.replace(" (on valve1)", "")) for t, k, d in data.team_events]
+    old = ReplayPlayer(replace(data, team_events=events), _Sink())  # type: ignore[arg-type]
+    _, sites = _team(old, 11.0)
+    assert sites["bag1"]["attached_to"] == "valve1"  # 0.14 m away; crate1 is 10 m away

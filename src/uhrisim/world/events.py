@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 _LINE = re.compile(r"^t=(?P<t>\S+) s (?:(?P<actor>\S+): )?(?P<failed>FAILED )?"
-                   r"(?P<kind>\S+) (?P<subject>\S+)")
+                   r"(?P<kind>\S+) (?P<subject>\S+)(?: \((?P<reason>.*)\))?$")
 
 
 @dataclass(frozen=True)
@@ -48,10 +48,10 @@ class WorldEvent:
 
 def parse_line(text: str) -> WorldEvent | None:
     """The event a :meth:`WorldEvent.line` text tells (None if it is not one): time (to
-    10 ms), kind, subject, actor and whether it failed; the reason and the details are
-    not in the line."""
+    10 ms), kind, subject, actor, whether it failed and the reason; the details are not
+    in the line."""
     m = _LINE.match(text)
     if m is None:
         return None
     return WorldEvent(float(m["t"]), m["kind"], m["subject"], m["actor"] or "",
-                      m["failed"] is None)
+                      m["failed"] is None, m["reason"] or "")

@@ -635,8 +635,8 @@ class ReplayPlayer:
         return np.array([np.interp(t, ts, ps[:, i]) for i in range(3)])
 
     def _nearest_load(self, bag: str, t: float) -> str | None:
-        """The load nearest to ``bag`` at ``t``: the one it was made fast to (the
-        bag_attached event's line does not name it)."""
+        """The load nearest to ``bag`` at ``t``: the one it was made fast to, for a
+        recording whose bag_attached lines do not name it (made before they did)."""
         loads = [n for n in self.data.objects
                  if self._kinds.get(n) == "load" and bag in self.data.objects]
         return min(loads, default=None, key=lambda n: float(np.linalg.norm(
@@ -671,8 +671,10 @@ class ReplayPlayer:
                 cover_off.add(ev.subject)
             elif ev.kind.startswith("hatch_"):
                 hatch[ev.subject] = ev.kind.removeprefix("hatch_")
-            elif ev.kind == "bag_attached":
-                attached[ev.subject] = self._nearest_load(ev.subject, te)
+            elif ev.kind == "bag_attached":  # "(on <load>)"; older recordings: nearest
+                on = ev.reason.removeprefix("on ")
+                attached[ev.subject] = on if on in self._kinds else self._nearest_load(
+                    ev.subject, te)
             elif ev.kind in _BAG_STATES:
                 bag_state[ev.subject] = _BAG_STATES[ev.kind]
         objects, loads, sites = [], [], []
