@@ -104,6 +104,8 @@ def test_run_folder_is_a_rosbag2_bag_with_the_live_topics(ros_env: int, tmp_path
     recorded = set(declared)
     assert recorded == published
     assert {"/clock", "/tf", "/tf_static"} <= recorded
+    if scenario.stem == "camera_trail":  # its articulated diver's joints, live and recorded
+        assert "/diver/joint_states" in recorded
     # metadata.yaml's type hashes (computed from the recorded schemas) are rosidl's
     recorded_hashes = {t["topic_metadata"]["name"]: t["topic_metadata"]["type_description_hash"]
                        for t in meta["topics_with_message_count"]}

@@ -10,7 +10,10 @@ viewer does. Checks, each against what the simulation or the recording holds:
   (its white bones where the skeleton's points project); the 3-D view has a mesh per
   tool, load and site and the figure in place of the primitive diver;
 * replay of the same run: at its end the panel shows the orders done as metrics.json
-  counts them, out of the total, and the figure from the recorded joint states.
+  counts them, out of the total, and the figure from the recorded joint states; the map
+  draws every tool and load where its last ``/tf`` frame (read with the independent
+  ``mcap_ros2`` reader) puts it, the wrench the diver grasped held (ringed, "held by" in
+  the panel), and the flange's state as the events tell it.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from mcap_ros2.reader import read_ros2_messages
 
 pytest.importorskip("websockets")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -152,6 +156,28 @@ def test_replay_shows_the_recorded_progress_and_pose(run, browser):
         assert "last: pick up wrench1 (done)" in text
         drawn = page.evaluate("window.uhri.teamDrawn")
         assert drawn["figures"]["diver1"] >= 27
+
+        # tools and loads where the recording's last /tf frames put them, the held wrench
+        # ringed; the flange's state from the events
+        last = {tr.child_frame_id: tr.transform.translation
+                for m in read_ros2_messages(out / "recording.mcap", topics=["/tf"])
+                for tr in m.ros_msg.transforms if tr.header.frame_id == "map"}
+        team = page.evaluate("window.uhri.team")
+        names = {o["name"] for o in team["objects"]}
+        assert names == {"basket1", "wrench1", "bag1", "light1", "valve1"} <= set(last)
+        for o in drawn["objects"]:
+            p = last[o["name"]]  # ENU: x east, y north
+            x, y = page.evaluate(f"window.uhri.worldToScreen({p.y}, {p.x})")
+            assert abs(o["x"] - x) < 1.0 and abs(o["y"] - y) < 1.0, o
+        held = {o["name"]: o["held_by"] for o in team["objects"] if o["held_by"]}
+        assert held["wrench1"] == ["diver1/right_hand"]
+        assert "wrench1 held by diver1/right_hand" in text
+        assert "flange1: 0/4 bolts out" in text and "valve1: raised 0.00 m" in text
+        wrench = next(o for o in drawn["objects"] if o["name"] == "wrench1")
+        ring = _png(page.locator("#map").screenshot())[round(wrench["y"]),
+                                                       round(wrench["x"]) + 6:
+                                                       round(wrench["x"]) + 11]
+        assert np.all(ring > 200, axis=1).any(), "no white ring round the held wrench"
         page.goto("about:blank")
         assert bp.errors() == []
     finally:

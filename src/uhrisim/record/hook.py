@@ -7,8 +7,9 @@ odometry, pose, ``/tf`` and ``/clock`` (every ``odom_every`` ticks), every sonar
 (images, hits, pose and the marine_acoustic_msgs/ProjectedSonarImage; every
 ``sonar_every``-th), the sonar perception's markers, every camera's frames (every
 ``camera_every``-th), helm decisions, community posts and events; at start the static
-scene as triangle-list markers, every sensor mount on ``/tf_static`` and the run's
-seed/step as MCAP metadata; at the end it closes the file (recording an ``error`` event
+scene as triangle-list markers, every sensor mount on ``/tf_static``, the run's
+seed/step as MCAP metadata and, in a team mission, the teamwork layout (:func:`team_layout`)
+as a ``teamwork`` metadata record; at the end it closes the file (recording an ``error`` event
 if the run failed). So every topic the live bridge publishes is recorded under the same
 name, type and frame (docs/bridges-ros2.md).
 
@@ -19,7 +20,9 @@ attribute, so it stays importable without the simulation package.
 
 from __future__ import annotations
 
+import json
 import logging
+import math
 from pathlib import Path
 from typing import Any
 
@@ -28,10 +31,37 @@ from uhrisim.record.finish import finish_in_place
 from uhrisim.record.mcap_recorder import McapRecorder
 from uhrisim.record.rosbag2 import write_metadata
 from uhrisim.ros.tick import TickWriter
+from uhrisim.ros.topics import ros_name
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["McapRecordingHook"]
+__all__ = ["McapRecordingHook", "team_layout"]
+
+
+def team_layout(workspace: Any) -> dict[str, Any]:
+    """What a replay needs to know of a teamwork world that its ``/tf`` frames and events
+    do not say (JSON-ready; NED metres): every tool's and load's kind by its ``/tf``
+    frame name (``{"name", "kind", "held_by"}``: a tool kind or ``"load"``, its holders
+    at the start, e.g. a tool the ROV's gripper carries from the outset), every flange's
+    ``position`` and ``bolts``, every hatch's ``position`` and ``open_angle_deg``, every
+    lift bag's ``capacity_litres`` (by name)."""
+    def where(spec: Any) -> list[float]:
+        return [round(float(v), 4) for v in spec.position_ned]
+
+    objects = {ros_name(name): {"name": name, "kind": workspace.tools[name].kind
+                                if name in workspace.tools else "load",
+                                "held_by": list(workspace.holders_of(name))}
+               for name in workspace.things}
+    return {
+        "objects": objects,
+        "flanges": {name: {"position": where(spec), "bolts": int(spec.n_bolts)}
+                    for name, spec in workspace.flanges.items()},
+        "hatches": {name: {"position": where(spec),
+                           "open_angle_deg": round(math.degrees(spec.open_angle), 3)}
+                    for name, spec in workspace.hatches.items()},
+        "bags": {name: {"capacity_litres": float(spec.capacity_litres)}
+                 for name, spec in workspace.bags.items()},
+    }
 
 
 class McapRecordingHook:
@@ -114,9 +144,13 @@ class McapRecordingHook:
         # a live ROS 2 bridge in a namespace: the bag's topics are its live names
         namespace = next((h.ros_namespace for h in getattr(sim, "hooks", ())
                           if getattr(h, "ros_namespace", "")), "")
+        records = {"uhrisim": meta}
+        workspace = getattr(getattr(sim, "team", None), "workspace", None)
+        if workspace is not None:
+            records["teamwork"] = {"layout": json.dumps(team_layout(workspace))}
         self._rec = McapRecorder(
             self.path, chunk_size=self._chunk_size, flush_period_s=self._flush_period_s,
-            metadata={"uhrisim": meta}, namespace=namespace,
+            metadata=records, namespace=namespace,
         )
         self._tick = TickWriter(self._rec)
         self._tick.start(sim, scene=self.record_scene)

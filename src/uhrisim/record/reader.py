@@ -36,7 +36,7 @@ from typing import Any, BinaryIO
 
 import numpy as np
 from mcap.exceptions import EndOfFile
-from mcap.records import Channel, Message, Schema
+from mcap.records import Channel, Chunk, DataEnd, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap_ros2.decoder import DecoderFactory
 
@@ -52,6 +52,7 @@ __all__ = [
     "RecordingSummary",
     "iter_messages",
     "iter_raw_messages",
+    "read_metadata",
     "read_odometry",
     "summarize",
 ]
@@ -191,6 +192,25 @@ class RecordingSummary:
     complete_chunks: int = 0
     first_ns: int | None = None
     last_ns: int | None = None
+
+
+def read_metadata(path: Path | str) -> dict[str, dict[str, str]]:
+    """The file's MCAP metadata records by name (the recorder writes them before the
+    first chunk, so a truncated file has them too)."""
+    path = Path(path)
+    out: dict[str, dict[str, str]] = {}
+    try:
+        with path.open("rb") as stream:
+            for rec in StreamReader(stream, skip_magic=False).records:
+                if isinstance(rec, Metadata):
+                    out[rec.name] = dict(rec.metadata)
+                elif isinstance(rec, Chunk | Message | DataEnd):
+                    break
+    except OSError as exc:
+        raise AssetError(f"{path}: cannot open recording ({exc.strerror})") from exc
+    except EndOfFile:
+        pass  # cut before its first chunk: what was read is all there is
+    return out
 
 
 def summarize(path: Path | str) -> RecordingSummary:

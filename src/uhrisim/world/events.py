@@ -8,8 +8,12 @@ objects dropped, task steps).
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+
+_LINE = re.compile(r"^t=(?P<t>\S+) s (?:(?P<actor>\S+): )?(?P<failed>FAILED )?"
+                   r"(?P<kind>\S+) (?P<subject>\S+)(?: \((?P<reason>.*)\))?$")
 
 
 @dataclass(frozen=True)
@@ -40,3 +44,14 @@ class WorldEvent:
         status = "" if self.ok else "FAILED "
         why = f" ({self.reason})" if self.reason else ""
         return f"t={self.t:.2f} s {who}{status}{self.kind} {self.subject}{why}"
+
+
+def parse_line(text: str) -> WorldEvent | None:
+    """The event a :meth:`WorldEvent.line` text tells (None if it is not one): time (to
+    10 ms), kind, subject, actor, whether it failed and the reason; the details are not
+    in the line."""
+    m = _LINE.match(text)
+    if m is None:
+        return None
+    return WorldEvent(float(m["t"]), m["kind"], m["subject"], m["actor"] or "",
+                      m["failed"] is None, m["reason"] or "")

@@ -421,7 +421,8 @@ class LiftBagSpec:
             return state, [WorldEvent(t, "attach_failed", self.name, actor, False,
                                       f"already attached to {state.attached_to}")]
         return replace(state, attached_to=load), [
-            WorldEvent(t, "bag_attached", self.name, actor, detail={"load": load})]
+            WorldEvent(t, "bag_attached", self.name, actor, reason=f"on {load}",
+                       detail={"load": load})]
 
     def set_inflating(self, state: LiftBagState, on: bool, t: float, actor: str = ""
                       ) -> tuple[LiftBagState, list[WorldEvent]]:

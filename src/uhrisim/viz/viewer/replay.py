@@ -7,8 +7,12 @@ the first ``/<agent>/<sonar>/image`` (marine_acoustic_msgs/ProjectedSonarImage: 
 directions and range bins), each camera's ``/<agent>/<camera>/image_raw``
 (sensor_msgs/Image rgb8),
 ``/<agent>/vars`` (uhrisim_msgs/Variable) and
-``/scene/markers`` (visualization_msgs/MarkerArray, ENU), and the helm's mode from
-``/<agent>/helm/decision`` (else a ``MODE`` variable). Odometry is read with
+``/scene/markers`` (visualization_msgs/MarkerArray, ENU), the helm's mode from
+``/<agent>/helm/decision`` (else a ``MODE`` variable) and, in a team mission, the
+articulated divers' ``/<agent>/joint_states``, the ``/events`` topic's teamwork and order
+events, and every tool's and load's ``/tf`` frame ``map -> <object>`` with the
+``teamwork`` metadata record (kinds, the sites' places: uhrisim.record.hook.team_layout).
+Odometry is read with
 ``uhrisim.record.reader.read_odometry`` (ENU/FLU → NED/FRD); the rest is decoded from
 the same file with ``uhrisim.record.reader.iter_messages`` and converted back to NED here
 with ``uhrisim.core.frames``. The page receives exactly the live frame schema, so the
@@ -23,6 +27,7 @@ range arcs and no 3-D wedge).
 from __future__ import annotations
 
 import bisect
+import json
 import logging
 import math
 import re
@@ -44,7 +49,15 @@ from uhrisim.viz.viewer.adapt import (
 )
 from uhrisim.viz.viewer.protocol import Command
 from uhrisim.viz.viewer.server import ViewerServer
-from uhrisim.viz.viewer.team import LOG_LENGTH, figure_points
+from uhrisim.viz.viewer.team import (
+    LOG_LENGTH,
+    bag_site,
+    figure_points,
+    flange_site,
+    hatch_site,
+    load_site,
+)
+from uhrisim.world.events import parse_line
 
 log = logging.getLogger(__name__)
 
@@ -70,6 +83,12 @@ _TRACK_TEXT = re.compile(r"^track (\d+) \((diver|track|tentative)\)")
 _HELM_MODE = "__helm_mode"  # key under which helm decisions' modes are kept
 _JOINTS = re.compile(r"^/([^/]+)/joint_states$")
 _EVENTS = "/events"
+_TF = "/tf"
+_WORLD_FRAME = "map"
+# events that change who holds an object (uhrisim.teamwork.acts): the actor takes / lets go
+_TAKES, _LETS_GO = ("grasp",), ("release", "drop", "place")
+_BAG_STATES = {"bag_inflating": "inflating", "bag_inflation_stopped": "inflation stopped",
+               "bag_full": "full"}
 _TEAM_EVENT_KINDS = ("teamwork", "order")
 
 
@@ -121,6 +140,10 @@ class ReplayData:
     team_events: list[tuple[float, str, str]] = field(default_factory=list)
     # orders per diver, from the run's metrics.json beside the recording (when there)
     order_totals: dict[str, int] = field(default_factory=dict)
+    # the teamwork layout (uhrisim.record.hook.team_layout; {} without one)
+    layout: dict[str, Any] = field(default_factory=dict)
+    # tools and loads by name: (times (N,), positions (N, 3) NED m) from /tf
+    objects: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
 
 def _image_u8(msg: Any, encodings: tuple[str, ...] = ("mono8", "8uc1")) -> np.ndarray | None:
@@ -222,14 +245,17 @@ def load_replay(recording: Path | str) -> ReplayData:
     shots: dict[str, _Pings] = {}  # camera pictures, kept like the fans
     variables: dict[str, dict[str, tuple[list[float], list[float | str]]]] = {}
     markers: dict[tuple[str, int], dict[str, Any]] = {}
-    from uhrisim.record.reader import summarize
+    from uhrisim.record.reader import read_metadata, summarize
 
+    layout = _layout(path, read_metadata(path))
+    frames = {ros: o["name"] for ros, o in layout.get("objects", {}).items()}
     topics = [
         t for t in summarize(path).topics
         if _FAN.match(t) or _CAMERA.match(t) or _VARS.match(t) or _HELM.match(t)
         or _TRACKS.match(t) or _JOINTS.match(t)
-        or t in ("/scene/markers", _EVENTS)
+        or t in ("/scene/markers", _EVENTS) or (t == _TF and frames)
     ]
+    poses: dict[str, tuple[list[float], list[list[float]]]] = {}  # tools, loads
     joints: dict[str, tuple[list[float], tuple[str, ...], list[list[float]]]] = {}
     team_events: list[tuple[float, str, str]] = []
     perception: dict[str, tuple[list[float], list[list[dict[str, Any]]]]] = {}
@@ -269,6 +295,14 @@ def load_replay(recording: Path | str) -> ReplayData:
             ts, _, qs = joints.setdefault(m.group(1), ([], tuple(dm.message.name), []))
             ts.append(t)
             qs.append(list(dm.message.position))
+        elif dm.topic == _TF:
+            for tr in dm.message.transforms:
+                name = frames.get(str(tr.child_frame_id))
+                if name is not None and tr.header.frame_id == _WORLD_FRAME:
+                    p = tr.transform.translation
+                    ts, ps = poses.setdefault(name, ([], []))
+                    ts.append(t)
+                    ps.append(enu_from_ned(np.array([p.x, p.y, p.z])).tolist())
         elif dm.topic == _EVENTS:
             if dm.message.kind in _TEAM_EVENT_KINDS:
                 team_events.append((t, str(dm.message.kind), str(dm.message.detail)))
@@ -324,7 +358,21 @@ def load_replay(recording: Path | str) -> ReplayData:
                 for a, (ts, names, qs) in joints.items()},
         team_events=team_events,
         order_totals=_order_totals(path),
+        layout=layout,
+        objects={name: (np.asarray(ts), np.asarray(ps, dtype=float))
+                 for name, (ts, ps) in poses.items()},
     )
+
+
+def _layout(path: Path, metadata: dict[str, dict[str, str]]) -> dict[str, Any]:
+    """The recording's teamwork layout ({} when it has none: a recording made before the
+    recorder wrote it, or not a team mission)."""
+    text = metadata.get("teamwork", {}).get("layout")
+    try:
+        return json.loads(text) if text else {}
+    except ValueError:
+        log.warning("%s: unreadable teamwork layout; tools and sites not drawn", path)
+        return {}
 
 
 def _order_totals(recording: Path) -> dict[str, int]:
@@ -426,6 +474,7 @@ class ReplayPlayer:
         divers = [a for a, k in data.kinds.items() if k == "diver"]
         self._pair = (rovs[0], divers[0]) if rovs and divers else None
         self._skeleton = DiverSkeleton()  # the recorded joints' figure (default build)
+        self._kinds = {o["name"]: o["kind"] for o in data.layout.get("objects", {}).values()}
 
     # -------------------------------------------------------------- control
     def on_message(self, msg: Command | dict[str, Any]) -> bool:
@@ -547,10 +596,10 @@ class ReplayPlayer:
     def _team(self, t: float, agents: list[dict[str, Any]]) -> dict[str, Any] | None:
         """The frame's ``team`` entry at ``t`` from the recorded joint states and events
         (uhrisim.viz.viewer.team): each diver's figure, its progress through its orders
-        (done so far; the total from metrics.json), the latest events. Tools' poses and
-        sites' states are not in the recording: none are drawn."""
+        (done so far; the total from metrics.json), the latest events, and the tools,
+        loads and sites (:meth:`_world`)."""
         data = self.data
-        if not data.joints and not data.team_events:
+        if not data.joints and not data.team_events and not data.objects:
             return None
         figures = {}
         where = {a["name"]: a for a in agents}
@@ -576,8 +625,85 @@ class ReplayPlayer:
             p["last"] = f"{step['order']} ({step['outcome']})"
         log = [{"t": round(te, 2), "kind": kind, "text": detail}
                for te, kind, detail in data.team_events[max(0, k - LOG_LENGTH):k]]
-        return {"objects": [], "sites": [], "progress": progress, "figures": figures,
-                "log": log}
+        objects, sites = self._world(t, data.team_events[:k])
+        return {"objects": objects, "sites": sites, "progress": progress,
+                "figures": figures, "log": log}
+
+    def _position(self, name: str, t: float) -> np.ndarray:
+        """Where object ``name`` was at ``t`` (NED m; linear between /tf samples)."""
+        ts, ps = self.data.objects[name]
+        return np.array([np.interp(t, ts, ps[:, i]) for i in range(3)])
+
+    def _nearest_load(self, bag: str, t: float) -> str | None:
+        """The load nearest to ``bag`` at ``t``: the one it was made fast to, for a
+        recording whose bag_attached lines do not name it (made before they did)."""
+        loads = [n for n in self.data.objects
+                 if self._kinds.get(n) == "load" and bag in self.data.objects]
+        return min(loads, default=None, key=lambda n: float(np.linalg.norm(
+            self._position(n, t) - self._position(bag, t))))
+
+    def _world(self, t: float, events: list[tuple[float, str, str]]
+               ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+        """Tools and loads at their recorded ``/tf`` poses, held by whoever grasped them
+        and has not let go, and the sites' states as the teamwork ``events`` (those up
+        to ``t``) tell them: bolts out and cover off, a hatch's last move (its angle:
+        fully open or closed), a bag's inflation (its gas is not recorded; full is its
+        capacity) and the load it is on, a load's rise since the first sample."""
+        holders = {o["name"]: list(o.get("held_by", []))
+                   for o in self.data.layout.get("objects", {}).values()}
+        bolts_out: dict[str, int] = {}
+        cover_off: set[str] = set()
+        hatch: dict[str, str] = {}
+        bag_state: dict[str, str] = {}
+        attached: dict[str, str | None] = {}
+        for te, kind, detail in events:
+            ev = parse_line(detail) if kind == "teamwork" else None
+            if ev is None or not ev.ok:
+                continue
+            held = holders.setdefault(ev.subject, [])
+            if ev.kind in _TAKES and ev.actor not in held:
+                held.append(ev.actor)
+            elif ev.kind in _LETS_GO and ev.actor in held:
+                held.remove(ev.actor)
+            elif ev.kind == "bolt_removed":
+                bolts_out[ev.subject] = bolts_out.get(ev.subject, 0) + 1
+            elif ev.kind == "cover_removed":
+                cover_off.add(ev.subject)
+            elif ev.kind.startswith("hatch_"):
+                hatch[ev.subject] = ev.kind.removeprefix("hatch_")
+            elif ev.kind == "bag_attached":  # "(on <load>)"; older recordings: nearest
+                on = ev.reason.removeprefix("on ")
+                attached[ev.subject] = on if on in self._kinds else self._nearest_load(
+                    ev.subject, te)
+            elif ev.kind in _BAG_STATES:
+                bag_state[ev.subject] = _BAG_STATES[ev.kind]
+        objects, loads, sites = [], [], []
+        for name, (_, ps) in self.data.objects.items():
+            n, e, d = (float(v) for v in self._position(name, t))
+            kind = self._kinds.get(name, "tool")
+            objects.append({"name": name, "kind": kind, "north": n, "east": e, "depth": d,
+                            "held_by": holders.get(name, []), "where": ""})
+            if kind == "load":
+                loads.append(load_site(name, (n, e, d), float(ps[0, 2]) - d))
+        layout = self.data.layout
+        for name, f in layout.get("flanges", {}).items():
+            sites.append(flange_site(name, f["position"], int(f["bolts"]),
+                                     bolts_out.get(name, 0), name not in cover_off))
+        for name, h in layout.get("hatches", {}).items():
+            move = hatch.get(name, "closed")
+            is_open = move in ("opened", "closing")
+            text = {"opened": "open"}.get(move, move)
+            sites.append(hatch_site(name, h["position"], text,
+                                    float(h["open_angle_deg"]) if is_open else 0.0, is_open))
+        for name, b in layout.get("bags", {}).items():
+            if name not in self.data.objects:
+                continue
+            capacity = float(b["capacity_litres"])
+            state = bag_state.get(name, "")
+            sites.append(bag_site(name, self._position(name, t),
+                                  capacity if state == "full" else None, capacity,
+                                  attached.get(name), state or "not inflated"))
+        return objects, sites + loads
 
     def _overlays(self, t: float) -> dict[str, list[dict[str, Any]]]:
         """pMarineViewer-style VIEW_POLYGON / VIEW_POINT postings (MOOS x east, y north)."""

@@ -18,7 +18,8 @@
 
 Live, :class:`TeamView` reads the simulation's teamwork stage
 (``uhrisim.sim.teamwork.TeamStage``) by duck typing; a replay builds the same entry from
-the recording's joint states and events (``uhrisim.viz.viewer.replay``).
+the recording's joint states, events and tools' ``/tf`` frames
+(``uhrisim.viz.viewer.replay``), with the site entries made by the same functions.
 """
 
 from __future__ import annotations
@@ -72,6 +73,36 @@ def _site(name: str, kind: str, position: ArrayLike, text: str, **numbers: Any
             **numbers}
 
 
+def flange_site(name: str, position: ArrayLike, bolts: int, bolts_out: int,
+                cover_on: bool) -> dict[str, Any]:
+    """A flange's site entry: ``"2/4 bolts out"``, ``", cover off"`` once it is off."""
+    text = f"{bolts_out}/{bolts} bolts out" + ("" if cover_on else ", cover off")
+    return _site(name, "flange", position, text, bolts=bolts, bolts_out=bolts_out,
+                 cover_on=bool(cover_on))
+
+
+def hatch_site(name: str, position: ArrayLike, text: str, angle_deg: float,
+               is_open: bool) -> dict[str, Any]:
+    """A hatch's site entry: ``text`` (open, opening, closing, closed), the lid's angle."""
+    return _site(name, "hatch", position, text, angle_deg=round(angle_deg, 1), open=is_open)
+
+
+def bag_site(name: str, position: ArrayLike, litres: float | None, capacity: float,
+             attached_to: str | None, state: str = "") -> dict[str, Any]:
+    """A lift bag's site entry: its gas (surface litres) of its capacity, or ``state``
+    (inflating, full, ...) when the gas is not known (None), and the load it is on."""
+    fast = f" on {attached_to}" if attached_to else ""
+    amount = f"{litres:.0f}/{capacity:.0f} L" if litres is not None else state
+    return _site(name, "lift_bag", position, f"{amount}{fast}".strip(),
+                 litres=None if litres is None else round(float(litres), 2),
+                 capacity_litres=float(capacity), attached_to=attached_to)
+
+
+def load_site(name: str, position: ArrayLike, height: float) -> dict[str, Any]:
+    """A load's site entry: how far (m) it has risen from where it started."""
+    return _site(name, "load", position, f"raised {height:.2f} m", height_m=round(height, 3))
+
+
 class TeamView:
     """Builds the ``team`` entry from a live teamwork stage (module docstring)."""
 
@@ -103,30 +134,22 @@ class TeamView:
         sites = []
         for name, spec in ws.flanges.items():
             st = ws.flange_states[name]
-            out = sum(st.removed)
-            text = f"{out}/{spec.n_bolts} bolts out" + ("" if st.cover_on else ", cover off")
-            sites.append(_site(name, "flange", spec.position_ned, text, bolts=spec.n_bolts,
-                               bolts_out=out, cover_on=bool(st.cover_on)))
+            sites.append(flange_site(name, spec.position_ned, spec.n_bolts, sum(st.removed),
+                                     st.cover_on))
         for name, spec in ws.hatches.items():
             st = ws.hatch_states[name]
             is_open = st.angle >= 0.5 * spec.open_angle
             text = "open" if is_open else ("opening" if st.opening else "closed")
-            sites.append(_site(name, "hatch", spec.position_ned, text,
-                               angle_deg=round(math.degrees(st.angle), 1), open=is_open))
+            sites.append(hatch_site(name, spec.position_ned, text, math.degrees(st.angle),
+                                    is_open))
         for name, spec in ws.bags.items():
             st = ws.bag_states[name]
             where = ws.things[name].position if name in ws.things else (0.0, 0.0, 0.0)
-            fast = f" on {st.attached_to}" if st.attached_to else ""
-            text = f"{st.gas_surface_litres:.0f}/{spec.capacity_litres:.0f} L{fast}"
-            sites.append(_site(name, "lift_bag", where, text,
-                               litres=round(float(st.gas_surface_litres), 2),
-                               capacity_litres=float(spec.capacity_litres),
-                               attached_to=st.attached_to))
+            sites.append(bag_site(name, where, st.gas_surface_litres, spec.capacity_litres,
+                                  st.attached_to))
         for name, depth0 in self._start_depth.items():
             where = ws.things[name].position
-            height = depth0 - float(where[2])
-            sites.append(_site(name, "load", where, f"raised {height:.2f} m",
-                               height_m=round(height, 3)))
+            sites.append(load_site(name, where, depth0 - float(where[2])))
         progress, figures = {}, {}
         for name, body in team.divers.items():
             ex = body.executor
