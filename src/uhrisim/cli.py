@@ -35,7 +35,13 @@ from uhrisim.core.errors import (
     shortened,
 )
 from uhrisim.core.memory import keep_freed_memory
-from uhrisim.core.stops import catch_stop_signals, pending_stop, stop_handled, stop_message
+from uhrisim.core.stops import (
+    catch_stop_signals,
+    handlers_kept,
+    pending_stop,
+    stop_handled,
+    stop_message,
+)
 
 app = typer.Typer(
     name="uhrisim",
@@ -845,8 +851,9 @@ def main(argv: list[str] | None = None) -> int:
     """The ``uhrisim`` command: the app, with command-line usage errors (an option that is
     not a number, an unknown option) also reported in one line. Returns the exit status."""
     try:
-        status = app(args=_gather_ros_args(sys.argv[1:] if argv is None else argv),
-                     prog_name="uhrisim", standalone_mode=False)
+        with handlers_kept():
+            status = app(args=_gather_ros_args(sys.argv[1:] if argv is None else argv),
+                         prog_name="uhrisim", standalone_mode=False)
     except _USAGE_ERROR as error:
         message = error.format_message()
         if message:  # empty: no arguments at all, and the help was printed

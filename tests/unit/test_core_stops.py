@@ -68,6 +68,18 @@ def test_a_swallowed_stop_is_raised_at_the_next_tick(caught_stops, scene):
 
 
 def test_without_the_command_lines_handlers_nothing_is_remembered(scene):
+    with stops.handlers_kept():
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # Python's own
+        no_handlers_of_ours(scene)
+
+
+def test_a_command_run_in_process_leaves_the_signal_handling_as_it_found_it(scene):
+    before = {signum: signal.getsignal(signum) for signum in stops.STOP_SIGNALS}
+    assert main(["validate", str(scene)]) == 0
+    assert {signum: signal.getsignal(signum) for signum in stops.STOP_SIGNALS} == before
+
+
+def no_handlers_of_ours(scene: Path) -> None:
     sim = Simulation(load_scenario(scene))
     with pytest.raises(KeyboardInterrupt):  # Python's own handler: raised, not remembered
         os.kill(os.getpid(), signal.SIGINT)

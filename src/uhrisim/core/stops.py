@@ -15,6 +15,9 @@ nothing is remembered and nothing changes.
 from __future__ import annotations
 
 import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from types import FrameType
 
 from uhrisim.core.errors import StopRequested
@@ -37,6 +40,21 @@ def catch_stop_signals() -> None:
     """Stop signals raise and are remembered (call from the main thread)."""
     for signum in STOP_SIGNALS:
         signal.signal(signum, _on_stop)
+
+
+@contextmanager
+def handlers_kept() -> Iterator[None]:
+    """The stop signals' handlers as they were, once the block ends: a command run in
+    the process of its caller (a test, a notebook) leaves its signal handling as found."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    kept = {signum: signal.getsignal(signum) for signum in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for signum, handler in kept.items():
+            signal.signal(signum, handler)
 
 
 def pending_stop() -> int | None:
