@@ -27,11 +27,12 @@ import argparse
 import json
 import math
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import optimize
 
 from uhrisim.core.frames import rot_z
 from uhrisim.dynamics.diver_body import DiverSkeleton
@@ -45,7 +46,8 @@ from uhrisim.perception.gestures import Gesture, GestureSet, pose_at
 from uhrisim.sensors.camera import CameraConfig, UnderwaterCamera, jerlov
 from uhrisim.world import primitives as prim
 from uhrisim.world.diver_figure import diver_figure, figure_transforms
-from uhrisim.world.materials import NEOPRENE, SAND
+from uhrisim.world.materials import ALUMINIUM, NEOPRENE, SAND
+from uhrisim.world.raycast import RayCaster
 from uhrisim.world.scene import Scene
 
 CAMERA_DEPTH_M = 8.0
@@ -53,10 +55,19 @@ FLOOR_DEPTH_M = 12.0
 FLOOR_SIZE_M = 2000.0  # its edge beyond sight: no horizon line for the silhouette to catch
 #: the hip centre sits this far below the camera (the camera level with his chest)
 HIP_BELOW_CAMERA_M = 0.35
-WINDOW_S, RATE_HZ = 10.0, 4.0
+#: the rendered pictures (px): the reader bins bigger pictures down to this width
+IMAGE_WIDTH, IMAGE_HEIGHT = 160, 120
+WINDOW_S, RATE_HZ = 10.0, 2.0
+#: the window the camera sees ends this long after the gesture (s)
+END_AFTER_S = (0.2, 1.0)
 SWAY_DEG = 6.0
-STD_FLOOR = 0.01
-ARM_KINDS = ("shoulder_flex", "shoulder_abd", "elbow", "wrist")
+ARM_KINDS = ("shoulder_flex", "shoulder_abd", "shoulder_rot", "elbow", "wrist")
+#: suit and cylinder colours (linear albedo) drawn in training: black, grey, blue and
+#: red neoprene; aluminium, yellow and black cylinders
+SUITS = (NEOPRENE.albedo_rgb, (0.25, 0.25, 0.27), (0.04, 0.08, 0.30), (0.45, 0.06, 0.05))
+TANKS = (ALUMINIUM.albedo_rgb, (0.70, 0.55, 0.05), (0.04, 0.04, 0.04))
+#: L2 penalty of the logistic regression (per standardised feature, per sample)
+L2 = 0.01
 
 
 def gesture_classes(gestures: GestureSet) -> list[str]:
@@ -72,7 +83,8 @@ def gesture_classes(gestures: GestureSet) -> list[str]:
 
 @dataclass(frozen=True)
 class GestureEpisode:
-    """One rendered performance (module docstring)."""
+    """One rendered performance (module docstring); ``suit`` and ``tank`` are the
+    albedos of the diver's suit and cylinder."""
 
     klass: str
     range_m: float
@@ -80,20 +92,45 @@ class GestureEpisode:
     water: str
     lamps: bool
     seed: int
+    suit: tuple[float, float, float] = NEOPRENE.albedo_rgb
+    tank: tuple[float, float, float] = ALUMINIUM.albedo_rgb
 
 
 class EpisodeRenderer:
-    """Renders episodes (module docstring); one scene and ray caster, reused."""
+    """Renders episodes (module docstring): one scene and ray caster per suit, one camera
+    per water and lamps (its noise pool fixed by the setting, its draws by the episode)."""
 
     def __init__(self, gestures: GestureSet | None = None) -> None:
         self.gestures = gestures or GestureSet.load()
         self.skeleton = DiverSkeleton()
-        self.scene = Scene()
-        floor = prim.box((FLOOR_SIZE_M, FLOOR_SIZE_M, 1.0), (0.0, 0.0, FLOOR_DEPTH_M + 0.5))
-        self.scene.add_static(floor, "seafloor", SAND)
-        self.scene.add_dynamic("diver", diver_figure(self.skeleton), "diver", NEOPRENE,
-                               position_ned=(3.0, 0.0, CAMERA_DEPTH_M + HIP_BELOW_CAMERA_M))
-        self.caster = self.scene.raycaster()
+        self._scenes: dict[tuple, tuple[Scene, RayCaster]] = {}
+        self._cameras: dict[tuple[str, bool], UnderwaterCamera] = {}
+        self.scene, self.caster = self._scene(NEOPRENE.albedo_rgb, ALUMINIUM.albedo_rgb)
+
+    def _scene(self, suit: tuple[float, float, float], tank: tuple[float, float, float]
+               ) -> tuple[Scene, RayCaster]:
+        key = (tuple(suit), tuple(tank))
+        if key not in self._scenes:
+            scene = Scene()
+            floor = prim.box((FLOOR_SIZE_M, FLOOR_SIZE_M, 1.0),
+                             (0.0, 0.0, FLOOR_DEPTH_M + 0.5))
+            scene.add_static(floor, "seafloor", SAND)
+            figure = diver_figure(self.skeleton, replace(ALUMINIUM, albedo_rgb=tank))
+            scene.add_dynamic("diver", figure, "diver", replace(NEOPRENE, albedo_rgb=suit),
+                              position_ned=(3.0, 0.0, CAMERA_DEPTH_M + HIP_BELOW_CAMERA_M))
+            self._scenes[key] = scene, scene.raycaster()
+        return self._scenes[key]
+
+    def _camera(self, water: str, lamps: bool, noise: np.random.Generator) -> UnderwaterCamera:
+        key = (water, lamps)
+        if key not in self._cameras:
+            pool = np.random.default_rng([26, *water.encode(), int(lamps)])
+            self._cameras[key] = UnderwaterCamera(
+                CameraConfig(width=IMAGE_WIDTH, height=IMAGE_HEIGHT, water=jerlov(water),
+                             lamps_on=lamps, tilt_deg=0.0), pool)
+        camera = self._cameras[key]
+        camera.rng = noise
+        return camera
 
     def frames(self, ep: GestureEpisode, extra_s: float = 0.0
                ) -> Iterator[tuple[float, NDArray[np.uint8]]]:
@@ -106,60 +143,80 @@ class EpisodeRenderer:
         gesture: Gesture = self.gestures.gestures["ok" if name == NONE else name]
         frames = gesture.timeline(side, int(count) if count else None)
         duration = 0.0 if name == NONE else frames[-1].t
-        end = duration + float(motion.uniform(0.2, 1.0))
+        end = duration + float(motion.uniform(*END_AFTER_S))
         sway = [(self.skeleton.index(f"{s}_{k}"), float(motion.uniform(3.0, 6.0)),
                  float(motion.uniform(0, 2 * math.pi))) for s in ("left", "right")
                 for k in ARM_KINDS]
-        camera = UnderwaterCamera(CameraConfig(width=320, height=240, water=jerlov(ep.water),
-                                               lamps_on=ep.lamps, tilt_deg=0.0), noise)
-        self.scene.set_pose("diver", (ep.range_m, 0.0, CAMERA_DEPTH_M + HIP_BELOW_CAMERA_M),
-                            rot_z(math.pi + math.radians(ep.heading_deg)))
+        scene, caster = self._scene(ep.suit, ep.tank)
+        camera = self._camera(ep.water, ep.lamps, noise)
+        scene.set_pose("diver", (ep.range_m, 0.0, CAMERA_DEPTH_M + HIP_BELOW_CAMERA_M),
+                       rot_z(math.pi + math.radians(ep.heading_deg)))
         n = round((WINDOW_S + extra_s) * RATE_HZ)
         for t in end - WINDOW_S + (np.arange(n) + 1) / RATE_HZ:
             joints = pose_at(frames, t) if name != NONE else dict(frames[0].joints)
             q = self.skeleton.vector(joints)
             for index, period, phase in sway:
                 q[index] += math.radians(SWAY_DEG) * math.sin(2 * math.pi * t / period + phase)
-            self.scene.set_part_transforms("diver", figure_transforms(self.skeleton,
-                                                                      self.skeleton.clip(q)))
-            frame = camera.capture(self.caster, np.array([0.0, 0.0, CAMERA_DEPTH_M]),
-                                   np.eye(3), float(t))
+            scene.set_part_transforms("diver", figure_transforms(self.skeleton,
+                                                                 self.skeleton.clip(q)))
+            frame = camera.capture(caster, np.array([0.0, 0.0, CAMERA_DEPTH_M]), np.eye(3),
+                                   float(t))
             yield float(t), frame.rgb
 
-    def descriptors(self, ep: GestureEpisode) -> tuple[NDArray[np.float64], int]:
-        """(frame descriptors of the window ending after the gesture, the index of the
-        frame half-way through the gesture)."""
+    def descriptors(self, ep: GestureEpisode, extra_s: float = 0.0
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(frame descriptors, their times: t = 0 at the gesture's start) of the window
+        ending after the gesture and ``extra_s`` more."""
         times, out = [], []
-        for t, rgb in self.frames(ep):
+        for t, rgb in self.frames(ep, extra_s):
             times.append(t)
             out.append(frame_descriptor(rgb))
-        name, _, count = ep.klass.partition(":")
-        duration = 0.0 if name == NONE else self.gestures.gestures[name].duration_s(
-            int(count) if count else None)
-        return np.array(out), int(np.searchsorted(times, 0.5 * duration))
+        return np.array(out), np.array(times)
 
 
-def episode_samples(renderer: EpisodeRenderer, ep: GestureEpisode
+def _none_end_s(gestures: GestureSet, klass: str) -> float:
+    """When the ``none`` window of a gesture's episode ends: half-way through its moves
+    before any count (a count's first strokes would be a smaller count's whole)."""
+    name = klass.partition(":")[0]
+    return 0.5 * gestures.gestures[name].keyframes[-1][0]
+
+
+def episode_samples(renderer: EpisodeRenderer, ep: GestureEpisode, extra_s: float = 0.0
                     ) -> list[tuple[str, NDArray[np.float64]]]:
-    """(label, window features) samples of one episode: the whole gesture, and for a
-    gesture the ``none`` window that ends half-way through it (padded at its start with
-    the first frame, the diver at rest)."""
-    d, half = renderer.descriptors(ep)
-    samples = [(ep.klass, window_features(d, RATE_HZ))]
-    if ep.klass != NONE:
-        shift = len(d) - 1 - half
+    """:func:`window_samples` of one rendered episode."""
+    return window_samples(*renderer.descriptors(ep, extra_s), ep.klass, renderer.gestures)
+
+
+def window_samples(d: NDArray[np.float64], times: NDArray[np.float64], klass: str,
+                   gestures: GestureSet) -> list[tuple[str, NDArray[np.float64]]]:
+    """(label, window features) samples of an episode's frame descriptors ``d`` at
+    ``times``: the whole gesture (the window ending after it, and those of the frames
+    after it that still end within :data:`END_AFTER_S` of it), and for a gesture the
+    ``none`` window that ends half-way through its moves (padded at its start with the
+    first frame, the diver at rest)."""
+    n = round(WINDOW_S * RATE_HZ)
+    name, _, count = klass.partition(":")
+    duration = 0.0 if name == NONE else gestures.gestures[name].duration_s(
+        int(count) if count else None)
+    samples = [(klass, window_features(d[k + 1 - n:k + 1], RATE_HZ))
+               for k in range(n - 1, len(d))
+               if k == n - 1 or times[k] <= duration + END_AFTER_S[1]]
+    if klass != NONE:
+        half = int(np.searchsorted(times, _none_end_s(gestures, klass)))
+        shift = n - 1 - half
         padded = np.concatenate([np.repeat(d[:1], shift, axis=0), d[:half + 1]])
         samples.append((NONE, window_features(padded, RATE_HZ)))
     return samples
 
 
 #: training settings: water type -> (its share of the episodes, range interval m)
-TRAINING_WATERS = {"I": (0.75, (1.5, 7.0)), "3C": (0.25, (1.0, 2.5))}
+TRAINING_WATERS = {"I": (0.8, (1.5, 6.0)), "3C": (0.2, (1.0, 2.5))}
 
 
 def training_episodes(classes: list[str], per_class: int, seed: int) -> list[GestureEpisode]:
-    """Random settings (module docstring): Jerlov I at 1.5–7 m or coastal 3C at 1–2.5 m
-    (where the camera still sees him), headings ±35°, lamps on or off."""
+    """Random settings (module docstring): Jerlov I at 1.5–6 m or coastal 3C at 1–2.5 m
+    (where the camera still sees him), headings ±35°, lamps on or off, suit and cylinder
+    colours from :data:`SUITS` and :data:`TANKS`."""
     rng = np.random.default_rng(seed)
     waters = list(TRAINING_WATERS)
     shares = [TRAINING_WATERS[w][0] for w in waters]
@@ -169,30 +226,74 @@ def training_episodes(classes: list[str], per_class: int, seed: int) -> list[Ges
             water = str(rng.choice(waters, p=shares))
             out.append(GestureEpisode(c, float(rng.uniform(*TRAINING_WATERS[water][1])),
                                       float(rng.uniform(-35, 35)), water,
-                                      bool(rng.random() < 0.5), int(rng.integers(1 << 30))))
+                                      bool(rng.random() < 0.5), int(rng.integers(1 << 30)),
+                                      SUITS[rng.integers(len(SUITS))],
+                                      TANKS[rng.integers(len(TANKS))]))
     return out
 
 
-def fit(per_class: int, seed: int) -> GestureClassifier:
-    renderer = EpisodeRenderer()
+def fit_logistic(features: NDArray[np.float64], labels: NDArray[np.int64], n_classes: int,
+                 l2: float = L2) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(weights (classes, features), bias (classes,)) of the multinomial logistic
+    regression of standardised ``features`` on ``labels``, every class weighted equally,
+    with an L2 penalty on the weights (L-BFGS)."""
+    n, m = features.shape
+    onehot = np.eye(n_classes)[labels]
+    weight = 1.0 / np.bincount(labels, minlength=n_classes)[labels]
+    weight /= weight.sum()
+
+    def loss(theta: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
+        w, b = theta[:-n_classes].reshape(n_classes, m), theta[-n_classes:]
+        logits = features @ w.T + b
+        logits -= logits.max(axis=1, keepdims=True)
+        p = np.exp(logits)
+        p /= p.sum(axis=1, keepdims=True)
+        nll = -np.sum(weight * np.log(np.maximum(np.sum(p * onehot, axis=1), 1e-300)))
+        residual = weight[:, None] * (p - onehot)
+        grad_w = residual.T @ features + l2 * w
+        return (float(nll + 0.5 * l2 * np.sum(w * w)),
+                np.concatenate([grad_w.ravel(), residual.sum(axis=0)]))
+
+    result = optimize.minimize(loss, np.zeros(n_classes * (m + 1)), jac=True,
+                               method="L-BFGS-B", options={"maxiter": 2000})
+    theta = result.x
+    return theta[:-n_classes].reshape(n_classes, m), theta[-n_classes:]
+
+
+def training_samples(per_class: int, seed: int, renderer: EpisodeRenderer | None = None
+                     ) -> tuple[list[str], NDArray[np.float64], NDArray[np.int64]]:
+    """(classes, window features, class indices) of the rendered training episodes."""
+    renderer = renderer or EpisodeRenderer()
     classes = gesture_classes(renderer.gestures)
-    rows: dict[str, list[NDArray[np.float64]]] = {c: [] for c in classes}
+    rows, labels = [], []
     for ep in training_episodes(classes, per_class, seed):
-        for label, features in episode_samples(renderer, ep):
+        for label, features in episode_samples(renderer, ep, extra_s=END_AFTER_S[1]):
             if not np.any(np.isnan(features)):
-                rows[label].append(features)
-    missing = [c for c in classes if not rows[c]]
+                rows.append(features)
+                labels.append(classes.index(label))
+    missing = [c for i, c in enumerate(classes) if i not in labels]
     if missing:
         raise RuntimeError(f"no usable episode of {', '.join(missing)}: more episodes")
-    means = np.array([np.mean(rows[c], axis=0) for c in classes])
-    within = np.concatenate([np.asarray(rows[c]) - m for c, m in zip(classes, means, strict=True)])
-    stds = np.maximum(np.sqrt(np.mean(within ** 2, axis=0)), STD_FLOOR)
-    counts = ", ".join(f"{c} {len(rows[c])}" for c in classes)
+    return classes, np.array(rows), np.array(labels)
+
+
+def fit(per_class: int, seed: int, samples: tuple[list[str], NDArray[np.float64],
+                                                  NDArray[np.int64]] | None = None
+        ) -> GestureClassifier:
+    """The classifier fitted on ``per_class`` rendered episodes per class (or on the
+    given training samples)."""
+    classes, x, y = samples or training_samples(per_class, seed)
+    center = x.mean(axis=0)
+    spread = np.maximum(x.std(axis=0), 1e-6)
+    weights, bias = fit_logistic((x - center) / spread, y, len(classes))
+    counts = ", ".join(f"{c} {np.count_nonzero(y == i)}" for i, c in enumerate(classes))
     return GestureClassifier(
-        tuple(classes), means, stds, WINDOW_S, RATE_HZ,
+        tuple(classes), center, spread, weights, bias, WINDOW_S, RATE_HZ,
         provenance=(f"fitted by uhrisim.experiments.gesture_classifier: {per_class} rendered "
-                    f"episodes per class (seed {seed}; Jerlov I at 1.5-7 m or coastal 3C at "
-                    f"1-2.5 m, headings +-35 deg, lamps on or off); samples: {counts}"))
+                    f"episodes per class (seed {seed}; {IMAGE_WIDTH} x {IMAGE_HEIGHT} px at "
+                    f"{RATE_HZ:g} Hz; Jerlov I at 1.5-6 m or coastal 3C at 1-2.5 m, "
+                    f"headings +-35 deg, lamps on or off, {len(SUITS)} suit and "
+                    f"{len(TANKS)} cylinder colours; L2 {L2:g}); samples: {counts}"))
 
 
 def confusion(classifier: GestureClassifier, episodes: list[GestureEpisode],
