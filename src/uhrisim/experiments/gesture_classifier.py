@@ -3,29 +3,37 @@ on pictures the simulator renders and labels.
 
 An **episode** renders the articulated diver (``world/diver_figure.py``) upright in
 mid-water, 8 m down over a sand floor at 12 m in daylight, facing the ROV's camera
-(VideoRay preset optics at 320 × 240, noise, forward scatter, auto exposure) from
-``range_m`` with his body turned ``heading_deg`` off it; he holds the ``signal_ready``
-pose, makes the gesture (joint angles interpolated linearly between the keyframes of
-``perception/data/gestures.json``, the signalling arm drawn at random) and holds its
-last pose; his arms sway a little throughout (each arm joint ±6°, periods 3–6 s). The
-camera sees the window that ends 0.2–1 s after the gesture does, at the classifier's
-frame rate. The label is the script's truth (the gesture, ``bring_tool:<count>``), and
-the same frames give a ``none`` sample: the window that ends half-way through the
-gesture. Episodes of class ``none`` are the diver at rest.
+(VideoRay preset optics at 160 × 120 — the reader bins bigger pictures to 160 columns —
+noise, forward scatter, auto exposure) from ``range_m`` with his body turned
+``heading_deg`` off it, in a suit and with a cylinder of the episode's colours; he holds
+the ``signal_ready`` pose, makes the gesture (joint angles interpolated linearly between
+the keyframes of ``perception/data/gestures.json``, the signalling arm drawn at random)
+and holds its last pose; his arms sway a little throughout (each arm joint ±6°, periods
+3–6 s). The camera sees the window that ends 0.2–1 s after the gesture does
+(:data:`END_AFTER_S`), at the classifier's frame rate. The label is the script's truth
+(the gesture, ``bring_tool:<count>``); a training episode renders 1 s more, and every
+window that ends within 0.2–1 s of the gesture is a sample, and the window that ends
+half-way through its moves a ``none`` sample. Episodes of class ``none`` are the diver
+at rest.
 
-    python -m uhrisim.experiments.gesture_classifier OUT.json [--episodes 6] [--seed 1]
+    python -m uhrisim.experiments.gesture_classifier OUT.json [--episodes 20] [--seed 1]
+                                                              [--cache DIR]
     python -m uhrisim.experiments.gesture_classifier --evaluate [--range 3] [--water I]
 
-The first wrote the shipped ``perception/data/gesture_classifier.json`` (Jerlov I water
-at 1.5–7 m or coastal 3C at 1–2.5 m, lamps on or off); the second prints the
-accuracy and confusion matrix of the shipped classifier on held-out episodes.
+The first fits a classifier (the shipped ``perception/data/gesture_classifier.json``
+says how it was fitted); ``--cache`` keeps the rendered silhouettes, so that a change of
+the descriptors or of the classifier refits without rendering. The second prints the
+accuracy and confusion matrix of the shipped classifier (or ``OUT.json``'s) on held-out
+episodes.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import math
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -39,7 +47,8 @@ from uhrisim.dynamics.diver_body import DiverSkeleton
 from uhrisim.perception.gesture_reader import (
     NONE,
     GestureClassifier,
-    frame_descriptor,
+    silhouette,
+    silhouette_descriptor,
     window_features,
 )
 from uhrisim.perception.gestures import Gesture, GestureSet, pose_at
@@ -67,7 +76,7 @@ ARM_KINDS = ("shoulder_flex", "shoulder_abd", "shoulder_rot", "elbow", "wrist")
 SUITS = (NEOPRENE.albedo_rgb, (0.25, 0.25, 0.27), (0.04, 0.08, 0.30), (0.45, 0.06, 0.05))
 TANKS = (ALUMINIUM.albedo_rgb, (0.70, 0.55, 0.05), (0.04, 0.04, 0.04))
 #: L2 penalty of the logistic regression (per standardised feature, per sample)
-L2 = 0.01
+L2 = 0.05
 
 
 def gesture_classes(gestures: GestureSet) -> list[str]:
@@ -163,15 +172,55 @@ class EpisodeRenderer:
                                    float(t))
             yield float(t), frame.rgb
 
-    def descriptors(self, ep: GestureEpisode, extra_s: float = 0.0
-                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """(frame descriptors, their times: t = 0 at the gesture's start) of the window
-        ending after the gesture and ``extra_s`` more."""
-        times, out = [], []
+    def silhouettes(self, ep: GestureEpisode, extra_s: float = 0.0
+                    ) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+        """(silhouettes (frames, rows, columns), their times: t = 0 at the gesture's
+        start) of the window ending after the gesture and ``extra_s`` more."""
+        times, masks = [], []
         for t, rgb in self.frames(ep, extra_s):
             times.append(t)
-            out.append(frame_descriptor(rgb))
-        return np.array(out), np.array(times)
+            masks.append(silhouette(rgb))
+        return np.array(masks), np.array(times)
+
+    def descriptors(self, ep: GestureEpisode, extra_s: float = 0.0
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(frame descriptors, their times) of :meth:`silhouettes`."""
+        masks, times = self.silhouettes(ep, extra_s)
+        return np.array([silhouette_descriptor(m) for m in masks]), times
+
+
+class SilhouetteCache:
+    """Rendered episodes' silhouettes on disk (``DIR/<episode hash>.npz``, bits packed:
+    ~2.4 kB a frame), so that a change of the descriptors or of the classifier refits
+    without rendering again; the hash covers the episode, the picture size, the frame
+    rate and the window."""
+
+    def __init__(self, renderer: EpisodeRenderer, folder: Path | None) -> None:
+        self.renderer, self.folder = renderer, folder
+
+    def path(self, ep: GestureEpisode, extra_s: float) -> Path | None:
+        if self.folder is None:
+            return None
+        key = repr((ep, extra_s, IMAGE_WIDTH, IMAGE_HEIGHT, RATE_HZ, WINDOW_S))
+        return self.folder / f"{hashlib.sha1(key.encode()).hexdigest()[:20]}.npz"
+
+    def descriptors(self, ep: GestureEpisode, extra_s: float = 0.0
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """:meth:`EpisodeRenderer.descriptors`, the silhouettes read from the cache or
+        rendered and stored."""
+        path = self.path(ep, extra_s)
+        if path is not None and path.exists():
+            with np.load(path) as stored:
+                width = int(stored["width"])
+                masks = np.unpackbits(stored["masks"], axis=-1)[..., :width].astype(bool)
+                times = stored["times"]
+        else:
+            masks, times = self.renderer.silhouettes(ep, extra_s)
+            if path is not None:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                np.savez_compressed(path, masks=np.packbits(masks, axis=-1), times=times,
+                                    width=masks.shape[-1])
+        return np.array([silhouette_descriptor(m) for m in masks]), times
 
 
 def _none_end_s(gestures: GestureSet, klass: str) -> float:
@@ -210,19 +259,20 @@ def window_samples(d: NDArray[np.float64], times: NDArray[np.float64], klass: st
 
 
 #: training settings: water type -> (its share of the episodes, range interval m)
-TRAINING_WATERS = {"I": (0.8, (1.5, 6.0)), "3C": (0.2, (1.0, 2.5))}
+TRAINING_WATERS = {"I": (1.0, (2.0, 4.5))}
 
 
 def training_episodes(classes: list[str], per_class: int, seed: int) -> list[GestureEpisode]:
-    """Random settings (module docstring): Jerlov I at 1.5–6 m or coastal 3C at 1–2.5 m
-    (where the camera still sees him), headings ±35°, lamps on or off, suit and cylinder
-    colours from :data:`SUITS` and :data:`TANKS`."""
+    """Random settings (module docstring): :data:`TRAINING_WATERS`, headings ±35°, lamps
+    on or off, suit and cylinder colours from :data:`SUITS` and :data:`TANKS`; drawn
+    round by round over the classes, so that fewer episodes per class are the first
+    rounds of more."""
     rng = np.random.default_rng(seed)
     waters = list(TRAINING_WATERS)
     shares = [TRAINING_WATERS[w][0] for w in waters]
     out = []
-    for c in classes:
-        for _ in range(per_class):
+    for _ in range(per_class):  # round by round: fewer episodes draw the first rounds
+        for c in classes:
             water = str(rng.choice(waters, p=shares))
             out.append(GestureEpisode(c, float(rng.uniform(*TRAINING_WATERS[water][1])),
                                       float(rng.uniform(-35, 35)), water,
@@ -260,14 +310,17 @@ def fit_logistic(features: NDArray[np.float64], labels: NDArray[np.int64], n_cla
     return theta[:-n_classes].reshape(n_classes, m), theta[-n_classes:]
 
 
-def training_samples(per_class: int, seed: int, renderer: EpisodeRenderer | None = None
+def training_samples(per_class: int, seed: int, cache: Path | None = None
                      ) -> tuple[list[str], NDArray[np.float64], NDArray[np.int64]]:
-    """(classes, window features, class indices) of the rendered training episodes."""
-    renderer = renderer or EpisodeRenderer()
+    """(classes, window features, class indices) of the rendered training episodes
+    (their silhouettes kept in ``cache`` when given)."""
+    renderer = EpisodeRenderer()
+    store = SilhouetteCache(renderer, cache)
     classes = gesture_classes(renderer.gestures)
     rows, labels = [], []
     for ep in training_episodes(classes, per_class, seed):
-        for label, features in episode_samples(renderer, ep, extra_s=END_AFTER_S[1]):
+        d, times = store.descriptors(ep, END_AFTER_S[1])
+        for label, features in window_samples(d, times, ep.klass, renderer.gestures):
             if not np.any(np.isnan(features)):
                 rows.append(features)
                 labels.append(classes.index(label))
@@ -277,21 +330,26 @@ def training_samples(per_class: int, seed: int, renderer: EpisodeRenderer | None
     return classes, np.array(rows), np.array(labels)
 
 
-def fit(per_class: int, seed: int, samples: tuple[list[str], NDArray[np.float64],
-                                                  NDArray[np.int64]] | None = None
-        ) -> GestureClassifier:
-    """The classifier fitted on ``per_class`` rendered episodes per class (or on the
-    given training samples)."""
-    classes, x, y = samples or training_samples(per_class, seed)
+def classifier_of(classes: list[str], x: NDArray[np.float64], y: NDArray[np.int64],
+                  l2: float = L2, provenance: str = "") -> GestureClassifier:
+    """The logistic regression of window features ``x`` on class indices ``y``, the
+    features standardised by their training mean and standard deviation."""
     center = x.mean(axis=0)
     spread = np.maximum(x.std(axis=0), 1e-6)
-    weights, bias = fit_logistic((x - center) / spread, y, len(classes))
+    weights, bias = fit_logistic((x - center) / spread, y, len(classes), l2)
+    return GestureClassifier(tuple(classes), center, spread, weights, bias, WINDOW_S,
+                             RATE_HZ, provenance)
+
+
+def fit(per_class: int, seed: int, cache: Path | None = None) -> GestureClassifier:
+    """The classifier fitted on ``per_class`` rendered episodes per class."""
+    classes, x, y = training_samples(per_class, seed, cache)
     counts = ", ".join(f"{c} {np.count_nonzero(y == i)}" for i, c in enumerate(classes))
-    return GestureClassifier(
-        tuple(classes), center, spread, weights, bias, WINDOW_S, RATE_HZ,
+    return classifier_of(
+        classes, x, y,
         provenance=(f"fitted by uhrisim.experiments.gesture_classifier: {per_class} rendered "
                     f"episodes per class (seed {seed}; {IMAGE_WIDTH} x {IMAGE_HEIGHT} px at "
-                    f"{RATE_HZ:g} Hz; Jerlov I at 1.5-6 m or coastal 3C at 1-2.5 m, "
+                    f"{RATE_HZ:g} Hz; Jerlov I at 2-4.5 m, "
                     f"headings +-35 deg, lamps on or off, {len(SUITS)} suit and "
                     f"{len(TANKS)} cylinder colours; L2 {L2:g}); samples: {counts}"))
 
@@ -321,12 +379,13 @@ def held_out_episodes(classes: list[str], range_m: float, water: str, lamps: boo
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path, nargs="?")
-    parser.add_argument("--episodes", type=int, default=6, help="training episodes per class")
+    parser.add_argument("--episodes", type=int, default=20, help="training episodes per class")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--evaluate", action="store_true")
     parser.add_argument("--range", type=float, default=3.0)
     parser.add_argument("--water", default="I")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--cache", type=Path, help="keep the rendered silhouettes here")
     args = parser.parse_args(argv)
     if args.evaluate:
         classifier = GestureClassifier.load(args.out)
@@ -340,9 +399,11 @@ def main(argv: list[str] | None = None) -> None:
         return
     if args.out is None:
         parser.error("OUT.json is needed to fit")
-    classifier = fit(args.episodes, args.seed)
+    start = time.perf_counter()
+    classifier = fit(args.episodes, args.seed, args.cache)
     args.out.write_text(json.dumps(classifier.to_dict(), indent=1) + "\n")
     print(classifier.provenance)
+    print(f"fitted in {time.perf_counter() - start:.0f} s")
 
 
 if __name__ == "__main__":

@@ -58,14 +58,20 @@ from uhrisim.perception.signals import Command, RecognizedSignal, load_json
 GRID_ROWS, GRID_COLS = 6, 6
 #: grid extent in units of the silhouette's scale (its median row width, ~ the torso's):
 #: x from the median column in [-3, 3) (left negative), y down from the top in [0, 6)
-GRID_X, GRID_Y = (-3.0, 3.0), (0.0, 6.0)
+GRID_X, GRID_Y = (-3.0, 3.0), (-2.0, 4.0)
 #: half-width of the torso's column band (scale units): pixels beyond it are an arm's
 BAND = 0.75
-#: per side: reach (scale units out of the median column), its depth below the top, area
-SIDE_FEATURES = 3
+#: half-width of the band whose top is the head's (scale units), and the shoulders'
+#: depth below it
+HEAD_BAND, SHOULDER_Y = 0.4, 1.0
+#: per side: reach (scale units out of the median column), the reach's depth below the
+#: head, the arm's highest and mean depth, its area
+SIDE_FEATURES = 5
 GRID_CELLS = GRID_ROWS * GRID_COLS
-FRAME_FEATURES = GRID_CELLS + 2 * SIDE_FEATURES + 1
+FRAME_FEATURES = GRID_CELLS + 2 * SIDE_FEATURES + 2
 MIN_AREA_PX = 12
+#: a silhouette with more than this share of isolated pixels is the sensor's noise
+NOISE_SHARE = 0.25
 GROUP_PX = 2
 THRESHOLD_SIGMA, MIN_LEVELS = 4.0, 4.0
 BACKGROUND_PX, BACKGROUND_STEP = 40, 4
@@ -116,25 +122,34 @@ def frame_descriptor(rgb: NDArray[np.uint8]) -> NDArray[np.float64]:
 
 
 def silhouette_descriptor(mask: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """:func:`frame_descriptor` of a silhouette."""
+    """:func:`frame_descriptor` of a silhouette; its pixels without a neighbour (noise
+    along the horizon) left out, and nothing found where more than :data:`NOISE_SHARE`
+    of them have none (the camera's noise in turbid water, not a diver)."""
+    neighbours = ndimage.convolve(mask.astype(np.uint8), np.ones((3, 3), np.uint8),
+                                  mode="constant")
+    isolated = np.count_nonzero(mask & (neighbours < 2))
+    mask = mask & (neighbours >= 2)
     rows, cols = np.nonzero(mask)
-    if rows.size < MIN_AREA_PX:
+    if rows.size < MIN_AREA_PX or isolated > NOISE_SHARE * (rows.size + isolated):
         return np.full(FRAME_FEATURES, np.nan)
     widths = mask.sum(axis=1)
     scale = max(2.0, float(np.median(widths[widths > 0])))
     x = (cols - np.median(cols)) / scale
-    y = (rows - rows.min()) / scale
+    core = np.abs(x) < HEAD_BAND
+    y = (rows - (rows[core].min() if core.any() else rows.min())) / scale
     grid, _, _ = np.histogram2d(y, x, (GRID_ROWS, GRID_COLS), (GRID_Y, GRID_X))
     sides = []
     for sign in (-1.0, 1.0):
         out = sign * x > BAND
         if out.any():
             far = int(np.argmax(np.where(out, sign * x, -np.inf)))
-            sides += [sign * x[far], y[far], out.sum() / scale ** 2]
+            sides += [sign * x[far], y[far], y[out].min(), y[out].mean(),
+                      out.sum() / scale ** 2]
         else:
-            sides += [BAND, 0.0, 0.0]
+            sides += [BAND, SHOULDER_Y, SHOULDER_Y, SHOULDER_Y, 0.0]
+    above = np.count_nonzero(y < 0) / scale ** 2
     size = math.log(scale / mask.shape[1])
-    return np.concatenate([grid.ravel() / scale ** 2, sides, [size]])
+    return np.concatenate([grid.ravel() / scale ** 2, sides, [above, size]])
 
 
 def _mirrored(d: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -143,7 +158,7 @@ def _mirrored(d: NDArray[np.float64]) -> NDArray[np.float64]:
     grid = d[:, :GRID_CELLS].reshape(-1, GRID_ROWS, GRID_COLS)[:, :, ::-1]
     left = d[:, GRID_CELLS:GRID_CELLS + SIDE_FEATURES]
     right = d[:, GRID_CELLS + SIDE_FEATURES:GRID_CELLS + 2 * SIDE_FEATURES]
-    return np.concatenate([grid.reshape(len(d), -1), right, left, d[:, -1:]], axis=1)
+    return np.concatenate([grid.reshape(len(d), -1), right, left, d[:, -2:]], axis=1)
 
 
 def window_features(descriptors: NDArray[np.float64], rate_hz: float) -> NDArray[np.float64]:
@@ -155,8 +170,8 @@ def window_features(descriptors: NDArray[np.float64], rate_hz: float) -> NDArray
         return np.full(WINDOW_FEATURES, np.nan)
     age = (len(d) - 1 - np.flatnonzero(seen)) / rate_hz  # s before the window's end
     d = d[seen]
-    left_area = d[:, GRID_CELLS + 2]
-    right_area = d[:, GRID_CELLS + SIDE_FEATURES + 2]
+    left_area = d[:, GRID_CELLS + SIDE_FEATURES - 1]
+    right_area = d[:, GRID_CELLS + 2 * SIDE_FEATURES - 1]
     if left_area.mean() + left_area.std() > right_area.mean() + right_area.std():
         d = _mirrored(d)
     means = []
