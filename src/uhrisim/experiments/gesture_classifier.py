@@ -287,7 +287,7 @@ def fit_logistic(features: NDArray[np.float64], labels: NDArray[np.int64], n_cla
     """(weights (classes, features), bias (classes,)) of the multinomial logistic
     regression of standardised ``features`` on ``labels``, every class weighted equally,
     with an L2 penalty on the weights (L-BFGS)."""
-    n, m = features.shape
+    m = features.shape[1]
     onehot = np.eye(n_classes)[labels]
     weight = 1.0 / np.bincount(labels, minlength=n_classes)[labels]
     weight /= weight.sum()

@@ -42,6 +42,7 @@ not said twice).
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -175,7 +176,7 @@ def window_features(descriptors: NDArray[np.float64], rate_hz: float) -> NDArray
     if left_area.mean() + left_area.std() > right_area.mean() + right_area.std():
         d = _mirrored(d)
     means = []
-    for lo, hi in zip(TIME_BINS_S[:-1], TIME_BINS_S[1:], strict=True):
+    for lo, hi in itertools.pairwise(TIME_BINS_S):
         inside = (age >= lo) & (age < hi)
         means.append(d[inside].mean(axis=0) if inside.any() else d.mean(axis=0))
     change = np.abs(np.diff(d[:, :GRID_CELLS + 2 * SIDE_FEATURES], axis=0)).sum(axis=1)
