@@ -3,49 +3,60 @@ on pictures the simulator renders and labels.
 
 An **episode** renders the articulated diver (``world/diver_figure.py``) upright in
 mid-water, 8 m down over a sand floor at 12 m in daylight, facing the ROV's camera
-(VideoRay preset optics at 320 × 240, noise, forward scatter, auto exposure) from
-``range_m`` with his body turned ``heading_deg`` off it; he holds the ``signal_ready``
-pose, makes the gesture (joint angles interpolated linearly between the keyframes of
-``perception/data/gestures.json``, the signalling arm drawn at random) and holds its
-last pose; his arms sway a little throughout (each arm joint ±6°, periods 3–6 s). The
-camera sees the window that ends 0.2–1 s after the gesture does, at the classifier's
-frame rate. The label is the script's truth (the gesture, ``bring_tool:<count>``), and
-the same frames give a ``none`` sample: the window that ends half-way through the
-gesture. Episodes of class ``none`` are the diver at rest.
+(VideoRay preset optics at 160 × 120 — the reader bins bigger pictures to 160 columns —
+noise, forward scatter, auto exposure) from ``range_m`` with his body turned
+``heading_deg`` off it, in a suit and with a cylinder of the episode's colours; he holds
+the ``signal_ready`` pose, makes the gesture (joint angles interpolated linearly between
+the keyframes of ``perception/data/gestures.json``, the signalling arm drawn at random)
+and holds its last pose; his arms sway a little throughout (each arm joint ±6°, periods
+3–6 s). The camera sees the window that ends 0.2–1 s after the gesture does
+(:data:`END_AFTER_S`), at the classifier's frame rate. The label is the script's truth
+(the gesture, ``bring_tool:<count>``); a training episode renders 1 s more, and every
+window that ends within 0.2–1 s of the gesture is a sample, and the window that ends
+half-way through its moves a ``none`` sample. Episodes of class ``none`` are the diver
+at rest.
 
-    python -m uhrisim.experiments.gesture_classifier OUT.json [--episodes 6] [--seed 1]
+    python -m uhrisim.experiments.gesture_classifier OUT.json [--episodes 20] [--seed 1]
+                                                              [--cache DIR]
     python -m uhrisim.experiments.gesture_classifier --evaluate [--range 3] [--water I]
 
-The first wrote the shipped ``perception/data/gesture_classifier.json`` (Jerlov I water
-at 1.5–7 m or coastal 3C at 1–2.5 m, lamps on or off); the second prints the
-accuracy and confusion matrix of the shipped classifier on held-out episodes.
+The first fits a classifier (the shipped ``perception/data/gesture_classifier.json``
+says how it was fitted); ``--cache`` keeps the rendered silhouettes, so that a change of
+the descriptors or of the classifier refits without rendering. The second prints the
+accuracy and confusion matrix of the shipped classifier (or ``OUT.json``'s) on held-out
+episodes.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import math
+import time
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import optimize
 
 from uhrisim.core.frames import rot_z
 from uhrisim.dynamics.diver_body import DiverSkeleton
 from uhrisim.perception.gesture_reader import (
     NONE,
     GestureClassifier,
-    frame_descriptor,
+    silhouette,
+    silhouette_descriptor,
     window_features,
 )
 from uhrisim.perception.gestures import Gesture, GestureSet, pose_at
 from uhrisim.sensors.camera import CameraConfig, UnderwaterCamera, jerlov
 from uhrisim.world import primitives as prim
 from uhrisim.world.diver_figure import diver_figure, figure_transforms
-from uhrisim.world.materials import NEOPRENE, SAND
+from uhrisim.world.materials import ALUMINIUM, NEOPRENE, SAND
+from uhrisim.world.raycast import RayCaster
 from uhrisim.world.scene import Scene
 
 CAMERA_DEPTH_M = 8.0
@@ -53,10 +64,19 @@ FLOOR_DEPTH_M = 12.0
 FLOOR_SIZE_M = 2000.0  # its edge beyond sight: no horizon line for the silhouette to catch
 #: the hip centre sits this far below the camera (the camera level with his chest)
 HIP_BELOW_CAMERA_M = 0.35
-WINDOW_S, RATE_HZ = 10.0, 4.0
+#: the rendered pictures (px): the reader bins bigger pictures down to this width
+IMAGE_WIDTH, IMAGE_HEIGHT = 160, 120
+WINDOW_S, RATE_HZ = 10.0, 2.0
+#: the window the camera sees ends this long after the gesture (s)
+END_AFTER_S = (0.2, 1.0)
 SWAY_DEG = 6.0
-STD_FLOOR = 0.01
-ARM_KINDS = ("shoulder_flex", "shoulder_abd", "elbow", "wrist")
+ARM_KINDS = ("shoulder_flex", "shoulder_abd", "shoulder_rot", "elbow", "wrist")
+#: suit and cylinder colours (linear albedo) drawn in training: black, grey, blue and
+#: red neoprene; aluminium, yellow and black cylinders
+SUITS = (NEOPRENE.albedo_rgb, (0.25, 0.25, 0.27), (0.04, 0.08, 0.30), (0.45, 0.06, 0.05))
+TANKS = (ALUMINIUM.albedo_rgb, (0.70, 0.55, 0.05), (0.04, 0.04, 0.04))
+#: L2 penalty of the logistic regression (per standardised feature, per sample)
+L2 = 0.05
 
 
 def gesture_classes(gestures: GestureSet) -> list[str]:
@@ -72,7 +92,8 @@ def gesture_classes(gestures: GestureSet) -> list[str]:
 
 @dataclass(frozen=True)
 class GestureEpisode:
-    """One rendered performance (module docstring)."""
+    """One rendered performance (module docstring); ``suit`` and ``tank`` are the
+    albedos of the diver's suit and cylinder."""
 
     klass: str
     range_m: float
@@ -80,20 +101,45 @@ class GestureEpisode:
     water: str
     lamps: bool
     seed: int
+    suit: tuple[float, float, float] = NEOPRENE.albedo_rgb
+    tank: tuple[float, float, float] = ALUMINIUM.albedo_rgb
 
 
 class EpisodeRenderer:
-    """Renders episodes (module docstring); one scene and ray caster, reused."""
+    """Renders episodes (module docstring): one scene and ray caster per suit, one camera
+    per water and lamps (its noise pool fixed by the setting, its draws by the episode)."""
 
     def __init__(self, gestures: GestureSet | None = None) -> None:
         self.gestures = gestures or GestureSet.load()
         self.skeleton = DiverSkeleton()
-        self.scene = Scene()
-        floor = prim.box((FLOOR_SIZE_M, FLOOR_SIZE_M, 1.0), (0.0, 0.0, FLOOR_DEPTH_M + 0.5))
-        self.scene.add_static(floor, "seafloor", SAND)
-        self.scene.add_dynamic("diver", diver_figure(self.skeleton), "diver", NEOPRENE,
-                               position_ned=(3.0, 0.0, CAMERA_DEPTH_M + HIP_BELOW_CAMERA_M))
-        self.caster = self.scene.raycaster()
+        self._scenes: dict[tuple, tuple[Scene, RayCaster]] = {}
+        self._cameras: dict[tuple[str, bool], UnderwaterCamera] = {}
+        self.scene, self.caster = self._scene(NEOPRENE.albedo_rgb, ALUMINIUM.albedo_rgb)
+
+    def _scene(self, suit: tuple[float, float, float], tank: tuple[float, float, float]
+               ) -> tuple[Scene, RayCaster]:
+        key = (tuple(suit), tuple(tank))
+        if key not in self._scenes:
+            scene = Scene()
+            floor = prim.box((FLOOR_SIZE_M, FLOOR_SIZE_M, 1.0),
+                             (0.0, 0.0, FLOOR_DEPTH_M + 0.5))
+            scene.add_static(floor, "seafloor", SAND)
+            figure = diver_figure(self.skeleton, replace(ALUMINIUM, albedo_rgb=tank))
+            scene.add_dynamic("diver", figure, "diver", replace(NEOPRENE, albedo_rgb=suit),
+                              position_ned=(3.0, 0.0, CAMERA_DEPTH_M + HIP_BELOW_CAMERA_M))
+            self._scenes[key] = scene, scene.raycaster()
+        return self._scenes[key]
+
+    def _camera(self, water: str, lamps: bool, noise: np.random.Generator) -> UnderwaterCamera:
+        key = (water, lamps)
+        if key not in self._cameras:
+            pool = np.random.default_rng([26, *water.encode(), int(lamps)])
+            self._cameras[key] = UnderwaterCamera(
+                CameraConfig(width=IMAGE_WIDTH, height=IMAGE_HEIGHT, water=jerlov(water),
+                             lamps_on=lamps, tilt_deg=0.0), pool)
+        camera = self._cameras[key]
+        camera.rng = noise
+        return camera
 
     def frames(self, ep: GestureEpisode, extra_s: float = 0.0
                ) -> Iterator[tuple[float, NDArray[np.uint8]]]:
@@ -106,93 +152,206 @@ class EpisodeRenderer:
         gesture: Gesture = self.gestures.gestures["ok" if name == NONE else name]
         frames = gesture.timeline(side, int(count) if count else None)
         duration = 0.0 if name == NONE else frames[-1].t
-        end = duration + float(motion.uniform(0.2, 1.0))
+        end = duration + float(motion.uniform(*END_AFTER_S))
         sway = [(self.skeleton.index(f"{s}_{k}"), float(motion.uniform(3.0, 6.0)),
                  float(motion.uniform(0, 2 * math.pi))) for s in ("left", "right")
                 for k in ARM_KINDS]
-        camera = UnderwaterCamera(CameraConfig(width=320, height=240, water=jerlov(ep.water),
-                                               lamps_on=ep.lamps, tilt_deg=0.0), noise)
-        self.scene.set_pose("diver", (ep.range_m, 0.0, CAMERA_DEPTH_M + HIP_BELOW_CAMERA_M),
-                            rot_z(math.pi + math.radians(ep.heading_deg)))
+        scene, caster = self._scene(ep.suit, ep.tank)
+        camera = self._camera(ep.water, ep.lamps, noise)
+        scene.set_pose("diver", (ep.range_m, 0.0, CAMERA_DEPTH_M + HIP_BELOW_CAMERA_M),
+                       rot_z(math.pi + math.radians(ep.heading_deg)))
         n = round((WINDOW_S + extra_s) * RATE_HZ)
         for t in end - WINDOW_S + (np.arange(n) + 1) / RATE_HZ:
             joints = pose_at(frames, t) if name != NONE else dict(frames[0].joints)
             q = self.skeleton.vector(joints)
             for index, period, phase in sway:
                 q[index] += math.radians(SWAY_DEG) * math.sin(2 * math.pi * t / period + phase)
-            self.scene.set_part_transforms("diver", figure_transforms(self.skeleton,
-                                                                      self.skeleton.clip(q)))
-            frame = camera.capture(self.caster, np.array([0.0, 0.0, CAMERA_DEPTH_M]),
-                                   np.eye(3), float(t))
+            scene.set_part_transforms("diver", figure_transforms(self.skeleton,
+                                                                 self.skeleton.clip(q)))
+            frame = camera.capture(caster, np.array([0.0, 0.0, CAMERA_DEPTH_M]), np.eye(3),
+                                   float(t))
             yield float(t), frame.rgb
 
-    def descriptors(self, ep: GestureEpisode) -> tuple[NDArray[np.float64], int]:
-        """(frame descriptors of the window ending after the gesture, the index of the
-        frame half-way through the gesture)."""
-        times, out = [], []
-        for t, rgb in self.frames(ep):
+    def silhouettes(self, ep: GestureEpisode, extra_s: float = 0.0
+                    ) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+        """(silhouettes (frames, rows, columns), their times: t = 0 at the gesture's
+        start) of the window ending after the gesture and ``extra_s`` more."""
+        times, masks = [], []
+        for t, rgb in self.frames(ep, extra_s):
             times.append(t)
-            out.append(frame_descriptor(rgb))
-        name, _, count = ep.klass.partition(":")
-        duration = 0.0 if name == NONE else self.gestures.gestures[name].duration_s(
-            int(count) if count else None)
-        return np.array(out), int(np.searchsorted(times, 0.5 * duration))
+            masks.append(silhouette(rgb))
+        return np.array(masks), np.array(times)
+
+    def descriptors(self, ep: GestureEpisode, extra_s: float = 0.0
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(frame descriptors, their times) of :meth:`silhouettes`."""
+        masks, times = self.silhouettes(ep, extra_s)
+        return np.array([silhouette_descriptor(m) for m in masks]), times
 
 
-def episode_samples(renderer: EpisodeRenderer, ep: GestureEpisode
+class SilhouetteCache:
+    """Rendered episodes' silhouettes on disk (``DIR/<episode hash>.npz``, bits packed:
+    ~2.4 kB a frame), so that a change of the descriptors or of the classifier refits
+    without rendering again; the hash covers the episode, the picture size, the frame
+    rate and the window."""
+
+    def __init__(self, renderer: EpisodeRenderer, folder: Path | None) -> None:
+        self.renderer, self.folder = renderer, folder
+
+    def path(self, ep: GestureEpisode, extra_s: float) -> Path | None:
+        if self.folder is None:
+            return None
+        key = repr((ep, extra_s, IMAGE_WIDTH, IMAGE_HEIGHT, RATE_HZ, WINDOW_S))
+        return self.folder / f"{hashlib.sha1(key.encode()).hexdigest()[:20]}.npz"
+
+    def descriptors(self, ep: GestureEpisode, extra_s: float = 0.0
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """:meth:`EpisodeRenderer.descriptors`, the silhouettes read from the cache or
+        rendered and stored."""
+        path = self.path(ep, extra_s)
+        if path is not None and path.exists():
+            with np.load(path) as stored:
+                width = int(stored["width"])
+                masks = np.unpackbits(stored["masks"], axis=-1)[..., :width].astype(bool)
+                times = stored["times"]
+        else:
+            masks, times = self.renderer.silhouettes(ep, extra_s)
+            if path is not None:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                np.savez_compressed(path, masks=np.packbits(masks, axis=-1), times=times,
+                                    width=masks.shape[-1])
+        return np.array([silhouette_descriptor(m) for m in masks]), times
+
+
+def _none_end_s(gestures: GestureSet, klass: str) -> float:
+    """When the ``none`` window of a gesture's episode ends: half-way through its moves
+    before any count (a count's first strokes would be a smaller count's whole)."""
+    name = klass.partition(":")[0]
+    return 0.5 * gestures.gestures[name].keyframes[-1][0]
+
+
+def episode_samples(renderer: EpisodeRenderer, ep: GestureEpisode, extra_s: float = 0.0
                     ) -> list[tuple[str, NDArray[np.float64]]]:
-    """(label, window features) samples of one episode: the whole gesture, and for a
-    gesture the ``none`` window that ends half-way through it (padded at its start with
-    the first frame, the diver at rest)."""
-    d, half = renderer.descriptors(ep)
-    samples = [(ep.klass, window_features(d, RATE_HZ))]
-    if ep.klass != NONE:
-        shift = len(d) - 1 - half
+    """:func:`window_samples` of one rendered episode."""
+    return window_samples(*renderer.descriptors(ep, extra_s), ep.klass, renderer.gestures)
+
+
+def window_samples(d: NDArray[np.float64], times: NDArray[np.float64], klass: str,
+                   gestures: GestureSet) -> list[tuple[str, NDArray[np.float64]]]:
+    """(label, window features) samples of an episode's frame descriptors ``d`` at
+    ``times``: the whole gesture (the window ending after it, and those of the frames
+    after it that still end within :data:`END_AFTER_S` of it), and for a gesture the
+    ``none`` window that ends half-way through its moves (padded at its start with the
+    first frame, the diver at rest)."""
+    n = round(WINDOW_S * RATE_HZ)
+    name, _, count = klass.partition(":")
+    duration = 0.0 if name == NONE else gestures.gestures[name].duration_s(
+        int(count) if count else None)
+    samples = [(klass, window_features(d[k + 1 - n:k + 1], RATE_HZ))
+               for k in range(n - 1, len(d))
+               if k == n - 1 or times[k] <= duration + END_AFTER_S[1]]
+    if klass != NONE:
+        half = int(np.searchsorted(times, _none_end_s(gestures, klass)))
+        shift = n - 1 - half
         padded = np.concatenate([np.repeat(d[:1], shift, axis=0), d[:half + 1]])
         samples.append((NONE, window_features(padded, RATE_HZ)))
     return samples
 
 
 #: training settings: water type -> (its share of the episodes, range interval m)
-TRAINING_WATERS = {"I": (0.75, (1.5, 7.0)), "3C": (0.25, (1.0, 2.5))}
+TRAINING_WATERS = {"I": (1.0, (2.0, 4.5))}
 
 
 def training_episodes(classes: list[str], per_class: int, seed: int) -> list[GestureEpisode]:
-    """Random settings (module docstring): Jerlov I at 1.5–7 m or coastal 3C at 1–2.5 m
-    (where the camera still sees him), headings ±35°, lamps on or off."""
+    """Random settings (module docstring): :data:`TRAINING_WATERS`, headings ±35°, lamps
+    on or off, suit and cylinder colours from :data:`SUITS` and :data:`TANKS`; drawn
+    round by round over the classes, so that fewer episodes per class are the first
+    rounds of more."""
     rng = np.random.default_rng(seed)
     waters = list(TRAINING_WATERS)
     shares = [TRAINING_WATERS[w][0] for w in waters]
     out = []
-    for c in classes:
-        for _ in range(per_class):
+    for _ in range(per_class):  # round by round: fewer episodes draw the first rounds
+        for c in classes:
             water = str(rng.choice(waters, p=shares))
             out.append(GestureEpisode(c, float(rng.uniform(*TRAINING_WATERS[water][1])),
                                       float(rng.uniform(-35, 35)), water,
-                                      bool(rng.random() < 0.5), int(rng.integers(1 << 30))))
+                                      bool(rng.random() < 0.5), int(rng.integers(1 << 30)),
+                                      SUITS[rng.integers(len(SUITS))],
+                                      TANKS[rng.integers(len(TANKS))]))
     return out
 
 
-def fit(per_class: int, seed: int) -> GestureClassifier:
+def fit_logistic(features: NDArray[np.float64], labels: NDArray[np.int64], n_classes: int,
+                 l2: float = L2) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(weights (classes, features), bias (classes,)) of the multinomial logistic
+    regression of standardised ``features`` on ``labels``, every class weighted equally,
+    with an L2 penalty on the weights (L-BFGS)."""
+    m = features.shape[1]
+    onehot = np.eye(n_classes)[labels]
+    weight = 1.0 / np.bincount(labels, minlength=n_classes)[labels]
+    weight /= weight.sum()
+
+    def loss(theta: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
+        w, b = theta[:-n_classes].reshape(n_classes, m), theta[-n_classes:]
+        logits = features @ w.T + b
+        logits -= logits.max(axis=1, keepdims=True)
+        p = np.exp(logits)
+        p /= p.sum(axis=1, keepdims=True)
+        nll = -np.sum(weight * np.log(np.maximum(np.sum(p * onehot, axis=1), 1e-300)))
+        residual = weight[:, None] * (p - onehot)
+        grad_w = residual.T @ features + l2 * w
+        return (float(nll + 0.5 * l2 * np.sum(w * w)),
+                np.concatenate([grad_w.ravel(), residual.sum(axis=0)]))
+
+    result = optimize.minimize(loss, np.zeros(n_classes * (m + 1)), jac=True,
+                               method="L-BFGS-B", options={"maxiter": 2000})
+    theta = result.x
+    return theta[:-n_classes].reshape(n_classes, m), theta[-n_classes:]
+
+
+def training_samples(per_class: int, seed: int, cache: Path | None = None
+                     ) -> tuple[list[str], NDArray[np.float64], NDArray[np.int64]]:
+    """(classes, window features, class indices) of the rendered training episodes
+    (their silhouettes kept in ``cache`` when given)."""
     renderer = EpisodeRenderer()
+    store = SilhouetteCache(renderer, cache)
     classes = gesture_classes(renderer.gestures)
-    rows: dict[str, list[NDArray[np.float64]]] = {c: [] for c in classes}
+    rows, labels = [], []
     for ep in training_episodes(classes, per_class, seed):
-        for label, features in episode_samples(renderer, ep):
+        d, times = store.descriptors(ep, END_AFTER_S[1])
+        for label, features in window_samples(d, times, ep.klass, renderer.gestures):
             if not np.any(np.isnan(features)):
-                rows[label].append(features)
-    missing = [c for c in classes if not rows[c]]
+                rows.append(features)
+                labels.append(classes.index(label))
+    missing = [c for i, c in enumerate(classes) if i not in labels]
     if missing:
         raise RuntimeError(f"no usable episode of {', '.join(missing)}: more episodes")
-    means = np.array([np.mean(rows[c], axis=0) for c in classes])
-    within = np.concatenate([np.asarray(rows[c]) - m for c, m in zip(classes, means, strict=True)])
-    stds = np.maximum(np.sqrt(np.mean(within ** 2, axis=0)), STD_FLOOR)
-    counts = ", ".join(f"{c} {len(rows[c])}" for c in classes)
-    return GestureClassifier(
-        tuple(classes), means, stds, WINDOW_S, RATE_HZ,
+    return classes, np.array(rows), np.array(labels)
+
+
+def classifier_of(classes: list[str], x: NDArray[np.float64], y: NDArray[np.int64],
+                  l2: float = L2, provenance: str = "") -> GestureClassifier:
+    """The logistic regression of window features ``x`` on class indices ``y``, the
+    features standardised by their training mean and standard deviation."""
+    center = x.mean(axis=0)
+    spread = np.maximum(x.std(axis=0), 1e-6)
+    weights, bias = fit_logistic((x - center) / spread, y, len(classes), l2)
+    return GestureClassifier(tuple(classes), center, spread, weights, bias, WINDOW_S,
+                             RATE_HZ, provenance)
+
+
+def fit(per_class: int, seed: int, cache: Path | None = None) -> GestureClassifier:
+    """The classifier fitted on ``per_class`` rendered episodes per class."""
+    classes, x, y = training_samples(per_class, seed, cache)
+    counts = ", ".join(f"{c} {np.count_nonzero(y == i)}" for i, c in enumerate(classes))
+    return classifier_of(
+        classes, x, y,
         provenance=(f"fitted by uhrisim.experiments.gesture_classifier: {per_class} rendered "
-                    f"episodes per class (seed {seed}; Jerlov I at 1.5-7 m or coastal 3C at "
-                    f"1-2.5 m, headings +-35 deg, lamps on or off); samples: {counts}"))
+                    f"episodes per class (seed {seed}; {IMAGE_WIDTH} x {IMAGE_HEIGHT} px at "
+                    f"{RATE_HZ:g} Hz; Jerlov I at 2-4.5 m, "
+                    f"headings +-35 deg, lamps on or off, {len(SUITS)} suit and "
+                    f"{len(TANKS)} cylinder colours; L2 {L2:g}); samples: {counts}"))
 
 
 def confusion(classifier: GestureClassifier, episodes: list[GestureEpisode],
@@ -220,12 +379,13 @@ def held_out_episodes(classes: list[str], range_m: float, water: str, lamps: boo
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path, nargs="?")
-    parser.add_argument("--episodes", type=int, default=6, help="training episodes per class")
+    parser.add_argument("--episodes", type=int, default=20, help="training episodes per class")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--evaluate", action="store_true")
     parser.add_argument("--range", type=float, default=3.0)
     parser.add_argument("--water", default="I")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--cache", type=Path, help="keep the rendered silhouettes here")
     args = parser.parse_args(argv)
     if args.evaluate:
         classifier = GestureClassifier.load(args.out)
@@ -239,9 +399,11 @@ def main(argv: list[str] | None = None) -> None:
         return
     if args.out is None:
         parser.error("OUT.json is needed to fit")
-    classifier = fit(args.episodes, args.seed)
+    start = time.perf_counter()
+    classifier = fit(args.episodes, args.seed, args.cache)
     args.out.write_text(json.dumps(classifier.to_dict(), indent=1) + "\n")
     print(classifier.provenance)
+    print(f"fitted in {time.perf_counter() - start:.0f} s")
 
 
 if __name__ == "__main__":

@@ -1,39 +1,37 @@
 """Reading the diver's gestures from the ROV's camera pictures.
 
 **Per frame** (:func:`frame_descriptor`), from the 8-bit picture only (no label image):
-the picture is binned to at most 320 columns; the water's veil (and the floor) is taken
-as the running median along each row over :data:`BACKGROUND_PX` pixels, of every
-:data:`BACKGROUND_STEP` th pixel (wider than a diver's body, and it follows the horizon's
-curve), colour by colour, and the pixels that
-differ from it in any colour by more than ``4·σ`` of that colour (σ from the median
-absolute deviation) and at least 4 levels are the silhouette (the grey neoprene stands
-out from the blue water by colour more than by brightness); an opening removes speckle;
-parts less than :data:`GROUP_PX` pixels apart form a group, and the groups of at least
-:data:`KEEP_SHARE` of the largest one's pixels are the diver (his body, limbs and shadow
-on the floor).
+the picture is binned to at most :data:`MAX_COLUMNS` columns; the water's veil (and the
+floor) is taken as the running median along each row over :data:`BACKGROUND_PX` pixels, of
+every :data:`BACKGROUND_STEP` th pixel (wider than a diver's body, and it follows the
+horizon's curve), colour by colour, and the pixels that differ from it in any colour by
+more than ``4·σ`` of that colour (σ from the median absolute deviation) and at least 4
+levels are the silhouette (it does not depend on the suit's colour, only on its contrast
+with the water); parts less than :data:`GROUP_PX` pixels apart form a group, and the
+groups of at least :data:`KEEP_SHARE` of the largest one's pixels are the diver (his body,
+limbs and shadow on the floor). No opening: at 160 columns an arm at 3 m is 1–2 px wide.
 
-Its scale is its median row width (the torso's, about; arms and head are few rows); its
+Its scale is its median row width (the torso's, about: arms and head are few rows); its
 pixels, measured down from its top (the head, or a raised hand) and sideways from its
-median column, in that scale, fill a grid of :data:`GRID_ROWS` rows × :data:`GRID_COLS`
-columns of |x| (the picture folded about the median column, so a gesture made with
-either arm reads the same) — each cell's filled area — and three shape numbers: the
-grid's filled area, its farthest |x| and its mean depth below the top. The grid ends
-five torso widths down (about the hips), so the legs and his shadow on the floor, which
-change with range, stay out of it. Nothing found: a row of NaN.
+median column in that scale, fill a grid of :data:`GRID_ROWS` × :data:`GRID_COLS` cells
+(each cell's filled area), and for each side the arm's reach — the farthest pixel outside
+the torso's column band (:data:`BAND`), how far out and how far down from the top, and
+the area outside the band — plus the logarithm of the scale over the picture's width (the
+apparent size: the range). Nothing found: a row of NaN.
 
-**Per window** (:func:`window_features`): the last ``window_s`` of frame descriptors
-(a gesture's whole motion fits): their mean, their standard deviation, the mean of the
-last second (the pose held at the end), and the motion — the mean frame-to-frame change
-of the grid, the share of time it exceeds :data:`MOVING` (how long the arms moved) and
-the number of its rises above :data:`MOVING` (strokes: beckons, pumps, counts).
+**Per window** (:func:`window_features`): the last ``window_s`` of frame descriptors,
+mirrored when the left side moved more (a gesture made with either arm reads the same):
+their means over time bins counted back from the window's end (:data:`TIME_BINS_S`: the
+pose held at the end, the motion before it), their standard deviations, and the motion —
+the frame-to-frame change of the grid and the reaches — per second back from the end
+(when the big moves happened: ``bring_tool``'s count is the time since the other arm
+dropped).
 
-**Classifier** (:class:`GestureClassifier`): Gaussian classes over those features with
-one diagonal covariance shared by all (each feature's pooled within-class spread: with a
-few dozen rendered episodes per class, per-class spreads overfit), equal priors; one
-class per gesture (``bring_tool`` once per tool number: ``bring_tool:2`` is the
-hammer's) and ``none`` (the diver at rest, or a gesture under way); the confidence is
-the class's posterior. Parameters fitted on pictures the simulator
-renders and labels (``uhrisim.experiments.gesture_classifier``), shipped in
+**Classifier** (:class:`GestureClassifier`): multinomial logistic regression over the
+standardised window features, one class per gesture (``bring_tool`` once per tool
+number: ``bring_tool:2`` is the hammer's) and ``none`` (the diver at rest, or a gesture
+under way); the confidence is the class's probability. Parameters fitted on pictures the
+simulator renders and labels (``uhrisim.experiments.gesture_classifier``), shipped in
 ``perception/data/gesture_classifier.json`` with their provenance.
 
 **Streaming** (:class:`GestureReader`): fed every camera frame; every ``hop_s`` it
@@ -44,6 +42,7 @@ not said twice).
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -57,19 +56,33 @@ from uhrisim.core.errors import ConfigError
 from uhrisim.perception.gestures import GestureSet
 from uhrisim.perception.signals import Command, RecognizedSignal, load_json
 
-GRID_ROWS, GRID_COLS = 5, 3
+GRID_ROWS, GRID_COLS = 6, 6
 #: grid extent in units of the silhouette's scale (its median row width, ~ the torso's):
-#: |x| from the median column in [0, 3), y down from the top in [0, 5)
-GRID_X, GRID_Y = (0.0, 3.0), (0.0, 5.0)
-FRAME_FEATURES = GRID_ROWS * GRID_COLS + 3
+#: x from the median column in [-3, 3) (left negative), y down from the top in [0, 6)
+GRID_X, GRID_Y = (-3.0, 3.0), (-2.0, 4.0)
+#: half-width of the torso's column band (scale units): pixels beyond it are an arm's
+BAND = 0.75
+#: half-width of the band whose top is the head's (scale units), and the shoulders'
+#: depth below it
+HEAD_BAND, SHOULDER_Y = 0.4, 1.0
+#: per side: reach (scale units out of the median column), the reach's depth below the
+#: head, the arm's highest and mean depth, its area
+SIDE_FEATURES = 5
+GRID_CELLS = GRID_ROWS * GRID_COLS
+FRAME_FEATURES = GRID_CELLS + 2 * SIDE_FEATURES + 2
 MIN_AREA_PX = 12
-GROUP_PX = 3
+#: a silhouette with more than this share of isolated pixels is the sensor's noise
+NOISE_SHARE = 0.25
+GROUP_PX = 2
 THRESHOLD_SIGMA, MIN_LEVELS = 4.0, 4.0
-BACKGROUND_PX, BACKGROUND_STEP = 80, 8
+BACKGROUND_PX, BACKGROUND_STEP = 40, 4
 KEEP_SHARE = 0.15
-MAX_COLUMNS = 320
-#: frame-to-frame grid change (summed absolute share) that counts as the arms moving
-MOVING = 0.08
+MAX_COLUMNS = 160
+#: time bins of a window's means, seconds back from its end
+TIME_BINS_S = (0.0, 1.0, 2.0, 3.5, 5.0, 7.0, 10.0)
+#: seconds back from the end over which the motion is summed, one number per second
+MOTION_S = 10
+WINDOW_FEATURES = (len(TIME_BINS_S) - 1) * FRAME_FEATURES + FRAME_FEATURES + MOTION_S
 NONE = "none"
 
 
@@ -93,8 +106,7 @@ def silhouette(rgb: NDArray[np.uint8]) -> NDArray[np.bool_]:
     background = np.repeat(coarse, BACKGROUND_STEP, axis=1)[:, :image.shape[1]]
     residual = np.abs(image - background)
     sigma = np.maximum(1.4826 * np.median(residual, axis=(0, 1)), 1.0)
-    outlier = (residual > np.maximum(THRESHOLD_SIGMA * sigma, MIN_LEVELS)).any(axis=2)
-    mask = ndimage.binary_opening(outlier)
+    mask = (residual > np.maximum(THRESHOLD_SIGMA * sigma, MIN_LEVELS)).any(axis=2)
     labels, n = ndimage.label(ndimage.binary_dilation(mask, iterations=GROUP_PX))
     if n == 0:
         return mask
@@ -105,19 +117,49 @@ def silhouette(rgb: NDArray[np.uint8]) -> NDArray[np.bool_]:
 
 
 def frame_descriptor(rgb: NDArray[np.uint8]) -> NDArray[np.float64]:
-    """(FRAME_FEATURES,) grid fills and shape numbers of one picture; NaN if no diver."""
-    mask = silhouette(rgb)
+    """(FRAME_FEATURES,) grid fills, the arms' reaches and the apparent size of one
+    picture (module docstring); NaN if no diver."""
+    return silhouette_descriptor(silhouette(rgb))
+
+
+def silhouette_descriptor(mask: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """:func:`frame_descriptor` of a silhouette; its pixels without a neighbour (noise
+    along the horizon) left out, and nothing found where more than :data:`NOISE_SHARE`
+    of them have none (the camera's noise in turbid water, not a diver)."""
+    neighbours = ndimage.convolve(mask.astype(np.uint8), np.ones((3, 3), np.uint8),
+                                  mode="constant")
+    isolated = np.count_nonzero(mask & (neighbours < 2))
+    mask = mask & (neighbours >= 2)
     rows, cols = np.nonzero(mask)
-    if rows.size < MIN_AREA_PX:
+    if rows.size < MIN_AREA_PX or isolated > NOISE_SHARE * (rows.size + isolated):
         return np.full(FRAME_FEATURES, np.nan)
     widths = mask.sum(axis=1)
     scale = max(2.0, float(np.median(widths[widths > 0])))
-    x = np.abs(cols - np.median(cols)) / scale
-    y = (rows - rows.min()) / scale
+    x = (cols - np.median(cols)) / scale
+    core = np.abs(x) < HEAD_BAND
+    y = (rows - (rows[core].min() if core.any() else rows.min())) / scale
     grid, _, _ = np.histogram2d(y, x, (GRID_ROWS, GRID_COLS), (GRID_Y, GRID_X))
-    inside = y < GRID_Y[1]
-    shape = [inside.sum() / scale ** 2, x[inside].max(), y[inside].mean()]
-    return np.concatenate([grid.ravel() / scale ** 2, shape])
+    sides = []
+    for sign in (-1.0, 1.0):
+        out = sign * x > BAND
+        if out.any():
+            far = int(np.argmax(np.where(out, sign * x, -np.inf)))
+            sides += [sign * x[far], y[far], y[out].min(), y[out].mean(),
+                      out.sum() / scale ** 2]
+        else:
+            sides += [BAND, SHOULDER_Y, SHOULDER_Y, SHOULDER_Y, 0.0]
+    above = np.count_nonzero(y < 0) / scale ** 2
+    size = math.log(scale / mask.shape[1])
+    return np.concatenate([grid.ravel() / scale ** 2, sides, [above, size]])
+
+
+def _mirrored(d: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Frame descriptors (n, FRAME_FEATURES) of the mirror image: the grid's columns
+    reversed, the sides swapped."""
+    grid = d[:, :GRID_CELLS].reshape(-1, GRID_ROWS, GRID_COLS)[:, :, ::-1]
+    left = d[:, GRID_CELLS:GRID_CELLS + SIDE_FEATURES]
+    right = d[:, GRID_CELLS + SIDE_FEATURES:GRID_CELLS + 2 * SIDE_FEATURES]
+    return np.concatenate([grid.reshape(len(d), -1), right, left, d[:, -2:]], axis=1)
 
 
 def window_features(descriptors: NDArray[np.float64], rate_hz: float) -> NDArray[np.float64]:
@@ -125,16 +167,22 @@ def window_features(descriptors: NDArray[np.float64], rate_hz: float) -> NDArray
     ``rate_hz`` (module docstring); NaN where the diver was seen in under half the frames."""
     d = np.asarray(descriptors, float)
     seen = ~np.isnan(d[:, 0])
-    n_out = 3 * FRAME_FEATURES + 3
     if seen.sum() < max(2, 0.5 * len(d)):
-        return np.full(n_out, np.nan)
+        return np.full(WINDOW_FEATURES, np.nan)
+    age = (len(d) - 1 - np.flatnonzero(seen)) / rate_hz  # s before the window's end
     d = d[seen]
-    last = d[-max(1, round(rate_hz)):]
-    change = np.abs(np.diff(d[:, :GRID_ROWS * GRID_COLS], axis=0)).sum(axis=1)
-    moving = change > MOVING
-    strokes = int(np.count_nonzero(moving[1:] & ~moving[:-1]) + (moving[:1].sum()))
-    return np.concatenate([d.mean(axis=0), d.std(axis=0), last.mean(axis=0),
-                           [change.mean(), moving.mean(), strokes]])
+    left_area = d[:, GRID_CELLS + SIDE_FEATURES - 1]
+    right_area = d[:, GRID_CELLS + 2 * SIDE_FEATURES - 1]
+    if left_area.mean() + left_area.std() > right_area.mean() + right_area.std():
+        d = _mirrored(d)
+    means = []
+    for lo, hi in itertools.pairwise(TIME_BINS_S):
+        inside = (age >= lo) & (age < hi)
+        means.append(d[inside].mean(axis=0) if inside.any() else d.mean(axis=0))
+    change = np.abs(np.diff(d[:, :GRID_CELLS + 2 * SIDE_FEATURES], axis=0)).sum(axis=1)
+    motion = np.bincount(np.minimum(age[1:], MOTION_S - 1).astype(int), change,
+                         minlength=MOTION_S)[:MOTION_S] / rate_hz
+    return np.concatenate([*means, d.std(axis=0), motion])
 
 
 def class_command(name: str, gestures: GestureSet) -> Command | None:
@@ -151,25 +199,29 @@ def class_command(name: str, gestures: GestureSet) -> Command | None:
 
 @dataclass(frozen=True)
 class GestureClassifier:
-    """Gaussian naive Bayes over :func:`window_features` (module docstring)."""
+    """Multinomial logistic regression over standardised :func:`window_features`
+    (module docstring)."""
 
     classes: tuple[str, ...]
-    means: NDArray[np.float64]  # (classes, features)
-    stds: NDArray[np.float64]  # (features,): shared
+    center: NDArray[np.float64]  # (features,): subtracted from a window's features
+    spread: NDArray[np.float64]  # (features,): then divided by this
+    weights: NDArray[np.float64]  # (classes, features)
+    bias: NDArray[np.float64]  # (classes,)
     window_s: float
     rate_hz: float
     provenance: str = ""
 
     def __post_init__(self) -> None:
-        n = 3 * FRAME_FEATURES + 3
-        for name, shape in (("means", (len(self.classes), n)), ("stds", (n,))):
+        n, k = WINDOW_FEATURES, len(self.classes)
+        for name, shape in (("center", (n,)), ("spread", (n,)), ("weights", (k, n)),
+                            ("bias", (k,))):
             array = np.asarray(getattr(self, name), float)
             if array.shape != shape or not np.all(np.isfinite(array)):
                 raise ConfigError(f"must be {' × '.join(map(str, shape))} finite numbers",
                                   f"GestureClassifier.{name}")
             object.__setattr__(self, name, array)
-        if np.any(self.stds <= 0):
-            raise ConfigError("standard deviations must be > 0", "GestureClassifier.stds")
+        if np.any(self.spread <= 0):
+            raise ConfigError("spreads must be > 0", "GestureClassifier.spread")
         if NONE not in self.classes:
             raise ConfigError(f"the classes must include {NONE!r}", "GestureClassifier")
 
@@ -178,14 +230,14 @@ class GestureClassifier:
         return max(2, round(self.window_s * self.rate_hz))
 
     def log_posteriors(self, features: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Normalised log posteriors (equal priors) of one feature vector."""
-        z = (np.asarray(features, float) - self.means) / self.stds
-        log_l = -0.5 * np.sum(z * z, axis=1)
-        return log_l - (log_l.max() + math.log(np.exp(log_l - log_l.max()).sum()))
+        """Normalised log probabilities of the classes for one feature vector."""
+        logits = self.weights @ ((np.asarray(features, float) - self.center) / self.spread)
+        logits += self.bias
+        return logits - (logits.max() + math.log(np.exp(logits - logits.max()).sum()))
 
     def classify(self, features: NDArray[np.float64]) -> tuple[str, float]:
-        """(class, posterior) of a window's features; (``none``, 1) if the diver was not
-        seen enough (NaN features)."""
+        """(class, probability) of a window's features; (``none``, 1) if the diver was
+        not seen enough (NaN features)."""
         if np.any(np.isnan(features)):
             return NONE, 1.0
         lp = self.log_posteriors(features)
@@ -194,20 +246,25 @@ class GestureClassifier:
 
     # -- files ----------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        return {"method": "Gaussian classes with a shared diagonal covariance over window "
-                          "features (perception/gesture_reader.py), equal priors",
+        def numbers(a: NDArray[np.float64]) -> list[float]:
+            return [float(f"{v:.6g}") for v in a]
+
+        return {"method": "multinomial logistic regression over standardised window "
+                          "features (perception/gesture_reader.py)",
                 "window_s": self.window_s, "rate_hz": self.rate_hz,
-                "std": [round(float(v), 6) for v in self.stds],
-                "classes": {c: [round(float(v), 6) for v in m]
-                            for c, m in zip(self.classes, self.means, strict=True)},
+                "center": numbers(self.center), "spread": numbers(self.spread),
+                "classes": {c: {"bias": float(f"{b:.6g}"), "weights": numbers(w)}
+                            for c, b, w in zip(self.classes, self.bias, self.weights,
+                                               strict=True)},
                 "provenance": self.provenance}
 
     @classmethod
     def from_dict(cls, data: Any, where: str = "gesture classifier") -> GestureClassifier:
         try:
             classes = tuple(data["classes"])
-            return cls(classes, np.array([data["classes"][c] for c in classes]),
-                       np.array(data["std"]),
+            return cls(classes, np.array(data["center"]), np.array(data["spread"]),
+                       np.array([data["classes"][c]["weights"] for c in classes]),
+                       np.array([data["classes"][c]["bias"] for c in classes]),
                        float(data["window_s"]), float(data["rate_hz"]),
                        str(data.get("provenance", "")))
         except (KeyError, TypeError, ValueError) as error:
