@@ -26,6 +26,7 @@ from uhrisim.autonomy.params import checked_value
 from uhrisim.control.videoray_p import GAIN_PRESETS, PGains
 from uhrisim.core.errors import ConfigError
 from uhrisim.dynamics.videoray import VideoRayParams
+from uhrisim.scenario.assistance import AssistantSection
 from uhrisim.scenario.sections import declared_as, scenario_section
 from uhrisim.scenario.strict import Strict
 from uhrisim.scenario.teamwork import (
@@ -485,6 +486,8 @@ class AgentConfig(Strict):
     skeleton: SkeletonSection = SkeletonSection()
     orders: tuple[OrderConfig, ...] = ()
     gripper: GripperSection | None = None
+    # the diver's assistant drives this vehicle's helm and gripper (docs/hri.md)
+    assistant: AssistantSection | None = None
 
     _script_order = field_validator("script")(_legs_in_time_order)
 
