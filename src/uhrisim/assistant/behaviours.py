@@ -196,6 +196,17 @@ class GoTo(Drive):
     def post(self, point: Point) -> None:
         self.ctx.want("WPT_UPDATES", f"points={moos_xy(point)} # speed={self.speed:.2f}")
 
+    def update(self) -> Status:
+        status = super().update()
+        goal = self.final(self.ctx)
+        if status == Status.RUNNING and goal is not None and math.hypot(
+                *(goal - self.ctx.rov)[:2]) <= self.tolerance():
+            # there but for the depth: hold the heading (a waypoint behavior that has
+            # reached its point completes, and a helm left without a course stops all)
+            self.ctx.want("ASSIST_MODE", "FACE")
+            self.ctx.want("HEADING_UPDATES", f"heading={round(self.ctx.now.rov.heading_deg) % 360}")
+        return status
+
     def arrived(self, point: Point) -> bool:  # only at the final goal
         goal = self.final(self.ctx)
         return goal is not None and super().arrived(goal)

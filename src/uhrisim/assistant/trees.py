@@ -177,13 +177,15 @@ def _plan_handover(ctx: TreeContext) -> None:
 
 def handover_point(ctx: TreeContext) -> Point | None:
     """The ROV's centre with its jaws ``handover_gap_m`` short of the diver's hand along
-    the planned approach (at the heading the ROV has: the jaws are where it counts)."""
+    the planned approach, at the planned heading (not the heading it has: with the jaws
+    0.25 m ahead, a target that turned with the ROV would run away from a vehicle that
+    yaws while it creeps)."""
     d, h = ctx.diver, ctx.plan.get("handover_heading")
     if d is None or h is None:
         return None
     way = _dir(float(h))  # type: ignore[arg-type]
     jaws = d.hand - ctx.config.handover_gap_m * way
-    centre = centre_for_jaw(jaws, ctx.now.rov.heading_deg, ctx.config)
+    centre = centre_for_jaw(jaws, float(h), ctx.config)  # type: ignore[arg-type]
     return kept_clear(centre, -way, d, ctx.config)
 
 
@@ -209,10 +211,11 @@ def _plan_fetch(ctx: TreeContext) -> None:
 
 
 def fetch_point(ctx: TreeContext) -> Point | None:
-    """The ROV's centre with its jaws on the grasp point, at the heading it has."""
-    grasp = _grasp(ctx)
-    return None if grasp is None else centre_for_jaw(grasp, ctx.now.rov.heading_deg,
-                                                     ctx.config)
+    """The ROV's centre with its jaws on the grasp point, at the planned heading (see
+    :func:`handover_point`)."""
+    grasp, h = _grasp(ctx), ctx.plan.get("fetch_heading")
+    return None if grasp is None or h is None else centre_for_jaw(
+        grasp, float(h), ctx.config)  # type: ignore[arg-type]
 
 
 def _plan_light(ctx: TreeContext) -> None:

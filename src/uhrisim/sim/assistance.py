@@ -128,13 +128,15 @@ class AssistedVehicle:
 
 
 class AssistanceStage:
-    """The assistance stage (module docstring). ``record(kind, detail)`` logs an event."""
+    """The assistance stage (module docstring). ``record(kind, detail)`` logs an event,
+    ``collisions()`` counts the run's collisions so far."""
 
     def __init__(self, source: ScenarioFile, scene: Scene, agents: dict[str, Agent],
                  team: TeamStage | None, contacts: SonarContacts,
-                 record: Callable[[str, str], None]) -> None:
+                 record: Callable[[str, str], None], collisions: Callable[[], int]) -> None:
         self.source, self.scene, self.agents = source, scene, agents
         self.team, self.contacts, self.record = team, contacts, record
+        self.collisions = collisions
         self.divers: dict[str, SignallingDiver] = {}
         self.vehicles: list[AssistedVehicle] = []
         for index, agent in enumerate(agents.values()):
@@ -417,23 +419,24 @@ class AssistanceStage:
         return DiverTrack(nav.position_ned, float(heading_deg_from_yaw(nav.yaw))).hand
 
     # ------------------------------------------------------------------ results
-    def summary(self, collisions: int) -> dict[str, Any]:
-        """metrics.json's ``assistant`` section, by assisted vehicle."""
+    def summary(self) -> dict[str, Any]:
+        """metrics.json's ``assistant`` section, by assisted vehicle (docs/hri.md)."""
+        collisions = self.collisions()
         out: dict[str, Any] = {}
         for v in self.vehicles:
             performer = v.diver.performer
             issued = [IssuedSignal(p.t, p.command, p.channel, p.duration_s)
                       for p in performer.issued]
             metrics = signal_metrics(issued, v.readers.said, v.assistant.trace)
-            steps = self.team.divers[v.diver.agent.name].executor.steps  # type: ignore[union-attr]
-            waits = [s for s in steps if isinstance(s.order, od.WaitUntil)]
             executor = self.team.divers[v.diver.agent.name].executor  # type: ignore[union-attr]
+            steps = executor.steps
             done = executor.finished and not executor.failed
+            now = v.assistant.trace[-1].t if v.assistant.trace else 0.0
             metrics |= {
                 "diver": v.diver.agent.name,
-                "diver_waiting_s": round(sum((s.ended if s.ended is not None else 0.0)
-                                             - s.started for s in waits
-                                             if s.ended is not None), 3),
+                "diver_waiting_s": round(sum(
+                    (s.ended if s.ended is not None else now) - s.started for s in steps
+                    if isinstance(s.order, od.WaitUntil)), 3),
                 "task_completion_s": round(steps[-1].ended, 3) if done and steps else None,
                 "steps": {"done": sum(s.outcome == "done" for s in steps),
                           "failed": sum(s.outcome == "failed" for s in steps),
@@ -445,4 +448,4 @@ class AssistanceStage:
                 "collisions": collisions,
             }
             out[v.agent.name] = metrics
-        return out
+        return {"assistant": out}

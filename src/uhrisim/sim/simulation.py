@@ -143,7 +143,8 @@ class Simulation:
         if any(a.config.assistant is not None for a in self.agents.values()):
             from uhrisim.sim.assistance import AssistanceStage  # the hri extra: py_trees
             self.assistance = AssistanceStage(source, self.scene, self.agents, self.team,
-                                              self.sonar_contacts, self.record_event)
+                                              self.sonar_contacts, self.record_event,
+                                              lambda: self.collisions)
         self.events: list[ScheduledEvent] = build_events(self)
         self.raycaster = self.scene.raycaster("embree") if any(
             a.sonars or a.cameras for a in self.agents.values()) else None
