@@ -361,6 +361,8 @@ def validate_orders(orders: Sequence[Order], diver: DiverSetup, ws: Workspace,
                 reason = condition_error(ws, subject, state)
                 if reason:
                     fail(reason)
+                elif state.startswith(f"held_by:{diver.name}/") and state.endswith("_hand"):
+                    holding[subject] = state.split("/")[-1].removesuffix("_hand")  # given him
             case Signal(name=name, channel=None) if name not in SIGNALS:
                 fail(f"unknown signal {name!r} (have {', '.join(SIGNALS)})")
         if reached is not None and not isinstance(order, (WaitUntil, Signal, SetMode)):
