@@ -239,12 +239,13 @@ class Face(Leaf):
 
     def __init__(self, name: str, ctx: TreeContext,
                  heading: Callable[[TreeContext], float | None],
-                 depth: Callable[[TreeContext], float] | None = None, hold: bool = False
-                 ) -> None:
+                 depth: Callable[[TreeContext], float] | None = None, hold: bool = False,
+                 tolerance_deg: float | None = None) -> None:
         super().__init__(name, ctx)
         self.heading = heading
         self.depth = depth
         self.hold = hold
+        self.tolerance_deg = tolerance_deg or ctx.config.heading_tolerance_deg
 
     def update(self) -> Status:
         h = self.heading(self.ctx)
@@ -255,7 +256,7 @@ class Face(Leaf):
         if self.depth is not None:
             self.ctx.want("DEPTH_UPDATES", _depth(self.depth(self.ctx)))
         error = abs(float(wrap_180(self.ctx.now.rov.heading_deg - h)))
-        if not self.hold and error <= self.ctx.config.heading_tolerance_deg:
+        if not self.hold and error <= self.tolerance_deg:
             return Status.SUCCESS
         return Status.RUNNING
 

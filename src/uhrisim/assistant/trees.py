@@ -12,7 +12,7 @@
             ├── stop        hold where it is, facing the diver
             ├── follow_me   trail him
             ├── come_here   go to arm's reach in front of him, hold there facing him
-            ├── bring_tool  fetch it (grip at the grasp point, up to fetch_attempts
+            ├── bring_tool  fetch it (creep, square up, grip at the grasp point, fetch_attempts
             │               tries), hand it over (stand off, face him, creep to his hand,
             │               hold still, release when he grips; offer again on a timeout)
             ├── light_here  stand off from the work, above it, facing it, and hold
@@ -61,6 +61,9 @@ from uhrisim.assistant.geometry import (
 from uhrisim.core.frames import rot_z
 
 CHEST_ABOVE_PELVIS_M = 0.3  # where "come here" brings the ROV: the diver's chest height
+#: at the grasp, the ROV turns to the planned heading within this before it grips: its
+#: jaws, 0.25 m ahead, are then within 1 cm of the grasp point (deg)
+SQUARE_UP_DEG = 2.0
 
 
 def _dir(heading_deg: float) -> Point:
@@ -282,6 +285,9 @@ def build_tree(ctx: TreeContext) -> tuple[py_trees.behaviour.Behaviour, Selector
         Face("face the grasp", ctx, lambda c: c.plan.get("fetch_heading"),  # type: ignore
              lambda c: p[2] if (p := fetch_point(c)) is not None else 0.0),
         Approach("creep to the grasp", ctx, fetch_point, cfg.grasp_tolerance_m),
+        Face("square up", ctx, lambda c: c.plan.get("fetch_heading"),  # type: ignore
+             lambda c: p[2] if (p := fetch_point(c)) is not None else 0.0,
+             tolerance_deg=SQUARE_UP_DEG),
         Gripper("grip", ctx, close=True),
         GoTo("lift clear", ctx, _planned("fetch_standoff"), cfg.near_speed)])
     handover = Sequence("hand over", memory=True, children=[
