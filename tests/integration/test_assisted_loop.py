@@ -12,7 +12,6 @@ import pytest
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.scenario.load import load_scenario
-from uhrisim.sim.assistance import assistant_bhv
 from uhrisim.sim.simulation import Simulation
 
 SCENARIO = """\
@@ -39,9 +38,6 @@ agents:
     model: videoray
     start: {{north: 2.5, east: 0.0, depth: 4.6, heading_deg: 180}}
     control_rate_hz: 20
-    helm:
-      bhv_file: {bhv}
-      domain: {{course: [0, 359, 360], speed: [0, 1.0, 101], depth: [0, 50, 5001, optional]}}
     gripper: {{command: open}}
     sensors:
       - {{type: camera, preset: videoray-pro4, rate_hz: 2, width: 320, height: 240,
@@ -52,7 +48,7 @@ agents:
 
 def _run(tmp_path: Path, water: str, wait: float, seconds: float, extra: str = ""):
     path = tmp_path / "assisted.yaml"
-    path.write_text(SCENARIO.format(bhv=assistant_bhv(), water=water, wait=wait,
+    path.write_text(SCENARIO.format(water=water, wait=wait,
                                     extra=extra))
     sim = Simulation(load_scenario(path))
     sim.run(seconds)

@@ -13,6 +13,9 @@ site are refused (logged). With no task the ROV does ``default_task``.
 
 from __future__ import annotations
 
+from importlib import resources
+from pathlib import Path
+
 import py_trees
 
 from uhrisim.assistant.behaviours import TreeContext
@@ -24,6 +27,11 @@ from uhrisim.perception.signals import Command, RecognizedSignal
 #: the decision domain of the helm in ``assistant/data/assistant.bhv`` (pHelmIvP style)
 HELM_DOMAIN = ("course:0:359:360", "speed:0:1.0:101", "depth:0:50:5001:optional")
 _OVERRIDE_VARS = ("DESIRED_HEADING", "DESIRED_SPEED", "DESIRED_DEPTH")
+
+
+def assistant_bhv() -> Path:
+    """The shipped helm file the assistant drives (``assistant/data/assistant.bhv``)."""
+    return Path(str(resources.files("uhrisim.assistant").joinpath("data/assistant.bhv")))
 
 
 class Assistant:

@@ -533,7 +533,7 @@ class AgentConfig(Strict):
             sonars = [s.name for s in self.sensors if s.type == "sonar"]
             raise ValueError(f"contacts.sonar.sensor names no sonar {chosen!r} of agent "
                              f"{self.name!r}; its sonars: {', '.join(sonars) or 'none'}")
-        if self.driver == "helm" and self.helm is None:
+        if self.driver == "helm" and self.helm is None and self.assistant is None:
             raise ValueError(f"agent {self.name!r} is driven by its helm but has no 'helm' section")
         if self.driver == "script" and not self.script:
             raise ValueError(f"agent {self.name!r} is driven by a script but has no 'script' legs")

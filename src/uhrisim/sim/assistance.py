@@ -39,7 +39,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from importlib import resources
 from typing import Any
 
 import numpy as np
@@ -83,11 +82,6 @@ TAKE_AFTER_S = 1.0
 FACE_TURN_GAIN = 1.5
 #: where a slate that is not held up is kept: under the sea floor (NED, m)
 SLATE_AWAY_NED = np.array([0.0, 0.0, 1.0e4])
-
-
-def assistant_bhv() -> str:
-    """The shipped helm file the assistant drives (``assistant/data/assistant.bhv``)."""
-    return str(resources.files("uhrisim.assistant").joinpath("data/assistant.bhv"))
 
 
 @dataclass
@@ -161,7 +155,7 @@ class AssistanceStage:
                               "'gripper:')", where)
         if agent.config.driver != "helm":
             raise ConfigError(f"{agent.name}'s assistant drives its helm: give it 'driver: "
-                              f"helm' with helm.bhv_file {assistant_bhv()!r}", where)
+                              "helm' (no 'helm' section: the shipped assistant.bhv)", where)
         config = AssistantConfig.from_mapping(
             section.params, f"{self.source.where('agents', index, 'assistant', 'params')} "
             f"agents[{index}].assistant.params")
