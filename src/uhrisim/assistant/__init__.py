@@ -38,11 +38,11 @@ __all__ = [
     "HELM_DOMAIN",
     "HELM_VARS",
     "Assistant",
-    "assistant_bhv",
     "AssistantConfig",
     "AssistantInputs",
     "AssistantOutputs",
     "DiverTrack",
     "GripperStatus",
     "RovNav",
+    "assistant_bhv",
 ]

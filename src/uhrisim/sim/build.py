@@ -37,7 +37,6 @@ from uhrisim.world.diver_figure import diver_figure
 from uhrisim.world.materials import NEOPRENE, ROV_PLASTIC
 from uhrisim.world.scene import Scene
 
-
 #: the rate of a helm the scenario does not set up (the assistant's; Hz, the paper's)
 HELM_RATE_HZ = 4.0
 
