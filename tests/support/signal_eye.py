@@ -17,7 +17,7 @@ import numpy as np
 from uhrisim.core.frames import rot_z
 from uhrisim.dynamics.diver_body import DiverSkeleton
 from uhrisim.perception.signal_readers import SignalReaders
-from uhrisim.perception.signalling import SignalPerformer
+from uhrisim.perception.signalling import SignalPerformer, slate_position
 from uhrisim.perception.signals import RecognizedSignal
 from uhrisim.sensors.camera import CameraConfig, UnderwaterCamera, jerlov
 from uhrisim.world import primitives as prim
@@ -26,7 +26,6 @@ from uhrisim.world.materials import NEOPRENE, SAND
 from uhrisim.world.scene import Scene
 from uhrisim.world.slate import MarkerSlate
 
-SLATE_AHEAD_M, SLATE_ABOVE_M = 0.45, 0.35
 HIDDEN = np.array([0.0, 0.0, 100.0])  # a slate put away: under the sea floor
 
 
@@ -60,9 +59,8 @@ class SignalEye:
         q = self.skeleton.vector(self.performer.joints(t))
         self.scene.set_part_transforms("diver", figure_transforms(self.skeleton, q))
         held = self.performer.slate_id(t)
-        ahead = np.array([math.cos(heading), math.sin(heading), 0.0])
         for marker_id in self.slates:
-            position = (np.array(diver.position) + SLATE_AHEAD_M * ahead - (0, 0, SLATE_ABOVE_M)
+            position = (slate_position(np.array(diver.position, float), heading)
                         if marker_id == held else HIDDEN)
             self.scene.set_pose(f"slate{marker_id}", position, body)
         frame = self.camera.capture(self.caster, world.rov.position.copy(),

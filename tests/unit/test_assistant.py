@@ -55,7 +55,8 @@ def test_hand_over_fetches_the_tool_and_the_diver_gets_it():
     w.run(200, until=lambda w: w.assistant.ctx.task is None and w.t > 2.0)
     w.run(w.t + 1.0)
     assert w.diver_has == {"lift_bag"} and w.phase == "open"
-    assert _tips(w) == ["idle", "to the tool", "creep to the grasp", "grip", "lift clear",
+    assert _tips(w) == ["idle", "to the tool", "face the grasp", "creep to the grasp", "grip",
+                        "lift clear",
                         "stand off in front", "face him", "creep to his hand",
                         "hold still until he grips", "release", "back away", "done", "idle"]
     assert "handed over lift_bag" in w.events()

@@ -111,6 +111,8 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
         team = TeamMetrics()
         sim.hooks.append(team)
         extra_hooks = [*extra_hooks, team]
+    if sim.assistance is not None:  # an assisted mission: its summary joins metrics.json
+        extra_hooks = [*extra_hooks, sim.assistance]  # type: ignore[list-item]
     if configure is not None:
         configure(sim)
     try:

@@ -23,7 +23,7 @@ except ImportError as error:  # pragma: no cover - depends on the installed extr
     raise MissingExtraError('uhrisim.assistant needs py_trees: pip install "uhrisim[hri]"') \
         from error
 
-from uhrisim.assistant.assistant import HELM_DOMAIN, Assistant
+from uhrisim.assistant.assistant import HELM_DOMAIN, Assistant, assistant_bhv
 from uhrisim.assistant.config import AssistantConfig
 from uhrisim.assistant.io import (
     HELM_VARS,
@@ -44,4 +44,5 @@ __all__ = [
     "DiverTrack",
     "GripperStatus",
     "RovNav",
+    "assistant_bhv",
 ]

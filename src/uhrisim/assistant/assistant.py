@@ -13,6 +13,9 @@ site are refused (logged). With no task the ROV does ``default_task``.
 
 from __future__ import annotations
 
+from importlib import resources
+from pathlib import Path
+
 import py_trees
 
 from uhrisim.assistant.behaviours import TreeContext
@@ -26,6 +29,11 @@ HELM_DOMAIN = ("course:0:359:360", "speed:0:1.0:101", "depth:0:50:5001:optional"
 _OVERRIDE_VARS = ("DESIRED_HEADING", "DESIRED_SPEED", "DESIRED_DEPTH")
 
 
+def assistant_bhv() -> Path:
+    """The shipped helm file the assistant drives (``assistant/data/assistant.bhv``)."""
+    return Path(str(resources.files("uhrisim.assistant").joinpath("data/assistant.bhv")))
+
+
 class Assistant:
     """The diver's assistant above the helm (module docstring)."""
 
@@ -34,6 +42,7 @@ class Assistant:
         self.ctx = TreeContext(self.config)
         self.root, self._tasks = build_tree(self.ctx)
         self._posted: dict[str, str | float] = {}
+        self._trim, self._trim_t = 0.0, None  # the depth trim (m, < 0: shallower), since
         #: every tick's outputs, in order
         self.trace: list[AssistantOutputs] = []
 
@@ -52,7 +61,7 @@ class Assistant:
         self.root.tick_once()
         active = active_path(self.root)
         wants: dict[str, str | float] = {"MOOS_MANUAL_OVERRIDE": str(ctx.override).lower()}
-        wants |= ctx.wants
+        wants |= self._trimmed(ctx.wants, inputs)
         wants["ASSIST_TASK"] = str(ctx.task) if ctx.task is not None else "idle"
         wants["ASSIST_ACTIVE"] = active
         posts: list[Posting] = []
@@ -64,6 +73,35 @@ class Assistant:
                                wants["ASSIST_TASK"], active, tuple(ctx.events))  # type: ignore[arg-type]
         self.trace.append(out)
         return out
+
+    def _trimmed(self, wants: dict[str, str | float], inputs: AssistantInputs
+                 ) -> dict[str, str | float]:
+        """The depth asked for, trimmed while a tool is held: a vehicle whose depth
+        control is proportional sags under a load (the VideoRay ~0.65 m under a 0.86 N
+        light, docs/teamwork.md); the trim integrates the sag (``depth_trim_rate`` per s
+        per m, within ``depth_trim_max_m``) and is dropped when the gripper is empty."""
+        cfg, target = self.config, self._depth_target(wants)
+        if inputs.gripper.holding is None or target is None:
+            self._trim, self._trim_t = 0.0, None
+            return wants
+        if self._trim_t is not None:
+            sag = float(inputs.rov.position_ned[2]) - target
+            self._trim = min(0.0, max(-cfg.depth_trim_max_m, self._trim - cfg.depth_trim_rate
+                                      * sag * (inputs.t - self._trim_t)))
+        self._trim_t = inputs.t
+        out = dict(wants)
+        if "DEPTH_UPDATES" in out:
+            out["DEPTH_UPDATES"] = f"depth={max(0.0, target + self._trim):.2f}"
+        if "DESIRED_DEPTH" in out:
+            out["DESIRED_DEPTH"] = max(0.0, target + self._trim)
+        return out
+
+    @staticmethod
+    def _depth_target(wants: dict[str, str | float]) -> float | None:
+        if "DESIRED_DEPTH" in wants:
+            return float(wants["DESIRED_DEPTH"])
+        text = str(wants.get("DEPTH_UPDATES", ""))
+        return float(text.removeprefix("depth=")) if text.startswith("depth=") else None
 
     def _start(self, command: Command, why: str) -> None:
         ctx = self.ctx

@@ -196,6 +196,17 @@ class GoTo(Drive):
     def post(self, point: Point) -> None:
         self.ctx.want("WPT_UPDATES", f"points={moos_xy(point)} # speed={self.speed:.2f}")
 
+    def update(self) -> Status:
+        status = super().update()
+        goal = self.final(self.ctx)
+        if status == Status.RUNNING and goal is not None and math.hypot(
+                *(goal - self.ctx.rov)[:2]) <= self.tolerance():
+            # there but for the depth: hold the heading (a waypoint behavior that has
+            # reached its point completes, and a helm left without a course stops all)
+            self.ctx.want("ASSIST_MODE", "FACE")
+            self.ctx.want("HEADING_UPDATES", f"heading={round(self.ctx.now.rov.heading_deg) % 360}")
+        return status
+
     def arrived(self, point: Point) -> bool:  # only at the final goal
         goal = self.final(self.ctx)
         return goal is not None and super().arrived(goal)
@@ -228,12 +239,13 @@ class Face(Leaf):
 
     def __init__(self, name: str, ctx: TreeContext,
                  heading: Callable[[TreeContext], float | None],
-                 depth: Callable[[TreeContext], float] | None = None, hold: bool = False
-                 ) -> None:
+                 depth: Callable[[TreeContext], float] | None = None, hold: bool = False,
+                 tolerance_deg: float | None = None) -> None:
         super().__init__(name, ctx)
         self.heading = heading
         self.depth = depth
         self.hold = hold
+        self.tolerance_deg = tolerance_deg or ctx.config.heading_tolerance_deg
 
     def update(self) -> Status:
         h = self.heading(self.ctx)
@@ -244,7 +256,7 @@ class Face(Leaf):
         if self.depth is not None:
             self.ctx.want("DEPTH_UPDATES", _depth(self.depth(self.ctx)))
         error = abs(float(wrap_180(self.ctx.now.rov.heading_deg - h)))
-        if not self.hold and error <= self.ctx.config.heading_tolerance_deg:
+        if not self.hold and error <= self.tolerance_deg:
             return Status.SUCCESS
         return Status.RUNNING
 

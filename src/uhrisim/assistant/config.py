@@ -56,6 +56,8 @@ class AssistantConfig:
     redrive_m: float = 0.3  # holding a station: drive back when pushed off this far
     surface_depth_m: float = 0.5  # go up: the depth to rise to
     fetch_attempts: int = 3
+    depth_trim_rate: float = 0.3  # holding a tool: depth trim per s per m of sag (1/s)
+    depth_trim_max_m: float = 4.0  # ... at most this much shallower
     jaw_frd: tuple[float, float, float] = (0.25, 0.0, 0.14)  # the gripper's jaw centre
     default_task: str = "idle"
 

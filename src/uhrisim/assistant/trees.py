@@ -12,7 +12,7 @@
             ├── stop        hold where it is, facing the diver
             ├── follow_me   trail him
             ├── come_here   go to arm's reach in front of him, hold there facing him
-            ├── bring_tool  fetch it (grip at the grasp point, up to fetch_attempts
+            ├── bring_tool  fetch it (creep, square up, grip at the grasp point, fetch_attempts
             │               tries), hand it over (stand off, face him, creep to his hand,
             │               hold still, release when he grips; offer again on a timeout)
             ├── light_here  stand off from the work, above it, facing it, and hold
@@ -61,6 +61,9 @@ from uhrisim.assistant.geometry import (
 from uhrisim.core.frames import rot_z
 
 CHEST_ABOVE_PELVIS_M = 0.3  # where "come here" brings the ROV: the diver's chest height
+#: at the grasp, the ROV turns to the planned heading within this before it grips: its
+#: jaws, 0.25 m ahead, are then within 1 cm of the grasp point (deg)
+SQUARE_UP_DEG = 2.0
 
 
 def _dir(heading_deg: float) -> Point:
@@ -177,13 +180,15 @@ def _plan_handover(ctx: TreeContext) -> None:
 
 def handover_point(ctx: TreeContext) -> Point | None:
     """The ROV's centre with its jaws ``handover_gap_m`` short of the diver's hand along
-    the planned approach (at the heading the ROV has: the jaws are where it counts)."""
+    the planned approach, at the planned heading (not the heading it has: with the jaws
+    0.25 m ahead, a target that turned with the ROV would run away from a vehicle that
+    yaws while it creeps)."""
     d, h = ctx.diver, ctx.plan.get("handover_heading")
     if d is None or h is None:
         return None
     way = _dir(float(h))  # type: ignore[arg-type]
     jaws = d.hand - ctx.config.handover_gap_m * way
-    centre = centre_for_jaw(jaws, ctx.now.rov.heading_deg, ctx.config)
+    centre = centre_for_jaw(jaws, float(h), ctx.config)  # type: ignore[arg-type]
     return kept_clear(centre, -way, d, ctx.config)
 
 
@@ -209,10 +214,11 @@ def _plan_fetch(ctx: TreeContext) -> None:
 
 
 def fetch_point(ctx: TreeContext) -> Point | None:
-    """The ROV's centre with its jaws on the grasp point, at the heading it has."""
-    grasp = _grasp(ctx)
-    return None if grasp is None else centre_for_jaw(grasp, ctx.now.rov.heading_deg,
-                                                     ctx.config)
+    """The ROV's centre with its jaws on the grasp point, at the planned heading (see
+    :func:`handover_point`)."""
+    grasp, h = _grasp(ctx), ctx.plan.get("fetch_heading")
+    return None if grasp is None or h is None else centre_for_jaw(
+        grasp, float(h), ctx.config)  # type: ignore[arg-type]
 
 
 def _plan_light(ctx: TreeContext) -> None:
@@ -279,6 +285,9 @@ def build_tree(ctx: TreeContext) -> tuple[py_trees.behaviour.Behaviour, Selector
         Face("face the grasp", ctx, lambda c: c.plan.get("fetch_heading"),  # type: ignore
              lambda c: p[2] if (p := fetch_point(c)) is not None else 0.0),
         Approach("creep to the grasp", ctx, fetch_point, cfg.grasp_tolerance_m),
+        Face("square up", ctx, lambda c: c.plan.get("fetch_heading"),  # type: ignore
+             lambda c: p[2] if (p := fetch_point(c)) is not None else 0.0,
+             tolerance_deg=SQUARE_UP_DEG),
         Gripper("grip", ctx, close=True),
         GoTo("lift clear", ctx, _planned("fetch_standoff"), cfg.near_speed)])
     handover = Sequence("hand over", memory=True, children=[

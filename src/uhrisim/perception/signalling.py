@@ -12,7 +12,11 @@ frame; :attr:`SignalPerformer.issued` is the truth the metrics count against
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.perception.gestures import GestureSet, Keyframe, Side, pose_at
@@ -33,6 +37,29 @@ class Performance:
     marker_id: int | None = None
 
 
+#: how long the diver holds the slate up (s)
+SLATE_HOLD_S = 3.0
+#: where he holds it: ahead of his body centre and above it (m), its face to the front
+SLATE_AHEAD_M, SLATE_ABOVE_M = 0.45, 0.35
+
+
+def slate_position(body_ned: NDArray[np.float64], yaw: float) -> NDArray[np.float64]:
+    """Where the slate is held up (NED, m), for a diver whose body centre is at
+    ``body_ned`` facing ``yaw`` (rad); the slate's frame is turned by ``yaw`` too."""
+    ahead = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    return np.asarray(body_ned, dtype=float) + SLATE_AHEAD_M * ahead - (0.0, 0.0, SLATE_ABOVE_M)
+
+
+def signal_duration(command: Command, channel: Channel,
+                    gestures: GestureSet | None = None) -> float:
+    """How long making ``command`` on ``channel`` takes (s): the gesture's timeline, or
+    the slate held up; ConfigError when the language has no gesture for it."""
+    if channel == "marker":
+        return SLATE_HOLD_S
+    gesture, count = (gestures or GestureSet.load()).for_command(command, channel)
+    return gesture.timeline("right", count)[-1].t
+
+
 @dataclass
 class SignalPerformer:
     """Turns the script's signals into the diver's poses and slate (module docstring)."""
@@ -40,23 +67,28 @@ class SignalPerformer:
     gestures: GestureSet = field(default_factory=GestureSet.load)
     markers: MarkerCommands = field(default_factory=MarkerCommands.load)
     side: Side = "right"
-    slate_hold_s: float = 3.0
+    slate_hold_s: float = SLATE_HOLD_S
     issued: list[Performance] = field(default_factory=list)
 
     def signal(self, t: float, command: Command, channel: Channel) -> Performance:
         """Start making ``command`` on ``channel`` at ``t`` (s); ConfigError when the
         language has no gesture, or the slate no marker, for it."""
         if channel == "marker":
-            ids = [i for i, c in self.markers.commands.items() if c == command]
-            if not ids:
-                raise ConfigError(f"no marker on the slate says {command}", "signal")
-            done = Performance(t, command, channel, self.slate_hold_s, marker_id=min(ids))
+            done = Performance(t, command, channel, self.slate_hold_s,
+                               marker_id=self.marker_id(command))
         else:
             gesture, count = self.gestures.for_command(command, channel)
             frames = gesture.timeline(self.side, count)
             done = Performance(t, command, channel, frames[-1].t, frames)
         self.issued.append(done)
         return done
+
+    def marker_id(self, command: Command) -> int:
+        """The slate's marker for ``command`` (the lowest id that says it)."""
+        ids = [i for i, c in self.markers.commands.items() if c == command]
+        if not ids:
+            raise ConfigError(f"no marker on the slate says {command}", "signal")
+        return min(ids)
 
     def _current(self, t: float) -> Performance | None:
         now = [p for p in self.issued if p.t <= t < p.t + p.duration_s]
@@ -70,6 +102,11 @@ class SignalPerformer:
             plain = next(g for g in self.gestures.gestures.values() if g.count_period_s is None)
             return dict(plain.timeline(self.side)[0].joints)  # every gesture starts there
         return pose_at(p.frames, t - p.t)
+
+    def performing(self, t: float) -> dict[str, float] | None:
+        """The joint angles (rad, by name) while a signal is being made at ``t`` (the
+        ready pose holding the slate), else None: the body is his own."""
+        return None if self._current(t) is None else self.joints(t)
 
     def slate_id(self, t: float) -> int | None:
         """The marker id held up at ``t``, or None."""

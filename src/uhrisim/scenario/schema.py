@@ -26,6 +26,7 @@ from uhrisim.autonomy.params import checked_value
 from uhrisim.control.videoray_p import GAIN_PRESETS, PGains
 from uhrisim.core.errors import ConfigError
 from uhrisim.dynamics.videoray import VideoRayParams
+from uhrisim.scenario.assistance import AssistantSection
 from uhrisim.scenario.sections import declared_as, scenario_section
 from uhrisim.scenario.strict import Strict
 from uhrisim.scenario.teamwork import (
@@ -485,6 +486,8 @@ class AgentConfig(Strict):
     skeleton: SkeletonSection = SkeletonSection()
     orders: tuple[OrderConfig, ...] = ()
     gripper: GripperSection | None = None
+    # the diver's assistant drives this vehicle's helm and gripper (docs/hri.md)
+    assistant: AssistantSection | None = None
 
     _script_order = field_validator("script")(_legs_in_time_order)
 
@@ -530,7 +533,7 @@ class AgentConfig(Strict):
             sonars = [s.name for s in self.sensors if s.type == "sonar"]
             raise ValueError(f"contacts.sonar.sensor names no sonar {chosen!r} of agent "
                              f"{self.name!r}; its sonars: {', '.join(sonars) or 'none'}")
-        if self.driver == "helm" and self.helm is None:
+        if self.driver == "helm" and self.helm is None and self.assistant is None:
             raise ValueError(f"agent {self.name!r} is driven by its helm but has no 'helm' section")
         if self.driver == "script" and not self.script:
             raise ValueError(f"agent {self.name!r} is driven by a script but has no 'script' legs")

@@ -17,6 +17,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Discriminator, Field, PositiveFloat, Tag, model_validator
 
+from uhrisim.core.errors import ConfigError
 from uhrisim.scenario.sections import scenario_section
 from uhrisim.scenario.strict import Strict
 from uhrisim.teamwork import orders as od
@@ -189,11 +190,35 @@ class WaitOrder(Strict):
 
 
 class SignalOrder(Strict):
-    signal: Literal[od.SIGNALS]  # type: ignore[valid-type]
-    seconds: PositiveFloat = 2.0
+    """A signal: a placeholder pose (one of ``od.SIGNALS``) held ``seconds``, or, with a
+    ``channel``, a command to the ROV (docs/hri.md: ``bring_tool lift_bag`` as a gesture,
+    a slate's marker or the sonar wave) that his body performs; ``seconds`` then defaults
+    to how long the gesture or the slate takes."""
+
+    signal: str
+    channel: Literal["gesture", "marker", "sonar"] | None = None
+    seconds: PositiveFloat | None = None
+
+    @model_validator(mode="after")
+    def _known(self) -> SignalOrder:
+        if self.channel is None:
+            if self.signal not in od.SIGNALS:
+                raise ValueError(f"unknown signal {self.signal!r} (have "
+                                 f"{', '.join(od.SIGNALS)}; or give a command and a channel)")
+            return self
+        from uhrisim.perception.signalling import signal_duration
+        from uhrisim.perception.signals import Command
+        try:
+            duration = signal_duration(Command.parse(self.signal), self.channel)
+        except ConfigError as error:
+            raise ValueError(error.problem) from None
+        if self.seconds is None:
+            object.__setattr__(self, "seconds", duration)
+        return self
 
     def order(self) -> od.Order:
-        return od.Signal(self.signal, self.seconds)
+        return od.Signal(self.signal, 2.0 if self.seconds is None else self.seconds,
+                         self.channel)
 
 
 class ModeOrder(Strict):

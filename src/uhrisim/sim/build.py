@@ -37,6 +37,9 @@ from uhrisim.world.diver_figure import diver_figure
 from uhrisim.world.materials import DIVER_PART_MATERIALS, DRY_SUIT, NEOPRENE, ROV_PLASTIC
 from uhrisim.world.scene import Scene
 
+#: the rate of a helm the scenario does not set up (the assistant's; Hz, the paper's)
+HELM_RATE_HZ = 4.0
+
 
 class BuildContext(Protocol):
     """What the builders read of the simulation they build for (a Simulation is one): the
@@ -114,7 +117,10 @@ def _helm_driver(sim: BuildContext, cfg: AgentConfig, community: Community) -> H
                              alert_range=a.alert_range, cpa_range=a.cpa_range)
                    for a in cfg.contacts.alerts)
     known = known_external_vars(sim, cfg.name) | {a.var for a in alerts}
-    if section.moos_file:
+    if section is None:  # the assistant's helm (docs/hri.md): the shipped assistant.bhv
+        from uhrisim.assistant import HELM_DOMAIN, assistant_bhv
+        helm_config = load_bhv(assistant_bhv(), known, parse_domain(list(HELM_DOMAIN)))
+    elif section.moos_file:
         helm_config = load_helm_from_moos(sim.source.resolve(section.moos_file),
                                           section.moos_process)
     elif section.bhv_file:
@@ -191,7 +197,8 @@ def build_agents(sim: BuildContext, raycast_sensors: bool) -> dict[str, Agent]:
         if cfg.driver == "helm":
             agent.driver = _helm_driver(sim, cfg, community)
             agent.driver_period = ticks_for_rate(
-                cfg.helm.rate_hz, sim.dt, sim.source.where("agents", index, "helm", "rate_hz"))
+                cfg.helm.rate_hz if cfg.helm is not None else HELM_RATE_HZ, sim.dt,
+                sim.source.where("agents", index, "helm", "rate_hz"))
         elif cfg.driver == "script":
             agent.driver = ScriptedDriver(ScriptDriver(cfg.script))
             agent.driver_period = ticks_for_rate(4.0, sim.dt, f"agents.{cfg.name}.script")

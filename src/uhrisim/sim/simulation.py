@@ -19,6 +19,9 @@ One tick of the physics step ``dt`` does, in this order (docs/design.md, "data f
    (each keyed ``"<agent>/<sensor>"``); agents whose contacts come from their sonar run
    perception on its ping and post the diver track as a contact report
    (:mod:`uhrisim.sim.sonar_contacts`);
+   **assistance** (:mod:`uhrisim.sim.assistance`, when an agent has an ``assistant``):
+   divers make the signals their orders say (after the teamwork stage), the ROV's
+   readers read its frames and pings, and its assistant posts to its helm and gripper;
 7. **autonomy**: helms and scripts that are due post DESIRED_*;
 8. **control**: controllers turn DESIRED_* into actuator inputs for the next tick;
 9. **hooks** receive a :class:`~uhrisim.sim.hooks.TickFrame`.
@@ -127,6 +130,12 @@ class Simulation:
         self.team: TeamStage | None = team if team.active else None
         self.contacts = TruthContacts(self.agents, self.dt, self.rng)
         self.sonar_contacts = SonarContacts(self.agents, self.dt, source, self.record_event)
+        self.assistance = None
+        if any(a.config.assistant is not None for a in self.agents.values()):
+            from uhrisim.sim.assistance import AssistanceStage  # the hri extra: py_trees
+            self.assistance = AssistanceStage(source, self.scene, self.agents, self.team,
+                                              self.sonar_contacts, self.record_event,
+                                              lambda: self.collisions)
         self.events: list[ScheduledEvent] = build_events(self)
         self.raycaster = self.scene.raycaster("embree") if any(
             a.sonars or a.cameras for a in self.agents.values()) else None
@@ -177,7 +186,8 @@ class Simulation:
         """Recompute the collision broad phase after the scene's geometry changed."""
         self._static_boxes = static_obstacle_boxes(self.scene)
         self._not_obstacles = frozenset(self.agents) | self.bubbles.body_names | (
-            self.team.body_names if self.team is not None else frozenset())
+            self.team.body_names if self.team is not None else frozenset()) | (
+            self.assistance.body_names if self.assistance is not None else frozenset())
         self._has_movable_objects = any(n not in self._not_obstacles
                                         for n in self.scene.body_names)
 
@@ -219,12 +229,17 @@ class Simulation:
         if self.team is not None:
             self.team.step(self.tick, t)
             self._scene_dirty = True
+        if self.assistance is not None:
+            self.assistance.perform(t)
         for agent in self.agents.values():
             if self.tick % agent.driver_period == 0:
                 self._post_nav(agent)
         self.contacts.step(self.tick, t)
         pings, images = self._sense() if self.raycaster is not None else ({}, {})
         perception = self.sonar_contacts.step(self.tick, t, pings)
+        if self.assistance is not None:
+            self.assistance.read(pings, images)
+            self.assistance.step(self.tick, t)
         helm: dict[str, HelmRecord] = {}
         for agent in self.agents.values():
             if agent.driver is not None and self.tick % agent.driver_period == 0:

@@ -142,6 +142,9 @@ class TeamStage:
         self.silt = (SiltCloud(SiltParams(current_ne=world.silt.current_ne), scene.depth_at)
                      if world.silt is not None and world.silt.soft else None)
         self.events: list[WorldEvent] = []  # every event of the run, in order
+        #: a diver's arm and trunk goal from outside (name -> t -> joint angles by name,
+        #: None: his orders'): the signals he makes (uhrisim.sim.assistance)
+        self.arm_poses: dict[str, Callable[[float], dict[str, float] | None]] = {}
         for index, agent in enumerate(agents.values()):  # what grippers hold is placed
             if agent.config.gripper is not None:         # before the orders are checked
                 self.grippers[agent.name] = self._gripper(index, agent)
@@ -388,6 +391,9 @@ class TeamStage:
             if d.arm_goal is not None:
                 body.goal = np.array(d.arm_goal, dtype=float)
             request, body.note = d.act, d.note
+        pose = self.arm_poses[agent.name](t) if agent.name in self.arm_poses else None
+        if pose is not None:
+            body.goal = body.skeleton.vector(pose, body.goal)
         body.q, body.qdot = step_motion(body.skeleton, body.q, body.qdot, body.goal, self.dt)
         body.q = diver.legs(agent.plant, agent.state, body.q, agent.kick_phase)
         return request

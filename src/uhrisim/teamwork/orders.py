@@ -101,6 +101,7 @@ class WaitUntil:
 class Signal:
     name: str
     seconds: float = 2.0
+    channel: str | None = None  # a command performed on a channel (docs/hri.md)
 
 
 @dataclass(frozen=True)
@@ -360,7 +361,9 @@ def validate_orders(orders: Sequence[Order], diver: DiverSetup, ws: Workspace,
                 reason = condition_error(ws, subject, state)
                 if reason:
                     fail(reason)
-            case Signal(name=name) if name not in SIGNALS:
+                elif state.startswith(f"held_by:{diver.name}/") and state.endswith("_hand"):
+                    holding[subject] = state.split("/")[-1].removesuffix("_hand")  # given him
+            case Signal(name=name, channel=None) if name not in SIGNALS:
                 fail(f"unknown signal {name!r} (have {', '.join(SIGNALS)})")
         if reached is not None and not isinstance(order, (WaitUntil, Signal, SetMode)):
             for name in _referenced(order):
