@@ -14,7 +14,6 @@ import importlib
 import json
 import logging
 import math
-import signal
 import sys
 import warnings
 from collections.abc import Callable, Iterator
@@ -41,6 +40,7 @@ from uhrisim.core.stops import (
     pending_stop,
     stop_handled,
     stop_message,
+    stop_signum,
 )
 
 app = typer.Typer(
@@ -188,7 +188,7 @@ def friendly_errors(command: Callable[..., Any]) -> Callable[..., Any]:
             raise typer.Exit(code=2) from None
         except (KeyboardInterrupt, StopRequested) as stop:
             stop_handled()
-            signum = getattr(stop, "signum", signal.SIGINT)
+            signum = stop_signum(stop)
             report_error(stop_message(signum))
             raise typer.Exit(code=128 + signum) from None
 

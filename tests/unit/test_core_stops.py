@@ -8,41 +8,28 @@ from pathlib import Path
 
 import pytest
 
+from tests.support.small_scene import SMALL_SCENE
 from uhrisim.cli import main
 from uhrisim.core import stops
 from uhrisim.core.errors import StopRequested
 from uhrisim.scenario.load import load_scenario
 from uhrisim.sim.simulation import Simulation
 
-SCENE = """
-name: still
-physics_rate_hz: 20
-world:
-  seafloor: {type: flat, depth: 10}
-agents:
-  - name: rov
-    model: videoray
-    driver: external
-    start: {north: 0, east: 0, depth: 3, heading_deg: 0}
-"""
-
 
 @pytest.fixture
 def scene(tmp_path) -> Path:
-    path = tmp_path / "still.yaml"
-    path.write_text(SCENE)
+    path = tmp_path / "small.yaml"
+    path.write_text(SMALL_SCENE)
     return path
 
 
 @pytest.fixture
 def caught_stops():
     """The command line's handlers for the test, pytest's own back afterwards."""
-    saved = {signum: signal.getsignal(signum) for signum in stops.STOP_SIGNALS}
-    stops.catch_stop_signals()
-    yield
-    stops.stop_handled()
-    for signum, handler in saved.items():
-        signal.signal(signum, handler)
+    with stops.handlers_kept():
+        stops.catch_stop_signals()
+        yield
+        stops.stop_handled()
 
 
 def swallowed(signum: int) -> None:

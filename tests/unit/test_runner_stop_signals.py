@@ -10,8 +10,8 @@ import signal
 
 import pytest
 
-from uhrisim.app.runner import stop_signals_deferred
 from uhrisim.core.errors import StopRequested
+from uhrisim.core.stops import stop_signals_deferred
 
 
 def test_a_second_signal_waits_for_the_clean_up() -> None:

@@ -15,11 +15,8 @@ import json
 import logging
 import math
 import shutil
-import signal
 import tempfile
-import threading
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -30,6 +27,7 @@ from uhrisim.app.metrics import TrailMetrics
 from uhrisim.app.perception_metrics import PerceptionMetrics
 from uhrisim.app.team_metrics import TeamMetrics
 from uhrisim.core.errors import AssetError, StopRequested, shortened
+from uhrisim.core.stops import stop_signals_deferred
 from uhrisim.record.hook import McapRecordingHook
 from uhrisim.record.mcap_recorder import RecordingCutError
 from uhrisim.scenario.load import ScenarioFile, load_scenario
@@ -221,27 +219,6 @@ def strict_json(value: Any) -> Any:
     if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
-
-
-@contextmanager
-def stop_signals_deferred() -> Iterator[None]:
-    """While a stopped run writes its recording and metrics (main thread only): another
-    SIGINT, SIGTERM or SIGHUP is noted, not raised; afterwards it is raised."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    arrived: list[int] = []
-    kept = {signum: signal.getsignal(signum)
-            for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
-    for signum in kept:
-        signal.signal(signum, lambda signum, _frame: arrived.append(signum))
-    try:
-        yield
-    finally:
-        for signum, handler in kept.items():
-            signal.signal(signum, handler)
-    if arrived:
-        raise StopRequested(arrived[0])
 
 
 def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,

@@ -57,6 +57,28 @@ def handlers_kept() -> Iterator[None]:
             signal.signal(signum, handler)
 
 
+@contextmanager
+def stop_signals_deferred() -> Iterator[None]:
+    """While a stopped run writes its recording and metrics (main thread only): another
+    SIGINT, SIGTERM or SIGHUP is noted, not raised; afterwards the first is raised as
+    :class:`StopRequested`, the handlers in force before being back."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    arrived: list[int] = []
+    with handlers_kept():
+        for signum in STOP_SIGNALS:
+            signal.signal(signum, lambda signum, _frame: arrived.append(signum))
+        yield
+    if arrived:
+        raise StopRequested(arrived[0])
+
+
+def stop_signum(stop: KeyboardInterrupt | StopRequested) -> int:
+    """The signal a stop came from (Ctrl-C: SIGINT)."""
+    return stop.signum if isinstance(stop, StopRequested) else signal.SIGINT
+
+
 def pending_stop() -> int | None:
     """The first stop signal received and not yet handled, or None."""
     return _pending[0] if _pending else None

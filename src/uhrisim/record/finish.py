@@ -44,8 +44,8 @@ from mcap.records import (
 from mcap.stream_reader import StreamReader, breakup_chunk
 
 from uhrisim.core.errors import UhrisimError
+from uhrisim.record.reader import MCAP_MAGIC, is_complete
 
-MAGIC = b"\x89MCAP0\r\n"
 HEADROOM_BYTES = 4 * 1024 * 1024  # the summary of a day's run at 15 Hz pings fits
 
 
@@ -115,7 +115,7 @@ class _Summary:
 def _whole_records(stream: BinaryIO, size: int) -> Iterator[tuple[int, int, McapRecord]]:
     """``(offset, length with its 9-byte opcode and length, record)`` of every whole
     record after the magic, in file order, up to the first that the file cuts short."""
-    pos = len(MAGIC)
+    pos = len(MCAP_MAGIC)
     while pos + 9 <= size:
         stream.seek(pos)
         frame = stream.read(9)
@@ -134,7 +134,7 @@ def _whole_records(stream: BinaryIO, size: int) -> Iterator[tuple[int, int, Mcap
 
 def _scan(stream: BinaryIO, size: int) -> tuple[int, _Summary]:
     """Where the data section's whole records end, and their summary."""
-    summary, end = _Summary(), len(MAGIC)
+    summary, end = _Summary(), len(MCAP_MAGIC)
     last_chunk: ChunkIndex | None = None
     for offset, length, record in _whole_records(stream, size):
         if isinstance(record, (DataEnd, Footer)):  # cut inside its summary: written anew
@@ -192,7 +192,7 @@ def _summary_bytes(summary: _Summary, data_end: int) -> bytes:
         SummaryOffset(group_opcode=opcode, group_start=start, group_length=length).write(builder)
     Footer(summary_start=summary_start, summary_offset_start=offsets_start,
            summary_crc=0).write(builder)
-    builder.write(MAGIC)
+    builder.write(MCAP_MAGIC)
     return builder.end()
 
 
@@ -203,10 +203,9 @@ def finish_in_place(path: Path | str) -> int:
     path = Path(path)
     with path.open("r+b") as stream:
         size = os.fstat(stream.fileno()).st_size
-        if stream.read(len(MAGIC)) != MAGIC:
+        if stream.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
             raise UhrisimError(f"{path}: not an MCAP recording: left as it is")
-        stream.seek(max(size - len(MAGIC), len(MAGIC)))
-        if size >= 2 * len(MAGIC) and stream.read() == MAGIC:
+        if is_complete(path):
             raise UhrisimError(f"{path}: complete already (it has its summary)")
         data_end, summary = _scan(stream, size)
         tail = _summary_bytes(summary, data_end)

@@ -146,6 +146,17 @@ def _records_of(blob: bytes) -> list[Any]:
     return out
 
 
+def is_complete(path: Path | str) -> bool:
+    """Whether the MCAP file ends with its closing magic (a finished recording)."""
+    path = Path(path)
+    with path.open("rb") as f:
+        f.seek(0, 2)
+        if f.tell() < 2 * len(MCAP_MAGIC):
+            return False
+        f.seek(-len(MCAP_MAGIC), 2)
+        return f.read() == MCAP_MAGIC
+
+
 def iter_raw_messages(
     path: Path | str, topics: Iterable[str] | None = None
 ) -> Iterator[tuple[Schema | None, Channel, Message]]:

@@ -18,7 +18,7 @@ from mcap.writer import Writer as McapWriter
 
 from uhrisim.core.errors import UhrisimError
 from uhrisim.record.finish import headroom_path
-from uhrisim.record.reader import MCAP_MAGIC, _scan, _ScanState
+from uhrisim.record.reader import MCAP_MAGIC, _scan, _ScanState, is_complete
 from uhrisim.record.rosbag2 import write_metadata
 
 logger = logging.getLogger(__name__)
@@ -65,17 +65,6 @@ def recover(src: Path | str, dst: Path | str, chunk_size: int = 1024 * 1024) -> 
     logger.info("recovered %d messages from %s (%s) into %s", count, src,
                 "truncated" if state.truncated else "complete", dst)
     return count
-
-
-def is_complete(path: Path | str) -> bool:
-    """Whether the MCAP file ends with its closing magic (a finished recording)."""
-    path = Path(path)
-    with path.open("rb") as f:
-        f.seek(0, 2)
-        if f.tell() < 2 * len(MCAP_MAGIC):
-            return False
-        f.seek(-len(MCAP_MAGIC), 2)
-        return f.read() == MCAP_MAGIC
 
 
 def recover_in_place(path: Path | str) -> int | None:
