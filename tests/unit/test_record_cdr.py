@@ -242,3 +242,45 @@ def test_transform_encoder_of_a_chain_equals_the_general_encoder() -> None:
                                              for (p, c), (t, q) in zip(pairs, chain, strict=True)])
             (t0, q0), second = chain
             assert cdr.TransformEncoder(*pairs[0], pairs[1])(7, 9, t0, q0, second) == general
+
+
+names = st.text(min_size=0, max_size=12)  # any unicode: utf-8 lengths shift alignment
+maybe = st.one_of(st.none(), finite, st.just(-0.0))
+
+
+@settings(max_examples=60, deadline=None)
+@given(stamps, names, names, st.one_of(finite, names))
+def test_variable_matches_reference(stamp, name, source, value) -> None:
+    sec, nsec = stamp
+    kind, number, text = (1, 0.0, value) if isinstance(value, str) else (0, value, "")
+    fast = cdr.encode_variable(sec, nsec, name, source, kind, number, text)
+    assert fast == reference("uhrisim_msgs/msg/Variable", {
+        "header": header(sec, nsec, ""), "name": name, "source": source, "kind": kind,
+        "double_value": number, "string_value": text})
+
+
+@settings(max_examples=60, deadline=None)
+@given(stamps, st.tuples(maybe, maybe, maybe), names, st.lists(names, max_size=3),
+       st.lists(st.tuples(names, finite), max_size=3), finite, names)
+def test_helm_decision_matches_reference(stamp, decided, mode, active, contributions,
+                                         total, reason) -> None:
+    sec, nsec = stamp
+    fast = cdr.encode_helm_decision(sec, nsec, decided, mode, active, contributions, total,
+                                    reason)
+    assert fast == reference("uhrisim_msgs/msg/HelmDecision", {
+        "header": header(sec, nsec, ""),
+        **{key: value for (has, field), x in zip(
+            (("has_heading", "heading_deg"), ("has_speed", "speed"), ("has_depth", "depth")),
+            decided, strict=True) for key, value in ((has, x is not None), (field, x or 0.0))},
+        "mode": mode, "active_behaviors": active,
+        "contributions": [{"name": n, "value": v} for n, v in contributions],
+        "total": total, "all_stop_reason": reason})
+
+
+@settings(max_examples=40, deadline=None)
+@given(stamps, frame_ids, names, names)
+def test_event_matches_reference(stamp, frame, kind, detail) -> None:
+    sec, nsec = stamp
+    assert cdr.encode_event(sec, nsec, frame, kind, detail) == reference(
+        "uhrisim_msgs/msg/Event", {"header": header(sec, nsec, frame), "kind": kind,
+                                   "detail": detail})

@@ -8,7 +8,8 @@ no count. (OMG DDS-XTypes 1.3 §7.4.3 "XCDR1"; the same rules as ``mcap_ros2._cd
 
 ``mcap_ros2``'s schema-driven encoder is general but pure Python per field
 (~130 µs for an Odometry). These hand-laid encoders cover the hot types — Odometry,
-TFMessage, Image, PointCloud2 — in a few microseconds, and
+TFMessage, Image, PointCloud2 and uhrisim's own Variable, HelmDecision and Event (a
+community posting is the most frequent message of a recording) — in a few microseconds, and
 ``OdometryEncoder``/``TransformEncoder`` go further and pack a whole message with
 one precompiled ``struct`` once the frame ids are known. ``tests/unit/test_record_cdr.py``
 holds them all byte for byte to ``mcap_ros2``'s encoder,
@@ -310,6 +311,51 @@ def encode_pointcloud2(
     data = _byte_view(pts)
     b.u32s(16, 16 * n, len(data))  # point_step, row_step, then the data's length
     return b"".join((b.getvalue(), data, b"\x01"))  # is_dense: no NaN points
+
+
+def encode_variable(sec: int, nanosec: int, name: str, source: str, kind: int,
+                    double_value: float, string_value: str) -> bytes:
+    """uhrisim_msgs/msg/Variable (header frame id ""): one community posting."""
+    b = CdrBuffer()
+    b.header(sec, nanosec, "")
+    b.string(name)
+    b.string(source)
+    b.u8(kind)
+    b.f64s((double_value,))
+    b.string(string_value)
+    return b.getvalue()
+
+
+def encode_helm_decision(sec: int, nanosec: int, decided: Sequence[float | None], mode: str,
+                         active: Sequence[str], contributions: Sequence[tuple[str, float]],
+                         total: float, all_stop_reason: str) -> bytes:
+    """uhrisim_msgs/msg/HelmDecision (header frame id ""): ``decided`` is heading (deg),
+    speed (m/s) and depth (m), each None when the helm left it undecided."""
+    b = CdrBuffer()
+    b.header(sec, nanosec, "")
+    for value in decided:
+        b.u8(value is not None)
+        b.f64s((value or 0.0,))
+    b.string(mode)
+    b.u32(len(active))
+    for name in active:
+        b.string(name)
+    b.u32(len(contributions))
+    for name, value in contributions:
+        b.string(name)
+        b.f64s((value,))
+    b.f64s((total,))
+    b.string(all_stop_reason)
+    return b.getvalue()
+
+
+def encode_event(sec: int, nanosec: int, frame_id: str, kind: str, detail: str) -> bytes:
+    """uhrisim_msgs/msg/Event."""
+    b = CdrBuffer()
+    b.header(sec, nanosec, frame_id)
+    b.string(kind)
+    b.string(detail)
+    return b.getvalue()
 
 
 def decode_odometry(data: bytes | memoryview) -> tuple[int, int, str, str, tuple[float, ...]]:
