@@ -58,24 +58,23 @@ class TruthContacts:
     def __init__(self, agents: Mapping[str, Agent], dt: float,
                  rng: Callable[[str], np.random.Generator]) -> None:
         self._agents = agents
-        self._observers = [a for a in agents.values()
-                           if a.config.driver == "helm" and a.config.contacts.source == "truth"]
-        self._periods = {
-            a.name: ticks_for_rate(a.config.contacts.rate_hz, dt,
-                                   f"agents.{a.name}.contacts.rate_hz")
-            for a in self._observers}
-        self._rngs = {a.name: rng(f"{a.name}/contacts") for a in self._observers}
+        observers = [a for a in agents.values()
+                     if a.config.driver == "helm" and a.config.contacts.source == "truth"]
+        #: per observer: its report period (ticks), contacts settings and random stream
+        self._observers = [
+            (a, ticks_for_rate(a.config.contacts.rate_hz, dt,
+                               f"agents.{a.name}.contacts.rate_hz"),
+             a.config.contacts, rng(f"{a.name}/contacts"))
+            for a in observers]
         self._queue: list[_Queued] = []
         self._sequence = 0
 
     def step(self, tick: int, t: float) -> None:
         """Send the reports due at ``tick`` (time ``t``, s) and deliver those whose
         latency has passed."""
-        for observer in self._observers:
-            if tick % self._periods[observer.name]:
+        for observer, period, cfg, rng in self._observers:
+            if tick % period:
                 continue
-            cfg = observer.config.contacts
-            rng = self._rngs[observer.name]
             for target in self._agents.values():
                 if target is observer:
                     continue

@@ -137,9 +137,13 @@ class Simulation:
                                               self.sonar_contacts, self.record_event,
                                               lambda: self.collisions)
         self.events: list[ScheduledEvent] = build_events(self)
+        self._waiting_events = list(self.events)  # not fired yet, in the scenario's order
         self.raycaster = self.scene.raycaster("embree") if any(
             a.sonars or a.cameras for a in self.agents.values()) else None
         self.refresh_static_obstacles()
+        # for each agent, the others it can run into and the distance that is a touch (m)
+        self._others = {a.name: tuple((o, a.radius + o.radius) for o in self.agents.values()
+                                      if o is not a) for a in self.agents.values()}
         floor = self.scene.seafloor
         self._shallowest_floor = float(np.min(floor.depth)) if floor is not None else np.inf
         self._floor_slope = floor.max_slope if floor is not None else 0.0
@@ -219,8 +223,10 @@ class Simulation:
         taken as hooks read them (all of them for ``build_frame``)."""
         self.start()
         raise_pending_stop()  # a stop signal some library swallowed (core/stops.py)
-        self._apply_inbox()
-        self._fire_events()
+        if self._inbox:  # (read without the lock: a post racing in is applied next tick)
+            self._apply_inbox()
+        if self._waiting_events:
+            self._fire_events()
         for agent in self.agents.values():
             self._advance(agent)
         self.tick += 1
@@ -313,15 +319,14 @@ class Simulation:
                 target.actuator_override, target.actuator_override_until = rest
 
     def _fire_events(self) -> None:
-        for event in self.events:
-            if event.fired:
-                continue
+        for event in list(self._waiting_events):
             cfg = event.config
             due = (cfg.at is not None and self.t >= cfg.at - 1e-9) or (
                 event.condition is not None
                 and event.condition.evaluate(self.agents[cfg.agent].community.values()))
             if due:
                 event.fired = True
+                self._waiting_events.remove(event)
                 self._apply_event(event)
 
     def _apply_event(self, event: ScheduledEvent) -> None:
@@ -428,12 +433,10 @@ class Simulation:
                         ) -> tuple[float, str]:
         """Fraction of the move start->end (NED, m) free of other agents and static
         geometry, and what it touches ("" when the move is free)."""
-        for other in self.agents.values():
-            if other is agent:
-                continue
+        for other, touch in self._others[agent.name]:
             centre = other.state[:3].tolist()
             end_distance = math.dist(end, centre)
-            if end_distance < agent.radius + other.radius and end_distance < math.dist(
+            if end_distance < touch and end_distance < math.dist(
                     start, centre):  # touching and approaching
                 return 0.0, other.name
         if self._near_static(agent, end, math.dist(start, end)):
