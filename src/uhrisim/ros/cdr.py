@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Sequence
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -315,15 +316,26 @@ def encode_pointcloud2(
 
 def encode_variable(sec: int, nanosec: int, name: str, source: str, kind: int,
                     double_value: float, string_value: str) -> bytes:
-    """uhrisim_msgs/msg/Variable (header frame id ""): one community posting."""
+    """uhrisim_msgs/msg/Variable (header frame id ""): one community posting. The bytes
+    between the stamp and the value depend only on ``name``, ``source`` and ``kind``, and
+    are laid out once for each (a community posts a few dozen variables, over and over)."""
+    middle = _variable_middle(name, source, kind)
+    raw = string_value.encode("utf-8")
+    return b"".join((CDR_LE_HEADER, struct.pack("<iI", sec, nanosec), middle,
+                     struct.pack("<dI", double_value, len(raw) + 1), raw, b"\x00"))
+
+
+@lru_cache(maxsize=4096)
+def _variable_middle(name: str, source: str, kind: int) -> bytes:
+    """A Variable's bytes after its stamp up to its ``double_value`` (8-aligned there, so
+    the value and the string's length follow unpadded)."""
     b = CdrBuffer()
-    b.header(sec, nanosec, "")
+    b.header(0, 0, "")
     b.string(name)
     b.string(source)
     b.u8(kind)
-    b.f64s((double_value,))
-    b.string(string_value)
-    return b.getvalue()
+    b._align(8)
+    return bytes(b._b[12:])
 
 
 def encode_helm_decision(sec: int, nanosec: int, decided: Sequence[float | None], mode: str,
