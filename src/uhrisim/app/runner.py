@@ -92,12 +92,7 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
     files: list[Path] = []
     recording: McapRecordingHook | None = None
     if scenario.recording.enabled:
-        rec = scenario.recording
-        recording = McapRecordingHook(
-            out_dir / "recording.mcap", record_images=rec.sonar, sonar_every=rec.sonar_every,
-            record_camera=rec.camera, camera_every=rec.camera_every,
-            chunk_size=rec.chunk_kib * 1024,
-            odom_every=max(1, round(scenario.physics_rate_hz / rec.odometry_rate_hz)))
+        recording = McapRecordingHook.for_scenario(scenario, out_dir / "recording.mcap")
         hooks.append(recording)
         files += [out_dir / "recording.mcap", out_dir / "metadata.yaml"]
     measuring = _Measuring(scenario, duration, raycast_sensors)

@@ -132,6 +132,16 @@ class McapRecordingHook:
         #: After the file could not be written on (a full disk): what became of it.
         self.cut_outcome: str | None = None
 
+    @classmethod
+    def for_scenario(cls, scenario: Any, path: Path | str) -> McapRecordingHook:
+        """The recorder of a run of ``scenario`` (``uhrisim run``'s): its ``recording``
+        settings (sonar and camera frames and their spacing, chunk size, odometry rate)."""
+        rec = scenario.recording
+        return cls(path, record_images=rec.sonar, sonar_every=rec.sonar_every,
+                   record_camera=rec.camera, camera_every=rec.camera_every,
+                   chunk_size=rec.chunk_kib * 1024,
+                   odom_every=max(1, round(scenario.physics_rate_hz / rec.odometry_rate_hz)))
+
     @property
     def recorder(self) -> McapRecorder | None:
         return self._rec
