@@ -160,8 +160,9 @@ class TickWriter:
         for post in posts:
             ros = self.ros(post.community)
             if ros is not None:
-                value = post.value if isinstance(post.value, str | numbers.Real) \
-                    else str(post.value)
+                value = post.value  # a str or a float, as communities keep them
+                if not isinstance(value, str | float):  # (the cheap test first)
+                    value = value if isinstance(value, numbers.Real) else str(value)
                 self.out.write_variable(ros, float(post.t), str(post.var), value,
                                         str(post.source))
 

@@ -46,7 +46,7 @@ def variable_bytes(t_ns: int, name: str, value: float | str, source: str,
     in ``double_value`` with ``kind = DOUBLE``, strings in ``string_value`` (``STRING``)."""
     if isinstance(value, str):
         kind, dval, sval = 1, 0.0, value
-    elif isinstance(value, numbers.Real):
+    elif isinstance(value, float | numbers.Real):  # (a float answers without the ABC)
         kind, dval, sval = 0, float(value), ""
     else:
         raise ConfigError(f"variable {name!r} value must be a number or a string, got "
