@@ -5,7 +5,8 @@ A head started with ``ray start --head`` and a second node joined with ``ray sta
 ``uhrisim dataset`` run on it as drivers in other processes (by GCS address and through
 the ``ray://`` client); their work is spread over both nodes and their results equal a
 single-node run's. Killing the second node mid-sweep loses nothing: Ray runs its tasks
-again on the head.
+again on the head. The tests share one cluster (started once, in file order the kill
+comes last); a test that finds its second node killed gets a new one.
 
 Two Ray details shape the set-up (docs/scaling.md):
 
@@ -80,6 +81,9 @@ class Cluster:
     env: dict[str, str]
     temp_dir: str
     second_node_ports: list[int]
+    head_ports: list[int]
+    #: True once a test killed the second node: the next test needs a new cluster.
+    spent: bool = False
 
     def processes(self, *marks: str) -> list[psutil.Process]:
         """This cluster's processes whose command line holds any of ``marks``."""
@@ -113,8 +117,8 @@ def _ray_start(args: list[str], env: dict[str, str], join: bool) -> None:
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
 
 
-@pytest.fixture
-def cluster():
+def _start_cluster() -> Cluster:
+    """Start a head and join a second node; stop both with ``_stop_cluster``."""
     env = os.environ | {"RAY_USAGE_STATS_ENABLED": "0", "RAY_AUTH_MODE": "token",
                         "RAY_AUTH_TOKEN": secrets.token_hex(16)}
     env.pop("RAY_ADDRESS", None)
@@ -123,7 +127,7 @@ def cluster():
     head_ports = [_free_port() for _ in NODE_PORTS]
     second_ports = [_free_port() for _ in NODE_PORTS]
     made = Cluster(f"127.0.0.1:{gcs}", f"ray://127.0.0.1:{client}", env, temp_dir,
-                   second_ports)
+                   second_ports, head_ports)
     common = ["--node-ip-address", "127.0.0.1", "--num-cpus", "1", "--disable-usage-stats"]
     try:
         _ray_start(["--head", "--port", str(gcs), "--ray-client-server-port", str(client),
@@ -135,10 +139,35 @@ def cluster():
                     *(f"{flag}={port}" for flag, port in zip(NODE_PORTS, second_ports,
                                                               strict=True))],
                    env | {"RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "1"}, join=True)
-        yield made
-    finally:
-        made.kill(made.processes(temp_dir, *(f"={p}" for p in [*head_ports, *second_ports])))
-        shutil.rmtree(temp_dir, ignore_errors=True)
+    except BaseException:
+        _stop_cluster(made)
+        raise
+    return made
+
+
+def _stop_cluster(made: Cluster) -> None:
+    made.kill(made.processes(made.temp_dir, *(f"={p}" for p in [*made.head_ports,
+                                                                   *made.second_node_ports])))
+    shutil.rmtree(made.temp_dir, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def _clusters():
+    """This module's clusters: one, started by the first test that needs it, serves every
+    test until a test kills its second node (``Cluster.spent``); the next test then gets
+    a new one. All are stopped once, after the module."""
+    started: list[Cluster] = []
+    yield started
+    for made in started:
+        _stop_cluster(made)
+
+
+@pytest.fixture
+def cluster(_clusters: list[Cluster]) -> Cluster:
+    """A two-node cluster with both nodes alive (shared by this module's tests)."""
+    if not _clusters or _clusters[-1].spent:
+        _clusters.append(_start_cluster())
+    return _clusters[-1]
 
 
 def _nodes(cluster: Cluster) -> list[tuple[str, float, bool]]:
@@ -257,6 +286,7 @@ def test_a_node_killed_mid_sweep_loses_no_run(cluster, tmp_path):
                 time.sleep(0.05)
             second = cluster.second_node()
             assert any("default_worker" in " ".join(p.cmdline()) for p in second)
+            cluster.spent = True
             cluster.kill(second)
             stdout, stderr = driver.communicate(timeout=DRIVER_TIMEOUT_S)
         finally:

@@ -68,6 +68,10 @@ def test_run_view_shows_moving_vehicles_and_buttons_change_the_helm_mode(tmp_pat
             page.click("#buttons button[data-var='RETURN']")
             page.wait_for_function(
                 "window.uhri.agents.videoray.mode.includes('RETURNING')", timeout=20_000)
+            # the rest of the run at the speed menu's "max": no wall-clock pacing left
+            page.select_option("#speed", "max")
+            page.wait_for_function("window.uhri.frame.speed_factor === null",
+                                   timeout=20_000)
             assert browser.errors() == []
         _, stderr = proc.communicate(timeout=120)
     finally:
