@@ -6,8 +6,10 @@ operation. With numba installed, the *same* kernel, on floats, is compiled and c
 once per vehicle in a compiled loop over the N rows — no numpy call per operation, which
 is what costs at small N. The numpy path stays and the tests hold the two equal.
 
-Set ``UHRISIM_NUMBA=0`` to run numpy only. Compiling costs a second or two, once per
-process, on the first batch (nothing is written to disk).
+Set ``UHRISIM_NUMBA=0`` to run numpy only. Compiling costs about three seconds of CPU on
+the first batch; numba keeps the result in ``__pycache__`` beside the kernel's module (or
+in ``NUMBA_CACHE_DIR``), so later processes load it in a fraction of that, until the
+module's source changes.
 """
 
 from __future__ import annotations
@@ -34,5 +36,5 @@ def jit(function: Callable[..., Any]) -> Callable[..., Any] | None:
     """``function`` compiled in numba's nopython mode (lazily, at its first call), or None
     without numba."""
     numba = numba_module()
-    return None if numba is None else numba.njit(cache=False, nogil=True)(function)
+    return None if numba is None else numba.njit(cache=True, nogil=True)(function)
 
