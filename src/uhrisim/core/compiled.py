@@ -9,7 +9,7 @@ is what costs at small N. The numpy path stays and the tests hold the two equal.
 Set ``UHRISIM_NUMBA=0`` to run numpy only. Compiling costs about three seconds of CPU on
 the first batch; numba keeps the result in ``__pycache__`` beside the kernel's module (or
 in ``NUMBA_CACHE_DIR``), so later processes load it in a fraction of that, until the
-module's source changes.
+module's source changes. Where no cache folder is writable, each process compiles.
 """
 
 from __future__ import annotations
@@ -36,5 +36,10 @@ def jit(function: Callable[..., Any]) -> Callable[..., Any] | None:
     """``function`` compiled in numba's nopython mode (lazily, at its first call), or None
     without numba."""
     numba = numba_module()
-    return None if numba is None else numba.njit(cache=True, nogil=True)(function)
+    if numba is None:
+        return None
+    try:
+        return numba.njit(cache=True, nogil=True)(function)
+    except RuntimeError:  # no writable cache place (read-only package and home): compile each run
+        return numba.njit(nogil=True)(function)
 
