@@ -32,7 +32,7 @@ def _numpy_only(monkeypatch):
     compiled = importlib.import_module("uhrisim.core.compiled")
     monkeypatch.setenv("UHRISIM_NUMBA", "0")
     compiled.numba_module.cache_clear()
-    for cached in (ivp_build._compiled_reflect, cpa._compiled_distance):
+    for cached in (ivp_build._compiled_reflect, cpa._compiled_points):
         cached.cache_clear()
 
 
@@ -45,14 +45,23 @@ def test_compiled_reflector_and_cpa_equal_numpy_bit_for_bit(monkeypatch):
     pieces = [(3, 3), (3, 2), (9, 6)]
     situations = [(*rng.normal(0.0, 20.0, 4), rng.uniform(0, 360), rng.uniform(0, 2), 120.0)
                   for _ in range(20)]
-    compiled = ([ivp_build.reflect(t, p) for t in tables for p in pieces],
-                [grid.distance(*s) for s in situations])
+    at = ivp_build.sample_points(grid.shape, (3, 3))
+
+    def made():  # tables, CPAs, utilities at the fit's samples, (min, max) of the tables
+        reflected = [ivp_build.reflect_ranged(t, p) for t in tables for p in pieces]
+        return ([r[0] for r in reflected],
+                [grid.distance(*s) for s in situations],
+                [grid.avoid_utility(*s, 8.0, 25.0, at=at).flat[at] for s in situations]
+                + [grid.cut_range_utility(*s, 12.5, at=at).flat[at] for s in situations],
+                [r[1:] for r in reflected])
+
+    compiled = made()
     _numpy_only(monkeypatch)
-    numpy = ([ivp_build.reflect(t, p) for t in tables for p in pieces],
-             [grid.distance(*s) for s in situations])
-    for fast, slow in zip(compiled[0] + compiled[1], numpy[0] + numpy[1], strict=True):
+    numpy = made()
+    for fast, slow in zip(sum(compiled[:3], []), sum(numpy[:3], []), strict=True):
         np.testing.assert_array_equal(fast, slow)
+    assert compiled[3] == numpy[3] == [(t.min(), t.max()) for t in numpy[0]]
     monkeypatch.delenv("UHRISIM_NUMBA")
     importlib.import_module("uhrisim.core.compiled").numba_module.cache_clear()
     ivp_build._compiled_reflect.cache_clear()
-    cpa._compiled_distance.cache_clear()
+    cpa._compiled_points.cache_clear()

@@ -4,9 +4,9 @@
 every autonomy step's inputs (time, own nav, node reports, extra mail) and outputs are
 recorded. Fresh autonomy stacks built from the same scenario then replay those inputs
 with the plain reference implementations swapped in (ZAIC, coupler, CPA over the grid,
-CPA utility, solver). The fast paths perform the same floating-point operations, so the
-decisions (heading, speed, depth), the fused totals and every behavior's contribution must
-be equal - not merely close - at each of the 480 helm steps of both vehicles.
+its utilities at every grid point in numpy, solver). The fast paths perform the same
+floating-point operations, so the decisions (heading, speed, depth), the fused totals and
+every behavior's contribution must be equal - not merely close - at each of the 480 helm steps of both vehicles.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ import pytest
 import uhrisim.autonomy.behaviors.avoid_collision as avoid_mod
 import uhrisim.autonomy.behaviors.trail as trail_mod
 import uhrisim.autonomy.behaviors.waypoint_engine as wpt_mod
+import uhrisim.autonomy.cpa as cpa_mod
 import uhrisim.autonomy.helm as helm_mod
 import uhrisim.autonomy.zaic as zaic_mod
 from uhrisim.autonomy.community import VehicleAutonomy
@@ -72,7 +73,8 @@ def test_mission_decisions_equal_reference_paths(monkeypatch):
     monkeypatch.setattr(wpt_mod, "couple", couple_reference)
     monkeypatch.setattr(trail_mod, "couple", couple_reference)
     monkeypatch.setattr(CpaGrid, "distance", _reference_cpa)
-    monkeypatch.setattr(avoid_mod, "cpa_utility_inplace", avoid_mod.cpa_utility)
+    monkeypatch.setattr(cpa_mod, "_compiled_points", lambda: None)  # utilities of distance
+    monkeypatch.setattr(cpa_mod, "avoid_utility_inplace", avoid_mod.cpa_utility)
     monkeypatch.setattr(helm_mod, "solve", solve_reference)
     stacks = {a.name: a.driver.autonomy for a in _simulation().agents.values()
               if a.driver is not None}  # fmt: skip

@@ -11,12 +11,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from uhrisim.autonomy.behaviors.avoid_collision import cpa_utility, cpa_utility_inplace
+from uhrisim.autonomy.behaviors.avoid_collision import cpa_utility
 from uhrisim.autonomy.behaviors.base import BehaviorContext, OwnNav
 from uhrisim.autonomy.conditions import Relation, VarRef, field_match
 from uhrisim.autonomy.config import HelmConfig
 from uhrisim.autonomy.coupler import couple, couple_reference
-from uhrisim.autonomy.cpa import CpaGrid, cpa_distance
+from uhrisim.autonomy.cpa import CpaGrid, avoid_utility_inplace, cpa_distance
 from uhrisim.autonomy.domain import Domain, DomainAxis, Objective
 from uhrisim.autonomy.geometry import (
     _dist_to_segment,
@@ -99,14 +99,14 @@ def test_cpa_grid_equals_cpa_distance():
         assert np.array_equal(fast, ref)  # == (a zero's sign may differ)
 
 
-def test_cpa_utility_inplace_equals_cpa_utility():
+def test_avoid_utility_inplace_equals_cpa_utility():
     rng = np.random.default_rng(5)
     for _ in range(200):
         cpa = rng.uniform(0.0, 4.0, (36, 41))
         lo = float(rng.uniform(0.0, 2.0))
         hi = float(rng.choice([lo, lo + rng.uniform(0.0, 2.0)]))
         ref = cpa_utility(cpa, lo, hi)
-        assert cpa_utility_inplace(cpa.copy(), lo, hi).tobytes() == ref.tobytes()
+        assert avoid_utility_inplace(cpa.copy(), lo, hi).tobytes() == ref.tobytes()
 
 
 def test_avoid_collision_function_equals_reference_path():

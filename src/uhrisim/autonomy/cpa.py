@@ -22,7 +22,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.core.compiled import jit
 
-__all__ = ["CpaGrid", "cpa_distance", "cpa_distance_reference", "cpa_time", "velocity_xy"]
+__all__ = [
+    "CpaGrid",
+    "avoid_utility_inplace",
+    "cpa_distance",
+    "cpa_distance_reference",
+    "cpa_time",
+    "cut_range_utility_inplace",
+    "velocity_xy",
+]
 
 
 def velocity_xy(heading_deg: ArrayLike, speed: ArrayLike) -> tuple[NDArray, NDArray]:
@@ -154,11 +162,11 @@ class CpaGrid:
         h = np.radians(cnh_deg)
         cwx, cwy = cnv * np.sin(h), cnv * np.cos(h)
         dx, dy = osx - cnx, osy - cny
-        compiled = _compiled_distance()
+        compiled = _compiled_points()
         if compiled is not None:  # the same operations per grid point, compiled
             out = np.empty(self.vx.shape)
             compiled(self.vx, self.vy, cwx, cwy, dx, dy, dx * dx + dy * dy,
-                     max(horizon, 0.0), out)
+                     max(horizon, 0.0), _EVERY_POINT, _DISTANCE, 0.0, 0.0, out)
             return out
         wx = np.subtract(self.vx, cwx)
         wy = np.subtract(self.vy, cwy)
@@ -180,24 +188,118 @@ class CpaGrid:
         np.maximum(a, 0.0, out=a)
         return np.sqrt(a, out=a)
 
+    def avoid_utility(
+        self,
+        osx: float,
+        osy: float,
+        cnx: float,
+        cny: float,
+        cnh_deg: float,
+        cnv: float,
+        horizon: float,
+        min_util: float,
+        max_util: float,
+        at: NDArray[np.int64] | None = None,
+    ) -> NDArray[np.float64]:
+        """:func:`avoid_utility_inplace` of :meth:`distance` (AvoidCollision's utility,
+        0..100). ``at``: flat grid indices of the points wanted - with numba only those are
+        computed (the others are NaN), each by the same operations; without, all."""
+        span = max(max_util - min_util, 1e-9)
+        return self._utility(osx, osy, cnx, cny, cnh_deg, cnv, horizon, at, _AVOID,
+                             min_util, 75.0 / span, lambda d: avoid_utility_inplace(
+                                 d, min_util, max_util))  # fmt: skip
 
-def _distance_points(vx, vy, cwx, cwy, dx, dy, r2, horizon, out):  # type: ignore[no-untyped-def]
-    """:meth:`CpaGrid.distance` point by point (compiled by numba): the same operations in
-    the same order at every grid point."""
-    for i in range(vx.shape[0]):
-        for j in range(vx.shape[1]):
-            wx, wy = vx[i, j] - cwx, vy[i, j] - cwy
-            a = wx * wx + wy * wy
-            nb = wx * -dx + wy * -dy
-            t = nb / (a + 1e-300)
-            t = min(max(t, 0.0), horizon)
-            a = ((a * t) - nb * 2.0) * t + r2
-            out[i, j] = np.sqrt(max(a, 0.0))
+    def cut_range_utility(
+        self,
+        osx: float,
+        osy: float,
+        cnx: float,
+        cny: float,
+        cnh_deg: float,
+        cnv: float,
+        horizon: float,
+        range_m: float,
+        at: NDArray[np.int64] | None = None,
+    ) -> NDArray[np.float64]:
+        """:func:`cut_range_utility_inplace` of :meth:`distance` (far Trail's utility,
+        0..100); ``at`` as in :meth:`avoid_utility`."""
+        return self._utility(osx, osy, cnx, cny, cnh_deg, cnv, horizon, at, _CUT_RANGE,
+                             range_m, 0.0, lambda d: cut_range_utility_inplace(d, range_m))
+
+    def _utility(self, osx, osy, cnx, cny, cnh_deg, cnv, horizon, at, kind, p0, p1, numpy_path):  # type: ignore[no-untyped-def]
+        compiled = _compiled_points()
+        if compiled is None:
+            return numpy_path(self.distance(osx, osy, cnx, cny, cnh_deg, cnv, horizon))
+        h = np.radians(cnh_deg)
+        dx, dy = osx - cnx, osy - cny
+        out = np.full(self.vx.shape, np.nan) if at is not None else np.empty(self.vx.shape)
+        compiled(self.vx, self.vy, cnv * np.sin(h), cnv * np.cos(h), dx, dy, dx * dx + dy * dy,
+                 max(horizon, 0.0), _EVERY_POINT if at is None else at, kind, p0, p1, out)
+        return out
+
+
+def avoid_utility_inplace(cpa: np.ndarray, min_util: float, max_util: float) -> np.ndarray:
+    """AvoidCollision's utility of a CPA distance (m), in ``cpa``'s own storage: 0 below
+    ``min_util``, 100 above ``max_util``, 25 -> 100 linearly between (IvP
+    ``AOF_AvoidCollision::metric``); the same operations as
+    :func:`~uhrisim.autonomy.behaviors.avoid_collision.cpa_utility`."""
+    span = max(max_util - min_util, 1e-9)
+    keep = cpa >= min_util  # cpa is never NaN: the complement of cpa < min_util
+    u = cpa
+    u -= min_util
+    u *= 75.0 / span
+    u += 25.0
+    np.maximum(u, 25.0, out=u)
+    np.minimum(u, 100.0, out=u)
+    u *= keep  # x 1.0 keeps u exactly, x 0.0 zeroes it (u in [25, 100])
+    return u
+
+
+def cut_range_utility_inplace(cpa: np.ndarray, range_m: float) -> np.ndarray:
+    """Far Trail's utility 100 - 100 cpa / ``range_m`` clipped to 0..100, in ``cpa``'s own
+    storage (IvP ``AOF_CutRangeCPA``; ``range_m`` the distance to the trail point)."""
+    u = cpa
+    u *= 100.0
+    u /= range_m
+    np.subtract(100.0, u, out=u)
+    np.maximum(u, 0.0, out=u)
+    np.minimum(u, 100.0, out=u)
+    return u
+
+
+_DISTANCE, _AVOID, _CUT_RANGE = 0, 1, 2  # what the compiled kernel makes of the CPA
+_EVERY_POINT = np.empty(0, dtype=np.int64)  # "at" for the whole grid
+
+
+def _cpa_points(vx, vy, cwx, cwy, dx, dy, r2, horizon, at, kind, p0, p1, out):  # type: ignore[no-untyped-def]
+    """:meth:`CpaGrid.distance`, then the utility ``kind`` makes of it (``_AVOID``:
+    :func:`avoid_utility_inplace` with ``p0`` = min_util, ``p1`` = 75 / span;
+    ``_CUT_RANGE``: :func:`cut_range_utility_inplace` with ``p0`` = range) point by point
+    (compiled by numba), at the flat indices ``at`` (every point when empty): the same
+    operations in the same order at every point as the numpy path."""
+    vxf, vyf, outf = vx.ravel(), vy.ravel(), out.ravel()
+    n = at.shape[0] if at.shape[0] > 0 else vxf.shape[0]
+    for m in range(n):
+        k = at[m] if at.shape[0] > 0 else m
+        wx, wy = vxf[k] - cwx, vyf[k] - cwy
+        a = wx * wx + wy * wy
+        nb = wx * -dx + wy * -dy
+        t = nb / (a + 1e-300)
+        t = min(max(t, 0.0), horizon)
+        a = ((a * t) - nb * 2.0) * t + r2
+        cpa = np.sqrt(max(a, 0.0))
+        if kind == 1:
+            u = min(max((cpa - p0) * p1 + 25.0, 25.0), 100.0)
+            outf[k] = u if cpa >= p0 else 0.0
+        elif kind == 2:
+            outf[k] = min(max(100.0 - (cpa * 100.0) / p0, 0.0), 100.0)
+        else:
+            outf[k] = cpa
 
 
 @cache
-def _compiled_distance():  # type: ignore[no-untyped-def]
-    return jit(_distance_points)
+def _compiled_points():  # type: ignore[no-untyped-def]
+    return jit(_cpa_points)
 
 
 def cpa_distance_reference(

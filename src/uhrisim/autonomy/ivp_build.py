@@ -39,6 +39,8 @@ __all__ = [
     "fit_pieces_reference",
     "normalize",
     "reflect",
+    "reflect_ranged",
+    "sample_points",
 ]
 
 
@@ -102,6 +104,7 @@ class _Layout:
     centre: NDArray[np.bool_]  # pieces with a centre sample
     use: NDArray[np.bool_]  # (5, ...): the samples a piece uses
     count: NDArray[np.float64]  # 5.0 or 4.0
+    samples: NDArray[np.int64]  # the flat grid indices the fit reads, each once, ascending
 
 
 @lru_cache(maxsize=16)
@@ -119,7 +122,7 @@ def _layout(n_c: int, n_s: int, pc: int, ps: int) -> _Layout:
         np.stack([np.broadcast_to(c, (len(c_lo), 1)) for c, _ in at]).astype(float),
         np.stack([np.broadcast_to(s, (1, len(s_lo))) for _, s in at]).astype(float),
         np.maximum(C1 - C0, 1).astype(float), np.maximum(S1 - S0, 1).astype(float),
-        C1 == C0, S1 == S0, centre, use, np.where(centre, 5.0, 4.0),
+        C1 == C0, S1 == S0, centre, use, np.where(centre, 5.0, 4.0), np.unique(flat[use]),
     )  # fmt: skip
 
 
@@ -188,22 +191,39 @@ def normalize(f: PiecewisePlanes, base: float = 0.0, span: float = 100.0) -> Pie
     )
 
 
+def sample_points(shape: tuple[int, int], piece: tuple[int, int]) -> NDArray[np.int64]:
+    """The flat indices of the grid points (course x speed grid of ``shape``) whose values
+    the fit over pieces of ``piece`` indices reads: :func:`reflect` needs no others (5 of
+    the 9 points of a 3 x 3 piece), so a costly function need be evaluated only there."""
+    return _layout(shape[0], shape[1], piece[0], piece[1]).samples
+
+
 def reflect(values: NDArray[np.float64], piece: tuple[int, int]) -> NDArray[np.float64]:
     """What pHelmIvP's reflector-built behaviors hand the solver: ``values`` fitted over
     pieces of ``piece`` indices, normalised 0..100 by the reflector and again by the
     behavior (OF_Reflector.cpp:112-113, then e.g. BHV_AvoidCollision.cpp:293), as a table.
+    Only the values at :func:`sample_points` are read.
 
     With numba (``uhrisim[fast]``) the same operations run compiled, piece by piece
     (:func:`_reflect_pieces`; a test holds the two bit for bit); else numpy, all pieces
     at once."""
+    return reflect_ranged(values, piece)[0]
+
+
+def reflect_ranged(
+    values: NDArray[np.float64], piece: tuple[int, int]
+) -> tuple[NDArray[np.float64], float, float]:
+    """:func:`reflect`'s table and its exact minimum and maximum (the solver's range
+    check then needs no pass over the table)."""
     compiled = _compiled_reflect()
     if compiled is None:
-        return normalize(normalize(fit_pieces(values, piece))).table()
+        table = normalize(normalize(fit_pieces(values, piece))).table()
+        return table, float(table.min()), float(table.max())
     F = np.ascontiguousarray(values, dtype=float)
     L = _layout(F.shape[0], F.shape[1], piece[0], piece[1])
     out = np.empty_like(F)
-    compiled(F, L.c_lo, L.c_hi, L.s_lo, L.s_hi, out)
-    return out
+    lo, hi = compiled(F, L.c_lo, L.c_hi, L.s_lo, L.s_hi, out)
+    return out, lo, hi
 
 
 def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-def]
@@ -211,7 +231,7 @@ def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-
     :func:`fit_pieces_reference` (with the corners' range of the first :func:`normalize`),
     the first normalisation (with the second's range), the second applied while each
     piece's block of the table is written; each value computed by the same floating-point
-    operations as the numpy path."""
+    operations as the numpy path. Returns the table's (min, max)."""
     n_pc, n_ps = c_lo.shape[0], s_lo.shape[0]
     b = np.empty((n_pc, n_ps))
     mc = np.empty((n_pc, n_ps))
@@ -268,6 +288,7 @@ def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-
                         lo, hi = min(lo, corner), max(hi, corner)
     scaled = hi - lo > 0.0  # normalize(0, 100), the second time (a constant stays)
     k2 = 100.0 / (hi - lo) if scaled else 1.0
+    t_lo, t_hi = np.inf, -np.inf
     for i in range(n_pc):
         for j in range(n_ps):
             bij, mcij, msij = b[i, j], mc[i, j], ms[i, j]
@@ -275,7 +296,10 @@ def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-
                 bij, mcij, msij = (bij + (0.0 - lo)) * k2, mcij * k2, msij * k2
             for c in range(c_lo[i], c_hi[i] + 1):
                 for s in range(s_lo[j], s_hi[j] + 1):
-                    out[c, s] = bij + mcij * float(c) + msij * float(s)
+                    value = bij + mcij * float(c) + msij * float(s)
+                    out[c, s] = value
+                    t_lo, t_hi = min(t_lo, value), max(t_hi, value)
+    return t_lo, t_hi
 
 
 @cache

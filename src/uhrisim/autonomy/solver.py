@@ -63,9 +63,9 @@ def _taking_part(objectives: list[WeightedObjective]) -> list[WeightedObjective]
     for w in objectives:
         if not (w.priority > 0.0 and w.objective.axes):
             continue
-        v = w.objective.values
-        lo, hi = float(v.min()), float(v.max())
+        lo, hi = w.objective.min_max()
         if hi - lo > 100.0:  # PDMap::normalize(0, 100): intercept first, then the scale
+            v = w.objective.values
             scaled = Objective(w.objective.axes, (v + (0.0 - lo)) * (100.0 / (hi - lo)))
             w = WeightedObjective(w.name, w.priority, scaled)
         out.append(w)
