@@ -45,14 +45,12 @@ def test_compiled_reflector_and_cpa_equal_numpy_bit_for_bit(monkeypatch):
     pieces = [(3, 3), (3, 2), (9, 6)]
     situations = [(*rng.normal(0.0, 20.0, 4), rng.uniform(0, 360), rng.uniform(0, 2), 120.0)
                   for _ in range(20)]
-    at = ivp_build.sample_points(grid.shape, (3, 3))
-
-    def made():  # tables, CPAs, utilities at the fit's samples, (min, max) of the tables
+    def made():  # tables, CPAs, utilities, (min, max) of the tables
         reflected = [ivp_build.reflect_ranged(t, p) for t in tables for p in pieces]
         return ([r[0] for r in reflected],
                 [grid.distance(*s) for s in situations],
-                [grid.avoid_utility(*s, 8.0, 25.0, at=at).flat[at] for s in situations]
-                + [grid.cut_range_utility(*s, 12.5, at=at).flat[at] for s in situations],
+                [grid.avoid_utility(*s, 8.0, 25.0) for s in situations]
+                + [grid.cut_range_utility(*s, 12.5) for s in situations],
                 [r[1:] for r in reflected])
 
     compiled = made()

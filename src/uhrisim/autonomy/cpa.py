@@ -166,7 +166,7 @@ class CpaGrid:
         if compiled is not None:  # the same operations per grid point, compiled
             out = np.empty(self.vx.shape)
             compiled(self.vx, self.vy, cwx, cwy, dx, dy, dx * dx + dy * dy,
-                     max(horizon, 0.0), _EVERY_POINT, _DISTANCE, 0.0, 0.0, out)
+                     max(horizon, 0.0), _DISTANCE, 0.0, 0.0, out)
             return out
         wx = np.subtract(self.vx, cwx)
         wy = np.subtract(self.vy, cwy)
@@ -199,13 +199,11 @@ class CpaGrid:
         horizon: float,
         min_util: float,
         max_util: float,
-        at: NDArray[np.int64] | None = None,
     ) -> NDArray[np.float64]:
         """:func:`avoid_utility_inplace` of :meth:`distance` (AvoidCollision's utility,
-        0..100). ``at``: flat grid indices of the points wanted - with numba only those are
-        computed (the others are NaN), each by the same operations; without, all."""
+        0..100, a new array); with numba one compiled pass, CPA and utility together."""
         span = max(max_util - min_util, 1e-9)
-        return self._utility(osx, osy, cnx, cny, cnh_deg, cnv, horizon, at, _AVOID,
+        return self._utility(osx, osy, cnx, cny, cnh_deg, cnv, horizon, _AVOID,
                              min_util, 75.0 / span, lambda d: avoid_utility_inplace(
                                  d, min_util, max_util))  # fmt: skip
 
@@ -219,22 +217,21 @@ class CpaGrid:
         cnv: float,
         horizon: float,
         range_m: float,
-        at: NDArray[np.int64] | None = None,
     ) -> NDArray[np.float64]:
         """:func:`cut_range_utility_inplace` of :meth:`distance` (far Trail's utility,
-        0..100); ``at`` as in :meth:`avoid_utility`."""
-        return self._utility(osx, osy, cnx, cny, cnh_deg, cnv, horizon, at, _CUT_RANGE,
+        0..100, a new array), as :meth:`avoid_utility`."""
+        return self._utility(osx, osy, cnx, cny, cnh_deg, cnv, horizon, _CUT_RANGE,
                              range_m, 0.0, lambda d: cut_range_utility_inplace(d, range_m))
 
-    def _utility(self, osx, osy, cnx, cny, cnh_deg, cnv, horizon, at, kind, p0, p1, numpy_path):  # type: ignore[no-untyped-def]
+    def _utility(self, osx, osy, cnx, cny, cnh_deg, cnv, horizon, kind, p0, p1, numpy_path):  # type: ignore[no-untyped-def]
         compiled = _compiled_points()
         if compiled is None:
             return numpy_path(self.distance(osx, osy, cnx, cny, cnh_deg, cnv, horizon))
         h = np.radians(cnh_deg)
         dx, dy = osx - cnx, osy - cny
-        out = np.full(self.vx.shape, np.nan) if at is not None else np.empty(self.vx.shape)
+        out = np.empty(self.vx.shape)
         compiled(self.vx, self.vy, cnv * np.sin(h), cnv * np.cos(h), dx, dy, dx * dx + dy * dy,
-                 max(horizon, 0.0), _EVERY_POINT if at is None else at, kind, p0, p1, out)
+                 max(horizon, 0.0), kind, p0, p1, out)
         return out
 
 
@@ -268,38 +265,37 @@ def cut_range_utility_inplace(cpa: np.ndarray, range_m: float) -> np.ndarray:
 
 
 _DISTANCE, _AVOID, _CUT_RANGE = 0, 1, 2  # what the compiled kernel makes of the CPA
-_EVERY_POINT = np.empty(0, dtype=np.int64)  # "at" for the whole grid
 
 
-def _cpa_points(vx, vy, cwx, cwy, dx, dy, r2, horizon, at, kind, p0, p1, out):  # type: ignore[no-untyped-def]
-    """:meth:`CpaGrid.distance`, then the utility ``kind`` makes of it (``_AVOID``:
-    :func:`avoid_utility_inplace` with ``p0`` = min_util, ``p1`` = 75 / span;
-    ``_CUT_RANGE``: :func:`cut_range_utility_inplace` with ``p0`` = range) point by point
-    (compiled by numba), at the flat indices ``at`` (every point when empty): the same
-    operations in the same order at every point as the numpy path."""
+def _cpa_points(vx, vy, cwx, cwy, dx, dy, r2, horizon, kind, p0, p1, out):  # type: ignore[no-untyped-def]
+    """:meth:`CpaGrid.distance` point by point, then the utility ``kind`` makes of it
+    (``_AVOID``: :func:`avoid_utility_inplace` with ``p0`` = min_util, ``p1`` = 75 / span;
+    ``_CUT_RANGE``: :func:`cut_range_utility_inplace` with ``p0`` = range), compiled by
+    numba: the same operations in the same order at every point as the numpy path (loops
+    without branches on the kind, so that they vectorise)."""
     vxf, vyf, outf = vx.ravel(), vy.ravel(), out.ravel()
-    n = at.shape[0] if at.shape[0] > 0 else vxf.shape[0]
-    for m in range(n):
-        k = at[m] if at.shape[0] > 0 else m
+    n = vxf.shape[0]
+    for k in range(n):
         wx, wy = vxf[k] - cwx, vyf[k] - cwy
         a = wx * wx + wy * wy
         nb = wx * -dx + wy * -dy
         t = nb / (a + 1e-300)
         t = min(max(t, 0.0), horizon)
         a = ((a * t) - nb * 2.0) * t + r2
-        cpa = np.sqrt(max(a, 0.0))
-        if kind == 1:
+        outf[k] = np.sqrt(max(a, 0.0))
+    if kind == 1:
+        for k in range(n):
+            cpa = outf[k]
             u = min(max((cpa - p0) * p1 + 25.0, 25.0), 100.0)
             outf[k] = u if cpa >= p0 else 0.0
-        elif kind == 2:
-            outf[k] = min(max(100.0 - (cpa * 100.0) / p0, 0.0), 100.0)
-        else:
-            outf[k] = cpa
+    elif kind == 2:
+        for k in range(n):
+            outf[k] = min(max(100.0 - (outf[k] * 100.0) / p0, 0.0), 100.0)
 
 
 @cache
 def _compiled_points():  # type: ignore[no-untyped-def]
-    return jit(_cpa_points)
+    return jit(_cpa_points, numpy_errors=True)
 
 
 def cpa_distance_reference(

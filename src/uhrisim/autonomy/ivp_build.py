@@ -40,7 +40,6 @@ __all__ = [
     "normalize",
     "reflect",
     "reflect_ranged",
-    "sample_points",
 ]
 
 
@@ -104,7 +103,6 @@ class _Layout:
     centre: NDArray[np.bool_]  # pieces with a centre sample
     use: NDArray[np.bool_]  # (5, ...): the samples a piece uses
     count: NDArray[np.float64]  # 5.0 or 4.0
-    samples: NDArray[np.int64]  # the flat grid indices the fit reads, each once, ascending
 
 
 @lru_cache(maxsize=16)
@@ -122,7 +120,7 @@ def _layout(n_c: int, n_s: int, pc: int, ps: int) -> _Layout:
         np.stack([np.broadcast_to(c, (len(c_lo), 1)) for c, _ in at]).astype(float),
         np.stack([np.broadcast_to(s, (1, len(s_lo))) for _, s in at]).astype(float),
         np.maximum(C1 - C0, 1).astype(float), np.maximum(S1 - S0, 1).astype(float),
-        C1 == C0, S1 == S0, centre, use, np.where(centre, 5.0, 4.0), np.unique(flat[use]),
+        C1 == C0, S1 == S0, centre, use, np.where(centre, 5.0, 4.0),
     )  # fmt: skip
 
 
@@ -191,18 +189,10 @@ def normalize(f: PiecewisePlanes, base: float = 0.0, span: float = 100.0) -> Pie
     )
 
 
-def sample_points(shape: tuple[int, int], piece: tuple[int, int]) -> NDArray[np.int64]:
-    """The flat indices of the grid points (course x speed grid of ``shape``) whose values
-    the fit over pieces of ``piece`` indices reads: :func:`reflect` needs no others (5 of
-    the 9 points of a 3 x 3 piece), so a costly function need be evaluated only there."""
-    return _layout(shape[0], shape[1], piece[0], piece[1]).samples
-
-
 def reflect(values: NDArray[np.float64], piece: tuple[int, int]) -> NDArray[np.float64]:
     """What pHelmIvP's reflector-built behaviors hand the solver: ``values`` fitted over
     pieces of ``piece`` indices, normalised 0..100 by the reflector and again by the
     behavior (OF_Reflector.cpp:112-113, then e.g. BHV_AvoidCollision.cpp:293), as a table.
-    Only the values at :func:`sample_points` are read.
 
     With numba (``uhrisim[fast]``) the same operations run compiled, piece by piece
     (:func:`_reflect_pieces`; a test holds the two bit for bit); else numpy, all pieces
@@ -229,41 +219,45 @@ def reflect_ranged(
 def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-def]
     """:func:`reflect` piece by piece in loops (compiled by numba): the fit of
     :func:`fit_pieces_reference` (with the corners' range of the first :func:`normalize`),
-    the first normalisation (with the second's range), the second applied while each
-    piece's block of the table is written; each value computed by the same floating-point
-    operations as the numpy path. Returns the table's (min, max)."""
+    the first normalisation (with the second's range), the second; then the table, row by
+    row. Each value is computed by the same floating-point operations as the numpy path.
+
+    Returns the table's (min, max), taken at the pieces' corners: ``b + mc*c + ms*s`` is
+    monotone in c and in s under rounding, so no grid point of a piece lies outside the
+    range of its corners."""
     n_pc, n_ps = c_lo.shape[0], s_lo.shape[0]
     b = np.empty((n_pc, n_ps))
     mc = np.empty((n_pc, n_ps))
     ms = np.empty((n_pc, n_ps))
-    vc = np.empty(5, dtype=np.int64)
-    vs = np.empty(5, dtype=np.int64)
-    v = np.empty(5)
     lo, hi = np.inf, -np.inf
     for i in range(n_pc):
         c0, c1 = c_lo[i], c_hi[i]
+        cm = c0 + (c1 - c0) // 2
         for j in range(n_ps):
             s0, s1 = s_lo[j], s_hi[j]
-            count = 5 if (c1 - c0 > 1 or s1 - s0 > 1) else 4
-            vc[0], vs[0] = c0, s0
-            vc[1], vs[1] = c1, s0
-            vc[2], vs[2] = c0, s1
-            vc[3], vs[3] = c1, s1
-            vc[4], vs[4] = c0 + (c1 - c0) // 2, s0 + (s1 - s0) // 2
-            for k in range(count):
-                v[k] = F[vc[k], vs[k]]
-            slope_c = 0.0 if c1 == c0 else (((v[1] - v[0]) + (v[3] - v[2])) / 2.0) / (c1 - c0)
-            slope_s = 0.0 if s1 == s0 else (((v[2] - v[0]) + (v[3] - v[1])) / 2.0) / (s1 - s0)
-            v_hi, v_lo = -np.inf, np.inf
-            for k in range(count):
-                v_hi, v_lo = max(v_hi, v[k]), min(v_lo, v[k])
-            total = 0.0
-            upper, lower = np.inf, -np.inf
-            for k in range(count):
-                plane = slope_c * float(vc[k]) + slope_s * float(vs[k])
-                total = total + (v[k] - plane) if k else v[k] - plane
-                upper, lower = min(upper, v_hi - plane), max(lower, v_lo - plane)
-            intercept = total / count
+            centre = c1 - c0 > 1 or s1 - s0 > 1
+            v0, v1, v2, v3 = F[c0, s0], F[c1, s0], F[c0, s1], F[c1, s1]
+            slope_c = 0.0 if c1 == c0 else (((v1 - v0) + (v3 - v2)) / 2.0) / (c1 - c0)
+            slope_s = 0.0 if s1 == s0 else (((v2 - v0) + (v3 - v1)) / 2.0) / (s1 - s0)
+            v_hi = max(max(max(max(-np.inf, v0), v1), v2), v3)
+            v_lo = min(min(min(min(np.inf, v0), v1), v2), v3)
+            p0 = slope_c * float(c0) + slope_s * float(s0)
+            p1 = slope_c * float(c1) + slope_s * float(s0)
+            p2 = slope_c * float(c0) + slope_s * float(s1)
+            p3 = slope_c * float(c1) + slope_s * float(s1)
+            total = (((v0 - p0) + (v1 - p1)) + (v2 - p2)) + (v3 - p3)
+            if centre:
+                v4 = F[cm, s0 + (s1 - s0) // 2]
+                p4 = slope_c * float(cm) + slope_s * float(s0 + (s1 - s0) // 2)
+                v_hi, v_lo = max(v_hi, v4), min(v_lo, v4)
+                total = total + (v4 - p4)
+                intercept = total / 5
+            else:
+                intercept = total / 4
+            upper = min(min(min(min(np.inf, v_hi - p0), v_hi - p1), v_hi - p2), v_hi - p3)
+            lower = max(max(max(max(-np.inf, v_lo - p0), v_lo - p1), v_lo - p2), v_lo - p3)
+            if centre:
+                upper, lower = min(upper, v_hi - p4), max(lower, v_lo - p4)
             if intercept > upper:
                 intercept = upper
             if intercept < lower:
@@ -273,35 +267,34 @@ def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-
                 for s in (s0, s1):
                     corner = intercept + slope_c * c + slope_s * s
                     lo, hi = min(lo, corner), max(hi, corner)
-    if hi - lo > 0.0:  # normalize(0, 100), the first time
-        k1 = 100.0 / (hi - lo)
-        lo1 = lo
+    for k in range(2):  # normalize(0, 100) twice; the first gives the second's range
+        if not hi - lo > 0.0:  # a constant stays
+            break
+        scale, lo_k = 100.0 / (hi - lo), lo
         lo, hi = np.inf, -np.inf
         for i in range(n_pc):
             for j in range(n_ps):
-                b[i, j] = (b[i, j] + (0.0 - lo1)) * k1
-                mc[i, j] = mc[i, j] * k1
-                ms[i, j] = ms[i, j] * k1
+                b[i, j] = (b[i, j] + (0.0 - lo_k)) * scale
+                mc[i, j] = mc[i, j] * scale
+                ms[i, j] = ms[i, j] * scale
                 for c in (c_lo[i], c_hi[i]):
                     for s in (s_lo[j], s_hi[j]):
                         corner = b[i, j] + mc[i, j] * c + ms[i, j] * s
                         lo, hi = min(lo, corner), max(hi, corner)
-    scaled = hi - lo > 0.0  # normalize(0, 100), the second time (a constant stays)
-    k2 = 100.0 / (hi - lo) if scaled else 1.0
-    t_lo, t_hi = np.inf, -np.inf
-    for i in range(n_pc):
+    n_s = out.shape[1]
+    row_b, row_mc, row_ms = np.empty(n_s), np.empty(n_s), np.empty(n_s)
+    s_index = np.arange(n_s).astype(np.float64)
+    for i in range(n_pc):  # the coefficients of this row of pieces, spread over the columns
         for j in range(n_ps):
-            bij, mcij, msij = b[i, j], mc[i, j], ms[i, j]
-            if scaled:
-                bij, mcij, msij = (bij + (0.0 - lo)) * k2, mcij * k2, msij * k2
-            for c in range(c_lo[i], c_hi[i] + 1):
-                for s in range(s_lo[j], s_hi[j] + 1):
-                    value = bij + mcij * float(c) + msij * float(s)
-                    out[c, s] = value
-                    t_lo, t_hi = min(t_lo, value), max(t_hi, value)
-    return t_lo, t_hi
+            for s in range(s_lo[j], s_hi[j] + 1):
+                row_b[s], row_mc[s], row_ms[s] = b[i, j], mc[i, j], ms[i, j]
+        for c in range(c_lo[i], c_hi[i] + 1):
+            fc = float(c)
+            for s in range(n_s):
+                out[c, s] = row_b[s] + row_mc[s] * fc + row_ms[s] * s_index[s]
+    return lo, hi
 
 
 @cache
 def _compiled_reflect():  # type: ignore[no-untyped-def]
-    return jit(_reflect_pieces)
+    return jit(_reflect_pieces, numpy_errors=True)

@@ -30,9 +30,13 @@ def numba_module() -> Any:
         return None
 
 
-def jit(function: Callable[..., Any]) -> Callable[..., Any] | None:
+def jit(function: Callable[..., Any], numpy_errors: bool = False) -> Callable[..., Any] | None:
     """``function`` compiled in numba's nopython mode (lazily, at its first call), or None
-    without numba."""
+    without numba. ``numpy_errors``: a division by zero gives inf or NaN as in numpy
+    instead of raising, so that loops with divisions vectorise (same IEEE results)."""
     numba = numba_module()
-    return None if numba is None else numba.njit(cache=False, nogil=True)(function)
+    if numba is None:
+        return None
+    model = "numpy" if numpy_errors else "python"
+    return numba.njit(cache=False, nogil=True, error_model=model)(function)
 

@@ -41,7 +41,6 @@ from uhrisim.autonomy.ivp_build import (
     fit_pieces_reference,
     normalize,
     reflect_ranged,
-    sample_points,
 )
 from uhrisim.autonomy.params import one_of, setter, to_float
 
@@ -156,7 +155,7 @@ class AvoidCollision(ContactBehavior):
             return None
         own, grid = ctx.own, self.cpa_grid(ctx.domain)
         u = grid.avoid_utility(own.x, own.y, tr.x, tr.y, tr.heading, tr.speed, p.time_on_leg,
-                               *bounds, at=sample_points(grid.shape, PIECE))  # fmt: skip
+                               *bounds)  # fmt: skip
         table, lo, hi = reflect_ranged(u, PIECE)
         return Objective.over(ctx.domain, ("course", "speed"), table, (lo, hi))
 

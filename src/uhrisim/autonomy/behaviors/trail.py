@@ -34,7 +34,7 @@ from uhrisim.autonomy.behaviors.contact_base import CONTACT_HANDLERS, ContactBeh
 from uhrisim.autonomy.coupler import couple
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import bearing_deg, distance
-from uhrisim.autonomy.ivp_build import reflect_ranged, sample_points
+from uhrisim.autonomy.ivp_build import reflect_ranged
 from uhrisim.autonomy.params import one_of, setter, to_float
 from uhrisim.autonomy.zaic import zaic_peak_on_axis
 
@@ -102,8 +102,7 @@ class Trail(ContactBehavior):
         crs_axis, spd_axis = ctx.domain.axis("course"), ctx.domain.axis("speed")
         if dist > p.nm_radius:
             grid = self.cpa_grid(ctx.domain)
-            u = grid.cut_range_utility(own.x, own.y, px, py, ch, cv, p.time_on_leg, dist,
-                                       at=sample_points(grid.shape, FAR_PIECE))  # fmt: skip
+            u = grid.cut_range_utility(own.x, own.y, px, py, ch, cv, p.time_on_leg, dist)
             table, lo, hi = reflect_ranged(u, FAR_PIECE)
             return Objective.over(ctx.domain, ("course", "speed"), table, (lo, hi))
         if dist > p.radius:
