@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uhrisim.autonomy import cpa, ivp_build
+from uhrisim.autonomy import coupler, cpa, ivp_build
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "helm"
 
@@ -32,11 +32,11 @@ def _numpy_only(monkeypatch):
     compiled = importlib.import_module("uhrisim.core.compiled")
     monkeypatch.setenv("UHRISIM_NUMBA", "0")
     compiled.numba_module.cache_clear()
-    for cached in (ivp_build._compiled_reflect, cpa._compiled_points):
+    for cached in (ivp_build._compiled_reflect, cpa._compiled_points, coupler._compiled_table):
         cached.cache_clear()
 
 
-def test_compiled_reflector_and_cpa_equal_numpy_bit_for_bit(monkeypatch):
+def test_compiled_reflector_cpa_and_coupler_equal_numpy_bit_for_bit(monkeypatch):
     pytest.importorskip("numba", reason="the [fast] extra is not installed")
     rng = np.random.default_rng(8)
     grid = cpa.CpaGrid.over(np.arange(360.0), np.linspace(0.0, 2.0, 41))
@@ -45,13 +45,16 @@ def test_compiled_reflector_and_cpa_equal_numpy_bit_for_bit(monkeypatch):
     pieces = [(3, 3), (3, 2), (9, 6)]
     situations = [(*rng.normal(0.0, 20.0, 4), rng.uniform(0, 360), rng.uniform(0, 2), 120.0)
                   for _ in range(20)]
-    def made():  # tables, CPAs, utilities, (min, max) of the tables
+
+    def made():  # tables, CPAs, utilities, couplings, (min, max) of the tables
         reflected = [ivp_build.reflect_ranged(t, p) for t in tables for p in pieces]
-        return ([r[0] for r in reflected],
+        coupled = [coupler.couple_ranged(t[:, 0], t[0], *w) for t in tables
+                   for w in ((50.0, 50.0), (20.0, 80.0))]
+        return ([r[0] for r in reflected] + [c[0] for c in coupled],
                 [grid.distance(*s) for s in situations],
                 [grid.avoid_utility(*s, 8.0, 25.0) for s in situations]
                 + [grid.cut_range_utility(*s, 12.5) for s in situations],
-                [r[1:] for r in reflected])
+                [r[1:] for r in reflected + coupled])
 
     compiled = made()
     _numpy_only(monkeypatch)
@@ -63,3 +66,4 @@ def test_compiled_reflector_and_cpa_equal_numpy_bit_for_bit(monkeypatch):
     importlib.import_module("uhrisim.core.compiled").numba_module.cache_clear()
     ivp_build._compiled_reflect.cache_clear()
     cpa._compiled_points.cache_clear()
+    coupler._compiled_table.cache_clear()

@@ -43,6 +43,11 @@ def _reference_cpa(self, osx, osy, cnx, cny, cnh_deg, cnv, horizon):
                         cnx, cny, cnh_deg, cnv, horizon)  # fmt: skip
 
 
+def _reference_couple(*args):
+    table = couple_reference(*args)
+    return table, float(table.min()), float(table.max())
+
+
 def _simulation():
     pytest.importorskip("yaml")
     from uhrisim.scenario.load import load_scenario
@@ -70,8 +75,8 @@ def test_mission_decisions_equal_reference_paths(monkeypatch):
 
     # the reference paths, swapped in where the fast ones are looked up
     monkeypatch.setattr(zaic_mod, "zaic_peak", zaic_mod.zaic_peak_reference)
-    monkeypatch.setattr(wpt_mod, "couple", couple_reference)
-    monkeypatch.setattr(trail_mod, "couple", couple_reference)
+    monkeypatch.setattr(wpt_mod, "couple_ranged", _reference_couple)
+    monkeypatch.setattr(trail_mod, "couple_ranged", _reference_couple)
     monkeypatch.setattr(CpaGrid, "distance", _reference_cpa)
     monkeypatch.setattr(cpa_mod, "_compiled_points", lambda: None)  # utilities of distance
     monkeypatch.setattr(cpa_mod, "avoid_utility_inplace", avoid_mod.cpa_utility)

@@ -15,7 +15,7 @@ from uhrisim.autonomy.behaviors.avoid_collision import cpa_utility
 from uhrisim.autonomy.behaviors.base import BehaviorContext, OwnNav
 from uhrisim.autonomy.conditions import Relation, VarRef, field_match
 from uhrisim.autonomy.config import HelmConfig
-from uhrisim.autonomy.coupler import couple, couple_reference
+from uhrisim.autonomy.coupler import couple_ranged, couple_reference
 from uhrisim.autonomy.cpa import CpaGrid, avoid_utility_inplace, cpa_distance
 from uhrisim.autonomy.domain import Domain, DomainAxis, Objective
 from uhrisim.autonomy.geometry import (
@@ -69,9 +69,12 @@ def test_couple_bit_identical_to_reference():
         if k % 7 == 0:
             fc = rng.normal(size=COURSE.npts)
         for w in ((50.0, 50.0), (30.0, 70.0)):
-            assert couple(fc, fs, *w).tobytes() == couple_reference(fc, fs, *w).tobytes()
-        assert np.array_equal(couple(fc, fs, normalize=False),
-                              couple_reference(fc, fs, normalize=False))  # fmt: skip
+            table, lo, hi = couple_ranged(fc, fs, *w)
+            ref = couple_reference(fc, fs, *w)
+            assert table.tobytes() == ref.tobytes() and (lo, hi) == (ref.min(), ref.max())
+        table, lo, hi = couple_ranged(fc, fs, normalize=False)
+        ref = couple_reference(fc, fs, normalize=False)
+        assert np.array_equal(table, ref) and (lo, hi) == (ref.min(), ref.max())
 
 
 def test_zaic_memo_returns_the_same_function_and_recomputes_on_change():

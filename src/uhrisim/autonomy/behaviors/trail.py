@@ -31,7 +31,7 @@ from typing import ClassVar
 
 from uhrisim.autonomy.behaviors.base import BehaviorContext
 from uhrisim.autonomy.behaviors.contact_base import CONTACT_HANDLERS, ContactBehavior
-from uhrisim.autonomy.coupler import couple
+from uhrisim.autonomy.coupler import couple_ranged
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import bearing_deg, distance
 from uhrisim.autonomy.ivp_build import reflect_ranged
@@ -117,4 +117,5 @@ class Trail(ContactBehavior):
             spd = 0.0
         fc = zaic_peak_on_axis(crs_axis, crs, 30.0, 150.0, 50.0)
         fs = zaic_peak_on_axis(spd_axis, spd, 0.1, 2.0, 50.0)
-        return Objective.over(ctx.domain, ("course", "speed"), couple(fc, fs))
+        table, lo, hi = couple_ranged(fc, fs)
+        return Objective.over(ctx.domain, ("course", "speed"), table, (lo, hi))
