@@ -31,7 +31,7 @@ from functools import cache, lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
-from uhrisim.core.compiled import jit
+from uhrisim.core.compiled import callable_compiled, jit
 
 __all__ = [
     "PiecewisePlanes",
@@ -263,10 +263,7 @@ def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-
             if intercept < lower:
                 intercept = lower
             b[i, j], mc[i, j], ms[i, j] = intercept, slope_c, slope_s
-            for c in (c0, c1):
-                for s in (s0, s1):
-                    corner = intercept + slope_c * c + slope_s * s
-                    lo, hi = min(lo, corner), max(hi, corner)
+            lo, hi = _corners_range(intercept, slope_c, slope_s, c0, c1, s0, s1, lo, hi)
     for k in range(2):  # normalize(0, 100) twice; the first gives the second's range
         if not hi - lo > 0.0:  # a constant stays
             break
@@ -274,13 +271,11 @@ def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-
         lo, hi = np.inf, -np.inf
         for i in range(n_pc):
             for j in range(n_ps):
-                b[i, j] = (b[i, j] + (0.0 - lo_k)) * scale
-                mc[i, j] = mc[i, j] * scale
-                ms[i, j] = ms[i, j] * scale
-                for c in (c_lo[i], c_hi[i]):
-                    for s in (s_lo[j], s_hi[j]):
-                        corner = b[i, j] + mc[i, j] * c + ms[i, j] * s
-                        lo, hi = min(lo, corner), max(hi, corner)
+                bij = (b[i, j] + (0.0 - lo_k)) * scale
+                mcij, msij = mc[i, j] * scale, ms[i, j] * scale
+                b[i, j], mc[i, j], ms[i, j] = bij, mcij, msij
+                lo, hi = _corners_range(bij, mcij, msij, c_lo[i], c_hi[i], s_lo[j], s_hi[j],
+                                        lo, hi)  # fmt: skip
     n_s = out.shape[1]
     row_b, row_mc, row_ms = np.empty(n_s), np.empty(n_s), np.empty(n_s)
     s_index = np.arange(n_s).astype(np.float64)
@@ -295,6 +290,19 @@ def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-
     return lo, hi
 
 
+def _corners_range(b, mc, ms, c0, c1, s0, s1, lo, hi):  # type: ignore[no-untyped-def]
+    """(lo, hi) widened by the plane ``b + mc*c + ms*s`` at the corners of the piece
+    ``[c0, c1] x [s0, s1]`` (grid indices). Which of two equal values is kept does not
+    matter: only a zero's sign could differ, and every use of the range is blind to it."""
+    v00 = b + mc * float(c0) + ms * float(s0)
+    v01 = b + mc * float(c0) + ms * float(s1)
+    v10 = b + mc * float(c1) + ms * float(s0)
+    v11 = b + mc * float(c1) + ms * float(s1)
+    return (min(min(lo, v00), min(v01, min(v10, v11))),
+            max(max(hi, v00), max(v01, max(v10, v11))))
+
+
 @cache
 def _compiled_reflect():  # type: ignore[no-untyped-def]
+    callable_compiled(_corners_range)
     return jit(_reflect_pieces, numpy_errors=True)

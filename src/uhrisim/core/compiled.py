@@ -40,3 +40,12 @@ def jit(function: Callable[..., Any], numpy_errors: bool = False) -> Callable[..
     model = "numpy" if numpy_errors else "python"
     return numba.njit(cache=False, nogil=True, error_model=model)(function)
 
+
+
+@cache
+def callable_compiled(function: Callable[..., Any]) -> None:
+    """Let compiled kernels call ``function`` (numba compiles it where they do); it stays
+    a plain Python function for the numpy paths. Nothing without numba."""
+    numba = numba_module()
+    if numba is not None:
+        numba.extending.register_jitable(function)

@@ -62,18 +62,24 @@ from uhrisim.core.frames import wrap_180
 Point = tuple[float, float]
 
 
+def _orient(a: Point, b: Point, c: Point) -> float:
+    """Twice the signed area of the triangle a, b, c (> 0 counter-clockwise)."""
+    return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+
+_CROSS_EPS = 1e-9
+
+
 def _segments_cross(p1: Point, p2: Point, q1: Point, q2: Point) -> bool:
     """True when segments p1-p2 and q1-q2 properly intersect (touching does not count)."""
-
-    def orient(a: Point, b: Point, c: Point) -> float:
-        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-
-    d1, d2 = orient(q1, q2, p1), orient(q1, q2, p2)
-    d3, d4 = orient(p1, p2, q1), orient(p1, p2, q2)
-    eps = 1e-9
-    return ((d1 > eps and d2 < -eps) or (d1 < -eps and d2 > eps)) and (
-        (d3 > eps and d4 < -eps) or (d3 < -eps and d4 > eps)
-    )
+    d1 = _orient(q1, q2, p1)
+    if -_CROSS_EPS <= d1 <= _CROSS_EPS:
+        return False
+    d2 = _orient(q1, q2, p2)
+    if not ((d1 > _CROSS_EPS and d2 < -_CROSS_EPS) or (d1 < -_CROSS_EPS and d2 > _CROSS_EPS)):
+        return False
+    d3, d4 = _orient(p1, p2, q1), _orient(p1, p2, q2)
+    return (d3 > _CROSS_EPS and d4 < -_CROSS_EPS) or (d3 < -_CROSS_EPS and d4 > _CROSS_EPS)
 
 
 def centroid(pts: tuple[Point, ...]) -> Point:
