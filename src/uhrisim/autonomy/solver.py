@@ -24,11 +24,13 @@ dropped. Behaviors hand in functions within 0..100, so this guards outside funct
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cache, lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.autonomy.domain import Domain, Objective
+from uhrisim.core.compiled import jit
 
 __all__ = ["SolveResult", "WeightedObjective", "solve", "solve_reference"]
 
@@ -74,17 +76,26 @@ def _taking_part(objectives: list[WeightedObjective]) -> list[WeightedObjective]
 
 def _components(domain: Domain, objs: list[WeightedObjective]) -> list[tuple[str, ...]]:
     """Connected groups of axes, each in domain order, ordered by their first axis."""
+    return list(_components_of(domain.names, tuple(w.objective.axes for w in objs)))
+
+
+@lru_cache(maxsize=64)
+def _components_of(
+    names: tuple[str, ...], spans: tuple[tuple[str, ...], ...]
+) -> tuple[tuple[str, ...], ...]:
+    """:func:`_components` for a domain's axis ``names`` and the functions' axes: a helm
+    sees the same few combinations tick after tick."""
     groups: list[set[str]] = []
-    for w in objs:
-        axes = set(w.objective.axes)
+    for span in spans:
+        axes = set(span)
         for g in [g for g in groups if not g.isdisjoint(axes)]:
             axes |= g
             groups.remove(g)
         groups.append(axes)
     if len(groups) > 1:
-        rank = {n: i for i, n in enumerate(domain.names)}
+        rank = {n: i for i, n in enumerate(names)}
         groups.sort(key=lambda g: min(rank[n] for n in g))
-    return [domain.order(g) for g in groups]
+    return tuple(tuple(n for n in names if n in g) for g in groups)
 
 
 def _components_reference(
@@ -123,6 +134,7 @@ def _fuse(
     shape = domain.shape(comp)
     acc: NDArray[np.float64] | None = None
     tmp: NDArray[np.float64] | None = None
+    add_scaled = _compiled_add_scaled()
     for w in members:
         v = w.objective.values
         if w.objective.axes != comp:  # a function over fewer axes: broadcast it
@@ -136,12 +148,26 @@ def _fuse(
             acc += w.priority * v
         elif acc is None:
             acc = np.multiply(v, w.priority)
+        elif add_scaled is not None and v.flags.c_contiguous:
+            add_scaled(acc.reshape(-1), v.reshape(-1), w.priority)
         else:
             if tmp is None:
                 tmp = np.empty(shape)
             acc += np.multiply(v, w.priority, out=tmp)
     assert acc is not None  # a component has at least one member
     return acc
+
+
+def _add_scaled(acc, v, weight):  # type: ignore[no-untyped-def]
+    """``acc += v * weight`` point by point (compiled by numba): numpy's two passes, the
+    same two roundings at each point."""
+    for k in range(acc.shape[0]):
+        acc[k] = acc[k] + v[k] * weight
+
+
+@cache
+def _compiled_add_scaled():  # type: ignore[no-untyped-def]
+    return jit(_add_scaled, numpy_errors=True)
 
 
 def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:

@@ -37,8 +37,8 @@ def _distance(x: NDArray, summit: float, wrap_period: float | None) -> NDArray:
     """|x - summit| (circular when ``wrap_period``), as a new array."""
     d = np.subtract(x, summit, out=np.empty_like(x))  # a real array for 0-d x too
     np.abs(d, out=d)
-    if wrap_period:
-        np.remainder(d, wrap_period, out=d)
+    if wrap_period:  # d >= 0 and period > 0: fmod is the remainder (% in the reference)
+        np.fmod(d, wrap_period, out=d)
         np.minimum(d, wrap_period - d, out=d)
     return d
 
