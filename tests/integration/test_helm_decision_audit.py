@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uhrisim.autonomy import coupler, cpa, ivp_build
+from uhrisim.autonomy import coupler, cpa, ivp_build, solver, zaic
+from uhrisim.autonomy.domain import Domain, Objective
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "helm"
 
@@ -27,16 +28,24 @@ def test_every_decision_of_the_paper_s_mission_is_today_s():
                            f"instead of {reference[rows[:3]]}"
 
 
-def _numpy_only(monkeypatch):
-    """Run the helm's pieces without numba (the pure-numpy path)."""
-    compiled = importlib.import_module("uhrisim.core.compiled")
-    monkeypatch.setenv("UHRISIM_NUMBA", "0")
-    compiled.numba_module.cache_clear()
-    for cached in (ivp_build._compiled_reflect, cpa._compiled_points, coupler._compiled_table):
+#: The helm's compiled kernels, each remembered by its module once built.
+KERNELS = (ivp_build._compiled_reflect, cpa._compiled_points, coupler._compiled_table,
+           zaic._compiled_peak, solver._compiled_add_scaled)
+
+
+def _forget_kernels():
+    importlib.import_module("uhrisim.core.compiled").numba_module.cache_clear()
+    for cached in KERNELS:
         cached.cache_clear()
 
 
-def test_compiled_reflector_cpa_and_coupler_equal_numpy_bit_for_bit(monkeypatch):
+def _numpy_only(monkeypatch):
+    """Run the helm's pieces without numba (the pure-numpy path)."""
+    monkeypatch.setenv("UHRISIM_NUMBA", "0")
+    _forget_kernels()
+
+
+def test_compiled_helm_kernels_equal_numpy_bit_for_bit(monkeypatch):
     pytest.importorskip("numba", reason="the [fast] extra is not installed")
     rng = np.random.default_rng(8)
     grid = cpa.CpaGrid.over(np.arange(360.0), np.linspace(0.0, 2.0, 41))
@@ -45,12 +54,18 @@ def test_compiled_reflector_cpa_and_coupler_equal_numpy_bit_for_bit(monkeypatch)
     pieces = [(3, 3), (3, 2), (9, 6)]
     situations = [(*rng.normal(0.0, 20.0, 4), rng.uniform(0, 360), rng.uniform(0, 2), 120.0)
                   for _ in range(20)]
+    domain = Domain.paper()
+    fused = [solver.WeightedObjective(f"f{k}", 100.0 + k, Objective.over(
+        domain, ("course", "speed"), rng.uniform(0.0, 100.0, (360, 26)))) for k in range(3)]
 
-    def made():  # tables, CPAs, utilities, couplings, (min, max) of the tables
+    def made():  # tables, CPAs, utilities, couplings, ZAICs, (min, max) of the tables
         reflected = [ivp_build.reflect_ranged(t, p) for t in tables for p in pieces]
         coupled = [coupler.couple_ranged(t[:, 0], t[0], *w) for t in tables
                    for w in ((50.0, 50.0), (20.0, 80.0))]
-        return ([r[0] for r in reflected] + [c[0] for c in coupled],
+        peaks = [zaic.zaic_peak(np.arange(360.0), s[4], pw, 120.0, 50.0, wrap_period=360.0)
+                 for s in situations for pw in (0.0, 10.0)]
+        return ([r[0] for r in reflected] + [c[0] for c in coupled] + peaks
+                + [solver._fuse(domain, ("course", "speed"), fused)],
                 [grid.distance(*s) for s in situations],
                 [grid.avoid_utility(*s, 8.0, 25.0) for s in situations]
                 + [grid.cut_range_utility(*s, 12.5) for s in situations],
@@ -61,9 +76,6 @@ def test_compiled_reflector_cpa_and_coupler_equal_numpy_bit_for_bit(monkeypatch)
     numpy = made()
     for fast, slow in zip(sum(compiled[:3], []), sum(numpy[:3], []), strict=True):
         np.testing.assert_array_equal(fast, slow)
-    assert compiled[3] == numpy[3] == [(t.min(), t.max()) for t in numpy[0]]
+    assert compiled[3] == numpy[3] == [(t.min(), t.max()) for t in numpy[0][:len(numpy[3])]]
     monkeypatch.delenv("UHRISIM_NUMBA")
-    importlib.import_module("uhrisim.core.compiled").numba_module.cache_clear()
-    ivp_build._compiled_reflect.cache_clear()
-    cpa._compiled_points.cache_clear()
-    coupler._compiled_table.cache_clear()
+    _forget_kernels()
