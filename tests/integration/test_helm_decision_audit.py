@@ -60,21 +60,22 @@ def test_compiled_helm_kernels_equal_numpy_bit_for_bit(monkeypatch):
 
     def made():  # tables, CPAs, utilities, couplings, ZAICs, (min, max) of the tables
         reflected = [ivp_build.reflect_ranged(t, p) for t in tables for p in pieces]
-        coupled = [coupler.couple_ranged(t[:, 0], t[0], *w) for t in tables
+        coupled = [coupler._couple(t[:, 0], t[0], *w, True) for t in tables
                    for w in ((50.0, 50.0), (20.0, 80.0))]
         peaks = [zaic.zaic_peak(np.arange(360.0), s[4], pw, 120.0, 50.0, wrap_period=360.0)
                  for s in situations for pw in (0.0, 10.0)]
         return ([r[0] for r in reflected] + [c[0] for c in coupled] + peaks
                 + [solver._fuse(domain, ("course", "speed"), fused)],
                 [grid.distance(*s) for s in situations],
-                [grid.avoid_utility(*s, 8.0, 25.0) for s in situations]
-                + [grid.cut_range_utility(*s, 12.5) for s in situations],
+                [grid.distance(*s, cpa.AvoidUtility(8.0, 25.0)) for s in situations]
+                + [grid.distance(*s, cpa.CutRangeUtility(12.5)) for s in situations],
                 [r[1:] for r in reflected + coupled])
 
     compiled = made()
     _numpy_only(monkeypatch)
     numpy = made()
-    for fast, slow in zip(sum(compiled[:3], []), sum(numpy[:3], []), strict=True):
+    flat = [[a for group in made_ for a in group] for made_ in (compiled[:3], numpy[:3])]
+    for fast, slow in zip(*flat, strict=True):
         np.testing.assert_array_equal(fast, slow)
     assert compiled[3] == numpy[3] == [(t.min(), t.max()) for t in numpy[0][:len(numpy[3])]]
     monkeypatch.delenv("UHRISIM_NUMBA")

@@ -15,7 +15,7 @@ from uhrisim.autonomy.behaviors.avoid_collision import cpa_utility
 from uhrisim.autonomy.behaviors.base import BehaviorContext, OwnNav
 from uhrisim.autonomy.conditions import Relation, VarRef, field_match
 from uhrisim.autonomy.config import HelmConfig
-from uhrisim.autonomy.coupler import couple_ranged, couple_reference
+from uhrisim.autonomy.coupler import couple, couple_reference, coupled_objective
 from uhrisim.autonomy.cpa import CpaGrid, avoid_utility_inplace, cpa_distance
 from uhrisim.autonomy.domain import Domain, DomainAxis, Objective
 from uhrisim.autonomy.geometry import (
@@ -29,6 +29,7 @@ from uhrisim.autonomy.zaic import ZaicMemo, zaic_peak, zaic_peak_on_axis, zaic_p
 
 COURSE = DomainAxis("course", 0.0, 359.0, 360, wrap=True)
 SPEED = DomainAxis("speed", 0.0, 2.0, 41)
+DOMAIN = Domain((COURSE, SPEED))
 
 
 def _zaic_args(rng: np.random.Generator) -> tuple[float, ...]:
@@ -69,12 +70,12 @@ def test_couple_bit_identical_to_reference():
         if k % 7 == 0:
             fc = rng.normal(size=COURSE.npts)
         for w in ((50.0, 50.0), (30.0, 70.0)):
-            table, lo, hi = couple_ranged(fc, fs, *w)
             ref = couple_reference(fc, fs, *w)
-            assert table.tobytes() == ref.tobytes() and (lo, hi) == (ref.min(), ref.max())
-        table, lo, hi = couple_ranged(fc, fs, normalize=False)
-        ref = couple_reference(fc, fs, normalize=False)
-        assert np.array_equal(table, ref) and (lo, hi) == (ref.min(), ref.max())
+            assert couple(fc, fs, *w).tobytes() == ref.tobytes()
+            objective = coupled_objective(DOMAIN, fc, fs, w)
+            assert objective.value_range == (ref.min(), ref.max())
+        assert np.array_equal(couple(fc, fs, normalize=False),
+                              couple_reference(fc, fs, normalize=False))  # fmt: skip
 
 
 def test_zaic_memo_returns_the_same_function_and_recomputes_on_change():

@@ -14,9 +14,10 @@ from functools import cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from uhrisim.autonomy.domain import Domain, Objective
 from uhrisim.core.compiled import jit
 
-__all__ = ["couple", "couple_ranged", "couple_reference", "rescale"]
+__all__ = ["couple", "couple_reference", "coupled_objective", "rescale"]
 
 
 def rescale(f: ArrayLike, low: float, high: float) -> NDArray[np.float64]:
@@ -55,16 +56,22 @@ def couple(
     1-D pieces (rounding is monotone, so min_ij fl(a_i + b_j) = fl(min a + min b)) and the
     final rescale is applied as each sum is made (``0 + x`` is dropped: x >= +0 here).
     """
-    return couple_ranged(f_course, f_speed, course_weight, speed_weight, normalize)[0]
+    return _couple(f_course, f_speed, course_weight, speed_weight, normalize)[0]
 
 
-def couple_ranged(
+def coupled_objective(
+    domain: Domain,
     f_course: ArrayLike,
     f_speed: ArrayLike,
-    course_weight: float = 50.0,
-    speed_weight: float = 50.0,
-    normalize: bool = True,
-) -> tuple[NDArray[np.float64], float, float]:
+    weights: tuple[float, float] = (50.0, 50.0),
+) -> Objective:
+    """:func:`couple` (normalised) as the objective over (course, speed) a behavior hands
+    the helm, with its exact range (the solver's range check then reads no table)."""
+    table, lo, hi = _couple(f_course, f_speed, weights[0], weights[1], True)
+    return Objective.over(domain, ("course", "speed"), table, (lo, hi))
+
+
+def _couple(f_course, f_speed, course_weight, speed_weight, normalize):  # type: ignore[no-untyped-def]
     """:func:`couple`'s table and its exact (min, max), known from the 1-D pieces (the
     final rescale is monotone too). With numba the table is made in one compiled pass."""
     fc, cmin, cmax = _rescale_ranged(f_course, course_weight)

@@ -23,7 +23,9 @@ from numpy.typing import ArrayLike, NDArray
 from uhrisim.core.compiled import jit
 
 __all__ = [
+    "AvoidUtility",
     "CpaGrid",
+    "CutRangeUtility",
     "avoid_utility_inplace",
     "cpa_distance",
     "cpa_distance_reference",
@@ -153,20 +155,24 @@ class CpaGrid:
         cnh_deg: float,
         cnv: float,
         horizon: float,
+        utility: AvoidUtility | CutRangeUtility | None = None,
     ) -> NDArray[np.float64]:
         """CPA distance (m) over [0, horizon] for every grid (course, speed); a new array.
+        With ``utility``, what it makes of the distance instead (0..100).
 
         Same operations as :func:`cpa_distance`, with b = r0.w carried negated
-        (``nb = w.(-r0)``, exact) so that t* = nb / (a + 1e-300) needs no negation.
+        (``nb = w.(-r0)``, exact) so that t* = nb / (a + 1e-300) needs no negation. With
+        numba, one compiled pass (CPA and utility together, point by point).
         """
         h = np.radians(cnh_deg)
         cwx, cwy = cnv * np.sin(h), cnv * np.cos(h)
         dx, dy = osx - cnx, osy - cny
         compiled = _compiled_points()
         if compiled is not None:  # the same operations per grid point, compiled
+            kind, p0, p1 = (_DISTANCE, 0.0, 0.0) if utility is None else utility.kernel_args()
             out = np.empty(self.vx.shape)
             compiled(self.vx, self.vy, cwx, cwy, dx, dy, dx * dx + dy * dy,
-                     max(horizon, 0.0), _DISTANCE, 0.0, 0.0, out)
+                     max(horizon, 0.0), kind, p0, p1, out)
             return out
         wx = np.subtract(self.vx, cwx)
         wy = np.subtract(self.vy, cwy)
@@ -186,53 +192,35 @@ class CpaGrid:
         a *= t
         a += dx * dx + dy * dy
         np.maximum(a, 0.0, out=a)
-        return np.sqrt(a, out=a)
+        cpa = np.sqrt(a, out=a)
+        return cpa if utility is None else utility.apply(cpa)
 
-    def avoid_utility(
-        self,
-        osx: float,
-        osy: float,
-        cnx: float,
-        cny: float,
-        cnh_deg: float,
-        cnv: float,
-        horizon: float,
-        min_util: float,
-        max_util: float,
-    ) -> NDArray[np.float64]:
-        """:func:`avoid_utility_inplace` of :meth:`distance` (AvoidCollision's utility,
-        0..100, a new array); with numba one compiled pass, CPA and utility together."""
-        span = max(max_util - min_util, 1e-9)
-        return self._utility(osx, osy, cnx, cny, cnh_deg, cnv, horizon, _AVOID,
-                             min_util, 75.0 / span, lambda d: avoid_utility_inplace(
-                                 d, min_util, max_util))  # fmt: skip
 
-    def cut_range_utility(
-        self,
-        osx: float,
-        osy: float,
-        cnx: float,
-        cny: float,
-        cnh_deg: float,
-        cnv: float,
-        horizon: float,
-        range_m: float,
-    ) -> NDArray[np.float64]:
-        """:func:`cut_range_utility_inplace` of :meth:`distance` (far Trail's utility,
-        0..100, a new array), as :meth:`avoid_utility`."""
-        return self._utility(osx, osy, cnx, cny, cnh_deg, cnv, horizon, _CUT_RANGE,
-                             range_m, 0.0, lambda d: cut_range_utility_inplace(d, range_m))
+@dataclass(frozen=True)
+class AvoidUtility:
+    """AvoidCollision's utility of the CPA (:func:`avoid_utility_inplace`), m."""
 
-    def _utility(self, osx, osy, cnx, cny, cnh_deg, cnv, horizon, kind, p0, p1, numpy_path):  # type: ignore[no-untyped-def]
-        compiled = _compiled_points()
-        if compiled is None:
-            return numpy_path(self.distance(osx, osy, cnx, cny, cnh_deg, cnv, horizon))
-        h = np.radians(cnh_deg)
-        dx, dy = osx - cnx, osy - cny
-        out = np.empty(self.vx.shape)
-        compiled(self.vx, self.vy, cnv * np.sin(h), cnv * np.cos(h), dx, dy, dx * dx + dy * dy,
-                 max(horizon, 0.0), kind, p0, p1, out)
-        return out
+    min_util: float
+    max_util: float
+
+    def apply(self, cpa: NDArray[np.float64]) -> NDArray[np.float64]:
+        return avoid_utility_inplace(cpa, self.min_util, self.max_util)
+
+    def kernel_args(self) -> tuple[int, float, float]:
+        return _AVOID, self.min_util, 75.0 / max(self.max_util - self.min_util, 1e-9)
+
+
+@dataclass(frozen=True)
+class CutRangeUtility:
+    """Far Trail's utility of the CPA (:func:`cut_range_utility_inplace`), ``range_m`` m."""
+
+    range_m: float
+
+    def apply(self, cpa: NDArray[np.float64]) -> NDArray[np.float64]:
+        return cut_range_utility_inplace(cpa, self.range_m)
+
+    def kernel_args(self) -> tuple[int, float, float]:
+        return _CUT_RANGE, self.range_m, 0.0
 
 
 def avoid_utility_inplace(cpa: np.ndarray, min_util: float, max_util: float) -> np.ndarray:

@@ -264,7 +264,7 @@ def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-
                 intercept = lower
             b[i, j], mc[i, j], ms[i, j] = intercept, slope_c, slope_s
             lo, hi = _corners_range(intercept, slope_c, slope_s, c0, c1, s0, s1, lo, hi)
-    for k in range(2):  # normalize(0, 100) twice; the first gives the second's range
+    for _ in range(2):  # normalize(0, 100) twice; the first gives the second's range
         if not hi - lo > 0.0:  # a constant stays
             break
         scale, lo_k = 100.0 / (hi - lo), lo

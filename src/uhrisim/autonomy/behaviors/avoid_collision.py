@@ -34,7 +34,7 @@ import numpy as np
 
 from uhrisim.autonomy.behaviors.base import BehaviorContext, ContactInfo
 from uhrisim.autonomy.behaviors.contact_base import CONTACT_HANDLERS, ContactBehavior
-from uhrisim.autonomy.cpa import cpa_distance
+from uhrisim.autonomy.cpa import AvoidUtility, cpa_distance
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import distance
 from uhrisim.autonomy.ivp_build import (
@@ -154,8 +154,8 @@ class AvoidCollision(ContactBehavior):
         if bounds is None or (first_build and ctx.domain.has("depth")):
             return None
         own, grid = ctx.own, self.cpa_grid(ctx.domain)
-        u = grid.avoid_utility(own.x, own.y, tr.x, tr.y, tr.heading, tr.speed, p.time_on_leg,
-                               *bounds)  # fmt: skip
+        u = grid.distance(own.x, own.y, tr.x, tr.y, tr.heading, tr.speed, p.time_on_leg,
+                          AvoidUtility(*bounds))  # fmt: skip
         table, lo, hi = reflect_ranged(u, PIECE)
         return Objective.over(ctx.domain, ("course", "speed"), table, (lo, hi))
 

@@ -31,7 +31,8 @@ from typing import ClassVar
 
 from uhrisim.autonomy.behaviors.base import BehaviorContext
 from uhrisim.autonomy.behaviors.contact_base import CONTACT_HANDLERS, ContactBehavior
-from uhrisim.autonomy.coupler import couple_ranged
+from uhrisim.autonomy.coupler import coupled_objective
+from uhrisim.autonomy.cpa import CutRangeUtility
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import bearing_deg, distance
 from uhrisim.autonomy.ivp_build import reflect_ranged
@@ -102,7 +103,7 @@ class Trail(ContactBehavior):
         crs_axis, spd_axis = ctx.domain.axis("course"), ctx.domain.axis("speed")
         if dist > p.nm_radius:
             grid = self.cpa_grid(ctx.domain)
-            u = grid.cut_range_utility(own.x, own.y, px, py, ch, cv, p.time_on_leg, dist)
+            u = grid.distance(own.x, own.y, px, py, ch, cv, p.time_on_leg, CutRangeUtility(dist))
             table, lo, hi = reflect_ranged(u, FAR_PIECE)
             return Objective.over(ctx.domain, ("course", "speed"), table, (lo, hi))
         if dist > p.radius:
@@ -117,5 +118,4 @@ class Trail(ContactBehavior):
             spd = 0.0
         fc = zaic_peak_on_axis(crs_axis, crs, 30.0, 150.0, 50.0)
         fs = zaic_peak_on_axis(spd_axis, spd, 0.1, 2.0, 50.0)
-        table, lo, hi = couple_ranged(fc, fs)
-        return Objective.over(ctx.domain, ("course", "speed"), table, (lo, hi))
+        return coupled_objective(ctx.domain, fc, fs)
