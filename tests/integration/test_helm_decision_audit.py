@@ -10,8 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uhrisim.autonomy import coupler, cpa, ivp_build, solver, zaic
-from uhrisim.autonomy.domain import Domain, Objective
+from uhrisim.autonomy import coupler, cpa, ivp_build
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "helm"
 
@@ -29,8 +28,7 @@ def test_every_decision_of_the_paper_s_mission_is_today_s():
 
 
 #: The helm's compiled kernels, each remembered by its module once built.
-KERNELS = (ivp_build._compiled_reflect, cpa._compiled_points, coupler._compiled_table,
-           zaic._compiled_peak, solver._compiled_add_scaled)
+KERNELS = (ivp_build._compiled_reflect, cpa._compiled_points, coupler._compiled_table)
 
 
 def _forget_kernels():
@@ -54,18 +52,12 @@ def test_compiled_helm_kernels_equal_numpy_bit_for_bit(monkeypatch):
     pieces = [(3, 3), (3, 2), (9, 6)]
     situations = [(*rng.normal(0.0, 20.0, 4), rng.uniform(0, 360), rng.uniform(0, 2), 120.0)
                   for _ in range(20)]
-    domain = Domain.paper()
-    fused = [solver.WeightedObjective(f"f{k}", 100.0 + k, Objective.over(
-        domain, ("course", "speed"), rng.uniform(0.0, 100.0, (360, 26)))) for k in range(3)]
 
-    def made():  # tables, CPAs, utilities, couplings, ZAICs, (min, max) of the tables
+    def made():  # tables, CPAs, utilities, couplings, (min, max) of the tables
         reflected = [ivp_build.reflect_ranged(t, p) for t in tables for p in pieces]
         coupled = [coupler._couple(t[:, 0], t[0], *w, True) for t in tables
                    for w in ((50.0, 50.0), (20.0, 80.0))]
-        peaks = [zaic.zaic_peak(np.arange(360.0), s[4], pw, 120.0, 50.0, wrap_period=360.0)
-                 for s in situations for pw in (0.0, 10.0)]
-        return ([r[0] for r in reflected] + [c[0] for c in coupled] + peaks
-                + [solver._fuse(domain, ("course", "speed"), fused)],
+        return ([r[0] for r in reflected] + [c[0] for c in coupled],
                 [grid.distance(*s) for s in situations],
                 [grid.distance(*s, cpa.AvoidUtility(8.0, 25.0)) for s in situations]
                 + [grid.distance(*s, cpa.CutRangeUtility(12.5)) for s in situations],

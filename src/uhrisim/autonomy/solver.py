@@ -24,13 +24,12 @@ dropped. Behaviors hand in functions within 0..100, so this guards outside funct
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import cache, lru_cache
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.autonomy.domain import Domain, Objective
-from uhrisim.core.compiled import jit
 
 __all__ = ["SolveResult", "WeightedObjective", "solve", "solve_reference"]
 
@@ -134,7 +133,6 @@ def _fuse(
     shape = domain.shape(comp)
     acc: NDArray[np.float64] | None = None
     tmp: NDArray[np.float64] | None = None
-    add_scaled = _compiled_add_scaled()
     for w in members:
         v = w.objective.values
         if w.objective.axes != comp:  # a function over fewer axes: broadcast it
@@ -148,26 +146,12 @@ def _fuse(
             acc += w.priority * v
         elif acc is None:
             acc = np.multiply(v, w.priority)
-        elif add_scaled is not None and v.flags.c_contiguous:
-            add_scaled(acc.reshape(-1), v.reshape(-1), w.priority)
         else:
             if tmp is None:
                 tmp = np.empty(shape)
             acc += np.multiply(v, w.priority, out=tmp)
     assert acc is not None  # a component has at least one member
     return acc
-
-
-def _add_scaled(acc, v, weight):  # type: ignore[no-untyped-def]
-    """``acc += v * weight`` point by point (compiled by numba): numpy's two passes, the
-    same two roundings at each point."""
-    for k in range(acc.shape[0]):
-        acc[k] = acc[k] + v[k] * weight
-
-
-@cache
-def _compiled_add_scaled():  # type: ignore[no-untyped-def]
-    return jit(_add_scaled, numpy_errors=True)
 
 
 def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:

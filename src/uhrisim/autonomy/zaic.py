@@ -17,13 +17,10 @@ the grid point nearest the summit along the axis (not around it), the lower on a
 
 from __future__ import annotations
 
-from functools import cache
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.autonomy.domain import DomainAxis
-from uhrisim.core.compiled import jit
 
 __all__ = [
     "ZaicMemo",
@@ -69,13 +66,6 @@ def zaic_peak(
     delta = min(max(float(summitdelta), 0.0), maxutil - minutil)
     sloped = pw > 0.0 and delta > 0.0
     edge = maxutil - delta if sloped else maxutil
-    compiled = _compiled_peak() if xa.ndim == 1 else None
-    if compiled is not None:  # the same operations point by point
-        u = np.empty_like(xa)
-        compiled(xa, float(summit), float(wrap_period or 0.0), pw, bw,
-                 (edge - minutil) / bw if bw > 0.0 else 0.0, edge, float(minutil), sloped,
-                 delta / pw if sloped else 0.0, float(maxutil), u)  # fmt: skip
-        return u
     d = _distance(xa, float(summit), wrap_period)
     in_peak = d <= pw
     if bw > 0.0:
@@ -93,29 +83,6 @@ def zaic_peak(
     else:
         u[in_peak] = maxutil
     return u
-
-
-def _peak_points(x, summit, period, pw, bw, base_slope, edge, minutil, sloped, peak_slope,
-                 maxutil, out):  # type: ignore[no-untyped-def]
-    """:func:`zaic_peak` point by point (compiled by numba; ``period`` 0 = no wrap,
-    ``base_slope`` = (edge - min) / bw, ``peak_slope`` = delta / pw): the numpy path's
-    operations in its order at every point."""
-    for k in range(x.shape[0]):
-        d = abs(x[k] - summit)
-        if period:
-            d = np.fmod(d, period)
-            d = min(d, period - d)
-        if d <= pw:
-            out[k] = maxutil - d * peak_slope if sloped else maxutil
-        elif bw > 0.0:
-            out[k] = max(edge - (d - pw) * base_slope, minutil)
-        else:
-            out[k] = minutil
-
-
-@cache
-def _compiled_peak():  # type: ignore[no-untyped-def]
-    return jit(_peak_points, numpy_errors=True)
 
 
 def zaic_peak_reference(
