@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uhrisim.autonomy import cpa, ivp_build
+from uhrisim.autonomy import coupler, cpa, ivp_build
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "helm"
 
@@ -27,16 +27,23 @@ def test_every_decision_of_the_paper_s_mission_is_today_s():
                            f"instead of {reference[rows[:3]]}"
 
 
-def _numpy_only(monkeypatch):
-    """Run the helm's pieces without numba (the pure-numpy path)."""
-    compiled = importlib.import_module("uhrisim.core.compiled")
-    monkeypatch.setenv("UHRISIM_NUMBA", "0")
-    compiled.numba_module.cache_clear()
-    for cached in (ivp_build._compiled_reflect, cpa._compiled_distance):
+#: The helm's compiled kernels, each remembered by its module once built.
+KERNELS = (ivp_build._compiled_reflect, cpa._compiled_points, coupler._compiled_table)
+
+
+def _forget_kernels():
+    importlib.import_module("uhrisim.core.compiled").numba_module.cache_clear()
+    for cached in KERNELS:
         cached.cache_clear()
 
 
-def test_compiled_reflector_and_cpa_equal_numpy_bit_for_bit(monkeypatch):
+def _numpy_only(monkeypatch):
+    """Run the helm's pieces without numba (the pure-numpy path)."""
+    monkeypatch.setenv("UHRISIM_NUMBA", "0")
+    _forget_kernels()
+
+
+def test_compiled_helm_kernels_equal_numpy_bit_for_bit(monkeypatch):
     pytest.importorskip("numba", reason="the [fast] extra is not installed")
     rng = np.random.default_rng(8)
     grid = cpa.CpaGrid.over(np.arange(360.0), np.linspace(0.0, 2.0, 41))
@@ -45,14 +52,23 @@ def test_compiled_reflector_and_cpa_equal_numpy_bit_for_bit(monkeypatch):
     pieces = [(3, 3), (3, 2), (9, 6)]
     situations = [(*rng.normal(0.0, 20.0, 4), rng.uniform(0, 360), rng.uniform(0, 2), 120.0)
                   for _ in range(20)]
-    compiled = ([ivp_build.reflect(t, p) for t in tables for p in pieces],
-                [grid.distance(*s) for s in situations])
+
+    def made():  # tables, CPAs, utilities, couplings, (min, max) of the tables
+        reflected = [ivp_build.reflect_ranged(t, p) for t in tables for p in pieces]
+        coupled = [coupler._couple(t[:, 0], t[0], *w, True) for t in tables
+                   for w in ((50.0, 50.0), (20.0, 80.0))]
+        return ([r[0] for r in reflected] + [c[0] for c in coupled],
+                [grid.distance(*s) for s in situations],
+                [grid.distance(*s, cpa.AvoidUtility(8.0, 25.0)) for s in situations]
+                + [grid.distance(*s, cpa.CutRangeUtility(12.5)) for s in situations],
+                [r[1:] for r in reflected + coupled])
+
+    compiled = made()
     _numpy_only(monkeypatch)
-    numpy = ([ivp_build.reflect(t, p) for t in tables for p in pieces],
-             [grid.distance(*s) for s in situations])
-    for fast, slow in zip(compiled[0] + compiled[1], numpy[0] + numpy[1], strict=True):
+    numpy = made()
+    flat = [[a for group in made_ for a in group] for made_ in (compiled[:3], numpy[:3])]
+    for fast, slow in zip(*flat, strict=True):
         np.testing.assert_array_equal(fast, slow)
+    assert compiled[3] == numpy[3] == [(t.min(), t.max()) for t in numpy[0][:len(numpy[3])]]
     monkeypatch.delenv("UHRISIM_NUMBA")
-    importlib.import_module("uhrisim.core.compiled").numba_module.cache_clear()
-    ivp_build._compiled_reflect.cache_clear()
-    cpa._compiled_distance.cache_clear()
+    _forget_kernels()

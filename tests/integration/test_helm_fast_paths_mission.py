@@ -4,9 +4,10 @@
 every autonomy step's inputs (time, own nav, node reports, extra mail) and outputs are
 recorded. Fresh autonomy stacks built from the same scenario then replay those inputs
 with the plain reference implementations swapped in (ZAIC, coupler, CPA over the grid,
-CPA utility, solver). The fast paths perform the same floating-point operations, so the
-decisions (heading, speed, depth), the fused totals and every behavior's contribution must
-be equal - not merely close - at each of the 480 helm steps of both vehicles.
+its utilities at every grid point in numpy, solver). The fast paths perform the same
+floating-point operations, so the decisions (heading, speed, depth), the fused totals and
+every behavior's contribution must be equal - not merely close - at each of the 480 helm
+steps of both vehicles.
 """
 
 from __future__ import annotations
@@ -20,11 +21,13 @@ import pytest
 import uhrisim.autonomy.behaviors.avoid_collision as avoid_mod
 import uhrisim.autonomy.behaviors.trail as trail_mod
 import uhrisim.autonomy.behaviors.waypoint_engine as wpt_mod
+import uhrisim.autonomy.cpa as cpa_mod
 import uhrisim.autonomy.helm as helm_mod
 import uhrisim.autonomy.zaic as zaic_mod
 from uhrisim.autonomy.community import VehicleAutonomy
 from uhrisim.autonomy.coupler import couple_reference
 from uhrisim.autonomy.cpa import CpaGrid, cpa_distance
+from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.solver import solve_reference
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
@@ -37,9 +40,15 @@ def _outcome(out) -> tuple:
     return dec, out.total, tuple(sorted(out.contributions.items()))
 
 
-def _reference_cpa(self, osx, osy, cnx, cny, cnh_deg, cnv, horizon):
-    return cpa_distance(osx, osy, self.courses_deg[:, None], self.speeds[None, :],
-                        cnx, cny, cnh_deg, cnv, horizon)  # fmt: skip
+def _reference_cpa(self, osx, osy, cnx, cny, cnh_deg, cnv, horizon, utility=None):
+    cpa = cpa_distance(osx, osy, self.courses_deg[:, None], self.speeds[None, :],
+                       cnx, cny, cnh_deg, cnv, horizon)  # fmt: skip
+    return cpa if utility is None else utility.apply(cpa)
+
+
+def _reference_coupled(domain, f_course, f_speed, weights=(50.0, 50.0)):
+    table = couple_reference(f_course, f_speed, *weights)
+    return Objective.over(domain, ("course", "speed"), table, (table.min(), table.max()))
 
 
 def _simulation():
@@ -69,10 +78,10 @@ def test_mission_decisions_equal_reference_paths(monkeypatch):
 
     # the reference paths, swapped in where the fast ones are looked up
     monkeypatch.setattr(zaic_mod, "zaic_peak", zaic_mod.zaic_peak_reference)
-    monkeypatch.setattr(wpt_mod, "couple", couple_reference)
-    monkeypatch.setattr(trail_mod, "couple", couple_reference)
+    monkeypatch.setattr(wpt_mod, "coupled_objective", _reference_coupled)
+    monkeypatch.setattr(trail_mod, "coupled_objective", _reference_coupled)
     monkeypatch.setattr(CpaGrid, "distance", _reference_cpa)
-    monkeypatch.setattr(avoid_mod, "cpa_utility_inplace", avoid_mod.cpa_utility)
+    monkeypatch.setattr(cpa_mod, "avoid_utility_inplace", avoid_mod.cpa_utility)
     monkeypatch.setattr(helm_mod, "solve", solve_reference)
     stacks = {a.name: a.driver.autonomy for a in _simulation().agents.values()
               if a.driver is not None}  # fmt: skip

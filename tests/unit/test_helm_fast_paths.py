@@ -11,12 +11,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from uhrisim.autonomy.behaviors.avoid_collision import cpa_utility, cpa_utility_inplace
+from uhrisim.autonomy.behaviors.avoid_collision import cpa_utility
 from uhrisim.autonomy.behaviors.base import BehaviorContext, OwnNav
 from uhrisim.autonomy.conditions import Relation, VarRef, field_match
 from uhrisim.autonomy.config import HelmConfig
-from uhrisim.autonomy.coupler import couple, couple_reference
-from uhrisim.autonomy.cpa import CpaGrid, cpa_distance
+from uhrisim.autonomy.coupler import couple, couple_reference, coupled_objective
+from uhrisim.autonomy.cpa import CpaGrid, avoid_utility_inplace, cpa_distance
 from uhrisim.autonomy.domain import Domain, DomainAxis, Objective
 from uhrisim.autonomy.geometry import (
     _dist_to_segment,
@@ -29,6 +29,7 @@ from uhrisim.autonomy.zaic import ZaicMemo, zaic_peak, zaic_peak_on_axis, zaic_p
 
 COURSE = DomainAxis("course", 0.0, 359.0, 360, wrap=True)
 SPEED = DomainAxis("speed", 0.0, 2.0, 41)
+DOMAIN = Domain((COURSE, SPEED))
 
 
 def _zaic_args(rng: np.random.Generator) -> tuple[float, ...]:
@@ -69,7 +70,10 @@ def test_couple_bit_identical_to_reference():
         if k % 7 == 0:
             fc = rng.normal(size=COURSE.npts)
         for w in ((50.0, 50.0), (30.0, 70.0)):
-            assert couple(fc, fs, *w).tobytes() == couple_reference(fc, fs, *w).tobytes()
+            ref = couple_reference(fc, fs, *w)
+            assert couple(fc, fs, *w).tobytes() == ref.tobytes()
+            objective = coupled_objective(DOMAIN, fc, fs, w)
+            assert objective.value_range == (ref.min(), ref.max())
         assert np.array_equal(couple(fc, fs, normalize=False),
                               couple_reference(fc, fs, normalize=False))  # fmt: skip
 
@@ -99,14 +103,14 @@ def test_cpa_grid_equals_cpa_distance():
         assert np.array_equal(fast, ref)  # == (a zero's sign may differ)
 
 
-def test_cpa_utility_inplace_equals_cpa_utility():
+def test_avoid_utility_inplace_equals_cpa_utility():
     rng = np.random.default_rng(5)
     for _ in range(200):
         cpa = rng.uniform(0.0, 4.0, (36, 41))
         lo = float(rng.uniform(0.0, 2.0))
         hi = float(rng.choice([lo, lo + rng.uniform(0.0, 2.0)]))
         ref = cpa_utility(cpa, lo, hi)
-        assert cpa_utility_inplace(cpa.copy(), lo, hi).tobytes() == ref.tobytes()
+        assert avoid_utility_inplace(cpa.copy(), lo, hi).tobytes() == ref.tobytes()
 
 
 def test_avoid_collision_function_equals_reference_path():

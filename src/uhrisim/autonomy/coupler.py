@@ -9,10 +9,15 @@ preference) keeps its value. Constants never change an argmax; they show in audi
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["couple", "couple_reference", "rescale"]
+from uhrisim.autonomy.domain import Domain, Objective
+from uhrisim.core.compiled import jit
+
+__all__ = ["couple", "couple_reference", "coupled_objective", "rescale"]
 
 
 def rescale(f: ArrayLike, low: float, high: float) -> NDArray[np.float64]:
@@ -49,20 +54,62 @@ def couple(
     Shapes: ``f_course`` (n_course,), ``f_speed`` (n_speed,) -> (n_course, n_speed).
     Bit-identical to :func:`couple_reference`: the grid's min and max are taken from the
     1-D pieces (rounding is monotone, so min_ij fl(a_i + b_j) = fl(min a + min b)) and the
-    final rescale runs in place (``0 + x`` is dropped: x >= +0 here).
+    final rescale is applied as each sum is made (``0 + x`` is dropped: x >= +0 here).
     """
+    return _couple(f_course, f_speed, course_weight, speed_weight, normalize)[0]
+
+
+def coupled_objective(
+    domain: Domain,
+    f_course: ArrayLike,
+    f_speed: ArrayLike,
+    weights: tuple[float, float] = (50.0, 50.0),
+) -> Objective:
+    """:func:`couple` (normalised) as the objective over (course, speed) a behavior hands
+    the helm, with its exact range (the solver's range check then reads no table)."""
+    table, lo, hi = _couple(f_course, f_speed, weights[0], weights[1], True)
+    return Objective.over(domain, ("course", "speed"), table, (lo, hi))
+
+
+def _couple(f_course, f_speed, course_weight, speed_weight, normalize):  # type: ignore[no-untyped-def]
+    """:func:`couple`'s table and its exact (min, max), known from the 1-D pieces (the
+    final rescale is monotone too). With numba the table is made in one compiled pass."""
     fc, cmin, cmax = _rescale_ranged(f_course, course_weight)
     fs, smin, smax = _rescale_ranged(f_speed, speed_weight)
-    F = np.add.outer(fc, fs)
-    if not normalize:
-        return F
     fmin = cmin + smin
     fmax = cmax + smax
-    if fmax - fmin <= 0.0:
-        return F  # both constant: their sum stays
-    F -= fmin
-    F *= 100.0 / (fmax - fmin)
-    return F
+    scale = normalize and fmax - fmin > 0.0  # both constant: their sum stays
+    k = 100.0 / (fmax - fmin) if scale else 1.0
+    compiled = _compiled_table()
+    if compiled is not None:
+        F = np.empty((fc.shape[0], fs.shape[0]))
+        compiled(fc, fs, fmin, k, scale, F)
+    else:
+        F = np.add.outer(fc, fs)
+        if scale:
+            F -= fmin
+            F *= k
+    if scale:
+        return F, (fmin - fmin) * k, (fmax - fmin) * k
+    return F, fmin, fmax
+
+
+def _table(fc, fs, fmin, k, scale, out):  # type: ignore[no-untyped-def]
+    """``out[i, j] = fc[i] + fs[j]``, then ``(. - fmin) * k`` when ``scale``: the numpy
+    path's operations point by point (compiled by numba)."""
+    for i in range(fc.shape[0]):
+        a = fc[i]
+        if scale:
+            for j in range(fs.shape[0]):
+                out[i, j] = ((a + fs[j]) - fmin) * k
+        else:
+            for j in range(fs.shape[0]):
+                out[i, j] = a + fs[j]
+
+
+@cache
+def _compiled_table():  # type: ignore[no-untyped-def]
+    return jit(_table, numpy_errors=True)
 
 
 def couple_reference(

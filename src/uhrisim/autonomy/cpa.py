@@ -22,7 +22,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.core.compiled import jit
 
-__all__ = ["CpaGrid", "cpa_distance", "cpa_distance_reference", "cpa_time", "velocity_xy"]
+__all__ = [
+    "AvoidUtility",
+    "CpaGrid",
+    "CutRangeUtility",
+    "avoid_utility_inplace",
+    "cpa_distance",
+    "cpa_distance_reference",
+    "cpa_time",
+    "cut_range_utility_inplace",
+    "velocity_xy",
+]
 
 
 def velocity_xy(heading_deg: ArrayLike, speed: ArrayLike) -> tuple[NDArray, NDArray]:
@@ -145,20 +155,24 @@ class CpaGrid:
         cnh_deg: float,
         cnv: float,
         horizon: float,
+        utility: AvoidUtility | CutRangeUtility | None = None,
     ) -> NDArray[np.float64]:
         """CPA distance (m) over [0, horizon] for every grid (course, speed); a new array.
+        With ``utility``, what it makes of the distance instead (0..100).
 
         Same operations as :func:`cpa_distance`, with b = r0.w carried negated
-        (``nb = w.(-r0)``, exact) so that t* = nb / (a + 1e-300) needs no negation.
+        (``nb = w.(-r0)``, exact) so that t* = nb / (a + 1e-300) needs no negation. With
+        numba, one compiled pass (CPA and utility together, point by point).
         """
         h = np.radians(cnh_deg)
         cwx, cwy = cnv * np.sin(h), cnv * np.cos(h)
         dx, dy = osx - cnx, osy - cny
-        compiled = _compiled_distance()
+        compiled = _compiled_points()
         if compiled is not None:  # the same operations per grid point, compiled
+            kind, p0, p1 = (_DISTANCE, 0.0, 0.0) if utility is None else utility.kernel_args()
             out = np.empty(self.vx.shape)
             compiled(self.vx, self.vy, cwx, cwy, dx, dy, dx * dx + dy * dy,
-                     max(horizon, 0.0), out)
+                     max(horizon, 0.0), kind, p0, p1, out)
             return out
         wx = np.subtract(self.vx, cwx)
         wy = np.subtract(self.vy, cwy)
@@ -178,26 +192,98 @@ class CpaGrid:
         a *= t
         a += dx * dx + dy * dy
         np.maximum(a, 0.0, out=a)
-        return np.sqrt(a, out=a)
+        cpa = np.sqrt(a, out=a)
+        return cpa if utility is None else utility.apply(cpa)
 
 
-def _distance_points(vx, vy, cwx, cwy, dx, dy, r2, horizon, out):  # type: ignore[no-untyped-def]
-    """:meth:`CpaGrid.distance` point by point (compiled by numba): the same operations in
-    the same order at every grid point."""
-    for i in range(vx.shape[0]):
-        for j in range(vx.shape[1]):
-            wx, wy = vx[i, j] - cwx, vy[i, j] - cwy
-            a = wx * wx + wy * wy
-            nb = wx * -dx + wy * -dy
-            t = nb / (a + 1e-300)
-            t = min(max(t, 0.0), horizon)
-            a = ((a * t) - nb * 2.0) * t + r2
-            out[i, j] = np.sqrt(max(a, 0.0))
+@dataclass(frozen=True)
+class AvoidUtility:
+    """AvoidCollision's utility of the CPA (:func:`avoid_utility_inplace`), m."""
+
+    min_util: float
+    max_util: float
+
+    def apply(self, cpa: NDArray[np.float64]) -> NDArray[np.float64]:
+        return avoid_utility_inplace(cpa, self.min_util, self.max_util)
+
+    def kernel_args(self) -> tuple[int, float, float]:
+        return _AVOID, self.min_util, 75.0 / max(self.max_util - self.min_util, 1e-9)
+
+
+@dataclass(frozen=True)
+class CutRangeUtility:
+    """Far Trail's utility of the CPA (:func:`cut_range_utility_inplace`), ``range_m`` m."""
+
+    range_m: float
+
+    def apply(self, cpa: NDArray[np.float64]) -> NDArray[np.float64]:
+        return cut_range_utility_inplace(cpa, self.range_m)
+
+    def kernel_args(self) -> tuple[int, float, float]:
+        return _CUT_RANGE, self.range_m, 0.0
+
+
+def avoid_utility_inplace(cpa: np.ndarray, min_util: float, max_util: float) -> np.ndarray:
+    """AvoidCollision's utility of a CPA distance (m), in ``cpa``'s own storage: 0 below
+    ``min_util``, 100 above ``max_util``, 25 -> 100 linearly between (IvP
+    ``AOF_AvoidCollision::metric``); the same operations as
+    :func:`~uhrisim.autonomy.behaviors.avoid_collision.cpa_utility`."""
+    span = max(max_util - min_util, 1e-9)
+    keep = cpa >= min_util  # cpa is never NaN: the complement of cpa < min_util
+    u = cpa
+    u -= min_util
+    u *= 75.0 / span
+    u += 25.0
+    np.maximum(u, 25.0, out=u)
+    np.minimum(u, 100.0, out=u)
+    u *= keep  # x 1.0 keeps u exactly, x 0.0 zeroes it (u in [25, 100])
+    return u
+
+
+def cut_range_utility_inplace(cpa: np.ndarray, range_m: float) -> np.ndarray:
+    """Far Trail's utility 100 - 100 cpa / ``range_m`` clipped to 0..100, in ``cpa``'s own
+    storage (IvP ``AOF_CutRangeCPA``; ``range_m`` the distance to the trail point)."""
+    u = cpa
+    u *= 100.0
+    u /= range_m
+    np.subtract(100.0, u, out=u)
+    np.maximum(u, 0.0, out=u)
+    np.minimum(u, 100.0, out=u)
+    return u
+
+
+_DISTANCE, _AVOID, _CUT_RANGE = 0, 1, 2  # what the compiled kernel makes of the CPA
+
+
+def _cpa_points(vx, vy, cwx, cwy, dx, dy, r2, horizon, kind, p0, p1, out):  # type: ignore[no-untyped-def]
+    """:meth:`CpaGrid.distance` point by point, then the utility ``kind`` makes of it
+    (``_AVOID``: :func:`avoid_utility_inplace` with ``p0`` = min_util, ``p1`` = 75 / span;
+    ``_CUT_RANGE``: :func:`cut_range_utility_inplace` with ``p0`` = range), compiled by
+    numba: the same operations in the same order at every point as the numpy path (loops
+    without branches on the kind, so that they vectorise)."""
+    vxf, vyf, outf = vx.ravel(), vy.ravel(), out.ravel()
+    n = vxf.shape[0]
+    for k in range(n):
+        wx, wy = vxf[k] - cwx, vyf[k] - cwy
+        a = wx * wx + wy * wy
+        nb = wx * -dx + wy * -dy
+        t = nb / (a + 1e-300)
+        t = min(max(t, 0.0), horizon)
+        a = ((a * t) - nb * 2.0) * t + r2
+        outf[k] = np.sqrt(max(a, 0.0))
+    if kind == 1:
+        for k in range(n):
+            cpa = outf[k]
+            u = min(max((cpa - p0) * p1 + 25.0, 25.0), 100.0)
+            outf[k] = u if cpa >= p0 else 0.0
+    elif kind == 2:
+        for k in range(n):
+            outf[k] = min(max(100.0 - (outf[k] * 100.0) / p0, 0.0), 100.0)
 
 
 @cache
-def _compiled_distance():  # type: ignore[no-untyped-def]
-    return jit(_distance_points)
+def _compiled_points():  # type: ignore[no-untyped-def]
+    return jit(_cpa_points, numpy_errors=True)
 
 
 def cpa_distance_reference(

@@ -156,14 +156,22 @@ class Objective:
     """A utility table over ``axes`` (domain order); ``values.shape`` = their ``npts``.
 
     Behaviors normalise their functions to 0..100 (IvP convention); the helm multiplies by
-    the behavior's priority weight.
+    the behavior's priority weight. ``value_range``: the exact (min, max) of ``values``
+    when the maker knows it (the solver's range check then reads no table), else None.
     """
 
     axes: tuple[str, ...]
     values: NDArray[np.float64]
+    value_range: tuple[float, float] | None = None
 
     @classmethod
-    def over(cls, domain: Domain, axes: tuple[str, ...], values: NDArray) -> Objective:
+    def over(
+        cls,
+        domain: Domain,
+        axes: tuple[str, ...],
+        values: NDArray,
+        value_range: tuple[float, float] | None = None,
+    ) -> Objective:
         """Build after checking that ``axes`` are in domain order and the shape matches."""
         axes = tuple(axes)
         shape = domain.subgrids.get(axes)
@@ -172,7 +180,13 @@ class Objective:
         arr = np.asarray(values, dtype=float)
         if arr.shape != shape:
             raise ConfigError(f"objective over {axes} has shape {arr.shape}, want {shape}", "helm")
-        return cls(tuple(axes), arr)
+        return cls(axes, arr, value_range)
+
+    def min_max(self) -> tuple[float, float]:
+        """(min, max) of the values: ``value_range``, or taken from the table."""
+        if self.value_range is not None:
+            return self.value_range
+        return float(self.values.min()), float(self.values.max())
 
     def at(self, indices: dict[str, int]) -> float:
         """Value at a decision given as axis-name -> grid index."""

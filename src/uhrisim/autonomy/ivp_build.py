@@ -31,7 +31,7 @@ from functools import cache, lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
-from uhrisim.core.compiled import jit
+from uhrisim.core.compiled import callable_compiled, jit
 
 __all__ = [
     "PiecewisePlanes",
@@ -39,6 +39,7 @@ __all__ = [
     "fit_pieces_reference",
     "normalize",
     "reflect",
+    "reflect_ranged",
 ]
 
 
@@ -196,88 +197,112 @@ def reflect(values: NDArray[np.float64], piece: tuple[int, int]) -> NDArray[np.f
     With numba (``uhrisim[fast]``) the same operations run compiled, piece by piece
     (:func:`_reflect_pieces`; a test holds the two bit for bit); else numpy, all pieces
     at once."""
+    return reflect_ranged(values, piece)[0]
+
+
+def reflect_ranged(
+    values: NDArray[np.float64], piece: tuple[int, int]
+) -> tuple[NDArray[np.float64], float, float]:
+    """:func:`reflect`'s table and its exact minimum and maximum (the solver's range
+    check then needs no pass over the table)."""
     compiled = _compiled_reflect()
     if compiled is None:
-        return normalize(normalize(fit_pieces(values, piece))).table()
+        table = normalize(normalize(fit_pieces(values, piece))).table()
+        return table, float(table.min()), float(table.max())
     F = np.ascontiguousarray(values, dtype=float)
     L = _layout(F.shape[0], F.shape[1], piece[0], piece[1])
     out = np.empty_like(F)
-    compiled(F, L.c_lo, L.c_hi, L.s_lo, L.s_hi, out)
-    return out
+    lo, hi = compiled(F, L.c_lo, L.c_hi, L.s_lo, L.s_hi, out)
+    return out, lo, hi
 
 
 def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-def]
     """:func:`reflect` piece by piece in loops (compiled by numba): the fit of
     :func:`fit_pieces_reference` (with the corners' range of the first :func:`normalize`),
-    the first normalisation (with the second's range), the second applied while each
-    piece's block of the table is written; each value computed by the same floating-point
-    operations as the numpy path."""
+    the first normalisation (with the second's range), the second; then the table, row by
+    row. Each value is computed by the same floating-point operations as the numpy path.
+
+    Returns the table's (min, max), taken at the pieces' corners: ``b + mc*c + ms*s`` is
+    monotone in c and in s under rounding, so no grid point of a piece lies outside the
+    range of its corners."""
     n_pc, n_ps = c_lo.shape[0], s_lo.shape[0]
     b = np.empty((n_pc, n_ps))
     mc = np.empty((n_pc, n_ps))
     ms = np.empty((n_pc, n_ps))
-    vc = np.empty(5, dtype=np.int64)
-    vs = np.empty(5, dtype=np.int64)
-    v = np.empty(5)
     lo, hi = np.inf, -np.inf
     for i in range(n_pc):
         c0, c1 = c_lo[i], c_hi[i]
+        cm = c0 + (c1 - c0) // 2
         for j in range(n_ps):
             s0, s1 = s_lo[j], s_hi[j]
-            count = 5 if (c1 - c0 > 1 or s1 - s0 > 1) else 4
-            vc[0], vs[0] = c0, s0
-            vc[1], vs[1] = c1, s0
-            vc[2], vs[2] = c0, s1
-            vc[3], vs[3] = c1, s1
-            vc[4], vs[4] = c0 + (c1 - c0) // 2, s0 + (s1 - s0) // 2
-            for k in range(count):
-                v[k] = F[vc[k], vs[k]]
-            slope_c = 0.0 if c1 == c0 else (((v[1] - v[0]) + (v[3] - v[2])) / 2.0) / (c1 - c0)
-            slope_s = 0.0 if s1 == s0 else (((v[2] - v[0]) + (v[3] - v[1])) / 2.0) / (s1 - s0)
-            v_hi, v_lo = -np.inf, np.inf
-            for k in range(count):
-                v_hi, v_lo = max(v_hi, v[k]), min(v_lo, v[k])
-            total = 0.0
-            upper, lower = np.inf, -np.inf
-            for k in range(count):
-                plane = slope_c * float(vc[k]) + slope_s * float(vs[k])
-                total = total + (v[k] - plane) if k else v[k] - plane
-                upper, lower = min(upper, v_hi - plane), max(lower, v_lo - plane)
-            intercept = total / count
+            centre = c1 - c0 > 1 or s1 - s0 > 1
+            v0, v1, v2, v3 = F[c0, s0], F[c1, s0], F[c0, s1], F[c1, s1]
+            slope_c = 0.0 if c1 == c0 else (((v1 - v0) + (v3 - v2)) / 2.0) / (c1 - c0)
+            slope_s = 0.0 if s1 == s0 else (((v2 - v0) + (v3 - v1)) / 2.0) / (s1 - s0)
+            v_hi = max(max(max(max(-np.inf, v0), v1), v2), v3)
+            v_lo = min(min(min(min(np.inf, v0), v1), v2), v3)
+            p0 = slope_c * float(c0) + slope_s * float(s0)
+            p1 = slope_c * float(c1) + slope_s * float(s0)
+            p2 = slope_c * float(c0) + slope_s * float(s1)
+            p3 = slope_c * float(c1) + slope_s * float(s1)
+            total = (((v0 - p0) + (v1 - p1)) + (v2 - p2)) + (v3 - p3)
+            if centre:
+                v4 = F[cm, s0 + (s1 - s0) // 2]
+                p4 = slope_c * float(cm) + slope_s * float(s0 + (s1 - s0) // 2)
+                v_hi, v_lo = max(v_hi, v4), min(v_lo, v4)
+                total = total + (v4 - p4)
+                intercept = total / 5
+            else:
+                intercept = total / 4
+            upper = min(min(min(min(np.inf, v_hi - p0), v_hi - p1), v_hi - p2), v_hi - p3)
+            lower = max(max(max(max(-np.inf, v_lo - p0), v_lo - p1), v_lo - p2), v_lo - p3)
+            if centre:
+                upper, lower = min(upper, v_hi - p4), max(lower, v_lo - p4)
             if intercept > upper:
                 intercept = upper
             if intercept < lower:
                 intercept = lower
             b[i, j], mc[i, j], ms[i, j] = intercept, slope_c, slope_s
-            for c in (c0, c1):
-                for s in (s0, s1):
-                    corner = intercept + slope_c * c + slope_s * s
-                    lo, hi = min(lo, corner), max(hi, corner)
-    if hi - lo > 0.0:  # normalize(0, 100), the first time
-        k1 = 100.0 / (hi - lo)
-        lo1 = lo
+            lo, hi = _corners_range(intercept, slope_c, slope_s, c0, c1, s0, s1, lo, hi)
+    for _ in range(2):  # normalize(0, 100) twice; the first gives the second's range
+        if not hi - lo > 0.0:  # a constant stays
+            break
+        scale, lo_k = 100.0 / (hi - lo), lo
         lo, hi = np.inf, -np.inf
         for i in range(n_pc):
             for j in range(n_ps):
-                b[i, j] = (b[i, j] + (0.0 - lo1)) * k1
-                mc[i, j] = mc[i, j] * k1
-                ms[i, j] = ms[i, j] * k1
-                for c in (c_lo[i], c_hi[i]):
-                    for s in (s_lo[j], s_hi[j]):
-                        corner = b[i, j] + mc[i, j] * c + ms[i, j] * s
-                        lo, hi = min(lo, corner), max(hi, corner)
-    scaled = hi - lo > 0.0  # normalize(0, 100), the second time (a constant stays)
-    k2 = 100.0 / (hi - lo) if scaled else 1.0
-    for i in range(n_pc):
+                bij = (b[i, j] + (0.0 - lo_k)) * scale
+                mcij, msij = mc[i, j] * scale, ms[i, j] * scale
+                b[i, j], mc[i, j], ms[i, j] = bij, mcij, msij
+                lo, hi = _corners_range(bij, mcij, msij, c_lo[i], c_hi[i], s_lo[j], s_hi[j],
+                                        lo, hi)  # fmt: skip
+    n_s = out.shape[1]
+    row_b, row_mc, row_ms = np.empty(n_s), np.empty(n_s), np.empty(n_s)
+    s_index = np.arange(n_s).astype(np.float64)
+    for i in range(n_pc):  # the coefficients of this row of pieces, spread over the columns
         for j in range(n_ps):
-            bij, mcij, msij = b[i, j], mc[i, j], ms[i, j]
-            if scaled:
-                bij, mcij, msij = (bij + (0.0 - lo)) * k2, mcij * k2, msij * k2
-            for c in range(c_lo[i], c_hi[i] + 1):
-                for s in range(s_lo[j], s_hi[j] + 1):
-                    out[c, s] = bij + mcij * float(c) + msij * float(s)
+            for s in range(s_lo[j], s_hi[j] + 1):
+                row_b[s], row_mc[s], row_ms[s] = b[i, j], mc[i, j], ms[i, j]
+        for c in range(c_lo[i], c_hi[i] + 1):
+            fc = float(c)
+            for s in range(n_s):
+                out[c, s] = row_b[s] + row_mc[s] * fc + row_ms[s] * s_index[s]
+    return lo, hi
+
+
+def _corners_range(b, mc, ms, c0, c1, s0, s1, lo, hi):  # type: ignore[no-untyped-def]
+    """(lo, hi) widened by the plane ``b + mc*c + ms*s`` at the corners of the piece
+    ``[c0, c1] x [s0, s1]`` (grid indices). Which of two equal values is kept does not
+    matter: only a zero's sign could differ, and every use of the range is blind to it."""
+    v00 = b + mc * float(c0) + ms * float(s0)
+    v01 = b + mc * float(c0) + ms * float(s1)
+    v10 = b + mc * float(c1) + ms * float(s0)
+    v11 = b + mc * float(c1) + ms * float(s1)
+    return (min(min(lo, v00), min(v01, min(v10, v11))),
+            max(max(hi, v00), max(v01, max(v10, v11))))
 
 
 @cache
 def _compiled_reflect():  # type: ignore[no-untyped-def]
-    return jit(_reflect_pieces)
+    callable_compiled(_corners_range)
+    return jit(_reflect_pieces, numpy_errors=True)

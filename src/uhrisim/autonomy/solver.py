@@ -24,6 +24,7 @@ dropped. Behaviors hand in functions within 0..100, so this guards outside funct
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -63,9 +64,9 @@ def _taking_part(objectives: list[WeightedObjective]) -> list[WeightedObjective]
     for w in objectives:
         if not (w.priority > 0.0 and w.objective.axes):
             continue
-        v = w.objective.values
-        lo, hi = float(v.min()), float(v.max())
+        lo, hi = w.objective.min_max()
         if hi - lo > 100.0:  # PDMap::normalize(0, 100): intercept first, then the scale
+            v = w.objective.values
             scaled = Objective(w.objective.axes, (v + (0.0 - lo)) * (100.0 / (hi - lo)))
             w = WeightedObjective(w.name, w.priority, scaled)
         out.append(w)
@@ -74,17 +75,26 @@ def _taking_part(objectives: list[WeightedObjective]) -> list[WeightedObjective]
 
 def _components(domain: Domain, objs: list[WeightedObjective]) -> list[tuple[str, ...]]:
     """Connected groups of axes, each in domain order, ordered by their first axis."""
+    return list(_components_of(domain.names, tuple(w.objective.axes for w in objs)))
+
+
+@lru_cache(maxsize=64)
+def _components_of(
+    names: tuple[str, ...], spans: tuple[tuple[str, ...], ...]
+) -> tuple[tuple[str, ...], ...]:
+    """:func:`_components` for a domain's axis ``names`` and the functions' axes: a helm
+    sees the same few combinations tick after tick."""
     groups: list[set[str]] = []
-    for w in objs:
-        axes = set(w.objective.axes)
+    for span in spans:
+        axes = set(span)
         for g in [g for g in groups if not g.isdisjoint(axes)]:
             axes |= g
             groups.remove(g)
         groups.append(axes)
     if len(groups) > 1:
-        rank = {n: i for i, n in enumerate(domain.names)}
+        rank = {n: i for i, n in enumerate(names)}
         groups.sort(key=lambda g: min(rank[n] for n in g))
-    return [domain.order(g) for g in groups]
+    return tuple(tuple(n for n in names if n in g) for g in groups)
 
 
 def _components_reference(

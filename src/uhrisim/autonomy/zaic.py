@@ -37,8 +37,8 @@ def _distance(x: NDArray, summit: float, wrap_period: float | None) -> NDArray:
     """|x - summit| (circular when ``wrap_period``), as a new array."""
     d = np.subtract(x, summit, out=np.empty_like(x))  # a real array for 0-d x too
     np.abs(d, out=d)
-    if wrap_period:
-        np.remainder(d, wrap_period, out=d)
+    if wrap_period:  # d >= 0 and period > 0: fmod is the remainder (% in the reference)
+        np.fmod(d, wrap_period, out=d)
         np.minimum(d, wrap_period - d, out=d)
     return d
 
@@ -60,13 +60,13 @@ def zaic_peak(
     operations as :func:`zaic_peak_reference`, so the values are bit-identical.
     """
     xa = np.asarray(x, dtype=float)
-    d = _distance(xa, float(summit), wrap_period)
     # widths below 1e-9 (of the axis unit) are zero: avoids overflow on subnormal widths
     pw = float(peakwidth) if peakwidth > 1e-9 else 0.0
     bw = float(basewidth) if basewidth > 1e-9 else 0.0
     delta = min(max(float(summitdelta), 0.0), maxutil - minutil)
     sloped = pw > 0.0 and delta > 0.0
     edge = maxutil - delta if sloped else maxutil
+    d = _distance(xa, float(summit), wrap_period)
     in_peak = d <= pw
     if bw > 0.0:
         # linear from edge at d = pw to min at d = pw + bw, clamped at min beyond

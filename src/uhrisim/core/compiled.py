@@ -32,14 +32,25 @@ def numba_module() -> Any:
         return None
 
 
-def jit(function: Callable[..., Any]) -> Callable[..., Any] | None:
+def jit(function: Callable[..., Any], numpy_errors: bool = False) -> Callable[..., Any] | None:
     """``function`` compiled in numba's nopython mode (lazily, at its first call), or None
-    without numba."""
+    without numba. ``numpy_errors``: a division by zero gives inf or NaN as in numpy
+    instead of raising, so that loops with divisions vectorise (same IEEE results)."""
     numba = numba_module()
     if numba is None:
         return None
+    model = "numpy" if numpy_errors else "python"
     try:
-        return numba.njit(cache=True, nogil=True)(function)
+        return numba.njit(cache=True, nogil=True, error_model=model)(function)
     except RuntimeError:  # no writable cache place (read-only package and home): compile each run
-        return numba.njit(nogil=True)(function)
+        return numba.njit(nogil=True, error_model=model)(function)
 
+
+
+@cache
+def callable_compiled(function: Callable[..., Any]) -> None:
+    """Let compiled kernels call ``function`` (numba compiles it where they do); it stays
+    a plain Python function for the numpy paths. Nothing without numba."""
+    numba = numba_module()
+    if numba is not None:
+        numba.extending.register_jitable(function)

@@ -34,10 +34,14 @@ import numpy as np
 
 from uhrisim.autonomy.behaviors.base import BehaviorContext, ContactInfo
 from uhrisim.autonomy.behaviors.contact_base import CONTACT_HANDLERS, ContactBehavior
-from uhrisim.autonomy.cpa import cpa_distance
+from uhrisim.autonomy.cpa import AvoidUtility, cpa_distance
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import distance
-from uhrisim.autonomy.ivp_build import fit_pieces_reference, normalize, reflect
+from uhrisim.autonomy.ivp_build import (
+    fit_pieces_reference,
+    normalize,
+    reflect_ranged,
+)
 from uhrisim.autonomy.params import one_of, setter, to_float
 
 
@@ -65,20 +69,6 @@ def cpa_utility(cpa: np.ndarray, min_util: float, max_util: float) -> np.ndarray
     u += 25.0
     np.clip(u, 25.0, 100.0, out=u)
     u[cpa < min_util] = 0.0
-    return u
-
-
-def cpa_utility_inplace(cpa: np.ndarray, min_util: float, max_util: float) -> np.ndarray:
-    """:func:`cpa_utility` computed in ``cpa``'s own storage (same operations; returns it)."""
-    span = max(max_util - min_util, 1e-9)
-    keep = cpa >= min_util  # cpa is never NaN: the complement of cpa < min_util
-    u = cpa
-    u -= min_util
-    u *= 75.0 / span
-    u += 25.0
-    np.maximum(u, 25.0, out=u)
-    np.minimum(u, 100.0, out=u)
-    u *= keep  # x 1.0 keeps u exactly, x 0.0 zeroes it (u in [25, 100])
     return u
 
 
@@ -163,12 +153,11 @@ class AvoidCollision(ContactBehavior):
         first_build, self.built_once = not self.built_once, True
         if bounds is None or (first_build and ctx.domain.has("depth")):
             return None
-        own = ctx.own
-        cpa = self.cpa_grid(ctx.domain).distance(
-            own.x, own.y, tr.x, tr.y, tr.heading, tr.speed, p.time_on_leg
-        )
-        u = cpa_utility_inplace(cpa, *bounds)
-        return Objective.over(ctx.domain, ("course", "speed"), reflect(u, PIECE))
+        own, grid = ctx.own, self.cpa_grid(ctx.domain)
+        u = grid.distance(own.x, own.y, tr.x, tr.y, tr.heading, tr.speed, p.time_on_leg,
+                          AvoidUtility(*bounds))  # fmt: skip
+        table, lo, hi = reflect_ranged(u, PIECE)
+        return Objective.over(ctx.domain, ("course", "speed"), table, (lo, hi))
 
     def objective_reference(self, ctx: BehaviorContext) -> Objective | None:
         """:meth:`on_run`'s function from the plain :func:`cpa_distance` and the reference

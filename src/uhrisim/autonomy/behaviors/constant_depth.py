@@ -59,6 +59,6 @@ class ConstantDepth(Behavior):
             ctx.domain.axis("depth"), p.depth, p.peakwidth, p.basewidth, p.summitdelta
         )
         u.flags.writeable = False
-        obj = Objective.over(ctx.domain, ("depth",), u)
+        obj = Objective.over(ctx.domain, ("depth",), u, (float(u.min()), float(u.max())))
         self._memo = (key, obj)
         return obj

@@ -62,18 +62,7 @@ from uhrisim.core.frames import wrap_180
 Point = tuple[float, float]
 
 
-def _segments_cross(p1: Point, p2: Point, q1: Point, q2: Point) -> bool:
-    """True when segments p1-p2 and q1-q2 properly intersect (touching does not count)."""
-
-    def orient(a: Point, b: Point, c: Point) -> float:
-        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-
-    d1, d2 = orient(q1, q2, p1), orient(q1, q2, p2)
-    d3, d4 = orient(p1, p2, q1), orient(p1, p2, q2)
-    eps = 1e-9
-    return ((d1 > eps and d2 < -eps) or (d1 < -eps and d2 > eps)) and (
-        (d3 > eps and d4 < -eps) or (d3 < -eps and d4 > eps)
-    )
+_CROSS_EPS = 1e-9  # m^2: |cross product| below this is "touching", not crossing
 
 
 def centroid(pts: tuple[Point, ...]) -> Point:
@@ -192,12 +181,25 @@ class Loiter(Behavior):
         return float(wrap_180(bearing_deg(vx, vy, wx, wy) - approach))
 
     def _visible(self, x: float, y: float, k: int) -> bool:
-        vs, n = self.vertices, len(self.vertices)
+        """True when the sight line from (x, y) to vertex k properly crosses no edge (one
+        touching it does not count): each edge's two cross products with the line's ends
+        have strictly opposite signs, and the line's with the edge's ends, to cross."""
+        vs, n, eps = self.vertices, len(self.vertices), _CROSS_EPS
+        kx, ky = vs[k]
         for i in range(n):
             j = (i + 1) % n
             if k in (i, j):
                 continue
-            if _segments_cross((x, y), vs[k], vs[i], vs[j]):
+            (ax, ay), (bx, by) = vs[i], vs[j]
+            ex, ey = bx - ax, by - ay
+            d1 = ex * (y - ay) - ey * (x - ax)
+            d2 = ex * (ky - ay) - ey * (kx - ax)
+            if not ((d1 > eps and d2 < -eps) or (d1 < -eps and d2 > eps)):
+                continue
+            sx, sy = kx - x, ky - y
+            d3 = sx * (ay - y) - sy * (ax - x)
+            d4 = sx * (by - y) - sy * (bx - x)
+            if (d3 > eps and d4 < -eps) or (d3 < -eps and d4 > eps):
                 return False
         return True
 

@@ -29,14 +29,13 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar
 
-import numpy as np
-
 from uhrisim.autonomy.behaviors.base import BehaviorContext
 from uhrisim.autonomy.behaviors.contact_base import CONTACT_HANDLERS, ContactBehavior
-from uhrisim.autonomy.coupler import couple
+from uhrisim.autonomy.coupler import coupled_objective
+from uhrisim.autonomy.cpa import CutRangeUtility
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import bearing_deg, distance
-from uhrisim.autonomy.ivp_build import reflect
+from uhrisim.autonomy.ivp_build import reflect_ranged
 from uhrisim.autonomy.params import one_of, setter, to_float
 from uhrisim.autonomy.zaic import zaic_peak_on_axis
 
@@ -103,13 +102,10 @@ class Trail(ContactBehavior):
         dist = distance(own.x, own.y, px, py)
         crs_axis, spd_axis = ctx.domain.axis("course"), ctx.domain.axis("speed")
         if dist > p.nm_radius:
-            u = self.cpa_grid(ctx.domain).distance(own.x, own.y, px, py, ch, cv, p.time_on_leg)
-            u *= 100.0  # 100 - 100 cpa / D clipped to 0..100, in place (AOF_CutRangeCPA)
-            u /= dist
-            np.subtract(100.0, u, out=u)
-            np.maximum(u, 0.0, out=u)
-            np.minimum(u, 100.0, out=u)
-            return Objective.over(ctx.domain, ("course", "speed"), reflect(u, FAR_PIECE))
+            grid = self.cpa_grid(ctx.domain)
+            u = grid.distance(own.x, own.y, px, py, ch, cv, p.time_on_leg, CutRangeUtility(dist))
+            table, lo, hi = reflect_ranged(u, FAR_PIECE)
+            return Objective.over(ctx.domain, ("course", "speed"), table, (lo, hi))
         if dist > p.radius:
             hx, hy = math.sin(math.radians(ch)), math.cos(math.radians(ch))
             ax, ay = px + p.nm_radius * hx, py + p.nm_radius * hy
@@ -122,4 +118,4 @@ class Trail(ContactBehavior):
             spd = 0.0
         fc = zaic_peak_on_axis(crs_axis, crs, 30.0, 150.0, 50.0)
         fs = zaic_peak_on_axis(spd_axis, spd, 0.1, 2.0, 50.0)
-        return Objective.over(ctx.domain, ("course", "speed"), couple(fc, fs))
+        return coupled_objective(ctx.domain, fc, fs)

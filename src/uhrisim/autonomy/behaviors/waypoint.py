@@ -31,7 +31,7 @@ from typing import ClassVar
 
 from uhrisim.autonomy.behaviors.base import Behavior, BehaviorContext
 from uhrisim.autonomy.behaviors.waypoint_engine import ArrivalTracker
-from uhrisim.autonomy.coupler import couple
+from uhrisim.autonomy.coupler import coupled_objective
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import bearing_deg, distance
 from uhrisim.autonomy.params import (
@@ -212,4 +212,4 @@ class Waypoint(Behavior):
         fc = zaic_peak_on_axis(crs, bearing_deg(own.x, own.y, sx, sy), 0.0, 180.0, 50.0)
         fc += zaic_peak_on_axis(crs, own.heading, 30.0, 180.0, 5.0, 0.0, 20.0)
         fs = zaic_peak_on_axis(ctx.domain.axis("speed"), p.speed, p.speed / 2.0, 1.6, 20.0)
-        return Objective.over(ctx.domain, ("course", "speed"), couple(fc, fs))
+        return coupled_objective(ctx.domain, fc, fs)

@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass
 
 from uhrisim.autonomy.behaviors.base import BehaviorContext
-from uhrisim.autonomy.coupler import couple
+from uhrisim.autonomy.coupler import coupled_objective
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.zaic import ZaicMemo, zaic_peak_on_axis
 
@@ -53,4 +53,4 @@ def course_speed_objective(
     fc = zaic_peak_on_axis(ctx.domain.axis("course"), course_deg, 0.0, 180.0, 0.0)
     zs = speed_memo if speed_memo is not None else zaic_peak_on_axis
     fs = zs(ctx.domain.axis("speed"), speed, *speed_zaic)
-    return Objective.over(ctx.domain, ("course", "speed"), couple(fc, fs, *weights))
+    return coupled_objective(ctx.domain, fc, fs, weights)
