@@ -3,8 +3,10 @@ every machine) and have no per-example deadline (CI machines are shared and slow
 test fails that reads a path beside the repository (tests/support/repository_bounds.py);
 every integration test is marked ``slow`` (missions, child processes, real ROS 2 and MOOS
 peers, a browser), as is any other test that says so itself: ``make test-fast`` runs the
-rest (``pytest -m "not slow"``)."""
+rest (``pytest -m "not slow"``). Compiled kernels are cached inside the repository
+(``.cache/numba``), for the suite and the processes it starts."""
 
+import os
 from pathlib import Path
 
 import pytest
@@ -16,6 +18,8 @@ settings.register_profile("uhrisim", derandomize=True, deadline=None, print_blob
 settings.load_profile("uhrisim")
 
 repository_bounds.install()
+REPOSITORY = Path(__file__).resolve().parent.parent
+os.environ.setdefault("NUMBA_CACHE_DIR", str(REPOSITORY / ".cache" / "numba"))
 
 
 @pytest.fixture(autouse=True)

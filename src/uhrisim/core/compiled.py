@@ -7,13 +7,17 @@ once per vehicle in a compiled loop over the N rows — no numpy call per operat
 is what costs at small N. The numpy path stays and the tests hold the two equal.
 
 Set ``UHRISIM_NUMBA=0`` to run numpy only. Compiling costs about three seconds of CPU on
-the first batch; numba keeps the result in ``__pycache__`` beside the kernel's module (or
-in ``NUMBA_CACHE_DIR``), so later processes load it in a fraction of that, until the
-module's source changes. Where no cache folder is writable, each process compiles.
+the first batch; numba keeps the result on disk, so later processes load it in a fraction
+of that. The cache folder is ``$NUMBA_CACHE_DIR`` (else ``$XDG_CACHE_HOME`` or
+``~/.cache``) ``/uhrisim-numba/<state>``, where ``<state>`` digests the size and time of
+every source file of the package: numba notices a change of a kernel's own file but not of
+a kernel it calls from another file, so any edit starts a fresh folder (old ones may be
+deleted at will). Where no cache folder is writable, each process compiles.
 """
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import os
 from collections.abc import Callable
@@ -27,9 +31,26 @@ def numba_module() -> Any:
     if os.environ.get("UHRISIM_NUMBA", "1") == "0":
         return None
     try:
-        return importlib.import_module("numba")
+        numba = importlib.import_module("numba")
     except ImportError:
         return None
+    numba.config.CACHE_DIR = kernel_cache_folder()
+    return numba
+
+
+def kernel_cache_folder() -> str:
+    """The folder for this state of the package's compiled kernels (see the module's text)."""
+    package = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    state = hashlib.sha256()
+    for folder, subfolders, files in os.walk(package):
+        subfolders.sort()
+        for name in sorted(files):
+            if name.endswith(".py"):
+                stat = os.stat(os.path.join(folder, name))
+                state.update(f"{folder}/{name}:{stat.st_size}:{stat.st_mtime_ns}\n".encode())
+    user_cache = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    base = os.environ.get("NUMBA_CACHE_DIR") or user_cache
+    return os.path.join(base, "uhrisim-numba", state.hexdigest()[:16])
 
 
 def jit(function: Callable[..., Any], numpy_errors: bool = False) -> Callable[..., Any] | None:
