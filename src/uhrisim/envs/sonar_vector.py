@@ -40,7 +40,7 @@ import cv2
 import numpy as np
 
 from uhrisim.core.elementwise import ARRAYS
-from uhrisim.core.frames import rot_z, wrap_pi
+from uhrisim.core.frames import rot_z, row_dots, wrap_pi
 from uhrisim.core.rng import component_rng
 from uhrisim.dynamics.diver import body_rates_kernel
 from uhrisim.envs.task import body_frd
@@ -49,7 +49,6 @@ from uhrisim.envs.vector import TrailDiverVectorEnv
 from uhrisim.scenario.build_world import build_static_scene, material_named
 from uhrisim.scenario.schema import SonarSensor, Water
 from uhrisim.scenario.sections import part_settings
-from uhrisim.sensors.sonar.cast import fan_hits
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.sonar import ImagingSonar
 from uhrisim.world.assets import DIVER_MAX_KICK_HZ, DIVER_STRIDE_M, diver_parts
@@ -100,6 +99,8 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         super()._allocate(n)
         self.kick_phase = np.zeros(n)
         self.sonars: list[ImagingSonar | None] = [None] * n
+        #: Scratch (N, bins, beams) stack of the pings' display levels.
+        self._levels: np.ndarray | None = None
 
     # -- episodes ------------------------------------------------------------------------
     def _load(self, i: int, seed: int, data: dict[str, Any]) -> None:
@@ -153,18 +154,38 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
 
     def _ping(self) -> np.ndarray:
         """Every sub-environment's sonar image now, (N, range bins, beams) uint8: one cast
-        of all N fans, then each episode's image formation (module docstring)."""
+        of all N fans, the hits inside each sonar's window picked for all fans at once,
+        each episode's polar display levels (its own sonar: its speckle, its water) into
+        one (N, bins, beams) stack, the stack's 8-bit display mapping in one call, then
+        each image averaged down (module docstring)."""
         bins, beams = self.template.sonar_shape
         out = np.zeros((self.num_envs, bins, beams), dtype=np.uint8)
-        if any(s is None for s in self.sonars):
+        sonars = [s for s in self.sonars if s is not None]
+        if len(sonars) < self.num_envs:
             return out
         poses, dirs, distance, normal, reflectivity, label = self._cast_fans()
-        for i, s in enumerate(self.sonars):
-            assert s is not None
-            fan = fan_hits(distance[i], normal[i], reflectivity[i], label[i], dirs[i],
-                           s.cast_window_m)
-            ping = s.form_image(float(self.ticks[i] * self.dt), *poses[i], *fan)
-            out[i] = cv2.resize(ping.polar_u8, (beams, bins), interpolation=cv2.INTER_AREA)
+        cos_inc = np.abs(row_dots(normal.reshape(-1, 3), dirs.reshape(-1, 3))).reshape(
+            distance.shape)
+        window = np.array([s.cast_window_m for s in sonars])  # (N, 2): [near, far) m
+        fan, ray = np.nonzero((distance >= window[:, :1]) & (distance < window[:, 1:]))
+        first = np.searchsorted(fan, np.arange(self.num_envs + 1))
+        hits = (distance[fan, ray], cos_inc[fan, ray], reflectivity[fan, ray],
+                label[fan, ray].astype(np.int32))
+        physical = sonars[0].config.mode == "physical"
+        if physical:
+            shape = (self.num_envs, *sonars[0].polar_shape)
+            if self._levels is None or self._levels.shape != shape:
+                self._levels = np.empty(shape, np.float32)
+        images = []
+        for i, s in enumerate(sonars):
+            rows = slice(first[i], first[i + 1])
+            image = s.polar_bytes(*poses[i], ray[rows], *(h[rows] for h in hits),
+                                  out=self._levels[i] if physical else None)
+            images.append(image)
+        if physical:  # one display curve for all (the scenario's sensor settings)
+            images = sonars[0].display_bytes(self._levels)
+        for i, image in enumerate(images):
+            out[i] = cv2.resize(image, (beams, bins), interpolation=cv2.INTER_AREA)
         return out
 
     def _cast_fans(self) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray,
@@ -176,8 +197,9 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         sonars = [s for s in self.sonars if s is not None]
         poses = [s.sonar_pose(self.rov[i, :3], rot_z(self.rov[i, 3]))
                  for i, s in enumerate(sonars)]
-        dirs = np.stack([s.geometry.dirs_sonar @ R.T for s, (_, R) in zip(
-            sonars, poses, strict=True)])
+        # every episode's sonar casts the scenario sensor's fan (the water changes no ray)
+        rotations = np.stack([R for _, R in poses])
+        dirs = np.matmul(sonars[0].geometry.dirs_sonar, rotations.transpose(0, 2, 1))
         origins = np.stack([p for p, _ in poses])
         body = np.zeros((self.num_envs, 4, 4))
         body[:, 3, 3] = 1.0

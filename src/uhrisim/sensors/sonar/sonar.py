@@ -265,26 +265,8 @@ class ImagingSonar:
         n_cells = n_bins * n_beams
         e = self.ray_intensity(idx, r, cos_inc, mu)
         if cfg.mode == "physical":
-            if cfg.multipath:
-                ghosts = self._surface_ghosts(position_ned, rotation_ned_from_sonar, idx, r, e)
-                g_idx, g_r, g_e, keep = ghosts
-                raw, label_polar, rows = self._accumulate(
-                    np.concatenate([idx, g_idx]), np.concatenate([r, g_r]),
-                    np.concatenate([cos_inc, cos_inc[keep]]), np.concatenate([e, g_e]),
-                    np.concatenate([labels, labels[keep]]) if cfg.labels else None,
-                )  # fmt: skip
-            else:
-                raw, label_polar, rows = self._accumulate(
-                    idx, r, cos_inc, e, labels if cfg.labels else None
-                )
-            depression = math.asin(max(-1.0, min(1.0, float(rotation_ned_from_sonar[2, 0]))))
-            surface = surface_rows(cfg, g.bin_centres, float(position_ned[2]), depression,
-                                   g.beam_spacing,
-                                   float(g.beam_kernel.sum()))  # fmt: skip
-            if volume is not None and len(volume[2]):
-                np.add.at(raw, (volume[0], volume[1]), volume[2].astype(np.float32))
-                rows = None  # volume echo may lie in any row
-            polar = self._physical_polar(raw, rows, surface)
+            polar, label_polar = self._physical_image(position_ned, rotation_ned_from_sonar,
+                                                      idx, r, cos_inc, e, labels, volume)
         # Hits inside the window (the image may also use hits just outside it).
         win = (r >= cfg.range_min_m) & (r < cfg.range_max_m)
         if not win.all():
@@ -362,6 +344,71 @@ class ImagingSonar:
             fan_half_fov_rad=math.radians(cfg.sonar_spec.fov_h_deg) / 2.0,
         )
 
+    def polar_bytes(
+        self,
+        position_ned: NDArray[np.float64],
+        rotation_ned_from_sonar: NDArray[np.float64],
+        idx: NDArray[np.int64],
+        r: NDArray[np.float64],
+        cos_inc: NDArray[np.float64],
+        mu: NDArray[np.float64],
+        labels: NDArray[np.int32],
+        out: NDArray[np.float32] | None = None,
+    ) -> NDArray[np.float32] | NDArray[np.uint8]:
+        """The polar image of :meth:`form_image` for the same hits, and nothing else (no
+        hit points, cloud or ping): physical mode, the display level ``polar`` (written
+        into ``out``, an (n_bins, n_beams) float32 view, when given; its 8-bit image is
+        :meth:`display_bytes` of it); 2013 mode, ``polar_u8``. Equal to
+        :meth:`form_image`'s bit for bit (the same code), drawing the same speckle."""
+        if self.config.mode != "physical":
+            return self.form_image(0.0, position_ned, rotation_ned_from_sonar, idx, r, cos_inc,
+                                   mu, labels).polar_u8
+        e = self.ray_intensity(idx, r, cos_inc, mu)
+        return self._physical_image(position_ned, rotation_ned_from_sonar, idx, r, cos_inc, e,
+                                    labels, out=out)[0]
+
+    def display_bytes(self, polar: NDArray[np.float32]) -> NDArray[np.uint8]:
+        """The 8-bit image of physical display levels ``polar`` (any shape: a stack of
+        several pings' too): :func:`.polar.display_bytes` with this sonar's curve."""
+        return display_bytes(polar, self.config.display_gamma, self.config.black_level)
+
+    def _physical_image(
+        self,
+        position_ned: NDArray[np.float64],
+        rotation_ned_from_sonar: NDArray[np.float64],
+        idx: NDArray[np.int64],
+        r: NDArray[np.float64],
+        cos_inc: NDArray[np.float64],
+        e: NDArray[np.float64],
+        labels: NDArray[np.int32],
+        volume: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]] | None = None,
+        out: NDArray[np.float32] | None = None,
+    ) -> tuple[NDArray[np.float32], NDArray[np.int16]]:
+        """Physical mode's display level and cell labels (``polar``, ``label_polar``) of
+        ray echoes ``e`` (:meth:`form_image`): the raw echo image (with the surface ghosts
+        and ``volume`` echoes), then :meth:`_physical_polar` (into ``out`` when given)."""
+        cfg, g = self.config, self.geometry
+        if cfg.multipath:
+            ghosts = self._surface_ghosts(position_ned, rotation_ned_from_sonar, idx, r, e)
+            g_idx, g_r, g_e, keep = ghosts
+            raw, label_polar, rows = self._accumulate(
+                np.concatenate([idx, g_idx]), np.concatenate([r, g_r]),
+                np.concatenate([cos_inc, cos_inc[keep]]), np.concatenate([e, g_e]),
+                np.concatenate([labels, labels[keep]]) if cfg.labels else None,
+            )  # fmt: skip
+        else:
+            raw, label_polar, rows = self._accumulate(
+                idx, r, cos_inc, e, labels if cfg.labels else None
+            )
+        depression = math.asin(max(-1.0, min(1.0, float(rotation_ned_from_sonar[2, 0]))))
+        surface = surface_rows(cfg, g.bin_centres, float(position_ned[2]), depression,
+                               g.beam_spacing,
+                               float(g.beam_kernel.sum()))  # fmt: skip
+        if volume is not None and len(volume[2]):
+            np.add.at(raw, (volume[0], volume[1]), volume[2].astype(np.float32))
+            rows = None  # volume echo may lie in any row
+        return self._physical_polar(raw, rows, surface, out), label_polar
+
     # -- stages ------------------------------------------------------------------------------
     def footprint(
         self, r: NDArray[np.float64], cos_inc: NDArray[np.float64]
@@ -414,11 +461,13 @@ class ImagingSonar:
         raw: NDArray[np.float32],
         rows: list[tuple[int, int]] | None = None,
         surface: NDArray[np.float64] | None = None,
+        out: NDArray[np.float32] | None = None,
     ) -> NDArray[np.float32]:
         """The stages of :mod:`.polar`, composed: diffuse terms per row, the mean image
         through the beam and pulse patterns times the product speckle field, or the
         coherent sum (``speckle_model``), TVG, gain and log compression, clipped to 0…1 (a
-        new array). ``surface``: this ping's surface reverberation per row (None: none).
+        new array, or ``out``). ``surface``: this ping's surface reverberation per row
+        (None: none).
 
         ``rows``: row ranges outside which ``raw`` is zero at least a range-kernel
         half-width deep (None: all rows); only those are filtered. The others hold only
@@ -430,7 +479,7 @@ class ImagingSonar:
         free = (g.row_offset[:, :1] + k * np.log(np.maximum(d, 1e-300))[:, None]).astype(
             np.float32
         )  # display level of the diffuse terms alone, per row
-        img = np.empty(raw.shape, np.float32)
+        img = np.empty(raw.shape, np.float32) if out is None else out
         bank = self._bank
         coherent = bank is not None and bank.z_re is not None
         if bank is not None:
