@@ -18,8 +18,12 @@ unseen):
 * **the image of each ping** by that episode's own
   :class:`~uhrisim.sensors.sonar.sonar.ImagingSonar` (its configuration with the
   episode's water, its speckle drawn from the episode's seed, as the Simulation builds
-  it): :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.form_image` once per episode, then
-  the observation's polar image averaged down (``cv2.INTER_AREA``) as the single env does.
+  it): the hits inside each window picked for all N fans at once, then per episode only
+  the polar display levels of
+  :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.form_image` (its echoes, diffuse
+  terms, speckle, TVG; :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.polar_bytes`, the
+  same code) into one (N, bins, beams) stack, whose 8-bit mapping and averaging down
+  (``cv2.INTER_AREA``, as the single env does) are one call each for all N.
 
 What differs from N single envs: the pilings' shape above, and the single env's refusal
 of a sonar inside geometry (not checked here: the ROV's collisions keep it out). A
@@ -34,6 +38,7 @@ levels.
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 from typing import Any, ClassVar
 
 import cv2
@@ -164,13 +169,11 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         if len(sonars) < self.num_envs:
             return out
         poses, dirs, distance, normal, reflectivity, label = self._cast_fans()
-        cos_inc = np.abs(row_dots(normal.reshape(-1, 3), dirs.reshape(-1, 3))).reshape(
-            distance.shape)
         window = np.array([s.cast_window_m for s in sonars])  # (N, 2): [near, far) m
         fan, ray = np.nonzero((distance >= window[:, :1]) & (distance < window[:, 1:]))
         first = np.searchsorted(fan, np.arange(self.num_envs + 1))
-        hits = (distance[fan, ray], cos_inc[fan, ray], reflectivity[fan, ray],
-                label[fan, ray].astype(np.int32))
+        hits = (distance[fan, ray], np.abs(row_dots(normal[fan, ray], dirs[fan, ray])),
+                reflectivity[fan, ray], label[fan, ray].astype(np.int32))
         physical = sonars[0].config.mode == "physical"
         if physical:
             shape = (self.num_envs, *sonars[0].polar_shape)
@@ -184,6 +187,10 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
             images.append(image)
         if physical:  # one display curve for all (the scenario's sensor settings)
             images = sonars[0].display_bytes(self._levels)
+            if _stacks_exactly(images.shape[1], bins):  # one resize of the whole stack
+                flat = images.reshape(-1, images.shape[2])
+                return cv2.resize(flat, (beams, bins * self.num_envs),
+                                  interpolation=cv2.INTER_AREA).reshape(out.shape)
         for i, image in enumerate(images):
             out[i] = cv2.resize(image, (beams, bins), interpolation=cv2.INTER_AREA)
         return out
@@ -276,3 +283,12 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         normal[rows] = hit_normal
         reflectivity[rows] = self.piling_reflectivity[rows[0], slot]
         label[rows] = -1
+
+
+def _stacks_exactly(rows: int, rows_out: int) -> bool:
+    """Whether averaging a vertical stack of images of ``rows`` rows down to ``rows_out``
+    each (``cv2.INTER_AREA``) gives each image's own result bit for bit: when the scale
+    rows/rows_out is a dyadic fraction, every image's row boundaries in the stack (its
+    offset k·rows plus its own) are exact in floating point."""
+    denominator = Fraction(rows, rows_out).denominator
+    return denominator & (denominator - 1) == 0

@@ -475,7 +475,7 @@ class ImagingSonar:
         diffuse field: what the stages give on zero echo, in distribution)."""
         g = self.geometry
         k = g.k_ln
-        d = diffuse_rows(g.diffuse_static, raw, g.leak, surface)
+        d = diffuse_rows(g.diffuse_static, raw, g.leak, surface, rows)
         free = (g.row_offset[:, :1] + k * np.log(np.maximum(d, 1e-300))[:, None]).astype(
             np.float32
         )  # display level of the diffuse terms alone, per row
@@ -488,7 +488,7 @@ class ImagingSonar:
             z_re, z_im = bank.z(int(self.rng.integers(0, bank.z_offsets)))
         done = 0  # rows [0, done) are formed
         for a, b in [*([(0, raw.shape[0])] if rows is None else rows), (raw.shape[0], None)]:
-            if coherent:  # echo-free rows: the diffuse level times the diffuse field
+            if bank is not None:  # echo-free rows: the diffuse level times the diffuse field
                 np.add(k_ln_w2[done:a], free[done:a], out=img[done:a])
             else:
                 img[done:a] = free[done:a]
@@ -505,7 +505,7 @@ class ImagingSonar:
                 mean_intensity(raw[a:b], g.beam_blocks, g.range_kernel, d[a:b], blk)
                 cv2.log(blk, blk)
                 display_level(blk, k, g.row_offset[a:b], blk)
+                if bank is not None:  # product speckle: a factor |w|² on intensity
+                    cv2.add(blk, k_ln_w2[a:b], dst=blk)
             done = b
-        if bank is not None and not coherent:  # product speckle: a factor |w|² on intensity
-            cv2.add(img, k_ln_w2, dst=img)
         return clip_unit(img)
