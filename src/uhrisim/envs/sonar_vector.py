@@ -20,10 +20,11 @@ unseen):
   episode's water, its speckle drawn from the episode's seed, as the Simulation builds
   it): the hits inside each window picked for all N fans at once, then per episode only
   the polar display levels of
-  :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.form_image` (its echoes, diffuse
-  terms, speckle, TVG; :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.polar_bytes`, the
-  same code) into one (N, bins, beams) stack, whose 8-bit mapping and averaging down
-  (``cv2.INTER_AREA``, as the single env does) are one call each for all N.
+  :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.form_image` and their 8-bit image
+  (its echoes, diffuse terms, speckle, TVG, display curve;
+  :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.polar_bytes`, the same code) into one
+  (N, bins, beams) stack, averaged down (``cv2.INTER_AREA``, as the single env does) in
+  one call for all N.
 
 What differs from N single envs: the pilings' shape above, and the single env's refusal
 of a sonar inside geometry (not checked here: the ROV's collisions keep it out). A
@@ -104,8 +105,6 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         super()._allocate(n)
         self.kick_phase = np.zeros(n)
         self.sonars: list[ImagingSonar | None] = [None] * n
-        #: Scratch (N, bins, beams) stack of the pings' display levels.
-        self._levels: np.ndarray | None = None
 
     # -- episodes ------------------------------------------------------------------------
     def _load(self, i: int, seed: int, data: dict[str, Any]) -> None:
@@ -160,9 +159,8 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
     def _ping(self) -> np.ndarray:
         """Every sub-environment's sonar image now, (N, range bins, beams) uint8: one cast
         of all N fans, the hits inside each sonar's window picked for all fans at once,
-        each episode's polar display levels (its own sonar: its speckle, its water) into
-        one (N, bins, beams) stack, the stack's 8-bit display mapping in one call, then
-        each image averaged down (module docstring)."""
+        each episode's 8-bit polar image (its own sonar: its speckle, its water) into one
+        (N, bins, beams) stack, averaged down in one call (module docstring)."""
         bins, beams = self.template.sonar_shape
         out = np.zeros((self.num_envs, bins, beams), dtype=np.uint8)
         sonars = [s for s in self.sonars if s is not None]
@@ -174,23 +172,16 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         first = np.searchsorted(fan, np.arange(self.num_envs + 1))
         hits = (distance[fan, ray], np.abs(row_dots(normal[fan, ray], dirs[fan, ray])),
                 reflectivity[fan, ray], label[fan, ray].astype(np.int32))
-        physical = sonars[0].config.mode == "physical"
-        if physical:
-            shape = (self.num_envs, *sonars[0].polar_shape)
-            if self._levels is None or self._levels.shape != shape:
-                self._levels = np.empty(shape, np.float32)
-        images = []
+        images = np.empty((self.num_envs, *sonars[0].polar_shape), np.uint8)
         for i, s in enumerate(sonars):
             rows = slice(first[i], first[i + 1])
-            image = s.polar_bytes(*poses[i], ray[rows], *(h[rows] for h in hits),
-                                  out=self._levels[i] if physical else None)
-            images.append(image)
-        if physical:  # one display curve for all (the scenario's sensor settings)
-            images = sonars[0].display_bytes(self._levels)
-            if _stacks_exactly(images.shape[1], bins):  # one resize of the whole stack
-                flat = images.reshape(-1, images.shape[2])
-                return cv2.resize(flat, (beams, bins * self.num_envs),
-                                  interpolation=cv2.INTER_AREA).reshape(out.shape)
+            # (each image to bytes while its levels are in cache: the display mapping of
+            # the whole stack at once, tens of megabytes, is slower)
+            images[i] = s.polar_bytes(*poses[i], ray[rows], *(h[rows] for h in hits))
+        if _stacks_exactly(images.shape[1], bins):  # one resize of the whole stack
+            flat = images.reshape(-1, images.shape[2])
+            return cv2.resize(flat, (beams, bins * self.num_envs),
+                              interpolation=cv2.INTER_AREA).reshape(out.shape)
         for i, image in enumerate(images):
             out[i] = cv2.resize(image, (beams, bins), interpolation=cv2.INTER_AREA)
         return out

@@ -353,24 +353,18 @@ class ImagingSonar:
         cos_inc: NDArray[np.float64],
         mu: NDArray[np.float64],
         labels: NDArray[np.int32],
-        out: NDArray[np.float32] | None = None,
-    ) -> NDArray[np.float32] | NDArray[np.uint8]:
-        """The polar image of :meth:`form_image` for the same hits, and nothing else (no
-        hit points, cloud or ping): physical mode, the display level ``polar`` (written
-        into ``out``, an (n_bins, n_beams) float32 view, when given; its 8-bit image is
-        :meth:`display_bytes` of it); 2013 mode, ``polar_u8``. Equal to
-        :meth:`form_image`'s bit for bit (the same code), drawing the same speckle."""
-        if self.config.mode != "physical":
+    ) -> NDArray[np.uint8]:
+        """``polar_u8`` of :meth:`form_image` for the same hits, and nothing else (no hit
+        points, cloud, labels or fan): the same code, so equal bit for bit, drawing the
+        same speckle."""
+        cfg = self.config
+        if cfg.mode != "physical":
             return self.form_image(0.0, position_ned, rotation_ned_from_sonar, idx, r, cos_inc,
                                    mu, labels).polar_u8
         e = self.ray_intensity(idx, r, cos_inc, mu)
-        return self._physical_image(position_ned, rotation_ned_from_sonar, idx, r, cos_inc, e,
-                                    labels, out=out)[0]
-
-    def display_bytes(self, polar: NDArray[np.float32]) -> NDArray[np.uint8]:
-        """The 8-bit image of physical display levels ``polar`` (any shape: a stack of
-        several pings' too): :func:`.polar.display_bytes` with this sonar's curve."""
-        return display_bytes(polar, self.config.display_gamma, self.config.black_level)
+        polar, _ = self._physical_image(position_ned, rotation_ned_from_sonar, idx, r, cos_inc,
+                                        e, labels)
+        return display_bytes(polar, cfg.display_gamma, cfg.black_level)
 
     def _physical_image(
         self,
@@ -382,11 +376,10 @@ class ImagingSonar:
         e: NDArray[np.float64],
         labels: NDArray[np.int32],
         volume: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]] | None = None,
-        out: NDArray[np.float32] | None = None,
     ) -> tuple[NDArray[np.float32], NDArray[np.int16]]:
         """Physical mode's display level and cell labels (``polar``, ``label_polar``) of
         ray echoes ``e`` (:meth:`form_image`): the raw echo image (with the surface ghosts
-        and ``volume`` echoes), then :meth:`_physical_polar` (into ``out`` when given)."""
+        and ``volume`` echoes), then :meth:`_physical_polar`."""
         cfg, g = self.config, self.geometry
         if cfg.multipath:
             ghosts = self._surface_ghosts(position_ned, rotation_ned_from_sonar, idx, r, e)
@@ -405,9 +398,9 @@ class ImagingSonar:
                                g.beam_spacing,
                                float(g.beam_kernel.sum()))  # fmt: skip
         if volume is not None and len(volume[2]):
-            np.add.at(raw, (volume[0], volume[1]), volume[2].astype(np.float32))
+            self._echoes.add_echoes(*volume)
             rows = None  # volume echo may lie in any row
-        return self._physical_polar(raw, rows, surface, out), label_polar
+        return self._physical_polar(raw, rows, surface), label_polar
 
     # -- stages ------------------------------------------------------------------------------
     def footprint(
@@ -461,13 +454,11 @@ class ImagingSonar:
         raw: NDArray[np.float32],
         rows: list[tuple[int, int]] | None = None,
         surface: NDArray[np.float64] | None = None,
-        out: NDArray[np.float32] | None = None,
     ) -> NDArray[np.float32]:
         """The stages of :mod:`.polar`, composed: diffuse terms per row, the mean image
         through the beam and pulse patterns times the product speckle field, or the
         coherent sum (``speckle_model``), TVG, gain and log compression, clipped to 0…1 (a
-        new array, or ``out``). ``surface``: this ping's surface reverberation per row
-        (None: none).
+        new array). ``surface``: this ping's surface reverberation per row (None: none).
 
         ``rows``: row ranges outside which ``raw`` is zero at least a range-kernel
         half-width deep (None: all rows); only those are filtered. The others hold only
@@ -479,7 +470,7 @@ class ImagingSonar:
         free = (g.row_offset[:, :1] + k * np.log(np.maximum(d, 1e-300))[:, None]).astype(
             np.float32
         )  # display level of the diffuse terms alone, per row
-        img = np.empty(raw.shape, np.float32) if out is None else out
+        img = np.empty(raw.shape, np.float32)
         bank = self._bank
         coherent = bank is not None and bank.z_re is not None
         if bank is not None:
