@@ -55,6 +55,7 @@ from uhrisim.envs.vector import TrailDiverVectorEnv
 from uhrisim.scenario.build_world import build_static_scene, material_named
 from uhrisim.scenario.schema import SonarSensor, Water
 from uhrisim.scenario.sections import part_settings
+from uhrisim.sensors.sonar.cast import FanHits
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.sonar import ImagingSonar
 from uhrisim.world.assets import DIVER_MAX_KICK_HZ, DIVER_STRIDE_M, diver_parts
@@ -177,7 +178,7 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
             rows = slice(first[i], first[i + 1])
             # (each image to bytes while its levels are in cache: the display mapping of
             # the whole stack at once, tens of megabytes, is slower)
-            images[i] = s.polar_bytes(*poses[i], ray[rows], *(h[rows] for h in hits))
+            images[i] = s.polar_bytes(*poses[i], FanHits(ray[rows], *(h[rows] for h in hits)))
         if _stacks_exactly(images.shape[1], bins):  # one resize of the whole stack
             flat = images.reshape(-1, images.shape[2])
             return cv2.resize(flat, (beams, bins * self.num_envs),

@@ -46,7 +46,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.sensors.sonar.cast import RayCaster, cast_fan
+from uhrisim.sensors.sonar.cast import FanHits, RayCaster, cast_fan
 from uhrisim.sensors.sonar.cloud import cloud_hits, sonar_cloud
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.echoes import MAX_FOOTPRINT_TAN, EchoAccumulator, footprint, ray_echo
@@ -74,6 +74,8 @@ from uhrisim.sensors.sonar.speckle import SpeckleBank
 __all__ = ["ImagingSonar", "cloud_hits"]
 
 _LN10_OVER_10 = math.log(10.0) / 10.0
+#: Echoes of volume scatterers per cell: (range bins, beams, echoes re SL).
+VolumeEchoes = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]
 
 
 #: Elevation rays per beam that sample a medium's volume scatterers (:meth:`volume_echoes`).
@@ -196,8 +198,7 @@ class ImagingSonar:
 
     def volume_echoes(self, medium: VolumeScatterers, position_ned: NDArray[np.float64],
                       dirs_ned: NDArray[np.float64], idx: NDArray[np.int64],
-                      r: NDArray[np.float64]
-                      ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
+                      r: NDArray[np.float64]) -> VolumeEchoes:
         """Echoes of the medium's volume scatterers per (range bin, beam): every ray
         collects, in each bin before what it hits (rays ``idx`` hit at ``r``), the
         volume reverberation of :func:`.geometry.diffuse_terms` with the local
@@ -252,7 +253,7 @@ class ImagingSonar:
         cos_inc: NDArray[np.float64],
         mu: NDArray[np.float64],
         labels: NDArray[np.int32],
-        volume: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]] | None = None,
+        volume: VolumeEchoes | None = None,
     ) -> SonarPing:
         """Form a ping from the hits of rays ``idx`` (indices into the ray fan) at slant
         ranges ``r`` (m, inside the window) with |cos incidence| ``cos_inc``, Lambert μ
@@ -265,8 +266,9 @@ class ImagingSonar:
         n_cells = n_bins * n_beams
         e = self.ray_intensity(idx, r, cos_inc, mu)
         if cfg.mode == "physical":
-            polar, label_polar = self._physical_image(position_ned, rotation_ned_from_sonar,
-                                                      idx, r, cos_inc, e, labels, volume)
+            polar, label_polar = self._physical_image(
+                position_ned, rotation_ned_from_sonar, FanHits(idx, r, cos_inc, mu, labels), e,
+                volume)
         # Hits inside the window (the image may also use hits just outside it).
         win = (r >= cfg.range_min_m) & (r < cfg.range_max_m)
         if not win.all():
@@ -344,42 +346,27 @@ class ImagingSonar:
             fan_half_fov_rad=math.radians(cfg.sonar_spec.fov_h_deg) / 2.0,
         )
 
-    def polar_bytes(
-        self,
-        position_ned: NDArray[np.float64],
-        rotation_ned_from_sonar: NDArray[np.float64],
-        idx: NDArray[np.int64],
-        r: NDArray[np.float64],
-        cos_inc: NDArray[np.float64],
-        mu: NDArray[np.float64],
-        labels: NDArray[np.int32],
-    ) -> NDArray[np.uint8]:
-        """``polar_u8`` of :meth:`form_image` for the same hits, and nothing else (no hit
-        points, cloud, labels or fan): the same code, so equal bit for bit, drawing the
-        same speckle."""
+    def polar_bytes(self, position_ned: NDArray[np.float64],
+                    rotation_ned_from_sonar: NDArray[np.float64], hits: FanHits
+                    ) -> NDArray[np.uint8]:
+        """``polar_u8`` of :meth:`form_image` for the same ``hits``, and nothing else (no
+        hit points, cloud, labels or fan): the same code, so equal bit for bit, drawing
+        the same speckle."""
         cfg = self.config
         if cfg.mode != "physical":
-            return self.form_image(0.0, position_ned, rotation_ned_from_sonar, idx, r, cos_inc,
-                                   mu, labels).polar_u8
-        e = self.ray_intensity(idx, r, cos_inc, mu)
-        polar, _ = self._physical_image(position_ned, rotation_ned_from_sonar, idx, r, cos_inc,
-                                        e, labels)
+            return self.form_image(0.0, position_ned, rotation_ned_from_sonar, *hits).polar_u8
+        e = self.ray_intensity(hits.idx, hits.r, hits.cos_inc, hits.mu)
+        polar, _ = self._physical_image(position_ned, rotation_ned_from_sonar, hits, e)
         return display_bytes(polar, cfg.display_gamma, cfg.black_level)
 
-    def _physical_image(
-        self,
-        position_ned: NDArray[np.float64],
-        rotation_ned_from_sonar: NDArray[np.float64],
-        idx: NDArray[np.int64],
-        r: NDArray[np.float64],
-        cos_inc: NDArray[np.float64],
-        e: NDArray[np.float64],
-        labels: NDArray[np.int32],
-        volume: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]] | None = None,
-    ) -> tuple[NDArray[np.float32], NDArray[np.int16]]:
+    def _physical_image(self, position_ned: NDArray[np.float64],
+                        rotation_ned_from_sonar: NDArray[np.float64], hits: FanHits,
+                        e: NDArray[np.float64], volume: VolumeEchoes | None = None
+                        ) -> tuple[NDArray[np.float32], NDArray[np.int16]]:
         """Physical mode's display level and cell labels (``polar``, ``label_polar``) of
-        ray echoes ``e`` (:meth:`form_image`): the raw echo image (with the surface ghosts
-        and ``volume`` echoes), then :meth:`_physical_polar`."""
+        the ``hits``' ray echoes ``e`` (:meth:`form_image`): the raw echo image (with the
+        surface ghosts and ``volume`` echoes), then :meth:`_physical_polar`."""
+        idx, r, cos_inc, _, labels = hits
         cfg, g = self.config, self.geometry
         if cfg.multipath:
             ghosts = self._surface_ghosts(position_ned, rotation_ned_from_sonar, idx, r, e)
