@@ -7,9 +7,9 @@ reverberation, side lobes, speckle, TVG, display mapping: ≥ 200 pings/s on one
 Explorer 3000 at 15 m, at either frequency, the same way: ≥ 200 pings/s. Every preset is
 measured at 30 m or its maximum range, whichever is nearer. The default configuration is
 measured (label images are opt-in and not part of the rays → polar → fan pipeline).
-Also reported: the same case with label images, with the coherent speckle model and with the echoes alone
-(``ECHOES_ONLY``, speckle off: the cost of the realistic stages), the 100 m / 128-ray
-case, the split of a ping between ray casting, echo accumulation, the image stages and
+Also reported: the same case with label images, with the coherent speckle model and
+with the echoes alone (``ECHOES_ONLY``, speckle off: the cost of the realistic stages),
+the 100 m / 128-ray case, the split of a ping between ray casting, echo accumulation, the image stages and
 the 8-bit fan, and the resident memory (RSS) over many pings (it must stay flat).
 
 Run through the ``uhrisim`` command, the process keeps freed memory for reuse
