@@ -9,8 +9,9 @@ measured at 30 m or its maximum range, whichever is nearer. The default configur
 measured (label images are opt-in and not part of the rays → polar → fan pipeline).
 Also reported: the same case with label images, with the coherent speckle model and
 with the echoes alone (``ECHOES_ONLY``, speckle off: the cost of the realistic stages),
-the 100 m / 128-ray case, the split of a ping between ray casting, echo accumulation, the image stages and
-the 8-bit fan, and the resident memory (RSS) over many pings (it must stay flat).
+the 100 m / 128-ray case, the split of a ping between ray casting, echo accumulation,
+the image stages and the 8-bit fan, and the resident memory (RSS) over many pings (it
+must stay flat).
 
 Run through the ``uhrisim`` command, the process keeps freed memory for reuse
 (``uhrisim.core.memory``); without that, glibc's default thresholds can cost a third of
