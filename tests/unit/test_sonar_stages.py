@@ -321,3 +321,24 @@ def test_display_bytes_match_the_reference_mapping() -> None:
     expected = reference_bytes(ping.polar.astype(np.float64), cfg.display_gamma)
     assert np.abs(ping.polar_u8.astype(int) - expected).max() <= 1  # float32 rounding
     assert (ping.polar_u8 == expected).mean() > 0.99
+
+
+def test_raw_echo_image_of_a_ping_does_not_keep_the_previous_ping_s_echo() -> None:
+    """The raw image is a scratch buffer zeroed only where the previous ping wrote: after a
+    ping with echo at every range (and volume echoes added anywhere), a ping with echo
+    only near gives the raw image a fresh sonar gives, bit for bit."""
+    cfg = small_cfg()
+    sonar, fresh = ImagingSonar(cfg, np.random.default_rng(0)), ImagingSonar(
+        cfg, np.random.default_rng(0))
+    hits, idx, cos_inc = window_hits(sonar, AnalyticCaster(plate_north=None))
+    r, mu = hits.distance[idx], hits.reflectivity[idx]
+    e = sonar.ray_intensity(idx, r, cos_inc, mu)
+    sonar._accumulate(idx, r, cos_inc, e)
+    n_bins, n_beams = sonar.polar_shape
+    sonar._echoes.add_echoes(np.array([0, n_bins - 1]), np.array([0, n_beams - 1]),
+                             np.array([1e-6, 1e-6]))
+    near = r < np.quantile(r, 0.2)
+    got, _, rows = sonar._accumulate(idx[near], r[near], cos_inc[near], e[near])
+    want, _, want_rows = fresh._accumulate(idx[near], r[near], cos_inc[near], e[near])
+    assert rows == want_rows and rows[-1][1] < n_bins  # the far rows hold no echo now
+    np.testing.assert_array_equal(got, want)

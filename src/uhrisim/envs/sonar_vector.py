@@ -18,8 +18,13 @@ unseen):
 * **the image of each ping** by that episode's own
   :class:`~uhrisim.sensors.sonar.sonar.ImagingSonar` (its configuration with the
   episode's water, its speckle drawn from the episode's seed, as the Simulation builds
-  it): :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.form_image` once per episode, then
-  the observation's polar image averaged down (``cv2.INTER_AREA``) as the single env does.
+  it): the hits inside each window picked for all N fans at once, then per episode only
+  the polar display levels of
+  :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.form_image` and their 8-bit image
+  (its echoes, diffuse terms, speckle, TVG, display curve;
+  :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.polar_bytes`, the same code) into one
+  (N, bins, beams) stack, averaged down (``cv2.INTER_AREA``, as the single env does) in
+  one call for all N.
 
 What differs from N single envs: the pilings' shape above, and the single env's refusal
 of a sonar inside geometry (not checked here: the ROV's collisions keep it out). A
@@ -34,13 +39,14 @@ levels.
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 from typing import Any, ClassVar
 
 import cv2
 import numpy as np
 
 from uhrisim.core.elementwise import ARRAYS
-from uhrisim.core.frames import rot_z, wrap_pi
+from uhrisim.core.frames import rot_z, row_dots, wrap_pi
 from uhrisim.core.rng import component_rng
 from uhrisim.dynamics.diver import body_rates_kernel
 from uhrisim.envs.task import body_frd
@@ -49,7 +55,7 @@ from uhrisim.envs.vector import TrailDiverVectorEnv
 from uhrisim.scenario.build_world import build_static_scene, material_named
 from uhrisim.scenario.schema import SonarSensor, Water
 from uhrisim.scenario.sections import part_settings
-from uhrisim.sensors.sonar.cast import fan_hits
+from uhrisim.sensors.sonar.cast import FanHits
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.sonar import ImagingSonar
 from uhrisim.world.assets import DIVER_MAX_KICK_HZ, DIVER_STRIDE_M, diver_parts
@@ -153,18 +159,32 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
 
     def _ping(self) -> np.ndarray:
         """Every sub-environment's sonar image now, (N, range bins, beams) uint8: one cast
-        of all N fans, then each episode's image formation (module docstring)."""
+        of all N fans, the hits inside each sonar's window picked for all fans at once,
+        each episode's 8-bit polar image (its own sonar: its speckle, its water) into one
+        (N, bins, beams) stack, averaged down in one call (module docstring)."""
         bins, beams = self.template.sonar_shape
         out = np.zeros((self.num_envs, bins, beams), dtype=np.uint8)
-        if any(s is None for s in self.sonars):
+        sonars = [s for s in self.sonars if s is not None]
+        if len(sonars) < self.num_envs:
             return out
         poses, dirs, distance, normal, reflectivity, label = self._cast_fans()
-        for i, s in enumerate(self.sonars):
-            assert s is not None
-            fan = fan_hits(distance[i], normal[i], reflectivity[i], label[i], dirs[i],
-                           s.cast_window_m)
-            ping = s.form_image(float(self.ticks[i] * self.dt), *poses[i], *fan)
-            out[i] = cv2.resize(ping.polar_u8, (beams, bins), interpolation=cv2.INTER_AREA)
+        window = np.array([s.cast_window_m for s in sonars])  # (N, 2): [near, far) m
+        fan, ray = np.nonzero((distance >= window[:, :1]) & (distance < window[:, 1:]))
+        first = np.searchsorted(fan, np.arange(self.num_envs + 1))
+        hits = (distance[fan, ray], np.abs(row_dots(normal[fan, ray], dirs[fan, ray])),
+                reflectivity[fan, ray], label[fan, ray].astype(np.int32))
+        images = np.empty((self.num_envs, *sonars[0].polar_shape), np.uint8)
+        for i, s in enumerate(sonars):
+            rows = slice(first[i], first[i + 1])
+            # (each image to bytes while its levels are in cache: the display mapping of
+            # the whole stack at once, tens of megabytes, is slower)
+            images[i] = s.polar_bytes(*poses[i], FanHits(ray[rows], *(h[rows] for h in hits)))
+        if _stacks_exactly(images.shape[1], bins):  # one resize of the whole stack
+            flat = images.reshape(-1, images.shape[2])
+            return cv2.resize(flat, (beams, bins * self.num_envs),
+                              interpolation=cv2.INTER_AREA).reshape(out.shape)
+        for i, image in enumerate(images):
+            out[i] = cv2.resize(image, (beams, bins), interpolation=cv2.INTER_AREA)
         return out
 
     def _cast_fans(self) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray,
@@ -176,8 +196,9 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         sonars = [s for s in self.sonars if s is not None]
         poses = [s.sonar_pose(self.rov[i, :3], rot_z(self.rov[i, 3]))
                  for i, s in enumerate(sonars)]
-        dirs = np.stack([s.geometry.dirs_sonar @ R.T for s, (_, R) in zip(
-            sonars, poses, strict=True)])
+        # every episode's sonar casts the scenario sensor's fan (the water changes no ray)
+        rotations = np.stack([R for _, R in poses])
+        dirs = np.matmul(sonars[0].geometry.dirs_sonar, rotations.transpose(0, 2, 1))
         origins = np.stack([p for p, _ in poses])
         body = np.zeros((self.num_envs, 4, 4))
         body[:, 3, 3] = 1.0
@@ -254,3 +275,12 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         normal[rows] = hit_normal
         reflectivity[rows] = self.piling_reflectivity[rows[0], slot]
         label[rows] = -1
+
+
+def _stacks_exactly(rows: int, rows_out: int) -> bool:
+    """Whether averaging a vertical stack of images of ``rows`` rows down to ``rows_out``
+    each (``cv2.INTER_AREA``) gives each image's own result bit for bit: when the scale
+    rows/rows_out is a dyadic fraction, every image's row boundaries in the stack (its
+    offset k·rows plus its own) are exact in floating point."""
+    denominator = Fraction(rows, rows_out).denominator
+    return denominator & (denominator - 1) == 0

@@ -85,6 +85,8 @@ class EchoAccumulator:
         self.config = config
         n_bins, n_beams = config.n_bins, config.sonar_spec.n_beams
         self._raw = np.zeros((n_bins, n_beams), np.float32)
+        #: Rows [start, stop) of the raw image that may hold echo; zero outside them.
+        self._written = (0, 0)
         self._diff = np.zeros((n_bins + 1) * n_beams, np.float64)  # all zero between pings
         self._integ = np.zeros((n_bins + 2, n_beams + 1), np.float64)
         self._labeller = CellLabeller(n_bins * n_beams)
@@ -147,21 +149,20 @@ class EchoAccumulator:
             label_polar = np.full((n_bins, n_beams), -1, dtype=np.int16)
         raw = self._raw
         if idx.size == 0:
-            raw.fill(0.0)
+            self._zero_outside(0, 0)
             return raw, label_polar, []
         keep, a, b, lo, hi, dens, one = self._footprint_bins(r, cos_inc, e)
         if not keep.all():
             idx, e = idx[keep], e[keep]
             labels = labels[keep] if labels is not None else None
             if idx.size == 0:
-                raw.fill(0.0)
+                self._zero_outside(0, 0)
                 return raw, label_polar, []
         same = lo == hi
         beam = g.ray_beam[idx]
         # Rows [r0, r1) hold every footprint; the rest of the image gets no echo.
         r0, r1 = int(lo.min()), int(hi.max()) + 1
-        raw[:r0].fill(0.0)
-        raw[r1:].fill(0.0)
+        self._zero_outside(r0, r1)
         slab = raw[r0:r1]
         # Each footprint as steps along range of a difference image: its first bin gets its
         # overlap w_first, the bins between the density each, its last bin its overlap
@@ -195,3 +196,19 @@ class EchoAccumulator:
         cover = np.cumsum(reach[:n_bins]) > 0
         rows = _row_runs(cover, g.range_kernel.size // 2, _ROW_RUN_MERGE_GAP)
         return raw, label_polar, rows
+
+    def _zero_outside(self, start: int, stop: int) -> None:
+        """Zero the raw image outside rows [start, stop), which the caller then writes:
+        only the rows the previous ping wrote need it."""
+        raw = self._raw
+        w0, w1 = self._written
+        raw[w0 : min(w1, start)].fill(0.0)
+        raw[max(w0, stop) : w1].fill(0.0)
+        self._written = (start, stop)
+
+    def add_echoes(self, bins: NDArray[np.int64], beams: NDArray[np.int64],
+                   echoes: NDArray[np.float64]) -> None:
+        """Add ``echoes`` (re SL) into cells (``bins``, ``beams``) of the raw image of the
+        last :meth:`accumulate` (volume echoes; any row)."""
+        np.add.at(self._raw, (bins, beams), echoes.astype(np.float32))
+        self._written = (0, self._raw.shape[0])

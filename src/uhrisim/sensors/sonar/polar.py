@@ -91,12 +91,20 @@ def diffuse_rows(
     raw: NDArray[np.float32],
     leak: float,
     surface_rows: NDArray[np.float64] | None = None,
+    rows: Sequence[tuple[int, int]] | None = None,
 ) -> NDArray[np.float64]:
     """Diffuse intensity per range row re SL (n_bins,): the static terms (noise, volume
     reverberation, post-TVG noise referred to the input), the surface reverberation of
     this ping (None: none) and the far side lobes: ``leak`` times the echo averaged over
-    all beams of the row."""
-    d = static_rows + leak * cv2.reduce(raw, 1, cv2.REDUCE_AVG, dtype=cv2.CV_64F)[:, 0]
+    all beams of the row. ``rows``: row ranges [start, stop) outside which ``raw`` is zero
+    (None: any row may hold echo); only those are averaged."""
+    if rows is None:
+        mean = cv2.reduce(raw, 1, cv2.REDUCE_AVG, dtype=cv2.CV_64F)[:, 0]
+    else:
+        mean = np.zeros(raw.shape[0])
+        for a, b in rows:
+            mean[a:b] = cv2.reduce(raw[a:b], 1, cv2.REDUCE_AVG, dtype=cv2.CV_64F)[:, 0]
+    d = static_rows + leak * mean
     if surface_rows is not None:
         d = d + surface_rows
     return d
