@@ -59,9 +59,10 @@ from uhrisim.core.elementwise import ARRAYS
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned, wrap_180
 from uhrisim.dynamics.diver import body_rates_kernel
-from uhrisim.dynamics.plants import DiverPlant, VideoRayPlant
+from uhrisim.dynamics.plants import DiverPlant, VideoRayPlant, finite_or_raise
 from uhrisim.envs.task import REWARD_TERMS, THRUSTER_LIMIT
 from uhrisim.envs.trail_diver import SEED_SPAN, EnvArgumentError, TrailDiverEnv
+from uhrisim.envs.vector_ticks import compiled_ticks, floor_cells
 from uhrisim.scenario.build_world import add_object, build_static_scene
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import CylinderObject, Pose
@@ -126,6 +127,12 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
             if self.floor.seafloor is not None else np.inf
         self._allocate(num_envs)
         self._rngs = [seeding.np_random(None)[0] for _ in range(num_envs)]
+        self._floor_cells = floor_cells(self.floor.seafloor)
+        #: The compiled ticks (:mod:`uhrisim.envs.vector_ticks`; numba), or None: the numpy
+        #: ticks of :meth:`_run`, the reference (always so for a subclass that follows each
+        #: tick, :meth:`_moved`). Set it to None to run the reference.
+        self.ticks_kernel = (compiled_ticks(self) if type(self)._moved is
+                             TrailDiverVectorEnv._moved else None)
 
     # -- state ---------------------------------------------------------------------------
     def _allocate(self, n: int) -> None:
@@ -150,6 +157,8 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         self.pilings = np.full((n, slots, 3), np.nan)  # north, east, radius (m)
         self.piling_top = np.full((n, slots), np.inf)  # depth of the top (m)
         self.ticks = z(n, dtype=np.int64)
+        self._diver_next, self._rov_next = z((n, 4)), z((n, 8))  # the compiled ticks' moves
+        self._diver_hit, self._pending, self._free = z(n, bool), z(n, bool), z(n)
         self.steps = z(n, dtype=np.int64)
         self.episode_seed = z(n, dtype=np.int64)
         self.needs_reset = np.ones(n, dtype=bool)
@@ -316,6 +325,8 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         """Advance the sub-environments of ``mask`` by ``ticks`` physics steps; which of
         them had the ROV touch something."""
         collided = np.zeros(self.num_envs, bool)
+        if self.ticks_kernel is not None:
+            return self._run_compiled(ticks, mask, collided)
         rows: slice | np.ndarray = slice(None) if mask.all() else np.flatnonzero(mask)
         if not mask.any():
             return collided
@@ -346,6 +357,30 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
             self._moved(rows)
             self._pilot(mask)
             self._control(mask)
+        return collided
+
+    def _run_compiled(self, ticks: int, mask: np.ndarray, collided: np.ndarray) -> np.ndarray:
+        """:meth:`_run` by the compiled ticks; the narrow phase of the moves they leave
+        pending (near the floor or a piling) worked out here, between calls."""
+        rows = np.flatnonzero(mask)
+        left = np.where(mask, ticks, 0)
+        self._pending[:] = False
+        while rows.size:
+            self.ticks_kernel(
+                rows, left, self._pending, self._free, self._diver_next, self._rov_next,
+                self._diver_hit, collided, self.ticks, self.rov, self.rov_inputs,
+                self.rov_desired, self.rov_hold, self._held, self.diver, self.diver_inputs,
+                self.diver_desired, self.vertices, self.vertex_count, self.direction,
+                self.target_vertex, self.closest, self.capture_radius, self.slip_radius,
+                self.loiter_speed, self.hold_depth, self.pilings, self.piling_top,
+                *self._floor_cells)
+            rows = np.flatnonzero(self._pending)
+            if rows.size:
+                self._free[rows] = self._scene_clear(rows, self.rov[rows, :3],
+                                                     self._rov_next[rows, :3])
+        t = float(self.ticks.max() * self.dt)
+        finite_or_raise(self.diver, self.diver_plant.name, t)
+        finite_or_raise(self.rov, self.rov_plant.name, t)
         return collided
 
     def _moved(self, rows: slice | np.ndarray) -> None:

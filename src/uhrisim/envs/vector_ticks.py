@@ -1,0 +1,216 @@
+"""The vector env's physics ticks compiled (numba, ``uhrisim[fast]``): one call runs every
+tick of a step for all N episodes, row by row, with no numpy call per operation.
+
+:meth:`TrailDiverVectorEnv._run <uhrisim.envs.vector.TrailDiverVectorEnv>` on arrays is the
+reference; this runs the same tick, in the same order, on one episode's floats: the diver's
+exact step and the VideoRay's RK4 (the kernels of :mod:`uhrisim.dynamics.diver` and
+:mod:`uhrisim.dynamics.videoray`, compiled), the Simulation's contact rules, the batched
+loiter pilot and the controllers (:func:`~uhrisim.control.videoray_p.p_control_kernel`,
+:func:`~uhrisim.control.diver.diver_control_kernel`, compiled). A test holds the two equal,
+bit for bit.
+
+The narrow phase of the ROV's collision with the sea floor and the pilings (a swept sphere
+cast by Embree) stays in Python: a tick whose move ends near either (a conservative test:
+the shallowest corner of the floor's grid cell, a piling's box) is left pending, the env
+works out the free fraction of the move (its own ``_scene_clear``) and calls again; the
+pending tick then finishes and the row goes on.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from functools import cache
+from typing import Any
+
+import numpy as np
+
+from uhrisim.control.diver import diver_control_kernel
+from uhrisim.control.videoray_p import feedforward_input, p_control_kernel
+from uhrisim.core.compiled import floats, jit_with, record
+from uhrisim.dynamics import videoray
+from uhrisim.dynamics.diver import body_rates_kernel, leg_inputs, step_exact_kernel
+
+#: The kernels the compiled tick calls (registered with numba, compiled where it calls them).
+_HELPERS = (body_rates_kernel, step_exact_kernel, leg_inputs, videoray.body_forces,
+            feedforward_input, p_control_kernel, diver_control_kernel)
+
+
+def floor_cells(seafloor: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The sea floor's grid (north, east edges, m) and the depth of each cell's shallowest
+    corner (m): the floor lies nowhere in a cell above that (it is linear on the cell's
+    triangles). Empty without a sea floor."""
+    if seafloor is None:
+        return np.zeros(0), np.zeros(0), np.zeros((0, 0))
+    z = seafloor.depth
+    shallowest = np.minimum(np.minimum(z[:-1, :-1], z[1:, :-1]), np.minimum(z[1:, 1:], z[:-1, 1:]))
+    return (np.ascontiguousarray(seafloor.north, float), np.ascontiguousarray(seafloor.east, float),
+            np.ascontiguousarray(shallowest, float))
+
+
+def compiled_ticks(env: Any) -> Callable[..., None] | None:
+    """The compiled ticks of ``env`` (a :class:`~uhrisim.envs.vector.TrailDiverVectorEnv`);
+    None without numba."""
+    ops = floats()
+    if ops is None:
+        return None
+    course = env.domain.axis("course")
+    return _compiled(
+        record(env.rov_plant.params), tuple(env.rov_plant.coefficients),
+        env.rov_plant.integrator.substeps, record(env.diver_plant.params),
+        record(env.rov_control.gains), record(env.diver_control.gains), record(
+            env.diver_control.params), env.dt, env.pilot_period, env.rov_control_period,
+        env.diver_control_period, float(course.low), float(course.delta), int(course.npts),
+        tuple(float(v) for v in course.values), float(env.contact_distance),
+        float(env.rov_radius) + 0.5, float(env.shallowest_floor), ops)
+
+
+@cache
+def _compiled(rov_params: Any, coefficients: tuple, substeps: int, diver_params: Any,
+              rov_gains: Any, diver_gains: Any, diver_control_params: Any, dt: float,
+              pilot_period: int, rov_period: int, diver_period: int, course_low: float,
+              course_delta: float, course_points: int, course_values: tuple,
+              contact: float, margin: float, shallowest_floor: float, ops: Any) -> Any:
+    """The tick kernel of one env's constants, compiled (once per set of constants)."""
+    rk4 = videoray._compiled_kernel()
+    h = dt / substeps
+    courses = np.array(course_values)
+
+    def approaching(sx: float, sy: float, sz: float, ex: float, ey: float, ez: float,
+                    ox: float, oy: float, oz: float) -> bool:
+        """``vector._approaching`` on one row."""
+        dx, dy, dz = ex - ox, ey - oy, ez - oz
+        end_gap = math.sqrt(dx * dx + dy * dy + dz * dz)
+        dx, dy, dz = sx - ox, sy - oy, sz - oz
+        return end_gap < contact and end_gap < math.sqrt(dx * dx + dy * dy + dz * dz)
+
+    def near(i: int, x: float, y: float, z: float, pilings: Any, piling_top: Any,
+             floor_north: Any, floor_east: Any, floor_shallowest: Any) -> bool:
+        """Whether the ROV at (x, y, z) may be within reach of the floor or a piling (more
+        often than ``vector._scene_clear``'s broad phase, never less)."""
+        depth = z + margin
+        if floor_north.size and depth >= shallowest_floor and (
+                floor_north[0] <= x <= floor_north[-1] and floor_east[0] <= y <= floor_east[-1]):
+            a = min(max(np.searchsorted(floor_north, x, side="right") - 1, 0), floor_north.size - 2)
+            b = min(max(np.searchsorted(floor_east, y, side="right") - 1, 0), floor_east.size - 2)
+            if depth >= floor_shallowest[a, b]:
+                return True
+        for j in range(pilings.shape[1]):
+            reach = pilings[i, j, 2] + margin
+            if (abs(x - pilings[i, j, 0]) <= reach and abs(y - pilings[i, j, 1]) <= reach
+                    and depth >= piling_top[i, j]):
+                return True
+        return False
+
+    def pilot(i: int, diver: Any, diver_desired: Any, vertices: Any, vertex_count: Any,
+              direction: Any, target_vertex: Any, closest: Any, capture: Any, slip: Any,
+              loiter_speed: Any, hold_depth: Any) -> None:
+        """``TrailDiverVectorEnv._pilot`` on one row that is due."""
+        hn, he = diver[i, 0], diver[i, 1]
+        k = target_vertex[i]
+        dist = math.hypot(vertices[i, k, 0] - hn, vertices[i, k, 1] - he)
+        c = closest[i]
+        arrived = dist <= capture[i] or (c <= slip[i] and dist > c + 1e-9)
+        closest[i] = c if dist <= capture[i] else min(c, dist)
+        if arrived:
+            k = (k + direction[i]) % vertex_count[i]
+            target_vertex[i] = k
+            fresh = math.hypot(vertices[i, k, 0] - hn, vertices[i, k, 1] - he)
+            closest[i] = math.inf if fresh <= capture[i] else fresh
+        bearing = math.degrees(math.atan2(vertices[i, k, 1] - he, vertices[i, k, 0] - hn)) % 360.0
+        nearest = round((bearing - course_low) / course_delta) % course_points  # half to even
+        diver_desired[i, 0] = courses[nearest]
+        diver_desired[i, 1] = loiter_speed[i]
+        diver_desired[i, 2] = hold_depth[i]
+
+    def control(i: int, ticks: Any, rov: Any, rov_inputs: Any, rov_desired: Any, rov_hold: Any,
+                held: Any, diver: Any, diver_inputs: Any, diver_desired: Any) -> None:
+        """``TrailDiverVectorEnv._control`` on one row: the controllers that are due."""
+        if ticks[i] % diver_period == 0:
+            d = diver_desired[i]
+            diver_inputs[i, 0], diver_inputs[i, 1], diver_inputs[i, 2] = diver_control_kernel(
+                diver_gains, diver_control_params, diver[i, 2], diver[i, 3], d[0], d[1], d[2],
+                ops)
+        if ticks[i] % rov_period == 0:
+            if rov_hold[i]:
+                rov_inputs[i, 0], rov_inputs[i, 1], rov_inputs[i, 2] = held[i, 0], held[i, 1], \
+                    held[i, 2]
+            else:
+                d = rov_desired[i]
+                rov_inputs[i, 0], rov_inputs[i, 1], rov_inputs[i, 2] = p_control_kernel(
+                    rov_gains, rov_params, rov[i, 2], rov[i, 3], rov[i, 4], d[0], d[1], d[2],
+                    ops)
+
+    def ticks_kernel(rows: Any, ticks_left: Any, pending: Any, free: Any, diver_next: Any,
+                     rov_next: Any, diver_hit: Any, collided: Any, ticks: Any, rov: Any,
+                     rov_inputs: Any, rov_desired: Any, rov_hold: Any, held: Any, diver: Any,
+                     diver_inputs: Any, diver_desired: Any, vertices: Any, vertex_count: Any,
+                     direction: Any, target_vertex: Any, closest: Any, capture: Any,
+                     slip: Any, loiter_speed: Any, hold_depth: Any, pilings: Any,
+                     piling_top: Any, floor_north: Any, floor_east: Any,
+                     floor_shallowest: Any) -> None:
+        """Run ``ticks_left[i]`` ticks of each row ``i`` of ``rows``; a row whose move ends
+        near the floor or a piling stops with ``pending[i]`` set (its moves in
+        ``diver_next``, ``rov_next``, ``diver_hit``) until called again with the free
+        fraction of the ROV's move in ``free[i]``."""
+        for i in rows:
+            while ticks_left[i] > 0:
+                if pending[i]:
+                    pending[i] = False
+                    fraction = free[i]
+                else:
+                    speed, yaw_rate, vertical = body_rates_kernel(
+                        diver_inputs[i, 0], diver_inputs[i, 1], diver_inputs[i, 2],
+                        diver_params, ops)
+                    dn, de, dd, dpsi = step_exact_kernel(
+                        diver[i, 0], diver[i, 1], diver[i, 2], diver[i, 3], speed, yaw_rate,
+                        vertical, dt, ops)
+                    dd = max(dd, 0.0)
+                    hit = approaching(diver[i, 0], diver[i, 1], diver[i, 2], dn, de, dd,
+                                      rov[i, 0], rov[i, 1], rov[i, 2])
+                    if hit:
+                        dn, de, dd = diver[i, 0], diver[i, 1], diver[i, 2]
+                    diver_next[i, 0], diver_next[i, 1] = dn, de
+                    diver_next[i, 2], diver_next[i, 3] = dd, dpsi
+                    diver_hit[i] = hit
+                    surge, heave, yaw_moment = videoray.body_forces(
+                        rov_inputs[i, 0], rov_inputs[i, 1], rov_inputs[i, 2], rov_params, ops)
+                    state = rk4(rov[i, 0], rov[i, 1], rov[i, 2], rov[i, 3], rov[i, 4],
+                                rov[i, 5], rov[i, 6], rov[i, 7], surge, heave + 0.0,
+                                yaw_moment, coefficients, h, substeps)
+                    for j in range(8):
+                        rov_next[i, j] = state[j]
+                    if rov_next[i, 2] < 0.0:
+                        rov_next[i, 2] = 0.0
+                        rov_next[i, 6] = max(rov_next[i, 6], 0.0)
+                    if approaching(rov[i, 0], rov[i, 1], rov[i, 2], rov_next[i, 0],
+                                   rov_next[i, 1], rov_next[i, 2], dn, de, dd):
+                        fraction = 0.0
+                    elif near(i, rov_next[i, 0], rov_next[i, 1], rov_next[i, 2], pilings,
+                              piling_top, floor_north, floor_east, floor_shallowest):
+                        pending[i] = True
+                        break
+                    else:
+                        fraction = 1.0
+                rov_hit = fraction < 1.0
+                if rov_hit:  # stopped just short of the contact
+                    cut = max(0.0, fraction - 1e-3)
+                    for j in range(3):
+                        rov_next[i, j] = rov[i, j] + (rov_next[i, j] - rov[i, j]) * cut
+                    for j in range(4, 7):
+                        rov_next[i, j] = 0.0
+                for j in range(4):
+                    diver[i, j] = diver_next[i, j]
+                for j in range(8):
+                    rov[i, j] = rov_next[i, j]
+                collided[i] = collided[i] or diver_hit[i] or rov_hit
+                ticks[i] += 1
+                ticks_left[i] -= 1
+                if ticks[i] % pilot_period == 0:
+                    pilot(i, diver, diver_desired, vertices, vertex_count, direction,
+                          target_vertex, closest, capture, slip, loiter_speed, hold_depth)
+                control(i, ticks, rov, rov_inputs, rov_desired, rov_hold, held, diver,
+                        diver_inputs, diver_desired)
+
+    numba_helpers = (approaching, near, pilot, control)
+    return jit_with(ticks_kernel, _HELPERS + numba_helpers)
