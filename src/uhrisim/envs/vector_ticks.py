@@ -29,7 +29,9 @@ from uhrisim.control.diver import diver_control_kernel
 from uhrisim.control.videoray_p import feedforward_input, p_control_kernel
 from uhrisim.core.compiled import floats, jit_with, record
 from uhrisim.dynamics import videoray
+from uhrisim.core.frames import wrap_180
 from uhrisim.dynamics.diver import body_rates_kernel, leg_inputs, step_exact_kernel
+from uhrisim.envs.task import THRUSTER_LIMIT
 
 #: The kernels the compiled tick calls (registered with numba, compiled where it calls them).
 _HELPERS = (body_rates_kernel, step_exact_kernel, leg_inputs, videoray.body_forces,
@@ -214,3 +216,67 @@ def _compiled(rov_params: Any, coefficients: tuple, substeps: int, diver_params:
 
     numba_helpers = (approaching, near, pilot, control)
     return jit_with(ticks_kernel, _HELPERS + numba_helpers)
+
+
+def compiled_measures(env: Any) -> Callable[..., None] | None:
+    """The compiled measures of ``env`` after a step: its geometry, reward terms and state
+    observation (``TrailDiverVectorEnv._geometry``, ``_reward_terms``, ``_observe`` on one
+    row); None without numba."""
+    ops = floats()
+    if ops is None:
+        return None
+    trail_range, trail_angle = env.template._trail
+    space = env.single_observation_space
+    return _compiled_measures(
+        float(trail_range), math.radians(trail_angle), record(env.diver_plant.params),
+        record(env.weights), float(env.template.lost_range_m), tuple(map(float, space.low)),
+        tuple(map(float, space.high)), float(THRUSTER_LIMIT), ops)
+
+
+@cache
+def _compiled_measures(trail_range: float, trail_angle: float, diver_params: Any, w: Any,
+                       lost_range: float, low: tuple, high: tuple, limit: float,
+                       ops: Any) -> Any:
+    """The measures kernel of one env's constants, compiled (once per set of constants)."""
+    lows, highs = np.array(low), np.array(high)
+
+    def measures(rov: Any, diver: Any, rov_inputs: Any, diver_inputs: Any, collided: Any,
+                 geometry: Any, terms: Any, lost: Any, obs: Any) -> None:
+        """Per row ``i``: ``geometry[:, i]`` (trail point north, east, down; 3-D error,
+        range (m), bearing error (deg), depth error (m)), the reward ``terms[:, i]``
+        (task.REWARD_TERMS order), ``lost[i]`` and the float32 observation ``obs[i]``."""
+        for i in range(rov.shape[0]):
+            wanted = diver[i, 3] + trail_angle
+            px = diver[i, 0] + trail_range * math.cos(wanted)
+            py = diver[i, 1] + trail_range * math.sin(wanted)
+            pz = diver[i, 2]
+            dx, dy, dz = rov[i, 0] - diver[i, 0], rov[i, 1] - diver[i, 1], rov[i, 2] - diver[i, 2]
+            ex, ey, ez = rov[i, 0] - px, rov[i, 1] - py, rov[i, 2] - pz
+            error = math.sqrt(ex * ex + ey * ey + ez * ez)
+            range_m = math.hypot(dx, dy)
+            bearing_error = wrap_180(math.degrees(math.atan2(dy, dx)) - math.degrees(wanted))
+            geometry[0, i], geometry[1, i], geometry[2, i] = px, py, pz
+            geometry[3, i], geometry[4, i], geometry[5, i], geometry[6, i] = \
+                error, range_m, bearing_error, dz
+            lost[i] = range_m > lost_range
+            u0, u1, u2 = rov_inputs[i, 0] / limit, rov_inputs[i, 1] / limit, \
+                rov_inputs[i, 2] / limit
+            terms[0, i] = w.trail_position * (1.0 - min(error / w.position_scale_m, 1.0))
+            terms[1, i] = -w.bearing * abs(bearing_error) / 180.0
+            terms[2, i] = -w.collision if collided[i] else 0.0
+            terms[3, i] = -w.energy * ((u0 * u0 + u1 * u1 + u2 * u2) / 3.0)
+            terms[4, i] = -w.lost if lost[i] else 0.0
+            yaw = rov[i, 3]
+            c, s = math.cos(yaw), math.sin(yaw)
+            tn, te = px - rov[i, 0], py - rov[i, 1]
+            vn, ve = -dx, -dy
+            rel = diver[i, 3] - yaw
+            speed = abs(body_rates_kernel(diver_inputs[i, 0], diver_inputs[i, 1],
+                                          diver_inputs[i, 2], diver_params, ops)[0])
+            values = (c * tn + s * te, -s * tn + c * te, pz - rov[i, 2],
+                      c * vn + s * ve, -s * vn + c * ve, -dz, math.sin(rel), math.cos(rel),
+                      speed, rov[i, 4], rov[i, 5], rov[i, 6], rov[i, 7], rov[i, 2])
+            for j in range(14):
+                obs[i, j] = min(max(values[j], lows[j]), highs[j])
+
+    return jit_with(measures, (body_rates_kernel,))
