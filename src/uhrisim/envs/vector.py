@@ -41,6 +41,7 @@ with reward 0. Sub-environment ``i`` seeded with ``seed + i`` (``reset(seed=seed
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any, ClassVar
 
 import gymnasium
@@ -128,6 +129,7 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         self._allocate(num_envs)
         self._rngs = [seeding.np_random(None)[0] for _ in range(num_envs)]
         self._floor_cells = floor_cells(self.floor.seafloor)
+        self._decisions: dict[tuple, float] = {}
         #: The compiled ticks (:mod:`uhrisim.envs.vector_ticks`; numba), or None: the numpy
         #: ticks of :meth:`_run`, the reference (always so for a subclass that follows each
         #: tick, :meth:`_moved`). Set it to None to run the reference.
@@ -299,14 +301,10 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         p = behavior.params
         self.capture_radius[i], self.slip_radius[i] = p.capture_radius, p.slip_radius
         # The helm's speed and depth decisions: its argmax of the behaviors' ZAICs
-        self.loiter_speed[i] = _decided(self.domain.axis("speed"), p.speed, *LOITER_SPEED_ZAIC)
-        if hold:
-            h = build_behavior_spec("ConstantDepth", [(k, v, "hold") for k, v in hold.items()
-                                                      if k != "type"], "hold").params
-            self.hold_depth[i] = _decided(self.domain.axis("depth"), h.depth, h.peakwidth,
-                                          h.basewidth, h.summitdelta)
-        else:
-            self.hold_depth[i] = d.depth
+        self.loiter_speed[i] = self._decision(("speed", p.speed), lambda: _decided(
+            self.domain.axis("speed"), p.speed, *LOITER_SPEED_ZAIC))
+        self.hold_depth[i] = d.depth if not hold else self._decision(
+            tuple(hold.items()), lambda: _hold_decision(self.domain.axis("depth"), hold))
         self.closest[i] = np.inf
         self.pilings[i] = np.nan
         self.piling_top[i] = np.inf
@@ -317,6 +315,15 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         for j, o in enumerate(cylinders[:self.pilings.shape[1]]):
             self.pilings[i, j] = (o.position.north, o.position.east, o.radius)
             self.piling_top[i, j] = o.position.depth - 0.5 * o.height
+
+    def _decision(self, key: tuple, decide: Callable[[], float]) -> float:
+        """The helm's decision for ``key`` (a behavior's parameters), made by ``decide`` the
+        first time and kept (episodes draw their speeds and depths to the millimetre, so
+        the same values come back)."""
+        value = self._decisions.get(key)
+        if value is None:
+            value = self._decisions[key] = decide()
+        return value
 
     # -- a step ----------------------------------------------------------------------------
     def _act(self, actions: np.ndarray, live: np.ndarray) -> None:
@@ -606,6 +613,13 @@ def _decided(axis: Any, summit: float, peakwidth: float, basewidth: float,
     maximum (the solver's tie rule)."""
     return float(axis.values[int(np.argmax(zaic_peak_on_axis(axis, summit, peakwidth,
                                                              basewidth, summitdelta)))])
+
+
+def _hold_decision(axis: Any, hold: dict) -> float:
+    """The helm's depth decision for a ConstantDepth behavior's parameters alone."""
+    h = build_behavior_spec("ConstantDepth", [(k, v, "hold") for k, v in hold.items()
+                                              if k != "type"], "hold").params
+    return _decided(axis, h.depth, h.peakwidth, h.basewidth, h.summitdelta)
 
 
 def _approaching(start: np.ndarray, end: np.ndarray, other: np.ndarray,
