@@ -82,7 +82,7 @@ def record(settings: Any) -> tuple:
 
 @cache
 def _record_type(name: str, names: tuple[str, ...]) -> type:
-    return namedtuple(name, names)  # noqa: PYI024 - built per settings class
+    return namedtuple(name, names)
 
 
 @cache

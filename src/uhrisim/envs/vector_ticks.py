@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from functools import cache, partial
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -28,10 +27,11 @@ import numpy as np
 from uhrisim.control.diver import diver_control_kernel
 from uhrisim.control.videoray_p import feedforward_input, p_control_kernel
 from uhrisim.core.compiled import floats, jit_with, record
-from uhrisim.dynamics import videoray
 from uhrisim.core.frames import wrap_180
+from uhrisim.dynamics import videoray
 from uhrisim.dynamics.diver import body_rates_kernel, leg_inputs, step_exact_kernel
 from uhrisim.envs.task import THRUSTER_LIMIT
+
 
 def floor_cells(seafloor: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The sea floor's grid (north, east edges, m) and the depth of each cell's shallowest
@@ -99,7 +99,7 @@ def compiled_ticks(env: Any) -> Callable[..., None] | None:
         np.array(course.values, float), float(env.contact_distance),
         float(env.rov_radius) + 0.5, float(env.shallowest_floor), ops,
         videoray._compiled_kernel())
-    return partial(_compiled_ticks(), constants)
+    return _bound(_ticks, constants, _TICK_HELPERS)
 
 
 def compiled_measures(env: Any) -> Callable[..., None] | None:
@@ -115,7 +115,7 @@ def compiled_measures(env: Any) -> Callable[..., None] | None:
         float(trail_range), math.radians(trail_angle), record(env.diver_plant.params),
         record(env.weights), float(env.template.lost_range_m),
         space.low.astype(float), space.high.astype(float), ops)
-    return partial(_compiled_measures(), constants)
+    return _bound(_measures, constants, (body_rates_kernel,))
 
 
 def _approaching(contact: float, sx: float, sy: float, sz: float, ex: float, ey: float,
@@ -304,13 +304,13 @@ _TICK_HELPERS = (body_rates_kernel, step_exact_kernel, leg_inputs, videoray.body
                  _near, _pilot, _control)
 
 
-@cache
-def _compiled_ticks() -> Any:
-    """:func:`_ticks` compiled (once a process; its constants are an argument)."""
-    return jit_with(_ticks, _TICK_HELPERS)
+def _bound(kernel: Callable[..., None], constants: tuple,
+           helpers: tuple[Callable[..., Any], ...]) -> Callable[..., None] | None:
+    """``kernel(constants, *arrays)`` compiled with ``constants`` frozen in: numba types the
+    arrays alone at each call (a tuple argument costs milliseconds to type), and compiles
+    ``kernel`` once a process (its constants' types are the same for every env)."""
 
+    def bound(*arrays: Any) -> None:
+        kernel(constants, *arrays)
 
-@cache
-def _compiled_measures() -> Any:
-    """:func:`_measures` compiled (once a process)."""
-    return jit_with(_measures, (body_rates_kernel,))
+    return jit_with(bound, (*helpers, kernel))
