@@ -32,6 +32,10 @@ Two parts of the Simulation are replaced by array code for this task, and a test
   diver's moves are not checked against the floor and pilings (the randomised loiter
   ring keeps clear of both).
 
+With numba (``uhrisim[fast]``) the ticks of a step and its measures (geometry, reward
+terms, observation) run compiled, episode by episode (:mod:`uhrisim.envs.vector_ticks`);
+the array code here is their reference, and a test holds the two equal.
+
 Autoreset: Gymnasium 1.x ``NEXT_STEP``: the step after an episode ends resets that
 sub-environment (its action is ignored) and returns the new episode's first observation
 with reward 0. Sub-environment ``i`` seeded with ``seed + i`` (``reset(seed=seed)``) or
