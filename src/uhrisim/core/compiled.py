@@ -54,8 +54,15 @@ def jit_with(function: Callable[..., Any], helpers: tuple[Callable[..., Any], ..
         return None
     _register_frames(numba)
     for helper in helpers:
-        numba.extending.register_jitable(helper)
+        _register(numba, helper)
     return jit(function)
+
+
+@cache
+def _register(numba: Any, helper: Callable[..., Any]) -> None:
+    """``helper`` registered with numba, once a process (each registration would compile
+    it anew for its callers)."""
+    numba.extending.register_jitable(helper)
 
 
 @cache

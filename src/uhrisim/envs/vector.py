@@ -510,11 +510,12 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
             lost = geometry[2] > self.template.lost_range_m
             return geometry, self._reward_terms(geometry[1], geometry[3], collided, lost), lost
         n = self.num_envs
-        measured, terms, lost = np.empty((7, n)), np.empty((len(REWARD_TERMS), n)), \
-            np.empty(n, bool)
+        measured, terms = np.empty((7, n)), np.empty((len(REWARD_TERMS), n))
         self._state_obs = np.empty((n, STATE_SIZE), np.float32)
         self.measures_kernel(self.rov, self.diver, self.rov_inputs, self.diver_inputs,
-                             collided, measured, terms, lost, self._state_obs)
+                             collided, measured, terms, self._state_obs)
+        lost = measured[4] > self.template.lost_range_m
+        terms[-1] = np.where(lost, -self.weights.lost, 0.0)
         self._trail_point = measured[:3].T
         return ((self._trail_point, *measured[3:]), dict(zip(REWARD_TERMS, terms, strict=True)),
                 lost)

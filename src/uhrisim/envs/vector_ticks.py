@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from functools import cache
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -62,7 +63,7 @@ class TickConstants(NamedTuple):
     course_low: float        # the helm's course grid (deg)
     course_delta: float
     course_points: int
-    courses: np.ndarray
+    courses: tuple           # the course grid's values (deg)
     contact: float           # ROV-diver contact distance (m)
     margin: float            # broad phase reach beyond the ROV's centre (m)
     shallowest_floor: float  # m
@@ -77,9 +78,8 @@ class MeasureConstants(NamedTuple):
     trail_angle: float       # rad
     diver_params: Any
     weights: Any             # record of RewardWeights
-    lost_range: float        # m
-    low: np.ndarray          # observation bounds
-    high: np.ndarray
+    low: tuple               # observation bounds
+    high: tuple
     ops: Any
 
 
@@ -96,7 +96,7 @@ def compiled_ticks(env: Any) -> Callable[..., None] | None:
         env.dt / substeps, record(env.diver_plant.params), record(env.rov_control.gains),
         record(env.diver_control.gains), env.dt, env.pilot_period, env.rov_control_period,
         env.diver_control_period, float(course.low), float(course.delta), int(course.npts),
-        np.array(course.values, float), float(env.contact_distance),
+        tuple(map(float, course.values)), float(env.contact_distance),
         float(env.rov_radius) + 0.5, float(env.shallowest_floor), ops,
         videoray._compiled_kernel())
     return _bound(_ticks, constants, _TICK_HELPERS)
@@ -113,8 +113,7 @@ def compiled_measures(env: Any) -> Callable[..., None] | None:
     space = env.single_observation_space
     constants = MeasureConstants(
         float(trail_range), math.radians(trail_angle), record(env.diver_plant.params),
-        record(env.weights), float(env.template.lost_range_m),
-        space.low.astype(float), space.high.astype(float), ops)
+        record(env.weights), tuple(map(float, space.low)), tuple(map(float, space.high)), ops)
     return _bound(_measures, constants, (body_rates_kernel,))
 
 
@@ -260,10 +259,11 @@ def _ticks(k: TickConstants, rows: Any, ticks_left: Any, pending: Any, free: Any
 
 
 def _measures(k: MeasureConstants, rov: Any, diver: Any, rov_inputs: Any, diver_inputs: Any,
-              collided: Any, geometry: Any, terms: Any, lost: Any, obs: Any) -> None:
+              collided: Any, geometry: Any, terms: Any, obs: Any) -> None:
     """Per row ``i``: ``geometry[:, i]`` (trail point north, east, down; 3-D error, range
-    (m), bearing error (deg), depth error (m)), the reward ``terms[:, i]``
-    (task.REWARD_TERMS order), ``lost[i]`` and the float32 observation ``obs[i]``."""
+    (m), bearing error (deg), depth error (m)), the reward ``terms[:4, i]``
+    (task.REWARD_TERMS order; the last, ``lost``, is the caller's) and the float32
+    observation ``obs[i]``."""
     w, limit = k.weights, THRUSTER_LIMIT
     for i in range(rov.shape[0]):
         wanted = diver[i, 3] + k.trail_angle
@@ -278,13 +278,11 @@ def _measures(k: MeasureConstants, rov: Any, diver: Any, rov_inputs: Any, diver_
         geometry[0, i], geometry[1, i], geometry[2, i] = px, py, pz
         geometry[3, i], geometry[4, i], geometry[5, i], geometry[6, i] = \
             error, range_m, bearing_error, dz
-        lost[i] = range_m > k.lost_range
         u0, u1, u2 = rov_inputs[i, 0] / limit, rov_inputs[i, 1] / limit, rov_inputs[i, 2] / limit
         terms[0, i] = w.trail_position * (1.0 - min(error / w.position_scale_m, 1.0))
         terms[1, i] = -w.bearing * abs(bearing_error) / 180.0
         terms[2, i] = -w.collision if collided[i] else 0.0
         terms[3, i] = -w.energy * ((u0 * u0 + u1 * u1 + u2 * u2) / 3.0)
-        terms[4, i] = -w.lost if lost[i] else 0.0
         yaw = rov[i, 3]
         c, s = math.cos(yaw), math.sin(yaw)
         tn, te = px - rov[i, 0], py - rov[i, 1]
@@ -304,11 +302,13 @@ _TICK_HELPERS = (body_rates_kernel, step_exact_kernel, leg_inputs, videoray.body
                  _near, _pilot, _control)
 
 
+@cache
 def _bound(kernel: Callable[..., None], constants: tuple,
            helpers: tuple[Callable[..., Any], ...]) -> Callable[..., None] | None:
     """``kernel(constants, *arrays)`` compiled with ``constants`` frozen in: numba types the
-    arrays alone at each call (a tuple argument costs milliseconds to type), and compiles
-    ``kernel`` once a process (its constants' types are the same for every env)."""
+    arrays alone at each call (a tuple argument costs milliseconds to type). Kept per set
+    of constants (envs of one scenario share it); ``kernel`` itself compiles once a
+    process."""
 
     def bound(*arrays: Any) -> None:
         kernel(constants, *arrays)
