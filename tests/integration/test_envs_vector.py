@@ -113,6 +113,42 @@ def test_sub_environments_are_independent_of_the_batch():
         assert r1[0] == r5[2]
 
 
+def _fly_compiled_and_numpy(seeds, steps, policy, **kwargs):
+    """Step the vector env with its compiled ticks and measures and one on numpy's arrays
+    (the reference, as without numba) with the same actions; returns the step results."""
+    fast = TrailDiverVectorEnv(num_envs=len(seeds), **kwargs)
+    slow = TrailDiverVectorEnv(num_envs=len(seeds), **kwargs)
+    slow.ticks_kernel = slow.measures_kernel = None
+    obs, _ = fast.reset(seed=seeds)
+    np.testing.assert_array_equal(obs, slow.reset(seed=seeds)[0])
+    endings = []
+    for _ in range(steps):
+        actions = np.stack([policy(o) for o in obs])
+        obs, reward, terminated, truncated, info = fast.step(actions)
+        s_obs, s_reward, s_terminated, s_truncated, s_info = slow.step(actions)
+        np.testing.assert_array_equal(fast.rov, slow.rov)  # bit for bit
+        np.testing.assert_array_equal(fast.diver, slow.diver)
+        np.testing.assert_array_equal(obs, s_obs)
+        np.testing.assert_array_equal(terminated, s_terminated)
+        np.testing.assert_array_equal(truncated, s_truncated)
+        # numpy's arctan2 and libm's differ in the last bit (the bearing term and error)
+        np.testing.assert_allclose(reward, s_reward, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(info["termination"], s_info["termination"])
+        endings += [e for e in info["termination"] if e]
+    return endings
+
+
+def test_compiled_ticks_equal_the_numpy_ones():
+    """The compiled ticks (numba) and the numpy ones: the same states, observations and
+    endings, through collisions with the diver, the sea floor (the compiled ticks leave
+    those moves to the env's swept sphere) and pilings."""
+    if TrailDiverVectorEnv(num_envs=1).ticks_kernel is None:
+        pytest.skip("numba (the [fast] extra) is not installed: the numpy ticks run alone")
+    assert _fly_compiled_and_numpy([6], 108, _dive, lost_range_m=60.0) == ["collision"]
+    assert _fly_compiled_and_numpy([0, 2], 24, _ram, lost_range_m=30.0,
+                                   randomization={"clutter": 4}) == ["collision"] * 2
+
+
 @pytest.mark.parametrize("kwargs, message", [
     ({"num_envs": 0}, "num_envs must be an integer >= 1"),
     ({"observation": "sonar"}, "makes observation=.state., not .sonar."),

@@ -59,10 +59,19 @@ class DiverController:
         """On floats (one diver) or (N,) arrays (``ops``): the leg inputs, the inverse of
         eqs 10-12 (:func:`~uhrisim.dynamics.diver.leg_inputs`) of the commanded speed, the
         yaw rate K_h·e (e the wrapped heading error, rad) and the vertical rate K_z·Δz."""
-        heading_error = ops.remainder(desired_heading_deg * _RADIANS_PER_DEGREE - yaw, math.tau)
-        yaw_rate = self.gains.heading * heading_error
-        vertical = self.gains.depth * (desired_depth - depth)
-        return leg_inputs(desired_speed, yaw_rate, vertical, self.params)
+        return diver_control_kernel(self.gains, self.params, depth, yaw, desired_heading_deg,
+                                    desired_speed, desired_depth, ops)
+
+
+def diver_control_kernel(gains: DiverGains, params: DiverParams, depth: Any, yaw: Any,
+                         desired_heading_deg: Any, desired_speed: Any, desired_depth: Any,
+                         ops: Elementwise) -> tuple[Any, Any, Any]:
+    """:meth:`DiverController.kernel` with its gains and parameters as arguments (a function
+    numba can compile, given them as records: :func:`uhrisim.core.compiled.record`)."""
+    heading_error = ops.remainder(desired_heading_deg * _RADIANS_PER_DEGREE - yaw, math.tau)
+    yaw_rate = gains.heading * heading_error
+    vertical = gains.depth * (desired_depth - depth)
+    return leg_inputs(desired_speed, yaw_rate, vertical, params)
 
 
 @dataclass(frozen=True)

@@ -95,15 +95,23 @@ class VideoRayPController:
                desired_speed: Any, desired_depth: Any, ops: Elementwise = FLOATS
                ) -> tuple[Any, Any, Any]:
         """Eqs 5-9 on floats (one vehicle) or (N,) arrays (``ops``): (port, star, vert)."""
-        g = self.gains
-        heading_error = wrap_180(desired_heading_deg - heading_deg_from_yaw(yaw))
-        speed_term = g.speed_weight * g.speed * (desired_speed - surge)
-        if g.speed_feedforward:
-            speed_term = speed_term + feedforward_input(desired_speed, self.params, ops)
-        heading_term = g.heading_weight * g.heading * heading_error
-        port = heading_term + speed_term
-        star = -heading_term + speed_term
-        vert = -g.depth * (desired_depth - depth)
-        limit = self.params.input_limit
-        return (ops.clip(port, -limit, limit), ops.clip(star, -limit, limit),
-                ops.clip(vert, -limit, limit))
+        return p_control_kernel(self.gains, self.params, depth, yaw, surge,
+                                desired_heading_deg, desired_speed, desired_depth, ops)
+
+
+def p_control_kernel(g: PGains, params: VideoRayParams, depth: Any, yaw: Any, surge: Any,
+                     desired_heading_deg: Any, desired_speed: Any, desired_depth: Any,
+                     ops: Elementwise) -> tuple[Any, Any, Any]:
+    """:meth:`VideoRayPController.kernel` with its gains and parameters as arguments (a
+    function numba can compile, given them as records: :func:`uhrisim.core.compiled.record`)."""
+    heading_error = wrap_180(desired_heading_deg - heading_deg_from_yaw(yaw))
+    speed_term = g.speed_weight * g.speed * (desired_speed - surge)
+    if g.speed_feedforward:
+        speed_term = speed_term + feedforward_input(desired_speed, params, ops)
+    heading_term = g.heading_weight * g.heading * heading_error
+    port = heading_term + speed_term
+    star = -heading_term + speed_term
+    vert = -g.depth * (desired_depth - depth)
+    limit = params.input_limit
+    return (ops.clip(port, -limit, limit), ops.clip(star, -limit, limit),
+            ops.clip(vert, -limit, limit))

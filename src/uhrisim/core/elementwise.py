@@ -21,7 +21,8 @@ import numpy as np
 class Elementwise(NamedTuple):
     """The functions a kernel calls by name: trigonometry, ``clip(v, low, high)``,
     ``where(condition, a, b)`` (both computed), ``sqrt``, ``copysign`` and the IEEE
-    ``remainder(x, y)`` (result in [-y/2, y/2])."""
+    ``remainder(x, y)`` (result in [-y/2, y/2]); ``batched``: the values are (N,) arrays
+    (a kernel may take a shortcut on one float that an array cannot)."""
 
     cos: Callable[[Any], Any]
     sin: Callable[[Any], Any]
@@ -30,6 +31,7 @@ class Elementwise(NamedTuple):
     sqrt: Callable[[Any], Any]
     copysign: Callable[[Any, Any], Any]
     remainder: Callable[[Any, Any], Any]
+    batched: bool
 
 
 def _clip_float(value: float, low: float, high: float) -> float:
@@ -50,6 +52,16 @@ def _remainder_array(x: np.ndarray, y: float) -> np.ndarray:
     return x - y * np.rint(x / y)
 
 
+def _remainder_float(x: float, y: float) -> float:
+    """:data:`ARRAYS`' remainder on one float (``round`` rounds half to even, as np.rint)."""
+    return x - y * round(x / y)
+
+
 FLOATS = Elementwise(math.cos, math.sin, _clip_float, _where_float, math.sqrt, math.copysign,
-                     math.remainder)
-ARRAYS = Elementwise(np.cos, np.sin, _clip_array, np.where, np.sqrt, np.copysign, _remainder_array)
+                     math.remainder, False)
+ARRAYS = Elementwise(np.cos, np.sin, _clip_array, np.where, np.sqrt, np.copysign, _remainder_array,
+                     True)
+#: The float functions numba compiles a kernel with (:func:`uhrisim.core.compiled.floats`):
+#: as :data:`FLOATS`, but with :data:`ARRAYS`' remainder, so that a compiled kernel run row by
+#: row gives what the numpy one gives on the rows together.
+FLOATS_AS_ARRAYS = FLOATS._replace(remainder=_remainder_float)

@@ -111,14 +111,14 @@ def step_exact_kernel(north: Any, east: Any, depth: Any, psi: Any, speed: Any, y
     arrays (``ops``); returns ``(north, east, depth, psi)``."""
     new_psi = psi + yaw_rate * dt
     turning = abs(yaw_rate) * dt > 1e-9
-    if ops is FLOATS and not turning:  # one diver going straight: skip the arc
+    if not ops.batched and not turning:  # one diver going straight: skip the arc
         mid = psi + 0.5 * yaw_rate * dt
         return (north + speed * dt * math.cos(mid), east + speed * dt * math.sin(mid),
                 depth + vertical * dt, new_psi)
     radius = speed / ops.where(turning, yaw_rate, 1.0)
     d_north = radius * (ops.sin(new_psi) - ops.sin(psi))
     d_east = -(radius * (ops.cos(new_psi) - ops.cos(psi)))
-    if ops is not FLOATS:  # some of the N divers may go straight
+    if ops.batched:  # some of the N divers may go straight
         mid = psi + 0.5 * yaw_rate * dt
         d_north = ops.where(turning, d_north, speed * dt * ops.cos(mid))
         d_east = ops.where(turning, d_east, speed * dt * ops.sin(mid))

@@ -32,6 +32,10 @@ Two parts of the Simulation are replaced by array code for this task, and a test
   diver's moves are not checked against the floor and pilings (the randomised loiter
   ring keeps clear of both).
 
+With numba (``uhrisim[fast]``) the ticks of a step and its measures (geometry, reward
+terms, observation) run compiled, episode by episode (:mod:`uhrisim.envs.vector_ticks`);
+the array code here is their reference, and a test holds the two equal.
+
 Autoreset: Gymnasium 1.x ``NEXT_STEP``: the step after an episode ends resets that
 sub-environment (its action is ignored) and returns the new episode's first observation
 with reward 0. Sub-environment ``i`` seeded with ``seed + i`` (``reset(seed=seed)``) or
@@ -41,6 +45,7 @@ with reward 0. Sub-environment ``i`` seeded with ``seed + i`` (``reset(seed=seed
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any, ClassVar
 
 import gymnasium
@@ -59,9 +64,10 @@ from uhrisim.core.elementwise import ARRAYS
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned, wrap_180
 from uhrisim.dynamics.diver import body_rates_kernel
-from uhrisim.dynamics.plants import DiverPlant, VideoRayPlant
+from uhrisim.dynamics.plants import DiverPlant, VideoRayPlant, finite_or_raise
 from uhrisim.envs.task import REWARD_TERMS, THRUSTER_LIMIT
-from uhrisim.envs.trail_diver import SEED_SPAN, EnvArgumentError, TrailDiverEnv
+from uhrisim.envs.trail_diver import SEED_SPAN, STATE_SIZE, EnvArgumentError, TrailDiverEnv
+from uhrisim.envs.vector_ticks import compiled_measures, compiled_ticks, floor_cells
 from uhrisim.scenario.build_world import add_object, build_static_scene
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import CylinderObject, Pose
@@ -126,6 +132,17 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
             if self.floor.seafloor is not None else np.inf
         self._allocate(num_envs)
         self._rngs = [seeding.np_random(None)[0] for _ in range(num_envs)]
+        self._floor_cells = floor_cells(self.floor.seafloor)
+        self._decisions: dict[tuple, float] = {}
+        #: The compiled ticks (:mod:`uhrisim.envs.vector_ticks`; numba), or None: the numpy
+        #: ticks of :meth:`_run`, the reference (always so for a subclass that follows each
+        #: tick, :meth:`_moved`). Set it to None to run the reference.
+        self.ticks_kernel = (compiled_ticks(self) if type(self)._moved is
+                             TrailDiverVectorEnv._moved else None)
+        #: The compiled measures of a step (geometry, reward terms, state observation), or
+        #: None: :meth:`_geometry`, :meth:`_reward_terms` and :meth:`_observe` on arrays.
+        self.measures_kernel = (compiled_measures(self) if self.ticks_kernel is not None
+                                else None)
 
     # -- state ---------------------------------------------------------------------------
     def _allocate(self, n: int) -> None:
@@ -150,6 +167,9 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         self.pilings = np.full((n, slots, 3), np.nan)  # north, east, radius (m)
         self.piling_top = np.full((n, slots), np.inf)  # depth of the top (m)
         self.ticks = z(n, dtype=np.int64)
+        self._trail_point = z((n, 3))       # of the last _geometry (NED, m)
+        self._diver_next, self._rov_next = z((n, 4)), z((n, 8))  # the compiled ticks' moves
+        self._diver_hit, self._pending, self._free = z(n, bool), z(n, bool), z(n)
         self.steps = z(n, dtype=np.int64)
         self.episode_seed = z(n, dtype=np.int64)
         self.needs_reset = np.ones(n, dtype=bool)
@@ -184,7 +204,8 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
                 self._rngs[i] = seeding.np_random(seeds[i])[0]
         self._begin(np.flatnonzero(mask), episodes)
         self._run(self.ticks_per_step, mask)
-        return self._observe(), self._info(*self._geometry(), None, None)
+        geometry, _, _ = self._measure(np.zeros(self.num_envs, bool))
+        return self._observe(), self._info(*geometry, None, None)
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                            dict[str, Any]]:
@@ -195,24 +216,27 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
                 f"got shape {actions.shape}")
         starting = self.needs_reset.copy()
         live = ~starting
-        actions = np.clip(actions, self.single_action_space.low, self.single_action_space.high)
+        space = self.single_action_space
+        actions = np.minimum(np.maximum(actions, space.low), space.high)  # np.clip's values
         self._act(actions, live)
-        self._begin(np.flatnonzero(starting))
+        resetting = starting.any()
+        if resetting:
+            self._begin(np.flatnonzero(starting))
         collided = self._run(self.ticks_per_step, np.ones(self.num_envs, bool))
-        geometry = self._geometry()
-        _, error, range_m, bearing_error, _ = geometry
-        lost = range_m > self.template.lost_range_m
-        terms = self._reward_terms(error, bearing_error, collided, lost)
+        geometry, terms, lost = self._measure(collided)
         reward = sum(terms.values())
         terminated = (collided | lost) & live
-        self.steps[live] += 1
+        self.steps += live
         truncated = live & ~terminated & (self.steps >= self.max_steps)
-        reward[starting] = 0.0
-        for values in terms.values():
-            values[starting] = 0.0
+        if resetting:
+            reward[starting] = 0.0
+            for values in terms.values():
+                values[starting] = 0.0
         self.needs_reset = terminated | truncated
-        reason = np.where(collided, "collision", np.where(lost, "lost", None))
-        reason[~terminated] = None
+        reason = np.full(self.num_envs, None, dtype=object)
+        if terminated.any():
+            reason[terminated & lost] = "lost"
+            reason[terminated & collided] = "collision"
         return (self._observe(), reward, terminated, truncated,
                 self._info(*geometry, terms, reason))
 
@@ -281,14 +305,10 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         p = behavior.params
         self.capture_radius[i], self.slip_radius[i] = p.capture_radius, p.slip_radius
         # The helm's speed and depth decisions: its argmax of the behaviors' ZAICs
-        self.loiter_speed[i] = _decided(self.domain.axis("speed"), p.speed, *LOITER_SPEED_ZAIC)
-        if hold:
-            h = build_behavior_spec("ConstantDepth", [(k, v, "hold") for k, v in hold.items()
-                                                      if k != "type"], "hold").params
-            self.hold_depth[i] = _decided(self.domain.axis("depth"), h.depth, h.peakwidth,
-                                          h.basewidth, h.summitdelta)
-        else:
-            self.hold_depth[i] = d.depth
+        self.loiter_speed[i] = self._decision(("speed", p.speed), lambda: _decided(
+            self.domain.axis("speed"), p.speed, *LOITER_SPEED_ZAIC))
+        self.hold_depth[i] = d.depth if not hold else self._decision(
+            tuple(hold.items()), lambda: _hold_decision(self.domain.axis("depth"), hold))
         self.closest[i] = np.inf
         self.pilings[i] = np.nan
         self.piling_top[i] = np.inf
@@ -299,6 +319,15 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         for j, o in enumerate(cylinders[:self.pilings.shape[1]]):
             self.pilings[i, j] = (o.position.north, o.position.east, o.radius)
             self.piling_top[i, j] = o.position.depth - 0.5 * o.height
+
+    def _decision(self, key: tuple, decide: Callable[[], float]) -> float:
+        """The helm's decision for ``key`` (a behavior's parameters), made by ``decide`` the
+        first time and kept (episodes draw their speeds and depths to the millimetre, so
+        the same values come back)."""
+        value = self._decisions.get(key)
+        if value is None:
+            value = self._decisions[key] = decide()
+        return value
 
     # -- a step ----------------------------------------------------------------------------
     def _act(self, actions: np.ndarray, live: np.ndarray) -> None:
@@ -316,6 +345,8 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         """Advance the sub-environments of ``mask`` by ``ticks`` physics steps; which of
         them had the ROV touch something."""
         collided = np.zeros(self.num_envs, bool)
+        if self.ticks_kernel is not None:
+            return self._run_compiled(ticks, mask, collided)
         rows: slice | np.ndarray = slice(None) if mask.all() else np.flatnonzero(mask)
         if not mask.any():
             return collided
@@ -346,6 +377,30 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
             self._moved(rows)
             self._pilot(mask)
             self._control(mask)
+        return collided
+
+    def _run_compiled(self, ticks: int, mask: np.ndarray, collided: np.ndarray) -> np.ndarray:
+        """:meth:`_run` by the compiled ticks; the narrow phase of the moves they leave
+        pending (near the floor or a piling) worked out here, between calls."""
+        rows = np.flatnonzero(mask)
+        left = np.where(mask, ticks, 0)
+        self._pending[:] = False
+        while rows.size:
+            self.ticks_kernel(
+                rows, left, self._pending, self._free, self._diver_next, self._rov_next,
+                self._diver_hit, collided, self.ticks, self.rov, self.rov_inputs,
+                self.rov_desired, self.rov_hold, self._held, self.diver, self.diver_inputs,
+                self.diver_desired, self.vertices, self.vertex_count, self.direction,
+                self.target_vertex, self.closest, self.capture_radius, self.slip_radius,
+                self.loiter_speed, self.hold_depth, self.pilings, self.piling_top,
+                *self._floor_cells)
+            rows = np.flatnonzero(self._pending)
+            if rows.size:
+                self._free[rows] = self._scene_clear(rows, self.rov[rows, :3],
+                                                     self._rov_next[rows, :3])
+        t = float(self.ticks.max() * self.dt)
+        finite_or_raise(self.diver, self.diver_plant.name, t)
+        finite_or_raise(self.rov, self.rov_plant.name, t)
         return collided
 
     def _moved(self, rows: slice | np.ndarray) -> None:
@@ -445,26 +500,50 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
             self.rov_inputs[idx] = inputs
 
     # -- what the agent sees -------------------------------------------------------------
+    def _measure(self, collided: np.ndarray) -> tuple[tuple[np.ndarray, ...],
+                                                      dict[str, np.ndarray], np.ndarray]:
+        """After a step: :meth:`_geometry`, :meth:`_reward_terms` and whether the diver is
+        lost, by the compiled measures (which also form :meth:`_observe`'s observation)
+        or on arrays."""
+        if self.measures_kernel is None:
+            geometry = self._geometry()
+            lost = geometry[2] > self.template.lost_range_m
+            return geometry, self._reward_terms(geometry[1], geometry[3], collided, lost), lost
+        n = self.num_envs
+        measured, terms = np.empty((7, n)), np.empty((len(REWARD_TERMS), n))
+        self._state_obs = np.empty((n, STATE_SIZE), np.float32)
+        self.measures_kernel(self.rov, self.diver, self.rov_inputs, self.diver_inputs,
+                             collided, measured, terms, self._state_obs)
+        lost = measured[4] > self.template.lost_range_m
+        terms[-1] = np.where(lost, -self.weights.lost, 0.0)
+        self._trail_point = measured[:3].T
+        return ((self._trail_point, *measured[3:]), dict(zip(REWARD_TERMS, terms, strict=True)),
+                lost)
+
     def _geometry(self) -> tuple[np.ndarray, ...]:
         """Trail point (N, 3), 3-D error (m), horizontal range (m), bearing error (deg),
-        depth error (m) of every sub-environment (:class:`~uhrisim.envs.task.TrailGeometry`)."""
-        t = self.template
-        trail_range, trail_angle = t._trail
-        wanted = self.diver[:, 3] + math.radians(trail_angle)
-        point = np.stack([self.diver[:, 0] + trail_range * np.cos(wanted),
-                          self.diver[:, 1] + trail_range * np.sin(wanted),
-                          self.diver[:, 2]], axis=-1)
-        rov = self.rov[:, :3]
-        d = rov - self.diver[:, :3]
+        depth error (m) of every sub-environment (:class:`~uhrisim.envs.task.TrailGeometry`);
+        the trail point is kept for :meth:`_observe`."""
+        trail_range, trail_angle = self.template._trail
+        diver, rov = self.diver, self.rov[:, :3]
+        wanted = diver[:, 3] + math.radians(trail_angle)
+        point = np.empty((self.num_envs, 3))
+        point[:, 0] = diver[:, 0] + trail_range * np.cos(wanted)
+        point[:, 1] = diver[:, 1] + trail_range * np.sin(wanted)
+        point[:, 2] = diver[:, 2]
+        self._trail_point = point
+        d = rov - diver[:, :3]
         bearing = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
-        return (point, np.linalg.norm(rov - point, axis=1), np.hypot(d[:, 0], d[:, 1]),
+        return (point, _row_norms(rov - point), np.hypot(d[:, 0], d[:, 1]),
                 wrap_180(bearing - np.degrees(wanted)), d[:, 2])
 
     def _reward_terms(self, error: np.ndarray, bearing_error: np.ndarray,
                       collided: np.ndarray, lost: np.ndarray) -> dict[str, np.ndarray]:
         """The named terms of :func:`uhrisim.envs.task.reward_terms`, per sub-environment."""
         w = self.weights
-        effort = np.mean((self.rov_inputs / THRUSTER_LIMIT) ** 2, axis=1)
+        share = self.rov_inputs / THRUSTER_LIMIT
+        share *= share
+        effort = (share[:, 0] + share[:, 1] + share[:, 2]) / 3.0  # np.mean's sum, in order
         terms = {
             "trail_position": w.trail_position * (1.0 - np.minimum(error / w.position_scale_m,
                                                                    1.0)),
@@ -477,22 +556,32 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         return terms
 
     def _observe(self) -> np.ndarray:
-        """The state observation of every sub-environment (docs/envs.md), float32."""
-        point = self._geometry()[0]
-        yaw = self.rov[:, 3]
-        c, s = np.cos(yaw), np.sin(yaw)
-
-        def body(v: np.ndarray) -> list[np.ndarray]:
-            return [c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1], v[:, 2]]
-
-        rel = self.diver[:, 3] - yaw
-        u = self.diver_inputs.T
-        speed = np.abs(body_rates_kernel(*u, self.diver_plant.params, ARRAYS)[0])
-        obs = np.stack([*body(point - self.rov[:, :3]), *body(self.diver[:, :3] - self.rov[:, :3]),
-                        np.sin(rel), np.cos(rel), speed, self.rov[:, 4], self.rov[:, 5],
-                        self.rov[:, 6], self.rov[:, 7], self.rov[:, 2]], axis=-1)
+        """The state observation of every sub-environment (docs/envs.md), float32, at the
+        trail point of the last :meth:`_geometry`."""
+        if self.measures_kernel is not None:
+            return self._state_obs
+        rov, diver = self.rov, self.diver
+        yaw = rov[:, 3]
+        c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+        ned = np.empty((self.num_envs, 6))  # trail point and diver from the ROV (m, NED)
+        ned[:, :3] = self._trail_point
+        ned[:, 3:] = diver[:, :3]
+        ned[:, :3] -= rov[:, :3]
+        ned[:, 3:] -= rov[:, :3]
+        north, east = ned[:, 0::3], ned[:, 1::3]
+        obs = np.empty((self.num_envs, 14))
+        obs[:, 0:6:3] = c * north + s * east  # body FRD (task.body_frd)
+        obs[:, 1:6:3] = -s * north + c * east
+        obs[:, 2:6:3] = ned[:, 2::3]
+        rel = diver[:, 3] - yaw
+        obs[:, 6], obs[:, 7] = np.sin(rel), np.cos(rel)
+        obs[:, 8] = np.abs(body_rates_kernel(*self.diver_inputs.T, self.diver_plant.params,
+                                             ARRAYS)[0])
+        obs[:, 9:13] = rov[:, 4:8]
+        obs[:, 13] = rov[:, 2]
         space = self.single_observation_space
-        return np.clip(obs, space.low, space.high).astype(np.float32)
+        np.maximum(obs, space.low, out=obs)  # np.clip's values
+        return np.minimum(obs, space.high, out=obs).astype(np.float32)
 
     def _info(self, point: np.ndarray, error: np.ndarray, range_m: np.ndarray,
               bearing_error: np.ndarray, depth_error: np.ndarray,
@@ -529,6 +618,13 @@ def _decided(axis: Any, summit: float, peakwidth: float, basewidth: float,
     maximum (the solver's tie rule)."""
     return float(axis.values[int(np.argmax(zaic_peak_on_axis(axis, summit, peakwidth,
                                                              basewidth, summitdelta)))])
+
+
+def _hold_decision(axis: Any, hold: dict) -> float:
+    """The helm's depth decision for a ConstantDepth behavior's parameters alone."""
+    h = build_behavior_spec("ConstantDepth", [(k, v, "hold") for k, v in hold.items()
+                                              if k != "type"], "hold").params
+    return _decided(axis, h.depth, h.peakwidth, h.basewidth, h.summitdelta)
 
 
 def _approaching(start: np.ndarray, end: np.ndarray, other: np.ndarray,
