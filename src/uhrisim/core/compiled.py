@@ -59,14 +59,18 @@ def kernel_cache_folder() -> str:
     return os.path.join(base, "uhrisim-numba", state.hexdigest()[:16])
 
 
-def jit(function: Callable[..., Any], numpy_errors: bool = False) -> Callable[..., Any] | None:
+def jit(function: Callable[..., Any], numpy_errors: bool = False, on_disk: bool = True
+        ) -> Callable[..., Any] | None:
     """``function`` compiled in numba's nopython mode (lazily, at its first call), or None
     without numba. ``numpy_errors``: a division by zero gives inf or NaN as in numpy
-    instead of raising, so that loops with divisions vectorise (same IEEE results)."""
+    instead of raising, so that loops with divisions vectorise (same IEEE results).
+    ``on_disk=False`` for a closure (numba cannot cache what it captures)."""
     numba = numba_module()
     if numba is None:
         return None
     model = "numpy" if numpy_errors else "python"
+    if not on_disk:
+        return numba.njit(nogil=True, error_model=model)(function)
     try:
         return numba.njit(cache=True, nogil=True, error_model=model)(function)
     except RuntimeError:  # no writable cache place (read-only package and home): compile each run
@@ -84,8 +88,8 @@ def callable_compiled(function: Callable[..., Any]) -> None:
         numba.extending.register_jitable(function)
 
 
-def jit_with(function: Callable[..., Any], helpers: tuple[Callable[..., Any], ...]
-             ) -> Callable[..., Any] | None:
+def jit_with(function: Callable[..., Any], helpers: tuple[Callable[..., Any], ...],
+             on_disk: bool = True) -> Callable[..., Any] | None:
     """:func:`jit` of ``function``, which calls the plain functions ``helpers`` (kernels
     written for :mod:`uhrisim.core.elementwise`): each is registered with numba, compiled
     where ``function`` calls it and left as it is for Python callers. None without numba."""
@@ -95,7 +99,7 @@ def jit_with(function: Callable[..., Any], helpers: tuple[Callable[..., Any], ..
     _register_frames(numba)
     for helper in helpers:
         callable_compiled(helper)
-    return jit(function)
+    return jit(function, on_disk=on_disk)
 
 
 @cache

@@ -313,4 +313,4 @@ def _bound(kernel: Callable[..., None], constants: tuple,
     def bound(*arrays: Any) -> None:
         kernel(constants, *arrays)
 
-    return jit_with(bound, (*helpers, kernel))
+    return jit_with(bound, (*helpers, kernel), on_disk=False)
