@@ -149,8 +149,26 @@ def test_compiled_ticks_equal_the_numpy_ones():
                                    randomization={"clutter": 4}) == ["collision"] * 2
 
 
+def test_ticks_shared_among_threads_give_the_same_episodes():
+    """threads=2 runs each half of the episodes' compiled ticks in its own thread: every
+    state, observation, reward and ending equals one thread's, resets and pilings too."""
+    one = TrailDiverVectorEnv(num_envs=8, randomization={"clutter": 4}, time_limit_s=6.0)
+    two = TrailDiverVectorEnv(num_envs=8, threads=2, randomization={"clutter": 4},
+                              time_limit_s=6.0)
+    if one.ticks_kernel is None:
+        pytest.skip("numba (the [fast] extra) is not installed: no compiled ticks to share")
+    np.testing.assert_array_equal(one.reset(seed=5)[0], two.reset(seed=5)[0])
+    actions = np.random.default_rng(5).uniform([-1, 0, -1], [1, 1, 1], (40, 8, 3))
+    for a in actions.astype(np.float32):
+        for mine, theirs in zip(one.step(a)[:4], two.step(a)[:4], strict=True):
+            np.testing.assert_array_equal(mine, theirs)
+        np.testing.assert_array_equal(one.rov, two.rov)
+    two.close()
+
+
 @pytest.mark.parametrize("kwargs, message", [
     ({"num_envs": 0}, "num_envs must be an integer >= 1"),
+    ({"threads": 0}, "threads must be an integer >= 1"),
     ({"observation": "sonar"}, "makes observation=.state., not .sonar."),
     ({"obsevation": "state"}, "did you mean 'observation'"),
     ({"scenario_hook": lambda data, rng: None}, "does not take scenario_hook"),

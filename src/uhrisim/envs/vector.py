@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any, ClassVar
 
 import gymnasium
@@ -79,15 +80,19 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
     """N episodes of the trail task as arrays (module docstring). Arguments as
     :class:`~uhrisim.envs.trail_diver.TrailDiverEnv` (``observation="state"`` only, on
     scenarios whose target is a diver flying a Loiter, whose follower is a VideoRay),
-    plus ``num_envs``."""
+    plus ``num_envs`` and ``threads``: the compiled ticks of a step shared among that many
+    threads (numba lets go of the GIL; each thread runs its own episodes, so the results
+    are the same bit for bit; one by default)."""
 
     metadata: ClassVar[dict[str, Any]] = {"autoreset_mode": AutoresetMode.NEXT_STEP}
     #: The single env's observation this class makes (a subclass makes another).
     OBSERVATION: ClassVar[str] = "state"
 
-    def __init__(self, num_envs: int = 1, observation: str = "state", **kwargs: Any) -> None:
-        if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
-            raise EnvArgumentError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+    def __init__(self, num_envs: int = 1, observation: str = "state", threads: int = 1,
+                 **kwargs: Any) -> None:
+        for name, value in (("num_envs", num_envs), ("threads", threads)):
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise EnvArgumentError(f"{name} must be an integer >= 1, got {value!r}")
         if observation != self.OBSERVATION:
             raise EnvArgumentError(f"{type(self).__name__} makes observation="
                                    f"{self.OBSERVATION!r}, not {observation!r}")
@@ -143,6 +148,13 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         #: None: :meth:`_geometry`, :meth:`_reward_terms` and :meth:`_observe` on arrays.
         self.measures_kernel = (compiled_measures(self) if self.ticks_kernel is not None
                                 else None)
+        self.threads = threads if self.ticks_kernel is not None else 1
+        self._threads = (ThreadPoolExecutor(threads, "uhrisim-ticks") if self.threads > 1
+                         else None)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        if self._threads is not None:
+            self._threads.shutdown()
 
     # -- state ---------------------------------------------------------------------------
     def _allocate(self, n: int) -> None:
@@ -385,15 +397,19 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         rows = np.flatnonzero(mask)
         left = np.where(mask, ticks, 0)
         self._pending[:] = False
+        arrays = (left, self._pending, self._free, self._diver_next, self._rov_next,
+                  self._diver_hit, collided, self.ticks, self.rov, self.rov_inputs,
+                  self.rov_desired, self.rov_hold, self._held, self.diver, self.diver_inputs,
+                  self.diver_desired, self.vertices, self.vertex_count, self.direction,
+                  self.target_vertex, self.closest, self.capture_radius, self.slip_radius,
+                  self.loiter_speed, self.hold_depth, self.pilings, self.piling_top,
+                  *self._floor_cells)
         while rows.size:
-            self.ticks_kernel(
-                rows, left, self._pending, self._free, self._diver_next, self._rov_next,
-                self._diver_hit, collided, self.ticks, self.rov, self.rov_inputs,
-                self.rov_desired, self.rov_hold, self._held, self.diver, self.diver_inputs,
-                self.diver_desired, self.vertices, self.vertex_count, self.direction,
-                self.target_vertex, self.closest, self.capture_radius, self.slip_radius,
-                self.loiter_speed, self.hold_depth, self.pilings, self.piling_top,
-                *self._floor_cells)
+            if self._threads is None or rows.size < 2 * self.threads:
+                self.ticks_kernel(rows, *arrays)
+            else:  # each thread its own rows: they write nothing of another's
+                shares = np.array_split(rows, self.threads)
+                list(self._threads.map(lambda share: self.ticks_kernel(share, *arrays), shares))
             rows = np.flatnonzero(self._pending)
             if rows.size:
                 self._free[rows] = self._scene_clear(rows, self.rov[rows, :3],
