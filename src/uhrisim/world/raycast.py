@@ -33,7 +33,6 @@ surface at distance ~0 (float32 inside Embree), so start rays a hair off surface
 from __future__ import annotations
 
 import itertools
-import math
 import logging
 import weakref
 from abc import ABC, abstractmethod
@@ -859,12 +858,8 @@ class _RayCuller:
 
     For a sphere (centre c, radius r) a ray may touch it within ``limit`` when its miss
     distance² |c − o|² − t_ca² ≤ r² with t_ca = (c − o)·d, and −r ≤ t_ca ≤ limit + r.
-    When every ray starts at the same point (a sonar ping, a camera frame) only
-    ``d @ (c − o)`` is needed, and a sphere outside the cone that holds every ray (axis
-    the mean direction, half-angle to the widest ray) is skipped with no per-ray work: a
-    ray within θ_c of the axis meets a sphere seen at angle θ_s from the origin under the
-    angular radius asin(r / |c − o|) only if θ_s ≤ θ_c + asin(r / |c − o|). Otherwise o·o
-    and o·d are computed once and reused for every body's sphere.
+    When every ray starts at the same point (a sonar ping) only ``d @ (c − o)`` is needed;
+    otherwise o·o and o·d are computed once and reused for every body's sphere.
     """
 
     def __init__(self, o: NDArray[np.float64], d: NDArray[np.float64]) -> None:
@@ -878,41 +873,20 @@ class _RayCuller:
             else:
                 self.oo = row_dots(o, o)
                 self.od = row_dots(o, d)
-        self._cone: tuple[NDArray[np.float64], float] | None = None
-
-    def _outside_cone(self, v: NDArray[np.float64], r: float) -> bool:
-        """Whether the sphere at ``v`` (centre − the shared origin) of radius ``r`` lies
-        outside the cone of the rays (class docstring; conservative by 1e-9 rad)."""
-        if self._cone is None:
-            axis = self.d.sum(axis=0)
-            norm = float(np.linalg.norm(axis))
-            if norm == 0.0:
-                self._cone = (axis, math.pi)
-            else:
-                axis = axis / norm
-                self._cone = (axis, math.acos(min(1.0, max(-1.0, float(np.min(self.d @ axis))))))
-        axis, half_angle = self._cone
-        distance = float(np.linalg.norm(v))
-        if distance <= r or half_angle >= math.pi:
-            return False
-        seen_at = math.acos(min(1.0, max(-1.0, float(v @ axis) / distance)))
-        return seen_at > half_angle + math.asin(r / distance) + 1e-9
 
     def candidates(
         self, limit: NDArray[np.float64], centre: NDArray[np.float64], radius: float
     ) -> NDArray[np.intp]:
         """Indices of rays whose segment [0, limit] may touch the sphere."""
         c = np.asarray(centre, dtype=float)
-        r = radius * (1.0 + 1e-6) + 1e-6
         if self.o0 is not None:
             v = c - self.o0
-            if self._outside_cone(v, r):
-                return np.zeros(0, dtype=np.intp)
             tca = self.d @ v
             d2 = float(v @ v) - tca * tca
         else:
             tca = self.d @ c - self.od
             d2 = (float(c @ c) - 2.0 * (self.o @ c) + self.oo) - tca * tca
+        r = radius * (1.0 + 1e-6) + 1e-6
         return np.flatnonzero((d2 <= r * r) & (tca + r >= 0.0) & (tca - r <= limit))
 
 
