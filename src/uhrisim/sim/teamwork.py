@@ -21,7 +21,8 @@ move and before the sensors, every ``1 / RATE_HZ`` s:
    fall or rise, bags inflate, loads lift);
 5. footfalls on a soft floor release silt;
 6. the events go back to the executors and into the simulation's events
-   (``teamwork``: one line each; ``order``: a step that ended, :func:`order_detail`).
+   (``teamwork``: one line each; ``order``: a step that ended, :func:`order_detail`;
+   ``team_state``: a bag's gas or a hatch lid's angle that moved, :func:`site_state_detail`).
 
 The scene follows: tools, sites and loads are dynamic bodies posed from the workspace
 (parts of sites by their state), the articulated divers by their joint angles. They
