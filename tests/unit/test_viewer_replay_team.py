@@ -124,3 +124,20 @@ def test_bag_without_a_named_load_goes_on_the_nearest(player):
     old = ReplayPlayer(replace(data, team_events=events), _Sink())  # type: ignore[arg-type]
     _, sites = _team(old, 11.0)
     assert sites["bag1"]["attached_to"] == "valve1"  # 0.14 m away; crate1 is 10 m away
+
+
+def test_recorded_gas_and_lid_angle_are_drawn(player):
+    """``team_state`` records (a bag's gas, a hatch lid's angle between closed and open)
+    set the sites between the teamwork events, and stay out of the panel's log."""
+    from uhrisim.sim.teamwork import site_state_detail
+
+    states = [(6.5, "team_state", site_state_detail("hatch1", "angle", 42.0)),
+              (10.5, "team_state", site_state_detail("bag1", "gas", 12.0))]
+    data = player.data
+    live = ReplayPlayer(replace(data, team_events=sorted(data.team_events + states)),
+                        _Sink())  # type: ignore[arg-type]
+    _, sites = _team(live, 6.6)
+    assert sites["hatch1"]["angle_deg"] == 42.0 and sites["hatch1"]["text"] == "opening"
+    _, sites = _team(live, 11.0)
+    assert sites["bag1"]["litres"] == 12.0 and sites["bag1"]["text"] == "12/100 L on valve1"
+    assert all(e["kind"] != "team_state" for e in live.frame_at(11.0)["team"]["log"])

@@ -40,7 +40,8 @@ class TickWriter:
         self.out = out
         self.linked = None if agents is None else frozenset(agents)
         self._names: dict[str, str | None] = {}
-        self._workspace: Any = None  # the teamwork stage's objects (uhrisim.sim.teamwork)
+        self._team: Any = None  # the teamwork stage (uhrisim.sim.teamwork)
+        self._workspace: Any = None  # its objects
 
     def ros(self, agent: str) -> str | None:
         """The ROS name ``agent`` is written under (None: not written)."""
@@ -62,7 +63,8 @@ class TickWriter:
         at most this many triangles per object, for live viewers)."""
         t = float(getattr(sim, "t", 0.0))
         agents = getattr(sim, "agents", {})
-        self._workspace = getattr(getattr(sim, "team", None), "workspace", None)
+        self._team = getattr(sim, "team", None)
+        self._workspace = getattr(self._team, "workspace", None)
         mounts = []
         for name, agent in agents.items():
             ros = self.ros(name)
@@ -90,11 +92,19 @@ class TickWriter:
 
     def objects(self, t: float) -> None:
         """Every tool and load of the teamwork world (none without one) as a frame on
-        ``tf``, ``map -> <object>``, where it is now: resting, falling, or carried."""
-        if self._workspace is not None:
-            self.out.write_object_transforms(t, [
-                (ros_name(name), thing.pose[:3, 3], thing.pose[:3, :3])
-                for name, thing in self._workspace.things.items()])
+        ``tf``, ``map -> <object>``, where it is now: resting, falling, or carried; and
+        every link of an articulated diver written, ``map -> <agent>/<link>``
+        (``TeamStage.link_frames``)."""
+        if self._workspace is None:
+            return
+        frames = [(ros_name(name), thing.pose[:3, 3], thing.pose[:3, :3])
+                  for name, thing in self._workspace.things.items()]
+        for frame, position, rotation in self._team.link_frames():
+            agent, _, link = frame.partition("/")
+            ros = self.ros(agent)
+            if ros is not None:
+                frames.append((f"{ros}/{link}", position, rotation))
+        self.out.write_object_transforms(t, frames)
 
     def joints(self, t: float, joints: Mapping[str, Any]) -> None:
         """The articulated divers' joints (``TickFrame.joints``) on

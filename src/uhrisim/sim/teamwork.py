@@ -21,7 +21,8 @@ move and before the sensors, every ``1 / RATE_HZ`` s:
    fall or rise, bags inflate, loads lift);
 5. footfalls on a soft floor release silt;
 6. the events go back to the executors and into the simulation's events
-   (``teamwork``: one line each; ``order``: a step that ended, :func:`order_detail`).
+   (``teamwork``: one line each; ``order``: a step that ended, :func:`order_detail`;
+   ``team_state``: a bag's gas or a hatch lid's angle that moved, :func:`site_state_detail`).
 
 The scene follows: tools, sites and loads are dynamic bodies posed from the workspace
 (parts of sites by their state), the articulated divers by their joint angles. They
@@ -73,6 +74,29 @@ _MARGIN_M = 5.0
 
 #: Where a tool with no depth given is first put, above what it rests on (m).
 _DROP_HEIGHT_M = 3.0
+
+
+#: A lift bag's gas is recorded when it has changed by this much (surface litres), a
+#: hatch lid's angle when by this much (degrees), and when either stops changing.
+STATE_STEP_LITRES = 1.0
+STATE_STEP_DEG = 2.0
+
+_SITE_STATE = re.compile(r"^(?P<site>\S+) (?P<what>gas|angle) (?P<value>[-\d.]+) "
+                         r"(?P<unit>L|deg)$")
+
+
+def site_state_detail(site: str, what: str, value: float) -> str:
+    """The ``team_state`` event's text: ``"<bag> gas <surface litres> L"`` or
+    ``"<hatch> angle <degrees> deg"`` (:func:`parse_site_state` reads it)."""
+    unit = "L" if what == "gas" else "deg"
+    return f"{site} {what} {value:.2f} {unit}"
+
+
+def parse_site_state(detail: str) -> tuple[str, str, float] | None:
+    """(site, ``"gas"`` or ``"angle"``, value) of a :func:`site_state_detail` text (None
+    if it is not one)."""
+    m = _SITE_STATE.match(detail)
+    return None if m is None else (m["site"], m["what"], float(m["value"]))
 
 
 def order_detail(diver: str, index: int, step: StepRecord) -> str:
@@ -142,6 +166,9 @@ class TeamStage:
         self.silt = (SiltCloud(SiltParams(current_ne=world.silt.current_ne), scene.depth_at)
                      if world.silt is not None and world.silt.soft else None)
         self.events: list[WorldEvent] = []  # every event of the run, in order
+        #: each bag's gas (surface L) and hatch's angle (deg): last recorded, last tick
+        self._recorded_state: dict[str, float] = {}
+        self._last_state: dict[str, float] = {}
         #: a diver's arm and trunk goal from outside (name -> t -> joint angles by name,
         #: None: his orders'): the signals he makes (uhrisim.sim.assistance)
         self.arm_poses: dict[str, Callable[[float], dict[str, float] | None]] = {}
@@ -370,6 +397,25 @@ class TeamStage:
         for event in events:
             self.events.append(event)
             self.record("teamwork", event.line())
+        self._record_site_states()
+
+    def _record_site_states(self) -> None:
+        """A ``team_state`` event for every bag whose gas and every hatch whose lid has
+        moved by a step (:data:`STATE_STEP_LITRES`, :data:`STATE_STEP_DEG`) or stopped
+        since the last one: what a replay draws between the teamwork events."""
+        ws = self.workspace
+        now = {name: ("gas", st.gas_surface_litres, STATE_STEP_LITRES)
+               for name, st in ws.bag_states.items()}
+        now |= {name: ("angle", math.degrees(st.angle), STATE_STEP_DEG)
+                for name, st in ws.hatch_states.items()}
+        for name, (what, value, step) in now.items():
+            last = self._recorded_state.get(name, 0.0)
+            previous = self._last_state.get(name, last)
+            moved, still = abs(value - last) >= step, value == previous and value != last
+            self._last_state[name] = value
+            if moved or still:
+                self._recorded_state[name] = value
+                self.record("team_state", site_state_detail(name, what, value))
 
     def _view(self, agent: Agent, body: DiverBodyState, floor: bool = True) -> DiverView:
         """The executor's view of a diver now (``floor``: with the floor depth under it)."""
@@ -443,6 +489,26 @@ class TeamStage:
         return {name: JointSample(body.skeleton.joint_names, tuple(body.q.tolist()),
                                   tuple(body.qdot.tolist()))
                 for name, body in self.divers.items()}
+
+    def body_pose(self, name: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """A diver's body frame now: position NED (m) and rotation body→NED, from its
+        state (the scene is posed lazily, only when a sensor or a collision looks)."""
+        nav = self.agents[name].nav()
+        return np.asarray(nav.position_ned, dtype=float), rot_z(nav.yaw)
+
+    def link_frames(self) -> list[tuple[str, NDArray[np.float64], NDArray[np.float64]]]:
+        """Every articulated diver's links now as ``(<agent>/<link>, position NED (3,) m,
+        rotation (3x3) → NED)``: the body frame moved as that link is (its rest→posed
+        transform, :func:`~uhrisim.world.diver_figure.figure_transforms`, after the
+        body's pose), so a link's mesh given in the rest body frame is drawn in it."""
+        frames = []
+        for name, body in self.divers.items():
+            position, rotation = self.body_pose(name)
+            posed = figure_transforms(body.skeleton, body.q)
+            for link, t in zip(body.skeleton.links, posed, strict=True):
+                frames.append((f"{name}/{link}", rotation @ t[:3, 3] + position,
+                               rotation @ t[:3, :3]))
+        return frames
 
     def pose_scene(self) -> None:
         """Move the scene's tools, loads, sites' parts and articulated divers to now."""

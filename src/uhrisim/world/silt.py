@@ -64,6 +64,9 @@ from uhrisim.dynamics.free_body import GRAVITY, WATER_DENSITY
 SEAWATER_VISCOSITY = 1.08e-3  # Pa s
 QUARTZ_DENSITY = 2650.0  # kg/m³
 SOUND_SPEED = 1500.0  # m/s
+#: |x| beyond which erf(x) rounds to ±1 in float64 (erfc(6.5) = 4e-20, far below half an
+#: ulp of 1, 1.1e-16): a Gaussian's integral past that many scaled units adds exactly 0
+_ERF_SATURATES = 6.5
 
 
 def stokes_speed(diameter_m: float, grain_density: float = QUARTZ_DENSITY,
@@ -244,13 +247,21 @@ class SiltCloud:
         inside = (lo_z <= 0.0) & (hi_z >= 0.0)
         s0 = np.where(flat, np.where(inside, 0.0, np.inf), np.minimum(s_a, s_b))
         s1 = np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(s_a, s_b))
-        s0 = np.maximum(s0, 0.0)
-        s1 = np.minimum(s1, end[ray][:, None])
+        scale = (np.sqrt(a) / (math.sqrt(2.0) * sigma[puff]))[:, None]
+        # beyond _ERF_SATURATES / scale of the closest approach erf is ±1 in float64: the
+        # stretch is cut to that (exact: what is cut adds exactly 0)
+        reach = _ERF_SATURATES / scale
+        s0 = np.maximum(np.maximum(s0, 0.0), s_star[:, None] - reach)
+        s1 = np.minimum(np.minimum(s1, end[ray][:, None]), s_star[:, None] + reach)
+        useful = np.flatnonzero(np.any(s1 > s0, axis=1))
+        if len(useful) < len(ray):
+            ray, puff, s_star, r2, a = (ray[useful], puff[useful], s_star[useful],
+                                        r2[useful], a[useful])
+            s0, s1, scale = s0[useful], s1[useful], scale[useful]
         # per unit length along the ray: mass / (2 pi sigma² H0) kg/m³ x Gaussian
         amplitude = (mass[puff] * w[None, :] / (2.0 * math.pi * sigma[puff, None] ** 2
                                                 * self.params.initial_height_m)
                      * np.exp(-0.5 * r2 / sigma[puff] ** 2)[:, None])  # (M, K)
-        scale = (np.sqrt(a) / (math.sqrt(2.0) * sigma[puff]))[:, None]
         span = (math.sqrt(0.5 * math.pi) * sigma[puff] / np.sqrt(a))[:, None] * amplitude
         rel_star = s_star[:, None]
 

@@ -40,7 +40,7 @@ import numpy as np
 from uhrisim.core.errors import AssetError
 from uhrisim.core.frames import enu_from_ned, enu_rotation_from_ned, rot_z
 from uhrisim.dynamics.diver_body import DiverSkeleton
-from uhrisim.sim.teamwork import parse_order_detail
+from uhrisim.sim.teamwork import parse_order_detail, parse_site_state
 from uhrisim.viz.viewer.adapt import (
     agent_kind,
     decimate_mesh,
@@ -89,7 +89,9 @@ _WORLD_FRAME = "map"
 _TAKES, _LETS_GO = ("grasp",), ("release", "drop", "place")
 _BAG_STATES = {"bag_inflating": "inflating", "bag_inflation_stopped": "inflation stopped",
                "bag_full": "full"}
-_TEAM_EVENT_KINDS = ("teamwork", "order")
+_TEAM_EVENT_KINDS = ("teamwork", "order", "team_state")
+#: the kinds shown in the panel's log (team_state records a bag's gas, a hatch's angle)
+_LOGGED_KINDS = ("teamwork", "order")
 
 
 @dataclass
@@ -623,8 +625,10 @@ class ReplayPlayer:
             p["done"] += step["outcome"] == "done" and not step["fetched"]
             p["failed"] = step["outcome"] == "failed"
             p["last"] = f"{step['order']} ({step['outcome']})"
+        logged = [(te, kind, detail) for te, kind, detail in data.team_events[:k]
+                  if kind in _LOGGED_KINDS]
         log = [{"t": round(te, 2), "kind": kind, "text": detail}
-               for te, kind, detail in data.team_events[max(0, k - LOG_LENGTH):k]]
+               for te, kind, detail in logged[-LOG_LENGTH:]]
         objects, sites = self._world(t, data.team_events[:k])
         return {"objects": objects, "sites": sites, "progress": progress,
                 "figures": figures, "log": log}
@@ -646,9 +650,10 @@ class ReplayPlayer:
                ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
         """Tools and loads at their recorded ``/tf`` poses, held by whoever grasped them
         and has not let go, and the sites' states as the teamwork ``events`` (those up
-        to ``t``) tell them: bolts out and cover off, a hatch's last move (its angle:
-        fully open or closed), a bag's inflation (its gas is not recorded; full is its
-        capacity) and the load it is on, a load's rise since the first sample."""
+        to ``t``) tell them: bolts out and cover off, a hatch's last move and its lid's
+        angle, a bag's inflation and gas (the ``team_state`` records; a recording made
+        before them: a hatch fully open or closed, a full bag at its capacity) and the
+        load it is on, a load's rise since the first sample."""
         holders = {o["name"]: list(o.get("held_by", []))
                    for o in self.data.layout.get("objects", {}).values()}
         bolts_out: dict[str, int] = {}
@@ -656,7 +661,11 @@ class ReplayPlayer:
         hatch: dict[str, str] = {}
         bag_state: dict[str, str] = {}
         attached: dict[str, str | None] = {}
+        recorded: dict[str, float] = {}  # a bag's gas (surface L), a hatch's angle (deg)
         for te, kind, detail in events:
+            state = parse_site_state(detail) if kind == "team_state" else None
+            if state is not None:
+                recorded[state[0]] = state[2]
             ev = parse_line(detail) if kind == "teamwork" else None
             if ev is None or not ev.ok:
                 continue
@@ -693,15 +702,19 @@ class ReplayPlayer:
             move = hatch.get(name, "closed")
             is_open = move in ("opened", "closing")
             text = {"opened": "open"}.get(move, move)
-            sites.append(hatch_site(name, h["position"], text,
-                                    float(h["open_angle_deg"]) if is_open else 0.0, is_open))
+            angle = recorded.get(name)  # older recordings: fully open or closed
+            if angle is None:
+                angle = float(h["open_angle_deg"]) if is_open else 0.0
+            sites.append(hatch_site(name, h["position"], text, angle, is_open))
         for name, b in layout.get("bags", {}).items():
             if name not in self.data.objects:
                 continue
             capacity = float(b["capacity_litres"])
             state = bag_state.get(name, "")
-            sites.append(bag_site(name, self._position(name, t),
-                                  capacity if state == "full" else None, capacity,
+            litres = recorded.get(name)  # older recordings: known only when full
+            if litres is None and state == "full":
+                litres = capacity
+            sites.append(bag_site(name, self._position(name, t), litres, capacity,
                                   attached.get(name), state or "not inflated"))
         return objects, sites + loads
 

@@ -159,7 +159,7 @@ class TeamView:
                 progress[name] = {"done": done, "total": len(ex.orders),
                                   "current": None if current is None else describe(current),
                                   "failed": bool(ex.failed)}
-            position, rotation, _ = team.scene.pose(name)
+            position, rotation = team.body_pose(name)
             figures[name] = figure_points(body.skeleton, body.q, position, rotation)
         return {"objects": objects, "sites": sites, "progress": progress,
                 "figures": figures, "log": list(self._log)}
