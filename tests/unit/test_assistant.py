@@ -200,6 +200,22 @@ def test_a_diver_closing_in_sets_off_the_guard_and_the_rov_backs_away():
     _guards_kept(w)
 
 
+@pytest.mark.parametrize("offset_m", [0.0, 0.5])
+def test_a_diver_swimming_at_or_past_the_rov_at_0_3_m_s_does_not_break_the_guard(offset_m):
+    """The diver swims at 0.3 m/s (a diver's cruising pace) straight at the idle ROV, or
+    past it 0.5 m to one side: the guard looks guard_lookahead_s ahead on his track and
+    the ROV backs away faster than he comes (docs/hri.md: the 0.50 m of the old
+    salvage run, by a diver swimming past at 0.3 m/s)."""
+    def script(t):
+        n = 6.0 - 0.3 * max(0.0, t - 10.0)
+        return DiverState((n, offset_m, 4.0), 180.0, 0.3 if t > 10.0 else 0.0)
+
+    w = World(script)  # the ROV idle at the origin, facing him
+    w.run(40)
+    assert any(e.startswith("guard: ") for e in w.events())
+    _guards_kept(w)
+
+
 def test_signals_low_confidence_unknown_tool_done_and_repeats():
     a = Assistant()
     rov = RovNav((0.0, 0.0, 3.0), 0.0)

@@ -30,7 +30,9 @@ class AssistantConfig:
     trigger_margin_m: float = 0.15  # back off when closer than a guard + this
     clearance_m: float = 0.2  # a target near the diver keeps a guard + this
     backoff_to_m: float = 0.5  # back off until a guard + this
-    backoff_speed: float = 0.2  # m/s astern
+    backoff_speed: float = 0.2  # m/s astern, plus the diver's closing speed (at most
+    # cruise_speed): a diver swimming at the ROV is outrun
+    guard_lookahead_s: float = 2.0  # the guard also looks this far ahead along his track
     slow_radius_m: float = 1.5  # within it the ROV moves at most near_speed ...
     slow_lead_m: float = 1.4  # ... and the ceiling lowered this much farther out: from
     # cruise_speed, a 1 s speed time constant and a 0.25 s helm tick need about that

@@ -6,7 +6,8 @@
     ├── speed ceiling                 every tick: near_speed within reach of the diver
     └── decide (selector, re-evaluated every tick: a guard pre-empts the task)
         ├── diver lost    → abort the task, back off from where he was seen, hold
-        ├── too close     → back off astern, facing him (hysteresis: to guard + backoff_to)
+        ├── too close     → back off astern, facing him (now or guard_lookahead_s ahead on
+        │                   his track; hysteresis: to guard + backoff_to)
         ├── closing fast  → stop
         └── task (selector: the branch of the command in hand)
             ├── stop        hold where it is, facing the diver
@@ -53,7 +54,7 @@ from uhrisim.assistant.behaviours import (
 from uhrisim.assistant.geometry import (
     bearing_deg,
     centre_for_jaw,
-    guard_slack,
+    guard_slack_ahead,
     horizontal,
     kept_clear,
     separations,
@@ -76,7 +77,8 @@ def facing_diver(ctx: TreeContext) -> float | None:
 
 
 class TooClose(Leaf):
-    """Inside a guard + ``trigger_margin_m`` (and until out past a guard + ``backoff_to_m``).
+    """Inside a guard + ``trigger_margin_m`` now or ``guard_lookahead_s`` ahead on the
+    diver's track (and until out past a guard + ``backoff_to_m``, both).
     A condition is initialised every tick (it never runs), so its state lives here."""
 
     def __init__(self, name: str, ctx: TreeContext) -> None:
@@ -88,7 +90,7 @@ class TooClose(Leaf):
         if diver is None:
             self.active = False
             return Status.FAILURE
-        slack = guard_slack(self.ctx.rov, diver, cfg)
+        slack = guard_slack_ahead(self.ctx.rov, diver, cfg)
         if self.active:
             self.active = slack < cfg.backoff_to_m
         else:
@@ -259,7 +261,7 @@ def build_tree(ctx: TreeContext) -> tuple[py_trees.behaviour.Behaviour, Selector
     def back_off_until_clear(name: str) -> BackOff:
         return BackOff(name, ctx, lambda c: c.diver,
                        lambda c: c.diver is None
-                       or guard_slack(c.rov, c.diver, cfg) >= cfg.backoff_to_m)
+                       or guard_slack_ahead(c.rov, c.diver, cfg) >= cfg.backoff_to_m)
 
     lost = Sequence("diver lost", memory=False, children=[
         Check("track lost?", ctx, lambda c: c.diver is None),
