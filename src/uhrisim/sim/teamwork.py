@@ -174,7 +174,7 @@ class TeamStage:
 
     def _workspace(self) -> Workspace:
         world = self.source.scenario.world
-        tools = [make_tool(t.kind, t.name) for t in world.tools]
+        tools = [make_tool(t.kind, t.name, t.mass_kg) for t in world.tools]
         bags = [sites.LiftBagSpec(t.name, t.capacity_litres, t.inflate_rate_lps)
                 for t in world.tools if t.kind == "lift_bag"]
         flanges, hatches, loads, platforms = [], [], [], []
