@@ -244,6 +244,20 @@ def test_signals_low_confidence_unknown_tool_done_and_repeats():
     assert out.task == "bring_tool wrench" and out.gripper_command == "open"
 
 
+def test_a_channel_it_does_not_obey_is_logged_not_acted_on():
+    a = Assistant(AssistantConfig(obey=("marker",)))
+    rov, diver = RovNav((0.0, 0.0, 3.0), 0.0), DiverTrack((6.0, 0.0, 4.0), 180.0)
+
+    def tick(t, channel):
+        signal = RecognizedSignal(Command("come_here"), channel, 1.0, t)
+        return a.step(AssistantInputs(t, rov, diver, GripperStatus(), (signal,)))
+
+    out = tick(0.0, "gesture")
+    assert out.task == "idle" and out.events == (
+        "ignored come_here (gesture, confidence 1.00): this ROV obeys marker only",)
+    assert tick(0.25, "marker").task == "come_here"
+
+
 def test_default_task_follow_me():
     a = Assistant(AssistantConfig(default_task="follow_me"))
     out = a.step(AssistantInputs(0.0, RovNav((0.0, 0.0, 3.0), 0.0),
@@ -276,6 +290,7 @@ def test_jaws_are_where_the_gripper_is():
 
 
 @pytest.mark.parametrize("kw, message", [
+    (dict(obey=("marker", "semaphore")), "assistant.obey: must be a list of one or more of"),
     (dict(body_guard_m=0.0), "assistant.body_guard_m: must be a finite number > 0"),
     (dict(clearance_m=0.05), "assistant.clearance_m: must exceed trigger_margin_m"),
     (dict(default_task="bring_tool"), "assistant.default_task: must be idle or a command"),
