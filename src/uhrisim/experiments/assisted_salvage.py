@@ -81,7 +81,7 @@ def run_case(case: str, out_dir: Path, progress: Callable[[float], None] | None 
     if sim.assistance is not None:
         result["assistant"] = sim.assistance.summary()["assistant"]
         result["events"] = [f"{e.t:.1f} {e.detail}" for e in sim.events_log
-                            if e.kind == "assistant"]
+                            if e.kind in ("assistant", "collision")]
     (out_dir / f"{case.replace(':', '_')}.json").write_text(json.dumps(result, indent=1) + "\n")
     return result
 
