@@ -103,14 +103,19 @@ class SignallingDiver:
     watcher: Agent | None = None  # the ROV he signals to (he faces it)
     #: a slate signal's order has begun (its start, s; the command) and he gets ready
     slate_due: tuple[float, Command] | None = None
+    #: he waits for the ROV to hand him a tool
+    receiving: bool = False
 
     def signalling_pose(self, t: float) -> dict[str, float] | None:
-        """His joint goals while he signals or gets ready to show the slate: upright (a
-        swimmer rises from his swimming posture, as divers do to signal), the gesture's
-        arms; None otherwise."""
+        """His joint goals while he signals, gets ready to show the slate or waits for a
+        tool from the ROV: upright (a swimmer rises from his swimming posture, as divers
+        do to signal or to take a tool; prone, his head lies where the ROV's jaws must
+        reach his hand, inside its head guard), the gesture's arms; None otherwise."""
         pose = self.performer.joints(t) if self.slate_due is not None else \
             self.performer.performing(t)
-        return None if pose is None else {"posture": 0.0, "waist": 0.0, **pose}
+        if pose is None and not self.receiving:
+            return None
+        return {"posture": 0.0, "waist": 0.0, **(pose or {})}
 
 
 @dataclass
@@ -409,8 +414,9 @@ class AssistanceStage:
         body = self.team.divers[name]  # type: ignore[union-attr]
         order = body.executor.current
         held = ws.held_by(f"{v.agent.name}/gripper")
-        if not (isinstance(order, od.WaitUntil) and held == order.subject
-                and order.state.startswith(f"held_by:{name}/")):
+        v.diver.receiving = (isinstance(order, od.WaitUntil)
+                             and order.state.startswith(f"held_by:{name}/"))
+        if not (v.diver.receiving and held == order.subject):
             v.offered_since = None
             return
         hand_name = order.state.removeprefix("held_by:")
