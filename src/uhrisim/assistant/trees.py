@@ -6,6 +6,8 @@
     ├── speed ceiling                 every tick: near_speed within reach of the diver
     └── decide (selector, re-evaluated every tick: a guard pre-empts the task)
         ├── diver lost    → abort the task, back off from where he was seen, hold
+        ├── he has it     → he grips what the gripper holds: release it (before a guard's
+        │                   back-off can pull it from his hand), back away, bring_tool done
         ├── too close     → back off astern, facing him (now or guard_lookahead_s ahead on
         │                   his track; hysteresis: to guard + backoff_to)
         ├── closing fast  → stop
@@ -15,7 +17,7 @@
             ├── come_here   go to arm's reach in front of him, hold there facing him
             ├── bring_tool  fetch it (creep, square up, grip at the grasp point, fetch_attempts
             │               tries), hand it over (stand off, face him, creep to his hand,
-            │               hold still, release when he grips; offer again on a timeout)
+            │               hold still until he grips; offer again on a timeout)
             ├── light_here  stand off from the work, above it, facing it, and hold
             ├── go_up       rise where it is to surface_depth and hold
             └── idle        hold where it is, facing the diver
@@ -298,18 +300,23 @@ def build_tree(ctx: TreeContext) -> tuple[py_trees.behaviour.Behaviour, Selector
         Face("face him", ctx, facing_diver),
         Do("plan the approach", ctx, _plan_handover),
         Approach("creep to his hand", ctx, handover_point, 0.05),
-        WaitUntil("hold still until he grips", ctx, diver_grips, cfg.handover_wait_s),
-        Gripper("release", ctx, close=False),
-        Do("handed over", ctx, lambda c: c.event(
-            f"handed over {c.task.argument if c.task is not None else ''}")),
-        back_off_until_clear("back away")])
+        WaitUntil("hold still until he grips", ctx, diver_grips, cfg.handover_wait_s)])
     bring = Sequence("bring tool", memory=True, children=[
         Selector("have the tool", memory=True, children=[
             Check("holding it?", ctx, lambda c: c.task is not None
                   and c.now.gripper.holding == c.task.argument),
             Retry("fetch, again", fetch, cfg.fetch_attempts)]),
-        Retry("offer again", handover, 3),
-        Do("done", ctx, lambda c: c.finish_task("done"))])
+        Retry("offer again", handover, 3)])
+    # he grips what it holds — as it holds still, creeps, or backs off at a guard: it
+    # lets go before anything else (a guard's back-off would pull the tool from his hand)
+    given = Sequence("he has it", memory=True, children=[
+        Check("he grips it?", ctx, diver_grips),
+        Gripper("release", ctx, close=False),
+        Do("handed over", ctx, lambda c: c.event(
+            f"handed over {c.task.argument if c.task is not None else ''}")),
+        back_off_until_clear("back away"),
+        Do("done", ctx, lambda c: c.finish_task("done") if c.task is not None
+           and c.task.name == "bring_tool" else None)])
     light = Sequence("light here", memory=True, children=[
         Do("plan the stand-off", ctx, _plan_light),
         GoTo("to the stand-off", ctx, _planned("light_station"), cfg.cruise_speed),
@@ -332,7 +339,8 @@ def build_tree(ctx: TreeContext) -> tuple[py_trees.behaviour.Behaviour, Selector
         _task(ctx, "light_here", light),
         _task(ctx, "go_up", up),
         HoldHere("idle", ctx)])
-    decide = Selector("decide", memory=False, children=[lost, too_close, closing, tasks])
+    decide = Selector("decide", memory=False, children=[lost, given, too_close, closing,
+                                                        tasks])
     root = Sequence("assistant", memory=False, children=[SpeedCeiling("speed ceiling", ctx),
                                                           decide])
     return root, tasks
