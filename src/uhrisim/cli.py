@@ -145,6 +145,9 @@ FIGURES: dict[str, tuple[str, str]] = {
     "signal-range": ("uhrisim.experiments.signal_range:make_signal_range",
                      "issue 26: markers, gestures and the sonar wave read vs range, water, "
                      "lamps (~1 h)"),
+    "assisted-salvage": ("uhrisim.experiments.assisted_salvage:make_assisted_salvage",
+                         "issue 26: the assisted salvage (3 seeds, clear water; 9C) against "
+                         "the diver alone (~1 h)"),
 }
 
 

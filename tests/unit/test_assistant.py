@@ -200,6 +200,22 @@ def test_a_diver_closing_in_sets_off_the_guard_and_the_rov_backs_away():
     _guards_kept(w)
 
 
+@pytest.mark.parametrize("offset_m", [0.0, 0.5])
+def test_a_diver_swimming_at_or_past_the_rov_at_0_3_m_s_does_not_break_the_guard(offset_m):
+    """The diver swims at 0.3 m/s (a diver's cruising pace) straight at the idle ROV, or
+    past it 0.5 m to one side: the guard looks guard_lookahead_s ahead on his track and
+    the ROV backs away faster than he comes (docs/hri.md: the 0.50 m of the old
+    salvage run, by a diver swimming past at 0.3 m/s)."""
+    def script(t):
+        n = 6.0 - 0.3 * max(0.0, t - 10.0)
+        return DiverState((n, offset_m, 4.0), 180.0, 0.3 if t > 10.0 else 0.0)
+
+    w = World(script)  # the ROV idle at the origin, facing him
+    w.run(40)
+    assert any(e.startswith("guard: ") for e in w.events())
+    _guards_kept(w)
+
+
 def test_signals_low_confidence_unknown_tool_done_and_repeats():
     a = Assistant()
     rov = RovNav((0.0, 0.0, 3.0), 0.0)
@@ -226,6 +242,20 @@ def test_signals_low_confidence_unknown_tool_done_and_repeats():
     assert out.task == "idle" and out.events[0].startswith("task come_here done")
     out = tick(1.25, sig("bring_tool wrench"))
     assert out.task == "bring_tool wrench" and out.gripper_command == "open"
+
+
+def test_a_channel_it_does_not_obey_is_logged_not_acted_on():
+    a = Assistant(AssistantConfig(obey=("marker",)))
+    rov, diver = RovNav((0.0, 0.0, 3.0), 0.0), DiverTrack((6.0, 0.0, 4.0), 180.0)
+
+    def tick(t, channel):
+        signal = RecognizedSignal(Command("come_here"), channel, 1.0, t)
+        return a.step(AssistantInputs(t, rov, diver, GripperStatus(), (signal,)))
+
+    out = tick(0.0, "gesture")
+    assert out.task == "idle" and out.events == (
+        "ignored come_here (gesture, confidence 1.00): this ROV obeys marker only",)
+    assert tick(0.25, "marker").task == "come_here"
 
 
 def test_default_task_follow_me():
@@ -260,6 +290,7 @@ def test_jaws_are_where_the_gripper_is():
 
 
 @pytest.mark.parametrize("kw, message", [
+    (dict(obey=("marker", "semaphore")), "assistant.obey: must be a list of one or more of"),
     (dict(body_guard_m=0.0), "assistant.body_guard_m: must be a finite number > 0"),
     (dict(clearance_m=0.05), "assistant.clearance_m: must exceed trigger_margin_m"),
     (dict(default_task="bring_tool"), "assistant.default_task: must be idle or a command"),

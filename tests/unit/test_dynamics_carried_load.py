@@ -137,3 +137,32 @@ def test_the_loop_plant_carrying_a_tool_is_held_to_xdot_loaded():
     assert still[6] == pytest.approx(cl.hover_command(PAPER, load).steady_heave, rel=1e-4)
     empty = carrying(base, None)
     np.testing.assert_array_equal(empty.step(0.0, x0, u), base.step(0.0, x0, u))
+
+
+def test_the_load_feed_forward_holds_depth_where_the_p_loop_sags():
+    """The paper's P depth loop (K_d 50) holding a 3.11 N tool settles W / (K_d c_T) =
+    2.33 m below the ordered depth; with the hover command fed forward
+    (VideoRayPController.held_load_input, the assistant's ROV) it holds the ordered
+    depth; with nothing held the feed-forward is 0 and the inputs are the paper's."""
+    from uhrisim.control.videoray_p import GAIN_PRESETS, VideoRayPController
+    from uhrisim.dynamics.plants import VideoRayPlant, carrying
+
+    load = tool_of(3.11 / GRAVITY)
+    plant = carrying(VideoRayPlant(PAPER, 1 / 60), load)
+    paper = VideoRayPController(GAIN_PRESETS["mission"], PAPER)
+    fed = VideoRayPController(GAIN_PRESETS["mission"], PAPER,
+                              held_load_input=cl.hover_command(PAPER, load).command)
+    settled = {}
+    for name, controller in (("paper", paper), ("fed", fed)):
+        x = np.array([0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+        for _ in range(1800):
+            x = plant.step(0.0, x, controller.inputs(x, 0.0, 0.0, 5.0))
+        settled[name] = x[2] - 5.0
+    sag = load.in_water_weight / (50.0 * PAPER.ct_vertical_linear)
+    assert sag == pytest.approx(2.33, abs=0.01)
+    assert settled["paper"] == pytest.approx(sag, rel=0.02)
+    assert abs(settled["fed"]) < 1e-3
+    x = np.array([1.0, 2.0, 4.0, 0.3, 0.2, 0.0, 0.1, 0.05])
+    np.testing.assert_array_equal(
+        VideoRayPController(GAIN_PRESETS["mission"], PAPER, held_load_input=0.0).inputs(
+            x, 30.0, 0.5, 5.0), paper.inputs(x, 30.0, 0.5, 5.0))

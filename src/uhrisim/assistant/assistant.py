@@ -1,7 +1,8 @@
 """The assistant: signals in, a task, a tick of the tree, helm postings out, traced.
 
 One :meth:`Assistant.step` per helm tick (4 Hz in the paper): take the signals recognized
-since the last tick (below ``min_confidence``: ignored and logged), tick the tree
+since the last tick (on a channel it does not ``obey``, or below ``min_confidence``:
+ignored and logged), tick the tree
 (:mod:`.trees`), post the helm variables that changed (while backing off: the manual
 override and DESIRED_* every tick), and keep the tick in :attr:`Assistant.trace`.
 
@@ -115,7 +116,9 @@ class Assistant:
     def _take(self, signal: RecognizedSignal) -> None:
         ctx, c = self.ctx, signal.command
         heard = f"{c} ({signal.channel}, confidence {signal.confidence:.2f})"
-        if signal.confidence < self.config.min_confidence:
+        if signal.channel not in self.config.obey:
+            ctx.event(f"ignored {heard}: this ROV obeys {', '.join(self.config.obey)} only")
+        elif signal.confidence < self.config.min_confidence:
             ctx.event(f"ignored {heard}: below {self.config.min_confidence:g}")
         elif c.name == "ok":
             ctx.event(f"ok {heard}")

@@ -18,7 +18,13 @@ import py_trees
 from numpy.typing import NDArray
 
 from uhrisim.assistant.config import AssistantConfig
-from uhrisim.assistant.geometry import bearing_deg, horizontal, segment_distance, separations
+from uhrisim.assistant.geometry import (
+    bearing_deg,
+    closing_speed,
+    horizontal,
+    segment_distance,
+    separations,
+)
 from uhrisim.assistant.io import AssistantInputs, DiverTrack, HelmMode, moos_xy
 from uhrisim.core.frames import wrap_180
 from uhrisim.perception.signals import Command
@@ -314,8 +320,9 @@ class Follow(Leaf):
 
 class BackOff(Leaf):
     """Back away from ``source`` (a diver), facing it: the helm is parked
-    (MOOS_MANUAL_OVERRIDE) and DESIRED_* posted here — astern at ``backoff_speed`` ×
-    cos(heading error), so every moment's motion opens the range. SUCCESS once
+    (MOOS_MANUAL_OVERRIDE) and DESIRED_* posted here — astern at ``backoff_speed`` plus
+    the diver's closing speed (at most ``cruise_speed``) × cos(heading error), so every
+    moment's motion opens the range. SUCCESS once
     ``done(ctx)``."""
 
     def __init__(self, name: str, ctx: TreeContext,
@@ -336,7 +343,10 @@ class BackOff(Leaf):
         error = math.radians(float(wrap_180(rov.heading_deg - facing)))
         self.ctx.override = True
         self.ctx.want("DESIRED_HEADING", round(facing, 1))
-        self.ctx.want("DESIRED_SPEED", round(-self.ctx.config.backoff_speed * math.cos(error), 3))
+        cfg = self.ctx.config
+        speed = min(cfg.cruise_speed, cfg.backoff_speed
+                    + max(0.0, closing_speed(rov.position_ned, diver)))
+        self.ctx.want("DESIRED_SPEED", round(-speed * math.cos(error), 3))
         self.ctx.want("DESIRED_DEPTH", round(float(rov.position_ned[2]), 2))
         return Status.RUNNING
 

@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.perception.signals import COMMANDS
+from uhrisim.perception.signals import CHANNELS, COMMANDS
 
 
 @dataclass(frozen=True)
@@ -30,7 +30,9 @@ class AssistantConfig:
     trigger_margin_m: float = 0.15  # back off when closer than a guard + this
     clearance_m: float = 0.2  # a target near the diver keeps a guard + this
     backoff_to_m: float = 0.5  # back off until a guard + this
-    backoff_speed: float = 0.2  # m/s astern
+    backoff_speed: float = 0.2  # m/s astern, plus the diver's closing speed (at most
+    # cruise_speed): a diver swimming at the ROV is outrun
+    guard_lookahead_s: float = 2.0  # the guard also looks this far ahead along his track
     slow_radius_m: float = 1.5  # within it the ROV moves at most near_speed ...
     slow_lead_m: float = 1.4  # ... and the ceiling lowered this much farther out: from
     # cruise_speed, a 1 s speed time constant and a 0.25 s helm tick need about that
@@ -41,6 +43,8 @@ class AssistantConfig:
     lost_after_s: float = 3.0  # a track older than this is lost
     lost_standoff_m: float = 2.5  # back off this far from where the diver was last seen
     min_confidence: float = 0.6  # signals below it are ignored (and logged)
+    obey: tuple[str, ...] = CHANNELS  # the channels whose signals it acts on (the others
+    # are logged): e.g. only the slate, where a reader says commands nobody made
     follow_range_m: float = 3.0  # beyond slow_radius_m + slow_lead_m: free to keep up
     standoff_m: float = 2.0  # waiting distance in front of the diver before a handover
     reach_m: float = 1.0  # come here: the ROV's centre from the diver's body, at arm's reach
@@ -72,6 +76,10 @@ class AssistantConfig:
                 if v not in ("idle", *COMMANDS) or v in ("bring_tool", "ok", "done"):
                     raise ConfigError(f"must be idle or a command without an argument, got "
                                       f"{v!r}", "assistant.default_task")
+            elif f.name == "obey":
+                if isinstance(v, str) or not v or not set(v) <= set(CHANNELS):
+                    raise ConfigError(f"must be a list of one or more of {', '.join(CHANNELS)}"
+                                      f", got {v!r}", "assistant.obey")
             elif f.name == "fetch_attempts":
                 if not (isinstance(v, int) and v >= 1):
                     raise ConfigError(f"must be an integer >= 1, got {v!r}",
@@ -97,8 +105,9 @@ class AssistantConfig:
         unknown = sorted(set(data) - known)
         if unknown:
             raise ConfigError(f"unknown parameter(s) {unknown}", where)
-        if "jaw_frd" in data:
-            data["jaw_frd"] = tuple(data["jaw_frd"])  # type: ignore[arg-type]
+        for name in ("jaw_frd", "obey"):
+            if name in data and isinstance(data[name], (list, tuple)):
+                data[name] = tuple(data[name])  # type: ignore[arg-type]
         try:
             return AssistantConfig(**data)  # type: ignore[arg-type]
         except ConfigError as error:  # "assistant.field: ..." -> "<where>.field: ..."

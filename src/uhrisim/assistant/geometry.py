@@ -8,6 +8,7 @@ passively stable in pitch and roll), so its body frame is its heading's rotation
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -49,6 +50,28 @@ def guard_slack(rov_position: NDArray[np.float64], diver: DiverTrack,
     """How far (m) the ROV's centre is beyond the nearer of its two guards (< 0: inside)."""
     body, head = separations(rov_position, diver)
     return min(body - config.body_guard_m, head - config.head_guard_m)
+
+
+def ahead_of(diver: DiverTrack, seconds: float) -> DiverTrack:
+    """Where the diver will be in ``seconds`` going on at his speed along his heading
+    (body, head and hand moved together; NED m)."""
+    shift = diver.speed * seconds * diver.forward
+    return replace(diver, position_ned=diver.position_ned + shift, head_ned=diver.head + shift,
+                   hand_ned=diver.hand + shift)
+
+
+def guard_slack_ahead(rov_position: NDArray[np.float64], diver: DiverTrack,
+                      config: AssistantConfig) -> float:
+    """The smaller :func:`guard_slack` of now and of ``guard_lookahead_s`` on, the diver
+    going on as he goes (the ROV where it is): a diver who swims at the ROV sets its
+    guard off before he is inside it."""
+    return min(guard_slack(rov_position, diver, config),
+               guard_slack(rov_position, ahead_of(diver, config.guard_lookahead_s), config))
+
+
+def closing_speed(rov_position: NDArray[np.float64], diver: DiverTrack) -> float:
+    """The diver's speed towards the ROV's centre (m/s, > 0 closing; horizontal)."""
+    return float(diver.speed * diver.forward @ horizontal(rov_position - diver.position_ned))
 
 
 def jaw_offset(heading_deg: float, config: AssistantConfig) -> NDArray[np.float64]:

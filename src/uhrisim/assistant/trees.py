@@ -6,7 +6,10 @@
     ├── speed ceiling                 every tick: near_speed within reach of the diver
     └── decide (selector, re-evaluated every tick: a guard pre-empts the task)
         ├── diver lost    → abort the task, back off from where he was seen, hold
-        ├── too close     → back off astern, facing him (hysteresis: to guard + backoff_to)
+        ├── he has it     → he grips what the gripper holds: release it (before a guard's
+        │                   back-off can pull it from his hand), back away, bring_tool done
+        ├── too close     → back off astern, facing him (now or guard_lookahead_s ahead on
+        │                   his track; hysteresis: to guard + backoff_to)
         ├── closing fast  → stop
         └── task (selector: the branch of the command in hand)
             ├── stop        hold where it is, facing the diver
@@ -14,7 +17,7 @@
             ├── come_here   go to arm's reach in front of him, hold there facing him
             ├── bring_tool  fetch it (creep, square up, grip at the grasp point, fetch_attempts
             │               tries), hand it over (stand off, face him, creep to his hand,
-            │               hold still, release when he grips; offer again on a timeout)
+            │               hold still until he grips; offer again on a timeout)
             ├── light_here  stand off from the work, above it, facing it, and hold
             ├── go_up       rise where it is to surface_depth and hold
             └── idle        hold where it is, facing the diver
@@ -53,7 +56,7 @@ from uhrisim.assistant.behaviours import (
 from uhrisim.assistant.geometry import (
     bearing_deg,
     centre_for_jaw,
-    guard_slack,
+    guard_slack_ahead,
     horizontal,
     kept_clear,
     separations,
@@ -76,7 +79,8 @@ def facing_diver(ctx: TreeContext) -> float | None:
 
 
 class TooClose(Leaf):
-    """Inside a guard + ``trigger_margin_m`` (and until out past a guard + ``backoff_to_m``).
+    """Inside a guard + ``trigger_margin_m`` now or ``guard_lookahead_s`` ahead on the
+    diver's track (and until out past a guard + ``backoff_to_m``, both).
     A condition is initialised every tick (it never runs), so its state lives here."""
 
     def __init__(self, name: str, ctx: TreeContext) -> None:
@@ -88,7 +92,7 @@ class TooClose(Leaf):
         if diver is None:
             self.active = False
             return Status.FAILURE
-        slack = guard_slack(self.ctx.rov, diver, cfg)
+        slack = guard_slack_ahead(self.ctx.rov, diver, cfg)
         if self.active:
             self.active = slack < cfg.backoff_to_m
         else:
@@ -259,7 +263,7 @@ def build_tree(ctx: TreeContext) -> tuple[py_trees.behaviour.Behaviour, Selector
     def back_off_until_clear(name: str) -> BackOff:
         return BackOff(name, ctx, lambda c: c.diver,
                        lambda c: c.diver is None
-                       or guard_slack(c.rov, c.diver, cfg) >= cfg.backoff_to_m)
+                       or guard_slack_ahead(c.rov, c.diver, cfg) >= cfg.backoff_to_m)
 
     lost = Sequence("diver lost", memory=False, children=[
         Check("track lost?", ctx, lambda c: c.diver is None),
@@ -296,18 +300,23 @@ def build_tree(ctx: TreeContext) -> tuple[py_trees.behaviour.Behaviour, Selector
         Face("face him", ctx, facing_diver),
         Do("plan the approach", ctx, _plan_handover),
         Approach("creep to his hand", ctx, handover_point, 0.05),
-        WaitUntil("hold still until he grips", ctx, diver_grips, cfg.handover_wait_s),
-        Gripper("release", ctx, close=False),
-        Do("handed over", ctx, lambda c: c.event(
-            f"handed over {c.task.argument if c.task is not None else ''}")),
-        back_off_until_clear("back away")])
+        WaitUntil("hold still until he grips", ctx, diver_grips, cfg.handover_wait_s)])
     bring = Sequence("bring tool", memory=True, children=[
         Selector("have the tool", memory=True, children=[
             Check("holding it?", ctx, lambda c: c.task is not None
                   and c.now.gripper.holding == c.task.argument),
             Retry("fetch, again", fetch, cfg.fetch_attempts)]),
-        Retry("offer again", handover, 3),
-        Do("done", ctx, lambda c: c.finish_task("done"))])
+        Retry("offer again", handover, 3)])
+    # he grips what it holds — as it holds still, creeps, or backs off at a guard: it
+    # lets go before anything else (a guard's back-off would pull the tool from his hand)
+    given = Sequence("he has it", memory=True, children=[
+        Check("he grips it?", ctx, diver_grips),
+        Gripper("release", ctx, close=False),
+        Do("handed over", ctx, lambda c: c.event(
+            f"handed over {c.task.argument if c.task is not None else ''}")),
+        back_off_until_clear("back away"),
+        Do("done", ctx, lambda c: c.finish_task("done") if c.task is not None
+           and c.task.name == "bring_tool" else None)])
     light = Sequence("light here", memory=True, children=[
         Do("plan the stand-off", ctx, _plan_light),
         GoTo("to the stand-off", ctx, _planned("light_station"), cfg.cruise_speed),
@@ -330,7 +339,8 @@ def build_tree(ctx: TreeContext) -> tuple[py_trees.behaviour.Behaviour, Selector
         _task(ctx, "light_here", light),
         _task(ctx, "go_up", up),
         HoldHere("idle", ctx)])
-    decide = Selector("decide", memory=False, children=[lost, too_close, closing, tasks])
+    decide = Selector("decide", memory=False, children=[lost, given, too_close, closing,
+                                                        tasks])
     root = Sequence("assistant", memory=False, children=[SpeedCeiling("speed ceiling", ctx),
                                                           decide])
     return root, tasks

@@ -4,13 +4,18 @@
     e_s = desired_speed - u                          (m/s, surge)
     u_port = w_h ( K_h e_h) + w_s K_s e_s + ff
     u_star = w_h (-K_h e_h) + w_s K_s e_s + ff
-    u_vert = -K_d (desired_depth - depth)            (a depth deficit dives)
+    u_vert = -K_d (desired_depth - depth) + ff_load  (a depth deficit dives)
 
 all saturated at +-150. A positive heading error (target clockwise of the bow) needs
 more port thrust (docs/conventions.md). ``ff`` is an optional speed feed-forward: the
 thruster input whose thrust balances the drag at the desired speed. The paper's
 controller has none (``speed_feedforward=False``); without it a P speed loop settles
-well below the target against the VideoRay's drag.
+well below the target against the VideoRay's drag. ``ff_load`` is an optional load
+feed-forward, not in the paper either: the vertical input whose thrust carries the
+in-water weight of what the gripper holds (``held_load_input``; the assistant's ROV knows
+what it holds; without it the P depth loop would settle W / (K_d c_T) low under a load,
+2.3 m under the 3.1 N lift bag at K_d 50 with the linear map). It is zero, and the
+paper's controller unchanged, while nothing is held.
 """
 
 from __future__ import annotations
@@ -76,6 +81,10 @@ class VideoRayPController:
 
     gains: PGains
     params: VideoRayParams
+    #: ``ff_load``: the vertical input that holds what the gripper holds at depth
+    #: (:func:`uhrisim.dynamics.carried_load.hover_command`; module docstring); 0 leaves
+    #: the paper's controller as it is
+    held_load_input: float = 0.0
 
     def inputs(self, x: NDArray, desired_heading_deg: float, desired_speed: float,
                desired_depth: float) -> NDArray:
@@ -96,14 +105,16 @@ class VideoRayPController:
                ) -> tuple[Any, Any, Any]:
         """Eqs 5-9 on floats (one vehicle) or (N,) arrays (``ops``): (port, star, vert)."""
         return p_control_kernel(self.gains, self.params, depth, yaw, surge,
-                                desired_heading_deg, desired_speed, desired_depth, ops)
+                                desired_heading_deg, desired_speed, desired_depth, ops,
+                                self.held_load_input)
 
 
 def p_control_kernel(g: PGains, params: VideoRayParams, depth: Any, yaw: Any, surge: Any,
                      desired_heading_deg: Any, desired_speed: Any, desired_depth: Any,
-                     ops: Elementwise) -> tuple[Any, Any, Any]:
+                     ops: Elementwise, held_load_input: float = 0.0) -> tuple[Any, Any, Any]:
     """:meth:`VideoRayPController.kernel` with its gains and parameters as arguments (a
-    function numba can compile, given them as records: :func:`uhrisim.core.compiled.record`)."""
+    function numba can compile, given them as records: :func:`uhrisim.core.compiled.record`);
+    ``held_load_input``: the vertical input fed forward for a held load (0: the paper's)."""
     heading_error = wrap_180(desired_heading_deg - heading_deg_from_yaw(yaw))
     speed_term = g.speed_weight * g.speed * (desired_speed - surge)
     if g.speed_feedforward:
@@ -112,6 +123,8 @@ def p_control_kernel(g: PGains, params: VideoRayParams, depth: Any, yaw: Any, su
     port = heading_term + speed_term
     star = -heading_term + speed_term
     vert = -g.depth * (desired_depth - depth)
+    if held_load_input:
+        vert = vert + held_load_input
     limit = params.input_limit
     return (ops.clip(port, -limit, limit), ops.clip(star, -limit, limit),
             ops.clip(vert, -limit, limit))

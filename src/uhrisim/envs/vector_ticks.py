@@ -183,7 +183,7 @@ def _control(k: TickConstants, i: int, ticks: Any, rov: Any, rov_inputs: Any,
             d = rov_desired[i]
             rov_inputs[i, 0], rov_inputs[i, 1], rov_inputs[i, 2] = p_control_kernel(
                 k.rov_gains, k.rov_params, rov[i, 2], rov[i, 3], rov[i, 4], d[0], d[1], d[2],
-                k.ops)
+                k.ops, 0.0)
 
 
 def _ticks(k: TickConstants, rows: Any, ticks_left: Any, pending: Any, free: Any,

@@ -37,8 +37,11 @@ class Performance:
     marker_id: int | None = None
 
 
-#: how long the diver holds the slate up (s)
+#: how long the diver holds the slate up (s) ...
 SLATE_HOLD_S = 3.0
+#: ... after at most this long (s) to turn to the ROV and rise from his work upright
+#: (a marker signal's order lasts both; uhrisim.sim.assistance)
+SLATE_READY_S = 2.0
 #: where he holds it: ahead of his body centre and above it (m), its face to the front
 SLATE_AHEAD_M, SLATE_ABOVE_M = 0.45, 0.35
 
@@ -53,9 +56,10 @@ def slate_position(body_ned: NDArray[np.float64], yaw: float) -> NDArray[np.floa
 def signal_duration(command: Command, channel: Channel,
                     gestures: GestureSet | None = None) -> float:
     """How long making ``command`` on ``channel`` takes (s): the gesture's timeline, or
-    the slate held up; ConfigError when the language has no gesture for it."""
+    getting ready and holding the slate up; ConfigError when the language has no
+    gesture for it."""
     if channel == "marker":
-        return SLATE_HOLD_S
+        return SLATE_READY_S + SLATE_HOLD_S
     gesture, count = (gestures or GestureSet.load()).for_command(command, channel)
     return gesture.timeline("right", count)[-1].t
 

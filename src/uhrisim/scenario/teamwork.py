@@ -43,7 +43,8 @@ class ToolConfig(Strict):
     tool on its working end), and what it rests in or on (``in: basket1``,
     ``onto: stand1``; default: the floor; YAML reads a bare ``on`` key as true). A
     ``lift_bag`` is also a lift bag site with ``capacity_litres`` and
-    ``inflate_rate_lps``."""
+    ``inflate_rate_lps``. ``mass_kg`` (in air): a lighter or heavier one than the
+    catalogue's, of the same material (e.g. a folded 50 L bag of 1.5 kg)."""
 
     kind: Literal[TOOL_KINDS]  # type: ignore[valid-type]
     name: ObjectName
@@ -54,6 +55,7 @@ class ToolConfig(Strict):
     onto: ObjectName | None = None
     capacity_litres: Annotated[float, Field(gt=0.0, le=2000.0)] = 100.0
     inflate_rate_lps: Annotated[float, Field(gt=0.0, le=50.0)] = 1.5
+    mass_kg: Annotated[float, Field(gt=0.0, le=500.0)] | None = None
 
     @model_validator(mode="after")
     def _one_support(self) -> ToolConfig:

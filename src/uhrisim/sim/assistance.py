@@ -8,15 +8,17 @@ section's file:line. Each tick it does, in the loop's order:
 
 * **perform** (after the teamwork stage): a diver whose order is a ``signal`` with a
   channel makes it (:class:`~uhrisim.perception.signalling.SignalPerformer`), turned
-  on the spot to face the ROV: his arms
-  and trunk follow the gesture's keyframes (the teamwork stage's ``arm_poses``), or he
-  holds up the slate with the command's marker (a dynamic body in the scene, put away
-  under the floor otherwise); the performer's ``issued`` is the truth the metrics count
-  against;
+  on the spot to face the ROV: his arms and trunk follow the gesture's keyframes (the
+  teamwork stage's ``arm_poses``), or — once he has turned to the ROV and risen
+  upright from his work (:meth:`AssistanceStage._ready`; at most ``SLATE_READY_S``) —
+  he holds up the slate with the command's marker (a dynamic body in the scene, put
+  away under the floor otherwise); the performer's ``issued`` is the truth the metrics
+  count against;
 * **read** (after the sensors): every frame of the assisted ROV's camera and every ping
   of its sonar that the loop rendered this tick (keyed ``"<agent>/<sensor>"``) goes to
   its :class:`~uhrisim.perception.signal_readers.SignalReaders`; what they say waits
-  for the next assistant tick;
+  for the next assistant tick — what the camera says while the diver is out of its view
+  is logged and dropped (:meth:`AssistanceStage._diver_in_view`);
 * **assist** (before the helms, at the ROV's helm rate): the assistant gets its inputs —
   the ROV's navigation from the plant, the diver's track (``truth``: his body centre,
   head and right hand from the articulated body; ``sonar``: the ROV's sonar contact,
@@ -54,12 +56,13 @@ from uhrisim.assistant import (
 )
 from uhrisim.assistant.geometry import separations
 from uhrisim.assistant.metrics import IssuedSignal, signal_metrics
+from uhrisim.assistant.trees import CHEST_ABOVE_PELVIS_M
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, rot_z
 from uhrisim.perception.gesture_reader import GestureReader
 from uhrisim.perception.markers import MarkerCommands, MarkerReader
 from uhrisim.perception.signal_readers import SignalReaders
-from uhrisim.perception.signalling import SignalPerformer, slate_position
+from uhrisim.perception.signalling import SLATE_READY_S, SignalPerformer, slate_position
 from uhrisim.perception.signals import Command, RecognizedSignal
 from uhrisim.perception.sonar_wave import SonarWaveReader
 from uhrisim.scenario.assistance import AssistantSection
@@ -80,6 +83,10 @@ TAKE_REACH_M = 0.2
 TAKE_AFTER_S = 1.0
 #: a signalling diver turns to face the ROV at this rate per radian off (1/s)
 FACE_TURN_GAIN = 1.5
+#: he holds the slate up once he faces the ROV within this (deg) ...
+SLATE_FACING_DEG = 20.0
+#: ... and his trunk is within this of upright (deg; posture and waist)
+SLATE_UPRIGHT_DEG = 15.0
 #: where a slate that is not held up is kept: under the sea floor (NED, m)
 SLATE_AWAY_NED = np.array([0.0, 0.0, 1.0e4])
 
@@ -94,12 +101,21 @@ class SignallingDiver:
     slates: dict[int, str] = field(default_factory=dict)
     seen_steps: int = 0
     watcher: Agent | None = None  # the ROV he signals to (he faces it)
+    #: a slate signal's order has begun (its start, s; the command) and he gets ready
+    slate_due: tuple[float, Command] | None = None
+    #: he waits for the ROV to hand him a tool
+    receiving: bool = False
 
     def signalling_pose(self, t: float) -> dict[str, float] | None:
-        """His joint goals while he signals: upright (a swimmer rises from his swimming
-        posture, as divers do to signal), the gesture's arms; None otherwise."""
-        pose = self.performer.performing(t)
-        return None if pose is None else {"posture": 0.0, "waist": 0.0, **pose}
+        """His joint goals while he signals, gets ready to show the slate or waits for a
+        tool from the ROV: upright (a swimmer rises from his swimming posture, as divers
+        do to signal or to take a tool; prone, his head lies where the ROV's jaws must
+        reach his hand, inside its head guard), the gesture's arms; None otherwise."""
+        pose = self.performer.joints(t) if self.slate_due is not None else \
+            self.performer.performing(t)
+        if pose is None and not self.receiving:
+            return None
+        return {"posture": 0.0, "waist": 0.0, **(pose or {})}
 
 
 @dataclass
@@ -254,11 +270,18 @@ class AssistanceStage:
                 step = steps[diver.seen_steps]
                 diver.seen_steps += 1
                 order = step.order
-                if isinstance(order, od.Signal) and order.channel is not None:
+                if isinstance(order, od.Signal) and order.channel == "marker":
+                    diver.slate_due = (step.started, Command.parse(order.name))
+                elif isinstance(order, od.Signal) and order.channel is not None:
                     diver.performer.signal(step.started, Command.parse(order.name),
                                            order.channel)  # type: ignore[arg-type]
+            if diver.slate_due is not None and (self._ready(diver) or
+                                                t >= diver.slate_due[0] + SLATE_READY_S):
+                diver.performer.signal(t, diver.slate_due[1], "marker")
+                diver.slate_due = None
             nav = diver.agent.nav()
-            if diver.performer.performing(t) is not None and diver.watcher is not None:
+            if diver.watcher is not None and (diver.slate_due is not None
+                                              or diver.performer.performing(t) is not None):
                 self._face(diver, diver.watcher.nav().position_ned)
             if diver.slates:
                 held = diver.performer.slate_id(t)
@@ -272,10 +295,30 @@ class AssistanceStage:
         for v in self.vehicles:
             frame = images.get(v.camera_key) if v.camera_key else None
             if frame is not None:
-                v.heard += v.readers.camera(frame)
+                said = v.readers.camera(frame)
+                if said and not self._diver_in_view(v, frame):
+                    for r in said:
+                        self.record("assistant", f"{v.agent.name}: {r.command} ({r.channel}) "
+                                    "ignored: the diver is not in the camera's view")
+                else:
+                    v.heard += said
             ping = pings.get(v.sonar_key) if v.sonar_key else None
             if ping is not None and v.readers.sonar is not None:
                 v.heard += v.readers.ping(ping, *self._in_ping(v))
+
+    def _diver_in_view(self, v: AssistedVehicle, frame: Any) -> bool:
+        """Whether the diver's chest (on the track the assistant uses) is in the camera's
+        field of view: a camera signal read with him out of view is someone else's, or
+        the reader's mistake (it still counts as false in the metrics)."""
+        track = self._track(v, 0.0)
+        if track is None:
+            return False
+        chest = track.position_ned - np.array([0.0, 0.0, CHEST_ABOVE_PELVIS_M])
+        ahead, right, down = frame.rotation_ned_from_camera.T @ (chest - frame.position_ned)
+        height, width = frame.rgb.shape[:2]
+        return bool(ahead > 0.0
+                    and abs(right) / ahead <= 0.5 * width / frame.K[0, 0]
+                    and abs(down) / ahead <= 0.5 * height / frame.K[1, 1])
 
     def _in_ping(self, v: AssistedVehicle) -> tuple[float | None, float | None]:
         """The diver's range (m) and bearing (rad, > 0 starboard) from the ROV, from the
@@ -371,8 +414,9 @@ class AssistanceStage:
         body = self.team.divers[name]  # type: ignore[union-attr]
         order = body.executor.current
         held = ws.held_by(f"{v.agent.name}/gripper")
-        if not (isinstance(order, od.WaitUntil) and held == order.subject
-                and order.state.startswith(f"held_by:{name}/")):
+        v.diver.receiving = (isinstance(order, od.WaitUntil)
+                             and order.state.startswith(f"held_by:{name}/"))
+        if not (v.diver.receiving and held == order.subject):
             v.offered_since = None
             return
         hand_name = order.state.removeprefix("held_by:")
@@ -393,6 +437,21 @@ class AssistanceStage:
         elif t - v.offered_since >= TAKE_AFTER_S:
             ws.take(hand_name, held, hand.grip_frame())
             self.record("teamwork", f"{name} takes {held} from {v.agent.name}'s gripper")
+
+    def _ready(self, diver: SignallingDiver) -> bool:
+        """Whether he can show the slate: turned to the ROV within ``SLATE_FACING_DEG``
+        and risen from his working posture to within ``SLATE_UPRIGHT_DEG`` of upright —
+        before that his own trunk hides the slate, or it faces away from the camera."""
+        agent = diver.agent
+        if diver.watcher is not None:
+            nav = agent.nav()
+            d = diver.watcher.nav().position_ned[:2] - nav.position_ned[:2]
+            off = math.atan2(d[1], d[0]) - nav.yaw
+            if abs(math.atan2(math.sin(off), math.cos(off))) > math.radians(SLATE_FACING_DEG):
+                return False
+        body = self.team.divers[agent.name]  # type: ignore[union-attr]
+        trunk = [abs(float(body.q[body.skeleton.index(j)])) for j in ("posture", "waist")]
+        return max(trunk) <= math.radians(SLATE_UPRIGHT_DEG)
 
     @staticmethod
     def _face(diver: SignallingDiver, point: NDArray[np.float64]) -> None:

@@ -35,17 +35,18 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
+from uhrisim.control.videoray_p import VideoRayPController
 from uhrisim.core.clock import ticks_for_rate
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import rot_z
-from uhrisim.dynamics.carried_load import CarriedLoad
+from uhrisim.dynamics.carried_load import CarriedLoad, hover_command
 from uhrisim.dynamics.diver_body import DiverSkeleton, step_motion
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.sections import part_settings
@@ -201,7 +202,7 @@ class TeamStage:
 
     def _workspace(self) -> Workspace:
         world = self.source.scenario.world
-        tools = [make_tool(t.kind, t.name) for t in world.tools]
+        tools = [make_tool(t.kind, t.name, t.mass_kg) for t in world.tools]
         bags = [sites.LiftBagSpec(t.name, t.capacity_litres, t.inflate_rate_lps)
                 for t in world.tools if t.kind == "lift_bag"]
         flanges, hatches, loads, platforms = [], [], [], []
@@ -317,7 +318,9 @@ class TeamStage:
 
     def _carry_in_dynamics(self, agent: Agent, slot: GripperSlot) -> None:
         """The vehicle's plant carries what its gripper holds (its mass, added mass, drag
-        and in-water weight in eqs 1-4), or nothing."""
+        and in-water weight in eqs 1-4), or nothing; an assistant's ROV knows what it
+        holds, and its depth controller feeds the in-water weight forward
+        (:class:`~uhrisim.control.videoray_p.VideoRayPController`'s ``held_load_input``)."""
         ws = self.workspace
         held = ws.held_by(f"{agent.name}/gripper")
         if held == slot.carrying:
@@ -330,6 +333,11 @@ class TeamStage:
             load = CarriedLoad(ws.hydro_of(held), tuple(centre[:3]))
         agent.plant = agent.model.carrying(agent.plant, load)
         slot.carrying = held
+        if agent.config.assistant is not None and isinstance(agent.controller,
+                                                              VideoRayPController):
+            agent.controller = replace(agent.controller, held_load_input=0.0 if load is None
+                                       else hover_command(agent.controller.params,
+                                                          load).command)
 
     def _add_bodies(self) -> None:
         ws, scene = self.workspace, self.scene

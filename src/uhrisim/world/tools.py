@@ -158,9 +158,19 @@ CATALOGUE: dict[str, Tool] = {
 }
 
 
-def make_tool(kind: str, name: str) -> Tool:
-    """A catalogue tool of ``kind`` named ``name`` (ConfigError listing the kinds)."""
+def make_tool(kind: str, name: str, mass_kg: float | None = None) -> Tool:
+    """A catalogue tool of ``kind`` named ``name`` (ConfigError listing the kinds);
+    ``mass_kg`` (air, kg): a lighter or heavier one of the same material and shape — its
+    volume scales with the mass, so its density and its in-water weight per kg stay."""
     if kind not in CATALOGUE:
         raise ConfigError(f"unknown tool kind {kind!r} (have {', '.join(TOOL_KINDS)})",
                           where=f"tool {name!r}")
-    return replace(CATALOGUE[kind], name=name)
+    tool = replace(CATALOGUE[kind], name=name)
+    if mass_kg is None:
+        return tool
+    if not (math.isfinite(mass_kg) and mass_kg > 0.0):
+        raise ConfigError(f"must be a finite mass > 0 kg, got {mass_kg!r}",
+                          where=f"tool {name!r}.mass_kg")
+    scale = mass_kg / tool.hydro.mass
+    return replace(tool, hydro=replace(tool.hydro, mass=mass_kg,
+                                       volume=tool.hydro.volume * scale))
