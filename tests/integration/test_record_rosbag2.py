@@ -31,6 +31,7 @@ from rosbags.highlevel import AnyReader  # noqa: E402
 
 from uhrisim.app.runner import run_scenario  # noqa: E402
 from uhrisim.bridges.ros2.hook import Ros2BridgeHook  # noqa: E402
+from uhrisim.dynamics.diver_body import DiverSkeleton  # noqa: E402
 from uhrisim.record.recover import recover_in_place  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -122,8 +123,10 @@ def test_run_folder_is_a_rosbag2_bag_with_the_live_topics(ros_env: int, tmp_path
     mounts = [("videoray/base_link", f"videoray/{s}") for s in sonars]
     mounts += [("videoray/base_link", f"videoray/{c}_optical") for c in cameras]
     assert static == mounts
+    links = ({f"diver/{link}" for link in DiverSkeleton().links}  # its articulated diver's
+             if scenario.stem == "camera_trail" else set())        # links, docs/teamwork.md
     assert tf_children == {"videoray/odom", "videoray/base_link", "diver/odom",
-                           "diver/base_link"}
+                           "diver/base_link"} | links
 
     # a run killed mid-way has no metadata.yaml; uhrisim recover makes the folder a bag
     data = (out / "recording.mcap").read_bytes()
