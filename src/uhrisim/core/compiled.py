@@ -68,14 +68,13 @@ def jit(function: Callable[..., Any], numpy_errors: bool = False, on_disk: bool 
     numba = numba_module()
     if numba is None:
         return None
-    model = "numpy" if numpy_errors else "python"
-    if not on_disk:
-        return numba.njit(nogil=True, error_model=model)(function)
-    try:
-        return numba.njit(cache=True, nogil=True, error_model=model)(function)
-    except RuntimeError:  # no writable cache place (read-only package and home): compile each run
-        return numba.njit(nogil=True, error_model=model)(function)
-
+    options = {"nogil": True, "error_model": "numpy" if numpy_errors else "python"}
+    if on_disk:
+        try:
+            return numba.njit(cache=True, **options)(function)
+        except RuntimeError:  # no writable cache folder (read-only package and home)
+            pass
+    return numba.njit(**options)(function)
 
 
 @cache

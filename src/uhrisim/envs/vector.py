@@ -149,12 +149,12 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         self.measures_kernel = (compiled_measures(self) if self.ticks_kernel is not None
                                 else None)
         self.threads = threads if self.ticks_kernel is not None else 1
-        self._threads = (ThreadPoolExecutor(threads, "uhrisim-ticks") if self.threads > 1
-                         else None)
+        self._tick_pool = (ThreadPoolExecutor(threads, "uhrisim-ticks") if self.threads > 1
+                           else None)
 
     def close_extras(self, **kwargs: Any) -> None:
-        if self._threads is not None:
-            self._threads.shutdown()
+        if self._tick_pool is not None:
+            self._tick_pool.shutdown()
 
     # -- state ---------------------------------------------------------------------------
     def _allocate(self, n: int) -> None:
@@ -405,11 +405,12 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
                   self.loiter_speed, self.hold_depth, self.pilings, self.piling_top,
                   *self._floor_cells)
         while rows.size:
-            if self._threads is None or rows.size < 2 * self.threads:
+            if self._tick_pool is None or rows.size < 2 * self.threads:
                 self.ticks_kernel(rows, *arrays)
             else:  # each thread its own rows: they write nothing of another's
                 shares = np.array_split(rows, self.threads)
-                list(self._threads.map(lambda share: self.ticks_kernel(share, *arrays), shares))
+                list(self._tick_pool.map(lambda share: self.ticks_kernel(share, *arrays),
+                                         shares))
             rows = np.flatnonzero(self._pending)
             if rows.size:
                 self._free[rows] = self._scene_clear(rows, self.rov[rows, :3],
