@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,9 +20,10 @@ def finite_or_raise(x: NDArray, vehicle: str, t: float) -> NDArray:
     """``x`` if every entry is finite, else a NumericalError naming the vehicle and time.
 
     (The sum of a vector is NaN/inf exactly when an entry is, short of overflow - which
-    is no valid state either; it is several times cheaper than ``all(isfinite(x))``.)
+    is no valid state either; it is several times cheaper than ``all(isfinite(x))``, and
+    for one vehicle's few entries, their sum as Python floats is cheaper still.)
     """
-    if not math.isfinite(x.sum()):
+    if not math.isfinite(sum(x.tolist()) if x.ndim == 1 else x.sum()):
         raise NumericalError("state became NaN/inf during integration", vehicle=vehicle, t=t)
     return x
 
@@ -42,10 +44,14 @@ class NavState:
         self.position_ned.setflags(write=False)
         self.velocity_body.setflags(write=False)
 
-    @property
+    @cached_property
     def speed(self) -> float:
-        """Horizontal speed through the water (m/s), what MOOS calls NAV_SPEED."""
-        return float(np.hypot(self.velocity_body[0], self.velocity_body[1]))
+        """Horizontal speed through the water (m/s), what MOOS calls NAV_SPEED (computed
+        once: the navigation loop, the contacts and the diver's kicks all ask)."""
+        surge, sway = self.velocity_body[:2].tolist()
+        if sway == 0.0:  # hypot(x, 0) is |x| exactly (C99 F.9.4.3): skip numpy's call
+            return abs(surge)
+        return float(np.hypot(surge, sway))
 
 
 @dataclass(frozen=True)
