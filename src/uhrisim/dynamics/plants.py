@@ -7,7 +7,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -67,10 +66,9 @@ class NavState:
         self.position_ned.setflags(write=False)
         self.velocity_body.setflags(write=False)
 
-    @cached_property
+    @property
     def speed(self) -> float:
-        """Horizontal speed through the water (m/s), what MOOS calls NAV_SPEED (computed
-        once: the navigation loop, the contacts and the diver's kicks all ask)."""
+        """Horizontal speed through the water (m/s), what MOOS calls NAV_SPEED."""
         surge, sway = self.velocity_body[:2].tolist()
         if sway == 0.0:  # hypot(x, 0) is |x| exactly (C99 F.9.4.3): skip numpy's call
             return abs(surge)

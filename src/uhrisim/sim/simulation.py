@@ -408,16 +408,17 @@ class Simulation:
             new_state[2] = SURFACE_DEPTH
             if model.surface_stops is not None:  # no upward heave through the surface
                 new_state[model.surface_stops] = max(new_state[model.surface_stops], 0.0)
-        start, end = previous[:3], new_state[:3]
-        fraction, touched = self._clear_fraction(agent, start.tolist(), end.tolist())
-        if fraction < 1.0 and not agent.in_contact:  # count each contact once, at its onset
-            self.collisions += 1
-            self.record_event("collision", f"{agent.name} touched {touched}")
-        agent.in_contact = fraction < 1.0
+        fraction, touched = self._clear_fraction(agent, previous[:3].tolist(),
+                                                 new_state[:3].tolist())
         if fraction < 1.0:
+            if not agent.in_contact:  # count each contact once, at its onset
+                self.collisions += 1
+                self.record_event("collision", f"{agent.name} touched {touched}")
+            start, end = previous[:3], new_state[:3]
             new_state[:3] = start + (end - start) * max(0.0, fraction - 1e-3)
             if model.contact_stops is not None:
                 new_state[model.contact_stops] = 0.0  # inelastic stop against the obstacle
+        agent.in_contact = fraction < 1.0
         agent.update(state=new_state)
         if agent.is_diver_body:
             speed = abs(agent.nav().speed)
