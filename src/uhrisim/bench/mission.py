@@ -85,7 +85,7 @@ def _split_rates(seconds: float, sonar: bool, recorded: bool) -> dict[str, Any]:
             stages = {"physics": _time(sim, "_advance"), "control": _time(sim, "_control"),
                       "contacts": _time(sim.contacts, "step"),
                       "navigation": _time(sim, "_post_nav")}
-            stages.update({f"hook {type(hook).__name__}": _time(hook, "on_tick")
+            stages.update({f"hook_{type(hook).__name__}": _time(hook, "on_tick")
                            for hook in hooks})
             ticks = sim.tick
             wall, cpu = time.perf_counter(), time.process_time()
