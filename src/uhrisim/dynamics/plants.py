@@ -109,8 +109,10 @@ class VideoRayPlant:
         the same kernel, :func:`uhrisim.dynamics.videoray.rk4_steps` (one vehicle: its
         :func:`~uhrisim.dynamics.videoray.rk4_one`, the forces kept while ``u`` holds)."""
         n = self.integrator.substeps
+        x = np.asarray(x, dtype=float)
         if x.ndim == 1:
-            forces = self._forces.of(u.tolist(), videoray.rk4_forces, self.params)
+            forces = self._forces.of(np.asarray(u, dtype=float).tolist(), videoray.rk4_forces,
+                                     self.params)
             state = videoray.rk4_one(x.tolist(), forces, self._coefficient_values,
                                      self.dt / n, n)
             return finite_or_raise(np.array(state), self.name, t + self.dt)
@@ -130,6 +132,8 @@ class DiverPlant:
     params: diver.DiverParams
     dt: float
     name: str = "diver"
+    _rates: LastInputs = field(init=False, repr=False, compare=False,
+                               default_factory=LastInputs)
     kind = "diver"
     state_size = diver.STATE_SIZE
     input_size = 3
@@ -138,15 +142,14 @@ class DiverPlant:
         del speed  # a kinematic diver has no velocity state
         return np.array([*position_ned, yaw])
 
-    _rates: LastInputs = field(init=False, repr=False, compare=False,
-                               default_factory=LastInputs)
-
     def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
         """One physics step of one diver (``x`` (4,)) or N (``x`` (N, 4), ``u`` (N, 3)):
         :func:`uhrisim.dynamics.diver.step_exact` (one diver: its kernel on the body rates
         kept while ``u`` holds)."""
+        x = np.asarray(x, dtype=float)
         if x.ndim == 1:
-            rates = self._rates.of(u.tolist(), diver.body_rates_kernel, self.params)
+            rates = self._rates.of(np.asarray(u, dtype=float).tolist(), diver.body_rates_kernel,
+                                   self.params)
             state = diver.step_exact_kernel(*x.tolist(), *rates, self.dt)
             return finite_or_raise(np.array(state), self.name, t + self.dt)
         return finite_or_raise(diver.step_exact(x, u, self.params, self.dt), self.name,
