@@ -62,6 +62,30 @@ def test_the_diver_s_exact_step_is_today_s():
     assert_close_relative(batch, states[1:], rel=1e-12)
 
 
+@pytest.mark.parametrize("make", [lambda: VideoRayPlant(videoray.VideoRayParams(), 0.05),
+                                  lambda: DiverPlant(diver.DiverParams(), 0.05)],
+                         ids=["videoray", "diver"])
+def test_what_a_plant_keeps_of_the_inputs_follows_them(make):
+    # One vehicle's forces (or body rates) are kept while its inputs hold: inputs changed
+    # in place, changed back or handed as a new array step exactly as a fresh plant does.
+    rng = np.random.default_rng(3)
+    plant = make()
+    x = plant.initial_state(np.array([1.0, -2.0, 3.0]), 0.4)
+    u = np.array([40.0, 10.0, -5.0]) if plant.kind == "videoray" else np.array(
+        [0.3, 0.1, 0.05])
+    for k in range(12):
+        if k % 3 == 1:
+            u[rng.integers(3)] *= -0.5  # the same array, new values
+        elif k % 3 == 2:
+            u = u.copy()
+        fresh = make()
+        expected, nav = fresh.step(0.0, x, u), fresh.nav(x, u)
+        x_next = plant.step(0.0, x, u)
+        np.testing.assert_array_equal(x_next, expected)
+        np.testing.assert_array_equal(plant.nav(x, u).velocity_body, nav.velocity_body)
+        x = x_next
+
+
 @pytest.mark.slow
 def test_the_paper_s_mission_flies_today_s_trajectory():
     from uhrisim.scenario.load import load_scenario

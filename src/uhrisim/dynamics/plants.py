@@ -5,7 +5,9 @@ of them: ``step(t, x, u) -> x`` over one physics step and ``nav(x) -> NavState``
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,11 +21,33 @@ def finite_or_raise(x: NDArray, vehicle: str, t: float) -> NDArray:
     """``x`` if every entry is finite, else a NumericalError naming the vehicle and time.
 
     (The sum of a vector is NaN/inf exactly when an entry is, short of overflow - which
-    is no valid state either; it is several times cheaper than ``all(isfinite(x))``.)
+    is no valid state either; it is several times cheaper than ``all(isfinite(x))``, and
+    for one vehicle's few entries, their sum as Python floats is cheaper still.)
     """
-    if not math.isfinite(x.sum()):
+    if not math.isfinite(sum(x.tolist()) if x.ndim == 1 else x.sum()):
         raise NumericalError("state became NaN/inf during integration", vehicle=vehicle, t=t)
     return x
+
+
+class LastInputs:
+    """What a plant makes of one vehicle's actuator inputs (a VideoRay's body forces, a
+    diver's body rates), kept for the inputs it last saw: the loop changes them at the
+    control rate, a fraction of the physics ticks that step with them. A pure function of
+    the inputs, so the values are those of a fresh computation."""
+
+    __slots__ = ("_last",)
+
+    def __init__(self) -> None:
+        self._last: tuple[list[float] | None, Any] = (None, None)  # (inputs, value)
+
+    def of(self, inputs: list[float], compute: Callable[..., Any], *args: Any) -> Any:
+        """``compute(*inputs, *args)``, or its value for the same inputs last time (one
+        pair, replaced at once: threads sharing a plant see a matching one)."""
+        last_inputs, value = self._last
+        if inputs != last_inputs:
+            value = compute(*inputs, *args)
+            self._last = (inputs, value)
+        return value
 
 
 @dataclass(frozen=True)
@@ -45,7 +69,10 @@ class NavState:
     @property
     def speed(self) -> float:
         """Horizontal speed through the water (m/s), what MOOS calls NAV_SPEED."""
-        return float(np.hypot(self.velocity_body[0], self.velocity_body[1]))
+        surge, sway = self.velocity_body[:2].tolist()
+        if sway == 0.0:  # hypot(x, 0) is |x| exactly (C99 F.9.4.3): skip numpy's call
+            return abs(surge)
+        return float(np.hypot(surge, sway))
 
 
 @dataclass(frozen=True)
@@ -58,6 +85,8 @@ class VideoRayPlant:
     substeps: int | None = None
     integrator: FixedStepIntegrator = field(init=False)
     coefficients: videoray.RateCoefficients = field(init=False)
+    _coefficient_values: tuple[float, ...] = field(init=False, repr=False, compare=False)
+    _forces: LastInputs = field(init=False, repr=False, compare=False)
     kind = "videoray"
     state_size = videoray.STATE_SIZE
     input_size = videoray.INPUT_SIZE
@@ -67,15 +96,26 @@ class VideoRayPlant:
             videoray.xdot, self.dt, videoray.stiffest_eigenvalue(self.params),
             substeps=self.substeps, name=self.name)
         object.__setattr__(self, "integrator", integrator)
-        object.__setattr__(self, "coefficients", videoray.RateCoefficients.of(self.params))
+        coefficients = videoray.RateCoefficients.of(self.params)
+        object.__setattr__(self, "coefficients", coefficients)
+        object.__setattr__(self, "_coefficient_values", tuple(coefficients))
+        object.__setattr__(self, "_forces", LastInputs())
 
     def initial_state(self, position_ned: NDArray, yaw: float, speed: float = 0.0) -> NDArray:
         return np.array([*position_ned, yaw, speed, 0.0, 0.0, 0.0])
 
     def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
         """One physics step of one vehicle (``x`` (8,)) or N (``x`` (N, 8), ``u`` (N, 3)):
-        the same kernel, :func:`uhrisim.dynamics.videoray.rk4_steps`."""
+        the same kernel, :func:`uhrisim.dynamics.videoray.rk4_steps` (one vehicle: its
+        :func:`~uhrisim.dynamics.videoray.rk4_one`, the forces kept while ``u`` holds)."""
         n = self.integrator.substeps
+        x = np.asarray(x, dtype=float)
+        if x.ndim == 1:
+            forces = self._forces.of(np.asarray(u, dtype=float).tolist(), videoray.rk4_forces,
+                                     self.params)
+            state = videoray.rk4_one(x.tolist(), forces, self._coefficient_values,
+                                     self.dt / n, n)
+            return finite_or_raise(np.array(state), self.name, t + self.dt)
         return finite_or_raise(
             videoray.rk4_steps(x, u, self.params, self.dt / n, n, self.coefficients),
             self.name, t + self.dt)
@@ -92,6 +132,8 @@ class DiverPlant:
     params: diver.DiverParams
     dt: float
     name: str = "diver"
+    _rates: LastInputs = field(init=False, repr=False, compare=False,
+                               default_factory=LastInputs)
     kind = "diver"
     state_size = diver.STATE_SIZE
     input_size = 3
@@ -101,12 +143,22 @@ class DiverPlant:
         return np.array([*position_ned, yaw])
 
     def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
+        """One physics step of one diver (``x`` (4,)) or N (``x`` (N, 4), ``u`` (N, 3)):
+        :func:`uhrisim.dynamics.diver.step_exact` (one diver: its kernel on the body rates
+        kept while ``u`` holds)."""
+        x = np.asarray(x, dtype=float)
+        if x.ndim == 1:
+            rates = self._rates.of(np.asarray(u, dtype=float).tolist(), diver.body_rates_kernel,
+                                   self.params)
+            state = diver.step_exact_kernel(*x.tolist(), *rates, self.dt)
+            return finite_or_raise(np.array(state), self.name, t + self.dt)
         return finite_or_raise(diver.step_exact(x, u, self.params, self.dt), self.name,
                                t + self.dt)
 
     def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:
-        speed, yaw_rate, vertical = (diver.body_rates_single(u, self.params) if u is not None
-                                     else (0.0, 0.0, 0.0))
+        speed, yaw_rate, vertical = (
+            self._rates.of(np.asarray(u, dtype=float).tolist(), diver.body_rates_kernel,
+                           self.params) if u is not None else (0.0, 0.0, 0.0))
         return NavState(x[0:3].copy(), float(x[3]), np.array([speed, 0.0, vertical]), yaw_rate)
 
 

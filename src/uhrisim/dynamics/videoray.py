@@ -247,10 +247,9 @@ def rk4_steps(x: ArrayLike, u: ArrayLike, params: VideoRayParams, h: float, subs
     coefficients = coefficients or RateCoefficients.of(params)
     x = np.asarray(x, dtype=float)
     if x.ndim == 1:
-        surge, heave, yaw = body_forces(*np.asarray(u, dtype=float).tolist(), params)
-        forces = (surge, heave + heave_bias, yaw)
-        kernel = (_compiled_kernel() if compiled else None) or _FLOAT_KERNEL
-        return np.array(kernel(*x.tolist(), *forces, tuple(coefficients), h, substeps))
+        forces = rk4_forces(*np.asarray(u, dtype=float).tolist(), params, heave_bias)
+        return np.array(rk4_one(x.tolist(), forces, tuple(coefficients), h, substeps,
+                                compiled))
     commands = np.ascontiguousarray(np.asarray(u, dtype=float).T)
     with np.errstate(over="ignore", invalid="ignore"):  # a blow-up is reported by the caller
         surge, heave, yaw = body_forces(*commands, params, ARRAYS)
@@ -264,6 +263,27 @@ def rk4_steps(x: ArrayLike, u: ArrayLike, params: VideoRayParams, h: float, subs
         out = rk4_kernel(*np.ascontiguousarray(x.T), *forces, coefficients, h, substeps,
                          ARRAYS)
     return np.stack(out, axis=-1)
+
+
+def rk4_forces(port: float, star: float, vert: float, params: VideoRayParams,
+               heave_bias: float = 0.0) -> tuple[float, float, float]:
+    """The body forces :func:`rk4_steps` integrates one vehicle under (N, N, N m): those
+    of :func:`body_forces` for the three commands, ``heave_bias`` (N, down) added to the
+    heave."""
+    surge, heave, yaw = body_forces(port, star, vert, params)
+    return surge, heave + heave_bias, yaw
+
+
+def rk4_one(state: list[float], forces: tuple[float, float, float],
+            coefficients: tuple[float, ...], h: float, substeps: int,
+            compiled: bool = True) -> tuple[float, ...]:
+    """:func:`rk4_steps` of one vehicle on floats: the eight state components (``state``
+    in :data:`STATE_NAMES` order) after ``substeps`` RK4 steps of ``h`` (s) under the body
+    forces ``(surge, heave, yaw moment)`` (N, N, N m; :func:`body_forces`), with the
+    values of a :class:`RateCoefficients`; compiled with numba when it is installed and
+    ``compiled``."""
+    kernel = (_compiled_kernel() if compiled else None) or _FLOAT_KERNEL
+    return kernel(*state, *forces, coefficients, h, substeps)
 
 
 def rk4_kernel(north: Any, east: Any, depth: Any, psi: Any, su: Any, sv: Any, sw: Any, sr: Any,

@@ -42,6 +42,8 @@ class DiverBubbles:
                                   AIR_BUBBLE, PARKED_NED)
             self._plumes.append((agent, plume, names))
         self.body_names = frozenset(n for _, _, names in self._plumes for n in names)
+        #: does any diver breathe out bubbles? (else the loop skips :meth:`release`)
+        self.active = bool(self._plumes)
 
     def release(self, t: float) -> None:
         """Release the bursts due by ``t`` (s) at each diver's regulator."""

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from uhrisim.autonomy.contacts import NodeReport, format_node_report
+from uhrisim.autonomy.contacts import node_report_text
 from uhrisim.core.clock import ticks_for_rate
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned
 from uhrisim.sim.state import Agent
@@ -29,14 +29,11 @@ def node_report_of(agent: Agent, t: float, position_noise: np.ndarray | None = N
         north, east = north + position_noise[0], east + position_noise[1]
     x_east, y_north = moos_xy_from_ned(north, east)
     cfg = agent.config
-    report = NodeReport(
-        name=agent.name, x=round(float(x_east), 3), y=round(float(y_north), 3),
-        speed=round(nav.speed, 3), heading=round(float(heading_deg_from_yaw(nav.yaw)), 2),
-        depth=round(float(nav.position_ned[2]), 3), time=round(t, 3),
-        type=cfg.vehicle_type or agent.model.vehicle_type,
-        mode=str(agent.community.get("MODE", "")),
-        length=cfg.length or agent.model.length)
-    return format_node_report(report)
+    return node_report_text(
+        agent.name, round(float(x_east), 3), round(float(y_north), 3), round(nav.speed, 3),
+        round(float(heading_deg_from_yaw(nav.yaw)), 2), round(float(nav.position_ned[2]), 3),
+        time=round(t, 3), type=cfg.vehicle_type or agent.model.vehicle_type,
+        mode=str(agent.community.get("MODE", "")), length=cfg.length or agent.model.length)
 
 
 @dataclass(order=True)
@@ -60,11 +57,14 @@ class TruthContacts:
         self._agents = agents
         observers = [a for a in agents.values()
                      if a.config.driver == "helm" and a.config.contacts.source == "truth"]
-        #: per observer: its report period (ticks), contacts settings and random stream
+        #: per observer: its report period (ticks), contacts settings, random stream and
+        #: whether its reports are degraded by dropout or noise (else the stream, its own,
+        #: is not drawn from: nothing would change)
         self._observers = [
             (a, ticks_for_rate(a.config.contacts.rate_hz, dt,
                                f"agents.{a.name}.contacts.rate_hz"),
-             a.config.contacts, rng(f"{a.name}/contacts"))
+             a.config.contacts, rng(f"{a.name}/contacts"),
+             a.config.contacts.dropout > 0.0 or a.config.contacts.position_noise_std > 0.0)
             for a in observers]
         self._queue: list[_Queued] = []
         self._sequence = 0
@@ -72,16 +72,18 @@ class TruthContacts:
     def step(self, tick: int, t: float) -> None:
         """Send the reports due at ``tick`` (time ``t``, s) and deliver those whose
         latency has passed."""
-        for observer, period, cfg, rng in self._observers:
+        for observer, period, cfg, rng, degraded in self._observers:
             if tick % period:
                 continue
             for target in self._agents.values():
                 if target is observer:
                     continue
-                dropped = rng.random() < cfg.dropout
-                noise = rng.normal(0.0, cfg.position_noise_std, 2)
-                if dropped:
-                    continue
+                noise = None
+                if degraded:
+                    dropped = rng.random() < cfg.dropout
+                    noise = rng.normal(0.0, cfg.position_noise_std, 2)
+                    if dropped:
+                        continue
                 report = node_report_of(target, t, noise if cfg.position_noise_std else None)
                 self._sequence += 1
                 heapq.heappush(self._queue, _Queued(t + cfg.latency, self._sequence,

@@ -207,7 +207,7 @@ class Simulation:
             return
         self._started = True
         for agent in self.agents.values():
-            self._post_nav(agent)
+            self._post_nav(agent, self.t)
             self._control(agent)
         for hook in self.hooks:
             hook.on_start(self)
@@ -221,44 +221,51 @@ class Simulation:
     def _step(self, build_frame: bool) -> TickFrame | None:
         """One tick; a frame is made only if someone looks, and its agent snapshots are
         taken as hooks read them (all of them for ``build_frame``)."""
-        self.start()
+        if not self._started:
+            self.start()
         raise_pending_stop()  # a stop signal some library swallowed (core/stops.py)
         if self._inbox:  # (read without the lock: a post racing in is applied next tick)
             self._apply_inbox()
         if self._waiting_events:
             self._fire_events()
-        for agent in self.agents.values():
-            self._advance(agent)
-        self.tick += 1
+        agents = self.agents.values()
         t = self.t
-        self.bubbles.release(t)
+        for agent in agents:
+            self._advance(agent, t)
+        self.tick = tick = self.tick + 1
+        t = self.t
+        if self.bubbles.active:
+            self.bubbles.release(t)
         if self.team is not None:
-            self.team.step(self.tick, t)
+            self.team.step(tick, t)
             self._scene_dirty = True
         if self.assistance is not None:
             self.assistance.perform(t)
-        for agent in self.agents.values():
-            if self.tick % agent.driver_period == 0:
-                self._post_nav(agent)
-        self.contacts.step(self.tick, t)
+        for agent in agents:
+            if tick % agent.driver_period == 0:
+                self._post_nav(agent, t)
+        self.contacts.step(tick, t)
         pings, images = self._sense() if self.raycaster is not None else ({}, {})
-        perception = self.sonar_contacts.step(self.tick, t, pings)
+        perception = self.sonar_contacts.step(tick, t, pings) if (
+            self.sonar_contacts.observers) else {}
         if self.assistance is not None:
             self.assistance.read(pings, images)
-            self.assistance.step(self.tick, t)
+            self.assistance.step(tick, t)
         helm: dict[str, HelmRecord] = {}
-        for agent in self.agents.values():
-            if agent.driver is not None and self.tick % agent.driver_period == 0:
+        for agent in agents:
+            if agent.driver is not None and tick % agent.driver_period == 0:
                 record = agent.driver.tick(t, agent)
                 if record is not None:
                     agent.last_helm = record
                     helm[agent.name] = record
-            if self.tick % agent.control_period == 0:
+            if tick % agent.control_period == 0:
                 self._control(agent)
-        posts = tuple(p for a in self.agents.values() for p in a.community.take_log())
-        if not (build_frame or self.hooks):
+        if not (build_frame or self.hooks):  # nobody reads the posts: drop them
+            for agent in agents:
+                agent.community.take_log()
             self._pending_events.clear()
             return None
+        posts = tuple(p for a in agents for p in a.community.take_log())
         snapshots = AgentSnapshots(tuple(self.agents), self._snapshot_of)
         if build_frame:
             snapshots.take_all()
@@ -391,24 +398,27 @@ class Simulation:
                               f"event {how} onto it at NED {np.round(centre, 2).tolist()}; "
                               f"pushed out to {np.round(state[:3], 2).tolist()}")
 
-    def _advance(self, agent: Agent) -> None:
+    def _advance(self, agent: Agent, t: float) -> None:
+        """Step ``agent``'s model from time ``t`` (s) over one tick; stop it at the surface
+        and at what it touches."""
         previous = agent.state  # plants return a new state; this one stays as it was
-        new_state = agent.plant.step(self.t, previous, agent.inputs)
+        new_state = agent.plant.step(t, previous, agent.inputs)
         model = agent.model
         if new_state[2] < SURFACE_DEPTH:  # cannot fly out of the water
             new_state[2] = SURFACE_DEPTH
             if model.surface_stops is not None:  # no upward heave through the surface
                 new_state[model.surface_stops] = max(new_state[model.surface_stops], 0.0)
-        start, end = previous[:3], new_state[:3]
-        fraction, touched = self._clear_fraction(agent, start.tolist(), end.tolist())
-        if fraction < 1.0 and not agent.in_contact:  # count each contact once, at its onset
-            self.collisions += 1
-            self.record_event("collision", f"{agent.name} touched {touched}")
-        agent.in_contact = fraction < 1.0
+        fraction, touched = self._clear_fraction(agent, previous[:3].tolist(),
+                                                 new_state[:3].tolist())
         if fraction < 1.0:
+            if not agent.in_contact:  # count each contact once, at its onset
+                self.collisions += 1
+                self.record_event("collision", f"{agent.name} touched {touched}")
+            start, end = previous[:3], new_state[:3]
             new_state[:3] = start + (end - start) * max(0.0, fraction - 1e-3)
             if model.contact_stops is not None:
                 new_state[model.contact_stops] = 0.0  # inelastic stop against the obstacle
+        agent.in_contact = fraction < 1.0
         agent.update(state=new_state)
         if agent.is_diver_body:
             speed = abs(agent.nav().speed)
@@ -466,10 +476,11 @@ class Simulation:
         inside = np.all((point >= lows - margin) & (point <= highs + margin), axis=1)
         return bool(np.any(inside))
 
-    def _post_nav(self, agent: Agent) -> None:
+    def _post_nav(self, agent: Agent, t: float) -> None:
+        """NAV_* of ``agent`` now (time ``t``, s) to its community."""
         nav = agent.nav()
         x_east, y_north = moos_xy_from_ned(nav.position_ned[0], nav.position_ned[1])
-        c, t, me = agent.community, self.t, "uhrisim"
+        c, me = agent.community, "uhrisim"
         c.post("NAV_X", float(x_east), t, me)
         c.post("NAV_Y", float(y_north), t, me)
         c.post("NAV_DEPTH", float(nav.position_ned[2]), t, me)
