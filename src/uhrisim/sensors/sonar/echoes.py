@@ -14,11 +14,13 @@ through the stages of :mod:`uhrisim.sensors.sonar.polar`.
 from __future__ import annotations
 
 import math
+from functools import cache
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from uhrisim.core.compiled import jit
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.geometry import SonarGeometry
 from uhrisim.sensors.sonar.labels import CellLabeller, unlabelled
@@ -74,6 +76,75 @@ def _row_runs(cover: NDArray[np.bool_], pad: int, gap: int) -> list[tuple[int, i
     starts = np.maximum(np.concatenate([rows[:1], rows[cut + 1]]) - pad, 0)
     stops = np.minimum(np.concatenate([rows[cut], rows[-1:]]) + pad + 1, cover.size)
     return list(zip(starts.tolist(), stops.tolist(), strict=True))
+
+
+def summed_steps(cells: NDArray[np.int64], steps: NDArray[np.float64],
+                 diff: NDArray[np.float64], out: NDArray[np.float32],
+                 integ: NDArray[np.float64] | None = None) -> None:
+    """The steps of a difference image summed along range into ``out`` (rows, beams):
+    ``steps`` added in input order into the zeroed flat scratch ``diff`` ((rows + 1) ×
+    beams, float64; zeroed again on return) at ``cells``, then the cumulative sum down each
+    column as the column differences of the float64 integral image (OpenCV's), cast to
+    float32. ``integ``: scratch for the integral image (at least (rows + 2) × (beams + 1)).
+    The reference for :func:`_summed_steps_loops` (numba), which gives the same bits."""
+    n_rows, n_beams = out.shape
+    np.add.at(diff, cells, steps)
+    integ = cv2.integral(diff.reshape(n_rows + 1, n_beams),
+                         sum=None if integ is None else integ[: n_rows + 2],
+                         sdepth=cv2.CV_64F)  # fmt: skip
+    diff.fill(0.0)
+    cv2.subtract(integ[1:-1, 1:], integ[1:-1, :-1], dst=out, dtype=cv2.CV_32F)
+
+
+def _summed_steps_loops(cells, steps, diff, out):  # type: ignore[no-untyped-def]
+    """:func:`summed_steps` as loops for numba: the same float64 operations in the same
+    order (OpenCV's integral image: a running sum s along each row, each row's integral
+    the row above plus s; then float32 of neighbouring columns' difference), without the
+    integral image in memory. Four rows at a time, their running sums side by side (the
+    same operations, in an order the processor can overlap)."""
+    n_rows, n_beams = out.shape
+    for k in range(cells.shape[0]):
+        diff[cells[k]] += steps[k]
+    above = np.zeros(n_beams + 1)  # the integral image's row above the current rows
+    i = 0
+    while i < n_rows:
+        if i + 4 <= n_rows:
+            b0, b1, b2, b3 = i * n_beams, (i + 1) * n_beams, (i + 2) * n_beams, (i + 3) * n_beams
+            s0 = s1 = s2 = s3 = 0.0
+            v0 = v1 = v2 = v3 = 0.0  # each row's integral at the previous column
+            for x in range(n_beams):
+                s0 += diff[b0 + x]
+                s1 += diff[b1 + x]
+                s2 += diff[b2 + x]
+                s3 += diff[b3 + x]
+                n0 = above[x + 1] + s0
+                n1 = n0 + s1
+                n2 = n1 + s2
+                n3 = n2 + s3
+                out[i, x] = n0 - v0
+                out[i + 1, x] = n1 - v1
+                out[i + 2, x] = n2 - v2
+                out[i + 3, x] = n3 - v3
+                v0, v1, v2, v3 = n0, n1, n2, n3
+                above[x + 1] = n3
+            i += 4
+        else:
+            b0 = i * n_beams
+            s0 = v0 = 0.0
+            for x in range(n_beams):
+                s0 += diff[b0 + x]
+                n0 = above[x + 1] + s0
+                out[i, x] = n0 - v0
+                v0 = n0
+                above[x + 1] = n0
+            i += 1
+    diff[:] = 0.0
+
+
+@cache
+def _compiled_summed_steps():  # type: ignore[no-untyped-def]
+    """:func:`_summed_steps_loops` compiled (numba), or None without numba."""
+    return jit(_summed_steps_loops)
 
 
 class EchoAccumulator:
@@ -177,13 +248,11 @@ class EchoAccumulator:
         # Summed in input order into the zeroed scratch (a fresh megabyte-sized array per
         # ping would cost page faults), which is zeroed again once read.
         diff = self._diff[: (r1 - r0 + 1) * n_beams]
-        np.add.at(diff, cells, steps)
-        # Cumulative sum along range = column differences of the integral image.
-        integ = cv2.integral(
-            diff.reshape(r1 - r0 + 1, n_beams), sum=self._integ[: r1 - r0 + 2], sdepth=cv2.CV_64F
-        )
-        diff.fill(0.0)
-        cv2.subtract(integ[1:-1, 1:], integ[1:-1, :-1], dst=slab, dtype=cv2.CV_32F)
+        compiled = _compiled_summed_steps()
+        if compiled is not None:
+            compiled(cells, steps, diff, slab)
+        else:
+            summed_steps(cells, steps, diff, slab, self._integ)
         # Round-off of the integral image (~1e-16 of a row sum, itself ≤ the ping's total
         # echo) must not count as echo (it would label shadows): zero everything below
         # 1e-12 of the total echo (−120 dB: far below any noise floor).
