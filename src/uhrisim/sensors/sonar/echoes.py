@@ -78,16 +78,31 @@ def _row_runs(cover: NDArray[np.bool_], pad: int, gap: int) -> list[tuple[int, i
     return list(zip(starts.tolist(), stops.tolist(), strict=True))
 
 
-def summed_steps(cells: NDArray[np.int64], steps: NDArray[np.float64],
-                 diff: NDArray[np.float64], out: NDArray[np.float32],
-                 integ: NDArray[np.float64] | None = None) -> None:
-    """The steps of a difference image summed along range into ``out`` (rows, beams):
-    ``steps`` added in input order into the zeroed flat scratch ``diff`` ((rows + 1) ×
-    beams, float64; zeroed again on return) at ``cells``, then the cumulative sum down each
-    column as the column differences of the float64 integral image (OpenCV's), cast to
-    float32. ``integ``: scratch for the integral image (at least (rows + 2) × (beams + 1)).
-    The reference for :func:`_summed_steps_loops` (numba), which gives the same bits."""
+def footprint_image(a: NDArray[np.float64], b: NDArray[np.float64], lo: NDArray[np.int64],
+                    hi: NDArray[np.int64], dens: NDArray[np.float64], one: NDArray[np.float64],
+                    beam: NDArray[np.int64], r0: int, diff: NDArray[np.float64],
+                    out: NDArray[np.float32], integ: NDArray[np.float64] | None = None) -> None:
+    """Footprints [a, b) (fractional bins; first and last bin ``lo``, ``hi``; echo per bin
+    ``dens``; ``one``: the echo of a footprint inside one bin) of rays in beams ``beam``
+    summed into ``out``, rows ``r0`` … of the raw image (rows, beams; float32).
+
+    Each footprint becomes four steps along range of a difference image: its first bin
+    gets its overlap w_first, the bins between the density each, its last bin its overlap
+    w_last (a footprint inside one bin: steps +one, −one). The steps are added, all first
+    steps then all second …, in ray order, into the zeroed flat scratch ``diff`` ((rows +
+    1) × beams, float64; zeroed again on return); the cumulative sum down each column is
+    the column differences of the float64 integral image (OpenCV's), cast to float32.
+    ``integ``: scratch for the integral image (at least (rows + 2) × (beams + 1)). The
+    reference for :func:`_footprint_image_loops` (numba), which gives the same bits."""
     n_rows, n_beams = out.shape
+    same = lo == hi
+    w_first = np.where(same, one, dens * (lo + 1 - a))
+    w_last = np.where(same, 0.0, dens * (b - hi))
+    inner = np.where(same, 0.0, dens)
+    rows_first = (lo - r0) * n_beams + beam
+    rows_last = (hi - r0) * n_beams + beam
+    cells = np.concatenate([rows_first, rows_first + n_beams, rows_last, rows_last + n_beams])
+    steps = np.concatenate([w_first, inner - w_first, w_last - inner, -w_last])
     np.add.at(diff, cells, steps)
     integ = cv2.integral(diff.reshape(n_rows + 1, n_beams),
                          sum=None if integ is None else integ[: n_rows + 2],
@@ -96,15 +111,29 @@ def summed_steps(cells: NDArray[np.int64], steps: NDArray[np.float64],
     cv2.subtract(integ[1:-1, 1:], integ[1:-1, :-1], dst=out, dtype=cv2.CV_32F)
 
 
-def _summed_steps_loops(cells, steps, diff, out):  # type: ignore[no-untyped-def]
-    """:func:`summed_steps` as loops for numba: the same float64 operations in the same
-    order (OpenCV's integral image: a running sum s along each row, each row's integral
-    the row above plus s; then float32 of neighbouring columns' difference), without the
-    integral image in memory. Four rows at a time, their running sums side by side (the
-    same operations, in an order the processor can overlap)."""
+def _footprint_image_loops(a, b, lo, hi, dens, one, beam, r0, diff, out):  # type: ignore[no-untyped-def]
+    """:func:`footprint_image` as loops for numba: the same float64 operations in the same
+    order (the four steps of every footprint, in the same order; OpenCV's integral image:
+    a running sum s along each row, each row's integral the row above plus s; then float32
+    of neighbouring columns' difference), without the step arrays or the integral image in
+    memory. Four rows at a time, their running sums side by side (the same operations, in
+    an order the processor can overlap)."""
     n_rows, n_beams = out.shape
-    for k in range(cells.shape[0]):
-        diff[cells[k]] += steps[k]
+    m = a.shape[0]
+    for step in range(4):
+        for k in range(m):
+            same = lo[k] == hi[k]
+            w_first = one[k] if same else dens[k] * ((lo[k] + 1) - a[k])
+            w_last = 0.0 if same else dens[k] * (b[k] - hi[k])
+            inner = 0.0 if same else dens[k]
+            if step == 0:
+                diff[(lo[k] - r0) * n_beams + beam[k]] += w_first
+            elif step == 1:
+                diff[(lo[k] - r0 + 1) * n_beams + beam[k]] += inner - w_first
+            elif step == 2:
+                diff[(hi[k] - r0) * n_beams + beam[k]] += w_last - inner
+            else:
+                diff[(hi[k] - r0 + 1) * n_beams + beam[k]] += -w_last
     above = np.zeros(n_beams + 1)  # the integral image's row above the current rows
     i = 0
     while i < n_rows:
@@ -142,9 +171,9 @@ def _summed_steps_loops(cells, steps, diff, out):  # type: ignore[no-untyped-def
 
 
 @cache
-def _compiled_summed_steps():  # type: ignore[no-untyped-def]
-    """:func:`_summed_steps_loops` compiled (numba), or None without numba."""
-    return jit(_summed_steps_loops)
+def _compiled_footprint_image():  # type: ignore[no-untyped-def]
+    """:func:`_footprint_image_loops` compiled (numba), or None without numba."""
+    return jit(_footprint_image_loops)
 
 
 class EchoAccumulator:
@@ -202,7 +231,8 @@ class EchoAccumulator:
         footprint reaches those range bins), widened by the range-blur half-width.
 
         O(rays + cells of the rows the footprints reach): every footprint becomes four steps
-        of a difference image whose cumulative sum along range comes from cv2.integral, over
+        of a difference image whose cumulative sum along range is the raw image
+        (:func:`footprint_image`), over
         the slab of rows between the nearest and the farthest footprint only. Labels: the most
         frequent label of the ping (usually the sea floor) is the background; the rays of
         every other label are expanded into their footprint cells and their echo summed per
@@ -229,30 +259,19 @@ class EchoAccumulator:
             if idx.size == 0:
                 self._zero_outside(0, 0)
                 return raw, label_polar, []
-        same = lo == hi
         beam = g.ray_beam[idx]
         # Rows [r0, r1) hold every footprint; the rest of the image gets no echo.
         r0, r1 = int(lo.min()), int(hi.max()) + 1
         self._zero_outside(r0, r1)
         slab = raw[r0:r1]
-        # Each footprint as steps along range of a difference image: its first bin gets its
-        # overlap w_first, the bins between the density each, its last bin its overlap
-        # w_last; a footprint inside one bin puts all its echo there (steps +e, −e).
-        w_first = np.where(same, one, dens * (lo + 1 - a))
-        w_last = np.where(same, 0.0, dens * (b - hi))
-        inner = np.where(same, 0.0, dens)
-        rows_first = (lo - r0) * n_beams + beam
-        rows_last = (hi - r0) * n_beams + beam
-        cells = np.concatenate([rows_first, rows_first + n_beams, rows_last, rows_last + n_beams])
-        steps = np.concatenate([w_first, inner - w_first, w_last - inner, -w_last])
-        # Summed in input order into the zeroed scratch (a fresh megabyte-sized array per
-        # ping would cost page faults), which is zeroed again once read.
+        # Summed into the zeroed scratch (a fresh megabyte-sized array per ping would cost
+        # page faults), which is zeroed again once read.
         diff = self._diff[: (r1 - r0 + 1) * n_beams]
-        compiled = _compiled_summed_steps()
+        compiled = _compiled_footprint_image()
         if compiled is not None:
-            compiled(cells, steps, diff, slab)
+            compiled(a, b, lo, hi, dens, one, beam, r0, diff, slab)
         else:
-            summed_steps(cells, steps, diff, slab, self._integ)
+            footprint_image(a, b, lo, hi, dens, one, beam, r0, diff, slab, self._integ)
         # Round-off of the integral image (~1e-16 of a row sum, itself ≤ the ping's total
         # echo) must not count as echo (it would label shadows): zero everything below
         # 1e-12 of the total echo (−120 dB: far below any noise floor).
