@@ -116,8 +116,8 @@ def _footprint_image_loops(a, b, lo, hi, dens, one, beam, r0, diff, out):  # typ
     order (the four steps of every footprint, in the same order; OpenCV's integral image:
     a running sum s along each row, each row's integral the row above plus s; then float32
     of neighbouring columns' difference), without the step arrays or the integral image in
-    memory. Four rows at a time, their running sums side by side (the same operations, in
-    an order the processor can overlap)."""
+    memory; each scratch row zeroed as it is read. Four rows at a time, their running sums
+    side by side (the same operations, in an order the processor can overlap)."""
     n_rows, n_beams = out.shape
     m = a.shape[0]
     for step in range(4):
@@ -146,6 +146,7 @@ def _footprint_image_loops(a, b, lo, hi, dens, one, beam, r0, diff, out):  # typ
                 s1 += diff[b1 + x]
                 s2 += diff[b2 + x]
                 s3 += diff[b3 + x]
+                diff[b0 + x] = diff[b1 + x] = diff[b2 + x] = diff[b3 + x] = 0.0
                 n0 = above[x + 1] + s0
                 n1 = n0 + s1
                 n2 = n1 + s2
@@ -162,12 +163,13 @@ def _footprint_image_loops(a, b, lo, hi, dens, one, beam, r0, diff, out):  # typ
             s0 = v0 = 0.0
             for x in range(n_beams):
                 s0 += diff[b0 + x]
+                diff[b0 + x] = 0.0
                 n0 = above[x + 1] + s0
                 out[i, x] = n0 - v0
                 v0 = n0
                 above[x + 1] = n0
             i += 1
-    diff[:] = 0.0
+    diff[n_rows * n_beams :] = 0.0  # the last row: steps past the image's end
 
 
 @cache
