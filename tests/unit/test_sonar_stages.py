@@ -345,15 +345,29 @@ def test_raw_echo_image_of_a_ping_does_not_keep_the_previous_ping_s_echo() -> No
 
 
 def test_compiled_echo_summing_gives_the_reference_bits(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The numba kernel that sums the footprints into the raw image
-    (``echoes._footprint_image_loops``) is held to the numpy/OpenCV reference
-    (``echoes.footprint_image``) bit for bit: on random footprints (inside one bin, across
-    many, row counts not a multiple of its four rows) and on whole pings with labels and
-    a surface ghost, formed once through each."""
-    compiled = echoes._compiled_footprint_image()
+    """The numba kernels of the echo accumulation are held to the numpy/OpenCV reference
+    bit for bit: the footprints (``echoes._footprint_bins_loops`` against
+    ``echoes.footprint_bins``: grazing and normal incidence, footprints across the window's
+    ends, rays outside it) and their sum into the raw image (``_footprint_image_loops``
+    against ``footprint_image``: inside one bin, across many, row counts not a multiple of
+    its four rows); and whole pings with labels and a surface ghost, formed once through
+    each."""
+    compiled = echoes._compiled_kernels()
     if compiled is None:
         pytest.skip("numba is not installed (the reference path is the only one)")
     rng = np.random.default_rng(7)
+    cfg = dataclasses.replace(small_cfg(), labels=True, multipath=True)
+    dphi = 0.01
+    r = rng.uniform(0.0, cfg.range_max_m * 1.2, 2000)
+    cos_inc = np.concatenate([rng.uniform(0.0, 1.0, 1998), [0.0, 1.0]])
+    e = 10.0 ** rng.uniform(-12.0, -3.0, r.size)
+    want = echoes.footprint_bins(r, cos_inc, e, dphi, cfg)
+    got = compiled[0](r, cos_inc, e, dphi / cfg.bin_m, cfg.range_min_m, cfg.bin_m, cfg.n_bins)
+    assert 0 < np.count_nonzero(want[0]) < r.size  # some rays outside the window
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, w)
+        assert g.dtype == w.dtype
+
     for n_rows, n_beams, m in ((1, 5, 3), (6, 16, 400), (37, 48, 3000)):
         a = rng.uniform(0.0, n_rows - 1e-9, m)
         b = np.minimum(a + rng.choice([0.0, 0.3, 2.5, n_rows / 2.0], m), n_rows * (1 - 1e-12))
@@ -363,14 +377,13 @@ def test_compiled_echo_summing_gives_the_reference_bits(monkeypatch: pytest.Monk
         beam = rng.integers(0, n_beams, m)
         r0 = int(lo.min())
         rows = int(hi.max()) + 1 - r0
-        want, got = (np.full((rows, n_beams), np.nan, np.float32) for _ in range(2))
+        want_image, got_image = (np.full((rows, n_beams), np.nan, np.float32) for _ in range(2))
         diff_want, diff_got = np.zeros((2, (rows + 1) * n_beams))
-        echoes.footprint_image(a, b, lo, hi, dens, one, beam, r0, diff_want, want)
-        compiled(a, b, lo, hi, dens, one, beam, r0, diff_got, got)
-        np.testing.assert_array_equal(got, want)
+        echoes.footprint_image(a, b, lo, hi, dens, one, beam, r0, diff_want, want_image)
+        compiled[1](a, b, lo, hi, dens, one, beam, r0, diff_got, got_image)
+        np.testing.assert_array_equal(got_image, want_image)
         assert not diff_got.any() and not diff_want.any()  # scratch left zeroed
 
-    cfg = dataclasses.replace(small_cfg(), labels=True, multipath=True)
     caster = AnalyticCaster()
 
     def pings() -> list:
@@ -379,7 +392,7 @@ def test_compiled_echo_summing_gives_the_reference_bits(monkeypatch: pytest.Monk
                 for k in range(2)]
 
     fast = pings()
-    monkeypatch.setattr(echoes, "_compiled_footprint_image", lambda: None)
-    for got, want in zip(fast, pings(), strict=True):
+    monkeypatch.setattr(echoes, "_compiled_kernels", lambda: None)
+    for got_ping, want_ping in zip(fast, pings(), strict=True):
         for name in ("polar", "polar_u8", "label_polar", "hit_points_ned"):
-            np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+            np.testing.assert_array_equal(getattr(got_ping, name), getattr(want_ping, name))

@@ -172,10 +172,68 @@ def _footprint_image_loops(a, b, lo, hi, dens, one, beam, r0, diff, out):  # typ
     diff[n_rows * n_beams :] = 0.0  # the last row: steps past the image's end
 
 
+def footprint_bins(r: NDArray[np.float64], cos_inc: NDArray[np.float64],
+                   e: NDArray[np.float64], dphi: float, cfg: SonarConfig
+                   ) -> tuple[NDArray[np.float64], ...]:
+    """Footprints (:func:`footprint`) of rays at slant ranges ``r`` (m) with |cos
+    incidence| ``cos_inc`` and echoes ``e``, clipped to the window, in fractional bins, for
+    the rays whose footprint overlaps the window (``keep``): start ``a``, end ``b``, first
+    and last bin ``lo``, ``hi``, echo per bin ``dens`` and ``one``, the echo of a footprint
+    inside a single bin (all of it, or the part inside the window). The reference for
+    :func:`_footprint_bins_loops` (numba), which gives the same bits."""
+    n_bins = cfg.n_bins
+    a, length = footprint(r, cos_inc, dphi, cfg)
+    length = np.maximum(length, 1e-9)
+    b = a + length
+    keep = (b > 0.0) & (a < n_bins)
+    if not keep.all():
+        a, b, length, e = a[keep], b[keep], length[keep], e[keep]
+    dens = e / length
+    top = n_bins * (1.0 - 1e-12)
+    whole = (a >= 0.0) & (b <= top)
+    b = np.clip(b, 0.0, top)
+    a = np.clip(a, 0.0, top)
+    one = np.where(whole, e, dens * (b - a))
+    return keep, a, b, a.astype(np.int64), b.astype(np.int64), dens, one
+
+
+def _footprint_bins_loops(r, cos_inc, e, per_bin, range_min_m, bin_m, n_bins):  # type: ignore[no-untyped-def]
+    """:func:`footprint_bins` as one loop for numba, the same float64 operations in the
+    same order (``per_bin`` = δφ / bin size, as :func:`footprint` forms it)."""
+    n = r.shape[0]
+    keep = np.empty(n, np.bool_)
+    a_out, b_out, dens_out, one_out = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    lo_out, hi_out = np.empty(n, np.int64), np.empty(n, np.int64)
+    c_min = 1.0 / math.sqrt(1.0 + MAX_FOOTPRINT_TAN**2)
+    top = n_bins * (1.0 - 1e-12)
+    m = 0
+    for k in range(n):
+        c = min(max(cos_inc[k], c_min), 1.0)
+        length = r[k] * per_bin * (math.sqrt(1.0 - c * c) / c)
+        a = (r[k] - range_min_m) / bin_m - 0.5 * length
+        length = max(length, 1e-9)
+        b = a + length
+        keep[k] = (b > 0.0) and (a < n_bins)
+        if not keep[k]:
+            continue
+        dens = e[k] / length
+        whole = (a >= 0.0) and (b <= top)
+        b = min(max(b, 0.0), top)
+        a = min(max(a, 0.0), top)
+        a_out[m], b_out[m], dens_out[m] = a, b, dens
+        one_out[m] = e[k] if whole else dens * (b - a)
+        lo_out[m], hi_out[m] = int(a), int(b)
+        m += 1
+    return (keep, a_out[:m], b_out[:m], lo_out[:m], hi_out[:m], dens_out[:m],
+            one_out[:m])  # fmt: skip
+
+
 @cache
-def _compiled_footprint_image():  # type: ignore[no-untyped-def]
-    """:func:`_footprint_image_loops` compiled (numba), or None without numba."""
-    return jit(_footprint_image_loops)
+def _compiled_kernels():  # type: ignore[no-untyped-def]
+    """(:func:`_footprint_bins_loops`, :func:`_footprint_image_loops`) compiled (numba), or
+    None without numba."""
+    bins, image = jit(_footprint_bins_loops), jit(_footprint_image_loops)
+    return None if bins is None else (bins, image)
 
 
 class EchoAccumulator:
@@ -194,28 +252,6 @@ class EchoAccumulator:
         self._labeller = CellLabeller(n_bins * n_beams)
         #: The polar labels of every ping formed without labels.
         self.unlabelled = unlabelled((n_bins, n_beams))
-
-    def _footprint_bins(
-        self, r: NDArray[np.float64], cos_inc: NDArray[np.float64], e: NDArray[np.float64]
-    ) -> tuple[NDArray[np.float64], ...]:
-        """Footprints clipped to the window, in fractional bins, for the rays whose footprint
-        overlaps the window (``keep``): start ``a``, end ``b``, first and last bin ``lo``,
-        ``hi``, echo per bin ``dens`` and ``one``, the echo of a footprint inside a single
-        bin (all of it, or the part inside the window)."""
-        n_bins = self.config.n_bins
-        a, length = footprint(r, cos_inc, self.geometry.dphi, self.config)
-        length = np.maximum(length, 1e-9)
-        b = a + length
-        keep = (b > 0.0) & (a < n_bins)
-        if not keep.all():
-            a, b, length, e = a[keep], b[keep], length[keep], e[keep]
-        dens = e / length
-        top = n_bins * (1.0 - 1e-12)
-        whole = (a >= 0.0) & (b <= top)
-        b = np.clip(b, 0.0, top)
-        a = np.clip(a, 0.0, top)
-        one = np.where(whole, e, dens * (b - a))
-        return keep, a, b, a.astype(np.int64), b.astype(np.int64), dens, one
 
     def accumulate(
         self,
@@ -254,7 +290,13 @@ class EchoAccumulator:
         if idx.size == 0:
             self._zero_outside(0, 0)
             return raw, label_polar, []
-        keep, a, b, lo, hi, dens, one = self._footprint_bins(r, cos_inc, e)
+        compiled = _compiled_kernels()
+        if compiled is not None:
+            cfg = self.config
+            keep, a, b, lo, hi, dens, one = compiled[0](
+                r, cos_inc, e, g.dphi / cfg.bin_m, cfg.range_min_m, cfg.bin_m, cfg.n_bins)
+        else:
+            keep, a, b, lo, hi, dens, one = footprint_bins(r, cos_inc, e, g.dphi, self.config)
         if not keep.all():
             idx, e = idx[keep], e[keep]
             labels = labels[keep] if labels is not None else None
@@ -269,9 +311,8 @@ class EchoAccumulator:
         # Summed into the zeroed scratch (a fresh megabyte-sized array per ping would cost
         # page faults), which is zeroed again once read.
         diff = self._diff[: (r1 - r0 + 1) * n_beams]
-        compiled = _compiled_footprint_image()
         if compiled is not None:
-            compiled(a, b, lo, hi, dens, one, beam, r0, diff, slab)
+            compiled[1](a, b, lo, hi, dens, one, beam, r0, diff, slab)
         else:
             footprint_image(a, b, lo, hi, dens, one, beam, r0, diff, slab, self._integ)
         # Round-off of the integral image (~1e-16 of a row sum, itself ≤ the ping's total
