@@ -388,7 +388,7 @@ def test_compiled_echo_summing_gives_the_reference_bits(monkeypatch: pytest.Monk
 
     def pings() -> list:
         sonar = ImagingSonar(cfg, np.random.default_rng(3))
-        return [sonar.ping(caster, ORIGIN + [0.2 * k, 0.0, 0.0], LEVEL, 0.1 * k)
+        return [sonar.ping(caster, ORIGIN + np.array([0.2 * k, 0.0, 0.0]), LEVEL, 0.1 * k)
                 for k in range(2)]
 
     fast = pings()
