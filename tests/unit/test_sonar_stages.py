@@ -26,7 +26,7 @@ from tests.support.analytic_sonar import (
     small_cfg,
     window_hits,
 )
-from uhrisim.sensors.sonar import ImagingSonar, SonarConfig, get_preset
+from uhrisim.sensors.sonar import ImagingSonar, SonarConfig, echoes, get_preset
 from uhrisim.sensors.sonar.config import ECHOES_ONLY
 from uhrisim.sensors.sonar.reference import reference_bytes, reference_polar
 from uhrisim.sensors.sonar.speckle import SpeckleBank
@@ -342,3 +342,57 @@ def test_raw_echo_image_of_a_ping_does_not_keep_the_previous_ping_s_echo() -> No
     want, _, want_rows = fresh._accumulate(idx[near], r[near], cos_inc[near], e[near])
     assert rows == want_rows and rows[-1][1] < n_bins  # the far rows hold no echo now
     np.testing.assert_array_equal(got, want)
+
+
+def test_compiled_echo_summing_gives_the_reference_bits(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The numba kernels of the echo accumulation are held to the numpy/OpenCV reference
+    bit for bit: the footprints (``echoes._footprint_bins_loops`` against
+    ``echoes.footprint_bins``: grazing and normal incidence, footprints across the window's
+    ends, rays outside it) and their sum into the raw image (``_footprint_image_loops``
+    against ``footprint_image``: inside one bin, across many, row counts not a multiple of
+    its four rows); and whole pings with labels and a surface ghost, formed once through
+    each."""
+    compiled = echoes._compiled_kernels()
+    if compiled is None:
+        pytest.skip("numba is not installed (the reference path is the only one)")
+    rng = np.random.default_rng(7)
+    cfg = dataclasses.replace(small_cfg(), labels=True, multipath=True)
+    dphi = 0.01
+    r = rng.uniform(0.0, cfg.range_max_m * 1.2, 2000)
+    cos_inc = np.concatenate([rng.uniform(0.0, 1.0, 1998), [0.0, 1.0]])
+    e = 10.0 ** rng.uniform(-12.0, -3.0, r.size)
+    want = echoes.footprint_bins(r, cos_inc, e, dphi, cfg)
+    got = compiled[0](r, cos_inc, e, dphi / cfg.bin_m, cfg.range_min_m, cfg.bin_m, cfg.n_bins)
+    assert 0 < np.count_nonzero(want[0]) < r.size  # some rays outside the window
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, w)
+        assert g.dtype == w.dtype
+
+    for n_rows, n_beams, m in ((1, 5, 3), (6, 16, 400), (37, 48, 3000)):
+        a = rng.uniform(0.0, n_rows - 1e-9, m)
+        b = np.minimum(a + rng.choice([0.0, 0.3, 2.5, n_rows / 2.0], m), n_rows * (1 - 1e-12))
+        lo, hi = a.astype(np.int64), b.astype(np.int64)
+        dens = 10.0 ** rng.uniform(-14.0, -3.0, m)
+        one = dens * (b - a + rng.uniform(0.0, 1.0, m))
+        beam = rng.integers(0, n_beams, m)
+        r0 = int(lo.min())
+        rows = int(hi.max()) + 1 - r0
+        want_image, got_image = (np.full((rows, n_beams), np.nan, np.float32) for _ in range(2))
+        diff_want, diff_got = np.zeros((2, (rows + 1) * n_beams))
+        echoes.footprint_image(a, b, lo, hi, dens, one, beam, r0, diff_want, want_image)
+        compiled[1](a, b, lo, hi, dens, one, beam, r0, diff_got, got_image)
+        np.testing.assert_array_equal(got_image, want_image)
+        assert not diff_got.any() and not diff_want.any()  # scratch left zeroed
+
+    caster = AnalyticCaster()
+
+    def pings() -> list:
+        sonar = ImagingSonar(cfg, np.random.default_rng(3))
+        return [sonar.ping(caster, ORIGIN + np.array([0.2 * k, 0.0, 0.0]), LEVEL, 0.1 * k)
+                for k in range(2)]
+
+    fast = pings()
+    monkeypatch.setattr(echoes, "_compiled_kernels", lambda: None)
+    for got_ping, want_ping in zip(fast, pings(), strict=True):
+        for name in ("polar", "polar_u8", "label_polar", "hit_points_ned"):
+            np.testing.assert_array_equal(getattr(got_ping, name), getattr(want_ping, name))

@@ -9,8 +9,9 @@ measured at 30 m or its maximum range, whichever is nearer. The default configur
 measured (label images are opt-in and not part of the rays → polar → fan pipeline).
 Also reported: the same case with label images, with the coherent speckle model and
 with the echoes alone (``ECHOES_ONLY``, speckle off: the cost of the realistic stages),
-the 100 m / 128-ray case, the split of a ping between ray casting, echo accumulation,
-the image stages and the 8-bit fan, and the resident memory (RSS) over many pings (it
+the 100 m / 128-ray case, the split of a ping stage by stage, timed in place (ray cast,
+hit picking, echo accumulation, image stages, display curve, scan conversion, the rest;
+a colour map alone), and the resident memory (RSS) over many pings (it
 must stay flat).
 
 Run through the ``uhrisim`` command, the process keeps freed memory for reuse
@@ -32,9 +33,11 @@ from typing import Any
 import cv2
 import numpy as np
 
+from uhrisim.bench.mission import _Stopwatch
 from uhrisim.sensors.sonar import PRESETS, ImagingSonar, SonarConfig
-from uhrisim.sensors.sonar.cast import cast_fan
+from uhrisim.sensors.sonar import sonar as sonar_module
 from uhrisim.sensors.sonar.config import ECHOES_ONLY
+from uhrisim.sensors.sonar.fan import color_fan
 
 TARGET_PINGS_PER_S = 200.0
 #: Issue 27's target for the same case (pings per CPU second of one core).
@@ -78,27 +81,48 @@ def full_ping(sonar: ImagingSonar, rc, position_ned, rotation, t: float) -> obje
 
 
 def _stage_ms(sonar: ImagingSonar, rc, position_ned, rotation, quick: bool) -> dict[str, float]:
-    """CPU ms per ping of each part of a ping: the cast (with its hit gathering), the echo
-    accumulation, the image stages (:mod:`uhrisim.sensors.sonar.polar`), and the rest of
-    forming the ping with its 8-bit fan (display bytes, scan conversion, cloud)."""
-    p_s, R_s = sonar.sonar_pose(position_ned, rotation)
-    dirs = sonar.geometry.dirs_sonar @ R_s.T
-    hits = cast_fan(rc, p_s, dirs, sonar.cast_window_m, frozenset())
-    idx, r, cos_inc, mu, _ = hits
-    e = sonar.ray_intensity(idx, r, cos_inc, mu)
-    raw, _, rows = sonar._accumulate(idx, r, cos_inc, e)
-    raw = raw.copy()
+    """CPU ms per ping of each stage of a whole ping with its fan, timed in place (each
+    stage's data where the ping leaves it, not warm in cache from timing it alone):
+    stopwatches on the ray cast (the caster alone), the cast with the hits inside the
+    window picked, the echo accumulation, the image stages (:mod:`uhrisim.sensors.sonar.polar`:
+    speckle window, diffuse terms, beam and pulse patterns, TVG, log compression), the
+    8-bit display curve and the scan conversion to the fan; the rest (surface
+    reverberation, hit points, cloud, the ping's record) is the whole less those. Also a
+    colour map (``jet``, off by default) timed alone."""
+    stopwatches = {
+        "ray_cast": (rc, "cast"),
+        "cast_and_hit_picking": (sonar_module, "cast_fan"),
+        "echo_accumulation": (sonar._echoes, "accumulate"),
+        "image_stages": (sonar, "_physical_polar"),
+        "display_curve": (sonar_module, "display_bytes"),
+        "fan_scan_conversion": (sonar_module, "fan_image"),
+    }
+    originals = {name: getattr(owner, attr) for name, (owner, attr) in stopwatches.items()}
+    pings = 10 if quick else 300
+    try:
+        for name, (owner, attr) in stopwatches.items():
+            setattr(owner, attr, _Stopwatch(originals[name]))
+        cpu = time.process_time()
+        for _ in range(pings):
+            full_ping(sonar, rc, position_ned, rotation, 0.0)
+        whole = (time.process_time() - cpu) / pings * 1e3
+        ms = {name: getattr(owner, attr).seconds / pings * 1e3
+              for name, (owner, attr) in stopwatches.items()}
+    finally:
+        for name, (owner, attr) in stopwatches.items():
+            if owner is sonar_module:
+                setattr(owner, attr, originals[name])
+            else:
+                delattr(owner, attr)  # the instance's attribute hid the class's method
+    ms["hit_picking"] = ms.pop("cast_and_hit_picking") - ms["ray_cast"]
+    ms["rest_of_ping"] = max(whole - sum(ms.values()), 0.0)
+    ms["whole_ping_with_fan"] = whole
+    fan = sonar.ping(rc, position_ned, rotation, 0.0).fan_u8
+    mask = sonar.geometry.fan_mask_u8
     repeats, min_time = (2, 0.02) if quick else (20, 1.0)
-
-    def ms(work: Callable[[], object]) -> float:
-        return 1e3 / _rates(work, repeats, min_time)[1]
-
-    cast = ms(lambda: cast_fan(rc, p_s, dirs, sonar.cast_window_m, frozenset()))
-    echoes = ms(lambda: sonar._accumulate(idx, r, cos_inc, e))
-    image = ms(lambda: sonar._physical_polar(raw, rows))
-    form = ms(lambda: sonar.form_image(0.0, p_s, R_s, *hits).fan_u8)
-    return {"cast_and_gather": cast, "echo_accumulation": echoes, "image_stages": image,
-            "display_fan_cloud": max(form - echoes - image, 0.0)}  # fmt: skip
+    ms["colour_map_jet_alone"] = 1e3 / _rates(lambda: color_fan(fan, "jet", mask), repeats,
+                                              min_time)[1]
+    return ms
 
 
 def _case(paper, preset: str, range_m: float, rays: int, quick: bool, labels: bool = False,

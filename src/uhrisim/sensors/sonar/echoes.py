@@ -14,11 +14,13 @@ through the stages of :mod:`uhrisim.sensors.sonar.polar`.
 from __future__ import annotations
 
 import math
+from functools import cache
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from uhrisim.core.compiled import jit
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.geometry import SonarGeometry
 from uhrisim.sensors.sonar.labels import CellLabeller, unlabelled
@@ -76,6 +78,164 @@ def _row_runs(cover: NDArray[np.bool_], pad: int, gap: int) -> list[tuple[int, i
     return list(zip(starts.tolist(), stops.tolist(), strict=True))
 
 
+def footprint_image(a: NDArray[np.float64], b: NDArray[np.float64], lo: NDArray[np.int64],
+                    hi: NDArray[np.int64], dens: NDArray[np.float64], one: NDArray[np.float64],
+                    beam: NDArray[np.int64], r0: int, diff: NDArray[np.float64],
+                    out: NDArray[np.float32], integ: NDArray[np.float64] | None = None) -> None:
+    """Footprints [a, b) (fractional bins; first and last bin ``lo``, ``hi``; echo per bin
+    ``dens``; ``one``: the echo of a footprint inside one bin) of rays in beams ``beam``
+    summed into ``out``, rows ``r0`` … of the raw image (rows, beams; float32).
+
+    Each footprint becomes four steps along range of a difference image: its first bin
+    gets its overlap w_first, the bins between the density each, its last bin its overlap
+    w_last (a footprint inside one bin: steps +one, −one). The steps are added, all first
+    steps then all second …, in ray order, into the zeroed flat scratch ``diff`` ((rows +
+    1) × beams, float64; zeroed again on return); the cumulative sum down each column is
+    the column differences of the float64 integral image (OpenCV's), cast to float32.
+    ``integ``: scratch for the integral image (at least (rows + 2) × (beams + 1)). The
+    reference for :func:`_footprint_image_loops` (numba), which gives the same bits."""
+    n_rows, n_beams = out.shape
+    same = lo == hi
+    w_first = np.where(same, one, dens * (lo + 1 - a))
+    w_last = np.where(same, 0.0, dens * (b - hi))
+    inner = np.where(same, 0.0, dens)
+    rows_first = (lo - r0) * n_beams + beam
+    rows_last = (hi - r0) * n_beams + beam
+    cells = np.concatenate([rows_first, rows_first + n_beams, rows_last, rows_last + n_beams])
+    steps = np.concatenate([w_first, inner - w_first, w_last - inner, -w_last])
+    np.add.at(diff, cells, steps)
+    integ = cv2.integral(diff.reshape(n_rows + 1, n_beams),
+                         sum=None if integ is None else integ[: n_rows + 2],
+                         sdepth=cv2.CV_64F)  # fmt: skip
+    diff.fill(0.0)
+    cv2.subtract(integ[1:-1, 1:], integ[1:-1, :-1], dst=out, dtype=cv2.CV_32F)
+
+
+def _footprint_image_loops(a, b, lo, hi, dens, one, beam, r0, diff, out):  # type: ignore[no-untyped-def]
+    """:func:`footprint_image` as loops for numba: the same float64 operations in the same
+    order (the four steps of every footprint, in the same order; OpenCV's integral image:
+    a running sum s along each row, each row's integral the row above plus s; then float32
+    of neighbouring columns' difference), without the step arrays or the integral image in
+    memory; each scratch row zeroed as it is read. Four rows at a time, their running sums
+    side by side (the same operations, in an order the processor can overlap)."""
+    n_rows, n_beams = out.shape
+    m = a.shape[0]
+    for step in range(4):
+        for k in range(m):
+            same = lo[k] == hi[k]
+            w_first = one[k] if same else dens[k] * ((lo[k] + 1) - a[k])
+            w_last = 0.0 if same else dens[k] * (b[k] - hi[k])
+            inner = 0.0 if same else dens[k]
+            if step == 0:
+                diff[(lo[k] - r0) * n_beams + beam[k]] += w_first
+            elif step == 1:
+                diff[(lo[k] - r0 + 1) * n_beams + beam[k]] += inner - w_first
+            elif step == 2:
+                diff[(hi[k] - r0) * n_beams + beam[k]] += w_last - inner
+            else:
+                diff[(hi[k] - r0 + 1) * n_beams + beam[k]] += -w_last
+    above = np.zeros(n_beams + 1)  # the integral image's row above the current rows
+    i = 0
+    while i < n_rows:
+        if i + 4 <= n_rows:
+            b0, b1, b2, b3 = i * n_beams, (i + 1) * n_beams, (i + 2) * n_beams, (i + 3) * n_beams
+            s0 = s1 = s2 = s3 = 0.0
+            v0 = v1 = v2 = v3 = 0.0  # each row's integral at the previous column
+            for x in range(n_beams):
+                s0 += diff[b0 + x]
+                s1 += diff[b1 + x]
+                s2 += diff[b2 + x]
+                s3 += diff[b3 + x]
+                diff[b0 + x] = diff[b1 + x] = diff[b2 + x] = diff[b3 + x] = 0.0
+                n0 = above[x + 1] + s0
+                n1 = n0 + s1
+                n2 = n1 + s2
+                n3 = n2 + s3
+                out[i, x] = n0 - v0
+                out[i + 1, x] = n1 - v1
+                out[i + 2, x] = n2 - v2
+                out[i + 3, x] = n3 - v3
+                v0, v1, v2, v3 = n0, n1, n2, n3
+                above[x + 1] = n3
+            i += 4
+        else:
+            b0 = i * n_beams
+            s0 = v0 = 0.0
+            for x in range(n_beams):
+                s0 += diff[b0 + x]
+                diff[b0 + x] = 0.0
+                n0 = above[x + 1] + s0
+                out[i, x] = n0 - v0
+                v0 = n0
+                above[x + 1] = n0
+            i += 1
+    diff[n_rows * n_beams :] = 0.0  # the last row: steps past the image's end
+
+
+def footprint_bins(r: NDArray[np.float64], cos_inc: NDArray[np.float64],
+                   e: NDArray[np.float64], dphi: float, cfg: SonarConfig
+                   ) -> tuple[NDArray[np.float64], ...]:
+    """Footprints (:func:`footprint`) of rays at slant ranges ``r`` (m) with |cos
+    incidence| ``cos_inc`` and echoes ``e``, clipped to the window, in fractional bins, for
+    the rays whose footprint overlaps the window (``keep``): start ``a``, end ``b``, first
+    and last bin ``lo``, ``hi``, echo per bin ``dens`` and ``one``, the echo of a footprint
+    inside a single bin (all of it, or the part inside the window). The reference for
+    :func:`_footprint_bins_loops` (numba), which gives the same bits."""
+    n_bins = cfg.n_bins
+    a, length = footprint(r, cos_inc, dphi, cfg)
+    length = np.maximum(length, 1e-9)
+    b = a + length
+    keep = (b > 0.0) & (a < n_bins)
+    if not keep.all():
+        a, b, length, e = a[keep], b[keep], length[keep], e[keep]
+    dens = e / length
+    top = n_bins * (1.0 - 1e-12)
+    whole = (a >= 0.0) & (b <= top)
+    b = np.clip(b, 0.0, top)
+    a = np.clip(a, 0.0, top)
+    one = np.where(whole, e, dens * (b - a))
+    return keep, a, b, a.astype(np.int64), b.astype(np.int64), dens, one
+
+
+def _footprint_bins_loops(r, cos_inc, e, per_bin, range_min_m, bin_m, n_bins):  # type: ignore[no-untyped-def]
+    """:func:`footprint_bins` as one loop for numba, the same float64 operations in the
+    same order (``per_bin`` = δφ / bin size, as :func:`footprint` forms it)."""
+    n = r.shape[0]
+    keep = np.empty(n, np.bool_)
+    a_out, b_out, dens_out, one_out = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    lo_out, hi_out = np.empty(n, np.int64), np.empty(n, np.int64)
+    c_min = 1.0 / math.sqrt(1.0 + MAX_FOOTPRINT_TAN**2)
+    top = n_bins * (1.0 - 1e-12)
+    m = 0
+    for k in range(n):
+        c = min(max(cos_inc[k], c_min), 1.0)
+        length = r[k] * per_bin * (math.sqrt(1.0 - c * c) / c)
+        a = (r[k] - range_min_m) / bin_m - 0.5 * length
+        length = max(length, 1e-9)
+        b = a + length
+        keep[k] = (b > 0.0) and (a < n_bins)
+        if not keep[k]:
+            continue
+        dens = e[k] / length
+        whole = (a >= 0.0) and (b <= top)
+        b = min(max(b, 0.0), top)
+        a = min(max(a, 0.0), top)
+        a_out[m], b_out[m], dens_out[m] = a, b, dens
+        one_out[m] = e[k] if whole else dens * (b - a)
+        lo_out[m], hi_out[m] = int(a), int(b)
+        m += 1
+    return (keep, a_out[:m], b_out[:m], lo_out[:m], hi_out[:m], dens_out[:m],
+            one_out[:m])  # fmt: skip
+
+
+@cache
+def _compiled_kernels():  # type: ignore[no-untyped-def]
+    """(:func:`_footprint_bins_loops`, :func:`_footprint_image_loops`) compiled (numba), or
+    None without numba."""
+    bins, image = jit(_footprint_bins_loops), jit(_footprint_image_loops)
+    return None if bins is None else (bins, image)
+
+
 class EchoAccumulator:
     """Sums ray echoes into the raw echo image of ``geometry``/``config`` and labels its
     cells; keeps its scratch images between pings (not re-entrant: one per sonar)."""
@@ -93,28 +253,6 @@ class EchoAccumulator:
         #: The polar labels of every ping formed without labels.
         self.unlabelled = unlabelled((n_bins, n_beams))
 
-    def _footprint_bins(
-        self, r: NDArray[np.float64], cos_inc: NDArray[np.float64], e: NDArray[np.float64]
-    ) -> tuple[NDArray[np.float64], ...]:
-        """Footprints clipped to the window, in fractional bins, for the rays whose footprint
-        overlaps the window (``keep``): start ``a``, end ``b``, first and last bin ``lo``,
-        ``hi``, echo per bin ``dens`` and ``one``, the echo of a footprint inside a single
-        bin (all of it, or the part inside the window)."""
-        n_bins = self.config.n_bins
-        a, length = footprint(r, cos_inc, self.geometry.dphi, self.config)
-        length = np.maximum(length, 1e-9)
-        b = a + length
-        keep = (b > 0.0) & (a < n_bins)
-        if not keep.all():
-            a, b, length, e = a[keep], b[keep], length[keep], e[keep]
-        dens = e / length
-        top = n_bins * (1.0 - 1e-12)
-        whole = (a >= 0.0) & (b <= top)
-        b = np.clip(b, 0.0, top)
-        a = np.clip(a, 0.0, top)
-        one = np.where(whole, e, dens * (b - a))
-        return keep, a, b, a.astype(np.int64), b.astype(np.int64), dens, one
-
     def accumulate(
         self,
         idx: NDArray[np.int64],
@@ -131,7 +269,8 @@ class EchoAccumulator:
         footprint reaches those range bins), widened by the range-blur half-width.
 
         O(rays + cells of the rows the footprints reach): every footprint becomes four steps
-        of a difference image whose cumulative sum along range comes from cv2.integral, over
+        of a difference image whose cumulative sum along range is the raw image
+        (:func:`footprint_image`), over
         the slab of rows between the nearest and the farthest footprint only. Labels: the most
         frequent label of the ping (usually the sea floor) is the background; the rays of
         every other label are expanded into their footprint cells and their echo summed per
@@ -151,39 +290,31 @@ class EchoAccumulator:
         if idx.size == 0:
             self._zero_outside(0, 0)
             return raw, label_polar, []
-        keep, a, b, lo, hi, dens, one = self._footprint_bins(r, cos_inc, e)
+        compiled = _compiled_kernels()
+        if compiled is not None:
+            cfg = self.config
+            keep, a, b, lo, hi, dens, one = compiled[0](
+                r, cos_inc, e, g.dphi / cfg.bin_m, cfg.range_min_m, cfg.bin_m, cfg.n_bins)
+        else:
+            keep, a, b, lo, hi, dens, one = footprint_bins(r, cos_inc, e, g.dphi, self.config)
         if not keep.all():
             idx, e = idx[keep], e[keep]
             labels = labels[keep] if labels is not None else None
             if idx.size == 0:
                 self._zero_outside(0, 0)
                 return raw, label_polar, []
-        same = lo == hi
         beam = g.ray_beam[idx]
         # Rows [r0, r1) hold every footprint; the rest of the image gets no echo.
         r0, r1 = int(lo.min()), int(hi.max()) + 1
         self._zero_outside(r0, r1)
         slab = raw[r0:r1]
-        # Each footprint as steps along range of a difference image: its first bin gets its
-        # overlap w_first, the bins between the density each, its last bin its overlap
-        # w_last; a footprint inside one bin puts all its echo there (steps +e, −e).
-        w_first = np.where(same, one, dens * (lo + 1 - a))
-        w_last = np.where(same, 0.0, dens * (b - hi))
-        inner = np.where(same, 0.0, dens)
-        rows_first = (lo - r0) * n_beams + beam
-        rows_last = (hi - r0) * n_beams + beam
-        cells = np.concatenate([rows_first, rows_first + n_beams, rows_last, rows_last + n_beams])
-        steps = np.concatenate([w_first, inner - w_first, w_last - inner, -w_last])
-        # Summed in input order into the zeroed scratch (a fresh megabyte-sized array per
-        # ping would cost page faults), which is zeroed again once read.
+        # Summed into the zeroed scratch (a fresh megabyte-sized array per ping would cost
+        # page faults), which is zeroed again once read.
         diff = self._diff[: (r1 - r0 + 1) * n_beams]
-        np.add.at(diff, cells, steps)
-        # Cumulative sum along range = column differences of the integral image.
-        integ = cv2.integral(
-            diff.reshape(r1 - r0 + 1, n_beams), sum=self._integ[: r1 - r0 + 2], sdepth=cv2.CV_64F
-        )
-        diff.fill(0.0)
-        cv2.subtract(integ[1:-1, 1:], integ[1:-1, :-1], dst=slab, dtype=cv2.CV_32F)
+        if compiled is not None:
+            compiled[1](a, b, lo, hi, dens, one, beam, r0, diff, slab)
+        else:
+            footprint_image(a, b, lo, hi, dens, one, beam, r0, diff, slab, self._integ)
         # Round-off of the integral image (~1e-16 of a row sum, itself ≤ the ping's total
         # echo) must not count as echo (it would label shadows): zero everything below
         # 1e-12 of the total echo (−120 dB: far below any noise floor).

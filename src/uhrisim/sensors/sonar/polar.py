@@ -211,7 +211,8 @@ def display_bytes(
         return cv2.convertScaleAbs(polar, alpha=scale, beta=float(black))
     # x = 0 stays at the black level: 255·(1e-30)^γ < 0.5 for every allowed γ ≥ 0.1 (and
     # OpenCV's log of 0 and exp of −inf take a slow path, ~10× a normal pass).
-    t = cv2.log(cv2.max(polar, 1e-30))
+    t = cv2.max(polar, 1e-30)
+    cv2.log(t, t)
     np.multiply(t, np.float32(gamma), out=t)
     cv2.exp(t, t)
     return cv2.convertScaleAbs(t, alpha=scale, beta=float(black))
