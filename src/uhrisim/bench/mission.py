@@ -21,10 +21,11 @@ from __future__ import annotations
 
 import tempfile
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from uhrisim.bench import Stopwatch
 from uhrisim.scenario.load import load_scenario
 from uhrisim.scenario.shipped import shipped_scenario
 from uhrisim.sim.simulation import Hook, Simulation
@@ -44,21 +45,6 @@ def mission_rates(
         wall, cpu = time.perf_counter(), time.process_time()
         sim.run(seconds)
         return seconds / (time.perf_counter() - wall), seconds / (time.process_time() - cpu)
-
-
-class _Stopwatch:
-    """A method of one object, timed in CPU seconds of this thread as it is called."""
-
-    def __init__(self, method: Callable[..., Any]) -> None:
-        self.method, self.seconds, self.calls = method, 0.0, 0
-
-    def __call__(self, *args: Any, **kwargs: Any) -> Any:
-        start = time.thread_time()
-        try:
-            return self.method(*args, **kwargs)
-        finally:
-            self.seconds += time.thread_time() - start
-            self.calls += 1
 
 
 def _split_rates(seconds: float, sonar: bool, recorded: bool) -> dict[str, Any]:
@@ -109,9 +95,9 @@ def _split_rates(seconds: float, sonar: bool, recorded: bool) -> dict[str, Any]:
     }
 
 
-def _time(owner: Any, method: str) -> _Stopwatch:
-    """Replace ``owner``'s ``method`` by a :class:`_Stopwatch` of it; returns the watch."""
-    watch = _Stopwatch(getattr(owner, method))
+def _time(owner: Any, method: str) -> Stopwatch:
+    """Replace ``owner``'s ``method`` by a :class:`Stopwatch` of it; returns the watch."""
+    watch = Stopwatch(getattr(owner, method))
     setattr(owner, method, watch)
     return watch
 

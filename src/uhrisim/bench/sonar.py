@@ -33,7 +33,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from uhrisim.bench.mission import _Stopwatch
+from uhrisim.bench import Stopwatch
 from uhrisim.sensors.sonar import PRESETS, ImagingSonar, SonarConfig
 from uhrisim.sensors.sonar import sonar as sonar_module
 from uhrisim.sensors.sonar.config import ECHOES_ONLY
@@ -101,7 +101,7 @@ def _stage_ms(sonar: ImagingSonar, rc, position_ned, rotation, quick: bool) -> d
     pings = 10 if quick else 300
     try:
         for name, (owner, attr) in stopwatches.items():
-            setattr(owner, attr, _Stopwatch(originals[name]))
+            setattr(owner, attr, Stopwatch(originals[name]))
         cpu = time.process_time()
         for _ in range(pings):
             full_ping(sonar, rc, position_ned, rotation, 0.0)
