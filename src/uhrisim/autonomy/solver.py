@@ -24,12 +24,13 @@ dropped. Behaviors hand in functions within 0..100, so this guards outside funct
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache, lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.autonomy.domain import Domain, Objective
+from uhrisim.core.compiled import jit
 
 __all__ = ["SolveResult", "WeightedObjective", "solve", "solve_reference"]
 
@@ -127,8 +128,9 @@ def _fuse(
     """sum_i priority_i * f_i over the component's sub-grid, added in objective order.
 
     The first full-grid term starts the sum (``0 + x`` is x for the argmax), the others
-    go through one scratch array: the same additions in the same order as a zero-filled
-    accumulator, with no per-term temporaries.
+    are added to it: the same additions in the same order as a zero-filled accumulator,
+    with no per-term temporaries (with numba, ``acc += priority * v`` in one compiled pass,
+    :func:`_add_weighted`; else through one scratch array).
     """
     shape = domain.shape(comp)
     acc: NDArray[np.float64] | None = None
@@ -146,12 +148,26 @@ def _fuse(
             acc += w.priority * v
         elif acc is None:
             acc = np.multiply(v, w.priority)
+        elif (add_weighted := _compiled_add_weighted()) is not None:
+            add_weighted(acc.reshape(-1), v.reshape(-1), float(w.priority))
         else:
             if tmp is None:
                 tmp = np.empty(shape)
             acc += np.multiply(v, w.priority, out=tmp)
     assert acc is not None  # a component has at least one member
     return acc
+
+
+def _add_weighted(acc, v, priority):  # type: ignore[no-untyped-def]
+    """``acc += v * priority`` point by point (compiled by numba; the numpy path's two
+    roundings, the product's then the sum's, in that order)."""
+    for k in range(acc.shape[0]):
+        acc[k] = acc[k] + v[k] * priority
+
+
+@cache
+def _compiled_add_weighted():  # type: ignore[no-untyped-def]
+    return jit(_add_weighted, numpy_errors=True)
 
 
 def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
