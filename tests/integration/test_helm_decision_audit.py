@@ -67,7 +67,7 @@ def test_compiled_helm_kernels_equal_numpy_bit_for_bit(monkeypatch):
 
     def made():  # tables, CPAs, utilities, couplings, peaks and sums, (min, max) of the tables
         reflected = [ivp_build.reflect_ranged(t, p) for t in tables for p in pieces]
-        coupled = [coupler._couple(t[:, 0], t[0], *w, n) for t in tables + [np.ones((3, 4))]
+        coupled = [coupler._couple(t[:, 0], t[0], *w, n) for t in [*tables, np.ones((3, 4))]
                    for w in ((50.0, 50.0), (20.0, 80.0)) for n in (True, False)]
         return ([r[0] for r in reflected] + [c[0] for c in coupled]
                 + [zaic.zaic_peak_on_axis(a, *p) for a in axes for p in peaks]
