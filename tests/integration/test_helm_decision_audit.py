@@ -61,9 +61,9 @@ def test_compiled_helm_kernels_equal_numpy_bit_for_bit(monkeypatch):
     peaks += [(361.5, 0.0, 0.0, 0.0, 0.0, 100.0), (-1.0, 0.0, 0.0, 0.0, 0.0, 100.0)]  # insisted
 
     domain = Domain(tuple(axes))
-    weighted = [solver.WeightedObjective(f"f{k}", rng.uniform(1.0, 300.0),
-                                         Objective(("course", "speed"), tables[0] * rng.random()))
-                for k in range(4)]
+    weighted = [solver.WeightedObjective(f"f{k}", rng.uniform(1.0, 300.0),  # span 0..300:
+                                         Objective(("course", "speed"), tables[0] * k))  # some
+                for k in (1.7, 0.4, 0.9, 2.6)]  # renormalised by the solver
 
     def made():  # tables, CPAs, utilities, couplings, peaks and sums, (min, max) of the tables
         reflected = [ivp_build.reflect_ranged(t, p) for t in tables for p in pieces]
@@ -71,7 +71,8 @@ def test_compiled_helm_kernels_equal_numpy_bit_for_bit(monkeypatch):
                    for w in ((50.0, 50.0), (20.0, 80.0)) for n in (True, False)]
         return ([r[0] for r in reflected] + [c[0] for c in coupled]
                 + [zaic.zaic_peak_on_axis(a, *p) for a in axes for p in peaks]
-                + [solver._fuse(domain, ("course", "speed"), weighted[:k]) for k in (2, 4)],
+                + [solver._fuse(domain, ("course", "speed"), solver._taking_part(weighted[:k]))
+                   for k in (1, 2, 4)],
                 [grid.distance(*s) for s in situations],
                 [grid.distance(*s, cpa.AvoidUtility(8.0, 25.0)) for s in situations]
                 + [grid.distance(*s, cpa.CutRangeUtility(12.5)) for s in situations],
