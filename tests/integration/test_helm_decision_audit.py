@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uhrisim.autonomy import coupler, cpa, ivp_build
+from uhrisim.autonomy import coupler, cpa, ivp_build, solver, zaic
+from uhrisim.autonomy.domain import Domain, DomainAxis, Objective
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "helm"
 
@@ -28,7 +29,8 @@ def test_every_decision_of_the_paper_s_mission_is_today_s():
 
 
 #: The helm's compiled kernels, each remembered by its module once built.
-KERNELS = (ivp_build._compiled_reflect, cpa._compiled_points, coupler._compiled_table)
+KERNELS = (ivp_build._compiled_reflect, cpa._compiled_points, coupler._compiled_couple,
+           zaic._compiled_peak, solver._compiled_add_weighted)
 
 
 def _forget_kernels():
@@ -53,11 +55,24 @@ def test_compiled_helm_kernels_equal_numpy_bit_for_bit(monkeypatch):
     situations = [(*rng.normal(0.0, 20.0, 4), rng.uniform(0, 360), rng.uniform(0, 2), 120.0)
                   for _ in range(20)]
 
-    def made():  # tables, CPAs, utilities, couplings, (min, max) of the tables
+    axes = [DomainAxis("course", 0.0, 359.0, 360, wrap=True), DomainAxis("speed", 0.0, 2.0, 41)]
+    peaks = [(rng.uniform(-30.0, 400.0), *rng.choice([0.0, 1e-10, 0.1, 30.0, 200.0], 3),
+              *sorted(rng.uniform(-10.0, 120.0, 2))) for _ in range(30)]
+    peaks += [(361.5, 0.0, 0.0, 0.0, 0.0, 100.0), (-1.0, 0.0, 0.0, 0.0, 0.0, 100.0)]  # insisted
+
+    domain = Domain(tuple(axes))
+    weighted = [solver.WeightedObjective(f"f{k}", rng.uniform(1.0, 300.0),  # span 0..300:
+                                         Objective(("course", "speed"), tables[0] * k))  # some
+                for k in (1.7, 0.4, 0.9, 2.6)]  # renormalised by the solver
+
+    def made():  # tables, CPAs, utilities, couplings, peaks and sums, (min, max) of the tables
         reflected = [ivp_build.reflect_ranged(t, p) for t in tables for p in pieces]
-        coupled = [coupler._couple(t[:, 0], t[0], *w, True) for t in tables
-                   for w in ((50.0, 50.0), (20.0, 80.0))]
-        return ([r[0] for r in reflected] + [c[0] for c in coupled],
+        coupled = [coupler._couple(t[:, 0], t[0], *w, n) for t in [*tables, np.ones((3, 4))]
+                   for w in ((50.0, 50.0), (20.0, 80.0)) for n in (True, False)]
+        return ([r[0] for r in reflected] + [c[0] for c in coupled]
+                + [zaic.zaic_peak_on_axis(a, *p) for a in axes for p in peaks]
+                + [solver._fuse(domain, ("course", "speed"), solver._taking_part(weighted[:k]))
+                   for k in (1, 2, 4)],
                 [grid.distance(*s) for s in situations],
                 [grid.distance(*s, cpa.AvoidUtility(8.0, 25.0)) for s in situations]
                 + [grid.distance(*s, cpa.CutRangeUtility(12.5)) for s in situations],

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.autonomy.domain import Domain, Objective
-from uhrisim.core.compiled import jit
+from uhrisim.core.compiled import callable_compiled, jit
 
 __all__ = ["couple", "couple_reference", "coupled_objective", "rescale"]
 
@@ -73,30 +73,51 @@ def coupled_objective(
 
 def _couple(f_course, f_speed, course_weight, speed_weight, normalize):  # type: ignore[no-untyped-def]
     """:func:`couple`'s table and its exact (min, max), known from the 1-D pieces (the
-    final rescale is monotone too). With numba the table is made in one compiled pass."""
+    final rescale is monotone too). With numba the whole coupling (both rescales, the
+    table, its range) is one compiled pass (:func:`_couple_pass`, the same operations)."""
+    compiled = _compiled_couple()
+    if compiled is not None:
+        fc = np.ascontiguousarray(f_course, dtype=float)
+        fs = np.ascontiguousarray(f_speed, dtype=float)
+        F = np.empty((fc.shape[0], fs.shape[0]))
+        lo, hi = compiled(fc, fs, float(course_weight), float(speed_weight), normalize, F)
+        return F, lo, hi
     fc, cmin, cmax = _rescale_ranged(f_course, course_weight)
     fs, smin, smax = _rescale_ranged(f_speed, speed_weight)
     fmin = cmin + smin
     fmax = cmax + smax
     scale = normalize and fmax - fmin > 0.0  # both constant: their sum stays
     k = 100.0 / (fmax - fmin) if scale else 1.0
-    compiled = _compiled_table()
-    if compiled is not None:
-        F = np.empty((fc.shape[0], fs.shape[0]))
-        compiled(fc, fs, fmin, k, scale, F)
-    else:
-        F = np.add.outer(fc, fs)
-        if scale:
-            F -= fmin
-            F *= k
+    F = np.add.outer(fc, fs)
     if scale:
+        F -= fmin
+        F *= k
         return F, (fmin - fmin) * k, (fmax - fmin) * k
     return F, fmin, fmax
 
 
-def _table(fc, fs, fmin, k, scale, out):  # type: ignore[no-untyped-def]
-    """``out[i, j] = fc[i] + fs[j]``, then ``(. - fmin) * k`` when ``scale``: the numpy
-    path's operations point by point (compiled by numba)."""
+def _rescaled_in_place(f, high):  # type: ignore[no-untyped-def]
+    """:func:`_rescale_ranged` on ``f``'s own storage, point by point (compiled)."""
+    fmin, fmax = f.min(), f.max()
+    if fmax - fmin <= 0.0:
+        return fmin, fmax
+    k = high / (fmax - fmin)
+    for i in range(f.shape[0]):
+        f[i] = (f[i] - fmin) * k
+    return 0.0, (fmax - fmin) * k
+
+
+def _couple_pass(f_course, f_speed, course_weight, speed_weight, normalize, out):  # type: ignore[no-untyped-def]
+    """:func:`_couple`'s numpy path point by point (compiled by numba): both rescales, the
+    table ``out[i, j] = fc[i] + fs[j]`` (then ``(. - fmin) * k`` when scaled); returns the
+    table's exact (min, max) as the numpy path does."""
+    fc, fs = f_course.copy(), f_speed.copy()
+    cmin, cmax = _rescaled_in_place(fc, course_weight)
+    smin, smax = _rescaled_in_place(fs, speed_weight)
+    fmin = cmin + smin
+    fmax = cmax + smax
+    scale = normalize and fmax - fmin > 0.0
+    k = 100.0 / (fmax - fmin) if scale else 1.0
     for i in range(fc.shape[0]):
         a = fc[i]
         if scale:
@@ -105,11 +126,15 @@ def _table(fc, fs, fmin, k, scale, out):  # type: ignore[no-untyped-def]
         else:
             for j in range(fs.shape[0]):
                 out[i, j] = a + fs[j]
+    if scale:
+        return (fmin - fmin) * k, (fmax - fmin) * k
+    return fmin, fmax
 
 
 @cache
-def _compiled_table():  # type: ignore[no-untyped-def]
-    return jit(_table, numpy_errors=True)
+def _compiled_couple():  # type: ignore[no-untyped-def]
+    callable_compiled(_rescaled_in_place)
+    return jit(_couple_pass, numpy_errors=True)
 
 
 def couple_reference(

@@ -291,15 +291,16 @@ def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-
 
 
 def _corners_range(b, mc, ms, c0, c1, s0, s1, lo, hi):  # type: ignore[no-untyped-def]
-    """(lo, hi) widened by the plane ``b + mc*c + ms*s`` at the corners of the piece
-    ``[c0, c1] x [s0, s1]`` (grid indices). Which of two equal values is kept does not
-    matter: only a zero's sign could differ, and every use of the range is blind to it."""
-    v00 = b + mc * float(c0) + ms * float(s0)
-    v01 = b + mc * float(c0) + ms * float(s1)
-    v10 = b + mc * float(c1) + ms * float(s0)
-    v11 = b + mc * float(c1) + ms * float(s1)
-    return (min(min(lo, v00), min(v01, min(v10, v11))),
-            max(max(hi, v00), max(v01, max(v10, v11))))
+    """(lo, hi) widened by the plane ``b + mc*c + ms*s`` over the piece ``[c0, c1] x
+    [s0, s1]`` (grid indices). Under rounding the plane is monotone in c and in s (each
+    operation is), so its least corner is the one its slopes' signs point away from and its
+    greatest the opposite one: the minimum and maximum of all four corners, evaluated at
+    two. Which of two equal values is kept does not matter: only a zero's sign could
+    differ, and every use of the range is blind to it."""
+    c_lo, c_hi = (c0, c1) if mc >= 0.0 else (c1, c0)
+    s_lo, s_hi = (s0, s1) if ms >= 0.0 else (s1, s0)
+    return (min(lo, b + mc * float(c_lo) + ms * float(s_lo)),
+            max(hi, b + mc * float(c_hi) + ms * float(s_hi)))
 
 
 @cache

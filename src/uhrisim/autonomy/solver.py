@@ -24,12 +24,13 @@ dropped. Behaviors hand in functions within 0..100, so this guards outside funct
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache, lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.autonomy.domain import Domain, Objective
+from uhrisim.core.compiled import jit
 
 __all__ = ["SolveResult", "WeightedObjective", "solve", "solve_reference"]
 
@@ -58,24 +59,52 @@ class SolveResult:
     all_stop_reason: str | None = None
 
 
-def _taking_part(objectives: list[WeightedObjective]) -> list[WeightedObjective]:
-    """The functions the solver uses: weight > 0, over some axis, spanning <= 100."""
+@dataclass(slots=True)
+class _Term:
+    """A function as the solver adds it: ``priority * f``, where f is the behavior's table,
+    renormalised to 0..100 first when it spans more than 100 (``PDMap::normalize(0, 100)``:
+    ``(values + offset) * scale``, intercept first, then the scale), point by point as the
+    sum reads it - no scaled copy of the table is made. (Made for every function at every
+    solve: slots, not frozen, which costs four times as much to make.)"""
+
+    name: str
+    priority: float
+    axes: tuple[str, ...]
+    values: NDArray[np.float64]
+    offset: float = 0.0
+    scale: float | None = None
+
+    def table(self) -> NDArray[np.float64]:
+        """f on its axes (the renormalised table when there is a scale: a new array)."""
+        if self.scale is None:
+            return self.values
+        return (self.values + self.offset) * self.scale
+
+    def at(self, indices: dict[str, int]) -> float:
+        """f at a decision given as axis-name -> grid index."""
+        v = float(self.values[tuple(indices[a] for a in self.axes)])
+        return v if self.scale is None else (v + self.offset) * self.scale
+
+
+def _taking_part(objectives: list[WeightedObjective]) -> list[_Term]:
+    """The functions the solver uses: weight > 0, over some axis; one spanning more than
+    100 is renormalised to 0..100 (IvP ``Problem::addOF``)."""
     out = []
     for w in objectives:
-        if not (w.priority > 0.0 and w.objective.axes):
+        f = w.objective
+        if not (w.priority > 0.0 and f.axes):
             continue
-        lo, hi = w.objective.min_max()
-        if hi - lo > 100.0:  # PDMap::normalize(0, 100): intercept first, then the scale
-            v = w.objective.values
-            scaled = Objective(w.objective.axes, (v + (0.0 - lo)) * (100.0 / (hi - lo)))
-            w = WeightedObjective(w.name, w.priority, scaled)
-        out.append(w)
+        lo, hi = f.min_max()
+        if hi - lo > 100.0:
+            out.append(_Term(w.name, w.priority, f.axes, f.values, 0.0 - lo, 100.0 / (hi - lo)))
+        else:
+            out.append(_Term(w.name, w.priority, f.axes, f.values))
     return out
 
 
-def _components(domain: Domain, objs: list[WeightedObjective]) -> list[tuple[str, ...]]:
+def _components(domain: Domain, objs: list[_Term]) -> list[tuple[str, ...]]:
     """Connected groups of axes, each in domain order, ordered by their first axis."""
-    return list(_components_of(domain.names, tuple(w.objective.axes for w in objs)))
+    return list(_components_of(domain.names, tuple(w.axes for w in objs)))
 
 
 @lru_cache(maxsize=64)
@@ -97,9 +126,7 @@ def _components_of(
     return tuple(tuple(n for n in names if n in g) for g in groups)
 
 
-def _components_reference(
-    domain: Domain, objs: list[WeightedObjective]
-) -> list[tuple[str, ...]]:
+def _components_reference(domain: Domain, objs: list[_Term]) -> list[tuple[str, ...]]:
     parent = {n: n for n in domain.names}
 
     def find(a: str) -> str:
@@ -110,9 +137,9 @@ def _components_reference(
 
     covered: set[str] = set()
     for w in objs:
-        covered.update(w.objective.axes)
-        first = w.objective.axes[0]
-        for other in w.objective.axes[1:]:
+        covered.update(w.axes)
+        first = w.axes[0]
+        for other in w.axes[1:]:
             parent[find(other)] = find(first)
     groups: dict[str, list[str]] = {}
     for n in domain.names:
@@ -121,23 +148,30 @@ def _components_reference(
     return [domain.order(g) for g in groups.values()]
 
 
-def _fuse(
-    domain: Domain, comp: tuple[str, ...], members: list[WeightedObjective]
-) -> NDArray[np.float64]:
+def _fuse(domain: Domain, comp: tuple[str, ...], members: list[_Term]) -> NDArray[np.float64]:
     """sum_i priority_i * f_i over the component's sub-grid, added in objective order.
 
     The first full-grid term starts the sum (``0 + x`` is x for the argmax), the others
-    go through one scratch array: the same additions in the same order as a zero-filled
-    accumulator, with no per-term temporaries.
+    are added to it: the same additions in the same order as a zero-filled accumulator,
+    with no per-term temporaries. With numba each full-grid term (renormalised or not) is
+    one compiled pass (:func:`_add_weighted`); else numpy, through one scratch array.
     """
     shape = domain.shape(comp)
     acc: NDArray[np.float64] | None = None
     tmp: NDArray[np.float64] | None = None
+    compiled = _compiled_add_weighted()
     for w in members:
-        v = w.objective.values
-        if w.objective.axes != comp:  # a function over fewer axes: broadcast it
+        if w.axes == comp and compiled is not None:
+            first = acc is None
+            if first:
+                acc = np.empty(shape)
+            compiled(acc.reshape(-1), w.values.reshape(-1), float(w.priority), w.offset,
+                     1.0 if w.scale is None else w.scale, w.scale is not None, first)
+            continue
+        v = w.table()
+        if w.axes != comp:  # a function over fewer axes: broadcast it
             view_shape = [1] * len(comp)
-            for a, n in zip(w.objective.axes, v.shape, strict=True):
+            for a, n in zip(w.axes, v.shape, strict=True):
                 view_shape[comp.index(a)] = n
             v = v.reshape(view_shape)
         if v.shape != shape:
@@ -154,6 +188,30 @@ def _fuse(
     return acc
 
 
+def _add_weighted(acc, v, priority, offset, scale, renormalised, first):  # type: ignore[no-untyped-def]
+    """``acc (+)= f * priority`` point by point (compiled by numba), f being ``v`` or, when
+    ``renormalised``, ``(v + offset) * scale``: the numpy path's roundings in its order
+    (the renormalisation's two, the product's, then the sum's unless ``first``)."""
+    n = acc.shape[0]
+    if renormalised and first:
+        for k in range(n):
+            acc[k] = ((v[k] + offset) * scale) * priority
+    elif renormalised:
+        for k in range(n):
+            acc[k] = acc[k] + ((v[k] + offset) * scale) * priority
+    elif first:
+        for k in range(n):
+            acc[k] = v[k] * priority
+    else:
+        for k in range(n):
+            acc[k] = acc[k] + v[k] * priority
+
+
+@cache
+def _compiled_add_weighted():  # type: ignore[no-untyped-def]
+    return jit(_add_weighted, numpy_errors=True)
+
+
 def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
     """Fuse weighted objectives and return the argmax decision (see module docstring)."""
     objs = _taking_part(objectives)
@@ -162,7 +220,7 @@ def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
     decision: dict[str, float] = {}
     indices: dict[str, int] = {}
     for comp in _components(domain, objs):
-        members = [w for w in objs if w.objective.axes[0] in comp]
+        members = [w for w in objs if w.axes[0] in comp]
         acc = _fuse(domain, comp, members)
         flat = int(acc.argmax())  # first maximum in C order (the tie rule)
         best = []
@@ -177,14 +235,14 @@ def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
 
 def _audit(
     domain: Domain,
-    objs: list[WeightedObjective],
+    objs: list[_Term],
     decision: dict[str, float],
     indices: dict[str, int],
 ) -> SolveResult:
     missing = [a.name for a in domain.axes if not a.optional and a.name not in indices]
     contributions = {w.name: 0.0 for w in objs}
     for w in objs:
-        contributions[w.name] += w.priority * w.objective.at(indices)
+        contributions[w.name] += w.priority * w.at(indices)
     total = float(sum(contributions.values()))
     if missing:
         return SolveResult(
@@ -208,12 +266,13 @@ def solve_reference(domain: Domain, objectives: list[WeightedObjective]) -> Solv
         shape = tuple(domain.axis(a).npts for a in comp)
         acc = np.zeros(shape)
         for w in objs:
-            if w.objective.axes[0] not in comp:
+            if w.axes[0] not in comp:
                 continue
             view_shape = [1] * len(comp)
-            for a, n in zip(w.objective.axes, w.objective.values.shape, strict=True):
+            v = w.table()
+            for a, n in zip(w.axes, v.shape, strict=True):
                 view_shape[comp.index(a)] = n
-            acc += w.priority * w.objective.values.reshape(view_shape)
+            acc += w.priority * v.reshape(view_shape)
         best = np.unravel_index(int(np.argmax(acc)), shape)
         for a, i in zip(comp, best, strict=True):
             indices[a] = int(i)

@@ -17,10 +17,13 @@ the grid point nearest the summit along the axis (not around it), the lower on a
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.autonomy.domain import DomainAxis
+from uhrisim.core.compiled import jit
 
 __all__ = [
     "ZaicMemo",
@@ -43,6 +46,15 @@ def _distance(x: NDArray, summit: float, wrap_period: float | None) -> NDArray:
     return d
 
 
+def _peak_shape(peakwidth: float, basewidth: float, summitdelta: float, minutil: float,
+                maxutil: float) -> tuple[float, float, float]:
+    """(peak width, base width, summit delta) as the peak uses them: widths below 1e-9 (of
+    the axis unit) are zero (no overflow on subnormal widths), delta within 0..max-min."""
+    pw = float(peakwidth) if peakwidth > 1e-9 else 0.0
+    bw = float(basewidth) if basewidth > 1e-9 else 0.0
+    return pw, bw, min(max(float(summitdelta), 0.0), maxutil - minutil)
+
+
 def zaic_peak(
     x: ArrayLike,
     summit: float,
@@ -60,10 +72,7 @@ def zaic_peak(
     operations as :func:`zaic_peak_reference`, so the values are bit-identical.
     """
     xa = np.asarray(x, dtype=float)
-    # widths below 1e-9 (of the axis unit) are zero: avoids overflow on subnormal widths
-    pw = float(peakwidth) if peakwidth > 1e-9 else 0.0
-    bw = float(basewidth) if basewidth > 1e-9 else 0.0
-    delta = min(max(float(summitdelta), 0.0), maxutil - minutil)
+    pw, bw, delta = _peak_shape(peakwidth, basewidth, summitdelta, minutil, maxutil)
     sloped = pw > 0.0 and delta > 0.0
     edge = maxutil - delta if sloped else maxutil
     d = _distance(xa, float(summit), wrap_period)
@@ -127,21 +136,52 @@ def zaic_peak_on_axis(
     maxutil: float = 100.0,
     insist_summit: bool = True,
 ) -> NDArray[np.float64]:
-    """ZAIC peak over a domain axis (wraps when the axis wraps), with insist-summit."""
-    u = zaic_peak(
-        axis.values,
-        summit,
-        peakwidth,
-        basewidth,
-        summitdelta,
-        minutil,
-        maxutil,
-        wrap_period=axis.period if axis.wrap else None,
-    )
-    if insist_summit and not u.max() > minutil:
+    """ZAIC peak over a domain axis (wraps when the axis wraps), with insist-summit.
+    With numba, :func:`zaic_peak`'s operations run compiled, point by point
+    (:func:`_peak_points`; a test holds the two bit for bit)."""
+    compiled = _compiled_peak()
+    if compiled is None:
+        u = zaic_peak(axis.values, summit, peakwidth, basewidth, summitdelta, minutil,
+                      maxutil, wrap_period=axis.period if axis.wrap else None)
+        top = u.max()
+    else:
+        u = np.empty(axis.npts)
+        top = compiled(axis.values, float(summit),
+                       *_peak_shape(peakwidth, basewidth, summitdelta, minutil, maxutil),
+                       float(minutil), float(maxutil),
+                       float(axis.period) if axis.wrap else 0.0, u)
+    if insist_summit and not top > minutil:
         u[insist_index(axis, summit)] = maxutil
     return u
 
+
+
+def _peak_points(x, summit, pw, bw, delta, minutil, maxutil, period, out):  # type: ignore[no-untyped-def]
+    """:func:`zaic_peak` point by point (compiled by numba; ``period`` 0: no wrap), the
+    same operations in the same order at every point; returns the maximum (NaN if any)."""
+    sloped = pw > 0.0 and delta > 0.0
+    edge = maxutil - delta if sloped else maxutil
+    base_slope = (edge - minutil) / bw if bw > 0.0 else 0.0
+    peak_slope = delta / pw if sloped else 0.0
+    top = -np.inf
+    for k in range(x.shape[0]):
+        d = abs(x[k] - summit)
+        if period > 0.0:
+            if d >= period:  # fmod(d, period) is d itself below the period
+                d = np.fmod(d, period)
+            d = min(d, period - d)
+        u = max(edge - (d - pw) * base_slope, minutil) if bw > 0.0 else minutil
+        if d <= pw:
+            u = maxutil - d * peak_slope if sloped else maxutil
+        out[k] = u
+        if u > top or u != u:
+            top = u
+    return top
+
+
+@cache
+def _compiled_peak():  # type: ignore[no-untyped-def]
+    return jit(_peak_points, numpy_errors=True)
 
 def insist_index(axis: DomainAxis, summit: float) -> int:
     """The grid index an insisted summit lands on (module docstring)."""

@@ -13,8 +13,9 @@ speed 41 x depth 501) while the simulation (no sonar) flies the mission after 30
 agent's autonomy tick (contact manager + helm, as the simulation calls it) timed in CPU
 time of this thread, every decision of the timed stretch. Target (issue 27): <= 0.15 ms
 per decision. AvoidCollision and far-regime Trail build pHelmIvP's piecewise functions
-(autonomy/ivp_build.py); with numba (``uhrisim[fast]``) those and the CPA grid run
-compiled.
+(autonomy/ivp_build.py); with numba (``uhrisim[fast]``) those, the CPA grid, the ZAIC
+peaks, the coupling and the solver's sum run compiled (docs/helm.md says where the rest
+of a decision's CPU goes).
 """
 
 from __future__ import annotations

@@ -213,8 +213,9 @@ class Loiter(Behavior):
             score = [abs(self._turn(x, y, k, d)) - (2.0 if k == near else 0.0) for k in range(n)]
             return min(range(n), key=lambda k: score[k]), d
 
+        seen = [k for k in range(n) if self._visible(x, y, k)] or list(range(n))
+
         def out(d: int) -> int:
-            seen = [k for k in range(n) if self._visible(x, y, k)] or list(range(n))
             pick = max if d == 1 else min
             return pick(seen, key=lambda k: self._turn(x, y, k, d))
 
