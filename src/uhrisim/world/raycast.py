@@ -39,11 +39,13 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import cache
 from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from uhrisim.core.compiled import jit
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import row_dots
 from uhrisim.world.bodies import HIDDEN_BEYOND_M, ArticulatedMesh
@@ -519,6 +521,24 @@ class _BodyBVH:
         self.face_map = np.concatenate(face_maps).astype(np.int64)
         self.centres = np.array([g.centre for g in self.groups])
         self.radii = np.array([g.radius for g in self.groups])
+        self.box_lo = np.array([g.box_lo for g in self.groups])
+        self.box_hi = np.array([g.box_hi for g in self.groups])
+
+    @staticmethod
+    def _numpy_group_rays(mesh: _EmbreeMesh, cull: _RayCuller, o: NDArray[np.float64],
+                          d: NDArray[np.float64], bound: NDArray[np.float64],
+                          centre: NDArray[np.float64], R: NDArray[np.float64],
+                          t: NDArray[np.float64]) -> NDArray[np.intp]:
+        """The rays that meet a group's posed bounding sphere (centre, its radius) within
+        ``bound`` and then its rest-frame box (group frame → NED: ``R``, ``t``)."""
+        near = cull.candidates(bound, centre, mesh.radius)  # cheap sphere test first
+        if len(near) == 0:
+            return near
+        o_local = (o - t) @ R
+        if o_local.ndim == 2:
+            o_local = o_local[near]
+        d_cols = R.T @ np.take(d, near, axis=0).T
+        return near[mesh.box_candidates(o_local, d_cols, bound[near])]
 
     def trace(
         self,
@@ -541,25 +561,30 @@ class _BodyBVH:
         face = np.full(n, -1, dtype=np.int64)
         bound = np.array(limit, dtype=float)  # nearest hit so far (or the limit)
         normal = np.zeros((n, 3))
-        cull = _RayCuller(o, d)
         centres = np.einsum("gij,gj->gi", rots, self.centres) + trans
+        show = np.ones(len(self.groups), bool) if shown is None else shown
+        select = _compiled_group_rays()
+        if select is not None:  # every group's rays in one compiled pass
+            chosen = np.empty(len(self.groups) * n, dtype=np.int64)
+            counts = np.zeros(len(self.groups), dtype=np.int64)
+            select(o.reshape(-1, 3), d, bound, centres, self.radii, rots, trans,
+                   self.box_lo, self.box_hi, show, chosen, counts)
+        else:
+            cull = _RayCuller(o, d)
         for g, mesh in enumerate(self.groups):
-            if shown is not None and not shown[g]:
-                continue
-            near = cull.candidates(bound, centres[g], mesh.radius)  # cheap sphere test first
-            if len(near) == 0:
+            if not show[g]:
                 continue
             R = rots[g]
-            o_local = (o - trans[g]) @ R  # rows of R^T (o - t)
-            if o_local.ndim == 2:
-                o_local = o_local[near]
-            d_cols = R.T @ np.take(d, near, axis=0).T  # (3, M) directions in the group frame
-            box = mesh.box_candidates(o_local, d_cols, bound[near])
-            if len(box) == 0:
+            if select is not None:
+                sel = chosen[g * n : g * n + counts[g]]
+            else:
+                sel = self._numpy_group_rays(mesh, cull, o, d, bound, centres[g], R, trans[g])
+            if len(sel) == 0:
                 continue
-            sel = near[box]
+            o_local = (o - trans[g]) @ R  # rows of R^T (o - t)
+            d_cols = R.T @ np.take(d, sel, axis=0).T  # (3, M) directions in the group frame
             f, t, nrm = mesh.intersect(
-                o_local if o_local.ndim == 1 else o_local[box], d_cols[:, box].T, bound[sel]
+                o_local if o_local.ndim == 1 else o_local[sel], d_cols.T, bound[sel]
             )
             hit = np.flatnonzero(f >= 0)
             rows = sel[hit]
@@ -633,6 +658,55 @@ class _BodyBVH:
             face[rows] = f[hit] + self.face_offset[g]
             normal[rows] = np.einsum("mij,mj->mi", R[fan[box[hit]]], nrm[hit])  # R n
         return face, np.where(face >= 0, bound, np.inf), normal
+
+
+def _group_rays(origins, d, bound, centres, radii, rots, trans, box_lo, box_hi, shown,
+                chosen, counts):  # type: ignore[no-untyped-def]
+    """For each shown group g of a body, the rays (indices into ``d`` (N, 3), NED unit)
+    whose segment [0, ``bound``] may meet the group's posed bounding sphere (``centres``
+    (G, 3) NED, ``radii`` (G,)) and its rest-frame box [``box_lo[g]``, ``box_hi[g]``]
+    (group frame → NED: ``rots`` (G, 3, 3), ``trans`` (G, 3)), written to
+    ``chosen[g·N : g·N + counts[g]]`` in increasing order. ``origins``: (N, 3), or (1, 3)
+    shared by every ray. The tests of :class:`_RayCuller` and
+    :meth:`_EmbreeMesh.box_candidates` (conservative: a superset of theirs, as every
+    group is tested within the bound before any of them is traced), compiled (numba)."""
+    n = d.shape[0]
+    for g in range(centres.shape[0]):
+        counts[g] = 0
+        if not shown[g]:
+            continue
+        r = radii[g] * (1.0 + 1e-6) + 1e-6
+        for i in range(n):
+            row = 0 if origins.shape[0] == 1 else i
+            v0 = centres[g, 0] - origins[row, 0]
+            v1 = centres[g, 1] - origins[row, 1]
+            v2 = centres[g, 2] - origins[row, 2]
+            tca = d[i, 0] * v0 + d[i, 1] * v1 + d[i, 2] * v2
+            if (v0 * v0 + v1 * v1 + v2 * v2) - tca * tca > r * r or tca + r < 0.0 \
+                    or tca - r > bound[i]:
+                continue
+            enter, leave = 0.0, bound[i]
+            for k in range(3):  # slab k of the box, in the group frame
+                o_k = ((origins[row, 0] - trans[g, 0]) * rots[g, 0, k]
+                       + (origins[row, 1] - trans[g, 1]) * rots[g, 1, k]
+                       + (origins[row, 2] - trans[g, 2]) * rots[g, 2, k])
+                d_k = d[i, 0] * rots[g, 0, k] + d[i, 1] * rots[g, 1, k] + d[i, 2] * rots[g, 2, k]
+                lo, hi = box_lo[g, k] - 1e-9, box_hi[g, k] + 1e-9
+                if d_k == 0.0:
+                    if o_k < lo or o_k > hi:
+                        leave = -1.0
+                    continue
+                t_lo, t_hi = (lo - o_k) / d_k, (hi - o_k) / d_k
+                enter = max(enter, min(t_lo, t_hi))
+                leave = min(leave, max(t_lo, t_hi))
+            if enter <= leave * (1.0 + 1e-9) + 1e-9:
+                chosen[g * n + counts[g]] = i
+                counts[g] += 1
+
+
+@cache
+def _compiled_group_rays():  # type: ignore[no-untyped-def]
+    return jit(_group_rays, numpy_errors=True)
 
 
 class EmbreeRayCaster(RayCaster):
