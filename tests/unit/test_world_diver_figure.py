@@ -100,3 +100,52 @@ def test_flutter_kick_swings_the_legs_in_opposite_phase_within_the_limits():
         assert SCUBA.limit_violations(q) == []
         left, right = q[SCUBA.index("left_hip_flex")], q[SCUBA.index("right_hip_flex")]
         assert left == pytest.approx(-right, abs=1e-12)
+
+
+@pytest.mark.parametrize("shared_origin", [True, False])
+def test_compiled_group_selection_keeps_every_ray_that_meets_the_group(shared_origin):
+    """The Embree caster picks each rigid group's rays (bounding sphere, then rest-frame
+    box) in one compiled pass: every ray that hits the group within its bound must be
+    picked (conservative), no more than the numpy tests pick, and the plain function
+    gives what numba compiles."""
+    from uhrisim.world import raycast
+
+    q = db.pose_goal(SCUBA, "work", db.pose_goal(SCUBA, "swim"))
+    scene, caster = scene_with(SCUBA, q, "embree")
+    rng = np.random.default_rng(5)
+    d = rng.normal(size=(1000, 3)) * [0.3, 0.3, 1.0] + [0.0, 0.0, 1.0]
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    origin = np.array([0.0, 0.0, DEPTH - 2.0])
+    o = origin if shared_origin else origin + rng.normal(scale=0.2, size=d.shape)
+    bound = rng.uniform(1.0, 4.0, len(d))
+    body = scene.bodies[0]
+    bvh = caster._parts[body.name]
+    frames = np.array([body.pose_matrix() @ body.part_transforms[i] for i in bvh.group_part])
+    rots, trans = frames[:, :3, :3], frames[:, :3, 3]
+    centres = np.einsum("gij,gj->gi", rots, bvh.centres) + trans
+    args = (o.reshape(-1, 3), d, bound, centres, bvh.radii, rots, trans, bvh.box_lo,
+            bvh.box_hi, np.ones(len(bvh.groups), bool))
+    n, groups = len(d), len(bvh.groups)
+    picked = []
+    for select in (raycast._group_rays, raycast._compiled_group_rays()):
+        if select is None:  # numba not installed: the numpy tests run instead
+            continue
+        chosen, counts = np.empty(groups * n, np.int64), np.zeros(groups, np.int64)
+        select(*args, chosen, counts)
+        picked.append([chosen[g * n : g * n + counts[g]].copy() for g in range(groups)])
+    cull = raycast._RayCuller(o, d)
+    hitting = 0
+    for g, mesh in enumerate(bvh.groups):
+        o_local = (o - trans[g]) @ rots[g]
+        face, _, _ = mesh.intersect(o_local, d @ rots[g], bound)
+        hit_rows = np.flatnonzero(face >= 0)
+        hitting += len(hit_rows)
+        numpy_rows = bvh._numpy_group_rays(mesh, cull, o, d, bound, centres[g], rots[g],
+                                           trans[g])
+        assert np.isin(hit_rows, numpy_rows).all()
+        for rows in picked:
+            assert np.all(np.diff(rows[g]) > 0)
+            assert np.isin(hit_rows, rows[g]).all()
+            assert len(rows[g]) <= len(numpy_rows)
+            assert np.array_equal(rows[g], picked[0][g])
+    assert hitting > 100  # the fan does meet the diver
