@@ -158,7 +158,7 @@ def test_compiled_and_numpy_casts_give_the_same_bits(monkeypatch):
     from uhrisim.world import raycast
 
     q = db.pose_goal(SCUBA, "work", db.pose_goal(SCUBA, "swim"))
-    scene, caster = scene_with(SCUBA, q, "embree")
+    _, caster = scene_with(SCUBA, q, "embree")
     rng = np.random.default_rng(7)
     d = rng.normal(size=(1500, 3)) * [0.3, 0.3, 1.0] + [0.0, 0.0, 1.0]
     d /= np.linalg.norm(d, axis=1, keepdims=True)
