@@ -102,6 +102,16 @@ def test_flutter_kick_swings_the_legs_in_opposite_phase_within_the_limits():
         assert left == pytest.approx(-right, abs=1e-12)
 
 
+def working_diver_and_fan(rng, n_rays):
+    """A scuba diver at work, its Embree scene and caster, and a fan of ``n_rays`` unit
+    directions from 2 m above him (its origin), looking down at him."""
+    q = db.pose_goal(SCUBA, "work", db.pose_goal(SCUBA, "swim"))
+    scene, caster = scene_with(SCUBA, q, "embree")
+    d = rng.normal(size=(n_rays, 3)) * [0.3, 0.3, 1.0] + [0.0, 0.0, 1.0]
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return scene, caster, d, np.array([0.0, 0.0, DEPTH - 2.0])
+
+
 @pytest.mark.parametrize("shared_origin", [True, False])
 def test_compiled_group_selection_keeps_every_ray_that_meets_the_group(shared_origin):
     """The Embree caster picks each rigid group's rays (bounding sphere, then rest-frame
@@ -110,12 +120,8 @@ def test_compiled_group_selection_keeps_every_ray_that_meets_the_group(shared_or
     gives what numba compiles."""
     from uhrisim.world import raycast
 
-    q = db.pose_goal(SCUBA, "work", db.pose_goal(SCUBA, "swim"))
-    scene, caster = scene_with(SCUBA, q, "embree")
     rng = np.random.default_rng(5)
-    d = rng.normal(size=(1000, 3)) * [0.3, 0.3, 1.0] + [0.0, 0.0, 1.0]
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    origin = np.array([0.0, 0.0, DEPTH - 2.0])
+    scene, caster, d, origin = working_diver_and_fan(rng, 1000)
     o = origin if shared_origin else origin + rng.normal(scale=0.2, size=d.shape)
     bound = rng.uniform(1.0, 4.0, len(d))
     body = scene.bodies[0]
@@ -157,12 +163,8 @@ def test_compiled_and_numpy_casts_give_the_same_bits(monkeypatch):
     same to the bit (shared and per-ray origins, with hits past the range made misses)."""
     from uhrisim.world import raycast
 
-    q = db.pose_goal(SCUBA, "work", db.pose_goal(SCUBA, "swim"))
-    _, caster = scene_with(SCUBA, q, "embree")
     rng = np.random.default_rng(7)
-    d = rng.normal(size=(1500, 3)) * [0.3, 0.3, 1.0] + [0.0, 0.0, 1.0]
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    origin = np.array([0.0, 0.0, DEPTH - 2.0])
+    _, caster, d, origin = working_diver_and_fan(rng, 1500)
     shots = [(origin, 2.3), (origin + rng.normal(scale=0.2, size=d.shape), 5.0)]
     compiled = [caster.cast(o, d, max_range=r) for o, r in shots]
     for name in ("_compiled_sphere_rays", "_compiled_group_rays", "_compiled_refine_rows"):
