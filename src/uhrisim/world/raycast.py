@@ -514,8 +514,8 @@ class _EmbreeMesh:
         """
         n = len(d)
         o32 = (o - self.shift if self.shift is not None else o).astype(np.float32)
-        if o32.ndim == 1:  # one shared origin: Embree still wants one row per ray
-            o32 = np.tile(o32, (n, 1))
+        if o32.ndim == 1:  # one shared origin: Embree still wants one row per ray (a view)
+            o32 = np.broadcast_to(o32, (n, 3))
         d32 = d.astype(np.float32)
         if np.ndim(tfar) == 0:
             lim = float(tfar)
