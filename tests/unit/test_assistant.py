@@ -216,6 +216,26 @@ def test_a_diver_swimming_at_or_past_the_rov_at_0_3_m_s_does_not_break_the_guard
     _guards_kept(w)
 
 
+def test_a_diver_who_stops_under_the_idle_rov_and_rises_upright_does_not_break_the_guard():
+    """The assisted salvage in 9C water (docs/hri.md): the diver swims prone at 0.3 m/s
+    beneath the idle ROV (1 m below it), stops, and rises upright in 2 s to wait — his
+    head swings 0.7 m up and back, faster than the ROV gets going from rest. The guards
+    keep the ROV clear of him as he would be upright, so it has backed off before (as
+    the guards were, his body came within 0.46 m of it)."""
+    stop_s, rise_s = 10.0 + 4.0 / 0.3, 2.0
+
+    def script(t):
+        east = -4.0 + 0.3 * min(max(0.0, t - 10.0), stop_s - 10.0)
+        s = min(1.0, max(0.0, (t - stop_s) / rise_s))
+        return DiverState((0.0, east, 4.0), 90.0, 0.3 if 10.0 < t < stop_s else 0.0,
+                          lean_deg=45.0 * (1.0 + math.cos(math.pi * s)))
+
+    w = World(script)  # idle at the origin, 1 m above where he stops, facing him
+    w.run(stop_s + rise_s + 5.0)
+    assert any(e.startswith("guard: ") for e in w.events())
+    _guards_kept(w)
+
+
 def test_signals_low_confidence_unknown_tool_done_and_repeats():
     a = Assistant()
     rov = RovNav((0.0, 0.0, 3.0), 0.0)

@@ -14,10 +14,13 @@ site are refused (logged). With no task the ROV does ``default_task``.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from importlib import resources
 from pathlib import Path
 
+import numpy as np
 import py_trees
+from numpy.typing import NDArray
 
 from uhrisim.assistant.behaviours import TreeContext
 from uhrisim.assistant.config import AssistantConfig
@@ -44,12 +47,14 @@ class Assistant:
         self.root, self._tasks = build_tree(self.ctx)
         self._posted: dict[str, str | float] = {}
         self._trim, self._trim_t = 0.0, None  # the depth trim (m, < 0: shallower), since
+        self._head: tuple[float, NDArray[np.float64]] | None = None  # (t, head - body)
         #: every tick's outputs, in order
         self.trace: list[AssistantOutputs] = []
 
     def step(self, inputs: AssistantInputs) -> AssistantOutputs:
         """One tick: what to post, the gripper command, the task, the active path."""
         ctx = self.ctx
+        inputs = self._with_head_rate(inputs)
         ctx.inputs = inputs
         ctx.wants, ctx.events = {}, []
         ctx.override, ctx.gripper_command = False, None
@@ -74,6 +79,22 @@ class Assistant:
                                wants["ASSIST_TASK"], active, tuple(ctx.events))  # type: ignore[arg-type]
         self.trace.append(out)
         return out
+
+    def _with_head_rate(self, inputs: AssistantInputs) -> AssistantInputs:
+        """The inputs with the diver's head rate (relative to his body, NED m/s) from
+        this fresh track's head and the last one's, when the tracker gave a head but no
+        rate (the guards look ahead with it: a diver rising upright swings his head
+        ~0.7 m in ~2 s)."""
+        d = inputs.diver
+        if d is None or d.head_ned is None or d.age_s > self.config.lost_after_s:
+            self._head = None
+            return inputs
+        arm = d.head_ned - d.position_ned
+        last, self._head = self._head, (inputs.t, arm)
+        if d.head_rate_ned is not None or last is None or inputs.t <= last[0]:
+            return inputs
+        rate = (arm - last[1]) / (inputs.t - last[0])
+        return replace(inputs, diver=replace(d, head_rate_ned=rate))
 
     def _trimmed(self, wants: dict[str, str | float], inputs: AssistantInputs
                  ) -> dict[str, str | float]:

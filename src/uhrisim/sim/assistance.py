@@ -26,7 +26,8 @@ section's file:line. Each tick it does, in the loop's order:
   since its last tick, the tools' grasp points and the work sites — and its outputs go
   where an outside planner's would: the postings to the ROV's community (the helm's
   mail, the MOOS and ROS 2 bridges: ``ASSIST_*``, the updates, ``MOOS_MANUAL_OVERRIDE``
-  and ``DESIRED_*`` while it backs off), ``GRIPPER_CMD`` to the gripper's ``GRIPPER``
+  and ``DESIRED_*`` while it backs off, posted again after the helm's tick:
+  :meth:`AssistanceStage.after_helm`), ``GRIPPER_CMD`` to the gripper's ``GRIPPER``
   (``give`` when the diver holds the object too), its events to the simulation's event
   log (``assistant``).
 
@@ -357,6 +358,19 @@ class AssistanceStage:
         truth = self._truth(v.diver)
         body, head = separations(nav.position_ned, truth)
         v.min_body_m, v.min_head_m = min(v.min_body_m, body), min(v.min_head_m, head)
+
+    def after_helm(self, agent: Agent, t: float) -> None:
+        """After ``agent``'s helm has run this tick: while its assistant overrides the
+        helm, its DESIRED_* again. A helm that is just parked posts DESIRED_* = 0 once
+        (pHelmIvP's all-stop): heading north and depth 0 for a tick, which turned the
+        backing ROV 50° off the diver; a pilot app posting after the helm wins, as the
+        assistant's postings do here."""
+        for v in self.vehicles:
+            if v.agent is agent and v.assistant.trace:
+                out = v.assistant.trace[-1]
+                for var, value in out.posts:
+                    if var.startswith("DESIRED_"):
+                        agent.community.post(var, value, t, "assistant")
 
     def _truth(self, diver: SignallingDiver) -> DiverTrack:
         """The diver as the simulation has him: body centre, head, right hand."""

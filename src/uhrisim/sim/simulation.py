@@ -253,6 +253,8 @@ class Simulation:
                 if record is not None:
                     agent.last_helm = record
                     helm[agent.name] = record
+                if self.assistance is not None:
+                    self.assistance.after_helm(agent, t)
             if self.tick % agent.control_period == 0:
                 self._control(agent)
         posts = tuple(p for a in self.agents.values() for p in a.community.take_log())
