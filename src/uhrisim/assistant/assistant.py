@@ -9,7 +9,10 @@ override and DESIRED_* every tick), and keep the tick in :attr:`Assistant.trace`
 Signals: a command replaces the task in hand (its branch starts from its beginning);
 the same command again changes nothing; ``done`` ends the task; ``ok`` is logged;
 ``bring_tool X`` for a tool the map does not have and ``light_here S`` for an unknown
-site are refused (logged). With no task the ROV does ``default_task``.
+site are refused (logged). With no task the ROV does ``default_task`` — idle, it asks
+a hovering diver to say it again when nothing was read for a while
+(:class:`~uhrisim.assistant.behaviours.AskAgain`; ``ASSIST_QUERY = say_again`` while
+it shows the cue).
 """
 
 from __future__ import annotations
@@ -57,7 +60,7 @@ class Assistant:
         inputs = self._with_head_rate(inputs)
         ctx.inputs = inputs
         ctx.wants, ctx.events = {}, []
-        ctx.override, ctx.gripper_command = False, None
+        ctx.override, ctx.gripper_command, ctx.asking = False, None, False
         if ctx.diver is not None:
             ctx.last_diver = ctx.diver
         for signal in sorted(inputs.signals, key=lambda s: s.t):
@@ -70,6 +73,7 @@ class Assistant:
         wants |= self._trimmed(ctx.wants, inputs)
         wants["ASSIST_TASK"] = str(ctx.task) if ctx.task is not None else "idle"
         wants["ASSIST_ACTIVE"] = active
+        wants["ASSIST_QUERY"] = "say_again" if ctx.asking else "none"
         posts: list[Posting] = []
         for var, value in wants.items():
             if self._posted.get(var) != value or (ctx.override and var in _OVERRIDE_VARS):
@@ -139,9 +143,12 @@ class Assistant:
         heard = f"{c} ({signal.channel}, confidence {signal.confidence:.2f})"
         if signal.channel not in self.config.obey:
             ctx.event(f"ignored {heard}: this ROV obeys {', '.join(self.config.obey)} only")
-        elif signal.confidence < self.config.min_confidence:
+            return
+        if signal.confidence < self.config.min_confidence:
             ctx.event(f"ignored {heard}: below {self.config.min_confidence:g}")
-        elif c.name == "ok":
+            return
+        ctx.heard_t = ctx.t
+        if c.name == "ok":
             ctx.event(f"ok {heard}")
         elif c.name == "done":
             if ctx.task is not None:

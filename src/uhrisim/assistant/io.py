@@ -53,6 +53,8 @@ HELM_VARS: dict[str, str] = {
     "GRIPPER_CMD": "the gripper command: open or close",
     "ASSIST_TASK": "the task in hand (a command, or idle)",
     "ASSIST_ACTIVE": "the tree's active path, e.g. 'assistant/guards/too close/back off'",
+    "ASSIST_QUERY": "say_again while the ROV shows its 'say again?' cue (its lamps swung "
+                    "off the diver and back), else none",
 }
 
 _UP = np.array([0.0, 0.0, -1.0])
