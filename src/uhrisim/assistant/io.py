@@ -87,9 +87,9 @@ class DiverTrack:
     known (the articulated diver's joints, in the simulator), head and working hand, and
     the head's velocity relative to the body centre (NED m/s: he rises upright, bends
     to his work; :class:`~uhrisim.assistant.Assistant` fills it in from successive
-    tracks when the tracker does not). Without a head the diver is taken as upright, the head ``HEAD_ABOVE_M`` above the
-    body centre; without a hand, the hand held out in front (``HAND_AHEAD_M`` ahead,
-    ``HAND_ABOVE_M`` up)."""
+    tracks when the tracker does not). Without a head the diver is taken as upright,
+    the head ``HEAD_ABOVE_M`` above the body centre; without a hand, the hand held out
+    in front (``HAND_AHEAD_M`` ahead, ``HAND_ABOVE_M`` up)."""
 
     position_ned: NDArray[np.float64]
     heading_deg: float
