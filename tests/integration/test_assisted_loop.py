@@ -12,6 +12,7 @@ import pytest
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.scenario.load import load_scenario
+from uhrisim.sim.assistance import REPEATS_MAX
 from uhrisim.sim.simulation import Simulation
 
 SCENARIO = """\
@@ -80,9 +81,18 @@ def test_the_guards_hold_and_nothing_collides(clear):
     assert m["collisions"] == 0 and sim.collisions == 0
 
 
-def test_in_turbid_water_the_slate_is_missed_and_the_run_ends_safely(tmp_path):
-    sim, m = _run(tmp_path, "9C", 12, 18.0)
-    assert m["signals"]["marker"] == {"issued": 1, "recognized": 0, "missed": 1, "false": 0}
+def test_in_turbid_water_the_slate_is_missed_the_rov_asks_again_and_the_run_ends_safely(
+        tmp_path):
+    """9C: the slate is missed; the idle ROV, with the diver hovering before it, shows
+    its "say again?" cue (asked sooner than the default, to keep the test short); he
+    repeats the slate, at most REPEATS_MAX times, missed each time; his wait fails;
+    nothing is touched."""
+    sim, m = _run(tmp_path, "9C", 12, 18.0, ", params: {ask_after_s: 4}")
+    assert m["asked_again"] > REPEATS_MAX and m["signals_repeated"] == REPEATS_MAX
+    assert m["signals"]["marker"] == {"issued": 1 + REPEATS_MAX, "recognized": 0,
+                                      "missed": 1 + REPEATS_MAX, "false": 0}
+    assert any(e.kind == "teamwork" and "repeats bring_tool light (marker)" in e.detail
+               for e in sim.events_log)
     assert m["handovers"]["attempted"] == 0
     assert {out.task for out in sim.assistance.vehicles[0].assistant.trace} == {"idle"}
     assert m["steps"]["failed"] == 1 and m["task_completion_s"] is None

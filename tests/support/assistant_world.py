@@ -10,9 +10,10 @@ DESIRED_* go to the ROV — or, while the assistant overrides, its own DESIRED_*
   the short way, in place too), a speed along the heading (negative astern) that relaxes
   first-order (time constant ``tau``) to DESIRED_SPEED, a depth moving toward
   DESIRED_DEPTH at ``dive_rate``; integrated at 20 Hz.
-* Diver: scripted, ``script(t) -> DiverState``: an upright diver (pelvis position,
-  heading, speed), whether his hand is held out, whether the ROV sees him. His head and
-  hand follow DiverTrack's body geometry.
+* Diver: scripted, ``script(t) -> DiverState``: a diver (pelvis position, heading,
+  speed, how far his trunk leans forward from upright: 90° swimming prone), whether his
+  hand is held out, whether the ROV sees him. His head (DiverTrack's 0.71 m from the
+  pelvis, tilted by the lean) and hand follow DiverTrack's body geometry.
 * Gripper: the VideoRay manipulator's assumed numbers (jaws 0.25 m ahead and 0.14 m
   below the centre, 1.5 s to close or open, an object taken when its grasp point is
   within 3 cm of the jaws as they close). A held tool moves with the jaws.
@@ -60,6 +61,14 @@ class DiverState:
     hand_out: bool = True
     seen: bool = True
     grips: bool = True  # takes what is held out to him
+    lean_deg: float = 0.0  # his trunk's lean forward from upright (90: prone, swimming)
+
+    def head(self) -> np.ndarray:
+        """His head (NED, m): DiverTrack's height above the pelvis, leant forward."""
+        lean, h = math.radians(self.lean_deg), math.radians(self.heading)
+        tilt = np.array([math.sin(lean) * math.cos(h), math.sin(lean) * math.sin(h),
+                         -math.cos(lean)])
+        return np.array(self.position, dtype=float) + DiverTrack.HEAD_ABOVE_M * tilt
 
 
 def hovering(position=(6.0, 0.0, 4.0), heading=180.0, **kw) -> Callable[[float], DiverState]:
@@ -135,8 +144,7 @@ class World:
             pos = np.array(d.position, dtype=float)
             hand = (pos + DiverTrack.HAND_AHEAD_M * fwd + DiverTrack.HAND_ABOVE_M * up
                     if d.hand_out else pos + 0.25 * np.cross(fwd, -up) + 0.1 * up)
-            self.track = DiverTrack(pos, d.heading, d.speed, 0.0,
-                                    pos + DiverTrack.HEAD_ABOVE_M * up, hand)
+            self.track = DiverTrack(pos, d.heading, d.speed, 0.0, d.head(), hand)
         elif self.track is not None:  # the last track, ageing
             old = self.track
             self.track = DiverTrack(old.position_ned, old.heading_deg, old.speed,
@@ -226,9 +234,8 @@ class World:
     def record(self, d: DiverState) -> None:
         body, head = (math.inf, math.inf)
         if self.track is not None or d.seen:
-            up = np.array([0.0, 0.0, -1.0])
             truth = DiverTrack(np.array(d.position, dtype=float), d.heading,
-                               head_ned=np.array(d.position) + DiverTrack.HEAD_ABOVE_M * up)
+                               head_ned=d.head())
             body, head = separations(self.rov.position, truth)
         self.records.append(Record(self.t, self.rov.position.copy(), self.rov.speed,
                                    self.desired.get("DESIRED_SPEED", 0.0), body, head,

@@ -216,6 +216,45 @@ def test_a_diver_swimming_at_or_past_the_rov_at_0_3_m_s_does_not_break_the_guard
     _guards_kept(w)
 
 
+def test_a_diver_who_stops_under_the_idle_rov_and_rises_upright_does_not_break_the_guard():
+    """The assisted salvage in 9C water (docs/hri.md): the diver swims prone at 0.3 m/s
+    beneath the idle ROV (1 m below it), stops, and rises upright in 2 s to wait — his
+    head swings 0.7 m up and back, faster than the ROV gets going from rest. The guards
+    keep the ROV clear of him as he would be upright, so it has backed off before (as
+    the guards were, his body came within 0.46 m of it)."""
+    stop_s, rise_s = 10.0 + 4.0 / 0.3, 2.0
+
+    def script(t):
+        east = -4.0 + 0.3 * min(max(0.0, t - 10.0), stop_s - 10.0)
+        s = min(1.0, max(0.0, (t - stop_s) / rise_s))
+        return DiverState((0.0, east, 4.0), 90.0, 0.3 if 10.0 < t < stop_s else 0.0,
+                          lean_deg=45.0 * (1.0 + math.cos(math.pi * s)))
+
+    w = World(script)  # idle at the origin, 1 m above where he stops, facing him
+    w.run(stop_s + rise_s + 5.0)
+    assert any(e.startswith("guard: ") for e in w.events())
+    _guards_kept(w)
+
+
+def test_the_idle_rov_asks_a_hovering_diver_to_say_it_again():
+    """Idle, the diver hovering 3 m ahead and nothing read for ask_after_s: the ROV
+    shows its "say again?" cue (its heading swung wag_deg off him and back, twice;
+    ASSIST_QUERY = say_again meanwhile), ask_max times in a row; a command read starts
+    the count again."""
+    cfg = AssistantConfig(ask_after_s=5.0)
+    w = World(hovering((3.0, 0.0, 3.0), 180.0), config=cfg, signals={30.0: Command("ok")})
+    w.run(42)
+    asks = [o.t for o in w.trace for e in o.events if e.startswith("say again?")]
+    assert len(asks) == cfg.ask_max + 1, asks
+    assert asks[0] >= cfg.ask_after_s and asks[cfg.ask_max - 1] < 30.0 <= asks[-1] - 5.0
+    queries = [v for o in w.trace for k, v in o.posts if k == "ASSIST_QUERY"]
+    assert queries == ["none"] + ["say_again", "none"] * (cfg.ask_max + 1)
+    turned = {v for o in w.trace for k, v in o.posts if k == "HEADING_UPDATES"}
+    assert {"heading=20", "heading=340"} <= turned  # he is due north: 0°
+    assert set(o.task for o in w.trace) == {"idle"}
+    _guards_kept(w)
+
+
 def test_signals_low_confidence_unknown_tool_done_and_repeats():
     a = Assistant()
     rov = RovNav((0.0, 0.0, 3.0), 0.0)

@@ -9,15 +9,21 @@ override and DESIRED_* every tick), and keep the tick in :attr:`Assistant.trace`
 Signals: a command replaces the task in hand (its branch starts from its beginning);
 the same command again changes nothing; ``done`` ends the task; ``ok`` is logged;
 ``bring_tool X`` for a tool the map does not have and ``light_here S`` for an unknown
-site are refused (logged). With no task the ROV does ``default_task``.
+site are refused (logged). With no task the ROV does ``default_task`` — idle, it asks
+a hovering diver to say it again when nothing was read for a while
+(:class:`~uhrisim.assistant.behaviours.AskAgain`; ``ASSIST_QUERY = say_again`` while
+it shows the cue).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from importlib import resources
 from pathlib import Path
 
+import numpy as np
 import py_trees
+from numpy.typing import NDArray
 
 from uhrisim.assistant.behaviours import TreeContext
 from uhrisim.assistant.config import AssistantConfig
@@ -44,15 +50,17 @@ class Assistant:
         self.root, self._tasks = build_tree(self.ctx)
         self._posted: dict[str, str | float] = {}
         self._trim, self._trim_t = 0.0, None  # the depth trim (m, < 0: shallower), since
+        self._head: tuple[float, NDArray[np.float64]] | None = None  # (t, head - body)
         #: every tick's outputs, in order
         self.trace: list[AssistantOutputs] = []
 
     def step(self, inputs: AssistantInputs) -> AssistantOutputs:
         """One tick: what to post, the gripper command, the task, the active path."""
         ctx = self.ctx
+        inputs = self._with_head_rate(inputs)
         ctx.inputs = inputs
         ctx.wants, ctx.events = {}, []
-        ctx.override, ctx.gripper_command = False, None
+        ctx.override, ctx.gripper_command, ctx.asking = False, None, False
         if ctx.diver is not None:
             ctx.last_diver = ctx.diver
         for signal in sorted(inputs.signals, key=lambda s: s.t):
@@ -65,6 +73,7 @@ class Assistant:
         wants |= self._trimmed(ctx.wants, inputs)
         wants["ASSIST_TASK"] = str(ctx.task) if ctx.task is not None else "idle"
         wants["ASSIST_ACTIVE"] = active
+        wants["ASSIST_QUERY"] = "say_again" if ctx.asking else "none"
         posts: list[Posting] = []
         for var, value in wants.items():
             if self._posted.get(var) != value or (ctx.override and var in _OVERRIDE_VARS):
@@ -74,6 +83,22 @@ class Assistant:
                                wants["ASSIST_TASK"], active, tuple(ctx.events))  # type: ignore[arg-type]
         self.trace.append(out)
         return out
+
+    def _with_head_rate(self, inputs: AssistantInputs) -> AssistantInputs:
+        """The inputs with the diver's head rate (relative to his body, NED m/s) from
+        this fresh track's head and the last one's, when the tracker gave a head but no
+        rate (the guards look ahead with it: a diver rising upright swings his head
+        ~0.7 m in ~2 s)."""
+        d = inputs.diver
+        if d is None or d.head_ned is None or d.age_s > self.config.lost_after_s:
+            self._head = None
+            return inputs
+        arm = d.head_ned - d.position_ned
+        last, self._head = self._head, (inputs.t, arm)
+        if d.head_rate_ned is not None or last is None or inputs.t <= last[0]:
+            return inputs
+        rate = (arm - last[1]) / (inputs.t - last[0])
+        return replace(inputs, diver=replace(d, head_rate_ned=rate))
 
     def _trimmed(self, wants: dict[str, str | float], inputs: AssistantInputs
                  ) -> dict[str, str | float]:
@@ -118,9 +143,12 @@ class Assistant:
         heard = f"{c} ({signal.channel}, confidence {signal.confidence:.2f})"
         if signal.channel not in self.config.obey:
             ctx.event(f"ignored {heard}: this ROV obeys {', '.join(self.config.obey)} only")
-        elif signal.confidence < self.config.min_confidence:
+            return
+        if signal.confidence < self.config.min_confidence:
             ctx.event(f"ignored {heard}: below {self.config.min_confidence:g}")
-        elif c.name == "ok":
+            return
+        ctx.heard_t = ctx.t
+        if c.name == "ok":
             ctx.event(f"ok {heard}")
         elif c.name == "done":
             if ctx.task is not None:

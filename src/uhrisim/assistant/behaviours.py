@@ -47,6 +47,8 @@ class TreeContext:
     override: bool = False
     gripper_command: str | None = None
     events: list[str] = field(default_factory=list)
+    heard_t: float = -math.inf  # when it last took a command it obeys (s)
+    asking: bool = False  # this tick it shows the "say again?" cue
 
     @property
     def now(self) -> AssistantInputs:
@@ -414,3 +416,84 @@ class SpeedCeiling(Leaf):
         limit = cfg.near_speed if near else cfg.cruise_speed
         self.ctx.want("MAXSPEED_UPDATES", f"max_speed={limit:.2f}")
         return Status.SUCCESS
+
+
+class AskAgain(Leaf):
+    """The "say again?" cue: idle, with the diver hovering (below ``STILL_SPEED``) within
+    ``ask_range_m`` and 45° of its heading, and no command taken for ``ask_after_s``
+    (counted from when it was last busy or last asked), the ROV swings its lamps
+    ``wag_deg`` off him and back, twice (FACE; a flicker in his face), and says so
+    (event "say again? ..."). At most ``ask_max`` asks in a row without a command taken
+    while he hovers (he swims off: counted anew). RUNNING while it wags, else FAILURE
+    (the hold goes on)."""
+
+    STILL_SPEED = 0.1  # m/s
+    WAG_STEP_S = 1.5  # at most this long on each swing (s)
+
+    def __init__(self, name: str, ctx: TreeContext) -> None:
+        super().__init__(name, ctx)
+        self._quiet_since: float | None = None
+        self._last_tick = -math.inf
+        self._asked_t = -math.inf
+        self._asks = 0
+        self._swings: list[float] = []  # the headings still to turn to (deg)
+        self._swing_t = 0.0
+
+    def _waits(self) -> bool:
+        """He hovers within range, before the ROV."""
+        d, cfg = self.ctx.diver, self.ctx.config
+        if d is None or abs(d.speed) > self.STILL_SPEED:
+            return False
+        off = d.position_ned - self.ctx.rov
+        bearing = bearing_deg(self.ctx.rov, d.position_ned)
+        return (math.hypot(off[0], off[1]) <= cfg.ask_range_m
+                and abs(float(wrap_180(bearing - self.ctx.now.rov.heading_deg))) <= 45.0)
+
+    def update(self) -> Status:
+        ctx, cfg = self.ctx, self.ctx.config
+        if self._swings:
+            return self._wag()
+        busy = ctx.t - self._last_tick > 1.0  # not ticked: a task or a guard had the ROV
+        self._last_tick = ctx.t
+        if not self._waits():  # he swims off (or is out of range): asked anew next time
+            self._quiet_since, self._asks = None, 0
+            return Status.FAILURE
+        if self._quiet_since is None or busy:
+            self._quiet_since = ctx.t
+        self._quiet_since = max(self._quiet_since, ctx.heard_t)
+        if ctx.heard_t > self._asked_t:
+            self._asks = 0
+        if self._asks >= cfg.ask_max or ctx.t - self._quiet_since < cfg.ask_after_s:
+            return Status.FAILURE
+        d = ctx.diver
+        assert d is not None
+        facing = bearing_deg(ctx.rov, d.position_ned)
+        self._asks += 1
+        self._asked_t = ctx.t
+        self._swings = [facing + cfg.wag_deg, facing - cfg.wag_deg, facing + cfg.wag_deg,
+                        facing - cfg.wag_deg, facing]
+        self._swing_t = ctx.t
+        ctx.event(f"say again? (nothing read for {ctx.t - self._quiet_since:.0f} s, the "
+                  f"diver hovering {math.hypot(*(d.position_ned - ctx.rov)[:2]):.1f} m "
+                  f"ahead; ask {self._asks} of {cfg.ask_max})")
+        return self._wag()
+
+    def _wag(self) -> Status:
+        ctx = self.ctx
+        self._last_tick = ctx.t
+        error = abs(float(wrap_180(ctx.now.rov.heading_deg - self._swings[0])))
+        if error <= ctx.config.heading_tolerance_deg or ctx.t - self._swing_t > self.WAG_STEP_S:
+            self._swings.pop(0)
+            self._swing_t = ctx.t
+            if not self._swings:
+                self._quiet_since = ctx.t
+                return Status.FAILURE
+        ctx.asking = True
+        ctx.want("ASSIST_MODE", "FACE")
+        ctx.want("HEADING_UPDATES", f"heading={round(self._swings[0]) % 360}")
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status == Status.INVALID and self._swings:  # a guard or a task cut it short
+            self._swings = []
+            self._quiet_since = None

@@ -60,6 +60,11 @@ class AssistantConfig:
     redrive_m: float = 0.3  # holding a station: drive back when pushed off this far
     surface_depth_m: float = 0.5  # go up: the depth to rise to
     fetch_attempts: int = 3
+    ask_after_s: float = 15.0  # idle, the diver hovering within ask_range_m, nothing read
+    # for this long: ask him to say it again (the "say again?" cue, docs/hri.md)
+    ask_range_m: float = 4.0
+    ask_max: int = 3  # asks in a row without a signal read in between
+    wag_deg: float = 20.0  # the cue: the lamps swung off him this far and back, twice
     depth_trim_rate: float = 0.3  # holding a tool: depth trim per s per m of sag (1/s)
     depth_trim_max_m: float = 4.0  # ... at most this much shallower
     jaw_frd: tuple[float, float, float] = (0.25, 0.0, 0.14)  # the gripper's jaw centre
@@ -80,10 +85,10 @@ class AssistantConfig:
                 if isinstance(v, str) or not v or not set(v) <= set(CHANNELS):
                     raise ConfigError(f"must be a list of one or more of {', '.join(CHANNELS)}"
                                       f", got {v!r}", "assistant.obey")
-            elif f.name == "fetch_attempts":
+            elif f.name in ("fetch_attempts", "ask_max"):
                 if not (isinstance(v, int) and v >= 1):
                     raise ConfigError(f"must be an integer >= 1, got {v!r}",
-                                      "assistant.fetch_attempts")
+                                      f"assistant.{f.name}")
             elif isinstance(v, bool) or not isinstance(v, (int, float)) or not (
                     math.isfinite(v) and v > 0.0):
                 raise ConfigError(f"must be a finite number > 0, got {v!r}",

@@ -47,31 +47,59 @@ def separations(rov_position: NDArray[np.float64], diver: DiverTrack) -> tuple[f
 
 def guard_slack(rov_position: NDArray[np.float64], diver: DiverTrack,
                 config: AssistantConfig) -> float:
-    """How far (m) the ROV's centre is beyond the nearer of its two guards (< 0: inside)."""
+    """How far (m) the ROV's centre is beyond the nearer of its two guards (< 0: inside),
+    for the diver as he is and as he would be upright: a diver rises from swimming or
+    working (to signal, to wait, to take a tool) faster than the ROV gets out of his way
+    — his head swings ~0.7 m in 2–3 s, the ROV from rest backs ~0.2 m in 2 s
+    (docs/hri.md, "The guards") — so the guards keep the ROV clear of both."""
+    return min(_slack(rov_position, d, config) for d in (diver, diver.upright()))
+
+
+def _slack(rov_position: NDArray[np.float64], diver: DiverTrack,
+           config: AssistantConfig) -> float:
     body, head = separations(rov_position, diver)
     return min(body - config.body_guard_m, head - config.head_guard_m)
 
 
 def ahead_of(diver: DiverTrack, seconds: float) -> DiverTrack:
-    """Where the diver will be in ``seconds`` going on at his speed along his heading
-    (body, head and hand moved together; NED m)."""
+    """Where the diver will be in ``seconds`` going on as he goes (NED m): body, head and
+    hand moved together at his speed along his heading, and the head swung on at its
+    rate about the body centre (``head_rate_ned``; kept at its distance from it: the
+    head of a diver rising upright or bending down moves on a circle round his hips)."""
     shift = diver.speed * seconds * diver.forward
-    return replace(diver, position_ned=diver.position_ned + shift, head_ned=diver.head + shift,
+    head = diver.head + shift
+    if diver.head_rate_ned is not None:
+        arm = diver.head - diver.position_ned
+        swung = arm + seconds * diver.head_rate_ned
+        length = float(np.linalg.norm(swung))
+        if length > 0.0:
+            head = diver.position_ned + shift + swung * (float(np.linalg.norm(arm)) / length)
+    return replace(diver, position_ned=diver.position_ned + shift, head_ned=head,
                    hand_ned=diver.hand + shift)
 
 
 def guard_slack_ahead(rov_position: NDArray[np.float64], diver: DiverTrack,
                       config: AssistantConfig) -> float:
-    """The smaller :func:`guard_slack` of now and of ``guard_lookahead_s`` on, the diver
-    going on as he goes (the ROV where it is): a diver who swims at the ROV sets its
-    guard off before he is inside it."""
-    return min(guard_slack(rov_position, diver, config),
-               guard_slack(rov_position, ahead_of(diver, config.guard_lookahead_s), config))
+    """The smallest :func:`guard_slack` of now, of half ``guard_lookahead_s`` on and of
+    ``guard_lookahead_s`` on, the diver going on as he goes (:func:`ahead_of`; the ROV
+    where it is): a diver who swims at the ROV, or whose head swings towards it, sets
+    its guard off before he is inside it."""
+    return min(guard_slack(rov_position, ahead_of(diver, s), config)
+               for s in (0.0, 0.5 * config.guard_lookahead_s, config.guard_lookahead_s))
 
 
 def closing_speed(rov_position: NDArray[np.float64], diver: DiverTrack) -> float:
-    """The diver's speed towards the ROV's centre (m/s, > 0 closing; horizontal)."""
-    return float(diver.speed * diver.forward @ horizontal(rov_position - diver.position_ned))
+    """How fast the diver comes at the ROV's centre (m/s, > 0 closing): the larger of his
+    body's horizontal speed towards it and his head's (the body's motion plus the head's
+    own, ``head_rate_ned``)."""
+    body = float(diver.speed * diver.forward @ horizontal(rov_position - diver.position_ned))
+    if diver.head_rate_ned is None:
+        return body
+    towards = rov_position - diver.head
+    n = float(np.linalg.norm(towards))
+    head = 0.0 if n == 0.0 else float(
+        (diver.speed * diver.forward + diver.head_rate_ned) @ towards) / n
+    return max(body, head)
 
 
 def jaw_offset(heading_deg: float, config: AssistantConfig) -> NDArray[np.float64]:

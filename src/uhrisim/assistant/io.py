@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -53,6 +53,8 @@ HELM_VARS: dict[str, str] = {
     "GRIPPER_CMD": "the gripper command: open or close",
     "ASSIST_TASK": "the task in hand (a command, or idle)",
     "ASSIST_ACTIVE": "the tree's active path, e.g. 'assistant/guards/too close/back off'",
+    "ASSIST_QUERY": "say_again while the ROV shows its 'say again?' cue (its lamps swung "
+                    "off the diver and back), else none",
 }
 
 _UP = np.array([0.0, 0.0, -1.0])
@@ -82,10 +84,12 @@ class RovNav:
 class DiverTrack:
     """The diver as the ROV knows it: body centre (the pelvis, NED m), compass heading
     (deg), horizontal speed (m/s), the track's age (s since its last update) and, when
-    known (the articulated diver's joints, in the simulator), head and working hand.
-    Without a head the diver is taken as upright, the head ``HEAD_ABOVE_M`` above the
-    body centre; without a hand, the hand held out in front (``HAND_AHEAD_M`` ahead,
-    ``HAND_ABOVE_M`` up)."""
+    known (the articulated diver's joints, in the simulator), head and working hand, and
+    the head's velocity relative to the body centre (NED m/s: he rises upright, bends
+    to his work; :class:`~uhrisim.assistant.Assistant` fills it in from successive
+    tracks when the tracker does not). Without a head the diver is taken as upright,
+    the head ``HEAD_ABOVE_M`` above the body centre; without a hand, the hand held out
+    in front (``HAND_AHEAD_M`` ahead, ``HAND_ABOVE_M`` up)."""
 
     position_ned: NDArray[np.float64]
     heading_deg: float
@@ -93,6 +97,7 @@ class DiverTrack:
     age_s: float = 0.0
     head_ned: NDArray[np.float64] | None = None
     hand_ned: NDArray[np.float64] | None = None
+    head_rate_ned: NDArray[np.float64] | None = None
 
     #: assumed body geometry (m) of a 1.75 m diver (Winter's segment ratios, docs/hri.md)
     HEAD_ABOVE_M = 0.71
@@ -102,7 +107,7 @@ class DiverTrack:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position_ned", _point(self.position_ned, "DiverTrack.position"))
-        for name in ("head_ned", "hand_ned"):
+        for name in ("head_ned", "hand_ned", "head_rate_ned"):
             if getattr(self, name) is not None:
                 object.__setattr__(self, name, _point(getattr(self, name), f"DiverTrack.{name}"))
 
@@ -126,6 +131,11 @@ class DiverTrack:
         if length == 0.0:
             return head
         return self.position_ned + axis * min(1.0, self.NECK_ABOVE_M / self.HEAD_ABOVE_M)
+
+    def upright(self) -> DiverTrack:
+        """The diver as he would be risen upright where he is (head above the body
+        centre, DiverTrack's geometry; hand unchanged)."""
+        return replace(self, head_ned=None, head_rate_ned=None)
 
     @property
     def hand(self) -> NDArray[np.float64]:

@@ -14,7 +14,8 @@ one; missed signals have none.
 
 **Assists.** From the assistant's trace: handovers ``attempted`` (entries into "creep to
 his hand") and ``succeeded`` ("handed over" events), tasks ``completed`` ("task ... done"
-events) and ``aborted``.
+events) and ``aborted``, and ``asked_again``: how often the idle ROV showed its "say
+again?" cue ("say again?" events).
 """
 
 from __future__ import annotations
@@ -79,4 +80,5 @@ def signal_metrics(issued: Sequence[IssuedSignal], said: Sequence[RecognizedSign
         "tasks": {"completed": sum(e.startswith("task ") and e.endswith(" done")
                                    for e in events),
                   "aborted": sum(e.startswith("task ") and " aborted" in e for e in events)},
+        "asked_again": sum(e.startswith("say again?") for e in events),
     }

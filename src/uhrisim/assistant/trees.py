@@ -20,7 +20,10 @@
             │               hold still until he grips; offer again on a timeout)
             ├── light_here  stand off from the work, above it, facing it, and hold
             ├── go_up       rise where it is to surface_depth and hold
-            └── idle        hold where it is, facing the diver
+            └── no task     (selector)
+                ├── say again?  he hovers in front and nothing was read for ask_after_s:
+                │               swing the lamps off him and back, twice (ask_max in a row)
+                └── idle        hold where it is, facing the diver
 
 The targets near the diver are kept a guard + ``clearance_m`` away from his body and
 head; a task whose subtree fails ends (an event says so) and the ROV holds.
@@ -38,6 +41,7 @@ from py_trees.decorators import Retry
 
 from uhrisim.assistant.behaviours import (
     Approach,
+    AskAgain,
     BackOff,
     Check,
     Do,
@@ -338,7 +342,8 @@ def build_tree(ctx: TreeContext) -> tuple[py_trees.behaviour.Behaviour, Selector
         _task(ctx, "bring_tool", bring),
         _task(ctx, "light_here", light),
         _task(ctx, "go_up", up),
-        HoldHere("idle", ctx)])
+        Selector("no task", memory=False, children=[AskAgain("say again?", ctx),
+                                                    HoldHere("idle", ctx)])])
     decide = Selector("decide", memory=False, children=[lost, given, too_close, closing,
                                                         tasks])
     root = Sequence("assistant", memory=False, children=[SpeedCeiling("speed ceiling", ctx),

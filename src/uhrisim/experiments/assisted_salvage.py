@@ -2,15 +2,15 @@
 salvage, measured").
 
 Runs ``salvage_team_diver_alone.yaml`` and ``salvage_team_assisted.yaml`` (seeds 1–3 in
-clear water, Jerlov I) and the assisted one in coastal 9C water (its camera's water
+clear water, Jerlov I) and the assisted one in coastal 9C water (seeds 1–2; its camera's water
 replaced, nothing else), each until 20 s after the diver's orders end (done, or one
 failed: the rest are not done), and tabulates what the
 issue asks of them: the diver's orders done, the task's completion time (the end of his
 last order), collisions, the ROV's closest approach to his body and head against its
-guards, and the signals per channel (issued / recognized / missed / false) with the
-hand-overs.
+guards, the signals per channel (issued / recognized / missed / false) with the
+hand-overs, and how often the ROV asked "say again?" and the diver repeated a signal.
 
-    python -m uhrisim.experiments.assisted_salvage OUT [--cases alone I:1 I:2 I:3 9C:1]
+    python -m uhrisim.experiments.assisted_salvage OUT [--cases alone I:1 I:2 I:3 9C:1 9C:2]
                                                        [--no-sonar]
 
 writes ``OUT/<case>.json`` (the assistant's metrics.json section, or the diver's steps
@@ -32,7 +32,7 @@ from uhrisim.scenario.load import load_scenario
 from uhrisim.scenario.shipped import shipped_scenario
 from uhrisim.sim.simulation import Simulation
 
-CASES = ("alone", "I:1", "I:2", "I:3", "9C:1")
+CASES = ("alone", "I:1", "I:2", "I:3", "9C:1", "9C:2")
 CLEAR_WATER = "water: {jerlov: I}"
 #: a run goes on this long (s) after the diver's last order ends: the ROV's last moves
 AFTER_THE_END_S = 20.0
@@ -94,8 +94,8 @@ def _read(metrics: dict[str, Any], channel: str) -> str:
 def table(results: list[dict[str, Any]]) -> str:
     """The cases as docs/hri.md's table rows."""
     rows = ["| case | orders done | task completion | collisions | closest body / head "
-            "(guards) | markers read | gestures read | hand-overs |",
-            "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+            "(guards) | markers read | gestures read | hand-overs | asked again / repeats |",
+            "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in results:
         a = next(iter(r.get("assistant", {}).values()), None)
         o = r["orders"]
@@ -103,13 +103,14 @@ def table(results: list[dict[str, Any]]) -> str:
         time_s = "—" if r["task_completion_s"] is None else f"{r['task_completion_s']:.1f} s"
         if a is None:
             rows.append(f"| {r['case']} | {done} | {time_s} | {r['collisions']} | — | — | — "
-                        "| — |")
+                        "| — | — |")
             continue
         sep, h = a["min_separation_m"], a["handovers"]
         rows.append(f"| {r['case']} | {done} | {time_s} | {r['collisions']} | "
                     f"{sep['body']:.2f} / {sep['head']:.2f} m ({sep['body_guard']} / "
                     f"{sep['head_guard']}) | {_read(a, 'marker')} | {_read(a, 'gesture')} | "
-                    f"{h['succeeded']}/{h['attempted']} |")
+                    f"{h['succeeded']}/{h['attempted']} | {a['asked_again']} / "
+                    f"{a['signals_repeated']} |")
     return "\n".join(rows)
 
 

@@ -26,7 +26,8 @@ section's file:line. Each tick it does, in the loop's order:
   since its last tick, the tools' grasp points and the work sites — and its outputs go
   where an outside planner's would: the postings to the ROV's community (the helm's
   mail, the MOOS and ROS 2 bridges: ``ASSIST_*``, the updates, ``MOOS_MANUAL_OVERRIDE``
-  and ``DESIRED_*`` while it backs off), ``GRIPPER_CMD`` to the gripper's ``GRIPPER``
+  and ``DESIRED_*`` while it backs off, posted again after the helm's tick:
+  :meth:`AssistanceStage.after_helm`), ``GRIPPER_CMD`` to the gripper's ``GRIPPER``
   (``give`` when the diver holds the object too), its events to the simulation's event
   log (``assistant``).
 
@@ -89,6 +90,11 @@ SLATE_FACING_DEG = 20.0
 SLATE_UPRIGHT_DEG = 15.0
 #: where a slate that is not held up is kept: under the sea floor (NED, m)
 SLATE_AWAY_NED = np.array([0.0, 0.0, 1.0e4])
+#: a waiting diver sees the ROV's "say again?" cue (its lamps swung off him and back)
+#: within this (m) ...
+CUE_SEEN_M = 4.0
+#: ... and repeats his last signal at most this many times in one wait
+REPEATS_MAX = 2
 
 
 @dataclass
@@ -105,6 +111,9 @@ class SignallingDiver:
     slate_due: tuple[float, Command] | None = None
     #: he waits for the ROV to hand him a tool
     receiving: bool = False
+    #: his signals repeated on the ROV's "say again?": (the wait's step index, how many)
+    repeats: tuple[int, int] = (-1, 0)
+    repeated: int = 0  # in all
 
     def signalling_pose(self, t: float) -> dict[str, float] | None:
         """His joint goals while he signals, gets ready to show the slate or waits for a
@@ -354,9 +363,52 @@ class AssistanceStage:
             community.post("GRIPPER", command, t, "assistant")
         for event in out.events:
             self.record("assistant", f"{v.agent.name}: {event}")
+            if event.startswith("say again?"):
+                self._say_again(v, t)
         truth = self._truth(v.diver)
         body, head = separations(nav.position_ned, truth)
         v.min_body_m, v.min_head_m = min(v.min_body_m, body), min(v.min_head_m, head)
+
+    def _say_again(self, v: AssistedVehicle, t: float) -> None:
+        """The diver's side of the ROV's "say again?": waiting for a tool from the ROV
+        (his order a ``wait_until`` it is in his hand) and within ``CUE_SEEN_M`` of it,
+        he makes his last signal again (its channel: he turns to the ROV, rises, shows
+        the slate or makes the gesture), at most ``REPEATS_MAX`` times in one wait; each
+        repeat is a signal issued (the metrics count it)."""
+        diver = v.diver
+        executor = self.team.divers[diver.agent.name].executor  # type: ignore[union-attr]
+        steps = executor.steps
+        gap = diver.agent.nav().position_ned - v.agent.nav().position_ned
+        if not (diver.receiving and steps and float(np.linalg.norm(gap)) <= CUE_SEEN_M):
+            return
+        wait = len(steps) - 1
+        done = diver.repeats[1] if diver.repeats[0] == wait else 0
+        last = next((s.order for s in reversed(steps) if isinstance(s.order, od.Signal)
+                     and s.order.channel is not None), None)
+        if last is None or done >= REPEATS_MAX or diver.slate_due is not None or (
+                diver.performer.performing(t) is not None):
+            return
+        command = Command.parse(last.name)
+        if last.channel == "marker":
+            diver.slate_due = (t, command)
+        else:
+            diver.performer.signal(t, command, last.channel)  # type: ignore[arg-type]
+        diver.repeats, diver.repeated = (wait, done + 1), diver.repeated + 1
+        self.record("teamwork", f"{diver.agent.name} repeats {command} ({last.channel}) on "
+                    f"{v.agent.name}'s 'say again?'")
+
+    def after_helm(self, agent: Agent, t: float) -> None:
+        """After ``agent``'s helm has run this tick: while its assistant overrides the
+        helm, its DESIRED_* again. A helm that is just parked posts DESIRED_* = 0 once
+        (pHelmIvP's all-stop): heading north and depth 0 for a tick, which turned the
+        backing ROV 50° off the diver; a pilot app posting after the helm wins, as the
+        assistant's postings do here."""
+        for v in self.vehicles:
+            if v.agent is agent and v.assistant.trace:
+                out = v.assistant.trace[-1]
+                for var, value in out.posts:
+                    if var.startswith("DESIRED_"):
+                        agent.community.post(var, value, t, "assistant")
 
     def _truth(self, diver: SignallingDiver) -> DiverTrack:
         """The diver as the simulation has him: body centre, head, right hand."""
@@ -499,6 +551,7 @@ class AssistanceStage:
                                      "body_guard": v.assistant.config.body_guard_m,
                                      "head_guard": v.assistant.config.head_guard_m},
                 "collisions": collisions,
+                "signals_repeated": v.diver.repeated,
             }
             out[v.agent.name] = metrics
         return {"assistant": out}

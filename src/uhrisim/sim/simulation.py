@@ -258,6 +258,8 @@ class Simulation:
                 if record is not None:
                     agent.last_helm = record
                     helm[agent.name] = record
+                if self.assistance is not None:
+                    self.assistance.after_helm(agent, t)
             if tick % agent.control_period == 0:
                 self._control(agent)
         if not (build_frame or self.hooks):  # nobody reads the posts: drop them
