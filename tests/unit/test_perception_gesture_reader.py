@@ -84,6 +84,8 @@ def test_the_shipped_file_round_trips_and_says_where_it_came_from():
     assert "uhrisim.experiments.gesture_classifier" in SHIPPED.provenance
     again = GestureClassifier.from_dict(json.loads(json.dumps(SHIPPED.to_dict())))
     assert again.classes == SHIPPED.classes
+    assert np.allclose(again.hidden_weights, SHIPPED.hidden_weights)
+    assert np.allclose(again.hidden_bias, SHIPPED.hidden_bias)
     assert np.allclose(again.weights, SHIPPED.weights) and np.allclose(again.bias, SHIPPED.bias)
     assert np.allclose(again.center, SHIPPED.center) and np.allclose(again.spread, SHIPPED.spread)
 
