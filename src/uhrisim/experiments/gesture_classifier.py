@@ -290,7 +290,7 @@ def fit_network(features: NDArray[np.float64], labels: NDArray[np.int64], n_clas
     a network of one ``tanh`` hidden layer and a softmax fitted to standardised
     ``features`` and ``labels`` (cross-entropy, every class weighted equally, an L2
     penalty on the weights; L-BFGS from weights drawn with ``seed``: deterministic)."""
-    n, m = features.shape
+    m = features.shape[1]
     onehot = np.eye(n_classes)[labels]
     weight = 1.0 / np.bincount(labels, minlength=n_classes)[labels]
     weight /= weight.sum()
