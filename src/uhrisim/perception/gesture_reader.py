@@ -27,11 +27,12 @@ the frame-to-frame change of the grid and the reaches — per second back from t
 (when the big moves happened: ``bring_tool``'s count is the time since the other arm
 dropped).
 
-**Classifier** (:class:`GestureClassifier`): multinomial logistic regression over the
-standardised window features, one class per gesture (``bring_tool`` once per tool
-number: ``bring_tool:2`` is the hammer's) and ``none`` (the diver at rest, or a gesture
-under way); the confidence is the class's probability. Parameters fitted on pictures the
-simulator renders and labels (``uhrisim.experiments.gesture_classifier``), shipped in
+**Classifier** (:class:`GestureClassifier`): a network of one hidden layer of ``tanh``
+units and a softmax over the standardised window features, one class per gesture
+(``bring_tool`` once per tool number: ``bring_tool:2`` is the hammer's) and ``none`` (the
+diver at rest, or a gesture under way); the confidence is the class's probability.
+Parameters fitted on pictures the simulator renders and labels
+(``uhrisim.experiments.gesture_classifier``), shipped in
 ``perception/data/gesture_classifier.json`` with their provenance.
 
 **Streaming** (:class:`GestureReader`): fed every camera frame; every ``hop_s`` it
@@ -199,13 +200,15 @@ def class_command(name: str, gestures: GestureSet) -> Command | None:
 
 @dataclass(frozen=True)
 class GestureClassifier:
-    """Multinomial logistic regression over standardised :func:`window_features`
-    (module docstring)."""
+    """A small neural network over standardised :func:`window_features` (module
+    docstring): one hidden layer of ``tanh`` units, then a softmax over the classes."""
 
     classes: tuple[str, ...]
     center: NDArray[np.float64]  # (features,): subtracted from a window's features
     spread: NDArray[np.float64]  # (features,): then divided by this
-    weights: NDArray[np.float64]  # (classes, features)
+    hidden_weights: NDArray[np.float64]  # (hidden, features)
+    hidden_bias: NDArray[np.float64]  # (hidden,)
+    weights: NDArray[np.float64]  # (classes, hidden)
     bias: NDArray[np.float64]  # (classes,)
     window_s: float
     rate_hz: float
@@ -213,10 +216,11 @@ class GestureClassifier:
 
     def __post_init__(self) -> None:
         n, k = WINDOW_FEATURES, len(self.classes)
-        for name, shape in (("center", (n,)), ("spread", (n,)), ("weights", (k, n)),
-                            ("bias", (k,))):
+        h = np.shape(self.hidden_bias)[0] if np.ndim(self.hidden_bias) == 1 else -1
+        for name, shape in (("center", (n,)), ("spread", (n,)), ("hidden_weights", (h, n)),
+                            ("hidden_bias", (h,)), ("weights", (k, h)), ("bias", (k,))):
             array = np.asarray(getattr(self, name), float)
-            if array.shape != shape or not np.all(np.isfinite(array)):
+            if h < 1 or array.shape != shape or not np.all(np.isfinite(array)):
                 raise ConfigError(f"must be {' × '.join(map(str, shape))} finite numbers",
                                   f"GestureClassifier.{name}")
             object.__setattr__(self, name, array)
@@ -231,8 +235,8 @@ class GestureClassifier:
 
     def log_posteriors(self, features: NDArray[np.float64]) -> NDArray[np.float64]:
         """Normalised log probabilities of the classes for one feature vector."""
-        logits = self.weights @ ((np.asarray(features, float) - self.center) / self.spread)
-        logits += self.bias
+        x = (np.asarray(features, float) - self.center) / self.spread
+        logits = self.weights @ np.tanh(self.hidden_weights @ x + self.hidden_bias) + self.bias
         return logits - (logits.max() + math.log(np.exp(logits - logits.max()).sum()))
 
     def classify(self, features: NDArray[np.float64]) -> tuple[str, float]:
@@ -249,10 +253,12 @@ class GestureClassifier:
         def numbers(a: NDArray[np.float64]) -> list[float]:
             return [float(f"{v:.6g}") for v in a]
 
-        return {"method": "multinomial logistic regression over standardised window "
-                          "features (perception/gesture_reader.py)",
+        return {"method": "one hidden layer of tanh units and a softmax over standardised "
+                          "window features (perception/gesture_reader.py)",
                 "window_s": self.window_s, "rate_hz": self.rate_hz,
                 "center": numbers(self.center), "spread": numbers(self.spread),
+                "hidden": [{"bias": float(f"{b:.6g}"), "weights": numbers(w)}
+                           for b, w in zip(self.hidden_bias, self.hidden_weights, strict=True)],
                 "classes": {c: {"bias": float(f"{b:.6g}"), "weights": numbers(w)}
                             for c, b, w in zip(self.classes, self.bias, self.weights,
                                                strict=True)},
@@ -263,6 +269,8 @@ class GestureClassifier:
         try:
             classes = tuple(data["classes"])
             return cls(classes, np.array(data["center"]), np.array(data["spread"]),
+                       np.array([unit["weights"] for unit in data["hidden"]]),
+                       np.array([unit["bias"] for unit in data["hidden"]]),
                        np.array([data["classes"][c]["weights"] for c in classes]),
                        np.array([data["classes"][c]["bias"] for c in classes]),
                        float(data["window_s"]), float(data["rate_hz"]),
