@@ -76,8 +76,7 @@ from uhrisim.vehicles import MODELS
 from uhrisim.world.scene import Scene
 
 
-#: Rows of one share of the compiled step when threads share it (``threads > 1``).
-STEP_CHUNK = 64
+NO_ROWS = np.zeros(0, np.int64)
 
 
 class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
@@ -89,6 +88,8 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
     are the same bit for bit; one by default)."""
 
     metadata: ClassVar[dict[str, Any]] = {"autoreset_mode": AutoresetMode.NEXT_STEP}
+    #: Rows of one share of the compiled step when threads share it (``threads > 1``).
+    step_chunk: int = 64
     #: The single env's observation this class makes (a subclass makes another).
     OBSERVATION: ClassVar[str] = "state"
 
@@ -142,6 +143,7 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         self._allocate(num_envs)
         self._rngs = [seeding.np_random(None)[0] for _ in range(num_envs)]
         self._floor_cells = floor_cells(self.floor.seafloor)
+        self._course_values = np.ascontiguousarray(self.domain.axis("course").values, float)
         self._decisions: dict[tuple, float] = {}
         #: The compiled step (:mod:`uhrisim.envs.vector_ticks`; numba): the ticks and
         #: measures (geometry, reward terms, state observation) of a share of the rows, or
@@ -239,9 +241,8 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         actions = np.minimum(np.maximum(actions, space.low), space.high)  # np.clip's values
         self._act(actions, live)
         resetting = starting.any()
-        if resetting:
-            self._begin(np.flatnonzero(starting))
-        collided = self._run(self.ticks_per_step, np.ones(self.num_envs, bool))
+        collided = self._run(self.ticks_per_step, np.ones(self.num_envs, bool),
+                             np.flatnonzero(starting))
         geometry, terms, lost = self._measure(collided)
         reward = sum(terms.values())
         terminated = (collided | lost) & live
@@ -360,12 +361,14 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         desired = np.stack([heading, actions[:, 1], depth], axis=-1)
         self.rov_desired[live] = desired[live]
 
-    def _run(self, ticks: int, mask: np.ndarray) -> np.ndarray:
-        """Advance the sub-environments of ``mask`` by ``ticks`` physics steps; which of
-        them had the ROV touch something."""
+    def _run(self, ticks: int, mask: np.ndarray, starting: np.ndarray = NO_ROWS) -> np.ndarray:
+        """Advance the sub-environments of ``mask`` by ``ticks`` physics steps, those of
+        ``starting`` (in ``mask``) in a new episode (:meth:`_begin`); which of them had the
+        ROV touch something."""
         collided = np.zeros(self.num_envs, bool)
         if self.step_kernel is not None:
-            return self._run_compiled(ticks, mask, collided)
+            return self._run_compiled(ticks, mask, starting, collided)
+        self._begin(starting)
         rows: slice | np.ndarray = slice(None) if mask.all() else np.flatnonzero(mask)
         if not mask.any():
             return collided
@@ -398,7 +401,8 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
             self._control(mask)
         return collided
 
-    def _run_compiled(self, ticks: int, mask: np.ndarray, collided: np.ndarray) -> np.ndarray:
+    def _run_compiled(self, ticks: int, mask: np.ndarray, starting: np.ndarray,
+                      collided: np.ndarray) -> np.ndarray:
         """:meth:`_run` by the compiled step, which also measures every row (those outside
         ``mask`` without a tick) for :meth:`_measure`; the narrow phase of the moves it
         leaves pending (near the floor or a piling) worked out here, between calls."""
@@ -407,14 +411,19 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         self._terms = np.empty((len(REWARD_TERMS), n))
         self._state_obs = np.empty((n, STATE_SIZE), np.float32)  # a new array each step
         self._pending[:] = False
-        arguments = self._step_arguments(None, np.where(mask, ticks, 0), collided)[1:]
-        rows = np.arange(n)
-        while rows.size:
-            self._share(rows, arguments)
-            rows = np.flatnonzero(self._pending)
+        left = np.where(mask, ticks, 0)
+        going = np.ones(n, bool)
+        going[starting] = False
+        self._share(np.flatnonzero(going), left, collided, starting)
+        rows = starting  # begun by _share: their arrays as _begin left them
+        while True:
             if rows.size:
-                self._free[rows] = self._scene_clear(rows, self.rov[rows, :3],
-                                                     self._rov_next[rows, :3])
+                self.step_kernel(*self._step_arguments(rows, left, collided))
+            rows = np.flatnonzero(self._pending)
+            if not rows.size:
+                break
+            self._free[rows] = self._scene_clear(rows, self.rov[rows, :3],
+                                                 self._rov_next[rows, :3])
         t = float(self.ticks.max() * self.dt)
         finite_or_raise(self.diver, self.diver_plant.name, t)
         finite_or_raise(self.rov, self.rov_plant.name, t)
@@ -430,24 +439,36 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
                 self.diver_desired, self.vertices, self.vertex_count, self.direction,
                 self.target_vertex, self.closest, self.capture_radius, self.slip_radius,
                 self.loiter_speed, self.hold_depth, self.pilings, self.piling_top,
-                *self._floor_cells, self._measured, self._terms, self._state_obs)
+                *self._floor_cells, self._course_values, self._measured, self._terms,
+                self._state_obs)
 
-    def _share(self, rows: np.ndarray, arguments: tuple) -> None:
-        """The compiled step of ``rows``; with threads, in chunks of :data:`STEP_CHUNK`
-        rows that this thread and the helpers take one after another until none is left
-        (a thread slowed by other work takes fewer). Each chunk writes its rows alone."""
-        if self._step_helpers is None or rows.size < 2 * STEP_CHUNK:
+    def _share(self, rows: np.ndarray, ticks_left: np.ndarray, collided: np.ndarray,
+               starting: np.ndarray) -> None:
+        """The compiled step of ``rows`` while this thread begins the episodes of
+        ``starting`` (:meth:`_begin`; other rows). With threads, the rows go in chunks of
+        :attr:`step_chunk` that the helpers and this thread take in turn (a thread slowed
+        by other work takes fewer); while this thread begins episodes (Python: it holds the
+        GIL), each helper has a first chunk large enough not to need it. Each chunk writes
+        its rows alone."""
+        arguments = self._step_arguments(None, ticks_left, collided)[1:]
+        if self._step_helpers is None or rows.size < 2 * self.step_chunk:
+            self._begin(starting)
             self.step_kernel(rows, *arguments)
             return
-        chunks = iter(np.array_split(rows, -(-rows.size // STEP_CHUNK)))
+        helpers = self.threads - 1
+        first = rows.size // 2 if starting.size else 0  # the helpers' while we begin
+        shares = [*np.array_split(rows[:first], helpers)] if first else []
+        shares += np.array_split(rows[first:], -(-(rows.size - first) // self.step_chunk))
+        chunks = iter(shares)
 
         def work() -> None:
             for chunk in chunks:  # a list iterator: each chunk to one thread
                 self.step_kernel(chunk, *arguments)
 
-        helpers = [self._step_helpers.submit(work) for _ in range(self.threads - 1)]
+        running = [self._step_helpers.submit(work) for _ in range(helpers)]
+        self._begin(starting)
         work()
-        for helper in helpers:
+        for helper in running:
             helper.result()
 
     def _moved(self, rows: slice | np.ndarray) -> None:

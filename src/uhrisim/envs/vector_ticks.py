@@ -71,7 +71,6 @@ class StepConstants(NamedTuple):
     course_low: float        # the helm's course grid (deg)
     course_delta: float
     course_points: int
-    courses: tuple           # the course grid's values (deg)
     contact: float           # ROV-diver contact distance (m)
     margin: float            # broad phase reach beyond the ROV's centre (m)
     shallowest_floor: float  # m
@@ -98,7 +97,7 @@ def compiled_step(env: Any, arguments: tuple) -> Callable[..., None] | None:
         env.dt / substeps, record(env.diver_plant.params), record(env.rov_control.gains),
         record(env.diver_control.gains), env.dt, env.pilot_period, env.rov_control_period,
         env.diver_control_period, float(course.low), float(course.delta), int(course.npts),
-        tuple(map(float, course.values)), float(env.contact_distance),
+        float(env.contact_distance),
         float(env.rov_radius) + 0.5, float(env.shallowest_floor), float(trail_range),
         math.radians(trail_angle), record(env.weights), tuple(map(float, space.low)),
         tuple(map(float, space.high)))
@@ -141,7 +140,7 @@ def _near(k: StepConstants, i: int, x: float, y: float, z: float, pilings: Any,
 
 def _pilot(k: StepConstants, i: int, diver: Any, diver_desired: Any, vertices: Any,
            vertex_count: Any, direction: Any, target_vertex: Any, closest: Any, capture: Any,
-           slip: Any, loiter_speed: Any, hold_depth: Any) -> None:
+           slip: Any, loiter_speed: Any, hold_depth: Any, courses: Any) -> None:
     """``TrailDiverVectorEnv._pilot`` on one row that is due."""
     hn, he = diver[i, 0], diver[i, 1]
     v = target_vertex[i]
@@ -156,7 +155,7 @@ def _pilot(k: StepConstants, i: int, diver: Any, diver_desired: Any, vertices: A
         closest[i] = math.inf if fresh <= capture[i] else fresh
     bearing = math.degrees(math.atan2(vertices[i, v, 1] - he, vertices[i, v, 0] - hn)) % 360.0
     nearest = round((bearing - k.course_low) / k.course_delta) % k.course_points  # half even
-    diver_desired[i, 0] = k.courses[nearest]
+    diver_desired[i, 0] = courses[nearest]
     diver_desired[i, 1] = loiter_speed[i]
     diver_desired[i, 2] = hold_depth[i]
 
@@ -186,8 +185,8 @@ def _step(k: StepConstants, rows: Any, ticks_left: Any, pending: Any, free: Any,
           diver_inputs: Any, diver_desired: Any, vertices: Any, vertex_count: Any,
           direction: Any, target_vertex: Any, closest: Any, capture: Any, slip: Any,
           loiter_speed: Any, hold_depth: Any, pilings: Any, piling_top: Any,
-          floor_north: Any, floor_east: Any, floor_shallowest: Any, geometry: Any,
-          terms: Any, obs: Any) -> None:
+          floor_north: Any, floor_east: Any, floor_shallowest: Any, courses: Any,
+          geometry: Any, terms: Any, obs: Any) -> None:
     """Run ``ticks_left[i]`` ticks of each row ``i`` of ``rows``, then measure it
     (:func:`_measure`). A row whose move ends near the floor or a piling stops with
     ``pending[i]`` set (its moves in ``diver_next``, ``rov_next``, ``diver_hit``),
@@ -199,7 +198,7 @@ def _step(k: StepConstants, rows: Any, ticks_left: Any, pending: Any, free: Any,
                   ticks, rov, rov_inputs, rov_desired, rov_hold, held, diver, diver_inputs,
                   diver_desired, vertices, vertex_count, direction, target_vertex, closest,
                   capture, slip, loiter_speed, hold_depth, pilings, piling_top, floor_north,
-                  floor_east, floor_shallowest):
+                  floor_east, floor_shallowest, courses):
             _measure(k, ops, i, rov, diver, rov_inputs, diver_inputs, collided, geometry, terms,
                      obs)
 
@@ -210,7 +209,7 @@ def _ticks(k: StepConstants, ops: Any, i: int, ticks_left: Any, pending: Any, fr
            diver_inputs: Any, diver_desired: Any, vertices: Any, vertex_count: Any,
            direction: Any, target_vertex: Any, closest: Any, capture: Any, slip: Any,
            loiter_speed: Any, hold_depth: Any, pilings: Any, piling_top: Any,
-           floor_north: Any, floor_east: Any, floor_shallowest: Any) -> bool:
+           floor_north: Any, floor_east: Any, floor_shallowest: Any, courses: Any) -> bool:
     """Row ``i``'s ticks (:func:`_step`); False when it stops pending."""
     while ticks_left[i] > 0:
         if pending[i]:
@@ -266,7 +265,7 @@ def _ticks(k: StepConstants, ops: Any, i: int, ticks_left: Any, pending: Any, fr
         ticks_left[i] -= 1
         if ticks[i] % k.pilot_period == 0:
             _pilot(k, i, diver, diver_desired, vertices, vertex_count, direction,
-                   target_vertex, closest, capture, slip, loiter_speed, hold_depth)
+                   target_vertex, closest, capture, slip, loiter_speed, hold_depth, courses)
         _control(k, ops, i, ticks, rov, rov_inputs, rov_desired, rov_hold, held, diver,
                  diver_inputs, diver_desired)
     return True
