@@ -75,7 +75,7 @@ from uhrisim.scenario.schema import CylinderObject, Pose
 from uhrisim.vehicles import MODELS
 from uhrisim.world.scene import Scene
 
-
+#: No sub-environments (row indices).
 NO_ROWS = np.zeros(0, np.int64)
 
 

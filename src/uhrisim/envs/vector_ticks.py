@@ -191,84 +191,71 @@ def _step(k: StepConstants, rows: Any, ticks_left: Any, pending: Any, free: Any,
     (:func:`_measure`). A row whose move ends near the floor or a piling stops with
     ``pending[i]`` set (its moves in ``diver_next``, ``rov_next``, ``diver_hit``),
     unmeasured, until called again with the free fraction of the ROV's move in
-    ``free[i]``. Each row reads and writes its own elements alone."""
+    ``free[i]``. Each row reads and writes its own elements alone. (The ticks are written
+    here, not in a function called per row: numba would count the references of every
+    array passed at each call.)"""
     ops = float_ops()
     for i in rows:
-        if _ticks(k, ops, i, ticks_left, pending, free, diver_next, rov_next, diver_hit, collided,
-                  ticks, rov, rov_inputs, rov_desired, rov_hold, held, diver, diver_inputs,
-                  diver_desired, vertices, vertex_count, direction, target_vertex, closest,
-                  capture, slip, loiter_speed, hold_depth, pilings, piling_top, floor_north,
-                  floor_east, floor_shallowest, courses):
-            _measure(k, ops, i, rov, diver, rov_inputs, diver_inputs, collided, geometry, terms,
-                     obs)
-
-
-def _ticks(k: StepConstants, ops: Any, i: int, ticks_left: Any, pending: Any, free: Any,
-           diver_next: Any, rov_next: Any, diver_hit: Any, collided: Any, ticks: Any, rov: Any,
-           rov_inputs: Any, rov_desired: Any, rov_hold: Any, held: Any, diver: Any,
-           diver_inputs: Any, diver_desired: Any, vertices: Any, vertex_count: Any,
-           direction: Any, target_vertex: Any, closest: Any, capture: Any, slip: Any,
-           loiter_speed: Any, hold_depth: Any, pilings: Any, piling_top: Any,
-           floor_north: Any, floor_east: Any, floor_shallowest: Any, courses: Any) -> bool:
-    """Row ``i``'s ticks (:func:`_step`); False when it stops pending."""
-    while ticks_left[i] > 0:
-        if pending[i]:
-            pending[i] = False
-            fraction = free[i]
-        else:
-            speed, yaw_rate, vertical = body_rates_kernel(
-                diver_inputs[i, 0], diver_inputs[i, 1], diver_inputs[i, 2], k.diver_params,
-                ops)
-            dn, de, dd, dpsi = step_exact_kernel(diver[i, 0], diver[i, 1], diver[i, 2],
-                                                 diver[i, 3], speed, yaw_rate, vertical,
-                                                 k.dt, ops)
-            dd = max(dd, 0.0)
-            hit = _approaching(k.contact, diver[i, 0], diver[i, 1], diver[i, 2], dn, de, dd,
-                               rov[i, 0], rov[i, 1], rov[i, 2])
-            if hit:
-                dn, de, dd = diver[i, 0], diver[i, 1], diver[i, 2]
-            diver_next[i, 0], diver_next[i, 1] = dn, de
-            diver_next[i, 2], diver_next[i, 3] = dd, dpsi
-            diver_hit[i] = hit
-            surge, heave, yaw_moment = videoray.body_forces(
-                rov_inputs[i, 0], rov_inputs[i, 1], rov_inputs[i, 2], k.rov_params, ops)
-            state = _RK4(rov[i, 0], rov[i, 1], rov[i, 2], rov[i, 3], rov[i, 4], rov[i, 5],
-                         rov[i, 6], rov[i, 7], surge, heave + 0.0, yaw_moment,
-                         k.coefficients, k.h, k.substeps)
-            for j in range(8):
-                rov_next[i, j] = state[j]
-            if rov_next[i, 2] < 0.0:
-                rov_next[i, 2] = 0.0
-                rov_next[i, 6] = max(rov_next[i, 6], 0.0)
-            if _approaching(k.contact, rov[i, 0], rov[i, 1], rov[i, 2], rov_next[i, 0],
-                            rov_next[i, 1], rov_next[i, 2], dn, de, dd):
-                fraction = 0.0
-            elif _near(k, i, rov_next[i, 0], rov_next[i, 1], rov_next[i, 2], pilings,
-                       piling_top, floor_north, floor_east, floor_shallowest):
-                pending[i] = True
-                return False
+        while ticks_left[i] > 0:
+            if pending[i]:
+                pending[i] = False
+                fraction = free[i]
             else:
-                fraction = 1.0
-        rov_hit = fraction < 1.0
-        if rov_hit:  # stopped just short of the contact
-            cut = max(0.0, fraction - 1e-3)
-            for j in range(3):
-                rov_next[i, j] = rov[i, j] + (rov_next[i, j] - rov[i, j]) * cut
-            for j in range(4, 7):
-                rov_next[i, j] = 0.0
-        for j in range(4):
-            diver[i, j] = diver_next[i, j]
-        for j in range(8):
-            rov[i, j] = rov_next[i, j]
-        collided[i] = collided[i] or diver_hit[i] or rov_hit
-        ticks[i] += 1
-        ticks_left[i] -= 1
-        if ticks[i] % k.pilot_period == 0:
-            _pilot(k, i, diver, diver_desired, vertices, vertex_count, direction,
-                   target_vertex, closest, capture, slip, loiter_speed, hold_depth, courses)
-        _control(k, ops, i, ticks, rov, rov_inputs, rov_desired, rov_hold, held, diver,
-                 diver_inputs, diver_desired)
-    return True
+                speed, yaw_rate, vertical = body_rates_kernel(
+                    diver_inputs[i, 0], diver_inputs[i, 1], diver_inputs[i, 2], k.diver_params,
+                    ops)
+                dn, de, dd, dpsi = step_exact_kernel(diver[i, 0], diver[i, 1], diver[i, 2],
+                                                     diver[i, 3], speed, yaw_rate, vertical,
+                                                     k.dt, ops)
+                dd = max(dd, 0.0)
+                hit = _approaching(k.contact, diver[i, 0], diver[i, 1], diver[i, 2], dn, de, dd,
+                                   rov[i, 0], rov[i, 1], rov[i, 2])
+                if hit:
+                    dn, de, dd = diver[i, 0], diver[i, 1], diver[i, 2]
+                diver_next[i, 0], diver_next[i, 1] = dn, de
+                diver_next[i, 2], diver_next[i, 3] = dd, dpsi
+                diver_hit[i] = hit
+                surge, heave, yaw_moment = videoray.body_forces(
+                    rov_inputs[i, 0], rov_inputs[i, 1], rov_inputs[i, 2], k.rov_params, ops)
+                state = _RK4(rov[i, 0], rov[i, 1], rov[i, 2], rov[i, 3], rov[i, 4], rov[i, 5],
+                             rov[i, 6], rov[i, 7], surge, heave + 0.0, yaw_moment,
+                             k.coefficients, k.h, k.substeps)
+                for j in range(8):
+                    rov_next[i, j] = state[j]
+                if rov_next[i, 2] < 0.0:
+                    rov_next[i, 2] = 0.0
+                    rov_next[i, 6] = max(rov_next[i, 6], 0.0)
+                if _approaching(k.contact, rov[i, 0], rov[i, 1], rov[i, 2], rov_next[i, 0],
+                                rov_next[i, 1], rov_next[i, 2], dn, de, dd):
+                    fraction = 0.0
+                elif _near(k, i, rov_next[i, 0], rov_next[i, 1], rov_next[i, 2], pilings,
+                           piling_top, floor_north, floor_east, floor_shallowest):
+                    pending[i] = True
+                    break
+                else:
+                    fraction = 1.0
+            rov_hit = fraction < 1.0
+            if rov_hit:  # stopped just short of the contact
+                cut = max(0.0, fraction - 1e-3)
+                for j in range(3):
+                    rov_next[i, j] = rov[i, j] + (rov_next[i, j] - rov[i, j]) * cut
+                for j in range(4, 7):
+                    rov_next[i, j] = 0.0
+            for j in range(4):
+                diver[i, j] = diver_next[i, j]
+            for j in range(8):
+                rov[i, j] = rov_next[i, j]
+            collided[i] = collided[i] or diver_hit[i] or rov_hit
+            ticks[i] += 1
+            ticks_left[i] -= 1
+            if ticks[i] % k.pilot_period == 0:
+                _pilot(k, i, diver, diver_desired, vertices, vertex_count, direction,
+                       target_vertex, closest, capture, slip, loiter_speed, hold_depth, courses)
+            _control(k, ops, i, ticks, rov, rov_inputs, rov_desired, rov_hold, held, diver,
+                     diver_inputs, diver_desired)
+        if not pending[i]:
+            _measure(k, ops, i, rov, diver, rov_inputs, diver_inputs, collided, geometry,
+                     terms, obs)
 
 
 def _measure(k: StepConstants, ops: Any, i: int, rov: Any, diver: Any, rov_inputs: Any,
@@ -315,4 +302,4 @@ _RK4 = videoray._FLOAT_KERNEL
 
 _HELPERS = (_RK4, body_rates_kernel, step_exact_kernel, leg_inputs, videoray.body_forces,
             feedforward_input, p_control_kernel, diver_control_kernel, _approaching, _near,
-            _pilot, _control, _ticks, _measure)
+            _pilot, _control, _measure)
