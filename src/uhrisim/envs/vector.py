@@ -33,8 +33,9 @@ Two parts of the Simulation are replaced by array code for this task, and a test
   ring keeps clear of both).
 
 With numba (``uhrisim[fast]``) the ticks of a step and its measures (geometry, reward
-terms, observation) run compiled, episode by episode (:mod:`uhrisim.envs.vector_ticks`);
-the array code here is their reference, and a test holds the two equal.
+terms, observation) run in one compiled call, episode by episode
+(:mod:`uhrisim.envs.vector_ticks`); the array code here is their reference, and a test
+holds the two equal.
 
 Autoreset: Gymnasium 1.x ``NEXT_STEP``: the step after an episode ends resets that
 sub-environment (its action is ignored) and returns the new episode's first observation
@@ -83,9 +84,10 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
     """N episodes of the trail task as arrays (module docstring). Arguments as
     :class:`~uhrisim.envs.trail_diver.TrailDiverEnv` (``observation="state"`` only, on
     scenarios whose target is a diver flying a Loiter, whose follower is a VideoRay),
-    plus ``num_envs`` and ``threads``: the compiled ticks of a step shared among that many
-    threads (numba lets go of the GIL; each thread runs its own episodes, so the results
-    are the same bit for bit; one by default)."""
+    plus ``num_envs`` and ``threads``: the compiled steps shared among that many threads
+    (numba lets go of the GIL; helpers step running episodes while the caller begins new
+    ones; each episode's arithmetic is its own, so the results are the same bit for bit;
+    one by default)."""
 
     metadata: ClassVar[dict[str, Any]] = {"autoreset_mode": AutoresetMode.NEXT_STEP}
     #: Rows of one share of the compiled step when threads share it (``threads > 1``).
