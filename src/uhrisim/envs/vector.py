@@ -468,10 +468,12 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
                 self.step_kernel(chunk, *arguments)
 
         running = [self._step_helpers.submit(work) for _ in range(helpers)]
-        self._begin(starting)
-        work()
-        for helper in running:
-            helper.result()
+        try:
+            self._begin(starting)
+            work()
+        finally:  # the helpers done (or raised) before the arrays are read or changed
+            for helper in running:
+                helper.result()
 
     def _moved(self, rows: slice | np.ndarray) -> None:
         """After each physics tick of the sub-environments ``rows``, before their
