@@ -118,7 +118,7 @@ def _fly_compiled_and_numpy(seeds, steps, policy, **kwargs):
     (the reference, as without numba) with the same actions; returns the step results."""
     fast = TrailDiverVectorEnv(num_envs=len(seeds), **kwargs)
     slow = TrailDiverVectorEnv(num_envs=len(seeds), **kwargs)
-    slow.ticks_kernel = slow.measures_kernel = None
+    slow.step_kernel = None
     obs, _ = fast.reset(seed=seeds)
     np.testing.assert_array_equal(obs, slow.reset(seed=seeds)[0])
     endings = []
@@ -142,7 +142,7 @@ def test_compiled_ticks_equal_the_numpy_ones():
     """The compiled ticks (numba) and the numpy ones: the same states, observations and
     endings, through collisions with the diver, the sea floor (the compiled ticks leave
     those moves to the env's swept sphere) and pilings."""
-    if TrailDiverVectorEnv(num_envs=1).ticks_kernel is None:
+    if TrailDiverVectorEnv(num_envs=1).step_kernel is None:
         pytest.skip("numba (the [fast] extra) is not installed: the numpy ticks run alone")
     assert _fly_compiled_and_numpy([6], 108, _dive, lost_range_m=60.0) == ["collision"]
     assert _fly_compiled_and_numpy([0, 2], 24, _ram, lost_range_m=30.0,
@@ -150,12 +150,14 @@ def test_compiled_ticks_equal_the_numpy_ones():
 
 
 def test_ticks_shared_among_threads_give_the_same_episodes():
-    """threads=2 runs each half of the episodes' compiled ticks in its own thread: every
-    state, observation, reward and ending equals one thread's, resets and pilings too."""
+    """threads=2 shares the episodes' compiled steps between two threads, in chunks (of 2
+    rows here), while new episodes begin: every state, observation, reward and ending
+    equals one thread's, resets and pilings too."""
     one = TrailDiverVectorEnv(num_envs=8, randomization={"clutter": 4}, time_limit_s=6.0)
     two = TrailDiverVectorEnv(num_envs=8, threads=2, randomization={"clutter": 4},
                               time_limit_s=6.0)
-    if one.ticks_kernel is None:
+    two.step_chunk = 2
+    if one.step_kernel is None:
         pytest.skip("numba (the [fast] extra) is not installed: no compiled ticks to share")
     np.testing.assert_array_equal(one.reset(seed=5)[0], two.reset(seed=5)[0])
     actions = np.random.default_rng(5).uniform([-1, 0, -1], [1, 1, 1], (40, 8, 3))

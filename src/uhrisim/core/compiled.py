@@ -77,6 +77,16 @@ def jit(function: Callable[..., Any], numpy_errors: bool = False, on_disk: bool 
     return numba.njit(**options)(function)
 
 
+def typed_entry(kernel: Any, *arguments: Any) -> Callable[..., Any]:
+    """The compiled entry of the :func:`jit` ``kernel`` for the numba types of
+    ``arguments`` (compiled, or loaded from the disk cache, now). Calling it skips numba's
+    dispatch, which types every argument at every call (microseconds for each named tuple
+    of settings): its callers pass arguments of exactly these types (dtypes, dimensions,
+    C-contiguous arrays), which nothing checks."""
+    numba = numba_module()
+    return kernel.compile(tuple(numba.typeof(a) for a in arguments))
+
+
 @cache
 def callable_compiled(function: Callable[..., Any]) -> None:
     """Let compiled kernels call ``function`` (numba compiles it where they do); it stays
@@ -96,24 +106,39 @@ def jit_with(function: Callable[..., Any], helpers: tuple[Callable[..., Any], ..
     if numba is None:
         return None
     _register_frames(numba)
-    for helper in helpers:
+    for helper in (_cos, _sin, _clip, _where, _sqrt, _copysign, _remainder, float_ops,
+                   *helpers):
         callable_compiled(helper)
     return jit(function, on_disk=on_disk)
 
 
-@cache
-def floats() -> Elementwise | None:
-    """:data:`~uhrisim.core.elementwise.FLOATS_AS_ARRAYS` compiled: the elementwise set a
-    compiled kernel is given as its ``ops``; None without numba."""
-    numba = numba_module()
-    if numba is None:
-        return None
-    compiled = {name: numba.njit(getattr(FLOATS_AS_ARRAYS, name))
-                for name in ("clip", "where", "remainder")}
-    return FLOATS_AS_ARRAYS._replace(
-        cos=numba.njit(lambda x: math.cos(x)), sin=numba.njit(lambda x: math.sin(x)),
-        sqrt=numba.njit(lambda x: math.sqrt(x)),
-        copysign=numba.njit(lambda x, y: math.copysign(x, y)), **compiled)
+def float_ops() -> Elementwise:
+    """:data:`~uhrisim.core.elementwise.FLOATS_AS_ARRAYS` for a compiled kernel, which calls
+    this to form the ``ops`` it gives the kernels it calls (:func:`jit_with` lets it): a
+    set of plain functions that numba compiles where they are called, so the kernel that
+    forms it can be kept on disk (one given compiled functions as an argument or a global
+    value cannot)."""
+    return Elementwise(_cos, _sin, _clip, _where, _sqrt, _copysign, _remainder, False)
+
+
+def _cos(x: float) -> float:
+    return math.cos(x)
+
+
+def _sin(x: float) -> float:
+    return math.sin(x)
+
+
+def _sqrt(x: float) -> float:
+    return math.sqrt(x)
+
+
+def _copysign(x: float, y: float) -> float:
+    return math.copysign(x, y)
+
+
+_clip, _where, _remainder = (FLOATS_AS_ARRAYS.clip, FLOATS_AS_ARRAYS.where,
+                             FLOATS_AS_ARRAYS.remainder)
 
 
 def record(settings: Any) -> tuple:
@@ -125,7 +150,12 @@ def record(settings: Any) -> tuple:
 
 @cache
 def _record_type(name: str, names: tuple[str, ...]) -> type:
-    return namedtuple(name, names)
+    """A named tuple class kept as an attribute of this module, so that pickle (numba's
+    disk cache keys a kernel by the types of its arguments) finds it by name."""
+    key = f"{name}_record_{hashlib.sha256(' '.join(names).encode()).hexdigest()[:8]}"
+    kind = namedtuple(key, names, module=__name__)
+    globals()[key] = kind
+    return kind
 
 
 @cache

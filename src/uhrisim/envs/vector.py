@@ -33,8 +33,9 @@ Two parts of the Simulation are replaced by array code for this task, and a test
   ring keeps clear of both).
 
 With numba (``uhrisim[fast]``) the ticks of a step and its measures (geometry, reward
-terms, observation) run compiled, episode by episode (:mod:`uhrisim.envs.vector_ticks`);
-the array code here is their reference, and a test holds the two equal.
+terms, observation) run in one compiled call, episode by episode
+(:mod:`uhrisim.envs.vector_ticks`); the array code here is their reference, and a test
+holds the two equal.
 
 Autoreset: Gymnasium 1.x ``NEXT_STEP``: the step after an episode ends resets that
 sub-environment (its action is ignored) and returns the new episode's first observation
@@ -68,23 +69,29 @@ from uhrisim.dynamics.diver import body_rates_kernel
 from uhrisim.dynamics.plants import DiverPlant, VideoRayPlant, finite_or_raise
 from uhrisim.envs.task import REWARD_TERMS, THRUSTER_LIMIT
 from uhrisim.envs.trail_diver import SEED_SPAN, STATE_SIZE, EnvArgumentError, TrailDiverEnv
-from uhrisim.envs.vector_ticks import compiled_measures, compiled_ticks, floor_cells
+from uhrisim.envs.vector_ticks import compiled_step, floor_cells
 from uhrisim.scenario.build_world import add_object, build_static_scene
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import CylinderObject, Pose
 from uhrisim.vehicles import MODELS
 from uhrisim.world.scene import Scene
 
+#: No sub-environments (row indices).
+NO_ROWS = np.zeros(0, np.int64)
+
 
 class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
     """N episodes of the trail task as arrays (module docstring). Arguments as
     :class:`~uhrisim.envs.trail_diver.TrailDiverEnv` (``observation="state"`` only, on
     scenarios whose target is a diver flying a Loiter, whose follower is a VideoRay),
-    plus ``num_envs`` and ``threads``: the compiled ticks of a step shared among that many
-    threads (numba lets go of the GIL; each thread runs its own episodes, so the results
-    are the same bit for bit; one by default)."""
+    plus ``num_envs`` and ``threads``: the compiled steps shared among that many threads
+    (numba lets go of the GIL; helpers step running episodes while the caller begins new
+    ones; each episode's arithmetic is its own, so the results are the same bit for bit;
+    one by default)."""
 
     metadata: ClassVar[dict[str, Any]] = {"autoreset_mode": AutoresetMode.NEXT_STEP}
+    #: Rows of one share of the compiled step when threads share it (``threads > 1``).
+    step_chunk: int = 64
     #: The single env's observation this class makes (a subclass makes another).
     OBSERVATION: ClassVar[str] = "state"
 
@@ -138,23 +145,24 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         self._allocate(num_envs)
         self._rngs = [seeding.np_random(None)[0] for _ in range(num_envs)]
         self._floor_cells = floor_cells(self.floor.seafloor)
+        self._course_values = np.ascontiguousarray(self.domain.axis("course").values, float)
         self._decisions: dict[tuple, float] = {}
-        #: The compiled ticks (:mod:`uhrisim.envs.vector_ticks`; numba), or None: the numpy
-        #: ticks of :meth:`_run`, the reference (always so for a subclass that follows each
-        #: tick, :meth:`_moved`). Set it to None to run the reference.
-        self.ticks_kernel = (compiled_ticks(self) if type(self)._moved is
-                             TrailDiverVectorEnv._moved else None)
-        #: The compiled measures of a step (geometry, reward terms, state observation), or
-        #: None: :meth:`_geometry`, :meth:`_reward_terms` and :meth:`_observe` on arrays.
-        self.measures_kernel = (compiled_measures(self) if self.ticks_kernel is not None
-                                else None)
-        self.threads = threads if self.ticks_kernel is not None else 1
-        self._tick_pool = (ThreadPoolExecutor(threads, "uhrisim-ticks") if self.threads > 1
-                           else None)
+        #: The compiled step (:mod:`uhrisim.envs.vector_ticks`; numba): the ticks and
+        #: measures (geometry, reward terms, state observation) of a share of the rows, or
+        #: None: the numpy ticks of :meth:`_run` and :meth:`_geometry`,
+        #: :meth:`_reward_terms`, :meth:`_observe`, the reference (always so for a subclass
+        #: that follows each tick, :meth:`_moved`). Set it to None to run the reference.
+        self.step_kernel = (compiled_step(self, self._step_arguments(
+            np.arange(num_envs), np.zeros(num_envs, np.int64), np.zeros(num_envs, bool)))
+            if type(self)._moved is TrailDiverVectorEnv._moved else None)
+        self.threads = threads if self.step_kernel is not None else 1
+        #: The threads beside the caller's that share the compiled steps.
+        self._step_helpers = (ThreadPoolExecutor(self.threads - 1, "uhrisim-steps")
+                              if self.threads > 1 else None)
 
     def close_extras(self, **kwargs: Any) -> None:
-        if self._tick_pool is not None:
-            self._tick_pool.shutdown()
+        if self._step_helpers is not None:
+            self._step_helpers.shutdown()
 
     # -- state ---------------------------------------------------------------------------
     def _allocate(self, n: int) -> None:
@@ -182,6 +190,9 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         self._trail_point = z((n, 3))       # of the last _geometry (NED, m)
         self._diver_next, self._rov_next = z((n, 4)), z((n, 8))  # the compiled ticks' moves
         self._diver_hit, self._pending, self._free = z(n, bool), z(n, bool), z(n)
+        self._measured = z((7, n))          # the compiled step's geometry (_measure)
+        self._terms = z((len(REWARD_TERMS), n))
+        self._state_obs = z((n, STATE_SIZE), np.float32)
         self.steps = z(n, dtype=np.int64)
         self.episode_seed = z(n, dtype=np.int64)
         self.needs_reset = np.ones(n, dtype=bool)
@@ -232,9 +243,8 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         actions = np.minimum(np.maximum(actions, space.low), space.high)  # np.clip's values
         self._act(actions, live)
         resetting = starting.any()
-        if resetting:
-            self._begin(np.flatnonzero(starting))
-        collided = self._run(self.ticks_per_step, np.ones(self.num_envs, bool))
+        collided = self._run(self.ticks_per_step, np.ones(self.num_envs, bool),
+                             np.flatnonzero(starting))
         geometry, terms, lost = self._measure(collided)
         reward = sum(terms.values())
         terminated = (collided | lost) & live
@@ -353,12 +363,14 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         desired = np.stack([heading, actions[:, 1], depth], axis=-1)
         self.rov_desired[live] = desired[live]
 
-    def _run(self, ticks: int, mask: np.ndarray) -> np.ndarray:
-        """Advance the sub-environments of ``mask`` by ``ticks`` physics steps; which of
-        them had the ROV touch something."""
+    def _run(self, ticks: int, mask: np.ndarray, starting: np.ndarray = NO_ROWS) -> np.ndarray:
+        """Advance the sub-environments of ``mask`` by ``ticks`` physics steps, those of
+        ``starting`` (in ``mask``) in a new episode (:meth:`_begin`); which of them had the
+        ROV touch something."""
         collided = np.zeros(self.num_envs, bool)
-        if self.ticks_kernel is not None:
-            return self._run_compiled(ticks, mask, collided)
+        if self.step_kernel is not None:
+            return self._run_compiled(ticks, mask, starting, collided)
+        self._begin(starting)
         rows: slice | np.ndarray = slice(None) if mask.all() else np.flatnonzero(mask)
         if not mask.any():
             return collided
@@ -391,34 +403,77 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
             self._control(mask)
         return collided
 
-    def _run_compiled(self, ticks: int, mask: np.ndarray, collided: np.ndarray) -> np.ndarray:
-        """:meth:`_run` by the compiled ticks; the narrow phase of the moves they leave
-        pending (near the floor or a piling) worked out here, between calls."""
-        rows = np.flatnonzero(mask)
-        left = np.where(mask, ticks, 0)
+    def _run_compiled(self, ticks: int, mask: np.ndarray, starting: np.ndarray,
+                      collided: np.ndarray) -> np.ndarray:
+        """:meth:`_run` by the compiled step, which also measures every row (those outside
+        ``mask`` without a tick) for :meth:`_measure`; the narrow phase of the moves it
+        leaves pending (near the floor or a piling) worked out here, between calls."""
+        n = self.num_envs
+        self._measured = np.empty((7, n))
+        self._terms = np.empty((len(REWARD_TERMS), n))
+        self._state_obs = np.empty((n, STATE_SIZE), np.float32)  # a new array each step
         self._pending[:] = False
-        arrays = (left, self._pending, self._free, self._diver_next, self._rov_next,
-                  self._diver_hit, collided, self.ticks, self.rov, self.rov_inputs,
-                  self.rov_desired, self.rov_hold, self._held, self.diver, self.diver_inputs,
-                  self.diver_desired, self.vertices, self.vertex_count, self.direction,
-                  self.target_vertex, self.closest, self.capture_radius, self.slip_radius,
-                  self.loiter_speed, self.hold_depth, self.pilings, self.piling_top,
-                  *self._floor_cells)
-        while rows.size:
-            if self._tick_pool is None or rows.size < 2 * self.threads:
-                self.ticks_kernel(rows, *arrays)
-            else:  # each thread its own rows: they write nothing of another's
-                shares = np.array_split(rows, self.threads)
-                list(self._tick_pool.map(lambda share: self.ticks_kernel(share, *arrays),
-                                         shares))
-            rows = np.flatnonzero(self._pending)
+        left = np.where(mask, ticks, 0)
+        going = np.ones(n, bool)
+        going[starting] = False
+        self._share(np.flatnonzero(going), left, collided, starting)
+        rows = starting  # begun by _share: their arrays as _begin left them
+        while True:
             if rows.size:
-                self._free[rows] = self._scene_clear(rows, self.rov[rows, :3],
-                                                     self._rov_next[rows, :3])
+                self.step_kernel(*self._step_arguments(rows, left, collided))
+            rows = np.flatnonzero(self._pending)
+            if not rows.size:
+                break
+            self._free[rows] = self._scene_clear(rows, self.rov[rows, :3],
+                                                 self._rov_next[rows, :3])
         t = float(self.ticks.max() * self.dt)
         finite_or_raise(self.diver, self.diver_plant.name, t)
         finite_or_raise(self.rov, self.rov_plant.name, t)
         return collided
+
+    def _step_arguments(self, rows: np.ndarray | None, ticks_left: np.ndarray,
+                        collided: np.ndarray) -> tuple:
+        """The compiled step's arguments (:func:`uhrisim.envs.vector_ticks._step`), of the
+        same types at every call (its entry checks none)."""
+        return (rows, ticks_left, self._pending, self._free, self._diver_next, self._rov_next,
+                self._diver_hit, collided, self.ticks, self.rov, self.rov_inputs,
+                self.rov_desired, self.rov_hold, self._held, self.diver, self.diver_inputs,
+                self.diver_desired, self.vertices, self.vertex_count, self.direction,
+                self.target_vertex, self.closest, self.capture_radius, self.slip_radius,
+                self.loiter_speed, self.hold_depth, self.pilings, self.piling_top,
+                *self._floor_cells, self._course_values, self._measured, self._terms,
+                self._state_obs)
+
+    def _share(self, rows: np.ndarray, ticks_left: np.ndarray, collided: np.ndarray,
+               starting: np.ndarray) -> None:
+        """The compiled step of ``rows`` while this thread begins the episodes of
+        ``starting`` (:meth:`_begin`; other rows). With threads, the rows go in chunks of
+        :attr:`step_chunk` that the helpers and this thread take in turn (a thread slowed
+        by other work takes fewer); while this thread begins episodes (Python: it holds the
+        GIL), each helper has a first chunk large enough not to need it. Each chunk writes
+        its rows alone."""
+        arguments = self._step_arguments(None, ticks_left, collided)[1:]
+        if self._step_helpers is None or rows.size < 2 * self.step_chunk:
+            self._begin(starting)
+            self.step_kernel(rows, *arguments)
+            return
+        helpers = self.threads - 1
+        first = rows.size // 2 if starting.size else 0  # the helpers' while we begin
+        shares = [*np.array_split(rows[:first], helpers)] if first else []
+        shares += np.array_split(rows[first:], -(-(rows.size - first) // self.step_chunk))
+        chunks = iter(shares)
+
+        def work() -> None:
+            for chunk in chunks:  # a list iterator: each chunk to one thread
+                self.step_kernel(chunk, *arguments)
+
+        running = [self._step_helpers.submit(work) for _ in range(helpers)]
+        try:
+            self._begin(starting)
+            work()
+        finally:  # the helpers done (or raised) before the arrays are read or changed
+            for helper in running:
+                helper.result()
 
     def _moved(self, rows: slice | np.ndarray) -> None:
         """After each physics tick of the sub-environments ``rows``, before their
@@ -522,15 +577,11 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         """After a step: :meth:`_geometry`, :meth:`_reward_terms` and whether the diver is
         lost, by the compiled measures (which also form :meth:`_observe`'s observation)
         or on arrays."""
-        if self.measures_kernel is None:
+        if self.step_kernel is None:
             geometry = self._geometry()
             lost = geometry[2] > self.template.lost_range_m
             return geometry, self._reward_terms(geometry[1], geometry[3], collided, lost), lost
-        n = self.num_envs
-        measured, terms = np.empty((7, n)), np.empty((len(REWARD_TERMS), n))
-        self._state_obs = np.empty((n, STATE_SIZE), np.float32)
-        self.measures_kernel(self.rov, self.diver, self.rov_inputs, self.diver_inputs,
-                             collided, measured, terms, self._state_obs)
+        measured, terms = self._measured, self._terms  # by _run's compiled step
         lost = measured[4] > self.template.lost_range_m
         terms[-1] = np.where(lost, -self.weights.lost, 0.0)
         self._trail_point = measured[:3].T
@@ -575,7 +626,7 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
     def _observe(self) -> np.ndarray:
         """The state observation of every sub-environment (docs/envs.md), float32, at the
         trail point of the last :meth:`_geometry`."""
-        if self.measures_kernel is not None:
+        if self.step_kernel is not None:
             return self._state_obs
         rov, diver = self.rov, self.diver
         yaw = rov[:, 3]
