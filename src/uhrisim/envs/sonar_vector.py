@@ -39,12 +39,13 @@ levels.
 from __future__ import annotations
 
 import math
-from fractions import Fraction
+from functools import cache
 from typing import Any, ClassVar
 
 import cv2
 import numpy as np
 
+from uhrisim.core.compiled import jit
 from uhrisim.core.elementwise import ARRAYS
 from uhrisim.core.frames import rot_z, row_dots, wrap_pi
 from uhrisim.core.rng import component_rng
@@ -101,6 +102,13 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         #: The widest horizontal angle (rad) of a ray from the ROV's heading.
         self.half_view = float(np.max(np.abs(np.arctan2(rays_body[:, 1], rays_body[:, 0]))))
         self.piling_reflectivity = np.zeros(self.pilings.shape[:2])
+        (rows, columns), (bins, beams) = sonar.polar_shape, t.sonar_shape
+        #: OpenCV's ``INTER_AREA`` tables (:func:`_area_table`: rows, columns) where it
+        #: averages the polar image down by its generic loop (not both factors integers,
+        #: which takes its integer path); None: OpenCV resizes each image.
+        self._area_tables = (None if rows < bins or columns < beams
+                             or (rows % bins == 0 and columns % beams == 0)
+                             else (_area_table(rows, bins), _area_table(columns, beams)))
 
     def _allocate(self, n: int) -> None:
         super()._allocate(n)
@@ -179,10 +187,10 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
             # (each image to bytes while its levels are in cache: the display mapping of
             # the whole stack at once, tens of megabytes, is slower)
             images[i] = s.polar_bytes(*poses[i], FanHits(ray[rows], *(h[rows] for h in hits)))
-        if _stacks_exactly(images.shape[1], bins):  # one resize of the whole stack
-            flat = images.reshape(-1, images.shape[2])
-            return cv2.resize(flat, (beams, bins * self.num_envs),
-                              interpolation=cv2.INTER_AREA).reshape(out.shape)
+        area_down = _area_down_compiled()
+        if area_down is not None and self._area_tables is not None:  # OpenCV's, compiled
+            area_down(images, *self._area_tables, out)
+            return out
         for i, image in enumerate(images):
             out[i] = cv2.resize(image, (beams, bins), interpolation=cv2.INTER_AREA)
         return out
@@ -277,10 +285,62 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         label[rows] = -1
 
 
-def _stacks_exactly(rows: int, rows_out: int) -> bool:
-    """Whether averaging a vertical stack of images of ``rows`` rows down to ``rows_out``
-    each (``cv2.INTER_AREA``) gives each image's own result bit for bit: when the scale
-    rows/rows_out is a dyadic fraction, every image's row boundaries in the stack (its
-    offset k·rows plus its own) are exact in floating point."""
-    denominator = Fraction(rows, rows_out).denominator
-    return denominator & (denominator - 1) == 0
+def _area_table(size: int, size_out: int) -> tuple[np.ndarray, np.ndarray]:
+    """OpenCV's ``INTER_AREA`` weights (its ``computeResizeAreaTab``, the same double
+    arithmetic) for ``size`` pixels averaged down to ``size_out`` along one axis: (size_out,
+    K) source indices and float32 weights, each output's in OpenCV's order, padded with
+    weight 0 (adding 0·x leaves a float32 sum as it is)."""
+    scale = 1.0 / (size_out / size)  # as cv::resize computes it, from the inverse scale
+    entries: list[list[tuple[int, float]]] = []
+    for k in range(size_out):
+        start = k * scale
+        end = start + scale
+        cell = min(scale, size - start)
+        first = min(math.ceil(start), min(math.floor(end), size - 1))
+        last = min(math.floor(end), size - 1)
+        entry = [(first - 1, (first - start) / cell)] if first - start > 1e-3 else []
+        entry += [(i, 1.0 / cell) for i in range(first, last)]
+        if end - last > 1e-3:
+            entry.append((last, min(end - last, 1.0, cell) / cell))
+        entries.append(entry)
+    index = np.zeros((size_out, max(map(len, entries))), np.intp)
+    weight = np.zeros(index.shape, np.float32)
+    for k, entry in enumerate(entries):
+        index[k, :len(entry)] = [i for i, _ in entry]
+        weight[k, :len(entry)] = [w for _, w in entry]
+    return index, weight
+
+
+def _area_down_loops(images: np.ndarray, rows: tuple[np.ndarray, np.ndarray],
+                     columns: tuple[np.ndarray, np.ndarray], out: np.ndarray) -> None:
+    """``cv2.resize(image, ..., interpolation=cv2.INTER_AREA)`` of each of ``images`` (N,
+    H, W) uint8 into ``out`` (N, h, w), by OpenCV's generic area loop (``resizeArea_``,
+    float32): each source row's weighted sums over ``columns`` (:func:`_area_table`), then
+    per output row those of its source rows times their weights from ``rows``, added in
+    order and rounded half to even."""
+    row_index, row_weight = rows
+    column_index, column_weight = columns
+    lines = np.empty((images.shape[1], out.shape[2]), np.float32)
+    total = np.empty(out.shape[2], np.float32)
+    for n in range(images.shape[0]):
+        for y in range(images.shape[1]):
+            source = images[n, y]
+            for x in range(out.shape[2]):
+                line = np.float32(0.0)
+                for i in range(column_index.shape[1]):
+                    line += np.float32(source[column_index[x, i]]) * column_weight[x, i]
+                lines[y, x] = line
+        for y in range(out.shape[1]):
+            total[:] = 0.0
+            for j in range(row_index.shape[1]):
+                line_j, weight = lines[row_index[y, j]], row_weight[y, j]
+                for x in range(out.shape[2]):
+                    total[x] += weight * line_j[x]
+            for x in range(out.shape[2]):
+                out[n, y, x] = np.uint8(np.rint(total[x]))
+
+
+@cache
+def _area_down_compiled():  # type: ignore[no-untyped-def]
+    """:func:`_area_down_loops` compiled (numba), or None without numba."""
+    return jit(_area_down_loops)
