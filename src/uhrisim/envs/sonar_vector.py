@@ -39,6 +39,7 @@ levels.
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from functools import cache
 from typing import Any, ClassVar
 
@@ -66,12 +67,18 @@ from uhrisim.world.materials import NEOPRENE
 class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
     """N episodes of the trail task with the sonar observation (module docstring).
     Arguments as :class:`~uhrisim.envs.trail_diver.TrailDiverEnv` with
-    ``observation="sonar"``, plus ``num_envs``."""
+    ``observation="sonar"``, plus ``num_envs`` and ``threads``: each step's images formed
+    by that many threads, each its own episodes (each episode its own sonar, scratch and
+    speckle: the same images bit for bit; one by default)."""
 
     OBSERVATION: ClassVar[str] = "sonar"
 
-    def __init__(self, num_envs: int = 1, observation: str = "sonar", **kwargs: Any) -> None:
-        super().__init__(num_envs, observation, **kwargs)
+    def __init__(self, num_envs: int = 1, observation: str = "sonar", threads: int = 1,
+                 **kwargs: Any) -> None:
+        super().__init__(num_envs, observation, threads, **kwargs)
+        self.threads = threads
+        self._image_pool = (ThreadPoolExecutor(threads, "uhrisim-images") if threads > 1
+                            else None)
         t = self.template
         agents = {a.name: a for a in t.episodes.base.agents}
         follower, target = agents[t.follower], agents[t.target]
@@ -109,6 +116,11 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         self._area_tables = (None if rows < bins or columns < beams
                              or (rows % bins == 0 and columns % beams == 0)
                              else (_area_table(rows, bins), _area_table(columns, beams)))
+
+    def close_extras(self, **kwargs: Any) -> None:
+        super().close_extras(**kwargs)
+        if self._image_pool is not None:
+            self._image_pool.shutdown()
 
     def _allocate(self, n: int) -> None:
         super()._allocate(n)
@@ -182,17 +194,29 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         hits = (distance[fan, ray], np.abs(row_dots(normal[fan, ray], dirs[fan, ray])),
                 reflectivity[fan, ray], label[fan, ray].astype(np.int32))
         images = np.empty((self.num_envs, *sonars[0].polar_shape), np.uint8)
-        for i, s in enumerate(sonars):
-            rows = slice(first[i], first[i + 1])
-            # (each image to bytes while its levels are in cache: the display mapping of
-            # the whole stack at once, tens of megabytes, is slower)
-            images[i] = s.polar_bytes(*poses[i], FanHits(ray[rows], *(h[rows] for h in hits)))
-        area_down = _area_down_compiled()
-        if area_down is not None and self._area_tables is not None:  # OpenCV's, compiled
-            area_down(images, *self._area_tables, out)
-            return out
-        for i, image in enumerate(images):
-            out[i] = cv2.resize(image, (beams, bins), interpolation=cv2.INTER_AREA)
+
+        def form(share: range) -> None:
+            """The images of episodes ``share`` (consecutive), averaged down into ``out``."""
+            for i in share:
+                rows = slice(first[i], first[i + 1])
+                # (each image to bytes while its levels are in cache: the display mapping
+                # of the whole stack at once, tens of megabytes, is slower)
+                images[i] = sonars[i].polar_bytes(*poses[i], FanHits(ray[rows],
+                                                                     *(h[rows] for h in hits)))
+            area_down = _area_down_compiled()
+            if area_down is not None and self._area_tables is not None:  # OpenCV's, compiled
+                area_down(images[share.start:share.stop], *self._area_tables,
+                          out[share.start:share.stop])
+                return
+            for i in share:
+                out[i] = cv2.resize(images[i], (beams, bins), interpolation=cv2.INTER_AREA)
+
+        shares = [range(int(k[0]), int(k[-1]) + 1) for k in
+                  np.array_split(np.arange(self.num_envs), self.threads) if k.size]
+        if self._image_pool is None or len(shares) < 2:
+            form(range(self.num_envs))
+        else:
+            list(self._image_pool.map(form, shares))
         return out
 
     def _cast_fans(self) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray,
