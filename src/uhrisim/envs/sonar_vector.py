@@ -126,6 +126,8 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         super()._allocate(n)
         self.kick_phase = np.zeros(n)
         self.sonars: list[ImagingSonar | None] = [None] * n
+        #: Each step's 8-bit polar images (N, range bins, beams), before averaging down.
+        self._polar_images = np.empty((n, 0, 0), np.uint8)
 
     # -- episodes ------------------------------------------------------------------------
     def _load(self, i: int, seed: int, data: dict[str, Any]) -> None:
@@ -193,7 +195,9 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         first = np.searchsorted(fan, np.arange(self.num_envs + 1))
         hits = (distance[fan, ray], np.abs(row_dots(normal[fan, ray], dirs[fan, ray])),
                 reflectivity[fan, ray], label[fan, ray].astype(np.int32))
-        images = np.empty((self.num_envs, *sonars[0].polar_shape), np.uint8)
+        if self._polar_images.shape[1:] != sonars[0].polar_shape:
+            self._polar_images = np.empty((self.num_envs, *sonars[0].polar_shape), np.uint8)
+        images = self._polar_images  # (kept between steps: no fresh pages to fault in)
 
         def form(share: range) -> None:
             """The images of episodes ``share`` (consecutive), averaged down into ``out``."""
