@@ -23,8 +23,9 @@ unseen):
   :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.form_image` and their 8-bit image
   (its echoes, diffuse terms, speckle, TVG, display curve;
   :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.polar_bytes`, the same code) into one
-  (N, bins, beams) stack, averaged down (``cv2.INTER_AREA``, as the single env does) in
-  one call for all N.
+  (N, bins, beams) stack, averaged down as the single env does (``cv2.INTER_AREA``: its
+  own loop compiled, bit for bit, :func:`_area_down_loops`); with ``threads``, each
+  thread forms and averages its own episodes' images.
 
 What differs from N single envs: the pilings' shape above, and the single env's refusal
 of a sonar inside geometry (not checked here: the ROV's collisions keep it out). A
