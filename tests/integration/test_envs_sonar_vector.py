@@ -71,3 +71,36 @@ def test_scenarios_with_more_to_see_are_refused_by_name():
 
     with pytest.raises(EnvArgumentError, match="the bubbles of 'diver'"):
         TrailDiverSonarVectorEnv(scenario=shipped_scenario("track_and_trail_sonar_clutter"))
+
+
+def test_images_formed_by_two_threads_are_those_of_one():
+    """Each thread forms its own episodes' images: the same observations bit for bit."""
+    envs = [TrailDiverSonarVectorEnv(num_envs=3, threads=k) for k in (1, 2)]
+    actions = np.random.default_rng(5).uniform(envs[0].single_action_space.low,
+                                               envs[0].single_action_space.high, (3, 3, 3))
+    runs = [[env.reset(seed=[4, 5, 6])[0]["sonar"]]
+            + [env.step(a.astype(np.float32))[0]["sonar"] for a in actions] for env in envs]
+    for env in envs:
+        env.close()
+    assert runs[0][-1].any()
+    np.testing.assert_array_equal(runs[0], runs[1])
+
+
+@pytest.mark.parametrize("shape", [(375, 256, 96, 64), (50, 33, 7, 5), (37, 20, 9, 10)])
+def test_area_averaging_is_opencv_s_inter_area_bit_for_bit(shape):
+    """The compiled averaging down (and its plain-Python loops) equal ``cv2.resize``'s
+    ``INTER_AREA`` on random images, including scales that are not dyadic."""
+    import cv2
+
+    from uhrisim.envs.sonar_vector import _area_down_compiled, _area_down_loops, _area_table
+
+    rows, columns, rows_out, columns_out = shape
+    images = np.random.default_rng(rows).integers(0, 256, (2, rows, columns), dtype=np.uint8)
+    expected = np.stack([cv2.resize(image, (columns_out, rows_out),
+                                    interpolation=cv2.INTER_AREA) for image in images])
+    tables = _area_table(rows, rows_out), _area_table(columns, columns_out)
+    kernels = [_area_down_loops] * (rows < 100)  # (the plain loops are slow)
+    for kernel in kernels + [k for k in [_area_down_compiled()] if k is not None]:
+        out = np.empty_like(expected)
+        kernel(images, *tables, out)
+        np.testing.assert_array_equal(out, expected)

@@ -23,8 +23,9 @@ unseen):
   :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.form_image` and their 8-bit image
   (its echoes, diffuse terms, speckle, TVG, display curve;
   :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.polar_bytes`, the same code) into one
-  (N, bins, beams) stack, averaged down (``cv2.INTER_AREA``, as the single env does) in
-  one call for all N.
+  (N, bins, beams) stack, averaged down as the single env does (``cv2.INTER_AREA``: its
+  own loop compiled, bit for bit, :func:`_area_down_loops`); with ``threads``, each
+  thread forms and averages its own episodes' images.
 
 What differs from N single envs: the pilings' shape above, and the single env's refusal
 of a sonar inside geometry (not checked here: the ROV's collisions keep it out). A
@@ -39,12 +40,14 @@ levels.
 from __future__ import annotations
 
 import math
-from fractions import Fraction
+from concurrent.futures import ThreadPoolExecutor
+from functools import cache
 from typing import Any, ClassVar
 
 import cv2
 import numpy as np
 
+from uhrisim.core.compiled import jit
 from uhrisim.core.elementwise import ARRAYS
 from uhrisim.core.frames import rot_z, row_dots, wrap_pi
 from uhrisim.core.rng import component_rng
@@ -65,12 +68,18 @@ from uhrisim.world.materials import NEOPRENE
 class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
     """N episodes of the trail task with the sonar observation (module docstring).
     Arguments as :class:`~uhrisim.envs.trail_diver.TrailDiverEnv` with
-    ``observation="sonar"``, plus ``num_envs``."""
+    ``observation="sonar"``, plus ``num_envs`` and ``threads``: each step's images formed
+    by that many threads, each its own episodes (each episode its own sonar, scratch and
+    speckle: the same images bit for bit; one by default)."""
 
     OBSERVATION: ClassVar[str] = "sonar"
 
-    def __init__(self, num_envs: int = 1, observation: str = "sonar", **kwargs: Any) -> None:
-        super().__init__(num_envs, observation, **kwargs)
+    def __init__(self, num_envs: int = 1, observation: str = "sonar", threads: int = 1,
+                 **kwargs: Any) -> None:
+        super().__init__(num_envs, observation, threads, **kwargs)
+        self.threads = threads
+        self._image_pool = (ThreadPoolExecutor(threads, "uhrisim-images") if threads > 1
+                            else None)
         t = self.template
         agents = {a.name: a for a in t.episodes.base.agents}
         follower, target = agents[t.follower], agents[t.target]
@@ -101,11 +110,25 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         #: The widest horizontal angle (rad) of a ray from the ROV's heading.
         self.half_view = float(np.max(np.abs(np.arctan2(rays_body[:, 1], rays_body[:, 0]))))
         self.piling_reflectivity = np.zeros(self.pilings.shape[:2])
+        (rows, columns), (bins, beams) = sonar.polar_shape, t.sonar_shape
+        #: OpenCV's ``INTER_AREA`` tables (:func:`_area_table`: rows, columns) where it
+        #: averages the polar image down by its generic loop (not both factors integers,
+        #: which takes its integer path); None: OpenCV resizes each image.
+        self._area_tables = (None if rows < bins or columns < beams
+                             or (rows % bins == 0 and columns % beams == 0)
+                             else (_area_table(rows, bins), _area_table(columns, beams)))
+
+    def close_extras(self, **kwargs: Any) -> None:
+        super().close_extras(**kwargs)
+        if self._image_pool is not None:
+            self._image_pool.shutdown()
 
     def _allocate(self, n: int) -> None:
         super()._allocate(n)
         self.kick_phase = np.zeros(n)
         self.sonars: list[ImagingSonar | None] = [None] * n
+        #: Each step's 8-bit polar images (N, range bins, beams), before averaging down.
+        self._polar_images = np.empty((n, 0, 0), np.uint8)
 
     # -- episodes ------------------------------------------------------------------------
     def _load(self, i: int, seed: int, data: dict[str, Any]) -> None:
@@ -173,18 +196,32 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         first = np.searchsorted(fan, np.arange(self.num_envs + 1))
         hits = (distance[fan, ray], np.abs(row_dots(normal[fan, ray], dirs[fan, ray])),
                 reflectivity[fan, ray], label[fan, ray].astype(np.int32))
-        images = np.empty((self.num_envs, *sonars[0].polar_shape), np.uint8)
-        for i, s in enumerate(sonars):
-            rows = slice(first[i], first[i + 1])
-            # (each image to bytes while its levels are in cache: the display mapping of
-            # the whole stack at once, tens of megabytes, is slower)
-            images[i] = s.polar_bytes(*poses[i], FanHits(ray[rows], *(h[rows] for h in hits)))
-        if _stacks_exactly(images.shape[1], bins):  # one resize of the whole stack
-            flat = images.reshape(-1, images.shape[2])
-            return cv2.resize(flat, (beams, bins * self.num_envs),
-                              interpolation=cv2.INTER_AREA).reshape(out.shape)
-        for i, image in enumerate(images):
-            out[i] = cv2.resize(image, (beams, bins), interpolation=cv2.INTER_AREA)
+        if self._polar_images.shape[1:] != sonars[0].polar_shape:
+            self._polar_images = np.empty((self.num_envs, *sonars[0].polar_shape), np.uint8)
+        images = self._polar_images  # (kept between steps: no fresh pages to fault in)
+
+        def form(share: range) -> None:
+            """The images of episodes ``share`` (consecutive), averaged down into ``out``."""
+            for i in share:
+                rows = slice(first[i], first[i + 1])
+                # (each image to bytes while its levels are in cache: the display mapping
+                # of the whole stack at once, tens of megabytes, is slower)
+                images[i] = sonars[i].polar_bytes(*poses[i], FanHits(ray[rows],
+                                                                     *(h[rows] for h in hits)))
+            area_down = _area_down_compiled()
+            if area_down is not None and self._area_tables is not None:  # OpenCV's, compiled
+                area_down(images[share.start:share.stop], *self._area_tables,
+                          out[share.start:share.stop])
+                return
+            for i in share:
+                out[i] = cv2.resize(images[i], (beams, bins), interpolation=cv2.INTER_AREA)
+
+        shares = [range(int(k[0]), int(k[-1]) + 1) for k in
+                  np.array_split(np.arange(self.num_envs), self.threads) if k.size]
+        if self._image_pool is None or len(shares) < 2:
+            form(range(self.num_envs))
+        else:
+            list(self._image_pool.map(form, shares))
         return out
 
     def _cast_fans(self) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray,
@@ -277,10 +314,62 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         label[rows] = -1
 
 
-def _stacks_exactly(rows: int, rows_out: int) -> bool:
-    """Whether averaging a vertical stack of images of ``rows`` rows down to ``rows_out``
-    each (``cv2.INTER_AREA``) gives each image's own result bit for bit: when the scale
-    rows/rows_out is a dyadic fraction, every image's row boundaries in the stack (its
-    offset k·rows plus its own) are exact in floating point."""
-    denominator = Fraction(rows, rows_out).denominator
-    return denominator & (denominator - 1) == 0
+def _area_table(size: int, size_out: int) -> tuple[np.ndarray, np.ndarray]:
+    """OpenCV's ``INTER_AREA`` weights (its ``computeResizeAreaTab``, the same double
+    arithmetic) for ``size`` pixels averaged down to ``size_out`` along one axis: (size_out,
+    K) source indices and float32 weights, each output's in OpenCV's order, padded with
+    weight 0 (adding 0·x leaves a float32 sum as it is)."""
+    scale = 1.0 / (size_out / size)  # as cv::resize computes it, from the inverse scale
+    entries: list[list[tuple[int, float]]] = []
+    for k in range(size_out):
+        start = k * scale
+        end = start + scale
+        cell = min(scale, size - start)
+        first = min(math.ceil(start), min(math.floor(end), size - 1))
+        last = min(math.floor(end), size - 1)
+        entry = [(first - 1, (first - start) / cell)] if first - start > 1e-3 else []
+        entry += [(i, 1.0 / cell) for i in range(first, last)]
+        if end - last > 1e-3:
+            entry.append((last, min(end - last, 1.0, cell) / cell))
+        entries.append(entry)
+    index = np.zeros((size_out, max(map(len, entries))), np.intp)
+    weight = np.zeros(index.shape, np.float32)
+    for k, entry in enumerate(entries):
+        index[k, :len(entry)] = [i for i, _ in entry]
+        weight[k, :len(entry)] = [w for _, w in entry]
+    return index, weight
+
+
+def _area_down_loops(images: np.ndarray, rows: tuple[np.ndarray, np.ndarray],
+                     columns: tuple[np.ndarray, np.ndarray], out: np.ndarray) -> None:
+    """``cv2.resize(image, ..., interpolation=cv2.INTER_AREA)`` of each of ``images`` (N,
+    H, W) uint8 into ``out`` (N, h, w), by OpenCV's generic area loop (``resizeArea_``,
+    float32): each source row's weighted sums over ``columns`` (:func:`_area_table`), then
+    per output row those of its source rows times their weights from ``rows``, added in
+    order and rounded half to even."""
+    row_index, row_weight = rows
+    column_index, column_weight = columns
+    lines = np.empty((images.shape[1], out.shape[2]), np.float32)
+    total = np.empty(out.shape[2], np.float32)
+    for n in range(images.shape[0]):
+        for y in range(images.shape[1]):
+            source = images[n, y]
+            for x in range(out.shape[2]):
+                line = np.float32(0.0)
+                for i in range(column_index.shape[1]):
+                    line += np.float32(source[column_index[x, i]]) * column_weight[x, i]
+                lines[y, x] = line
+        for y in range(out.shape[1]):
+            total[:] = 0.0
+            for j in range(row_index.shape[1]):
+                line_j, weight = lines[row_index[y, j]], row_weight[y, j]
+                for x in range(out.shape[2]):
+                    total[x] += weight * line_j[x]
+            for x in range(out.shape[2]):
+                out[n, y, x] = np.uint8(np.rint(total[x]))
+
+
+@cache
+def _area_down_compiled():  # type: ignore[no-untyped-def]
+    """:func:`_area_down_loops` compiled (numba), or None without numba."""
+    return jit(_area_down_loops)
