@@ -1,0 +1,141 @@
+"""Tools, sites and loads as obstacles to the agents' collision spheres: a bounding-sphere
+pre-check per body, so that the loop's ray-cast narrow phase runs only for the few bodies
+an agent's move can reach (docs/teamwork.md, "Collisions with tools, sites and loads").
+
+Each team body (a tool, a load, a site with its parts posed by its state) has a
+bounding sphere in NED, made from its parts' own spheres (centre of a part's box in its
+rest frame, radius to its farthest vertex), moved by the body's pose and the parts'
+transforms; hidden parts (parked beyond :data:`~uhrisim.world.bodies.HIDDEN_BEYOND_M`,
+which the ray casters skip) are left out. :meth:`ObstacleSpheres.place` sets a body's
+sphere when the body moves or its geometry changes; :meth:`ObstacleSpheres.in_reach`
+names the bodies a sphere of ``radius`` moving start→end can touch: those whose sphere
+comes within ``radius`` of the segment — every point of the narrow phase's ray bundle
+lies within ``radius`` of it (:meth:`~uhrisim.world.scene.Scene.segment_clear`), so a
+body that is not named cannot be hit. Each agent keeps a clearance to the nearest body
+(measured from an anchor point, and lowered when a sphere is placed nearer), so a move
+that stays inside it costs two distances; it is measured again when the agent leaves it
+or the bodies it leaves out change.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from uhrisim.world.bodies import HIDDEN_BEYOND_M, ArticulatedMesh
+
+
+@dataclass(frozen=True)
+class PartSpheres:
+    """Bounding spheres of a body's parts in their rest frames: centres (k, 3) and radii
+    (k,) (m)."""
+
+    centres: NDArray[np.float64]
+    radii: NDArray[np.float64]
+
+    @classmethod
+    def of(cls, geometry: ArticulatedMesh) -> PartSpheres:
+        centres, radii = [], []
+        for part in geometry.parts:
+            v = part.mesh.vertices.view(np.ndarray)
+            centre = 0.5 * (v.min(axis=0) + v.max(axis=0))
+            centres.append(centre)
+            radii.append(float(np.max(np.linalg.norm(v - centre, axis=1))))
+        return cls(np.array(centres), np.array(radii))
+
+    def posed(self, pose: NDArray[np.float64], transforms: NDArray[np.float64] | None
+              ) -> tuple[NDArray[np.float64], float]:
+        """The body's bounding sphere (centre NED, radius m) at ``pose`` (4x4 body→NED)
+        with its parts moved by ``transforms`` ((k, 4, 4) rest→posed; None: at rest);
+        (NaN centre, 0) when every part is hidden."""
+        if transforms is None:
+            local, radii = self.centres, self.radii
+        else:
+            shown = np.einsum("ki,ki->k", transforms[:, :3, 3],
+                              transforms[:, :3, 3]) < HIDDEN_BEYOND_M ** 2
+            if not shown.any():
+                return np.full(3, np.nan), 0.0
+            t = transforms[shown]
+            local = np.einsum("kij,kj->ki", t[:, :3, :3], self.centres[shown]) + t[:, :3, 3]
+            radii = self.radii[shown]
+        centres = local @ pose[:3, :3].T + pose[:3, 3]
+        if len(radii) == 1:
+            return centres[0], float(radii[0])
+        centre = 0.5 * (np.min(centres - radii[:, None], axis=0)
+                        + np.max(centres + radii[:, None], axis=0))
+        return centre, float(np.max(np.linalg.norm(centres - centre, axis=1) + radii))
+
+
+class ObstacleSpheres:
+    """The bounding spheres of named bodies (module docstring)."""
+
+    def __init__(self, parts: dict[str, PartSpheres]) -> None:
+        self.names = tuple(parts)
+        self._index = {name: i for i, name in enumerate(self.names)}
+        self._parts = parts
+        self.centres = np.full((len(parts), 3), np.nan)
+        self.radii = np.zeros(len(parts))
+        #: agent -> (left out, anchor NED, clearance m): a lower bound of the gap from the
+        #: anchor to every sphere not left out, lowered as spheres are placed
+        self._clearance: dict[str, tuple[frozenset[str], NDArray[np.float64], float]] = {}
+
+    def place(self, name: str, pose: NDArray[np.float64],
+              transforms: NDArray[np.float64] | None = None) -> bool:
+        """Set ``name``'s sphere for its pose (4x4 body→NED) and part transforms; whether
+        it changed."""
+        i = self._index[name]
+        centre, radius = self._parts[name].posed(pose, transforms)
+        if radius == self.radii[i] and np.array_equal(centre, self.centres[i]):
+            return False
+        self.centres[i], self.radii[i] = centre, radius
+        for agent, (left_out, anchor, clearance) in self._clearance.items():
+            if name not in left_out and radius > 0.0:  # a bound still: its old place is gone
+                gap = float(np.linalg.norm(centre - anchor)) - radius
+                self._clearance[agent] = (left_out, anchor, min(clearance, gap))
+        return True
+
+    def sphere(self, name: str) -> tuple[NDArray[np.float64], float]:
+        """``name``'s sphere: centre NED (m) (NaN: nothing shown) and radius (m)."""
+        i = self._index[name]
+        return self.centres[i], float(self.radii[i])
+
+    def _kept(self, left_out: frozenset[str]) -> NDArray[np.bool_]:
+        kept = self.radii > 0.0
+        for name in left_out:
+            if name in self._index:
+                kept[self._index[name]] = False
+        return kept
+
+    def touching(self, start: Iterable[float], end: Iterable[float], radius: float,
+                 left_out: frozenset[str] = frozenset()) -> list[str]:
+        """The bodies (not ``left_out``) whose sphere comes within ``radius`` (m) of the
+        segment start→end (NED, m): all a sphere moving along it can touch."""
+        s, e = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+        d = e - s
+        length2 = float(d @ d)
+        c = self.centres
+        u = np.zeros(len(c)) if length2 == 0.0 else np.clip((c - s) @ d / length2, 0.0, 1.0)
+        gap = np.linalg.norm(c - (s + u[:, None] * d), axis=1) - self.radii
+        hit = self._kept(left_out) & (gap <= radius)
+        return [self.names[i] for i in np.flatnonzero(hit)]
+
+    def in_reach(self, agent: str, start: list[float], end: list[float], radius: float,
+                 left_out: frozenset[str]) -> list[str]:
+        """:meth:`touching`, with ``agent``'s clearance kept between calls (module
+        docstring): empty at the cost of one distance while the move stays inside it."""
+        cached = self._clearance.get(agent)
+        if cached is not None and cached[0] == left_out:
+            reach = math.dist(cached[1], end) + math.dist(start, end) + radius
+            if reach < cached[2]:
+                return []
+        near = self.touching(start, end, radius, left_out)
+        anchor = np.asarray(end, dtype=float)
+        kept = self._kept(left_out)
+        clearance = float(np.min(np.linalg.norm(self.centres[kept] - anchor, axis=1)
+                                 - self.radii[kept])) if kept.any() else math.inf
+        self._clearance[agent] = (left_out, anchor, clearance)
+        return near
