@@ -81,7 +81,7 @@ class ObstacleSpheres:
         self.radii = np.zeros(len(parts))
         #: agent -> (left out, anchor NED, clearance m): a lower bound of the gap from the
         #: anchor to every sphere not left out, lowered as spheres are placed
-        self._clearance: dict[str, tuple[frozenset[str], NDArray[np.float64], float]] = {}
+        self._clearance: dict[str, tuple[frozenset[str], list[float], float]] = {}
 
     def place(self, name: str, pose: NDArray[np.float64],
               transforms: NDArray[np.float64] | None = None) -> bool:
@@ -92,10 +92,12 @@ class ObstacleSpheres:
         if radius == self.radii[i] and np.array_equal(centre, self.centres[i]):
             return False
         self.centres[i], self.radii[i] = centre, radius
-        for agent, (left_out, anchor, clearance) in self._clearance.items():
-            if name not in left_out and radius > 0.0:  # a bound still: its old place is gone
-                gap = float(np.linalg.norm(centre - anchor)) - radius
-                self._clearance[agent] = (left_out, anchor, min(clearance, gap))
+        if radius > 0.0:
+            where = centre.tolist()
+            for agent, (left_out, anchor, clearance) in self._clearance.items():
+                gap = math.dist(where, anchor) - radius  # a bound still: its old place is gone
+                if gap < clearance and name not in left_out:
+                    self._clearance[agent] = (left_out, anchor, gap)
         return True
 
     def sphere(self, name: str) -> tuple[NDArray[np.float64], float]:
@@ -133,9 +135,8 @@ class ObstacleSpheres:
             if reach < cached[2]:
                 return []
         near = self.touching(start, end, radius, left_out)
-        anchor = np.asarray(end, dtype=float)
         kept = self._kept(left_out)
-        clearance = float(np.min(np.linalg.norm(self.centres[kept] - anchor, axis=1)
+        clearance = float(np.min(np.linalg.norm(self.centres[kept] - np.asarray(end), axis=1)
                                  - self.radii[kept])) if kept.any() else math.inf
-        self._clearance[agent] = (left_out, anchor, clearance)
+        self._clearance[agent] = (left_out, list(end), clearance)
         return near

@@ -205,6 +205,7 @@ class TeamStage:
         #: the bodies whose sphere moved or changed at the last stage tick
         self.moved: frozenset[str] = frozenset()
         self._left_out: dict[str, frozenset[str]] = {}
+        self._work: tuple[Any, ...] = ()  # what was held and each diver's order then
         self._refresh_obstacles()
 
     @property
@@ -435,13 +436,14 @@ class TeamStage:
             self.events.append(event)
             self.record("teamwork", event.line())
         self._record_site_states()
-        self._refresh_obstacles()
+        self._refresh_obstacles(bool(events))
         return self.moved
 
     # ------------------------------------------------------------------ obstacles
-    def _refresh_obstacles(self) -> None:
+    def _refresh_obstacles(self, changed: bool = True) -> None:
         """Place the bounding sphere of every body that moved or changed shape since the
-        last stage tick (:attr:`moved`), and work out what each agent leaves out."""
+        last stage tick (:attr:`moved`), and work out what each agent leaves out (again
+        when what is held or the orders changed, or ``changed``: a tick with events)."""
         ws = self.workspace
         moved = []
         for name in (*ws.things, *ws.flanges, *ws.hatches):
@@ -452,10 +454,11 @@ class TeamStage:
                 if self.obstacles.place(name, *self._body_pose(name)):
                     moved.append(name)
         self.moved = frozenset(moved)
-        for name in self.agents:
-            left_out = self._work_of(name)
-            if left_out != self._left_out.get(name):
-                self._left_out[name] = left_out
+        work = (tuple(ws.holders.items()), tuple(
+            b.executor.current if b.executor is not None else None for b in self.divers.values()))
+        if changed or work != self._work:  # what is held or worked at, or where things are
+            self._work = work
+            self._left_out = {name: self._work_of(name) for name in self.agents}
 
     def _shape(self, name: str) -> tuple[Any, ...]:
         """What a tool's, load's or site's pose and parts follow from (:meth:`_body_pose`):
