@@ -445,6 +445,18 @@ class TeamStage:
         last stage tick (:attr:`moved`), and work out what each agent leaves out (again
         when what is held or the orders changed, or ``changed``: a tick with events)."""
         ws = self.workspace
+        self.moved = self._note_changes()
+        work = (tuple(ws.holders.items()), tuple(
+            b.executor.current if b.executor is not None else None for b in self.divers.values()))
+        if changed or work != self._work:  # what is held or worked at, or where things are
+            self._work = work
+            self._left_out = {name: self._work_of(name) for name in self.agents}
+
+    def _note_changes(self) -> frozenset[str]:
+        """Compare every tool's, load's and site's shape with the last one seen: the changed
+        wait to be posed in the scene and their spheres are placed; returns those whose
+        sphere moved."""
+        ws = self.workspace
         moved = []
         for name in (*ws.things, *ws.flanges, *ws.hatches):
             shape = self._shape(name)
@@ -453,12 +465,7 @@ class TeamStage:
                 self._unposed.add(name)
                 if self.obstacles.place(name, *self._body_pose(name)):
                     moved.append(name)
-        self.moved = frozenset(moved)
-        work = (tuple(ws.holders.items()), tuple(
-            b.executor.current if b.executor is not None else None for b in self.divers.values()))
-        if changed or work != self._work:  # what is held or worked at, or where things are
-            self._work = work
-            self._left_out = {name: self._work_of(name) for name in self.agents}
+        return frozenset(moved)
 
     def _shape(self, name: str) -> tuple[Any, ...]:
         """What a tool's, load's or site's pose and parts follow from (:meth:`_body_pose`):
@@ -634,6 +641,7 @@ class TeamStage:
         """Move the scene's tools, loads, sites' parts (those that moved or changed since
         they were last posed) and articulated divers to now."""
         scene = self.scene
+        self._note_changes()  # (the workspace changes only in the stage, or in a test)
         for name in sorted(self._unposed):  # moved or changed since they were last posed
             pose, parts = self._body_pose(name)
             if name in self.workspace.things:
