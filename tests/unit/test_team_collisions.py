@@ -105,7 +105,8 @@ def test_the_diver_reaches_into_the_basket_of_his_order_and_is_stopped_by_it_aft
         free, what = sim._clear_fraction(diver, start, end)
         assert free < 1.0 and what.startswith("basket1 at NED")
         grip = sim.team.workspace.things["wrench1"].position  # the held wrench: no obstacle
-        assert sim._clear_fraction(diver, list(grip + [0, -0.1, 0]), list(grip)) == (1.0, "")
+        assert sim._clear_fraction(diver, (grip - [0.0, 0.1, 0.0]).tolist(),
+                                   grip.tolist()) == (1.0, "")
 
 
 def test_the_pre_check_agrees_with_the_full_check_on_random_placements(salvage):
@@ -148,7 +149,7 @@ def test_a_sites_sphere_leaves_out_its_hidden_parts(salvage):
     ws = team.workspace
     centre, radius = team.obstacles.sphere("flange1")
     assert radius < 1.0 and np.all(np.isfinite(centre))  # the parked parts are not in it
-    pose, parts = team._body_pose("bag1")
+    _, parts = team._body_pose("bag1")
     shown = np.linalg.norm(parts[:, :3, 3], axis=1) < HIDDEN_BEYOND_M
     assert shown.sum() == 1  # the folded bag
     bag_centre, bag_radius = team.obstacles.sphere("bag1")

@@ -11,7 +11,9 @@ One tick of the physics step ``dt`` does, in this order (docs/design.md, "data f
    the end of the previous tick; collisions stop the move; body poses go to the scene;
    divers' bubble bursts that are due leave their regulators (:mod:`uhrisim.sim.bubbles`);
    **teamwork** (:mod:`uhrisim.sim.teamwork`, when the scenario has tools, sites,
-   orders or a gripper): divers carry out their orders, grippers grip, objects move;
+   orders or a gripper): divers carry out their orders, grippers grip, objects move (a
+   tool, load or site part that moves onto an agent is a collision, the agent shoved
+   out);
 4. **navigation**: NAV_* are posted (at each agent's helm rate);
 5. **contacts**: node reports from simulation truth (degraded as configured) reach the
    other agents' contact managers at the contact rate;
