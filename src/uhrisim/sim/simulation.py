@@ -394,17 +394,16 @@ class Simulation:
         and the agent is pushed out, as by an object an event puts there."""
         team = self.team
         assert team is not None
-        where = {name: agent.state[:3].tolist() for name, agent in self.agents.items()}
         for agent_name, name in list(self._team_contacts):
             centre, reach = team.obstacles.sphere(name)
-            if not math.dist(centre, where[agent_name]) <= reach + self.agents[
-                    agent_name].radius:
+            agent = self.agents[agent_name]
+            if not math.dist(centre, agent.state[:3]) <= reach + agent.radius:
                 self._team_contacts.discard((agent_name, name))
         for name in sorted(moved):
             centre, reach = team.obstacles.sphere(name)
             for agent in self.agents.values():
-                if ((agent.name, name) in self._team_contacts or not math.dist(
-                        centre, where[agent.name]) <= reach + agent.radius
+                if (not math.dist(centre, agent.state[:3]) <= reach + agent.radius
+                        or (agent.name, name) in self._team_contacts
                         or name in team.left_out(agent.name)):
                     continue
                 self._sync_scene()

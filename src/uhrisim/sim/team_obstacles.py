@@ -3,15 +3,16 @@ pre-check per body, so that the loop's ray-cast narrow phase runs only for the f
 an agent's move can reach (docs/teamwork.md, "Collisions with tools, sites and loads").
 
 Each team body (a tool, a load, a site with its parts posed by its state) has a
-bounding sphere in NED, made from its parts' own spheres (centre of a part's box in its
+bounding sphere in NED and a box in its own frame (its shown parts' boxes), made from its parts' own spheres (centre of a part's box in its
 rest frame, radius to its farthest vertex), moved by the body's pose and the parts'
 transforms; hidden parts (parked beyond :data:`~uhrisim.world.bodies.HIDDEN_BEYOND_M`,
 which the ray casters skip) are left out. :meth:`ObstacleSpheres.place` sets a body's
 sphere when the body moves or its geometry changes; :meth:`ObstacleSpheres.in_reach`
 names the bodies a sphere of ``radius`` moving start→end can touch: those whose sphere
-comes within ``radius`` of the segment — every point of the narrow phase's ray bundle
-lies within ``radius`` of it (:meth:`~uhrisim.world.scene.Scene.segment_clear`), so a
-body that is not named cannot be hit. Each agent keeps a clearance to the nearest body
+comes within ``radius`` of the segment and whose box grown by ``radius`` the segment
+meets — every point of the narrow phase's ray bundle lies within ``radius`` of the
+segment (:meth:`~uhrisim.world.scene.Scene.segment_clear`), so a body that is not named
+cannot be hit. Each agent keeps a clearance to the nearest body
 (measured from an anchor point, and lowered when a sphere is placed nearer), so a move
 that stays inside it costs two distances; it is measured again when the agent leaves it
 or the bodies it leaves out change.
@@ -36,16 +37,34 @@ class PartSpheres:
 
     centres: NDArray[np.float64]
     radii: NDArray[np.float64]
+    corners: NDArray[np.float64]  # (k, 8, 3) each part's box in its rest frame
 
     @classmethod
     def of(cls, geometry: ArticulatedMesh) -> PartSpheres:
-        centres, radii = [], []
+        centres, radii, corners = [], [], []
         for part in geometry.parts:
             v = part.mesh.vertices.view(np.ndarray)
-            centre = 0.5 * (v.min(axis=0) + v.max(axis=0))
+            lo, hi = v.min(axis=0), v.max(axis=0)
+            centre = 0.5 * (lo + hi)
             centres.append(centre)
             radii.append(float(np.max(np.linalg.norm(v - centre, axis=1))))
-        return cls(np.array(centres), np.array(radii))
+            corners.append([[(lo, hi)[i][0], (lo, hi)[j][1], (lo, hi)[k][2]]
+                            for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+        return cls(np.array(centres), np.array(radii), np.array(corners))
+
+    def box(self, transforms: NDArray[np.float64] | None
+            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The body's box in its own frame (lower and upper corners, m): its shown parts'
+        boxes moved by ``transforms`` (None: at rest)."""
+        if transforms is None:
+            points = self.corners.reshape(-1, 3)
+        else:
+            shown = np.einsum("ki,ki->k", transforms[:, :3, 3],
+                              transforms[:, :3, 3]) < HIDDEN_BEYOND_M ** 2
+            t = transforms[shown]
+            points = (np.einsum("kij,kcj->kci", t[:, :3, :3], self.corners[shown])
+                      + t[:, None, :3, 3]).reshape(-1, 3)
+        return points.min(axis=0), points.max(axis=0)
 
     def posed(self, pose: NDArray[np.float64], transforms: NDArray[np.float64] | None
               ) -> tuple[NDArray[np.float64], float]:
@@ -79,6 +98,8 @@ class ObstacleSpheres:
         self._parts = parts
         self.centres = np.full((len(parts), 3), np.nan)
         self.radii = np.zeros(len(parts))
+        #: each body's box: (rotation NED→body, origin NED, lower and upper corners)
+        self._boxes: list[tuple[NDArray[np.float64], ...]] = [()] * len(parts)
         #: agent -> (left out, anchor NED, clearance m): a lower bound of the gap from the
         #: anchor to every sphere not left out, lowered as spheres are placed
         self._clearance: dict[str, tuple[frozenset[str], list[float], float]] = {}
@@ -92,6 +113,9 @@ class ObstacleSpheres:
         if radius == self.radii[i] and np.array_equal(centre, self.centres[i]):
             return False
         self.centres[i], self.radii[i] = centre, radius
+        if radius > 0.0:
+            lo, hi = self._parts[name].box(transforms)
+            self._boxes[i] = (pose[:3, :3].T, pose[:3, 3].copy(), lo, hi)
         if radius > 0.0:
             where = centre.tolist()
             for agent, (left_out, anchor, clearance) in self._clearance.items():
@@ -123,14 +147,15 @@ class ObstacleSpheres:
         u = np.zeros(len(c)) if length2 == 0.0 else np.clip((c - s) @ d / length2, 0.0, 1.0)
         gap = np.linalg.norm(c - (s + u[:, None] * d), axis=1) - self.radii
         hit = self._kept(left_out) & (gap <= radius)
-        return [self.names[i] for i in np.flatnonzero(hit)]
+        return [self.names[i] for i in np.flatnonzero(hit)
+                if _meets_box(s, e, radius, *self._boxes[i])]
 
     def in_reach(self, agent: str, start: list[float], end: list[float], radius: float,
                  left_out: frozenset[str]) -> list[str]:
         """:meth:`touching`, with ``agent``'s clearance kept between calls (module
         docstring): empty at the cost of one distance while the move stays inside it."""
         cached = self._clearance.get(agent)
-        if cached is not None and cached[0] == left_out:
+        if cached is not None and cached[0] is left_out:  # (replaced when it changes)
             reach = math.dist(cached[1], end) + math.dist(start, end) + radius
             if reach < cached[2]:
                 return []
@@ -140,3 +165,27 @@ class ObstacleSpheres:
                                  - self.radii[kept])) if kept.any() else math.inf
         self._clearance[agent] = (left_out, list(end), clearance)
         return near
+
+
+def _meets_box(start: NDArray[np.float64], end: NDArray[np.float64], radius: float,
+               rotation: NDArray[np.float64], origin: NDArray[np.float64],
+               lo: NDArray[np.float64], hi: NDArray[np.float64]) -> bool:
+    """Whether the segment start→end (NED, m) meets the body's box grown by ``radius`` on
+    every side (it holds every point within ``radius`` of the box): the slab test in the
+    body's frame (``rotation`` NED→body, ``origin`` NED)."""
+    a = rotation @ (start - origin)
+    d = rotation @ (end - start)
+    enter, leave = 0.0, 1.0
+    for k in range(3):
+        low, high = lo[k] - radius, hi[k] + radius
+        if abs(d[k]) < 1e-12:
+            if not low <= a[k] <= high:
+                return False
+            continue
+        t0, t1 = (low - a[k]) / d[k], (high - a[k]) / d[k]
+        if t0 > t1:
+            t0, t1 = t1, t0
+        enter, leave = max(enter, t0), min(leave, t1)
+        if enter > leave:
+            return False
+    return True

@@ -201,6 +201,10 @@ class TeamStage:
             self.obstacles.place(name, _matrix(position, rotation))
         #: each moving body's pose and state at its sphere's last placing
         self._shapes: dict[str, tuple[Any, ...]] = {}
+        self._last_inputs: dict[str, tuple[Any, ...]] = {}  # what those followed from
+        ws = self.workspace  # where each bag's and site's state is
+        self._states = {name: states for states in (ws.bag_states, ws.flange_states,
+                                                    ws.hatch_states) for name in states}
         self._unposed: set[str] = set()  # those the scene has not been told of
         #: the bodies whose sphere moved or changed at the last stage tick
         self.moved: frozenset[str] = frozenset()
@@ -436,19 +440,19 @@ class TeamStage:
             self.events.append(event)
             self.record("teamwork", event.line())
         self._record_site_states()
-        self._refresh_obstacles(bool(events))
+        self._refresh_obstacles()
         return self.moved
 
     # ------------------------------------------------------------------ obstacles
-    def _refresh_obstacles(self, changed: bool = True) -> None:
+    def _refresh_obstacles(self) -> None:
         """Place the bounding sphere of every body that moved or changed shape since the
         last stage tick (:attr:`moved`), and work out what each agent leaves out (again
-        when what is held or the orders changed, or ``changed``: a tick with events)."""
+        when what is held, where things are or the orders changed)."""
         ws = self.workspace
         self.moved = self._note_changes()
-        work = (tuple(ws.holders.items()), tuple(
+        work = (tuple(ws.holders.items()), tuple(t.where for t in ws.things.values()), tuple(
             b.executor.current if b.executor is not None else None for b in self.divers.values()))
-        if changed or work != self._work:  # what is held or worked at, or where things are
+        if work != self._work:  # what is held or worked at, or where things are, changed
             self._work = work
             self._left_out = {name: self._work_of(name) for name in self.agents}
 
@@ -459,7 +463,11 @@ class TeamStage:
         ws = self.workspace
         moved = []
         for name in (*ws.things, *ws.flanges, *ws.hatches):
-            shape = self._shape(name)
+            inputs = self._inputs(name)
+            if self._last_inputs.get(name) == inputs:
+                continue
+            self._last_inputs[name] = inputs
+            shape = self._shape(name)  # (a bolt's wrench work changes no shape)
             if self._shapes.get(name) != shape:
                 self._shapes[name] = shape
                 self._unposed.add(name)
@@ -481,6 +489,15 @@ class TeamStage:
             spec, state = ws.flanges[name], ws.flange_states[name]
             return (state.cover_on, *(spec.bolt_status(state, b) for b in range(spec.n_bolts)))
         return (ws.hatch_states[name].angle,)
+
+    def _inputs(self, name: str) -> tuple[Any, ...]:
+        """What :meth:`_shape` reads, as it is: an object's pose, a site's or bag's state
+        (frozen: replaced when it changes) — cheap to compare before the shape is."""
+        ws = self.workspace
+        thing = ws.things.get(name)
+        states = self._states.get(name)
+        return (None if thing is None else thing.pose.tobytes(),
+                None if states is None else states[name])
 
     def _body_pose(self, name: str) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
         """A tool's, load's or site's pose (4x4 body→NED) and its parts' transforms by its
