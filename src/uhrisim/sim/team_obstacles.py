@@ -3,19 +3,20 @@ pre-check per body, so that the loop's ray-cast narrow phase runs only for the f
 an agent's move can reach (docs/teamwork.md, "Collisions with tools, sites and loads").
 
 Each team body (a tool, a load, a site with its parts posed by its state) has a
-bounding sphere in NED and a box in its own frame (its shown parts' boxes), made from its parts' own spheres (centre of a part's box in its
-rest frame, radius to its farthest vertex), moved by the body's pose and the parts'
-transforms; hidden parts (parked beyond :data:`~uhrisim.world.bodies.HIDDEN_BEYOND_M`,
-which the ray casters skip) are left out. :meth:`ObstacleSpheres.place` sets a body's
-sphere when the body moves or its geometry changes; :meth:`ObstacleSpheres.in_reach`
-names the bodies a sphere of ``radius`` moving start→end can touch: those whose sphere
-comes within ``radius`` of the segment and whose box grown by ``radius`` the segment
-meets — every point of the narrow phase's ray bundle lies within ``radius`` of the
-segment (:meth:`~uhrisim.world.scene.Scene.segment_clear`), so a body that is not named
-cannot be hit. Each agent keeps a clearance to the nearest body
-(measured from an anchor point, and lowered when a sphere is placed nearer), so a move
-that stays inside it costs two distances; it is measured again when the agent leaves it
-or the bodies it leaves out change.
+bounding sphere in NED, made from its parts' own spheres (centre of a part's box in its
+rest frame, radius to its farthest vertex), and a box in its own frame (its parts'
+boxes), both moved by the body's pose and the parts' transforms; hidden parts (parked
+beyond :data:`~uhrisim.world.bodies.HIDDEN_BEYOND_M`, which the ray casters skip) are
+left out. :meth:`ObstacleSpheres.place` sets them when the body moves or its geometry
+changes; :meth:`ObstacleSpheres.in_reach` names the bodies a sphere of ``radius`` moving
+start→end can touch: those whose sphere comes within ``radius`` of the segment and
+whose box grown by ``radius`` the segment meets — every point of the narrow phase's ray
+bundle lies within ``radius`` of the segment
+(:meth:`~uhrisim.world.scene.Scene.segment_clear`), so a body that is not named cannot
+be hit. Each agent keeps a clearance to the nearest sphere (measured from an anchor
+point, and lowered when a sphere is placed nearer), so a move that stays inside it costs
+two distances; it is measured again when the agent leaves it or the bodies it leaves
+out change.
 """
 
 from __future__ import annotations

@@ -32,7 +32,8 @@ collision check, :mod:`uhrisim.sim.simulation`), but for what an agent works wit
 (:meth:`TeamStage.left_out`): (a) what its own hands or gripper hold (a carried object
 moves with its carrier; a hand-over's object is held by both), with what lies in it;
 (b) the objects and the site its current order names, where its hands work
-(:func:`uhrisim.teamwork.orders.worked_at`); (c) what those rest on or are fixed to (the
+(:func:`uhrisim.teamwork.orders.worked_at`), or its task from outside (:attr:`tasks`:
+the tool an assistant's ROV fetches); (c) what those rest on or are fixed to (the
 basket a tool lies in, the stand under the basket, the load a bag is rigged to). Every
 stage tick refreshes the bodies' bounding spheres (:mod:`uhrisim.sim.team_obstacles`)
 of those that moved or changed shape (:attr:`TeamStage.moved`): the loop's pre-check.
@@ -183,6 +184,9 @@ class TeamStage:
         #: a diver's arm and trunk goal from outside (name -> t -> joint angles by name,
         #: None: his orders'): the signals he makes (uhrisim.sim.assistance)
         self.arm_poses: dict[str, Callable[[float], dict[str, float] | None]] = {}
+        #: what an agent's task from outside works at (name -> the objects and sites):
+        #: the tool an assistant's ROV fetches (uhrisim.sim.assistance)
+        self.tasks: dict[str, Callable[[], tuple[str, ...]]] = {}
         for index, agent in enumerate(agents.values()):  # what grippers hold is placed
             if agent.config.gripper is not None:         # before the orders are checked
                 self.grippers[agent.name] = self._gripper(index, agent)
@@ -451,7 +455,8 @@ class TeamStage:
         ws = self.workspace
         self.moved = self._note_changes()
         work = (tuple(ws.holders.items()), tuple(t.where for t in ws.things.values()), tuple(
-            b.executor.current if b.executor is not None else None for b in self.divers.values()))
+            b.executor.current if b.executor is not None else None for b in self.divers.values()),
+            tuple(task() for task in self.tasks.values()))
         if work != self._work:  # what is held or worked at, or where things are, changed
             self._work = work
             self._left_out = {name: self._work_of(name) for name in self.agents}
@@ -523,6 +528,8 @@ class TeamStage:
         body = self.divers.get(agent)
         order = body.executor.current if body is not None and body.executor is not None else None
         named = set(od.worked_at(order, agent))
+        if agent in self.tasks:
+            named.update(self.tasks[agent]())
         out = held | named
         for name in ws.things:
             supports = self._supports(name)
