@@ -165,6 +165,8 @@ class AssistanceStage:
             self._add_slates(diver)
             if team is not None:
                 team.arm_poses[name] = diver.signalling_pose
+        for v in self.vehicles:  # its jaws work at the tool it fetches (docs/teamwork.md)
+            self.team.tasks[v.agent.name] = lambda v=v: self._task_tools(v)  # type: ignore
 
     @property
     def body_names(self) -> frozenset[str]:
@@ -209,6 +211,13 @@ class AssistanceStage:
                                sonar and sensor_key(agent.name, sonar),
                                self._tools(section, index, where),
                                self._sites(section, index, where))
+
+    @staticmethod
+    def _task_tools(v: AssistedVehicle) -> tuple[str, ...]:
+        """The world's tool the ROV's task names (the one ``bring_tool`` fetches), if any."""
+        task = v.assistant.ctx.task
+        tool = v.tools.get(task.argument) if task is not None and task.argument else None
+        return () if tool is None else (tool,)
 
     def _only_diver(self, where: str) -> str:
         divers = [n for n, a in self.agents.items() if a.model.diver is not None]

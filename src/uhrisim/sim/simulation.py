@@ -11,7 +11,9 @@ One tick of the physics step ``dt`` does, in this order (docs/design.md, "data f
    the end of the previous tick; collisions stop the move; body poses go to the scene;
    divers' bubble bursts that are due leave their regulators (:mod:`uhrisim.sim.bubbles`);
    **teamwork** (:mod:`uhrisim.sim.teamwork`, when the scenario has tools, sites,
-   orders or a gripper): divers carry out their orders, grippers grip, objects move;
+   orders or a gripper): divers carry out their orders, grippers grip, objects move (a
+   tool, load or site part that moves onto an agent is a collision, the agent shoved
+   out);
 4. **navigation**: NAV_* are posted (at each agent's helm rate);
 5. **contacts**: node reports from simulation truth (degraded as configured) reach the
    other agents' contact managers at the contact rate;
@@ -148,6 +150,8 @@ class Simulation:
         self._shallowest_floor = float(np.min(floor.depth)) if floor is not None else np.inf
         self._floor_slope = floor.max_slope if floor is not None else 0.0
         self._scene_dirty = False
+        #: (agent, team body) pairs in contact since a body moved onto the agent
+        self._team_contacts: set[tuple[str, str]] = set()
         self._started = False
         self._closed = False
         self.wall_time = 0.0
@@ -187,7 +191,10 @@ class Simulation:
             self._inbox.append(("actuators", agent, values, self.t + hold_s))
 
     def refresh_static_obstacles(self) -> None:
-        """Recompute the collision broad phase after the scene's geometry changed."""
+        """Recompute the collision broad phase after the scene's geometry changed. The
+        bodies it leaves to others: the agents (their spheres), bubbles and slates (no
+        obstacles) and the team's tools, sites and loads (obstacles through their own
+        pre-check, :meth:`_team_in_reach`)."""
         self._static_boxes = static_obstacle_boxes(self.scene)
         self._not_obstacles = frozenset(self.agents) | self.bubbles.body_names | (
             self.team.body_names if self.team is not None else frozenset()) | (
@@ -237,8 +244,10 @@ class Simulation:
         if self.bubbles.active:
             self.bubbles.release(t)
         if self.team is not None:
-            self.team.step(tick, t)
+            moved = self.team.step(tick, t)
             self._scene_dirty = True
+            if moved or self._team_contacts:
+                self._struck_by_team(moved)
         if self.assistance is not None:
             self.assistance.perform(t)
         for agent in agents:
@@ -384,21 +393,52 @@ class Simulation:
         if not mesh.is_watertight:
             return
         for agent in self.agents.values():
-            centre = agent.state[:3]
-            if not sphere_overlaps(mesh, centre, agent.radius):
-                continue
-            self.collisions += 1
-            agent.in_contact = True
-            state = agent.state.copy()
-            state[:3] = push_out(mesh, centre, agent.radius)
-            state[2] = max(state[2], SURFACE_DEPTH)
-            if agent.model.contact_stops is not None:
-                state[agent.model.contact_stops] = 0.0
-            agent.update(state=state)
-            self._scene_dirty = True
-            self.record_event("collision", f"{agent.name} touched {obj.label!r}, which an "
-                              f"event {how} onto it at NED {np.round(centre, 2).tolist()}; "
-                              f"pushed out to {np.round(state[:3], 2).tolist()}")
+            if sphere_overlaps(mesh, agent.state[:3], agent.radius):
+                self._shove(agent, mesh, f"{obj.label!r}, which an event {how} onto it")
+
+    def _struck_by_team(self, moved: frozenset[str]) -> None:
+        """A tool, load or site part that moved onto an agent (a rising load, a swelling
+        bag; not one it works with, :meth:`TeamStage.left_out`): a collision of that agent,
+        once per contact — the pair stays in contact until their bounding spheres part —
+        and the agent is pushed out, as by an object an event puts there."""
+        team = self.team
+        assert team is not None
+        for agent_name, name in list(self._team_contacts):
+            centre, reach = team.obstacles.sphere(name)
+            agent = self.agents[agent_name]
+            if not math.dist(centre, agent.state[:3]) <= reach + agent.radius:
+                self._team_contacts.discard((agent_name, name))
+        for name in sorted(moved):
+            centre, reach = team.obstacles.sphere(name)
+            for agent in self.agents.values():
+                if (not math.dist(centre, agent.state[:3]) <= reach + agent.radius
+                        or (agent.name, name) in self._team_contacts
+                        or name in team.left_out(agent.name)):
+                    continue
+                self._sync_scene()
+                mesh = self.scene.bodies[self.scene.body_names.index(name)].mesh_world()
+                if sphere_overlaps(mesh, agent.state[:3], agent.radius):
+                    self._team_contacts.add((agent.name, name))
+                    self._shove(agent, mesh, f"{name}, which moved onto it")
+
+    def _shove(self, agent: Agent, mesh: Any, what: str) -> None:
+        """A collision of ``agent`` with ``mesh`` (closed, NED), which came onto it (it did
+        not move into it, so the moving-sphere check of :meth:`_advance` cannot see it):
+        counted and logged, and the agent pushed out the shortest way, at rest
+        (:mod:`uhrisim.sim.overlap`)."""
+        centre = agent.state[:3]
+        self.collisions += 1
+        agent.in_contact = True
+        state = agent.state.copy()
+        state[:3] = push_out(mesh, centre, agent.radius)
+        state[2] = max(state[2], SURFACE_DEPTH)
+        if agent.model.contact_stops is not None:
+            state[agent.model.contact_stops] = 0.0
+        agent.update(state=state)
+        self._scene_dirty = True
+        self.record_event("collision", f"{agent.name} touched {what} at NED "
+                          f"{np.round(centre, 2).tolist()}; pushed out to "
+                          f"{np.round(state[:3], 2).tolist()}")
 
     def _advance(self, agent: Agent, t: float) -> None:
         """Step ``agent``'s model from time ``t`` (s) over one tick; stop it at the surface
@@ -443,22 +483,37 @@ class Simulation:
 
     def _clear_fraction(self, agent: Agent, start: list[float], end: list[float]
                         ) -> tuple[float, str]:
-        """Fraction of the move start->end (NED, m) free of other agents and static
-        geometry, and what it touches ("" when the move is free)."""
+        """Fraction of the move start->end (NED, m) free of other agents, static geometry
+        and the team's tools, sites and loads (but those it works with,
+        :meth:`TeamStage.left_out`), and what it touches ("" when the move is free)."""
         for other, touch in self._others[agent.name]:
             centre = other.state[:3].tolist()
             end_distance = math.dist(end, centre)
             if end_distance < touch and end_distance < math.dist(
                     start, centre):  # touching and approaching
                 return 0.0, other.name
-        if self._near_static(agent, end, math.dist(start, end)):
-            if self._has_movable_objects:  # else every body is excluded: poses do not matter
+        team = self._team_in_reach(agent, start, end)
+        if team or self._near_static(agent, end, math.dist(start, end)):
+            if team or self._has_movable_objects:  # else no obstacle's pose matters
                 self._sync_scene()
-            free = self.scene.segment_clear(np.array(start), np.array(end), agent.radius,
-                                            exclude=self._not_obstacles)
+            free, what, where = self.scene.segment_contact(
+                np.array(start), np.array(end), agent.radius,
+                exclude=self._not_obstacles.difference(team))
             if free < 1.0:
+                if what in team:
+                    return free, f"{what} at NED {np.round(where, 2).tolist()}"
                 return free, f"the scene at NED {np.round(end, 2).tolist()}"
         return 1.0, ""
+
+    def _team_in_reach(self, agent: Agent, start: list[float], end: list[float]
+                       ) -> list[str]:
+        """The team bodies a move start->end (NED, m) of ``agent`` can touch, by their
+        bounding spheres (:mod:`uhrisim.sim.team_obstacles`); those it works with are
+        left out."""
+        if self.team is None or start == end:
+            return []
+        return self.team.obstacles.in_reach(agent.name, start, end, agent.radius,
+                                            self.team.left_out(agent.name))
 
     def _near_static(self, agent: Agent, point: list[float], step_m: float) -> bool:
         """Cheap broad phase: is ``point`` (NED, m), the end of a move of ``step_m``, within

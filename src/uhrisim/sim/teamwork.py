@@ -25,8 +25,18 @@ move and before the sensors, every ``1 / RATE_HZ`` s:
    ``team_state``: a bag's gas or a hatch lid's angle that moved, :func:`site_state_detail`).
 
 The scene follows: tools, sites and loads are dynamic bodies posed from the workspace
-(parts of sites by their state), the articulated divers by their joint angles. They
-are not obstacles to the agents' collision spheres (hands and jaws work at them).
+(parts of sites by their state), the articulated divers by their joint angles.
+
+Tools, sites and loads are obstacles to the agents' collision spheres (the loop's
+collision check, :mod:`uhrisim.sim.simulation`), but for what an agent works with
+(:meth:`TeamStage.left_out`): (a) what its own hands or gripper hold (a carried object
+moves with its carrier; a hand-over's object is held by both), with what lies in it;
+(b) the objects and the site its current order names, where its hands work
+(:func:`uhrisim.teamwork.orders.worked_at`), or its task from outside (:attr:`tasks`:
+the tool an assistant's ROV fetches); (c) what those rest on or are fixed to (the
+basket a tool lies in, the stand under the basket, the load a bag is rigged to). Every
+stage tick refreshes the bodies' bounding spheres (:mod:`uhrisim.sim.team_obstacles`)
+of those that moved or changed shape (:attr:`TeamStage.moved`): the loop's pre-check.
 Deterministic: nothing here draws random numbers.
 """
 
@@ -53,6 +63,7 @@ from uhrisim.scenario.sections import part_settings
 from uhrisim.scenario.teamwork import FlangeSite, HatchSite, LoadSite, PlatformSite
 from uhrisim.sim.hooks import JointSample
 from uhrisim.sim.state import Agent
+from uhrisim.sim.team_obstacles import ObstacleSpheres, PartSpheres
 from uhrisim.teamwork import acts
 from uhrisim.teamwork import gripper as gr
 from uhrisim.teamwork import orders as od
@@ -173,6 +184,9 @@ class TeamStage:
         #: a diver's arm and trunk goal from outside (name -> t -> joint angles by name,
         #: None: his orders'): the signals he makes (uhrisim.sim.assistance)
         self.arm_poses: dict[str, Callable[[float], dict[str, float] | None]] = {}
+        #: what an agent's task from outside works at (name -> the objects and sites):
+        #: the tool an assistant's ROV fetches (uhrisim.sim.assistance)
+        self.tasks: dict[str, Callable[[], tuple[str, ...]]] = {}
         for index, agent in enumerate(agents.values()):  # what grippers hold is placed
             if agent.config.gripper is not None:         # before the orders are checked
                 self.grippers[agent.name] = self._gripper(index, agent)
@@ -184,6 +198,23 @@ class TeamStage:
         self._scene_bodies = frozenset(self.workspace.things) | frozenset(
             self.workspace.flanges) | frozenset(self.workspace.hatches) | frozenset(
             self.workspace.platforms)
+        self.obstacles = ObstacleSpheres({b.name: PartSpheres.of(b.geometry)
+                                          for b in scene.bodies if b.name in self._scene_bodies})
+        for name in self.workspace.platforms:  # fixed: placed once
+            position, rotation, _ = scene.pose(name)
+            self.obstacles.place(name, _matrix(position, rotation))
+        #: each moving body's pose and state at its sphere's last placing
+        self._shapes: dict[str, tuple[Any, ...]] = {}
+        self._last_inputs: dict[str, tuple[Any, ...]] = {}  # what those followed from
+        ws = self.workspace  # where each bag's and site's state is
+        self._states = {name: states for states in (ws.bag_states, ws.flange_states,
+                                                    ws.hatch_states) for name in states}
+        self._unposed: set[str] = set()  # those the scene has not been told of
+        #: the bodies whose sphere moved or changed at the last stage tick
+        self.moved: frozenset[str] = frozenset()
+        self._left_out: dict[str, frozenset[str]] = {}
+        self._work: tuple[Any, ...] = ()  # what was held and each diver's order then
+        self._refresh_obstacles()
 
     @property
     def active(self) -> bool:
@@ -193,8 +224,14 @@ class TeamStage:
 
     @property
     def body_names(self) -> frozenset[str]:
-        """The scene bodies of tools, sites and loads (not obstacles to the agents)."""
+        """The scene bodies of tools, sites and loads (obstacles through
+        :attr:`obstacles` and :meth:`left_out`, not the static broad phase's)."""
         return self._scene_bodies
+
+    def left_out(self, agent: str) -> frozenset[str]:
+        """The team bodies ``agent``'s collision sphere leaves out now (module docstring:
+        what it holds, what its order works at, what those rest on)."""
+        return self._left_out.get(agent, frozenset())
 
     # ------------------------------------------------------------------ building
     def _where(self, *path: Any) -> str:
@@ -363,10 +400,11 @@ class TeamStage:
         return acts.Jaws(name, slot.spec, slot.state, pose_matrix(nav.position_ned, nav.yaw))
 
     # ------------------------------------------------------------------ the tick
-    def step(self, tick: int, t: float) -> None:
-        """One stage tick (module docstring), if ``tick`` is one."""
+    def step(self, tick: int, t: float) -> frozenset[str]:
+        """One stage tick (module docstring), if ``tick`` is one; the bodies that moved or
+        changed shape in it (:attr:`moved`; none when it is not one)."""
         if tick % self.period:
-            return
+            return frozenset()
         ws, dt = self.workspace, self.dt
         requests: list[acts.ActRequest] = []
         grips = {f"{name}/gripper": self._jaws(name, slot).grip_frame()[:3, 3]
@@ -406,6 +444,111 @@ class TeamStage:
             self.events.append(event)
             self.record("teamwork", event.line())
         self._record_site_states()
+        self._refresh_obstacles()
+        return self.moved
+
+    # ------------------------------------------------------------------ obstacles
+    def _refresh_obstacles(self) -> None:
+        """Place the bounding sphere of every body that moved or changed shape since the
+        last stage tick (:attr:`moved`), and work out what each agent leaves out (again
+        when what is held, where things are or the orders changed)."""
+        ws = self.workspace
+        self.moved = self._note_changes()
+        work = (tuple(ws.holders.items()), tuple(t.where for t in ws.things.values()), tuple(
+            b.executor.current if b.executor is not None else None for b in self.divers.values()),
+            tuple(task() for task in self.tasks.values()))
+        if work != self._work:  # what is held or worked at, or where things are, changed
+            self._work = work
+            self._left_out = {name: self._work_of(name) for name in self.agents}
+
+    def _note_changes(self) -> frozenset[str]:
+        """Compare every tool's, load's and site's shape with the last one seen: the changed
+        wait to be posed in the scene and their spheres are placed; returns those whose
+        sphere moved."""
+        ws = self.workspace
+        moved = []
+        for name in (*ws.things, *ws.flanges, *ws.hatches):
+            inputs = self._inputs(name)
+            if self._last_inputs.get(name) == inputs:
+                continue
+            self._last_inputs[name] = inputs
+            shape = self._shape(name)  # (a bolt's wrench work changes no shape)
+            if self._shapes.get(name) != shape:
+                self._shapes[name] = shape
+                self._unposed.add(name)
+                if self.obstacles.place(name, *self._body_pose(name)):
+                    moved.append(name)
+        return frozenset(moved)
+
+    def _shape(self, name: str) -> tuple[Any, ...]:
+        """What a tool's, load's or site's pose and parts follow from (:meth:`_body_pose`):
+        an object's pose, a bag's shown size, the bolts' and cover's status, a lid's angle."""
+        ws = self.workspace
+        if name in ws.bags:
+            state, pose = ws.bag_states[name], ws.things[name].pose
+            return (pose.tobytes(), state.attached_to is not None,
+                    ws.bags[name].shown_part(state, float(pose[2, 3])))
+        if name in ws.things:
+            return (ws.things[name].pose.tobytes(),)
+        if name in ws.flanges:
+            spec, state = ws.flanges[name], ws.flange_states[name]
+            return (state.cover_on, *(spec.bolt_status(state, b) for b in range(spec.n_bolts)))
+        return (ws.hatch_states[name].angle,)
+
+    def _inputs(self, name: str) -> tuple[Any, ...]:
+        """What :meth:`_shape` reads, as it is: an object's pose, a site's or bag's state
+        (frozen: replaced when it changes) — cheap to compare before the shape is."""
+        ws = self.workspace
+        thing = ws.things.get(name)
+        states = self._states.get(name)
+        return (None if thing is None else thing.pose.tobytes(),
+                None if states is None else states[name])
+
+    def _body_pose(self, name: str) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """A tool's, load's or site's pose (4x4 body→NED) and its parts' transforms by its
+        state (None: a rigid body)."""
+        ws = self.workspace
+        if name in ws.bags:
+            pose = ws.things[name].pose
+            return pose, ws.bags[name].part_transforms(ws.bag_states[name], float(pose[2, 3]))
+        if name in ws.things:
+            return ws.things[name].pose, None
+        if name in ws.flanges:
+            spec = ws.flanges[name]
+            return spec.pose(), spec.part_transforms(ws.flange_states[name])
+        spec = ws.hatches[name]
+        return spec.pose(), spec.part_transforms(ws.hatch_states[name])
+
+    def _work_of(self, agent: str) -> frozenset[str]:
+        """What ``agent`` works with (module docstring): what its hands or gripper hold and
+        what lies in that, what its current order works at, and what those rest on."""
+        ws = self.workspace
+        held = {ws.held_by(f"{agent}/{c}") for c in ("left_hand", "right_hand", "gripper")}
+        held.discard(None)
+        body = self.divers.get(agent)
+        order = body.executor.current if body is not None and body.executor is not None else None
+        named = set(od.worked_at(order, agent))
+        if agent in self.tasks:
+            named.update(self.tasks[agent]())
+        out = held | named
+        for name in ws.things:
+            supports = self._supports(name)
+            if held.intersection(supports):
+                out.add(name)  # in a carried basket: it moves with the carrier
+            if name in named:
+                out.update(supports)
+        return frozenset(out)
+
+    def _supports(self, name: str) -> list[str]:
+        """What ``name`` rests on or is fixed to, and what that rests on, and so on: the
+        basket it lies in, the platform under that, the load a bag is rigged to."""
+        ws, chain = self.workspace, []
+        where = ws.things[name].where
+        while where.startswith(("in:", "on:", "rigged:")) and len(chain) <= len(ws.things):
+            support = where.partition(":")[2]
+            chain.append(support)
+            where = ws.things[support].where if support in ws.things else ""
+        return chain
 
     def _record_site_states(self) -> None:
         """A ``team_state`` event for every bag whose gas and every hatch whose lid has
@@ -519,18 +662,17 @@ class TeamStage:
         return frames
 
     def pose_scene(self) -> None:
-        """Move the scene's tools, loads, sites' parts and articulated divers to now."""
-        ws, scene = self.workspace, self.scene
-        for name, thing in ws.things.items():
-            scene.set_pose(name, *_pose(thing.pose))
-        for name, spec in ws.bags.items():
-            state = ws.bag_states[name]
-            scene.set_part_transforms(name, spec.part_transforms(
-                state, float(ws.things[name].position[2])))
-        for name, spec in ws.flanges.items():
-            scene.set_part_transforms(name, spec.part_transforms(ws.flange_states[name]))
-        for name, spec in ws.hatches.items():
-            scene.set_part_transforms(name, spec.part_transforms(ws.hatch_states[name]))
+        """Move the scene's tools, loads, sites' parts (those that moved or changed since
+        they were last posed) and articulated divers to now."""
+        scene = self.scene
+        self._note_changes()  # (the workspace changes only in the stage, or in a test)
+        for name in sorted(self._unposed):  # moved or changed since they were last posed
+            pose, parts = self._body_pose(name)
+            if name in self.workspace.things:
+                scene.set_pose(name, *_pose(pose))
+            if parts is not None:
+                scene.set_part_transforms(name, parts)
+        self._unposed.clear()
         for name, body in self.divers.items():
             if self.agents[name].config.scene_body == "figure":
                 scene.set_part_transforms(name, figure_transforms(body.skeleton, body.q))
@@ -538,3 +680,11 @@ class TeamStage:
 
 def _pose(m: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     return m[:3, 3].copy(), m[:3, :3].copy()
+
+
+def _matrix(position: NDArray[np.float64], rotation: NDArray[np.float64]
+            ) -> NDArray[np.float64]:
+    """4x4 body→NED of a position (NED m) and a rotation body→NED."""
+    m = np.eye(4)
+    m[:3, :3], m[:3, 3] = rotation, position
+    return m

@@ -238,6 +238,8 @@ class OrderExecutor:
         if fingers_open:
             goal = view.skeleton.vector({f"{side}_fingers": 0.0}, goal)
         there = np.linalg.norm(hand.grip_frame()[:3, 3] - point) < self.params.hand_settle
+        if fingers_open and not hand.is_open():
+            there = False  # a short reach arrives before the fingers have opened
         return ("there" if there else "moving"), goal, ""
 
     def _shoulder_ahead(self, view: DiverView, side: Side) -> float:

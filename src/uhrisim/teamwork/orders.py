@@ -396,6 +396,18 @@ def _referenced(order: Order) -> list[str]:
     return []
 
 
+def worked_at(order: Order | None, diver: str) -> tuple[str, ...]:
+    """The objects and sites ``order`` names that ``diver``'s hands work at (what his
+    collision sphere leaves out while it runs, docs/teamwork.md): every name of the
+    order but the subject of a wait — unless he waits to take it in his own hand."""
+    match order:
+        case WaitUntil(subject=subject, state=state) if state.startswith(f"held_by:{diver}/"):
+            return (subject,)
+        case WaitUntil() | None:
+            return ()
+    return tuple(_referenced(order))
+
+
 def _walk_reason(ws: Workspace, name: str, floor_depth: Callable, north: np.ndarray,
                  east: np.ndarray, reached: np.ndarray) -> str | None:
     """Why a walking diver cannot get to ``name`` (None: it can)."""

@@ -339,6 +339,19 @@ class Scene:
 
         Returns 1.0 for a zero-length move, 0.0 when already touching.
         """
+        return self.segment_contact(start_ned, end_ned, radius, exclude, n_ring)[0]
+
+    def segment_contact(
+        self,
+        start_ned: ArrayLike,
+        end_ned: ArrayLike,
+        radius: float,
+        exclude: frozenset[str] = frozenset(),
+        n_ring: int = 12,
+    ) -> tuple[float, str, NDArray[np.float64]]:
+        """:meth:`segment_clear`'s fraction, what the move first touches — a dynamic
+        body's name or a static object's label ("" when the move is free) — and where, the
+        first hit point (NED m; NaN when free)."""
         s = np.asarray(start_ned, dtype=float).reshape(3)
         e = np.asarray(end_ned, dtype=float).reshape(3)
         r = float(radius)
@@ -351,7 +364,7 @@ class Scene:
         dx, dy, dz = (float(v) for v in e - s)
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
         if length == 0.0:
-            return 1.0
+            return 1.0, "", np.full(3, np.nan)
         d = np.array([dx, dy, dz]) / length
         # a unit vector across the motion, d x (1, 0, 0) or d x (0, 1, 0); then v = d x u
         u = (np.array([0.0, d[2], -d[1]]) if abs(d[0]) < 0.9
@@ -366,8 +379,13 @@ class Scene:
         if self._collision_caster is None:
             self._collision_caster = self.raycaster("embree")
         hits = self._collision_caster.cast(origins, dirs, length, exclude)
-        travel = float(np.min(hits.distance))
-        return 1.0 if not np.isfinite(travel) else min(max(travel / length, 0.0), 1.0)
+        first = int(np.argmin(hits.distance))
+        travel = float(hits.distance[first])
+        if not np.isfinite(travel):
+            return 1.0, "", np.full(3, np.nan)
+        body = int(hits.body[first])
+        what = self._bodies[body].name if body >= 0 else self._labels[int(hits.label[first])]
+        return min(max(travel / length, 0.0), 1.0), what, origins[first] + travel * d
 
 
 @functools.lru_cache(maxsize=16)
