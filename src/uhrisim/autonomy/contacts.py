@@ -27,6 +27,7 @@ from __future__ import annotations
 import difflib
 import logging
 import math
+from collections import OrderedDict
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -65,7 +66,7 @@ _ALIASES = {
 _NUMERIC = ("X", "Y", "SPD", "HDG", "DEP", "LAT", "LON", "TIME", "LENGTH")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class NodeReport:
     """A parsed NODE_REPORT (MOOS frame: x east, y north, compass heading)."""
 
@@ -87,8 +88,21 @@ class NodeReport:
 _KNOWN_KEYS = frozenset(("NAME", "TYPE", "MODE", *_NUMERIC))
 
 
+#: Reports made by :func:`node_report_text` with ``remember=True``, by their exact text,
+#: oldest first: what :func:`parse_node_report` would return for that text (built from
+#: the same field strings), so a report made and read in one process is parsed once.
+_MADE: OrderedDict[str, NodeReport] = OrderedDict()
+_MADE_KEPT = 256  # reports remembered at most (a few ticks of a large team)
+
+
 def parse_node_report(text: str) -> NodeReport:
     """Parse a NODE_REPORT string; malformed input -> ConfigError (a ValueError)."""
+    made = _MADE.get(text) if isinstance(text, str) else None
+    return made if made is not None else _parse_text(text)
+
+
+def _parse_text(text: str) -> NodeReport:
+    """:func:`parse_node_report` of a text not made here."""
     if not isinstance(text, str) or not text.strip():
         raise ConfigError("empty node report", "NODE_REPORT")
     fields: dict[str, str] = {}
@@ -157,30 +171,50 @@ def node_report_text(
     name: str, x: float, y: float, speed: float, heading: float, depth: float, *,
     lat: float | None = None, lon: float | None = None, type: str = "", mode: str = "",
     time: float | None = None, length: float | None = None,
-    extra: tuple[tuple[str, str], ...] = (),
+    extra: tuple[tuple[str, str], ...] = (), remember: bool = False,
 ) -> str:
     """:func:`format_node_report` of the fields of a :class:`NodeReport`, without making
-    one (a bridge posting ten reports a simulated second saves the object)."""
+    one (a bridge posting ten reports a simulated second saves the object).
+
+    ``remember``: also keep the parsed report of the text (for a reader in this process,
+    e.g. a helm: :func:`parse_node_report` of the text then costs a dictionary look-up)."""
     for label, text in (("name", name), ("type", type), ("mode", mode)):
         if "," in text or "=" in text:
             raise ConfigError(f"NODE_REPORT {label} {text!r} may not contain ',' or '='",
                               "NODE_REPORT")
-    parts = [f"NAME={name}", f"X={_f(x, 3)}", f"Y={_f(y, 3)}", f"SPD={_f(speed, 3)}",
-             f"HDG={_f(heading, 2)}", f"DEP={_f(depth, 3)}"]
+    xs, ys, spds, hdgs, deps = _f(x, 3), _f(y, 3), _f(speed, 3), _f(heading, 2), _f(depth, 3)
+    parts = [f"NAME={name}", f"X={xs}", f"Y={ys}", f"SPD={spds}", f"HDG={hdgs}", f"DEP={deps}"]
+    lats = lons = times = lengths = None
     if lat is not None:
-        parts.append(f"LAT={_f(lat, 8)}")
+        lats = _f(lat, 8)
+        parts.append(f"LAT={lats}")
     if lon is not None:
-        parts.append(f"LON={_f(lon, 8)}")
+        lons = _f(lon, 8)
+        parts.append(f"LON={lons}")
     if type:
         parts.append(f"TYPE={type}")
     if mode:
         parts.append(f"MODE={mode}")
     if time is not None:
-        parts.append(f"TIME={_f(time, 3)}")
+        times = _f(time, 3)
+        parts.append(f"TIME={times}")
     if length is not None:
-        parts.append(f"LENGTH={_f(length, 3)}")
+        lengths = _f(length, 3)
+        parts.append(f"LENGTH={lengths}")
     parts += [f"{k}={v}" for k, v in extra]
-    return ",".join(parts)
+    text = ",".join(parts)
+    if remember and not extra and name and all(  # else the parser's own rules decide
+            s == s.strip() for s in (name, type, mode)):
+        xf, yf, spdf, hdgf, depf, latf, lonf, timef, lengthf = (
+            None if s is None else float(s)
+            for s in (xs, ys, spds, hdgs, deps, lats, lons, times, lengths))
+        if all(v is None or math.isfinite(v)
+               for v in (xf, yf, spdf, hdgf, depf, latf, lonf, timef, lengthf)):
+            _MADE[text] = NodeReport(name, xf, yf, spdf, hdgf % 360.0, depf, timef, type,
+                                     mode, latf, lonf, lengthf)
+            if len(_MADE) > _MADE_KEPT:
+                _MADE.popitem(last=False)
+    return text
 
 
 @dataclass(frozen=True)
