@@ -34,7 +34,7 @@ from functools import cached_property
 from uhrisim.autonomy.conditions import Condition, Value, parse_condition
 from uhrisim.core.errors import ConfigError
 
-__all__ = ["ModeEntry", "evaluate_modes", "parse_mode_entry"]
+__all__ = ["ModeEntry", "ModeEvaluator", "evaluate_modes", "parse_mode_entry"]
 
 _ENTRY = re.compile(
     r"^\s*(?:set\s+)?(?P<var>[A-Za-z_][\w\-]*)\s*=\s*(?P<val>[^\s{}]+)\s*"
@@ -94,3 +94,24 @@ def evaluate_modes(entries: tuple[ModeEntry, ...], info: Mapping[str, Value]) ->
             continue
         built[e.var] = f"{built[e.var]}:{value}" if gate else value
     return built
+
+
+_UNSET = object()  # a variable not in the info buffer
+
+
+class ModeEvaluator:
+    """:func:`evaluate_modes` of fixed ``entries``, redone only when a variable they read
+    changed (the values are a function of those variables alone); the returned dict is
+    shared between calls: read it, do not change it."""
+
+    def __init__(self, entries: tuple[ModeEntry, ...]) -> None:
+        self.entries = entries
+        self._reads = tuple(sorted({v for e in entries for v in e._split[2]}))
+        self._read_values: tuple[object, ...] | None = None
+        self._built: dict[str, str] = {}
+
+    def __call__(self, info: Mapping[str, Value]) -> dict[str, str]:
+        values = tuple([info.get(v, _UNSET) for v in self._reads])
+        if values != self._read_values:
+            self._built, self._read_values = evaluate_modes(self.entries, info), values
+        return self._built
