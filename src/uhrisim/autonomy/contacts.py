@@ -28,7 +28,7 @@ import difflib
 import logging
 import math
 from collections import OrderedDict
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -464,18 +464,21 @@ class ContactManager:
 
     @staticmethod
     def _expand(pattern: str, rec: ContactRecord, t: float) -> str:
-        r = rec.report
-        subs = {
-            "VNAME": r.name,
-            "X": _f(rec.x, 2),
-            "Y": _f(rec.y, 2),
-            "HDG": _f(r.heading, 2),
-            "SPD": _f(r.speed, 2),
-            "DEP": _f(r.depth, 2),
-            "VTYPE": r.type,
-            "UTIME": _f(t, 2),
-        }
         out = pattern
-        for k, v in subs.items():
-            out = out.replace(f"$[{k}]", v)
+        for token, text_of in _SUBSTITUTIONS:  # in order; each formatted only if used
+            if token in out:
+                out = out.replace(token, text_of(rec, t))
         return out
+
+
+#: The ``$[...]`` of alert and relay patterns and their text for a contact at ``t``.
+_SUBSTITUTIONS: tuple[tuple[str, Callable[[ContactRecord, float], str]], ...] = (
+    ("$[VNAME]", lambda rec, t: rec.report.name),
+    ("$[X]", lambda rec, t: _f(rec.x, 2)),
+    ("$[Y]", lambda rec, t: _f(rec.y, 2)),
+    ("$[HDG]", lambda rec, t: _f(rec.report.heading, 2)),
+    ("$[SPD]", lambda rec, t: _f(rec.report.speed, 2)),
+    ("$[DEP]", lambda rec, t: _f(rec.report.depth, 2)),
+    ("$[VTYPE]", lambda rec, t: rec.report.type),
+    ("$[UTIME]", lambda rec, t: _f(t, 2)),
+)
