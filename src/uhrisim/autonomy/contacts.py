@@ -203,17 +203,17 @@ def node_report_text(
         parts.append(f"LENGTH={lengths}")
     parts += [f"{k}={v}" for k, v in extra]
     text = ",".join(parts)
-    if remember and not extra and name and all(  # else the parser's own rules decide
-            s == s.strip() for s in (name, type, mode)):
-        xf, yf, spdf, hdgf, depf, latf, lonf, timef, lengthf = (
-            None if s is None else float(s)
-            for s in (xs, ys, spds, hdgs, deps, lats, lons, times, lengths))
-        if all(v is None or math.isfinite(v)
-               for v in (xf, yf, spdf, hdgf, depf, latf, lonf, timef, lengthf)):
-            _MADE[text] = NodeReport(name, xf, yf, spdf, hdgf % 360.0, depf, timef, type,
-                                     mode, latf, lonf, lengthf)
-            if len(_MADE) > _MADE_KEPT:
-                _MADE.popitem(last=False)
+    if remember and not extra and name and (  # else the parser's own rules decide
+            name == name.strip() and type == type.strip() and mode == mode.strip()) and (
+            math.isfinite(x + y + speed + heading + depth + (lat or 0.0) + (lon or 0.0)
+                          + (time or 0.0) + (length or 0.0))):  # (or the sum overflows)
+        _MADE[text] = NodeReport(  # what the parser reads from these field texts
+            name, float(xs), float(ys), float(spds), float(hdgs) % 360.0, float(deps),
+            None if times is None else float(times), type, mode,
+            None if lats is None else float(lats), None if lons is None else float(lons),
+            None if lengths is None else float(lengths))
+        if len(_MADE) > _MADE_KEPT:
+            _MADE.popitem(last=False)
     return text
 
 
