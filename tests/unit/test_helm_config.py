@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from uhrisim.autonomy import HelmConfig, load_bhv, parse_bhv
-from uhrisim.autonomy.conditions import And, Relation, VarRef, parse_condition
+from uhrisim.autonomy.conditions import And, HeldMemo, Relation, VarRef, parse_condition
 from uhrisim.autonomy.geometry import is_convex, parse_polygon
 from uhrisim.autonomy.modes import ModeEvaluator, evaluate_modes, parse_mode_entry
 from uhrisim.core.errors import ConfigError
@@ -350,6 +350,18 @@ def test_conditions_parse_and_evaluate():
     for bad in ("A ==", "== 3", "(A = 1", "A = 1 B = 2", ""):
         with pytest.raises(ConfigError):
             parse_condition(bad)
+
+
+def test_held_memo_agrees_with_evaluating_every_time():
+    """A behavior's run conditions are evaluated again only when a variable they read
+    changed; 1.0 and True are equal in Python but not to a relation."""
+    conditions = (parse_condition("MODE == TRAILING"), parse_condition("GO = 1"))
+    held = HeldMemo(conditions)
+    info: dict[str, object] = {}
+    for var, value in [("NAV_X", 1.0), ("MODE", "ACTIVE:TRAILING"), ("GO", 1.0),
+                       ("GO", True), ("NAV_X", 2.0), ("GO", 0.0), ("MODE", "ACTIVE")]:
+        info[var] = value
+        assert held(info) == all(c.evaluate(info) for c in conditions), (var, value)
 
 
 def test_mode_tree_of_the_meta_vehicle():

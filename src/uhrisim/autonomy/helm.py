@@ -55,7 +55,7 @@ from uhrisim.autonomy.behaviors.base import (
     OwnNav,
     valid_name,
 )
-from uhrisim.autonomy.conditions import Value
+from uhrisim.autonomy.conditions import HeldMemo, Value
 from uhrisim.autonomy.config import BehaviorSpec, HelmConfig
 from uhrisim.autonomy.contacts import NodeReport, parse_node_report
 from uhrisim.autonomy.modes import ModeEvaluator
@@ -156,6 +156,7 @@ class _Slot:
     dur_start: float | None = None
     dur_accum: float = 0.0
     last_t: float | None = None
+    held: HeldMemo | None = None  # whether its run conditions hold (made at its first run)
 
 
 def _num(v: object) -> float | None:
@@ -442,7 +443,9 @@ class Helm:
         if s.spawned and contact and contact not in ctx.contacts:  # IvPBehavior.cpp:339-341
             self._complete(s, ctx)
             return
-        running = all(cond.evaluate(self.info) for cond in c.conditions)
+        if s.held is None or s.held.conditions is not c.conditions:  # (an update adds some)
+            s.held = HeldMemo(c.conditions)
+        running = s.held(self.info)
         prev = s.status
         t = ctx.t
         if not running:

@@ -31,7 +31,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 
-from uhrisim.autonomy.conditions import Condition, Value, parse_condition
+from uhrisim.autonomy.conditions import Condition, Value, parse_condition, values_read
 from uhrisim.core.errors import ConfigError
 
 __all__ = ["ModeEntry", "ModeEvaluator", "evaluate_modes", "parse_mode_entry"]
@@ -96,9 +96,6 @@ def evaluate_modes(entries: tuple[ModeEntry, ...], info: Mapping[str, Value]) ->
     return built
 
 
-_UNSET = object()  # a variable not in the info buffer
-
-
 class ModeEvaluator:
     """:func:`evaluate_modes` of fixed ``entries``, redone only when a variable they read
     changed (the values are a function of those variables alone); the returned dict is
@@ -107,11 +104,11 @@ class ModeEvaluator:
     def __init__(self, entries: tuple[ModeEntry, ...]) -> None:
         self.entries = entries
         self._reads = tuple(sorted({v for e in entries for v in e._split[2]}))
-        self._read_values: tuple[object, ...] | None = None
+        self._read: tuple[object, ...] | None = None
         self._built: dict[str, str] = {}
 
     def __call__(self, info: Mapping[str, Value]) -> dict[str, str]:
-        values = tuple([info.get(v, _UNSET) for v in self._reads])
-        if values != self._read_values:
-            self._built, self._read_values = evaluate_modes(self.entries, info), values
+        read = values_read(info, self._reads)
+        if read != self._read:
+            self._built, self._read = evaluate_modes(self.entries, info), read
         return self._built
