@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from uhrisim.autonomy import (
@@ -14,6 +15,7 @@ from uhrisim.autonomy import (
     format_node_report,
     parse_node_report,
 )
+from uhrisim.autonomy.contacts import _parse_text, node_report_text
 from uhrisim.core.errors import ConfigError
 
 PAPER_EXAMPLE = (
@@ -51,6 +53,32 @@ def test_round_trip():
     assert parse_node_report(format_node_report(r)) == r
     s = format_node_report(NodeReport("rov", 0.0, -0.0004, 0.0, 0.0))
     assert s == "NAME=rov,X=0,Y=0,SPD=0,HDG=0,DEP=0"
+
+
+def test_remembered_reports_equal_the_parsed_text():
+    """A report made with remember=True is what parsing its text gives, field for field
+    (signed zeros, headings past 360 and rounding included); one the parser would reject
+    or read differently is not remembered."""
+    rng = np.random.default_rng(3)
+    cases = [(-0.0, -0.0004, 0.0, 359.999, 0.0, 0.0), (1e6 + 0.0005, -2.5, 1.2345, 720.0, 3.0, 1e9)]
+    cases += [tuple(rng.normal(0.0, 500.0, 6)) for _ in range(200)]
+    for x, y, spd, hdg, dep, t in cases:
+        text = node_report_text("diver", x, y, spd, hdg, dep, type="DIVER", mode="M:A",
+                                time=t, length=1.8, lat=43.1, lon=-70.2, remember=True)
+        made = parse_node_report(text)
+        parsed = _parse_text(text)
+        assert made == parsed
+        assert [math.copysign(1.0, v) for v in (made.x, made.y, made.depth)] == [
+            math.copysign(1.0, v) for v in (parsed.x, parsed.y, parsed.depth)]
+    for odd in ({"name": " diver"}, {"extra": (("SPEED", "9"),)}, {"x": math.inf}):
+        fields = {"name": "rov", "x": 1.0, "extra": ()} | odd
+        text = node_report_text(fields["name"], fields["x"], 2.0, 0.5, 10.0, 1.0,
+                                time=3.0, extra=fields["extra"], remember=True)
+        if math.isfinite(fields["x"]):
+            assert parse_node_report(text) == _parse_text(text)
+        else:
+            with pytest.raises(ConfigError, match="not finite"):
+                parse_node_report(text)
 
 
 @pytest.mark.parametrize(

@@ -9,9 +9,9 @@ import pytest
 import yaml
 
 from uhrisim.autonomy import HelmConfig, load_bhv, parse_bhv
-from uhrisim.autonomy.conditions import And, Relation, VarRef, parse_condition
+from uhrisim.autonomy.conditions import And, HeldMemo, Relation, VarRef, parse_condition
 from uhrisim.autonomy.geometry import is_convex, parse_polygon
-from uhrisim.autonomy.modes import evaluate_modes, parse_mode_entry
+from uhrisim.autonomy.modes import ModeEvaluator, evaluate_modes, parse_mode_entry
 from uhrisim.core.errors import ConfigError
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "helm"
@@ -352,6 +352,18 @@ def test_conditions_parse_and_evaluate():
             parse_condition(bad)
 
 
+def test_held_memo_agrees_with_evaluating_every_time():
+    """A behavior's run conditions are evaluated again only when a variable they read
+    changed; 1.0 and True are equal in Python but not to a relation."""
+    conditions = (parse_condition("MODE == TRAILING"), parse_condition("GO = 1"))
+    held = HeldMemo(conditions)
+    info: dict[str, object] = {}
+    for var, value in [("NAV_X", 1.0), ("MODE", "ACTIVE:TRAILING"), ("GO", 1.0),
+                       ("GO", True), ("NAV_X", 2.0), ("GO", 0.0), ("MODE", "ACTIVE")]:
+        info[var] = value
+        assert held(info) == all(c.evaluate(info) for c in conditions), (var, value)
+
+
 def test_mode_tree_of_the_meta_vehicle():
     entries = tuple(
         parse_mode_entry(s)
@@ -376,6 +388,20 @@ def test_mode_tree_of_the_meta_vehicle():
     assert mode(RETURN=True, TRAIL=True) == "INACTIVE"
     with pytest.raises(ConfigError):
         parse_mode_entry("MODE = A { X = 1 } B C")
+    # the helm's evaluator redoes the tree only when a variable it reads changed, and
+    # always agrees with evaluate_modes (no entry reads NAV_X, nor MODE from the buffer:
+    # it is built afresh)
+    evaluator = ModeEvaluator(entries)
+    info: dict[str, object] = {"MODE": "ACTIVE"}
+    steps = [("NAV_X", 1.0), ("DEPLOY", "true"), ("NAV_X", 2.0), ("TRAIL", "true"),
+             ("RETURN", "true"), ("RETURN", "false"), ("DEPLOY", "false"), ("MODE", "X")]
+    built = evaluator(info)
+    for var, value in steps:
+        info[var] = value
+        again = evaluator(info)
+        assert again == evaluate_modes(entries, info)
+        assert (again is built) == (var in ("NAV_X", "MODE"))
+        built = again
 
 
 def test_parse_bhv_domain_and_comments():

@@ -18,7 +18,7 @@ from uhrisim.autonomy.contacts import (
     NodeReport,
     parse_node_report,
 )
-from uhrisim.autonomy.helm import Helm, HelmOutput, as_mail
+from uhrisim.autonomy.helm import Helm, HelmOutput, add_mail
 
 __all__ = ["VehicleAutonomy"]
 
@@ -51,11 +51,10 @@ class VehicleAutonomy:
         for r in reports:
             self.contacts.on_node_report(r, t)
         self.last_contact_posts = self.contacts.step(t, nav)
-        base: dict[str, object] = nav.mail()
+        mail: dict[str, object] = nav.mail()  # a new dict: the mail is added to it
         if reports:
-            base["NODE_REPORT"] = reports
-        mail = as_mail(self.last_contact_posts, base=base)
+            mail["NODE_REPORT"] = reports
+        add_mail(mail, self.last_contact_posts)
         if extra_mail:
-            items = extra_mail.items() if isinstance(extra_mail, Mapping) else extra_mail
-            mail = as_mail(list(items), base=mail)
+            add_mail(mail, extra_mail.items() if isinstance(extra_mail, Mapping) else extra_mail)
         return self.helm.step(t, mail)

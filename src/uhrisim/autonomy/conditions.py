@@ -33,6 +33,7 @@ from uhrisim.core.errors import ConfigError
 __all__ = [
     "And",
     "Condition",
+    "HeldMemo",
     "Not",
     "Or",
     "Relation",
@@ -40,6 +41,7 @@ __all__ = [
     "field_match",
     "literal",
     "parse_condition",
+    "values_read",
 ]
 
 Value = str | float
@@ -161,6 +163,33 @@ class Not:
 
 
 Condition = Relation | And | Or | Not
+
+_UNSET = object()  # a variable not in the info buffer
+
+
+def values_read(info: Mapping[str, object], names: tuple[str, ...]) -> tuple[object, ...]:
+    """The values of ``names`` in ``info`` and their types: conditions on those variables
+    give the same answer while this is equal (types too: 1.0 == True, but a relation
+    tells them apart)."""
+    values = tuple([info.get(name, _UNSET) for name in names])
+    return values, tuple(map(type, values))
+
+
+class HeldMemo:
+    """Whether all ``conditions`` hold, evaluated again only when a variable they read
+    changed (a behavior's run conditions, evaluated every helm iteration)."""
+
+    def __init__(self, conditions: tuple[Condition, ...]) -> None:
+        self.conditions = conditions
+        self._reads = tuple(sorted(set().union(*(c.variables() for c in conditions))))
+        self._read: tuple[object, ...] | None = None
+        self._holds = True
+
+    def __call__(self, info: Mapping[str, object]) -> bool:
+        read = values_read(info, self._reads)
+        if read != self._read:
+            self._holds, self._read = all(c.evaluate(info) for c in self.conditions), read
+        return self._holds
 
 _OPS: dict[str, Callable[[object, object], bool]] = {
     "==": lambda a, b: a == b,

@@ -27,7 +27,8 @@ from __future__ import annotations
 import difflib
 import logging
 import math
-from collections.abc import Iterable, Mapping
+from collections import OrderedDict
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -65,7 +66,7 @@ _ALIASES = {
 _NUMERIC = ("X", "Y", "SPD", "HDG", "DEP", "LAT", "LON", "TIME", "LENGTH")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class NodeReport:
     """A parsed NODE_REPORT (MOOS frame: x east, y north, compass heading)."""
 
@@ -87,8 +88,21 @@ class NodeReport:
 _KNOWN_KEYS = frozenset(("NAME", "TYPE", "MODE", *_NUMERIC))
 
 
+#: Reports made by :func:`node_report_text` with ``remember=True``, by their exact text,
+#: oldest first: what :func:`parse_node_report` would return for that text (built from
+#: the same field strings), so a report made and read in one process is parsed once.
+_MADE: OrderedDict[str, NodeReport] = OrderedDict()
+_MADE_KEPT = 256  # reports remembered at most (a few ticks of a large team)
+
+
 def parse_node_report(text: str) -> NodeReport:
     """Parse a NODE_REPORT string; malformed input -> ConfigError (a ValueError)."""
+    made = _MADE.get(text) if isinstance(text, str) else None
+    return made if made is not None else _parse_text(text)
+
+
+def _parse_text(text: str) -> NodeReport:
+    """:func:`parse_node_report` of a text not made here."""
     if not isinstance(text, str) or not text.strip():
         raise ConfigError("empty node report", "NODE_REPORT")
     fields: dict[str, str] = {}
@@ -157,30 +171,50 @@ def node_report_text(
     name: str, x: float, y: float, speed: float, heading: float, depth: float, *,
     lat: float | None = None, lon: float | None = None, type: str = "", mode: str = "",
     time: float | None = None, length: float | None = None,
-    extra: tuple[tuple[str, str], ...] = (),
+    extra: tuple[tuple[str, str], ...] = (), remember: bool = False,
 ) -> str:
     """:func:`format_node_report` of the fields of a :class:`NodeReport`, without making
-    one (a bridge posting ten reports a simulated second saves the object)."""
+    one (a bridge posting ten reports a simulated second saves the object).
+
+    ``remember``: also keep the parsed report of the text (for a reader in this process,
+    e.g. a helm: :func:`parse_node_report` of the text then costs a dictionary look-up)."""
     for label, text in (("name", name), ("type", type), ("mode", mode)):
         if "," in text or "=" in text:
             raise ConfigError(f"NODE_REPORT {label} {text!r} may not contain ',' or '='",
                               "NODE_REPORT")
-    parts = [f"NAME={name}", f"X={_f(x, 3)}", f"Y={_f(y, 3)}", f"SPD={_f(speed, 3)}",
-             f"HDG={_f(heading, 2)}", f"DEP={_f(depth, 3)}"]
+    xs, ys, spds, hdgs, deps = _f(x, 3), _f(y, 3), _f(speed, 3), _f(heading, 2), _f(depth, 3)
+    parts = [f"NAME={name}", f"X={xs}", f"Y={ys}", f"SPD={spds}", f"HDG={hdgs}", f"DEP={deps}"]
+    lats = lons = times = lengths = None
     if lat is not None:
-        parts.append(f"LAT={_f(lat, 8)}")
+        lats = _f(lat, 8)
+        parts.append(f"LAT={lats}")
     if lon is not None:
-        parts.append(f"LON={_f(lon, 8)}")
+        lons = _f(lon, 8)
+        parts.append(f"LON={lons}")
     if type:
         parts.append(f"TYPE={type}")
     if mode:
         parts.append(f"MODE={mode}")
     if time is not None:
-        parts.append(f"TIME={_f(time, 3)}")
+        times = _f(time, 3)
+        parts.append(f"TIME={times}")
     if length is not None:
-        parts.append(f"LENGTH={_f(length, 3)}")
+        lengths = _f(length, 3)
+        parts.append(f"LENGTH={lengths}")
     parts += [f"{k}={v}" for k, v in extra]
-    return ",".join(parts)
+    text = ",".join(parts)
+    if remember and not extra and name and (  # else the parser's own rules decide
+            name == name.strip() and type == type.strip() and mode == mode.strip()) and (
+            math.isfinite(x + y + speed + heading + depth + (lat or 0.0) + (lon or 0.0)
+                          + (time or 0.0) + (length or 0.0))):  # (or the sum overflows)
+        _MADE[text] = NodeReport(  # what the parser reads from these field texts
+            name, float(xs), float(ys), float(spds), float(hdgs) % 360.0, float(deps),
+            None if times is None else float(times), type, mode,
+            None if lats is None else float(lats), None if lons is None else float(lons),
+            None if lengths is None else float(lengths))
+        if len(_MADE) > _MADE_KEPT:
+            _MADE.popitem(last=False)
+    return text
 
 
 @dataclass(frozen=True)
@@ -430,18 +464,21 @@ class ContactManager:
 
     @staticmethod
     def _expand(pattern: str, rec: ContactRecord, t: float) -> str:
-        r = rec.report
-        subs = {
-            "VNAME": r.name,
-            "X": _f(rec.x, 2),
-            "Y": _f(rec.y, 2),
-            "HDG": _f(r.heading, 2),
-            "SPD": _f(r.speed, 2),
-            "DEP": _f(r.depth, 2),
-            "VTYPE": r.type,
-            "UTIME": _f(t, 2),
-        }
         out = pattern
-        for k, v in subs.items():
-            out = out.replace(f"$[{k}]", v)
+        for token, text_of in _SUBSTITUTIONS:  # in order; each formatted only if used
+            if token in out:
+                out = out.replace(token, text_of(rec, t))
         return out
+
+
+#: The ``$[...]`` of alert and relay patterns and their text for a contact at ``t``.
+_SUBSTITUTIONS: tuple[tuple[str, Callable[[ContactRecord, float], str]], ...] = (
+    ("$[VNAME]", lambda rec, t: rec.report.name),
+    ("$[X]", lambda rec, t: _f(rec.x, 2)),
+    ("$[Y]", lambda rec, t: _f(rec.y, 2)),
+    ("$[HDG]", lambda rec, t: _f(rec.report.heading, 2)),
+    ("$[SPD]", lambda rec, t: _f(rec.report.speed, 2)),
+    ("$[DEP]", lambda rec, t: _f(rec.report.depth, 2)),
+    ("$[VTYPE]", lambda rec, t: rec.report.type),
+    ("$[UTIME]", lambda rec, t: _f(t, 2)),
+)

@@ -55,16 +55,16 @@ from uhrisim.autonomy.behaviors.base import (
     OwnNav,
     valid_name,
 )
-from uhrisim.autonomy.conditions import Value
+from uhrisim.autonomy.conditions import HeldMemo, Value
 from uhrisim.autonomy.config import BehaviorSpec, HelmConfig
 from uhrisim.autonomy.contacts import NodeReport, parse_node_report
-from uhrisim.autonomy.modes import evaluate_modes
+from uhrisim.autonomy.modes import ModeEvaluator
 from uhrisim.autonomy.params import moos_value, parse_updates
 from uhrisim.autonomy.solver import SolveResult, WeightedObjective, solve
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import yaw_from_heading_deg
 
-__all__ = ["Decision", "Helm", "HelmOutput", "Posting", "as_mail", "postings_of"]
+__all__ = ["Decision", "Helm", "HelmOutput", "Posting", "add_mail", "as_mail", "postings_of"]
 
 log = logging.getLogger(__name__)
 
@@ -77,7 +77,12 @@ def as_mail(
     A variable posted more than once becomes a list (each value is applied in order);
     ``base`` entries come first (e.g. the NAV_* values).
     """
-    mail: dict[str, object] = dict(base or {})
+    return add_mail(dict(base or {}), posts)
+
+
+def add_mail(mail: dict[str, object], posts: Iterable[tuple[str, object]]) -> dict[str, object]:
+    """``mail`` (changed in place, and returned) with ``posts`` added as :func:`as_mail`
+    adds them."""
     for var, val in posts:
         if var in mail:
             prev = mail[var]
@@ -103,7 +108,7 @@ def postings_of(mail: Mapping[str, object] | Iterable[Posting], t: float) -> lis
     return out
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Decision:
     """The helm's decision: compass heading (deg), speed (m/s), depth (m) or None."""
 
@@ -117,7 +122,7 @@ class Decision:
         return float(yaw_from_heading_deg(self.heading_deg))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class HelmOutput:
     """Result of one helm iteration (audit included: sum(contributions) == total)."""
 
@@ -151,6 +156,7 @@ class _Slot:
     dur_start: float | None = None
     dur_accum: float = 0.0
     last_t: float | None = None
+    held: HeldMemo | None = None  # whether its run conditions hold (made at its first run)
 
 
 def _num(v: object) -> float | None:
@@ -190,6 +196,7 @@ class Helm:
             else:
                 self.slots.append(_Slot(spec.instantiate()))
         self._mode_var_order = config.mode_vars  # declaration order (the first is MODE)
+        self._modes = ModeEvaluator(config.modes)
         self._kept: list[tuple[str, str]] = []  # updates postings for the next iteration
         self._nav_started = False
         self._allstop = ""  # the last IVPHELM_ALLSTOP message (HelmIvP m_allstop_msg)
@@ -239,8 +246,8 @@ class Helm:
 
     def _take_mail(self, t: float, postings: Iterable[Posting], posts: list) -> None:
         watched = set(self.templates) | {s.bhv.common.updates for s in self.slots}
+        skew = self.settings.ok_skew
         for var, v, t_post in postings:
-            skew = self.settings.ok_skew
             if skew is not None and abs(t - t_post) > skew:
                 msg = f"Helm ignores MOOS msg due to skew: {var} Skew={t - t_post:.2f}"
                 log.warning("helm %s: %s", self.vehicle_name, msg)
@@ -359,7 +366,7 @@ class Helm:
             return self._finish(t, init_posts, posts, None, None, mode, state)
         self._clear_stale_contacts(t)
         self._apply_kept(posts)
-        built = evaluate_modes(self.config.modes, self.info)
+        built = self._modes(self.info)
         for var in self._mode_var_order:
             if var in built and (self.info.get(var) != built[var] or self._first):
                 posts.append((var, built[var]))
@@ -436,7 +443,9 @@ class Helm:
         if s.spawned and contact and contact not in ctx.contacts:  # IvPBehavior.cpp:339-341
             self._complete(s, ctx)
             return
-        running = all(cond.evaluate(self.info) for cond in c.conditions)
+        if s.held is None or s.held.conditions is not c.conditions:  # (an update adds some)
+            s.held = HeldMemo(c.conditions)
+        running = s.held(self.info)
         prev = s.status
         t = ctx.t
         if not running:

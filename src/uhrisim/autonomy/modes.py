@@ -31,10 +31,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 
-from uhrisim.autonomy.conditions import Condition, Value, parse_condition
+from uhrisim.autonomy.conditions import Condition, Value, parse_condition, values_read
 from uhrisim.core.errors import ConfigError
 
-__all__ = ["ModeEntry", "evaluate_modes", "parse_mode_entry"]
+__all__ = ["ModeEntry", "ModeEvaluator", "evaluate_modes", "parse_mode_entry"]
 
 _ENTRY = re.compile(
     r"^\s*(?:set\s+)?(?P<var>[A-Za-z_][\w\-]*)\s*=\s*(?P<val>[^\s{}]+)\s*"
@@ -94,3 +94,21 @@ def evaluate_modes(entries: tuple[ModeEntry, ...], info: Mapping[str, Value]) ->
             continue
         built[e.var] = f"{built[e.var]}:{value}" if gate else value
     return built
+
+
+class ModeEvaluator:
+    """:func:`evaluate_modes` of fixed ``entries``, redone only when a variable they read
+    changed (the values are a function of those variables alone); the returned dict is
+    shared between calls: read it, do not change it."""
+
+    def __init__(self, entries: tuple[ModeEntry, ...]) -> None:
+        self.entries = entries
+        self._reads = tuple(sorted({v for e in entries for v in e._split[2]}))
+        self._read: tuple[object, ...] | None = None
+        self._built: dict[str, str] = {}
+
+    def __call__(self, info: Mapping[str, Value]) -> dict[str, str]:
+        read = values_read(info, self._reads)
+        if read != self._read:
+            self._built, self._read = evaluate_modes(self.entries, info), read
+        return self._built

@@ -22,7 +22,8 @@ from uhrisim.sim.state import Agent
 
 
 def node_report_of(agent: Agent, t: float, position_noise: np.ndarray | None = None) -> str:
-    """The NODE_REPORT string of ``agent`` at time ``t`` (truth plus optional noise, m)."""
+    """The NODE_REPORT string of ``agent`` at time ``t`` (truth plus optional noise, m);
+    its parsed report is remembered for the helm that reads it."""
     nav = agent.nav()
     north, east = nav.position_ned[0], nav.position_ned[1]
     if position_noise is not None:
@@ -33,7 +34,8 @@ def node_report_of(agent: Agent, t: float, position_noise: np.ndarray | None = N
         agent.name, round(float(x_east), 3), round(float(y_north), 3), round(nav.speed, 3),
         round(float(heading_deg_from_yaw(nav.yaw)), 2), round(float(nav.position_ned[2]), 3),
         time=round(t, 3), type=cfg.vehicle_type or agent.model.vehicle_type,
-        mode=str(agent.community.get("MODE", "")), length=cfg.length or agent.model.length)
+        mode=str(agent.community.get("MODE", "")), length=cfg.length or agent.model.length,
+        remember=True)  # the observer's helm reads it in this process
 
 
 @dataclass(order=True)

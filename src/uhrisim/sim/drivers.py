@@ -34,8 +34,9 @@ class HelmDriver:
             heading_deg=decision.heading_deg if decision else None,
             speed=decision.speed if decision else None,
             depth=decision.depth if decision else None,
-            contributions=dict(out.contributions), total=out.total, mode=out.mode,
-            active=tuple(out.active), all_stop_reason=out.all_stop_reason)
+            contributions=out.contributions,  # the helm's own copy, new each tick
+            total=out.total, mode=out.mode,
+            active=out.active, all_stop_reason=out.all_stop_reason)
 
 
 class ScriptedDriver:

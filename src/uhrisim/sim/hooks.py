@@ -48,7 +48,7 @@ class AgentSnapshot:
     mode: str
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class HelmRecord:
     """A helm decision for the audit trail (MOOS vocabulary: compass deg, m/s, m)."""
 
