@@ -459,7 +459,10 @@ class TeamStage:
             tuple(task() for task in self.tasks.values()))
         if work != self._work:  # what is held or worked at, or where things are, changed
             self._work = work
-            self._left_out = {name: self._work_of(name) for name in self.agents}
+            for name in self.agents:  # an unchanged set is kept (team_obstacles keys on it)
+                work_of = self._work_of(name)
+                if self._left_out.get(name) != work_of:
+                    self._left_out[name] = work_of
 
     def _note_changes(self) -> frozenset[str]:
         """Compare every tool's, load's and site's shape with the last one seen: the changed
