@@ -418,7 +418,8 @@ class Simulation:
             for agent in near:
                 if (not math.dist(centre, agent.state[:3]) <= reach + agent.radius
                         or (agent.name, name) in self._team_contacts
-                        or name in team.left_out(agent.name)):
+                        or name in team.left_out(agent.name)
+                        or not team.obstacles.box_near(name, agent.state[:3], agent.radius)):
                     continue
                 self._sync_scene()
                 mesh = self.scene.bodies[self.scene.body_names.index(name)].mesh_world()

@@ -166,6 +166,12 @@ class ObstacleSpheres:
             self._boxes[i] = (pose[:3, :3].T, pose[:3, 3].copy(), lo, hi)
         return self._boxes[i]
 
+    def box_near(self, name: str, point: list[float], radius: float) -> bool:
+        """Whether ``point`` (NED, m) lies in ``name``'s box grown by ``radius`` (m): else
+        a sphere of ``radius`` there cannot touch the body (a cheap narrow phase first)."""
+        p = np.asarray(point, dtype=float)
+        return _meets_box(p, p, radius, *self._box(self._index[name]))
+
     def clear_of(self, agent: str, point: list[float], radius: float,
                  left_out: frozenset[str]) -> bool:
         """Whether ``agent``'s clearance (module docstring; measured afresh from ``point``
