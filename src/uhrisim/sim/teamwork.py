@@ -206,6 +206,9 @@ class TeamStage:
         #: each moving body's pose and state at its sphere's last placing
         self._shapes: dict[str, tuple[Any, ...]] = {}
         self._last_inputs: dict[str, tuple[Any, ...]] = {}  # what those followed from
+        #: the pose array and state object last compared (poses and frozen states are
+        #: replaced, never changed in place: the same objects need no comparing)
+        self._seen: dict[str, tuple[Any, Any]] = {}
         ws = self.workspace  # where each bag's and site's state is
         self._states = {name: states for states in (ws.bag_states, ws.flange_states,
                                                     ws.hatch_states) for name in states}
@@ -471,6 +474,13 @@ class TeamStage:
         ws = self.workspace
         moved = []
         for name in (*ws.things, *ws.flanges, *ws.hatches):
+            thing, states = ws.things.get(name), self._states.get(name)
+            objects = (None if thing is None else thing.pose,
+                       None if states is None else states[name])
+            seen = self._seen.get(name)  # the very objects last seen: nothing changed
+            if seen is not None and seen[0] is objects[0] and seen[1] is objects[1]:
+                continue
+            self._seen[name] = objects
             inputs = self._inputs(name)
             if self._last_inputs.get(name) == inputs:
                 continue
