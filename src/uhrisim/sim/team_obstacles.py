@@ -90,6 +90,10 @@ class PartSpheres:
         return centre, float(np.max(np.linalg.norm(centres - centre, axis=1) + radii))
 
 
+#: kept off a clearance when it rules a contact out (m): rounding of the distances
+CLEARANCE_SLACK_M = 1e-9
+
+
 class ObstacleSpheres:
     """The bounding spheres of named bodies (module docstring)."""
 
@@ -101,6 +105,9 @@ class ObstacleSpheres:
         self.radii = np.zeros(len(parts))
         #: each body's box: (rotation NED→body, origin NED, lower and upper corners)
         self._boxes: list[tuple[NDArray[np.float64], ...]] = [()] * len(parts)
+        #: each body's pose and part transforms at its last placing (for its box)
+        self._placed: list[tuple[NDArray[np.float64], NDArray[np.float64] | None]] = [
+            (np.eye(4), None)] * len(parts)
         #: agent -> (left out, anchor NED, clearance m): a lower bound of the gap from the
         #: anchor to every sphere not left out, lowered as spheres are placed
         self._clearance: dict[str, tuple[frozenset[str], list[float], float]] = {}
@@ -115,9 +122,8 @@ class ObstacleSpheres:
             return False
         self.centres[i], self.radii[i] = centre, radius
         if radius > 0.0:
-            lo, hi = self._parts[name].box(transforms)
-            self._boxes[i] = (pose[:3, :3].T, pose[:3, 3].copy(), lo, hi)
-        if radius > 0.0:
+            self._boxes[i] = ()  # worked out when a move first comes near (:meth:`_box`)
+            self._placed[i] = (pose.copy(), None if transforms is None else transforms.copy())
             where = centre.tolist()
             for agent, (left_out, anchor, clearance) in self._clearance.items():
                 gap = math.dist(where, anchor) - radius  # a bound still: its old place is gone
@@ -149,7 +155,33 @@ class ObstacleSpheres:
         gap = np.linalg.norm(c - (s + u[:, None] * d), axis=1) - self.radii
         hit = self._kept(left_out) & (gap <= radius)
         return [self.names[i] for i in np.flatnonzero(hit)
-                if _meets_box(s, e, radius, *self._boxes[i])]
+                if _meets_box(s, e, radius, *self._box(i))]
+
+    def _box(self, i: int) -> tuple[NDArray[np.float64], ...]:
+        """Body ``i``'s box: (rotation NED→body, origin NED, lower and upper corners in
+        its frame, m), worked out once per placing."""
+        if not self._boxes[i]:
+            pose, transforms = self._placed[i]
+            lo, hi = self._parts[self.names[i]].box(transforms)
+            self._boxes[i] = (pose[:3, :3].T, pose[:3, 3].copy(), lo, hi)
+        return self._boxes[i]
+
+    def box_near(self, name: str, point: list[float], radius: float) -> bool:
+        """Whether ``point`` (NED, m) lies in ``name``'s box grown by ``radius`` (m): else
+        a sphere of ``radius`` there cannot touch the body (a cheap narrow phase first)."""
+        p = np.asarray(point, dtype=float)
+        return _meets_box(p, p, radius, *self._box(self._index[name]))
+
+    def clear_of(self, agent: str, point: list[float], radius: float,
+                 left_out: frozenset[str]) -> bool:
+        """Whether ``agent``'s clearance (module docstring; measured afresh from ``point``
+        when it is not kept for ``left_out``) shows that no sphere but those ``left_out``
+        comes within ``radius`` (m) of ``point`` (NED, m); False when it cannot tell."""
+        cached = self._clearance.get(agent)
+        if cached is not None and cached[0] is left_out:
+            if math.dist(cached[1], point) + radius + CLEARANCE_SLACK_M < cached[2]:
+                return True
+        return radius + CLEARANCE_SLACK_M < self._measure(agent, point, left_out)
 
     def in_reach(self, agent: str, start: list[float], end: list[float], radius: float,
                  left_out: frozenset[str]) -> list[str]:
@@ -161,11 +193,17 @@ class ObstacleSpheres:
             if reach < cached[2]:
                 return []
         near = self.touching(start, end, radius, left_out)
-        kept = self._kept(left_out)
-        clearance = float(np.min(np.linalg.norm(self.centres[kept] - np.asarray(end), axis=1)
-                                 - self.radii[kept])) if kept.any() else math.inf
-        self._clearance[agent] = (left_out, list(end), clearance)
+        self._measure(agent, end, left_out)
         return near
+
+    def _measure(self, agent: str, anchor: list[float], left_out: frozenset[str]) -> float:
+        """Measure ``agent``'s clearance afresh from ``anchor`` (NED, m): the gap (m) to
+        the nearest sphere not ``left_out`` (inf: none), kept for the next calls."""
+        kept = self._kept(left_out)
+        clearance = float(np.min(np.linalg.norm(self.centres[kept] - np.asarray(anchor), axis=1)
+                                 - self.radii[kept])) if kept.any() else math.inf
+        self._clearance[agent] = (left_out, list(anchor), clearance)
+        return clearance
 
 
 def _meets_box(start: NDArray[np.float64], end: NDArray[np.float64], radius: float,

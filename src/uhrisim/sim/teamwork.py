@@ -206,6 +206,9 @@ class TeamStage:
         #: each moving body's pose and state at its sphere's last placing
         self._shapes: dict[str, tuple[Any, ...]] = {}
         self._last_inputs: dict[str, tuple[Any, ...]] = {}  # what those followed from
+        #: the pose array and state object last compared (poses and frozen states are
+        #: replaced, never changed in place: the same objects need no comparing)
+        self._seen: dict[str, tuple[Any, Any]] = {}
         ws = self.workspace  # where each bag's and site's state is
         self._states = {name: states for states in (ws.bag_states, ws.flange_states,
                                                     ws.hatch_states) for name in states}
@@ -459,7 +462,10 @@ class TeamStage:
             tuple(task() for task in self.tasks.values()))
         if work != self._work:  # what is held or worked at, or where things are, changed
             self._work = work
-            self._left_out = {name: self._work_of(name) for name in self.agents}
+            for name in self.agents:  # an unchanged set is kept (team_obstacles keys on it)
+                work_of = self._work_of(name)
+                if self._left_out.get(name) != work_of:
+                    self._left_out[name] = work_of
 
     def _note_changes(self) -> frozenset[str]:
         """Compare every tool's, load's and site's shape with the last one seen: the changed
@@ -468,6 +474,13 @@ class TeamStage:
         ws = self.workspace
         moved = []
         for name in (*ws.things, *ws.flanges, *ws.hatches):
+            thing, states = ws.things.get(name), self._states.get(name)
+            objects = (None if thing is None else thing.pose,
+                       None if states is None else states[name])
+            seen = self._seen.get(name)  # the very objects last seen: nothing changed
+            if seen is not None and seen[0] is objects[0] and seen[1] is objects[1]:
+                continue
+            self._seen[name] = objects
             inputs = self._inputs(name)
             if self._last_inputs.get(name) == inputs:
                 continue
