@@ -178,9 +178,9 @@ class ObstacleSpheres:
         when it is not kept for ``left_out``) shows that no sphere but those ``left_out``
         comes within ``radius`` (m) of ``point`` (NED, m); False when it cannot tell."""
         cached = self._clearance.get(agent)
-        if cached is not None and cached[0] is left_out:
-            if math.dist(cached[1], point) + radius + CLEARANCE_SLACK_M < cached[2]:
-                return True
+        if (cached is not None and cached[0] is left_out
+                and math.dist(cached[1], point) + radius + CLEARANCE_SLACK_M < cached[2]):
+            return True
         return radius + CLEARANCE_SLACK_M < self._measure(agent, point, left_out)
 
     def in_reach(self, agent: str, start: list[float], end: list[float], radius: float,
