@@ -24,6 +24,7 @@ import math
 import time
 
 from uhrisim.autonomy import Helm, HelmConfig, NodeReport, format_node_report
+from uhrisim.bench import Stopwatch
 from uhrisim.scenario.shipped import shipped_scenario
 
 HELM_HZ = 4.0
@@ -92,20 +93,6 @@ def _measure(n_behaviors: int, n_steps: int) -> dict:
     }
 
 
-class _Timed:
-    """An agent's driver whose ticks are timed in CPU time of this thread."""
-
-    def __init__(self, driver) -> None:
-        self.driver, self.seconds, self.calls = driver, 0.0, 0
-
-    def tick(self, t, agent):
-        start = time.thread_time()
-        out = self.driver.tick(t, agent)
-        self.seconds += time.thread_time() - start
-        self.calls += 1
-        return out
-
-
 def _measure_mission(quick: bool) -> dict:
     from uhrisim.scenario.load import load_scenario  # the simulation: only for this case
     from uhrisim.sim.simulation import Simulation
@@ -113,14 +100,15 @@ def _measure_mission(quick: bool) -> dict:
     settle_s, timed_s = (3.0, 5.0) if quick else (30.0, 120.0)
     sim = Simulation(load_scenario(shipped_scenario()), raycast_sensors=False)
     sim.run(settle_s)
-    timed = []
+    timed, watches = [], []
     for agent in sim.agents.values():
         if agent.driver is not None:
-            agent.driver = _Timed(agent.driver)
+            agent.driver.tick = watch = Stopwatch(agent.driver.tick)
             timed.append(agent)
+            watches.append(watch)
     sim.run(timed_s)
-    calls = sum(a.driver.calls for a in timed)
-    ms = 1e3 * sum(a.driver.seconds for a in timed) / calls
+    calls = sum(w.calls for w in watches)
+    ms = 1e3 * sum(w.seconds for w in watches) / calls
     return {
         "scenario": shipped_scenario().name,
         "settled_s": settle_s,
