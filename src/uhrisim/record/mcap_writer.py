@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import struct
 import zlib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import IO, Any
 
 from mcap.data_stream import RecordBuilder
@@ -49,17 +49,19 @@ _MESSAGE_HEAD_LENGTH = _MESSAGE_HEAD.size - 9  # what the record length counts o
 _INDEX_HEAD = struct.Struct("<BQHI")
 
 
-def _compress(kind: CompressionType, data: bytes) -> tuple[str, bytes]:
-    """The chunk compression's name in the file and the compressed bytes."""
+def _compressor(kind: CompressionType) -> tuple[str, Callable[[bytes], bytes]]:
+    """The chunk compression's name in the file and its function (one zstd context kept
+    for the whole file: the bytes of ``zstandard.compress``, without a new context for
+    each chunk)."""
     if kind is CompressionType.ZSTD:
         import zstandard
 
-        return "zstd", zstandard.compress(data)
+        return "zstd", zstandard.ZstdCompressor(level=3).compress
     if kind is CompressionType.LZ4:
         import lz4.frame
 
-        return "lz4", lz4.frame.compress(data)
-    return "", data
+        return "lz4", lz4.frame.compress
+    return "", bytes
 
 
 class PackedMcapWriter:
@@ -73,7 +75,7 @@ class PackedMcapWriter:
                  compression: CompressionType = CompressionType.ZSTD) -> None:
         self._out = output
         self._chunk_size = chunk_size
-        self._compression = compression
+        self._compression, self._compress = _compressor(compression)
         self._schemas: list[Schema] = []
         self._channels: list[Channel] = []
         self._metadata_indexes: list[MetadataIndex] = []
@@ -174,7 +176,7 @@ class PackedMcapWriter:
         if not self._chunk_messages:
             return
         records = b"".join(self._parts)
-        compression, compressed = _compress(self._compression, records)
+        compression, compressed = self._compression, self._compress(records)
         chunk = Chunk(compression=compression, data=compressed,
                       message_start_time=self._chunk_start,
                       message_end_time=self._chunk_end,
