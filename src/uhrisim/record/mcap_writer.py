@@ -80,7 +80,9 @@ class PackedMcapWriter:
         self._channels: list[Channel] = []
         self._metadata_indexes: list[MetadataIndex] = []
         self._chunk_indexes: list[ChunkIndex] = []
-        self._message_counts: dict[int, int] = {}  # per channel, in order of first message
+        # the written chunks' messages: per channel (in order of first message), in all,
+        # their first and last log times
+        self._message_counts: dict[int, int] = {}
         self._message_count = 0
         self._start_time = 0
         self._end_time = 0
@@ -145,16 +147,6 @@ class PackedMcapWriter:
                                               channel_id, sequence, log_time, publish_time))
         self._parts.append(data)
         self._chunk_length = offset + _MESSAGE_HEAD.size + len(data)
-        if self._message_count:
-            if log_time < self._start_time:
-                self._start_time = log_time
-        else:
-            self._start_time = log_time
-        if log_time > self._end_time:
-            self._end_time = log_time
-        self._message_count += 1
-        counts = self._message_counts
-        counts[channel_id] = counts.get(channel_id, 0) + 1
         if self._chunk_messages:
             if log_time < self._chunk_start:
                 self._chunk_start = log_time
@@ -195,6 +187,17 @@ class PackedMcapWriter:
                                          len(body)), body)
             length += _INDEX_HEAD.size + len(body)
         self._out.write(b"".join(indexes))
+        # the file's statistics: its messages are its chunks' (channels counted in order
+        # of their first message, as the chunks' indexes list them)
+        if self._message_count:
+            self._start_time = min(self._start_time, self._chunk_start)
+        else:
+            self._start_time = self._chunk_start
+        self._end_time = max(self._end_time, self._chunk_end)
+        self._message_count += self._chunk_messages
+        counts = self._message_counts
+        for channel_id, entries in self._chunk_index.items():
+            counts[channel_id] = counts.get(channel_id, 0) + len(entries) // 2
         self._chunk_indexes.append(ChunkIndex(
             message_start_time=self._chunk_start, message_end_time=self._chunk_end,
             chunk_start_offset=chunk_offset, chunk_length=chunk_length,
