@@ -33,13 +33,14 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 from types import TracebackType
+from typing import Any
 
 from mcap.writer import LIBRARY_IDENTIFIER, CompressionType
-from mcap.writer import Writer as McapWriter
 
 from uhrisim import __version__ as uhrisim_version
 from uhrisim.core.errors import AssetError, ConfigError, UhrisimError
 from uhrisim.record.finish import Headroom, size_limit_with_headroom
+from uhrisim.record.mcap_writer import PackedMcapWriter
 from uhrisim.record.rosbag2 import channel_metadata
 from uhrisim.ros.messages import stamp_ns
 from uhrisim.ros.msgdefs import schema_text
@@ -174,18 +175,14 @@ class McapRecorder(RosWriter):
         except OSError as exc:
             raise UhrisimError(f"{self.path}: cannot open for writing ({exc.strerror})") from exc
         self._headroom = Headroom(self.path)
-        self._writer = McapWriter(
-            self._sink,
-            chunk_size=int(chunk_size),
-            compression=_COMPRESSION[compression],
-        )
+        self._writer = PackedMcapWriter(self._sink, int(chunk_size), _COMPRESSION[compression])
         self._writer.start(profile="ros2", library=_library_identifier())
         for name, data in (metadata or {}).items():
             self._writer.add_metadata(str(name), {str(k): str(v) for k, v in data.items()})
         self._schema_ids: dict[str, int] = {}
-        self._channels: dict[str, int] = {}
-        self._sequence: dict[int, int] = {}
-        self._counts: dict[str, int] = {}
+        #: Per relative topic: [channel id, messages written so far (the next sequence
+        #: number), full topic].
+        self._channels: dict[str, list[Any]] = {}
         self._last_flush_ns = 0
         self._closed = False
         self._prefix = namespace.rstrip("/")  # "" or "/sim_a"
@@ -198,7 +195,7 @@ class McapRecorder(RosWriter):
     @property
     def message_counts(self) -> dict[str, int]:
         """Messages written so far, per topic (a copy)."""
-        return dict(self._counts)
+        return {topic: count for _, count, topic in self._channels.values()}
 
     @property
     def bytes_written(self) -> int:
@@ -209,33 +206,28 @@ class McapRecorder(RosWriter):
         if self._closed:
             raise UhrisimError(f"McapRecorder.{where}: recorder for {self.path} is closed")
 
-    def _channel(self, topic: str, typename: str) -> int:
-        channel_id = self._channels.get(topic)
-        if channel_id is None:
-            schema_id = self._schema_ids.get(typename)
-            if schema_id is None:
-                schema_id = self._writer.register_schema(
-                    typename, "ros2msg", schema_text(typename).encode("utf-8")
-                )
-                self._schema_ids[typename] = schema_id
-            channel_id = self._writer.register_channel(topic, "cdr", schema_id,
-                                                       channel_metadata(topic))
-            self._channels[topic] = channel_id
-            self._sequence[channel_id] = 0
-        return channel_id
+    def _open_channel(self, topic: str, typename: str) -> list[Any]:
+        """Register the channel of the relative ``topic`` (and its schema, once)."""
+        schema_id = self._schema_ids.get(typename)
+        if schema_id is None:
+            schema_id = self._writer.register_schema(
+                typename, "ros2msg", schema_text(typename).encode("utf-8")
+            )
+            self._schema_ids[typename] = schema_id
+        full = f"{self._prefix}/{topic}"
+        channel = [self._writer.register_channel(full, "cdr", schema_id,
+                                                 channel_metadata(full)), 0, full]
+        self._channels[topic] = channel
+        return channel
 
     def _emit(self, topic: str, typename: str, qos: QosKind, t_ns: int, data: bytes) -> None:
         """Append one message on ``<namespace>/<topic>`` (``qos``: the rosbag2 metadata
         knows the latched topics by name)."""
         del qos
-        topic = f"{self._prefix}/{topic}"
-        channel_id = self._channel(topic, typename)
-        seq = self._sequence[channel_id]
-        self._sequence[channel_id] = seq + 1
-        self._writer.add_message(
-            channel_id=channel_id, log_time=t_ns, data=data, publish_time=t_ns, sequence=seq
-        )
-        self._counts[topic] = self._counts.get(topic, 0) + 1
+        channel = self._channels.get(topic) or self._open_channel(topic, typename)
+        sequence = channel[1]
+        channel[1] = sequence + 1
+        self._writer.add_message(channel[0], t_ns, data, t_ns, sequence)
         if self._flush_period_ns is not None and t_ns - self._last_flush_ns >= (
             self._flush_period_ns
         ):
@@ -270,7 +262,8 @@ class McapRecorder(RosWriter):
             self._headroom.release()
         logger.info(
             "recorded %d messages on %d topics to %s (%d bytes)",
-            sum(self._counts.values()), len(self._counts), self.path, self._sink.tell(),
+            sum(c for _, c, _ in self._channels.values()), len(self._channels), self.path,
+            self._sink.tell(),
         )
 
     def __enter__(self) -> McapRecorder:
