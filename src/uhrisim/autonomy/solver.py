@@ -82,7 +82,7 @@ class _Term:
 
     def at(self, indices: dict[str, int]) -> float:
         """f at a decision given as axis-name -> grid index."""
-        v = float(self.values[tuple(indices[a] for a in self.axes)])
+        v = float(self.values[tuple([indices[a] for a in self.axes])])
         return v if self.scale is None else (v + self.offset) * self.scale
 
 
