@@ -14,6 +14,7 @@ velocities cached (the helm's hot path; bit-identical to :func:`cpa_distance`);
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cache
 
@@ -160,11 +161,11 @@ class CpaGrid:
         """What :func:`cpa_point` takes after own velocity, for :meth:`distance`'s
         arguments: the contact's velocity (east, north) m/s, own position relative to it,
         m, its square, the horizon clipped at 0, s, and the utility's kind and parameters."""
-        h = np.radians(cnh_deg)
-        dx, dy = osx - cnx, osy - cny
+        h = math.radians(cnh_deg)  # (math's radians, sin and cos are numpy's on a float)
+        dx, dy = float(osx - cnx), float(osy - cny)
         kind, p0, p1 = (_DISTANCE, 0.0, 0.0) if utility is None else utility.kernel_args()
-        return (float(cnv * np.sin(h)), float(cnv * np.cos(h)), float(dx), float(dy),
-                float(dx * dx + dy * dy), float(max(horizon, 0.0)), kind, float(p0), float(p1))
+        return (cnv * math.sin(h), cnv * math.cos(h), dx, dy, dx * dx + dy * dy,
+                float(max(horizon, 0.0)), kind, float(p0), float(p1))
 
     def distance(
         self,
