@@ -161,7 +161,7 @@ class Loiter(Behavior):
         self._posted: tuple[int, bool] | None = None
         self._posted_poly: tuple[Point, ...] | None = None
         self._speed_memo = ZaicMemo()
-        self._edge_memo: tuple | None = None  # (vertices, edges, cross products)
+        self._edge_memo: tuple | None = None  # (vertices, edges, cross products, bearings)
 
     def on_params_changed(self, key: str) -> None:
         p: LoiterParams = self.params
@@ -176,10 +176,9 @@ class Loiter(Behavior):
             self._pending_center_here = True
 
     def _turn(self, x: float, y: float, k: int, d: int) -> float:
-        vs = self.vertices
-        (vx, vy), (wx, wy) = vs[k], vs[(k + d) % len(vs)]
+        vx, vy = self.vertices[k]
         approach = bearing_deg(x, y, vx, vy)
-        return float(wrap_180(bearing_deg(vx, vy, wx, wy) - approach))
+        return float(wrap_180(self._edges()[2][k, d] - approach))
 
     def _visible_vertices(self, x: float, y: float) -> list[int]:
         """The vertices whose sight line from (x, y) properly crosses no edge (one touching
@@ -188,7 +187,7 @@ class Loiter(Behavior):
         cross product with (x, y) is the same for every vertex, and with each vertex fixed
         by the polygon: both are worked out once (the same products, in the same order)."""
         vs, n, eps = self.vertices, len(self.vertices), _CROSS_EPS
-        edges, at_vertex = self._edges()
+        edges, at_vertex, _ = self._edges()
         at_own = [ex * (y - ay) - ey * (x - ax) for ax, ay, _, _, ex, ey in edges]
         seen = []
         for k in range(n):
@@ -209,9 +208,11 @@ class Loiter(Behavior):
                 seen.append(k)
         return seen
 
-    def _edges(self) -> tuple[list[tuple[float, ...]], list[list[float]]]:
-        """Each edge i (vertex i to i + 1) as (ax, ay, bx, by, ex, ey), and its cross
-        product with every vertex k, ``[i][k]`` (kept while the vertices are)."""
+    def _edges(self) -> tuple[list[tuple[float, ...]], list[list[float]],
+                              dict[tuple[int, int], float]]:
+        """Each edge i (vertex i to i + 1) as (ax, ay, bx, by, ex, ey), its cross product
+        with every vertex k, ``[i][k]``, and the bearing (deg) from each vertex k to the
+        next in direction d (+1 / -1), ``[k, d]`` (kept while the vertices are)."""
         if self._edge_memo is None or self._edge_memo[0] is not self.vertices:
             vs, n = self.vertices, len(self.vertices)
             edges = []
@@ -220,8 +221,10 @@ class Loiter(Behavior):
                 edges.append((ax, ay, bx, by, bx - ax, by - ay))
             at_vertex = [[ex * (ky - ay) - ey * (kx - ax) for kx, ky in vs]
                          for ax, ay, _, _, ex, ey in edges]
-            self._edge_memo = (vs, edges, at_vertex)
-        return self._edge_memo[1], self._edge_memo[2]
+            onward = {(k, d): bearing_deg(*vs[k], *vs[(k + d) % n])
+                      for k in range(n) for d in (1, -1)}
+            self._edge_memo = (vs, edges, at_vertex, onward)
+        return self._edge_memo[1:]
 
     def acquire(self, x: float, y: float, heading: float) -> tuple[int, int]:
         """(vertex index, direction +1 clockwise / -1 counter-clockwise) to approach."""
