@@ -148,16 +148,9 @@ class CpaGrid:
         return self.vx.shape  # type: ignore[return-value]
 
     @staticmethod
-    def point_args(
-        osx: float,
-        osy: float,
-        cnx: float,
-        cny: float,
-        cnh_deg: float,
-        cnv: float,
-        horizon: float,
-        utility: AvoidUtility | CutRangeUtility | None = None,
-    ) -> tuple[float, float, float, float, float, float, int, float, float]:
+    def point_args(osx: float, osy: float, cnx: float, cny: float, cnh_deg: float, cnv: float,
+                   horizon: float, utility: AvoidUtility | CutRangeUtility | None = None,
+                   ) -> tuple[float, float, float, float, float, float, int, float, float]:
         """What :func:`cpa_point` takes after own velocity, for :meth:`distance`'s
         arguments: the contact's velocity (east, north) m/s, own position relative to it,
         m, its square, the horizon clipped at 0, s, and the utility's kind and parameters."""

@@ -218,18 +218,9 @@ def reflect_ranged(
     return out, lo, hi
 
 
-def reflect_cpa(
-    grid: CpaGrid,
-    osx: float,
-    osy: float,
-    cnx: float,
-    cny: float,
-    cnh_deg: float,
-    cnv: float,
-    horizon: float,
-    utility: AvoidUtility | CutRangeUtility,
-    piece: tuple[int, int],
-) -> tuple[NDArray[np.float64], float, float]:
+def reflect_cpa(grid: CpaGrid, osx: float, osy: float, cnx: float, cny: float, cnh_deg: float,
+                cnv: float, horizon: float, utility: AvoidUtility | CutRangeUtility,
+                piece: tuple[int, int]) -> tuple[NDArray[np.float64], float, float]:
     """:func:`reflect_ranged` of ``grid.distance(osx, ..., utility)`` (a CPA utility over
     the course x speed grid; :meth:`~uhrisim.autonomy.cpa.CpaGrid.distance`).
 
