@@ -29,8 +29,8 @@ def test_every_decision_of_the_paper_s_mission_is_today_s():
 
 
 #: The helm's compiled kernels, each remembered by its module once built.
-KERNELS = (ivp_build._compiled_reflect, cpa._compiled_points, coupler._compiled_couple,
-           zaic._compiled_peak, solver._compiled_add_weighted)
+KERNELS = (ivp_build._compiled_reflect, ivp_build._compiled_reflect_cpa, cpa._compiled_points,
+           coupler._compiled_couple, zaic._compiled_peak, solver._compiled_add_weighted)
 
 
 def _forget_kernels():
@@ -67,6 +67,8 @@ def test_compiled_helm_kernels_equal_numpy_bit_for_bit(monkeypatch):
 
     def made():  # tables, CPAs, utilities, couplings, peaks and sums, (min, max) of the tables
         reflected = [ivp_build.reflect_ranged(t, p) for t in tables for p in pieces]
+        reflected += [ivp_build.reflect_cpa(grid, *s, u, p) for s in situations[:4] for p in pieces
+                      for u in (cpa.AvoidUtility(8.0, 25.0), cpa.CutRangeUtility(12.5))]
         coupled = [coupler._couple(t[:, 0], t[0], *w, n) for t in [*tables, np.ones((3, 4))]
                    for w in ((50.0, 50.0), (20.0, 80.0)) for n in (True, False)]
         return ([r[0] for r in reflected] + [c[0] for c in coupled]

@@ -261,7 +261,7 @@ def test_loiter_acquisition_rules():
     sq = "0,0 : 0,20 : 20,20 : 20,0"  # clockwise order as stored
     b = make("Loiter", polygon=sq, speed=1.0)
     # outside, south: only the two south corners are visible from (10, -30)
-    assert [b._visible(10.0, -30.0, k) for k in range(4)] == [True, False, False, True]
+    assert b._visible_vertices(10.0, -30.0) == [0, 3]
     # turns onto the onward clockwise edge: (0,0): 341.6 -> 0 = +18.4; (20,0): 18.4 -> 270
     assert b._turn(10.0, -30.0, 0, 1) == pytest.approx(18.435, abs=1e-3)
     assert b._turn(10.0, -30.0, 3, 1) == pytest.approx(-108.435, abs=1e-3)

@@ -86,6 +86,10 @@ class NodeReport:
 
 
 _KNOWN_KEYS = frozenset(("NAME", "TYPE", "MODE", *_NUMERIC))
+#: Known keys and aliases as reports usually spell them (upper, lower or title case, no
+#: spaces), to the key they stand for: a look-up instead of strip, upper and alias.
+_KEY_SPELT = {spelt: _ALIASES.get(k, k) for k in (*_KNOWN_KEYS, *_ALIASES)
+              for spelt in (k, k.lower(), k.title())}
 
 
 #: Reports made by :func:`node_report_text` with ``remember=True``, by their exact text,
@@ -113,12 +117,14 @@ def _parse_text(text: str) -> NodeReport:
             if not part.strip():
                 continue
             raise ConfigError(f"field {part.strip()!r} is not KEY=value", "NODE_REPORT")
-        key = k.strip().upper()
-        key = _ALIASES.get(key, key)
-        if key in _KNOWN_KEYS:
-            fields[key] = v.strip()
-        else:
-            extra.append((k.strip(), v.strip()))
+        key = _KEY_SPELT.get(k)
+        if key is None:
+            key = k.strip().upper()
+            key = _ALIASES.get(key, key)
+            if key not in _KNOWN_KEYS:
+                extra.append((k.strip(), v.strip()))
+                continue
+        fields[key] = v.strip()
     for need in ("NAME", "X", "Y"):
         if not fields.get(need):
             raise ConfigError(f"node report lacks {need}=: {text!r}", "NODE_REPORT")
@@ -134,21 +140,10 @@ def _parse_text(text: str) -> NodeReport:
         if not math.isfinite(number):
             raise ConfigError(f"{key}={value!r} is not finite", "NODE_REPORT")
         num[key] = number
-    return NodeReport(
-        name=fields["NAME"],
-        x=num["X"],
-        y=num["Y"],
-        speed=num.get("SPD", 0.0),
-        heading=num.get("HDG", 0.0) % 360.0,
-        depth=num.get("DEP", 0.0),
-        time=num.get("TIME"),
-        type=fields.get("TYPE", ""),
-        mode=fields.get("MODE", ""),
-        lat=num.get("LAT"),
-        lon=num.get("LON"),
-        length=num.get("LENGTH"),
-        extra=tuple(extra),
-    )
+    got = num.get
+    return NodeReport(fields["NAME"], num["X"], num["Y"], got("SPD", 0.0), got("HDG", 0.0) % 360.0,
+                      got("DEP", 0.0), got("TIME"), fields.get("TYPE", ""),
+                      fields.get("MODE", ""), got("LAT"), got("LON"), got("LENGTH"), tuple(extra))
 
 
 _FIXED = {nd: f".{nd}f" for nd in range(10)}  # format specs of 0..9 decimals

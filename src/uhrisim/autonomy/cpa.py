@@ -14,13 +14,14 @@ velocities cached (the helm's hot path; bit-identical to :func:`cpa_distance`);
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from uhrisim.core.compiled import jit
+from uhrisim.core.compiled import callable_compiled, jit
 
 __all__ = [
     "AvoidUtility",
@@ -146,6 +147,19 @@ class CpaGrid:
     def shape(self) -> tuple[int, int]:
         return self.vx.shape  # type: ignore[return-value]
 
+    @staticmethod
+    def point_args(osx: float, osy: float, cnx: float, cny: float, cnh_deg: float, cnv: float,
+                   horizon: float, utility: AvoidUtility | CutRangeUtility | None = None,
+                   ) -> tuple[float, float, float, float, float, float, int, float, float]:
+        """What :func:`cpa_point` takes after own velocity, for :meth:`distance`'s
+        arguments: the contact's velocity (east, north) m/s, own position relative to it,
+        m, its square, the horizon clipped at 0, s, and the utility's kind and parameters."""
+        h = math.radians(cnh_deg)  # (math's radians, sin and cos are numpy's on a float)
+        dx, dy = float(osx - cnx), float(osy - cny)
+        kind, p0, p1 = (_DISTANCE, 0.0, 0.0) if utility is None else utility.kernel_args()
+        return (cnv * math.sin(h), cnv * math.cos(h), dx, dy, dx * dx + dy * dy,
+                float(max(horizon, 0.0)), kind, float(p0), float(p1))
+
     def distance(
         self,
         osx: float,
@@ -164,16 +178,15 @@ class CpaGrid:
         (``nb = w.(-r0)``, exact) so that t* = nb / (a + 1e-300) needs no negation. With
         numba, one compiled pass (CPA and utility together, point by point).
         """
+        compiled = _compiled_points()
+        if compiled is not None:  # the same operations per grid point, compiled
+            out = np.empty(self.vx.shape)
+            compiled(self.vx, self.vy,
+                     *self.point_args(osx, osy, cnx, cny, cnh_deg, cnv, horizon, utility), out)
+            return out
         h = np.radians(cnh_deg)
         cwx, cwy = cnv * np.sin(h), cnv * np.cos(h)
         dx, dy = osx - cnx, osy - cny
-        compiled = _compiled_points()
-        if compiled is not None:  # the same operations per grid point, compiled
-            kind, p0, p1 = (_DISTANCE, 0.0, 0.0) if utility is None else utility.kernel_args()
-            out = np.empty(self.vx.shape)
-            compiled(self.vx, self.vy, cwx, cwy, dx, dy, dx * dx + dy * dy,
-                     max(horizon, 0.0), kind, p0, p1, out)
-            return out
         wx = np.subtract(self.vx, cwx)
         wy = np.subtract(self.vy, cwy)
         a = np.multiply(wx, wx)
@@ -256,33 +269,36 @@ _DISTANCE, _AVOID, _CUT_RANGE = 0, 1, 2  # what the compiled kernel makes of the
 
 
 def _cpa_points(vx, vy, cwx, cwy, dx, dy, r2, horizon, kind, p0, p1, out):  # type: ignore[no-untyped-def]
-    """:meth:`CpaGrid.distance` point by point, then the utility ``kind`` makes of it
-    (``_AVOID``: :func:`avoid_utility_inplace` with ``p0`` = min_util, ``p1`` = 75 / span;
-    ``_CUT_RANGE``: :func:`cut_range_utility_inplace` with ``p0`` = range), compiled by
-    numba: the same operations in the same order at every point as the numpy path (loops
-    without branches on the kind, so that they vectorise)."""
+    """:meth:`CpaGrid.distance` point by point (:func:`cpa_point`), compiled by numba."""
     vxf, vyf, outf = vx.ravel(), vy.ravel(), out.ravel()
-    n = vxf.shape[0]
-    for k in range(n):
-        wx, wy = vxf[k] - cwx, vyf[k] - cwy
-        a = wx * wx + wy * wy
-        nb = wx * -dx + wy * -dy
-        t = nb / (a + 1e-300)
-        t = min(max(t, 0.0), horizon)
-        a = ((a * t) - nb * 2.0) * t + r2
-        outf[k] = np.sqrt(max(a, 0.0))
+    for k in range(vxf.shape[0]):
+        outf[k] = cpa_point(vxf[k], vyf[k], cwx, cwy, dx, dy, r2, horizon, kind, p0, p1)
+
+
+def cpa_point(vx, vy, cwx, cwy, dx, dy, r2, horizon, kind, p0, p1):  # type: ignore[no-untyped-def]
+    """One grid point of :meth:`CpaGrid.distance` for own velocity (``vx``, ``vy``) m/s:
+    the CPA distance, then the utility ``kind`` makes of it (``_AVOID``:
+    :func:`avoid_utility_inplace` with ``p0`` = min_util, ``p1`` = 75 / span;
+    ``_CUT_RANGE``: :func:`cut_range_utility_inplace` with ``p0`` = range). The same
+    operations in the same order as the numpy path; compiled kernels call it."""
+    wx, wy = vx - cwx, vy - cwy
+    a = wx * wx + wy * wy
+    nb = wx * -dx + wy * -dy
+    t = nb / (a + 1e-300)
+    t = min(max(t, 0.0), horizon)
+    a = ((a * t) - nb * 2.0) * t + r2
+    cpa = np.sqrt(max(a, 0.0))
     if kind == 1:
-        for k in range(n):
-            cpa = outf[k]
-            u = min(max((cpa - p0) * p1 + 25.0, 25.0), 100.0)
-            outf[k] = u if cpa >= p0 else 0.0
-    elif kind == 2:
-        for k in range(n):
-            outf[k] = min(max(100.0 - (outf[k] * 100.0) / p0, 0.0), 100.0)
+        u = min(max((cpa - p0) * p1 + 25.0, 25.0), 100.0)
+        return u if cpa >= p0 else 0.0
+    if kind == 2:
+        return min(max(100.0 - (cpa * 100.0) / p0, 0.0), 100.0)
+    return cpa
 
 
 @cache
 def _compiled_points():  # type: ignore[no-untyped-def]
+    callable_compiled(cpa_point)
     return jit(_cpa_points, numpy_errors=True)
 
 

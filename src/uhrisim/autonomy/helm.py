@@ -47,6 +47,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from functools import cache
 
 from uhrisim.autonomy.behaviors.base import (
     Behavior,
@@ -160,6 +161,8 @@ class _Slot:
 
 
 def _num(v: object) -> float | None:
+    if type(v) is float:  # the common case, without the conversion
+        return v
     try:
         return float(v)  # type: ignore[arg-type]
     except (TypeError, ValueError):
@@ -169,8 +172,11 @@ def _num(v: object) -> float | None:
 OVERRIDE_VARS = frozenset({"MOOS_MANUAL_OVERRIDE", "MOOS_MANUAL_OVERIDE"})
 LEDGER_VARS = frozenset({"NODE_REPORT", "AIS_REPORT", "AIS_REPORT_LOCAL"})
 _NO_DECISION = ("NothingToDo", "MissingDecVars")
+_LIST_VARS = {status: f"IVPHELM_BHV_{status.upper()}"
+              for status in ("active", "running", "idle", "completed")}
 
 
+@cache
 def _desired_var(axis: str) -> str:
     """The variable a decision on ``axis`` is posted to (DESIRED_COURSE is DESIRED_HEADING)."""
     return "DESIRED_HEADING" if axis == "course" else f"DESIRED_{axis.upper()}"
@@ -202,7 +208,7 @@ class Helm:
         self._allstop = ""  # the last IVPHELM_ALLSTOP message (HelmIvP m_allstop_msg)
         self._no_decisions = 0
         self._first = True
-        self._last_lists: dict[str, str] = {}
+        self._last_lists: dict[str, tuple[str, ...]] = {}  # by status: the names last posted
         self.last_output: HelmOutput | None = None
 
     # -- queries ---------------------------------------------------------------------
@@ -401,11 +407,14 @@ class Helm:
     def _clear_stale_contacts(self, t: float) -> None:
         """Contacts whose report is older than contact_max_age leave the ledger; twice as
         old for one a behavior names (HelmIvP.cpp:383-386, ContactLedger.cpp:400-425)."""
-        used = {getattr(s.bhv.params, "contact", "") for s in self.slots}
         age = self.settings.contact_max_age
-        for name in [n for n, c in self.ledger.items()
-                     if t - c.t_report > age * (2.0 if n in used else 1.0)]:  # fmt: skip
-            del self.ledger[name]
+        old = [n for n, c in self.ledger.items() if t - c.t_report > min(age, 2.0 * age)]
+        if not old:  # (the usual case: no need to know which contacts behaviors name)
+            return
+        used = {getattr(s.bhv.params, "contact", "") for s in self.slots}
+        for name in old:
+            if t - self.ledger[name].t_report > age * (2.0 if name in used else 1.0):
+                del self.ledger[name]
 
     def _post_allstop(self, msg: str, posts: list) -> None:
         """IVPHELM_ALLSTOP and the DESIRED_* zeros (HelmIvP::postAllStop)."""
@@ -521,19 +530,14 @@ class Helm:
             decision = Decision(d["course"], d["speed"], d.get("depth"))
         groups: dict[str, list[str]] = {"active": [], "running": [], "idle": [], "completed": []}
         for s in self.slots:
-            if s.status in groups:
-                groups[s.status].append(s.bhv.name)
+            group = groups.get(s.status)
+            if group is not None:
+                group.append(s.bhv.name)
         by = {k: tuple(v) for k, v in groups.items()}
-        lists = {
-            "IVPHELM_BHV_ACTIVE": ",".join(by["active"]),
-            "IVPHELM_BHV_RUNNING": ",".join(by["running"]),
-            "IVPHELM_BHV_IDLE": ",".join(by["idle"]),
-            "IVPHELM_BHV_COMPLETED": ",".join(by["completed"]),
-        }
-        for var, val in lists.items():
-            if self._last_lists.get(var) != val:
-                posts.append((var, val))
-                self._last_lists[var] = val
+        for status, names in by.items():  # IVPHELM_BHV_ACTIVE, ... when they change
+            if self._last_lists.get(status) != names:
+                posts.append((_LIST_VARS[status], ",".join(names)))
+                self._last_lists[status] = names
         for var, val in posts:
             if var not in ("BHV_WARNING", "BHV_ERROR", "IVPHELM_SKEW"):
                 self.info[var] = val

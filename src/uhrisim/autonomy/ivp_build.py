@@ -31,6 +31,7 @@ from functools import cache, lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
+from uhrisim.autonomy.cpa import AvoidUtility, CpaGrid, CutRangeUtility, cpa_point
 from uhrisim.core.compiled import callable_compiled, jit
 
 __all__ = [
@@ -39,6 +40,7 @@ __all__ = [
     "fit_pieces_reference",
     "normalize",
     "reflect",
+    "reflect_cpa",
     "reflect_ranged",
 ]
 
@@ -216,6 +218,40 @@ def reflect_ranged(
     return out, lo, hi
 
 
+def reflect_cpa(grid: CpaGrid, osx: float, osy: float, cnx: float, cny: float, cnh_deg: float,
+                cnv: float, horizon: float, utility: AvoidUtility | CutRangeUtility,
+                piece: tuple[int, int]) -> tuple[NDArray[np.float64], float, float]:
+    """:func:`reflect_ranged` of ``grid.distance(osx, ..., utility)`` (a CPA utility over
+    the course x speed grid; :meth:`~uhrisim.autonomy.cpa.CpaGrid.distance`).
+
+    With numba one compiled call: the utility at every grid point
+    (:func:`~uhrisim.autonomy.cpa.cpa_point`), then the fit, both normalisations and the
+    table (:func:`_reflect_pieces`) in the same array - the same values. (The utility at
+    just the points the fit reads, 4 corners and a centre a piece, costs more: a loop
+    over scattered points does not vectorise.)"""
+    compiled = _compiled_reflect_cpa()
+    if compiled is None:
+        return reflect_ranged(grid.distance(osx, osy, cnx, cny, cnh_deg, cnv, horizon, utility),
+                              piece)
+    n_c, n_s = grid.shape
+    L = _layout(n_c, n_s, piece[0], piece[1])
+    out = np.empty((n_c, n_s))
+    lo, hi = compiled(grid.vx, grid.vy,
+                      *grid.point_args(osx, osy, cnx, cny, cnh_deg, cnv, horizon, utility),
+                      L.c_lo, L.c_hi, L.s_lo, L.s_hi, out)
+    return out, lo, hi
+
+
+def _reflect_cpa_pieces(vx, vy, cwx, cwy, dx, dy, r2, horizon, kind, p0, p1,  # type: ignore[no-untyped-def]
+                        c_lo, c_hi, s_lo, s_hi, out):
+    """:func:`reflect_cpa` compiled: the utility into ``out``, which the fit reads before
+    the table overwrites it."""
+    vxf, vyf, outf = vx.ravel(), vy.ravel(), out.ravel()
+    for k in range(outf.shape[0]):
+        outf[k] = cpa_point(vxf[k], vyf[k], cwx, cwy, dx, dy, r2, horizon, kind, p0, p1)
+    return _reflect_pieces(out, c_lo, c_hi, s_lo, s_hi, out)
+
+
 def _reflect_pieces(F, c_lo, c_hi, s_lo, s_hi, out):  # type: ignore[no-untyped-def]
     """:func:`reflect` piece by piece in loops (compiled by numba): the fit of
     :func:`fit_pieces_reference` (with the corners' range of the first :func:`normalize`),
@@ -307,3 +343,12 @@ def _corners_range(b, mc, ms, c0, c1, s0, s1, lo, hi):  # type: ignore[no-untype
 def _compiled_reflect():  # type: ignore[no-untyped-def]
     callable_compiled(_corners_range)
     return jit(_reflect_pieces, numpy_errors=True)
+
+
+@cache
+def _compiled_reflect_cpa():  # type: ignore[no-untyped-def]
+    if _compiled_reflect() is None:
+        return None
+    callable_compiled(cpa_point)
+    callable_compiled(_reflect_pieces)
+    return jit(_reflect_cpa_pieces, numpy_errors=True)

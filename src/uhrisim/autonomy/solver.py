@@ -35,7 +35,7 @@ from uhrisim.core.compiled import jit
 __all__ = ["SolveResult", "WeightedObjective", "solve", "solve_reference"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class WeightedObjective:
     """A behavior's function and its priority weight (weight <= 0 is dropped by the solver)."""
 
@@ -44,7 +44,7 @@ class WeightedObjective:
     objective: Objective
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class SolveResult:
     """Decision (axis -> value, or None for all-stop) with the audit of contributions.
 
@@ -82,7 +82,7 @@ class _Term:
 
     def at(self, indices: dict[str, int]) -> float:
         """f at a decision given as axis-name -> grid index."""
-        v = float(self.values[tuple(indices[a] for a in self.axes)])
+        v = float(self.values[tuple([indices[a] for a in self.axes])])
         return v if self.scale is None else (v + self.offset) * self.scale
 
 
@@ -104,7 +104,7 @@ def _taking_part(objectives: list[WeightedObjective]) -> list[_Term]:
 
 def _components(domain: Domain, objs: list[_Term]) -> list[tuple[str, ...]]:
     """Connected groups of axes, each in domain order, ordered by their first axis."""
-    return list(_components_of(domain.names, tuple(w.axes for w in objs)))
+    return list(_components_of(domain.names, tuple([w.axes for w in objs])))
 
 
 @lru_cache(maxsize=64)

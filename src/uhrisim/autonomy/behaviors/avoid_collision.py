@@ -40,7 +40,7 @@ from uhrisim.autonomy.geometry import distance
 from uhrisim.autonomy.ivp_build import (
     fit_pieces_reference,
     normalize,
-    reflect_ranged,
+    reflect_cpa,
 )
 from uhrisim.autonomy.params import one_of, setter, to_float
 
@@ -154,9 +154,8 @@ class AvoidCollision(ContactBehavior):
         if bounds is None or (first_build and ctx.domain.has("depth")):
             return None
         own, grid = ctx.own, self.cpa_grid(ctx.domain)
-        u = grid.distance(own.x, own.y, tr.x, tr.y, tr.heading, tr.speed, p.time_on_leg,
-                          AvoidUtility(*bounds))  # fmt: skip
-        table, lo, hi = reflect_ranged(u, PIECE)
+        table, lo, hi = reflect_cpa(grid, own.x, own.y, tr.x, tr.y, tr.heading, tr.speed,
+                                    p.time_on_leg, AvoidUtility(*bounds), PIECE)
         return Objective.over(ctx.domain, ("course", "speed"), table, (lo, hi))
 
     def objective_reference(self, ctx: BehaviorContext) -> Objective | None:

@@ -161,6 +161,7 @@ class Loiter(Behavior):
         self._posted: tuple[int, bool] | None = None
         self._posted_poly: tuple[Point, ...] | None = None
         self._speed_memo = ZaicMemo()
+        self._edge_memo: tuple | None = None  # (vertices, edges, cross products, bearings)
 
     def on_params_changed(self, key: str) -> None:
         p: LoiterParams = self.params
@@ -175,33 +176,55 @@ class Loiter(Behavior):
             self._pending_center_here = True
 
     def _turn(self, x: float, y: float, k: int, d: int) -> float:
-        vs = self.vertices
-        (vx, vy), (wx, wy) = vs[k], vs[(k + d) % len(vs)]
+        vx, vy = self.vertices[k]
         approach = bearing_deg(x, y, vx, vy)
-        return float(wrap_180(bearing_deg(vx, vy, wx, wy) - approach))
+        return float(wrap_180(self._edges()[2][k, d] - approach))
 
-    def _visible(self, x: float, y: float, k: int) -> bool:
-        """True when the sight line from (x, y) to vertex k properly crosses no edge (one
-        touching it does not count): each edge's two cross products with the line's ends
-        have strictly opposite signs, and the line's with the edge's ends, to cross."""
+    def _visible_vertices(self, x: float, y: float) -> list[int]:
+        """The vertices whose sight line from (x, y) properly crosses no edge (one touching
+        it does not count): an edge blocks when its two cross products with the line's ends
+        have strictly opposite signs, and the line's with the edge's ends too. The edge's
+        cross product with (x, y) is the same for every vertex, and with each vertex fixed
+        by the polygon: both are worked out once (the same products, in the same order)."""
         vs, n, eps = self.vertices, len(self.vertices), _CROSS_EPS
-        kx, ky = vs[k]
-        for i in range(n):
-            j = (i + 1) % n
-            if k in (i, j):
-                continue
-            (ax, ay), (bx, by) = vs[i], vs[j]
-            ex, ey = bx - ax, by - ay
-            d1 = ex * (y - ay) - ey * (x - ax)
-            d2 = ex * (ky - ay) - ey * (kx - ax)
-            if not ((d1 > eps and d2 < -eps) or (d1 < -eps and d2 > eps)):
-                continue
-            sx, sy = kx - x, ky - y
-            d3 = sx * (ay - y) - sy * (ax - x)
-            d4 = sx * (by - y) - sy * (bx - x)
-            if (d3 > eps and d4 < -eps) or (d3 < -eps and d4 > eps):
-                return False
-        return True
+        edges, at_vertex, _ = self._edges()
+        at_own = [ex * (y - ay) - ey * (x - ax) for ax, ay, _, _, ex, ey in edges]
+        seen = []
+        for k in range(n):
+            kx, ky = vs[k]
+            for i in range(n):
+                if k == i or k == (i + 1) % n:
+                    continue
+                d1, d2 = at_own[i], at_vertex[i][k]
+                if not ((d1 > eps and d2 < -eps) or (d1 < -eps and d2 > eps)):
+                    continue
+                ax, ay, bx, by, _, _ = edges[i]
+                sx, sy = kx - x, ky - y
+                d3 = sx * (ay - y) - sy * (ax - x)
+                d4 = sx * (by - y) - sy * (bx - x)
+                if (d3 > eps and d4 < -eps) or (d3 < -eps and d4 > eps):
+                    break
+            else:
+                seen.append(k)
+        return seen
+
+    def _edges(self) -> tuple[list[tuple[float, ...]], list[list[float]],
+                              dict[tuple[int, int], float]]:
+        """Each edge i (vertex i to i + 1) as (ax, ay, bx, by, ex, ey), its cross product
+        with every vertex k, ``[i][k]``, and the bearing (deg) from each vertex k to the
+        next in direction d (+1 / -1), ``[k, d]`` (kept while the vertices are)."""
+        if self._edge_memo is None or self._edge_memo[0] is not self.vertices:
+            vs, n = self.vertices, len(self.vertices)
+            edges = []
+            for i in range(n):
+                (ax, ay), (bx, by) = vs[i], vs[(i + 1) % n]
+                edges.append((ax, ay, bx, by, bx - ax, by - ay))
+            at_vertex = [[ex * (ky - ay) - ey * (kx - ax) for kx, ky in vs]
+                         for ax, ay, _, _, ex, ey in edges]
+            onward = {(k, d): bearing_deg(*vs[k], *vs[(k + d) % n])
+                      for k in range(n) for d in (1, -1)}
+            self._edge_memo = (vs, edges, at_vertex, onward)
+        return self._edge_memo[1:]
 
     def acquire(self, x: float, y: float, heading: float) -> tuple[int, int]:
         """(vertex index, direction +1 clockwise / -1 counter-clockwise) to approach."""
@@ -213,7 +236,7 @@ class Loiter(Behavior):
             score = [abs(self._turn(x, y, k, d)) - (2.0 if k == near else 0.0) for k in range(n)]
             return min(range(n), key=lambda k: score[k]), d
 
-        seen = [k for k in range(n) if self._visible(x, y, k)] or list(range(n))
+        seen = self._visible_vertices(x, y) or list(range(n))
 
         def out(d: int) -> int:
             pick = max if d == 1 else min

@@ -35,7 +35,7 @@ from uhrisim.autonomy.coupler import coupled_objective
 from uhrisim.autonomy.cpa import CutRangeUtility
 from uhrisim.autonomy.domain import Objective
 from uhrisim.autonomy.geometry import bearing_deg, distance
-from uhrisim.autonomy.ivp_build import reflect_ranged
+from uhrisim.autonomy.ivp_build import reflect_cpa
 from uhrisim.autonomy.params import one_of, setter, to_float
 from uhrisim.autonomy.zaic import zaic_peak_on_axis
 
@@ -103,8 +103,8 @@ class Trail(ContactBehavior):
         crs_axis, spd_axis = ctx.domain.axis("course"), ctx.domain.axis("speed")
         if dist > p.nm_radius:
             grid = self.cpa_grid(ctx.domain)
-            u = grid.distance(own.x, own.y, px, py, ch, cv, p.time_on_leg, CutRangeUtility(dist))
-            table, lo, hi = reflect_ranged(u, FAR_PIECE)
+            table, lo, hi = reflect_cpa(grid, own.x, own.y, px, py, ch, cv, p.time_on_leg,
+                                        CutRangeUtility(dist), FAR_PIECE)
             return Objective.over(ctx.domain, ("course", "speed"), table, (lo, hi))
         if dist > p.radius:
             hx, hy = math.sin(math.radians(ch)), math.cos(math.radians(ch))
