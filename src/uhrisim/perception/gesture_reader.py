@@ -303,10 +303,21 @@ class GestureReader:
 
     def feed(self, t: float, rgb: NDArray[np.uint8]) -> list[RecognizedSignal]:
         """Take one camera picture at time ``t`` (s); the signals recognized now."""
-        period = 1.0 / self.classifier.rate_hz
-        if self._frames and t < self._frames[-1][0] + period - 1e-6:
+        if not self.takes(t):
             return []  # frames come faster than the classifier's rate: skip
-        self._frames.append((t, frame_descriptor(rgb)))
+        return self.feed_descriptor(t, frame_descriptor(rgb))
+
+    def takes(self, t: float) -> bool:
+        """Whether a picture at ``t`` (s) is one the classifier's frame rate takes."""
+        period = 1.0 / self.classifier.rate_hz
+        return not self._frames or t >= self._frames[-1][0] + period - 1e-6
+
+    def feed_descriptor(self, t: float, descriptor: NDArray[np.float64]
+                        ) -> list[RecognizedSignal]:
+        """:meth:`feed` with the picture's :func:`frame_descriptor` already computed."""
+        if not self.takes(t):
+            return []
+        self._frames.append((t, descriptor))
         self._frames = [(ti, d) for ti, d in self._frames if ti > t - self.classifier.window_s]
         if t < self._next_t or len(self._frames) < self.classifier.window_frames - 1:
             return []
