@@ -19,6 +19,8 @@ at rest.
     python -m uhrisim.experiments.gesture_classifier OUT.json [--episodes 20] [--seed 1]
                                                               [--cache DIR]
     python -m uhrisim.experiments.gesture_classifier --evaluate [--range 3] [--water I]
+                                                     [--stream [--hop S] [--votes N]
+                                                      [--min-confidence P]] [--cache DIR]
 
 The first fits a classifier (the shipped ``perception/data/gesture_classifier.json``
 says how it was fitted; the network's size and L2 penalty, :data:`HIDDEN` and :data:`L2`,
@@ -26,7 +28,8 @@ were chosen on held-out episodes of seeds 101-104 at 3 m, never on the test's se
 ``--cache`` keeps the rendered silhouettes, so that a change of the descriptors or of the
 classifier refits without rendering. The second prints the
 accuracy and confusion matrix of the shipped classifier (or ``OUT.json``'s) on held-out
-episodes.
+episodes, or with ``--stream`` what the streaming reader (its rule as given) recognizes,
+misses and says falsely on them as streams (:func:`stream_counts`).
 """
 
 from __future__ import annotations
@@ -457,7 +460,7 @@ def main(argv: list[str] | None = None) -> None:
                 classifier, min_confidence=args.min_confidence, hop_s=args.hop,
                 votes=args.votes), held, store)
             print(f"streams at {args.range:g} m, water {args.water}, lamps on (reader: every "
-                  f"{args.hop:g} s, {args.votes} in a row, mean >= {args.min_confidence:g}): "
+                  f"{args.hop:g} s, {args.votes} in a row, each >= {args.min_confidence:g}): "
                   + ", ".join(f"{k} {v}" for k, v in counts.items()))
             return
         classes, matrix = confusion(classifier, held)
