@@ -13,9 +13,11 @@ from uhrisim.core.errors import ConfigError
 from uhrisim.experiments.gesture_classifier import (
     EpisodeRenderer,
     GestureEpisode,
+    SilhouetteCache,
     confusion,
     fit_network,
     held_out_episodes,
+    stream_counts,
 )
 from uhrisim.perception.gesture_reader import (
     FRAME_FEATURES,
@@ -119,13 +121,27 @@ def test_a_bad_classifier_file_is_a_one_line_error(tmp_path):
 
 @pytest.mark.slow
 def test_the_streaming_reader_says_a_gesture_once_and_a_diver_at_rest_nothing(renderer):
+    frames = list(renderer.frames(GestureEpisode("go_up", 3.0, 0.0, "I", True, 8), extra_s=3.0))
     reader = GestureReader(SHIPPED)
-    said = [s for t, rgb in renderer.frames(GestureEpisode("go_up", 3.0, 0.0, "I", True, 8),
-                                            extra_s=3.0)
-            for s in reader.feed(t, rgb)]
+    said = [s for t, rgb in frames for s in reader.feed(t, rgb)]
     assert [(str(s.command), s.channel) for s in said] == [("go_up", "gesture")]
     assert said[0].confidence >= 0.9
+    # the same pictures' descriptors, computed beforehand, read the same
+    stored = GestureReader(SHIPPED)
+    assert [s for t, rgb in frames if stored.takes(t)
+            for s in stored.feed_descriptor(t, frame_descriptor(rgb))] == said
     rest = GestureReader(SHIPPED)
     assert not [s for t, rgb in renderer.frames(GestureEpisode(NONE, 3.0, 0.0, "I", True, 8),
                                                 extra_s=3.0)
                 for s in rest.feed(t, rgb)]
+
+
+@pytest.mark.slow
+def test_a_stream_counts_what_the_reader_says_against_the_truth(renderer):
+    store = SilhouetteCache(renderer, None)
+    at_rest = [GestureEpisode(NONE, 3.0, 0.0, "I", True, 8)]
+    assert stream_counts(lambda: GestureReader(SHIPPED), at_rest, store) == {
+        "recognized": 0, "missed": 0, "false": 0}
+    signing = [GestureEpisode("go_up", 3.0, 0.0, "I", True, 8)]
+    counts = stream_counts(lambda: GestureReader(SHIPPED), signing, store)
+    assert counts["recognized"] + counts["missed"] == 1 and counts["false"] == 0

@@ -19,6 +19,8 @@ at rest.
     python -m uhrisim.experiments.gesture_classifier OUT.json [--episodes 20] [--seed 1]
                                                               [--cache DIR]
     python -m uhrisim.experiments.gesture_classifier --evaluate [--range 3] [--water I]
+                                                     [--stream [--hop S] [--votes N]
+                                                      [--min-confidence P]] [--cache DIR]
 
 The first fits a classifier (the shipped ``perception/data/gesture_classifier.json``
 says how it was fitted; the network's size and L2 penalty, :data:`HIDDEN` and :data:`L2`,
@@ -26,7 +28,8 @@ were chosen on held-out episodes of seeds 101-104 at 3 m, never on the test's se
 ``--cache`` keeps the rendered silhouettes, so that a change of the descriptors or of the
 classifier refits without rendering. The second prints the
 accuracy and confusion matrix of the shipped classifier (or ``OUT.json``'s) on held-out
-episodes.
+episodes, or with ``--stream`` what the streaming reader (its rule as given) recognizes,
+misses and says falsely on them as streams (:func:`stream_counts`).
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ import hashlib
 import json
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -47,8 +50,13 @@ from scipy import optimize
 from uhrisim.core.frames import rot_z
 from uhrisim.dynamics.diver_body import DiverSkeleton
 from uhrisim.perception.gesture_reader import (
+    HOP_S,
+    MIN_CONFIDENCE,
     NONE,
+    VOTES,
     GestureClassifier,
+    GestureReader,
+    class_command,
     silhouette,
     silhouette_descriptor,
     window_features,
@@ -71,6 +79,9 @@ IMAGE_WIDTH, IMAGE_HEIGHT = 160, 120
 WINDOW_S, RATE_HZ = 10.0, 2.0
 #: the window the camera sees ends this long after the gesture (s)
 END_AFTER_S = (0.2, 1.0)
+#: a held-out stream (:func:`stream_counts`) starts this long (s) before the window that
+#: ends after the gesture, and goes on this long after it
+STREAM_LEAD_S, STREAM_AFTER_S = 6.0, 3.0
 SWAY_DEG = 6.0
 ARM_KINDS = ("shoulder_flex", "shoulder_abd", "shoulder_rot", "elbow", "wrist")
 #: suit and cylinder colours (linear albedo) drawn in training: black, grey, blue and
@@ -144,10 +155,13 @@ class EpisodeRenderer:
         camera.rng = noise
         return camera
 
-    def frames(self, ep: GestureEpisode, extra_s: float = 0.0
+    def frames(self, ep: GestureEpisode, extra_s: float = 0.0, stream: bool = False
                ) -> Iterator[tuple[float, NDArray[np.uint8]]]:
-        """(t, picture) of the window ending after the gesture (t = 0 at its start),
-        and ``extra_s`` more of him holding its last pose."""
+        """(t, picture) of the window ending after the gesture (t = 0 at its start) and
+        ``extra_s`` more of him holding its last pose; a ``stream`` (what the streaming
+        reader sees of ``SignalPerformer``'s diver: :func:`stream_counts`) starts
+        :data:`STREAM_LEAD_S` earlier and has him back in the ready pose once the
+        gesture ends."""
         rng = np.random.default_rng(np.random.SeedSequence([ep.seed, 26, len(ep.klass)]))
         motion, noise = rng.spawn(2)
         side = "left" if motion.random() < 0.5 else "right"
@@ -163,9 +177,11 @@ class EpisodeRenderer:
         camera = self._camera(ep.water, ep.lamps, noise)
         scene.set_pose("diver", (ep.range_m, 0.0, CAMERA_DEPTH_M + HIP_BELOW_CAMERA_M),
                        rot_z(math.pi + math.radians(ep.heading_deg)))
-        n = round((WINDOW_S + extra_s) * RATE_HZ)
-        for t in end - WINDOW_S + (np.arange(n) + 1) / RATE_HZ:
-            joints = pose_at(frames, t) if name != NONE else dict(frames[0].joints)
+        lead_s = STREAM_LEAD_S if stream else 0.0
+        n = round((WINDOW_S + extra_s + lead_s) * RATE_HZ)
+        for t in end - WINDOW_S - lead_s + (np.arange(n) + 1) / RATE_HZ:
+            making = name != NONE and not (stream and t > duration)
+            joints = pose_at(frames, t) if making else dict(frames[0].joints)
             q = self.skeleton.vector(joints)
             for index, period, phase in sway:
                 q[index] += math.radians(SWAY_DEG) * math.sin(2 * math.pi * t / period + phase)
@@ -175,20 +191,20 @@ class EpisodeRenderer:
                                    float(t))
             yield float(t), frame.rgb
 
-    def silhouettes(self, ep: GestureEpisode, extra_s: float = 0.0
+    def silhouettes(self, ep: GestureEpisode, extra_s: float = 0.0, stream: bool = False
                     ) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
         """(silhouettes (frames, rows, columns), their times: t = 0 at the gesture's
-        start) of the window ending after the gesture and ``extra_s`` more."""
+        start) of :meth:`frames`."""
         times, masks = [], []
-        for t, rgb in self.frames(ep, extra_s):
+        for t, rgb in self.frames(ep, extra_s, stream):
             times.append(t)
             masks.append(silhouette(rgb))
         return np.array(masks), np.array(times)
 
-    def descriptors(self, ep: GestureEpisode, extra_s: float = 0.0
+    def descriptors(self, ep: GestureEpisode, extra_s: float = 0.0, stream: bool = False
                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(frame descriptors, their times) of :meth:`silhouettes`."""
-        masks, times = self.silhouettes(ep, extra_s)
+        masks, times = self.silhouettes(ep, extra_s, stream)
         return np.array([silhouette_descriptor(m) for m in masks]), times
 
 
@@ -201,24 +217,26 @@ class SilhouetteCache:
     def __init__(self, renderer: EpisodeRenderer, folder: Path | None) -> None:
         self.renderer, self.folder = renderer, folder
 
-    def path(self, ep: GestureEpisode, extra_s: float) -> Path | None:
+    def path(self, ep: GestureEpisode, extra_s: float, stream: bool = False) -> Path | None:
         if self.folder is None:
             return None
         key = repr((ep, extra_s, IMAGE_WIDTH, IMAGE_HEIGHT, RATE_HZ, WINDOW_S))
+        if stream:
+            key += f" stream {STREAM_LEAD_S}"
         return self.folder / f"{hashlib.sha1(key.encode()).hexdigest()[:20]}.npz"
 
-    def descriptors(self, ep: GestureEpisode, extra_s: float = 0.0
+    def descriptors(self, ep: GestureEpisode, extra_s: float = 0.0, stream: bool = False
                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """:meth:`EpisodeRenderer.descriptors`, the silhouettes read from the cache or
         rendered and stored."""
-        path = self.path(ep, extra_s)
+        path = self.path(ep, extra_s, stream)
         if path is not None and path.exists():
             with np.load(path) as stored:
                 width = int(stored["width"])
                 masks = np.unpackbits(stored["masks"], axis=-1)[..., :width].astype(bool)
                 times = stored["times"]
         else:
-            masks, times = self.renderer.silhouettes(ep, extra_s)
+            masks, times = self.renderer.silhouettes(ep, extra_s, stream)
             if path is not None:
                 path.parent.mkdir(parents=True, exist_ok=True)
                 np.savez_compressed(path, masks=np.packbits(masks, axis=-1), times=times,
@@ -387,6 +405,27 @@ def confusion(classifier: GestureClassifier, episodes: list[GestureEpisode],
     return classes, matrix
 
 
+def stream_counts(reader_of: Callable[[], GestureReader], episodes: list[GestureEpisode],
+                  store: SilhouetteCache) -> dict[str, int]:
+    """Each episode as a stream of frames (its gesture whole, from :data:`STREAM_LEAD_S`
+    before the window that ends after it to :data:`STREAM_AFTER_S` after) through a
+    fresh reader: gestures ``recognized`` (their command said) and ``missed``, and
+    ``false`` recognitions (any other command said: a shorter count while the diver is
+    still counting, a wrong gesture, anything said of a diver at rest)."""
+    counts = {"recognized": 0, "missed": 0, "false": 0}
+    for ep in episodes:
+        d, times = store.descriptors(ep, STREAM_AFTER_S, stream=True)
+        reader = reader_of()
+        said = [s.command for t, x in zip(times, d, strict=True)
+                for s in reader.feed_descriptor(float(t), x)]
+        want = class_command(ep.klass, reader.gestures)
+        right = want is not None and want in said
+        counts["recognized"] += right
+        counts["missed"] += want is not None and not right
+        counts["false"] += len(said) - right
+    return counts
+
+
 def held_out_episodes(classes: list[str], range_m: float, water: str, lamps: bool,
                       seeds: list[int]) -> list[GestureEpisode]:
     """One episode per class and seed at one setting, headings drawn within ±35°."""
@@ -405,11 +444,25 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--water", default="I")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--cache", type=Path, help="keep the rendered silhouettes here")
+    parser.add_argument("--stream", action="store_true",
+                        help="with --evaluate: each episode as a stream through the reader")
+    parser.add_argument("--hop", type=float, default=HOP_S)
+    parser.add_argument("--votes", type=int, default=VOTES)
+    parser.add_argument("--min-confidence", type=float, default=MIN_CONFIDENCE)
     args = parser.parse_args(argv)
     if args.evaluate:
         classifier = GestureClassifier.load(args.out)
         held = held_out_episodes(list(classifier.classes), args.range, args.water, True,
                                  args.seeds)
+        if args.stream:
+            store = SilhouetteCache(EpisodeRenderer(), args.cache)
+            counts = stream_counts(lambda: GestureReader(
+                classifier, min_confidence=args.min_confidence, hop_s=args.hop,
+                votes=args.votes), held, store)
+            print(f"streams at {args.range:g} m, water {args.water}, lamps on (reader: every "
+                  f"{args.hop:g} s, {args.votes} in a row, each >= {args.min_confidence:g}): "
+                  + ", ".join(f"{k} {v}" for k, v in counts.items()))
+            return
         classes, matrix = confusion(classifier, held)
         print(f"accuracy {np.trace(matrix) / matrix.sum():.2f} at {args.range:g} m, "
               f"water {args.water}, lamps on")

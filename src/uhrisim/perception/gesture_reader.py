@@ -36,9 +36,11 @@ Parameters fitted on pictures the simulator renders and labels
 ``perception/data/gesture_classifier.json`` with their provenance.
 
 **Streaming** (:class:`GestureReader`): fed every camera frame; every ``hop_s`` it
-classifies the last window, and says a command when the same class wins with at least
-``min_confidence`` twice in a row; then it stays quiet for a window (the same gesture is
-not said twice).
+classifies the last window, and says a command when the same class wins ``votes`` times
+in a row, each time with at least ``min_confidence``; then it stays quiet for a window
+(the same gesture is not said twice). ``uhrisim.experiments.gesture_classifier
+--evaluate --stream`` counts what a rule recognizes, misses and says falsely on held-out
+streams (docs/hri.md).
 """
 
 from __future__ import annotations
@@ -85,6 +87,9 @@ TIME_BINS_S = (0.0, 1.0, 2.0, 3.5, 5.0, 7.0, 10.0)
 MOTION_S = 10
 WINDOW_FEATURES = (len(TIME_BINS_S) - 1) * FRAME_FEATURES + FRAME_FEATURES + MOTION_S
 NONE = "none"
+#: the streaming reader's decision rule (:class:`GestureReader`): every 1 s, the same
+#: class twice in a row with >= 0.9 each time
+HOP_S, VOTES, MIN_CONFIDENCE = 1.0, 2, 0.9
 
 
 def _binned(rgb: NDArray[np.uint8]) -> NDArray[np.float32]:
@@ -294,28 +299,41 @@ class GestureReader:
 
     classifier: GestureClassifier = field(default_factory=GestureClassifier.load)
     gestures: GestureSet = field(default_factory=GestureSet.load)
-    min_confidence: float = 0.9
-    hop_s: float = 1.0
+    min_confidence: float = MIN_CONFIDENCE
+    hop_s: float = HOP_S
+    votes: int = VOTES
     _frames: list[tuple[float, NDArray[np.float64]]] = field(default_factory=list, init=False)
     _next_t: float = field(default=-math.inf, init=False)
     _quiet_until: float = field(default=-math.inf, init=False)
-    _candidate: str = field(default=NONE, init=False)
+    _last: list[tuple[str, float]] = field(default_factory=list, init=False)
 
     def feed(self, t: float, rgb: NDArray[np.uint8]) -> list[RecognizedSignal]:
         """Take one camera picture at time ``t`` (s); the signals recognized now."""
-        period = 1.0 / self.classifier.rate_hz
-        if self._frames and t < self._frames[-1][0] + period - 1e-6:
+        if not self.takes(t):
             return []  # frames come faster than the classifier's rate: skip
-        self._frames.append((t, frame_descriptor(rgb)))
+        return self.feed_descriptor(t, frame_descriptor(rgb))
+
+    def takes(self, t: float) -> bool:
+        """Whether a picture at ``t`` (s) is one the classifier's frame rate takes."""
+        period = 1.0 / self.classifier.rate_hz
+        return not self._frames or t >= self._frames[-1][0] + period - 1e-6
+
+    def feed_descriptor(self, t: float, descriptor: NDArray[np.float64]
+                        ) -> list[RecognizedSignal]:
+        """:meth:`feed` with the picture's :func:`frame_descriptor` already computed."""
+        if not self.takes(t):
+            return []
+        self._frames.append((t, descriptor))
         self._frames = [(ti, d) for ti, d in self._frames if ti > t - self.classifier.window_s]
         if t < self._next_t or len(self._frames) < self.classifier.window_frames - 1:
             return []
         self._next_t = t + self.hop_s
         features = window_features(np.array([d for _, d in self._frames]),
                                    self.classifier.rate_hz)
-        name, confidence = self.classifier.classify(features)
-        said = name != NONE and name == self._candidate and confidence >= self.min_confidence
-        self._candidate = name if confidence >= self.min_confidence else NONE
+        self._last = [*self._last, self.classifier.classify(features)][-self.votes:]
+        name, confidence = self._last[-1]
+        said = name != NONE and len(self._last) == self.votes and all(
+            c == name and p >= self.min_confidence for c, p in self._last)
         if not said or t < self._quiet_until:
             return []
         self._quiet_until = t + self.classifier.window_s
