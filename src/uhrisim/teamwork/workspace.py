@@ -74,7 +74,8 @@ def pose_matrix(position_ned: ArrayLike, yaw: float = 0.0) -> NDArray[np.float64
 @dataclass
 class Thing:
     """An object's state: pose (4x4 body→NED), velocity (NED m/s), where it is, and
-    its pose relative to what carries it (a basket, a grip)."""
+    its pose relative to what carries it (a basket, a grip). A move replaces the pose
+    array, never changes it in place (the team stage keeps the last one it saw)."""
 
     pose: NDArray[np.float64]
     where: str = "floor"
@@ -313,7 +314,9 @@ class Workspace:
         resting_on = float(x[2]) + hydro.bottom_offset + gap  # depth of what is below
         x, where = fb.step(x, hydro, dt, resting_on, gas)
         before = thing.where
-        thing.pose[:3, 3], thing.velocity, thing.where = x[:3], x[3:], where
+        pose = thing.pose.copy()  # a new pose, never changed in place: the stage compares
+        pose[:3, 3] = x[:3]        # pose objects to see what moved (sim/teamwork.py)
+        thing.pose, thing.velocity, thing.where = pose, x[3:], where
         if where == "floor" and support != "floor":
             if before == support:  # still resting there (pinned by the step)
                 thing.where = support
