@@ -29,7 +29,7 @@ from uhrisim.control.videoray_p import GAIN_PRESETS, VideoRayPController
 from uhrisim.core.errors import ConfigError
 from uhrisim.dynamics.diver import DiverParams, leg_inputs
 from uhrisim.dynamics.diver_body import Anthropometry, DiverSkeleton
-from uhrisim.dynamics.diver_boots import BootsParams, FloorDepth, leg_angles
+from uhrisim.dynamics.diver_boots import BootsParams, FloorDepth
 from uhrisim.dynamics.kinematic import KinematicParams
 from uhrisim.dynamics.plants import (
     BootsPlant,
@@ -203,7 +203,7 @@ def _swimmer_legs(plant: DiverPlant, x: NDArray, q: NDArray, kick_phase: float) 
 
 def _walker_legs(plant: BootsPlant, x: NDArray, q: NDArray, kick_phase: float) -> NDArray:
     del kick_phase
-    return leg_angles(plant.boots_state(x), plant.params, plant.floor_depth, q)
+    return plant.leg_angles(x, q)
 
 
 def _walker_footfalls(plant: BootsPlant, before: NDArray, after: NDArray) -> list[NDArray]:

@@ -40,6 +40,25 @@ def test_zero_configuration_matches_winters_segment_ratios():
     assert SKELETON.body.hip_height == pytest.approx(0.530 * H)
 
 
+def test_a_joints_kept_transform_is_that_of_the_whole_pose_bit_for_bit():
+    """transform_of keeps a joint's transform for its chain's angles: the legs' kick
+    changes no hand; every answer equals joint_transforms of that very q."""
+    skeleton = db.DiverSkeleton()
+    legs = [skeleton.index(f"{s}_{j}") for s in db.SIDES for j in ("hip_flex", "knee")]
+    wrist, waist = skeleton.index("right_wrist"), skeleton.index("waist")
+    rng = np.random.default_rng(3)
+    for q in random_configurations(20):
+        for _ in range(3):  # the same arms, other legs: kept
+            q = q.copy()
+            q[legs] = rng.uniform(skeleton.lower[legs], skeleton.upper[legs])
+            for joint in (wrist, waist):
+                kept = skeleton.transform_of(q, joint)
+                fresh = db.DiverSkeleton().joint_transforms(q)[joint]
+                assert kept.tobytes() == fresh.tobytes()
+    with pytest.raises(ConfigError, match="shape"):
+        skeleton.transform_of(np.zeros(3), wrist)
+
+
 def test_shoulder_flexion_of_90_degrees_points_the_straight_arm_forward():
     q = SKELETON.vector({"right_shoulder_flex": math.pi / 2})
     shoulder = SKELETON.shoulder(q, "right")

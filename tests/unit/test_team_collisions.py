@@ -81,6 +81,21 @@ def test_a_load_that_moves_onto_an_agent_is_one_collision_and_shoves_it_out(pass
     assert not sphere_overlaps(body, rov.state[:3], rov.radius)  # pushed out of the load
 
 
+def test_a_sinking_tools_sphere_and_scene_body_follow_it(passing):
+    ws, team = passing.team.workspace, passing.team
+    ws.put("basket1", (0.0, -3.0, 8.0), where="water")  # free in the water, 4 m up
+    for _ in range(team.period):
+        passing.step()
+    start = ws.things["basket1"].position.copy()
+    offset = team.obstacles.sphere("basket1")[0] - start  # (the sphere's centre in it)
+    passing.run(1.0)
+    now = ws.things["basket1"].position
+    assert ws.things["basket1"].where == "water" and now[2] > start[2] + 0.05  # it sinks
+    assert np.allclose(team.obstacles.sphere("basket1")[0], now + offset, atol=1e-9)
+    passing._sync_scene()
+    assert np.allclose(passing.scene.pose("basket1")[0], now, atol=1e-9)
+
+
 def test_what_an_agent_holds_and_works_at_is_left_out(salvage):
     team = salvage.team
     # the diver's first order picks the wrench from the basket on stand0; the VideoRay

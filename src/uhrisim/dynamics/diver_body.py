@@ -300,6 +300,11 @@ class DiverSkeleton:
     #: asks for the same pose several times (both hands, the reach, the acts)
     _last: list[tuple[bytes, NDArray[np.float64]]] = field(
         init=False, repr=False, compare=False, default_factory=list)
+    #: each joint's transform (:meth:`transform_of`) for the angles of its chain (their
+    #: bytes): a hand's frame does not change with the legs' kick or stride
+    _by_joint: dict[int, tuple[bytes, NDArray[np.float64]]] = field(
+        init=False, repr=False, compare=False, default_factory=dict)
+    _chains: tuple[NDArray[np.intp], ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.kind not in ("scuba", "boots"):
@@ -324,6 +329,8 @@ class DiverSkeleton:
         for table in tables.values():
             table.setflags(write=False)
         object.__setattr__(self, "_tables", tables)
+        object.__setattr__(self, "_chains", tuple(np.array(self.chain(j.name), dtype=np.intp)
+                                                  for j in joints))
 
     # ------------------------------------------------------------------ tables
     @property
@@ -402,10 +409,7 @@ class DiverSkeleton:
     def joint_transforms(self, q: ArrayLike) -> NDArray[np.float64]:
         """(J, 4, 4) product of exponentials up to and including each joint: the
         rest→posed body-frame transform of everything that joint moves."""
-        q = np.asarray(q, dtype=float)
-        if q.shape != (self.n_joints,):
-            raise ConfigError(f"q must have shape ({self.n_joints},), got {q.shape}",
-                              where="DiverSkeleton.joint_transforms")
+        q = self._checked(q)
         key = q.tobytes()
         if self._last and self._last[0][0] == key:
             return self._last[0][1]
@@ -422,6 +426,26 @@ class DiverSkeleton:
         self._last[:] = [(key, out)]
         return out
 
+    def _checked(self, q: ArrayLike) -> NDArray[np.float64]:
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self.n_joints,):
+            raise ConfigError(f"q must have shape ({self.n_joints},), got {q.shape}",
+                              where="DiverSkeleton.joint_transforms")
+        return q
+
+    def transform_of(self, q: ArrayLike, joint: int) -> NDArray[np.float64]:
+        """``joint_transforms(q)[joint]`` (read-only), kept for the angles of the joint's
+        chain, the only ones it depends on (the same values: worked out by
+        :meth:`joint_transforms` on a ``q`` with those angles)."""
+        q = self._checked(q)
+        key = q[self._chains[joint]].tobytes()
+        last = self._by_joint.get(joint)
+        if last is not None and last[0] == key:
+            return last[1]
+        t = self.joint_transforms(q)[joint]
+        self._by_joint[joint] = (key, t)
+        return t
+
     def link_transforms(self, q: ArrayLike) -> dict[str, NDArray[np.float64]]:
         """Link name -> its 4x4 rest→posed transform (body frame)."""
         t = self.joint_transforms(q)
@@ -434,13 +458,13 @@ class DiverSkeleton:
 
     def grip_point(self, q: ArrayLike, side: Side) -> NDArray[np.float64]:
         """Posed grip point of a hand, body frame (m)."""
-        t = self.joint_transforms(q)[self.index(f"{side}_wrist")]
+        t = self.transform_of(q, self.index(f"{side}_wrist"))
         return t[:3, :3] @ self.grip_point_rest(side) + t[:3, 3]
 
     def hand_frame(self, q: ArrayLike, side: Side) -> NDArray[np.float64]:
         """4x4 pose of a hand in the body frame: origin at the grip point, z along the
         fingers, x out of the palm (at q = 0: z down, x forward)."""
-        t = self.joint_transforms(q)[self.index(f"{side}_wrist")].copy()
+        t = self.transform_of(q, self.index(f"{side}_wrist")).copy()
         t[:3, 3] = t[:3, :3] @ self.grip_point_rest(side) + t[:3, 3]
         return t
 
@@ -452,7 +476,7 @@ class DiverSkeleton:
     def shoulder(self, q: ArrayLike, side: Side) -> NDArray[np.float64]:
         """Posed shoulder centre, body frame (m)."""
         j = self.joints[self.index(f"{side}_shoulder_flex")]
-        t = self.joint_transforms(q)[self.index("waist")]
+        t = self.transform_of(q, self.index("waist"))
         return t[:3, :3] @ np.array(j.pivot) + t[:3, 3]
 
     @property
@@ -579,7 +603,7 @@ def _wrap(a: NDArray[np.float64]) -> NDArray[np.float64]:
 def _solve_arm(skeleton: DiverSkeleton, side: Side, target: NDArray[np.float64],
                q_now: NDArray[np.float64]) -> ReachSolution:
     """Arm-only reach (see :func:`solve_reach`)."""
-    trunk = skeleton.joint_transforms(q_now)[skeleton.index("waist")]
+    trunk = skeleton.transform_of(q_now, skeleton.index("waist"))
     shoulder = np.array(skeleton.joints[skeleton.index(f"{side}_shoulder_flex")].pivot)
     # the target in the arm's rest frame (undo posture and waist), relative to the shoulder
     t = trunk[:3, :3].T @ (target - trunk[:3, 3]) - shoulder

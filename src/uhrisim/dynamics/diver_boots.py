@@ -46,6 +46,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Literal, NamedTuple
 
 import numpy as np
@@ -92,10 +93,10 @@ class BootsParams:
             raise ConfigError(f"must be in [0.8, 1), got {self.knee_reach}",
                               where="BootsParams.knee_reach")
 
-    @property
+    @cached_property
     def hydro(self) -> fb.Hydro:
         """The diver as a free body; its reference point is the hip centre, the soles a
-        standing hip height below it."""
+        standing hip height below it (worked out once: asked every step)."""
         volume = self.mass / fb.WATER_DENSITY - self.in_water_weight / (fb.WATER_DENSITY *
                                                                          fb.GRAVITY)
         return fb.Hydro(self.mass, volume, 1.0, self.vertical_drag_area, 1.0,
@@ -166,15 +167,21 @@ def foot_offsets(state: BootsState, params: BootsParams) -> dict[Side, tuple[flo
 def sole_targets(state: BootsState, params: BootsParams, floor_depth: FloorDepth
                  ) -> dict[Side, NDArray[np.float64]]:
     """NED target of each sole (under the ankle): on the floor, or lifted in swing."""
-    sk = params.skeleton
-    h = _heading(state.psi)
-    across = np.array([-h[1], h[0]])  # to starboard
+    h0, h1 = math.cos(state.psi), math.sin(state.psi)  # the heading; across: (-h1, h0)
+    north, east = state.position[0], state.position[1]
     out = {}
     for side, (forward, lift) in foot_offsets(state, params).items():
-        lateral = sk.joints[sk.index(f"{side}_hip_flex")].pivot[1]
-        xy = np.asarray(state.position[:2]) + forward * h + lateral * across
-        out[side] = np.array([xy[0], xy[1], float(floor_depth(xy[0], xy[1])) - lift])
+        lateral = _hip_lateral(params, side)
+        x = north + forward * h0 + lateral * -h1  # (in numpy's order of operations)
+        y = east + forward * h1 + lateral * h0
+        out[side] = np.array([x, y, float(floor_depth(x, y)) - lift])
     return out
+
+
+def _hip_lateral(params: BootsParams, side: Side) -> float:
+    """How far (m) a hip joint lies to starboard of the hip centre."""
+    sk = params.skeleton
+    return sk.joints[sk.index(f"{side}_hip_flex")].pivot[1]
 
 
 def _leg_length(params: BootsParams) -> float:
@@ -197,13 +204,12 @@ def standing_hip_depth(state: BootsState, params: BootsParams, floor_depth: Floo
     state's crouch): as high as the lower foot allows."""
     reach = leg_reach(params, state.crouch)
     ankle_h = params.skeleton.body.ankle_height
-    sk = params.skeleton
+    across = (-math.sin(state.psi), math.cos(state.psi))
     depth = -math.inf
     for side, sole in sole_targets(state, params, floor_depth).items():
-        hip_y = sk.joints[sk.index(f"{side}_hip_flex")].pivot[1]
-        hip = np.asarray(state.position[:2]) + hip_y * np.array(
-            [-math.sin(state.psi), math.cos(state.psi)])
-        horizontal = float(np.linalg.norm(sole[:2] - hip))
+        hip_y = _hip_lateral(params, side)
+        hip = (state.position[0] + hip_y * across[0], state.position[1] + hip_y * across[1])
+        horizontal = float(np.linalg.norm(np.array([sole[0] - hip[0], sole[1] - hip[1]])))
         depth = max(depth, sole[2] - ankle_h - math.sqrt(reach * reach - horizontal ** 2))
     return depth
 
@@ -211,10 +217,16 @@ def standing_hip_depth(state: BootsState, params: BootsParams, floor_depth: Floo
 def floor_slope_ahead(state: BootsState, floor_depth: FloorDepth, probe: float = 0.2) -> float:
     """Rise of the floor per metre along the heading (> 0 uphill), from the depths
     ``probe`` m ahead and behind."""
-    h = _heading(state.psi)
-    xy = np.asarray(state.position[:2])
-    ahead = float(floor_depth(*(xy + probe * h)))
-    behind = float(floor_depth(*(xy - probe * h)))
+    return _slope_ahead(state.position, state.psi, floor_depth, probe)
+
+
+def _slope_ahead(position: tuple[float, ...], psi: float, floor_depth: FloorDepth,
+                 probe: float = 0.2) -> float:
+    """:func:`floor_slope_ahead` from ``position`` (NED m) along heading ``psi`` (rad)."""
+    north, east = position[0], position[1]
+    dn, de = probe * math.cos(psi), probe * math.sin(psi)
+    ahead = float(floor_depth(north + dn, east + de))
+    behind = float(floor_depth(north - dn, east - de))
     return (behind - ahead) / (2.0 * probe)
 
 
@@ -324,18 +336,19 @@ def step(state: BootsState, command: BootsCommand, params: BootsParams, dt: floa
     target = max(0.0, min(params.max_speed, command.speed)) if crouch < 0.05 else 0.0
     dv = max(-params.acceleration * dt, min(params.acceleration * dt, target - state.speed))
     speed = state.speed + dv
-    probe = replace(state, psi=psi)
-    slope = floor_slope_ahead(probe, floor_depth)
+    slope = _slope_ahead(state.position, psi, floor_depth)
     if speed > 0.0 and abs(slope) > params.max_slope:
         notes.append(f"too_steep: slope {slope:+.2f} ahead, limit {params.max_slope:.2f}")
         speed = 0.0
-    h = _heading(psi)
-    xy = np.asarray(state.position[:2]) + speed * dt * h
+    stride = speed * dt
+    north = state.position[0] + stride * math.cos(psi)
+    east = state.position[1] + stride * math.sin(psi)
     phase = state.phase + 2.0 * math.pi * speed / params.stride_length * dt
-    new = BootsState((xy[0], xy[1], state.position[2]), psi, speed, phase, suit, crouch=crouch)
+    new = BootsState((north, east, state.position[2]), psi, speed, phase, suit, crouch=crouch)
     footfalls = footfalls_between(state.phase, new, params, floor_depth)
     depth = standing_hip_depth(new, params, floor_depth)
-    return BootsStep(replace(new, position=(xy[0], xy[1], depth)), footfalls, notes)
+    return BootsStep(BootsState((north, east, depth), psi, speed, phase, suit, crouch=crouch),
+                     footfalls, notes)
 
 
 def footfalls_between(phase_before: float, state: BootsState, params: BootsParams,

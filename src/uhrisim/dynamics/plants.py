@@ -50,6 +50,26 @@ class LastInputs:
         return value
 
 
+class LastArrays:
+    """One pure function's last arguments (their bytes) and the array it gave: a still
+    diver asks again and again with the very same ones. Copies go out, so callers may
+    change what they get."""
+
+    __slots__ = ("_last",)
+
+    def __init__(self) -> None:
+        self._last: tuple[bytes, NDArray | None] = (b"", None)  # (arguments, value)
+
+    def of(self, key: bytes, compute: Callable[[], NDArray]) -> NDArray:
+        """``compute()``, or its value for the same ``key`` last time."""
+        last_key, value = self._last
+        if key != last_key or value is None:
+            value = compute()
+            self._last = (key, value.copy())
+            return value
+        return value.copy()
+
+
 @dataclass(frozen=True)
 class NavState:
     """Navigation truth of one body: NED position (m), yaw (rad), FRD velocity (m/s), r (rad/s).
@@ -200,6 +220,13 @@ class BootsPlant:
     dt: float
     floor_depth: diver_boots.FloorDepth
     name: str = "diver"
+    #: the last step (a diver standing still steps from where it stood with the same
+    #: command again and again: a pure function of the two, the very state a fresh
+    #: step gives) and the last :meth:`leg_angles`
+    _steps: LastArrays = field(init=False, repr=False, compare=False,
+                               default_factory=LastArrays)
+    _legs: LastArrays = field(init=False, repr=False, compare=False,
+                              default_factory=LastArrays)
     kind = "diver_boots"
     state_size = 12
     input_size = 4
@@ -228,11 +255,22 @@ class BootsPlant:
                                       float(x[11]))
 
     def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
+        return self._steps.of(x.tobytes() + u.tobytes(), lambda: self._step(t, x, u))
+
+    def _step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
         command = diver_boots.BootsCommand(float(u[0]), float(u[1]), int(np.sign(u[2])),
                                            float(u[3]))
         result = diver_boots.step(self.boots_state(x), command, self.params, self.dt,
                                   self.floor_depth)
         return finite_or_raise(self.array(result.state), self.name, t + self.dt)
+
+    def leg_angles(self, x: NDArray, q: NDArray) -> NDArray:
+        """:func:`~uhrisim.dynamics.diver_boots.leg_angles` of state ``x`` from joint
+        angles ``q`` (those of a diver standing still, arms still, given again: the
+        angles it gave last time)."""
+        return self._legs.of(x.tobytes() + np.asarray(q, dtype=float).tobytes(),
+                             lambda: diver_boots.leg_angles(self.boots_state(x), self.params,
+                                                            self.floor_depth, q))
 
     def footfalls(self, before: NDArray, after: NDArray) -> list[diver_boots.Footfall]:
         """The feet set down between two consecutive states (for the silt they stir)."""
@@ -246,8 +284,8 @@ class BootsPlant:
             velocity = np.array([c * x[7] + s * x[8], -s * x[7] + c * x[8], x[9]])
         else:
             velocity = np.array([x[4], 0.0, 0.0])
-        turn = 0.0 if u is None else float(np.clip(u[1], -self.params.max_turn_rate,
-                                                    self.params.max_turn_rate))
+        limit = self.params.max_turn_rate
+        turn = 0.0 if u is None else min(max(float(u[1]), -limit), limit)
         return NavState(x[0:3].copy(), yaw, velocity, turn)
 
 

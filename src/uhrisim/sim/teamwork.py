@@ -367,8 +367,7 @@ class TeamStage:
             return
         load = None
         if held is not None:
-            nav = agent.nav()
-            body = pose_matrix(nav.position_ned, nav.yaw)
+            body = self._body_pose_now(agent.name)
             centre = np.linalg.inv(body) @ np.append(ws.thing(held).position, 1.0)
             load = CarriedLoad(ws.hydro_of(held), tuple(centre[:3]))
         agent.plant = agent.model.carrying(agent.plant, load)
@@ -397,10 +396,16 @@ class TeamStage:
             column.apply_translation((0.0, 0.0, 0.5 * height))
             scene.add_dynamic(name, column, "platform", CONCRETE, top, rot_z(platform.yaw))
 
-    def _jaws(self, name: str, slot: GripperSlot) -> acts.Jaws:
-        agent = self.agents[name]
-        nav = agent.nav()
-        return acts.Jaws(name, slot.spec, slot.state, pose_matrix(nav.position_ned, nav.yaw))
+    def _jaws(self, name: str, slot: GripperSlot,
+              body_pose: NDArray[np.float64] | None = None) -> acts.Jaws:
+        """The gripper of vehicle ``name`` now (``body_pose``: the vehicle's, if known)."""
+        return acts.Jaws(name, slot.spec, slot.state,
+                         self._body_pose_now(name) if body_pose is None else body_pose)
+
+    def _body_pose_now(self, name: str) -> NDArray[np.float64]:
+        """Agent ``name``'s body pose now (4x4 body→NED, level at its heading)."""
+        nav = self.agents[name].nav()
+        return pose_matrix(nav.position_ned, nav.yaw)
 
     # ------------------------------------------------------------------ the tick
     def step(self, tick: int, t: float) -> frozenset[str]:
@@ -410,20 +415,22 @@ class TeamStage:
             return frozenset()
         ws, dt = self.workspace, self.dt
         requests: list[acts.ActRequest] = []
-        grips = {f"{name}/gripper": self._jaws(name, slot).grip_frame()[:3, 3]
+        # the stage moves no agent: their body poses are those of the whole tick
+        poses = {name: self._body_pose_now(name) for name in (*self.grippers, *self.divers)}
+        grips = {f"{name}/gripper": self._jaws(name, slot, poses[name]).grip_frame()[:3, 3]
                  for name, slot in self.grippers.items()}
         for name, body in self.divers.items():
-            request = self._move_diver(self.agents[name], body, grips, t)
+            request = self._move_diver(self.agents[name], body, grips, t, poses[name])
             if request is not None:
                 requests.append(request)
         events: list[WorldEvent] = []
         carriers: dict[str, acts.Carrier] = {}
         for name, body in self.divers.items():
-            view = self._view(self.agents[name], body, floor=False)  # its hands
+            view = self._view(self.agents[name], body, poses[name], floor=False)  # its hands
             carriers |= {h.name: h for h in (view.hand("left"), view.hand("right"))}
         for name, slot in self.grippers.items():
-            events += self._work_gripper(name, slot, t, requests)
-            carriers[f"{name}/gripper"] = self._jaws(name, slot)
+            events += self._work_gripper(name, slot, t, requests, poses[name])
+            carriers[f"{name}/gripper"] = self._jaws(name, slot, poses[name])
         for request in requests:
             events += acts.perform(request, ws, carriers, t, dt, self.floor)
         for name, carrier in carriers.items():
@@ -581,21 +588,24 @@ class TeamStage:
                 self._recorded_state[name] = value
                 self.record("team_state", site_state_detail(name, what, value))
 
-    def _view(self, agent: Agent, body: DiverBodyState, floor: bool = True) -> DiverView:
-        """The executor's view of a diver now (``floor``: with the floor depth under it)."""
+    def _view(self, agent: Agent, body: DiverBodyState, body_pose: NDArray[np.float64],
+              floor: bool = True) -> DiverView:
+        """The executor's view of a diver now, whose body pose is ``body_pose`` (4x4
+        body→NED; ``floor``: with the floor depth under it)."""
         nav = agent.nav()
         diver = agent.model.diver
         depth = float(self.floor(*nav.position_ned[:2])) if floor else math.nan
-        return DiverView(agent.name, diver.walks, body.skeleton, body.q,
-                         pose_matrix(nav.position_ned, nav.yaw), nav.speed, depth)
+        return DiverView(agent.name, diver.walks, body.skeleton, body.q, body_pose, nav.speed,
+                         depth)
 
     def _move_diver(self, agent: Agent, body: DiverBodyState, grips: dict[str, NDArray],
-                    t: float) -> acts.ActRequest | None:
+                    t: float, body_pose: NDArray[np.float64]) -> acts.ActRequest | None:
         """Run the executor (if any), set the plant's inputs, move the arms and legs."""
         diver = agent.model.diver
         request = None
         if body.executor is not None:
-            d = body.executor.tick(self._view(agent, body), self.workspace, grips, t, self.dt)
+            d = body.executor.tick(self._view(agent, body, body_pose), self.workspace, grips,
+                                   t, self.dt)
             agent.directed = diver.directed_inputs(agent.plant, agent.state, d.speed,
                                                    d.turn_rate, d.depth)
             if d.arm_goal is not None:
@@ -609,13 +619,14 @@ class TeamStage:
         return request
 
     def _work_gripper(self, name: str, slot: GripperSlot, t: float,
-                      requests: list[acts.ActRequest]) -> list[WorldEvent]:
+                      requests: list[acts.ActRequest], body_pose: NDArray[np.float64]
+                      ) -> list[WorldEvent]:
         """Follow the agent's GRIPPER command; jaws that close on an object grasp it,
-        jaws that open let go."""
+        jaws that open let go (``body_pose``: the vehicle's now)."""
         ws, actor = self.workspace, f"{name}/gripper"
         command = str(self.agents[name].community.get("GRIPPER", "open"))
         held = ws.held_by(actor)
-        jaws = self._jaws(name, slot)
+        jaws = self._jaws(name, slot, body_pose)
         between = None if held else acts.between_jaws(ws, jaws)
         close = {"open": False, "close": True,
                  "catch": held is not None or between is not None,

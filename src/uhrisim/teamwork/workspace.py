@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -74,12 +75,17 @@ def pose_matrix(position_ned: ArrayLike, yaw: float = 0.0) -> NDArray[np.float64
 @dataclass
 class Thing:
     """An object's state: pose (4x4 body→NED), velocity (NED m/s), where it is, and
-    its pose relative to what carries it (a basket, a grip)."""
+    its pose relative to what carries it (a basket, a grip). A move replaces the pose
+    array, never changes it in place (the team stage keeps the last one it saw)."""
 
     pose: NDArray[np.float64]
     where: str = "floor"
     velocity: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
     relative: NDArray[np.float64] | None = None
+    #: what its pose last followed from, in a basket or rigged to a load: (the
+    #: support's pose, its relative pose, the pose worked out): the very same objects
+    #: give the same pose, kept (the team stage then needs to compare nothing)
+    followed: tuple[Any, ...] = field(default=(), repr=False, compare=False)
 
     @property
     def position(self) -> NDArray[np.float64]:
@@ -266,13 +272,27 @@ class Workspace:
                 events += self._move_free(name, thing, dt, t, floor_depth)
         for thing in self.things.values():  # contents and rigging follow
             if thing.where.startswith("in:"):
-                thing.pose = self.things[thing.where[3:]].pose @ thing.relative
+                self._follow(thing, self.things[thing.where[3:]].pose, thing.relative, None)
             elif thing.where.startswith("rigged:"):
-                load = self.things[thing.where[7:]]
-                eye = self.loads[thing.where[7:]].attachment_site()
-                thing.pose = pose_matrix(load.pose[:3, :3] @ eye + load.pose[:3, 3],
-                                         math.atan2(load.pose[1, 0], load.pose[0, 0]))
+                load = thing.where[7:]
+                self._follow(thing, self.things[load].pose, None, load)
         return events
+
+    def _follow(self, thing: Thing, support: NDArray[np.float64],
+                relative: NDArray[np.float64] | None, load: str | None) -> None:
+        """Put ``thing`` where its support's pose puts it: at its ``relative`` pose (in a
+        basket), or level at the lifting eye of ``load`` (a bag rigged to it); kept when
+        its support's and relative pose and its own are those it last followed."""
+        last = thing.followed
+        if last and last[0] is support and last[1] is relative and last[2] is thing.pose:
+            return
+        if load is None:
+            thing.pose = support @ relative
+        else:
+            eye = self.loads[load].attachment_site()
+            thing.pose = pose_matrix(support[:3, :3] @ eye + support[:3, 3],
+                                     math.atan2(support[1, 0], support[0, 0]))
+        thing.followed = (support, relative, thing.pose)
 
     def _may_move(self, name: str, thing: Thing) -> bool:
         """Whether the physics must step ``name``: free in the water or at the surface, or
@@ -313,7 +333,9 @@ class Workspace:
         resting_on = float(x[2]) + hydro.bottom_offset + gap  # depth of what is below
         x, where = fb.step(x, hydro, dt, resting_on, gas)
         before = thing.where
-        thing.pose[:3, 3], thing.velocity, thing.where = x[:3], x[3:], where
+        pose = thing.pose.copy()  # a new pose, never changed in place: the stage compares
+        pose[:3, 3] = x[:3]        # pose objects to see what moved (sim/teamwork.py)
+        thing.pose, thing.velocity, thing.where = pose, x[3:], where
         if where == "floor" and support != "floor":
             if before == support:  # still resting there (pinned by the step)
                 thing.where = support

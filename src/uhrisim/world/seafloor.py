@@ -112,6 +112,8 @@ class SeaFloor:
         numbers take a scalar path (a sensor asks once per ping; numpy's per-call cost on
         0-d arrays would dominate).
         """
+        if isinstance(x_north, float) and isinstance(y_east, float):  # (np.float64 too)
+            return self._depth_at_point(float(x_north), float(y_east))
         n, e = self.north, self.east
         if np.ndim(x_north) == 0 and np.ndim(y_east) == 0:
             return self._depth_at_point(float(x_north), float(y_east))  # type: ignore[arg-type]
