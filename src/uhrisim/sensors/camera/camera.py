@@ -307,18 +307,19 @@ class UnderwaterCamera:
         cfg, geo, water = self.config, self.geometry, self.config.water
         paths = rays.paths
         if self._fused is not None:
-            albedo_rows = None
-            if textures is not None and textures.textured(hits.material).any():
+            albedo_rows = None  # the kernel renders ripples; pictures come from here
+            if textures is not None and textures.sharp(hits.material).any():
                 albedo_rows = self._albedo(None, hits, rays, origin, R, albedo_table,
-                                           textures)
+                                           textures, textures.sharp)
             return fused.light_of_rays(
                 self._fused, hits.distance, hits.material, hits.normal, albedo_table,
-                albedo_rows, rays.dirs_cam, paths.down, paths.coefficient, paths.x,
-                rays.cells, R, float(origin[2]), cfg.sun_radiance,
+                textures, albedo_rows, rays.dirs_cam, paths.down, paths.coefficient,
+                paths.x, rays.cells, origin, R, cfg.sun_radiance,
                 fm.veil_scale(float(origin[2]), water, cfg.sun_radiance))
         hit = np.flatnonzero(hits.material >= 0)
         r_hit = range_m[hit]
-        albedo = self._albedo(hit, hits, rays, origin, R, albedo_table, textures)
+        albedo = self._albedo(hit, hits, rays, origin, R, albedo_table, textures,
+                              None if textures is None else textures.textured)
         normal_ned = np.take(hits.normal, hit, axis=0).astype(_F32)
         depth_hit = np.take(paths.down, hit) * r_hit + _F32(origin[2])
         source = fm.daylight_on_surface(albedo, depth_hit, -normal_ned[:, 2], water,
@@ -341,15 +342,17 @@ class UnderwaterCamera:
     @staticmethod
     def _albedo(rows: NDArray[np.intp] | None, hits: RayHits, rays: _Rays,
                 origin: NDArray[np.float64], R: NDArray[np.float64],
-                albedo_table: NDArray[np.float32], textures: SceneTextures | None
+                albedo_table: NDArray[np.float32], textures: SceneTextures | None,
+                textured: Callable[[NDArray[np.int32]], NDArray[np.bool_]] | None
                 ) -> NDArray[np.float32]:
         """(N, 3) albedo of the hits ``rows`` (None: every ray; a miss reads any row):
-        the material's, or its texture's at the hit point."""
+        the material's, or its texture's at the hit point where ``textured`` (of the
+        materials) says so."""
         material = hits.material if rows is None else np.take(hits.material, rows)
         albedo = np.take(albedo_table, material, axis=0)
-        if textures is None:
+        if textures is None or textured is None:
             return albedo
-        on = np.flatnonzero(textures.textured(material))
+        on = np.flatnonzero(textured(material))
         if len(on):
             ray = on if rows is None else np.take(rows, on)
             points = origin + np.einsum("ij,kj->ik", np.take(rays.dirs_cam, ray, axis=0), R) \

@@ -31,8 +31,10 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
-from uhrisim.core.compiled import jit
+from uhrisim.core.compiled import jit, jit_with
 from uhrisim.sensors.camera.config import CameraConfig
+from uhrisim.sensors.camera.textures import SceneTextures
+from uhrisim.world.materials import ripple_factor
 
 _F32 = np.float32
 
@@ -69,9 +71,10 @@ class OpticsConstants:
             bool(config.forward_scatter and config.forward_scatter_spread > 0.0))
 
 
-def _light_rays(distance, material, normal, albedo_table, albedo_rows, dirs_cam, down,  # type: ignore[no-untyped-def]
-                coefficient, x, cells, rotation, camera_z, sun_radiance, water, lamps, table,
-                range_max, n_nodes, sun_half, forward_scatter, total, fs):
+def _light_rays(distance, material, normal, albedo_table, texture_kind, ripples,  # type: ignore[no-untyped-def]
+                albedo_rows, dirs_cam, down, coefficient, x, cells, origin, rotation64,
+                rotation, camera_z, sun_radiance, water, lamps, table, range_max, n_nodes,
+                sun_half, forward_scatter, total, fs):
     """:func:`light_of_rays`' loop over the rays (see it and :mod:`.formation`)."""
     f32 = np.float32
     one, zero, inv_pi = f32(1.0), f32(0.0), f32(1.0 / math.pi)
@@ -82,6 +85,7 @@ def _light_rays(distance, material, normal, albedo_table, albedo_rows, dirs_cam,
     last_node = f32(n_nodes - 1)
     source = np.empty(3, np.float32)
     light = np.empty(3, np.float32)
+    albedo = np.empty(3, np.float32)
     for i in range(distance.shape[0]):
         r = f32(distance[i])
         # daylight veil (formation.sun_veiling)
@@ -102,9 +106,24 @@ def _light_rays(distance, material, normal, albedo_table, albedo_rows, dirs_cam,
                 total[i, k] = term
         m = material[i]
         if m >= 0:
+            kind = texture_kind[m]
+            factor = one
+            if kind == 1:  # sand ripples at the hit point (NED)
+                d = dirs_cam[i]
+                north = origin[0] + (d[0] * rotation64[0, 0] + d[1] * rotation64[0, 1]
+                                     + d[2] * rotation64[0, 2]) * distance[i]
+                east = origin[1] + (d[0] * rotation64[1, 0] + d[1] * rotation64[1, 1]
+                                    + d[2] * rotation64[1, 2]) * distance[i]
+                c = ripples[m]
+                factor = f32(ripple_factor(north, east, c[0], c[1], c[2], c[3], c[4], c[5]))
             for k in range(3):
-                albedo = albedo_rows[i, k] if albedo_rows.shape[0] else albedo_table[m, k]
-                source[k] = albedo
+                if kind == 2:  # a picture: its texel, from numpy
+                    albedo[k] = albedo_rows[i, k]
+                else:
+                    albedo[k] = albedo_table[m, k]
+                    if kind == 1:
+                        albedo[k] = min(max(albedo[k] * factor, zero), one)
+                source[k] = albedo[k]
             n0, n1, n2 = f32(normal[i, 0]), f32(normal[i, 1]), f32(normal[i, 2])
             depth = down[i] * r + z_cam
             daylight = sun_half * (one + -n2)
@@ -129,8 +148,7 @@ def _light_rays(distance, material, normal, albedo_table, albedo_rows, dirs_cam,
                     for k in range(3):
                         light[k] += weight * f32(math.exp(-water[0, k] / inv))
                 for k in range(3):
-                    albedo = albedo_rows[i, k] if albedo_rows.shape[0] else albedo_table[m, k]
-                    source[k] += albedo * light[k] * inv_pi
+                    source[k] += albedo[k] * light[k] * inv_pi
             for k in range(3):
                 direct = source[k] * f32(math.exp(-r * water[0, k]))
                 if forward_scatter:
@@ -166,7 +184,7 @@ def _expose_pixels(radiance, gain, full_well, read_noise2, noise, lut, out):  # 
 @cache
 def _compiled() -> tuple | None:
     """(:func:`_light_rays`, :func:`_expose_pixels`) compiled, or None without numba."""
-    light, exposure = jit(_light_rays), jit(_expose_pixels)
+    light, exposure = jit_with(_light_rays, (ripple_factor,)), jit(_expose_pixels)
     return None if light is None else (light, exposure)
 
 
@@ -178,21 +196,24 @@ def available() -> bool:
 def light_of_rays(
     constants: OpticsConstants, distance: NDArray[np.float64], material: NDArray[np.int32],
     normal: NDArray[np.float64], albedo_table: NDArray[np.float32],
-    albedo_rows: NDArray[np.float32] | None, dirs_cam: NDArray[np.float64],
-    down: NDArray[np.float32], coefficient: NDArray[np.float32], x: NDArray[np.float32],
-    cells: NDArray[np.int32], rotation: NDArray[np.float64], camera_z: float,
-    sun_radiance: float, veil_scale: NDArray[np.float32],
+    textures: SceneTextures | None, albedo_rows: NDArray[np.float32] | None,
+    dirs_cam: NDArray[np.float64], down: NDArray[np.float32],
+    coefficient: NDArray[np.float32], x: NDArray[np.float32], cells: NDArray[np.int32],
+    origin: NDArray[np.float64], rotation: NDArray[np.float64], sun_radiance: float,
+    veil_scale: NDArray[np.float32],
 ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
     """(N, 3) radiance reaching the camera along N rays without forward scatter, and
     (N, 3) the forward-scatter source (zero where nothing was hit, or without forward
     scatter): what :meth:`.camera.UnderwaterCamera._light` forms with the numpy stages.
 
     Per ray: the hit's ``distance`` (m, inf: none), ``material`` (-1: none), NED
-    ``normal``; the albedo from ``albedo_table`` by material, or from ``albedo_rows``
-    (N, 3) where given (textures); camera-frame direction, the daylight paths' ``down``,
-    ``coefficient``, ``x`` (:class:`.formation.DaylightPaths`) and the backscatter-table
-    cell. ``rotation``: camera → NED; ``camera_z``: the camera's depth (m);
-    ``veil_scale``: (3,) −L₀·exp(−K_d·z₀) of :func:`.formation.sun_veiling`."""
+    ``normal``; the albedo from ``albedo_table`` by material, with the scene's sand
+    ripples (``textures``) applied here, and a picture's texel from ``albedo_rows``
+    (N, 3; needed where a hit is on a picture); camera-frame direction, the daylight
+    paths' ``down``, ``coefficient``, ``x`` (:class:`.formation.DaylightPaths`) and the
+    backscatter-table cell. ``origin`` (NED, m) and ``rotation`` (camera → NED): the
+    camera's pose; ``veil_scale``: (3,) −L₀·exp(−K_d·z₀) of
+    :func:`.formation.sun_veiling`."""
     kernel = _compiled()
     assert kernel is not None
     c = constants
@@ -201,10 +222,14 @@ def light_of_rays(
     n = len(distance)
     total, fs = np.empty((n, 3), _F32), np.empty((n, 3), _F32)
     rows = np.zeros((0, 3), _F32) if albedo_rows is None else albedo_rows
-    kernel[0](distance, material, normal, albedo_table, rows, dirs_cam, down, coefficient, x,
-              cells, rotation.astype(_F32), float(camera_z), float(sun_radiance), water,
-              c.lamps, c.table, c.range_max, c.n_nodes, c.sun_half, c.forward_scatter,
-              total, fs)
+    if textures is None:
+        kind, ripples = np.zeros(len(albedo_table) + 1, np.int8), np.zeros((1, 6))
+    else:
+        kind, ripples = textures.kind, textures.ripples
+    kernel[0](distance, material, normal, albedo_table, kind, ripples, rows, dirs_cam, down,
+              coefficient, x, cells, origin, rotation, rotation.astype(_F32),
+              float(origin[2]), float(sun_radiance), water, c.lamps, c.table, c.range_max,
+              c.n_nodes, c.sun_half, c.forward_scatter, total, fs)
     return total, fs
 
 
