@@ -20,7 +20,7 @@ from uhrisim.sensors.camera import formation as fm
 from uhrisim.sensors.camera import fused
 from uhrisim.sensors.camera.config import CameraConfig
 from uhrisim.sensors.camera.geometry import camera_geometry
-from uhrisim.sensors.camera.sampling import AdaptiveGrid, same_object
+from uhrisim.sensors.camera.sampling import AdaptiveGrid, smooth_of
 from uhrisim.sensors.camera.textures import SceneTextures
 from uhrisim.sensors.camera.water import through_cloud
 from uhrisim.sensors.sonar.geometry import mount_rotation, mounted_pose
@@ -213,17 +213,14 @@ class UnderwaterCamera:
         coarse = self._rays(R, grid.coarse)
         hits_c, range_c, light_c, fs_c = form(coarse)
         inverse_depth = 1.0 / (range_c * coarse.cos_axis)  # 0 for open water
-        same = same_object(*(a.reshape(hc, wc) for a in (hits_c.label, hits_c.body,
-                                                         hits_c.material)))
-        if textures is not None:
-            textured = textures.sharp(hits_c.material).reshape(hc, wc)
-            same &= ~(textured[:-1, :-1] | textured[:-1, 1:] | textured[1:, :-1]
-                      | textured[1:, 1:])
+        sharp = None if textures is None else textures.sharp(hits_c.material).reshape(hc, wc)
         r_seen = np.where(np.isfinite(range_c), range_c, _F32(0.0))
         points = coarse.dirs_cam * r_seen[:, None]
         normals = np.einsum("ij,jk->ik", hits_c.normal, R)  # camera frame; water: 0
-        smooth = grid.smooth_cells(points.reshape(hc, wc, 3), normals.reshape(hc, wc, 3),
-                                   r_seen.reshape(hc, wc), same)
+        smooth = smooth_of(*(a.reshape(hc, wc) for a in (hits_c.label, hits_c.body,
+                                                         hits_c.material)),
+                           sharp, grid, points.reshape(hc, wc, 3), normals.reshape(hc, wc, 3),
+                           r_seen.reshape(hc, wc), self._fused is not None)
         exact = grid.exact_pixels(smooth)
         self.last_exact_fraction = len(exact) / len(geo.cos_axis)
         light = grid.upsample(light_c.reshape(hc, wc, 3)).reshape(-1, 3)
