@@ -103,6 +103,20 @@ class PlanarTexture:
         return self.image[np.minimum(row, rows - 1), np.minimum(col, cols - 1)], on
 
 
+def ripple_factor(north: ArrayLike, east: ArrayLike, cos_a: float, sin_a: float, k: float,
+                  meander_m: float, contrast: float, grain: float) -> NDArray[np.float64]:
+    """:meth:`RippleTexture.factor` at points (``north``, ``east``) (m, NED), float64,
+    from its :meth:`RippleTexture.constants`; on arrays, or compiled on floats (the
+    camera's :mod:`~uhrisim.sensors.camera.fused` kernel calls it per ray)."""
+    across = north * cos_a + east * sin_a
+    along = -north * sin_a + east * cos_a
+    s = across + meander_m * np.sin(k * along / 4.0)
+    profile = (np.sin(k * s) + 0.35 * np.sin(2.0 * k * s)) / 1.2
+    mottle = np.sin(37.0 * north + 11.0 * np.sin(23.0 * east)) * np.cos(
+        41.0 * east + 7.0 * np.sin(29.0 * north))
+    return 1.0 + contrast * profile + grain * mottle
+
+
 @dataclass(frozen=True, eq=False)
 class RippleTexture:
     """Sand ripples as an albedo pattern on a static surface (camera only; world NED, m).
@@ -134,15 +148,14 @@ class RippleTexture:
     def factor(self, points: ArrayLike) -> NDArray[np.float32]:
         """(N,) albedo factor at (N, 3) points (NED, m); its mean over a ripple is 1."""
         p = np.asarray(points, dtype=float).reshape(-1, 3)
+        return ripple_factor(p[:, 0], p[:, 1], *self.constants()).astype(np.float32)
+
+    def constants(self) -> tuple[float, float, float, float, float, float]:
+        """:func:`ripple_factor`'s constants: cos and sin of the direction, the wave
+        number (rad/m), the meander (m), the contrast and the grain."""
         a = math.radians(self.direction_deg)
-        across = p[:, 0] * math.cos(a) + p[:, 1] * math.sin(a)
-        along = -p[:, 0] * math.sin(a) + p[:, 1] * math.cos(a)
-        k = 2.0 * math.pi / self.wavelength_m
-        s = across + self.meander_m * np.sin(k * along / 4.0)
-        profile = (np.sin(k * s) + 0.35 * np.sin(2.0 * k * s)) / 1.2
-        grain = np.sin(37.0 * p[:, 0] + 11.0 * np.sin(23.0 * p[:, 1])) * np.cos(
-            41.0 * p[:, 1] + 7.0 * np.sin(29.0 * p[:, 0]))
-        return (1.0 + self.contrast * profile + self.grain * grain).astype(np.float32)
+        return (math.cos(a), math.sin(a), 2.0 * math.pi / self.wavelength_m, self.meander_m,
+                self.contrast, self.grain)
 
     def albedo_over(self, albedo_rgb: ArrayLike, points: ArrayLike
                     ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:

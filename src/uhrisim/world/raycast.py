@@ -572,6 +572,36 @@ class _BodyBVH:
         self.radii = np.array([g.radius for g in self.groups])
         self.box_lo = np.array([g.box_lo for g in self.groups])
         self.box_hi = np.array([g.box_hi for g in self.groups])
+        #: (pose key, part transforms, :meth:`posed`'s answer) of the last pose seen
+        self._posed: tuple | None = None
+
+    def posed(self, b: DynamicBody) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                             NDArray[np.bool_], NDArray[np.float64], float
+                                             ] | None:
+        """The groups of body ``b`` as posed now: (G, 3, 3) rotations and (G, 3)
+        translations group frame → NED, which groups are shown (hidden parts are parked
+        beyond ``HIDDEN_BEYOND_M``), and the whole body's bounding sphere (centre, radius:
+        it encloses every shown group's); None when nothing is shown. Kept while the pose
+        and the parts' transforms stay the same (the sensors of a tick cast several times
+        between two poses)."""
+        key = (b.position.tobytes(), b.rotation.tobytes())
+        kept = self._posed
+        if kept is not None and kept[0] == key and kept[1] is b.part_transforms:
+            return kept[2]
+        pose = b.pose_matrix()
+        frames = np.array([pose @ b.part_transforms[i] for i in self.group_part])  # → NED
+        rots, trans = frames[:, :3, :3], frames[:, :3, 3]
+        centres = np.einsum("gij,gj->gi", rots, self.centres) + trans
+        shown = np.einsum("gi,gi->g", trans - pose[:3, 3], trans - pose[:3, 3]) \
+            < HIDDEN_BEYOND_M ** 2
+        posed = None
+        if shown.any():
+            seen = centres[shown]
+            bc = 0.5 * (seen.min(axis=0) + seen.max(axis=0))
+            br = float(np.max(np.linalg.norm(seen - bc, axis=1) + self.radii[shown]))
+            posed = (rots, trans, shown, bc, br)
+        self._posed = (key, b.part_transforms, posed)
+        return posed
 
     @staticmethod
     def _numpy_group_rays(mesh: _EmbreeMesh, cull: _RayCuller, o: NDArray[np.float64],
@@ -875,19 +905,11 @@ class EmbreeRayCaster(RayCaster):
         for bi, b in active:
             assert cull is not None
             bvh = self._parts[b.name]
-            pose = b.pose_matrix()
-            frames = np.array([pose @ b.part_transforms[i] for i in bvh.group_part])  # → NED
-            rots, trans = frames[:, :3, :3], frames[:, :3, 3]
-            centres = np.einsum("gij,gj->gi", rots, bvh.centres) + trans
-            # hidden parts (parked far away: HIDDEN_BEYOND_M) are skipped
-            shown = np.einsum("gi,gi->g", trans - pose[:3, 3], trans - pose[:3, 3]) \
-                < HIDDEN_BEYOND_M ** 2
-            if not shown.any():
+            posed = bvh.posed(b)
+            if posed is None:
                 continue
+            rots, trans, shown, bc, br = posed
             # Whole-body bounding sphere (encloses every shown group's sphere) culls first.
-            seen = centres[shown]
-            bc = 0.5 * (seen.min(axis=0) + seen.max(axis=0))
-            br = float(np.max(np.linalg.norm(seen - bc, axis=1) + bvh.radii[shown]))
             body_idx = cull.candidates(np.minimum(best, max_range), bc, br)
             if len(body_idx) == 0:
                 continue

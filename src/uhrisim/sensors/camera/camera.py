@@ -17,9 +17,10 @@ from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.sensors.camera import formation as fm
+from uhrisim.sensors.camera import fused
 from uhrisim.sensors.camera.config import CameraConfig
 from uhrisim.sensors.camera.geometry import camera_geometry
-from uhrisim.sensors.camera.sampling import AdaptiveGrid, same_object
+from uhrisim.sensors.camera.sampling import AdaptiveGrid, smooth_of
 from uhrisim.sensors.camera.textures import SceneTextures
 from uhrisim.sensors.camera.water import through_cloud
 from uhrisim.sensors.sonar.geometry import mount_rotation, mounted_pose
@@ -113,6 +114,10 @@ class UnderwaterCamera:
         self.mount_position = np.asarray(config.mount_position_frd, dtype=float)
         self.geometry = camera_geometry(config)
         self._lut = fm.srgb_lut()
+        #: the compiled formation's constants (None: the numpy stages, :mod:`.fused`)
+        self._fused = (fused.OpticsConstants.of(config, self.geometry.backscatter_table,
+                                                self.geometry.range_nodes)
+                       if fused.available() else None)
         h, w = self.shape
         self._paths: tuple[bytes, fm.DaylightPaths] | None = None
         self._grid = AdaptiveGrid.of(h, w) if config.sampling == "adaptive" else None
@@ -184,7 +189,8 @@ class UnderwaterCamera:
         if self._noise_pool is not None:
             start = int(self.rng.integers(0, h * w * 3))
             noise = self._noise_pool[start : start + h * w * 3].reshape(h, w, 3)
-        rgb = fm.expose(radiance, gain, cfg, noise, self._lut)
+        expose = fm.expose if self._fused is None else fused.expose
+        rgb = expose(radiance, gain, cfg, noise, self._lut)
         depth = range_m * geo.cos_axis
         depth[~np.isfinite(range_m)] = np.nan
         return CameraFrame(
@@ -207,17 +213,14 @@ class UnderwaterCamera:
         coarse = self._rays(R, grid.coarse)
         hits_c, range_c, light_c, fs_c = form(coarse)
         inverse_depth = 1.0 / (range_c * coarse.cos_axis)  # 0 for open water
-        same = same_object(*(a.reshape(hc, wc) for a in (hits_c.label, hits_c.body,
-                                                         hits_c.material)))
-        if textures is not None:
-            textured = textures.sharp(hits_c.material).reshape(hc, wc)
-            same &= ~(textured[:-1, :-1] | textured[:-1, 1:] | textured[1:, :-1]
-                      | textured[1:, 1:])
+        sharp = None if textures is None else textures.sharp(hits_c.material).reshape(hc, wc)
         r_seen = np.where(np.isfinite(range_c), range_c, _F32(0.0))
         points = coarse.dirs_cam * r_seen[:, None]
         normals = np.einsum("ij,jk->ik", hits_c.normal, R)  # camera frame; water: 0
-        smooth = grid.smooth_cells(points.reshape(hc, wc, 3), normals.reshape(hc, wc, 3),
-                                   r_seen.reshape(hc, wc), same)
+        smooth = smooth_of(*(a.reshape(hc, wc) for a in (hits_c.label, hits_c.body,
+                                                         hits_c.material)),
+                           sharp, grid, points.reshape(hc, wc, 3), normals.reshape(hc, wc, 3),
+                           r_seen.reshape(hc, wc), self._fused is not None)
         exact = grid.exact_pixels(smooth)
         self.last_exact_fraction = len(exact) / len(geo.cos_axis)
         light = grid.upsample(light_c.reshape(hc, wc, 3)).reshape(-1, 3)
@@ -300,14 +303,20 @@ class UnderwaterCamera:
         material take their albedo from its texture (:mod:`.textures`)."""
         cfg, geo, water = self.config, self.geometry, self.config.water
         paths = rays.paths
+        if self._fused is not None:
+            albedo_rows = None  # the kernel renders ripples; pictures come from here
+            if textures is not None and textures.sharp(hits.material).any():
+                albedo_rows = self._albedo(None, hits, rays, origin, R, albedo_table,
+                                           textures, textures.sharp)
+            return fused.light_of_rays(
+                self._fused, hits.distance, hits.material, hits.normal, albedo_table,
+                textures, albedo_rows, rays.dirs_cam, paths.down, paths.coefficient,
+                paths.x, rays.cells, origin, R, cfg.sun_radiance,
+                fm.veil_scale(float(origin[2]), water, cfg.sun_radiance))
         hit = np.flatnonzero(hits.material >= 0)
         r_hit = range_m[hit]
-        material = np.take(hits.material, hit)
-        albedo = np.take(albedo_table, material, axis=0)
-        if textures is not None and textures.textured(material).any():
-            points = origin + np.einsum("ij,kj->ik", np.take(rays.dirs_cam, hit, axis=0), R) \
-                * np.take(hits.distance, hit)[:, None]
-            albedo = textures.albedo(albedo, material, np.take(hits.body, hit), points)
+        albedo = self._albedo(hit, hits, rays, origin, R, albedo_table, textures,
+                              None if textures is None else textures.textured)
         normal_ned = np.take(hits.normal, hit, axis=0).astype(_F32)
         depth_hit = np.take(paths.down, hit) * r_hit + _F32(origin[2])
         source = fm.daylight_on_surface(albedo, depth_hit, -normal_ned[:, 2], water,
@@ -326,3 +335,25 @@ class UnderwaterCamera:
         if geo.backscatter_table is not None:
             total += fm.lamp_backscatter(geo, rays.cells, range_m)
         return total, fs
+
+    @staticmethod
+    def _albedo(rows: NDArray[np.intp] | None, hits: RayHits, rays: _Rays,
+                origin: NDArray[np.float64], R: NDArray[np.float64],
+                albedo_table: NDArray[np.float32], textures: SceneTextures | None,
+                textured: Callable[[NDArray[np.int32]], NDArray[np.bool_]] | None
+                ) -> NDArray[np.float32]:
+        """(N, 3) albedo of the hits ``rows`` (None: every ray; a miss reads any row):
+        the material's, or its texture's at the hit point where ``textured`` (of the
+        materials) says so."""
+        material = hits.material if rows is None else np.take(hits.material, rows)
+        albedo = np.take(albedo_table, material, axis=0)
+        if textures is None or textured is None:
+            return albedo
+        on = np.flatnonzero(textured(material))
+        if len(on):
+            ray = on if rows is None else np.take(rows, on)
+            points = origin + np.einsum("ij,kj->ik", np.take(rays.dirs_cam, ray, axis=0), R) \
+                * np.take(hits.distance, ray)[:, None]
+            albedo[on] = textures.albedo(np.take(albedo, on, axis=0), np.take(material, on),
+                                         np.take(hits.body, ray), points)
+        return albedo

@@ -180,13 +180,19 @@ def sun_veiling(
             r[up_open] = z0 / -paths.down[up_open]
     term = np.expm1(-paths.x * r[:, None])  # −(1 − exp(−x·r)); −1 for r = inf (x > 0)
     term /= paths.x
-    scale = (-sun_radiance * np.exp(-water.k_d * z0)).astype(_F32)
     term *= paths.coefficient
-    term *= scale[None, :]
+    term *= veil_scale(camera_depth_m, water, sun_radiance)[None, :]
     if len(upward) and len(up_open):
         term[up_open] += sun_radiance * np.exp(
             -water.c.astype(_F32)[None, :] * r[up_open][:, None])
     return term
+
+
+def veil_scale(camera_depth_m: float, water: WaterOptics, sun_radiance: float
+               ) -> NDArray[np.float32]:
+    """(3,) −L(z₀) = −L₀·exp(−K_d·z₀) per channel: :func:`sun_veiling`'s scale."""
+    z0 = max(float(camera_depth_m), 0.0)
+    return (-sun_radiance * np.exp(-water.k_d * z0)).astype(_F32)
 
 
 def lamp_backscatter(geometry: CameraGeometry, cells: NDArray[np.int32],

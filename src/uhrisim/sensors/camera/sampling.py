@@ -22,10 +22,13 @@ samples of one surface, and steps smaller than ``PLANARITY_TOL`` of the range.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+
+from uhrisim.core.compiled import jit
 
 #: how far (relative to the range) a cell's corner may lie off the first corner's plane
 PLANARITY_TOL = 0.005
@@ -117,6 +120,51 @@ class AdaptiveGrid:
     def nearest_corner(self, coarse_values: NDArray) -> NDArray:
         """(H, W) the value of each pixel's top-left cell corner (for labels)."""
         return coarse_values[np.ix_(self.cells_y[0], self.cells_x[0])]
+
+
+def smooth_of(label: NDArray, body: NDArray, material: NDArray,
+              sharp: NDArray[np.bool_] | None, grid: AdaptiveGrid, points: NDArray,
+              normals: NDArray, range_m: NDArray, compiled: bool) -> NDArray[np.bool_]:
+    """(Hc − 1, Wc − 1) cells whose interior can be interpolated: :func:`same_object`,
+    no corner on a sharp picture (``sharp`` (Hc, Wc), None: no pictures), and
+    :meth:`AdaptiveGrid.smooth_cells` (its arguments). ``compiled``: in one compiled pass
+    (numba; the same comparisons and float64 sums in numpy's order: the same cells)."""
+    kernel = _compiled_smooth() if compiled else None
+    if kernel is None:
+        same = same_object(label, body, material)
+        if sharp is not None:
+            same &= ~(sharp[:-1, :-1] | sharp[:-1, 1:] | sharp[1:, :-1] | sharp[1:, 1:])
+        return grid.smooth_cells(points, normals, range_m, same)
+    smooth = np.empty((label.shape[0] - 1, label.shape[1] - 1), bool)
+    kernel(label, body, material, np.zeros((0, 0), bool) if sharp is None else sharp,
+           points, normals, range_m, np.float32(PLANARITY_TOL), smooth)
+    return smooth
+
+
+def _smooth_loops(label, body, material, sharp, points, normals, range_m, tol, smooth):  # type: ignore[no-untyped-def]
+    """:func:`smooth_of`'s tests per cell, compiled."""
+    for i in range(smooth.shape[0]):
+        for j in range(smooth.shape[1]):
+            ok = True
+            for a, b in ((i, j + 1), (i + 1, j), (i + 1, j + 1)):
+                ok = ok and label[a, b] == label[i, j] and body[a, b] == body[i, j] \
+                    and material[a, b] == material[i, j]
+                if sharp.shape[0]:
+                    ok = ok and not sharp[a, b]
+            if sharp.shape[0]:
+                ok = ok and not sharp[i, j]
+            limit = float(tol * range_m[i, j])
+            for a, b in ((i, j + 1), (i + 1, j), (i + 1, j + 1)):
+                off = abs(normals[i, j, 0] * (points[a, b, 0] - points[i, j, 0])
+                          + normals[i, j, 1] * (points[a, b, 1] - points[i, j, 1])
+                          + normals[i, j, 2] * (points[a, b, 2] - points[i, j, 2]))
+                ok = ok and off <= limit
+            smooth[i, j] = ok
+
+
+@cache
+def _compiled_smooth():  # type: ignore[no-untyped-def]
+    return jit(_smooth_loops)
 
 
 def same_object(label: NDArray, body: NDArray, material: NDArray) -> NDArray[np.bool_]:

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.world.materials import Material, PlanarTexture
+from uhrisim.world.materials import Material, PlanarTexture, RippleTexture
 from uhrisim.world.objects import DynamicBody
 
 
@@ -34,6 +34,11 @@ class SceneTextures:
     is_textured: NDArray[np.bool_]
     is_sharp: NDArray[np.bool_]
     bodies: tuple[DynamicBody, ...]
+    #: (M + 1,) 1 where the material has sand ripples, 2 a picture, else 0; and (M + 1, 6)
+    #: the ripples' :meth:`~uhrisim.world.materials.RippleTexture.constants` (for the
+    #: compiled formation, :mod:`.fused`, which renders ripples itself)
+    kind: NDArray[np.int8]
+    ripples: NDArray[np.float64]
 
     @staticmethod
     def of(materials: tuple[Material, ...], bodies: tuple[DynamicBody, ...]
@@ -46,7 +51,12 @@ class SceneTextures:
         textured[[i for i, _ in pairs]] = True
         sharp = np.zeros(len(materials) + 1, bool)
         sharp[[i for i, m in pairs if isinstance(m.texture, PlanarTexture)]] = True
-        return SceneTextures(pairs, textured, sharp, bodies)
+        kind = np.where(sharp, 2, textured.astype(np.int8)).astype(np.int8)
+        ripples = np.zeros((len(materials) + 1, 6))
+        for i, m in pairs:
+            if isinstance(m.texture, RippleTexture):
+                ripples[i] = m.texture.constants()
+        return SceneTextures(pairs, textured, sharp, bodies, kind, ripples)
 
     def textured(self, material: NDArray[np.integer]) -> NDArray[np.bool_]:
         """Whether each hit's material (id, -1 for open water) has a texture."""
