@@ -43,9 +43,11 @@ browser:
 	  echo "installing Debian chromium for the viewer tests"; \
 	  $(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq chromium >/dev/null; }
 
+# -n 2 --dist loadscope: each module's tests run in one worker, so a module's shared
+# fixtures (a mission run, the Ray cluster) are set up once, not once in each worker.
 test: venv-test browser
 	$(PY) -m ruff check src tests examples docs
-	$(PY) -m pytest -n 2 -q --durations=25
+	$(PY) -m pytest -n 2 --dist loadscope -q --durations=25
 
 # The whole suite on a busy machine, as CI machines often are: two busy loops keep both
 # cores at 100 % while it runs (it must pass so too; tests wait for what they wait for).
@@ -57,7 +59,7 @@ test-busy: venv-test browser
 # child processes, real peers, the browser; tests/conftest.py), under a minute on 2 cores.
 test-fast: venv-test
 	$(PY) -m ruff check src tests examples docs
-	$(PY) -m pytest -n 2 -q -m "not slow"
+	$(PY) -m pytest -n 2 --dist loadscope -q -m "not slow"
 
 bench: venv-core
 	$(UHRISIM) bench all

@@ -3,8 +3,9 @@ every machine) and have no per-example deadline (CI machines are shared and slow
 test fails that reads a path beside the repository (tests/support/repository_bounds.py);
 every integration test is marked ``slow`` (missions, child processes, real ROS 2 and MOOS
 peers, a browser), as is any other test that says so itself: ``make test-fast`` runs the
-rest (``pytest -m "not slow"``). Compiled kernels are cached inside the repository
-(``.cache/numba``), for the suite and the processes it starts."""
+rest (``pytest -m "not slow"``). Both run a module's tests in one worker (``-n 2 --dist
+loadscope``), so that a module-scoped fixture is set up once. Compiled kernels are cached
+inside the repository (``.cache/numba``), for the suite and the processes it starts."""
 
 import os
 from pathlib import Path

@@ -6,7 +6,13 @@ A head started with ``ray start --head`` and a second node joined with ``ray sta
 the ``ray://`` client); their work is spread over both nodes and their results equal a
 single-node run's. Killing the second node mid-sweep loses nothing: Ray runs its tasks
 again on the head. The tests share one cluster (started once, in file order the kill
-comes last); a test that finds its second node killed gets a new one.
+comes last); a test that finds its second node killed gets a new one. They also share one
+single-node sweep, the reference both compare with.
+
+Each single-node run comes before the two-node runs it is compared with: its one worker
+compiles uhrisim's kernels into the suite's numba cache (``NUMBA_CACHE_DIR``, set by
+tests/conftest.py and handed to both nodes and every driver in their environment), and
+the two nodes' workers load them from there instead of each compiling them at once.
 
 Two Ray details shape the set-up (docs/scaling.md):
 
@@ -103,10 +109,15 @@ class Cluster:
                 proc.kill()
         psutil.wait_procs(procs, timeout=30)
 
-    def run(self, *args: str, timeout: float = DRIVER_TIMEOUT_S) -> subprocess.CompletedProcess:
+    def run(self, *args: str) -> subprocess.CompletedProcess:
         """``uhrisim ARGS`` in another process with the cluster's environment."""
-        return subprocess.run([sys.executable, "-m", "uhrisim", *args], capture_output=True,
-                              text=True, timeout=timeout, env=self.env)
+        return _uhrisim(self.env, *args)
+
+
+def _uhrisim(env: dict[str, str], *args: str) -> subprocess.CompletedProcess:
+    """``uhrisim ARGS`` in another process with the environment ``env``."""
+    return subprocess.run([sys.executable, "-m", "uhrisim", *args], capture_output=True,
+                          text=True, timeout=DRIVER_TIMEOUT_S, env=env)
 
 
 def _ray_start(args: list[str], env: dict[str, str], join: bool) -> None:
@@ -117,11 +128,18 @@ def _ray_start(args: list[str], env: dict[str, str], join: bool) -> None:
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
 
 
-def _start_cluster() -> Cluster:
-    """Start a head and join a second node; stop both with ``_stop_cluster``."""
+def _ray_env() -> dict[str, str]:
+    """This process's environment for Ray's processes and uhrisim's drivers: token
+    authentication with a new token, no usage statistics, no inherited ``RAY_ADDRESS``."""
     env = os.environ | {"RAY_USAGE_STATS_ENABLED": "0", "RAY_AUTH_MODE": "token",
                         "RAY_AUTH_TOKEN": secrets.token_hex(16)}
     env.pop("RAY_ADDRESS", None)
+    return env
+
+
+def _start_cluster() -> Cluster:
+    """Start a head and join a second node; stop both with ``_stop_cluster``."""
+    env = _ray_env()
     temp_dir = tempfile.mkdtemp(prefix="uhr-ray-")  # short: Ray's socket paths live here
     gcs, client = _free_port(), _free_port()
     head_ports = [_free_port() for _ in NODE_PORTS]
@@ -209,6 +227,26 @@ def _write_dataset(folder: Path) -> Path:
     return path
 
 
+@dataclass
+class Reference:
+    """The sweep both tests run and its table from a single-node run."""
+
+    sweep: Path
+    table: list[dict[str, str]]
+
+
+@pytest.fixture(scope="module")
+def one_node(tmp_path_factory) -> Reference:
+    """The sweep of 6 runs, run once by a single-node Ray (``--workers 1``)."""
+    folder = tmp_path_factory.mktemp("one-node")
+    sweep = _write_sweep(folder, 10.0, [1.0, 2.0, 3.0])
+    one = _uhrisim(_ray_env(), "sweep", str(sweep), "--out", str(folder / "one"),
+                   "--workers", "1")
+    assert one.returncode == 0, one.stderr[-3000:]
+    assert "6 runs: 6 ok (0 already done), 0 failed; on 1 Ray node" in one.stdout
+    return Reference(sweep, _table(folder / "one"))
+
+
 #: Columns of a sweep's table that measure the machine, not the run.
 TIMING_COLUMNS = ("run_wall_s", "wall_s", "real_time_factor")
 
@@ -227,7 +265,8 @@ def _same_tree(a: Path, b: Path) -> None:
     assert not mismatch and not errors, mismatch + errors
 
 
-def test_sweeps_and_datasets_spread_over_two_nodes_and_equal_one_node(cluster, tmp_path):
+def test_sweeps_and_datasets_spread_over_two_nodes_and_equal_one_node(one_node, cluster,
+                                                                       tmp_path):
     with time_limit(900, "the two-node cluster test"):
         nodes = _nodes(cluster)
         assert sorted(nodes) == [("127.0.0.1", 1.0, True)] * 2
@@ -236,53 +275,54 @@ def test_sweeps_and_datasets_spread_over_two_nodes_and_equal_one_node(cluster, t
                      and c.pid in {p.pid for p in cluster.processes(cluster.temp_dir)}}
         assert listening and listening <= {"127.0.0.1", "::ffff:127.0.0.1"}, listening
 
-        sweep = _write_sweep(tmp_path, 10.0, [1.0, 2.0, 3.0])
-        two = cluster.run("sweep", str(sweep), "--out", str(tmp_path / "two"),
+        two = cluster.run("sweep", str(one_node.sweep), "--out", str(tmp_path / "two"),
                           "--address", cluster.gcs)
         assert two.returncode == 0, two.stderr[-3000:]
         assert "6 runs: 6 ok (0 already done), 0 failed; on 2 Ray nodes" in two.stdout
-        one = cluster.run("sweep", str(sweep), "--out", str(tmp_path / "one"),
-                          "--workers", "1")
-        assert one.returncode == 0, one.stderr[-3000:]
-        assert "on 1 Ray node" in one.stdout
-        assert _table(tmp_path / "two") == _table(tmp_path / "one")
+        assert _table(tmp_path / "two") == one_node.table
 
         for _ in range(CLIENT_ATTEMPTS):
-            client = cluster.run("sweep", str(sweep), "--out", str(tmp_path / "client"),
-                                 "--address", cluster.client)
+            client = cluster.run("sweep", str(one_node.sweep), "--out",
+                                 str(tmp_path / "client"), "--address", cluster.client)
             if "Initialization failure from server" not in client.stderr:
                 break
         assert client.returncode == 0, client.stderr[-3000:]
         assert "6 runs: 6 ok (0 already done), 0 failed; on 2 Ray nodes" in client.stdout
-        assert _table(tmp_path / "client") == _table(tmp_path / "one")
+        assert _table(tmp_path / "client") == one_node.table
 
         data = _write_dataset(tmp_path)
+        one = cluster.run("dataset", str(data), "--out", str(tmp_path / "d_one"),
+                          "--workers", "1", "--shard-frames", "4")
+        assert one.returncode == 0, one.stderr[-3000:]
         two = cluster.run("dataset", str(data), "--out", str(tmp_path / "d_two"),
                           "--address", cluster.gcs, "--shard-frames", "1")
         assert two.returncode == 0, two.stderr[-3000:]
         assert "; on 2 Ray nodes" in two.stdout
-        one = cluster.run("dataset", str(data), "--out", str(tmp_path / "d_one"),
-                          "--workers", "1", "--shard-frames", "4")
-        assert one.returncode == 0, one.stderr[-3000:]
         _same_tree(tmp_path / "d_two", tmp_path / "d_one")
 
 
-def test_a_node_killed_mid_sweep_loses_no_run(cluster, tmp_path):
-    """The second node is killed (its raylet, workers and agents, SIGKILL) as soon as the
-    first run is done — both nodes then work on one run each — and Ray runs its tasks
-    again on the head: every run is in the table, equal to a one-node run's."""
+def _runs_in_flight(out: Path) -> int:
+    """Runs of the sweep writing into ``out`` that have begun (their run.json is written
+    first) and not ended (their metrics.json last)."""
+    runs = out / "runs"
+    return len(list(runs.glob("*/run.json"))) - len(list(runs.glob("*/metrics.json")))
+
+
+def test_a_node_killed_mid_sweep_loses_no_run(one_node, cluster, tmp_path):
+    """The second node is killed (its raylet, workers and agents, SIGKILL) while both nodes
+    work on a run (two runs in flight, one CPU a node), and Ray runs its task again on the
+    head: every run is in the table, equal to the one-node run's."""
     with time_limit(900, "the node-kill test"):
-        sweep = _write_sweep(tmp_path, 120.0, [1.0, 2.0, 3.0])
         out = tmp_path / "killed"
         driver = subprocess.Popen(
-            [sys.executable, "-m", "uhrisim", "sweep", str(sweep), "--out", str(out),
+            [sys.executable, "-m", "uhrisim", "sweep", str(one_node.sweep), "--out", str(out),
              "--address", cluster.gcs], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
             text=True, env=cluster.env)
         try:
             deadline = time.monotonic() + DRIVER_TIMEOUT_S
-            while not list(out.glob("runs/*/metrics.json")):  # the first run is done
+            while _runs_in_flight(out) < 2:  # one on each node
                 assert driver.poll() is None, driver.communicate()
-                assert time.monotonic() < deadline, "no run finished"
+                assert time.monotonic() < deadline, "the two nodes never ran at once"
                 time.sleep(0.05)
             second = cluster.second_node()
             assert any("default_worker" in " ".join(p.cmdline()) for p in second)
@@ -295,7 +335,4 @@ def test_a_node_killed_mid_sweep_loses_no_run(cluster, tmp_path):
                 driver.communicate()
         assert driver.returncode == 0, stderr[-3000:]
         assert "6 runs: 6 ok (0 already done), 0 failed" in stdout
-        one = cluster.run("sweep", str(sweep), "--out", str(tmp_path / "one"),
-                          "--workers", "1")
-        assert one.returncode == 0, one.stderr[-3000:]
-        assert _table(out) == _table(tmp_path / "one")
+        assert _table(out) == one_node.table
