@@ -11,6 +11,7 @@ gymnasium = pytest.importorskip("gymnasium", reason="the [gym] extra is not inst
 from uhrisim.envs import EnvArgumentError, Randomization, TrailDiverEnv  # noqa: E402
 from uhrisim.envs.task import REWARD_TERMS  # noqa: E402
 from uhrisim.envs.vector import TrailDiverVectorEnv  # noqa: E402
+from uhrisim.scenario.schema import CylinderObject  # noqa: E402
 
 
 def _ram(obs):
@@ -111,6 +112,24 @@ def test_sub_environments_are_independent_of_the_batch():
         obs_five, r5, *_ = five.step(np.tile(a, (5, 1)).astype(np.float32))
         np.testing.assert_array_equal(obs_one[0], obs_five[2])
         assert r1[0] == r5[2]
+
+
+@pytest.mark.parametrize("randomization", [
+    {"clutter": 5},
+    {"diver_path": False, "water": False},  # the file's loiter and water
+])
+def test_episode_starts_from_the_draws_equal_those_read_from_the_scenario_data(randomization):
+    """A reset's episode from its draws alone (the file's values read once, one Loiter
+    behavior reset each time) equals the one read from the episode's whole scenario data
+    (validated, its behaviors built): poses, loiter vertices, first vertex and direction,
+    the helm's speed and depth decisions, pilings, water."""
+    vec = TrailDiverVectorEnv(num_envs=1, randomization=randomization)
+    for seed in range(0, 2_000_000_000, 20_000_000):
+        drawn, read = vec._drawn_start(seed), vec._scenario_start(seed)
+        assert drawn._replace(pilings=None) == read._replace(pilings=None)
+        assert [p[:4] for p in drawn.pilings] == [p[:4] for p in read.pilings]
+        assert [CylinderObject.model_validate(p.object) for p in drawn.pilings] == [
+            CylinderObject.model_validate(p.object) for p in read.pilings]
 
 
 def _fly_compiled_and_numpy(seeds, steps, policy, **kwargs):
