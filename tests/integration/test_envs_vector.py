@@ -12,6 +12,7 @@ from uhrisim.envs import EnvArgumentError, Randomization, TrailDiverEnv  # noqa:
 from uhrisim.envs.task import REWARD_TERMS  # noqa: E402
 from uhrisim.envs.vector import TrailDiverVectorEnv  # noqa: E402
 from uhrisim.scenario.schema import CylinderObject  # noqa: E402
+from uhrisim.scenario.shipped import shipped_scenario  # noqa: E402
 
 
 def _ram(obs):
@@ -166,6 +167,23 @@ def test_compiled_ticks_equal_the_numpy_ones():
     assert _fly_compiled_and_numpy([6], 108, _dive, lost_range_m=60.0) == ["collision"]
     assert _fly_compiled_and_numpy([0, 2], 24, _ram, lost_range_m=30.0,
                                    randomization={"clutter": 4}) == ["collision"] * 2
+
+
+def test_compiled_ticks_equal_the_numpy_ones_with_the_quadratic_thrust_map(tmp_path):
+    """The compiled step reads the thrust map as a code (videoray.THRUST_MAPS): Wang's
+    quadratic map flies as the numpy ticks fly it."""
+    if TrailDiverVectorEnv(num_envs=1).step_kernel is None:
+        pytest.skip("numba (the [fast] extra) is not installed: the numpy ticks run alone")
+    source = shipped_scenario()
+    text = source.read_text().replace("thrust_map: linear", "thrust_map: quadratic")
+    assert "thrust_map: quadratic" in text
+    scenario = tmp_path / source.name
+    scenario.write_text(text)
+    for name in ("videoray_trail.bhv",):  # what the scenario refers to, beside it
+        (tmp_path / name).write_text((source.parent / name).read_text())
+    assert TrailDiverVectorEnv(num_envs=1, scenario=scenario).rov_plant.params.thrust_map == \
+        "quadratic"
+    _fly_compiled_and_numpy([0, 1], 12, _ram, scenario=scenario)
 
 
 def test_ticks_shared_among_threads_give_the_same_episodes():
