@@ -248,7 +248,8 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         body[:, :3, :3] = [rot_z(y) for y in self.diver[:, 3]]
         body[:, :3, 3] = self.diver[:, :3]
         hits = self.caster.cast_fans(origins, dirs, max(s.cast_window_m[1] for s in sonars),
-                                     {self.template.target: (body, self.kick_phase)})
+                                     {self.template.target: (body, self.kick_phase)},
+                                     checked=False)  # the sonars' own unit rays
         shape = dirs.shape[:2]
         distance, normal = hits.distance.reshape(shape), hits.normal.reshape(*shape, 3)
         reflectivity, label = hits.reflectivity.reshape(shape), hits.label.reshape(shape)
