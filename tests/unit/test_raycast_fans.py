@@ -12,6 +12,7 @@ from uhrisim.core.frames import rot_z
 from uhrisim.world import seafloor as sf
 from uhrisim.world.assets import diver_parts
 from uhrisim.world.materials import NEOPRENE, SAND
+from uhrisim.world.raycast import _fan_spans
 from uhrisim.world.scene import Scene
 
 RANGE_M = 20.0
@@ -70,3 +71,10 @@ def test_rays_given_checked_are_still_refused_when_bad(scene: Scene) -> None:
     dirs[1, 3] *= 2.0
     with pytest.raises(ConfigError, match="unit vectors"):
         scene.raycaster("embree").cast_fans(origins, dirs, RANGE_M, {"diver": (poses, phases)})
+
+
+def test_fan_spans_are_each_fan_s_least_and_greatest_components() -> None:
+    d = np.random.default_rng(6).normal(size=(5, 700, 3))
+    lo, hi = _fan_spans(d)
+    np.testing.assert_array_equal(lo, d.min(axis=1))
+    np.testing.assert_array_equal(hi, d.max(axis=1))

@@ -960,8 +960,8 @@ class EmbreeRayCaster(RayCaster):
             raise ConfigError("origins must be finite", where="EmbreeRayCaster.cast_fans")
         else:
             _, d, r = validate_rays(np.zeros(3), d3.reshape(-1, 3), max_range)
-        bounds = np.ascontiguousarray(d3.transpose(0, 2, 1))  # (N, 3, R): per-axis reach
-        spans = (bounds.min(axis=2), bounds.max(axis=2))
+        d3 = d.reshape(d3.shape)
+        spans = _fan_spans(d3)  # (N, 3) each: per-axis reach
         self._sync()
         hits = RayHits.empty(len(d))
         static = self._static
@@ -986,11 +986,39 @@ class EmbreeRayCaster(RayCaster):
                               else b.part_transforms for k in (
                                   phases if phases is not None else [None] * n_fans)])
             frames = pose[:, None] @ parts[:, bvh.group_part]  # (N, G, 4, 4) group → NED
-            rows, face, t, nrm = bvh.trace_fans(o_fans, d.reshape(d3.shape), limit,
+            rows, face, t, nrm = bvh.trace_fans(o_fans, d3, limit,
                                                 frames[..., :3, :3], frames[..., :3, 3], spans)
             _keep_nearer(hits, rows, bi, b, bvh.face_map, face, t, nrm)
             np.minimum(hits.distance, r, out=limit)
         return hits
+
+
+def _fan_spans(d: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The least and greatest component per axis of each fan's rays (``d`` (N, R, 3)):
+    (N, 3) each; compiled (numba) where it can be."""
+    compiled = _compiled_fan_spans()
+    if compiled is None:
+        by_axis = np.ascontiguousarray(d.transpose(0, 2, 1))  # (N, 3, R)
+        return by_axis.min(axis=2), by_axis.max(axis=2)
+    lo, hi = np.empty((len(d), 3)), np.empty((len(d), 3))
+    compiled(d, lo, hi)
+    return lo, hi
+
+
+def _fan_spans_loops(d, lo, hi):  # type: ignore[no-untyped-def]
+    """:func:`_fan_spans`' loops, into ``lo`` and ``hi``."""
+    for i in range(d.shape[0]):
+        for k in range(3):
+            lo[i, k] = hi[i, k] = d[i, 0, k]
+        for j in range(1, d.shape[1]):
+            for k in range(3):
+                lo[i, k] = min(lo[i, k], d[i, j, k])
+                hi[i, k] = max(hi[i, k], d[i, j, k])
+
+
+@cache
+def _compiled_fan_spans():  # type: ignore[no-untyped-def]
+    return jit(_fan_spans_loops)
 
 
 def _fans_reach(origins: NDArray[np.float64],
