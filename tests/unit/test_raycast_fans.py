@@ -11,6 +11,7 @@ from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import rot_z
 from uhrisim.world import seafloor as sf
 from uhrisim.world.assets import diver_parts
+from uhrisim.world.bodies import ArticulatedMesh
 from uhrisim.world.materials import NEOPRENE, SAND
 from uhrisim.world.raycast import _fan_spans
 from uhrisim.world.scene import Scene
@@ -78,3 +79,12 @@ def test_fan_spans_are_each_fan_s_least_and_greatest_components() -> None:
     lo, hi = _fan_spans(d)
     np.testing.assert_array_equal(lo, d.min(axis=1))
     np.testing.assert_array_equal(hi, d.max(axis=1))
+
+
+def test_parts_posed_for_many_phases_at_once_are_each_phase_s() -> None:
+    """The fans' bodies are posed for all their kick phases at once: the same transforms,
+    bit for bit, as one phase at a time."""
+    body = ArticulatedMesh.from_any(diver_parts(NEOPRENE))
+    phases = np.r_[np.random.default_rng(7).uniform(-40.0, 40.0, 500), 0.0, np.pi]
+    np.testing.assert_array_equal(body.part_transforms_many(phases),
+                                  [body.part_transforms(float(k)) for k in phases])

@@ -982,9 +982,9 @@ class EmbreeRayCaster(RayCaster):
                                   where="EmbreeRayCaster.cast_fans")
             b, bvh = bodies[bi], self._parts[name]
             pose = np.asarray(pose, dtype=float).reshape(n_fans, 4, 4)
-            parts = np.array([b.geometry.part_transforms(float(k)) if phases is not None
-                              else b.part_transforms for k in (
-                                  phases if phases is not None else [None] * n_fans)])
+            parts = (b.geometry.part_transforms_many(phases) if phases is not None  # (N, P, 4, 4)
+                     else np.broadcast_to(np.array(b.part_transforms),
+                                          (n_fans, len(b.part_transforms), 4, 4)))
             frames = pose[:, None] @ parts[:, bvh.group_part]  # (N, G, 4, 4) group → NED
             rows, face, t, nrm = bvh.trace_fans(o_fans, d3, limit,
                                                 frames[..., :3, :3], frames[..., :3, 3], spans)
