@@ -365,8 +365,9 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
     def _scenario_start(self, seed: int) -> EpisodeStart:
         """The episode of ``seed`` from its whole scenario data
         (:meth:`~uhrisim.envs.episodes.TrailEpisodes.episode_data`: the scenario file's,
-        validated when the env was made, randomised within its bounds, edited by the
-        user's hook); the few sections read here are validated by their own models."""
+        validated when the env was made, randomised within its bounds); the few sections
+        read here are validated by their own models. The reference of
+        :meth:`_drawn_start`, and the way for a Loiter whose centre reads its polygon."""
         data = self.template.episodes.episode_data(seed)
         agents = {a["name"]: a for a in data["agents"]}
         rov, diver = agents[self.template.follower], agents[self.template.target]
@@ -810,13 +811,10 @@ def _built(kind: str, behavior: dict) -> BehaviorSpec:
 def _cylinder(o: CylinderObject | dict) -> Piling:
     """A piling from its cylinder object (validated, or a mapping drawn valid)."""
     if isinstance(o, dict):
-        at, radius, height = o["position"], o["radius"], o["height"]
-        north, east, depth = at["north"], at["east"], at["depth"]
-    else:
-        at, radius, height = o.position, o.radius, o.height
-        north, east, depth = at.north, at.east, at.depth
-    mapping = o if isinstance(o, dict) else o.model_dump()
-    return Piling(north, east, radius, depth - 0.5 * height, mapping)
+        at = o["position"]
+        return Piling(at["north"], at["east"], o["radius"], at["depth"] - 0.5 * o["height"], o)
+    at = o.position
+    return Piling(at.north, at.east, o.radius, at.depth - 0.5 * o.height, o.model_dump())
 
 
 def _approaching(start: np.ndarray, end: np.ndarray, other: np.ndarray,
