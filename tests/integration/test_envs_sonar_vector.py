@@ -52,11 +52,11 @@ def test_pilings_in_array_code_are_the_single_env_s_cylinder_meshes():
     vec.rov[0, :4] = (north - 3.0 - radius, east, 1.5, 0.0)  # due south of it, heading north
     _, dirs, distance, normal, _, _ = vec._cast_fans()
     scene = build_static_scene(vec._source)
-    for obj in vec._piling_objects[0]:
+    for obj in vec._cylinders(0):
         add_object(scene, obj, vec._source, "test")
     origin = vec.sonars[0].sonar_pose(vec.rov[0, :3], np.eye(3))[0]
     mesh = scene.raycaster("embree").cast(origin, dirs[0], vec.sonars[0].cast_window_m[1])
-    on_piling = mesh.label == scene.label_id(vec._piling_objects[0][0].label)
+    on_piling = mesh.label == scene.label_id(vec._cylinders(0)[0].label)
     ours = distance[0] < np.inf
     ours &= np.abs(normal[0, :, 2]) < 0.5  # the array code's hits on the piling's side
     assert on_piling.sum() > 500

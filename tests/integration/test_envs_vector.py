@@ -11,6 +11,8 @@ gymnasium = pytest.importorskip("gymnasium", reason="the [gym] extra is not inst
 from uhrisim.envs import EnvArgumentError, Randomization, TrailDiverEnv  # noqa: E402
 from uhrisim.envs.task import REWARD_TERMS  # noqa: E402
 from uhrisim.envs.vector import TrailDiverVectorEnv  # noqa: E402
+from uhrisim.scenario.schema import CylinderObject  # noqa: E402
+from uhrisim.scenario.shipped import shipped_scenario  # noqa: E402
 
 
 def _ram(obs):
@@ -113,6 +115,24 @@ def test_sub_environments_are_independent_of_the_batch():
         assert r1[0] == r5[2]
 
 
+@pytest.mark.parametrize("randomization", [
+    {"clutter": 5},
+    {"diver_path": False, "water": False},  # the file's loiter and water
+])
+def test_episode_starts_from_the_draws_equal_those_read_from_the_scenario_data(randomization):
+    """A reset's episode from its draws alone (the file's values read once, one Loiter
+    behavior reset each time) equals the one read from the episode's whole scenario data
+    (validated, its behaviors built): poses, loiter vertices, first vertex and direction,
+    the helm's speed and depth decisions, pilings, water."""
+    vec = TrailDiverVectorEnv(num_envs=1, randomization=randomization)
+    for seed in range(0, 2_000_000_000, 20_000_000):
+        drawn, read = vec._drawn_start(seed), vec._scenario_start(seed)
+        assert drawn._replace(pilings=None) == read._replace(pilings=None)
+        assert [p[:4] for p in drawn.pilings] == [p[:4] for p in read.pilings]
+        assert [CylinderObject.model_validate(p.object) for p in drawn.pilings] == [
+            CylinderObject.model_validate(p.object) for p in read.pilings]
+
+
 def _fly_compiled_and_numpy(seeds, steps, policy, **kwargs):
     """Step the vector env with its compiled ticks and measures and one on numpy's arrays
     (the reference, as without numba) with the same actions; returns the step results."""
@@ -147,6 +167,23 @@ def test_compiled_ticks_equal_the_numpy_ones():
     assert _fly_compiled_and_numpy([6], 108, _dive, lost_range_m=60.0) == ["collision"]
     assert _fly_compiled_and_numpy([0, 2], 24, _ram, lost_range_m=30.0,
                                    randomization={"clutter": 4}) == ["collision"] * 2
+
+
+def test_compiled_ticks_equal_the_numpy_ones_with_the_quadratic_thrust_map(tmp_path):
+    """The compiled step reads the thrust map as a code (videoray.THRUST_MAPS): Wang's
+    quadratic map flies as the numpy ticks fly it."""
+    if TrailDiverVectorEnv(num_envs=1).step_kernel is None:
+        pytest.skip("numba (the [fast] extra) is not installed: the numpy ticks run alone")
+    source = shipped_scenario()
+    text = source.read_text().replace("thrust_map: linear", "thrust_map: quadratic")
+    assert "thrust_map: quadratic" in text
+    scenario = tmp_path / source.name
+    scenario.write_text(text)
+    for name in ("videoray_trail.bhv",):  # what the scenario refers to, beside it
+        (tmp_path / name).write_text((source.parent / name).read_text())
+    assert TrailDiverVectorEnv(num_envs=1, scenario=scenario).rov_plant.params.thrust_map == \
+        "quadratic"
+    _fly_compiled_and_numpy([0, 1], 12, _ram, scenario=scenario)
 
 
 def test_ticks_shared_among_threads_give_the_same_episodes():

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from uhrisim.core.elementwise import ARRAYS, FLOATS, Elementwise
 from uhrisim.core.frames import heading_deg_from_yaw, wrap_180
 from uhrisim.core.settings import check_settings, setting
-from uhrisim.dynamics.videoray import VideoRayParams
+from uhrisim.dynamics.videoray import VideoRayParams, linear_thrust
 
 
 @dataclass(frozen=True)
@@ -68,7 +68,7 @@ def feedforward_input(speed: Any, params: VideoRayParams, ops: Elementwise = FLO
     a float, or an (N,) array with ``ops`` :data:`~uhrisim.core.elementwise.ARRAYS`)."""
     drag = -(params.Xu * speed + params.Xuu * abs(speed) * speed)
     per_thruster = 0.5 * drag
-    if params.thrust_map == "linear":
+    if linear_thrust(params):
         return per_thruster / params.ct_linear
     ct = ops.where(per_thruster >= 0, params.ct_forward_quadratic, params.ct_reverse_quadratic)
     return ops.copysign(ops.sqrt(abs(per_thruster) / ct), per_thruster)

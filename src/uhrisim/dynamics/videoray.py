@@ -80,6 +80,18 @@ class VideoRayParams:
         check_settings(self)  # the declared ranges (J, moment_arm)
 
 
+#: The thrust maps, in order: a compiled kernel's record of the parameters carries
+#: ``thrust_map`` as its index here (an integer: no string compared in every tick).
+THRUST_MAPS = ("linear", "quadratic")
+
+
+def linear_thrust(params: Any) -> bool:
+    """Whether ``params`` (:class:`VideoRayParams`, or a compiled kernel's record of them
+    with ``thrust_map`` as its index in :data:`THRUST_MAPS`) map commands to thrust
+    linearly."""
+    return params.thrust_map == "linear" or params.thrust_map == 0
+
+
 def thruster_forces(u: ArrayLike, params: VideoRayParams) -> NDArray[np.float64]:
     """Thrust of each thruster (N) for commands ``u = [port, star, vert]`` (saturated).
 
@@ -192,7 +204,7 @@ def body_forces(port: Any, star: Any, vert: Any, p: VideoRayParams,
     limit = p.input_limit
     port, star, vert = (ops.clip(port, -limit, limit), ops.clip(star, -limit, limit),
                         ops.clip(vert, -limit, limit))
-    if p.thrust_map == "linear":
+    if linear_thrust(p):
         t_port, t_star, t_vert = port * p.ct_linear, star * p.ct_linear, vert * p.ct_vertical_linear
     else:
         forward, reverse = p.ct_forward_quadratic, p.ct_reverse_quadratic

@@ -81,6 +81,23 @@ class Randomization:
         return cls(diver_path=False, start_poses=False, water=False, clutter=0)
 
 
+@dataclass(frozen=True)
+class EpisodeDraw:
+    """What one episode draws from its seed (:meth:`TrailEpisodes.draw`), as the scenario
+    file's fields (NED m, compass degrees); None where it draws nothing (the file's)."""
+
+    #: The world's water: temperature_c, salinity_psu.
+    water: dict | None
+    #: The target's start heading_deg and depth (its ConstantDepth's depth too).
+    target_start: dict | None
+    #: The follower's whole start pose: north, east, depth, heading_deg.
+    follower_start: dict | None
+    #: The target's Loiter: polygon (a radial spec), speed, clockwise.
+    loiter: dict | None
+    #: Cylinder objects added to the world's.
+    clutter: tuple[dict, ...]
+
+
 class TrailEpisodes:
     """Scenarios for episodes of ``follower`` trailing ``target`` in ``scenario_path``.
 
@@ -144,31 +161,53 @@ class TrailEpisodes:
         if self.sonar_rate_hz is not None:
             for sensor in follower.get("sensors", []):
                 sensor["rate_hz"] = self.sonar_rate_hz
-        rng = component_rng(int(seed), "envs/episode")
-        r = self.randomization
-        if r.water:
-            water = data.setdefault("world", {}).setdefault("water", {})
-            water["temperature_c"] = round(float(rng.uniform(*WATER_TEMPERATURE_C)), 2)
-            water["salinity_psu"] = round(float(rng.uniform(*WATER_SALINITY_PSU)), 2)
-        if r.start_poses:
-            self._draw_starts(rng, follower, target)
-        loiter = _behavior(target, "Loiter")
-        if r.diver_path and loiter is not None:
-            self._draw_loiter(rng, target, loiter)
-        if r.clutter:
-            self._draw_clutter(rng, data, follower, loiter)
+        drawn = self.draw(seed)
+        if drawn.water is not None:
+            data.setdefault("world", {}).setdefault("water", {}).update(drawn.water)
+        if drawn.target_start is not None:
+            target.setdefault("start", {}).update(drawn.target_start)
+            hold = _behavior(target, "ConstantDepth")
+            if hold is not None:
+                hold["depth"] = drawn.target_start["depth"]
+        if drawn.follower_start is not None:
+            follower["start"] = dict(drawn.follower_start)
+        if drawn.loiter is not None:
+            _behavior(target, "Loiter").update(drawn.loiter)
+        if self.randomization.clutter:
+            world = data.setdefault("world", {})
+            world["objects"] = [*world.get("objects", []), *drawn.clutter]
         if self.hook is not None:
             self.hook(data, component_rng(int(seed), "envs/episode/hook"))
         return data
 
-    def _draw_starts(self, rng: np.random.Generator, follower: dict, target: dict) -> None:
-        start = target.setdefault("start", {})
+    def draw(self, seed: int) -> EpisodeDraw:
+        """What the episode of ``seed`` draws from its stream ``"envs/episode"``
+        (:class:`Randomization`), in :meth:`episode_data`'s units, before the hook: for
+        those who need only these numbers (the vector env)."""
+        rng = component_rng(int(seed), "envs/episode")
+        r = self.randomization
+        agents = {a["name"]: a for a in self._data["agents"]}  # read only
+        follower, target = agents[self.follower], agents[self.target]
+        water = target_start = follower_start = loiter_draw = None
+        if r.water:
+            water = {"temperature_c": round(float(rng.uniform(*WATER_TEMPERATURE_C)), 2),
+                     "salinity_psu": round(float(rng.uniform(*WATER_SALINITY_PSU)), 2)}
+        if r.start_poses:
+            target_start, follower_start = self._draw_starts(rng, target.get("start", {}))
+        loiter = _behavior(target, "Loiter")
+        if r.diver_path and loiter is not None:
+            loiter_draw = self._draw_loiter(rng, target.get("start", {}))
+        clutter: tuple[dict, ...] = ()
+        if r.clutter:
+            clutter = self._draw_clutter(rng, follower_start or follower.get("start", {}),
+                                         loiter_draw or loiter)
+        return EpisodeDraw(water, target_start, follower_start, loiter_draw, clutter)
+
+    def _draw_starts(self, rng: np.random.Generator, start: dict) -> tuple[dict, dict]:
+        """The target's start heading and depth (its ConstantDepth's too), and the
+        follower's start, behind the target's ``start`` (north, east)."""
         heading = float(rng.uniform(0.0, 360.0))
         depth = float(rng.uniform(*DIVER_DEPTH_M))
-        start["heading_deg"], start["depth"] = round(heading, 2), round(depth, 3)
-        hold = _behavior(target, "ConstantDepth")
-        if hold is not None:
-            hold["depth"] = round(depth, 3)
         # behind the diver (the trail bearing), within the start cone
         bearing = math.radians(heading + self.trail_angle_deg + rng.uniform(
             -FOLLOWER_START_BEARING_DEG, FOLLOWER_START_BEARING_DEG))
@@ -176,41 +215,40 @@ class TrailEpisodes:
         north = start.get("north", 0.0) + distance * math.cos(bearing)
         east = start.get("east", 0.0) + distance * math.sin(bearing)
         sight = math.degrees(bearing) + 180.0  # from the follower to the diver
-        follower["start"] = {
+        return {"heading_deg": round(heading, 2), "depth": round(depth, 3)}, {
             "north": round(north, 3), "east": round(east, 3),
             "depth": round(float(rng.uniform(0.0, depth + 1.0)), 3),
             "heading_deg": round((sight + rng.uniform(-FOLLOWER_START_HEADING_DEG,
                                                       FOLLOWER_START_HEADING_DEG)) % 360.0, 2)}
 
-    def _draw_loiter(self, rng: np.random.Generator, target: dict, loiter: dict) -> None:
-        """A loiter ring through the diver's start: centre, radius, vertices, direction."""
-        start = target.get("start", {})
+    def _draw_loiter(self, rng: np.random.Generator, start: dict) -> dict:
+        """A loiter ring through the diver's ``start``: centre, radius, vertices,
+        direction, and the swim speed (the Loiter's polygon, speed, clockwise)."""
         radius = float(rng.uniform(*LOITER_RADIUS_M))
         side = float(rng.uniform(0.0, 2.0 * math.pi))  # where on the ring the diver starts
         x_east = start.get("east", 0.0) - radius * math.sin(side)
         y_north = start.get("north", 0.0) - radius * math.cos(side)
         points = int(rng.choice(LOITER_POINTS))
-        loiter["polygon"] = (f"format=radial, x={x_east:.3f}, y={y_north:.3f}, "
-                             f"radius={radius:.3f}, pts={points}")
-        loiter["speed"] = round(float(rng.uniform(*DIVER_SPEED)), 3)
-        loiter["clockwise"] = "true" if rng.random() < 0.5 else "false"
+        return {"polygon": (f"format=radial, x={x_east:.3f}, y={y_north:.3f}, "
+                            f"radius={radius:.3f}, pts={points}"),
+                "speed": round(float(rng.uniform(*DIVER_SPEED)), 3),
+                "clockwise": "true" if rng.random() < 0.5 else "false"}
 
-    def _draw_clutter(self, rng: np.random.Generator, data: dict, follower: dict,
-                      loiter: dict | None) -> None:
-        """Vertical pilings from the sea floor to near the surface, clear of the loiter
-        ring and of the follower's start."""
+    def _draw_clutter(self, rng: np.random.Generator, follower_start: dict,
+                      loiter: dict | None) -> tuple[dict, ...]:
+        """Vertical pilings (cylinder objects) from the sea floor to near the surface,
+        clear of the loiter ring and of the follower's start."""
         floor = self.floor_depth_m or 10.0
         centre, ring = _loiter_ring(loiter)
         if centre is None:  # no loiter: around the follower's start
-            start = follower.get("start", {})
+            start = follower_start
             centre, ring = np.array([start.get("north", 0.0), start.get("east", 0.0)]), 0.0
         outer = ring + CLUTTER_MARGIN_M
-        fstart = follower.get("start", {})
-        follower_ne = np.array([fstart.get("north", 0.0), fstart.get("east", 0.0)])
-        objects = list(data.setdefault("world", {}).get("objects", []))
-        placed = 0
+        follower_ne = np.array([follower_start.get("north", 0.0),
+                                follower_start.get("east", 0.0)])
+        objects: list[dict] = []
         for _ in range(200 * self.randomization.clutter):  # rejection sampling, bounded
-            if placed == self.randomization.clutter:
+            if len(objects) == self.randomization.clutter:
                 break
             rho = outer * math.sqrt(float(rng.random()))
             phi = float(rng.uniform(0.0, 2.0 * math.pi))
@@ -220,14 +258,13 @@ class TrailEpisodes:
                 continue
             height = floor - 0.5  # from the floor to 0.5 m below the surface
             objects.append({
-                "type": "cylinder", "label": f"clutter{placed}",
+                "type": "cylinder", "label": f"clutter{len(objects)}",
                 "radius": round(float(rng.uniform(*PILING_RADIUS_M)), 3),
                 "height": height,
                 "position": {"north": round(float(point[0]), 3),
                              "east": round(float(point[1]), 3),
                              "depth": round(floor - height / 2.0, 3)}})
-            placed += 1
-        data["world"]["objects"] = objects
+        return tuple(objects)
 
 
 def _behavior(agent: dict, kind: str) -> dict | None:

@@ -54,7 +54,7 @@ from uhrisim.core.rng import component_rng
 from uhrisim.dynamics.diver import body_rates_kernel
 from uhrisim.envs.task import body_frd
 from uhrisim.envs.trail_diver import EnvArgumentError
-from uhrisim.envs.vector import TrailDiverVectorEnv
+from uhrisim.envs.vector import EpisodeStart, TrailDiverVectorEnv
 from uhrisim.scenario.build_world import build_static_scene, material_named
 from uhrisim.scenario.schema import SonarSensor, Water
 from uhrisim.scenario.sections import part_settings
@@ -98,6 +98,11 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
                                    + ", ".join(unseen) + " (use vectorization_mode='sync')")
         self.sonar_index = next(k for k, s in enumerate(follower.sensors)
                                 if s is t._sonar_config)
+        #: Every episode's sonar (the file's, its rate as the env sets it; the episodes
+        #: draw no sensor setting and the env takes no scenario hook).
+        self._sonar_sensor = SonarSensor.model_validate(next(
+            a for a in t.episodes.episode_data(0)["agents"] if a["name"] == t.follower
+        )["sensors"][self.sonar_index])
         self.scene = build_static_scene(self._source)  # the shared sea floor
         material = (material_named(target.material, f"agents.{target.name}.material")
                     if target.material else NEOPRENE)
@@ -131,23 +136,24 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         self._polar_images = np.empty((n, 0, 0), np.uint8)
 
     # -- episodes ------------------------------------------------------------------------
-    def _load(self, i: int, seed: int, data: dict[str, Any]) -> None:
-        """The episode's arrays (:meth:`TrailDiverVectorEnv._load`), its diver at rest
-        (kick phase 0) and its sonar as the Simulation builds it: the scenario sensor's
+    def _load(self, envs: np.ndarray, starts: list[EpisodeStart]) -> None:
+        """The episodes' arrays (:meth:`TrailDiverVectorEnv._load`), each diver at rest
+        (kick phase 0) and each sonar as the Simulation builds it: the scenario sensor's
         settings with the episode's water, speckle from the episode's seed."""
-        super()._load(i, seed, data)
+        super()._load(envs, starts)
         t = self.template
-        self.kick_phase[i] = 0.0
-        follower = next(a for a in data["agents"] if a["name"] == t.follower)
-        sensor = SonarSensor.model_validate(follower["sensors"][self.sonar_index])
-        water = Water.model_validate((data.get("world") or {}).get("water", {}))
-        config = SonarConfig(**part_settings(sensor), water_temperature_c=water.temperature_c,
-                             salinity_psu=water.salinity_psu, ph=water.ph)
-        self.sonars[i] = ImagingSonar(config, component_rng(
-            seed, f"{t.follower}/sonar{self.sonar_index}"))
-        self.piling_reflectivity[i] = 0.0
-        for j, o in enumerate(self._piling_objects[i][:self.pilings.shape[1]]):
-            self.piling_reflectivity[i, j] = material_named(o.material, o.label).reflectivity
+        self.kick_phase[envs] = 0.0
+        for i, start in zip(envs, starts, strict=True):
+            water = Water.model_validate(start.water)
+            config = SonarConfig(**part_settings(self._sonar_sensor),
+                                 water_temperature_c=water.temperature_c,
+                                 salinity_psu=water.salinity_psu, ph=water.ph)
+            self.sonars[i] = ImagingSonar(config, component_rng(
+                start.seed, f"{t.follower}/sonar{self.sonar_index}"))
+            self.piling_reflectivity[i] = 0.0
+            for j, o in enumerate(self._cylinders(i)[:self.pilings.shape[1]]):
+                self.piling_reflectivity[i, j] = material_named(o.material,
+                                                                o.label).reflectivity
 
     def _moved(self, rows: slice | np.ndarray) -> None:
         """The diver's flutter-kick phase, as the Simulation advances it each tick
@@ -242,7 +248,8 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         body[:, :3, :3] = [rot_z(y) for y in self.diver[:, 3]]
         body[:, :3, 3] = self.diver[:, :3]
         hits = self.caster.cast_fans(origins, dirs, max(s.cast_window_m[1] for s in sonars),
-                                     {self.template.target: (body, self.kick_phase)})
+                                     {self.template.target: (body, self.kick_phase)},
+                                     checked=False)  # the sonars' own unit rays
         shape = dirs.shape[:2]
         distance, normal = hits.distance.reshape(shape), hits.normal.reshape(*shape, 3)
         reflectivity, label = hits.reflectivity.reshape(shape), hits.label.reshape(shape)

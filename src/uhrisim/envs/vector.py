@@ -48,7 +48,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import gymnasium
 import numpy as np
@@ -57,8 +57,15 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 from pydantic import ValidationError
 
-from uhrisim.autonomy.behaviors.loiter import LOITER_SPEED_ZAIC
-from uhrisim.autonomy.config import build_behavior_spec, default_domain, parse_domain
+from uhrisim.autonomy.behaviors.base import common_key
+from uhrisim.autonomy.behaviors.constant_depth import ConstantDepth, ConstantDepthParams
+from uhrisim.autonomy.behaviors.loiter import LOITER_SPEED_ZAIC, Loiter
+from uhrisim.autonomy.config import (
+    BehaviorSpec,
+    build_behavior_spec,
+    default_domain,
+    parse_domain,
+)
 from uhrisim.autonomy.geometry import signed_dist_to_polygon
 from uhrisim.autonomy.zaic import zaic_peak_on_axis
 from uhrisim.core.clock import ticks_for_rate
@@ -78,6 +85,37 @@ from uhrisim.world.scene import Scene
 
 #: No sub-environments (row indices).
 NO_ROWS = np.zeros(0, np.int64)
+
+
+class Piling(NamedTuple):
+    """A piling of an episode: its axis (NED north, east; m), radius (m), the depth of its
+    top (m) and its cylinder object (the scenario's mapping, for its scene)."""
+
+    north: float
+    east: float
+    radius: float
+    top: float
+    object: dict
+
+
+class EpisodeStart(NamedTuple):
+    """An episode's start as the vector env's arrays take it (:meth:`TrailDiverVectorEnv.
+    _load`): poses (a Pose's fields: NED m, compass deg), the diver's loiter (vertices NED
+    m, first vertex, direction +1 clockwise), capture and slip radii (m), the helm's speed
+    (m/s) and depth (m) decisions, the pilings and the world's water (its mapping)."""
+
+    seed: int
+    rov: dict
+    diver: dict
+    vertices: list[tuple[float, float]]
+    first: int
+    direction: int
+    capture_radius: float
+    slip_radius: float
+    loiter_speed: float
+    hold_depth: float
+    pilings: list[Piling]
+    water: dict
 
 
 class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
@@ -147,6 +185,22 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         self._floor_cells = floor_cells(self.floor.seafloor)
         self._course_values = np.ascontiguousarray(self.domain.axis("course").values, float)
         self._decisions: dict[tuple, float] = {}
+        # What every episode keeps of the scenario file (_drawn_start): the start poses,
+        # the diver's Loiter (one behavior, reset for each episode) and ConstantDepth
+        # parameters, the file's pilings
+        loiter_items = _loiter(target)
+        # (the env takes no scenario hook; a loiter centre given by one coordinate reads
+        # the polygon, so the order of its mapping counts: then each episode's data is read)
+        self._drawn_episodes = not ({"xcenter_assign", "ycenter_assign"}
+                                    & {common_key(k) for k in loiter_items})
+        loiter = _built("Loiter", loiter_items)
+        self._loiter, self._loiter_params = loiter.instantiate(), loiter.params
+        hold = _behavior(target, "ConstantDepth")
+        self._hold_params = None if hold is None else _built("ConstantDepth", hold).params
+        self._file_starts = (follower.start.model_dump(), target.start.model_dump())
+        self._file_cylinders = [_cylinder(o) for o in base.world.objects
+                                if isinstance(o, CylinderObject)]
+        self._file_water = base.world.water.model_dump(exclude_unset=True)
         #: The compiled step (:mod:`uhrisim.envs.vector_ticks`; numba): the ticks and
         #: measures (geometry, reward terms, state observation) of a share of the rows, or
         #: None: the numpy ticks of :meth:`_run` and :meth:`_geometry`,
@@ -196,7 +250,7 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         self.steps = z(n, dtype=np.int64)
         self.episode_seed = z(n, dtype=np.int64)
         self.needs_reset = np.ones(n, dtype=bool)
-        self._piling_objects: list[list[Any]] = [[] for _ in range(n)]
+        self._piling_objects: list[list[Piling]] = [[] for _ in range(n)]
         self._piling_scenes: list[Scene | None] = [None] * n
         self.max_steps = self.template._max_steps
 
@@ -270,77 +324,132 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         reset flies it."""
         if envs.size == 0:
             return
-        t = self.template
-        for i in envs:
-            seed = (int(episodes[i]) if episodes is not None
-                    else int(self._rngs[i].integers(0, SEED_SPAN)))
+        seeds = [int(episodes[i]) if episodes is not None
+                 else int(self._rngs[i].integers(0, SEED_SPAN)) for i in envs]
+        starts = []
+        for seed in seeds:
             try:
-                self._load(i, seed, t.episodes.episode_data(seed))
+                starts.append(self._drawn_start(seed) if self._drawn_episodes
+                              else self._scenario_start(seed))
             except (ConfigError, ValidationError) as error:
                 raise EnvArgumentError(f"episode {seed}: {error}") from None
+        self._load(envs, starts)
         self.needs_reset[envs] = False
         self.steps[envs] = 0
         mask = np.zeros(self.num_envs, bool)
         mask[envs] = True
         self._control(mask, first=True)
 
-    def _load(self, i: int, seed: int, data: dict[str, Any]) -> None:
-        """Sub-environment ``i``'s arrays from the episode's data
+    def _drawn_start(self, seed: int) -> EpisodeStart:
+        """The episode of ``seed`` from its draws alone
+        (:meth:`~uhrisim.envs.episodes.TrailEpisodes.draw`) on the scenario file's values,
+        read once: what :meth:`_scenario_start` reads from the whole episode's data
+        (a test holds the two equal), without the data, its validation, or a behavior
+        built for each episode."""
+        drawn = self.template.episodes.draw(seed)
+        rov = drawn.follower_start or self._file_starts[0]
+        diver = {**self._file_starts[1], **(drawn.target_start or {})}
+        loiter, params = self._loiter, self._loiter_params
+        for key, value in (drawn.loiter or {}).items():  # BHV_Loiter's own handlers
+            params = Loiter.HANDLERS[key](params, value, key, "loiter")
+        loiter.params = params
+        loiter.reset()
+        hold = self._hold_params
+        if hold is not None and drawn.target_start is not None:
+            hold = ConstantDepth.HANDLERS["depth"](hold, drawn.target_start["depth"], "depth",
+                                                   "hold")
+        return self._start(seed, rov, diver, loiter, hold,
+                           [*self._file_cylinders, *map(_cylinder, drawn.clutter)],
+                           {**self._file_water, **(drawn.water or {})})
+
+    def _scenario_start(self, seed: int) -> EpisodeStart:
+        """The episode of ``seed`` from its whole scenario data
         (:meth:`~uhrisim.envs.episodes.TrailEpisodes.episode_data`: the scenario file's,
         validated when the env was made, randomised within its bounds); the few sections
-        read here are validated by their own models."""
-        t = self.template
+        read here are validated by their own models. The reference of
+        :meth:`_drawn_start`, and the way for a Loiter whose centre reads its polygon."""
+        data = self.template.episodes.episode_data(seed)
         agents = {a["name"]: a for a in data["agents"]}
-        rov, diver = agents[t.follower], agents[t.target]
-        self.episode_seed[i] = seed
-        self.ticks[i] = 0
-        s = Pose.model_validate(rov.get("start", {}))
-        self.rov[i] = self.rov_plant.initial_state(np.array([s.north, s.east, s.depth]),
-                                                   math.radians(s.heading_deg))
-        self.rov_desired[i] = (s.heading_deg % 360.0, 0.0, s.depth)
-        self.rov_hold[i] = False
-        d = Pose.model_validate(diver.get("start", {}))
-        self.diver[i] = self.diver_plant.initial_state(np.array([d.north, d.east, d.depth]),
-                                                       math.radians(d.heading_deg))
-        self.diver_desired[i] = (d.heading_deg % 360.0, 0.0, d.depth)
+        rov, diver = agents[self.template.follower], agents[self.template.target]
         behaviors = (diver.get("helm") or {}).get("behaviors", ())
         loiter = next(b for b in behaviors if b.get("type") == "Loiter")
         hold = next((b for b in behaviors if b.get("type") == "ConstantDepth"), None)
+        cylinders = [_cylinder(CylinderObject.model_validate(o))
+                     for o in (data.get("world") or {}).get("objects", ())
+                     if o.get("type") == "cylinder"]
+        return self._start(
+            seed, Pose.model_validate(rov.get("start", {})).model_dump(),
+            Pose.model_validate(diver.get("start", {})).model_dump(),
+            _built("Loiter", loiter).instantiate(),
+            None if hold is None else _built("ConstantDepth", hold).params, cylinders,
+            (data.get("world") or {}).get("water", {}))
+
+    def _start(self, seed: int, rov: dict, diver: dict, loiter: Loiter,
+               hold: ConstantDepthParams | None, cylinders: list[Piling],
+               water: dict) -> EpisodeStart:
+        """An episode's start from its poses (a Pose's fields), its diver's Loiter behavior
+        (reset with the episode's parameters), ConstantDepth parameters, pilings and
+        water."""
         # BHV_Loiter itself says which vertex it approaches first: vertex 0, unless it starts
         # farther than acquire_dist outside the polygon (then its acquire rule picks one)
-        behavior = build_behavior_spec("Loiter", [(k, v, "loiter") for k, v in loiter.items()
-                                                  if k != "type"], "loiter").instantiate()
-        x_east, y_north = moos_xy_from_ned(d.north, d.east)
-        first, direction = behavior.index, behavior.direction
-        if signed_dist_to_polygon(x_east, y_north, behavior.vertices) > \
-                behavior.params.acquire_dist:
-            first, direction = behavior.acquire(x_east, y_north, d.heading_deg % 360.0)
-        vertices = [(y, x) for x, y in behavior.vertices]  # MOOS (x east, y north) -> NED
-        k = len(vertices)
+        x_east, y_north = moos_xy_from_ned(diver["north"], diver["east"])
+        first, direction = loiter.index, loiter.direction
+        p = loiter.params
+        if signed_dist_to_polygon(x_east, y_north, loiter.vertices) > p.acquire_dist:
+            first, direction = loiter.acquire(x_east, y_north, diver["heading_deg"] % 360.0)
+        # The helm's speed and depth decisions: its argmax of the behaviors' ZAICs
+        speed = self._decision(("speed", p.speed), lambda: _decided(
+            self.domain.axis("speed"), p.speed, *LOITER_SPEED_ZAIC))
+        depth = diver["depth"] if hold is None else self._decision(
+            ("depth", hold), lambda: _decided(self.domain.axis("depth"), hold.depth,
+                                              hold.peakwidth, hold.basewidth,
+                                              hold.summitdelta))
+        return EpisodeStart(
+            seed, rov, diver, [(y, x) for x, y in loiter.vertices],  # MOOS (x east, y north) -> NED
+            first, direction, p.capture_radius, p.slip_radius, speed, depth, cylinders,
+            water)
+
+    def _load(self, envs: np.ndarray, starts: list[EpisodeStart]) -> None:
+        """The arrays of the sub-environments ``envs`` from their episodes' starts, written
+        together."""
+        def column(name: str) -> list:
+            return [getattr(s, name) for s in starts]
+
+        def pose(name: str, plant: Any) -> tuple[np.ndarray, np.ndarray]:
+            poses = column(name)
+            states = [plant.initial_state(np.array([q["north"], q["east"], q["depth"]]),
+                                          math.radians(q["heading_deg"])) for q in poses]
+            desired = [(q["heading_deg"] % 360.0, 0.0, q["depth"]) for q in poses]
+            return np.array(states), np.array(desired)
+
+        self.episode_seed[envs] = column("seed")
+        self.ticks[envs] = 0
+        self.rov[envs], self.rov_desired[envs] = pose("rov", self.rov_plant)
+        self.rov_hold[envs] = False
+        self.diver[envs], self.diver_desired[envs] = pose("diver", self.diver_plant)
+        vertices = column("vertices")
+        k = max(len(v) for v in vertices)
         if k > self.vertices.shape[1]:
             self.vertices = np.concatenate([self.vertices, np.zeros(
                 (self.num_envs, k - self.vertices.shape[1], 2))], axis=1)
-        self.vertices[i, :k] = vertices
-        self.vertex_count[i] = k
-        self.direction[i] = direction
-        self.target_vertex[i] = first
-        p = behavior.params
-        self.capture_radius[i], self.slip_radius[i] = p.capture_radius, p.slip_radius
-        # The helm's speed and depth decisions: its argmax of the behaviors' ZAICs
-        self.loiter_speed[i] = self._decision(("speed", p.speed), lambda: _decided(
-            self.domain.axis("speed"), p.speed, *LOITER_SPEED_ZAIC))
-        self.hold_depth[i] = d.depth if not hold else self._decision(
-            tuple(hold.items()), lambda: _hold_decision(self.domain.axis("depth"), hold))
-        self.closest[i] = np.inf
-        self.pilings[i] = np.nan
-        self.piling_top[i] = np.inf
-        cylinders = [CylinderObject.model_validate(o)
-                     for o in (data.get("world") or {}).get("objects", ())
-                     if o.get("type") == "cylinder"]
-        self._piling_objects[i], self._piling_scenes[i] = cylinders, None
-        for j, o in enumerate(cylinders[:self.pilings.shape[1]]):
-            self.pilings[i, j] = (o.position.north, o.position.east, o.radius)
-            self.piling_top[i, j] = o.position.depth - 0.5 * o.height
+        for i, v in zip(envs, vertices, strict=True):
+            self.vertices[i, :len(v)] = v
+        self.vertex_count[envs] = [len(v) for v in vertices]
+        self.direction[envs] = column("direction")
+        self.target_vertex[envs] = column("first")
+        self.capture_radius[envs] = column("capture_radius")
+        self.slip_radius[envs] = column("slip_radius")
+        self.loiter_speed[envs] = column("loiter_speed")
+        self.hold_depth[envs] = column("hold_depth")
+        self.closest[envs] = np.inf
+        self.pilings[envs] = np.nan
+        self.piling_top[envs] = np.inf
+        slots = self.pilings.shape[1]
+        for i, s in zip(envs, starts, strict=True):
+            self._piling_objects[i], self._piling_scenes[i] = s.pilings, None
+            for j, piling in enumerate(s.pilings[:slots]):
+                self.pilings[i, j] = piling.north, piling.east, piling.radius
+                self.piling_top[i, j] = piling.top
 
     def _decision(self, key: tuple, decide: Callable[[], float]) -> float:
         """The helm's decision for ``key`` (a behavior's parameters), made by ``decide`` the
@@ -512,10 +621,14 @@ class TrailDiverVectorEnv(gymnasium.vector.VectorEnv):
         """Sub-environment ``i``'s pilings as a scene (built when first needed)."""
         if self._piling_scenes[i] is None:
             scene = Scene()
-            for obj in self._piling_objects[i]:
-                add_object(scene, obj, self._source, f"episode {self.episode_seed[i]}")
+            for cylinder in self._cylinders(i):
+                add_object(scene, cylinder, self._source, f"episode {self.episode_seed[i]}")
             self._piling_scenes[i] = scene
         return [self._piling_scenes[i]] if self._piling_objects[i] else []
+
+    def _cylinders(self, i: int) -> list[CylinderObject]:
+        """Sub-environment ``i``'s pilings as the scenario's cylinder objects."""
+        return [CylinderObject.model_validate(p.object) for p in self._piling_objects[i]]
 
     def _pilot(self, mask: np.ndarray) -> None:
         """The diver's loiter pilot of the sub-environments in ``mask``, at its helm's rate
@@ -688,11 +801,20 @@ def _decided(axis: Any, summit: float, peakwidth: float, basewidth: float,
                                                              basewidth, summitdelta)))])
 
 
-def _hold_decision(axis: Any, hold: dict) -> float:
-    """The helm's depth decision for a ConstantDepth behavior's parameters alone."""
-    h = build_behavior_spec("ConstantDepth", [(k, v, "hold") for k, v in hold.items()
-                                              if k != "type"], "hold").params
-    return _decided(axis, h.depth, h.peakwidth, h.basewidth, h.summitdelta)
+def _built(kind: str, behavior: dict) -> BehaviorSpec:
+    """A behavior's spec from its scenario mapping (``where``: its kind)."""
+    where = kind.lower()
+    return build_behavior_spec(kind, [(k, v, where) for k, v in behavior.items()
+                                      if k != "type"], where)
+
+
+def _cylinder(o: CylinderObject | dict) -> Piling:
+    """A piling from its cylinder object (validated, or a mapping drawn valid)."""
+    if isinstance(o, dict):
+        at = o["position"]
+        return Piling(at["north"], at["east"], o["radius"], at["depth"] - 0.5 * o["height"], o)
+    at = o.position
+    return Piling(at.north, at.east, o.radius, at.depth - 0.5 * o.height, o.model_dump())
 
 
 def _approaching(start: np.ndarray, end: np.ndarray, other: np.ndarray,

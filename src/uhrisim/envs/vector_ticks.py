@@ -57,7 +57,7 @@ class StepConstants(NamedTuple):
     """What the compiled step reads of one env (one argument of the kernel: numba's disk
     cache keeps the kernel whatever the values)."""
 
-    rov_params: Any          # record of VideoRayParams
+    rov_params: Any          # record of VideoRayParams (thrust_map: its code, rov_record)
     coefficients: tuple      # videoray.RateCoefficients
     substeps: int
     h: float                 # RK4 step (s)
@@ -93,7 +93,7 @@ def compiled_step(env: Any, arguments: tuple) -> Callable[..., None] | None:
     trail_range, trail_angle = env.template._trail
     space = env.single_observation_space
     constants = StepConstants(
-        record(env.rov_plant.params), tuple(env.rov_plant.coefficients), substeps,
+        rov_record(env.rov_plant.params), tuple(env.rov_plant.coefficients), substeps,
         env.dt / substeps, record(env.diver_plant.params), record(env.rov_control.gains),
         record(env.diver_control.gains), env.dt, env.pilot_period, env.rov_control_period,
         env.diver_control_period, float(course.low), float(course.delta), int(course.npts),
@@ -102,6 +102,12 @@ def compiled_step(env: Any, arguments: tuple) -> Callable[..., None] | None:
         math.radians(trail_angle), record(env.weights), tuple(map(float, space.low)),
         tuple(map(float, space.high)))
     return partial(typed_entry(kernel, constants, *arguments), constants)
+
+
+def rov_record(params: videoray.VideoRayParams) -> tuple:
+    """The VideoRay's parameters as the compiled step reads them: ``thrust_map`` as its
+    index in :data:`~uhrisim.dynamics.videoray.THRUST_MAPS`."""
+    return record(params)._replace(thrust_map=videoray.THRUST_MAPS.index(params.thrust_map))
 
 
 @cache
@@ -300,6 +306,6 @@ def _measure(k: StepConstants, ops: Any, i: int, rov: Any, diver: Any, rov_input
 #: The VideoRay's RK4 on one vehicle's floats (compiled where called, as the helpers are).
 _RK4 = videoray._FLOAT_KERNEL
 
-_HELPERS = (_RK4, body_rates_kernel, step_exact_kernel, leg_inputs, videoray.body_forces,
-            feedforward_input, p_control_kernel, diver_control_kernel, _approaching, _near,
-            _pilot, _control, _measure)
+_HELPERS = (_RK4, body_rates_kernel, step_exact_kernel, leg_inputs, videoray.linear_thrust,
+            videoray.body_forces, feedforward_input, p_control_kernel, diver_control_kernel,
+            _approaching, _near, _pilot, _control, _measure)

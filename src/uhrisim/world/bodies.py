@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import trimesh
@@ -56,10 +57,28 @@ class Joint:
 
     def transform(self, phase: float) -> NDArray[np.float64]:
         """4x4 rotation about the pivot at ``phase`` (Rodrigues, in plain floats: cheap)."""
+        a = self.angle(phase)
+        r, t = self._rotation(math.cos(a), math.sin(a))
+        return np.array([[*r[0], t[0]], [*r[1], t[1]], [*r[2], t[2]], [0.0, 0.0, 0.0, 1.0]])
+
+    def transforms(self, phases: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(N, 4, 4): :meth:`transform` at each of ``phases`` (N,), the same arithmetic
+        element by element (libm's cosine and sine of each angle)."""
+        angles = self.bias_rad + self.amplitude_rad * np.sin(phases + self.phase_offset_rad)
+        r, t = self._rotation(np.array([math.cos(a) for a in angles.tolist()]),
+                              np.array([math.sin(a) for a in angles.tolist()]))
+        out = np.zeros((len(angles), 4, 4))
+        for i in range(3):
+            out[:, i, :3] = np.stack(r[i], axis=-1)
+            out[:, i, 3] = t[i]
+        out[:, 3, 3] = 1.0
+        return out
+
+    def _rotation(self, c: Any, s: Any) -> tuple[tuple[tuple[Any, ...], ...], list[Any]]:
+        """Rows of the rotation by the angle of cosine ``c`` and sine ``s`` (floats, or
+        (N,) arrays) about the axis, and the translation that keeps the pivot."""
         x, y, z = self.axis
         px, py, pz = self.pivot
-        a = self.angle(phase)
-        c, s = math.cos(a), math.sin(a)
         k = 1.0 - c
         r = (
             (c + k * x * x, k * x * y - s * z, k * x * z + s * y),
@@ -70,7 +89,7 @@ class Joint:
             p - (row[0] * px + row[1] * py + row[2] * pz)
             for p, row in zip(self.pivot, r, strict=True)
         ]
-        return np.array([[*r[0], t[0]], [*r[1], t[1]], [*r[2], t[2]], [0.0, 0.0, 0.0, 1.0]])
+        return r, t
 
 
 @dataclass(frozen=True)
@@ -96,6 +115,14 @@ class Part:
         for joint in self.chain:  # proximal first: T = J_hip @ J_ankle
             m = m @ joint.transform(phase)
         return m
+
+    def transforms(self, phases: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(N, 4, 4): :meth:`transform` at each of ``phases`` (N,), the joints' products
+        one matrix product per joint for all phases."""
+        m = np.broadcast_to(np.eye(4), (len(phases), 4, 4))
+        for joint in self.chain:
+            m = m @ joint.transforms(phases)
+        return np.array(m)
 
 
 #: A part posed farther than this (m) from its body's origin is hidden: a part that is
@@ -170,6 +197,18 @@ class ArticulatedMesh:
             if p.chain not in cache:
                 cache[p.chain] = p.transform(phase)
             out.append(cache[p.chain])
+        return out
+
+    def part_transforms_many(self, phases: ArrayLike) -> NDArray[np.float64]:
+        """(N, parts, 4, 4): :meth:`part_transforms` at each of ``phases`` (N,), every
+        chain posed once for all of them."""
+        phases = np.asarray(phases, dtype=float).reshape(-1)
+        out = np.empty((len(phases), len(self.parts), 4, 4))
+        cache: dict[tuple[Joint, ...], NDArray[np.float64]] = {}
+        for i, p in enumerate(self.parts):
+            if p.chain not in cache:
+                cache[p.chain] = p.transforms(phases)
+            out[:, i] = cache[p.chain]
         return out
 
     def triangles_at(self, phase: float, pose: ArrayLike | None = None) -> NDArray[np.float64]:

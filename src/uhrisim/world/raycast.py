@@ -681,18 +681,16 @@ class _BodyBVH:
         rots: NDArray[np.float64],
         trans: NDArray[np.float64],
         spans: tuple[NDArray[np.float64], NDArray[np.float64]],
-    ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+    ) -> tuple[NDArray[np.intp], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
         """:meth:`trace` for N fans of R rays, fan i from ``origins[i]`` along ``d[i]``
         ((N, R, 3); ``spans`` their least and greatest component per axis, (N, 3) each)
         against the body posed for it: group g by ``rots[i, g]``, ``trans[i, g]`` ((N, G,
         3, 3), (N, G, 3)); ``limit`` (N·R,). Each group is one Embree query over the rays
-        of all fans that meet its posed bounding sphere and rest-frame box. Returns the N·R
-        rows as :meth:`trace` does."""
+        of all fans that meet its posed bounding sphere and rest-frame box. Returns the
+        rows (of the N·R, fan by fan) that may meet the body, and for each, as
+        :meth:`trace` does, face, distance and normal."""
         n_fans, n_rays = d.shape[:2]
         flat = d.reshape(-1, 3)
-        face = np.full(len(flat), -1, dtype=np.int64)
-        bound = np.array(limit, dtype=float)
-        normal = np.zeros((len(flat), 3))
         centres = np.einsum("ngij,gj->ngi", rots, self.centres) + trans
 
         # The whole body's sphere per fan (it encloses every posed group's) culls first.
@@ -700,43 +698,63 @@ class _BodyBVH:
         whole = 0.5 * (lo + hi)
         reach = np.max(np.linalg.norm(centres - whole[:, None], axis=2) + self.radii, axis=1)
         r = reach * (1.0 + 1e-6) + 1e-6
-        fans = np.flatnonzero(_fans_reach(origins, spans, float(np.max(bound, initial=0.0)),
+        fans = np.flatnonzero(_fans_reach(origins, spans, float(np.max(limit, initial=0.0)),
                                           whole - r[:, None], whole + r[:, None]))
-        v = whole[fans] - origins[fans]
-        tca = np.einsum("nrk,nk->nr", d[fans], v)
-        d2 = np.einsum("nk,nk->n", v, v)[:, None] - tca * tca
-        rf = r[fans, None]
-        near = (d2 <= rf * rf) & (tca + rf >= 0.0) & (tca - rf <= bound.reshape(
-            n_fans, n_rays)[fans])
-        fan_at, ray_at = np.nonzero(near)
-        body_fan = fans[fan_at]
-        body_rows = body_fan * n_rays + ray_at
-        body_d = flat[body_rows]
+        sphere_rays = _compiled_fan_sphere_rays() or _fan_sphere_rays
+        body_rows = np.empty(len(fans) * n_rays, dtype=np.int64)
+        body_rows = body_rows[:sphere_rays(fans, n_rays, origins, flat, limit, whole, r,
+                                           body_rows)]
+        face = np.full(len(body_rows), -1, dtype=np.int64)
+        bound = limit[body_rows]  # nearest hit so far (or the limit)
+        normal = np.zeros((len(body_rows), 3))
+        body_fan, body_d = body_rows // n_rays, flat[body_rows]
+        near = np.empty(len(body_rows), dtype=np.int64)
         for g, mesh in enumerate(self.groups):
             # the group's sphere (_RayCuller's conservative test) on the rays near the body
-            v = (centres[:, g] - origins)[body_fan]
-            tca = row_dots(body_d, v)
-            d2 = row_dots(v, v) - tca * tca
-            rg = mesh.radius * (1.0 + 1e-6) + 1e-6
-            near = body_rows[(d2 <= rg * rg) & (tca + rg >= 0.0)
-                             & (tca - rg <= bound[body_rows])]
-            if len(near) == 0:
+            rg = np.full(n_fans, mesh.radius * (1.0 + 1e-6) + 1e-6)
+            count = sphere_rays(body_fan, 0, origins, body_d, bound, centres[:, g], rg, near)
+            if count == 0:
                 continue
-            fan = near // n_rays
+            at = near[:count]  # indices into body_rows
+            fan = body_fan[at]
             R = rots[:, g]
             o_local = np.einsum("nij,ni->nj", R, origins - trans[:, g])[fan]  # R^T (o - t)
-            d_local = np.einsum("mij,mi->mj", R[fan], flat[near])  # R^T d
-            box = mesh.box_candidates(o_local, d_local.T, bound[near])
+            d_local = np.einsum("mij,mi->mj", R[fan], body_d[at])  # R^T d
+            box = mesh.box_candidates(o_local, d_local.T, bound[at])
             if len(box) == 0:
                 continue
-            sel = near[box]
+            sel = at[box]
             f, t, nrm = mesh.intersect(o_local[box], d_local[box], bound[sel])
             hit = np.flatnonzero(f >= 0)
             rows = sel[hit]
             bound[rows] = t[hit]
             face[rows] = f[hit] + self.face_offset[g]
             normal[rows] = np.einsum("mij,mj->mi", R[fan[box[hit]]], nrm[hit])  # R n
-        return face, np.where(face >= 0, bound, np.inf), normal
+        return body_rows, face, np.where(face >= 0, bound, np.inf), normal
+
+
+def _fan_sphere_rays(fans, n_rays, origins, d, limit, centres, radii,
+                     rows):  # type: ignore[no-untyped-def]
+    """The rays of fans ``fans`` (R = ``n_rays`` each, rows fan·R + k of ``d`` (N·R, 3)
+    and ``limit``; or, with ``n_rays`` 0, row j of fan ``fans[j]``) whose segment
+    [0, limit] may touch the fan's sphere (``centres`` (N, 3), ``radii`` (N,) padded
+    already): :class:`_RayCuller`'s test, written to ``rows`` in increasing order (row
+    numbers; with ``n_rays`` 0, indices j); returns their count. Compiled (numba) where
+    it can be."""
+    count = 0
+    per_fan = n_rays if n_rays > 0 else 1
+    for j in range(len(fans)):
+        f = fans[j]
+        o, c, rr = origins[f], centres[f], radii[f]
+        v0, v1, v2 = c[0] - o[0], c[1] - o[1], c[2] - o[2]
+        vv = v0 * v0 + v1 * v1 + v2 * v2
+        first = f * n_rays if n_rays > 0 else j
+        for row in range(first, first + per_fan):
+            tca = d[row, 0] * v0 + d[row, 1] * v1 + d[row, 2] * v2
+            if vv - tca * tca <= rr * rr and tca + rr >= 0.0 and tca - rr <= limit[row]:
+                rows[count] = row
+                count += 1
+    return count
 
 
 def _group_rays(origins, d, bound, centres, radii, rots, trans, box_lo, box_hi, shown,
@@ -808,6 +826,11 @@ def _compiled_sphere_rays():  # type: ignore[no-untyped-def]
 @cache
 def _compiled_group_rays():  # type: ignore[no-untyped-def]
     return jit_with(_group_rays, (_touches_sphere,))
+
+
+@cache
+def _compiled_fan_sphere_rays():  # type: ignore[no-untyped-def]
+    return jit(_fan_sphere_rays)
 
 
 class EmbreeRayCaster(RayCaster):
@@ -938,6 +961,7 @@ class EmbreeRayCaster(RayCaster):
         directions: ArrayLike,
         max_range: float,
         poses: Mapping[str, tuple[ArrayLike, ArrayLike | None]],
+        checked: bool = True,
     ) -> RayHits:
         """First hits of N fans of R rays (N sensors in N worlds at once): fan i from
         ``origins[i]`` ((N, 3), NED m) along ``directions[i]`` ((N, R, 3), unit), within
@@ -946,15 +970,20 @@ class EmbreeRayCaster(RayCaster):
         4)) with kick phase ``phases[i]`` (``poses[name] = (pose, phases)``; phases None:
         the rest pose); bodies not named are not seen. One Embree query for the static
         geometry and one per rigid group of each body, over all N·R rays. Returns the
-        hits of the N·R rays, fan by fan (row i·R + k: fan i, ray k)."""
+        hits of the N·R rays, fan by fan (row i·R + k: fan i, ray k). ``checked=False``:
+        the caller made the rays valid (finite origins, finite unit directions, a positive
+        range: a sensor's own fans), whose checks are then skipped."""
         d3 = np.asarray(directions, dtype=float)
         n_fans, n_rays = d3.shape[:2]
         o_fans = np.asarray(origins, dtype=float).reshape(n_fans, 3)
-        if not np.all(np.isfinite(o_fans)):
+        if not checked:
+            d, r = np.ascontiguousarray(d3).reshape(-1, 3), float(max_range)
+        elif not np.all(np.isfinite(o_fans)):
             raise ConfigError("origins must be finite", where="EmbreeRayCaster.cast_fans")
-        _, d, r = validate_rays(np.zeros(3), d3.reshape(-1, 3), max_range)
-        bounds = np.ascontiguousarray(d3.transpose(0, 2, 1))  # (N, 3, R): per-axis reach
-        spans = (bounds.min(axis=2), bounds.max(axis=2))
+        else:
+            _, d, r = validate_rays(np.zeros(3), d3.reshape(-1, 3), max_range)
+        d3 = d.reshape(d3.shape)
+        spans = _fan_spans(d3)  # (N, 3) each: per-axis reach
         self._sync()
         hits = RayHits.empty(len(d))
         static = self._static
@@ -975,16 +1004,43 @@ class EmbreeRayCaster(RayCaster):
                                   where="EmbreeRayCaster.cast_fans")
             b, bvh = bodies[bi], self._parts[name]
             pose = np.asarray(pose, dtype=float).reshape(n_fans, 4, 4)
-            parts = np.array([b.geometry.part_transforms(float(k)) if phases is not None
-                              else b.part_transforms for k in (
-                                  phases if phases is not None else [None] * n_fans)])
+            parts = (b.geometry.part_transforms_many(phases) if phases is not None  # (N, P, 4, 4)
+                     else np.broadcast_to(np.array(b.part_transforms),
+                                          (n_fans, len(b.part_transforms), 4, 4)))
             frames = pose[:, None] @ parts[:, bvh.group_part]  # (N, G, 4, 4) group → NED
-            rows = np.arange(len(d))
-            face, t, nrm = bvh.trace_fans(o_fans, d3, limit, frames[..., :3, :3],
-                                          frames[..., :3, 3], spans)
+            rows, face, t, nrm = bvh.trace_fans(o_fans, d3, limit,
+                                                frames[..., :3, :3], frames[..., :3, 3], spans)
             _keep_nearer(hits, rows, bi, b, bvh.face_map, face, t, nrm)
             np.minimum(hits.distance, r, out=limit)
         return hits
+
+
+def _fan_spans(d: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The least and greatest component per axis of each fan's rays (``d`` (N, R, 3)):
+    (N, 3) each; compiled (numba) where it can be."""
+    compiled = _compiled_fan_spans()
+    if compiled is None:
+        by_axis = np.ascontiguousarray(d.transpose(0, 2, 1))  # (N, 3, R)
+        return by_axis.min(axis=2), by_axis.max(axis=2)
+    lo, hi = np.empty((len(d), 3)), np.empty((len(d), 3))
+    compiled(d, lo, hi)
+    return lo, hi
+
+
+def _fan_spans_loops(d, lo, hi):  # type: ignore[no-untyped-def]
+    """:func:`_fan_spans`' loops, into ``lo`` and ``hi``."""
+    for i in range(d.shape[0]):
+        for k in range(3):
+            lo[i, k] = hi[i, k] = d[i, 0, k]
+        for j in range(1, d.shape[1]):
+            for k in range(3):
+                lo[i, k] = min(lo[i, k], d[i, j, k])
+                hi[i, k] = max(hi[i, k], d[i, j, k])
+
+
+@cache
+def _compiled_fan_spans():  # type: ignore[no-untyped-def]
+    return jit(_fan_spans_loops)
 
 
 def _fans_reach(origins: NDArray[np.float64],
