@@ -91,7 +91,7 @@ def test_in_turbid_water_the_slate_is_missed_the_rov_asks_again_and_the_run_ends
     sim, m = _run(tmp_path, "9C", 12, 26.0, ", params: {ask_after_s: 4}")
     assert m["asked_again"] > REPEATS_MAX and m["signals_repeated"] == REPEATS_MAX
     cues = [float(re.search(r"hovering ([0-9.]+) m", e.detail).group(1))
-            for e in sim.events_log if "say again?" in e.detail]
+            for e in sim.events_log if e.kind == "assistant" and "say again? (" in e.detail]
     assert len(cues) == m["asked_again"] and max(cues) <= 1.3  # reach_m + its tolerance
     assert m["signals"]["marker"] == {"issued": 1 + REPEATS_MAX, "recognized": 0,
                                       "missed": 1 + REPEATS_MAX, "false": 0}
