@@ -6,6 +6,7 @@ and the diver taking it â€” in a small mid-water world, kept short (camera 320 Ã
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -83,12 +84,15 @@ def test_the_guards_hold_and_nothing_collides(clear):
 
 def test_in_turbid_water_the_slate_is_missed_the_rov_asks_again_and_the_run_ends_safely(
         tmp_path):
-    """9C: the slate is missed; the idle ROV, with the diver hovering before it, shows
-    its "say again?" cue (asked sooner than the default, to keep the test short); he
-    repeats the slate, at most REPEATS_MAX times, missed each time; his wait fails;
-    nothing is touched."""
-    sim, m = _run(tmp_path, "9C", 12, 18.0, ", params: {ask_after_s: 4}")
+    """9C: the slate is missed; the idle ROV, with the diver hovering 2.5 m before it,
+    closes in to arm's reach and shows its "say again?" cue (asked sooner than the
+    default, to keep the test short); he repeats the slate, at most REPEATS_MAX times,
+    missed each time; his wait fails; nothing is touched."""
+    sim, m = _run(tmp_path, "9C", 12, 26.0, ", params: {ask_after_s: 4}")
     assert m["asked_again"] > REPEATS_MAX and m["signals_repeated"] == REPEATS_MAX
+    cues = [float(re.search(r"hovering ([0-9.]+) m", e.detail).group(1))
+            for e in sim.events_log if e.kind == "assistant" and "say again? (" in e.detail]
+    assert len(cues) == m["asked_again"] and max(cues) <= 1.3  # reach_m + its tolerance
     assert m["signals"]["marker"] == {"issued": 1 + REPEATS_MAX, "recognized": 0,
                                       "missed": 1 + REPEATS_MAX, "false": 0}
     assert any(e.kind == "teamwork" and "repeats bring_tool light (marker)" in e.detail

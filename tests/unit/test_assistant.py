@@ -236,22 +236,44 @@ def test_a_diver_who_stops_under_the_idle_rov_and_rises_upright_does_not_break_t
     _guards_kept(w)
 
 
+def _asks(w: World) -> list[tuple[float, float]]:
+    """(t, the diver's horizontal distance ahead, m) of each "say again?" cue."""
+    return [(o.t, float(re.search(r"hovering ([0-9.]+) m", e).group(1)))
+            for o in w.trace for e in o.events if e.startswith("say again?")]
+
+
 def test_the_idle_rov_asks_a_hovering_diver_to_say_it_again():
     """Idle, the diver hovering 3 m ahead and nothing read for ask_after_s: the ROV
+    closes in to arm's reach (reach_m, within position_tolerance_m), guards kept, then
     shows its "say again?" cue (its heading swung wag_deg off him and back, twice;
     ASSIST_QUERY = say_again meanwhile), ask_max times in a row; a command read starts
     the count again."""
     cfg = AssistantConfig(ask_after_s=5.0)
-    w = World(hovering((3.0, 0.0, 3.0), 180.0), config=cfg, signals={30.0: Command("ok")})
-    w.run(42)
-    asks = [o.t for o in w.trace for e in o.events if e.startswith("say again?")]
+    w = World(hovering((3.0, 0.0, 3.0), 180.0), config=cfg, signals={40.0: Command("ok")})
+    w.run(52)
+    asks = [t for t, _ in _asks(w)]
     assert len(asks) == cfg.ask_max + 1, asks
-    assert asks[0] >= cfg.ask_after_s and asks[cfg.ask_max - 1] < 30.0 <= asks[-1] - 5.0
+    # closing 1.7 m at near_speed first
+    assert asks[0] >= cfg.ask_after_s + 1.7 / cfg.near_speed
+    assert asks[cfg.ask_max - 1] < 40.0 <= asks[-1] - 5.0
+    assert all(ahead <= cfg.reach_m + cfg.position_tolerance_m for _, ahead in _asks(w))
     queries = [v for o in w.trace for k, v in o.posts if k == "ASSIST_QUERY"]
     assert queries == ["none"] + ["say_again", "none"] * (cfg.ask_max + 1)
     turned = {v for o in w.trace for k, v in o.posts if k == "HEADING_UPDATES"}
     assert {"heading=20", "heading=340"} <= turned  # he is due north: 0°
     assert set(o.task for o in w.trace) == {"idle"}
+    _guards_kept(w)
+    _slow_near_the_diver(w)
+
+
+def test_an_rov_already_at_arms_reach_asks_where_it_is():
+    """The diver hovering 1.2 m ahead (within reach_m + position_tolerance_m): the cue
+    comes after ask_after_s, the ROV not moved."""
+    cfg = AssistantConfig(ask_after_s=5.0)
+    w = World(hovering((1.2, 0.0, 3.0), 180.0), config=cfg)
+    w.run(cfg.ask_after_s + 1.0)
+    ((t, ahead),) = _asks(w)
+    assert t == pytest.approx(cfg.ask_after_s, abs=0.25) and ahead == 1.2
     _guards_kept(w)
 
 

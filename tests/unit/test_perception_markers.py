@@ -11,9 +11,14 @@ import numpy as np
 import pytest
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.core.frames import rot_z
+from uhrisim.core.frames import rot_z, rotation_zyx
 from uhrisim.experiments.signal_range import CAMERA_DEPTH_M, marker_trial, slate_scene
-from uhrisim.perception.markers import MarkerCommands, MarkerReader, marker_signals
+from uhrisim.perception.markers import (
+    FULL_SEARCH_EVERY,
+    MarkerCommands,
+    MarkerReader,
+    marker_signals,
+)
 from uhrisim.perception.signals import Command
 from uhrisim.sensors.camera import CameraConfig, UnderwaterCamera, jerlov
 from uhrisim.world.slate import MarkerSlate
@@ -55,6 +60,45 @@ def test_recognition_falls_with_range_and_turbidity():
     assert rate(1.0, "3C", lamps=True) < rate(1.0, "3C", lamps=False)
     assert rate(2.0, "3C") < rate(2.0, "I")
     assert rate(1.0, "9C") == 0.0
+
+
+def test_searching_where_the_slate_is_expected_reads_what_the_whole_picture_reads():
+    """The ROV's camera (320 × 240) at 2 m in clear water, the hand moving the slate: told
+    where it is within 0.15 m (each way, 1 σ, as from the diver's track), the reader
+    searches only there and reads every frame the whole picture's search reads, the same
+    corners to float32 rounding (the detector sees the same pixels around the marker)."""
+    slate = MarkerSlate(4)
+    scene = slate_scene(2.0, slate)
+    caster = scene.raycaster()
+    rng = np.random.default_rng(4)
+    camera = UnderwaterCamera(CameraConfig(width=320, height=240, water=jerlov("I"),
+                                           tilt_deg=0.0), rng)
+    whole, near = MarkerReader(), MarkerReader()
+    for k in range(FULL_SEARCH_EVERY):
+        position = np.array([2.0, rng.uniform(-0.3, 0.3), CAMERA_DEPTH_M])
+        pitch, yaw = (math.radians(rng.uniform(-a, a)) for a in (15.0, 25.0))
+        scene.set_pose("slate", position, rotation_zyx(0.0, pitch, math.pi + yaw))
+        frame = camera.capture(caster, CAMERA, np.eye(3), 0.1 * k)
+        (a,) = whole.read(frame)
+        (b,) = near.read(frame, position + rng.normal(0.0, 0.15, 3))
+        assert a.marker_id == b.marker_id == 4
+        np.testing.assert_allclose(b.corners, a.corners, atol=1e-3)  # px
+        assert b.confidence == pytest.approx(a.confidence, abs=1e-3)
+    assert near._frames_since_full == FULL_SEARCH_EVERY - 1  # the region since the first
+
+
+def test_a_slate_where_none_is_expected_is_found_by_the_whole_picture_search():
+    """Expected 3 m off to the side (out of view) it is read in the frames of the whole
+    picture's search only; behind the camera the search is the whole picture."""
+    frame = _frame(MarkerSlate(4), 2.0, noise=False)
+    reader = MarkerReader()
+    off = np.array([2.0, 3.0, CAMERA_DEPTH_M])
+    x0, _, x1, _ = reader.search_region(frame, off)
+    assert x0 == x1 == frame.rgb.shape[1]  # right of the picture: nothing to search
+    read = [bool(reader.read(frame, off)) for _ in range(2 * FULL_SEARCH_EVERY + 1)]
+    assert [k for k, r in enumerate(read) if r] == [0, FULL_SEARCH_EVERY, 2 * FULL_SEARCH_EVERY]
+    assert reader.search_region(frame, np.array([-1.0, 0.0, CAMERA_DEPTH_M])) is None
+    assert all(reader.read(frame, np.array([-1.0, 0.0, CAMERA_DEPTH_M])) for _ in range(3))
 
 
 def test_pose_from_the_corners_is_where_the_slate_is():

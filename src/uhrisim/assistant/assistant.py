@@ -10,9 +10,10 @@ Signals: a command replaces the task in hand (its branch starts from its beginni
 the same command again changes nothing; ``done`` ends the task; ``ok`` is logged;
 ``bring_tool X`` for a tool the map does not have and ``light_here S`` for an unknown
 site are refused (logged). With no task the ROV does ``default_task`` — idle, it asks
-a hovering diver to say it again when nothing was read for a while
-(:class:`~uhrisim.assistant.behaviours.AskAgain`; ``ASSIST_QUERY = say_again`` while
-it shows the cue).
+a hovering diver to say it again when nothing was read for a while, closing in to
+arm's reach first (:class:`~uhrisim.assistant.behaviours.AskAgain`, then
+:class:`~uhrisim.assistant.behaviours.CueAgain`; ``ASSIST_QUERY = say_again`` while it
+shows the cue).
 """
 
 from __future__ import annotations

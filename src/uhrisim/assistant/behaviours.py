@@ -419,74 +419,102 @@ class SpeedCeiling(Leaf):
 
 
 class AskAgain(Leaf):
-    """The "say again?" cue: idle, with the diver hovering (below ``STILL_SPEED``) within
-    ``ask_range_m`` and 45° of its heading, and no command taken for ``ask_after_s``
-    (counted from when it was last busy or last asked), the ROV swings its lamps
-    ``wag_deg`` off him and back, twice (FACE; a flicker in his face), and says so
-    (event "say again? ..."). At most ``ask_max`` asks in a row without a command taken
-    while he hovers (he swims off: counted anew). RUNNING while it wags, else FAILURE
-    (the hold goes on)."""
+    """Whether to ask "say again?": idle, with the diver hovering (below ``STILL_SPEED``)
+    within ``ask_range_m`` and 45° of its heading, and no command taken for
+    ``ask_after_s`` (counted from when it was last busy or last asked). At most
+    ``ask_max`` asks in a row without a command taken while he hovers (he swims off:
+    counted anew). SUCCESS from then on while the ask is under way — the ROV closing in
+    to arm's reach first (he need not face the ROV then), then :class:`CueAgain` — and
+    while he still hovers in range; else FAILURE (the hold goes on)."""
 
     STILL_SPEED = 0.1  # m/s
-    WAG_STEP_S = 1.5  # at most this long on each swing (s)
 
     def __init__(self, name: str, ctx: TreeContext) -> None:
         super().__init__(name, ctx)
         self._quiet_since: float | None = None
         self._last_tick = -math.inf
         self._asked_t = -math.inf
-        self._asks = 0
-        self._swings: list[float] = []  # the headings still to turn to (deg)
-        self._swing_t = 0.0
+        self.asks = 0
+        self.pending = False  # an ask is under way
 
     def _waits(self) -> bool:
-        """He hovers within range, before the ROV."""
+        """He hovers within range (before the ROV, unless an ask is under way)."""
         d, cfg = self.ctx.diver, self.ctx.config
         if d is None or abs(d.speed) > self.STILL_SPEED:
             return False
         off = d.position_ned - self.ctx.rov
         bearing = bearing_deg(self.ctx.rov, d.position_ned)
         return (math.hypot(off[0], off[1]) <= cfg.ask_range_m
-                and abs(float(wrap_180(bearing - self.ctx.now.rov.heading_deg))) <= 45.0)
+                and (self.pending or
+                     abs(float(wrap_180(bearing - self.ctx.now.rov.heading_deg))) <= 45.0))
+
+    def quiet_s(self) -> float:
+        """Seconds since anything was read (or it was busy, or last asked)."""
+        return self.ctx.t - (self._quiet_since if self._quiet_since is not None else self.ctx.t)
 
     def update(self) -> Status:
         ctx, cfg = self.ctx, self.ctx.config
-        if self._swings:
-            return self._wag()
         busy = ctx.t - self._last_tick > 1.0  # not ticked: a task or a guard had the ROV
         self._last_tick = ctx.t
         if not self._waits():  # he swims off (or is out of range): asked anew next time
-            self._quiet_since, self._asks = None, 0
+            self._quiet_since, self.asks, self.pending = None, 0, False
             return Status.FAILURE
+        if self.pending:
+            return Status.SUCCESS
         if self._quiet_since is None or busy:
             self._quiet_since = ctx.t
         self._quiet_since = max(self._quiet_since, ctx.heard_t)
         if ctx.heard_t > self._asked_t:
-            self._asks = 0
-        if self._asks >= cfg.ask_max or ctx.t - self._quiet_since < cfg.ask_after_s:
+            self.asks = 0
+        if self.asks >= cfg.ask_max or ctx.t - self._quiet_since < cfg.ask_after_s:
             return Status.FAILURE
+        self.asks += 1
+        self._asked_t = ctx.t
+        self.pending = True
+        return Status.SUCCESS
+
+    def asked(self) -> None:
+        """The cue was shown: quiet counted from now."""
+        self.pending, self._quiet_since = False, self.ctx.t
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status == Status.INVALID and self.pending:  # a guard or a task cut it short
+            self.pending, self._quiet_since = False, None
+
+
+class CueAgain(Leaf):
+    """The "say again?" cue of an :class:`AskAgain` under way: the ROV swings its lamps
+    ``wag_deg`` off him and back, twice (FACE; a flicker in his face), and says so (event
+    "say again? ..."). RUNNING while it wags, then FAILURE (the hold goes on)."""
+
+    WAG_STEP_S = 1.5  # at most this long on each swing (s)
+
+    def __init__(self, name: str, ctx: TreeContext, ask: AskAgain) -> None:
+        super().__init__(name, ctx)
+        self.ask = ask
+        self._swings: list[float] = []  # the headings still to turn to (deg)
+        self._swing_t = 0.0
+
+    def initialise(self) -> None:
+        ctx, cfg = self.ctx, self.ctx.config
         d = ctx.diver
         assert d is not None
         facing = bearing_deg(ctx.rov, d.position_ned)
-        self._asks += 1
-        self._asked_t = ctx.t
         self._swings = [facing + cfg.wag_deg, facing - cfg.wag_deg, facing + cfg.wag_deg,
                         facing - cfg.wag_deg, facing]
         self._swing_t = ctx.t
-        ctx.event(f"say again? (nothing read for {ctx.t - self._quiet_since:.0f} s, the "
+        ctx.event(f"say again? (nothing read for {self.ask.quiet_s():.0f} s, the "
                   f"diver hovering {math.hypot(*(d.position_ned - ctx.rov)[:2]):.1f} m "
-                  f"ahead; ask {self._asks} of {cfg.ask_max})")
-        return self._wag()
+                  f"ahead; ask {self.ask.asks} of {cfg.ask_max})")
 
-    def _wag(self) -> Status:
+    def update(self) -> Status:
         ctx = self.ctx
-        self._last_tick = ctx.t
         error = abs(float(wrap_180(ctx.now.rov.heading_deg - self._swings[0])))
         if error <= ctx.config.heading_tolerance_deg or ctx.t - self._swing_t > self.WAG_STEP_S:
             self._swings.pop(0)
             self._swing_t = ctx.t
             if not self._swings:
-                self._quiet_since = ctx.t
+                self.ask.asked()
                 return Status.FAILURE
         ctx.asking = True
         ctx.want("ASSIST_MODE", "FACE")
@@ -494,6 +522,5 @@ class AskAgain(Leaf):
         return Status.RUNNING
 
     def terminate(self, new_status: Status) -> None:
-        if new_status == Status.INVALID and self._swings:  # a guard or a task cut it short
+        if new_status == Status.INVALID:
             self._swings = []
-            self._quiet_since = None

@@ -22,7 +22,9 @@
             ├── go_up       rise where it is to surface_depth and hold
             └── no task     (selector)
                 ├── say again?  he hovers in front and nothing was read for ask_after_s:
-                │               swing the lamps off him and back, twice (ask_max in a row)
+                │               close in to arm's reach (come_here's point) unless within
+                │               reach_m + position_tolerance_m of him already, then swing
+                │               the lamps off him and back, twice (ask_max in a row)
                 └── idle        hold where it is, facing the diver
 
 The targets near the diver are kept a guard + ``clearance_m`` away from his body and
@@ -44,6 +46,7 @@ from uhrisim.assistant.behaviours import (
     AskAgain,
     BackOff,
     Check,
+    CueAgain,
     Do,
     Face,
     Follow,
@@ -335,6 +338,14 @@ def build_tree(ctx: TreeContext) -> tuple[py_trees.behaviour.Behaviour, Selector
         HoldAt("rise and hold", ctx, _planned("up_point"),
                lambda c: c.plan.get("up_heading"))])  # type: ignore[arg-type]
 
+    ask = AskAgain("ask?", ctx)
+    say_again = Sequence("say again?", memory=False, children=[
+        ask,
+        Selector("close in", memory=False, children=[
+            Check("at arm's reach?", ctx, lambda c: c.diver is not None and math.hypot(
+                *(c.rov - c.diver.position_ned)[:2]) <= cfg.reach_m + cfg.position_tolerance_m),
+            GoTo("to arm's reach", ctx, come_here_point, cfg.near_speed)]),
+        CueAgain("swing the lamps", ctx, ask)])
     tasks = Selector("task", memory=False, children=[
         _task(ctx, "stop", HoldHere("hold still", ctx)),
         _task(ctx, "follow_me", Follow("trail him", ctx)),
@@ -342,8 +353,7 @@ def build_tree(ctx: TreeContext) -> tuple[py_trees.behaviour.Behaviour, Selector
         _task(ctx, "bring_tool", bring),
         _task(ctx, "light_here", light),
         _task(ctx, "go_up", up),
-        Selector("no task", memory=False, children=[AskAgain("say again?", ctx),
-                                                    HoldHere("idle", ctx)])])
+        Selector("no task", memory=False, children=[say_again, HoldHere("idle", ctx)])])
     decide = Selector("decide", memory=False, children=[lost, given, too_close, closing,
                                                         tasks])
     root = Sequence("assistant", memory=False, children=[SpeedCeiling("speed ceiling", ctx),

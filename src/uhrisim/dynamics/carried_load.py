@@ -12,7 +12,19 @@ of :mod:`uhrisim.dynamics.videoray`:
   thruster it sinks at the speed where the heave damping takes the rest
   (``Z_w w + Z_ww |w| w = T_max - W``);
 * **drag** adds the object's own quadratic drag ``1/2 rho C_d A`` to ``X_uu`` and
-  ``Z_ww`` (it is towed through the water);
+  ``Z_ww`` (it is towed through the water), ``A`` the object's area **projected across
+  each axis**: towed ahead (surge) the water meets its face across the vehicle's x, in
+  heave the one across its z. For a box of sides ``a × b × c`` (its own x, y, z) turned
+  by ``R`` (its frame → the vehicle's), the area seen along a unit direction ``n`` is
+  ``|n·R e_x| b c + |n·R e_y| a c + |n·R e_z| a b`` (the faces' shadows; exact for a
+  box, :func:`box_projected_areas`). ``C_d`` is the object's own (the catalogue's flat
+  plate face-on, 1.2: Hoerner, *Fluid-Dynamic Drag*, 1965, 1.17-1.28; a blunt block met
+  on a smaller face has ~1.05, the cube's, in the same source — so an edge-on tow is
+  still slightly pessimistic). Without ``areas_frd`` the object's one reference area
+  serves every axis — what the teamwork stage still passes (docs/hri.md: the folded
+  lift bag, 0.35 × 0.25 × 0.10 m, towed edge-on with 0.0875 m² where ~0.04 m² is right;
+  passing its areas made the assisted ROV touch the diver on the way to the hand-over,
+  not yet understood).
 * **moments** of an off-centre weight, ``(y W, -x W)`` about roll and pitch, have no
   place in the 4-DOF model (roll and pitch are held at zero: planes of symmetry, paper
   §II); the vehicle **trims** instead until its righting moment ``m_v g BG sin(theta)``
@@ -53,12 +65,26 @@ class CarriedLoad:
 
     hydro: Hydro
     position_frd: tuple[float, float, float]
+    #: its areas (m²) projected across the vehicle's x, y and z (module docstring);
+    #: None: ``hydro.area`` on every axis
+    areas_frd: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         p = np.asarray(self.position_frd, dtype=float)
         if p.shape != (3,) or not np.all(np.isfinite(p)):
             raise ConfigError(f"must be 3 finite numbers, got {self.position_frd!r}",
                               where="CarriedLoad.position_frd")
+        if self.areas_frd is not None:
+            a = np.asarray(self.areas_frd, dtype=float)
+            if a.shape != (3,) or not np.all(np.isfinite(a)) or np.any(a <= 0.0):
+                raise ConfigError(f"must be 3 areas > 0 m², got {self.areas_frd!r}",
+                                  where="CarriedLoad.areas_frd")
+
+    def drag_frd(self) -> NDArray[np.float64]:
+        """Its quadratic drag ``1/2 rho C_d A`` along the vehicle's x, y, z (kg/m)."""
+        areas = (np.full(3, self.hydro.area) if self.areas_frd is None
+                 else np.asarray(self.areas_frd, dtype=float))
+        return 0.5 * WATER_DENSITY * self.hydro.drag_coefficient * areas
 
     @property
     def in_water_weight(self) -> float:
@@ -77,10 +103,18 @@ def loaded_params(params: videoray.VideoRayParams, load: CarriedLoad
     quadratic drag. The weight is not a parameter of eqs 1-4: see :func:`heave_bias`."""
     m = load.rigid_and_added_mass
     x, y, _ = load.position_frd
-    drag = 0.5 * WATER_DENSITY * load.hydro.drag_coefficient * load.hydro.area
+    surge, _, heave = (float(d) for d in load.drag_frd())
     return replace(params, m11=params.m11 + m, m22=params.m22 + m, m33=params.m33 + m,
-                   J=params.J + m * (x * x + y * y), Xuu=params.Xuu - drag,
-                   Zww=params.Zww - drag)
+                   J=params.J + m * (x * x + y * y), Xuu=params.Xuu - surge,
+                   Zww=params.Zww - heave)
+
+
+def box_projected_areas(size: ArrayLike, rotation: ArrayLike) -> tuple[float, float, float]:
+    """Areas (m²) of a box of sides ``size`` (its own x, y, z; m) turned by ``rotation``
+    (its frame → the vehicle's) seen along the vehicle's x, y and z (module docstring)."""
+    a, b, c = (float(v) for v in np.asarray(size, dtype=float))
+    faces = np.array([b * c, a * c, a * b])  # across its own x, y, z
+    return tuple(float(v) for v in np.abs(np.asarray(rotation, dtype=float)) @ faces)
 
 
 def heave_bias(load: CarriedLoad) -> float:

@@ -51,9 +51,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.perception.gestures import GestureSet
@@ -93,30 +93,47 @@ HOP_S, VOTES, MIN_CONFIDENCE = 1.0, 2, 0.9
 
 
 def _binned(rgb: NDArray[np.uint8]) -> NDArray[np.float32]:
-    """The picture as float, binned to at most MAX_COLUMNS columns."""
-    image = rgb.astype(np.float32)
-    factor = max(1, math.ceil(image.shape[1] / MAX_COLUMNS))
-    if factor > 1:
-        h, w = (image.shape[0] // factor) * factor, (image.shape[1] // factor) * factor
-        image = image[:h, :w].reshape(h // factor, factor, w // factor, factor, -1).mean(
-            axis=(1, 3))
-    return image
+    """The picture as float, binned to at most MAX_COLUMNS columns: each bin's mean, its
+    integer sum over the factor² pixels divided once (exact sums: the same float32 as
+    numpy's mean of the float32 pixels, in any order)."""
+    factor = max(1, math.ceil(rgb.shape[1] / MAX_COLUMNS))
+    if factor == 1:
+        return rgb.astype(np.float32)
+    h, w = (rgb.shape[0] // factor) * factor, (rgb.shape[1] // factor) * factor
+    total = np.zeros((h // factor, w // factor, rgb.shape[2]), np.uint32)
+    for row in range(factor):
+        for col in range(factor):
+            total += rgb[row:h:factor, col:w:factor]
+    return total.astype(np.float32) / np.float32(factor * factor)
+
+
+def _running_median(image: NDArray[np.float32], size: int) -> NDArray[np.float32]:
+    """The median of ``size`` (odd) neighbours along each row, the edge pixels repeated
+    past the ends (``scipy.ndimage.median_filter(size=(1, size, 1), mode="nearest")``):
+    one of the values, so exactly the same."""
+    half = size // 2
+    padded = np.pad(image, ((0, 0), (half, half), (0, 0)), mode="edge")
+    windows = np.lib.stride_tricks.sliding_window_view(padded, size, axis=1)
+    return np.partition(windows, half, axis=-1)[..., half]
+
+
+#: the neighbours a silhouette's parts grow into to join a group (4-connected)
+_CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
 
 
 def silhouette(rgb: NDArray[np.uint8]) -> NDArray[np.bool_]:
     """The diver's silhouette in the binned picture (module docstring); may be empty."""
     image = _binned(rgb)
-    coarse = ndimage.median_filter(image[:, ::BACKGROUND_STEP],
-                                   size=(1, BACKGROUND_PX // BACKGROUND_STEP + 1, 1),
-                                   mode="nearest")
+    coarse = _running_median(image[:, ::BACKGROUND_STEP], BACKGROUND_PX // BACKGROUND_STEP + 1)
     background = np.repeat(coarse, BACKGROUND_STEP, axis=1)[:, :image.shape[1]]
     residual = np.abs(image - background)
     sigma = np.maximum(1.4826 * np.median(residual, axis=(0, 1)), 1.0)
     mask = (residual > np.maximum(THRESHOLD_SIGMA * sigma, MIN_LEVELS)).any(axis=2)
-    labels, n = ndimage.label(ndimage.binary_dilation(mask, iterations=GROUP_PX))
-    if n == 0:
+    grown = cv2.dilate(mask.view(np.uint8), _CROSS, iterations=GROUP_PX)
+    n, labels = cv2.connectedComponents(grown, connectivity=4, ltype=cv2.CV_32S)
+    if n == 1:
         return mask
-    sizes = np.bincount(labels[mask], minlength=n + 1)
+    sizes = np.bincount(labels[mask], minlength=n)
     keep = sizes >= max(MIN_AREA_PX, KEEP_SHARE * sizes[1:].max())
     keep[0] = False
     return mask & keep[labels]
@@ -132,8 +149,8 @@ def silhouette_descriptor(mask: NDArray[np.bool_]) -> NDArray[np.float64]:
     """:func:`frame_descriptor` of a silhouette; its pixels without a neighbour (noise
     along the horizon) left out, and nothing found where more than :data:`NOISE_SHARE`
     of them have none (the camera's noise in turbid water, not a diver)."""
-    neighbours = ndimage.convolve(mask.astype(np.uint8), np.ones((3, 3), np.uint8),
-                                  mode="constant")
+    neighbours = cv2.boxFilter(mask.astype(np.uint8), -1, (3, 3), normalize=False,
+                               borderType=cv2.BORDER_CONSTANT)
     isolated = np.count_nonzero(mask & (neighbours < 2))
     mask = mask & (neighbours >= 2)
     rows, cols = np.nonzero(mask)

@@ -19,6 +19,14 @@ all in the pixels; nothing is read from the scene. Each detection carries:
   elevation (deg, below it > 0), the marker centre in the camera frame (x along the axis,
   y right, z down) and, from the frame's pose, in NED.
 
+**Where it looks.** Given where the slate is expected (NED, from the diver's track),
+:meth:`MarkerReader.read` searches only the part of the picture within a margin of it,
+and the whole picture every :data:`FULL_SEARCH_EVERY` th frame (and whenever nothing is
+expected) — as fielded marker trackers do. The detector's size limits, relative to the
+picture's larger side, are scaled to the region so that it accepts the same markers in
+pixels as the whole picture's search; a marker inside the region is found as it is in
+the whole picture.
+
 What each marker id means is data (:class:`MarkerCommands`; the shipped table
 ``perception/data/marker_commands.json``, a scenario gives its own).
 """
@@ -42,6 +50,12 @@ from uhrisim.world.slate import DEFAULT_DICTIONARY, aruco_dictionary, dictionary
 #: canonical pixels per cell for the confidence, and the ignored margin (a cell's share)
 _PX_PER_CELL = 8
 _IGNORED_MARGIN = 0.13
+#: the whole picture is searched every this many frames, the expected region between
+FULL_SEARCH_EVERY = 5
+#: the region searched: within this of where the slate is expected, each way (m)
+SEARCH_MARGIN_M = 0.5
+#: a region closer than this to the camera (m, along its axis) is searched whole
+NEAREST_REGION_M = 0.1
 
 
 @dataclass(frozen=True)
@@ -123,7 +137,10 @@ class MarkerReader:
         self._dictionary = aruco_dictionary(self.commands.dictionary)
         params = cv2.aruco.DetectorParameters()
         params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+        self._params = params
+        self._perimeter_rates = (params.minMarkerPerimeterRate, params.maxMarkerPerimeterRate)
         self._detector = cv2.aruco.ArucoDetector(self._dictionary, params)
+        self._frames_since_full = FULL_SEARCH_EVERY - 1  # the first frame: whole
         self._cells = int(self._dictionary.markerSize) + 2
         side = self._cells * _PX_PER_CELL
         self._canonical = np.array([[0, 0], [side, 0], [side, side], [0, side]], np.float32)
@@ -159,17 +176,61 @@ class MarkerReader:
         contrast = (white - black) / (white + black) if white + black > 0 else 0.0
         return confidence, contrast
 
+    def _detect(self, grey: NDArray[np.uint8], region: tuple[int, int, int, int] | None
+                ) -> tuple[list[NDArray[np.float32]], list[int]]:
+        """Quads (4, 2) px and ids found in ``grey``, or in its ``region`` (x0, y0, x1, y1
+        px) with the detector's size limits scaled to it (module docstring)."""
+        offset = np.zeros(2, np.float32)
+        scale = 1.0
+        if region is not None:
+            x0, y0, x1, y1 = region
+            scale = max(grey.shape) / max(x1 - x0, y1 - y0)
+            grey = grey[y0:y1, x0:x1]
+            offset[:] = x0, y0
+        low, high = self._perimeter_rates
+        if self._params.minMarkerPerimeterRate != low * scale:
+            self._params.minMarkerPerimeterRate = low * scale
+            self._params.maxMarkerPerimeterRate = high * scale
+            self._detector.setDetectorParameters(self._params)
+        corners, ids, _ = self._detector.detectMarkers(grey)
+        if ids is None:
+            return [], []
+        return [quad.reshape(4, 2) + offset for quad in corners], [int(i) for i in ids.ravel()]
+
+    def search_region(self, frame: CameraFrame, near_ned: NDArray[np.float64],
+                      margin_m: float | NDArray[np.float64] = SEARCH_MARGIN_M
+                      ) -> tuple[int, int, int, int] | None:
+        """The picture's region (x0, y0, x1, y1 px) where a box of ``margin_m`` (m, each
+        way; one number or north, east, down) around ``near_ned`` appears; None for the
+        whole picture (the box reaches behind the camera), an empty region when it is
+        out of view."""
+        corners = np.array([[n, e, d] for n in (-1, 1) for e in (-1, 1) for d in (-1, 1)],
+                           float) * margin_m + np.asarray(near_ned, float)
+        ahead, right, down = frame.rotation_ned_from_camera.T @ (corners - frame.position_ned).T
+        if ahead.min() < NEAREST_REGION_M:
+            return None
+        K = frame.K
+        u, v = K[0, 0] * right / ahead + K[0, 2], K[1, 1] * down / ahead + K[1, 2]
+        height, width = frame.rgb.shape[:2]
+        x0, x1 = (int(np.clip(f(u), 0, width)) for f, u in ((np.floor, u.min()),
+                                                               (np.ceil, u.max())))
+        y0, y1 = (int(np.clip(f(v), 0, height)) for f, v in ((np.floor, v.min()),
+                                                                (np.ceil, v.max())))
+        return x0, y0, max(x0, x1), max(y0, y1)
+
     def read_image(self, rgb: NDArray[np.uint8], K: NDArray[np.float64],
                    position_ned: NDArray[np.float64] | None = None,
-                   rotation_ned_from_camera: NDArray[np.float64] | None = None
+                   rotation_ned_from_camera: NDArray[np.float64] | None = None,
+                   region: tuple[int, int, int, int] | None = None
                    ) -> list[MarkerDetection]:
-        """The markers in an (H, W, 3) RGB image taken with intrinsics ``K``; with the
-        camera's pose (NED, camera frame → NED) each also gets its NED position."""
+        """The markers in an (H, W, 3) RGB image taken with intrinsics ``K`` (in its
+        ``region``, x0, y0, x1, y1 px, if given); with the camera's pose (NED, camera
+        frame → NED) each also gets its NED position."""
         grey = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2GRAY)
-        corners, ids, _ = self._detector.detectMarkers(grey)
+        if region is not None and (region[2] - region[0] < 8 or region[3] - region[1] < 8):
+            return []  # out of view (or too small to hold a marker)
         out = []
-        for quad, marker_id in zip(corners, [] if ids is None else ids.ravel(), strict=True):
-            c = quad.reshape(4, 2)
+        for c, marker_id in zip(*self._detect(grey, region), strict=True):
             ok, _, tvec = cv2.solvePnP(self._object, c.astype(np.float64), K, None,
                                        flags=cv2.SOLVEPNP_IPPE_SQUARE)
             if not ok:
@@ -179,17 +240,24 @@ class MarkerReader:
             p_ned = None
             if position_ned is not None and rotation_ned_from_camera is not None:
                 p_ned = np.asarray(position_ned) + np.asarray(rotation_ned_from_camera) @ p_cam
-            confidence, contrast = self.confidence(grey, c, int(marker_id))
+            confidence, contrast = self.confidence(grey, c, marker_id)
             out.append(MarkerDetection(
-                int(marker_id), c.copy(), confidence, contrast, float(np.linalg.norm(p_cam)),
+                marker_id, c.copy(), confidence, contrast, float(np.linalg.norm(p_cam)),
                 math.degrees(math.atan2(tx, tz)), math.degrees(math.atan2(ty, math.hypot(tx, tz))),
-                p_cam, p_ned, self.commands.commands.get(int(marker_id))))
+                p_cam, p_ned, self.commands.commands.get(marker_id)))
         return out
 
-    def read(self, frame: CameraFrame) -> list[MarkerDetection]:
-        """The markers in a camera frame (its picture, K and pose)."""
+    def read(self, frame: CameraFrame, near_ned: NDArray[np.float64] | None = None,
+             margin_m: float | NDArray[np.float64] = SEARCH_MARGIN_M) -> list[MarkerDetection]:
+        """The markers in a camera frame (its picture, K and pose); with ``near_ned``,
+        where the slate is expected (NED, m), within ``margin_m`` of it but every
+        :data:`FULL_SEARCH_EVERY` th frame (module docstring)."""
+        region = None
+        if near_ned is not None and self._frames_since_full < FULL_SEARCH_EVERY - 1:
+            region = self.search_region(frame, near_ned, margin_m)
+        self._frames_since_full = 0 if region is None else self._frames_since_full + 1
         return self.read_image(frame.rgb, frame.K, frame.position_ned,
-                               frame.rotation_ned_from_camera)
+                               frame.rotation_ned_from_camera, region)
 
 
 def marker_signals(detections: list[MarkerDetection], t: float,

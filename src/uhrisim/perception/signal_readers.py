@@ -1,9 +1,10 @@
 """The ROV's readers of the diver's signals, one per channel, behind one call per sensor
 reading (docs/hri.md, "Wiring").
 
-* ``camera(frame)``: the slate's markers (:class:`~uhrisim.perception.markers.
-  MarkerReader`, every frame) and gestures (:class:`~uhrisim.perception.gesture_reader.
-  GestureReader`, at its own rate);
+* ``camera(frame, slate_near)``: the slate's markers (:class:`~uhrisim.perception.
+  markers.MarkerReader`, every frame; around where the slate is expected, given as
+  (NED point, margin m), and in the whole picture every few frames) and gestures
+  (:class:`~uhrisim.perception.gesture_reader.GestureReader`, at its own rate);
 * ``ping(ping, range_m, bearing_rad)``: the two-arm wave (:class:`~uhrisim.perception.
   sonar_wave.SonarWaveReader`) around the tracked diver.
 
@@ -15,6 +16,9 @@ so the counts of recognitions compare with the diver's signals one for one.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
 
 from uhrisim.perception.gesture_reader import GestureReader
 from uhrisim.perception.markers import MarkerReader, marker_signals
@@ -37,12 +41,15 @@ class SignalReaders:
     said: list[RecognizedSignal] = field(default_factory=list)
     _last: dict[str, tuple[str, float]] = field(default_factory=dict)
 
-    def camera(self, frame: CameraFrame) -> list[RecognizedSignal]:
-        """The signals read in one camera frame."""
+    def camera(self, frame: CameraFrame, slate_near: tuple[NDArray[np.float64], float |
+                                                           NDArray[np.float64]] | None = None
+               ) -> list[RecognizedSignal]:
+        """The signals read in one camera frame; ``slate_near``: where the slate is
+        expected (NED point, margin m), None if nowhere in particular."""
         found: list[RecognizedSignal] = []
         if self.markers is not None:
-            found += marker_signals(self.markers.read(frame), frame.t,
-                                    self.min_marker_confidence)
+            found += marker_signals(self.markers.read(frame, *(slate_near or (None,))),
+                                    frame.t, self.min_marker_confidence)
         if self.gestures is not None:
             found += self.gestures.feed(frame.t, frame.rgb)
         return self.once(found)

@@ -61,9 +61,14 @@ from uhrisim.assistant.trees import CHEST_ABOVE_PELVIS_M
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, rot_z
 from uhrisim.perception.gesture_reader import GestureReader
-from uhrisim.perception.markers import MarkerCommands, MarkerReader
+from uhrisim.perception.markers import SEARCH_MARGIN_M, MarkerCommands, MarkerReader
 from uhrisim.perception.signal_readers import SignalReaders
-from uhrisim.perception.signalling import SLATE_READY_S, SignalPerformer, slate_position
+from uhrisim.perception.signalling import (
+    SLATE_AHEAD_M,
+    SLATE_READY_S,
+    SignalPerformer,
+    slate_position,
+)
 from uhrisim.perception.signals import Command, RecognizedSignal
 from uhrisim.perception.sonar_wave import SonarWaveReader
 from uhrisim.scenario.assistance import AssistantSection
@@ -95,6 +100,9 @@ SLATE_AWAY_NED = np.array([0.0, 0.0, 1.0e4])
 CUE_SEEN_M = 4.0
 #: ... and repeats his last signal at most this many times in one wait
 REPEATS_MAX = 2
+#: on the sonar's track (no depth), the marker reader looks this far above and below
+#: the ROV's depth for the slate (m)
+SLATE_SEARCH_DEPTH_M = 3.0
 
 
 @dataclass
@@ -105,6 +113,7 @@ class SignallingDiver:
     agent: Agent
     performer: SignalPerformer
     slates: dict[int, str] = field(default_factory=dict)
+    shown: int | None = None  # the marker id of the slate he holds up (None: put away)
     seen_steps: int = 0
     watcher: Agent | None = None  # the ROV he signals to (he faces it)
     #: a slate signal's order has begun (its start, s; the command) and he gets ready
@@ -301,34 +310,55 @@ class AssistanceStage:
             if diver.watcher is not None and (diver.slate_due is not None
                                               or diver.performer.performing(t) is not None):
                 self._face(diver, diver.watcher.nav().position_ned)
-            if diver.slates:
-                held = diver.performer.slate_id(t)
-                for marker_id, name in diver.slates.items():
-                    at = (slate_position(nav.position_ned, nav.yaw) if marker_id == held
-                          else SLATE_AWAY_NED)
-                    self.scene.set_pose(name, at, rot_z(nav.yaw))
+            held = diver.performer.slate_id(t)
+            held = held if held in diver.slates else None
+            if diver.shown is not None and diver.shown != held:  # put away (once)
+                self.scene.set_pose(diver.slates[diver.shown], SLATE_AWAY_NED, np.eye(3))
+            if held is not None:
+                self.scene.set_pose(diver.slates[held],
+                                    slate_position(nav.position_ned, nav.yaw), rot_z(nav.yaw))
+            diver.shown = held
 
     def read(self, pings: Mapping[str, Any], images: Mapping[str, Any]) -> None:
         """Feed this tick's camera frames and pings to the readers."""
         for v in self.vehicles:
             frame = images.get(v.camera_key) if v.camera_key else None
+            ping = pings.get(v.sonar_key) if v.sonar_key and v.readers.sonar else None
+            if frame is None and ping is None:
+                continue
+            track = self._track(v, 0.0)
             if frame is not None:
-                said = v.readers.camera(frame)
-                if said and not self._diver_in_view(v, frame):
+                said = v.readers.camera(frame, self._slate_near(v, track))
+                if said and not self._diver_in_view(track, frame):
                     for r in said:
                         self.record("assistant", f"{v.agent.name}: {r.command} ({r.channel}) "
                                     "ignored: the diver is not in the camera's view")
                 else:
                     v.heard += said
-            ping = pings.get(v.sonar_key) if v.sonar_key else None
-            if ping is not None and v.readers.sonar is not None:
-                v.heard += v.readers.ping(ping, *self._in_ping(v))
+            if ping is not None:
+                v.heard += v.readers.ping(ping, *self._in_ping(v, track))
 
-    def _diver_in_view(self, v: AssistedVehicle, frame: Any) -> bool:
+    @staticmethod
+    def _slate_near(v: AssistedVehicle, track: DiverTrack | None
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        """Where the marker reader expects his slate, from the track the assistant uses
+        (NED point, margin m north, east, down): held up ahead of his chest; on the
+        sonar's track, which has neither his heading nor his depth, anywhere his arm
+        holds it around him, ``SLATE_SEARCH_DEPTH_M`` up and down (None: no track)."""
+        if track is None:
+            return None
+        if v.section.track == "truth":
+            yaw = math.radians(track.heading_deg)
+            return (slate_position(track.position_ned, yaw),
+                    np.full(3, SEARCH_MARGIN_M))
+        reach = SLATE_AHEAD_M + SEARCH_MARGIN_M + track.speed * track.age_s
+        return track.position_ned, np.array([reach, reach, SLATE_SEARCH_DEPTH_M])
+
+    @staticmethod
+    def _diver_in_view(track: DiverTrack | None, frame: Any) -> bool:
         """Whether the diver's chest (on the track the assistant uses) is in the camera's
         field of view: a camera signal read with him out of view is someone else's, or
         the reader's mistake (it still counts as false in the metrics)."""
-        track = self._track(v, 0.0)
         if track is None:
             return False
         chest = track.position_ned - np.array([0.0, 0.0, CHEST_ABOVE_PELVIS_M])
@@ -338,10 +368,11 @@ class AssistanceStage:
                     and abs(right) / ahead <= 0.5 * width / frame.K[0, 0]
                     and abs(down) / ahead <= 0.5 * height / frame.K[1, 1])
 
-    def _in_ping(self, v: AssistedVehicle) -> tuple[float | None, float | None]:
+    @staticmethod
+    def _in_ping(v: AssistedVehicle, track: DiverTrack | None
+                 ) -> tuple[float | None, float | None]:
         """The diver's range (m) and bearing (rad, > 0 starboard) from the ROV, from the
         track the assistant uses (None when there is none)."""
-        track = self._track(v, 0.0)
         if track is None:
             return None, None
         nav = v.agent.nav()
