@@ -188,12 +188,14 @@ def test_compiled_ticks_equal_the_numpy_ones_with_the_quadratic_thrust_map(tmp_p
 
 def test_ticks_shared_among_threads_give_the_same_episodes():
     """threads=2 shares the episodes' compiled steps between two threads, in chunks (of 2
-    rows here), while new episodes begin: every state, observation, reward and ending
-    equals one thread's, resets and pilings too."""
+    rows here; a first share of 1 row a new episode), while new episodes begin: every
+    state, observation, reward and ending equals one thread's, resets and pilings too;
+    the floor's collision caster built up front (prepare) changes nothing."""
     one = TrailDiverVectorEnv(num_envs=8, randomization={"clutter": 4}, time_limit_s=6.0)
     two = TrailDiverVectorEnv(num_envs=8, threads=2, randomization={"clutter": 4},
                               time_limit_s=6.0)
-    two.step_chunk = 2
+    two.step_chunk, two.rows_per_beginning = 2, 1
+    two.prepare()
     if one.step_kernel is None:
         pytest.skip("numba (the [fast] extra) is not installed: no compiled ticks to share")
     np.testing.assert_array_equal(one.reset(seed=5)[0], two.reset(seed=5)[0])
