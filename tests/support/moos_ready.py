@@ -31,3 +31,21 @@ def wait_registered(client: MoosClient, timeout_s: float = 30.0) -> list[MoosMes
         time.sleep(0.005)
     raise AssertionError(f"MOOS client {client.name!r}: its registrations did not reach "
                          f"the DB within {timeout_s:.0f} s ({client.status})")
+
+
+def wait_for_clients(port: int, names: set[str], timeout_s: float = 300.0) -> None:
+    """Block until the DB on ``port`` (127.0.0.1) lists every one of ``names`` among its
+    clients (its ``DB_CLIENTS``, posted once a second); AssertionError after ``timeout_s``
+    (generous: a child process's start on a busy machine)."""
+    with MoosClient() as watcher:
+        watcher.connect("127.0.0.1", port, "client_watcher", strict=True)
+        watcher.register("DB_CLIENTS")
+        listed: set[str] = set()
+        deadline = time.monotonic() + timeout_s
+        while not names <= listed:
+            assert time.monotonic() < deadline, (
+                f"MOOS clients {sorted(names - listed)} not at the DB within {timeout_s:.0f} s")
+            for m in watcher.drain():
+                if m.key == "DB_CLIENTS":
+                    listed = set(str(m.value).split(","))
+            time.sleep(0.05)
