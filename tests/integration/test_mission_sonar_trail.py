@@ -14,11 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.support.moos_ready import wait_registered
 from uhrisim.app.runner import run_scenario
 from uhrisim.scenario.load import load_scenario
 from uhrisim.sim.simulation import Simulation
-
-from tests.support.moos_ready import wait_registered
 
 ROOT = Path(__file__).resolve().parents[2]
 SONAR = ROOT / "scenarios" / "track_and_trail_sonar.yaml"

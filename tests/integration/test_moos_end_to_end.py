@@ -17,12 +17,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.support.moos_ready import wait_for_clients
 from uhrisim.autonomy.contacts import parse_node_report
 from uhrisim.bridges.moos.testdb import spawn
 from uhrisim.core.frames import wrap_180
 from uhrisim.record.reader import iter_messages, read_odometry
-
-from tests.support.moos_ready import wait_for_clients
 
 pytest.importorskip("pymoos2", reason="pymoos2 (PyPI) is the independent MOOS peer")
 

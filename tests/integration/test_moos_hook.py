@@ -12,13 +12,12 @@ from pathlib import Path
 
 import pytest
 
+from tests.support.moos_ready import wait_registered
 from uhrisim.bridges.moos import hook as hookmod
 from uhrisim.bridges.moos.client import MoosClient
 from uhrisim.bridges.moos.testdb import spawn
 from uhrisim.scenario import load
 from uhrisim.sim import simulation
-
-from tests.support.moos_ready import wait_registered
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
 
