@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.support.moos_ready import wait_registered
 from uhrisim.app.runner import run_scenario
 from uhrisim.scenario.load import load_scenario
 from uhrisim.sim.simulation import Simulation
@@ -338,15 +339,14 @@ def test_moos_community_gets_the_sonar_contacts():
         observer.connect("127.0.0.1", db.port, "observer", strict=True)
         observer.register("NODE_REPORT")
         observer.register("DIVER_LOST")
+        got = wait_registered(observer)  # before the ROV's first posting
         hook = MoosBridgeHook([MoosAgentLink("videoray", port=db.port, community="videoray")],
                               time_source="sim", strict=True)
         sim = Simulation(load_scenario(SONAR), hooks=[hook])
         try:
             sim.start()
-            time.sleep(0.3)  # the observer's registrations reach the DB
             while sim.t < 15.0:
                 sim.step()
-            got: list = []
             deadline = time.monotonic() + 5.0
             while time.monotonic() < deadline and not any(
                     m.key == "DIVER_LOST" and m.value == "false" for m in got):

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.support.moos_ready import wait_for_clients
 from uhrisim.autonomy.contacts import parse_node_report
 from uhrisim.bridges.moos.testdb import spawn
 from uhrisim.core.frames import wrap_180
@@ -41,9 +42,9 @@ def test_moos_community_drives_the_rov_and_survives_a_db_restart(tmp_path: Path)
          "--rtf", "2", "--duration", "60", "-q"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     try:
-        time.sleep(3.0)
+        wait_for_clients(port, {"uhrisim_videoray", "uhrisim_diver"})  # the run is up
         db.kill()  # the DB goes away under a running simulation...
-        time.sleep(2.0)
+        time.sleep(2.0)  # (an outage of 2 s: the bridges lose it and retry)
         db = spawn(port=port, community="videoray")  # ...and comes back on the same port
         helm = subprocess.run(
             [sys.executable, str(SUPPORT / "moos_helm_standin.py"), str(port), "45", "0.5",

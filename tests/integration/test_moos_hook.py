@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.support.moos_ready import wait_registered
 from uhrisim.bridges.moos import hook as hookmod
 from uhrisim.bridges.moos.client import MoosClient
 from uhrisim.bridges.moos.testdb import spawn
@@ -30,6 +31,7 @@ def test_hook_posts_nav_and_feeds_variables_back():
         obs.connect("127.0.0.1", db.port, "observer", strict=True)
         obs.register("NAV_X")
         obs.register("NODE_REPORT")
+        wait_registered(obs)  # before the ROV's first posting
         link = hookmod.MoosAgentLink("videoray", port=db.port, community="videoray",
                                      nav_rate_hz=10.0, extra_vars=("RETURN",))
         hook = hookmod.MoosBridgeHook([link], time_source="sim", strict=True)
@@ -37,11 +39,6 @@ def test_hook_posts_nav_and_feeds_variables_back():
         try:
             sim.start()
             assert sim.dt == pytest.approx(1 / 60)
-            # wait until the observer's registrations are in place at the DB
-            deadline = time.monotonic() + 5.0
-            while obs.n_sent < 2 and time.monotonic() < deadline:
-                time.sleep(0.01)
-            time.sleep(0.1)
             east_at: dict[float, float] = {}
             for _ in range(60):  # one simulated second; 10 Hz -> every 6th tick
                 frame = sim.step()

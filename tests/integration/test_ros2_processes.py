@@ -93,7 +93,6 @@ def _make_bridge(domain: int, reliable_sensors: bool = False) -> tuple[Ros2Bridg
 
 def _wait_for_subscribers(bridge: Ros2Bridge, topics: list[str], timeout: float = 20.0) -> None:
     assert bridge.wait_for_subscribers(topics, timeout), f"no subscriber on {topics}"
-    time.sleep(0.3)  # let the writers match the readers the graph already shows
 
 
 def _topics(agent: str) -> list[str]:

@@ -13,7 +13,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.integrate import solve_ivp
 
 from uhrisim.core.errors import ConfigError, NumericalError
 
@@ -106,6 +105,8 @@ def integrate_adaptive(f: Derivative, x0: NDArray, input_of_t: Callable[[float],
     ``breakpoints`` are times where the input jumps; integration restarts there so the
     step-size control never straddles a discontinuity. Returns states at ``t_eval``.
     """
+    from scipy.integrate import solve_ivp  # here: SciPy costs every importer ~0.3 s at start
+
     t_eval = np.asarray(t_eval, dtype=float)
     edges = [t_eval[0], *sorted(b for b in breakpoints if t_eval[0] < b < t_eval[-1]), t_eval[-1]]
     out = np.empty((t_eval.size, np.size(x0)))

@@ -550,10 +550,15 @@ class Ros2Bridge(RosWriter):
         return int(self._node.count_subscribers(topic))
 
     def wait_for_subscribers(self, topics: Sequence[str], timeout_s: float = 10.0) -> bool:
-        """Block (wall clock) until every topic in ``topics`` has a subscriber, or the
-        timeout passes; True on success. For tests and tools, not for the sim loop.
-        DDS discovery of a new node takes from ~0.1 s to a few seconds."""
-        return _poll_until(lambda: all(self.subscriber_count(t) > 0 for t in topics),
+        """Block (wall clock) until every topic in ``topics`` (resolved names) has a
+        subscriber, or the timeout passes; True on success. On a topic the bridge publishes
+        that is a subscriber its publisher has matched (the graph shows it earlier; a
+        message written in between is lost to it), on any other one in the graph. For
+        tests and tools, not for the sim loop. DDS discovery of a new node takes from
+        ~0.1 s to a few seconds."""
+        published = set(self._topic.values())
+        return _poll_until(lambda: all(self._writer.matched_readers(t) > 0 if t in published
+                                       else self.subscriber_count(t) > 0 for t in topics),
                            timeout_s)
 
 

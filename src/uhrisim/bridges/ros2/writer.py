@@ -34,6 +34,7 @@ class TopicWriter:
         self._counts: dict[str, int] = {}
         self._failed: dict[str, int] = {}
         self._incompatible: dict[str, int] = {}  # counted on the executor thread
+        self._matched: dict[str, int] = {}  # readers matched now, set on the executor thread
 
     def wanted(self, pub: Any) -> bool:
         """Should a message go to ``pub``'s topic: someone subscribed (well under 1 us)?
@@ -81,8 +82,17 @@ class TopicWriter:
             logger.warning(f"a subscriber to {resolved} asks for a QoS this publisher cannot "
                            f"offer ({info.last_policy_kind.name}): it receives nothing{hint}")
 
+        def matched(info: Any) -> None:
+            self._matched[resolved] = info.current_count
+
         return node.create_publisher(msg_type, topic, qos, event_callbacks=
-                                     PublisherEventCallbacks(incompatible_qos=incompatible))
+                                     PublisherEventCallbacks(incompatible_qos=incompatible,
+                                                             matched=matched))
+
+    def matched_readers(self, topic: str) -> int:
+        """How many subscriptions DDS has matched with the publisher of ``topic`` (resolved
+        name): later than the graph shows them; a message written before is lost to them."""
+        return self._matched.get(topic, 0)
 
     def stats(self) -> dict[str, dict[str, int]]:
         """Messages published, writes failed and incompatible subscribers seen, per topic
