@@ -13,7 +13,7 @@ import re
 import numpy as np
 import pytest
 
-from tests.support.assistant_world import DiverState, World, hovering
+from tests.support.assistant_world import DiverState, Rov, World, hovering
 from uhrisim.assistant import (
     Assistant,
     AssistantConfig,
@@ -125,6 +125,21 @@ def test_come_here_goes_round_a_diver_who_faces_away():
     w = World(hovering((6.0, 0.0, 4.0), 0.0), signals={1.0: Command("come_here")})
     w.run(120)
     assert w.rov.position[0] > 6.5  # in front of him (he faces north)
+    _guards_kept(w)
+
+
+def test_from_close_behind_him_the_rov_rounds_him_on_the_stand_off_circle():
+    """The ROV 1.45 m behind him, its stand-off 1.5 m (as in the assisted salvage at
+    148 s, bringing the bag): the straight line to the point beside him would pass 1.06 m
+    from his body, where his arms reach; it goes round on the stand-off circle instead,
+    at least a guard + 0.5 m from his body until it is at his side."""
+    w = World(hovering((6.0, 0.0, 4.0), 180.0), signals={1.0: Command("come_here")},
+              rov=Rov(np.array([7.45, 0.05, 4.0]), 180.0),
+              config=AssistantConfig(standoff_m=1.5))
+    w.run(60)
+    behind = [r.body for r in w.records if r.rov[0] > 6.0]
+    assert min(behind) >= CFG.body_guard_m + 0.5, min(behind)
+    assert w.rov.position[0] < 5.5  # in front of him (he faces south)
     _guards_kept(w)
 
 

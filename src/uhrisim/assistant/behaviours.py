@@ -165,7 +165,9 @@ class GoTo(Drive):
     """Transit to a point (helm GOTO: BHV_Waypoint), the way round the diver when the
     straight line would pass nearer his body than the goal itself and within a guard
     + 0.5 m: first to a point beside him, ``standoff_m`` out on the side the ROV starts
-    from."""
+    from — and while the line to that point, too, would pass within a guard + 0.5 m (the
+    ROV behind or in front of him), along the ``standoff_m`` circle round him, to the
+    point half way round to his side."""
 
     MODE = "GOTO"
 
@@ -188,8 +190,12 @@ class GoTo(Drive):
             return goal
         cfg = ctx.config
         body = diver.position_ned, diver.neck
-        closest = min(segment_distance(p, *body) for p in np.linspace(ctx.rov, goal, 25))
-        if closest >= min(segment_distance(goal, *body) - 0.05, cfg.body_guard_m + 0.5):
+
+        def closest(end: Point) -> float:  # of the straight line from the ROV to end
+            return min(segment_distance(p, *body) for p in np.linspace(ctx.rov, end, 25))
+
+        clear_m = cfg.body_guard_m + 0.5
+        if closest(goal) >= min(segment_distance(goal, *body) - 0.05, clear_m):
             return goal
         left = horizontal(np.cross(diver.forward, [0.0, 0.0, 1.0]))
         if self._side is None:
@@ -199,7 +205,16 @@ class GoTo(Drive):
         if np.linalg.norm((beside - ctx.rov)[:2]) <= cfg.position_tolerance_m:
             self._beside_done = True  # beside him: the rest of the way is clear
             return goal
-        return beside
+        if closest(beside) >= clear_m:
+            return beside
+        # the chord to his side would cut across his front or back (his arms reach
+        # there): round him on the stand-off circle, half the angle to his side at a time
+        here, there = ((p - diver.position_ned)[:2] for p in (ctx.rov, beside))
+        start = math.atan2(here[1], here[0])
+        turn = math.atan2(there[1], there[0]) - start
+        half = start + 0.5 * math.atan2(math.sin(turn), math.cos(turn))
+        return np.array([diver.position_ned[0] + cfg.standoff_m * math.cos(half),
+                         diver.position_ned[1] + cfg.standoff_m * math.sin(half), goal[2]])
 
     def post(self, point: Point) -> None:
         self.ctx.want("WPT_UPDATES", f"points={moos_xy(point)} # speed={self.speed:.2f}")
