@@ -152,7 +152,10 @@ def test_beside_him_holds_only_while_he_stays_where_he_was():
     + 0.5 m from his body."""
     cfg = AssistantConfig(standoff_m=1.5)
     ctx = TreeContext(cfg)
-    front = lambda c: c.diver.position_ned + cfg.standoff_m * c.diver.forward  # noqa: E731
+
+    def front(c: TreeContext) -> np.ndarray:
+        return c.diver.position_ned + cfg.standoff_m * c.diver.forward
+
     go = GoTo("stand off in front", ctx, front, cfg.cruise_speed)
     go.initialise()
 
