@@ -13,7 +13,7 @@ import re
 import numpy as np
 import pytest
 
-from tests.support.assistant_world import DiverState, World, hovering
+from tests.support.assistant_world import DiverState, Rov, World, hovering
 from uhrisim.assistant import (
     Assistant,
     AssistantConfig,
@@ -22,7 +22,8 @@ from uhrisim.assistant import (
     GripperStatus,
     RovNav,
 )
-from uhrisim.assistant.geometry import bearing_deg, jaw_offset
+from uhrisim.assistant.behaviours import GoTo, TreeContext
+from uhrisim.assistant.geometry import bearing_deg, jaw_offset, segment_distance
 from uhrisim.core.errors import ConfigError
 from uhrisim.perception.signals import Command, RecognizedSignal
 
@@ -126,6 +127,52 @@ def test_come_here_goes_round_a_diver_who_faces_away():
     w.run(120)
     assert w.rov.position[0] > 6.5  # in front of him (he faces north)
     _guards_kept(w)
+
+
+def test_from_close_behind_him_the_rov_rounds_him_on_the_stand_off_circle():
+    """The ROV 1.45 m behind him, its stand-off 1.5 m (as in the assisted salvage at
+    148 s, bringing the bag): the straight line to the point beside him would pass 1.06 m
+    from his body, where his arms reach; it goes round on the stand-off circle instead,
+    at least a guard + 0.5 m from his body until it is at his side."""
+    w = World(hovering((6.0, 0.0, 4.0), 180.0), signals={1.0: Command("come_here")},
+              rov=Rov(np.array([7.45, 0.05, 4.0]), 180.0),
+              config=AssistantConfig(standoff_m=1.5))
+    w.run(60)
+    behind = [r.body for r in w.records if r.rov[0] > 6.0]
+    assert min(behind) >= CFG.body_guard_m + 0.5, min(behind)
+    assert w.rov.position[0] < 5.5  # in front of him (he faces south)
+    _guards_kept(w)
+
+
+def test_beside_him_holds_only_while_he_stays_where_he_was():
+    """The assisted salvage at 144.75-155.7 s: the ROV carrying the bag got beside him
+    (heading 66°) as he swam on; he swam 0.9 m farther and the ROV went straight on to
+    his new front, 0.77 m past his body, across his arms. Once he has moved on, the
+    transit rounds him again: it steers to a point reached on a line that keeps a guard
+    + 0.5 m from his body."""
+    cfg = AssistantConfig(standoff_m=1.5)
+    ctx = TreeContext(cfg)
+
+    def front(c: TreeContext) -> np.ndarray:
+        return c.diver.position_ned + cfg.standoff_m * c.diver.forward
+
+    go = GoTo("stand off in front", ctx, front, cfg.cruise_speed)
+    go.initialise()
+
+    def steer(rov, diver):
+        ctx.inputs = AssistantInputs(0.0, RovNav(np.array(rov), 0.0),
+                                     DiverTrack(np.array(diver), 66.0))
+        return go.final(ctx), go.target(ctx)
+
+    goal, via = steer((0.07, 1.59, 4.0), (1.44, 0.98, 4.0))  # at his right, 1.5 m out
+    np.testing.assert_allclose(via, goal)  # beside him: straight on to his front
+    rov, diver = np.array([0.47, 1.79, 4.0]), np.array([1.81, 1.80, 4.0])  # he swam on
+    goal, via = steer(rov, diver)
+    track = DiverTrack(diver, 66.0)
+    line = np.linspace(rov, goal, 50)
+    assert min(segment_distance(p, diver, track.neck) for p in line) < 0.8  # the old way
+    line = np.linspace(rov, via, 50)
+    assert min(segment_distance(p, diver, track.neck) for p in line) >= cfg.body_guard_m + 0.5
 
 
 def test_follow_trails_the_swimming_diver():

@@ -161,11 +161,20 @@ class Drive(Leaf):
         return self.ctx.config.position_tolerance_m
 
 
+#: beside the diver, the ROV goes on straight to his front while he turns less than this
+BESIDE_TURN_DEG = 30.0
+
+
 class GoTo(Drive):
     """Transit to a point (helm GOTO: BHV_Waypoint), the way round the diver when the
     straight line would pass nearer his body than the goal itself and within a guard
     + 0.5 m: first to a point beside him, ``standoff_m`` out on the side the ROV starts
-    from."""
+    from — and while the line to that point, too, would pass within a guard + 0.5 m (the
+    ROV behind or in front of him), along the ``standoff_m`` circle round him, to the
+    point half way round to his side. Once beside him it goes straight on — until he
+    swims ``position_tolerance_m`` on or turns ``BESIDE_TURN_DEG``: then it rounds him
+    again (the bag-carrying ROV, beside him as he swam past, went on straight to his new
+    front across his held-out arms and touched him, 2026-11-26)."""
 
     MODE = "GOTO"
 
@@ -175,21 +184,32 @@ class GoTo(Drive):
         self.final = target
         self.speed = speed
         self._side: float | None = None  # +1: the diver's left, -1: his right
-        self._beside_done = False
+        #: where he was (NED) and his heading (deg) when the ROV got beside him; None: not yet
+        self._beside_at: tuple[Point, float] | None = None
 
     def initialise(self) -> None:
         super().initialise()
-        self._side, self._beside_done = None, False
+        self._side, self._beside_at = None, None
 
     def _via(self, ctx: TreeContext) -> Point | None:
         goal = self.final(ctx)
         diver = ctx.diver
-        if goal is None or diver is None or self._beside_done:
+        if goal is None or diver is None:
             return goal
         cfg = ctx.config
+        if self._beside_at is not None:
+            where, heading = self._beside_at
+            if (np.linalg.norm((diver.position_ned - where)[:2]) <= cfg.position_tolerance_m
+                    and abs(float(wrap_180(diver.heading_deg - heading))) <= BESIDE_TURN_DEG):
+                return goal  # beside him, and he is where he was: the rest of the way is clear
+            self._side, self._beside_at = None, None  # he swam on or turned: round him again
         body = diver.position_ned, diver.neck
-        closest = min(segment_distance(p, *body) for p in np.linspace(ctx.rov, goal, 25))
-        if closest >= min(segment_distance(goal, *body) - 0.05, cfg.body_guard_m + 0.5):
+
+        def closest(end: Point) -> float:  # of the straight line from the ROV to end
+            return min(segment_distance(p, *body) for p in np.linspace(ctx.rov, end, 25))
+
+        clear_m = cfg.body_guard_m + 0.5
+        if closest(goal) >= min(segment_distance(goal, *body) - 0.05, clear_m):
             return goal
         left = horizontal(np.cross(diver.forward, [0.0, 0.0, 1.0]))
         if self._side is None:
@@ -197,9 +217,18 @@ class GoTo(Drive):
         beside = diver.position_ned + cfg.standoff_m * self._side * left
         beside[2] = goal[2]
         if np.linalg.norm((beside - ctx.rov)[:2]) <= cfg.position_tolerance_m:
-            self._beside_done = True  # beside him: the rest of the way is clear
+            self._beside_at = (diver.position_ned.copy(), diver.heading_deg)
             return goal
-        return beside
+        if closest(beside) >= clear_m:
+            return beside
+        # the chord to his side would cut across his front or back (his arms reach
+        # there): round him on the stand-off circle, half the angle to his side at a time
+        here, there = ((p - diver.position_ned)[:2] for p in (ctx.rov, beside))
+        start = math.atan2(here[1], here[0])
+        turn = math.atan2(there[1], there[0]) - start
+        half = start + 0.5 * math.atan2(math.sin(turn), math.cos(turn))
+        return np.array([diver.position_ned[0] + cfg.standoff_m * math.cos(half),
+                         diver.position_ned[1] + cfg.standoff_m * math.sin(half), goal[2]])
 
     def post(self, point: Point) -> None:
         self.ctx.want("WPT_UPDATES", f"points={moos_xy(point)} # speed={self.speed:.2f}")

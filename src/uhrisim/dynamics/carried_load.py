@@ -20,11 +20,10 @@ of :mod:`uhrisim.dynamics.videoray`:
   box, :func:`box_projected_areas`). ``C_d`` is the object's own (the catalogue's flat
   plate face-on, 1.2: Hoerner, *Fluid-Dynamic Drag*, 1965, 1.17-1.28; a blunt block met
   on a smaller face has ~1.05, the cube's, in the same source — so an edge-on tow is
-  still slightly pessimistic). Without ``areas_frd`` the object's one reference area
-  serves every axis — what the teamwork stage still passes (docs/hri.md: the folded
-  lift bag, 0.35 × 0.25 × 0.10 m, towed edge-on with 0.0875 m² where ~0.04 m² is right;
-  passing its areas made the assisted ROV touch the diver on the way to the hand-over,
-  not yet understood).
+  still slightly pessimistic). The teamwork stage passes a held tool's areas from its
+  box and its pose in the jaws (the folded lift bag, 0.35 × 0.25 × 0.10 m, gripped at the
+  planned fetch heading shows ~0.043 m² ahead where its largest face is 0.0875 m²,
+  docs/hri.md). Without ``areas_frd`` the object's one reference area serves every axis.
 * **moments** of an off-centre weight, ``(y W, -x W)`` about roll and pitch, have no
   place in the 4-DOF model (roll and pitch are held at zero: planes of symmetry, paper
   §II); the vehicle **trims** instead until its righting moment ``m_v g BG sin(theta)``

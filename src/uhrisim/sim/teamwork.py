@@ -56,7 +56,7 @@ from uhrisim.control.videoray_p import VideoRayPController
 from uhrisim.core.clock import ticks_for_rate
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import rot_z
-from uhrisim.dynamics.carried_load import CarriedLoad, hover_command
+from uhrisim.dynamics.carried_load import CarriedLoad, box_projected_areas, hover_command
 from uhrisim.dynamics.diver_body import DiverSkeleton, step_motion
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.sections import part_settings
@@ -368,8 +368,10 @@ class TeamStage:
         load = None
         if held is not None:
             body = self._body_pose_now(agent.name)
-            centre = np.linalg.inv(body) @ np.append(ws.thing(held).position, 1.0)
-            load = CarriedLoad(ws.hydro_of(held), tuple(centre[:3]))
+            in_body = np.linalg.inv(body) @ ws.thing(held).pose
+            areas = (box_projected_areas(ws.tools[held].size, in_body[:3, :3])
+                     if held in ws.tools else None)
+            load = CarriedLoad(ws.hydro_of(held), tuple(in_body[:3, 3]), areas)
         agent.plant = agent.model.carrying(agent.plant, load)
         slot.carrying = held
         if agent.config.assistant is not None and isinstance(agent.controller,
