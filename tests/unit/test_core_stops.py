@@ -4,6 +4,7 @@ that went on to its end still ends as a stop: one line, 128 + the signal's numbe
 
 import os
 import signal
+import sys
 from pathlib import Path
 
 import pytest
@@ -82,3 +83,34 @@ def test_a_command_that_went_on_past_a_swallowed_stop_ends_as_a_stop(caught_stop
     assert status == 128 + signal.SIGHUP
     assert capsys.readouterr().err.strip().splitlines()[-1] == "error: stopped by SIGHUP"
     assert stops.pending_stop() is None
+
+
+def test_a_stop_inside_the_jit_compilers_callback_is_remembered_not_raised(caught_stops,
+                                                                         monkeypatch):
+    """A SIGTERM that lands in llvmlite's object-cache callback (as one did while a run
+    compiled a kernel) is raised at the next tick, not inside the callback: raised there,
+    llvmlite leaves its buffer unset and the process dies of a segmentation fault."""
+    import llvmlite.binding as llvm
+
+    llvm.initialize_native_target()
+    llvm.initialize_native_asmprinter()
+    module = llvm.parse_assembly("define i32 @seven() {\n  ret i32 7\n}\n")
+    machine = llvm.Target.from_default_triple().create_target_machine()
+    engine = llvm.create_mcjit_compiler(module, machine)
+    asked = []
+
+    def cached_object(_module) -> None:
+        asked.append(True)
+        os.kill(os.getpid(), signal.SIGTERM)
+        signal.sigtimedwait([], 0)  # the handler runs here, inside llvmlite's callback
+        return None  # nothing cached: the engine compiles the module
+
+    raised_in_callback = []  # what Python prints as "Exception ignored"
+    monkeypatch.setattr(sys, "unraisablehook", raised_in_callback.append)
+    engine.set_object_cache(getbuffer_func=cached_object)
+    engine.finalize_object()
+    assert raised_in_callback == []
+    assert asked and engine.get_function_address("seven") != 0
+    assert stops.pending_stop() == signal.SIGTERM
+    with pytest.raises(StopRequested, match="stopped by SIGTERM"):
+        stops.raise_pending_stop()

@@ -4,17 +4,21 @@
 A stop raises where it lands — :class:`KeyboardInterrupt` for Ctrl-C,
 :class:`~uhrisim.core.errors.StopRequested` for the others — so that what runs cleans up
 (recording closed, metrics written). Some libraries swallow an exception raised inside
-their callbacks (the JIT compiler's ctypes callback prints "Exception ignored" and goes
-on; a schema validator built during start-up can do the same), so every stop is also
+their callbacks (a schema validator built during start-up can), so every stop is also
 remembered until it is handled: the simulation loop raises a remembered stop at its next
 tick (:func:`raise_pending_stop`) and the command line at its end
-(:func:`pending_stop`). Without :func:`catch_stop_signals` (a library user, the tests)
-nothing is remembered and nothing changes.
+(:func:`pending_stop`). A stop that lands while the JIT compiler (llvmlite) is on the
+stack is only remembered: raised inside its ctypes callbacks it leaves the object-cache
+buffer unset, and a run stopped so once died of a segmentation fault. Without
+:func:`catch_stop_signals` (a library user, the tests) nothing is remembered and nothing
+changes.
 """
 
 from __future__ import annotations
 
+import os
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -31,9 +35,23 @@ def stop_exception(signum: int) -> BaseException:
     return KeyboardInterrupt() if signum == signal.SIGINT else StopRequested(signum)
 
 
-def _on_stop(signum: int, _frame: FrameType | None) -> None:
+def _inside_the_jit_compiler(frame: FrameType | None) -> bool:
+    """Whether llvmlite's code is on the stack below ``frame`` (its callbacks from C)."""
+    llvmlite = sys.modules.get("llvmlite")
+    if llvmlite is None or llvmlite.__file__ is None:
+        return False
+    package = os.path.dirname(llvmlite.__file__) + os.sep
+    while frame is not None:
+        if frame.f_code.co_filename.startswith(package):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _on_stop(signum: int, frame: FrameType | None) -> None:
     _pending.append(signum)
-    raise stop_exception(signum)
+    if not _inside_the_jit_compiler(frame):
+        raise stop_exception(signum)
 
 
 def catch_stop_signals() -> None:
