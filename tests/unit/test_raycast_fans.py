@@ -13,7 +13,12 @@ from uhrisim.world import seafloor as sf
 from uhrisim.world.assets import diver_parts
 from uhrisim.world.bodies import ArticulatedMesh
 from uhrisim.world.materials import NEOPRENE, SAND
-from uhrisim.world.raycast import _fan_spans
+from uhrisim.world.raycast import (
+    _compiled_fan_sphere_rays,
+    _fan_sphere_rays,
+    _fan_spans,
+    _RayCuller,
+)
 from uhrisim.world.scene import Scene
 
 RANGE_M = 20.0
@@ -79,6 +84,32 @@ def test_fan_spans_are_each_fan_s_least_and_greatest_components() -> None:
     lo, hi = _fan_spans(d)
     np.testing.assert_array_equal(lo, d.min(axis=1))
     np.testing.assert_array_equal(hi, d.max(axis=1))
+
+
+def test_fan_sphere_pass_picks_the_rays_the_ray_culler_picks() -> None:
+    """The fans' bounding-sphere pass (whole fans, and one ray per row) is
+    :class:`_RayCuller`'s test: per fan, the same rays, some just inside or outside a
+    sphere whose radius is a ray's miss distance."""
+    rng = np.random.default_rng(11)
+    origins, dirs, _, _ = _fans(rng, 6, 400)
+    centres = origins + rng.normal(0.0, 3.0, (6, 3))
+    v = centres[:, None, :] - origins[:, None, :]
+    tca = np.einsum("nrk,nk->nr", dirs, v[:, 0])
+    miss = np.sqrt(np.maximum(np.einsum("nk,nk->n", v[:, 0], v[:, 0])[:, None] - tca**2, 0))
+    radii = np.median(miss, axis=1)  # half of each fan's rays pass within the radius
+    limit = rng.uniform(0.5, 12.0, 6 * 400)
+    expected = [f * 400 + _RayCuller(origins[f], dirs[f]).candidates(
+        limit[f * 400:(f + 1) * 400], centres[f], radii[f]) for f in (0, 2, 3, 5)]
+    sphere_rays = _compiled_fan_sphere_rays() or _fan_sphere_rays
+    rows = np.empty(6 * 400, dtype=np.int64)
+    count = sphere_rays(np.array([0, 2, 3, 5]), 400, origins, dirs.reshape(-1, 3), limit,
+                        centres, radii, rows)
+    np.testing.assert_array_equal(rows[:count], np.concatenate(expected))
+    assert 0 < count < 4 * 400
+    per_row = np.concatenate(expected)
+    count = sphere_rays(per_row // 400, 0, origins, dirs.reshape(-1, 3)[per_row],
+                        limit[per_row], centres, radii, rows)
+    np.testing.assert_array_equal(rows[:count], np.arange(len(per_row)))
 
 
 def test_parts_posed_for_many_phases_at_once_are_each_phase_s() -> None:

@@ -27,7 +27,9 @@ from tests.support.analytic_sonar import (
     window_hits,
 )
 from uhrisim.sensors.sonar import ImagingSonar, SonarConfig, echoes, get_preset
+from uhrisim.sensors.sonar.cast import cast_fan
 from uhrisim.sensors.sonar.config import ECHOES_ONLY
+from uhrisim.sensors.sonar.polar import clip_unit, display_bytes
 from uhrisim.sensors.sonar.reference import reference_bytes, reference_polar
 from uhrisim.sensors.sonar.speckle import SpeckleBank
 
@@ -321,6 +323,30 @@ def test_display_bytes_match_the_reference_mapping() -> None:
     expected = reference_bytes(ping.polar.astype(np.float64), cfg.display_gamma)
     assert np.abs(ping.polar_u8.astype(int) - expected).max() <= 1  # float32 rounding
     assert (ping.polar_u8 == expected).mean() > 0.99
+
+
+@pytest.mark.parametrize("gamma", [1.0, 2.5])
+def test_polar_bytes_alone_are_the_ping_s_bytes(gamma: float) -> None:
+    """polar_bytes (the vector env's image: the display curve clips the level itself for
+    γ ≠ 1) gives the bytes of the whole ping, drawing the same speckle."""
+    cfg = small_cfg(speckle=True, display_gamma=gamma)
+    caster = AnalyticCaster(plate_north=10.0, plate_half=0.3, plate_z=5.5)
+    ping = ImagingSonar(cfg, np.random.default_rng(5)).ping(caster, ORIGIN, LEVEL, 0)
+    alone = ImagingSonar(cfg, np.random.default_rng(5))
+    p_s, R_s = alone.sonar_pose(ORIGIN, LEVEL)
+    hits = cast_fan(caster, p_s, alone.geometry.dirs_sonar @ R_s.T, alone.cast_window_m)
+    assert ping.polar.min() == 0.0 and ping.polar.max() == 1.0  # levels were clipped
+    np.testing.assert_array_equal(alone.polar_bytes(p_s, R_s, hits), ping.polar_u8)
+
+
+@pytest.mark.parametrize("gamma", [0.3, 1.0, 2.5, 10.0])
+def test_display_curve_clips_as_clip_unit_does(gamma: float) -> None:
+    level = np.array([[-np.inf, -3.0, -1e-38, 0.0, 1e-38, 1e-31, 0.3, 0.999, 1.0, 1.0000001,
+                       1.5, 40.0, np.inf]], np.float32)
+    for black in (0, 17):
+        expected = display_bytes(clip_unit(level.copy()), gamma, black)
+        got = display_bytes(level.copy(), gamma, black, clipped=False)
+        np.testing.assert_array_equal(got, expected)
 
 
 def test_raw_echo_image_of_a_ping_does_not_keep_the_previous_ping_s_echo() -> None:

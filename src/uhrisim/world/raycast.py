@@ -697,12 +697,12 @@ class _BodyBVH:
         lo, hi = centres.min(axis=1), centres.max(axis=1)
         whole = 0.5 * (lo + hi)
         reach = np.max(np.linalg.norm(centres - whole[:, None], axis=2) + self.radii, axis=1)
-        r = reach * (1.0 + 1e-6) + 1e-6
+        r = reach * (1.0 + 1e-6) + 1e-6  # padded as _touches_sphere pads it
         fans = np.flatnonzero(_fans_reach(origins, spans, float(np.max(limit, initial=0.0)),
                                           whole - r[:, None], whole + r[:, None]))
         sphere_rays = _compiled_fan_sphere_rays() or _fan_sphere_rays
         body_rows = np.empty(len(fans) * n_rays, dtype=np.int64)
-        body_rows = body_rows[:sphere_rays(fans, n_rays, origins, flat, limit, whole, r,
+        body_rows = body_rows[:sphere_rays(fans, n_rays, origins, flat, limit, whole, reach,
                                            body_rows)]
         face = np.full(len(body_rows), -1, dtype=np.int64)
         bound = limit[body_rows]  # nearest hit so far (or the limit)
@@ -711,7 +711,7 @@ class _BodyBVH:
         near = np.empty(len(body_rows), dtype=np.int64)
         for g, mesh in enumerate(self.groups):
             # the group's sphere (_RayCuller's conservative test) on the rays near the body
-            rg = np.full(n_fans, mesh.radius * (1.0 + 1e-6) + 1e-6)
+            rg = np.full(n_fans, mesh.radius)
             count = sphere_rays(body_fan, 0, origins, body_d, bound, centres[:, g], rg, near)
             if count == 0:
                 continue
@@ -737,21 +737,18 @@ def _fan_sphere_rays(fans, n_rays, origins, d, limit, centres, radii,
                      rows):  # type: ignore[no-untyped-def]
     """The rays of fans ``fans`` (R = ``n_rays`` each, rows fan·R + k of ``d`` (N·R, 3)
     and ``limit``; or, with ``n_rays`` 0, row j of fan ``fans[j]``) whose segment
-    [0, limit] may touch the fan's sphere (``centres`` (N, 3), ``radii`` (N,) padded
-    already): :class:`_RayCuller`'s test, written to ``rows`` in increasing order (row
-    numbers; with ``n_rays`` 0, indices j); returns their count. Compiled (numba) where
-    it can be."""
+    [0, limit] may touch the fan's sphere (``centres`` (N, 3), ``radii`` (N,)):
+    :func:`_touches_sphere`, :class:`_RayCuller`'s test, written to ``rows`` in
+    increasing order (row numbers; with ``n_rays`` 0, indices j); returns their count.
+    Compiled (numba) where it can be."""
     count = 0
     per_fan = n_rays if n_rays > 0 else 1
     for j in range(len(fans)):
         f = fans[j]
-        o, c, rr = origins[f], centres[f], radii[f]
-        v0, v1, v2 = c[0] - o[0], c[1] - o[1], c[2] - o[2]
-        vv = v0 * v0 + v1 * v1 + v2 * v2
+        v0, v1, v2, vv, r = _sphere_seen_from(origins[f], centres[f], radii[f])
         first = f * n_rays if n_rays > 0 else j
         for row in range(first, first + per_fan):
-            tca = d[row, 0] * v0 + d[row, 1] * v1 + d[row, 2] * v2
-            if vv - tca * tca <= rr * rr and tca + rr >= 0.0 and tca - rr <= limit[row]:
+            if _ray_meets_sphere(v0, v1, v2, vv, r, d[row], limit[row]):
                 rows[count] = row
                 count += 1
     return count
@@ -811,26 +808,43 @@ def _sphere_rays(origins, d, limit, centre, radius, rows):  # type: ignore[no-un
 def _touches_sphere(o, d, limit, centre, radius):  # type: ignore[no-untyped-def]
     """Whether the segment [0, ``limit``] of the ray from ``o`` along ``d`` (3,) may touch
     the sphere (``centre`` (3,), ``radius``): :class:`_RayCuller`'s test for one ray."""
-    r = radius * (1.0 + 1e-6) + 1e-6
+    v0, v1, v2, vv, r = _sphere_seen_from(o, centre, radius)
+    return _ray_meets_sphere(v0, v1, v2, vv, r, d, limit)
+
+
+def _sphere_seen_from(o, centre, radius):  # type: ignore[no-untyped-def]
+    """The sphere (``centre`` (3,), ``radius``) as :func:`_ray_meets_sphere` takes it for
+    rays from ``o`` (3,): c − o by component, |c − o|² and the radius padded to keep the
+    test conservative. Loops over many rays from one origin form it once."""
     v0, v1, v2 = centre[0] - o[0], centre[1] - o[1], centre[2] - o[2]
+    return v0, v1, v2, v0 * v0 + v1 * v1 + v2 * v2, radius * (1.0 + 1e-6) + 1e-6
+
+
+def _ray_meets_sphere(v0, v1, v2, vv, r, d, limit):  # type: ignore[no-untyped-def]
+    """:class:`_RayCuller`'s test for one ray along ``d`` (3,) within ``limit``, the
+    sphere given by :func:`_sphere_seen_from`: miss distance² vv − t_ca² ≤ r² and
+    −r ≤ t_ca ≤ limit + r, t_ca = (c − o)·d."""
     tca = d[0] * v0 + d[1] * v1 + d[2] * v2
-    return (v0 * v0 + v1 * v1 + v2 * v2) - tca * tca <= r * r and tca + r >= 0.0 \
-        and tca - r <= limit
+    return vv - tca * tca <= r * r and tca + r >= 0.0 and tca - r <= limit
+
+
+#: The ray/bounding-sphere test's functions, compiled into the kernels that call them.
+_SPHERE_TEST = (_touches_sphere, _sphere_seen_from, _ray_meets_sphere)
 
 
 @cache
 def _compiled_sphere_rays():  # type: ignore[no-untyped-def]
-    return jit_with(_sphere_rays, (_touches_sphere,))
+    return jit_with(_sphere_rays, _SPHERE_TEST)
 
 
 @cache
 def _compiled_group_rays():  # type: ignore[no-untyped-def]
-    return jit_with(_group_rays, (_touches_sphere,))
+    return jit_with(_group_rays, _SPHERE_TEST)
 
 
 @cache
 def _compiled_fan_sphere_rays():  # type: ignore[no-untyped-def]
-    return jit(_fan_sphere_rays)
+    return jit_with(_fan_sphere_rays, _SPHERE_TEST)
 
 
 class EmbreeRayCaster(RayCaster):

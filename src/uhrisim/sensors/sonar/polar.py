@@ -201,14 +201,23 @@ def clip_unit(img: NDArray[np.float32]) -> NDArray[np.float32]:
 
 
 def display_bytes(
-    polar: NDArray[np.float32], gamma: float, black: int = 0
+    polar: NDArray[np.float32], gamma: float, black: int = 0, clipped: bool = True
 ) -> NDArray[np.uint8]:
     """The 8-bit display mapping ``round(b + (255 − b)·x^γ)`` of the clipped display level
     x: the contrast curve γ, and the black level b the viewer gives the bottom of the
-    display window (a window's bottom is grey, not black, on real displays)."""
+    display window (a window's bottom is grey, not black, on real displays).
+
+    ``clipped=False``: ``polar`` is the display level before :func:`clip_unit` (not
+    NaN), clipped here in place; the same bytes. For γ ≠ 1 a pass fewer: the curve's floor
+    at 1e-30 takes every x ≤ 0 as it takes 0, so only the top is clipped (x^γ of a level
+    far above 1 would overflow OpenCV's rounding to int)."""
     scale = 255.0 - black
     if gamma == 1.0:
+        if not clipped:
+            clip_unit(polar)
         return cv2.convertScaleAbs(polar, alpha=scale, beta=float(black))
+    if not clipped:
+        cv2.threshold(polar, 1.0, 1.0, cv2.THRESH_TRUNC, dst=polar)
     # x = 0 stays at the black level: 255·(1e-30)^γ < 0.5 for every allowed γ ≥ 0.1 (and
     # OpenCV's log of 0 and exp of −inf take a slow path, ~10× a normal pass).
     t = cv2.max(polar, 1e-30)

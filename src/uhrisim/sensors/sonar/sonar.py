@@ -356,16 +356,19 @@ class ImagingSonar:
         if cfg.mode != "physical":
             return self.form_image(0.0, position_ned, rotation_ned_from_sonar, *hits).polar_u8
         e = self.ray_intensity(hits.idx, hits.r, hits.cos_inc, hits.mu)
-        polar, _ = self._physical_image(position_ned, rotation_ned_from_sonar, hits, e)
-        return display_bytes(polar, cfg.display_gamma, cfg.black_level)
+        level, _ = self._physical_image(position_ned, rotation_ned_from_sonar, hits, e,
+                                        clipped=False)
+        return display_bytes(level, cfg.display_gamma, cfg.black_level, clipped=False)
 
     def _physical_image(self, position_ned: NDArray[np.float64],
                         rotation_ned_from_sonar: NDArray[np.float64], hits: FanHits,
-                        e: NDArray[np.float64], volume: VolumeEchoes | None = None
+                        e: NDArray[np.float64], volume: VolumeEchoes | None = None,
+                        clipped: bool = True
                         ) -> tuple[NDArray[np.float32], NDArray[np.int16]]:
         """Physical mode's display level and cell labels (``polar``, ``label_polar``) of
         the ``hits``' ray echoes ``e`` (:meth:`form_image`): the raw echo image (with the
-        surface ghosts and ``volume`` echoes), then :meth:`_physical_polar`."""
+        surface ghosts and ``volume`` echoes), then :meth:`_physical_polar` (``clipped``:
+        its level clipped to 0…1)."""
         idx, r, cos_inc, _, labels = hits
         cfg, g = self.config, self.geometry
         if cfg.multipath:
@@ -387,7 +390,7 @@ class ImagingSonar:
         if volume is not None and len(volume[2]):
             self._echoes.add_echoes(*volume)
             rows = None  # volume echo may lie in any row
-        return self._physical_polar(raw, rows, surface), label_polar
+        return self._physical_polar(raw, rows, surface, clipped), label_polar
 
     # -- stages ------------------------------------------------------------------------------
     def footprint(
@@ -441,11 +444,13 @@ class ImagingSonar:
         raw: NDArray[np.float32],
         rows: list[tuple[int, int]] | None = None,
         surface: NDArray[np.float64] | None = None,
+        clipped: bool = True,
     ) -> NDArray[np.float32]:
         """The stages of :mod:`.polar`, composed: diffuse terms per row, the mean image
         through the beam and pulse patterns times the product speckle field, or the
-        coherent sum (``speckle_model``), TVG, gain and log compression, clipped to 0…1 (a
-        new array). ``surface``: this ping's surface reverberation per row (None: none).
+        coherent sum (``speckle_model``), TVG, gain and log compression, clipped to 0…1
+        unless not ``clipped`` (a new array). ``surface``: this ping's surface
+        reverberation per row (None: none).
 
         ``rows``: row ranges outside which ``raw`` is zero at least a range-kernel
         half-width deep (None: all rows); only those are filtered. The others hold only
@@ -487,4 +492,4 @@ class ImagingSonar:
                 if bank is not None:  # product speckle: a factor |w|² on intensity
                     cv2.add(blk, k_ln_w2[a:b], dst=blk)
             done = b
-        return clip_unit(img)
+        return clip_unit(img) if clipped else img

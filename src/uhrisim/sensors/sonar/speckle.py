@@ -157,9 +157,11 @@ class SpeckleBank:
         return SpeckleBank(shape, z_re, z_im, ln_w2 * np.float32(2.0 * k_ln))
 
     def w_offset(self, rng: np.random.Generator) -> tuple[int, int]:
-        """A ping's random window of the diffuse field: (row, column)."""
-        o = rng.integers(0, (ROW_EXTRA + 1, self.k_ln_w2.shape[1] - self.shape[1] + 1))
-        return int(o[0]), int(o[1])
+        """A ping's random window of the diffuse field: (row, column). (Two scalar draws:
+        the numbers, and the Generator's state after them, of one ``integers`` call with
+        the two bounds, in under half its time.)"""
+        row = int(rng.integers(0, ROW_EXTRA + 1))
+        return row, int(rng.integers(0, self.k_ln_w2.shape[1] - self.shape[1] + 1))
 
     def z(self, offset: int) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
         """The scatterer amplitudes of a ping, (n_bins, n_beams) views."""
