@@ -175,6 +175,11 @@ class Loiter(Behavior):
         if self.params.center_activate:
             self._pending_center_here = True
 
+    def _turn(self, x: float, y: float, k: int, d: int) -> float:
+        """The turn (deg, [-180, 180)) onto vertex k's onward edge in direction d, coming
+        from (x, y) (:meth:`acquire` works out the bearings to the vertices once)."""
+        return wrap_180(self._edges()[2][k, d] - bearing_deg(x, y, *self.vertices[k]))
+
     def _visible_vertices(self, x: float, y: float) -> list[int]:
         """The vertices whose sight line from (x, y) properly crosses no edge (one touching
         it does not count): an edge blocks when its two cross products with the line's ends
