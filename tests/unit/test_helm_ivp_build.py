@@ -12,7 +12,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uhrisim.autonomy.ivp_build import fit_pieces, fit_pieces_reference, normalize, reflect
+from uhrisim.autonomy.cpa import AvoidUtility, CpaGrid, CutRangeUtility
+from uhrisim.autonomy.ivp_build import (
+    fit_pieces,
+    fit_pieces_reference,
+    normalize,
+    reflect,
+    reflect_cpa,
+    reflect_ranged,
+)
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "helm" / "ivp_reflector.npz"
 CASES = [("avoid_3x3_26", (3, 3)), ("avoid_3x3_41", (3, 3)), ("cpa_3x2_26", (3, 2))]
@@ -37,6 +45,27 @@ def test_vectorised_fit_equals_reference(shape: tuple[int, int], piece: tuple[in
     for name in ("b", "mc", "ms"):
         np.testing.assert_array_equal(getattr(fast, name), getattr(ref, name))
     np.testing.assert_array_equal(fast.table(), ref.table())
+
+
+@pytest.mark.parametrize("shape", [(10, 7), (4, 1), (1, 5), (2, 2)])
+def test_reflected_table_and_range_equal_the_numpy_build(shape: tuple[int, int]):
+    """reflect_ranged and reflect_cpa (compiled with numba: the pieces' samples, one column
+    a piece) on grids with single-index and cut-short pieces along both axes."""
+    rng = np.random.default_rng(shape[0] * 10 + shape[1])
+    values = rng.uniform(-5.0, 120.0, shape)
+    values[rng.uniform(size=shape) < 0.3] = 100.0
+    grid = CpaGrid.over(np.linspace(0.0, 350.0, shape[0]), np.linspace(0.0, 2.0, shape[1]))
+    for piece in [(3, 3), (3, 2), (1, 1), (4, 5), (2, 1)]:
+        table, lo, hi = reflect_ranged(values, piece)
+        numpy = normalize(normalize(fit_pieces(values, piece))).table()
+        np.testing.assert_array_equal(table, numpy)
+        assert (lo, hi) == (numpy.min(), numpy.max())
+        for utility in (AvoidUtility(8.0, 25.0), CutRangeUtility(12.5)):
+            situation = (3.0, -4.0, 10.0, 2.0, 200.0, 0.8, 60.0)
+            built = reflect_cpa(grid, *situation, utility, piece)
+            expected = reflect_ranged(grid.distance(*situation, utility), piece)
+            np.testing.assert_array_equal(built[0], expected[0])
+            assert built[1:] == expected[1:]
 
 
 def test_pieces_cover_the_grid_with_the_last_one_cut_short():

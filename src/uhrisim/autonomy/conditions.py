@@ -186,6 +186,8 @@ class HeldMemo:
         self._holds = True
 
     def __call__(self, info: Mapping[str, object]) -> bool:
+        if not self.conditions:  # none: they hold
+            return True
         read = values_read(info, self._reads)
         if read != self._read:
             self._holds, self._read = all(c.evaluate(info) for c in self.conditions), read

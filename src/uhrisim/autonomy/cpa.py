@@ -269,10 +269,24 @@ _DISTANCE, _AVOID, _CUT_RANGE = 0, 1, 2  # what the compiled kernel makes of the
 
 
 def _cpa_points(vx, vy, cwx, cwy, dx, dy, r2, horizon, kind, p0, p1, out):  # type: ignore[no-untyped-def]
-    """:meth:`CpaGrid.distance` point by point (:func:`cpa_point`), compiled by numba."""
-    vxf, vyf, outf = vx.ravel(), vy.ravel(), out.ravel()
-    for k in range(vxf.shape[0]):
-        outf[k] = cpa_point(vxf[k], vyf[k], cwx, cwy, dx, dy, r2, horizon, kind, p0, p1)
+    """:meth:`CpaGrid.distance` point by point (:func:`cpa_points_into`), compiled by numba."""
+    cpa_points_into(vx.ravel(), vy.ravel(), cwx, cwy, dx, dy, r2, horizon, kind, p0, p1,
+                    out.ravel())
+
+
+def cpa_points_into(vx, vy, cwx, cwy, dx, dy, r2, horizon, kind, p0, p1, out):  # type: ignore[no-untyped-def]
+    """``out[k]`` = :func:`cpa_point` at own velocity (``vx[k]``, ``vy[k]``), 1-D arrays; for
+    compiled kernels. One loop per utility kind, each with its kind a constant, so that
+    each vectorises."""
+    if kind == _AVOID:
+        for k in range(out.shape[0]):
+            out[k] = cpa_point(vx[k], vy[k], cwx, cwy, dx, dy, r2, horizon, _AVOID, p0, p1)
+    elif kind == _CUT_RANGE:
+        for k in range(out.shape[0]):
+            out[k] = cpa_point(vx[k], vy[k], cwx, cwy, dx, dy, r2, horizon, _CUT_RANGE, p0, p1)
+    else:
+        for k in range(out.shape[0]):
+            out[k] = cpa_point(vx[k], vy[k], cwx, cwy, dx, dy, r2, horizon, _DISTANCE, p0, p1)
 
 
 def cpa_point(vx, vy, cwx, cwy, dx, dy, r2, horizon, kind, p0, p1):  # type: ignore[no-untyped-def]
@@ -288,10 +302,10 @@ def cpa_point(vx, vy, cwx, cwy, dx, dy, r2, horizon, kind, p0, p1):  # type: ign
     t = min(max(t, 0.0), horizon)
     a = ((a * t) - nb * 2.0) * t + r2
     cpa = np.sqrt(max(a, 0.0))
-    if kind == 1:
+    if kind == _AVOID:
         u = min(max((cpa - p0) * p1 + 25.0, 25.0), 100.0)
         return u if cpa >= p0 else 0.0
-    if kind == 2:
+    if kind == _CUT_RANGE:
         return min(max(100.0 - (cpa * 100.0) / p0, 0.0), 100.0)
     return cpa
 
@@ -299,6 +313,7 @@ def cpa_point(vx, vy, cwx, cwy, dx, dy, r2, horizon, kind, p0, p1):  # type: ign
 @cache
 def _compiled_points():  # type: ignore[no-untyped-def]
     callable_compiled(cpa_point)
+    callable_compiled(cpa_points_into)
     return jit(_cpa_points, numpy_errors=True)
 
 

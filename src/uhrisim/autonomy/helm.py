@@ -172,6 +172,7 @@ def _num(v: object) -> float | None:
 OVERRIDE_VARS = frozenset({"MOOS_MANUAL_OVERRIDE", "MOOS_MANUAL_OVERIDE"})
 LEDGER_VARS = frozenset({"NODE_REPORT", "AIS_REPORT", "AIS_REPORT_LOCAL"})
 _NO_DECISION = ("NothingToDo", "MissingDecVars")
+_NOT_KEPT = frozenset(("BHV_WARNING", "BHV_ERROR", "IVPHELM_SKEW"))  # posts not in the info
 _LIST_VARS = {status: f"IVPHELM_BHV_{status.upper()}"
               for status in ("active", "running", "idle", "completed")}
 
@@ -209,6 +210,13 @@ class Helm:
         self._no_decisions = 0
         self._first = True
         self._last_lists: dict[str, tuple[str, ...]] = {}  # by status: the names last posted
+        self._changes = 0  # behaviors spawned, removed or updated so far
+        # every slot's status at the last output, the names by status then, and _changes
+        self._last_statuses: tuple[str, ...] = ()
+        self._by_status: dict[str, tuple[str, ...]] = {}
+        self._changes_listed = -1
+        self._watched_at: tuple[int, int] | None = None  # (slots, changes) of _watched_vars
+        self._watched_vars: frozenset[str] = frozenset()
         self.last_output: HelmOutput | None = None
 
     # -- queries ---------------------------------------------------------------------
@@ -250,8 +258,19 @@ class Helm:
         if r.type:
             self.info[f"{r.name.upper()}_NAV_TYPE"] = r.type
 
+    def _watched(self) -> frozenset[str]:
+        """The variables whose postings are kept for the next decision iteration (the
+        templates' and the behaviors' ``updates``); worked out again only after a behavior
+        was spawned, removed or updated."""
+        at = (len(self.slots), self._changes)
+        if at != self._watched_at:
+            self._watched_at = at
+            self._watched_vars = frozenset(self.templates).union(
+                s.bhv.common.updates for s in self.slots)
+        return self._watched_vars
+
     def _take_mail(self, t: float, postings: Iterable[Posting], posts: list) -> None:
-        watched = set(self.templates) | {s.bhv.common.updates for s in self.slots}
+        watched = self._watched()
         skew = self.settings.ok_skew
         for var, v, t_post in postings:
             if skew is not None and abs(t - t_post) > skew:
@@ -263,7 +282,7 @@ class Helm:
                 self._node_report(v, posts)
                 continue
             try:
-                self.info[var] = moos_value(v)
+                self.info[var] = v if type(v) is float else moos_value(v)
             except ConfigError as e:
                 self._warn(posts, f"{var}: {e}")
                 continue
@@ -309,6 +328,7 @@ class Helm:
                 continue
             b.reset()
             self.slots.append(_Slot(b, spawned=True))
+            self._changes += 1
             self.spawn_counts[tpl.name] = self.spawn_counts.get(tpl.name, 0) + 1
             posts.extend(self._expand(b, f) for f in b.common.spawnflags)
             log.info("helm %s: spawned %s", self.vehicle_name, new_name)
@@ -316,6 +336,7 @@ class Helm:
     def _apply_update(
         self, bhv: Behavior, var: str, pairs: list[tuple[str, str]], posts: list
     ) -> None:
+        self._changes += 1
         try:
             for k, v in pairs:
                 if k in ("name", "templating"):
@@ -384,7 +405,9 @@ class Helm:
             if s.status != "completed":
                 self._run_slot(s, ctx, weighted)
         posts.extend(ctx.posts)
-        self.slots = [s for s in self.slots if not (s.spawned and s.status == "completed")]
+        if any(s.spawned and s.status == "completed" for s in self.slots):
+            self.slots = [s for s in self.slots if not (s.spawned and s.status == "completed")]
+            self._changes += 1
         if any(var == "BHV_ERROR" for var, _ in ctx.posts):  # HelmEngine.cpp:233-243
             result, reason = None, "BehaviorError"
         else:
@@ -528,19 +551,25 @@ class Helm:
         if result is not None and result.decision is not None:
             d = result.decision
             decision = Decision(d["course"], d["speed"], d.get("depth"))
-        groups: dict[str, list[str]] = {"active": [], "running": [], "idle": [], "completed": []}
-        for s in self.slots:
-            group = groups.get(s.status)
-            if group is not None:
-                group.append(s.bhv.name)
-        by = {k: tuple(v) for k, v in groups.items()}
-        for status, names in by.items():  # IVPHELM_BHV_ACTIVE, ... when they change
-            if self._last_lists.get(status) != names:
-                posts.append((_LIST_VARS[status], ",".join(names)))
-                self._last_lists[status] = names
+        statuses = tuple([s.status for s in self.slots])
+        if statuses != self._last_statuses or self._changes != self._changes_listed:
+            groups: dict[str, list[str]] = {"active": [], "running": [], "idle": [],
+                                            "completed": []}
+            for s in self.slots:
+                group = groups.get(s.status)
+                if group is not None:
+                    group.append(s.bhv.name)
+            by = self._by_status = {k: tuple(v) for k, v in groups.items()}
+            self._last_statuses, self._changes_listed = statuses, self._changes
+            for status, names in by.items():  # IVPHELM_BHV_ACTIVE, ... when they change
+                if self._last_lists.get(status) != names:
+                    posts.append((_LIST_VARS[status], ",".join(names)))
+                    self._last_lists[status] = names
+        by = self._by_status
+        info = self.info
         for var, val in posts:
-            if var not in ("BHV_WARNING", "BHV_ERROR", "IVPHELM_SKEW"):
-                self.info[var] = val
+            if var not in _NOT_KEPT:
+                info[var] = val
         self._first = False
         out = HelmOutput(
             t=t,

@@ -80,9 +80,9 @@ class _Term:
             return self.values
         return (self.values + self.offset) * self.scale
 
-    def at(self, indices: dict[str, int]) -> float:
-        """f at a decision given as axis-name -> grid index."""
-        v = float(self.values[tuple([indices[a] for a in self.axes])])
+    def at(self, where: tuple[int, ...]) -> float:
+        """f at a decision given as the grid index on each of its axes."""
+        v = self.values.item(where)
         return v if self.scale is None else (v + self.offset) * self.scale
 
 
@@ -241,8 +241,12 @@ def _audit(
 ) -> SolveResult:
     missing = [a.name for a in domain.axes if not a.optional and a.name not in indices]
     contributions = {w.name: 0.0 for w in objs}
+    where: dict[tuple[str, ...], tuple[int, ...]] = {}  # the decision's indices, by axes
     for w in objs:
-        contributions[w.name] += w.priority * w.at(indices)
+        at = where.get(w.axes)
+        if at is None:
+            at = where[w.axes] = tuple([indices[a] for a in w.axes])
+        contributions[w.name] += w.priority * w.at(at)
     total = float(sum(contributions.values()))
     if missing:
         return SolveResult(

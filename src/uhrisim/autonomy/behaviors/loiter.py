@@ -176,9 +176,9 @@ class Loiter(Behavior):
             self._pending_center_here = True
 
     def _turn(self, x: float, y: float, k: int, d: int) -> float:
-        vx, vy = self.vertices[k]
-        approach = bearing_deg(x, y, vx, vy)
-        return float(wrap_180(self._edges()[2][k, d] - approach))
+        """The turn (deg, [-180, 180)) onto vertex k's onward edge in direction d, coming
+        from (x, y) (:meth:`acquire` works out the bearings to the vertices once)."""
+        return wrap_180(self._edges()[2][k, d] - bearing_deg(x, y, *self.vertices[k]))
 
     def _visible_vertices(self, x: float, y: float) -> list[int]:
         """The vertices whose sight line from (x, y) properly crosses no edge (one touching
@@ -230,23 +230,29 @@ class Loiter(Behavior):
         """(vertex index, direction +1 clockwise / -1 counter-clockwise) to approach."""
         p: LoiterParams = self.params
         vs, n = self.vertices, len(self.vertices)
+        approach = [bearing_deg(x, y, vx, vy) for vx, vy in vs]  # from (x, y) to each vertex
+        onward = self._edges()[2]
+
+        def turn(k: int, d: int) -> float:  # at vertex k, onward in direction d
+            return wrap_180(onward[k, d] - approach[k])
+
         if point_in_polygon(x, y, vs):
             d = self.direction
-            near = min(range(n), key=lambda k: abs(wrap_180(heading - bearing_deg(x, y, *vs[k]))))
-            score = [abs(self._turn(x, y, k, d)) - (2.0 if k == near else 0.0) for k in range(n)]
+            near = min(range(n), key=lambda k: abs(wrap_180(heading - approach[k])))
+            score = [abs(turn(k, d)) - (2.0 if k == near else 0.0) for k in range(n)]
             return min(range(n), key=lambda k: score[k]), d
 
         seen = self._visible_vertices(x, y) or list(range(n))
 
         def out(d: int) -> int:
             pick = max if d == 1 else min
-            return pick(seen, key=lambda k: self._turn(x, y, k, d))
+            return pick(seen, key=lambda k: turn(k, d))
 
         if p.clockwise != "best":
             return out(self.direction), self.direction
         cw, ccw = out(1), out(-1)
-        dcw = abs(wrap_180(heading - bearing_deg(x, y, *vs[cw])))
-        dccw = abs(wrap_180(heading - bearing_deg(x, y, *vs[ccw])))
+        dcw = abs(wrap_180(heading - approach[cw]))
+        dccw = abs(wrap_180(heading - approach[ccw]))
         return (cw, 1) if dcw < dccw else (ccw, -1)
 
     def on_run(self, ctx: BehaviorContext) -> Objective | None:
