@@ -263,8 +263,9 @@ def test_loiter_acquisition_rules():
     # outside, south: only the two south corners are visible from (10, -30)
     assert b._visible_vertices(10.0, -30.0) == [0, 3]
     # turns onto the onward clockwise edge: (0,0): 341.6 -> 0 = +18.4; (20,0): 18.4 -> 270
-    assert b._turn(10.0, -30.0, 0, 1) == pytest.approx(18.435, abs=1e-3)
-    assert b._turn(10.0, -30.0, 3, 1) == pytest.approx(-108.435, abs=1e-3)
+    approaches = b._approaches(10.0, -30.0)
+    assert b._turn(approaches, 0, 1) == pytest.approx(18.435, abs=1e-3)
+    assert b._turn(approaches, 3, 1) == pytest.approx(-108.435, abs=1e-3)
     assert b.acquire(10.0, -30.0, 0.0) == (0, 1)  # clockwise: the largest turn
     # best: heading 350 is 8.4 deg from the clockwise entry (341.6) and 28.4 from 18.4
     best = make("Loiter", polygon=sq, speed=1.0, clockwise="best")

@@ -15,8 +15,8 @@ from uhrisim.world.bodies import ArticulatedMesh
 from uhrisim.world.materials import NEOPRENE, SAND
 from uhrisim.world.raycast import (
     _compiled_fan_sphere_rays,
-    _fan_sphere_rays,
     _fan_spans,
+    _fan_sphere_rays,
     _RayCuller,
 )
 from uhrisim.world.scene import Scene

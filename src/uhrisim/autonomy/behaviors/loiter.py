@@ -175,10 +175,14 @@ class Loiter(Behavior):
         if self.params.center_activate:
             self._pending_center_here = True
 
-    def _turn(self, x: float, y: float, k: int, d: int) -> float:
+    def _approaches(self, x: float, y: float) -> list[float]:
+        """The bearing (deg) from (x, y) to each vertex."""
+        return [bearing_deg(x, y, vx, vy) for vx, vy in self.vertices]
+
+    def _turn(self, approaches: list[float], k: int, d: int) -> float:
         """The turn (deg, [-180, 180)) onto vertex k's onward edge in direction d, coming
-        from (x, y) (:meth:`acquire` works out the bearings to the vertices once)."""
-        return wrap_180(self._edges()[2][k, d] - bearing_deg(x, y, *self.vertices[k]))
+        along ``approaches[k]`` (:meth:`_approaches`)."""
+        return wrap_180(self._edges()[2][k, d] - approaches[k])
 
     def _visible_vertices(self, x: float, y: float) -> list[int]:
         """The vertices whose sight line from (x, y) properly crosses no edge (one touching
@@ -230,23 +234,19 @@ class Loiter(Behavior):
         """(vertex index, direction +1 clockwise / -1 counter-clockwise) to approach."""
         p: LoiterParams = self.params
         vs, n = self.vertices, len(self.vertices)
-        approach = [bearing_deg(x, y, vx, vy) for vx, vy in vs]  # from (x, y) to each vertex
-        onward = self._edges()[2]
-
-        def turn(k: int, d: int) -> float:  # at vertex k, onward in direction d
-            return wrap_180(onward[k, d] - approach[k])
-
+        approach = self._approaches(x, y)
         if point_in_polygon(x, y, vs):
             d = self.direction
             near = min(range(n), key=lambda k: abs(wrap_180(heading - approach[k])))
-            score = [abs(turn(k, d)) - (2.0 if k == near else 0.0) for k in range(n)]
+            score = [abs(self._turn(approach, k, d)) - (2.0 if k == near else 0.0)
+                     for k in range(n)]
             return min(range(n), key=lambda k: score[k]), d
 
         seen = self._visible_vertices(x, y) or list(range(n))
 
         def out(d: int) -> int:
             pick = max if d == 1 else min
-            return pick(seen, key=lambda k: turn(k, d))
+            return pick(seen, key=lambda k: self._turn(approach, k, d))
 
         if p.clockwise != "best":
             return out(self.direction), self.direction
