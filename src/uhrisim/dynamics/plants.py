@@ -41,7 +41,7 @@ class LastValue:
     values are those of a fresh computation. ``copies``: the value is an array that
     callers may change, so a copy of it is kept and copies go out."""
 
-    __slots__ = ("_last", "_copies")
+    __slots__ = ("_copies", "_last")
 
     def __init__(self, copies: bool = False) -> None:
         self._last: tuple[Any, Any] = (_NOTHING_YET, None)  # (key, value)

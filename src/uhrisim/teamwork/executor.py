@@ -63,8 +63,7 @@ class ExecutorParams:
 @dataclass(frozen=True)
 class DiverView:
     """The executor's diver this tick: whether it walks on weighted boots (else it swims),
-    body pose (4x4 body→NED, origin at the hip centre), joint angles, walking speed, floor
-    depth under it."""
+    body pose (4x4 body→NED, origin at the hip centre), joint angles, walking speed."""
 
     name: str
     walks: bool
@@ -72,7 +71,6 @@ class DiverView:
     q: NDArray[np.float64]
     body_pose: NDArray[np.float64]
     speed: float = 0.0
-    floor_depth: float = math.nan
 
     @property
     def position(self) -> NDArray[np.float64]:
