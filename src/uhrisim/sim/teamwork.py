@@ -492,10 +492,11 @@ class TeamStage:
             if seen is not None and seen[0] is objects[0] and seen[1] is objects[1]:
                 continue
             self._seen[name] = objects
-            inputs = self._inputs(name)
-            if self._last_inputs.get(name) == inputs:
-                continue
-            self._last_inputs[name] = inputs
+            if states is not None:  # (a plain object's shape is its pose: compared next)
+                inputs = self._inputs(name)
+                if self._last_inputs.get(name) == inputs:
+                    continue
+                self._last_inputs[name] = inputs
             shape = self._shape(name)  # (a bolt's wrench work changes no shape)
             if self._shapes.get(name) != shape:
                 self._shapes[name] = shape
