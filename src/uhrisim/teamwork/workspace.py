@@ -58,9 +58,10 @@ class Platform:
 
     def covers(self, point_ned: ArrayLike) -> bool:
         """Whether ``point_ned`` lies over (or under) the top surface."""
-        d = np.asarray(point_ned, dtype=float)[:2] - np.asarray(self.top_centre_ned[:2])
+        north = float(point_ned[0]) - self.top_centre_ned[0]  # type: ignore[index]
+        east = float(point_ned[1]) - self.top_centre_ned[1]  # type: ignore[index]
         c, s = math.cos(self.yaw), math.sin(self.yaw)
-        along, across = c * d[0] + s * d[1], -s * d[0] + c * d[1]
+        along, across = c * north + s * east, -s * north + c * east
         return abs(along) <= 0.5 * self.size[0] and abs(across) <= 0.5 * self.size[1]
 
 
