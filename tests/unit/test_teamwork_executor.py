@@ -65,8 +65,7 @@ class Team:
 
     def view(self):
         return DiverView("diver1", True, SKELETON, self.q,
-                         pose_matrix(self.state.position, self.state.psi), self.state.speed,
-                         FLOOR(*self.state.position[:2]))
+                         pose_matrix(self.state.position, self.state.psi), self.state.speed)
 
     def tick(self):
         d = self.executor.tick(self.view(), self.ws, self.grips, self.t, DT)

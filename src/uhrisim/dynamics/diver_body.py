@@ -51,11 +51,13 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Literal
+from functools import cache
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from uhrisim.core.compiled import jit
 from uhrisim.core.errors import ConfigError
 
 Side = Literal["left", "right"]
@@ -540,7 +542,8 @@ ACCELERATION_TIME_S = 0.25
 
 
 def step_motion(skeleton: DiverSkeleton, q: ArrayLike, qdot: ArrayLike, goal: ArrayLike,
-                dt: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                dt: float, compiled: bool = True
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """One step ``dt`` (s) of rate-limited, smooth motion of ``q`` towards ``goal``.
 
     All joints move on one trapezoidal speed profile so that they arrive together (a
@@ -551,12 +554,21 @@ def step_motion(skeleton: DiverSkeleton, q: ArrayLike, qdot: ArrayLike, goal: Ar
     down (or turning round when the goal changes) may use the full
     ``max_speed / ACCELERATION_TIME_S``. The goal
     is clipped into the limits first. Returns ``(q, qdot)``; never exceeds a limit or a
-    maximum speed. Pure.
+    maximum speed. Pure. With numba installed and ``compiled``, one compiled loop over the
+    joints (:func:`_step_motion_joints`, the same numbers bit for bit; the numpy path is
+    its reference, ``UHRISIM_NUMBA=0``).
     """
     if not (math.isfinite(dt) and dt > 0.0):
         raise ConfigError(f"dt must be a finite number > 0, got {dt!r}", where="step_motion")
     q = np.asarray(q, dtype=float)
     v = np.asarray(qdot, dtype=float)
+    kernel = _compiled_step_motion() if compiled else None
+    if kernel is not None:
+        new_q, new_v = np.empty_like(q), np.empty_like(q)
+        kernel(np.ascontiguousarray(q), np.ascontiguousarray(v),
+               np.ascontiguousarray(goal, dtype=float), skeleton.lower, skeleton.upper,
+               skeleton.max_speed, dt, ACCELERATION_TIME_S, new_q, new_v)
+        return new_q, new_v
     vmax = skeleton.max_speed
     error = skeleton.clip(goal) - q
     if not (error.any() or v.any()):  # still, on the goal: stays (the common case)
@@ -575,6 +587,66 @@ def step_motion(skeleton: DiverSkeleton, q: ArrayLike, qdot: ArrayLike, goal: Ar
     v = np.where(np.abs(v) * dt > distance, error / dt, v)  # land on the goal, not past it
     new_q = skeleton.clip(q + np.clip(v, -vmax, vmax) * dt)
     return new_q, (new_q - q) / dt
+
+
+def _step_motion_joints(q, v, goal, lower, upper, vmax, dt, acceleration_time,  # type: ignore[no-untyped-def]
+                        new_q, new_v):
+    """:func:`step_motion`'s numpy path joint by joint (compiled by numba), into ``new_q``
+    and ``new_v``: its operations in its order, and numpy's choices between equal values
+    (``np.maximum``/``np.minimum``/``np.clip`` of arrays keep the second of two equal
+    zeros; ``np.sign`` of a zero is +0)."""
+    n = q.shape[0]
+    error = np.empty(n)
+    still = True
+    for j in range(n):
+        g = goal[j] if goal[j] > lower[j] else lower[j]  # the goal clipped into the limits
+        g = g if g < upper[j] else upper[j]
+        error[j] = g - q[j]
+        if error[j] != 0.0 or v[j] != 0.0:
+            still = False
+    if still:  # still, on the goal: stays
+        for j in range(n):
+            new_q[j], new_v[j] = q[j], v[j]
+        return
+    slowest = 0.0
+    for j in range(n):
+        ratio = abs(error[j]) / vmax[j]
+        if j == 0 or ratio > slowest or ratio != ratio:
+            slowest = ratio
+    half_dt2 = 0.25 * dt * dt
+    for j in range(n):
+        distance = abs(error[j])
+        if slowest > 0.0:
+            cruise = distance / slowest
+            cruise = cruise if cruise < vmax[j] else vmax[j]
+        else:
+            cruise = 0.0
+        accel = cruise / acceleration_time
+        floor = accel if accel > 1e-300 else 1e-300
+        brake = accel * (math.sqrt(half_dt2 + 2.0 * distance / floor) - 0.5 * dt)
+        sign = 1.0 if error[j] > 0.0 else (-1.0 if error[j] < 0.0 else 0.0 * error[j] + 0.0)
+        desired = sign * (cruise if cruise < brake else brake)
+        speeding_up = abs(desired) > abs(v[j]) and desired * v[j] >= 0.0
+        limit = (accel if speeding_up else vmax[j] / acceleration_time) * dt
+        change = desired - v[j]
+        change = change if change > -limit else -limit
+        change = change if change < limit else limit
+        speed = v[j] + change
+        if abs(speed) * dt > distance:  # land on the goal, not past it
+            speed = error[j] / dt
+        speed_capped = speed if speed > -vmax[j] else -vmax[j]
+        speed_capped = speed_capped if speed_capped < vmax[j] else vmax[j]
+        moved = q[j] + speed_capped * dt
+        moved = moved if moved > lower[j] else lower[j]
+        moved = moved if moved < upper[j] else upper[j]
+        new_q[j] = moved
+        new_v[j] = (moved - q[j]) / dt
+
+
+@cache
+def _compiled_step_motion() -> Any:
+    """:func:`_step_motion_joints` compiled; None without numba."""
+    return jit(_step_motion_joints, numpy_errors=True)
 
 
 # ---------------------------------------------------------------------------- reach

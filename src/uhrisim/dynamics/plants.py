@@ -29,45 +29,34 @@ def finite_or_raise(x: NDArray, vehicle: str, t: float) -> NDArray:
     return x
 
 
-class LastInputs:
-    """What a plant makes of one vehicle's actuator inputs (a VideoRay's body forces, a
-    diver's body rates), kept for the inputs it last saw: the loop changes them at the
-    control rate, a fraction of the physics ticks that step with them. A pure function of
-    the inputs, so the values are those of a fresh computation."""
-
-    __slots__ = ("_last",)
-
-    def __init__(self) -> None:
-        self._last: tuple[list[float] | None, Any] = (None, None)  # (inputs, value)
-
-    def of(self, inputs: list[float], compute: Callable[..., Any], *args: Any) -> Any:
-        """``compute(*inputs, *args)``, or its value for the same inputs last time (one
-        pair, replaced at once: threads sharing a plant see a matching one)."""
-        last_inputs, value = self._last
-        if inputs != last_inputs:
-            value = compute(*inputs, *args)
-            self._last = (inputs, value)
-        return value
+#: the key a :class:`LastValue` starts with (equal to no key)
+_NOTHING_YET = object()
 
 
-class LastArrays:
-    """One pure function's last arguments (their bytes) and the array it gave: a still
-    diver asks again and again with the very same ones. Copies go out, so callers may
-    change what they get."""
+class LastValue:
+    """One pure function's value for the key it was last asked with: the loop asks again
+    and again with the same arguments (a VideoRay's body forces and a diver's body rates
+    for its actuator inputs, which change at the control rate, a fraction of the physics
+    ticks; a still diver on boots steps from the same state with the same command). The
+    values are those of a fresh computation. ``copies``: the value is an array that
+    callers may change, so a copy of it is kept and copies go out."""
 
-    __slots__ = ("_last",)
+    __slots__ = ("_copies", "_last")
 
-    def __init__(self) -> None:
-        self._last: tuple[bytes, NDArray | None] = (b"", None)  # (arguments, value)
+    def __init__(self, copies: bool = False) -> None:
+        self._last: tuple[Any, Any] = (_NOTHING_YET, None)  # (key, value)
+        self._copies = copies
 
-    def of(self, key: bytes, compute: Callable[[], NDArray]) -> NDArray:
-        """``compute()``, or its value for the same ``key`` last time."""
+    def of(self, key: Any, compute: Callable[..., Any], *args: Any) -> Any:
+        """``compute(*args)``, or its value when ``key`` (what the value follows from,
+        compared with ``==``: a list of floats, bytes) equals the last one (one pair,
+        replaced at once: threads sharing a plant see a matching one)."""
         last_key, value = self._last
-        if key != last_key or value is None:
-            value = compute()
-            self._last = (key, value.copy())
+        if key != last_key:
+            value = compute(*args)
+            self._last = (key, value.copy() if self._copies else value)
             return value
-        return value.copy()
+        return value.copy() if self._copies else value
 
 
 @dataclass(frozen=True)
@@ -106,7 +95,7 @@ class VideoRayPlant:
     integrator: FixedStepIntegrator = field(init=False)
     coefficients: videoray.RateCoefficients = field(init=False)
     _coefficient_values: tuple[float, ...] = field(init=False, repr=False, compare=False)
-    _forces: LastInputs = field(init=False, repr=False, compare=False)
+    _forces: LastValue = field(init=False, repr=False, compare=False)
     kind = "videoray"
     state_size = videoray.STATE_SIZE
     input_size = videoray.INPUT_SIZE
@@ -119,7 +108,7 @@ class VideoRayPlant:
         coefficients = videoray.RateCoefficients.of(self.params)
         object.__setattr__(self, "coefficients", coefficients)
         object.__setattr__(self, "_coefficient_values", tuple(coefficients))
-        object.__setattr__(self, "_forces", LastInputs())
+        object.__setattr__(self, "_forces", LastValue())
 
     def initial_state(self, position_ned: NDArray, yaw: float, speed: float = 0.0) -> NDArray:
         return np.array([*position_ned, yaw, speed, 0.0, 0.0, 0.0])
@@ -128,16 +117,23 @@ class VideoRayPlant:
         """One physics step of one vehicle (``x`` (8,)) or N (``x`` (N, 8), ``u`` (N, 3)):
         the same kernel, :func:`uhrisim.dynamics.videoray.rk4_steps` (one vehicle: its
         :func:`~uhrisim.dynamics.videoray.rk4_one`, the forces kept while ``u`` holds)."""
+        return self._step(t, x, u, self.params, self.coefficients, self._coefficient_values)
+
+    def _step(self, t: float, x: NDArray, u: NDArray, params: videoray.VideoRayParams,
+              coefficients: videoray.RateCoefficients, values: tuple[float, ...],
+              heave_bias: float = 0.0) -> NDArray:
+        """:meth:`step` with these parameters, their coefficients (``values``: as a
+        tuple) and a constant extra heave force (N, down)."""
         n = self.integrator.substeps
         x = np.asarray(x, dtype=float)
         if x.ndim == 1:
-            forces = self._forces.of(np.asarray(u, dtype=float).tolist(), videoray.rk4_forces,
-                                     self.params)
-            state = videoray.rk4_one(x.tolist(), forces, self._coefficient_values,
-                                     self.dt / n, n)
+            inputs = np.asarray(u, dtype=float).tolist()
+            forces = self._forces.of(inputs, videoray.rk4_forces, *inputs, params, heave_bias)
+            state = videoray.rk4_one(x.tolist(), forces, values, self.dt / n, n)
             return finite_or_raise(np.array(state), self.name, t + self.dt)
         return finite_or_raise(
-            videoray.rk4_steps(x, u, self.params, self.dt / n, n, self.coefficients),
+            videoray.rk4_steps(x, u, params, self.dt / n, n, coefficients,
+                               heave_bias=heave_bias),
             self.name, t + self.dt)
 
     def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:
@@ -152,8 +148,8 @@ class DiverPlant:
     params: diver.DiverParams
     dt: float
     name: str = "diver"
-    _rates: LastInputs = field(init=False, repr=False, compare=False,
-                               default_factory=LastInputs)
+    _rates: LastValue = field(init=False, repr=False, compare=False,
+                              default_factory=LastValue)
     kind = "diver"
     state_size = diver.STATE_SIZE
     input_size = 3
@@ -168,17 +164,18 @@ class DiverPlant:
         kept while ``u`` holds)."""
         x = np.asarray(x, dtype=float)
         if x.ndim == 1:
-            rates = self._rates.of(np.asarray(u, dtype=float).tolist(), diver.body_rates_kernel,
-                                   self.params)
+            inputs = np.asarray(u, dtype=float).tolist()
+            rates = self._rates.of(inputs, diver.body_rates_kernel, *inputs, self.params)
             state = diver.step_exact_kernel(*x.tolist(), *rates, self.dt)
             return finite_or_raise(np.array(state), self.name, t + self.dt)
         return finite_or_raise(diver.step_exact(x, u, self.params, self.dt), self.name,
                                t + self.dt)
 
     def nav(self, x: NDArray, u: NDArray | None = None) -> NavState:
+        inputs = None if u is None else np.asarray(u, dtype=float).tolist()
         speed, yaw_rate, vertical = (
-            self._rates.of(np.asarray(u, dtype=float).tolist(), diver.body_rates_kernel,
-                           self.params) if u is not None else (0.0, 0.0, 0.0))
+            self._rates.of(inputs, diver.body_rates_kernel, *inputs, self.params)
+            if inputs is not None else (0.0, 0.0, 0.0))
         return NavState(x[0:3].copy(), float(x[3]), np.array([speed, 0.0, vertical]), yaw_rate)
 
 
@@ -223,10 +220,10 @@ class BootsPlant:
     #: the last step (a diver standing still steps from where it stood with the same
     #: command again and again: a pure function of the two, the very state a fresh
     #: step gives) and the last :meth:`leg_angles`
-    _steps: LastArrays = field(init=False, repr=False, compare=False,
-                               default_factory=LastArrays)
-    _legs: LastArrays = field(init=False, repr=False, compare=False,
-                              default_factory=LastArrays)
+    _steps: LastValue = field(init=False, repr=False, compare=False,
+                              default_factory=lambda: LastValue(copies=True))
+    _legs: LastValue = field(init=False, repr=False, compare=False,
+                             default_factory=lambda: LastValue(copies=True))
     kind = "diver_boots"
     state_size = 12
     input_size = 4
@@ -255,7 +252,7 @@ class BootsPlant:
                                       float(x[11]))
 
     def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
-        return self._steps.of(x.tobytes() + u.tobytes(), lambda: self._step(t, x, u))
+        return self._steps.of(x.tobytes() + u.tobytes(), self._step, t, x, u)
 
     def _step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
         command = diver_boots.BootsCommand(float(u[0]), float(u[1]), int(np.sign(u[2])),
@@ -269,8 +266,10 @@ class BootsPlant:
         angles ``q`` (those of a diver standing still, arms still, given again: the
         angles it gave last time)."""
         return self._legs.of(x.tobytes() + np.asarray(q, dtype=float).tobytes(),
-                             lambda: diver_boots.leg_angles(self.boots_state(x), self.params,
-                                                            self.floor_depth, q))
+                             self._leg_angles, x, q)
+
+    def _leg_angles(self, x: NDArray, q: NDArray) -> NDArray:
+        return diver_boots.leg_angles(self.boots_state(x), self.params, self.floor_depth, q)
 
     def footfalls(self, before: NDArray, after: NDArray) -> list[diver_boots.Footfall]:
         """The feet set down between two consecutive states (for the silt they stir)."""
@@ -301,22 +300,23 @@ class LoadedVideoRayPlant(VideoRayPlant):
     load: carried_load.CarriedLoad | None = None
     loaded: videoray.VideoRayParams | None = field(init=False, default=None)
     loaded_coefficients: videoray.RateCoefficients | None = field(init=False, default=None)
+    _loaded_values: tuple[float, ...] = field(init=False, default=(), repr=False,
+                                              compare=False)
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.load is not None:
             loaded = carried_load.loaded_params(self.params, self.load)
             object.__setattr__(self, "loaded", loaded)
-            object.__setattr__(self, "loaded_coefficients", videoray.RateCoefficients.of(loaded))
+            coefficients = videoray.RateCoefficients.of(loaded)
+            object.__setattr__(self, "loaded_coefficients", coefficients)
+            object.__setattr__(self, "_loaded_values", tuple(coefficients))
 
     def step(self, t: float, x: NDArray, u: NDArray) -> NDArray:
         if self.load is None:
             return super().step(t, x, u)
-        n = self.integrator.substeps
-        return finite_or_raise(
-            videoray.rk4_steps(x, u, self.loaded, self.dt / n, n, self.loaded_coefficients,
-                               heave_bias=carried_load.heave_bias(self.load)),
-            self.name, t + self.dt)
+        return self._step(t, x, u, self.loaded, self.loaded_coefficients,
+                          self._loaded_values, carried_load.heave_bias(self.load))
 
 
 def carrying(plant: VideoRayPlant, load: carried_load.CarriedLoad | None

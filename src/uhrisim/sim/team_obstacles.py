@@ -118,7 +118,7 @@ class ObstacleSpheres:
         it changed."""
         i = self._index[name]
         centre, radius = self._parts[name].posed(pose, transforms)
-        if radius == self.radii[i] and np.array_equal(centre, self.centres[i]):
+        if radius == self.radii[i] and (centre == self.centres[i]).all():
             return False
         self.centres[i], self.radii[i] = centre, radius
         if radius > 0.0:

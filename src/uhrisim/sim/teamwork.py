@@ -419,8 +419,10 @@ class TeamStage:
         requests: list[acts.ActRequest] = []
         # the stage moves no agent: their body poses are those of the whole tick
         poses = {name: self._body_pose_now(name) for name in (*self.grippers, *self.divers)}
-        grips = {f"{name}/gripper": self._jaws(name, slot, poses[name]).grip_frame()[:3, 3]
-                 for name, slot in self.grippers.items()}
+        # the jaws' grip frames (their vehicles' poses alone place them)
+        jaw_frames = {f"{name}/gripper": self._jaws(name, slot, poses[name]).grip_frame()
+                      for name, slot in self.grippers.items()}
+        grips = {name: frame[:3, 3] for name, frame in jaw_frames.items()}
         for name, body in self.divers.items():
             request = self._move_diver(self.agents[name], body, grips, t, poses[name])
             if request is not None:
@@ -428,7 +430,7 @@ class TeamStage:
         events: list[WorldEvent] = []
         carriers: dict[str, acts.Carrier] = {}
         for name, body in self.divers.items():
-            view = self._view(self.agents[name], body, poses[name], floor=False)  # its hands
+            view = self._view(self.agents[name], body, poses[name])  # its hands
             carriers |= {h.name: h for h in (view.hand("left"), view.hand("right"))}
         for name, slot in self.grippers.items():
             events += self._work_gripper(name, slot, t, requests, poses[name])
@@ -437,7 +439,7 @@ class TeamStage:
             events += acts.perform(request, ws, carriers, t, dt, self.floor)
         for name, carrier in carriers.items():
             if ws.held_by(name) is not None:  # an empty hand's frame is not needed
-                ws.carry(name, carrier.grip_frame())
+                ws.carry(name, jaw_frames[name] if name in jaw_frames else carrier.grip_frame())
         for name, slot in self.grippers.items():
             self._carry_in_dynamics(self.agents[name], slot)
         events += ws.step(t, dt, self.floor)
@@ -490,10 +492,11 @@ class TeamStage:
             if seen is not None and seen[0] is objects[0] and seen[1] is objects[1]:
                 continue
             self._seen[name] = objects
-            inputs = self._inputs(name)
-            if self._last_inputs.get(name) == inputs:
-                continue
-            self._last_inputs[name] = inputs
+            if states is not None:  # (a plain object's shape is its pose: compared next)
+                inputs = self._inputs(name)
+                if self._last_inputs.get(name) == inputs:
+                    continue
+                self._last_inputs[name] = inputs
             shape = self._shape(name)  # (a bolt's wrench work changes no shape)
             if self._shapes.get(name) != shape:
                 self._shapes[name] = shape
@@ -590,15 +593,12 @@ class TeamStage:
                 self._recorded_state[name] = value
                 self.record("team_state", site_state_detail(name, what, value))
 
-    def _view(self, agent: Agent, body: DiverBodyState, body_pose: NDArray[np.float64],
-              floor: bool = True) -> DiverView:
+    def _view(self, agent: Agent, body: DiverBodyState, body_pose: NDArray[np.float64]
+              ) -> DiverView:
         """The executor's view of a diver now, whose body pose is ``body_pose`` (4x4
-        body→NED; ``floor``: with the floor depth under it)."""
-        nav = agent.nav()
-        diver = agent.model.diver
-        depth = float(self.floor(*nav.position_ned[:2])) if floor else math.nan
-        return DiverView(agent.name, diver.walks, body.skeleton, body.q, body_pose, nav.speed,
-                         depth)
+        body→NED)."""
+        return DiverView(agent.name, agent.model.diver.walks, body.skeleton, body.q,
+                         body_pose, agent.nav().speed)
 
     def _move_diver(self, agent: Agent, body: DiverBodyState, grips: dict[str, NDArray],
                     t: float, body_pose: NDArray[np.float64]) -> acts.ActRequest | None:

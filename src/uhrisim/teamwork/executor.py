@@ -45,6 +45,12 @@ from uhrisim.teamwork.workspace import Workspace
 from uhrisim.world.events import WorldEvent
 
 
+def _length(v: NDArray[np.float64]) -> float:
+    """The length of a vector (m): ``np.linalg.norm``'s own arithmetic, the square root of
+    ``v . v``, without its checks (asked several times a tick)."""
+    return math.sqrt(v.dot(v))
+
+
 @dataclass(frozen=True)
 class ExecutorParams:
     """How the executor drives its diver (SI; assumed values of a calm, careful diver)."""
@@ -63,8 +69,7 @@ class ExecutorParams:
 @dataclass(frozen=True)
 class DiverView:
     """The executor's diver this tick: whether it walks on weighted boots (else it swims),
-    body pose (4x4 body→NED, origin at the hip centre), joint angles, walking speed, floor
-    depth under it."""
+    body pose (4x4 body→NED, origin at the hip centre), joint angles, walking speed."""
 
     name: str
     walks: bool
@@ -72,7 +77,6 @@ class DiverView:
     q: NDArray[np.float64]
     body_pose: NDArray[np.float64]
     speed: float = 0.0
-    floor_depth: float = math.nan
 
     @property
     def position(self) -> NDArray[np.float64]:
@@ -196,16 +200,16 @@ class OrderExecutor:
         here = view.position[:2]
         if self._stand is None:
             towards = point[:2] - here
-            if np.linalg.norm(towards) < 1e-6:
+            if _length(towards) < 1e-6:
                 towards = np.array([math.cos(view.heading), math.sin(view.heading)])
-            u = towards / np.linalg.norm(towards)
+            u = towards / _length(towards)
             sign = 1.0 if side == "right" else -1.0
             ahead = self._shoulder_ahead(view, side)
             self._stand = (point[:2] - (standoff + ahead) * u
                            - sign * p.lateral * np.array([-u[1], u[0]]), u)
         goal, u = self._stand
         to_goal = goal - here
-        distance = float(np.linalg.norm(to_goal))
+        distance = _length(to_goal)
         depth = None if view.walks else float(point[2])
         if distance > p.arrive_radius:
             bearing = math.atan2(to_goal[1], to_goal[0])
@@ -226,7 +230,7 @@ class OrderExecutor:
         ``point``."""
         hand = view.hand(side)
         cached = self._solved
-        if cached and cached[0] == side and np.linalg.norm(cached[1] - point) < 1e-3:
+        if cached and cached[0] == side and _length(cached[1] - point) < 1e-3:
             goal = cached[2]
         else:
             solution = solve_reach(view.skeleton, side, hand.to_body(point), view.q, bend=True,
@@ -237,7 +241,7 @@ class OrderExecutor:
             self._solved = (side, np.array(point, dtype=float), goal)
         if fingers_open:
             goal = view.skeleton.vector({f"{side}_fingers": 0.0}, goal)
-        there = np.linalg.norm(hand.grip_frame()[:3, 3] - point) < self.params.hand_settle
+        there = _length(hand.grip_frame()[:3, 3] - point) < self.params.hand_settle
         if fingers_open and not hand.is_open():
             there = False  # a short reach arrives before the fingers have opened
         return ("there" if there else "moving"), goal, ""
@@ -416,7 +420,7 @@ class OrderExecutor:
             ws.flanges[site].bolt_position(part) if kind == "flange"
             else ws.hatches[site].latch_position())
         spec = ws.tools[tool]
-        span = float(np.linalg.norm(np.subtract(spec.working_point, spec.grasp_point)))
+        span = _length(np.subtract(spec.working_point, spec.grasp_point))
         facing = (self._stand[1] if self._stand is not None
                   else np.array([math.cos(view.heading), math.sin(view.heading)]))
         # the hand holds the tool short of the work point, the tool reaching across
@@ -482,7 +486,7 @@ class OrderExecutor:
         if receiver not in grips:
             return Directive(note=f"waiting for {receiver}")
         grip = np.asarray(grips[receiver], dtype=float)
-        if np.linalg.norm(ws.grasp_point(obj) - grip) <= HAND_TOLERANCE_M:
+        if _length(ws.grasp_point(obj) - grip) <= HAND_TOLERANCE_M:
             return Directive(act=ActRequest("hand_over", f"{self.diver}/{side}_hand", obj,
                                             receiver=receiver), note=f"hand {obj} to {receiver}")
         # offer it: walk up to the receiver, hold the object out towards its grip

@@ -58,9 +58,10 @@ class Platform:
 
     def covers(self, point_ned: ArrayLike) -> bool:
         """Whether ``point_ned`` lies over (or under) the top surface."""
-        d = np.asarray(point_ned, dtype=float)[:2] - np.asarray(self.top_centre_ned[:2])
+        north = float(point_ned[0]) - self.top_centre_ned[0]  # type: ignore[index]
+        east = float(point_ned[1]) - self.top_centre_ned[1]  # type: ignore[index]
         c, s = math.cos(self.yaw), math.sin(self.yaw)
-        along, across = c * d[0] + s * d[1], -s * d[0] + c * d[1]
+        along, across = c * north + s * east, -s * north + c * east
         return abs(along) <= 0.5 * self.size[0] and abs(across) <= 0.5 * self.size[1]
 
 
@@ -267,8 +268,9 @@ class Workspace:
             depth = float(self.thing(name).position[2])
             self.bag_states[name], ev = spec.advance(state, dt, t, depth)
             events += ev
+        gassed = [b for b, s in self.bag_states.items() if s.gas_surface_litres > 0.0]
         for name, thing in self.things.items():
-            if self._may_move(name, thing):
+            if self._may_move(name, thing, gassed):
                 events += self._move_free(name, thing, dt, t, floor_depth)
         for thing in self.things.values():  # contents and rigging follow
             if thing.where.startswith("in:"):
@@ -294,17 +296,17 @@ class Workspace:
                                      math.atan2(support[1, 0], support[0, 0]))
         thing.followed = (support, relative, thing.pose)
 
-    def _may_move(self, name: str, thing: Thing) -> bool:
+    def _may_move(self, name: str, thing: Thing, gassed: list[str]) -> bool:
         """Whether the physics must step ``name``: free in the water or at the surface, or
-        resting (on the floor or a platform) and lighter than water — a bag with gas in it or
-        a load with such a bag rigged may be (what rests heavier than water stays)."""
+        resting (on the floor or a platform) and lighter than water — a bag with gas in it
+        (``gassed``: those bags) or a load with such a bag rigged may be (what rests heavier
+        than water stays)."""
         if thing.where in ("water", "surface"):
             return True
         if thing.where != "floor" and not thing.where.startswith("on:"):
             return False  # held, in a basket, rigged: moved by what it is with
         if name in self.tools and name not in self.bags:
             return self.tools[name].hydro.in_water_weight() < 0.0
-        gassed = [b for b, s in self.bag_states.items() if s.gas_surface_litres > 0.0]
         return (name in gassed or any(self.bag_states[b].attached_to == name for b in gassed)
                 or self.hydro_of(name).in_water_weight() < 0.0)
 
