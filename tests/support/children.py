@@ -14,6 +14,10 @@ from pathlib import Path
 from typing import Any
 
 SUPPORT = Path(__file__).resolve().parent
+#: The longest a listener waits for the counts of a ``STOP {counts}`` (s;
+#: tests/support/listener_loop.py): far beyond any lag measured under load (1 s with the
+#: load average at 22 on 2 cores); reached only when a best-effort message was lost.
+STOP_WAIT_S = 30.0
 
 
 class Child:
@@ -71,11 +75,14 @@ class Child:
         self.proc.stdin.write(text + "\n")
         self.proc.stdin.flush()
 
-    def result(self, timeout: float = 15.0) -> Any:
+    def result(self, timeout: float = 15.0, counts: dict[str, int] | None = None) -> Any:
         """A listener's answer: ``STOP`` sent, its ``RESULT <json>`` line parsed, and the
-        process ended with status 0."""
-        self.send("STOP")
-        out = json.loads(self.expect("RESULT", timeout=timeout))
+        process ended with status 0. With ``counts`` (messages published per topic) the
+        listener first waits for them (tests/support/listener_loop.py, ``STOP_WAIT_S``
+        at most), so messages still in flight are counted."""
+        self.send("STOP" + (" " + json.dumps(counts) if counts else ""))
+        wait = STOP_WAIT_S if counts else 0.0
+        out = json.loads(self.expect("RESULT", timeout=wait + timeout))
         assert self.finish() == 0
         return out
 
