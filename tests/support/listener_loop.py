@@ -1,8 +1,10 @@
 """The loop of the external rclpy listeners (``ros2_listener.py``, ``ros2_marker_listener.py``,
 ``ros2_camera_listener.py``, ...): spin ``node`` until ``STOP`` on stdin (or its end), print
 ``READY`` once every topic has a publisher (``TIMEOUT ...`` and exit status 2 if none comes
-within ``ready_timeout_s``), let ``settle(spin_once)`` spin on for what is still due, then
-print one JSON line ``RESULT <result>`` (``result()`` when it is callable) and shut down.
+within ``ready_timeout_s``: only a bound for a listener left behind, a test waits for
+``READY`` as long as its own ``expect`` says), let ``settle(spin_once)`` spin on for what is
+still due, then print one JSON line ``RESULT <result>`` (``result()`` when it is callable)
+and shut down.
 
 ``STOP {"topic": count, ...}`` (what the test published) makes the listener spin on until
 ``received()`` (messages taken per topic) has reached every count, or ``STOP_WAIT_S`` has
@@ -23,7 +25,7 @@ from children import STOP_WAIT_S
 from rclpy.executors import SingleThreadedExecutor
 
 
-def serve(node: Any, topics: list[str], result: Any, ready_timeout_s: float = 20.0,
+def serve(node: Any, topics: list[str], result: Any, ready_timeout_s: float = 600.0,
           settle: Callable[[Callable[[], None]], None] | None = None,
           received: Callable[[], dict[str, int]] | None = None) -> int:
     ex = SingleThreadedExecutor()
