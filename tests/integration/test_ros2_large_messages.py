@@ -6,8 +6,11 @@ ping's images exceed Fast DDS's 512 kB default and best-effort readers lose mess
 The simulation (scenarios/ros2_external_helm.yaml, its P900-45 at 15 Hz) runs here paced
 at real time; tests/support/ros2_stamps_listener.py, in its own process without
 ``FASTDDS_DEFAULT_PROFILES_FILE``, keeps every stamp it receives on ``sonar/polar``,
-``fan`` and ``image``. Loss is counted by stamps — every ping after the first one received
-on a topic must arrive, less than 1 % missing — never by a wall-clock rate.
+``fan`` and ``image``. It keeps a history deeper than it may lag on a loaded machine (the
+sensor-data QoS's 5 messages are 333 ms at 15 Hz), and is stopped only once it has taken
+every ping published (or 30 s on), so what is counted is the transport's loss, not a busy
+listener's. Loss is counted by stamps — every ping after the first one received on a topic
+must arrive, less than 1 % missing — never by a wall-clock rate.
 """
 
 from __future__ import annotations
@@ -48,6 +51,7 @@ def test_best_effort_subscriber_gets_every_sonar_image(ros_env: int, tmp_path: P
         sim.start()
         assert os.environ["FASTDDS_DEFAULT_PROFILES_FILE"] == str(FASTDDS_PROFILE)
         listener.expect("READY", timeout=300.0)
+        assert hook.bridge.wait_for_subscribers(list(TOPICS), 20.0)
         pacer = Pacer(real_time_factor=1.0)
         pacer.reset(sim.t)
         deadline = time.monotonic() + 600.0
@@ -57,12 +61,15 @@ def test_best_effort_subscriber_gets_every_sonar_image(ros_env: int, tmp_path: P
             if "videoray/sonar" in frame.pings:
                 pings.append(stamp_ns(frame.t, "test"))
             pacer.wait(frame.t)
+        stamps = listener.result(timeout=60.0, counts=dict.fromkeys(TOPICS, len(pings)))
     finally:
         sim.close()
-    stamps = listener.result(timeout=60.0)
+        if listener.proc.poll() is None:
+            listener.proc.kill()
     for topic in TOPICS:
         got = set(stamps[topic])
         assert got <= set(pings) and got, topic
         expected = [t for t in pings if t >= min(got)]
-        lost = len(expected) - len(got)
-        assert len(expected) > 0.8 * PINGS and lost < 0.01 * len(expected), (topic, lost)
+        lost = [pings.index(t) for t in expected if t not in got]
+        assert len(expected) > 0.8 * PINGS and len(lost) < 0.01 * len(expected), (
+            f"{topic}: pings {lost} of {len(pings)} lost")

@@ -14,6 +14,10 @@ from pathlib import Path
 from typing import Any
 
 SUPPORT = Path(__file__).resolve().parent
+#: The longest a listener waits for the counts of a ``STOP {counts}`` (s;
+#: tests/support/listener_loop.py): far beyond any lag measured under load (1 s with the
+#: load average at 22 on 2 cores); reached only when a best-effort message was lost.
+STOP_WAIT_S = 30.0
 
 
 class Child:
@@ -71,11 +75,14 @@ class Child:
         self.proc.stdin.write(text + "\n")
         self.proc.stdin.flush()
 
-    def result(self, timeout: float = 15.0) -> Any:
+    def result(self, timeout: float = 15.0, counts: dict[str, int] | None = None) -> Any:
         """A listener's answer: ``STOP`` sent, its ``RESULT <json>`` line parsed, and the
-        process ended with status 0."""
-        self.send("STOP")
-        out = json.loads(self.expect("RESULT", timeout=timeout))
+        process ended with status 0. With ``counts`` (messages published per topic) the
+        listener first waits for them (tests/support/listener_loop.py, ``STOP_WAIT_S``
+        at most), so messages still in flight are counted."""
+        self.send("STOP" + (" " + json.dumps(counts) if counts else ""))
+        wait = STOP_WAIT_S if counts else 0.0
+        out = json.loads(self.expect("RESULT", timeout=wait + timeout))
         assert self.finish() == 0
         return out
 
@@ -94,14 +101,16 @@ def run_paced_for(sim: Any, listener: Child, topics: list[str], until_s: float,
     """Start the simulation ``sim`` (its first hook a ROS 2 bridge hook), wait for
     ``listener``'s ``READY`` and its subscriptions to ``topics``, step ``sim`` paced at
     ``real_time_factor`` until simulated ``until_s`` (``on_frame(frame)`` after each
-    step), give the last messages 1 s, and return the listener's result; ``sim`` is
-    closed and ``listener`` gone either way."""
+    step), and return the listener's result once it has taken every message published on
+    ``topics`` meanwhile; ``sim`` is closed and ``listener`` gone either way."""
     from uhrisim.sim.pacing import Pacer
 
     try:
         sim.start()
         listener.expect("READY", timeout=30.0)
-        assert sim.hooks[0].bridge.wait_for_subscribers(topics, 20.0), topics
+        bridge = sim.hooks[0].bridge
+        assert bridge.wait_for_subscribers(topics, 20.0), topics
+        before = bridge.stats()["published"]
         pacer = Pacer(real_time_factor=real_time_factor)
         pacer.reset(sim.t)
         while sim.t < until_s:
@@ -109,8 +118,8 @@ def run_paced_for(sim: Any, listener: Child, topics: list[str], until_s: float,
             if on_frame is not None:
                 on_frame(frame)
             pacer.wait(frame.t)
-        pacer.wait(sim.t + 1.0)  # the last messages arrive
-        return listener.result()
+        after = bridge.stats()["published"]
+        return listener.result(counts={t: after.get(t, 0) - before.get(t, 0) for t in topics})
     finally:
         sim.close()
         if listener.proc.poll() is None:

@@ -124,7 +124,8 @@ def main() -> int:
             spin_once()
 
     return serve(node, [*topics, "/tf", "/tf_static"], lambda: {**seen, "tf": tf},
-                 ready_timeout_s=30.0, settle=settle)
+                 settle=settle,
+                 received=lambda: {t: entry["count"] for t, entry in seen.items()})
 
 if __name__ == "__main__":
     sys.exit(main())

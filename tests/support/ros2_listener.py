@@ -97,7 +97,8 @@ def main() -> int:
 
     for topic, (typ, qos) in topics.items():
         node.create_subscription(typ, topic, make_cb(topic), qos)
-    return serve(node, list(topics), rec)
+    return serve(node, list(topics), rec,
+                 received=lambda: {t: len(r["stamp"]) for t, r in rec.items()})
 
 
 if __name__ == "__main__":

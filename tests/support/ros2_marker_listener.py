@@ -40,7 +40,7 @@ def main() -> int:
 
     for topic in topics:
         node.create_subscription(MarkerArray, topic, make_cb(topic), 10)
-    return serve(node, topics, rec, ready_timeout_s=40.0)
+    return serve(node, topics, rec)
 
 
 if __name__ == "__main__":

@@ -69,7 +69,8 @@ def main() -> int:
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
     node.create_subscription(TFMessage, "/tf_static", on_static, latched)
-    return serve(node, [*topics, "/tf_static"], result)
+    return serve(node, [*topics, "/tf_static"], result,
+                 received=lambda: {t: r["count"] for t, r in result["topics"].items()})
 
 
 if __name__ == "__main__":

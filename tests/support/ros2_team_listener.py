@@ -33,6 +33,14 @@ def main() -> int:
     rclpy.init()
     node = rclpy.create_node("test_team_listener", start_parameter_services=False)
     result: dict = {"tf": {}, "joints": {}, "events": [], "published": [], "subscribed": []}
+    joints = f"/{args.diver}/joint_states"
+    taken = dict.fromkeys(["/tf", joints, "/events"], 0)  # messages taken per topic
+
+    def counted(topic: str, keep):
+        def on_msg(msg) -> None:
+            taken[topic] += 1
+            keep(msg)
+        return on_msg
 
     def on_tf(msg: TFMessage) -> None:
         if msg.transforms:
@@ -42,11 +50,10 @@ def main() -> int:
     def on_joints(msg: JointState) -> None:
         result["joints"][stamp_key(msg.header)] = [list(msg.name), list(msg.position)]
 
-    node.create_subscription(TFMessage, "/tf", on_tf, 1000)
-    joints = f"/{args.diver}/joint_states"
-    node.create_subscription(JointState, joints, on_joints, 100)
-    node.create_subscription(Event, "/events",
-                             lambda m: result["events"].append([m.kind, m.detail]), 100)
+    node.create_subscription(TFMessage, "/tf", counted("/tf", on_tf), 1000)
+    node.create_subscription(JointState, joints, counted(joints, on_joints), 100)
+    node.create_subscription(Event, "/events", counted(
+        "/events", lambda m: result["events"].append([m.kind, m.detail])), 100)
 
     def graph() -> dict:
         result["published"] = sorted(
@@ -55,7 +62,7 @@ def main() -> int:
             n for n, _ in node.get_subscriber_names_and_types_by_node(args.node, "/"))
         return result
 
-    return serve(node, ["/tf", joints, "/events"], graph)
+    return serve(node, list(taken), graph, received=lambda: taken)
 
 
 if __name__ == "__main__":
