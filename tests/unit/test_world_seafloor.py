@@ -34,6 +34,22 @@ def test_flat_and_sloped_closed_form() -> None:
     assert s2.depth_at(n, e) == pytest.approx(expected, abs=1e-12)
 
 
+@pytest.mark.parametrize("depth", [7.5, 0.0, -0.0])
+def test_one_points_depth_on_a_flat_floor_is_the_interpolations(depth) -> None:
+    """One point's depth on a flat floor skips the interpolation (the boots' walk asks
+    ~64 000 times a mission): the same bits as the grid's interpolation (arrays)."""
+    f = sf.SeaFloor(np.array([-20.0, -3.0, 20.0]), np.array([-10.0, 10.0]),
+                    np.full((3, 2), depth))
+    rng = np.random.default_rng(1)
+    n = np.concatenate([rng.uniform(-21.0, 21.0, 200), [-20.0, 20.0, -3.0, math.nan]])
+    e = np.concatenate([rng.uniform(-11.0, 11.0, 200), [-10.0, 10.0, 10.0, 0.0]])
+    grid = f.depth_at(n, e)
+    one = np.array([f.depth_at(float(a), float(b)) for a, b in zip(n, e, strict=True)])
+    assert np.array_equal(np.signbit(one), np.signbit(grid))
+    np.testing.assert_array_equal(one, grid)
+    assert np.isnan(one).sum() == np.isnan(grid).sum() > 0
+
+
 def test_depth_at_matches_ray_hits_on_rough_floor() -> None:
     floor = sf.procedural(42, (-10.0, 10.0, -8.0, 8.0), 8.0, 0.5, 2.0, 0.7)
     rng = np.random.default_rng(0)

@@ -42,6 +42,8 @@ class SeaFloor:
     _mesh: trimesh.Trimesh | None = field(default=None, init=False, repr=False, compare=False)
     #: the grid as lists, for one point at a time (:meth:`_depth_at_point`)
     _lists: tuple[list, list, list] = field(init=False, repr=False, compare=False)
+    #: a flat floor's depth (its one value + 0.0, as the interpolation gives it), else None
+    _flat: float | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         n = np.array(self.north, dtype=float)
@@ -64,6 +66,8 @@ class SeaFloor:
         object.__setattr__(self, "east", e)
         object.__setattr__(self, "depth", z)
         object.__setattr__(self, "_lists", (n.tolist(), e.tolist(), z.tolist()))
+        object.__setattr__(self, "_flat", float(z.flat[0]) + 0.0 if np.all(z == z.flat[0])
+                           else None)
 
     @property
     def max_slope(self) -> float:
@@ -129,6 +133,8 @@ class SeaFloor:
         n, e, z = self._lists
         if not (n[0] <= x <= n[-1] and e[0] <= y <= e[-1]):
             return math.nan
+        if self._flat is not None:  # what the interpolation below gives, bit for bit
+            return self._flat
         i = min(max(bisect.bisect_right(n, x) - 1, 0), len(n) - 2)
         j = min(max(bisect.bisect_right(e, y) - 1, 0), len(e) - 2)
         s = (x - n[i]) / (n[i + 1] - n[i])  # along north, 0..1
