@@ -40,7 +40,7 @@ from uhrisim.dynamics.plants import (
     carrying,
 )
 from uhrisim.dynamics.videoray import VideoRayParams, generalized_forces, steady_speed
-from uhrisim.world.diver_figure import flutter_kick
+from uhrisim.world.kick import flutter_kick
 
 
 class Plant(Protocol):

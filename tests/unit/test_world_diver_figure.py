@@ -8,7 +8,8 @@ import pytest
 from uhrisim.core.errors import ConfigError
 from uhrisim.dynamics import diver_body as db
 from uhrisim.world import Scene, materials
-from uhrisim.world.diver_figure import diver_figure, figure_transforms, flutter_kick, posed_figure
+from uhrisim.world.diver_figure import diver_figure, figure_transforms, posed_figure
+from uhrisim.world.kick import flutter_kick
 
 SCUBA = db.DiverSkeleton()
 BOOTS = db.DiverSkeleton(kind="boots")

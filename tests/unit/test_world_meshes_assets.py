@@ -10,13 +10,8 @@ import trimesh
 
 from uhrisim.core.errors import AssetError, ConfigError
 from uhrisim.world import primitives as prim
-from uhrisim.world.assets import (
-    DIVER_HIP_AMPLITUDE_RAD,
-    diver_kick_phase_rate,
-    diver_mesh,
-    diver_parts,
-    videoray_mesh,
-)
+from uhrisim.world.assets import diver_mesh, diver_parts, videoray_mesh
+from uhrisim.world.kick import DIVER_HIP_AMPLITUDE_RAD, diver_kick_phase_rate
 from uhrisim.world.materials import ALUMINIUM, DEFAULT_MATERIALS, NEOPRENE
 from uhrisim.world.meshes import load_mesh
 

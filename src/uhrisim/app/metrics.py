@@ -17,14 +17,16 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from uhrisim.core.frames import wrap_180
 from uhrisim.scenario.schema import TrailMetricConfig
-from uhrisim.sim.hooks import TickFrame
-from uhrisim.sim.simulation import BaseHook, Simulation
+from uhrisim.sim.hooks import BaseHook, TickFrame
+
+if TYPE_CHECKING:
+    from uhrisim.sim.simulation import Simulation
 
 SAMPLE_RATE_HZ = 10.0
 

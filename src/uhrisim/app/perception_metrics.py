@@ -25,12 +25,14 @@ Without label images, the detection figures are ``null``.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from uhrisim.sim.hooks import TickFrame, sensor_key
-from uhrisim.sim.simulation import BaseHook, Simulation
+from uhrisim.sim.hooks import BaseHook, TickFrame, sensor_key
+
+if TYPE_CHECKING:
+    from uhrisim.sim.simulation import Simulation
 
 MIN_TARGET_CELLS = 10
 

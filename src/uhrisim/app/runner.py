@@ -19,7 +19,7 @@ import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
@@ -28,12 +28,13 @@ from uhrisim.app.perception_metrics import PerceptionMetrics
 from uhrisim.app.team_metrics import TeamMetrics
 from uhrisim.core.errors import AssetError, StopRequested, shortened
 from uhrisim.core.stops import stop_signals_deferred
-from uhrisim.record.hook import McapRecordingHook
-from uhrisim.record.mcap_recorder import RecordingCutError
 from uhrisim.scenario.load import ScenarioFile, load_scenario
-from uhrisim.sim.hooks import TickFrame, sensor_key
-from uhrisim.sim.simulation import BaseHook, Hook, Simulation
+from uhrisim.sim.hooks import BaseHook, Hook, TickFrame, sensor_key
 from uhrisim.viz.fan_plot import FanView, in_sonar_plane
+
+if TYPE_CHECKING:  # imported where a run is built: the world needs trimesh, a recording mcap
+    from uhrisim.record.hook import McapRecordingHook
+    from uhrisim.sim.simulation import Simulation
 
 SONAR_STRIP_FRAMES = 6
 
@@ -83,6 +84,10 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
                  configure: Callable[[Simulation], None] | None = None) -> RunResult:
     """Build the simulation, run it, and write recording, metrics and figures
     (``raycast_sensors`` False: no sonars and cameras, :class:`Simulation`)."""
+    from uhrisim.record.hook import McapRecordingHook
+    from uhrisim.record.mcap_recorder import RecordingCutError
+    from uhrisim.sim.simulation import Simulation
+
     if not isinstance(source, ScenarioFile):
         source = load_scenario(source)
     scenario = source.scenario
@@ -160,6 +165,8 @@ def build_run(source: ScenarioFile, raycast_sensors: bool = True) -> Simulation:
     """Everything :func:`run_scenario` builds but its output files: the simulation (scene,
     sensors, helms, drivers) with the metrics it measures (``uhrisim validate``: a scene
     that validates, runs)."""
+    from uhrisim.sim.simulation import Simulation
+
     scenario = source.scenario
     measuring = _Measuring(scenario, scenario.duration, raycast_sensors)
     return Simulation(source, raycast_sensors=raycast_sensors,

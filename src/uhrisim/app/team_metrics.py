@@ -22,14 +22,16 @@ from __future__ import annotations
 import itertools
 import math
 from collections import Counter
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from uhrisim.sim.hooks import TickFrame
-from uhrisim.sim.simulation import BaseHook, Simulation
-from uhrisim.sim.teamwork import TeamStage
+from uhrisim.sim.hooks import BaseHook, TickFrame
 from uhrisim.teamwork import orders as od
+
+if TYPE_CHECKING:
+    from uhrisim.sim.simulation import Simulation
+    from uhrisim.sim.teamwork import TeamStage
 
 
 class TeamMetrics(BaseHook):

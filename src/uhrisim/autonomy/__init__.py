@@ -25,47 +25,23 @@ OwnNav.from_ned(north, east, down, yaw, speed), reports)``; ``out.decision.yaw_r
 
 from __future__ import annotations
 
-from uhrisim.autonomy.behaviors import OwnNav
-from uhrisim.autonomy.bhv import load_bhv, parse_bhv
-from uhrisim.autonomy.community import VehicleAutonomy
-from uhrisim.autonomy.config import BehaviorSpec, HelmConfig, HelmSettings, parse_domain
-from uhrisim.autonomy.contacts import (
-    AlertSpec,
-    ContactManager,
-    ContactManagerConfig,
-    ContactRecord,
-    NodeReport,
-    format_node_report,
-    parse_node_report,
-)
-from uhrisim.autonomy.domain import Domain, DomainAxis, Objective
-from uhrisim.autonomy.helm import Decision, Helm, HelmOutput, Posting, as_mail
-from uhrisim.autonomy.moos_file import load_helm_from_moos, load_moos
+from uhrisim.core.lazy import lazy_exports
 
-__all__ = [
-    "AlertSpec",
-    "BehaviorSpec",
-    "ContactManager",
-    "ContactManagerConfig",
-    "ContactRecord",
-    "Decision",
-    "Domain",
-    "DomainAxis",
-    "Helm",
-    "HelmConfig",
-    "HelmOutput",
-    "HelmSettings",
-    "NodeReport",
-    "Objective",
-    "OwnNav",
-    "Posting",
-    "VehicleAutonomy",
-    "as_mail",
-    "format_node_report",
-    "load_bhv",
-    "load_helm_from_moos",
-    "load_moos",
-    "parse_bhv",
-    "parse_domain",
-    "parse_node_report",
-]
+#: Each exported name -> its module (imported at first use: a scenario's declarations read
+#: a few of them without the whole helm).
+_HOMES = {
+    "OwnNav": "behaviors", "load_bhv": "bhv", "parse_bhv": "bhv",
+    "VehicleAutonomy": "community",
+    "BehaviorSpec": "config", "HelmConfig": "config", "HelmSettings": "config",
+    "parse_domain": "config",
+    "AlertSpec": "contacts", "ContactManager": "contacts", "ContactManagerConfig": "contacts",
+    "ContactRecord": "contacts", "NodeReport": "contacts", "format_node_report": "contacts",
+    "parse_node_report": "contacts",
+    "Domain": "domain", "DomainAxis": "domain", "Objective": "domain",
+    "Decision": "helm", "Helm": "helm", "HelmOutput": "helm", "Posting": "helm",
+    "as_mail": "helm",
+    "load_helm_from_moos": "moos_file", "load_moos": "moos_file",
+}
+
+__all__ = sorted(_HOMES)
+__getattr__ = lazy_exports(__name__, _HOMES)

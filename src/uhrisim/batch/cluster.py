@@ -26,8 +26,7 @@ from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
-from uhrisim.core.errors import ConfigError, MissingExtraError
-from uhrisim.world.meshes import first_line
+from uhrisim.core.errors import ConfigError, MissingExtraError, first_line
 
 #: Environment of a local Ray: no usage statistics; on Linux, Ray replaces a node IP of
 #: 127.0.0.1 by the machine's address unless clusters are declared unsupported, which

@@ -41,14 +41,12 @@ from typing import Annotated, Any
 from pydantic import Field, PositiveFloat, field_validator
 
 from uhrisim.batch.cluster import check_address, ray_session, run_tasks
-from uhrisim.batch.figures import plot_sweep_summary
 from uhrisim.batch.params import Draw, apply_path, check_path, read_yaml
-from uhrisim.core.errors import ConfigError, UhrisimError
+from uhrisim.core.errors import ConfigError, UhrisimError, first_line
 from uhrisim.core.rng import component_rng
 from uhrisim.scenario.load import ScenarioFile, validate_data
 from uhrisim.scenario.schema import Strict
 from uhrisim.scenario.yaml_lines import line_of
-from uhrisim.world.meshes import first_line
 
 RUNS_DIR = "runs"
 #: Metrics of metrics.json that repeat a column the table already has.
@@ -333,6 +331,10 @@ def run_sweep(sweep_path: str | Path, out: str | Path, *, address: str | None = 
     result = SweepResult([r for r in rows if r is not None], skipped, nodes=nodes,
                          planned=len(plan.runs))
     result.files = write_table(result.rows, plan.parameters, out)
+    # here: matplotlib and scipy.stats take seconds to import, which the Ray workers that
+    # import this module for execute_run need not pay
+    from uhrisim.batch.figures import plot_sweep_summary
+
     result.files.append(plot_sweep_summary(result.rows, plan.parameters, out / "summary.png",
                                            plan.name))
     return result

@@ -165,20 +165,7 @@ def run(quick: bool = False, out_dir: Path = Path("out/bench")) -> dict[str, Any
                                        "meets_target": rate >= TARGETS[key],
                                        "vs_single_env": rate / single}
     if len(target) > 1:  # the issue's "on 2 cores": the steps in a thread per core
-        one, shared = target
-        result["target_n1024"].update({
-            "repeats": TARGET_REPEATS,
-            "steps_per_s_1_thread": one["steps_per_s"],
-            "steps_per_cpu_s_1_thread": one["steps_per_cpu_s"],
-            "steps_per_s_1_thread_range": [one["steps_per_s_lowest"],
-                                           one["steps_per_s_highest"]],
-            f"steps_per_s_{cores}_threads_range": [shared["steps_per_s_lowest"],
-                                                   shared["steps_per_s_highest"]],
-            f"steps_per_s_{cores}_threads": shared["steps_per_s"],
-            f"steps_per_cpu_s_{cores}_threads": shared["steps_per_cpu_s"],
-            f"wall_speedup_{cores}_threads": shared["steps_per_s"] / one["steps_per_s"],
-            f"meets_target_on_{cores}_cores": shared["steps_per_s"] >= TARGETS["n1024"],
-            "load_average_1min_after": os.getloadavg()[0]})
+        result["target_n1024"].update(_on_cores(*target, TARGETS["n1024"]))
     result["plot"] = str(plot(rows, single, Path(out_dir) / "vector_steps_per_s.png"))
     result["sonar"] = _sonar_rates(quick, seconds)
     return result
@@ -205,11 +192,25 @@ def _sonar_rates(quick: bool, seconds: float) -> dict[str, Any]:
                            "meets_target": rate >= SONAR_TARGET["steps_per_s"],
                            "vs_single_env": rate / single, "repeats": TARGET_REPEATS}
     if len(target) > 1:  # the issue's "on 2 cores": the images formed in a thread per core
-        shared = target[1]
-        out[f"target_n{n}"].update({
-            f"steps_per_s_{cores}_threads": shared["steps_per_s"],
-            f"steps_per_s_{cores}_threads_range": [shared["steps_per_s_lowest"],
-                                                   shared["steps_per_s_highest"]],
-            f"meets_target_on_{cores}_cores":
-                shared["steps_per_s"] >= SONAR_TARGET["steps_per_s"]})
+        out[f"target_n{n}"].update(_on_cores(*target, SONAR_TARGET["steps_per_s"]))
     return out
+
+
+def _on_cores(one: dict[str, Any], shared: dict[str, Any], target: float) -> dict[str, Any]:
+    """The "on N cores" figures of a target's size: the median stretches of one thread
+    (``one``) and of a thread per core (``shared``) from :func:`_vector_rates`, their wall
+    speed-up, whether the shared wall rate meets ``target`` (env steps/s) and the load
+    average after them."""
+    cores = shared["threads"]
+    return {
+        "repeats": TARGET_REPEATS,
+        "steps_per_s_1_thread": one["steps_per_s"],
+        "steps_per_cpu_s_1_thread": one["steps_per_cpu_s"],
+        "steps_per_s_1_thread_range": [one["steps_per_s_lowest"], one["steps_per_s_highest"]],
+        f"steps_per_s_{cores}_threads_range": [shared["steps_per_s_lowest"],
+                                               shared["steps_per_s_highest"]],
+        f"steps_per_s_{cores}_threads": shared["steps_per_s"],
+        f"steps_per_cpu_s_{cores}_threads": shared["steps_per_cpu_s"],
+        f"wall_speedup_{cores}_threads": shared["steps_per_s"] / one["steps_per_s"],
+        f"meets_target_on_{cores}_cores": shared["steps_per_s"] >= target,
+        "load_average_1min_after": os.getloadavg()[0]}

@@ -18,6 +18,13 @@ def shortened(text: str, limit: int = MESSAGE_LIMIT) -> str:
     return f"{text[:limit]}... ({len(text)} characters in all)"
 
 
+def first_line(exc: BaseException) -> str:
+    """The first line of an exception's message (at most 200 characters), or its type name
+    when the message is empty: for one-line error messages that wrap a library's error."""
+    text = str(exc).strip()
+    return text.splitlines()[0][:200] if text else type(exc).__name__
+
+
 class UhrisimError(Exception):
     """Base class of every error uhrisim raises on purpose."""
 

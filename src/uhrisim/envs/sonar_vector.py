@@ -61,7 +61,8 @@ from uhrisim.scenario.sections import part_settings
 from uhrisim.sensors.sonar.cast import FanHits
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.sonar import ImagingSonar
-from uhrisim.world.assets import DIVER_MAX_KICK_HZ, DIVER_STRIDE_M, diver_parts
+from uhrisim.world.assets import diver_parts
+from uhrisim.world.kick import DIVER_MAX_KICK_HZ, DIVER_STRIDE_M
 from uhrisim.world.materials import NEOPRENE
 
 
@@ -157,7 +158,7 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
 
     def _moved(self, rows: slice | np.ndarray) -> None:
         """The diver's flutter-kick phase, as the Simulation advances it each tick
-        (:func:`~uhrisim.world.assets.diver_kick_phase_rate` of its speed)."""
+        (:func:`~uhrisim.world.kick.diver_kick_phase_rate` of its speed)."""
         speed = np.abs(body_rates_kernel(*self.diver_inputs[rows].T, self.diver_plant.params,
                                          ARRAYS)[0])
         rate = 2.0 * math.pi * np.minimum(speed / DIVER_STRIDE_M, DIVER_MAX_KICK_HZ)

@@ -22,7 +22,7 @@ from uhrisim.scenario.sections import scenario_section
 from uhrisim.scenario.strict import Strict
 from uhrisim.teamwork import orders as od
 from uhrisim.teamwork.gripper import GripperSpec
-from uhrisim.world.tools import TOOL_KINDS
+from uhrisim.world.tool_kinds import TOOL_KINDS
 
 ObjectName = Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")]
 Angle = Annotated[float, Field(ge=-360.0, le=360.0)]

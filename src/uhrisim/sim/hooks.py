@@ -1,17 +1,19 @@
-"""What the simulation hands to its read-only publish hooks each tick.
+"""The simulation's read-only publish hooks: their interface and what it hands them each tick.
 
 Hooks (recorder, metrics, viewer, ROS 2 and MOOS bridges) get copies and immutable
 snapshots; they never mutate simulation state. Commands from outside enter through
-:meth:`uhrisim.sim.simulation.Simulation.post` / ``set_actuators`` instead. The hook
-interface itself (:class:`~uhrisim.sim.simulation.Hook`, ``BaseHook``) lives with the
-Simulation that calls it; this module holds only the data it passes.
+:meth:`uhrisim.sim.simulation.Simulation.post` / ``set_actuators`` instead. The interface
+(:class:`Hook`, :class:`BaseHook`) lives here rather than with the Simulation so that a
+module defining a hook imports it without the simulation's world (trimesh, OpenCV); the
+``sim`` its callbacks get is the :class:`~uhrisim.sim.simulation.Simulation` (typed ``Any``
+here: this module is below it).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from uhrisim.dynamics.plants import NavState
 from uhrisim.sim.community import Post
@@ -148,3 +150,34 @@ class TickFrame:
     # The articulated divers' joints by agent (uhrisim.sim.teamwork): names, angles
     # (rad), rates (rad/s)
     joints: Mapping[str, JointSample] = field(default_factory=dict)
+
+
+class Hook(Protocol):
+    """A read-only observer of the simulation (recorder, metrics, viewer, bridges): told
+    of the start, handed every tick's :class:`TickFrame`, told of the end (with the error
+    that stopped the run, if one did). It changes nothing itself: what it has to say to
+    the simulation (a command from outside) goes through the inbox,
+    :meth:`~uhrisim.sim.simulation.Simulation.post` and ``set_actuators``, and acts next
+    tick."""
+
+    def on_start(self, sim: Any) -> None: ...
+
+    def on_tick(self, frame: TickFrame) -> None: ...
+
+    def on_end(self, sim: Any, error: BaseException | None) -> None: ...
+
+
+class BaseHook:
+    """Convenience base: every callback does nothing."""
+
+    def on_start(self, sim: Any) -> None:
+        del sim
+
+    def on_tick(self, frame: TickFrame) -> None:
+        del frame
+
+    def on_end(self, sim: Any, error: BaseException | None) -> None:
+        del sim, error
+
+    def summary(self) -> dict[str, Any]:
+        return {}

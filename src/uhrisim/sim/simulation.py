@@ -38,7 +38,7 @@ import math
 import threading
 import time
 from collections.abc import Callable, Sequence
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -59,51 +59,23 @@ from uhrisim.sim.hooks import (
     AgentSnapshot,
     AgentSnapshots,
     HelmRecord,
+    Hook,
     SimEvent,
     TickFrame,
     sensor_key,
 )
+from uhrisim.sim.hooks import BaseHook as BaseHook  # where many hooks still import it from
 from uhrisim.sim.overlap import push_out, sphere_overlaps
 from uhrisim.sim.script import ScriptDriver
 from uhrisim.sim.sonar_contacts import SonarContacts
 from uhrisim.sim.state import Agent, ScheduledEvent
 from uhrisim.sim.teamwork import TeamStage
-from uhrisim.world.assets import diver_kick_phase_rate
+from uhrisim.world.kick import diver_kick_phase_rate
 from uhrisim.world.scene import Scene
 
 log = logging.getLogger(__name__)
 
 SURFACE_DEPTH = 0.0  # m; bodies cannot leave the water
-
-
-class Hook(Protocol):
-    """A read-only observer of the simulation (recorder, metrics, viewer, bridges): told
-    of the start, handed every tick's :class:`~uhrisim.sim.hooks.TickFrame`, told of the
-    end (with the error that stopped the run, if one did). It changes nothing itself: what
-    it has to say to the simulation (a command from outside) goes through the inbox,
-    :meth:`Simulation.post` and :meth:`Simulation.set_actuators`, and acts next tick."""
-
-    def on_start(self, sim: Simulation) -> None: ...
-
-    def on_tick(self, frame: TickFrame) -> None: ...
-
-    def on_end(self, sim: Simulation, error: BaseException | None) -> None: ...
-
-
-class BaseHook:
-    """Convenience base: every callback does nothing."""
-
-    def on_start(self, sim: Simulation) -> None:
-        del sim
-
-    def on_tick(self, frame: TickFrame) -> None:
-        del frame
-
-    def on_end(self, sim: Simulation, error: BaseException | None) -> None:
-        del sim, error
-
-    def summary(self) -> dict[str, Any]:
-        return {}
 
 
 class Simulation:

@@ -34,13 +34,14 @@ import re
 from collections import deque
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 from uhrisim.dynamics.diver_body import SIDES, Side
-from uhrisim.teamwork.acts import TOOL_FOR, site_kind
-from uhrisim.teamwork.workspace import Workspace
+
+if TYPE_CHECKING:
+    from uhrisim.teamwork.workspace import Workspace
 
 #: Signals a script may make (placeholders: each is the signal-ready pose, held).
 SIGNALS = ("ok", "up", "down", "stop", "come_here", "hold_this")
@@ -272,6 +273,9 @@ def validate_orders(orders: Sequence[Order], diver: DiverSetup, ws: Workspace,
                     floor_depth: Callable, extent: tuple[float, float, float, float],
                     carriers: Iterable[str] = ()) -> list[str]:
     """Every reason the orders cannot be executed, one line each (empty: they can)."""
+    # here: the scenario schema builds orders without the workspace's meshes (trimesh)
+    from uhrisim.teamwork.acts import TOOL_FOR, site_kind
+
     errors: list[str] = []
     known_carriers = set(carriers) | {f"{diver.name}/{s}_hand" for s in SIDES}
     north, east, reached = (walkable_region(floor_depth, extent, diver.start_ne,

@@ -12,33 +12,27 @@ Typical use::
     rc = scene.raycaster()                      # once
     scene.set_pose("diver", pos_ned, R_body_to_ned, kick_phase)   # every tick
     hits = rc.cast(origins, directions, max_range=30.0, exclude=frozenset({"videoray"}))
+
+The names below are imported at their first use (:mod:`uhrisim.core.lazy`): the meshes
+need trimesh (and through it scipy), about a second of CPU, which a process that only
+reads a scenario's declarations (:mod:`uhrisim.world.events`,
+:mod:`uhrisim.world.tool_kinds`) need not pay.
 """
 
-from uhrisim.world import assets, materials, primitives, seafloor
-from uhrisim.world.bodies import ArticulatedMesh, Joint, Part
-from uhrisim.world.materials import Material
-from uhrisim.world.meshes import load_mesh
-from uhrisim.world.objects import DynamicBody, StaticObject
-from uhrisim.world.raycast import EmbreeRayCaster, RayCaster, RayHits, ReferenceRayCaster
-from uhrisim.world.scene import Scene
-from uhrisim.world.seafloor import SeaFloor
+from __future__ import annotations
 
-__all__ = [
-    "ArticulatedMesh",
-    "DynamicBody",
-    "EmbreeRayCaster",
-    "Joint",
-    "Material",
-    "Part",
-    "RayCaster",
-    "RayHits",
-    "ReferenceRayCaster",
-    "Scene",
-    "SeaFloor",
-    "StaticObject",
-    "assets",
-    "load_mesh",
-    "materials",
-    "primitives",
-    "seafloor",
-]
+from uhrisim.core.lazy import lazy_exports
+
+#: Each exported name -> the module that defines it (a submodule is its own entry).
+_HOMES = {
+    "ArticulatedMesh": "bodies", "Joint": "bodies", "Part": "bodies",
+    "DynamicBody": "objects", "StaticObject": "objects",
+    "EmbreeRayCaster": "raycast", "RayCaster": "raycast", "RayHits": "raycast",
+    "ReferenceRayCaster": "raycast",
+    "Material": "materials", "load_mesh": "meshes", "Scene": "scene", "SeaFloor": "seafloor",
+    "assets": "assets", "materials": "materials", "primitives": "primitives",
+    "seafloor": "seafloor",
+}
+
+__all__ = sorted(_HOMES)
+__getattr__ = lazy_exports(__name__, _HOMES)

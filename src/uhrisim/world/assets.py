@@ -12,9 +12,13 @@ import math
 
 import trimesh
 
-from uhrisim.core.errors import ConfigError
 from uhrisim.world import primitives as prim
 from uhrisim.world.bodies import ArticulatedMesh, Joint, Part
+from uhrisim.world.kick import (
+    DIVER_ANKLE_AMPLITUDE_RAD,
+    DIVER_ANKLE_LAG_RAD,
+    DIVER_HIP_AMPLITUDE_RAD,
+)
 from uhrisim.world.materials import ALUMINIUM, NEOPRENE, Material
 
 _ALONG_X = {"pitch": math.pi / 2.0}  # turns a primitive's +z axis onto body +x
@@ -59,35 +63,9 @@ def videoray_mesh() -> trimesh.Trimesh:
 
 # --------------------------------------------------------------------------- diver
 
-#: Flutter-kick geometry and timing (assumptions, stated once):
-#: a prone diver ~1.8 m head to toe, ~2.3 m with fins; legs swing about the hips in
-#: opposite phase with DIVER_HIP_AMPLITUDE_RAD, fins bend about the ankles with
-#: DIVER_ANKLE_AMPLITUDE_RAD lagging the legs by a quarter cycle (fins "follow").
-DIVER_HIP_AMPLITUDE_RAD = 0.20
-DIVER_ANKLE_AMPLITUDE_RAD = 0.35
-DIVER_ANKLE_LAG_RAD = math.pi / 2.0
-#: Distance covered per flutter-kick cycle and the fastest cycle rate (assumed: recreational
-#: divers cruise at 0.3–0.6 m/s with roughly 0.5–1 kick cycles per second).
-DIVER_STRIDE_M = 0.6
-DIVER_MAX_KICK_HZ = 1.5
-
 _HIP_X, _KNEE_TO_ANKLE, _LEG_LEN, _LEG_Y = 0.22, 0.45, 0.90, 0.10
 _ANKLE_X = _HIP_X - _LEG_LEN
 _FIN_LEN = 0.60
-
-
-def diver_kick_phase_rate(speed_mps: float) -> float:
-    """Flutter-kick phase rate (rad/s) for a forward swim speed (m/s).
-
-    Model (assumption, see module constants): the kick frequency is proportional to
-    speed, ``f = speed / DIVER_STRIDE_M`` (0.6 m per cycle), capped at
-    ``DIVER_MAX_KICK_HZ`` = 1.5 Hz; a hovering diver (speed 0) does not kick. At 0.3 m/s
-    this gives 0.5 Hz, at 0.6 m/s 1 Hz. Negative speeds (backing) use |speed|.
-    """
-    s = float(speed_mps)
-    if not math.isfinite(s):
-        raise ConfigError(f"must be finite, got {speed_mps!r}", where="diver_kick_phase_rate")
-    return 2.0 * math.pi * min(abs(s) / DIVER_STRIDE_M, DIVER_MAX_KICK_HZ)
 
 
 def ellipsoid(semi_axes: tuple[float, float, float],

@@ -27,14 +27,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.settings import check_settings, setting
 from uhrisim.world.materials import Material
+
+if TYPE_CHECKING:
+    import trimesh
 
 #: Air bubbles: near-total reflection at the air–water interface (a default, like the
 #: other materials: bright, not measured).
@@ -94,6 +97,8 @@ class BubbleParams:
 def cluster_mesh(params: BubbleParams, rng: np.random.Generator) -> trimesh.Trimesh:
     """One cloud of bubbles around its centre (body frame, m): spheres scattered
     uniformly in a ball of ``cluster_radius_m``."""
+    import trimesh  # here: the scenario schema reads BubbleParams without the meshes
+
     spheres = []
     for _ in range(params.bubbles_per_cluster):
         direction = rng.normal(size=3)

@@ -42,12 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.dynamics.diver_body import SIDES, DiverSkeleton
 from uhrisim.world import primitives as prim
-from uhrisim.world.assets import (
-    DIVER_ANKLE_AMPLITUDE_RAD,
-    DIVER_ANKLE_LAG_RAD,
-    DIVER_HIP_AMPLITUDE_RAD,
-    ellipsoid,
-)
+from uhrisim.world.assets import ellipsoid
 from uhrisim.world.bodies import ArticulatedMesh, Joint, Part
 from uhrisim.world.materials import ALUMINIUM, Material
 
@@ -63,12 +58,11 @@ PART_LABELS = ("head", "tank", "arm", "hand", "fins", "boots")
 #: Scuba cylinder (aluminium 80) and bailout bottle (assumed 3 L steel) sizes, m.
 SCUBA_TANK_RADIUS_M, SCUBA_TANK_LENGTH_M = 0.092, 0.66
 BAILOUT_RADIUS_M, BAILOUT_LENGTH_M = 0.07, 0.45
-#: Fin blade (m), its rake below the sole line (assumed: blades are set at an angle to the
-#: foot pocket so that they trail in line with a diver's pointed feet), and the swimmer's
-#: ankle about which the flutter kick swings (feet pointed), rad.
+#: Fin blade (m) and its rake below the sole line (assumed: blades are set at an angle to
+#: the foot pocket so that they trail in line with a diver's pointed feet; the swimmer's
+#: ankle is :data:`uhrisim.world.kick.SWIM_ANKLE_BIAS_RAD`).
 FIN_LENGTH_M, FIN_WIDTH_M = 0.60, 0.22
 FIN_RAKE_RAD = math.radians(30.0)
-SWIM_ANKLE_BIAS_RAD = math.radians(-20.0)
 
 
 def _limb(radius: float, top: float, bottom: float, y: float) -> trimesh.Trimesh:
@@ -168,21 +162,3 @@ def figure_transforms(skeleton: DiverSkeleton, q: ArrayLike) -> NDArray[np.float
 def posed_figure(skeleton: DiverSkeleton, q: ArrayLike) -> trimesh.Trimesh:
     """The whole figure at ``q`` as one Trimesh in the body frame (plots, export)."""
     return diver_figure(skeleton).mesh_posed(figure_transforms(skeleton, q))
-
-
-def flutter_kick(skeleton: DiverSkeleton, q: ArrayLike, kick_phase_rad: float
-                 ) -> NDArray[np.float64]:
-    """``q`` with the legs in the flutter kick of the swimming diver at ``kick_phase_rad``.
-
-    The same kick as :func:`uhrisim.world.assets.diver_parts` (hip amplitude, ankle
-    amplitude and its quarter-cycle lag, legs in opposite phase) about a streamlined
-    ankle of ``SWIM_ANKLE_BIAS_RAD``; clipped into the joint limits.
-    """
-    out = np.array(q, dtype=float)
-    for side, offset in (("left", 0.0), ("right", math.pi)):
-        out[skeleton.index(f"{side}_hip_flex")] = (
-            DIVER_HIP_AMPLITUDE_RAD * math.sin(kick_phase_rad + offset))
-        out[skeleton.index(f"{side}_knee")] = 0.0
-        out[skeleton.index(f"{side}_ankle")] = SWIM_ANKLE_BIAS_RAD + DIVER_ANKLE_AMPLITUDE_RAD * (
-            math.sin(kick_phase_rad + offset - DIVER_ANKLE_LAG_RAD))
-    return skeleton.clip(out)

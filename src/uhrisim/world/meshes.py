@@ -16,19 +16,12 @@ import numpy as np
 import trimesh
 from numpy.typing import ArrayLike
 
-from uhrisim.core.errors import AssetError, ConfigError
+from uhrisim.core.errors import AssetError, ConfigError, first_line
 from uhrisim.world.primitives import pose_matrix
 
 log = logging.getLogger(__name__)
 
 SUPPORTED_SUFFIXES = (".obj", ".stl", ".ply", ".glb", ".gltf", ".off")
-
-
-def first_line(exc: BaseException) -> str:
-    """The first line of an exception's message (at most 200 characters), or its type name
-    when the message is empty: for one-line error messages that wrap a library's error."""
-    text = str(exc).strip()
-    return text.splitlines()[0][:200] if text else type(exc).__name__
 
 
 def load_mesh(

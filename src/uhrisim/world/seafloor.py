@@ -24,9 +24,8 @@ import numpy as np
 import trimesh
 from numpy.typing import ArrayLike, NDArray
 
-from uhrisim.core.errors import AssetError, ConfigError
+from uhrisim.core.errors import AssetError, ConfigError, first_line
 from uhrisim.core.rng import component_rng
-from uhrisim.world.meshes import first_line
 from uhrisim.world.primitives import positive_length
 
 Extent = float | tuple[float, float, float, float]

@@ -41,8 +41,7 @@ from numpy.typing import NDArray
 from uhrisim.core.errors import ConfigError
 from uhrisim.dynamics.free_body import Hydro
 from uhrisim.world import primitives as prim
-
-TOOL_KINDS = ("wrench", "hammer", "light", "lift_bag", "tool_basket")
+from uhrisim.world.tool_kinds import TOOL_KINDS
 
 _ALONG_X = {"pitch": math.pi / 2.0}
 

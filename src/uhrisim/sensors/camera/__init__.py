@@ -10,19 +10,17 @@ Public API::
 See ``docs/camera.md`` for the stages, parameters and sources.
 """
 
-from uhrisim.sensors.camera.camera import CameraFrame, UnderwaterCamera
-from uhrisim.sensors.camera.config import PRESETS, CameraConfig, CameraSpec, Lamp
-from uhrisim.sensors.camera.water import JERLOV_TYPES, WaterOptics, jerlov, measured
+from __future__ import annotations
 
-__all__ = [
-    "JERLOV_TYPES",
-    "PRESETS",
-    "CameraConfig",
-    "CameraFrame",
-    "CameraSpec",
-    "Lamp",
-    "UnderwaterCamera",
-    "WaterOptics",
-    "jerlov",
-    "measured",
-]
+from uhrisim.core.lazy import lazy_exports
+
+#: Each exported name -> its module (imported at first use: the camera needs OpenCV and
+#: trimesh, its configuration does not).
+_HOMES = {
+    "CameraFrame": "camera", "UnderwaterCamera": "camera",
+    "PRESETS": "config", "CameraConfig": "config", "CameraSpec": "config", "Lamp": "config",
+    "JERLOV_TYPES": "water", "WaterOptics": "water", "jerlov": "water", "measured": "water",
+}
+
+__all__ = sorted(_HOMES)
+__getattr__ = lazy_exports(__name__, _HOMES)

@@ -8,25 +8,18 @@ Public API::
                       exclude=frozenset({"videoray"}))
 """
 
-from uhrisim.sensors.sonar.cloud import SonarCloud
-from uhrisim.sensors.sonar.config import COLORMAPS, ECHOES_ONLY, SonarConfig
-from uhrisim.sensors.sonar.fan import image_2013
-from uhrisim.sensors.sonar.geometry import mount_rotation
-from uhrisim.sensors.sonar.ping import SonarInfo, SonarPing
-from uhrisim.sensors.sonar.presets import PRESETS, SonarSpec, get_preset
-from uhrisim.sensors.sonar.sonar import ImagingSonar
+from __future__ import annotations
 
-__all__ = [
-    "COLORMAPS",
-    "ECHOES_ONLY",
-    "PRESETS",
-    "ImagingSonar",
-    "SonarCloud",
-    "SonarConfig",
-    "SonarInfo",
-    "SonarPing",
-    "SonarSpec",
-    "get_preset",
-    "image_2013",
-    "mount_rotation",
-]
+from uhrisim.core.lazy import lazy_exports
+
+#: Each exported name -> its module (imported at first use: image formation needs OpenCV
+#: and the ray caster trimesh, the configuration does not).
+_HOMES = {
+    "SonarCloud": "cloud", "COLORMAPS": "config", "ECHOES_ONLY": "config",
+    "SonarConfig": "config", "image_2013": "fan", "mount_rotation": "geometry",
+    "SonarInfo": "ping", "SonarPing": "ping", "PRESETS": "presets", "SonarSpec": "presets",
+    "get_preset": "presets", "ImagingSonar": "sonar",
+}
+
+__all__ = sorted(_HOMES)
+__getattr__ = lazy_exports(__name__, _HOMES)

@@ -12,26 +12,15 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import Literal
 
-import cv2
-
 from uhrisim.core.errors import ConfigError, warn_user
 from uhrisim.core.settings import check_settings, setting
 from uhrisim.sensors.sonar.acoustics import absorption_db_per_m, sound_speed_fg
 from uhrisim.sensors.sonar.presets import SonarSpec, get_preset
 
-#: Colour maps accepted for ``SonarConfig.colormap`` (OpenCV's built-ins).
-COLORMAPS: dict[str, int] = {
-    "autumn": cv2.COLORMAP_AUTUMN,
-    "bone": cv2.COLORMAP_BONE,
-    "jet": cv2.COLORMAP_JET,
-    "ocean": cv2.COLORMAP_OCEAN,
-    "hot": cv2.COLORMAP_HOT,
-    "viridis": cv2.COLORMAP_VIRIDIS,
-    "inferno": cv2.COLORMAP_INFERNO,
-    "magma": cv2.COLORMAP_MAGMA,
-    "twilight": cv2.COLORMAP_TWILIGHT,
-    "cividis": cv2.COLORMAP_CIVIDIS,
-}
+#: Colour maps accepted for ``SonarConfig.colormap``: OpenCV's built-ins, by the name of
+#: their ``cv2.COLORMAP_<NAME>`` (OpenCV is imported where a fan is coloured).
+COLORMAPS = ("autumn", "bone", "jet", "ocean", "hot", "viridis", "inferno", "magma",
+             "twilight", "cividis")
 
 #: Settings that switch off every diffuse term of the image (noise, reverberation, far side
 #: lobes), leaving the echoes of the geometry alone: ``SonarConfig(**ECHOES_ONLY, ...)``

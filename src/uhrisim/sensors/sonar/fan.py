@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from uhrisim.sensors.sonar.config import COLORMAPS, SonarConfig
+from uhrisim.sensors.sonar.config import SonarConfig
 
 
 class FanMaps(NamedTuple):
@@ -95,7 +95,7 @@ def color_fan(
 ) -> NDArray[np.uint8]:
     """``fan`` through the OpenCV colour map ``colormap`` (H, W, 3) BGR; black outside
     ``mask_u8`` when given."""
-    rgb = cv2.applyColorMap(fan, COLORMAPS[colormap])
+    rgb = cv2.applyColorMap(fan, getattr(cv2, f"COLORMAP_{colormap.upper()}"))
     if mask_u8 is not None:
         rgb = cv2.bitwise_and(rgb, rgb, mask=mask_u8)
     return rgb
