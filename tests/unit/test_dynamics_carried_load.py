@@ -150,8 +150,8 @@ def test_the_load_feed_forward_holds_depth_where_the_p_loop_sags():
     load = tool_of(3.11 / GRAVITY)
     plant = carrying(VideoRayPlant(PAPER, 1 / 60), load)
     paper = VideoRayPController(GAIN_PRESETS["mission"], PAPER)
-    fed = VideoRayPController(GAIN_PRESETS["mission"], PAPER,
-                              held_load_input=cl.hover_command(PAPER, load).command)
+    fed = paper.holding(PAPER, load)
+    assert fed.held_load_input == cl.hover_command(PAPER, load).command
     settled = {}
     for name, controller in (("paper", paper), ("fed", fed)):
         x = np.array([0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 0.0, 0.0])
@@ -169,6 +169,31 @@ def test_the_load_feed_forward_holds_depth_where_the_p_loop_sags():
 
 
 BAG = (0.35, 0.25, 0.10)  # the folded lift bag, m (world/tools.py)
+
+
+@pytest.mark.parametrize("params", [PAPER, QUADRATIC], ids=["linear", "quadratic"])
+def test_holding_a_load_the_rov_makes_the_speed_it_is_ordered(params):
+    """The speed feed-forward of a controller holding a load balances the loaded vehicle's
+    drag, so the P speed loop settles at the ordered 0.2 m/s (the assistant's cruise with
+    the lift bag); with the empty vehicle's feed-forward it settled well short (0.114 m/s
+    in the assisted salvage). Letting go, the controller is the empty vehicle's again."""
+    from uhrisim.control.videoray_p import GAIN_PRESETS, VideoRayPController
+    from uhrisim.dynamics.plants import VideoRayPlant, carrying
+    from uhrisim.world.tools import make_tool
+
+    bag = make_tool("lift_bag", "bag", 1.5)
+    load = cl.CarriedLoad(bag.hydro, GRIPPER, cl.box_projected_areas(BAG, np.eye(3)))
+    plant = carrying(VideoRayPlant(params, 1 / 60), load)
+    empty = VideoRayPController(GAIN_PRESETS["mission"], params)
+    settled = {}
+    for name, controller in (("empty", empty), ("holding", empty.holding(params, load))):
+        x = np.array([0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+        for _ in range(3600):  # 60 s: many time constants m11' / (2 Xuu' u)
+            x = plant.step(0.0, x, controller.inputs(x, 0.0, 0.2, 5.0))
+        settled[name] = x[4]
+    assert settled["holding"] == pytest.approx(0.2, abs=1e-4)
+    assert settled["empty"] < 0.18
+    assert empty.holding(params, load).holding(params, None) == empty
 
 
 def test_a_box_shows_each_axis_the_shadow_of_its_faces():

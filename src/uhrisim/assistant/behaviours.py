@@ -72,6 +72,12 @@ class TreeContext:
     def want(self, var: str, value: str | float) -> None:
         self.wants[var] = value
 
+    def transit_speed(self, speed: float) -> float:
+        """``speed`` (m/s), at most ``carry_speed`` while the gripper holds something."""
+        if self.now.gripper.holding is None:
+            return speed
+        return min(speed, self.config.carry_speed)
+
     def event(self, text: str) -> None:
         self.events.append(text)
 
@@ -231,7 +237,8 @@ class GoTo(Drive):
                          diver.position_ned[1] + cfg.standoff_m * math.sin(half), goal[2]])
 
     def post(self, point: Point) -> None:
-        self.ctx.want("WPT_UPDATES", f"points={moos_xy(point)} # speed={self.speed:.2f}")
+        speed = self.ctx.transit_speed(self.speed)
+        self.ctx.want("WPT_UPDATES", f"points={moos_xy(point)} # speed={speed:.2f}")
 
     def update(self) -> Status:
         status = super().update()
@@ -435,14 +442,15 @@ class WaitUntil(Leaf):
 class SpeedCeiling(Leaf):
     """Every tick: the helm's speed ceiling — ``near_speed`` while the ROV is within
     ``slow_radius_m`` + ``slow_lead_m`` of the diver's body or head (the lead lets it slow
-    down before it is inside), else ``cruise_speed``. Always SUCCESS."""
+    down before it is inside), else ``cruise_speed``; at most ``carry_speed`` while it
+    holds something. Always SUCCESS."""
 
     def update(self) -> Status:
         cfg = self.ctx.config
         diver = self.ctx.diver or self.ctx.last_diver
         near = diver is not None and min(separations(self.ctx.rov, diver)) < (
             cfg.slow_radius_m + cfg.slow_lead_m)
-        limit = cfg.near_speed if near else cfg.cruise_speed
+        limit = self.ctx.transit_speed(cfg.near_speed if near else cfg.cruise_speed)
         self.ctx.want("MAXSPEED_UPDATES", f"max_speed={limit:.2f}")
         return Status.SUCCESS
 

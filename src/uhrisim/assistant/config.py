@@ -39,6 +39,9 @@ class AssistantConfig:
     near_speed: float = 0.2
     cruise_speed: float = 0.5
     creep_speed: float = 0.08  # the last approach to a grasp or a hand
+    carry_speed: float = 0.3  # transits at most this while the gripper holds something:
+    # with the lift bag the VideoRay's thrust runs out at 0.48 m/s, both thrusters
+    # saturated and nothing left to steer with (docs/hri.md)
     max_closing_speed: float = 0.3  # within slow_radius: faster closing, stop
     lost_after_s: float = 3.0  # a track older than this is lost
     lost_standoff_m: float = 2.5  # back off this far from where the diver was last seen

@@ -45,7 +45,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -56,7 +56,7 @@ from uhrisim.control.videoray_p import VideoRayPController
 from uhrisim.core.clock import ticks_for_rate
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import rot_z
-from uhrisim.dynamics.carried_load import CarriedLoad, box_projected_areas, hover_command
+from uhrisim.dynamics.carried_load import CarriedLoad, box_projected_areas
 from uhrisim.dynamics.diver_body import DiverSkeleton, step_motion
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.sections import part_settings
@@ -359,8 +359,9 @@ class TeamStage:
     def _carry_in_dynamics(self, agent: Agent, slot: GripperSlot) -> None:
         """The vehicle's plant carries what its gripper holds (its mass, added mass, drag
         and in-water weight in eqs 1-4), or nothing; an assistant's ROV knows what it
-        holds, and its depth controller feeds the in-water weight forward
-        (:class:`~uhrisim.control.videoray_p.VideoRayPController`'s ``held_load_input``)."""
+        holds: its depth controller feeds the in-water weight forward
+        and its speed feed-forward the loaded vehicle's drag
+        (:meth:`~uhrisim.control.videoray_p.VideoRayPController.holding`)."""
         ws = self.workspace
         held = ws.held_by(f"{agent.name}/gripper")
         if held == slot.carrying:
@@ -376,9 +377,8 @@ class TeamStage:
         slot.carrying = held
         if agent.config.assistant is not None and isinstance(agent.controller,
                                                               VideoRayPController):
-            agent.controller = replace(agent.controller, held_load_input=0.0 if load is None
-                                       else hover_command(agent.controller.params,
-                                                          load).command)
+            # the plant keeps the empty vehicle's parameters
+            agent.controller = agent.controller.holding(agent.plant.params, load)
 
     def _add_bodies(self) -> None:
         ws, scene = self.workspace, self.scene
