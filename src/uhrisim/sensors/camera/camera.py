@@ -223,13 +223,10 @@ class UnderwaterCamera:
                            r_seen.reshape(hc, wc), self._fused is not None)
         exact = grid.exact_pixels(smooth)
         self.last_exact_fraction = len(exact) / len(geo.cos_axis)
-        light = grid.upsample(light_c.reshape(hc, wc, 3)).reshape(-1, 3)
-        fs = grid.upsample(fs_c.reshape(hc, wc, 3)).reshape(-1, 3)
-        with np.errstate(divide="ignore"):  # open water: 1/0 = inf
-            range_m = 1.0 / (grid.upsample(inverse_depth.reshape(hc, wc)).reshape(-1)
-                             * geo.cos_axis)
-        labels = grid.nearest_corner(hits_c.label.astype(np.int16).reshape(hc, wc))
-        labels = labels.reshape(-1)
+        light, fs, range_m, labels = grid.fill(
+            light_c.reshape(hc, wc, 3), fs_c.reshape(hc, wc, 3),
+            inverse_depth.reshape(hc, wc), hits_c.label.astype(np.int16).reshape(hc, wc),
+            geo.cos_axis, self._fused is not None)
         if len(exact):
             hits_e, range_e, light_e, fs_e = form(self._rays(R, exact))
             light[exact], fs[exact], range_m[exact] = light_e, fs_e, range_e
