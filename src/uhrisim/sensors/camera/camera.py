@@ -179,9 +179,10 @@ class UnderwaterCamera:
         light, fs = light.reshape(h, w, 3), fs.reshape(h, w, 3)
         radiance = light
         if cfg.forward_scatter and cfg.forward_scatter_spread > 0.0:
-            radiance = light + fm.forward_scatter(
-                fs, range_m.reshape(h, w), cfg.water, cfg.forward_scatter_spread,
-                float(geo.K[0, 0]))
+            blur = (range_m.reshape(h, w), cfg.water, cfg.forward_scatter_spread,
+                    float(geo.K[0, 0]))
+            radiance = (light + fm.forward_scatter(fs, *blur) if self._fused is None
+                        else fused.with_forward_scatter(light, fs, *blur))
         if medium is not None:
             radiance = self._through_medium(radiance, range_m, origin, R, medium)
         gain = fm.exposure_gain(radiance, cfg)

@@ -30,12 +30,15 @@ import math
 from dataclasses import dataclass
 from functools import cache
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.core.compiled import jit, jit_with
+from uhrisim.sensors.camera import formation as fm
 from uhrisim.sensors.camera.config import CameraConfig
 from uhrisim.sensors.camera.textures import SceneTextures
+from uhrisim.sensors.camera.water import WaterOptics
 from uhrisim.world.materials import ripple_factor
 
 _F32 = np.float32
@@ -260,13 +263,93 @@ def _expose_pixels(radiance, gain, full_well, read_noise2, noise, lut, out):  # 
     return out
 
 
+def _blur_index(range_img, scale, w0, idx_half):  # type: ignore[no-untyped-def]
+    """:func:`forward_scatter`'s per-pixel pass: the blur σ = range·``scale`` (px; 0 for
+    open water), the unblurred weight ``w0`` (H, W) of every pixel and the level index
+    log2(max(σ, ½)) + 1 at the pixels cv2's INTER_NEAREST takes to ``idx_half`` (its
+    grid (h, w)). Returns (largest σ, smallest and largest index kept)."""
+    f32 = np.float32
+    one, half = f32(1.0), f32(0.5)
+    height, width = range_img.shape
+    top = f32(0.0)
+    for y in range(height):
+        for x in range(width):
+            r = range_img[y, x]
+            sigma = (r if math.isfinite(r) else f32(0.0)) * scale
+            top = max(top, sigma)
+            if sigma <= half:  # log2(½) + 1 = 0
+                w0[y, x] = one
+            elif sigma >= one:  # log2(σ) + 1 ≥ 1
+                w0[y, x] = f32(0.0)
+            else:
+                w0[y, x] = max(one - (f32(math.log2(sigma)) + one), f32(0.0))
+    low, high = math.inf, -math.inf
+    step_y, step_x = height / idx_half.shape[0], width / idx_half.shape[1]
+    for i in range(idx_half.shape[0]):
+        y = min(math.floor(i * step_y), height - 1)
+        for j in range(idx_half.shape[1]):
+            x = min(math.floor(j * step_x), width - 1)
+            r = range_img[y, x]
+            sigma = (r if math.isfinite(r) else f32(0.0)) * scale
+            value = f32(math.log2(max(sigma, half))) + one
+            idx_half[i, j] = value
+            low, high = min(low, value), max(high, value)
+    return float(top), low, high
+
+
+def _blend_level(level, idx_half, k, top_index, blurred):  # type: ignore[no-untyped-def]
+    """``blurred`` += ``level``·max(1 − |min(index, ``top_index``) − k|, 0) per pixel."""
+    f32 = np.float32
+    for i in range(level.shape[0]):
+        for j in range(level.shape[1]):
+            weight = max(f32(1.0) - abs(min(idx_half[i, j], top_index) - k), f32(0.0))
+            for c in range(3):
+                blurred[i, j, c] += level[i, j, c] * weight
+
+
+def _linear_taps(n_out, n_in):  # type: ignore[no-untyped-def]
+    """cv2's INTER_LINEAR taps from ``n_in`` samples to ``n_out``: per output index the
+    two input indices and the float32 weight of the second (edges clamped)."""
+    first, second = np.empty(n_out, np.int64), np.empty(n_out, np.int64)
+    weight = np.empty(n_out, np.float32)
+    scale = n_in / n_out
+    for i in range(n_out):
+        at = (i + 0.5) * scale - 0.5
+        i0 = math.floor(at)
+        w = np.float32(at - i0)
+        if i0 < 0:
+            i0, w = 0, np.float32(0.0)
+        if i0 >= n_in - 1:
+            i0, w = n_in - 1, np.float32(0.0)
+        first[i], second[i], weight[i] = i0, min(i0 + 1, n_in - 1), w
+    return first, second, weight
+
+
+def _scatter_onto(light, blurred, source, w0, radiance):  # type: ignore[no-untyped-def]
+    """``radiance`` = ``light`` + (``blurred`` resized bilinearly to the image as cv2's
+    INTER_LINEAR does, + ``source``·``w0``), per pixel and channel."""
+    one = np.float32(1.0)
+    rows0, rows1, fys = _linear_taps(light.shape[0], blurred.shape[0])
+    cols0, cols1, fxs = _linear_taps(light.shape[1], blurred.shape[1])
+    for y in range(light.shape[0]):
+        y0, y1, fy = rows0[y], rows1[y], fys[y]
+        for x in range(light.shape[1]):
+            x0, x1, fx = cols0[x], cols1[x], fxs[x]
+            for c in range(3):
+                top = blurred[y0, x0, c] * (one - fx) + blurred[y0, x1, c] * fx
+                bottom = blurred[y1, x0, c] * (one - fx) + blurred[y1, x1, c] * fx
+                scattered = top * (one - fy) + bottom * fy
+                radiance[y, x, c] = light[y, x, c] + (scattered + source[y, x, c] * w0[y, x])
+
+
 @cache
 def _compiled() -> tuple | None:
     """(:func:`_light_rays`, :func:`_expose_pixels`, :func:`_ripple_factors`) compiled,
     or None without numba."""
     light, exposure = jit(_light_rays), jit(_expose_pixels)
     ripples = jit_with(_ripple_factors, (_sine, _ripple_rows, ripple_factor))
-    return None if light is None else (light, exposure, ripples)
+    scatter = (jit(_blur_index), jit(_blend_level), jit_with(_scatter_onto, (_linear_taps,)))
+    return None if light is None else (light, exposure, ripples, scatter)
 
 
 def available() -> bool:
@@ -314,6 +397,45 @@ def light_of_rays(
               float(sun_radiance), water, c.lamps, c.table, c.range_max, c.n_nodes,
               c.sun_half, c.forward_scatter, total, fs)
     return total, fs
+
+
+def with_forward_scatter(light: NDArray[np.float32], source: NDArray[np.float32],
+                         range_img: NDArray[np.float32], water: WaterOptics, spread: float,
+                         focal_px: float) -> NDArray[np.float32]:
+    """``light`` + :func:`.formation.forward_scatter` of ``source`` ((H, W, 3) each), its
+    steps (the Gaussian pyramid by cv2, the same levels and weights) with the per-pixel
+    passes at full resolution compiled: the blur index and unblurred weight, and the
+    blurred levels brought back to full size (bilinear, as cv2) and added to the light.
+    Within a few float32 units in the last place of the numpy stages (libm's log2, the
+    bilinear sums in another order)."""
+    h, w = source.shape[:2]
+    if min(h, w) < 4:
+        return light + fm.forward_scatter(source, range_img, water, spread, focal_px)
+    kernels = _compiled()
+    assert kernels is not None
+    blur_index, blend_level, scatter_onto = kernels[3]
+    half = cv2.pyrDown(source)
+    w0 = np.empty((h, w), _F32)
+    idx_half = np.empty(half.shape[:2], _F32)
+    top, low, high = blur_index(range_img, _F32(spread * float(water.b[1]) * focal_px), w0,
+                                idx_half)
+    if top < 0.5:
+        return light + source
+    n_levels = min(fm.FS_LEVELS, math.ceil(math.log2(top)) + 2)
+    top_index = _F32(n_levels - 1.0)
+    blurred = np.zeros_like(half)
+    small = half
+    for k in range(1, n_levels):
+        if k > 1:
+            small = cv2.pyrDown(small) if min(small.shape[:2]) >= 2 else small
+        if k >= min(high, top_index) + 1.0 or k <= low - 1.0:
+            continue  # no pixel weighs this level
+        level = small if k == 1 else cv2.resize(small, half.shape[1::-1],
+                                                interpolation=cv2.INTER_LINEAR)
+        blend_level(level, idx_half, _F32(k), top_index, blurred)
+    radiance = np.empty_like(light)
+    scatter_onto(light, blurred, source, w0, radiance)
+    return radiance
 
 
 def expose(radiance: NDArray[np.float32], gain: float, config: CameraConfig,
