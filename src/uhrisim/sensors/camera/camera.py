@@ -164,9 +164,10 @@ class UnderwaterCamera:
 
         def form(rays: _Rays) -> tuple[RayHits, NDArray, NDArray, NDArray]:
             # einsum, not @: a BLAS product of these skinny shapes spawns threads, which
-            # costs far more than it saves on a busy machine
-            hits = raycaster.cast(origin, np.einsum("ij,kj->ik", rays.dirs_cam, R),
-                                  cfg.max_range_m, exclude)
+            # costs far more than it saves on a busy machine (compiled: the same bits)
+            dirs = (np.einsum("ij,kj->ik", rays.dirs_cam, R) if self._fused is None
+                    else fused.rotated(rays.dirs_cam, R))
+            hits = raycaster.cast(origin, dirs, cfg.max_range_m, exclude)
             r = hits.distance.astype(_F32)
             light, fs = self._light(hits, r, rays, origin, R, albedo, textures)
             return hits, r, light, fs
