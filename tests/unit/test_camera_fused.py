@@ -116,10 +116,13 @@ def test_compiled_sand_ripples_are_ripple_factor():
 
 
 def test_compiled_rotation_is_einsums_to_the_bit():
-    """The camera's rays are turned to NED by :func:`fused.rotated`; the casts (and so
-    range, depth and labels) stay the numpy path's only if it gives einsum's bits."""
+    """The camera's rays are turned to NED, and the coarse hits' normals to the camera
+    frame, by :func:`fused.rotated`; the casts (range, depth, labels) and adaptive
+    sampling's cells stay the numpy path's only if it gives einsum's bits."""
     rng = np.random.default_rng(4)
     rows = rng.normal(size=(5000, 3))
     rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
     np.testing.assert_array_equal(fused.rotated(rows, rotation),
                                   np.einsum("ij,kj->ik", rows, rotation))
+    np.testing.assert_array_equal(fused.rotated(rows, rotation, transposed=True),
+                                  np.einsum("ij,jk->ik", rows, rotation))

@@ -218,7 +218,8 @@ class UnderwaterCamera:
         sharp = None if textures is None else textures.sharp(hits_c.material).reshape(hc, wc)
         r_seen = np.where(np.isfinite(range_c), range_c, _F32(0.0))
         points = coarse.dirs_cam * r_seen[:, None]
-        normals = np.einsum("ij,jk->ik", hits_c.normal, R)  # camera frame; water: 0
+        normals = (np.einsum("ij,jk->ik", hits_c.normal, R) if self._fused is None
+                   else fused.rotated(hits_c.normal, R, transposed=True))  # camera frame
         smooth = smooth_of(*(a.reshape(hc, wc) for a in (hits_c.label, hits_c.body,
                                                          hits_c.material)),
                            sharp, grid, points.reshape(hc, wc, 3), normals.reshape(hc, wc, 3),

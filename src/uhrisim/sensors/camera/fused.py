@@ -346,13 +346,17 @@ def _scatter_onto(light, blurred, source, w0, radiance):  # type: ignore[no-unty
                 radiance[y, x, c] = light[y, x, c] + (scattered + source[y, x, c] * w0[y, x])
 
 
-def _rotate_rows(rows, rotation, out):  # type: ignore[no-untyped-def]
-    """``out`` = ``rows`` @ ``rotation``.T, each sum in numpy einsum's order for three
-    terms ((x·r₀ + z·r₂) + y·r₁: the same bits as ``einsum("ij,kj->ik")``)."""
+def _rotate_rows(rows, rotation, transposed, out):  # type: ignore[no-untyped-def]
+    """``out`` = ``rows`` @ ``rotation``.T, or ``rows`` @ ``rotation`` if ``transposed``,
+    each sum in numpy einsum's order for three terms: the same bits as
+    ``einsum("ij,kj->ik")`` ((x·r₀ + z·r₂) + y·r₁) or ``einsum("ij,jk->ik")`` (in turn)."""
     for i in range(rows.shape[0]):
         x, y, z = rows[i, 0], rows[i, 1], rows[i, 2]
         for k in range(3):
-            out[i, k] = (x * rotation[k, 0] + z * rotation[k, 2]) + y * rotation[k, 1]
+            if transposed:
+                out[i, k] = (x * rotation[0, k] + y * rotation[1, k]) + z * rotation[2, k]
+            else:
+                out[i, k] = (x * rotation[k, 0] + z * rotation[k, 2]) + y * rotation[k, 1]
     return out
 
 
@@ -452,13 +456,15 @@ def with_forward_scatter(light: NDArray[np.float32], source: NDArray[np.float32]
     return radiance
 
 
-def rotated(rows: NDArray[np.float64], rotation: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(N, 3) ``rows`` turned by ``rotation`` (rows @ rotation.T), compiled: the bits of
-    numpy's ``einsum("ij,kj->ik", rows, rotation)`` (``tests/unit/test_camera_fused.py``),
-    at a fifth of its cost."""
+def rotated(rows: NDArray[np.float64], rotation: NDArray[np.float64],
+            transposed: bool = False) -> NDArray[np.float64]:
+    """(N, 3) ``rows`` turned by ``rotation`` (rows @ rotation.T; ``transposed``:
+    rows @ rotation), compiled: the bits of numpy's ``einsum("ij,kj->ik", rows,
+    rotation)`` (``"ij,jk->ik"``; ``tests/unit/test_camera_fused.py``), at a fifth of its
+    cost."""
     kernels = _compiled()
     assert kernels is not None
-    return kernels[4](rows, rotation, np.empty(rows.shape))
+    return kernels[4](rows, rotation, transposed, np.empty(rows.shape))
 
 
 def expose(radiance: NDArray[np.float32], gain: float, config: CameraConfig,
