@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from uhrisim.core.compiled import numba_module
 from uhrisim.core.frames import rot_z
 from uhrisim.sensors.camera import CameraConfig, UnderwaterCamera, fused, jerlov
 from uhrisim.sensors.camera import formation as fm
@@ -85,3 +86,43 @@ def test_compiled_sensor_is_the_numpy_sensor_to_the_byte():
     for draws in (noise, None):
         np.testing.assert_array_equal(fused.expose(radiance, 0.8, cfg, draws, lut),
                                       fm.expose(radiance.copy(), 0.8, cfg, draws, lut))
+
+
+def test_compiled_sand_ripples_are_ripple_factor():
+    """The ripples' SIMD sines (fdlibm's polynomials) against libm's, and the per-ray
+    factors against :func:`ripple_factor`, near the origin and far from it (where the
+    kernel falls back to libm's sines)."""
+    rng = np.random.default_rng(3)
+    x = rng.uniform(-fused.SINE_LIMIT, fused.SINE_LIMIT, 4000)
+    ripple_factors = fused._compiled()[2]  # (registers the helpers with numba)
+    sines = numba_module().njit(lambda v, q: np.array([fused._sine(a, q) for a in v]))
+    np.testing.assert_allclose(sines(x, 0), np.sin(x), rtol=0, atol=2.3e-16)
+    np.testing.assert_allclose(sines(x, 1), np.cos(x), rtol=0, atol=2.3e-16)
+    texture = RippleTexture(wavelength_m=0.05)
+    kind, constants = np.array([1, 0], np.int8), np.array([texture.constants(), [0.0] * 6])
+    for spread in (30.0, 4.0e4):  # the second passes SINE_LIMIT
+        dirs = rng.normal(size=(500, 3))
+        dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+        distance = rng.uniform(0.5, 8.0, 500)
+        material = rng.integers(-1, 2, 500).astype(np.int32)
+        origin, rotation = np.array([spread, -spread, 3.0]), rot_z(0.7)
+        factor = ripple_factors(distance, material, kind, constants, dirs, origin,
+                                      rotation, np.empty(500, np.float32))
+        points = origin + (dirs @ rotation.T) * distance[:, None]
+        rippled = material == 0
+        expected = np.ones(500, np.float32)
+        expected[rippled] = texture.factor(points[rippled])
+        np.testing.assert_allclose(factor, expected, rtol=1e-6)
+
+
+def test_compiled_rotation_is_einsums_to_the_bit():
+    """The camera's rays are turned to NED, and the coarse hits' normals to the camera
+    frame, by :func:`fused.rotated`; the casts (range, depth, labels) and adaptive
+    sampling's cells stay the numpy path's only if it gives einsum's bits."""
+    rng = np.random.default_rng(4)
+    rows = rng.normal(size=(5000, 3))
+    rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    np.testing.assert_array_equal(fused.rotated(rows, rotation),
+                                  np.einsum("ij,kj->ik", rows, rotation))
+    np.testing.assert_array_equal(fused.rotated(rows, rotation, transposed=True),
+                                  np.einsum("ij,jk->ik", rows, rotation))

@@ -164,9 +164,10 @@ class UnderwaterCamera:
 
         def form(rays: _Rays) -> tuple[RayHits, NDArray, NDArray, NDArray]:
             # einsum, not @: a BLAS product of these skinny shapes spawns threads, which
-            # costs far more than it saves on a busy machine
-            hits = raycaster.cast(origin, np.einsum("ij,kj->ik", rays.dirs_cam, R),
-                                  cfg.max_range_m, exclude)
+            # costs far more than it saves on a busy machine (compiled: the same bits)
+            dirs = (np.einsum("ij,kj->ik", rays.dirs_cam, R) if self._fused is None
+                    else fused.rotated(rays.dirs_cam, R))
+            hits = raycaster.cast(origin, dirs, cfg.max_range_m, exclude)
             r = hits.distance.astype(_F32)
             light, fs = self._light(hits, r, rays, origin, R, albedo, textures)
             return hits, r, light, fs
@@ -179,9 +180,10 @@ class UnderwaterCamera:
         light, fs = light.reshape(h, w, 3), fs.reshape(h, w, 3)
         radiance = light
         if cfg.forward_scatter and cfg.forward_scatter_spread > 0.0:
-            radiance = light + fm.forward_scatter(
-                fs, range_m.reshape(h, w), cfg.water, cfg.forward_scatter_spread,
-                float(geo.K[0, 0]))
+            blur = (range_m.reshape(h, w), cfg.water, cfg.forward_scatter_spread,
+                    float(geo.K[0, 0]))
+            radiance = (light + fm.forward_scatter(fs, *blur) if self._fused is None
+                        else fused.with_forward_scatter(light, fs, *blur))
         if medium is not None:
             radiance = self._through_medium(radiance, range_m, origin, R, medium)
         gain = fm.exposure_gain(radiance, cfg)
@@ -216,20 +218,18 @@ class UnderwaterCamera:
         sharp = None if textures is None else textures.sharp(hits_c.material).reshape(hc, wc)
         r_seen = np.where(np.isfinite(range_c), range_c, _F32(0.0))
         points = coarse.dirs_cam * r_seen[:, None]
-        normals = np.einsum("ij,jk->ik", hits_c.normal, R)  # camera frame; water: 0
+        normals = (np.einsum("ij,jk->ik", hits_c.normal, R) if self._fused is None
+                   else fused.rotated(hits_c.normal, R, transposed=True))  # camera frame
         smooth = smooth_of(*(a.reshape(hc, wc) for a in (hits_c.label, hits_c.body,
                                                          hits_c.material)),
                            sharp, grid, points.reshape(hc, wc, 3), normals.reshape(hc, wc, 3),
                            r_seen.reshape(hc, wc), self._fused is not None)
         exact = grid.exact_pixels(smooth)
         self.last_exact_fraction = len(exact) / len(geo.cos_axis)
-        light = grid.upsample(light_c.reshape(hc, wc, 3)).reshape(-1, 3)
-        fs = grid.upsample(fs_c.reshape(hc, wc, 3)).reshape(-1, 3)
-        with np.errstate(divide="ignore"):  # open water: 1/0 = inf
-            range_m = 1.0 / (grid.upsample(inverse_depth.reshape(hc, wc)).reshape(-1)
-                             * geo.cos_axis)
-        labels = grid.nearest_corner(hits_c.label.astype(np.int16).reshape(hc, wc))
-        labels = labels.reshape(-1)
+        light, fs, range_m, labels = grid.fill(
+            light_c.reshape(hc, wc, 3), fs_c.reshape(hc, wc, 3),
+            inverse_depth.reshape(hc, wc), hits_c.label.astype(np.int16).reshape(hc, wc),
+            geo.cos_axis, self._fused is not None)
         if len(exact):
             hits_e, range_e, light_e, fs_e = form(self._rays(R, exact))
             light[exact], fs[exact], range_m[exact] = light_e, fs_e, range_e

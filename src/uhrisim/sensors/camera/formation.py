@@ -47,8 +47,8 @@ from uhrisim.sensors.camera.geometry import CameraGeometry, lamp_radiance_at
 from uhrisim.sensors.camera.water import WaterOptics
 
 _F32 = np.float32
-#: forward-scatter blur levels: Gaussian σ = 2^k pixels, k = 0 … _FS_LEVELS − 1
-_FS_LEVELS = 6
+#: forward-scatter blur levels: Gaussian σ = 2^k pixels, k = 0 … FS_LEVELS − 1
+FS_LEVELS = 6
 
 
 def lamplight_on_surface(
@@ -102,7 +102,7 @@ def forward_scatter(
     h, w = source.shape[:2]
     if top < 0.5 or min(h, w) < 4:
         return source
-    n_levels = min(_FS_LEVELS, math.ceil(math.log2(top)) + 2)
+    n_levels = min(FS_LEVELS, math.ceil(math.log2(top)) + 2)
     # level index log2(σ) + 1 for σ ≥ 1 px, 0 (no blur) for σ ≤ 0.5 px, linear between
     idx = np.log2(np.maximum(sigma_px, _F32(0.5)))
     idx += _F32(1.0)

@@ -121,6 +121,36 @@ class AdaptiveGrid:
         """(H, W) the value of each pixel's top-left cell corner (for labels)."""
         return coarse_values[np.ix_(self.cells_y[0], self.cells_x[0])]
 
+    def fill(self, light: NDArray[np.float32], fs: NDArray[np.float32],
+             inverse_depth: NDArray[np.float32], labels: NDArray[np.int16],
+             cos_axis: NDArray[np.float32], compiled: bool
+             ) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float32],
+                        NDArray[np.int16]]:
+        """Every pixel from the coarse samples ((Hc, Wc, 3) ``light`` and forward-scatter
+        source ``fs``, (Hc, Wc) 1/depth and labels): the first two and 1/depth
+        upsampled (:meth:`upsample`), the range 1/(1/depth · ``cos_axis``) ((H·W,), the
+        pixels' cos to the optical axis), the labels :meth:`nearest_corner`'s; flat
+        ((H·W, 3) and (H·W,)). ``compiled``: light, forward scatter, range and labels in
+        one compiled pass (numba) with cv2.remap's weights; cv2 sums them in another order (SIMD
+        lanes and a scalar tail), so the light differs from its by a float32 unit in the
+        last place here and there; 1/depth is still cv2's (the range stays the same to the
+        bit)."""
+        kernel = _compiled_fill() if compiled else None
+        if kernel is None:
+            up_light = self.upsample(light).reshape(-1, 3)
+            up_fs = self.upsample(fs).reshape(-1, 3)
+            with np.errstate(divide="ignore"):  # open water: 1/0 = inf
+                range_m = 1.0 / (self.upsample(inverse_depth).reshape(-1) * cos_axis)
+            return up_light, up_fs, range_m, self.nearest_corner(labels).reshape(-1)
+        (ya, _), (xa, _) = self.cells_y, self.cells_x
+        n = self.height * self.width
+        out = (np.empty((n, 3), np.float32), np.empty((n, 3), np.float32),
+               np.empty(n, np.float32), np.empty(n, np.int16))
+        kernel(ya, self.map_y[:, 0] - ya.astype(np.float32), xa,
+               self.map_x[0] - xa.astype(np.float32), light, fs,
+               self.upsample(inverse_depth).reshape(-1), labels, cos_axis, *out)
+        return out
+
 
 def smooth_of(label: NDArray, body: NDArray, material: NDArray,
               sharp: NDArray[np.bool_] | None, grid: AdaptiveGrid, points: NDArray,
@@ -165,6 +195,34 @@ def _smooth_loops(label, body, material, sharp, points, normals, range_m, tol, s
 @cache
 def _compiled_smooth():  # type: ignore[no-untyped-def]
     return jit(_smooth_loops)
+
+
+def _fill_loops(ya, fy, xa, fx, light_c, fs_c, inverse_depth, label_c, cos_axis,  # type: ignore[no-untyped-def]
+                light, fs, range_m, labels):
+    """:meth:`AdaptiveGrid.fill` per pixel, compiled: the top-left cell corner (``ya``,
+    ``xa``) and the fractions (``fy``, ``fx``) along each axis; ``inverse_depth``
+    already upsampled ((H·W,))."""
+    one = np.float32(1.0)
+    width = xa.shape[0]
+    for y in range(ya.shape[0]):
+        a, ty = ya[y], fy[y]
+        for x in range(width):
+            b, tx = xa[x], fx[x]
+            w00, w01 = (one - ty) * (one - tx), (one - ty) * tx
+            w10, w11 = ty * (one - tx), ty * tx
+            p = y * width + x
+            for k in range(3):
+                light[p, k] = (light_c[a, b, k] * w00 + light_c[a, b + 1, k] * w01
+                               + light_c[a + 1, b, k] * w10 + light_c[a + 1, b + 1, k] * w11)
+                fs[p, k] = (fs_c[a, b, k] * w00 + fs_c[a, b + 1, k] * w01
+                            + fs_c[a + 1, b, k] * w10 + fs_c[a + 1, b + 1, k] * w11)
+            range_m[p] = one / (inverse_depth[p] * cos_axis[p])
+            labels[p] = label_c[a, b]
+
+
+@cache
+def _compiled_fill():  # type: ignore[no-untyped-def]
+    return jit(_fill_loops, numpy_errors=True)
 
 
 def same_object(label: NDArray, body: NDArray, material: NDArray) -> NDArray[np.bool_]:
