@@ -4,7 +4,10 @@ confusion matrix, the streaming reader, determinism and the file's errors."""
 
 from __future__ import annotations
 
+import copy
 import json
+from importlib import resources
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -26,6 +29,7 @@ from uhrisim.perception.gesture_reader import (
     GestureReader,
     frame_descriptor,
 )
+from uhrisim.perception.gestures import GestureSet
 
 SHIPPED = GestureClassifier.load()
 CLASSES = list(SHIPPED.classes)
@@ -145,3 +149,19 @@ def test_a_stream_counts_what_the_reader_says_against_the_truth(renderer):
     signing = [GestureEpisode("go_up", 3.0, 0.0, "I", True, 8)]
     counts = stream_counts(lambda: GestureReader(SHIPPED), signing, store)
     assert counts["recognized"] + counts["missed"] == 1 and counts["false"] == 0
+
+
+def test_a_cached_render_is_renamed_when_its_gesture_changes(tmp_path):
+    """The cache's file name covers the gesture's keyframes: a changed motion is rendered
+    again, the other gestures' renders stay valid."""
+    shipped = json.loads(resources.files("uhrisim.perception").joinpath(
+        "data/gestures.json").read_text())
+    changed = copy.deepcopy(shipped)
+    changed["gestures"]["bring_tool"]["count"]["period_s"] = 2.0
+    before, after = (SilhouetteCache(SimpleNamespace(gestures=GestureSet.from_mapping(d)),
+                                     tmp_path) for d in (shipped, changed))
+    counting = GestureEpisode("bring_tool:2", 3.0, 0.0, "I", True, 8)
+    other = GestureEpisode("go_up", 3.0, 0.0, "I", True, 8)
+    assert before.path(counting, 1.0) != after.path(counting, 1.0)
+    assert before.path(other, 1.0) == after.path(other, 1.0)
+    assert before.path(other, 1.0) != before.path(other, 1.0, stream=True)

@@ -211,8 +211,8 @@ class EpisodeRenderer:
 class SilhouetteCache:
     """Rendered episodes' silhouettes on disk (``DIR/<episode hash>.npz``, bits packed:
     ~2.4 kB a frame), so that a change of the descriptors or of the classifier refits
-    without rendering again; the hash covers the episode, the picture size, the frame
-    rate and the window."""
+    without rendering again; the hash covers the episode, its gesture (a changed motion
+    renders again), the picture size, the frame rate and the window."""
 
     def __init__(self, renderer: EpisodeRenderer, folder: Path | None) -> None:
         self.renderer, self.folder = renderer, folder
@@ -220,7 +220,9 @@ class SilhouetteCache:
     def path(self, ep: GestureEpisode, extra_s: float, stream: bool = False) -> Path | None:
         if self.folder is None:
             return None
-        key = repr((ep, extra_s, IMAGE_WIDTH, IMAGE_HEIGHT, RATE_HZ, WINDOW_S))
+        name = ep.klass.partition(":")[0]
+        motion = self.renderer.gestures.gestures["ok" if name == NONE else name]
+        key = repr((ep, extra_s, IMAGE_WIDTH, IMAGE_HEIGHT, RATE_HZ, WINDOW_S, motion))
         if stream:
             key += f" stream {STREAM_LEAD_S}"
         return self.folder / f"{hashlib.sha1(key.encode()).hexdigest()[:20]}.npz"
