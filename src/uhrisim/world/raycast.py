@@ -697,7 +697,7 @@ class _BodyBVH:
         lo, hi = centres.min(axis=1), centres.max(axis=1)
         whole = 0.5 * (lo + hi)
         reach = np.max(np.linalg.norm(centres - whole[:, None], axis=2) + self.radii, axis=1)
-        r = reach * (1.0 + 1e-6) + 1e-6  # padded as _touches_sphere pads it
+        r = _padded(reach)  # as the sphere test pads it
         fans = np.flatnonzero(_fans_reach(origins, spans, float(np.max(limit, initial=0.0)),
                                           whole - r[:, None], whole + r[:, None]))
         sphere_rays = _compiled_fan_sphere_rays() or _fan_sphere_rays
@@ -817,7 +817,13 @@ def _sphere_seen_from(o, centre, radius):  # type: ignore[no-untyped-def]
     rays from ``o`` (3,): c − o by component, |c − o|² and the radius padded to keep the
     test conservative. Loops over many rays from one origin form it once."""
     v0, v1, v2 = centre[0] - o[0], centre[1] - o[1], centre[2] - o[2]
-    return v0, v1, v2, v0 * v0 + v1 * v1 + v2 * v2, radius * (1.0 + 1e-6) + 1e-6
+    return v0, v1, v2, v0 * v0 + v1 * v1 + v2 * v2, _padded(radius)
+
+
+def _padded(radius):  # type: ignore[no-untyped-def]
+    """A bounding sphere's radius (a number or an array) grown by a relative and an
+    absolute margin, so that rounding never culls a ray that meets the body."""
+    return radius * (1.0 + 1e-6) + 1e-6
 
 
 def _ray_meets_sphere(v0, v1, v2, vv, r, d, limit):  # type: ignore[no-untyped-def]
@@ -829,7 +835,7 @@ def _ray_meets_sphere(v0, v1, v2, vv, r, d, limit):  # type: ignore[no-untyped-d
 
 
 #: The ray/bounding-sphere test's functions, compiled into the kernels that call them.
-_SPHERE_TEST = (_touches_sphere, _sphere_seen_from, _ray_meets_sphere)
+_SPHERE_TEST = (_touches_sphere, _sphere_seen_from, _padded, _ray_meets_sphere)
 
 
 @cache
@@ -1128,7 +1134,7 @@ class _RayCuller:
         else:
             tca = self.d @ c - self.od
             d2 = (float(c @ c) - 2.0 * (self.o @ c) + self.oo) - tca * tca
-        r = radius * (1.0 + 1e-6) + 1e-6
+        r = _padded(radius)
         return np.flatnonzero((d2 <= r * r) & (tca + r >= 0.0) & (tca - r <= limit))
 
 
