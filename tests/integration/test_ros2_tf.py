@@ -25,12 +25,11 @@ pytest.importorskip("tf2_msgs", reason="tf2_msgs not built: python -m "
 pytest.importorskip("marine_acoustic_msgs")
 pytest.importorskip("uhrisim_msgs")
 
-from tests.support.children import Child
+from tests.support.children import Child, run_paced_for
 from uhrisim.bridges.ros2.hook import Ros2BridgeHook
 from uhrisim.core.frames import enu_from_ned
 from uhrisim.scenario.load import load_scenario
 from uhrisim.sensors.sonar.cloud import cloud_hits
-from uhrisim.sim.pacing import Pacer
 from uhrisim.sim.simulation import Simulation
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "track_and_trail.yaml"
@@ -56,31 +55,21 @@ def test_tf_chain_places_sonar_hits_and_sonar_image_matches_the_preset(
     sim = Simulation(load_scenario(SCENARIO), hooks=[hook], seed=1)
     listener = Child("ros2_tf_listener.py", ["--agent", "videoray"], tmp_path)
     pings, decisions = {}, {}
-    try:
-        listener.expect("READY", timeout=30.0)
-        sim.start()
-        assert hook.bridge is not None
-        assert hook.bridge.wait_for_subscribers(
-            ["/tf", "/tf_static", "/videoray/sonar/points", "/videoray/sonar/image",
-             "/videoray/helm/decision"], 20.0)
-        pacer = Pacer(real_time_factor=2.0)
-        pacer.reset(sim.t)
-        while sim.t < 8.0:  # the diver is in the sonar's view after about 4 s
-            frame = sim.step()
-            if "videoray/sonar" in frame.pings:
-                ping = frame.pings["videoray/sonar"]
-                sec, ns = divmod(round(ping.t * 1e9), 1_000_000_000)
-                pings[f"{sec}.{ns:09d}"] = ping
-            if "videoray" in frame.helm:
-                sec, ns = divmod(round(frame.t * 1e9), 1_000_000_000)
-                decisions[f"{sec}.{ns:09d}"] = frame.helm["videoray"]
-            pacer.wait(frame.t)
-        pacer.wait(sim.t + 1.0)  # the last messages arrive
-        result = listener.result()
-    finally:
-        sim.close()
-        if listener.proc.poll() is None:
-            listener.proc.kill()
+
+    def keep(frame) -> None:
+        if "videoray/sonar" in frame.pings:
+            ping = frame.pings["videoray/sonar"]
+            sec, ns = divmod(round(ping.t * 1e9), 1_000_000_000)
+            pings[f"{sec}.{ns:09d}"] = ping
+        if "videoray" in frame.helm:
+            sec, ns = divmod(round(frame.t * 1e9), 1_000_000_000)
+            decisions[f"{sec}.{ns:09d}"] = frame.helm["videoray"]
+
+    # the diver is in the sonar's view after about 4 s; the listener answers once it has
+    # taken every message published meanwhile
+    result = run_paced_for(sim, listener, ["/tf", "/tf_static", "/videoray/sonar/points",
+                                           "/videoray/sonar/image", "/videoray/helm/decision"],
+                           8.0, 2.0, keep)
 
     # /tf_static: the sonar's mount, once, latched
     static = {(p, c): (t, q) for p, c, t, q in result["static"]}
