@@ -5,8 +5,9 @@ every integration test is marked ``slow`` (missions, child processes, real ROS 2
 peers, a browser), as is any other test that says so itself: ``make test-fast`` runs the
 rest (``pytest -m "not slow"``). Both run a module's tests in one worker (``-n 2 --dist
 loadscope``), so that a module-scoped fixture is set up once, and hand out modules in
-collection order (``--no-loadscope-reorder``): integration first, unit tests last. Compiled kernels are cached
-inside the repository (``.cache/numba``), for the suite and the processes it starts.
+collection order (``--no-loadscope-reorder``): integration first, unit tests last.
+Compiled kernels are cached inside the repository (``.cache/numba``), for the suite and
+the processes it starts.
 Under xdist the summary says how long each worker was busy and when its last test ended:
 the gap between them is time one core sat idle at the end (balance the modules if large)."""
 
