@@ -8,8 +8,9 @@ loadscope``), so that a module-scoped fixture is set up once, and hand out modul
 collection order (``--no-loadscope-reorder``): integration first, unit tests last.
 Compiled kernels are cached inside the repository (``.cache/numba``), for the suite and
 the processes it starts.
-Under xdist the summary says how long each worker was busy and when its last test ended:
-the gap between them is time one core sat idle at the end (balance the modules if large)."""
+Under xdist the summary says how long each worker was busy and when its last test ended
+(the gap between them is time one core sat idle at the end) and which modules took
+longest: where to look first when the suite must get shorter or better balanced."""
 
 import os
 import time
@@ -50,16 +51,20 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 
 
 _WORKERS: dict[str, list[float]] = {}  # worker id -> [busy s, end of its last report (s)]
+_MODULES: dict[str, float] = {}  # test module -> its tests' setup, call and teardown (s)
 _SESSION_START = time.monotonic()
 
 
 def pytest_runtest_logreport(report: pytest.TestReport) -> None:
-    """In the xdist controller: add each worker's reported test phases to its timeline."""
+    """In the xdist controller: add each worker's reported test phases to its timeline
+    and to its module's total."""
     node = getattr(report, "node", None)  # set only on reports a worker sent
     if node is not None:
         busy = _WORKERS.setdefault(node.gateway.id, [0.0, 0.0])
         busy[0] += report.duration
         busy[1] = time.monotonic() - _SESSION_START
+        module = report.nodeid.split("::")[0]
+        _MODULES[module] = _MODULES.get(module, 0.0) + report.duration
 
 
 def pytest_terminal_summary(terminalreporter) -> None:
@@ -69,3 +74,6 @@ def pytest_terminal_summary(terminalreporter) -> None:
             f"{name} busy {busy:.0f} s, done at {end:.0f} s"
             for name, (busy, end) in sorted(_WORKERS.items()))
             + f" (one idle for the last {max(ends) - min(ends):.0f} s)")
+        longest = sorted(_MODULES.items(), key=lambda item: -item[1])[:15]
+        terminalreporter.write_line("longest modules: " + ", ".join(
+            f"{Path(module).stem} {seconds:.0f} s" for module, seconds in longest))
