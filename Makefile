@@ -45,13 +45,9 @@ browser:
 
 # -n 2 --dist loadscope: each module's tests run in one worker, so a module's shared
 # fixtures (a mission run, the Ray cluster) are set up once, not once in each worker.
-# --no-loadscope-reorder: modules go out in collection order, the long integration ones
-# first and the many short unit ones last, to even out the end; xdist's own order (most
-# tests first) left the few-test missions and peers for last, one worker idle meanwhile.
-PYTEST_XDIST := -n 2 --dist loadscope --no-loadscope-reorder
 test: venv-test browser
 	$(PY) -m ruff check src tests examples docs
-	$(PY) -m pytest $(PYTEST_XDIST) -q --durations=25
+	$(PY) -m pytest -n 2 --dist loadscope -q --durations=25
 
 # The whole suite on a busy machine, as CI machines often are: two busy loops keep both
 # cores at 100 % while it runs (it must pass so too; tests wait for what they wait for).
@@ -63,7 +59,7 @@ test-busy: venv-test browser
 # child processes, real peers, the browser; tests/conftest.py), under a minute on 2 cores.
 test-fast: venv-test
 	$(PY) -m ruff check src tests examples docs
-	$(PY) -m pytest $(PYTEST_XDIST) -q -m "not slow"
+	$(PY) -m pytest -n 2 --dist loadscope -q -m "not slow"
 
 bench: venv-core
 	$(UHRISIM) bench all

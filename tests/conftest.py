@@ -4,10 +4,8 @@ test fails that reads a path beside the repository (tests/support/repository_bou
 every integration test is marked ``slow`` (missions, child processes, real ROS 2 and MOOS
 peers, a browser), as is any other test that says so itself: ``make test-fast`` runs the
 rest (``pytest -m "not slow"``). Both run a module's tests in one worker (``-n 2 --dist
-loadscope``), so that a module-scoped fixture is set up once, and hand out modules in
-collection order (``--no-loadscope-reorder``): integration first, unit tests last.
-Compiled kernels are cached inside the repository (``.cache/numba``), for the suite and
-the processes it starts.
+loadscope``), so that a module-scoped fixture is set up once. Compiled kernels are cached
+inside the repository (``.cache/numba``), for the suite and the processes it starts.
 Under xdist the summary says how long each worker was busy and when its last test ended
 (the gap between them is time one core sat idle at the end) and which modules took
 longest: where to look first when the suite must get shorter or better balanced."""
