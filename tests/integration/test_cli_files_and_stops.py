@@ -237,14 +237,15 @@ def test_a_repeated_warning_is_summarised(tmp_path):
 
 
 def test_a_full_disk_ends_the_run_with_one_line_and_a_complete_recording(tmp_path):
-    """A 24 MiB tmpfs fills mid-run: one line; metrics.json says why; the recording is
-    completed where it lies, in the room its headroom file held (gone afterwards), so
-    every reader opens it without uhrisim recover."""
+    """An 18 MiB tmpfs (a run starts with 16 MiB free) fills mid-run, ~70 simulated s
+    in: one line; metrics.json says why; the recording is completed where it lies, in
+    the room its headroom file held (gone afterwards), so every reader opens it without
+    uhrisim recover."""
     disk = tmp_path / "disk"
     disk.mkdir()
     out = disk / "run"
     done = subprocess.run(_with_mount(
-        ["-t", "tmpfs", "-o", "size=24m", "tmpfs", str(disk)],
+        ["-t", "tmpfs", "-o", "size=18m", "tmpfs", str(disk)],
         [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "-o", str(out), "-q",
          "--duration", "600"],
         then=f"cp -r {shlex.quote(str(out))} {shlex.quote(str(tmp_path))}"),

@@ -37,9 +37,11 @@ def test_moos_community_drives_the_rov_and_survives_a_db_restart(tmp_path: Path)
                         .replace("port: 9000", f"port: {port}")
                         .replace("port: 9001", f"port: {port}"))
     out = tmp_path / "run"
+    # 40 simulated s at twice real time: the helm's orders arrive ~6 s in (its 12 s of
+    # posting end ~28 s in) and the depth is within 0.3 m of them from ~19 s on (measured)
     sim = subprocess.Popen(
         [sys.executable, "-m", "uhrisim", "run", str(scenario), "--out", str(out), "--moos",
-         "--rtf", "2", "--duration", "60", "-q"],
+         "--rtf", "2", "--duration", "40", "-q"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     try:
         wait_for_clients(port, {"uhrisim_videoray", "uhrisim_diver"})  # the run is up

@@ -105,9 +105,11 @@ def test_helm_with_no_behaviors_and_huge_polygons_are_refused(tmp_path):
                                                                        strict=True)),
          "expands to more than 200000 values"),
         ("x: " + "[" * 5000 + "]" * 5000 + "\n", "nested deeper than 64 levels"),
-        ("".join("  " * i + f"k{i}:\n" for i in range(3000)), "nested deeper than 64 levels"),
+        ("".join("  " * i + f"k{i}:\n" for i in range(3000)),
+         r"s\.yaml:65: values nested deeper than 64 levels"),  # seen before composing
+        ("- " * 3000 + "x\n", "nested deeper than 64 levels"),  # the composer's recursion
     ],
-    ids=["alias-bomb", "deep-flow", "deep-block"],
+    ids=["alias-bomb", "deep-flow", "deep-block", "deep-compact"],
 )
 def test_documents_too_big_or_too_deep_are_refused_quickly(tmp_path, text: str, message: str):
     path = tmp_path / "s.yaml"

@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import yaml
@@ -65,9 +66,34 @@ def _walk(root: yaml.Node, source: str) -> LineMap:
     return lines
 
 
+#: A line that opens a block mapping key or a block list entry (a comment, a flow
+#: collection's or a block scalar's continuation line does not).
+_BLOCK_ENTRY = re.compile(r"^( *)(?:-(?: |$)|[^\s#-][^\n]*?:(?: |$))", re.MULTILINE)
+
+
 def _too_deep(text: str) -> int | None:
-    """Line of the first flow collection nested deeper than MAX_DEPTH (PyYAML's composer
-    recurses once a level: a few thousand brackets would overflow it), else None."""
+    """Line of the first collection nested deeper than MAX_DEPTH, by brackets (flow) or by
+    indentation (block), else None. PyYAML's composer recurses once a level: a few
+    thousand levels would overflow it, and block levels take it seconds to reach first."""
+    return _indented_too_deep(text) or _bracketed_too_deep(text)
+
+
+def _indented_too_deep(text: str) -> int | None:
+    """Line of the first block key or list entry indented under more than MAX_DEPTH
+    others, else None (compact nesting such as ``- - x`` is left to the composer)."""
+    indents = [-1]
+    for entry in _BLOCK_ENTRY.finditer(text):
+        indent = len(entry[1])
+        while indent <= indents[-1]:
+            indents.pop()
+        indents.append(indent)
+        if len(indents) - 1 > MAX_DEPTH:
+            return text.count("\n", 0, entry.start()) + 1
+    return None
+
+
+def _bracketed_too_deep(text: str) -> int | None:
+    """Line of the first flow collection nested deeper than MAX_DEPTH, else None."""
     depth, line, quote = 0, 1, ""
     for ch in text:
         if ch == "\n":
