@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 import re
+import struct
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -175,6 +176,9 @@ class TeamStage:
         self.workspace = self._workspace()
         self.divers: dict[str, DiverBodyState] = {}
         self.grippers: dict[str, GripperSlot] = {}
+        #: each agent's last body pose (:meth:`_body_pose_now`): (position and heading
+        #: bytes, the read-only pose)
+        self._body_poses: dict[str, tuple[bytes, NDArray[np.float64]]] = {}
         self.silt = (SiltCloud(SiltParams(current_ne=world.silt.current_ne), scene.depth_at)
                      if world.silt is not None and world.silt.soft else None)
         self.events: list[WorldEvent] = []  # every event of the run, in order
@@ -405,9 +409,18 @@ class TeamStage:
                          self._body_pose_now(name) if body_pose is None else body_pose)
 
     def _body_pose_now(self, name: str) -> NDArray[np.float64]:
-        """Agent ``name``'s body pose now (4x4 body→NED, level at its heading)."""
+        """Agent ``name``'s body pose now (4x4 body→NED, level at its heading; the very
+        array of the last call while its position and heading hold: what follows from it
+        is then kept)."""
         nav = self.agents[name].nav()
-        return pose_matrix(nav.position_ned, nav.yaw)
+        key = nav.position_ned.tobytes() + struct.pack("<d", nav.yaw)
+        last = self._body_poses.get(name)
+        if last is not None and last[0] == key:
+            return last[1]
+        pose = pose_matrix(nav.position_ned, nav.yaw)
+        pose.setflags(write=False)
+        self._body_poses[name] = (key, pose)
+        return pose
 
     # ------------------------------------------------------------------ the tick
     def step(self, tick: int, t: float) -> frozenset[str]:

@@ -44,6 +44,9 @@ FloorDepth = Callable[[float, float], float]
 #: A released object rests when a support is within this below it (m).
 SUPPORT_TOLERANCE_M = 0.05
 
+#: the velocity (NED m/s) of what is carried by a grip at rest
+_AT_REST = (0.0, 0.0, 0.0)
+
 
 @dataclass(frozen=True)
 class Platform:
@@ -84,8 +87,9 @@ class Thing:
     velocity: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
     relative: NDArray[np.float64] | None = None
     #: what its pose last followed from, in a basket or rigged to a load: (the
-    #: support's pose, its relative pose, the pose worked out): the very same objects
-    #: give the same pose, kept (the team stage then needs to compare nothing)
+    #: support's pose, its relative pose, the pose worked out), or carried at rest:
+    #: (the grip frame, its relative pose, the pose, the velocity): the very same
+    #: objects give the same pose, kept (the team stage then needs to compare nothing)
     followed: tuple[Any, ...] = field(default=(), repr=False, compare=False)
 
     @property
@@ -109,6 +113,10 @@ class Workspace:
     hatch_states: dict[str, HatchState] = field(default_factory=dict)
     bag_states: dict[str, LiftBagState] = field(default_factory=dict)
     holders: dict[str, str] = field(default_factory=dict)
+    #: each object's last :meth:`support_below`: (the floor function, its pose and the
+    #: baskets' poses then, the answer): the very same objects give the same answer
+    _supports: dict[str, tuple[Any, ...]] = field(default_factory=dict, repr=False,
+                                                   compare=False)
 
     @classmethod
     def of(cls, tools: Iterable[Tool] = (), loads: Iterable[LoadSpec] = (),
@@ -193,7 +201,23 @@ class Workspace:
     def support_below(self, obj: str, floor_depth: FloorDepth) -> tuple[str, float]:
         """The nearest support under ``obj`` and the gap (m) from its bottom down to it:
         the floor (``"floor"``), a platform's top (``"on:<name>"``) or the inside bottom of
-        a level tool basket whose opening it is over (``"in:<name>"``)."""
+        a level tool basket whose opening it is over (``"in:<name>"``). Kept while the
+        object and every basket keep their pose arrays (poses are replaced, never
+        changed in place)."""
+        baskets = tuple(thing.pose for name, thing in self.things.items()
+                        if name != obj and name in self.tools
+                        and self.tools[name].kind == "tool_basket")
+        pose = self.things[obj].pose
+        last = self._supports.get(obj)
+        if (last is not None and last[0] is floor_depth and last[1] is pose
+                and len(last[2]) == len(baskets)
+                and all(a is b for a, b in zip(last[2], baskets, strict=True))):
+            return last[3]
+        best = self._support_below(obj, floor_depth)
+        self._supports[obj] = (floor_depth, pose, baskets, best)
+        return best
+
+    def _support_below(self, obj: str, floor_depth: FloorDepth) -> tuple[str, float]:
         x, y, z = self.things[obj].position
         bottom = z + self.hydro_of(obj).bottom_offset
         best = ("floor", float(floor_depth(x, y)) - bottom)
@@ -220,15 +244,24 @@ class Workspace:
         self.put(obj, position, yaw, where=support)
 
     def carry(self, carrier: str, grip_frame: NDArray[np.float64],
-              velocity: ArrayLike = (0.0, 0.0, 0.0)) -> None:
+              velocity: ArrayLike = _AT_REST) -> None:
         """Move what ``carrier`` holds with its 4x4 grip frame (NED). A shared object
-        follows its first holder."""
+        follows its first holder. Kept when the object, at rest in the grip, follows
+        the very grip frame array it followed last (grip frames are not changed in
+        place)."""
         obj = self.held_by(carrier)
         if obj is None or self.holders_of(obj)[0] != carrier:
             return
         thing = self.things[obj]
+        last = thing.followed  # the very grip frame it followed last, at rest: kept
+        if (velocity is _AT_REST and len(last) == 4 and last[0] is grip_frame
+                and last[1] is thing.relative and last[2] is thing.pose
+                and last[3] is thing.velocity):
+            return
         thing.pose = grip_frame @ thing.relative
         thing.velocity = np.asarray(velocity, dtype=float)
+        thing.followed = (grip_frame, thing.relative, thing.pose, thing.velocity) if (
+            velocity is _AT_REST) else ()
 
     def take(self, carrier: str, obj: str, grip_frame: NDArray[np.float64]) -> None:
         """Record that ``carrier`` holds ``obj`` with its grip frame now (NED)."""
@@ -333,16 +366,18 @@ class Workspace:
             gas = self.bags[name].gas_m3(self.bag_states[name], float(x[2]))
         support, gap = self.support_below(name, floor_depth)
         resting_on = float(x[2]) + hydro.bottom_offset + gap  # depth of what is below
-        x, where = fb.step(x, hydro, dt, resting_on, gas)
         before = thing.where
+        stepped, where = fb.step(x, hydro, dt, resting_on, gas)
+        if where == "floor" and support != "floor" and before == support:
+            where = support  # still resting there (pinned by the step)
+        if where == before and stepped.tobytes() == x.tobytes():
+            return []  # it stays as it is: its pose and velocity arrays are kept
+        x = stepped
         pose = thing.pose.copy()  # a new pose, never changed in place: the stage compares
         pose[:3, 3] = x[:3]        # pose objects to see what moved (sim/teamwork.py)
         thing.pose, thing.velocity, thing.where = pose, x[3:], where
         if where == "floor" and support != "floor":
-            if before == support:  # still resting there (pinned by the step)
-                thing.where = support
-            else:
-                self.rest_on(name, support, 0.0)  # in a basket or on a platform
+            self.rest_on(name, support, 0.0)  # in a basket or on a platform
             where = support
         if where == before:
             return []
