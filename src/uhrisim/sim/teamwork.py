@@ -59,6 +59,7 @@ from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import rot_z
 from uhrisim.dynamics.carried_load import CarriedLoad, box_projected_areas
 from uhrisim.dynamics.diver_body import DiverSkeleton, step_motion
+from uhrisim.dynamics.plants import LastValue
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.sections import part_settings
 from uhrisim.scenario.teamwork import FlangeSite, HatchSite, LoadSite, PlatformSite
@@ -151,6 +152,9 @@ class DiverBodyState:
     last_state: NDArray[np.float64]
     reported: int = 0
     note: str = ""
+    #: the arm motion's and the legs' last answers (a still diver asks the same again)
+    motion: LastValue = field(default_factory=LastValue, repr=False, compare=False)
+    legs: LastValue = field(default_factory=LastValue, repr=False, compare=False)
 
 
 @dataclass
@@ -629,8 +633,14 @@ class TeamStage:
         pose = self.arm_poses[agent.name](t) if agent.name in self.arm_poses else None
         if pose is not None:
             body.goal = body.skeleton.vector(pose, body.goal)
-        body.q, body.qdot = step_motion(body.skeleton, body.q, body.qdot, body.goal, self.dt)
-        body.q = diver.legs(agent.plant, agent.state, body.q, agent.kick_phase)
+        # (the joint arrays are replaced, never changed in place: the answers are kept)
+        body.q, body.qdot = body.motion.of(
+            body.q.tobytes() + body.qdot.tobytes() + body.goal.tobytes(), step_motion,
+            body.skeleton, body.q, body.qdot, body.goal, self.dt)
+        body.q = body.legs.of(
+            (agent.plant, agent.state.tobytes(), body.q.tobytes(),
+             struct.pack("<d", agent.kick_phase)), diver.legs, agent.plant, agent.state,
+            body.q, agent.kick_phase)
         return request
 
     def _work_gripper(self, name: str, slot: GripperSlot, t: float,

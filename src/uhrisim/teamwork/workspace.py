@@ -17,6 +17,7 @@ The acts (:mod:`uhrisim.teamwork.acts`) change holders and site states.
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
@@ -46,6 +47,8 @@ SUPPORT_TOLERANCE_M = 0.05
 
 #: the velocity (NED m/s) of what is carried by a grip at rest
 _AT_REST = (0.0, 0.0, 0.0)
+#: the bytes of a velocity array at rest (three +0.0)
+_NO_VELOCITY = np.zeros(3).tobytes()
 
 
 @dataclass(frozen=True)
@@ -343,6 +346,15 @@ class Workspace:
         return (name in gassed or any(self.bag_states[b].attached_to == name for b in gassed)
                 or self.hydro_of(name).in_water_weight() < 0.0)
 
+    @staticmethod
+    def _stays(thing: Thing, depth: float, resting_depth: float, weight: float) -> bool:
+        """Whether a resting ``thing`` (its reference point at ``depth``, m) of in-water
+        weight ``weight`` (N) stays as it is, bit for bit: it rests
+        (:func:`~uhrisim.dynamics.free_body.rests`) where it is, with no velocity."""
+        return (fb.rests(depth, weight, resting_depth)
+                and struct.pack("<d", depth) == struct.pack("<d", resting_depth)
+                and thing.velocity.tobytes() == _NO_VELOCITY)
+
     def _bag_gas(self, load: str, depth: float) -> tuple[float, list[str]]:
         """Gas (m³) of the bags rigged to ``load`` at ``depth``, and their names."""
         rigged = [b for b, s in self.bag_states.items() if s.attached_to == load]
@@ -350,22 +362,28 @@ class Workspace:
 
     def _move_free(self, name: str, thing: Thing, dt: float, t: float,
                    floor_depth: FloorDepth) -> list[WorldEvent]:
-        x = np.concatenate([thing.position, thing.velocity])
+        depth = float(thing.pose[2, 3])
         hydro = self.hydro_of(name)
-        gas = 0.0
+        gas, rigged = 0.0, []
         if name in self.loads:
-            gas, rigged = self._bag_gas(name, float(x[2]))
-            if rigged:  # load and bags rise as one; the swollen bags drag with C_d 1
-                bag_area = math.pi * bag_semi_axes(gas)[0] ** 2
-                area = hydro.area + bag_area
-                hydro = fb.combine(hydro, *(self.bags[b].fabric for b in rigged),
-                                   drag_coefficient=(hydro.drag_coefficient * hydro.area
-                                                     + bag_area) / area,
-                                   area=area, bottom_offset=hydro.bottom_offset)
+            gas, rigged = self._bag_gas(name, depth)
         elif name in self.bags:
-            gas = self.bags[name].gas_m3(self.bag_states[name], float(x[2]))
+            gas = self.bags[name].gas_m3(self.bag_states[name], depth)
         support, gap = self.support_below(name, floor_depth)
-        resting_on = float(x[2]) + hydro.bottom_offset + gap  # depth of what is below
+        resting_on = depth + hydro.bottom_offset + gap  # depth of what is below
+        if thing.where == support and self._stays(thing, depth, resting_on - hydro.bottom_offset,
+                                                  fb.combined_weight(hydro, *(
+                                                      self.bags[b].fabric for b in rigged),
+                                                      gas_volume=gas)):
+            return []  # resting as it is: what the step would give, its arrays kept
+        if rigged:  # load and bags rise as one; the swollen bags drag with C_d 1
+            bag_area = math.pi * bag_semi_axes(gas)[0] ** 2
+            area = hydro.area + bag_area
+            hydro = fb.combine(hydro, *(self.bags[b].fabric for b in rigged),
+                               drag_coefficient=(hydro.drag_coefficient * hydro.area
+                                                 + bag_area) / area,
+                               area=area, bottom_offset=hydro.bottom_offset)
+        x = np.concatenate([thing.position, thing.velocity])
         before = thing.where
         stepped, where = fb.step(x, hydro, dt, resting_on, gas)
         if where == "floor" and support != "floor" and before == support:
