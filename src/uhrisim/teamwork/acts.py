@@ -397,6 +397,12 @@ class ActRequest:
     target: tuple[float, float, float] | None = None
     receiver: str = ""
 
+    def by(self, carrier: str) -> ActRequest:
+        """This request with ``carrier`` acting (``dataclasses.replace``'s answer, made
+        directly)."""
+        return ActRequest(self.kind, carrier, self.subject, self.part, self.flag,
+                          self.target, self.receiver)
+
 
 def perform(request: ActRequest, ws: Workspace, carriers: dict[str, Carrier], t: float,
             dt: float, floor_depth: FloorDepth) -> list[WorldEvent]:

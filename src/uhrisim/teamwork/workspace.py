@@ -120,6 +120,9 @@ class Workspace:
     #: baskets' poses then, the answer): the very same objects give the same answer
     _supports: dict[str, tuple[Any, ...]] = field(default_factory=dict, repr=False,
                                                    compare=False)
+    #: each object's last :meth:`grasp_point`: (its pose array then, the point)
+    _grasp_points: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] = field(
+        default_factory=dict, repr=False, compare=False)
 
     @classmethod
     def of(cls, tools: Iterable[Tool] = (), loads: Iterable[LoadSpec] = (),
@@ -174,10 +177,13 @@ class Workspace:
     def grasp_point(self, obj: str) -> NDArray[np.float64]:
         """Where a hand or jaw takes ``obj``, NED (m): a tool's grasp point, a load's
         lifting eye."""
-        t = self.thing(obj)
-        local = (self.tools[obj].grasp_offset() if obj in self.tools
-                 else self.loads[obj].attachment_site())
-        return t.pose[:3, :3] @ local + t.pose[:3, 3]
+        pose = self.thing(obj).pose
+        last = self._grasp_points.get(obj)  # (kept for the very pose array)
+        if last is None or last[0] is not pose:
+            local = (self.tools[obj].grasp_offset() if obj in self.tools
+                     else self.loads[obj].attachment_site())
+            last = self._grasp_points[obj] = (pose, pose[:3, :3] @ local + pose[:3, 3])
+        return last[1].copy()
 
     def grip_width(self, obj: str) -> float:
         """What a hand or jaw closes on (m)."""
