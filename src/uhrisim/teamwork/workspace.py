@@ -120,6 +120,8 @@ class Workspace:
     #: baskets' poses then, the answer): the very same objects give the same answer
     _supports: dict[str, tuple[Any, ...]] = field(default_factory=dict, repr=False,
                                                    compare=False)
+    #: whether each object alone is lighter than water (:meth:`_floats`)
+    _floating: dict[str, bool] = field(default_factory=dict, repr=False, compare=False)
     #: each object's last :meth:`grasp_point`: (its pose array then, the point)
     _grasp_points: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] = field(
         default_factory=dict, repr=False, compare=False)
@@ -348,9 +350,15 @@ class Workspace:
         if thing.where != "floor" and not thing.where.startswith("on:"):
             return False  # held, in a basket, rigged: moved by what it is with
         if name in self.tools and name not in self.bags:
-            return self.tools[name].hydro.in_water_weight() < 0.0
+            return self._floats(name)
         return (name in gassed or any(self.bag_states[b].attached_to == name for b in gassed)
-                or self.hydro_of(name).in_water_weight() < 0.0)
+                or self._floats(name))
+
+    def _floats(self, name: str) -> bool:
+        """Whether object ``name`` alone is lighter than water (asked once per object)."""
+        if name not in self._floating:
+            self._floating[name] = self.hydro_of(name).in_water_weight() < 0.0
+        return self._floating[name]
 
     @staticmethod
     def _stays(thing: Thing, depth: float, resting_depth: float, weight: float) -> bool:
