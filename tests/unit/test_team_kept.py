@@ -1,14 +1,17 @@
 """What the team stage keeps between its ticks is what it would work out afresh: a
 resting load that stays, a carried object following the very grip frame, a hand's frame
-in NED, a grasp point, an assembly's in-water weight (same bits; the arrays kept are the
-very same objects, which is what lets the stage skip comparing them)."""
+in NED, a grasp point, an assembly's in-water weight, a standing diver's legs (same
+bits; the arrays kept are the very same objects, which is what lets the stage skip
+comparing them)."""
 
 import math
 
 import numpy as np
 
+from uhrisim.dynamics import diver_boots as bt
 from uhrisim.dynamics import free_body as fb
 from uhrisim.dynamics.diver_body import DiverSkeleton
+from uhrisim.dynamics.plants import BootsPlant
 from uhrisim.teamwork.workspace import Workspace, pose_matrix
 from uhrisim.world import seafloor
 from uhrisim.world import worksites as sites
@@ -98,3 +101,20 @@ def test_a_hands_frame_in_ned_is_the_body_pose_times_its_frame_and_kept():
             frame = skeleton.hand_frame_ned(q, side, body)
             assert frame.tobytes() == (body @ skeleton.hand_frame(q, side)).tobytes()
             assert skeleton.hand_frame_ned(q.copy(), side, body.copy()) is frame
+
+
+def test_a_standing_divers_legs_kept_while_his_arms_move_are_those_worked_out_afresh():
+    params = bt.BootsParams()
+    skeleton = params.skeleton
+    plant = BootsPlant(params, 1.0 / 60.0, FLOOR)
+    rng = np.random.default_rng(5)
+    x = plant.initial_state(np.array([1.0, 2.0, 0.0]), 0.4)
+    for k in range(60):
+        if k % 10 == 0:  # now and then the diver has moved
+            x = plant.initial_state(np.array([*rng.uniform(-3.0, 3.0, 2), 0.0]),
+                                    float(rng.uniform(-3.0, 3.0)))
+        q = rng.uniform(skeleton.lower - 0.1, skeleton.upper + 0.1)  # arms anywhere
+        if k % 3:
+            q[skeleton.index("posture")] = 0.0  # the same tilt: the legs are kept
+        fresh = bt.leg_angles(plant.boots_state(x), params, FLOOR, q)
+        assert plant.leg_angles(x, q).tobytes() == fresh.tobytes()
