@@ -307,6 +307,10 @@ class DiverSkeleton:
     _by_joint: dict[int, tuple[bytes, NDArray[np.float64]]] = field(
         init=False, repr=False, compare=False, default_factory=dict)
     _chains: tuple[NDArray[np.intp], ...] = field(init=False, repr=False, compare=False)
+    #: each hand's last frame in NED (:meth:`hand_frame_ned`): (the bytes of its wrist
+    #: chain's angles and of the body pose, the read-only frame)
+    _hands_ned: dict[str, tuple[bytes, NDArray[np.float64]]] = field(
+        init=False, repr=False, compare=False, default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.kind not in ("scuba", "boots"):
@@ -469,6 +473,22 @@ class DiverSkeleton:
         t = self.transform_of(q, self.index(f"{side}_wrist")).copy()
         t[:3, 3] = t[:3, :3] @ self.grip_point_rest(side) + t[:3, 3]
         return t
+
+    def hand_frame_ned(self, q: ArrayLike, side: Side, body_pose: NDArray[np.float64]
+                       ) -> NDArray[np.float64]:
+        """``body_pose @ hand_frame(q, side)`` (read-only): the hand's frame in NED for the
+        body pose (4x4 body→NED), kept for the same angles of its arm and the same body
+        pose (the very array again: what the hand carries is kept then too)."""
+        q = self._checked(q)
+        wrist = self.index(f"{side}_wrist")
+        key = q[self._chains[wrist]].tobytes() + np.asarray(body_pose, dtype=float).tobytes()
+        last = self._hands_ned.get(side)
+        if last is not None and last[0] == key:
+            return last[1]
+        frame = body_pose @ self.hand_frame(q, side)
+        frame.setflags(write=False)
+        self._hands_ned[side] = (key, frame)
+        return frame
 
     def grip_closure(self, q: ArrayLike, side: Side) -> float:
         """How closed a hand is: 0 open, 1 at the fingers' upper limit."""

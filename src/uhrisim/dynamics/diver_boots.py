@@ -230,6 +230,11 @@ def _slope_ahead(position: tuple[float, ...], psi: float, floor_depth: FloorDept
     return (behind - ahead) / (2.0 * probe)
 
 
+#: the joints :func:`leg_angles` sets (it reads only the pelvis's ``posture`` of ``q``)
+LEG_JOINTS = tuple(f"{side}_{joint}" for side in ("left", "right")
+                   for joint in ("hip_flex", "hip_abd", "knee", "ankle"))
+
+
 def leg_angles(state: BootsState, params: BootsParams, floor_depth: FloorDepth, q: ArrayLike
                ) -> NDArray[np.float64]:
     """``q`` with both legs on their sole targets (module docstring): planar two-link IK

@@ -70,7 +70,7 @@ class Hydro:
 
     def in_water_weight(self, gas_volume: float = 0.0, rho: float = WATER_DENSITY) -> float:
         """Weight minus buoyancy (N, > 0 sinks) with ``gas_volume`` (m³) of buoyant gas."""
-        return (self.mass - rho * (self.volume + gas_volume)) * GRAVITY
+        return in_water_weight(self.mass, self.volume, gas_volume, rho)
 
     def inertia(self, rho: float = WATER_DENSITY) -> float:
         """Mass plus added mass (kg)."""
@@ -80,6 +80,28 @@ class Hydro:
         """|v| (m/s) at which drag balances the in-water weight: sqrt(2|W| / (rho C_d A))."""
         weight = abs(self.in_water_weight(gas_volume, rho))
         return math.sqrt(2.0 * weight / (rho * self.drag_coefficient * self.area))
+
+
+def in_water_weight(mass: float, volume: float, gas_volume: float = 0.0,
+                    rho: float = WATER_DENSITY) -> float:
+    """Weight minus buoyancy (N, > 0 sinks) of ``mass`` (kg) displacing ``volume`` (m³),
+    with ``gas_volume`` (m³) of buoyant gas."""
+    return (mass - rho * (volume + gas_volume)) * GRAVITY
+
+
+def combined_weight(*parts: Hydro, gas_volume: float = 0.0) -> float:
+    """The in-water weight (N) of :func:`combine` (``parts``) with ``gas_volume`` (m³) of
+    gas: the same number, without making the assembly (its drag needs its size)."""
+    return in_water_weight(sum(p.mass for p in parts), sum(p.volume for p in parts),
+                           gas_volume)
+
+
+def rests(depth: float, weight: float, resting_depth: float) -> bool:
+    """Whether an object whose reference point is at ``depth`` (m) with in-water weight
+    ``weight`` (N) rests where its reference point is at ``resting_depth`` (m; NaN: no
+    floor): it is there (within 1 nm) and does not float (what :func:`step` asks first;
+    it then stays with its depth ``resting_depth`` and no velocity)."""
+    return math.isfinite(resting_depth) and depth >= resting_depth - 1e-9 and weight >= 0.0
 
 
 def combine(*parts: Hydro, drag_coefficient: float, area: float,
@@ -151,7 +173,7 @@ def step(x: ArrayLike, hydro: Hydro, dt: float, floor_depth: float, gas_m3: floa
                           where="free_body.step")
     weight = hydro.in_water_weight(gas_m3, rho)
     resting_depth = floor_depth - hydro.bottom_offset
-    if math.isfinite(resting_depth) and x[2] >= resting_depth - 1e-9 and weight >= 0.0:
+    if rests(x[2], weight, resting_depth):
         x[2], x[3:] = resting_depth, 0.0
         return x, "floor"
     n = _substeps(x, hydro, gas_m3, dt, rho)

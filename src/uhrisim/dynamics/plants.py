@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -223,7 +224,7 @@ class BootsPlant:
     _steps: LastValue = field(init=False, repr=False, compare=False,
                               default_factory=lambda: LastValue(copies=True))
     _legs: LastValue = field(init=False, repr=False, compare=False,
-                             default_factory=lambda: LastValue(copies=True))
+                             default_factory=LastValue)
     kind = "diver_boots"
     state_size = 12
     input_size = 4
@@ -263,10 +264,24 @@ class BootsPlant:
 
     def leg_angles(self, x: NDArray, q: NDArray) -> NDArray:
         """:func:`~uhrisim.dynamics.diver_boots.leg_angles` of state ``x`` from joint
-        angles ``q`` (those of a diver standing still, arms still, given again: the
-        angles it gave last time)."""
-        return self._legs.of(x.tobytes() + np.asarray(q, dtype=float).tobytes(),
+        angles ``q``. The legs' angles follow from the state and the pelvis's tilt
+        alone, the others are ``q``'s (clipped into the limits): a diver standing still,
+        working with his arms, gets the legs' angles of the last time again (clipping
+        clipped angles changes no bit)."""
+        q = np.asarray(q, dtype=float)
+        posture, legs = self._leg_joints
+        kept = self._legs.of(x.tobytes() + q[posture:posture + 1].tobytes(),
                              self._leg_angles, x, q)
+        out = q.copy()
+        out[legs] = kept[legs]
+        return self.params.skeleton.clip(out)
+
+    @cached_property
+    def _leg_joints(self) -> tuple[int, NDArray[np.intp]]:
+        """The positions in ``q`` of the pelvis's tilt and of the legs' joints."""
+        skeleton = self.params.skeleton
+        return skeleton.index("posture"), np.array(
+            [skeleton.index(name) for name in diver_boots.LEG_JOINTS], dtype=np.intp)
 
     def _leg_angles(self, x: NDArray, q: NDArray) -> NDArray:
         return diver_boots.leg_angles(self.boots_state(x), self.params, self.floor_depth, q)

@@ -380,17 +380,12 @@ class Simulation:
             agent = self.agents[agent_name]
             if not math.dist(centre, agent.state[:3]) <= reach + agent.radius:
                 self._team_contacts.discard((agent_name, name))
-        if not moved:
-            return
-        near = [agent for agent in self.agents.values()  # (the others' clearance rules it out)
-                if not team.obstacles.clear_of(agent.name, agent.state[:3].tolist(),
-                                               agent.radius, team.left_out(agent.name))]
-        for name in sorted(moved) if near else ():
+        for name in sorted(moved):
             centre, reach = team.obstacles.sphere(name)
-            for agent in near:
-                if (not math.dist(centre, agent.state[:3]) <= reach + agent.radius
+            for agent in self.agents.values():
+                if (name in team.left_out(agent.name)
+                        or not math.dist(centre, agent.state[:3]) <= reach + agent.radius
                         or (agent.name, name) in self._team_contacts
-                        or name in team.left_out(agent.name)
                         or not team.obstacles.box_near(name, agent.state[:3], agent.radius)):
                     continue
                 self._sync_scene()

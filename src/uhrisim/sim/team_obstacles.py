@@ -172,17 +172,6 @@ class ObstacleSpheres:
         p = np.asarray(point, dtype=float)
         return _meets_box(p, p, radius, *self._box(self._index[name]))
 
-    def clear_of(self, agent: str, point: list[float], radius: float,
-                 left_out: frozenset[str]) -> bool:
-        """Whether ``agent``'s clearance (module docstring; measured afresh from ``point``
-        when it is not kept for ``left_out``) shows that no sphere but those ``left_out``
-        comes within ``radius`` (m) of ``point`` (NED, m); False when it cannot tell."""
-        cached = self._clearance.get(agent)
-        if (cached is not None and cached[0] is left_out
-                and math.dist(cached[1], point) + radius + CLEARANCE_SLACK_M < cached[2]):
-            return True
-        return radius + CLEARANCE_SLACK_M < self._measure(agent, point, left_out)
-
     def in_reach(self, agent: str, start: list[float], end: list[float], radius: float,
                  left_out: frozenset[str]) -> list[str]:
         """:meth:`touching`, with ``agent``'s clearance kept between calls (module

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 import re
+import struct
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -58,6 +59,7 @@ from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import rot_z
 from uhrisim.dynamics.carried_load import CarriedLoad, box_projected_areas
 from uhrisim.dynamics.diver_body import DiverSkeleton, step_motion
+from uhrisim.dynamics.plants import LastValue
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.sections import part_settings
 from uhrisim.scenario.teamwork import FlangeSite, HatchSite, LoadSite, PlatformSite
@@ -150,6 +152,9 @@ class DiverBodyState:
     last_state: NDArray[np.float64]
     reported: int = 0
     note: str = ""
+    #: the arm motion's and the legs' last answers (a still diver asks the same again)
+    motion: LastValue = field(default_factory=LastValue, repr=False, compare=False)
+    legs: LastValue = field(default_factory=LastValue, repr=False, compare=False)
 
 
 @dataclass
@@ -175,6 +180,9 @@ class TeamStage:
         self.workspace = self._workspace()
         self.divers: dict[str, DiverBodyState] = {}
         self.grippers: dict[str, GripperSlot] = {}
+        #: each agent's last body pose (:meth:`_body_pose_now`): (position and heading
+        #: bytes, the read-only pose)
+        self._body_poses: dict[str, tuple[bytes, NDArray[np.float64]]] = {}
         self.silt = (SiltCloud(SiltParams(current_ne=world.silt.current_ne), scene.depth_at)
                      if world.silt is not None and world.silt.soft else None)
         self.events: list[WorldEvent] = []  # every event of the run, in order
@@ -405,9 +413,18 @@ class TeamStage:
                          self._body_pose_now(name) if body_pose is None else body_pose)
 
     def _body_pose_now(self, name: str) -> NDArray[np.float64]:
-        """Agent ``name``'s body pose now (4x4 body→NED, level at its heading)."""
+        """Agent ``name``'s body pose now (4x4 body→NED, level at its heading; the very
+        array of the last call while its position and heading hold: what follows from it
+        is then kept)."""
         nav = self.agents[name].nav()
-        return pose_matrix(nav.position_ned, nav.yaw)
+        key = nav.position_ned.tobytes() + struct.pack("<d", nav.yaw)
+        last = self._body_poses.get(name)
+        if last is not None and last[0] == key:
+            return last[1]
+        pose = pose_matrix(nav.position_ned, nav.yaw)
+        pose.setflags(write=False)
+        self._body_poses[name] = (key, pose)
+        return pose
 
     # ------------------------------------------------------------------ the tick
     def step(self, tick: int, t: float) -> frozenset[str]:
@@ -616,8 +633,14 @@ class TeamStage:
         pose = self.arm_poses[agent.name](t) if agent.name in self.arm_poses else None
         if pose is not None:
             body.goal = body.skeleton.vector(pose, body.goal)
-        body.q, body.qdot = step_motion(body.skeleton, body.q, body.qdot, body.goal, self.dt)
-        body.q = diver.legs(agent.plant, agent.state, body.q, agent.kick_phase)
+        # (the joint arrays are replaced, never changed in place: the answers are kept)
+        body.q, body.qdot = body.motion.of(
+            body.q.tobytes() + body.qdot.tobytes() + body.goal.tobytes(), step_motion,
+            body.skeleton, body.q, body.qdot, body.goal, self.dt)
+        body.q = body.legs.of(
+            (agent.plant, agent.state.tobytes(), body.q.tobytes(),
+             struct.pack("<d", agent.kick_phase)), diver.legs, agent.plant, agent.state,
+            body.q, agent.kick_phase)
         return request
 
     def _work_gripper(self, name: str, slot: GripperSlot, t: float,

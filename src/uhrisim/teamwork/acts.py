@@ -71,8 +71,8 @@ class Hand:
         return f"{self.diver}/{self.side}_hand"
 
     def grip_frame(self) -> NDArray[np.float64]:
-        """4x4 NED pose of the hand (origin at its grip point)."""
-        return self.body_pose @ self.skeleton.hand_frame(self.q, self.side)
+        """4x4 NED pose of the hand (origin at its grip point; read-only)."""
+        return self.skeleton.hand_frame_ned(self.q, self.side, self.body_pose)
 
     def to_body(self, point_ned: ArrayLike) -> NDArray[np.float64]:
         r, p = self.body_pose[:3, :3], self.body_pose[:3, 3]
@@ -396,6 +396,12 @@ class ActRequest:
     flag: bool = True
     target: tuple[float, float, float] | None = None
     receiver: str = ""
+
+    def by(self, carrier: str) -> ActRequest:
+        """This request with ``carrier`` acting (``dataclasses.replace``'s answer, made
+        directly)."""
+        return ActRequest(self.kind, carrier, self.subject, self.part, self.flag,
+                          self.target, self.receiver)
 
 
 def perform(request: ActRequest, ws: Workspace, carriers: dict[str, Carrier], t: float,

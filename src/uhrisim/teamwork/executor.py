@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -100,6 +100,10 @@ class Directive:
     arm_goal: NDArray[np.float64] | None = None
     act: ActRequest | None = None
     note: str = ""
+
+    def noted(self, note: str) -> Directive:
+        """This directive with ``note`` (``dataclasses.replace``'s answer, made directly)."""
+        return Directive(self.speed, self.turn_rate, self.depth, self.arm_goal, self.act, note)
 
 
 @dataclass
@@ -382,7 +386,7 @@ class OrderExecutor:
         if self._phase == "approach":
             arrived, d = self._approach(view, point, side, self._standoff)
             if not arrived:
-                return replace(d, note=f"{note}: approach")
+                return d.noted(f"{note}: approach")
             self._phase = "reach"
         state, goal, reason = self._reach(view, side, point, fingers_open)
         if state == "out":
@@ -391,7 +395,7 @@ class OrderExecutor:
         if state == "moving":
             return Directive(arm_goal=goal, note=f"{note}: reach")
         carrier = f"{self.diver}/{side}_hand"
-        return Directive(arm_goal=goal, act=replace(request, carrier=carrier),
+        return Directive(arm_goal=goal, act=request.by(carrier),
                          note=note)
 
     def _use(self, view: DiverView, ws: Workspace, tool: str, site: str, part: int,
@@ -493,7 +497,7 @@ class OrderExecutor:
         if self._phase == "approach":
             arrived, d = self._approach(view, grip, side, 0.7)
             if not arrived:
-                return replace(d, note=f"hand {obj} to {receiver}: approach")
+                return d.noted(f"hand {obj} to {receiver}: approach")
             self._phase = "reach"
         hand = view.hand(side)
         offset = ws.grasp_point(obj) - hand.grip_frame()[:3, 3]

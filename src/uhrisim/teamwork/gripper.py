@@ -27,6 +27,7 @@ arrive as "open"/"close" (the helm's variable, MOOS and ROS 2 alike, in the inte
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -63,7 +64,14 @@ class GripperSpec:
 
     def jaw_centre_ned(self, vehicle_pose: NDArray[np.float64]) -> NDArray[np.float64]:
         """Jaw centre in NED for the vehicle's 4x4 body→NED pose."""
-        return vehicle_pose[:3, :3] @ np.asarray(self.position_frd) + vehicle_pose[:3, 3]
+        return vehicle_pose[:3, :3] @ self._position_frd + vehicle_pose[:3, 3]
+
+    @cached_property
+    def _position_frd(self) -> NDArray[np.float64]:
+        """``position_frd`` as an array (read-only), made once."""
+        position = np.asarray(self.position_frd)
+        position.setflags(write=False)
+        return position
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,7 @@ The acts (:mod:`uhrisim.teamwork.acts`) change holders and site states.
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
@@ -43,6 +44,11 @@ FloorDepth = Callable[[float, float], float]
 
 #: A released object rests when a support is within this below it (m).
 SUPPORT_TOLERANCE_M = 0.05
+
+#: the velocity (NED m/s) of what is carried by a grip at rest
+_AT_REST = (0.0, 0.0, 0.0)
+#: the bytes of a velocity array at rest (three +0.0)
+_NO_VELOCITY = np.zeros(3).tobytes()
 
 
 @dataclass(frozen=True)
@@ -84,8 +90,9 @@ class Thing:
     velocity: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
     relative: NDArray[np.float64] | None = None
     #: what its pose last followed from, in a basket or rigged to a load: (the
-    #: support's pose, its relative pose, the pose worked out): the very same objects
-    #: give the same pose, kept (the team stage then needs to compare nothing)
+    #: support's pose, its relative pose, the pose worked out), or carried at rest:
+    #: (the grip frame, its relative pose, the pose, the velocity): the very same
+    #: objects give the same pose, kept (the team stage then needs to compare nothing)
     followed: tuple[Any, ...] = field(default=(), repr=False, compare=False)
 
     @property
@@ -109,6 +116,15 @@ class Workspace:
     hatch_states: dict[str, HatchState] = field(default_factory=dict)
     bag_states: dict[str, LiftBagState] = field(default_factory=dict)
     holders: dict[str, str] = field(default_factory=dict)
+    #: each object's last :meth:`support_below`: (the floor function, its pose and the
+    #: baskets' poses then, the answer): the very same objects give the same answer
+    _supports: dict[str, tuple[Any, ...]] = field(default_factory=dict, repr=False,
+                                                   compare=False)
+    #: whether each object alone is lighter than water (:meth:`_floats`)
+    _floating: dict[str, bool] = field(default_factory=dict, repr=False, compare=False)
+    #: each object's last :meth:`grasp_point`: (its pose array then, the point)
+    _grasp_points: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] = field(
+        default_factory=dict, repr=False, compare=False)
 
     @classmethod
     def of(cls, tools: Iterable[Tool] = (), loads: Iterable[LoadSpec] = (),
@@ -163,10 +179,13 @@ class Workspace:
     def grasp_point(self, obj: str) -> NDArray[np.float64]:
         """Where a hand or jaw takes ``obj``, NED (m): a tool's grasp point, a load's
         lifting eye."""
-        t = self.thing(obj)
-        local = (self.tools[obj].grasp_offset() if obj in self.tools
-                 else self.loads[obj].attachment_site())
-        return t.pose[:3, :3] @ local + t.pose[:3, 3]
+        pose = self.thing(obj).pose
+        last = self._grasp_points.get(obj)  # (kept for the very pose array)
+        if last is None or last[0] is not pose:
+            local = (self.tools[obj].grasp_offset() if obj in self.tools
+                     else self.loads[obj].attachment_site())
+            last = self._grasp_points[obj] = (pose, pose[:3, :3] @ local + pose[:3, 3])
+        return last[1].copy()
 
     def grip_width(self, obj: str) -> float:
         """What a hand or jaw closes on (m)."""
@@ -193,7 +212,23 @@ class Workspace:
     def support_below(self, obj: str, floor_depth: FloorDepth) -> tuple[str, float]:
         """The nearest support under ``obj`` and the gap (m) from its bottom down to it:
         the floor (``"floor"``), a platform's top (``"on:<name>"``) or the inside bottom of
-        a level tool basket whose opening it is over (``"in:<name>"``)."""
+        a level tool basket whose opening it is over (``"in:<name>"``). Kept while the
+        object and every basket keep their pose arrays (poses are replaced, never
+        changed in place)."""
+        baskets = tuple(thing.pose for name, thing in self.things.items()
+                        if name != obj and name in self.tools
+                        and self.tools[name].kind == "tool_basket")
+        pose = self.things[obj].pose
+        last = self._supports.get(obj)
+        if (last is not None and last[0] is floor_depth and last[1] is pose
+                and len(last[2]) == len(baskets)
+                and all(a is b for a, b in zip(last[2], baskets, strict=True))):
+            return last[3]
+        best = self._support_below(obj, floor_depth)
+        self._supports[obj] = (floor_depth, pose, baskets, best)
+        return best
+
+    def _support_below(self, obj: str, floor_depth: FloorDepth) -> tuple[str, float]:
         x, y, z = self.things[obj].position
         bottom = z + self.hydro_of(obj).bottom_offset
         best = ("floor", float(floor_depth(x, y)) - bottom)
@@ -220,15 +255,24 @@ class Workspace:
         self.put(obj, position, yaw, where=support)
 
     def carry(self, carrier: str, grip_frame: NDArray[np.float64],
-              velocity: ArrayLike = (0.0, 0.0, 0.0)) -> None:
+              velocity: ArrayLike = _AT_REST) -> None:
         """Move what ``carrier`` holds with its 4x4 grip frame (NED). A shared object
-        follows its first holder."""
+        follows its first holder. Kept when the object, at rest in the grip, follows
+        the very grip frame array it followed last (grip frames are not changed in
+        place)."""
         obj = self.held_by(carrier)
         if obj is None or self.holders_of(obj)[0] != carrier:
             return
         thing = self.things[obj]
+        last = thing.followed  # the very grip frame it followed last, at rest: kept
+        if (velocity is _AT_REST and len(last) == 4 and last[0] is grip_frame
+                and last[1] is thing.relative and last[2] is thing.pose
+                and last[3] is thing.velocity):
+            return
         thing.pose = grip_frame @ thing.relative
         thing.velocity = np.asarray(velocity, dtype=float)
+        thing.followed = (grip_frame, thing.relative, thing.pose, thing.velocity) if (
+            velocity is _AT_REST) else ()
 
     def take(self, carrier: str, obj: str, grip_frame: NDArray[np.float64]) -> None:
         """Record that ``carrier`` holds ``obj`` with its grip frame now (NED)."""
@@ -306,9 +350,24 @@ class Workspace:
         if thing.where != "floor" and not thing.where.startswith("on:"):
             return False  # held, in a basket, rigged: moved by what it is with
         if name in self.tools and name not in self.bags:
-            return self.tools[name].hydro.in_water_weight() < 0.0
+            return self._floats(name)
         return (name in gassed or any(self.bag_states[b].attached_to == name for b in gassed)
-                or self.hydro_of(name).in_water_weight() < 0.0)
+                or self._floats(name))
+
+    def _floats(self, name: str) -> bool:
+        """Whether object ``name`` alone is lighter than water (asked once per object)."""
+        if name not in self._floating:
+            self._floating[name] = self.hydro_of(name).in_water_weight() < 0.0
+        return self._floating[name]
+
+    @staticmethod
+    def _stays(thing: Thing, depth: float, resting_depth: float, weight: float) -> bool:
+        """Whether a resting ``thing`` (its reference point at ``depth``, m) of in-water
+        weight ``weight`` (N) stays as it is, bit for bit: it rests
+        (:func:`~uhrisim.dynamics.free_body.rests`) where it is, with no velocity."""
+        return (fb.rests(depth, weight, resting_depth)
+                and struct.pack("<d", depth) == struct.pack("<d", resting_depth)
+                and thing.velocity.tobytes() == _NO_VELOCITY)
 
     def _bag_gas(self, load: str, depth: float) -> tuple[float, list[str]]:
         """Gas (m³) of the bags rigged to ``load`` at ``depth``, and their names."""
@@ -317,32 +376,40 @@ class Workspace:
 
     def _move_free(self, name: str, thing: Thing, dt: float, t: float,
                    floor_depth: FloorDepth) -> list[WorldEvent]:
-        x = np.concatenate([thing.position, thing.velocity])
+        depth = float(thing.pose[2, 3])
         hydro = self.hydro_of(name)
-        gas = 0.0
+        gas, rigged = 0.0, []
         if name in self.loads:
-            gas, rigged = self._bag_gas(name, float(x[2]))
-            if rigged:  # load and bags rise as one; the swollen bags drag with C_d 1
-                bag_area = math.pi * bag_semi_axes(gas)[0] ** 2
-                area = hydro.area + bag_area
-                hydro = fb.combine(hydro, *(self.bags[b].fabric for b in rigged),
-                                   drag_coefficient=(hydro.drag_coefficient * hydro.area
-                                                     + bag_area) / area,
-                                   area=area, bottom_offset=hydro.bottom_offset)
+            gas, rigged = self._bag_gas(name, depth)
         elif name in self.bags:
-            gas = self.bags[name].gas_m3(self.bag_states[name], float(x[2]))
+            gas = self.bags[name].gas_m3(self.bag_states[name], depth)
         support, gap = self.support_below(name, floor_depth)
-        resting_on = float(x[2]) + hydro.bottom_offset + gap  # depth of what is below
-        x, where = fb.step(x, hydro, dt, resting_on, gas)
+        resting_on = depth + hydro.bottom_offset + gap  # depth of what is below
+        if thing.where == support and self._stays(thing, depth, resting_on - hydro.bottom_offset,
+                                                  fb.combined_weight(hydro, *(
+                                                      self.bags[b].fabric for b in rigged),
+                                                      gas_volume=gas)):
+            return []  # resting as it is: what the step would give, its arrays kept
+        if rigged:  # load and bags rise as one; the swollen bags drag with C_d 1
+            bag_area = math.pi * bag_semi_axes(gas)[0] ** 2
+            area = hydro.area + bag_area
+            hydro = fb.combine(hydro, *(self.bags[b].fabric for b in rigged),
+                               drag_coefficient=(hydro.drag_coefficient * hydro.area
+                                                 + bag_area) / area,
+                               area=area, bottom_offset=hydro.bottom_offset)
+        x = np.concatenate([thing.position, thing.velocity])
         before = thing.where
+        stepped, where = fb.step(x, hydro, dt, resting_on, gas)
+        if where == "floor" and support != "floor" and before == support:
+            where = support  # still resting there (pinned by the step)
+        if where == before and stepped.tobytes() == x.tobytes():
+            return []  # it stays as it is: its pose and velocity arrays are kept
+        x = stepped
         pose = thing.pose.copy()  # a new pose, never changed in place: the stage compares
         pose[:3, 3] = x[:3]        # pose objects to see what moved (sim/teamwork.py)
         thing.pose, thing.velocity, thing.where = pose, x[3:], where
         if where == "floor" and support != "floor":
-            if before == support:  # still resting there (pinned by the step)
-                thing.where = support
-            else:
-                self.rest_on(name, support, 0.0)  # in a basket or on a platform
+            self.rest_on(name, support, 0.0)  # in a basket or on a platform
             where = support
         if where == before:
             return []

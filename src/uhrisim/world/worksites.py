@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 import trimesh
@@ -71,9 +72,11 @@ def _check_name(name: str, kind: str) -> None:
 
 
 def _site_pose(position_ned: ArrayLike, yaw: float) -> NDArray[np.float64]:
+    """4x4 site frame → NED (read-only)."""
     m = np.eye(4)
     m[:3, :3] = rot_z(yaw)
     m[:3, 3] = np.asarray(position_ned, dtype=float)
+    m.setflags(write=False)
     return m
 
 
@@ -134,6 +137,11 @@ class FlangeSpec:
 
     def pose(self) -> NDArray[np.float64]:
         """4x4 site frame → NED."""
+        return self._pose.copy()
+
+    @cached_property
+    def _pose(self) -> NDArray[np.float64]:
+        """:meth:`pose`, worked out once (read-only)."""
         return _site_pose(self.position_ned, self.yaw)
 
     def bolt_status(self, state: FlangeState, bolt: int) -> str:
@@ -151,12 +159,12 @@ class FlangeSpec:
 
     def bolt_position(self, bolt: int) -> NDArray[np.float64]:
         """The nut of ``bolt``, NED (m)."""
-        pose = self.pose()
+        pose = self._pose
         return pose[:3, :3] @ self.bolt_position_site(bolt) + pose[:3, 3]
 
     def cover_grasp_position(self) -> NDArray[np.float64]:
         """Where a hand takes the cover (its rim at the top), NED (m)."""
-        pose = self.pose()
+        pose = self._pose
         rim = np.array([0.5 * self.cover_thickness, 0.0, -0.9 * self.flange_radius])
         return pose[:3, :3] @ rim + pose[:3, 3]
 
@@ -288,6 +296,12 @@ class HatchSpec:
         return HatchState()
 
     def pose(self) -> NDArray[np.float64]:
+        """4x4 site frame → NED."""
+        return self._pose.copy()
+
+    @cached_property
+    def _pose(self) -> NDArray[np.float64]:
+        """:meth:`pose`, worked out once (read-only)."""
         return _site_pose(self.position_ned, self.yaw)
 
     def status(self, state: HatchState) -> str:
@@ -300,12 +314,12 @@ class HatchSpec:
 
     def latch_position(self) -> NDArray[np.float64]:
         """The latch on the lid's free edge (where the hammer goes), NED (m)."""
-        pose = self.pose()
+        pose = self._pose
         return pose[:3, :3] @ np.array([self.size, 0.0, -self.thickness]) + pose[:3, 3]
 
     def handle_position(self, state: HatchState) -> NDArray[np.float64]:
         """The lid's handle (its free edge's middle) at the current angle, NED (m)."""
-        pose = self.pose()
+        pose = self._pose
         a = state.angle
         edge = np.array([self.size * math.cos(a), 0.0, -self.size * math.sin(a)])
         return pose[:3, :3] @ edge + pose[:3, 3]
