@@ -24,8 +24,8 @@ mirrored when the left side moved more (a gesture made with either arm reads the
 their means over time bins counted back from the window's end (:data:`TIME_BINS_S`: the
 pose held at the end, the motion before it), their standard deviations, and the motion —
 the frame-to-frame change of the grid and the reaches — per second back from the end
-(when the big moves happened: ``bring_tool``'s count is the time since the other arm
-dropped).
+(when the big moves happened: ``bring_tool``'s count is how long the arm stroked
+before it dropped).
 
 **Classifier** (:class:`GestureClassifier`): a network of one hidden layer of ``tanh``
 units and a softmax over the standardised window features, one class per gesture
@@ -82,14 +82,15 @@ BACKGROUND_PX, BACKGROUND_STEP = 40, 4
 KEEP_SHARE = 0.15
 MAX_COLUMNS = 160
 #: time bins of a window's means, seconds back from its end
-TIME_BINS_S = (0.0, 1.0, 2.0, 3.5, 5.0, 7.0, 10.0)
+TIME_BINS_S = (0.0, 1.0, 2.0, 3.5, 5.0, 7.0, 10.0, 14.0)
 #: seconds back from the end over which the motion is summed, one number per second
-MOTION_S = 10
+MOTION_S = 14
 WINDOW_FEATURES = (len(TIME_BINS_S) - 1) * FRAME_FEATURES + FRAME_FEATURES + MOTION_S
 NONE = "none"
-#: the streaming reader's decision rule (:class:`GestureReader`): every 1 s, the same
-#: class twice in a row with >= 0.9 each time
-HOP_S, VOTES, MIN_CONFIDENCE = 1.0, 2, 0.9
+#: the streaming reader's decision rule (:class:`GestureReader`): every 0.5 s, the same
+#: class three times in a row with >= 0.7 each time (chosen on validation streams:
+#: docs/hri.md)
+HOP_S, VOTES, MIN_CONFIDENCE = 0.5, 3, 0.7
 
 
 def _binned(rgb: NDArray[np.uint8]) -> NDArray[np.float32]:
