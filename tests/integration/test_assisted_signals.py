@@ -33,11 +33,6 @@ def _run(water: str):
     return world, eye, signal_metrics(issued, eye.readers.said, world.trace)
 
 
-@pytest.mark.xfail(strict=True, reason="the gesture is read (bring_tool lift_bag 13.5 s after "
-                   "the signal's start, the gesture 12.2 s) but at 30 s, the ROV turned to the "
-                   "basket, the reader says 'stop' (0.96) of a silhouette 8-13 torso widths "
-                   "wide on both sides (not the diver: the floor) and the fetch stops "
-                   "(docs/hri.md, 'In the simulation loop')")
 @pytest.mark.slow
 def test_in_clear_water_the_rov_reads_the_gesture_fetches_hands_over_and_follows():
     world, eye, m = _run("I")
