@@ -96,7 +96,7 @@ SUITS = (NEOPRENE.albedo_rgb, (0.25, 0.25, 0.27), (0.04, 0.08, 0.30), (0.45, 0.0
 TANKS = (ALUMINIUM.albedo_rgb, (0.70, 0.55, 0.05), (0.04, 0.04, 0.04))
 #: the network: hidden units, the L2 penalty on its weights (chosen on validation
 #: episodes: module docstring) and the optimiser's iterations
-HIDDEN, L2, MAX_ITERATIONS = 24, 0.003, 300
+HIDDEN, L2, MAX_ITERATIONS = 48, 0.001, 300
 
 
 def gesture_classes(gestures: GestureSet) -> list[str]:
