@@ -28,6 +28,8 @@ from uhrisim.perception.gesture_reader import (
     GestureClassifier,
     GestureReader,
     frame_descriptor,
+    silhouette_descriptor,
+    window_features,
 )
 from uhrisim.perception.gestures import GestureSet
 
@@ -85,6 +87,57 @@ def test_an_episode_renders_the_same_twice_and_nothing_seen_is_nan(renderer):
     assert not np.isnan(a).any()
     water = np.full((240, 320, 3), 60, np.uint8)
     assert np.isnan(frame_descriptor(water)).all()
+
+
+def test_the_floors_edge_is_no_diver():
+    """A thin, wide curve (the floor's edge when the camera turns away from the diver) is
+    dropped from the silhouette; beside a diver's figure it changes nothing."""
+    rows, cols = np.mgrid[0:120, 0:160]
+    edge = np.abs(rows - (88 - 3.0 * np.cos((cols - 80) / 40.0))) < 1.0
+    figure = ((np.abs(cols - 40) < 4) & (rows > 30) & (rows < 75)
+              | ((cols - 40) ** 2 + (rows - 26) ** 2 < 9)
+              | ((cols > 40) & (cols < 55) & (np.abs(rows - 40) < 1)))
+    assert edge.sum() > 200  # more than a diver's worth of pixels, 3-4 rows deep
+    assert np.isnan(silhouette_descriptor(edge)).all()
+    alone = silhouette_descriptor(figure)
+    assert not np.isnan(alone).any()
+    assert np.array_equal(silhouette_descriptor(figure | edge), alone)
+
+
+def _always(name):
+    """A classifier (the shipped one's standardisation) whose network says ``name``
+    whatever it sees."""
+    k, hidden = len(CLASSES), 2
+    return GestureClassifier(tuple(CLASSES), SHIPPED.center, SHIPPED.spread,
+                             np.zeros((hidden, SHIPPED.center.size)), np.zeros(hidden),
+                             np.zeros((k, hidden)),
+                             np.array([20.0 if c == name else 0.0 for c in CLASSES]),
+                             SHIPPED.window_s, SHIPPED.rate_hz)
+
+
+def test_the_reader_says_nothing_while_the_diver_is_out_of_the_picture():
+    """A class that wins every window is said only once the newest picture shows the
+    diver again (the windows before it read it: he is seen in most of their frames)."""
+    always = _always("go_up")
+    reader = GestureReader(always, hop_s=0.5, votes=3)
+    seen = SHIPPED.center[:FRAME_FEATURES]  # a diver of the size the network knows
+    away = np.full(FRAME_FEATURES, np.nan)
+    n = always.window_frames
+    said = [s for i in range(n + 6) for s in reader.feed_descriptor(
+        i / always.rate_hz, seen if i < n - 1 else away)]
+    assert said == []
+    assert [str(s.command) for s in reader.feed_descriptor((n + 6) / always.rate_hz, seen)
+            ] == ["go_up"]
+
+
+def test_a_diver_nearer_than_the_network_was_fitted_on_is_not_read():
+    """The ROV at arm's reach sees the diver's trunk fill the picture, a size the network
+    never saw: the window reads ``none``, whatever the network would say."""
+    always = _always("go_up")
+    window = np.tile(SHIPPED.center[:FRAME_FEATURES], (always.window_frames, 1))
+    assert always.classify(window_features(window, always.rate_hz))[0] == "go_up"
+    window[-2:, -1] += 5.0 * SHIPPED.spread[FRAME_FEATURES - 1]  # the last second: ~2.5 x
+    assert always.classify(window_features(window, always.rate_hz)) == (NONE, 1.0)
 
 
 def test_the_network_learns_what_no_straight_line_separates_and_refits_the_same():

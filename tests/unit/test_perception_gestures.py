@@ -70,9 +70,11 @@ def test_bring_tool_counts_the_tools_number():
     gesture, count = gestures.for_command(Command("bring_tool", "lift_bag"))
     assert count == gestures.tool_numbers["lift_bag"] == 4
     frames = gesture.timeline(count=count)
-    opened = [k for k in frames if k.hand == "open"]
-    assert len(opened) == 4
-    assert gesture.duration_s(count) == pytest.approx(3.0 + 4 * 1.6)
+    # each count raises the straight arm sideways and lowers it; then it drops to his side
+    abduction = [round(math.degrees(k.joints["right_shoulder_abd"])) for k in frames]
+    assert abduction[3:] == [60, 120, 60, 120, 60, 120, 60, 120, 60, 5, 5]
+    assert gesture.duration_s(count) == pytest.approx(3.1 + 4 * 1.9 + 1.5)
+    assert gesture.duration_s(1) == pytest.approx(3.1 + 1.9 + 1.5)
     with pytest.raises(ConfigError, match="needs a count"):
         gesture.timeline()
     with pytest.raises(ConfigError, match="no number for tool 'crowbar'"):
@@ -92,6 +94,8 @@ def test_bring_tool_counts_the_tools_number():
     (lambda d: d["gestures"]["go_up"]["keyframes"][1]["joints"].update({"{s}_elbow": "x"}),
      r"joints.\{s\}_elbow: must be a finite angle"),
     (lambda d: d["gestures"]["bring_tool"].pop("count"), r"bring_tool.count: bring_tool, and"),
+    (lambda d: d["gestures"]["ok"].update(end=[{"t": 1.0, "joints": {}}]),
+     r"gestures.ok.end: only a gesture with a count has end keyframes"),
 ])
 def test_bad_language_file_is_a_one_line_error_naming_the_field(edit, message):
     data = copy.deepcopy(SHIPPED)

@@ -11,10 +11,13 @@ the keyframes of ``perception/data/gestures.json``, the signalling arm drawn at 
 and holds its last pose; his arms sway a little throughout (each arm joint ±6°, periods
 3–6 s). The camera sees the window that ends 0.2–1 s after the gesture does
 (:data:`END_AFTER_S`), at the classifier's frame rate. The label is the script's truth
-(the gesture, ``bring_tool:<count>``); a training episode renders 1 s more, and every
-window that ends within 0.2–1 s of the gesture is a sample, and the window that ends
-half-way through its moves a ``none`` sample. Episodes of class ``none`` are the diver
-at rest.
+(the gesture, ``bring_tool:<count>``). A training episode is rendered twice: held (1 s
+more: every window that ends within 0.2–1 s of the gesture is a sample, and the window
+that ends half-way through its moves a ``none`` sample) and as a stream, the diver back
+in his ready pose the moment the gesture ends, as ``SignalPerformer``'s diver is in the
+loop (every window that ends up to :data:`STREAM_LABEL_S` after the gesture is a sample
+of it, every one that ends while he is still moving a ``none`` sample:
+:func:`stream_samples`). Episodes of class ``none`` are the diver at rest.
 
     python -m uhrisim.experiments.gesture_classifier OUT.json [--episodes 20] [--seed 1]
                                                               [--cache DIR]
@@ -36,6 +39,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import itertools
 import json
 import math
 import time
@@ -76,12 +80,14 @@ FLOOR_SIZE_M = 2000.0  # its edge beyond sight: no horizon line for the silhouet
 HIP_BELOW_CAMERA_M = 0.35
 #: the rendered pictures (px): the reader bins bigger pictures down to this width
 IMAGE_WIDTH, IMAGE_HEIGHT = 160, 120
-WINDOW_S, RATE_HZ = 10.0, 2.0
+WINDOW_S, RATE_HZ = 14.0, 2.0
 #: the window the camera sees ends this long after the gesture (s)
 END_AFTER_S = (0.2, 1.0)
 #: a held-out stream (:func:`stream_counts`) starts this long (s) before the window that
 #: ends after the gesture, and goes on this long after it
 STREAM_LEAD_S, STREAM_AFTER_S = 6.0, 3.0
+#: a training stream's windows that end up to this long (s) after the gesture are its class
+STREAM_LABEL_S = 2.0
 SWAY_DEG = 6.0
 ARM_KINDS = ("shoulder_flex", "shoulder_abd", "shoulder_rot", "elbow", "wrist")
 #: suit and cylinder colours (linear albedo) drawn in training: black, grey, blue and
@@ -90,7 +96,7 @@ SUITS = (NEOPRENE.albedo_rgb, (0.25, 0.25, 0.27), (0.04, 0.08, 0.30), (0.45, 0.0
 TANKS = (ALUMINIUM.albedo_rgb, (0.70, 0.55, 0.05), (0.04, 0.04, 0.04))
 #: the network: hidden units, the L2 penalty on its weights (chosen on validation
 #: episodes: module docstring) and the optimiser's iterations
-HIDDEN, L2, MAX_ITERATIONS = 24, 0.03, 300
+HIDDEN, L2, MAX_ITERATIONS = 48, 0.001, 300
 
 
 def gesture_classes(gestures: GestureSet) -> list[str]:
@@ -281,6 +287,43 @@ def window_samples(d: NDArray[np.float64], times: NDArray[np.float64], klass: st
     return samples
 
 
+def _last_move_end_s(gesture: Gesture, count: int | None) -> float:
+    """When the gesture's last move ends (s from its start): the last keyframe that
+    changes a joint; after it he holds the pose."""
+    frames = gesture.timeline("right", count)
+    moving = [b.t for a, b in itertools.pairwise(frames)
+              if any(abs(b.joints[j] - a.joints.get(j, 0.0)) > 1e-9 for j in b.joints)]
+    return moving[-1]
+
+
+def stream_samples(d: NDArray[np.float64], times: NDArray[np.float64], klass: str,
+                   gestures: GestureSet) -> list[tuple[str, NDArray[np.float64]]]:
+    """(label, window features) samples of a rendered stream's frame descriptors ``d``
+    at ``times`` (:meth:`EpisodeRenderer.frames` with ``stream``): every window that ends
+    within :data:`STREAM_LABEL_S` after the gesture (the diver back in his ready pose) is
+    the gesture, every one that ends before its last move has ended ``none`` (a gesture
+    under way: a count not finished), those in between (the last pose held) none of
+    them; a diver at rest is ``none`` throughout."""
+    n = round(WINDOW_S * RATE_HZ)
+    name, _, count = klass.partition(":")
+    if name == NONE:
+        duration = last_move = math.inf
+    else:
+        gesture = gestures.gestures[name]
+        number = int(count) if count else None
+        duration, last_move = gesture.duration_s(number), _last_move_end_s(gesture, number)
+    samples = []
+    for k in range(n - 1, len(d)):
+        if duration < times[k] <= duration + STREAM_LABEL_S:
+            label = klass
+        elif times[k] < last_move:
+            label = NONE
+        else:
+            continue
+        samples.append((label, window_features(d[k + 1 - n:k + 1], RATE_HZ)))
+    return samples
+
+
 #: training settings: water type -> (its share of the episodes, range interval m)
 TRAINING_WATERS = {"I": (1.0, (2.0, 4.5))}
 
@@ -349,15 +392,20 @@ def fit_network(features: NDArray[np.float64], labels: NDArray[np.int64], n_clas
 
 def training_samples(per_class: int, seed: int, cache: Path | None = None
                      ) -> tuple[list[str], NDArray[np.float64], NDArray[np.int64]]:
-    """(classes, window features, class indices) of the rendered training episodes
-    (their silhouettes kept in ``cache`` when given)."""
+    """(classes, window features, class indices) of the rendered training episodes, each
+    rendered twice: the diver holding the gesture's last pose (:func:`window_samples`)
+    and as a stream (:func:`stream_samples`); their silhouettes kept in ``cache`` when
+    given."""
     renderer = EpisodeRenderer()
     store = SilhouetteCache(renderer, cache)
     classes = gesture_classes(renderer.gestures)
     rows, labels = [], []
     for ep in training_episodes(classes, per_class, seed):
-        d, times = store.descriptors(ep, END_AFTER_S[1])
-        for label, features in window_samples(d, times, ep.klass, renderer.gestures):
+        held = window_samples(*store.descriptors(ep, END_AFTER_S[1]), ep.klass,
+                              renderer.gestures)
+        streamed = stream_samples(*store.descriptors(ep, STREAM_AFTER_S, stream=True),
+                                  ep.klass, renderer.gestures)
+        for label, features in held + streamed:
             if not np.any(np.isnan(features)):
                 rows.append(features)
                 labels.append(classes.index(label))

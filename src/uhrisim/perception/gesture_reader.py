@@ -10,6 +10,8 @@ levels are the silhouette (it does not depend on the suit's colour, only on its 
 with the water); parts less than :data:`GROUP_PX` pixels apart form a group, and the
 groups of at least :data:`KEEP_SHARE` of the largest one's pixels are the diver (his body,
 limbs and shadow on the floor). No opening: at 160 columns an arm at 3 m is 1–2 px wide.
+The descriptor drops the groups that are thin and wide (:data:`MIN_GROUP_ROWS`,
+:data:`MIN_HEIGHT_SHARE`): the floor's edge when the camera turns, never a diver.
 
 Its scale is its median row width (the torso's, about: arms and head are few rows); its
 pixels, measured down from its top (the head, or a raised hand) and sideways from its
@@ -24,20 +26,24 @@ mirrored when the left side moved more (a gesture made with either arm reads the
 their means over time bins counted back from the window's end (:data:`TIME_BINS_S`: the
 pose held at the end, the motion before it), their standard deviations, and the motion —
 the frame-to-frame change of the grid and the reaches — per second back from the end
-(when the big moves happened: ``bring_tool``'s count is the time since the other arm
-dropped).
+(when the big moves happened: ``bring_tool``'s count is how long the arm stroked
+before it dropped).
 
 **Classifier** (:class:`GestureClassifier`): a network of one hidden layer of ``tanh``
 units and a softmax over the standardised window features, one class per gesture
 (``bring_tool`` once per tool number: ``bring_tool:2`` is the hammer's) and ``none`` (the
-diver at rest, or a gesture under way); the confidence is the class's probability.
+diver at rest, or a gesture under way); the confidence is the class's probability. A
+window whose diver looks nearer or farther than any the network was fitted on (his
+apparent size beyond :data:`SIZE_SPREADS` training spreads) is ``none``: the ROV at arm's
+reach sees his trunk fill the picture, a view the training never showed.
 Parameters fitted on pictures the simulator renders and labels
 (``uhrisim.experiments.gesture_classifier``), shipped in
 ``perception/data/gesture_classifier.json`` with their provenance.
 
 **Streaming** (:class:`GestureReader`): fed every camera frame; every ``hop_s`` it
 classifies the last window, and says a command when the same class wins ``votes`` times
-in a row, each time with at least ``min_confidence``; then it stays quiet for a window
+in a row, each time with at least ``min_confidence``, and the diver is in the newest
+picture (nothing is said while the camera looks away); then it stays quiet for a window
 (the same gesture is not said twice). ``uhrisim.experiments.gesture_classifier
 --evaluate --stream`` counts what a rule recognizes, misses and says falsely on held-out
 streams (docs/hri.md).
@@ -77,19 +83,30 @@ MIN_AREA_PX = 12
 #: a silhouette with more than this share of isolated pixels is the sensor's noise
 NOISE_SHARE = 0.25
 GROUP_PX = 2
+#: a group of the silhouette (grown by GROUP_PX each side) fewer rows tall than this, or
+#: than this share of its width, is a line of the floor or the horizon, not a diver (the
+#: floor's edge: 1-3 px high, 20-60 wide; the diver: 30-70 rows at 2.5-4.5 m)
+MIN_GROUP_ROWS, MIN_HEIGHT_SHARE = 12, 0.5
 THRESHOLD_SIGMA, MIN_LEVELS = 4.0, 4.0
 BACKGROUND_PX, BACKGROUND_STEP = 40, 4
 KEEP_SHARE = 0.15
 MAX_COLUMNS = 160
 #: time bins of a window's means, seconds back from its end
-TIME_BINS_S = (0.0, 1.0, 2.0, 3.5, 5.0, 7.0, 10.0)
+TIME_BINS_S = (0.0, 1.0, 2.0, 3.5, 5.0, 7.0, 10.0, 14.0)
 #: seconds back from the end over which the motion is summed, one number per second
-MOTION_S = 10
+MOTION_S = 14
 WINDOW_FEATURES = (len(TIME_BINS_S) - 1) * FRAME_FEATURES + FRAME_FEATURES + MOTION_S
 NONE = "none"
-#: the streaming reader's decision rule (:class:`GestureReader`): every 1 s, the same
-#: class twice in a row with >= 0.9 each time
-HOP_S, VOTES, MIN_CONFIDENCE = 1.0, 2, 0.9
+#: a window whose apparent size (the diver's range) lies farther than this many training
+#: spreads from the training mean, in any time bin, is a range the network was not fitted
+#: on (its training windows lie within ±3.6): read as ``none``
+SIZE_SPREADS = 4.0
+#: where the apparent size sits in a window's features: the last of each time bin's means
+_SIZES = np.arange(len(TIME_BINS_S) - 1) * FRAME_FEATURES + FRAME_FEATURES - 1
+#: the streaming reader's decision rule (:class:`GestureReader`): every 0.5 s, the same
+#: class three times in a row with >= 0.7 each time (chosen on validation streams:
+#: docs/hri.md)
+HOP_S, VOTES, MIN_CONFIDENCE = 0.5, 3, 0.7
 
 
 def _binned(rgb: NDArray[np.uint8]) -> NDArray[np.float32]:
@@ -152,7 +169,7 @@ def silhouette_descriptor(mask: NDArray[np.bool_]) -> NDArray[np.float64]:
     neighbours = cv2.boxFilter(mask.astype(np.uint8), -1, (3, 3), normalize=False,
                                borderType=cv2.BORDER_CONSTANT)
     isolated = np.count_nonzero(mask & (neighbours < 2))
-    mask = mask & (neighbours >= 2)
+    mask = _without_thin_groups(mask & (neighbours >= 2))
     rows, cols = np.nonzero(mask)
     if rows.size < MIN_AREA_PX or isolated > NOISE_SHARE * (rows.size + isolated):
         return np.full(FRAME_FEATURES, np.nan)
@@ -174,6 +191,20 @@ def silhouette_descriptor(mask: NDArray[np.bool_]) -> NDArray[np.float64]:
     above = np.count_nonzero(y < 0) / scale ** 2
     size = math.log(scale / mask.shape[1])
     return np.concatenate([grid.ravel() / scale ** 2, sides, [above, size]])
+
+
+def _without_thin_groups(mask: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """``mask`` without its groups (parts within :data:`GROUP_PX` pixels, grown by it) that
+    are fewer than :data:`MIN_GROUP_ROWS` rows tall or than :data:`MIN_HEIGHT_SHARE` of
+    their width: the edge of the floor or the horizon where the camera turns, never a
+    diver."""
+    grown = cv2.dilate(mask.view(np.uint8), _CROSS, iterations=GROUP_PX)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(grown, connectivity=4,
+                                                           ltype=cv2.CV_32S)
+    height = stats[:, cv2.CC_STAT_HEIGHT]
+    tall = height >= np.maximum(MIN_GROUP_ROWS, MIN_HEIGHT_SHARE * stats[:, cv2.CC_STAT_WIDTH])
+    tall[0] = False
+    return mask & tall[labels]
 
 
 def _mirrored(d: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -263,8 +294,11 @@ class GestureClassifier:
 
     def classify(self, features: NDArray[np.float64]) -> tuple[str, float]:
         """(class, probability) of a window's features; (``none``, 1) if the diver was
-        not seen enough (NaN features)."""
-        if np.any(np.isnan(features)):
+        not seen enough (NaN features) or is nearer or farther than the network was fitted
+        on (:data:`SIZE_SPREADS`)."""
+        if np.any(np.isnan(features)) or np.any(
+                np.abs(features[_SIZES] - self.center[_SIZES])
+                > SIZE_SPREADS * self.spread[_SIZES]):
             return NONE, 1.0
         lp = self.log_posteriors(features)
         best = int(np.argmax(lp))
@@ -349,7 +383,8 @@ class GestureReader:
                                    self.classifier.rate_hz)
         self._last = [*self._last, self.classifier.classify(features)][-self.votes:]
         name, confidence = self._last[-1]
-        said = name != NONE and len(self._last) == self.votes and all(
+        in_view = not np.isnan(descriptor[0])  # no diver in this picture: nobody to obey
+        said = in_view and name != NONE and len(self._last) == self.votes and all(
             c == name and p >= self.min_confidence for c, p in self._last)
         if not said or t < self._quiet_until:
             return []

@@ -22,8 +22,10 @@ the other; :meth:`Gesture.timeline` resolves them for a side.
 pose's angles); each later one changes the joints it names and keeps the rest. ``hand``
 annotates the signalling hand's shape (``ok_ring``, ``point``, ``thumb_up``, ...): the
 body model has one finger joint, so a shape shows as open or curled fingers; the
-annotation is there for a finer hand. ``bring_tool`` ends with one ``count`` block per
-unit of the tool's number (``tool_numbers``; a scenario gives its own).
+annotation is there for a finer hand. ``bring_tool`` goes on with one ``count`` block per
+unit of the tool's number (``tool_numbers``; a scenario gives its own) and then its
+``end`` keyframes (times from the last count's end): each count a stroke of the whole
+arm, the end the arm dropped, so that the camera sees how many and when they are done.
 
 **Assumptions.** Joint angles are relative to the trunk, so a gesture reads the same for
 a diver upright in the water (as one signals) and one standing on weighted boots. The
@@ -63,7 +65,8 @@ class Keyframe:
 @dataclass(frozen=True)
 class Gesture:
     """One gesture: its command, channel, keyframes (degrees, ``{s}``/``{o}`` names) and
-    the optional ``count`` block (period s, keyframes relative to the block's start)."""
+    the optional ``count`` block (period s, keyframes relative to the block's start) and
+    the keyframes after the last count (relative to its end)."""
 
     name: str
     command: str
@@ -73,11 +76,12 @@ class Gesture:
     keyframes: tuple[tuple[float, Mapping[str, float], str | None], ...]
     count_period_s: float | None = None
     count_keyframes: tuple[tuple[float, Mapping[str, float], str | None], ...] = ()
+    end_keyframes: tuple[tuple[float, Mapping[str, float], str | None], ...] = ()
 
     def timeline(self, side: Side = "right", count: int | None = None) -> tuple[Keyframe, ...]:
         """The keyframes for the signalling arm ``side``, angles in radians, each with
         every joint named up to it; ``count`` (1..9) repeats the count block (needed by
-        gestures that have one, refused by the others)."""
+        gestures that have one, refused by the others), then come the end keyframes."""
         if side not in ("left", "right"):
             raise ConfigError(f"side must be 'left' or 'right', got {side!r}",
                               f"gesture {self.name}")
@@ -94,6 +98,8 @@ class Gesture:
             for k in range(count):
                 base = start + k * self.count_period_s
                 frames += [(base + t, joints, hand) for t, joints, hand in self.count_keyframes]
+            done = start + count * self.count_period_s
+            frames += [(done + t, joints, hand) for t, joints, hand in self.end_keyframes]
         out: list[Keyframe] = []
         current: dict[str, float] = {}
         hand: str | None = None
@@ -262,7 +268,8 @@ def _keyframes(frames: object, poses: Mapping, where: str, first_pose: bool
 def _gesture(name: str, spec: object, poses: Mapping, where: str) -> Gesture:
     if not isinstance(spec, Mapping):
         raise ConfigError("must be a mapping", where)
-    unknown = set(spec) - {"command", "channel", "source", "description", "keyframes", "count"}
+    unknown = set(spec) - {"command", "channel", "source", "description", "keyframes", "count",
+                           "end"}
     if unknown:
         raise ConfigError(f"unknown field(s) {sorted(unknown)}", where)
     command = str(spec.get("command", ""))
@@ -288,6 +295,14 @@ def _gesture(name: str, spec: object, poses: Mapping, where: str) -> Gesture:
         if count_frames[0][0] <= 0.0 or count_frames[-1][0] > period:
             raise ConfigError("count keyframes lie in (0, period_s]",
                               f"{where}.count.keyframes")
+    end_frames = ()
+    if "end" in spec:
+        if count is None:
+            raise ConfigError("only a gesture with a count has end keyframes", f"{where}.end")
+        end_frames = _keyframes(spec["end"], poses, f"{where}.end", False)
+        if end_frames[0][0] <= 0.0:
+            raise ConfigError("end keyframes come after the last count (t > 0)",
+                              f"{where}.end[0].t")
     return Gesture(name, command, channel, str(spec.get("source", "")),
                    str(spec.get("description", "")), keyframes,
-                   None if period is None else float(period), count_frames)
+                   None if period is None else float(period), count_frames, end_frames)
