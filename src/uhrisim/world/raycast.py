@@ -296,6 +296,7 @@ class RayCaster(ABC):
         directions: ArrayLike,
         max_range: float,
         exclude: frozenset[str] = frozenset(),
+        checked: bool = True,
     ) -> RayHits:
         """First hit of each ray within ``max_range`` metres.
 
@@ -306,11 +307,15 @@ class RayCaster(ABC):
             max_range: positive range limit in metres (``np.inf`` allowed).
             exclude: names of dynamic bodies to ignore (e.g. the sensor's own vehicle).
                 Names that are not bodies of the scene are ignored.
+            checked: False when the caller made the rays valid (a sensor's own rays:
+                finite float64 C-contiguous arrays of those shapes, unit directions, a
+                positive range), whose checks are then skipped.
 
         Raises:
             ConfigError: bad shapes, NaN/inf, non-unit directions, max_range <= 0.
         """
-        o, d, r = validate_rays(origins, directions, max_range)
+        o, d, r = (validate_rays(origins, directions, max_range) if checked
+                   else (origins, directions, float(max_range)))
         if len(d) == 0:
             return RayHits.empty(0)
         unknown = set(exclude) - set(self._scene.body_names)
