@@ -168,10 +168,34 @@ def test_compiled_and_numpy_casts_give_the_same_bits(monkeypatch):
     _, caster, d, origin = working_diver_and_fan(rng, 1500)
     shots = [(origin, 2.3), (origin + rng.normal(scale=0.2, size=d.shape), 5.0)]
     compiled = [caster.cast(o, d, max_range=r) for o, r in shots]
-    for name in ("_compiled_sphere_rays", "_compiled_group_rays", "_compiled_refine_rows"):
+    for name in ("_compiled_sphere_rays", "_compiled_spheres_rays", "_compiled_group_rays",
+                 "_compiled_refine_rows"):
         monkeypatch.setattr(raycast, name, lambda: None)
     for (o, r), fast in zip(shots, compiled, strict=True):
         slow = caster.cast(o, d, max_range=r)
         assert np.isfinite(slow.distance).sum() > 200
         for field in ("distance", "label", "normal", "reflectivity", "body", "material"):
             assert getattr(fast, field).tobytes() == getattr(slow, field).tobytes(), field
+
+
+@pytest.mark.parametrize("shared_origin", [True, False])
+def test_one_pass_over_all_bodies_spheres_keeps_each_spheres_rays(shared_origin):
+    """The caster culls the rays against every body's bounding sphere in one compiled
+    pass: per sphere, the very rays (and order) of :class:`_RayCuller`'s test."""
+    from uhrisim.world.raycast import _compiled_spheres_rays, _RayCuller, _rays_near_spheres
+
+    if _compiled_spheres_rays() is None:
+        pytest.skip("numba is off")
+    rng = np.random.default_rng(11)
+    d = rng.normal(size=(3000, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    above = np.array([0.0, 0.0, 3.0])
+    o = np.array([0.5, -0.2, 3.0]) if shared_origin else above + rng.normal(size=(3000, 3))
+    limit = rng.uniform(0.5, 6.0, 3000)
+    centres = [above + rng.uniform(-2.0, 2.0, 3) for _ in range(5)]
+    radii = [float(r) for r in rng.uniform(0.2, 1.5, 5)]
+    cull = _RayCuller(o, d)
+    picked = _rays_near_spheres(o, d, limit, centres, radii)
+    for rows, c, r in zip(picked, centres, radii, strict=True):
+        assert np.array_equal(rows, cull.candidates(limit, c, r))
+    assert sum(len(rows) for rows in picked) > 100

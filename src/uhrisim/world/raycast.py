@@ -797,6 +797,38 @@ def _group_rays(origins, d, bound, centres, radii, rots, trans, box_lo, box_hi, 
                 counts[g] += 1
 
 
+def _rays_near_spheres(o: NDArray[np.float64], d: NDArray[np.float64],
+                       limit: NDArray[np.float64], centres: list[NDArray[np.float64]],
+                       radii: list[float]) -> list[NDArray[np.intp]]:
+    """For each sphere (``centres`` NED, ``radii``), the indices of the rays (``o`` (N, 3)
+    or (3,) shared, ``d`` (N, 3)) whose segment [0, ``limit``] may touch it
+    (:class:`_RayCuller`'s test): one compiled pass over the rays for all of them (numba),
+    else a :class:`_RayCuller` pass per sphere."""
+    compiled = _compiled_spheres_rays()
+    if compiled is None or not centres:
+        cull = _RayCuller(o, d)
+        return [cull.candidates(limit, c, r) for c, r in zip(centres, radii, strict=True)]
+    n = len(d)
+    rows = np.empty(len(centres) * n, dtype=np.int64)
+    counts = np.empty(len(centres), dtype=np.int64)
+    compiled(o.reshape(-1, 3), d, limit, np.array(centres), np.array(radii), rows, counts)
+    return [rows[k * n: k * n + counts[k]] for k in range(len(centres))]
+
+
+def _spheres_rays(origins, d, limit, centres, radii, rows, counts):  # type: ignore[no-untyped-def]
+    """:func:`_rays_near_spheres` compiled (numba): sphere k's rays (``origins`` (N, 3),
+    or (1, 3) shared) in increasing order at ``rows[k·N : k·N + counts[k]]``."""
+    n = d.shape[0]
+    for k in range(centres.shape[0]):
+        count = 0
+        for i in range(n):
+            if _touches_sphere(origins[0 if origins.shape[0] == 1 else i], d[i], limit[i],
+                               centres[k], radii[k]):
+                rows[k * n + count] = i
+                count += 1
+        counts[k] = count
+
+
 def _sphere_rays(origins, d, limit, centre, radius, rows):  # type: ignore[no-untyped-def]
     """:meth:`_RayCuller.candidates` compiled (numba): the indices of the rays (``origins``
     (N, 3), or (1, 3) shared; ``d`` (N, 3)) whose segment [0, ``limit``] may touch the
@@ -846,6 +878,11 @@ _SPHERE_TEST = (_touches_sphere, _sphere_seen_from, _padded, _ray_meets_sphere)
 @cache
 def _compiled_sphere_rays():  # type: ignore[no-untyped-def]
     return jit_with(_sphere_rays, _SPHERE_TEST)
+
+
+@cache
+def _compiled_spheres_rays():  # type: ignore[no-untyped-def]
+    return jit_with(_spheres_rays, _SPHERE_TEST)
 
 
 @cache
@@ -948,19 +985,20 @@ class EmbreeRayCaster(RayCaster):
         refl = np.take(self._static_refl, face)
         material = np.take(self._static_material, face)
         body = np.full(n, -1, dtype=np.int32)
-        active = [(bi, b) for bi, b in enumerate(self._scene.bodies) if b.name not in exclude]
-        cull = _RayCuller(o, d) if active else None
-        for bi, b in active:
-            assert cull is not None
-            bvh = self._parts[b.name]
-            posed = bvh.posed(b)
-            if posed is None:
-                continue
-            rots, trans, shown, bc, br = posed
-            # Whole-body bounding sphere (encloses every shown group's sphere) culls first.
-            body_idx = cull.candidates(np.minimum(best, max_range), bc, br)
+        shown_bodies = [(bi, b, posed) for bi, b in enumerate(self._scene.bodies)
+                        if b.name not in exclude
+                        and (posed := self._parts[b.name].posed(b)) is not None]
+        # Whole-body bounding spheres (each encloses every shown group's) cull first, all
+        # bodies within the static hits at once: a superset of the rays that meet each
+        # body within the nearest hit so far, whose group spheres trace() tests again.
+        near_body = _rays_near_spheres(o, d, np.minimum(best, max_range),
+                                       [posed[3] for _, _, posed in shown_bodies],
+                                       [posed[4] for _, _, posed in shown_bodies])
+        for (bi, b, posed), body_idx in zip(shown_bodies, near_body, strict=True):
             if len(body_idx) == 0:
                 continue
+            bvh = self._parts[b.name]
+            rots, trans, shown = posed[:3]
             face, t, nrm = bvh.trace(
                 o if o.ndim == 1 else np.take(o, body_idx, axis=0),
                 np.take(d, body_idx, axis=0),
