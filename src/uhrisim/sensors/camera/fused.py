@@ -301,17 +301,26 @@ def _light_rays(distance, material, normal, albedo_table, texture_kind, ripple, 
 
 
 def _expose_pixels(radiance, gain, full_well, read_noise2, noise, lut, out):  # type: ignore[no-untyped-def]
-    """:func:`expose`' loop over the flat values (see :func:`.formation.expose`)."""
+    """:func:`expose`' loops over the flat values (see :func:`.formation.expose`): to the
+    table's index in SIMD lanes, then the look-ups (one loop doing both ran a value at a
+    time, 3.5x slower)."""
     f32 = np.float32
     one, zero = f32(1.0), f32(0.0)
     inv_fw = one / full_well
     top = f32(lut.shape[0] - 1)
-    for i in range(radiance.shape[0]):
-        signal = min(max(radiance[i] * gain, zero), one)
-        if noise.shape[0]:
+    index = np.empty(radiance.shape[0], np.uint16)
+    if noise.shape[0]:
+        for i in range(radiance.shape[0]):
+            signal = min(max(radiance[i] * gain, zero), one)
             sigma = f32(math.sqrt(signal * full_well + read_noise2)) * noise[i] * inv_fw
             signal = min(max(signal + sigma, zero), one)
-        out[i] = lut[np.uint16(signal * top + f32(0.5))]
+            index[i] = np.uint16(signal * top + f32(0.5))
+    else:
+        for i in range(radiance.shape[0]):
+            signal = min(max(radiance[i] * gain, zero), one)
+            index[i] = np.uint16(signal * top + f32(0.5))
+    for i in range(radiance.shape[0]):
+        out[i] = lut[index[i]]
     return out
 
 
