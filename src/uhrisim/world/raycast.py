@@ -797,6 +797,50 @@ def _group_rays(origins, d, bound, centres, radii, rots, trans, box_lo, box_hi, 
                 counts[g] += 1
 
 
+def _rays_near_box(mesh: _EmbreeMesh, o: NDArray[np.float64], d: NDArray[np.float64],
+                   max_range: float) -> NDArray[np.intp]:
+    """:meth:`_EmbreeMesh.box_candidates` of ``mesh`` for the rays (``o`` (N, 3) or (3,)
+    shared, ``d`` (N, 3)) within ``max_range``: one compiled pass (numba, the same
+    arithmetic and the same rays), else its numpy passes."""
+    compiled = _compiled_box_rays()
+    if compiled is None:
+        return mesh.box_candidates(o, d.T, np.full(len(d), max_range))
+    rows = np.empty(len(d), dtype=np.int64)
+    return rows[:compiled(o.reshape(-1, 3), d, float(max_range), mesh.box_lo, mesh.box_hi,
+                          rows)]
+
+
+def _box_rays(origins, d, limit, box_lo, box_hi, rows):  # type: ignore[no-untyped-def]
+    """:meth:`_EmbreeMesh.box_candidates` per ray, compiled (numba): a slab that holds
+    every origin (``origins`` (N, 3), or (1, 3) shared) skipped, fmin/fmax ignoring the
+    NaN of a ray in a slab's plane; the rays (``d`` (N, 3)) whose segment [0, ``limit``]
+    may meet the box go to ``rows`` in increasing order; returns their count."""
+    skip = np.zeros(3, np.bool_)
+    for k in range(3):
+        skip[k] = True
+        for i in range(origins.shape[0]):
+            if not (box_lo[k] <= origins[i, k] and origins[i, k] <= box_hi[k]):
+                skip[k] = False
+                break
+    count = 0
+    for i in range(d.shape[0]):
+        row = 0 if origins.shape[0] == 1 else i
+        enter, leave = 0.0, limit
+        for k in range(3):
+            if skip[k]:
+                continue
+            inv = 1.0 / d[i, k]
+            t_lo, t_hi = (box_lo[k] - origins[row, k]) * inv, (box_hi[k] - origins[row, k]) * inv
+            near = t_hi if t_lo != t_lo else (t_lo if t_hi != t_hi else min(t_lo, t_hi))
+            far = t_hi if t_lo != t_lo else (t_lo if t_hi != t_hi else max(t_lo, t_hi))
+            enter = enter if near != near else max(enter, near)
+            leave = leave if far != far else min(leave, far)
+        if enter <= leave:
+            rows[count] = i
+            count += 1
+    return count
+
+
 def _rays_near_spheres(o: NDArray[np.float64], d: NDArray[np.float64],
                        limit: NDArray[np.float64], centres: list[NDArray[np.float64]],
                        radii: list[float]) -> list[NDArray[np.intp]]:
@@ -878,6 +922,11 @@ _SPHERE_TEST = (_touches_sphere, _sphere_seen_from, _padded, _ray_meets_sphere)
 @cache
 def _compiled_sphere_rays():  # type: ignore[no-untyped-def]
     return jit_with(_sphere_rays, _SPHERE_TEST)
+
+
+@cache
+def _compiled_box_rays():  # type: ignore[no-untyped-def]
+    return jit(_box_rays, numpy_errors=True)
 
 
 @cache
@@ -969,7 +1018,7 @@ class EmbreeRayCaster(RayCaster):
         # Only rays that meet the static geometry's bounding box go to Embree (a vehicle in
         # mid-water looking level often sees no static geometry at all).
         static = self._static
-        near = None if static is None else static.box_candidates(o, d.T, np.full(n, max_range))
+        near = None if static is None else _rays_near_box(static, o, d, max_range)
         if static is not None and near is not None and len(near) == n:
             face, best, normal = static.intersect(o, d, max_range, self._pool, self.threads)
         else:
