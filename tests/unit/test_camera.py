@@ -278,5 +278,5 @@ def test_a_camera_pose_that_is_not_finite_is_named():
     so a pose with NaN is refused by the camera, by name."""
     camera = UnderwaterCamera(CameraConfig(width=8, height=6), np.random.default_rng(0))
     scene = Scene()
-    with pytest.raises(ConfigError, match="UnderwaterCamera.capture.*finite"):
+    with pytest.raises(ConfigError, match=r"UnderwaterCamera\.capture.*finite"):
         camera.capture(scene.raycaster(), np.array([0.0, np.nan, 1.0]), np.eye(3), 0.0)
