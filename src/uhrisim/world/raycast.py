@@ -876,19 +876,6 @@ def _spheres_rays(origins, d, limit, centres, radii, rows, counts):  # type: ign
         counts[k] = count
 
 
-def _sphere_rays(origins, d, limit, centre, radius, rows):  # type: ignore[no-untyped-def]
-    """:meth:`_RayCuller.candidates` compiled (numba): the indices of the rays (``origins``
-    (N, 3), or (1, 3) shared; ``d`` (N, 3)) whose segment [0, ``limit``] may touch the
-    sphere, written to ``rows`` in increasing order; returns their count."""
-    count = 0
-    for i in range(d.shape[0]):
-        if _touches_sphere(origins[0 if origins.shape[0] == 1 else i], d[i], limit[i], centre,
-                           radius):
-            rows[count] = i
-            count += 1
-    return count
-
-
 def _touches_sphere(o, d, limit, centre, radius):  # type: ignore[no-untyped-def]
     """Whether the segment [0, ``limit``] of the ray from ``o`` along ``d`` (3,) may touch
     the sphere (``centre`` (3,), ``radius``): :class:`_RayCuller`'s test for one ray."""
@@ -920,11 +907,6 @@ def _ray_meets_sphere(v0, v1, v2, vv, r, d, limit):  # type: ignore[no-untyped-d
 
 #: The ray/bounding-sphere test's functions, compiled into the kernels that call them.
 _SPHERE_TEST = (_touches_sphere, _sphere_seen_from, _padded, _ray_meets_sphere)
-
-
-@cache
-def _compiled_sphere_rays():  # type: ignore[no-untyped-def]
-    return jit_with(_sphere_rays, _SPHERE_TEST)
 
 
 @cache
@@ -1197,7 +1179,9 @@ class _RayCuller:
     For a sphere (centre c, radius r) a ray may touch it within ``limit`` when its miss
     distance² |c − o|² − t_ca² ≤ r² with t_ca = (c − o)·d, and −r ≤ t_ca ≤ limit + r.
     When every ray starts at the same point (a sonar ping) only ``d @ (c − o)`` is needed;
-    otherwise o·o and o·d are computed once and reused for every body's sphere.
+    otherwise o·o and o·d are computed once and reused for every body's sphere. numpy:
+    the reference of the compiled passes (:func:`_rays_near_spheres`, the groups' and the
+    fans' picks), and what runs without numba.
     """
 
     def __init__(self, o: NDArray[np.float64], d: NDArray[np.float64]) -> None:
@@ -1217,11 +1201,6 @@ class _RayCuller:
     ) -> NDArray[np.intp]:
         """Indices of rays whose segment [0, limit] may touch the sphere."""
         c = np.asarray(centre, dtype=float)
-        compiled = _compiled_sphere_rays()
-        if compiled is not None:  # one compiled pass instead of ~8 numpy ones
-            rows = np.empty(len(self.d), dtype=np.int64)
-            count = compiled(self.o.reshape(-1, 3), self.d, limit, c, radius, rows)
-            return rows[:count]
         if self.o0 is not None:
             v = c - self.o0
             tca = self.d @ v
