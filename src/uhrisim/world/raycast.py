@@ -851,8 +851,10 @@ def _rays_near_spheres(o: NDArray[np.float64], d: NDArray[np.float64],
     or (3,) shared, ``d`` (N, 3)) whose segment [0, ``limit``] may touch it
     (:class:`_RayCuller`'s test): one compiled pass over the rays for all of them (numba),
     else a :class:`_RayCuller` pass per sphere."""
+    if not centres:
+        return []
     compiled = _compiled_spheres_rays()
-    if compiled is None or not centres:
+    if compiled is None:
         cull = _RayCuller(o, d)
         return [cull.candidates(limit, c, r) for c, r in zip(centres, radii, strict=True)]
     n = len(d)
