@@ -851,10 +851,8 @@ def _rays_near_spheres(o: NDArray[np.float64], d: NDArray[np.float64],
     or (3,) shared, ``d`` (N, 3)) whose segment [0, ``limit``] may touch it
     (:class:`_RayCuller`'s test): one compiled pass over the rays for all of them (numba),
     else a :class:`_RayCuller` pass per sphere."""
-    if not centres:
-        return []
     compiled = _compiled_spheres_rays()
-    if compiled is None:
+    if compiled is None or not centres:
         cull = _RayCuller(o, d)
         return [cull.candidates(limit, c, r) for c, r in zip(centres, radii, strict=True)]
     n = len(d)
@@ -1029,7 +1027,8 @@ class EmbreeRayCaster(RayCaster):
         # body within the nearest hit so far, whose group spheres trace() tests again.
         near_body = _rays_near_spheres(o, d, np.minimum(best, max_range),
                                        [posed[3] for _, _, posed in shown_bodies],
-                                       [posed[4] for _, _, posed in shown_bodies])
+                                       [posed[4] for _, _, posed in shown_bodies]
+                                       ) if shown_bodies else []
         for (bi, b, posed), body_idx in zip(shown_bodies, near_body, strict=True):
             if len(body_idx) == 0:
                 continue
