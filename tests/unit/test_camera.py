@@ -271,3 +271,12 @@ def test_full_intrinsics_give_the_same_rays_as_the_field_of_view():
     shifted = CameraConfig(width=64, height=48, K=((f, 0, 40.0), (0, f, 23.5), (0, 0, 1)))
     d = UnderwaterCamera(shifted, rng).geometry.dirs_cam.reshape(48, 64, 3)[24, 40]
     assert d[1] == pytest.approx(0.0, abs=1e-12) and d[0] < 1.0  # pixel 40 is on the axis
+
+
+def test_a_camera_pose_that_is_not_finite_is_named():
+    """The camera's casts skip the ray checks (its own rays are valid by construction),
+    so a pose with NaN is refused by the camera, by name."""
+    camera = UnderwaterCamera(CameraConfig(width=8, height=6), np.random.default_rng(0))
+    scene = Scene()
+    with pytest.raises(ConfigError, match=r"UnderwaterCamera\.capture.*finite"):
+        camera.capture(scene.raycaster(), np.array([0.0, np.nan, 1.0]), np.eye(3), 0.0)

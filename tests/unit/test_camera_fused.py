@@ -126,3 +126,21 @@ def test_compiled_rotation_is_einsums_to_the_bit():
                                   np.einsum("ij,kj->ik", rows, rotation))
     np.testing.assert_array_equal(fused.rotated(rows, rotation, transposed=True),
                                   np.einsum("ij,jk->ik", rows, rotation))
+
+
+def test_simd_exponentials_round_to_float32_as_the_true_value():
+    """The veil's SIMD e^x − 1 (and the e^x under it), on float32 arguments from tiny to
+    past float32's range, rounded to float32: the true value's float32 rounding (numpy's
+    float64 expm1/exp rounded), every one of them here; the clipped ends give −1 and inf."""
+    fused._compiled()  # (registers the helpers with numba)
+    rng = np.random.default_rng(5)
+    x = np.concatenate([-rng.exponential(4.0, 20000), rng.uniform(-1e-4, 1e-4, 2000),
+                        rng.uniform(-1e-9, 1e-9, 200), rng.uniform(-110.0, 90.0, 2000),
+                        [0.0, -0.0, -np.inf, -200.0, 200.0, np.inf]]).astype(np.float32)
+    njit = numba_module().njit
+    expm1 = njit(lambda v: np.array([np.float32(fused._expm1(float(a))) for a in v]))
+    exp = njit(lambda v: np.array([np.float32(fused._exp(float(a))) for a in v]))
+    wide = x.astype(np.float64)
+    with np.errstate(over="ignore"):
+        np.testing.assert_array_equal(expm1(x), np.expm1(wide).astype(np.float32))
+        np.testing.assert_array_equal(exp(x), np.exp(wide).astype(np.float32))

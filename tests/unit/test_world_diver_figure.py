@@ -8,6 +8,7 @@ import pytest
 from uhrisim.core.errors import ConfigError
 from uhrisim.dynamics import diver_body as db
 from uhrisim.world import Scene, materials
+from uhrisim.world import primitives as prim
 from uhrisim.world.diver_figure import diver_figure, figure_transforms, posed_figure
 from uhrisim.world.kick import flutter_kick
 
@@ -168,10 +169,67 @@ def test_compiled_and_numpy_casts_give_the_same_bits(monkeypatch):
     _, caster, d, origin = working_diver_and_fan(rng, 1500)
     shots = [(origin, 2.3), (origin + rng.normal(scale=0.2, size=d.shape), 5.0)]
     compiled = [caster.cast(o, d, max_range=r) for o, r in shots]
-    for name in ("_compiled_sphere_rays", "_compiled_group_rays", "_compiled_refine_rows"):
+    for name in ("_compiled_spheres_rays", "_compiled_box_rays", "_compiled_group_rays",
+                 "_compiled_refine_rows"):
         monkeypatch.setattr(raycast, name, lambda: None)
     for (o, r), fast in zip(shots, compiled, strict=True):
         slow = caster.cast(o, d, max_range=r)
         assert np.isfinite(slow.distance).sum() > 200
         for field in ("distance", "label", "normal", "reflectivity", "body", "material"):
             assert getattr(fast, field).tobytes() == getattr(slow, field).tobytes(), field
+
+
+@pytest.mark.parametrize("shared_origin", [True, False])
+def test_one_pass_over_all_bodies_spheres_keeps_each_spheres_rays(shared_origin):
+    """The caster culls the rays against every body's bounding sphere in one compiled
+    pass: per sphere, the very rays (and order) of :class:`_RayCuller`'s test."""
+    from uhrisim.world.raycast import _compiled_spheres_rays, _RayCuller, _rays_near_spheres
+
+    if _compiled_spheres_rays() is None:
+        pytest.skip("numba is off")
+    rng = np.random.default_rng(11)
+    d = rng.normal(size=(3000, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    above = np.array([0.0, 0.0, 3.0])
+    o = np.array([0.5, -0.2, 3.0]) if shared_origin else above + rng.normal(size=(3000, 3))
+    limit = rng.uniform(0.5, 6.0, 3000)
+    centres = [above + rng.uniform(-2.0, 2.0, 3) for _ in range(5)]
+    radii = [float(r) for r in rng.uniform(0.2, 1.5, 5)]
+    cull = _RayCuller(o, d)
+    picked = _rays_near_spheres(o, d, limit, centres, radii)
+    for rows, c, r in zip(picked, centres, radii, strict=True):
+        assert np.array_equal(rows, cull.candidates(limit, c, r))
+    assert sum(len(rows) for rows in picked) > 100
+
+
+@pytest.mark.parametrize("shared_origin", [True, False])
+def test_compiled_static_box_pick_keeps_the_numpy_rays(shared_origin):
+    """The static geometry's box test of a cast, compiled: the very rays of
+    :meth:`_EmbreeMesh.box_candidates`, with rays along the axes (zero components, NaN
+    slab times) and origins on the box's faces and inside its slabs."""
+    from uhrisim.world.raycast import _compiled_box_rays, _EmbreeMesh, _rays_near_box
+
+    if _compiled_box_rays() is None:
+        pytest.skip("numba is off")
+    rng = np.random.default_rng(12)
+    box = Scene()
+    box.add_static(prim.box((4.0, 2.0, 1.0), (1.0, 0.0, 5.0)), "box", materials.CONCRETE)
+    mesh = box.raycaster()._static
+    assert isinstance(mesh, _EmbreeMesh)
+    d = rng.normal(size=(4000, 3))
+    d[::7, rng.integers(0, 3)] = 0.0
+    d[::11, :2] = 0.0
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    if shared_origin:
+        origins = [np.array([0.5, -0.2, 3.0]), np.array([0.0, 0.0, 5.0]), mesh.box_lo.copy()]
+    else:
+        o = rng.uniform(-3.0, 5.0, (4000, 3))
+        o[::5, 0] = mesh.box_hi[0]
+        origins = [o]
+    counts = []
+    for o in origins:
+        for max_range in (2.0, np.inf):
+            expected = mesh.box_candidates(o, d.T, np.full(len(d), max_range))
+            assert np.array_equal(_rays_near_box(mesh, o, d, max_range), expected)
+            counts.append(len(expected))
+    assert min(counts) < len(d) and max(counts) > 100

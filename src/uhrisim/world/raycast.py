@@ -21,11 +21,14 @@ metres) the first surface within ``max_range`` — and return a :class:`RayHits`
   float64 against that triangle's plane, so results agree with the reference to ~1e-9 m.
   Cost: ~110 ns per ray inside Embree (one core) plus ~1 µs per ray-batch operation in
   numpy; ``threads`` > 1 splits the static query across threads. With numba installed
-  (the ``[fast]`` extra) the per-ray tests and arithmetic around Embree — the bounding-
-  sphere cull, every group's sphere-and-box pick of a body (one pass for all its groups)
-  and the float64 refinement — run compiled, a pass each instead of several numpy calls
-  per body and group (which cost more than Embree itself for an articulated diver of ~20
-  groups); the hits are the same to the bit (tested), ``UHRISIM_NUMBA=0`` runs numpy.
+  (the ``[fast]`` extra) the per-ray tests and arithmetic around Embree — the static
+  geometry's box pick, the bodies' bounding-sphere cull (one pass for all bodies), every
+  group's sphere-and-box pick of a body (one pass for all its groups) and the float64
+  refinement — run compiled, a pass each instead of several numpy calls per body and
+  group (which cost more than Embree itself for an articulated diver of ~20 groups); a
+  body's sphere is tested within the static hits, before the bodies ahead of it are
+  traced (more rays reach its groups' own tests, the same hits); the hits are the same to
+  the bit (tested), ``UHRISIM_NUMBA=0`` runs numpy.
 * ``"reference"`` (:class:`ReferenceRayCaster`): Möller–Trumbore in numpy against every
   triangle of the posed world (float64), chunked to bound memory. Slow and obviously
   correct; the tests hold the Embree caster to it.
@@ -296,6 +299,7 @@ class RayCaster(ABC):
         directions: ArrayLike,
         max_range: float,
         exclude: frozenset[str] = frozenset(),
+        checked: bool = True,
     ) -> RayHits:
         """First hit of each ray within ``max_range`` metres.
 
@@ -306,11 +310,15 @@ class RayCaster(ABC):
             max_range: positive range limit in metres (``np.inf`` allowed).
             exclude: names of dynamic bodies to ignore (e.g. the sensor's own vehicle).
                 Names that are not bodies of the scene are ignored.
+            checked: False when the caller made the rays valid (a sensor's own rays:
+                finite float64 C-contiguous arrays of those shapes, unit directions, a
+                positive range), whose checks are then skipped.
 
         Raises:
             ConfigError: bad shapes, NaN/inf, non-unit directions, max_range <= 0.
         """
-        o, d, r = validate_rays(origins, directions, max_range)
+        o, d, r = (validate_rays(origins, directions, max_range) if checked
+                   else (origins, directions, float(max_range)))
         if len(d) == 0:
             return RayHits.empty(0)
         unknown = set(exclude) - set(self._scene.body_names)
@@ -792,17 +800,80 @@ def _group_rays(origins, d, bound, centres, radii, rots, trans, box_lo, box_hi, 
                 counts[g] += 1
 
 
-def _sphere_rays(origins, d, limit, centre, radius, rows):  # type: ignore[no-untyped-def]
-    """:meth:`_RayCuller.candidates` compiled (numba): the indices of the rays (``origins``
-    (N, 3), or (1, 3) shared; ``d`` (N, 3)) whose segment [0, ``limit``] may touch the
-    sphere, written to ``rows`` in increasing order; returns their count."""
+def _rays_near_box(mesh: _EmbreeMesh, o: NDArray[np.float64], d: NDArray[np.float64],
+                   max_range: float) -> NDArray[np.intp]:
+    """:meth:`_EmbreeMesh.box_candidates` of ``mesh`` for the rays (``o`` (N, 3) or (3,)
+    shared, ``d`` (N, 3)) within ``max_range``: one compiled pass (numba, the same
+    arithmetic and the same rays), else its numpy passes."""
+    compiled = _compiled_box_rays()
+    if compiled is None:
+        return mesh.box_candidates(o, d.T, np.full(len(d), max_range))
+    rows = np.empty(len(d), dtype=np.int64)
+    return rows[:compiled(o.reshape(-1, 3), d, float(max_range), mesh.box_lo, mesh.box_hi,
+                          rows)]
+
+
+def _box_rays(origins, d, limit, box_lo, box_hi, rows):  # type: ignore[no-untyped-def]
+    """:meth:`_EmbreeMesh.box_candidates` per ray, compiled (numba): a slab that holds
+    every origin (``origins`` (N, 3), or (1, 3) shared) skipped, fmin/fmax ignoring the
+    NaN of a ray in a slab's plane; the rays (``d`` (N, 3)) whose segment [0, ``limit``]
+    may meet the box go to ``rows`` in increasing order; returns their count."""
+    skip = np.zeros(3, np.bool_)
+    for k in range(3):
+        skip[k] = True
+        for i in range(origins.shape[0]):
+            if not (box_lo[k] <= origins[i, k] and origins[i, k] <= box_hi[k]):
+                skip[k] = False
+                break
     count = 0
     for i in range(d.shape[0]):
-        if _touches_sphere(origins[0 if origins.shape[0] == 1 else i], d[i], limit[i], centre,
-                           radius):
+        row = 0 if origins.shape[0] == 1 else i
+        enter, leave = 0.0, limit
+        for k in range(3):
+            if skip[k]:
+                continue
+            inv = 1.0 / d[i, k]
+            t_lo, t_hi = (box_lo[k] - origins[row, k]) * inv, (box_hi[k] - origins[row, k]) * inv
+            near = t_hi if t_lo != t_lo else (t_lo if t_hi != t_hi else min(t_lo, t_hi))
+            far = t_hi if t_lo != t_lo else (t_lo if t_hi != t_hi else max(t_lo, t_hi))
+            enter = enter if near != near else max(enter, near)
+            leave = leave if far != far else min(leave, far)
+        if enter <= leave:
             rows[count] = i
             count += 1
     return count
+
+
+def _rays_near_spheres(o: NDArray[np.float64], d: NDArray[np.float64],
+                       limit: NDArray[np.float64], centres: list[NDArray[np.float64]],
+                       radii: list[float]) -> list[NDArray[np.intp]]:
+    """For each sphere (``centres`` NED, ``radii``), the indices of the rays (``o`` (N, 3)
+    or (3,) shared, ``d`` (N, 3)) whose segment [0, ``limit``] may touch it
+    (:class:`_RayCuller`'s test): one compiled pass over the rays for all of them (numba),
+    else a :class:`_RayCuller` pass per sphere."""
+    compiled = _compiled_spheres_rays()
+    if compiled is None or not centres:
+        cull = _RayCuller(o, d)
+        return [cull.candidates(limit, c, r) for c, r in zip(centres, radii, strict=True)]
+    n = len(d)
+    rows = np.empty(len(centres) * n, dtype=np.int64)
+    counts = np.empty(len(centres), dtype=np.int64)
+    compiled(o.reshape(-1, 3), d, limit, np.array(centres), np.array(radii), rows, counts)
+    return [rows[k * n: k * n + counts[k]] for k in range(len(centres))]
+
+
+def _spheres_rays(origins, d, limit, centres, radii, rows, counts):  # type: ignore[no-untyped-def]
+    """:func:`_rays_near_spheres` compiled (numba): sphere k's rays (``origins`` (N, 3),
+    or (1, 3) shared) in increasing order at ``rows[k·N : k·N + counts[k]]``."""
+    n = d.shape[0]
+    for k in range(centres.shape[0]):
+        count = 0
+        for i in range(n):
+            if _touches_sphere(origins[0 if origins.shape[0] == 1 else i], d[i], limit[i],
+                               centres[k], radii[k]):
+                rows[k * n + count] = i
+                count += 1
+        counts[k] = count
 
 
 def _touches_sphere(o, d, limit, centre, radius):  # type: ignore[no-untyped-def]
@@ -839,8 +910,13 @@ _SPHERE_TEST = (_touches_sphere, _sphere_seen_from, _padded, _ray_meets_sphere)
 
 
 @cache
-def _compiled_sphere_rays():  # type: ignore[no-untyped-def]
-    return jit_with(_sphere_rays, _SPHERE_TEST)
+def _compiled_box_rays():  # type: ignore[no-untyped-def]
+    return jit(_box_rays, numpy_errors=True)
+
+
+@cache
+def _compiled_spheres_rays():  # type: ignore[no-untyped-def]
+    return jit_with(_spheres_rays, _SPHERE_TEST)
 
 
 @cache
@@ -927,7 +1003,7 @@ class EmbreeRayCaster(RayCaster):
         # Only rays that meet the static geometry's bounding box go to Embree (a vehicle in
         # mid-water looking level often sees no static geometry at all).
         static = self._static
-        near = None if static is None else static.box_candidates(o, d.T, np.full(n, max_range))
+        near = None if static is None else _rays_near_box(static, o, d, max_range)
         if static is not None and near is not None and len(near) == n:
             face, best, normal = static.intersect(o, d, max_range, self._pool, self.threads)
         else:
@@ -943,19 +1019,21 @@ class EmbreeRayCaster(RayCaster):
         refl = np.take(self._static_refl, face)
         material = np.take(self._static_material, face)
         body = np.full(n, -1, dtype=np.int32)
-        active = [(bi, b) for bi, b in enumerate(self._scene.bodies) if b.name not in exclude]
-        cull = _RayCuller(o, d) if active else None
-        for bi, b in active:
-            assert cull is not None
-            bvh = self._parts[b.name]
-            posed = bvh.posed(b)
-            if posed is None:
-                continue
-            rots, trans, shown, bc, br = posed
-            # Whole-body bounding sphere (encloses every shown group's sphere) culls first.
-            body_idx = cull.candidates(np.minimum(best, max_range), bc, br)
+        shown_bodies = [(bi, b, posed) for bi, b in enumerate(self._scene.bodies)
+                        if b.name not in exclude
+                        and (posed := self._parts[b.name].posed(b)) is not None]
+        # Whole-body bounding spheres (each encloses every shown group's) cull first, all
+        # bodies within the static hits at once: a superset of the rays that meet each
+        # body within the nearest hit so far, whose group spheres trace() tests again.
+        near_body = _rays_near_spheres(o, d, np.minimum(best, max_range),
+                                       [posed[3] for _, _, posed in shown_bodies],
+                                       [posed[4] for _, _, posed in shown_bodies]
+                                       ) if shown_bodies else []
+        for (bi, b, posed), body_idx in zip(shown_bodies, near_body, strict=True):
             if len(body_idx) == 0:
                 continue
+            bvh = self._parts[b.name]
+            rots, trans, shown = posed[:3]
             face, t, nrm = bvh.trace(
                 o if o.ndim == 1 else np.take(o, body_idx, axis=0),
                 np.take(d, body_idx, axis=0),
@@ -1102,7 +1180,9 @@ class _RayCuller:
     For a sphere (centre c, radius r) a ray may touch it within ``limit`` when its miss
     distance² |c − o|² − t_ca² ≤ r² with t_ca = (c − o)·d, and −r ≤ t_ca ≤ limit + r.
     When every ray starts at the same point (a sonar ping) only ``d @ (c − o)`` is needed;
-    otherwise o·o and o·d are computed once and reused for every body's sphere.
+    otherwise o·o and o·d are computed once and reused for every body's sphere. numpy:
+    the reference of the compiled passes (:func:`_rays_near_spheres`, the groups' and the
+    fans' picks), and what runs without numba.
     """
 
     def __init__(self, o: NDArray[np.float64], d: NDArray[np.float64]) -> None:
@@ -1122,11 +1202,6 @@ class _RayCuller:
     ) -> NDArray[np.intp]:
         """Indices of rays whose segment [0, limit] may touch the sphere."""
         c = np.asarray(centre, dtype=float)
-        compiled = _compiled_sphere_rays()
-        if compiled is not None:  # one compiled pass instead of ~8 numpy ones
-            rows = np.empty(len(self.d), dtype=np.int64)
-            count = compiled(self.o.reshape(-1, 3), self.d, limit, c, radius, rows)
-            return rows[:count]
         if self.o0 is not None:
             v = c - self.o0
             tca = self.d @ v

@@ -157,6 +157,9 @@ class UnderwaterCamera:
         cfg, geo = self.config, self.geometry
         h, w = self.shape
         origin, R = self.camera_pose(position_ned, rotation_body_to_ned)
+        if not (np.isfinite(origin).all() and np.isfinite(R).all()):  # (its casts skip checks)
+            raise ConfigError(f"camera pose must be finite, got {origin.tolist()}",
+                              where="UnderwaterCamera.capture")
         scene = raycaster.scene
         materials = tuple(getattr(scene, "materials", ()))
         albedo = np.array([m.albedo_rgb for m in materials] or [[0.0] * 3], _F32)
@@ -167,7 +170,7 @@ class UnderwaterCamera:
             # costs far more than it saves on a busy machine (compiled: the same bits)
             dirs = (np.einsum("ij,kj->ik", rays.dirs_cam, R) if self._fused is None
                     else fused.rotated(rays.dirs_cam, R))
-            hits = raycaster.cast(origin, dirs, cfg.max_range_m, exclude)
+            hits = raycaster.cast(origin, dirs, cfg.max_range_m, exclude, checked=False)
             r = hits.distance.astype(_F32)
             light, fs = self._light(hits, r, rays, origin, R, albedo, textures)
             return hits, r, light, fs
