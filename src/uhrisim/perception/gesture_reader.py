@@ -199,7 +199,7 @@ def _without_thin_groups(mask: NDArray[np.bool_]) -> NDArray[np.bool_]:
     their width: the edge of the floor or the horizon where the camera turns, never a
     diver."""
     grown = cv2.dilate(mask.view(np.uint8), _CROSS, iterations=GROUP_PX)
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(grown, connectivity=4,
+    _, labels, stats, _ = cv2.connectedComponentsWithStats(grown, connectivity=4,
                                                            ltype=cv2.CV_32S)
     height = stats[:, cv2.CC_STAT_HEIGHT]
     tall = height >= np.maximum(MIN_GROUP_ROWS, MIN_HEIGHT_SHARE * stats[:, cv2.CC_STAT_WIDTH])
