@@ -66,6 +66,7 @@ from uhrisim.sim.hooks import (
 )
 from uhrisim.sim.hooks import BaseHook as BaseHook  # where many hooks still import it from
 from uhrisim.sim.overlap import push_out, sphere_overlaps
+from uhrisim.sim.quiet import QuietTicks
 from uhrisim.sim.script import ScriptDriver
 from uhrisim.sim.sonar_contacts import SonarContacts
 from uhrisim.sim.state import Agent, ScheduledEvent
@@ -124,6 +125,8 @@ class Simulation:
         self._scene_dirty = False
         #: (agent, team body) pairs in contact since a body moved onto the agent
         self._team_contacts: set[tuple[str, str]] = set()
+        #: the compiled stretch of quiet ticks (None: every tick is the loop's)
+        self._quiet = QuietTicks.of(self)
         self._started = False
         self._closed = False
         self.wall_time = 0.0
@@ -269,9 +272,15 @@ class Simulation:
         duration = self.scenario.duration if duration is None else duration
         end_tick = self.tick + round(duration / self.dt)
         wall_start = time.perf_counter()
+        # nobody looks at a tick: its quiet ones may go in stretches (sim/quiet.py)
+        quiet = self._quiet if not self.hooks and should_stop is None else None
         try:
             self.start()
             while self.tick < end_tick:
+                if quiet is not None:
+                    raise_pending_stop()
+                    if quiet.run(end_tick, progress is not None):
+                        continue
                 self._step(build_frame=False)
                 if progress is not None and self.tick % 100 == 0:
                     progress(self.t)
