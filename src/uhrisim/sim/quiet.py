@@ -114,8 +114,10 @@ class QuietTicks:
         kinds = [_kind(agent, sim.dt) for agent in sim.agents.values()]
         if None in kinds or any(a.driver is None for a in sim.agents.values()):
             return None
-        rovs = [a for a, kind in zip(sim.agents.values(), kinds) if kind == _VIDEORAY]
-        divers = [a for a, kind in zip(sim.agents.values(), kinds) if kind == _DIVER]
+        rovs = [a for a, kind in zip(sim.agents.values(), kinds, strict=True)
+                if kind == _VIDEORAY]
+        divers = [a for a, kind in zip(sim.agents.values(), kinds, strict=True)
+                  if kind == _DIVER]
         rov_settings = {(_rov_record(a.plant.params), a.plant._coefficient_values,
                          a.plant.integrator.substeps, _rov_record(a.controller.params),
                          record(a.controller.gains), a.controller.held_load_input)
@@ -259,7 +261,8 @@ def _quiet_ticks(k: QuietConstants, tick: int, count: int, kinds: Any, states: A
             for j in range(size):
                 states[a, j] = moved[a, j]
             if diver_bodies[a]:
-                kick[a] += 2.0 * math.pi * min(abs(swim[a]) / DIVER_STRIDE_M, DIVER_MAX_KICK_HZ) * k.dt
+                rate = 2.0 * math.pi * min(abs(swim[a]) / DIVER_STRIDE_M, DIVER_MAX_KICK_HZ)
+                kick[a] += rate * k.dt  # (world/kick.py's diver_kick_phase_rate)
         now = tick + done + 1
         for a in range(n):
             if now % control_periods[a] == 0:
