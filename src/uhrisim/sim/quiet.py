@@ -209,7 +209,9 @@ def _rov_record(params: videoray.VideoRayParams) -> tuple:
 @cache
 def _kernel() -> Any:
     """:func:`_quiet_ticks` compiled (kept on disk by numba); None without numba."""
-    return jit_with(_quiet_ticks, _HELPERS)
+    global _RK4
+    _RK4 = videoray._compiled_kernel()
+    return None if _RK4 is None else jit_with(_quiet_ticks, _HELPERS)
 
 
 def _quiet_ticks(k: QuietConstants, tick: int, count: int, kinds: Any, states: Any,
@@ -307,9 +309,11 @@ def _loop_decides(k: QuietConstants, a: int, states: Any, moved: Any, radii: Any
     return False
 
 
-#: The VideoRay's RK4 on one vehicle's floats (compiled where called, as the helpers are).
-_RK4 = videoray._FLOAT_KERNEL
+#: The VideoRay's RK4 on one vehicle's floats, the one-vehicle path's own compiled kernel
+#: (:func:`uhrisim.dynamics.videoray.rk4_one`), set by :func:`_kernel`: numba calls it
+#: instead of compiling a copy inside the stretch (on a cold cache 6 s -> 4 s of CPU).
+_RK4: Any = None
 
-_HELPERS = (_RK4, body_rates_kernel, step_exact_kernel, leg_inputs, videoray.linear_thrust,
+_HELPERS = (body_rates_kernel, step_exact_kernel, leg_inputs, videoray.linear_thrust,
             videoray.body_forces, feedforward_input, p_control_kernel, diver_control_kernel,
             _loop_decides)
