@@ -136,36 +136,36 @@ class QuietTicks:
                                    float(sim._shallowest_floor), float(sim._floor_slope))
         return cls(sim, constants, np.array(kinds, dtype=np.int64))
 
-    def run(self, end_tick: int, progress: bool) -> int:
-        """Do the quiet ticks from the simulation's tick on, before the next one where
+    def run(self, end_tick: int, progress: bool) -> tuple[int, bool]:
+        """Do the quiet ticks from the simulation's tick on, up to the next one where
         something is due (and not past ``end_tick``; ``progress``: every 100th tick is
-        due, for a progress report); returns how many were done (0: the next tick is the
-        loop's)."""
+        due, for a progress report), and that tick's moves. Returns how many ticks were
+        advanced (0: the next tick is the loop's) and whether the last of them only
+        moved: then the loop does the rest of it (``Simulation._after_moves``)."""
         sim = self._sim
         tick = sim.tick
         if sim._inbox or sim._waiting_events or tick < self._idle_until:
-            return 0
+            return 0, False
         due = min(end_tick + 1, sim.contacts.next_due(tick))
         if progress:
             due = min(due, (tick // 100 + 1) * 100)
         for agent in self._agents:
             if (agent.in_contact or agent.actuator_override is not None
                     or agent.directed is not None):
-                return 0
+                return 0, False
             due = min(due, _next_multiple(tick, agent.driver_period))
             if sim.raycaster is not None:
                 for slot in (*agent.sonars, *agent.cameras):
                     due = min(due, _next_multiple(tick, slot.period))
-        count = due - tick - 1
-        if count <= 0:
-            return 0
+        busy = due <= end_tick  # (else the stretch ends with the run)
+        count = due - tick - (0 if busy else 1)
         states, inputs, desired, kick = self._states, self._inputs, self._desired, self._kick
         for i, agent in enumerate(self._agents):
             states[i, :self._sizes[i]] = agent.state
             inputs[i] = agent.inputs
             desired[i] = agent.desired()
             kick[i] = agent.kick_phase
-        arguments = (tick, count, self._kinds, states, inputs, desired, kick, self._radii,
+        arguments = (tick, count, busy, self._kinds, states, inputs, desired, kick, self._radii,
                      self._control_periods, self._surface_stops, self._diver_bodies,
                      self._lows, self._highs)
         if self._call is None:
@@ -173,14 +173,14 @@ class QuietTicks:
         done, controlled = self._call(self._constants, *arguments)
         if done == 0:
             self._idle_until = due
-            return 0
+            return 0, False
         for i, agent in enumerate(self._agents):
             agent.update(state=states[i, :self._sizes[i]].copy(),
                          inputs=inputs[i].copy() if controlled else None)
             agent.kick_phase = float(kick[i])
         sim.tick = tick + done
         sim._scene_dirty = True
-        return done
+        return done, busy and done == count
 
 
 def _kind(agent: Any, dt: float) -> int | None:
@@ -214,15 +214,17 @@ def _kernel() -> Any:
     return None if _RK4 is None else jit_with(_quiet_ticks, _HELPERS)
 
 
-def _quiet_ticks(k: QuietConstants, tick: int, count: int, kinds: Any, states: Any,
+def _quiet_ticks(k: QuietConstants, tick: int, count: int, busy: bool, kinds: Any,
+                 states: Any,
                  inputs: Any, desired: Any, kick: Any, radii: Any, control_periods: Any,
                  surface_stops: Any, diver_bodies: Any, lows: Any, highs: Any
                  ) -> tuple[int, bool]:
     """Up to ``count`` ticks after ``tick``: each agent's move (in the loop's order, each
     checked against the others' positions as the loop sees them), then the controllers
-    that are due. Stops before a tick the loop must do (module docstring). ``states``
-    (n, 8), ``inputs`` (n, 3), ``kick`` (n,) are changed in place; returns the ticks
-    done and whether a controller ran."""
+    that are due — but on the last tick when it is ``busy`` (the loop does the rest of
+    it). Stops before a move the loop must make (module docstring). ``states`` (n, 8),
+    ``inputs`` (n, 3), ``kick`` (n,) are changed in place; returns the ticks done and
+    whether a controller ran."""
     ops = float_ops()
     n = kinds.shape[0]
     moved = np.empty((n, _STATE_COLUMNS))
@@ -265,6 +267,8 @@ def _quiet_ticks(k: QuietConstants, tick: int, count: int, kinds: Any, states: A
             if diver_bodies[a]:
                 rate = 2.0 * math.pi * min(abs(swim[a]) / DIVER_STRIDE_M, DIVER_MAX_KICK_HZ)
                 kick[a] += rate * k.dt  # (world/kick.py's diver_kick_phase_rate)
+        if busy and done == count - 1:
+            break
         now = tick + done + 1
         for a in range(n):
             if now % control_periods[a] == 0:

@@ -210,12 +210,16 @@ class Simulation:
             self._apply_inbox()
         if self._waiting_events:
             self._fire_events()
-        agents = self.agents.values()
         t = self.t
-        for agent in agents:
+        for agent in self.agents.values():
             self._advance(agent, t)
-        self.tick = tick = self.tick + 1
-        t = self.t
+        self.tick += 1
+        return self._after_moves(build_frame)
+
+    def _after_moves(self, build_frame: bool) -> TickFrame | None:
+        """The rest of a tick once every agent has moved (stages 3 to 9)."""
+        agents = self.agents.values()
+        tick, t = self.tick, self.t
         if self.bubbles.active:
             self.bubbles.release(t)
         if self.team is not None:
@@ -277,11 +281,16 @@ class Simulation:
         try:
             self.start()
             while self.tick < end_tick:
+                moved = False  # has a stretch made the moves of the tick it ended on?
                 if quiet is not None:
                     raise_pending_stop()
-                    if quiet.run(end_tick, progress is not None):
+                    done, moved = quiet.run(end_tick, progress is not None)
+                    if done and not moved:
                         continue
-                self._step(build_frame=False)
+                if moved:
+                    self._after_moves(build_frame=False)
+                else:
+                    self._step(build_frame=False)
                 if progress is not None and self.tick % 100 == 0:
                     progress(self.t)
                 if should_stop is not None and should_stop():
