@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from functools import cache
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -41,9 +41,6 @@ from uhrisim.dynamics import videoray
 from uhrisim.dynamics.diver import DiverParams, body_rates_kernel, leg_inputs, step_exact_kernel
 from uhrisim.dynamics.plants import DiverPlant, VideoRayPlant
 from uhrisim.world.kick import DIVER_MAX_KICK_HZ, DIVER_STRIDE_M
-
-if TYPE_CHECKING:
-    from uhrisim.sim.simulation import Simulation
 
 #: agent kinds of the compiled stretch
 _VIDEORAY, _DIVER = 0, 1
@@ -77,7 +74,7 @@ class QuietTicks:
     """The compiled stretch of a simulation's quiet ticks; :meth:`of` says whether it can
     serve the simulation at all, :meth:`run` does the stretch that is due."""
 
-    def __init__(self, sim: Simulation, constants: QuietConstants, kinds: np.ndarray) -> None:
+    def __init__(self, sim: Any, constants: QuietConstants, kinds: np.ndarray) -> None:
         self._sim = sim
         self._agents = tuple(sim.agents.values())
         n = len(self._agents)
@@ -104,9 +101,9 @@ class QuietTicks:
         self._idle_until = 0
 
     @classmethod
-    def of(cls, sim: Simulation) -> QuietTicks | None:
-        """The stretch for ``sim``, or None where every tick must be the loop's (module
-        docstring)."""
+    def of(cls, sim: Any) -> QuietTicks | None:
+        """The stretch for ``sim`` (a :class:`~uhrisim.sim.simulation.Simulation`), or
+        None where every tick must be the loop's (module docstring)."""
         if (_kernel() is None or sim.team is not None or sim.assistance is not None
                 or sim.bubbles.active or sim.sonar_contacts.observers
                 or sim._has_movable_objects):
