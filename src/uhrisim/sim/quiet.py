@@ -91,9 +91,6 @@ class QuietTicks:
                                        dtype=np.int64)
         self._diver_bodies = np.array([a.is_diver_body for a in self._agents])
         self._sizes = [a.state.size for a in self._agents]
-        lows, highs = sim._static_boxes
-        self._lows = np.ascontiguousarray(lows, dtype=float).reshape(-1, 3)
-        self._highs = np.ascontiguousarray(highs, dtype=float).reshape(-1, 3)
         self._call = None
         self._constants = constants
         #: after a stretch that stopped at its first tick, no new one before this tick
@@ -105,8 +102,7 @@ class QuietTicks:
         """The stretch for ``sim`` (a :class:`~uhrisim.sim.simulation.Simulation`), or
         None where every tick must be the loop's (module docstring)."""
         if (_kernel() is None or sim.team is not None or sim.assistance is not None
-                or sim.bubbles.active or sim.sonar_contacts.observers
-                or sim._has_movable_objects):
+                or sim.bubbles.active or sim.sonar_contacts.observers):
             return None
         kinds = [_kind(agent, sim.dt) for agent in sim.agents.values()]
         if None in kinds or any(a.driver is None for a in sim.agents.values()):
@@ -141,7 +137,8 @@ class QuietTicks:
         moved: then the loop does the rest of it (``Simulation._after_moves``)."""
         sim = self._sim
         tick = sim.tick
-        if sim._inbox or sim._waiting_events or tick < self._idle_until:
+        if (sim._inbox or sim._waiting_events or sim._has_movable_objects
+                or tick < self._idle_until):
             return 0, False
         due = min(end_tick + 1, sim.contacts.next_due(tick))
         if progress:
@@ -164,7 +161,7 @@ class QuietTicks:
             kick[i] = agent.kick_phase
         arguments = (tick, count, busy, self._kinds, states, inputs, desired, kick, self._radii,
                      self._control_periods, self._surface_stops, self._diver_bodies,
-                     self._lows, self._highs)
+                     *sim._static_boxes)  # (an event may add an object)
         if self._call is None:
             self._call = typed_entry(_kernel(), self._constants, *arguments)
         done, controlled = self._call(self._constants, *arguments)
