@@ -19,3 +19,14 @@ def test_the_cli_runner_and_scenario_loader_import_no_heavy_library():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=120, check=True)
     assert json.loads(done.stdout) == [], done.stdout
+
+
+def test_the_simulation_loads_opencv_only_for_sonar_contacts():
+    # perception (OpenCV) is imported where an agent takes its contacts from its sonar
+    # (sim/sonar_contacts.py); a run without a sonar never needs it
+    code = ("import json, sys\n"
+            "import uhrisim.sim.simulation\n"
+            "print(json.dumps('cv2' in sys.modules))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, check=True)
+    assert json.loads(done.stdout) is False

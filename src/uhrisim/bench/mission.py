@@ -15,7 +15,10 @@ core delivers, and the targets are judged on it.
 Where the CPU time goes is printed beside each rate: the helms' decisions and the sonar's
 pings (each timed as it runs) and the rest of the loop per tick, split into its stages
 (``stages_us_per_tick``: physics, controllers, truth contacts, NAV_* postings, each hook,
-and ``other``, the loop's own bookkeeping and what no stopwatch covers). The stopwatches
+``quiet_ticks``, the stretches of ticks where only the agents move and their controllers
+run, done in one compiled call each (:mod:`uhrisim.sim.quiet`; their physics and control
+are not in the first two), and ``other``, the loop's own bookkeeping and what no stopwatch
+covers). The stopwatches
 cost about 0.3 us a call, a few percent of the rates. ``recorded`` runs the mission as
 ``uhrisim run`` does, with the recording (``recording:`` of the scenario) and the trail
 metrics; it has no target.
@@ -94,6 +97,8 @@ def _split_rates(seconds: float, sonar: bool, recorded: bool) -> dict[str, Any]:
             stages = {"physics": _time(sim, "_advance"), "control": _time(sim, "_control"),
                       "contacts": _time(sim.contacts, "step"),
                       "navigation": _time(sim, "_post_nav")}
+            if sim._quiet is not None and not hooks:  # quiet ticks in one call (sim/quiet.py)
+                stages["quiet_ticks"] = _time(sim._quiet, "run")
             stages.update({f"hook_{type(hook).__name__}": _time(hook, "on_tick")
                            for hook in hooks})
             ticks = sim.tick

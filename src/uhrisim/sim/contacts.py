@@ -10,6 +10,7 @@ latency and random dropout drawn from the observer's own random stream. Observer
 from __future__ import annotations
 
 import heapq
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -70,6 +71,17 @@ class TruthContacts:
             for a in observers]
         self._queue: list[_Queued] = []
         self._sequence = 0
+        self._dt = dt
+
+    def next_due(self, tick: int) -> int:
+        """A tick after ``tick`` no later than the first at which :meth:`step` has work
+        (a report to send or to deliver); a tick or so early for a queued report."""
+        due = math.inf
+        for _, period, _, _, _ in self._observers:
+            due = min(due, (tick // period + 1) * period)
+        if self._queue:
+            due = min(due, max(tick + 1, math.floor(self._queue[0].deliver_at / self._dt) - 1))
+        return due
 
     def step(self, tick: int, t: float) -> None:
         """Send the reports due at ``tick`` (time ``t``, s) and deliver those whose

@@ -66,6 +66,7 @@ from uhrisim.sim.hooks import (
 )
 from uhrisim.sim.hooks import BaseHook as BaseHook  # where many hooks still import it from
 from uhrisim.sim.overlap import push_out, sphere_overlaps
+from uhrisim.sim.quiet import QuietTicks
 from uhrisim.sim.script import ScriptDriver
 from uhrisim.sim.sonar_contacts import SonarContacts
 from uhrisim.sim.state import Agent, ScheduledEvent
@@ -124,6 +125,8 @@ class Simulation:
         self._scene_dirty = False
         #: (agent, team body) pairs in contact since a body moved onto the agent
         self._team_contacts: set[tuple[str, str]] = set()
+        #: the compiled stretch of quiet ticks (None: every tick is the loop's)
+        self._quiet = QuietTicks.of(self)
         self._started = False
         self._closed = False
         self.wall_time = 0.0
@@ -207,12 +210,16 @@ class Simulation:
             self._apply_inbox()
         if self._waiting_events:
             self._fire_events()
-        agents = self.agents.values()
         t = self.t
-        for agent in agents:
+        for agent in self.agents.values():
             self._advance(agent, t)
-        self.tick = tick = self.tick + 1
-        t = self.t
+        self.tick += 1
+        return self._after_moves(build_frame)
+
+    def _after_moves(self, build_frame: bool) -> TickFrame | None:
+        """The rest of a tick once every agent has moved (stages 3 to 9)."""
+        agents = self.agents.values()
+        tick, t = self.tick, self.t
         if self.bubbles.active:
             self.bubbles.release(t)
         if self.team is not None:
@@ -269,10 +276,21 @@ class Simulation:
         duration = self.scenario.duration if duration is None else duration
         end_tick = self.tick + round(duration / self.dt)
         wall_start = time.perf_counter()
+        # nobody looks at a tick: its quiet ones may go in stretches (sim/quiet.py)
+        quiet = self._quiet if not self.hooks and should_stop is None else None
         try:
             self.start()
             while self.tick < end_tick:
-                self._step(build_frame=False)
+                moved = False  # has a stretch made the moves of the tick it ended on?
+                if quiet is not None:
+                    raise_pending_stop()
+                    done, moved = quiet.run(end_tick, progress is not None)
+                    if done and not moved:
+                        continue
+                if moved:
+                    self._after_moves(build_frame=False)
+                else:
+                    self._step(build_frame=False)
                 if progress is not None and self.tick % 100 == 0:
                     progress(self.t)
                 if should_stop is not None and should_stop():

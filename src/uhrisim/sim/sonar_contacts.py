@@ -28,21 +28,20 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from uhrisim.autonomy.contacts import node_report_text
 from uhrisim.core.clock import ticks_for_rate
 from uhrisim.core.errors import ConfigError
 from uhrisim.core.frames import heading_deg_from_yaw, moos_xy_from_ned
-from uhrisim.perception.blobs import BlobParams
-from uhrisim.perception.classify import DiverClassifier
-from uhrisim.perception.detect import DetectorParams
-from uhrisim.perception.pipeline import PerceptionFrame, PerceptionParams, SonarPerception
-from uhrisim.perception.tracker import TrackerParams
 from uhrisim.scenario.load import ScenarioFile
 from uhrisim.scenario.schema import SonarContactsConfig
-from uhrisim.sensors.sonar.ping import SonarPing
 from uhrisim.sim.hooks import sensor_key
 from uhrisim.sim.state import Agent
+
+if TYPE_CHECKING:  # perception (OpenCV) is imported where an agent has sonar contacts
+    from uhrisim.perception.pipeline import PerceptionFrame, PerceptionParams, SonarPerception
+    from uhrisim.sensors.sonar.ping import SonarPing
 
 MIN_HEADING_SPEED = 0.1  # m/s: below it a track's heading is noise; the last one is held
 
@@ -50,6 +49,12 @@ MIN_HEADING_SPEED = 0.1  # m/s: below it a track's heading is noise; the last on
 def perception_params(cfg: SonarContactsConfig, source: ScenarioFile, where: str
                       ) -> PerceptionParams:
     """The perception settings a scenario's ``contacts.sonar`` section asks for."""
+    from uhrisim.perception.blobs import BlobParams
+    from uhrisim.perception.classify import DiverClassifier
+    from uhrisim.perception.detect import DetectorParams
+    from uhrisim.perception.pipeline import PerceptionParams
+    from uhrisim.perception.tracker import TrackerParams
+
     def given(**values: object) -> dict[str, object]:
         """The settings the scenario gives (the others keep the perception's defaults)."""
         return {k: v for k, v in values.items() if v is not None}
@@ -114,6 +119,7 @@ class SonarContacts:
                     f"agent {agent.name!r} takes its contacts from its sonar, but it has no "
                     "sonar (add one under 'sensors', and do not switch sonars off)", where)
             params = perception_params(cfg.sonar, source, where)
+            from uhrisim.perception.pipeline import SonarPerception  # (OpenCV: only here)
             sonar = agent.config.perception_sonar
             self.observers.append(_Observer(
                 agent, cfg.sonar, SonarPerception(params),
