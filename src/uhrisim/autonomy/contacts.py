@@ -100,12 +100,12 @@ _MADE: OrderedDict[str, NodeReport] = OrderedDict()
 _MADE_KEPT = 256  # reports remembered at most (a few ticks of a large team)
 
 
-_FIELD = r"([^,=\s]+)"  # a value without spaces, commas or '=' (nothing to strip)
 #: The layout :func:`node_report_text` writes (upper-case keys in its order, no extra
-#: keys): read by one match, the fields as the general parser reads them.
-_WRITTEN = re.compile(
-    "NAME={0},X={0},Y={0},SPD={0},HDG={0},DEP={0}(?:,LAT={0})?(?:,LON={0})?(?:,TYPE={0})?"
-    "(?:,MODE={0})?(?:,TIME={0})?(?:,LENGTH={0})?".format(_FIELD))
+#: keys; values without spaces, commas or '=', so nothing to strip): read by one match,
+#: the fields as the general parser reads them.
+_WRITTEN = re.compile(",".join(
+    [f"{key}=([^,=\\s]+)" for key in ("NAME", "X", "Y", "SPD", "HDG", "DEP")]) + "".join(
+    [f"(?:,{key}=([^,=\\s]+))?" for key in ("LAT", "LON", "TYPE", "MODE", "TIME", "LENGTH")]))
 
 
 def parse_node_report(text: str) -> NodeReport:
