@@ -55,6 +55,32 @@ def test_round_trip():
     assert s == "NAME=rov,X=0,Y=0,SPD=0,HDG=0,DEP=0"
 
 
+def test_reports_in_the_written_layout_read_as_the_general_parser_reads_them():
+    """parse_node_report reads node_report_text's layout with one match; the report (signed
+    zeros included) or the error is the general parser's, field for field."""
+    rng = np.random.default_rng(5)
+    texts = [node_report_text("diver", *rng.normal(0.0, 500.0, 5), time=float(t),
+                              **extra)
+             for t, extra in zip(rng.uniform(0.0, 1e9, 40), [
+                 {}, {"type": "DIVER"}, {"mode": "M:A", "length": 1.8},
+                 {"lat": 43.1, "lon": -70.2, "type": "UUV", "mode": "X"}] * 10, strict=True)]
+    texts += ["NAME=a,X=-0,Y=0,SPD=0,HDG=-0.0,DEP=0", "NAME=a,X=1,Y=2,SPD=3,HDG=725,DEP=4,TIME=5",
+              "NAME=a,X=nan,Y=2,SPD=3,HDG=4,DEP=5", "NAME=a,X=1,Y=inf,SPD=3,HDG=4,DEP=5",
+              "NAME=a,X=1e308,Y=1e308,SPD=3,HDG=4,DEP=5", "NAME=a,X=1,Y=2,SPD=x,HDG=4,DEP=5",
+              "NAME=a,X=1,Y=2,SPD=3,HDG=4,DEP=1_0,TIME=0x1", "NAME=a,X=1 ,Y=2,SPD=3,HDG=4,DEP=5",
+              "NAME=a,X=1,Y=2,SPD=3,HDG=4,DEP=5,TIME=1,TIME=2", "NAME=a,X=1,Y=2,SPD=3,HDG=4,DEP=5,"]
+    for text in texts:
+        try:
+            expected = repr(_parse_text(text))
+        except ConfigError as e:
+            expected = f"error: {e}"
+        try:
+            got = repr(parse_node_report(text))
+        except ConfigError as e:
+            got = f"error: {e}"
+        assert got == expected, text
+
+
 def test_remembered_reports_equal_the_parsed_text():
     """A report made with remember=True is what parsing its text gives, field for field
     (signed zeros, headings past 360 and rounding included); one the parser would reject

@@ -55,6 +55,28 @@ def test_inactive_until_deploy_then_spawn_per_contact():
     assert "trail_diver" in out.idle
 
 
+def test_behavior_lists_are_posted_when_they_change():
+    """IVPHELM_BHV_ACTIVE/RUNNING/IDLE/COMPLETED: all at the first iteration, then each
+    only when its names change (a spawn, a status change), as pHelmIvP posts them."""
+    lists = ("IVPHELM_BHV_ACTIVE", "IVPHELM_BHV_RUNNING", "IVPHELM_BHV_IDLE",
+             "IVPHELM_BHV_COMPLETED")
+    h = meta_helm()
+
+    def posted(t, mail):
+        return {v: x for v, x in h.step(t, mail).posts if v in lists}
+
+    first = posted(0.0, NAV)
+    assert set(first) == set(lists) and first["IVPHELM_BHV_ACTIVE"] == ""
+    assert posted(0.25, NAV) == {}
+    spawn = "name=diver # contact=diver"
+    changed = posted(0.5, {"DEPLOY": "true", "TRAIL_INFO": spawn, "CONTACT_INFO": spawn,
+                           "NODE_REPORT": "NAME=diver,X=10,Y=0,SPD=0.5,HDG=180,TIME=0.5"})
+    assert changed["IVPHELM_BHV_ACTIVE"] == "const_depth,trail_diver"
+    assert "avd_diver" in changed["IVPHELM_BHV_RUNNING"].split(",")
+    assert "IVPHELM_BHV_COMPLETED" not in changed
+    assert posted(0.75, {"NODE_REPORT": "NAME=diver,X=10,Y=0,SPD=0.5,HDG=180,TIME=0.75"}) == {}
+
+
 def test_audit_contributions_add_up_to_the_maximum():
     h = meta_helm()
     h.step(0.0, NAV)

@@ -163,6 +163,24 @@ def test_solve_equals_reference_solver():
         assert fast.total == ref.total and fast.contributions == ref.contributions
 
 
+def test_solve_reusing_a_lone_read_only_function_s_maximum_equals_reference():
+    """A read-only table alone on its axes (ConstantDepth's) has its maximum found once per
+    weighting: the same decision as the reference solver when the table, its priority or
+    its renormalisation changes, and for ties (the first maximum)."""
+    dom = Domain((COURSE, SPEED, DomainAxis("depth", 0.0, 50.0, 26, optional=True)))
+    rng = np.random.default_rng(19)
+    tables = [rng.integers(0, 4, 26) * 1.0, rng.integers(0, 4, 26) * 60.0]  # ties; > 100
+    for t in tables:
+        t.flags.writeable = False
+    cs = Objective.over(dom, ("course", "speed"), rng.uniform(0, 100, (360, 41)))
+    for k in range(12):
+        depth = Objective.over(dom, ("depth",), tables[k % 2])
+        objs = [WeightedObjective("cs", 100.0, cs),
+                WeightedObjective("d", [100.0, 1e-300, 3.0][k % 3], depth)]
+        fast, ref = solve(dom, objs), solve_reference(dom, objs)
+        assert fast.indices == ref.indices and fast.contributions == ref.contributions
+
+
 def _signed_dist_reference(x: float, y: float, pts) -> float:
     n = len(pts)
     d = min(_dist_to_segment(x, y, pts[i], pts[(i + 1) % n]) for i in range(n))

@@ -27,6 +27,7 @@ from __future__ import annotations
 import difflib
 import logging
 import math
+import re
 from collections import OrderedDict
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
@@ -99,10 +100,47 @@ _MADE: OrderedDict[str, NodeReport] = OrderedDict()
 _MADE_KEPT = 256  # reports remembered at most (a few ticks of a large team)
 
 
+#: The layout :func:`node_report_text` writes (upper-case keys in its order, no extra
+#: keys; values without spaces, commas or '=', so nothing to strip): read by one match,
+#: the fields as the general parser reads them.
+_WRITTEN = re.compile(",".join(
+    [f"{key}=([^,=\\s]+)" for key in ("NAME", "X", "Y", "SPD", "HDG", "DEP")]) + "".join(
+    [f"(?:,{key}=([^,=\\s]+))?" for key in ("LAT", "LON", "TYPE", "MODE", "TIME", "LENGTH")]))
+
+
 def parse_node_report(text: str) -> NodeReport:
     """Parse a NODE_REPORT string; malformed input -> ConfigError (a ValueError)."""
-    made = _MADE.get(text) if isinstance(text, str) else None
-    return made if made is not None else _parse_text(text)
+    if not isinstance(text, str):
+        return _parse_text(text)
+    made = _MADE.get(text)
+    if made is not None:
+        return made
+    written = _WRITTEN.fullmatch(text)
+    if written is not None:
+        report = _parse_written(*written.groups())
+        if report is not None:
+            return report
+    return _parse_text(text)
+
+
+def _parse_written(name: str, x: str, y: str, spd: str, hdg: str, dep: str, lat: str | None,
+                   lon: str | None, type: str | None, mode: str | None, time: str | None,
+                   length: str | None) -> NodeReport | None:
+    """:func:`_parse_text`'s report from the field texts of :data:`_WRITTEN`; None where a
+    number does not read or is not finite (the general parser then says which)."""
+    try:
+        xf, yf, speed, heading, depth = float(x), float(y), float(spd), float(hdg), float(dep)
+        latf = None if lat is None else float(lat)
+        lonf = None if lon is None else float(lon)
+        timef = None if time is None else float(time)
+        lengthf = None if length is None else float(length)
+    except ValueError:
+        return None
+    if not math.isfinite(xf + yf + speed + heading + depth + (latf or 0.0) + (lonf or 0.0)
+                         + (timef or 0.0) + (lengthf or 0.0)):  # (or the sum overflows)
+        return None
+    return NodeReport(name, xf, yf, speed, heading % 360.0, depth, timef, type or "",
+                      mode or "", latf, lonf, lengthf)
 
 
 def _parse_text(text: str) -> NodeReport:

@@ -97,6 +97,7 @@ def signed_dist_to_polygon(x: float, y: float, pts: tuple[Point, ...]) -> float:
     if not pts:
         raise ValueError("signed_dist_to_polygon needs a polygon with vertices")
     d = math.inf
+    inside = False
     (bx, by) = pts[-1]
     for ax, ay in pts:  # segment (previous vertex -> this one); _dist_to_segment inlined
         sx, sy = ax - bx, ay - by
@@ -105,8 +106,10 @@ def signed_dist_to_polygon(x: float, y: float, pts: tuple[Point, ...]) -> float:
         di = math.hypot(x - bx - t * sx, y - by - t * sy)
         if di < d:
             d = di
+        if (by > y) != (ay > y) and x < bx + (y - by) * (ax - bx) / (ay - by):
+            inside = not inside  # point_in_polygon's test of the same edge
         bx, by = ax, ay
-    return -d if point_in_polygon(x, y, pts) else d
+    return -d if inside else d
 
 
 _DISPLAY_FIELDS = {

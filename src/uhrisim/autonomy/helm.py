@@ -209,12 +209,12 @@ class Helm:
         self._allstop = ""  # the last IVPHELM_ALLSTOP message (HelmIvP m_allstop_msg)
         self._no_decisions = 0
         self._first = True
-        self._last_lists: dict[str, tuple[str, ...]] = {}  # by status: the names last posted
         self._changes = 0  # behaviors spawned, removed or updated so far
-        # every slot's status at the last output, the names by status then, and _changes
+        # every slot's status at the last output, _changes then, and the names by status
+        # then (as last posted in IVPHELM_BHV_*)
         self._last_statuses: tuple[str, ...] = ()
-        self._by_status: dict[str, tuple[str, ...]] = {}
         self._changes_listed = -1
+        self._by_status: dict[str, tuple[str, ...]] = {}
         self._watched_at: tuple[int, int] | None = None  # (slots, changes) of _watched_vars
         self._watched_vars: frozenset[str] = frozenset()
         self.last_output: HelmOutput | None = None
@@ -559,12 +559,12 @@ class Helm:
                 group = groups.get(s.status)
                 if group is not None:
                     group.append(s.bhv.name)
+            before = self._by_status
             by = self._by_status = {k: tuple(v) for k, v in groups.items()}
             self._last_statuses, self._changes_listed = statuses, self._changes
             for status, names in by.items():  # IVPHELM_BHV_ACTIVE, ... when they change
-                if self._last_lists.get(status) != names:
+                if before.get(status) != names:
                     posts.append((_LIST_VARS[status], ",".join(names)))
-                    self._last_lists[status] = names
         by = self._by_status
         info = self.info
         for var, val in posts:

@@ -188,6 +188,32 @@ def _fuse(domain: Domain, comp: tuple[str, ...], members: list[_Term]) -> NDArra
     return acc
 
 
+#: The first maximum of a lone read-only table's weighted values, by the table's id:
+#: (table, priority, offset, scale, flat index). A behavior that hands in the same
+#: function tick after tick (ConstantDepth: one read-only table while its depth stays)
+#: has it found once; the table's values cannot have changed (read-only), so it is the
+#: index the sum and argmax would give.
+_LONE_MAXIMA: dict[int, tuple[NDArray[np.float64], float, float, float | None, int]] = {}
+_LONE_KEPT = 64
+
+
+def _first_maximum(domain: Domain, comp: tuple[str, ...], members: list[_Term]) -> int:
+    """Flat index (C order) of the first maximum of the component's sum (the tie rule)."""
+    lone = members[0].values if len(members) == 1 else None
+    if lone is not None and not lone.flags.writeable:
+        w = members[0]
+        known = _LONE_MAXIMA.get(id(lone))
+        if known is not None and known[0] is lone and known[1:4] == (w.priority, w.offset,
+                                                                     w.scale):
+            return known[4]
+        flat = int(_fuse(domain, comp, members).argmax())
+        if len(_LONE_MAXIMA) >= _LONE_KEPT:
+            _LONE_MAXIMA.clear()
+        _LONE_MAXIMA[id(lone)] = (lone, w.priority, w.offset, w.scale, flat)
+        return flat
+    return int(_fuse(domain, comp, members).argmax())
+
+
 def _add_weighted(acc, v, priority, offset, scale, renormalised, first):  # type: ignore[no-untyped-def]
     """``acc (+)= f * priority`` point by point (compiled by numba), f being ``v`` or, when
     ``renormalised``, ``(v + offset) * scale``: the numpy path's roundings in its order
@@ -221,10 +247,9 @@ def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
     indices: dict[str, int] = {}
     for comp in _components(domain, objs):
         members = [w for w in objs if w.axes[0] in comp]
-        acc = _fuse(domain, comp, members)
-        flat = int(acc.argmax())  # first maximum in C order (the tie rule)
+        flat = _first_maximum(domain, comp, members)
         best = []
-        for n in reversed(acc.shape):  # unravel (C order)
+        for n in reversed(domain.shape(comp)):  # unravel (C order)
             flat, i = divmod(flat, n)
             best.append(i)
         for a, i in zip(comp, reversed(best), strict=True):
