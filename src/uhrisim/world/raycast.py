@@ -1015,7 +1015,10 @@ class EmbreeRayCaster(RayCaster):
                               frozenset(self._scene.body_names))
             for field in ("distance", "label", "normal", "reflectivity", "body", "material"):
                 getattr(hits, field)[rows] = getattr(seen, field)
-        limit = np.minimum(hits.distance, r)
+        # each ray's reach: its static hit or the range (the range alone where no fan met
+        # the static geometry); after each body only that body's rays can change it
+        met_static = static is not None and fans.size > 0
+        limit = np.minimum(hits.distance, r) if met_static else np.full(len(d), r)
         bodies = self._scene.bodies
         for name, (pose, phases) in poses.items():
             bi = next((i for i, b in enumerate(bodies) if b.name == name), None)
@@ -1031,7 +1034,7 @@ class EmbreeRayCaster(RayCaster):
             rows, face, t, nrm = bvh.trace_fans(o_fans, d3, limit,
                                                 frames[..., :3, :3], frames[..., :3, 3], spans)
             _keep_nearer(hits, rows, bi, b, bvh.face_map, face, t, nrm)
-            np.minimum(hits.distance, r, out=limit)
+            limit[rows] = np.minimum(hits.distance[rows], r)
         return hits
 
 
