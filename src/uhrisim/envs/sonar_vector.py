@@ -22,9 +22,9 @@ unseen):
   the polar display levels of
   :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.form_image` and their 8-bit image
   (its echoes, diffuse terms, speckle, TVG, display curve;
-  :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.polar_bytes`, the same code) into one
-  (N, bins, beams) stack, averaged down as the single env does (``cv2.INTER_AREA``: its
-  own loop compiled, bit for bit, :func:`_area_down_loops`); with ``threads``, each
+  :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.polar_bytes`, the same code), each
+  averaged down as the single env does while it is still in cache (``cv2.INTER_AREA``:
+  its own loop compiled, bit for bit, :func:`_area_down_loops`); with ``threads``, each
   thread forms and averages its own episodes' images.
 
 What differs from N single envs: the pilings' shape above, and the single env's refusal
@@ -133,8 +133,6 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         super()._allocate(n)
         self.kick_phase = np.zeros(n)
         self.sonars: list[ImagingSonar | None] = [None] * n
-        #: Each step's 8-bit polar images (N, range bins, beams), before averaging down.
-        self._polar_images = np.empty((n, 0, 0), np.uint8)
 
     # -- episodes ------------------------------------------------------------------------
     def _load(self, envs: np.ndarray, starts: list[EpisodeStart]) -> None:
@@ -190,8 +188,8 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
     def _ping(self) -> np.ndarray:
         """Every sub-environment's sonar image now, (N, range bins, beams) uint8: one cast
         of all N fans, the hits inside each sonar's window picked for all fans at once,
-        each episode's 8-bit polar image (its own sonar: its speckle, its water) into one
-        (N, bins, beams) stack, averaged down in one call (module docstring)."""
+        each episode's 8-bit polar image (its own sonar: its speckle, its water) averaged
+        down as soon as it is formed (module docstring)."""
         bins, beams = self.template.sonar_shape
         out = np.zeros((self.num_envs, bins, beams), dtype=np.uint8)
         sonars = [s for s in self.sonars if s is not None]
@@ -199,29 +197,28 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
             return out
         poses, dirs, distance, normal, reflectivity, label = self._cast_fans()
         window = np.array([s.cast_window_m for s in sonars])  # (N, 2): [near, far) m
-        fan, ray = np.nonzero((distance >= window[:, :1]) & (distance < window[:, 1:]))
+        # the few rays that hit before the farthest window's end, then each in its window
+        near = np.flatnonzero(distance.reshape(-1) < window[:, 1].max())
+        fan, ray = np.divmod(near, distance.shape[1])
+        inside = (distance[fan, ray] >= window[fan, 0]) & (distance[fan, ray] < window[fan, 1])
+        fan, ray = fan[inside], ray[inside]
         first = np.searchsorted(fan, np.arange(self.num_envs + 1))
         hits = (distance[fan, ray], np.abs(row_dots(normal[fan, ray], dirs[fan, ray])),
                 reflectivity[fan, ray], label[fan, ray].astype(np.int32))
-        if self._polar_images.shape[1:] != sonars[0].polar_shape:
-            self._polar_images = np.empty((self.num_envs, *sonars[0].polar_shape), np.uint8)
-        images = self._polar_images  # (kept between steps: no fresh pages to fault in)
 
         def form(share: range) -> None:
             """The images of episodes ``share`` (consecutive), averaged down into ``out``."""
+            area_down = _area_down_compiled() if self._area_tables is not None else None
             for i in share:
                 rows = slice(first[i], first[i + 1])
-                # (each image to bytes while its levels are in cache: the display mapping
-                # of the whole stack at once, tens of megabytes, is slower)
-                images[i] = sonars[i].polar_bytes(*poses[i], FanHits(ray[rows],
-                                                                     *(h[rows] for h in hits)))
-            area_down = _area_down_compiled()
-            if area_down is not None and self._area_tables is not None:  # OpenCV's, compiled
-                area_down(images[share.start:share.stop], *self._area_tables,
-                          out[share.start:share.stop])
-                return
-            for i in share:
-                out[i] = cv2.resize(images[i], (beams, bins), interpolation=cv2.INTER_AREA)
+                # (each image to bytes, then averaged down, while it is in cache: the
+                # display mapping of the whole stack at once, tens of megabytes, is slower)
+                image = sonars[i].polar_bytes(*poses[i], FanHits(ray[rows],
+                                                                 *(h[rows] for h in hits)))
+                if area_down is not None:  # OpenCV's INTER_AREA loop, compiled
+                    area_down(image[None], *self._area_tables, out[i : i + 1])
+                else:
+                    out[i] = cv2.resize(image, (beams, bins), interpolation=cv2.INTER_AREA)
 
         shares = [range(int(k[0]), int(k[-1]) + 1) for k in
                   np.array_split(np.arange(self.num_envs), self.threads) if k.size]
