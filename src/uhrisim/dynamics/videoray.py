@@ -20,7 +20,7 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from uhrisim.core.compiled import jit
+from uhrisim.core.compiled import jit, record
 from uhrisim.core.elementwise import ARRAYS, FLOATS, Elementwise
 from uhrisim.core.settings import check_settings, setting
 
@@ -83,6 +83,12 @@ class VideoRayParams:
 #: The thrust maps, in order: a compiled kernel's record of the parameters carries
 #: ``thrust_map`` as its index here (an integer: no string compared in every tick).
 THRUST_MAPS = ("linear", "quadratic")
+
+
+def kernel_record(params: VideoRayParams) -> tuple:
+    """``params`` as the compiled kernels read them (:func:`uhrisim.core.compiled.record`,
+    ``thrust_map`` as its index in :data:`THRUST_MAPS`)."""
+    return record(params)._replace(thrust_map=THRUST_MAPS.index(params.thrust_map))
 
 
 def linear_thrust(params: Any) -> bool:

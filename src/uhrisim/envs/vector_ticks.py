@@ -57,7 +57,7 @@ class StepConstants(NamedTuple):
     """What the compiled step reads of one env (one argument of the kernel: numba's disk
     cache keeps the kernel whatever the values)."""
 
-    rov_params: Any          # record of VideoRayParams (thrust_map: its code, rov_record)
+    rov_params: Any          # videoray.kernel_record of VideoRayParams
     coefficients: tuple      # videoray.RateCoefficients
     substeps: int
     h: float                 # RK4 step (s)
@@ -93,7 +93,7 @@ def compiled_step(env: Any, arguments: tuple) -> Callable[..., None] | None:
     trail_range, trail_angle = env.template._trail
     space = env.single_observation_space
     constants = StepConstants(
-        rov_record(env.rov_plant.params), tuple(env.rov_plant.coefficients), substeps,
+        videoray.kernel_record(env.rov_plant.params), tuple(env.rov_plant.coefficients), substeps,
         env.dt / substeps, record(env.diver_plant.params), record(env.rov_control.gains),
         record(env.diver_control.gains), env.dt, env.pilot_period, env.rov_control_period,
         env.diver_control_period, float(course.low), float(course.delta), int(course.npts),
@@ -102,12 +102,6 @@ def compiled_step(env: Any, arguments: tuple) -> Callable[..., None] | None:
         math.radians(trail_angle), record(env.weights), tuple(map(float, space.low)),
         tuple(map(float, space.high)))
     return partial(typed_entry(kernel, constants, *arguments), constants)
-
-
-def rov_record(params: videoray.VideoRayParams) -> tuple:
-    """The VideoRay's parameters as the compiled step reads them: ``thrust_map`` as its
-    index in :data:`~uhrisim.dynamics.videoray.THRUST_MAPS`."""
-    return record(params)._replace(thrust_map=videoray.THRUST_MAPS.index(params.thrust_map))
 
 
 @cache

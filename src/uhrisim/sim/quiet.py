@@ -111,8 +111,8 @@ class QuietTicks:
                 if kind == _VIDEORAY]
         divers = [a for a, kind in zip(sim.agents.values(), kinds, strict=True)
                   if kind == _DIVER]
-        rov_settings = {(_rov_record(a.plant.params), a.plant._coefficient_values,
-                         a.plant.integrator.substeps, _rov_record(a.controller.params),
+        rov_settings = {(videoray.kernel_record(a.plant.params), a.plant._coefficient_values,
+                         a.plant.integrator.substeps, videoray.kernel_record(a.controller.params),
                          record(a.controller.gains), a.controller.held_load_input)
                         for a in rovs}
         diver_settings = {(record(a.plant.params), record(a.controller.params),
@@ -120,9 +120,10 @@ class QuietTicks:
         if len(rov_settings) > 1 or len(diver_settings) > 1:
             return None  # (vehicles of one kind with different settings: not served)
         unused_rov = videoray.VideoRayParams()  # (a kind no agent is: any settings)
+        unused = videoray.kernel_record(unused_rov)
         rov = rov_settings.pop() if rov_settings else (
-            _rov_record(unused_rov), tuple(videoray.RateCoefficients.of(unused_rov)), 1,
-            _rov_record(unused_rov), record(PGains(heading=1.0, speed=1.0, depth=1.0)), 0.0)
+            unused, tuple(videoray.RateCoefficients.of(unused_rov)), 1, unused,
+            record(PGains(heading=1.0, speed=1.0, depth=1.0)), 0.0)
         diver = diver_settings.pop() if diver_settings else (
             record(DiverParams()), record(DiverParams()), record(DiverGains()))
         constants = QuietConstants(*rov, *diver, float(sim.dt),
@@ -192,12 +193,6 @@ def _kind(agent: Any, dt: float) -> int | None:
 def _next_multiple(tick: int, period: int) -> int:
     """The first tick after ``tick`` that is a multiple of ``period``."""
     return (tick // period + 1) * period
-
-
-def _rov_record(params: videoray.VideoRayParams) -> tuple:
-    """The VideoRay's parameters as the compiled kernels read them (``thrust_map``: its
-    index in :data:`~uhrisim.dynamics.videoray.THRUST_MAPS`)."""
-    return record(params)._replace(thrust_map=videoray.THRUST_MAPS.index(params.thrust_map))
 
 
 @cache
