@@ -62,7 +62,7 @@ from uhrisim.sensors.sonar.cast import FanHits
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.sonar import ImagingSonar
 from uhrisim.world.assets import diver_parts
-from uhrisim.world.kick import DIVER_MAX_KICK_HZ, DIVER_STRIDE_M
+from uhrisim.world.kick import kick_phase_rate
 from uhrisim.world.materials import NEOPRENE
 
 
@@ -157,10 +157,9 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
     def _moved(self, rows: slice | np.ndarray) -> None:
         """The diver's flutter-kick phase, as the Simulation advances it each tick
         (:func:`~uhrisim.world.kick.diver_kick_phase_rate` of its speed)."""
-        speed = np.abs(body_rates_kernel(*self.diver_inputs[rows].T, self.diver_plant.params,
-                                         ARRAYS)[0])
-        rate = 2.0 * math.pi * np.minimum(speed / DIVER_STRIDE_M, DIVER_MAX_KICK_HZ)
-        self.kick_phase[rows] += rate * self.dt
+        speed = body_rates_kernel(*self.diver_inputs[rows].T, self.diver_plant.params,
+                                  ARRAYS)[0]
+        self.kick_phase[rows] += kick_phase_rate(speed, ARRAYS) * self.dt
 
     # -- what the agent sees -------------------------------------------------------------
     def _observe(self) -> dict[str, np.ndarray]:

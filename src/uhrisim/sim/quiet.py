@@ -40,7 +40,7 @@ from uhrisim.core.compiled import float_ops, jit_with, record, typed_entry
 from uhrisim.dynamics import videoray
 from uhrisim.dynamics.diver import DiverParams, body_rates_kernel, leg_inputs, step_exact_kernel
 from uhrisim.dynamics.plants import DiverPlant, VideoRayPlant
-from uhrisim.world.kick import DIVER_MAX_KICK_HZ, DIVER_STRIDE_M
+from uhrisim.world.kick import kick_phase_rate
 
 #: agent kinds of the compiled stretch
 _VIDEORAY, _DIVER = 0, 1
@@ -254,8 +254,7 @@ def _quiet_ticks(k: QuietConstants, tick: int, count: int, busy: bool, kinds: An
             for j in range(size):
                 states[a, j] = moved[a, j]
             if diver_bodies[a]:
-                rate = 2.0 * math.pi * min(abs(swim[a]) / DIVER_STRIDE_M, DIVER_MAX_KICK_HZ)
-                kick[a] += rate * k.dt  # (world/kick.py's diver_kick_phase_rate)
+                kick[a] += kick_phase_rate(swim[a], ops) * k.dt
         if busy and done == count - 1:
             break
         now = tick + done + 1
@@ -309,4 +308,4 @@ _RK4: Any = None
 
 _HELPERS = (body_rates_kernel, step_exact_kernel, leg_inputs, videoray.linear_thrust,
             videoray.body_forces, feedforward_input, p_control_kernel, diver_control_kernel,
-            _loop_decides)
+            kick_phase_rate, _loop_decides)

@@ -8,10 +8,12 @@ without the meshes (no trimesh here). Angles in rad, the phase advancing 2π a k
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from uhrisim.core.elementwise import FLOATS, Elementwise
 from uhrisim.core.errors import ConfigError
 from uhrisim.dynamics.diver_body import DiverSkeleton
 
@@ -42,7 +44,13 @@ def diver_kick_phase_rate(speed_mps: float) -> float:
     s = float(speed_mps)
     if not math.isfinite(s):
         raise ConfigError(f"must be finite, got {speed_mps!r}", where="diver_kick_phase_rate")
-    return 2.0 * math.pi * min(abs(s) / DIVER_STRIDE_M, DIVER_MAX_KICK_HZ)
+    return kick_phase_rate(s, FLOATS)
+
+
+def kick_phase_rate(speed_mps: Any, ops: Elementwise) -> Any:
+    """:func:`diver_kick_phase_rate` unchecked, on a float or (N,) array (``ops``): the
+    form the batched env and the compiled quiet ticks call."""
+    return 2.0 * math.pi * ops.clip(abs(speed_mps) / DIVER_STRIDE_M, 0.0, DIVER_MAX_KICK_HZ)
 
 
 def flutter_kick(skeleton: DiverSkeleton, q: ArrayLike, kick_phase_rad: float
