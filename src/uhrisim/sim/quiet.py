@@ -289,16 +289,26 @@ def _loop_decides(k: QuietConstants, a: int, states: Any, moved: Any, radii: Any
             return True
     dx, dy, dz = ex - states[a, 0], ey - states[a, 1], ez - states[a, 2]
     step_m = math.sqrt(dx * dx + dy * dy + dz * dz)
-    reach = (radii[a] + step_m) * (1.0 + k.floor_slope) + 1e-6
-    if ez + reach + _SLACK >= k.shallowest_floor:
+    if ez + floor_reach(radii[a], step_m, k.floor_slope) + _SLACK >= k.shallowest_floor:
         return True
-    margin = radii[a] + 0.5 + _SLACK
+    margin = radii[a] + BOX_MARGIN_M + _SLACK
     for i in range(lows.shape[0]):
         if (lows[i, 0] - margin <= ex <= highs[i, 0] + margin
                 and lows[i, 1] - margin <= ey <= highs[i, 1] + margin
                 and lows[i, 2] - margin <= ez <= highs[i, 2] + margin):
             return True
     return False
+
+
+#: how far (m) beyond an agent's radius the broad phase looks for static objects' boxes
+BOX_MARGIN_M = 0.5
+
+
+def floor_reach(radius: float, step_m: float, floor_slope: float) -> float:
+    """How far (m) below the end of a move of ``step_m`` the broad phase looks for the
+    floor (``Simulation._near_static``): a hit of the narrow phase's ray bundle lies within
+    radius + step of the end, where the floor is at most max slope x that shallower."""
+    return (radius + step_m) * (1.0 + floor_slope) + 1e-6
 
 
 #: The VideoRay's RK4 on one vehicle's floats, the one-vehicle path's own compiled kernel
@@ -308,4 +318,4 @@ _RK4: Any = None
 
 _HELPERS = (body_rates_kernel, step_exact_kernel, leg_inputs, videoray.linear_thrust,
             videoray.body_forces, feedforward_input, p_control_kernel, diver_control_kernel,
-            kick_phase_rate, _loop_decides)
+            kick_phase_rate, floor_reach, _loop_decides)

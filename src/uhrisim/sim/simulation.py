@@ -66,7 +66,7 @@ from uhrisim.sim.hooks import (
 )
 from uhrisim.sim.hooks import BaseHook as BaseHook  # where many hooks still import it from
 from uhrisim.sim.overlap import push_out, sphere_overlaps
-from uhrisim.sim.quiet import QuietTicks
+from uhrisim.sim.quiet import BOX_MARGIN_M, QuietTicks, floor_reach
 from uhrisim.sim.script import ScriptDriver
 from uhrisim.sim.sonar_contacts import SonarContacts
 from uhrisim.sim.state import Agent, ScheduledEvent
@@ -513,11 +513,11 @@ class Simulation:
         than under it."""
         if self._has_movable_objects:
             return True  # movable objects have no precomputed bounds: always look closely
-        reach = (agent.radius + step_m) * (1.0 + self._floor_slope) + 1e-6
+        reach = floor_reach(agent.radius, step_m, self._floor_slope)
         if point[2] + reach >= self._shallowest_floor and point[2] + reach >= float(
                 self.scene.depth_at(point[0], point[1])):
             return True
-        margin = agent.radius + 0.5
+        margin = agent.radius + BOX_MARGIN_M
         lows, highs = self._static_boxes
         if lows.size == 0:
             return False
