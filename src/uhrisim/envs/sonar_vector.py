@@ -52,7 +52,7 @@ from uhrisim.core.elementwise import ARRAYS
 from uhrisim.core.frames import rot_z, row_dots, wrap_pi
 from uhrisim.core.rng import component_rng
 from uhrisim.dynamics.diver import body_rates_kernel
-from uhrisim.envs.echo_free import DisplayThresholds, echo_free_bytes, echo_free_supported
+from uhrisim.envs.echo_free import echo_free_bytes, echo_free_supported
 from uhrisim.envs.task import body_frd
 from uhrisim.envs.trail_diver import EnvArgumentError
 from uhrisim.envs.vector import EpisodeStart, TrailDiverVectorEnv
@@ -124,11 +124,8 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         self._area_tables = (None if rows < bins or columns < beams
                              or (rows % bins == 0 and columns % beams == 0)
                              else (_area_table(rows, bins), _area_table(columns, beams)))
-        #: The display curve as thresholds for the echo-free images
-        #: (:mod:`uhrisim.envs.echo_free`); None: every image by ``polar_bytes``.
-        self._display_thresholds = (
-            DisplayThresholds.make(sonar.config.display_gamma, sonar.config.black_level)
-            if echo_free_supported(sonar) else None)
+        #: Whether the echo-free images skip the echo stages (:mod:`uhrisim.envs.echo_free`).
+        self._echo_free = echo_free_supported(sonar)
 
     def close_extras(self, **kwargs: Any) -> None:
         super().close_extras(**kwargs)
@@ -211,19 +208,16 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         hits = (distance[fan, ray], np.abs(row_dots(normal[fan, ray], dirs[fan, ray])),
                 reflectivity[fan, ray], label[fan, ray].astype(np.int32))
 
-        thresholds = self._display_thresholds
-
         def form(share: range) -> None:
             """The images of episodes ``share`` (consecutive), averaged down into ``out``."""
             area_down = _area_down_compiled() if self._area_tables is not None else None
-            echo_free = np.empty(sonars[0].polar_shape, np.uint8)
+            level = np.empty(sonars[0].polar_shape, np.float32)  # echo-free scratch
             for i in share:
                 rows = slice(first[i], first[i + 1])
                 # (each image to bytes, then averaged down, while it is in cache: the
                 # display mapping of the whole stack at once, tens of megabytes, is slower)
-                if first[i] == first[i + 1] and thresholds is not None:  # no echo: one pass
-                    image = echo_free
-                    echo_free_bytes(sonars[i], *poses[i], thresholds, image)
+                if first[i] == first[i + 1] and self._echo_free:  # no hit, no echo
+                    image = echo_free_bytes(sonars[i], *poses[i], level)
                 else:
                     image = sonars[i].polar_bytes(*poses[i], FanHits(
                         ray[rows], *(h[rows] for h in hits)))
