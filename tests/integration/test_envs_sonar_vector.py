@@ -86,21 +86,31 @@ def test_images_formed_by_two_threads_are_those_of_one():
     np.testing.assert_array_equal(runs[0], runs[1])
 
 
-@pytest.mark.parametrize("shape", [(375, 256, 96, 64), (50, 33, 7, 5), (37, 20, 9, 10)])
+@pytest.mark.parametrize("shape", [(375, 256, 96, 64), (50, 33, 7, 5), (37, 20, 9, 10),
+                                   (45, 24, 7, 3)])
 def test_area_averaging_is_opencv_s_inter_area_bit_for_bit(shape):
     """The compiled averaging down (and its plain-Python loops) equal ``cv2.resize``'s
-    ``INTER_AREA`` on random images, including scales that are not dyadic."""
+    ``INTER_AREA`` on random images, including scales that are not dyadic; where the
+    columns average blocks of 2ⁿ pixels, by the blocks' integer sums and by the loop."""
     import cv2
 
-    from uhrisim.envs.sonar_vector import _area_down_compiled, _area_down_loops, _area_table
+    from uhrisim.envs.sonar_vector import (
+        _area_down_compiled,
+        _area_down_loops,
+        _area_table,
+        _exact_blocks,
+    )
 
     rows, columns, rows_out, columns_out = shape
     images = np.random.default_rng(rows).integers(0, 256, (2, rows, columns), dtype=np.uint8)
     expected = np.stack([cv2.resize(image, (columns_out, rows_out),
                                     interpolation=cv2.INTER_AREA) for image in images])
     tables = _area_table(rows, rows_out), _area_table(columns, columns_out)
+    block = _exact_blocks(tables[1])
+    assert block == {256: 4, 20: 2, 24: 8}.get(columns, 0)
     kernels = [_area_down_loops] * (rows < 100)  # (the plain loops are slow)
     for kernel in kernels + [k for k in [_area_down_compiled()] if k is not None]:
-        out = np.empty_like(expected)
-        kernel(images, *tables, out)
-        np.testing.assert_array_equal(out, expected)
+        for column_block in {0, block}:
+            out = np.empty_like(expected)
+            kernel(images, *tables, column_block, out)
+            np.testing.assert_array_equal(out, expected)
