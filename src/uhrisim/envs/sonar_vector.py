@@ -22,7 +22,9 @@ unseen):
   the polar display levels of
   :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.form_image` and their 8-bit image
   (its echoes, diffuse terms, speckle, TVG, display curve;
-  :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.polar_bytes`, the same code), each
+  :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.polar_bytes`, the same code; a ping
+  with no hit in its window skips the echo stages,
+  :func:`~uhrisim.envs.echo_free.echo_free_bytes`, the same bytes), each
   averaged down as the single env does while it is still in cache (``cv2.INTER_AREA``:
   its own loop compiled, bit for bit, :func:`_area_down_loops`); with ``threads``, each
   thread forms and averages its own episodes' images.
