@@ -86,21 +86,59 @@ def test_images_formed_by_two_threads_are_those_of_one():
     np.testing.assert_array_equal(runs[0], runs[1])
 
 
-@pytest.mark.parametrize("shape", [(375, 256, 96, 64), (50, 33, 7, 5), (37, 20, 9, 10)])
+@pytest.mark.parametrize("speckle", [True, False])
+def test_echo_free_images_are_polar_bytes_bit_for_bit(speckle):
+    """A ping with no hit: :func:`echo_free_bytes` gives ``polar_bytes``' image and leaves
+    the sonar's Generator where ``polar_bytes`` leaves it (at depths with and without
+    surface reverberation, the sonar level and tilted)."""
+    import dataclasses
+
+    from uhrisim.core.frames import rot_z
+    from uhrisim.envs.echo_free import echo_free_bytes, echo_free_supported
+    from uhrisim.sensors.sonar.cast import FanHits
+    from uhrisim.sensors.sonar.sonar import ImagingSonar
+
+    vec = TrailDiverSonarVectorEnv(num_envs=1)
+    vec.reset(seed=[7])
+    config = dataclasses.replace(vec.sonars[0].config, speckle=speckle)
+    sonars = [ImagingSonar(config, np.random.default_rng(11)) for _ in range(2)]
+    assert echo_free_supported(sonars[1])
+    no_hit = FanHits(np.empty(0, np.int64), *[np.empty(0)] * 3, np.empty(0, np.int32))
+    level = np.empty(sonars[0].polar_shape, np.float32)
+    for depth, pitch in [(1.5, 0.0), (4.0, 0.3), (12.0, -0.2), (-0.5, 0.0)]:
+        c, s = math.cos(pitch), math.sin(pitch)
+        rotation = rot_z(0.7) @ np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+        pose = sonars[0].sonar_pose(np.array([3.0, -2.0, depth]), rotation)
+        np.testing.assert_array_equal(echo_free_bytes(sonars[1], *pose, level),
+                                      sonars[0].polar_bytes(*pose, no_hit))
+    assert sonars[0].rng.integers(1 << 30) == sonars[1].rng.integers(1 << 30)
+
+
+@pytest.mark.parametrize("shape", [(375, 256, 96, 64), (50, 33, 7, 5), (37, 20, 9, 10),
+                                   (45, 24, 7, 3)])
 def test_area_averaging_is_opencv_s_inter_area_bit_for_bit(shape):
     """The compiled averaging down (and its plain-Python loops) equal ``cv2.resize``'s
-    ``INTER_AREA`` on random images, including scales that are not dyadic."""
+    ``INTER_AREA`` on random images, including scales that are not dyadic; where the
+    columns average blocks of 2ⁿ pixels, by the blocks' integer sums and by the loop."""
     import cv2
 
-    from uhrisim.envs.sonar_vector import _area_down_compiled, _area_down_loops, _area_table
+    from uhrisim.envs.sonar_vector import (
+        _area_down_compiled,
+        _area_down_loops,
+        _area_table,
+        _exact_blocks,
+    )
 
     rows, columns, rows_out, columns_out = shape
     images = np.random.default_rng(rows).integers(0, 256, (2, rows, columns), dtype=np.uint8)
     expected = np.stack([cv2.resize(image, (columns_out, rows_out),
                                     interpolation=cv2.INTER_AREA) for image in images])
     tables = _area_table(rows, rows_out), _area_table(columns, columns_out)
+    block = _exact_blocks(tables[1])
+    assert block == {256: 4, 20: 2, 24: 8}.get(columns, 0)
     kernels = [_area_down_loops] * (rows < 100)  # (the plain loops are slow)
     for kernel in kernels + [k for k in [_area_down_compiled()] if k is not None]:
-        out = np.empty_like(expected)
-        kernel(images, *tables, out)
-        np.testing.assert_array_equal(out, expected)
+        for column_block in {0, block}:
+            out = np.empty_like(expected)
+            kernel(images, *tables, column_block, out)
+            np.testing.assert_array_equal(out, expected)

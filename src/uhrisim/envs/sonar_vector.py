@@ -22,7 +22,9 @@ unseen):
   the polar display levels of
   :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.form_image` and their 8-bit image
   (its echoes, diffuse terms, speckle, TVG, display curve;
-  :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.polar_bytes`, the same code), each
+  :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.polar_bytes`, the same code; a ping
+  with no hit in its window skips the echo stages,
+  :func:`~uhrisim.envs.echo_free.echo_free_bytes`, the same bytes), each
   averaged down as the single env does while it is still in cache (``cv2.INTER_AREA``:
   its own loop compiled, bit for bit, :func:`_area_down_loops`); with ``threads``, each
   thread forms and averages its own episodes' images.
@@ -52,6 +54,7 @@ from uhrisim.core.elementwise import ARRAYS
 from uhrisim.core.frames import rot_z, row_dots, wrap_pi
 from uhrisim.core.rng import component_rng
 from uhrisim.dynamics.diver import body_rates_kernel
+from uhrisim.envs.echo_free import echo_free_bytes, echo_free_supported
 from uhrisim.envs.task import body_frd
 from uhrisim.envs.trail_diver import EnvArgumentError
 from uhrisim.envs.vector import EpisodeStart, TrailDiverVectorEnv
@@ -123,6 +126,11 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         self._area_tables = (None if rows < bins or columns < beams
                              or (rows % bins == 0 and columns % beams == 0)
                              else (_area_table(rows, bins), _area_table(columns, beams)))
+        #: :func:`_exact_blocks` of the columns' table (0: none).
+        self._column_block = (0 if self._area_tables is None
+                              else _exact_blocks(self._area_tables[1]))
+        #: Whether the echo-free images skip the echo stages (:mod:`uhrisim.envs.echo_free`).
+        self._echo_free = echo_free_supported(sonar)
 
     def close_extras(self, **kwargs: Any) -> None:
         super().close_extras(**kwargs)
@@ -208,14 +216,19 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         def form(share: range) -> None:
             """The images of episodes ``share`` (consecutive), averaged down into ``out``."""
             area_down = _area_down_compiled() if self._area_tables is not None else None
+            level = np.empty(sonars[0].polar_shape, np.float32)  # echo-free scratch
             for i in share:
                 rows = slice(first[i], first[i + 1])
                 # (each image to bytes, then averaged down, while it is in cache: the
                 # display mapping of the whole stack at once, tens of megabytes, is slower)
-                image = sonars[i].polar_bytes(*poses[i], FanHits(ray[rows],
-                                                                 *(h[rows] for h in hits)))
+                if first[i] == first[i + 1] and self._echo_free:  # no hit, no echo
+                    image = echo_free_bytes(sonars[i], *poses[i], level)
+                else:
+                    image = sonars[i].polar_bytes(*poses[i], FanHits(
+                        ray[rows], *(h[rows] for h in hits)))
                 if area_down is not None:  # OpenCV's INTER_AREA loop, compiled
-                    area_down(image[None], *self._area_tables, out[i : i + 1])
+                    area_down(image[None], *self._area_tables, self._column_block,
+                              out[i : i + 1])
                 else:
                     out[i] = cv2.resize(image, (beams, bins), interpolation=cv2.INTER_AREA)
 
@@ -344,20 +357,45 @@ def _area_table(size: int, size_out: int) -> tuple[np.ndarray, np.ndarray]:
     return index, weight
 
 
+def _exact_blocks(table: tuple[np.ndarray, np.ndarray]) -> int:
+    """K where ``table`` (:func:`_area_table`) averages blocks of K consecutive pixels
+    (output k: pixels kK … kK + K − 1) with one weight 2⁻ᵐ: then every product and
+    partial sum of bytes is exact in float32 (at most 8 + log2 K + m ≤ 24 bits), so the
+    block's integer sum times the weight is OpenCV's sum bit for bit; 0 otherwise."""
+    index, weight = table
+    k = index.shape[1]
+    w = float(weight[0, 0])
+    exact = (w > 0.0 and math.frexp(w)[0] == 0.5 and 255 * k / w < 2.0 ** 24
+             and bool(np.all(weight == weight[0, 0])))
+    return k if exact and np.array_equal(index, np.arange(index.size).reshape(index.shape)) \
+        else 0
+
+
 def _area_down_loops(images: np.ndarray, rows: tuple[np.ndarray, np.ndarray],
-                     columns: tuple[np.ndarray, np.ndarray], out: np.ndarray) -> None:
+                     columns: tuple[np.ndarray, np.ndarray], column_block: int,
+                     out: np.ndarray) -> None:
     """``cv2.resize(image, ..., interpolation=cv2.INTER_AREA)`` of each of ``images`` (N,
     H, W) uint8 into ``out`` (N, h, w), by OpenCV's generic area loop (``resizeArea_``,
     float32): each source row's weighted sums over ``columns`` (:func:`_area_table`), then
     per output row those of its source rows times their weights from ``rows``, added in
-    order and rounded half to even."""
+    order and rounded half to even. ``column_block``: :func:`_exact_blocks` of
+    ``columns`` (K > 0: each row's sums as K-pixel integer sums times the weight)."""
     row_index, row_weight = rows
     column_index, column_weight = columns
     lines = np.empty((images.shape[1], out.shape[2]), np.float32)
     total = np.empty(out.shape[2], np.float32)
+    sums = np.empty(out.shape[2], np.int32)
     for n in range(images.shape[0]):
         for y in range(images.shape[1]):
             source = images[n, y]
+            if column_block > 0:
+                sums[:] = 0
+                for i in range(column_block):
+                    for x in range(out.shape[2]):
+                        sums[x] += source[x * column_block + i]
+                for x in range(out.shape[2]):
+                    lines[y, x] = np.float32(sums[x]) * column_weight[0, 0]
+                continue
             for x in range(out.shape[2]):
                 line = np.float32(0.0)
                 for i in range(column_index.shape[1]):
