@@ -466,7 +466,8 @@ class Simulation:
         for agent in self.agents.values():
             nav = agent.nav()
             self.scene.set_pose(agent.name, nav.position_ned, rot_z(nav.yaw),
-                                agent.kick_phase if agent.is_diver_body else None)
+                                agent.kick_phase if agent.is_diver_body else None,
+                                checked=False)  # (states are kept finite, tick by tick)
         self.bubbles.pose(self.t)
         if self.team is not None:
             self.team.pose_scene()

@@ -162,11 +162,15 @@ class Scene:
         position_ned: ArrayLike,
         rotation: ArrayLike,
         kick_phase: float | None = None,
+        *,
+        checked: bool = True,
     ) -> None:
         """Move body ``name``: position (3,) NED metres, rotation (3, 3) body→NED.
 
         ``kick_phase`` (radians) re-poses an articulated body's parts; None keeps it.
-        Cheap: stores the pose, rebuilds nothing.
+        Cheap: stores the pose, rebuilds nothing. ``checked=False``: the caller vouches
+        for its numbers (float arrays, a finite position and kick phase, a proper
+        rotation: the simulation's own poses), which are stored as copies unchecked.
         """
         i = self._body_index.get(name)
         if i is None:
@@ -174,6 +178,14 @@ class Scene:
                 f"no dynamic body named {name!r} (have {sorted(self._body_index)})",
                 where="Scene.set_pose",
             )
+        if not checked:
+            b = self._bodies[i]
+            b.position = np.array(position_ned, dtype=float)
+            b.rotation = np.array(rotation, dtype=float)
+            if kick_phase is not None and kick_phase != b.kick_phase:
+                b.kick_phase = float(kick_phase)
+                b.part_transforms = b.geometry.part_transforms(b.kick_phase)
+            return
         p = np.array(position_ned, dtype=float).reshape(-1)
         if p.shape != (3,) or not np.all(np.isfinite(p)):
             raise ConfigError(
