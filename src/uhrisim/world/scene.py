@@ -287,9 +287,10 @@ class Scene:
         are not checked. Cheap enough to ask once per sensor sample (bounding boxes are
         cached per ``static_version``; only meshes whose box holds the point are tested)."""
         p = np.asarray(p_ned, dtype=float).reshape(3)
-        depth = self.depth_at(p[0], p[1])
-        if math.isfinite(depth) and p[2] > depth + 1e-6:
-            return f"{p[2] - depth:.3f} m below the sea floor"
+        north, east, down = p.tolist()
+        depth = self.depth_at(north, east)
+        if math.isfinite(depth) and down > depth + 1e-6:
+            return f"{down - depth:.3f} m below the sea floor"
         if self._solid_boxes is None or self._solid_boxes[0] != self._static_version:
             # the sea floor's height field is answered by depth_at above (and is never
             # a closed solid: testing it costs ~50 ms per scene built)
@@ -299,6 +300,8 @@ class Scene:
             hi = np.array([o.mesh.bounds[1] for o in solid]).reshape(-1, 3)
             self._solid_boxes = (self._static_version, lo, hi, solid)
         _, lo, hi, solid = self._solid_boxes
+        if not solid:  # (the usual open-water scene: no numpy passes over no boxes)
+            return None
         for k in np.flatnonzero(np.all(p >= lo, axis=1) & np.all(p <= hi, axis=1)):
             if bool(solid[k].mesh.contains(p.reshape(1, 3))[0]):
                 return f"inside a {solid[k].label!r} mesh"
