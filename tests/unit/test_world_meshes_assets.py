@@ -167,3 +167,25 @@ def test_joint_transform_is_a_rotation_about_its_pivot() -> None:
         # The rotation angle: trace(R) = 1 + 2 cos(a), a = A sin(phase + offset).
         a = 0.4 * math.sin(phase + 0.7)
         assert np.trace(rot) == pytest.approx(1.0 + 2.0 * math.cos(a), abs=1e-14)
+
+
+def test_part_transforms_are_each_parts_own_product_bit_for_bit() -> None:
+    """ArticulatedMesh.part_transforms poses each joint and chain prefix once: the same
+    products as every Part.transform, to the bit, and one array per distinct chain."""
+    from uhrisim.world.bodies import ArticulatedMesh, Joint, Part
+
+    diver = diver_parts()
+    hip, knee = diver.parts[5].chain  # right_fin: hip, ankle
+    twin_hip = Joint(hip.pivot, hip.axis, hip.amplitude_rad, hip.phase_offset_rad)  # == hip
+    toe = Joint((0.1, 0.0, -0.3), (0.2, -1.0, 0.0), 0.3, 0.4, bias_rad=-0.1)
+    box = prim.box((0.1, 0.1, 0.1), (0.0, 0.0, 0.0))
+    odd = ArticulatedMesh((Part("shin", box, (knee,)), Part("leg", box, (twin_hip, knee)),
+                           Part("toe", box, (hip, knee, toe)), Part("core", box),
+                           Part("foot", box, (hip, knee))))
+    for mesh in (diver, odd):
+        for phase in np.linspace(-7.0, 40.0, 97):
+            posed = mesh.part_transforms(float(phase))
+            for part, transform in zip(mesh.parts, posed, strict=True):
+                assert transform.tobytes() == part.transform(float(phase)).tobytes()
+    posed = odd.part_transforms(1.0)
+    assert posed[1] is posed[4] and posed[0] is not posed[1]

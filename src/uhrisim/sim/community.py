@@ -7,6 +7,7 @@ compass degrees, DESIRED_*, NODE_REPORT, mode variables such as DEPLOY).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import NamedTuple
 
 Value = str | float
@@ -74,6 +75,21 @@ class Community:
         for box in self._mailboxes:
             box.deliver(var, value)
         self._log.append(Post(self.name, var, value, t, source))
+
+    def post_many(self, posts: Iterable[tuple[str, Value | bool | int]], t: float,
+                  source: str) -> None:
+        """:meth:`post` each (variable, value) of ``posts`` in order, in one call (the
+        same values, deliveries and log: a tick's NAV_* and a helm's posts)."""
+        values, boxes, log, name = self._values, self._mailboxes, self._log, self.name
+        for var, value in posts:
+            if isinstance(value, bool):
+                value = "true" if value else "false"
+            elif isinstance(value, int):
+                value = float(value)
+            values[var] = value
+            for box in boxes:
+                box.deliver(var, value)
+            log.append(Post(name, var, value, t, source))
 
     def get(self, var: str, default: Value | None = None) -> Value | None:
         return self._values.get(var, default)

@@ -24,10 +24,8 @@ class HelmDriver:
         nav = agent.nav()
         own = OwnNav.from_ned(*nav.position_ned, nav.yaw, nav.speed)
         out = self.autonomy.step(t, own, reports, extra_mail=mail)
-        for var, value in self.autonomy.last_contact_posts:
-            community.post(var, value, t, "contact_mgr")
-        for var, value in out.posts:
-            community.post(var, value, t, "helm")
+        community.post_many(self.autonomy.last_contact_posts, t, "contact_mgr")
+        community.post_many(out.posts, t, "helm")
         self.mailbox.drain()  # our own posts: the helm already applied them
         decision = out.decision
         return HelmRecord(

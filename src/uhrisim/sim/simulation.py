@@ -466,7 +466,8 @@ class Simulation:
         for agent in self.agents.values():
             nav = agent.nav()
             self.scene.set_pose(agent.name, nav.position_ned, rot_z(nav.yaw),
-                                agent.kick_phase if agent.is_diver_body else None)
+                                agent.kick_phase if agent.is_diver_body else None,
+                                checked=False)  # (states are kept finite, tick by tick)
         self.bubbles.pose(self.t)
         if self.team is not None:
             self.team.pose_scene()
@@ -527,13 +528,12 @@ class Simulation:
     def _post_nav(self, agent: Agent, t: float) -> None:
         """NAV_* of ``agent`` now (time ``t``, s) to its community."""
         nav = agent.nav()
-        x_east, y_north = moos_xy_from_ned(nav.position_ned[0], nav.position_ned[1])
-        c, me = agent.community, "uhrisim"
-        c.post("NAV_X", float(x_east), t, me)
-        c.post("NAV_Y", float(y_north), t, me)
-        c.post("NAV_DEPTH", float(nav.position_ned[2]), t, me)
-        c.post("NAV_HEADING", float(heading_deg_from_yaw(nav.yaw)), t, me)
-        c.post("NAV_SPEED", float(nav.speed), t, me)
+        north, east, depth = nav.position_ned.tolist()
+        x_east, y_north = moos_xy_from_ned(north, east)
+        agent.community.post_many(
+            (("NAV_X", x_east), ("NAV_Y", y_north), ("NAV_DEPTH", depth),
+             ("NAV_HEADING", float(heading_deg_from_yaw(nav.yaw))),
+             ("NAV_SPEED", float(nav.speed))), t, "uhrisim")
 
     def _sense(self) -> tuple[dict[str, Any], dict[str, Any]]:
         """Sonar pings and camera frames of the sensors due now, by ``"<agent>/<sensor>"``."""

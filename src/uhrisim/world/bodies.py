@@ -142,6 +142,12 @@ class ArticulatedMesh:
     parts: tuple[Part, ...]
     posed_apart: bool = False
     _face_offsets: NDArray[np.int64] = field(init=False, repr=False, compare=False)
+    #: the distinct joints, the distinct chain prefixes in order (each its parent prefix's
+    #: index, 0 the empty chain, and its last joint's), and every part's chain: how
+    #: :meth:`part_transforms` poses each joint and each chain once
+    _joints: tuple[Joint, ...] = field(init=False, repr=False, compare=False)
+    _prefixes: tuple[tuple[int, int], ...] = field(init=False, repr=False, compare=False)
+    _part_chain: tuple[int, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if len(self.parts) == 0:
@@ -151,6 +157,18 @@ class ArticulatedMesh:
                 raise ConfigError(f"part {p.name!r} has no triangles", where="ArticulatedMesh")
         counts = [len(p.mesh.faces) for p in self.parts]
         object.__setattr__(self, "_face_offsets", np.concatenate([[0], np.cumsum(counts)]))
+        joints: dict[Joint, int] = {}
+        prefixes: dict[tuple[Joint, ...], int] = {(): 0}
+        steps: list[tuple[int, int]] = []
+        for p in self.parts:
+            for n in range(1, len(p.chain) + 1):
+                if p.chain[:n] not in prefixes:
+                    joint = joints.setdefault(p.chain[n - 1], len(joints))
+                    steps.append((prefixes[p.chain[:n - 1]], joint))
+                    prefixes[p.chain[:n]] = len(steps)
+        object.__setattr__(self, "_joints", tuple(joints))
+        object.__setattr__(self, "_prefixes", tuple(steps))
+        object.__setattr__(self, "_part_chain", tuple(prefixes[p.chain] for p in self.parts))
 
     @classmethod
     def from_any(cls, mesh_or_parts: object, name: str = "body") -> ArticulatedMesh:
@@ -190,14 +208,15 @@ class ArticulatedMesh:
         return self._face_offsets
 
     def part_transforms(self, phase: float) -> list[NDArray[np.float64]]:
-        """Rest→posed 4x4 transform of every part at ``phase``."""
-        cache: dict[tuple[Joint, ...], NDArray[np.float64]] = {}
-        out = []
-        for p in self.parts:  # parts sharing a chain (a leg's pieces) share the product
-            if p.chain not in cache:
-                cache[p.chain] = p.transform(phase)
-            out.append(cache[p.chain])
-        return out
+        """Rest→posed 4x4 transform of every part at ``phase``: :meth:`Part.transform`'s
+        products, each joint posed once and each chain's product taken from its parent
+        prefix's (the same matrix products in the same order); parts sharing a chain (a
+        leg's pieces) share the array."""
+        joints = [joint.transform(phase) for joint in self._joints]
+        products = [np.eye(4)]  # the empty chain's, and the start of every product
+        for parent, joint in self._prefixes:
+            products.append(products[parent] @ joints[joint])
+        return [products[chain] for chain in self._part_chain]
 
     def part_transforms_many(self, phases: ArrayLike) -> NDArray[np.float64]:
         """(N, parts, 4, 4): :meth:`part_transforms` at each of ``phases`` (N,), every

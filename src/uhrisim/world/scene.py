@@ -162,11 +162,15 @@ class Scene:
         position_ned: ArrayLike,
         rotation: ArrayLike,
         kick_phase: float | None = None,
+        *,
+        checked: bool = True,
     ) -> None:
         """Move body ``name``: position (3,) NED metres, rotation (3, 3) body→NED.
 
         ``kick_phase`` (radians) re-poses an articulated body's parts; None keeps it.
-        Cheap: stores the pose, rebuilds nothing.
+        Cheap: stores the pose, rebuilds nothing. ``checked=False``: the caller vouches
+        for its numbers (float arrays, a finite position and kick phase, a proper
+        rotation: the simulation's own poses), which are stored as copies unchecked.
         """
         i = self._body_index.get(name)
         if i is None:
@@ -174,6 +178,14 @@ class Scene:
                 f"no dynamic body named {name!r} (have {sorted(self._body_index)})",
                 where="Scene.set_pose",
             )
+        if not checked:
+            b = self._bodies[i]
+            b.position = np.array(position_ned, dtype=float)
+            b.rotation = np.array(rotation, dtype=float)
+            if kick_phase is not None and kick_phase != b.kick_phase:
+                b.kick_phase = float(kick_phase)
+                b.part_transforms = b.geometry.part_transforms(b.kick_phase)
+            return
         p = np.array(position_ned, dtype=float).reshape(-1)
         if p.shape != (3,) or not np.all(np.isfinite(p)):
             raise ConfigError(
@@ -275,9 +287,10 @@ class Scene:
         are not checked. Cheap enough to ask once per sensor sample (bounding boxes are
         cached per ``static_version``; only meshes whose box holds the point are tested)."""
         p = np.asarray(p_ned, dtype=float).reshape(3)
-        depth = self.depth_at(p[0], p[1])
-        if math.isfinite(depth) and p[2] > depth + 1e-6:
-            return f"{p[2] - depth:.3f} m below the sea floor"
+        north, east, down = p.tolist()
+        depth = self.depth_at(north, east)
+        if math.isfinite(depth) and down > depth + 1e-6:
+            return f"{down - depth:.3f} m below the sea floor"
         if self._solid_boxes is None or self._solid_boxes[0] != self._static_version:
             # the sea floor's height field is answered by depth_at above (and is never
             # a closed solid: testing it costs ~50 ms per scene built)
@@ -287,6 +300,8 @@ class Scene:
             hi = np.array([o.mesh.bounds[1] for o in solid]).reshape(-1, 3)
             self._solid_boxes = (self._static_version, lo, hi, solid)
         _, lo, hi, solid = self._solid_boxes
+        if not solid:  # (the usual open-water scene: no numpy passes over no boxes)
+            return None
         for k in np.flatnonzero(np.all(p >= lo, axis=1) & np.all(p <= hi, axis=1)):
             if bool(solid[k].mesh.contains(p.reshape(1, 3))[0]):
                 return f"inside a {solid[k].label!r} mesh"
