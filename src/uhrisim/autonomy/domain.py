@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from functools import cached_property
 from itertools import combinations
 from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -140,6 +141,12 @@ class Domain:
         """Grid shape (npts per axis) of the sub-grid over ``names`` (in the given order)."""
         by = self._by_name
         return tuple(by[n].npts for n in names)
+
+    @cached_property
+    def solver_plans(self) -> dict[tuple[tuple[str, ...], ...], Any]:
+        """The solver's plans for this domain, by the axes of the functions it fuses
+        (:func:`uhrisim.autonomy.solver._plan` fills it)."""
+        return {}
 
     @cached_property
     def subgrids(self) -> Mapping[tuple[str, ...], tuple[int, ...]]:
