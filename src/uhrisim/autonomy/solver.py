@@ -249,12 +249,17 @@ class _Plan:
     missing: str | None
 
 
+_PLANS_KEPT = 64  # plans kept per domain at most (a helm uses a few)
+
+
 def _plan(domain: Domain, spans: tuple[tuple[str, ...], ...]) -> _Plan:
     """:class:`_Plan` for the functions' ``spans`` (their axes), made once per domain and
     spans: a helm hands the solver the same few combinations tick after tick."""
     plans = domain.solver_plans
     plan = plans.get(spans)
     if plan is None:
+        if len(plans) >= _PLANS_KEPT:
+            plans.clear()
         comps = _components_of(domain.names, spans)
         comp_of = {a: k for k, comp in enumerate(comps) for a in comp}
         places = []
