@@ -123,9 +123,11 @@ class Decision:
         return float(yaw_from_heading_deg(self.heading_deg))
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class HelmOutput:
-    """Result of one helm iteration (audit included: sum(contributions) == total)."""
+    """Result of one helm iteration (audit included: sum(contributions) == total). Made
+    every iteration: slots, not frozen (a frozen one of these fields costs about five times
+    as much to make); read it, do not change it."""
 
     t: float
     decision: Decision | None

@@ -35,21 +35,23 @@ from uhrisim.core.compiled import jit
 __all__ = ["SolveResult", "WeightedObjective", "solve", "solve_reference"]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class WeightedObjective:
-    """A behavior's function and its priority weight (weight <= 0 is dropped by the solver)."""
+    """A behavior's function and its priority weight (weight <= 0 is dropped by the solver).
+    (Made for every function at every iteration: slots, not frozen, as :class:`_Term`.)"""
 
     name: str
     priority: float
     objective: Objective
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class SolveResult:
     """Decision (axis -> value, or None for all-stop) with the audit of contributions.
 
     ``contributions[name] = priority * f(decision)`` for every function that took part and
-    ``total = sum(contributions)`` - the maximised objective value.
+    ``total = sum(contributions)`` - the maximised objective value. (Made at every solve:
+    slots, not frozen, as :class:`_Term`.)
     """
 
     decision: dict[str, float] | None
