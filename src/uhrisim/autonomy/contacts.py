@@ -67,9 +67,11 @@ _ALIASES = {
 _NUMERIC = ("X", "Y", "SPD", "HDG", "DEP", "LAT", "LON", "TIME", "LENGTH")
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True, unsafe_hash=True)
 class NodeReport:
-    """A parsed NODE_REPORT (MOOS frame: x east, y north, compass heading)."""
+    """A parsed NODE_REPORT (MOOS frame: x east, y north, compass heading). Hashed by its
+    fields, as a frozen one; not frozen, which would make one (every report, every tick)
+    several times as costly: read it, do not change it."""
 
     name: str
     x: float
