@@ -109,9 +109,10 @@ def postings_of(mail: Mapping[str, object] | Iterable[Posting], t: float) -> lis
     return out
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True, unsafe_hash=True)
 class Decision:
-    """The helm's decision: compass heading (deg), speed (m/s), depth (m) or None."""
+    """The helm's decision: compass heading (deg), speed (m/s), depth (m) or None. (Made
+    every iteration: slots, hashed by its fields, not frozen; read it, do not change it.)"""
 
     heading_deg: float
     speed: float
