@@ -67,9 +67,11 @@ _ALIASES = {
 _NUMERIC = ("X", "Y", "SPD", "HDG", "DEP", "LAT", "LON", "TIME", "LENGTH")
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True, unsafe_hash=True)
 class NodeReport:
-    """A parsed NODE_REPORT (MOOS frame: x east, y north, compass heading)."""
+    """A parsed NODE_REPORT (MOOS frame: x east, y north, compass heading). Hashed by its
+    fields, as a frozen one; not frozen, which would make one (every report, every tick)
+    several times as costly: read it, do not change it."""
 
     name: str
     x: float
@@ -419,6 +421,7 @@ class ContactManager:
         self.retired: list[str] = []
         self._extrap = LinearExtrapolator(*config.decay)
         self._last_posted: dict[str, str] = {}
+        self._lists_stale = True  # a contact came, was retired or alerted since the lists
 
     def on_node_report(self, report: str | NodeReport, t: float) -> ContactRecord | None:
         """Take one report received at ``t``; own reports are ignored (returns None)."""
@@ -431,6 +434,7 @@ class ContactManager:
         if rec is None:
             rec = ContactRecord(r.name, r, t_rep, t, r.x, r.y)
             self.contacts[key] = rec
+            self._lists_stale = True
             if r.name in self.retired:
                 self.retired.remove(r.name)
         elif t_rep >= rec.t_report:
@@ -450,6 +454,7 @@ class ContactManager:
             if t - rec.t_received > self.config.contact_max_age:
                 del self.contacts[key]
                 self.retired.append(rec.name)
+                self._lists_stale = True
                 continue
             r = rec.report
             ex = self._extrap.extrapolate(r.x, r.y, r.heading, r.speed, rec.t_report, t)
@@ -460,6 +465,7 @@ class ContactManager:
                     continue
                 if self._triggers(a, rec, own):
                     rec.alerted.add(a.id)
+                    self._lists_stale = True
                     posts.append((a.var, self._expand(a.pattern, rec, t)))
                     log.debug("alert %s for contact %s at t=%.2f", a.id, rec.name, t)
         for rl in self.config.relays:
@@ -471,6 +477,13 @@ class ContactManager:
             if self._last_posted.get(key) != text:
                 posts.append((rl.var, text))
                 self._last_posted[key] = text
+        if self._lists_stale:  # else the lists are as last posted
+            self._lists_stale = False
+            self._post_lists(posts)
+        return posts
+
+    def _post_lists(self, posts: list[tuple[str, str]]) -> None:
+        """CONTACTS_LIST, CONTACTS_ALERTED and CONTACTS_RETIRED, each when its text changed."""
         lists = {
             "CONTACTS_LIST": ",".join(c.name for c in self.contacts.values()),
             "CONTACTS_ALERTED": ",".join(
@@ -482,7 +495,6 @@ class ContactManager:
             if self._last_posted.get(var) != val:
                 posts.append((var, val))
                 self._last_posted[var] = val
-        return posts
 
     def _triggers(self, a: AlertSpec, rec: ContactRecord, own: OwnNav) -> bool:
         if rec.range <= a.alert_range:

@@ -209,9 +209,11 @@ class CpaGrid:
         return cpa if utility is None else utility.apply(cpa)
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True, unsafe_hash=True)
 class AvoidUtility:
-    """AvoidCollision's utility of the CPA (:func:`avoid_utility_inplace`), m."""
+    """AvoidCollision's utility of the CPA (:func:`avoid_utility_inplace`), m. (Made at
+    every build: slots, hashed by its fields, not frozen, which costs three times as much
+    to make; read it, do not change it. Likewise :class:`CutRangeUtility`.)"""
 
     min_util: float
     max_util: float
@@ -223,7 +225,7 @@ class AvoidUtility:
         return _AVOID, self.min_util, 75.0 / max(self.max_util - self.min_util, 1e-9)
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True, unsafe_hash=True)
 class CutRangeUtility:
     """Far Trail's utility of the CPA (:func:`cut_range_utility_inplace`), ``range_m`` m."""
 

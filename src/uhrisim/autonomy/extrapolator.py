@@ -15,15 +15,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from uhrisim.core.errors import ConfigError
 
 __all__ = ["Extrapolated", "LinearExtrapolator"]
 
 
-@dataclass(frozen=True)
-class Extrapolated:
-    """Dead-reckoned position and how far it was carried."""
+class Extrapolated(NamedTuple):
+    """Dead-reckoned position and how far it was carried (a named tuple: the contact
+    manager makes one per contact every tick)."""
 
     x: float
     y: float

@@ -109,9 +109,10 @@ def postings_of(mail: Mapping[str, object] | Iterable[Posting], t: float) -> lis
     return out
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True, unsafe_hash=True)
 class Decision:
-    """The helm's decision: compass heading (deg), speed (m/s), depth (m) or None."""
+    """The helm's decision: compass heading (deg), speed (m/s), depth (m) or None. (Made
+    every iteration: slots, hashed by its fields, not frozen; read it, do not change it.)"""
 
     heading_deg: float
     speed: float
@@ -123,9 +124,11 @@ class Decision:
         return float(yaw_from_heading_deg(self.heading_deg))
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class HelmOutput:
-    """Result of one helm iteration (audit included: sum(contributions) == total)."""
+    """Result of one helm iteration (audit included: sum(contributions) == total). Made
+    every iteration: slots, not frozen (a frozen one of these fields costs about five times
+    as much to make); read it, do not change it."""
 
     t: float
     decision: Decision | None

@@ -24,7 +24,7 @@ dropped. Behaviors hand in functions within 0..100, so this guards outside funct
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import cache, lru_cache
+from functools import cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,21 +35,23 @@ from uhrisim.core.compiled import jit
 __all__ = ["SolveResult", "WeightedObjective", "solve", "solve_reference"]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class WeightedObjective:
-    """A behavior's function and its priority weight (weight <= 0 is dropped by the solver)."""
+    """A behavior's function and its priority weight (weight <= 0 is dropped by the solver).
+    (Made for every function at every iteration: slots, not frozen, as :class:`_Term`.)"""
 
     name: str
     priority: float
     objective: Objective
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class SolveResult:
     """Decision (axis -> value, or None for all-stop) with the audit of contributions.
 
     ``contributions[name] = priority * f(decision)`` for every function that took part and
-    ``total = sum(contributions)`` - the maximised objective value.
+    ``total = sum(contributions)`` - the maximised objective value. (Made at every solve:
+    slots, not frozen, as :class:`_Term`.)
     """
 
     decision: dict[str, float] | None
@@ -102,17 +104,11 @@ def _taking_part(objectives: list[WeightedObjective]) -> list[_Term]:
     return out
 
 
-def _components(domain: Domain, objs: list[_Term]) -> list[tuple[str, ...]]:
-    """Connected groups of axes, each in domain order, ordered by their first axis."""
-    return list(_components_of(domain.names, tuple([w.axes for w in objs])))
-
-
-@lru_cache(maxsize=64)
 def _components_of(
     names: tuple[str, ...], spans: tuple[tuple[str, ...], ...]
 ) -> tuple[tuple[str, ...], ...]:
-    """:func:`_components` for a domain's axis ``names`` and the functions' axes: a helm
-    sees the same few combinations tick after tick."""
+    """Connected groups of the axes ``spans`` (the functions' axes) cover, each in the
+    order of the domain's axis ``names``, ordered by their first axis."""
     groups: list[set[str]] = []
     for span in spans:
         axes = set(span)
@@ -238,24 +234,81 @@ def _compiled_add_weighted():  # type: ignore[no-untyped-def]
     return jit(_add_weighted, numpy_errors=True)
 
 
+@dataclass(frozen=True, slots=True)
+class _Plan:
+    """What a solve works out from the functions' axes alone (kept per domain and
+    combination of axes, :func:`_plan`): the components (:func:`_components_of`), each with
+    the positions of its members among the functions and its sub-grid's shape and axis
+    values; where each function's decision indices lie (its component, and its axes'
+    places in that component, None when it spans the whole component); the all-stop of
+    the non-optional axes that no function covers."""
+
+    components: tuple[tuple[str, ...], ...]
+    members: tuple[tuple[int, ...], ...]
+    shapes: tuple[tuple[int, ...], ...]
+    values: tuple[tuple[NDArray[np.float64], ...], ...]
+    term_places: tuple[tuple[int, tuple[int, ...] | None], ...]
+    missing: str | None
+
+
+_PLANS_KEPT = 64  # plans kept per domain at most (a helm uses a few)
+
+
+def _plan(domain: Domain, spans: tuple[tuple[str, ...], ...]) -> _Plan:
+    """:class:`_Plan` for the functions' ``spans`` (their axes), made once per domain and
+    spans: a helm hands the solver the same few combinations tick after tick."""
+    plans = domain.solver_plans
+    plan = plans.get(spans)
+    if plan is None:
+        if len(plans) >= _PLANS_KEPT:
+            plans.clear()
+        comps = _components_of(domain.names, spans)
+        comp_of = {a: k for k, comp in enumerate(comps) for a in comp}
+        places = []
+        for axes in spans:
+            comp = comps[comp_of[axes[0]]]
+            places.append((comp_of[axes[0]],
+                           None if axes == comp else tuple(comp.index(a) for a in axes)))
+        missing = [a.name for a in domain.axes if not a.optional and a.name not in comp_of]
+        plan = plans[spans] = _Plan(
+            comps,
+            tuple(tuple(k for k, axes in enumerate(spans) if axes[0] in comp) for comp in comps),
+            tuple(domain.shape(comp) for comp in comps),
+            tuple(tuple(domain.axis(a).values for a in comp) for comp in comps),
+            tuple(places),
+            "MissingDecVars:" + ",".join(missing) if missing else None)
+    return plan
+
+
 def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
     """Fuse weighted objectives and return the argmax decision (see module docstring)."""
     objs = _taking_part(objectives)
     if not objs:
         return SolveResult(None, all_stop_reason="NothingToDo")
+    plan = _plan(domain, tuple([w.axes for w in objs]))
     decision: dict[str, float] = {}
     indices: dict[str, int] = {}
-    for comp in _components(domain, objs):
-        members = [w for w in objs if w.axes[0] in comp]
-        flat = _first_maximum(domain, comp, members)
+    best_of: list[tuple[int, ...]] = []  # each component's decision indices
+    for comp, members, shape, values in zip(plan.components, plan.members, plan.shapes,
+                                            plan.values, strict=True):
+        flat = _first_maximum(domain, comp, [objs[k] for k in members])
         best = []
-        for n in reversed(domain.shape(comp)):  # unravel (C order)
+        for n in reversed(shape):  # unravel (C order)
             flat, i = divmod(flat, n)
             best.append(i)
-        for a, i in zip(comp, reversed(best), strict=True):
+        best.reverse()
+        best_of.append(tuple(best))
+        for a, i, v in zip(comp, best, values, strict=True):
             indices[a] = i
-            decision[a] = float(domain.axis(a).values[i])
-    return _audit(domain, objs, decision, indices)
+            decision[a] = float(v[i])
+    contributions = {w.name: 0.0 for w in objs}
+    for w, (k, places) in zip(objs, plan.term_places, strict=True):
+        at = best_of[k] if places is None else tuple([best_of[k][p] for p in places])
+        contributions[w.name] += w.priority * w.at(at)
+    total = float(sum(contributions.values()))
+    if plan.missing is not None:
+        return SolveResult(None, indices, total, contributions, all_stop_reason=plan.missing)
+    return SolveResult(decision, indices, total, contributions)
 
 
 def _audit(
@@ -264,23 +317,15 @@ def _audit(
     decision: dict[str, float],
     indices: dict[str, int],
 ) -> SolveResult:
+    """The contributions at the decision and the all-stop (for :func:`solve_reference`)."""
     missing = [a.name for a in domain.axes if not a.optional and a.name not in indices]
     contributions = {w.name: 0.0 for w in objs}
-    where: dict[tuple[str, ...], tuple[int, ...]] = {}  # the decision's indices, by axes
     for w in objs:
-        at = where.get(w.axes)
-        if at is None:
-            at = where[w.axes] = tuple([indices[a] for a in w.axes])
-        contributions[w.name] += w.priority * w.at(at)
+        contributions[w.name] += w.priority * w.at(tuple(indices[a] for a in w.axes))
     total = float(sum(contributions.values()))
     if missing:
-        return SolveResult(
-            None,
-            indices,
-            total,
-            contributions,
-            all_stop_reason="MissingDecVars:" + ",".join(missing),
-        )
+        return SolveResult(None, indices, total, contributions,
+                           all_stop_reason="MissingDecVars:" + ",".join(missing))
     return SolveResult(decision, indices, total, contributions)
 
 
