@@ -8,6 +8,7 @@ import copy
 import json
 import math
 from importlib import resources
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -169,6 +170,21 @@ def test_a_window_unlike_any_the_network_was_fitted_on_is_not_read():
                       (1000.0, NONE)):
         features = always.center + rms / rms_per_spread * signs * always.spread
         assert always.classify(features)[0] == read, rms
+
+
+def test_the_turbid_salvage_views_that_said_false_gestures_read_none():
+    """The four windows of the assisted salvage in 9C water that said false gestures
+    (recorded: tests/data/perception/README.md) — the diver within 1-1.5 m side on, or
+    his head and shoulders half lost in the murk — lie beyond NOVELTY_RMS and read
+    ``none`` (the network alone says the false class, 0.73-0.97)."""
+    path = Path(__file__).parents[1] / "data" / "perception" / "turbid_salvage_windows.npz"
+    with np.load(path) as windows:
+        for name in windows.files:
+            window = windows[name]
+            features = window_features(window, SHIPPED.rate_hz)
+            z = (features - SHIPPED.center) / SHIPPED.spread
+            assert math.sqrt(np.mean(z ** 2)) > NOVELTY_RMS, name
+            assert SHIPPED.classify(features) == (NONE, 1.0), name
 
 
 def test_the_network_learns_what_no_straight_line_separates_and_refits_the_same():
