@@ -24,6 +24,7 @@ from uhrisim.assistant import (
 )
 from uhrisim.assistant.behaviours import GoTo, TreeContext
 from uhrisim.assistant.geometry import bearing_deg, jaw_offset, segment_distance
+from uhrisim.assistant.trees import CHEST_ABOVE_PELVIS_M
 from uhrisim.core.errors import ConfigError
 from uhrisim.perception.signals import Command, RecognizedSignal
 
@@ -412,3 +413,28 @@ def test_bad_parameters_are_one_line_errors(kw, message):
         AssistantConfig.from_mapping(kw, "agents[1].assistant")
     with pytest.raises(ConfigError, match=r"assistant: unknown parameter\(s\) \['speed'\]"):
         AssistantConfig.from_mapping({"speed": 1})
+
+
+@pytest.mark.parametrize("north_m", [1.6, 6.0])
+def test_the_idle_rov_watches_the_diver_from_watch_range_level_with_his_chest(north_m):
+    """With ``watch_range_m`` the idle ROV keeps that far from the diver, at his chest's
+    depth, facing him all the while — the view the gesture reader was fitted on
+    (docs/hri.md: the assisted salvage's gestures, unread from 1.2-2 m and 0.6 m above
+    him, and from a ROV that turned away to reach its point); without it, it holds
+    where it is."""
+    cfg = AssistantConfig(watch_range_m=3.0, ask_after_s=1000.0)
+    diver = (north_m, 0.0, 4.0)  # 1 m below the ROV, facing it
+    w = World(hovering(diver, 180.0), config=cfg)
+    off_him: list[float] = []
+    w.run(40.0, until=lambda w: off_him.append(abs(
+        (w.rov.heading - bearing_deg(w.rov.position, np.array(diver)) + 180.0) % 360.0
+        - 180.0)) and False)
+    ahead = math.hypot(*(np.array(diver) - w.rov.position)[:2])
+    assert ahead == pytest.approx(3.0, abs=cfg.position_tolerance_m / 3.0)
+    assert w.rov.position[2] == pytest.approx(4.0 - CHEST_ABOVE_PELVIS_M, abs=0.05)
+    assert max(off_him) <= cfg.heading_tolerance_deg
+    assert {o.task for o in w.trace} == {"idle"}
+    _guards_kept(w)
+    still = World(hovering(diver, 180.0), config=AssistantConfig(ask_after_s=1000.0))
+    still.run(20.0)
+    assert np.allclose(still.rov.position, [0.0, 0.0, 3.0], atol=0.05)

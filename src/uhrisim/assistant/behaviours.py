@@ -377,16 +377,24 @@ class BackOff(Leaf):
         if self.done(self.ctx):
             return Status.SUCCESS
         rov = self.ctx.now.rov
-        facing = bearing_deg(rov.position_ned, diver.position_ned)
-        error = math.radians(float(wrap_180(rov.heading_deg - facing)))
-        self.ctx.override = True
-        self.ctx.want("DESIRED_HEADING", round(facing, 1))
         cfg = self.ctx.config
         speed = min(cfg.cruise_speed, cfg.backoff_speed
                     + max(0.0, closing_speed(rov.position_ned, diver)))
-        self.ctx.want("DESIRED_SPEED", round(-speed * math.cos(error), 3))
-        self.ctx.want("DESIRED_DEPTH", round(float(rov.position_ned[2]), 2))
+        drive_facing(self.ctx, diver.position_ned, -speed, float(rov.position_ned[2]))
         return Status.RUNNING
+
+
+def drive_facing(ctx: TreeContext, point: Point, speed: float, depth: float) -> None:
+    """Park the helm (MOOS_MANUAL_OVERRIDE) and post DESIRED_*: facing ``point`` (NED),
+    ``speed`` (m/s; < 0 astern) × cos(heading error), so that the motion is along the
+    line to it, at ``depth`` (m)."""
+    rov = ctx.now.rov
+    facing = bearing_deg(rov.position_ned, point)
+    error = math.radians(float(wrap_180(rov.heading_deg - facing)))
+    ctx.override = True
+    ctx.want("DESIRED_HEADING", round(facing, 1))
+    ctx.want("DESIRED_SPEED", round(speed * math.cos(error), 3))
+    ctx.want("DESIRED_DEPTH", round(depth, 2))
 
 
 class Gripper(Leaf):

@@ -72,6 +72,10 @@ class AssistantConfig:
     depth_trim_max_m: float = 4.0  # ... at most this much shallower
     jaw_frd: tuple[float, float, float] = (0.25, 0.0, 0.14)  # the gripper's jaw centre
     default_task: str = "idle"
+    watch_range_m: float | None = None  # idle: keep this far (horizontally) from the
+    # diver, on his side towards the ROV, at his chest's depth, facing him — level, at the
+    # ranges the gesture reader was fitted on (2-4.5 m), as an operator waiting for a
+    # signal holds the camera on him; None: idle holds where it is
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -88,6 +92,8 @@ class AssistantConfig:
                 if isinstance(v, str) or not v or not set(v) <= set(CHANNELS):
                     raise ConfigError(f"must be a list of one or more of {', '.join(CHANNELS)}"
                                       f", got {v!r}", "assistant.obey")
+            elif f.name == "watch_range_m" and v is None:
+                continue
             elif f.name in ("fetch_attempts", "ask_max"):
                 if not (isinstance(v, int) and v >= 1):
                     raise ConfigError(f"must be an integer >= 1, got {v!r}",

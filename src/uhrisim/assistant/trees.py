@@ -25,7 +25,8 @@
                 │               close in to arm's reach (come_here's point) unless within
                 │               reach_m + position_tolerance_m of him already, then swing
                 │               the lamps off him and back, twice (ask_max in a row)
-                └── idle        hold where it is, facing the diver
+                └── idle        hold where it is, facing the diver (or, with
+                                watch_range_m, that far from him at his chest's depth)
 
 The targets near the diver are kept a guard + ``clearance_m`` away from his body and
 head; a task whose subtree fails ends (an event says so) and the ROV holds.
@@ -59,6 +60,7 @@ from uhrisim.assistant.behaviours import (
     Status,
     TreeContext,
     WaitUntil,
+    drive_facing,
 )
 from uhrisim.assistant.geometry import (
     bearing_deg,
@@ -74,6 +76,8 @@ CHEST_ABOVE_PELVIS_M = 0.3  # where "come here" brings the ROV: the diver's ches
 #: at the grasp, the ROV turns to the planned heading within this before it grips: its
 #: jaws, 0.25 m ahead, are then within 1 cm of the grasp point (deg)
 SQUARE_UP_DEG = 2.0
+#: watching, the ROV's speed per metre of range error (1/s; at most near_speed)
+WATCH_GAIN = 0.5
 
 
 def _dir(heading_deg: float) -> Point:
@@ -146,6 +150,23 @@ class HoldHere(HoldAt):
         self._here = self.ctx.rov.copy()
         self._heading = self.ctx.now.rov.heading_deg
         super().initialise()
+
+
+class Watch(Leaf):
+    """Idle with ``watch_range_m``: keep that far from the diver (horizontally) at his
+    chest's depth, facing him — forward or astern along the line to him (the helm parked,
+    as a back-off), at ``WATCH_GAIN`` × the range's error, at most ``near_speed``; the
+    camera stays on him all the while."""
+
+    def update(self) -> Status:
+        diver, cfg = self.ctx.diver, self.ctx.config
+        if diver is None or cfg.watch_range_m is None:
+            return Status.FAILURE
+        error = math.hypot(*(diver.position_ned - self.ctx.rov)[:2]) - cfg.watch_range_m
+        speed = max(-cfg.near_speed, min(cfg.near_speed, WATCH_GAIN * error))
+        drive_facing(self.ctx, diver.position_ned, speed,
+                     float(diver.position_ned[2]) - CHEST_ABOVE_PELVIS_M)
+        return Status.RUNNING
 
 
 def _task(ctx: TreeContext, command: str, subtree: py_trees.behaviour.Behaviour
@@ -353,7 +374,9 @@ def build_tree(ctx: TreeContext) -> tuple[py_trees.behaviour.Behaviour, Selector
         _task(ctx, "bring_tool", bring),
         _task(ctx, "light_here", light),
         _task(ctx, "go_up", up),
-        Selector("no task", memory=False, children=[say_again, HoldHere("idle", ctx)])])
+        Selector("no task", memory=False, children=[
+            say_again, HoldHere("idle", ctx) if cfg.watch_range_m is None
+            else Watch("idle", ctx)])])
     decide = Selector("decide", memory=False, children=[lost, given, too_close, closing,
                                                         tasks])
     root = Sequence("assistant", memory=False, children=[SpeedCeiling("speed ceiling", ctx),

@@ -101,6 +101,12 @@ NONE = "none"
 #: spreads from the training mean, in any time bin, is a range the network was not fitted
 #: on (its training windows lie within ±3.6): read as ``none``
 SIZE_SPREADS = 4.0
+#: a window whose standardised features lie farther than this from the training mean,
+#: root-mean-square over the features, is a view the network was never fitted on (the
+#: held-out clear-water windows at 2-4.5 m: at most 4.8, a two-arm wave at 2 m; the 9C
+#: salvage's false gestures, the diver within 1-1.5 m half lost in the murk or seen side
+#: on: 8-4000): read as ``none``
+NOVELTY_RMS = 6.0
 #: where the apparent size sits in a window's features: the last of each time bin's means
 _SIZES = np.arange(len(TIME_BINS_S) - 1) * FRAME_FEATURES + FRAME_FEATURES - 1
 #: the streaming reader's decision rule (:class:`GestureReader`): every 0.5 s, the same
@@ -294,11 +300,13 @@ class GestureClassifier:
 
     def classify(self, features: NDArray[np.float64]) -> tuple[str, float]:
         """(class, probability) of a window's features; (``none``, 1) if the diver was
-        not seen enough (NaN features) or is nearer or farther than the network was fitted
-        on (:data:`SIZE_SPREADS`)."""
+        not seen enough (NaN features), is nearer or farther than the network was fitted
+        on (:data:`SIZE_SPREADS`) or looks like nothing it was fitted on
+        (:data:`NOVELTY_RMS`)."""
         if np.any(np.isnan(features)) or np.any(
                 np.abs(features[_SIZES] - self.center[_SIZES])
-                > SIZE_SPREADS * self.spread[_SIZES]):
+                > SIZE_SPREADS * self.spread[_SIZES]) or math.sqrt(np.mean(
+                    ((features - self.center) / self.spread) ** 2)) > NOVELTY_RMS:
             return NONE, 1.0
         lp = self.log_posteriors(features)
         best = int(np.argmax(lp))

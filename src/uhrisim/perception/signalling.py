@@ -1,9 +1,11 @@
 """The diver's side of a signal: what his body shows while his script says one.
 
 A script's ``signal`` (a command on a channel) becomes, from its start time: for a
-``gesture`` (or the ``sonar`` wave), the gesture's joint angles over its timeline
-(:func:`~uhrisim.perception.gestures.pose_at`, the signalling arm ``side``) and then his
-``signal_ready`` pose again; for a ``marker``, the slate with the command's id held up
+``gesture`` (or the ``sonar`` wave), his ``signal_ready`` pose for
+:data:`GESTURE_READY_S` (he turns to the ROV and rises upright from his work: whoever
+moves his body does that while he performs), then the gesture's joint angles over its
+timeline (:func:`~uhrisim.perception.gestures.pose_at`, the signalling arm ``side``) and
+then his ``signal_ready`` pose again; for a ``marker``, the slate with the command's id held up
 for ``slate_hold_s``. Whoever renders the diver (the simulation loop, a test world, the
 figure) asks :meth:`SignalPerformer.joints` and :meth:`SignalPerformer.slate_id` each
 frame; :attr:`SignalPerformer.issued` is the truth the metrics count against
@@ -13,7 +15,7 @@ frame; :attr:`SignalPerformer.issued` is the truth the metrics count against
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,7 +29,7 @@ from uhrisim.perception.signals import Channel, Command
 @dataclass(frozen=True)
 class Performance:
     """One signal being made: start (s), command, channel, duration (s), and the gesture's
-    keyframes or the slate's marker id."""
+    keyframes (s from the start: its ready lead included) or the slate's marker id."""
 
     t: float
     command: Command
@@ -42,6 +44,10 @@ SLATE_HOLD_S = 3.0
 #: ... after at most this long (s) to turn to the ROV and rise from his work upright
 #: (a marker signal's order lasts both; uhrisim.sim.assistance)
 SLATE_READY_S = 2.0
+#: a gesture starts after this long (s) in his ready pose, turned to the ROV and upright:
+#: made straight from his work or his swim, its first seconds were lost to turning and
+#: rising (the assisted salvage: 89° off the ROV at a "follow me"; docs/hri.md)
+GESTURE_READY_S = SLATE_READY_S
 #: where he holds it: ahead of his body centre and above it (m), its face to the front
 SLATE_AHEAD_M, SLATE_ABOVE_M = 0.45, 0.35
 
@@ -61,7 +67,7 @@ def signal_duration(command: Command, channel: Channel,
     if channel == "marker":
         return SLATE_READY_S + SLATE_HOLD_S
     gesture, count = (gestures or GestureSet.load()).for_command(command, channel)
-    return gesture.timeline("right", count)[-1].t
+    return GESTURE_READY_S + gesture.timeline("right", count)[-1].t
 
 
 @dataclass
@@ -82,7 +88,8 @@ class SignalPerformer:
                                marker_id=self.marker_id(command))
         else:
             gesture, count = self.gestures.for_command(command, channel)
-            frames = gesture.timeline(self.side, count)
+            frames = tuple(replace(k, t=k.t + GESTURE_READY_S)
+                           for k in gesture.timeline(self.side, count))
             done = Performance(t, command, channel, frames[-1].t, frames)
         self.issued.append(done)
         return done
