@@ -133,6 +133,9 @@ class SiltCloud:
     _origin: list[tuple[float, float]] = field(default_factory=list)
     _mass: list[NDArray[np.float64]] = field(default_factory=list)  # (K,) per puff
     _released_kg: float = 0.0
+    #: the floor under the puffs' centres the last time (they move only with a current)
+    _floor_under: tuple[bytes, NDArray[np.float64]] = field(
+        default=(b"", np.zeros(0)), repr=False, compare=False)
 
     def release(self, t: float, position_ned: ArrayLike, mass_kg: float | None = None) -> None:
         """A footfall at ``t`` (s) at ``position_ned`` (the floor under it is what counts):
@@ -233,10 +236,13 @@ class SiltCloud:
         if not self._t0:
             return np.zeros(len(d)) if edges is None else empty
         centre, sigma, _, mass, top = self._state(t)
-        floor = np.asarray(self.floor_depth(centre[:, 0], centre[:, 1]), dtype=float)
+        key = centre.tobytes()
+        if key != self._floor_under[0]:
+            self._floor_under = (key, np.asarray(self.floor_depth(centre[:, 0], centre[:, 1]),
+                                                 dtype=float))
         live = np.flatnonzero((mass * top).sum(axis=1) > 0.0)
         centre, sigma, mass, top, floor = (centre[live], sigma[live], mass[live], top[live],
-                                           floor[live])
+                                           self._floor_under[1][live])
         # closest approach of every ray to every puff's axis, horizontally: (N, P)
         rel = o[:2][None, :] - centre  # (P, 2)
         along = (d[:, :2] @ rel.T)  # (N, P): (o_h - c) . d_h
@@ -318,8 +324,8 @@ def _compiled_integrals(kernels: tuple[Any, Any], o: NDArray, d: NDArray, end: N
     windows, integrals = kernels
     n_pairs, ray, puff, s_star, r2, scale, width, s0, s1 = windows(
         o, np.ascontiguousarray(d), np.ascontiguousarray(end), np.ascontiguousarray(along),
-        (rel ** 2).sum(axis=1), (5.0 * sigma) ** 2, sigma, np.ascontiguousarray(top), floor,
-        _ERF_SATURATES)
+        (rel ** 2).sum(axis=1), (5.0 * sigma) ** 2, sigma, np.ascontiguousarray(top),
+        top.max(axis=1), floor, _ERF_SATURATES)
     puff = puff[:n_pairs]
     peak = np.exp(-0.5 * r2[:n_pairs] / sigma[puff] ** 2)
     binned = edges is not None
@@ -344,7 +350,8 @@ def _erf_of(x: float) -> float:
     return float(erf(x))
 
 
-def _ray_windows(o, d, end, along, rel_sq, cutoff_sq, sigma, top, floor, saturates):  # type: ignore[no-untyped-def]
+def _ray_windows(o, d, end, along, rel_sq, cutoff_sq, sigma, top, thickest, floor,  # type: ignore[no-untyped-def]
+                 saturates):
     """The rays' and puffs' pairs :meth:`SiltCloud.ray_integrals` integrates over (compiled
     by numba), in numpy's order (by ray, then puff): their count, ray, puff, closest
     approach s*, r⊥², erf scale, sqrt(pi/2) σ / |d_h| and each class's stretch [s0, s1]
@@ -361,22 +368,33 @@ def _ray_windows(o, d, end, along, rel_sq, cutoff_sq, sigma, top, floor, saturat
         dz = d[i, 2]
         flat = abs(dz) < 1e-12
         for p in range(p_count):
-            closest = -along[i, p] / a
             r2 = _np_max(rel_sq[p] - along[i, p] * along[i, p] / a, 0.0)
             if not r2 < cutoff_sq[p]:
                 continue
+            closest = -along[i, p] / a
             scale = math.sqrt(a) / (math.sqrt(2.0) * sigma[p])
             reach = saturates / scale
+            # every class's stretch lies within [0, end], s* ± reach and (rounding being
+            # monotonic) the stretch in the thickest layer: none if that is empty
+            first, last = max(0.0, closest - reach), min(end[i], closest + reach)
+            hi_z = floor[p] - o[2]
+            s_b = hi_z / dz
+            if not flat:
+                s_thickest = ((floor[p] - thickest[p]) - o[2]) / dz
+                first = max(first, min(s_thickest, s_b))
+                last = min(last, max(s_thickest, s_b))
+            if not last > first:
+                continue
             useful = False
             for k in range(k_count):
                 lo_z = (floor[p] - top[p, k]) - o[2]
-                hi_z = floor[p] - o[2]
                 if flat:
                     inside = lo_z <= 0.0 and hi_z >= 0.0
                     s0 = 0.0 if inside else math.inf
                     s1 = math.inf if inside else -math.inf
                 else:
-                    s0, s1 = _np_min(lo_z / dz, hi_z / dz), _np_max(lo_z / dz, hi_z / dz)
+                    s_a = lo_z / dz
+                    s0, s1 = _np_min(s_a, s_b), _np_max(s_a, s_b)
                 s0_of[m, k] = _np_max(_np_max(s0, 0.0), closest - reach)
                 s1_of[m, k] = _np_min(_np_min(s1, end[i]), closest + reach)
                 useful = useful or s1_of[m, k] > s0_of[m, k]
