@@ -468,14 +468,19 @@ _ERF_SYMBOL = "uhrisim_scipy_special_erf"
 
 @cache
 def _compiled_ray_integrals() -> tuple[Any, Any] | None:
-    """:func:`_ray_windows` and :func:`_window_integrals` compiled; None without numba."""
+    """:func:`_ray_windows` and :func:`_window_integrals` compiled; None without numba (or
+    where scipy does not export its C ``erf`` for doubles)."""
     numba = numba_module()
     if numba is None:
         return None
     extending = importlib.import_module("numba.extending")
     binding = importlib.import_module("llvmlite.binding")  # numba's own dependency
-    binding.add_symbol(_ERF_SYMBOL, extending.get_cython_function_address(
-        "scipy.special.cython_special", "__pyx_fuse_1erf"))
+    try:
+        address = extending.get_cython_function_address("scipy.special.cython_special",
+                                                        "__pyx_fuse_1erf")
+    except ValueError:
+        return None
+    binding.add_symbol(_ERF_SYMBOL, address)
     scipy_erf = numba.types.ExternalFunction(_ERF_SYMBOL,
                                              numba.types.float64(numba.types.float64))
 
