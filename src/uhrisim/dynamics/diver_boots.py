@@ -102,6 +102,23 @@ class BootsParams:
         return fb.Hydro(self.mass, volume, 1.0, self.vertical_drag_area, 1.0,
                         self.skeleton.body.hip_height)
 
+    @cached_property
+    def hip_lateral(self) -> dict[Side, float]:
+        """How far (m) each hip joint lies to starboard of the hip centre (worked out once:
+        asked several times a step)."""
+        sk = self.skeleton
+        return {side: sk.joints[sk.index(f"{side}_hip_flex")].pivot[1] for side in SIDES}
+
+    @cached_property
+    def leg_reach_span(self) -> tuple[float, float]:
+        """Hip-to-ankle distance (m) the legs keep standing and at the deepest crouch (the
+        knee's flexion limit less 5°), for :func:`leg_reach` (worked out once)."""
+        sk = self.skeleton
+        thigh, shank = sk.body.thigh, sk.body.shank
+        knee = sk.upper[sk.index("left_knee")] - math.radians(5.0)
+        deepest = math.sqrt(thigh ** 2 + shank ** 2 + 2.0 * thigh * shank * math.cos(knee))
+        return self.knee_reach * (thigh + shank), deepest
+
 
 @dataclass(frozen=True)
 class BootsState:
@@ -171,31 +188,17 @@ def sole_targets(state: BootsState, params: BootsParams, floor_depth: FloorDepth
     north, east = state.position[0], state.position[1]
     out = {}
     for side, (forward, lift) in foot_offsets(state, params).items():
-        lateral = _hip_lateral(params, side)
+        lateral = params.hip_lateral[side]
         x = north + forward * h0 + lateral * -h1  # (in numpy's order of operations)
         y = east + forward * h1 + lateral * h0
         out[side] = np.array([x, y, float(floor_depth(x, y)) - lift])
     return out
 
 
-def _hip_lateral(params: BootsParams, side: Side) -> float:
-    """How far (m) a hip joint lies to starboard of the hip centre."""
-    sk = params.skeleton
-    return sk.joints[sk.index(f"{side}_hip_flex")].pivot[1]
-
-
-def _leg_length(params: BootsParams) -> float:
-    return params.skeleton.body.thigh + params.skeleton.body.shank
-
-
 def leg_reach(params: BootsParams, crouch: float) -> float:
     """Hip-to-ankle distance (m) the legs keep: ``knee_reach`` of the straight leg when
     standing, down to the knee's flexion limit (less 5°) at ``crouch`` = 1."""
-    sk = params.skeleton
-    thigh, shank = sk.body.thigh, sk.body.shank
-    knee = sk.upper[sk.index("left_knee")] - math.radians(5.0)
-    deepest = math.sqrt(thigh ** 2 + shank ** 2 + 2.0 * thigh * shank * math.cos(knee))
-    standing = params.knee_reach * (thigh + shank)
+    standing, deepest = params.leg_reach_span
     return standing + (deepest - standing) * min(max(crouch, 0.0), 1.0)
 
 
@@ -207,11 +210,17 @@ def standing_hip_depth(state: BootsState, params: BootsParams, floor_depth: Floo
     across = (-math.sin(state.psi), math.cos(state.psi))
     depth = -math.inf
     for side, sole in sole_targets(state, params, floor_depth).items():
-        hip_y = _hip_lateral(params, side)
+        hip_y = params.hip_lateral[side]
         hip = (state.position[0] + hip_y * across[0], state.position[1] + hip_y * across[1])
-        horizontal = float(np.linalg.norm(np.array([sole[0] - hip[0], sole[1] - hip[1]])))
+        horizontal = _length(np.array([sole[0] - hip[0], sole[1] - hip[1]]))
         depth = max(depth, sole[2] - ankle_h - math.sqrt(reach * reach - horizontal ** 2))
     return depth
+
+
+def _length(v: NDArray[np.float64]) -> float:
+    """The length of a vector (m): ``np.linalg.norm``'s own arithmetic, the square root of
+    ``v . v``, without its checks (asked several times a step)."""
+    return math.sqrt(v.dot(v))
 
 
 def floor_slope_ahead(state: BootsState, floor_depth: FloorDepth, probe: float = 0.2) -> float:
@@ -256,7 +265,7 @@ def leg_angles(state: BootsState, params: BootsParams, floor_depth: FloorDepth, 
         hip = np.array(sk.joints[sk.index(f"{side}_hip_flex")].pivot)
         ankle = to_body @ (sole - np.asarray(state.position)) - [0.0, 0.0, sk.body.ankle_height]
         v = to_pelvis @ ankle - hip
-        d = min(float(np.linalg.norm(v)), thigh + shank)
+        d = min(_length(v), thigh + shank)
         knee = math.acos(max(-1.0, min(1.0, (d * d - thigh ** 2 - shank ** 2) /
                                        (2.0 * thigh * shank))))
         ux, uz = -shank * math.sin(knee), thigh + shank * math.cos(knee)
@@ -314,9 +323,9 @@ def step(state: BootsState, command: BootsCommand, params: BootsParams, dt: floa
         suit = max(suit - params.dump_lps * dt, 0.0)
     hydro = params.hydro
     gas = fb.gas_volume(suit, state.position[2])
-    x = np.array([*state.position, *state.velocity])
-    sole_floor = float(floor_depth(state.position[0], state.position[1]))
     if state.afloat or hydro.in_water_weight(gas) < 0.0:
+        x = np.array([*state.position, *state.velocity])
+        sole_floor = float(floor_depth(state.position[0], state.position[1]))
         if not state.afloat:
             notes.append("lift_off")
             h = _heading(state.psi)

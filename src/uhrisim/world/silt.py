@@ -49,15 +49,19 @@ grains 2650 kg/m³.
 
 from __future__ import annotations
 
+import importlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cache
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import erf
 
 from uhrisim.core.checks import require_positive
+from uhrisim.core.compiled import callable_compiled, jit, numba_module
 from uhrisim.core.errors import ConfigError
 from uhrisim.dynamics.free_body import GRAVITY, WATER_DENSITY
 
@@ -129,6 +133,9 @@ class SiltCloud:
     _origin: list[tuple[float, float]] = field(default_factory=list)
     _mass: list[NDArray[np.float64]] = field(default_factory=list)  # (K,) per puff
     _released_kg: float = 0.0
+    #: the floor under the puffs' centres the last time (they move only with a current)
+    _floor_under: tuple[bytes, NDArray[np.float64]] = field(
+        default=(b"", np.zeros(0)), repr=False, compare=False)
 
     def release(self, t: float, position_ned: ArrayLike, mass_kg: float | None = None) -> None:
         """A footfall at ``t`` (s) at ``position_ned`` (the floor under it is what counts):
@@ -205,7 +212,8 @@ class SiltCloud:
 
 
     def ray_integrals(self, origin_ned: ArrayLike, directions: ArrayLike, ends: ArrayLike,
-                      t: float, weights: ArrayLike, edges: ArrayLike | None = None
+                      t: float, weights: ArrayLike, edges: ArrayLike | None = None,
+                      compiled: bool = True
                       ) -> NDArray[np.float64] | tuple[NDArray, NDArray, NDArray]:
         """``∫ Σ_c w_c C_c ds`` along the rays from ``origin_ned`` along unit ``directions``
         (N, 3) up to ``ends`` (N,) m, in closed form, ``weights`` (K,) per class (per
@@ -216,7 +224,10 @@ class SiltCloud:
         along a ray the horizontal Gaussian is exp(-a (s - s*)² / 2σ²) exp(-r⊥² / 2σ²)
         (a = |d_h|², s* the closest approach, r⊥ its distance), whose integral over the
         stretch [s0, s1] the ray spends in the layer is a difference of error functions.
-        Puffs farther than 5σ from a ray are skipped (exp(-12.5) ~ 4e-6)."""
+        Puffs farther than 5σ from a ray are skipped (exp(-12.5) ~ 4e-6). With numba
+        installed and ``compiled``, the rays and puffs are walked in compiled loops
+        (:func:`_ray_windows`, :func:`_window_integrals`: the same numbers bit for bit; the
+        numpy path is their reference, ``UHRISIM_NUMBA=0``)."""
         o = np.asarray(origin_ned, dtype=float)
         d = np.atleast_2d(np.asarray(directions, dtype=float))
         end = np.broadcast_to(np.asarray(ends, dtype=float), (len(d),))
@@ -225,14 +236,21 @@ class SiltCloud:
         if not self._t0:
             return np.zeros(len(d)) if edges is None else empty
         centre, sigma, _, mass, top = self._state(t)
-        floor = np.asarray(self.floor_depth(centre[:, 0], centre[:, 1]), dtype=float)
+        key = centre.tobytes()
+        if key != self._floor_under[0]:
+            self._floor_under = (key, np.asarray(self.floor_depth(centre[:, 0], centre[:, 1]),
+                                                 dtype=float))
         live = np.flatnonzero((mass * top).sum(axis=1) > 0.0)
         centre, sigma, mass, top, floor = (centre[live], sigma[live], mass[live], top[live],
-                                           floor[live])
+                                           self._floor_under[1][live])
         # closest approach of every ray to every puff's axis, horizontally: (N, P)
-        a = np.maximum(d[:, 0] ** 2 + d[:, 1] ** 2, 1e-12)[:, None]
         rel = o[:2][None, :] - centre  # (P, 2)
         along = (d[:, :2] @ rel.T)  # (N, P): (o_h - c) . d_h
+        kernels = _compiled_ray_integrals() if compiled else None
+        if kernels is not None:
+            return _compiled_integrals(kernels, o, d, end, w, along, rel, sigma, mass, top,
+                                       floor, self.params.initial_height_m, edges)
+        a = np.maximum(d[:, 0] ** 2 + d[:, 1] ** 2, 1e-12)[:, None]
         s_star = -along / a
         r2 = np.maximum((rel ** 2).sum(axis=1)[None, :] - along ** 2 / a, 0.0)
         ray, puff = np.nonzero(r2 < (5.0 * sigma[None, :]) ** 2)
@@ -258,6 +276,8 @@ class SiltCloud:
             ray, puff, s_star, r2, a = (ray[useful], puff[useful], s_star[useful],
                                         r2[useful], a[useful])
             s0, s1, scale = s0[useful], s1[useful], scale[useful]
+        if not len(ray):  # (an empty bincount would be of integers)
+            return np.zeros(len(d)) if edges is None else empty
         # per unit length along the ray: mass / (2 pi sigma² H0) kg/m³ x Gaussian
         amplitude = (mass[puff] * w[None, :] / (2.0 * math.pi * sigma[puff, None] ** 2
                                                 * self.params.initial_height_m)
@@ -291,6 +311,186 @@ class SiltCloud:
         nonzero = total > 0.0
         return (cells[nonzero] // (len(e) - 1), cells[nonzero] % (len(e) - 1),
                 total[nonzero])
+
+
+def _compiled_integrals(kernels: tuple[Any, Any], o: NDArray, d: NDArray, end: NDArray,
+                        w: NDArray, along: NDArray, rel: NDArray, sigma: NDArray,
+                        mass: NDArray, top: NDArray, floor: NDArray,
+                        layer_m: float, edges: ArrayLike | None
+                        ) -> NDArray[np.float64] | tuple[NDArray, NDArray, NDArray]:
+    """:meth:`SiltCloud.ray_integrals` from ``along`` on (live puffs only) with the
+    compiled ``kernels``: the pairs' stretches in the layers, their Gaussians' peaks in
+    numpy (its ``exp`` may differ from libm's in the last bit), the error functions."""
+    windows, integrals = kernels
+    n_pairs, ray, puff, s_star, r2, scale, width, s0, s1 = windows(
+        o, np.ascontiguousarray(d), np.ascontiguousarray(end), np.ascontiguousarray(along),
+        (rel ** 2).sum(axis=1), (5.0 * sigma) ** 2, sigma, np.ascontiguousarray(top),
+        top.max(axis=1), floor, _ERF_SATURATES)
+    puff = puff[:n_pairs]
+    peak = np.exp(-0.5 * r2[:n_pairs] / sigma[puff] ** 2)
+    binned = edges is not None
+    result = integrals(len(d), ray[:n_pairs], puff, s_star, scale, width, s0, s1, peak,
+                       np.ascontiguousarray(mass), w, sigma, layer_m,
+                       np.asarray(edges, dtype=float) if binned else np.zeros(0), binned)
+    return result[1:] if binned else result[0]
+
+
+def _np_min(x: float, y: float) -> float:
+    """``np.minimum`` of two floats: NaN wins, the second of two equal values."""
+    return x if x < y or x != x else y
+
+
+def _np_max(x: float, y: float) -> float:
+    """``np.maximum`` of two floats: NaN wins, the second of two equal values."""
+    return x if x > y or x != x else y
+
+
+def _erf_of(x: float) -> float:
+    """scipy's ``erf`` of a float (compiled kernels call the same C function)."""
+    return float(erf(x))
+
+
+def _ray_windows(o, d, end, along, rel_sq, cutoff_sq, sigma, top, thickest, floor,  # type: ignore[no-untyped-def]
+                 saturates):
+    """The rays' and puffs' pairs :meth:`SiltCloud.ray_integrals` integrates over (compiled
+    by numba), in numpy's order (by ray, then puff): their count, ray, puff, closest
+    approach s*, r⊥², erf scale, sqrt(pi/2) σ / |d_h| and each class's stretch [s0, s1]
+    in its layer; the numpy path's operations in its order."""
+    n, p_count, k_count = d.shape[0], sigma.shape[0], top.shape[1]
+    size = n * p_count
+    ray, puff = np.empty(size, np.int64), np.empty(size, np.int64)
+    s_star, r2_of, scale_of, width_of = (np.empty(size), np.empty(size), np.empty(size),
+                                         np.empty(size))
+    s0_of, s1_of = np.empty((size, k_count)), np.empty((size, k_count))
+    m = 0
+    for i in range(n):
+        a = _np_max(d[i, 0] * d[i, 0] + d[i, 1] * d[i, 1], 1e-12)
+        dz = d[i, 2]
+        flat = abs(dz) < 1e-12
+        for p in range(p_count):
+            r2 = _np_max(rel_sq[p] - along[i, p] * along[i, p] / a, 0.0)
+            if not r2 < cutoff_sq[p]:
+                continue
+            closest = -along[i, p] / a
+            scale = math.sqrt(a) / (math.sqrt(2.0) * sigma[p])
+            reach = saturates / scale
+            # every class's stretch lies within [0, end], s* ± reach and (rounding being
+            # monotonic) the stretch in the thickest layer: none if that is empty
+            first, last = max(0.0, closest - reach), min(end[i], closest + reach)
+            hi_z = floor[p] - o[2]
+            s_b = hi_z / dz
+            if not flat:
+                s_thickest = ((floor[p] - thickest[p]) - o[2]) / dz
+                first = max(first, min(s_thickest, s_b))
+                last = min(last, max(s_thickest, s_b))
+            if not last > first:
+                continue
+            useful = False
+            for k in range(k_count):
+                lo_z = (floor[p] - top[p, k]) - o[2]
+                if flat:
+                    inside = lo_z <= 0.0 and hi_z >= 0.0
+                    s0 = 0.0 if inside else math.inf
+                    s1 = math.inf if inside else -math.inf
+                else:
+                    s_a = lo_z / dz
+                    s0, s1 = _np_min(s_a, s_b), _np_max(s_a, s_b)
+                s0_of[m, k] = _np_max(_np_max(s0, 0.0), closest - reach)
+                s1_of[m, k] = _np_min(_np_min(s1, end[i]), closest + reach)
+                useful = useful or s1_of[m, k] > s0_of[m, k]
+            if useful:
+                ray[m], puff[m], s_star[m], r2_of[m], scale_of[m] = i, p, closest, r2, scale
+                width_of[m] = math.sqrt(0.5 * math.pi) * sigma[p] / math.sqrt(a)
+                m += 1
+    return m, ray, puff, s_star, r2_of, scale_of, width_of, s0_of, s1_of
+
+
+def _window_integrals(n_rays, ray, puff, s_star, scale, width, s0, s1, peak, mass, w,  # type: ignore[no-untyped-def]
+                      sigma, layer_m, edges, binned):
+    """The integrals over the first ``len(ray)`` pairs of :func:`_ray_windows` (compiled by
+    numba), per ray or (``binned``) per nonzero range bin of ``edges``: (per ray, cells'
+    rays, bins, values), summed in the numpy path's order (pair by pair, class by class)."""
+    k_count = mass.shape[1]
+    bins = max(edges.shape[0] - 1, 1)
+    per_ray = np.zeros(n_rays)
+    size = n_rays * bins if binned else 0
+    cell_ray, cell_bin, cell_value = (np.empty(size, np.int64), np.empty(size, np.int64),
+                                      np.empty(size))
+    total = np.zeros(bins)
+    span = np.empty(k_count)
+    cells = 0
+    j = 0
+    while j < ray.shape[0]:
+        i = ray[j]
+        first_bin, last_bin = bins, 0
+        while j < ray.shape[0] and ray[j] == i:  # the ray's pairs, puff by puff
+            p = puff[j]
+            for k in range(k_count):
+                span[k] = width[j] * (mass[p, k] * w[k] / (2.0 * math.pi * (sigma[p] * sigma[p])
+                                                            * layer_m) * peak[j])
+            if not binned:
+                value = 0.0
+                for k in range(k_count):
+                    hi = _np_max(s1[j, k], s0[j, k])
+                    value += span[k] * (_erf_of((hi - s_star[j]) * scale[j])
+                                        - _erf_of((s0[j, k] - s_star[j]) * scale[j]))
+                per_ray[i] += value
+                j += 1
+                continue
+            first, last = s0[j, 0], s1[j, 0]
+            for k in range(1, k_count):
+                first, last = _np_min(first, s0[j, k]), _np_max(last, s1[j, k])
+            if last > first:
+                b0 = min(max(np.searchsorted(edges, first, side="right") - 1, 0), bins - 1)
+                b1 = min(max(np.searchsorted(edges, last, side="left"), 1), bins)
+                for b in range(b0, b1):
+                    value = 0.0
+                    for k in range(k_count):
+                        lo = _np_max(s0[j, k], edges[b])
+                        hi = _np_min(s1[j, k], edges[b + 1])
+                        value += span[k] * (_erf_of((_np_max(hi, lo) - s_star[j]) * scale[j])
+                                            - _erf_of((lo - s_star[j]) * scale[j]))
+                    total[b] += value
+                first_bin, last_bin = min(first_bin, b0), max(last_bin, b1)
+            j += 1
+        for b in range(first_bin, last_bin):  # the ray's cells, bin by bin
+            if total[b] > 0.0:
+                cell_ray[cells], cell_bin[cells], cell_value[cells] = i, b, total[b]
+                cells += 1
+            total[b] = 0.0
+    return per_ray, cell_ray[:cells], cell_bin[:cells], cell_value[:cells]
+
+
+#: the symbol by which compiled kernels call scipy's ``erf`` (``scipy.special.erf`` runs
+#: the same C function)
+_ERF_SYMBOL = "uhrisim_scipy_special_erf"
+
+
+@cache
+def _compiled_ray_integrals() -> tuple[Any, Any] | None:
+    """:func:`_ray_windows` and :func:`_window_integrals` compiled; None without numba (or
+    where scipy does not export its C ``erf`` for doubles)."""
+    numba = numba_module()
+    if numba is None:
+        return None
+    extending = importlib.import_module("numba.extending")
+    binding = importlib.import_module("llvmlite.binding")  # numba's own dependency
+    try:
+        address = extending.get_cython_function_address("scipy.special.cython_special",
+                                                        "__pyx_fuse_1erf")
+    except ValueError:
+        return None
+    binding.add_symbol(_ERF_SYMBOL, address)
+    scipy_erf = numba.types.ExternalFunction(_ERF_SYMBOL,
+                                             numba.types.float64(numba.types.float64))
+
+    @extending.overload(_erf_of)
+    def _erf_compiled(x):  # type: ignore[no-untyped-def]
+        return lambda x: scipy_erf(x)
+
+    callable_compiled(_np_min)
+    callable_compiled(_np_max)
+    return (jit(_ray_windows, numpy_errors=True), jit(_window_integrals, numpy_errors=True))
 
 
 @dataclass(frozen=True)
