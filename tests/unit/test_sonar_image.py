@@ -329,21 +329,26 @@ def test_row_runs_match_filtering_every_row(speckle: bool) -> None:
 
 
 @pytest.mark.parametrize("mode", ["physical", "2013"])
-def test_fan_images_formed_late_equal_formed_at_once(mode: str) -> None:
-    """The fan images are formed on first access: a ping whose fan is read only after the
-    sonar has pinged again (new speckle, shared scratch buffers reused) shows exactly the
-    images it would have shown at once."""
+def test_fan_images_and_hit_products_formed_late_equal_formed_at_once(mode: str) -> None:
+    """The fan images, the hit points and the cloud are formed on first access: a ping
+    whose fan and cloud are read only after the sonar has pinged again (new speckle,
+    shared scratch buffers reused) shows exactly what it would have shown at once."""
     caster = ThreeLabelCaster()
     cfg = small_cfg(mode=mode, colormap="jet")
     at_once = ImagingSonar(cfg, np.random.default_rng(3))
     late = ImagingSonar(cfg, np.random.default_rng(3))
+
+    def products(ping) -> list:
+        c = ping.cloud
+        return [ping.fan_u8, ping.label_fan, ping.fan_rgb, ping.hit_points_sonar,
+                ping.hit_points_ned, c.x, c.y, c.z, c.intensity]
+
     first = at_once.ping(caster, ORIGIN, LEVEL, 0.0)
-    images = (first.fan_u8.copy(), first.label_fan.copy(), first.fan_rgb.copy())
+    images = [a.copy() for a in products(first)]
     kept = late.ping(caster, ORIGIN, LEVEL, 0.0)
     later = late.ping(caster, ORIGIN + np.array([0.5, 0.2, 0.0]), LEVEL, 0.1)
     assert not np.array_equal(later.fan_u8, images[0])
-    for formed_late, formed_at_once in zip(
-        (kept.fan_u8, kept.label_fan, kept.fan_rgb), images, strict=True
-    ):
+    assert not np.array_equal(later.hit_points_ned, images[4])
+    for formed_late, formed_at_once in zip(products(kept), images, strict=True):
         np.testing.assert_array_equal(formed_late, formed_at_once)
     assert (images[1] == PLATE).any() and (images[1] == 2).any()
