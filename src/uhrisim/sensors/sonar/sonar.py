@@ -47,7 +47,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.sensors.sonar.cast import FanHits, RayCaster, cast_fan
+from uhrisim.sensors.sonar.cast import FanHits, RayCaster, cast_fan, own_fan_is_valid
 from uhrisim.sensors.sonar.cloud import SonarCloud, cloud_hits, sonar_cloud
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.echoes import MAX_FOOTPRINT_TAN, EchoAccumulator, footprint, ray_echo
@@ -191,7 +191,8 @@ class ImagingSonar:
         """
         p_s, R_s = self.sonar_pose(position_ned, rotation_body_to_ned)
         dirs = self.geometry.dirs_sonar @ R_s.T
-        hits = cast_fan(raycaster, p_s, dirs, self.cast_window_m, exclude)
+        hits = cast_fan(raycaster, p_s, dirs, self.cast_window_m, exclude,
+                        unit_rays=own_fan_is_valid(p_s, R_s))  # fmt: skip
         volume = None
         if medium is not None and self.config.mode == "physical":
             volume = self.volume_echoes(medium, p_s, dirs, hits[0], hits[1])
