@@ -26,8 +26,10 @@ from tests.support.analytic_sonar import (
 )
 from uhrisim.core.errors import ConfigError
 from uhrisim.sensors.sonar import ImagingSonar, SonarConfig, SonarSpec
+from uhrisim.sensors.sonar import sonar as sonar_module
 from uhrisim.sensors.sonar.config import ECHOES_ONLY
 from uhrisim.sensors.sonar.reference import reference_polar
+from uhrisim.world.paper_scenes import single_piling_scene
 
 
 def test_fast_path_matches_reference() -> None:
@@ -133,6 +135,38 @@ def test_mount_inside_geometry_is_rejected() -> None:
     with pytest.raises(ConfigError, match="inside geometry") as err:
         sonar.ping(AnalyticCaster(floor_z=4.01), ORIGIN, LEVEL, 0.0)
     assert err.value.where == "SonarConfig.mount_position_frd"
+
+
+def test_own_fan_goes_to_a_scene_caster_unchecked_only_when_valid(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A sonar's own fan skips a scene caster's ray checks when its origin is finite and
+    its rotation orthonormal (the checks would pass): the same ping as checked; a rotation
+    that is not one, or a NaN position, is refused as before, by the caster's checks."""
+    paper = single_piling_scene(12.0, 6.0, width=0.4)
+    caster = paper.scene.raycaster("embree")
+    pose = paper.sonar_poses["origin"]
+    cfg = SonarConfig(tilt_deg=10.0, mount_position_frd=(0.0, 0.0, 0.0), range_max_m=20.0,
+                      rays_per_beam=8, labels=True)  # fmt: skip
+    checked = []
+    cast = type(caster).cast
+    monkeypatch.setattr(type(caster), "cast", lambda self, *a, **k: (
+        checked.append(k.get("checked", True)), cast(self, *a, **k))[1])
+
+    def polar(p, R):
+        return ImagingSonar(cfg, np.random.default_rng(4)).ping(caster, p, R, 0.0)
+
+    unchecked = polar(pose.position_ned, pose.rotation)
+    monkeypatch.setattr(sonar_module, "own_fan_is_valid", lambda *_: False)
+    checked_ping = polar(pose.position_ned, pose.rotation)
+    assert checked == [False, True]
+    for name in ("polar", "label_polar", "hit_points_ned"):
+        np.testing.assert_array_equal(getattr(unchecked, name), getattr(checked_ping, name))
+    monkeypatch.undo()
+    with pytest.raises(ConfigError, match="unit vectors"):
+        polar(pose.position_ned, 1.001 * pose.rotation)
+    with pytest.raises(ConfigError, match="NaN"):
+        polar(np.full(3, np.nan), pose.rotation)
 
 
 def test_constructor_checks_types() -> None:
@@ -329,21 +363,26 @@ def test_row_runs_match_filtering_every_row(speckle: bool) -> None:
 
 
 @pytest.mark.parametrize("mode", ["physical", "2013"])
-def test_fan_images_formed_late_equal_formed_at_once(mode: str) -> None:
-    """The fan images are formed on first access: a ping whose fan is read only after the
-    sonar has pinged again (new speckle, shared scratch buffers reused) shows exactly the
-    images it would have shown at once."""
+def test_fan_images_and_hit_products_formed_late_equal_formed_at_once(mode: str) -> None:
+    """The fan images, the hit points and the cloud are formed on first access: a ping
+    whose fan and cloud are read only after the sonar has pinged again (new speckle,
+    shared scratch buffers reused) shows exactly what it would have shown at once."""
     caster = ThreeLabelCaster()
     cfg = small_cfg(mode=mode, colormap="jet")
     at_once = ImagingSonar(cfg, np.random.default_rng(3))
     late = ImagingSonar(cfg, np.random.default_rng(3))
+
+    def products(ping) -> list:
+        c = ping.cloud
+        return [ping.fan_u8, ping.label_fan, ping.fan_rgb, ping.hit_points_sonar,
+                ping.hit_points_ned, c.x, c.y, c.z, c.intensity]
+
     first = at_once.ping(caster, ORIGIN, LEVEL, 0.0)
-    images = (first.fan_u8.copy(), first.label_fan.copy(), first.fan_rgb.copy())
+    images = [a.copy() for a in products(first)]
     kept = late.ping(caster, ORIGIN, LEVEL, 0.0)
     later = late.ping(caster, ORIGIN + np.array([0.5, 0.2, 0.0]), LEVEL, 0.1)
     assert not np.array_equal(later.fan_u8, images[0])
-    for formed_late, formed_at_once in zip(
-        (kept.fan_u8, kept.label_fan, kept.fan_rgb), images, strict=True
-    ):
+    assert not np.array_equal(later.hit_points_ned, images[4])
+    for formed_late, formed_at_once in zip(products(kept), images, strict=True):
         np.testing.assert_array_equal(formed_late, formed_at_once)
     assert (images[1] == PLATE).any() and (images[1] == 2).any()

@@ -376,8 +376,9 @@ def test_compiled_echo_summing_gives_the_reference_bits(monkeypatch: pytest.Monk
     ``echoes.footprint_bins``: grazing and normal incidence, footprints across the window's
     ends, rays outside it) and their sum into the raw image (``_footprint_image_loops``
     against ``footprint_image``: inside one bin, across many, row counts not a multiple of
-    its four rows); and whole pings with labels and a surface ghost, formed once through
-    each."""
+    its four rows, cells at and below the floor zeroed), the row runs the footprints reach
+    (``_row_runs_loops`` against ``_row_runs``); and whole pings with labels and a surface
+    ghost, formed once through each."""
     compiled = echoes._compiled_kernels()
     if compiled is None:
         pytest.skip("numba is not installed (the reference path is the only one)")
@@ -403,12 +404,32 @@ def test_compiled_echo_summing_gives_the_reference_bits(monkeypatch: pytest.Monk
         beam = rng.integers(0, n_beams, m)
         r0 = int(lo.min())
         rows = int(hi.max()) + 1 - r0
-        want_image, got_image = (np.full((rows, n_beams), np.nan, np.float32) for _ in range(2))
-        diff_want, diff_got = np.zeros((2, (rows + 1) * n_beams))
-        echoes.footprint_image(a, b, lo, hi, dens, one, beam, r0, diff_want, want_image)
-        compiled[1](a, b, lo, hi, dens, one, beam, r0, diff_got, got_image)
-        np.testing.assert_array_equal(got_image, want_image)
-        assert not diff_got.any() and not diff_want.any()  # scratch left zeroed
+        unfloored = np.full((rows, n_beams), np.nan, np.float32)
+        echoes.footprint_image(a, b, lo, hi, dens, one, beam, r0, np.zeros((rows + 1) * n_beams),
+                               unfloored, np.float32(-np.inf))  # fmt: skip
+        # floors: float32's tiny, and a value of the image itself (a cell at the floor is
+        # zeroed: only cells above it are kept, as OpenCV's THRESH_TOZERO keeps them)
+        for floor in (np.float32(np.finfo(np.float32).tiny),
+                      np.float32(np.median(unfloored[unfloored > 0]))):
+            want_image, got_image = (np.full((rows, n_beams), np.nan, np.float32)
+                                     for _ in range(2))  # fmt: skip
+            diff_want, diff_got = np.zeros((2, (rows + 1) * n_beams))
+            echoes.footprint_image(a, b, lo, hi, dens, one, beam, r0, diff_want, want_image,
+                                   floor)  # fmt: skip
+            compiled[1](a, b, lo, hi, dens, one, beam, r0, diff_got, got_image, floor)
+            np.testing.assert_array_equal(got_image, want_image)
+            assert not diff_got.any() and not diff_want.any()  # scratch left zeroed
+        assert (want_image == 0).any() and (want_image > 0).any()
+
+    # the row runs the footprints reach: scattered, touching both ends, none
+    for n_bins, m, pad, gap in ((50, 6, 1, 3), (400, 40, 2, 16), (30, 200, 0, 0), (10, 0, 1, 1)):
+        lo = rng.integers(0, n_bins, m)
+        hi = np.minimum(lo + rng.integers(0, 4, m), n_bins - 1)
+        if m:
+            lo[0], hi[-1] = 0, n_bins - 1
+        reach = np.bincount(lo, minlength=n_bins + 1) - np.bincount(hi + 1, minlength=n_bins + 1)
+        want_runs = echoes._row_runs(np.cumsum(reach[:n_bins]) > 0, pad, gap)
+        assert compiled[2](lo, hi, n_bins, pad, gap).tolist() == [list(r) for r in want_runs]
 
     caster = AnalyticCaster()
 

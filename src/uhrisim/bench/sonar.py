@@ -74,7 +74,9 @@ def _rss_mib() -> float:
 
 def full_ping(sonar: ImagingSonar, rc, position_ned, rotation, t: float) -> object:
     """One ping with every image formed: the fan images are formed on first access, and
-    the pipeline measured here (rays → polar → fan) includes them."""
+    the pipeline measured here (rays → polar → fan) includes them. The hit points and the
+    cloud, also formed on first access, are not images and not read here (their cost on
+    access: ``hit_points_and_cloud_on_access`` in the split)."""
     ping = sonar.ping(rc, position_ned, rotation, t)
     ping.fan_u8  # noqa: B018 (forms fan_u8, label_fan and fan_rgb)
     return ping
@@ -87,8 +89,9 @@ def _stage_ms(sonar: ImagingSonar, rc, position_ned, rotation, quick: bool) -> d
     window picked, the echo accumulation, the image stages (:mod:`uhrisim.sensors.sonar.polar`:
     speckle window, diffuse terms, beam and pulse patterns, TVG, log compression), the
     8-bit display curve and the scan conversion to the fan; the rest (surface
-    reverberation, hit points, cloud, the ping's record) is the whole less those. Also a
-    colour map (``jet``, off by default) timed alone."""
+    reverberation, the ping's record) is the whole less those. Also what reading the hit
+    points and the cloud of a ping costs (formed on first access) and a colour map
+    (``jet``, off by default), each timed alone."""
     stopwatches = {
         "ray_cast": (rc, "cast"),
         "cast_and_hit_picking": (sonar_module, "cast_fan"),
@@ -117,6 +120,13 @@ def _stage_ms(sonar: ImagingSonar, rc, position_ned, rotation, quick: bool) -> d
     ms["hit_picking"] = ms.pop("cast_and_hit_picking") - ms["ray_cast"]
     ms["rest_of_ping"] = max(whole - sum(ms.values()), 0.0)
     ms["whole_ping_with_fan"] = whole
+    on_access = 0.0
+    for _ in range(pings):
+        ping = sonar.ping(rc, position_ned, rotation, 0.0)
+        cpu = time.process_time()
+        ping.cloud  # noqa: B018 (forms the hit points and the cloud)
+        on_access += time.process_time() - cpu
+    ms["hit_points_and_cloud_on_access"] = on_access / pings * 1e3
     fan = sonar.ping(rc, position_ned, rotation, 0.0).fan_u8
     mask = sonar.geometry.fan_mask_u8
     repeats, min_time = (2, 0.02) if quick else (20, 1.0)

@@ -21,6 +21,10 @@ from uhrisim.core.frames import row_dots
 #: :data:`INSIDE_GEOMETRY_RANGE_M`: the sonar sits inside (or flush against) geometry.
 INSIDE_GEOMETRY_FRACTION = 0.5
 INSIDE_GEOMETRY_RANGE_M = 0.02
+#: Largest departure of R·Rᵀ from the identity (each entry) for which a rotated unit fan
+#: passes a ray caster's unit-length check (its 2e-5 on |d|² − 1) unchecked.
+ROTATION_TOL = 2e-6
+_IDENTITY3 = np.eye(3)
 
 
 class RayCaster(Protocol):
@@ -56,9 +60,13 @@ def cast_fan(
     dirs_ned: NDArray[np.float64],
     window_m: tuple[float, float],
     exclude: frozenset[str] = frozenset(),
+    unit_rays: bool = False,
 ) -> FanHits:
     """Cast the rays ``dirs_ned`` (N, 3) from ``origin_ned`` (3,) and keep the hits with
     slant range in ``window_m`` = [near, far) (m); bodies named in ``exclude`` are not seen.
+    ``unit_rays``: the caller made the rays valid (a finite float64 origin, C-contiguous
+    float64 unit directions: a sonar's own fan, :func:`own_fan_is_valid`); a scene's ray
+    caster (:class:`uhrisim.world.raycast.RayCaster`) then skips its checks of them.
 
     Raises ConfigError (naming ``SonarConfig.mount_position_frd``) if the origin is inside
     the caster's scene geometry or more than :data:`INSIDE_GEOMETRY_FRACTION` of the rays
@@ -70,7 +78,12 @@ def cast_fan(
             f"sonar at NED {np.round(origin_ned, 3).tolist()} is inside geometry ({inside})",
             where="SonarConfig.mount_position_frd",
         )
-    hits = raycaster.cast(origin_ned, dirs_ned, window_m[1], exclude=exclude)  # one shared origin
+    from uhrisim.world.raycast import RayCaster as SceneRayCaster
+
+    if unit_rays and isinstance(raycaster, SceneRayCaster):  # one shared origin
+        hits = raycaster.cast(origin_ned, dirs_ned, window_m[1], exclude=exclude, checked=False)
+    else:
+        hits = raycaster.cast(origin_ned, dirs_ned, window_m[1], exclude=exclude)
     distance = np.asarray(hits.distance, dtype=np.float64)
     near = np.count_nonzero(distance < INSIDE_GEOMETRY_RANGE_M)
     if near > INSIDE_GEOMETRY_FRACTION * distance.size:
@@ -80,6 +93,17 @@ def cast_fan(
             where="SonarConfig.mount_position_frd",
         )
     return fan_hits(distance, hits.normal, hits.reflectivity, hits.label, dirs_ned, window_m)
+
+
+def own_fan_is_valid(origin_ned: NDArray[np.float64],
+                     rotation_ned_from_sonar: NDArray[np.float64]) -> bool:
+    """Whether a sonar's fan, its unit directions turned by ``rotation_ned_from_sonar``,
+    from ``origin_ned``, passes a ray caster's checks (finite origin, directions of unit
+    length within 1e-5): the origin is finite and the rotation orthonormal within
+    :data:`ROTATION_TOL` (then |R·d|² − 1 stays within 9·ROTATION_TOL)."""
+    gram = rotation_ned_from_sonar @ rotation_ned_from_sonar.T
+    np.subtract(gram, _IDENTITY3, out=gram)
+    return bool(np.isfinite(origin_ned).all() and np.abs(gram).max() <= ROTATION_TOL)
 
 
 def fan_hits(

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from uhrisim.core.compiled import jit
+from uhrisim.core.compiled import jit, jit_with
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.geometry import SonarGeometry
 from uhrisim.sensors.sonar.labels import CellLabeller, unlabelled
@@ -28,6 +28,8 @@ from uhrisim.sensors.sonar.labels import CellLabeller, unlabelled
 #: Cap on tan β when spreading a ray's echo over its range footprint (β ≈ 85°).
 MAX_FOOTPRINT_TAN = 12.0
 
+#: The smallest positive normal float32 (the raw image's zero floor adds it).
+_FLOAT32_TINY = float(np.finfo(np.float32).tiny)
 #: Echo-free row gaps shorter than this (range bins) are filtered with their neighbours
 #: rather than split into a separate OpenCV call (exact either way; fewer calls).
 _ROW_RUN_MERGE_GAP = 16
@@ -81,10 +83,12 @@ def _row_runs(cover: NDArray[np.bool_], pad: int, gap: int) -> list[tuple[int, i
 def footprint_image(a: NDArray[np.float64], b: NDArray[np.float64], lo: NDArray[np.int64],
                     hi: NDArray[np.int64], dens: NDArray[np.float64], one: NDArray[np.float64],
                     beam: NDArray[np.int64], r0: int, diff: NDArray[np.float64],
-                    out: NDArray[np.float32], integ: NDArray[np.float64] | None = None) -> None:
+                    out: NDArray[np.float32], floor: np.float32,
+                    integ: NDArray[np.float64] | None = None) -> None:
     """Footprints [a, b) (fractional bins; first and last bin ``lo``, ``hi``; echo per bin
     ``dens``; ``one``: the echo of a footprint inside one bin) of rays in beams ``beam``
-    summed into ``out``, rows ``r0`` … of the raw image (rows, beams; float32).
+    summed into ``out``, rows ``r0`` … of the raw image (rows, beams; float32); every
+    cell not above ``floor`` then zeroed (OpenCV's THRESH_TOZERO, a float32 comparison).
 
     Each footprint becomes four steps along range of a difference image: its first bin
     gets its overlap w_first, the bins between the density each, its last bin its overlap
@@ -109,15 +113,17 @@ def footprint_image(a: NDArray[np.float64], b: NDArray[np.float64], lo: NDArray[
                          sdepth=cv2.CV_64F)  # fmt: skip
     diff.fill(0.0)
     cv2.subtract(integ[1:-1, 1:], integ[1:-1, :-1], dst=out, dtype=cv2.CV_32F)
+    cv2.threshold(out, float(floor), 0.0, cv2.THRESH_TOZERO, dst=out)
 
 
-def _footprint_image_loops(a, b, lo, hi, dens, one, beam, r0, diff, out):  # type: ignore[no-untyped-def]
+def _footprint_image_loops(a, b, lo, hi, dens, one, beam, r0, diff, out, floor):  # type: ignore[no-untyped-def]
     """:func:`footprint_image` as loops for numba: the same float64 operations in the same
     order (the four steps of every footprint, in the same order; OpenCV's integral image:
     a running sum s along each row, each row's integral the row above plus s; then float32
-    of neighbouring columns' difference), without the step arrays or the integral image in
-    memory; each scratch row zeroed as it is read. Four rows at a time, their running sums
-    side by side (the same operations, in an order the processor can overlap)."""
+    of neighbouring columns' difference, zeroed unless above ``floor``), without the step
+    arrays or the integral image in memory; each scratch row zeroed as it is read. Four
+    rows at a time, their running sums side by side (the same operations, in an order the
+    processor can overlap)."""
     n_rows, n_beams = out.shape
     m = a.shape[0]
     for step in range(4):
@@ -151,10 +157,10 @@ def _footprint_image_loops(a, b, lo, hi, dens, one, beam, r0, diff, out):  # typ
                 n1 = n0 + s1
                 n2 = n1 + s2
                 n3 = n2 + s3
-                out[i, x] = n0 - v0
-                out[i + 1, x] = n1 - v1
-                out[i + 2, x] = n2 - v2
-                out[i + 3, x] = n3 - v3
+                out[i, x] = _above_or_zero(n0 - v0, floor)
+                out[i + 1, x] = _above_or_zero(n1 - v1, floor)
+                out[i + 2, x] = _above_or_zero(n2 - v2, floor)
+                out[i + 3, x] = _above_or_zero(n3 - v3, floor)
                 v0, v1, v2, v3 = n0, n1, n2, n3
                 above[x + 1] = n3
             i += 4
@@ -165,11 +171,44 @@ def _footprint_image_loops(a, b, lo, hi, dens, one, beam, r0, diff, out):  # typ
                 s0 += diff[b0 + x]
                 diff[b0 + x] = 0.0
                 n0 = above[x + 1] + s0
-                out[i, x] = n0 - v0
+                out[i, x] = _above_or_zero(n0 - v0, floor)
                 v0 = n0
                 above[x + 1] = n0
             i += 1
     diff[n_rows * n_beams :] = 0.0  # the last row: steps past the image's end
+
+
+def _above_or_zero(value, floor):  # type: ignore[no-untyped-def]
+    """``value`` as float32 where above ``floor`` (float32), else 0 (THRESH_TOZERO's)."""
+    v = np.float32(value)
+    return v if v > floor else np.float32(0.0)
+
+
+def _row_runs_loops(lo, hi, n_bins, pad, gap):  # type: ignore[no-untyped-def]
+    """:func:`_row_runs` of the range bins the footprints [``lo``, ``hi``] reach, as
+    loops for numba: (k, 2) rows [start, stop)."""
+    reach = np.zeros(n_bins + 1, np.int64)  # footprints open at a bin, less those closed
+    for k in range(lo.shape[0]):
+        reach[lo[k]] += 1
+        reach[hi[k] + 1] -= 1
+    runs = np.empty((n_bins, 2), np.int64)
+    n_runs = 0
+    depth = 0
+    first = last = -1  # the current run's first and last covered bin
+    for i in range(n_bins):
+        depth += reach[i]
+        if depth > 0:
+            if last >= 0 and i - last > 2 * pad + gap:
+                runs[n_runs, 0], runs[n_runs, 1] = max(first - pad, 0), min(last + pad + 1, n_bins)
+                n_runs += 1
+                last = -1
+            if last < 0:
+                first = i
+            last = i
+    if last >= 0:
+        runs[n_runs, 0], runs[n_runs, 1] = max(first - pad, 0), min(last + pad + 1, n_bins)
+        n_runs += 1
+    return runs[:n_runs]
 
 
 def footprint_bins(r: NDArray[np.float64], cos_inc: NDArray[np.float64],
@@ -230,10 +269,12 @@ def _footprint_bins_loops(r, cos_inc, e, per_bin, range_min_m, bin_m, n_bins):  
 
 @cache
 def _compiled_kernels():  # type: ignore[no-untyped-def]
-    """(:func:`_footprint_bins_loops`, :func:`_footprint_image_loops`) compiled (numba), or
-    None without numba."""
-    bins, image = jit(_footprint_bins_loops), jit(_footprint_image_loops)
-    return None if bins is None else (bins, image)
+    """(:func:`_footprint_bins_loops`, :func:`_footprint_image_loops`,
+    :func:`_row_runs_loops`) compiled (numba), or None without numba."""
+    bins, image, runs = (jit(_footprint_bins_loops),
+                         jit_with(_footprint_image_loops, (_above_or_zero,)),
+                         jit(_row_runs_loops))  # fmt: skip
+    return None if bins is None else (bins, image, runs)
 
 
 class EchoAccumulator:
@@ -311,21 +352,23 @@ class EchoAccumulator:
         # Summed into the zeroed scratch (a fresh megabyte-sized array per ping would cost
         # page faults), which is zeroed again once read.
         diff = self._diff[: (r1 - r0 + 1) * n_beams]
-        if compiled is not None:
-            compiled[1](a, b, lo, hi, dens, one, beam, r0, diff, slab)
-        else:
-            footprint_image(a, b, lo, hi, dens, one, beam, r0, diff, slab, self._integ)
         # Round-off of the integral image (~1e-16 of a row sum, itself ≤ the ping's total
         # echo) must not count as echo (it would label shadows): zero everything below
         # 1e-12 of the total echo (−120 dB: far below any noise floor).
-        tiny = 1e-12 * float(e.sum()) + float(np.finfo(np.float32).tiny)
-        cv2.threshold(slab, tiny, 0.0, cv2.THRESH_TOZERO, dst=slab)
+        floor = np.float32(1e-12 * float(e.sum()) + _FLOAT32_TINY)
+        pad = g.range_kernel.size // 2
+        if compiled is not None:
+            compiled[1](a, b, lo, hi, dens, one, beam, r0, diff, slab, floor)
+            rows = [(int(start), int(stop))
+                    for start, stop in compiled[2](lo, hi, n_bins, pad, _ROW_RUN_MERGE_GAP)]
+        else:
+            footprint_image(a, b, lo, hi, dens, one, beam, r0, diff, slab, floor, self._integ)
+            # Range bins some footprint reaches (a difference count over [lo, hi]).
+            reach = (np.bincount(lo, minlength=n_bins + 1)
+                     - np.bincount(hi + 1, minlength=n_bins + 1))  # fmt: skip
+            rows = _row_runs(np.cumsum(reach[:n_bins]) > 0, pad, _ROW_RUN_MERGE_GAP)
         if labels is not None:
             self._labeller.label(raw, label_polar, labels, a, b, lo, hi, dens, one, beam)
-        # Range bins some footprint reaches (a difference count over [lo, hi]).
-        reach = np.bincount(lo, minlength=n_bins + 1) - np.bincount(hi + 1, minlength=n_bins + 1)
-        cover = np.cumsum(reach[:n_bins]) > 0
-        rows = _row_runs(cover, g.range_kernel.size // 2, _ROW_RUN_MERGE_GAP)
         return raw, label_polar, rows
 
     def _zero_outside(self, start: int, stop: int) -> None:

@@ -75,7 +75,9 @@ class SonarPing:
         cloud: the paper's ``sonar_cloud`` with intensities.
         hit_points_sonar, hit_points_ned: (M, 3) hit points of the rays that hit inside the
             window, sonar frame and NED, m.
-        hit_labels: (M,) int32 scene labels of those hits.
+        form_hit_products: forms (cloud, hit_points_sonar, hit_points_ned), on first
+            access of any of them (most consumers read only the images).
+        hit_labels: (M,) int32 scene labels of the hits inside the window.
         mode: ``"physical"`` or ``"2013"``.
         info: the sonar that made it (:class:`SonarInfo`).
     """
@@ -90,12 +92,10 @@ class SonarPing:
     fan_px_per_m: float
     fan_apex_px: tuple[float, float]
     label_polar: NDArray[np.int16]
-    cloud: SonarCloud
-    hit_points_sonar: NDArray[np.float64]
-    hit_points_ned: NDArray[np.float64]
     hit_labels: NDArray[np.int32]
     info: SonarInfo
     form_fan_images: Callable[[], tuple[Any, Any, Any]] = field(repr=False, compare=False)
+    form_hit_products: Callable[[], tuple[Any, Any, Any]] = field(repr=False, compare=False)
     mode: str = "physical"
     fan_layout: str = "bottom-centre"
     fan_half_fov_rad: float = 0.0
@@ -119,6 +119,25 @@ class SonarPing:
         """Colour-mapped ``fan_u8`` (H, W, 3) BGR when ``config.colormap`` is set;
         formed on first access."""
         return self._fan_images[2]
+
+    @cached_property
+    def _hit_products(self) -> tuple[SonarCloud, NDArray[np.float64], NDArray[np.float64]]:
+        return self.form_hit_products()
+
+    @property
+    def cloud(self) -> SonarCloud:
+        """The paper's ``sonar_cloud`` with intensities; formed on first access."""
+        return self._hit_products[0]
+
+    @property
+    def hit_points_sonar(self) -> NDArray[np.float64]:
+        """(M, 3) hit points inside the window, sonar frame, m; formed on first access."""
+        return self._hit_products[1]
+
+    @property
+    def hit_points_ned(self) -> NDArray[np.float64]:
+        """(M, 3) hit points inside the window, NED, m; formed on first access."""
+        return self._hit_products[2]
 
     def fan_pixels_to_sonar(self, px: NDArray[np.float64]) -> NDArray[np.float64]:
         """Sonar-frame points (N, 3), metres, for fan pixel coordinates ``px`` (N, 2) as

@@ -39,6 +39,7 @@ and the point cloud); :mod:`.ping` holds what a ping produces.
 from __future__ import annotations
 
 import math
+from functools import cache
 from typing import Protocol
 
 import cv2
@@ -46,8 +47,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.sensors.sonar.cast import FanHits, RayCaster, cast_fan
-from uhrisim.sensors.sonar.cloud import cloud_hits, sonar_cloud
+from uhrisim.sensors.sonar.cast import FanHits, RayCaster, cast_fan, own_fan_is_valid
+from uhrisim.sensors.sonar.cloud import SonarCloud, cloud_hits, sonar_cloud
 from uhrisim.sensors.sonar.config import SonarConfig
 from uhrisim.sensors.sonar.echoes import MAX_FOOTPRINT_TAN, EchoAccumulator, footprint, ray_echo
 from uhrisim.sensors.sonar.fan import color_fan, fan_image, image_2013
@@ -190,7 +191,8 @@ class ImagingSonar:
         """
         p_s, R_s = self.sonar_pose(position_ned, rotation_body_to_ned)
         dirs = self.geometry.dirs_sonar @ R_s.T
-        hits = cast_fan(raycaster, p_s, dirs, self.cast_window_m, exclude)
+        hits = cast_fan(raycaster, p_s, dirs, self.cast_window_m, exclude,
+                        unit_rays=own_fan_is_valid(p_s, R_s))  # fmt: skip
         volume = None
         if medium is not None and self.config.mode == "physical":
             volume = self.volume_echoes(medium, p_s, dirs, hits[0], hits[1])
@@ -259,7 +261,8 @@ class ImagingSonar:
         ranges ``r`` (m, inside the window) with |cos incidence| ``cos_inc``, Lambert μ
         ``mu`` and scene ``labels``; ``volume``: echoes of volume scatterers as (bins,
         beams, echoes) (:meth:`volume_echoes`). Pure apart from drawing speckle from
-        ``self.rng``."""
+        ``self.rng``. The ping keeps these arrays and forms its fan images, hit points and
+        cloud from them on first access: they must not change afterwards."""
         g = self.geometry
         cfg = self.config
         n_bins, n_beams = self.polar_shape
@@ -273,35 +276,38 @@ class ImagingSonar:
         win = (r >= cfg.range_min_m) & (r < cfg.range_max_m)
         if not win.all():
             idx, r, e, labels = idx[win], r[win], e[win], labels[win]
-        bins = ((r - cfg.range_min_m) / cfg.bin_m).astype(np.int64)
-        np.clip(bins, 0, n_bins - 1, out=bins)
-        if cfg.mode != "physical":
+        if cfg.mode == "physical":
+            polar_u8 = display_bytes(polar, cfg.display_gamma, cfg.black_level)
+        else:
             # 2013 mode: occupancy of the cell each ray's hit falls in; its label.
-            cell = bins * n_beams + g.ray_beam[idx]
+            cell = self._hit_bins(r) * n_beams + g.ray_beam[idx]
             label_polar = np.full(n_cells, -1, dtype=np.int16)
             label_polar[cell] = labels  # no intensities: any hit of the cell will do
             label_polar = label_polar.reshape(n_bins, n_beams)
             polar = np.zeros((n_bins, n_beams), dtype=np.float32)
             polar.reshape(-1)[cell] = 1.0
-        if cfg.mode == "physical":
-            polar_u8 = display_bytes(polar, cfg.display_gamma, cfg.black_level)
-        else:
             polar_u8 = cv2.convertScaleAbs(polar, alpha=255.0)
 
-        # Ray-level echo on the display scale, for the cloud's intensity.
-        ray_disp = np.zeros(self.n_rays, dtype=np.float32)
-        if idx.size:
-            lvl = e * g.signal_gain[bins, 0]
-            ray_disp[idx] = np.clip(
-                1.0 + np.log10(np.maximum(lvl, 1e-30)) * (10.0 / cfg.dynamic_range_db), 0.0, 1.0
-            )
+        @cache
+        def hit_columns() -> NDArray[np.float64]:
+            """The hit points in the sonar frame as (3, M) columns (cheap to gather and
+            rotate; the ping keeps the (M, 3) transposed views)."""
+            return np.take(g.dirs_sonar_cols, idx, axis=1) * r
 
-        # Hit points as (3, M) columns (cheap to gather and rotate); the ping keeps the
-        # (M, 3) transposed views.
-        cols_sonar = np.take(g.dirs_sonar_cols, idx, axis=1) * r
-        pts_sonar = cols_sonar.T
-        pts_ned = (rotation_ned_from_sonar @ cols_sonar + np.reshape(position_ned, (3, 1))).T
-        cloud = sonar_cloud(g, cfg, idx, cols_sonar, ray_disp)
+        def hit_products() -> tuple[SonarCloud, NDArray[np.float64], NDArray[np.float64]]:
+            """(cloud, hit points sonar frame, hit points NED) of this ping (formed on
+            first access)."""
+            # Ray-level echo on the display scale, for the cloud's intensity.
+            ray_disp = np.zeros(self.n_rays, dtype=np.float32)
+            if idx.size:
+                lvl = e * g.signal_gain[self._hit_bins(r), 0]
+                ray_disp[idx] = np.clip(
+                    1.0 + np.log10(np.maximum(lvl, 1e-30)) * (10.0 / cfg.dynamic_range_db),
+                    0.0, 1.0)  # fmt: skip
+            cols_sonar = hit_columns()
+            pts_ned = (rotation_ned_from_sonar @ cols_sonar
+                       + np.reshape(position_ned, (3, 1))).T  # fmt: skip
+            return sonar_cloud(g, cfg, idx, cols_sonar, ray_disp), cols_sonar.T, pts_ned
 
         if cfg.mode == "physical":
             scale, apex = g.fan_scale, g.fan_apex
@@ -313,11 +319,12 @@ class ImagingSonar:
             if cfg.mode == "physical":
                 fan = fan_image(polar_u8, g.map_x, g.map_y)
                 if cfg.labels:
-                    label_fan = self._fan_labels.label_fan(label_polar, cols_sonar, e, labels)
+                    label_fan = self._fan_labels.label_fan(label_polar, hit_columns(), e,
+                                                           labels)  # fmt: skip
                 else:
                     label_fan = self._unlabelled_fan
             else:
-                fan, label_fan, _ = image_2013(pts_sonar, labels, cfg)
+                fan, label_fan, _ = image_2013(hit_columns().T, labels, cfg)
             fan_rgb = None
             if cfg.colormap is not None:
                 mask = g.fan_mask_u8 if cfg.mode == "physical" else None
@@ -335,16 +342,21 @@ class ImagingSonar:
             fan_px_per_m=float(scale),
             fan_apex_px=(float(apex[0]), float(apex[1])),
             label_polar=label_polar,
-            cloud=cloud,
-            hit_points_sonar=pts_sonar,
-            hit_points_ned=pts_ned,
             hit_labels=labels,
             info=self.info,
             form_fan_images=fan_images,
+            form_hit_products=hit_products,
             mode=cfg.mode,
             fan_layout="bottom-centre" if cfg.mode == "physical" else cfg.layout_2013,
             fan_half_fov_rad=math.radians(cfg.sonar_spec.fov_h_deg) / 2.0,
         )
+
+    def _hit_bins(self, r: NDArray[np.float64]) -> NDArray[np.int64]:
+        """Range bin of hits at slant ranges ``r`` (m, inside the window)."""
+        cfg = self.config
+        bins = ((r - cfg.range_min_m) / cfg.bin_m).astype(np.int64)
+        np.clip(bins, 0, cfg.n_bins - 1, out=bins)
+        return bins
 
     def polar_bytes(self, position_ned: NDArray[np.float64],
                     rotation_ned_from_sonar: NDArray[np.float64], hits: FanHits
