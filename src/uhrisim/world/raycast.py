@@ -251,6 +251,30 @@ def _compiled_refine_rows():  # type: ignore[no-untyped-def]
     return jit(_refine_rows, numpy_errors=True)
 
 
+#: :func:`_embree_rays`' shift for geometry that is not shifted
+_NO_SHIFT = np.zeros(3)
+
+
+def _embree_rays(o, d, limit, shift, o32, d32, far):  # type: ignore[no-untyped-def]
+    """What :meth:`_EmbreeMesh.intersect` hands Embree, in one compiled pass (numba): the
+    float32 rows of the origins less ``shift`` (``o`` (N, 3), or (1, 3) shared) into
+    ``o32``, of the directions ``d`` (N, 3) into ``d32``, and each ray's far end, its
+    ``limit`` ((1,) or (N,) m) padded by 1e-6 relative and absolute (at most
+    ``_EMBREE_FAR``), into ``far``: numpy's operations, the same bits."""
+    for i in range(d.shape[0]):
+        row = 0 if o.shape[0] == 1 else i
+        for k in range(3):
+            o32[i, k] = np.float32(o[row, k] - shift[k])
+            d32[i, k] = np.float32(d[i, k])
+        padded = limit[0 if limit.shape[0] == 1 else i] * (1.0 + 1e-6) + 1e-6
+        far[i] = np.float32(padded if padded < _EMBREE_FAR else _EMBREE_FAR)
+
+
+@cache
+def _compiled_embree_rays():  # type: ignore[no-untyped-def]
+    return jit(_embree_rays)
+
+
 def _face_to_ray(normal: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
     """Flip rows of ``normal`` that point along ``d`` so they face the ray origin."""
     s = np.einsum("ij,ij->i", normal, d)
@@ -521,16 +545,22 @@ class _EmbreeMesh:
         turned to face the ray origin, zero on a miss).
         """
         n = len(d)
-        o32 = (o - self.shift if self.shift is not None else o).astype(np.float32)
-        if o32.ndim == 1:  # one shared origin: Embree still wants one row per ray (a view)
-            o32 = np.broadcast_to(o32, (n, 3))
-        d32 = d.astype(np.float32)
-        if np.ndim(tfar) == 0:
-            lim = float(tfar)
-            far = np.full(n, min(lim * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR), dtype=np.float32)
+        lim = float(tfar) if np.ndim(tfar) == 0 else np.asarray(tfar)
+        compiled = _compiled_embree_rays()
+        if compiled is not None:  # the same float32 rows in one pass
+            o32, d32 = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
+            far = np.empty(n, np.float32)
+            compiled(o.reshape(-1, 3), d, np.reshape(lim, -1),
+                     _NO_SHIFT if self.shift is None else self.shift, o32, d32, far)
         else:
-            lim = np.asarray(tfar)
-            far = np.minimum(lim * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR).astype(np.float32)
+            o32 = (o - self.shift if self.shift is not None else o).astype(np.float32)
+            if o32.ndim == 1:  # one shared origin: Embree still wants one row per ray (a view)
+                o32 = np.broadcast_to(o32, (n, 3))
+            d32 = d.astype(np.float32)
+            if np.ndim(lim) == 0:
+                far = np.full(n, min(lim * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR), dtype=np.float32)
+            else:
+                far = np.minimum(lim * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR).astype(np.float32)
         if pool is not None and threads > 1 and n >= _MIN_RAYS_PER_THREAD * 2:
             # Embree queries are thread-safe and embreex releases the GIL while tracing.
             cuts = np.linspace(0, n, threads + 1).astype(int)
@@ -650,8 +680,9 @@ class _BodyBVH:
         normal = np.zeros((n, 3))
         centres = np.einsum("gij,gj->gi", rots, self.centres) + trans
         show = np.ones(len(self.groups), bool) if shown is None else shown
-        select = _compiled_group_rays()
+        select, select_hits = _compiled_group_rays(), _compiled_group_hits()
         if select is not None:  # every group's rays in one compiled pass
+            found = np.empty(n, dtype=np.int64)
             chosen = np.empty(len(self.groups) * n, dtype=np.int64)
             counts = np.zeros(len(self.groups), dtype=np.int64)
             select(o.reshape(-1, 3), d, bound, centres, self.radii, rots, trans,
@@ -673,11 +704,13 @@ class _BodyBVH:
             f, t, nrm = mesh.intersect(
                 o_local if o_local.ndim == 1 else o_local[sel], d_cols.T, bound[sel]
             )
-            hit = np.flatnonzero(f >= 0)
-            rows = sel[hit]
-            bound[rows] = t[hit]
-            face[rows] = f[hit] + self.face_offset[g]
-            normal[rows] = nrm[hit] @ R.T
+            if select is not None:  # the group's hits written in one pass
+                hit = found[:select_hits(f, t, sel, self.face_offset[g], bound, face, found)]
+            else:
+                hit = np.flatnonzero(f >= 0)
+                bound[sel[hit]] = t[hit]
+                face[sel[hit]] = f[hit] + self.face_offset[g]
+            normal[sel[hit]] = nrm[hit] @ R.T
         return face, np.where(face >= 0, bound, np.inf), normal
 
 
@@ -798,6 +831,41 @@ def _group_rays(origins, d, bound, centres, radii, rots, trans, box_lo, box_hi, 
             if enter <= leave * (1.0 + 1e-9) + 1e-9:
                 chosen[g * n + counts[g]] = i
                 counts[g] += 1
+
+
+def _group_hits(f, t, sel, offset, bound, face, hit):  # type: ignore[no-untyped-def]
+    """A group's hits kept by :meth:`_BodyBVH.trace`, compiled (numba): for each of its
+    rays ``sel`` (indices into the body's rays) with a face ``f`` (≥ 0; -1 a miss), the
+    distance ``t`` into ``bound`` and the face numbered from ``offset`` into ``face``;
+    the indices into ``sel`` of those rays go to ``hit`` in increasing order; returns
+    their count."""
+    count = 0
+    for i in range(f.shape[0]):
+        if f[i] >= 0:
+            bound[sel[i]] = t[i]
+            face[sel[i]] = f[i] + offset
+            hit[count] = i
+            count += 1
+    return count
+
+
+def _nearer_hits(rows, face, t, nrm, face_map, face_label, face_reflectivity,
+                 face_material, body_index, distance, label, normal, reflectivity, body,
+                 material):  # type: ignore[no-untyped-def]
+    """:func:`_keep_nearer` compiled (numba): a body's hit on ray ``rows[i]`` (``face``
+    ≥ 0) that is nearer than ``distance`` holds is written into the hits' arrays."""
+    for i in range(face.shape[0]):
+        row = rows[i]
+        if face[i] < 0 or not t[i] < distance[row]:
+            continue
+        distance[row] = t[i] if t[i] >= 0.0 else 0.0  # np.maximum(t, 0.0)
+        body_face = face_map[face[i]]
+        label[row] = face_label[body_face]
+        reflectivity[row] = face_reflectivity[body_face]
+        material[row] = face_material[body_face]
+        for k in range(3):
+            normal[row, k] = nrm[i, k]
+        body[row] = body_index
 
 
 def _rays_near_box(mesh: _EmbreeMesh, o: NDArray[np.float64], d: NDArray[np.float64],
@@ -922,6 +990,16 @@ def _compiled_spheres_rays():  # type: ignore[no-untyped-def]
 @cache
 def _compiled_group_rays():  # type: ignore[no-untyped-def]
     return jit_with(_group_rays, _SPHERE_TEST)
+
+
+@cache
+def _compiled_group_hits():  # type: ignore[no-untyped-def]
+    return jit(_group_hits)
+
+
+@cache
+def _compiled_nearer_hits():  # type: ignore[no-untyped-def]
+    return jit(_nearer_hits)
 
 
 @cache
@@ -1168,6 +1246,12 @@ def _keep_nearer(hits: RayHits, rows: NDArray[np.intp], bi: int, b: DynamicBody,
     """Body ``b`` (index ``bi``) hit by the rays ``rows`` of ``hits`` (its group-numbered
     ``face``, distance ``t``, NED normal ``nrm``; -1 a miss) where nearer than what
     ``hits`` holds (a tie keeps the static surface), written into ``hits``."""
+    compiled = _compiled_nearer_hits()
+    if compiled is not None:
+        compiled(rows, face, t, nrm, face_map, b.face_label, b.face_reflectivity,
+                 b.face_material, bi, hits.distance, hits.label, hits.normal,
+                 hits.reflectivity, hits.body, hits.material)
+        return
     hit = np.flatnonzero(face >= 0)
     hit = hit[t[hit] < hits.distance[rows[hit]]]
     sel = rows[hit]
