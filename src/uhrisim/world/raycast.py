@@ -779,7 +779,7 @@ def _fan_sphere_rays(fans, n_rays, origins, d, limit, centres, radii,
     """The rays of fans ``fans`` (R = ``n_rays`` each, rows fan·R + k of ``d`` (N·R, 3)
     and ``limit``; or, with ``n_rays`` 0, row j of fan ``fans[j]``) whose segment
     [0, limit] may touch the fan's sphere (``centres`` (N, 3), ``radii`` (N,)):
-    :func:`_touches_sphere`, :class:`_RayCuller`'s test, written to ``rows`` in
+    :func:`_ray_meets_sphere`, :class:`_RayCuller`'s test, written to ``rows`` in
     increasing order (row numbers; with ``n_rays`` 0, indices j); returns their count.
     Compiled (numba) where it can be."""
     count = 0
@@ -806,19 +806,25 @@ def _group_rays(origins, d, bound, centres, radii, rots, trans, box_lo, box_hi, 
     :meth:`_EmbreeMesh.box_candidates` (conservative: a superset of theirs, as every
     group is tested within the bound before any of them is traced), compiled (numba)."""
     n = d.shape[0]
+    shared = origins.shape[0] == 1
     for g in range(centres.shape[0]):
         counts[g] = 0
         if not shown[g]:
             continue
+        # one shared origin: what depends on it alone is formed once a group
+        v0, v1, v2, vv, r = _sphere_seen_from(origins[0], centres[g], radii[g])
+        o0, o1, o2 = _in_group_frame(origins[0], rots[g], trans[g])
+        count = 0
         for i in range(n):
-            row = 0 if origins.shape[0] == 1 else i
-            if not _touches_sphere(origins[row], d[i], bound[i], centres[g], radii[g]):
+            if not shared:
+                v0, v1, v2, vv, r = _sphere_seen_from(origins[i], centres[g], radii[g])
+            if not _ray_meets_sphere(v0, v1, v2, vv, r, d[i], bound[i]):
                 continue
+            if not shared:
+                o0, o1, o2 = _in_group_frame(origins[i], rots[g], trans[g])
             enter, leave = 0.0, bound[i]
             for k in range(3):  # slab k of the box, in the group frame
-                o_k = ((origins[row, 0] - trans[g, 0]) * rots[g, 0, k]
-                       + (origins[row, 1] - trans[g, 1]) * rots[g, 1, k]
-                       + (origins[row, 2] - trans[g, 2]) * rots[g, 2, k])
+                o_k = o0 if k == 0 else (o1 if k == 1 else o2)
                 d_k = d[i, 0] * rots[g, 0, k] + d[i, 1] * rots[g, 1, k] + d[i, 2] * rots[g, 2, k]
                 lo, hi = box_lo[g, k] - 1e-9, box_hi[g, k] + 1e-9
                 if d_k == 0.0:
@@ -829,8 +835,18 @@ def _group_rays(origins, d, bound, centres, radii, rots, trans, box_lo, box_hi, 
                 enter = max(enter, min(t_lo, t_hi))
                 leave = min(leave, max(t_lo, t_hi))
             if enter <= leave * (1.0 + 1e-9) + 1e-9:
-                chosen[g * n + counts[g]] = i
-                counts[g] += 1
+                chosen[g * n + count] = i
+                count += 1
+        counts[g] = count
+
+
+def _in_group_frame(o, rot, trans):  # type: ignore[no-untyped-def]
+    """The point ``o`` (3,) NED in the frame of a group posed by ``rot`` (3, 3) and
+    ``trans`` (3,) (group frame → NED): the components of R^T (o − t)."""
+    a, b, c = o[0] - trans[0], o[1] - trans[1], o[2] - trans[2]
+    return (a * rot[0, 0] + b * rot[1, 0] + c * rot[2, 0],
+            a * rot[0, 1] + b * rot[1, 1] + c * rot[2, 1],
+            a * rot[0, 2] + b * rot[1, 2] + c * rot[2, 2])
 
 
 def _group_hits(f, t, sel, offset, bound, face, hit):  # type: ignore[no-untyped-def]
@@ -934,21 +950,17 @@ def _spheres_rays(origins, d, limit, centres, radii, rows, counts):  # type: ign
     """:func:`_rays_near_spheres` compiled (numba): sphere k's rays (``origins`` (N, 3),
     or (1, 3) shared) in increasing order at ``rows[k·N : k·N + counts[k]]``."""
     n = d.shape[0]
+    shared = origins.shape[0] == 1
     for k in range(centres.shape[0]):
         count = 0
-        for i in range(n):
-            if _touches_sphere(origins[0 if origins.shape[0] == 1 else i], d[i], limit[i],
-                               centres[k], radii[k]):
+        v0, v1, v2, vv, r = _sphere_seen_from(origins[0], centres[k], radii[k])
+        for i in range(n):  # (one shared origin: the sphere as seen from it, formed once)
+            if not shared:
+                v0, v1, v2, vv, r = _sphere_seen_from(origins[i], centres[k], radii[k])
+            if _ray_meets_sphere(v0, v1, v2, vv, r, d[i], limit[i]):
                 rows[k * n + count] = i
                 count += 1
         counts[k] = count
-
-
-def _touches_sphere(o, d, limit, centre, radius):  # type: ignore[no-untyped-def]
-    """Whether the segment [0, ``limit``] of the ray from ``o`` along ``d`` (3,) may touch
-    the sphere (``centre`` (3,), ``radius``): :class:`_RayCuller`'s test for one ray."""
-    v0, v1, v2, vv, r = _sphere_seen_from(o, centre, radius)
-    return _ray_meets_sphere(v0, v1, v2, vv, r, d, limit)
 
 
 def _sphere_seen_from(o, centre, radius):  # type: ignore[no-untyped-def]
@@ -974,7 +986,7 @@ def _ray_meets_sphere(v0, v1, v2, vv, r, d, limit):  # type: ignore[no-untyped-d
 
 
 #: The ray/bounding-sphere test's functions, compiled into the kernels that call them.
-_SPHERE_TEST = (_touches_sphere, _sphere_seen_from, _padded, _ray_meets_sphere)
+_SPHERE_TEST = (_sphere_seen_from, _padded, _ray_meets_sphere)
 
 
 @cache
@@ -989,7 +1001,7 @@ def _compiled_spheres_rays():  # type: ignore[no-untyped-def]
 
 @cache
 def _compiled_group_rays():  # type: ignore[no-untyped-def]
-    return jit_with(_group_rays, _SPHERE_TEST)
+    return jit_with(_group_rays, (*_SPHERE_TEST, _in_group_frame))
 
 
 @cache
