@@ -689,10 +689,9 @@ class _BodyBVH:
                    self.box_lo, self.box_hi, show, chosen, counts)
         else:
             cull = _RayCuller(o, d)
-        for g, mesh in enumerate(self.groups):
-            if not show[g]:
-                continue
-            R = rots[g]
+        # (compiled: only the groups that some ray may meet)
+        for g in np.flatnonzero(show if select is None else counts):
+            mesh, R = self.groups[g], rots[g]
             if select is not None:
                 sel = chosen[g * n : g * n + counts[g]]
             else:
@@ -710,7 +709,8 @@ class _BodyBVH:
                 hit = np.flatnonzero(f >= 0)
                 bound[sel[hit]] = t[hit]
                 face[sel[hit]] = f[hit] + self.face_offset[g]
-            normal[sel[hit]] = nrm[hit] @ R.T
+            if len(hit):
+                normal[sel[hit]] = nrm[hit] @ R.T
         return face, np.where(face >= 0, bound, np.inf), normal
 
 
