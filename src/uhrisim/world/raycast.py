@@ -23,12 +23,15 @@ metres) the first surface within ``max_range`` — and return a :class:`RayHits`
   numpy; ``threads`` > 1 splits the static query across threads. With numba installed
   (the ``[fast]`` extra) the per-ray tests and arithmetic around Embree — the static
   geometry's box pick, the bodies' bounding-sphere cull (one pass for all bodies), every
-  group's sphere-and-box pick of a body (one pass for all its groups) and the float64
-  refinement — run compiled, a pass each instead of several numpy calls per body and
-  group (which cost more than Embree itself for an articulated diver of ~20 groups); a
-  body's sphere is tested within the static hits, before the bodies ahead of it are
-  traced (more rays reach its groups' own tests, the same hits); the hits are the same to
-  the bit (tested), ``UHRISIM_NUMBA=0`` runs numpy.
+  group's sphere-and-box pick of a body (one pass for all its groups; what depends on a
+  shared origin alone formed once a group), the float32 rows handed to Embree, the float64
+  refinement and the keeping of a group's and a body's hits — run compiled, a pass each
+  instead of several numpy calls per body and group (which cost more than Embree itself
+  for an articulated diver of ~20 groups); a body's sphere is tested within the static
+  hits, before the bodies ahead of it are traced (more rays reach its groups' own tests,
+  the same hits); the hits are the same to the bit (tested), ``UHRISIM_NUMBA=0`` runs
+  numpy. The group frame's turns of the rays and normals stay numpy's products (BLAS:
+  their last bits depend on the batch's shape).
 * ``"reference"`` (:class:`ReferenceRayCaster`): Möller–Trumbore in numpy against every
   triangle of the posed world (float64), chunked to bound memory. Slow and obviously
   correct; the tests hold the Embree caster to it.
