@@ -160,9 +160,10 @@ def test_compiled_group_selection_keeps_every_ray_that_meets_the_group(shared_or
 
 
 def test_compiled_and_numpy_casts_give_the_same_bits(monkeypatch):
-    """With numba the Embree caster culls, picks each group's rays and refines Embree's
-    hits in compiled passes; without it, numpy does: every field of every hit is the
-    same to the bit (shared and per-ray origins, with hits past the range made misses)."""
+    """With numba the Embree caster culls, picks each group's rays, forms Embree's float32
+    rows, refines Embree's hits and keeps a group's and a body's hits in compiled passes;
+    without it, numpy does: every field of every hit is the same to the bit (shared and
+    per-ray origins, with hits past the range made misses)."""
     from uhrisim.world import raycast
 
     rng = np.random.default_rng(7)
@@ -170,7 +171,8 @@ def test_compiled_and_numpy_casts_give_the_same_bits(monkeypatch):
     shots = [(origin, 2.3), (origin + rng.normal(scale=0.2, size=d.shape), 5.0)]
     compiled = [caster.cast(o, d, max_range=r) for o, r in shots]
     for name in ("_compiled_spheres_rays", "_compiled_box_rays", "_compiled_group_rays",
-                 "_compiled_refine_rows"):
+                 "_compiled_refine_rows", "_compiled_embree_rays", "_compiled_group_hits",
+                 "_compiled_nearer_hits"):
         monkeypatch.setattr(raycast, name, lambda: None)
     for (o, r), fast in zip(shots, compiled, strict=True):
         slow = caster.cast(o, d, max_range=r)

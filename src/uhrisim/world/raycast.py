@@ -23,12 +23,15 @@ metres) the first surface within ``max_range`` — and return a :class:`RayHits`
   numpy; ``threads`` > 1 splits the static query across threads. With numba installed
   (the ``[fast]`` extra) the per-ray tests and arithmetic around Embree — the static
   geometry's box pick, the bodies' bounding-sphere cull (one pass for all bodies), every
-  group's sphere-and-box pick of a body (one pass for all its groups) and the float64
-  refinement — run compiled, a pass each instead of several numpy calls per body and
-  group (which cost more than Embree itself for an articulated diver of ~20 groups); a
-  body's sphere is tested within the static hits, before the bodies ahead of it are
-  traced (more rays reach its groups' own tests, the same hits); the hits are the same to
-  the bit (tested), ``UHRISIM_NUMBA=0`` runs numpy.
+  group's sphere-and-box pick of a body (one pass for all its groups; what depends on a
+  shared origin alone formed once a group), the float32 rows handed to Embree, the float64
+  refinement and the keeping of a group's and a body's hits — run compiled, a pass each
+  instead of several numpy calls per body and group (which cost more than Embree itself
+  for an articulated diver of ~20 groups); a body's sphere is tested within the static
+  hits, before the bodies ahead of it are traced (more rays reach its groups' own tests,
+  the same hits); the hits are the same to the bit (tested), ``UHRISIM_NUMBA=0`` runs
+  numpy. The group frame's turns of the rays and normals stay numpy's products (BLAS:
+  their last bits depend on the batch's shape).
 * ``"reference"`` (:class:`ReferenceRayCaster`): Möller–Trumbore in numpy against every
   triangle of the posed world (float64), chunked to bound memory. Slow and obviously
   correct; the tests hold the Embree caster to it.
@@ -249,6 +252,30 @@ def _refine_rows(face, nh, d, plane, n_dot_o, limit, t, grazing):  # type: ignor
 @cache
 def _compiled_refine_rows():  # type: ignore[no-untyped-def]
     return jit(_refine_rows, numpy_errors=True)
+
+
+#: :func:`_embree_rays`' shift for geometry that is not shifted
+_NO_SHIFT = np.zeros(3)
+
+
+def _embree_rays(o, d, limit, shift, o32, d32, far):  # type: ignore[no-untyped-def]
+    """What :meth:`_EmbreeMesh.intersect` hands Embree, in one compiled pass (numba): the
+    float32 rows of the origins less ``shift`` (``o`` (N, 3), or (1, 3) shared) into
+    ``o32``, of the directions ``d`` (N, 3) into ``d32``, and each ray's far end, its
+    ``limit`` ((1,) or (N,) m) padded by 1e-6 relative and absolute (at most
+    ``_EMBREE_FAR``), into ``far``: numpy's operations, the same bits."""
+    for i in range(d.shape[0]):
+        row = 0 if o.shape[0] == 1 else i
+        for k in range(3):
+            o32[i, k] = np.float32(o[row, k] - shift[k])
+            d32[i, k] = np.float32(d[i, k])
+        padded = limit[0 if limit.shape[0] == 1 else i] * (1.0 + 1e-6) + 1e-6
+        far[i] = np.float32(padded if padded < _EMBREE_FAR else _EMBREE_FAR)
+
+
+@cache
+def _compiled_embree_rays():  # type: ignore[no-untyped-def]
+    return jit(_embree_rays)
 
 
 def _face_to_ray(normal: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -521,16 +548,22 @@ class _EmbreeMesh:
         turned to face the ray origin, zero on a miss).
         """
         n = len(d)
-        o32 = (o - self.shift if self.shift is not None else o).astype(np.float32)
-        if o32.ndim == 1:  # one shared origin: Embree still wants one row per ray (a view)
-            o32 = np.broadcast_to(o32, (n, 3))
-        d32 = d.astype(np.float32)
-        if np.ndim(tfar) == 0:
-            lim = float(tfar)
-            far = np.full(n, min(lim * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR), dtype=np.float32)
+        lim = float(tfar) if np.ndim(tfar) == 0 else np.asarray(tfar)
+        compiled = _compiled_embree_rays()
+        if compiled is not None:  # the same float32 rows in one pass
+            o32, d32 = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
+            far = np.empty(n, np.float32)
+            compiled(o.reshape(-1, 3), d, np.reshape(lim, -1),
+                     _NO_SHIFT if self.shift is None else self.shift, o32, d32, far)
         else:
-            lim = np.asarray(tfar)
-            far = np.minimum(lim * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR).astype(np.float32)
+            o32 = (o - self.shift if self.shift is not None else o).astype(np.float32)
+            if o32.ndim == 1:  # one shared origin: Embree still wants one row per ray (a view)
+                o32 = np.broadcast_to(o32, (n, 3))
+            d32 = d.astype(np.float32)
+            if np.ndim(lim) == 0:
+                far = np.full(n, min(lim * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR), dtype=np.float32)
+            else:
+                far = np.minimum(lim * (1.0 + 1e-6) + 1e-6, _EMBREE_FAR).astype(np.float32)
         if pool is not None and threads > 1 and n >= _MIN_RAYS_PER_THREAD * 2:
             # Embree queries are thread-safe and embreex releases the GIL while tracing.
             cuts = np.linspace(0, n, threads + 1).astype(int)
@@ -650,18 +683,18 @@ class _BodyBVH:
         normal = np.zeros((n, 3))
         centres = np.einsum("gij,gj->gi", rots, self.centres) + trans
         show = np.ones(len(self.groups), bool) if shown is None else shown
-        select = _compiled_group_rays()
+        select, select_hits = _compiled_group_rays(), _compiled_group_hits()
         if select is not None:  # every group's rays in one compiled pass
+            found = np.empty(n, dtype=np.int64)
             chosen = np.empty(len(self.groups) * n, dtype=np.int64)
             counts = np.zeros(len(self.groups), dtype=np.int64)
             select(o.reshape(-1, 3), d, bound, centres, self.radii, rots, trans,
                    self.box_lo, self.box_hi, show, chosen, counts)
         else:
             cull = _RayCuller(o, d)
-        for g, mesh in enumerate(self.groups):
-            if not show[g]:
-                continue
-            R = rots[g]
+        # (compiled: only the groups that some ray may meet)
+        for g in np.flatnonzero(show if select is None else counts):
+            mesh, R = self.groups[g], rots[g]
             if select is not None:
                 sel = chosen[g * n : g * n + counts[g]]
             else:
@@ -673,11 +706,14 @@ class _BodyBVH:
             f, t, nrm = mesh.intersect(
                 o_local if o_local.ndim == 1 else o_local[sel], d_cols.T, bound[sel]
             )
-            hit = np.flatnonzero(f >= 0)
-            rows = sel[hit]
-            bound[rows] = t[hit]
-            face[rows] = f[hit] + self.face_offset[g]
-            normal[rows] = nrm[hit] @ R.T
+            if select is not None:  # the group's hits written in one pass
+                hit = found[:select_hits(f, t, sel, self.face_offset[g], bound, face, found)]
+            else:
+                hit = np.flatnonzero(f >= 0)
+                bound[sel[hit]] = t[hit]
+                face[sel[hit]] = f[hit] + self.face_offset[g]
+            if len(hit):
+                normal[sel[hit]] = nrm[hit] @ R.T
         return face, np.where(face >= 0, bound, np.inf), normal
 
 
@@ -746,7 +782,7 @@ def _fan_sphere_rays(fans, n_rays, origins, d, limit, centres, radii,
     """The rays of fans ``fans`` (R = ``n_rays`` each, rows fan·R + k of ``d`` (N·R, 3)
     and ``limit``; or, with ``n_rays`` 0, row j of fan ``fans[j]``) whose segment
     [0, limit] may touch the fan's sphere (``centres`` (N, 3), ``radii`` (N,)):
-    :func:`_touches_sphere`, :class:`_RayCuller`'s test, written to ``rows`` in
+    :func:`_ray_meets_sphere`, :class:`_RayCuller`'s test, written to ``rows`` in
     increasing order (row numbers; with ``n_rays`` 0, indices j); returns their count.
     Compiled (numba) where it can be."""
     count = 0
@@ -773,19 +809,25 @@ def _group_rays(origins, d, bound, centres, radii, rots, trans, box_lo, box_hi, 
     :meth:`_EmbreeMesh.box_candidates` (conservative: a superset of theirs, as every
     group is tested within the bound before any of them is traced), compiled (numba)."""
     n = d.shape[0]
+    shared = origins.shape[0] == 1
     for g in range(centres.shape[0]):
         counts[g] = 0
         if not shown[g]:
             continue
+        # one shared origin: what depends on it alone is formed once a group
+        v0, v1, v2, vv, r = _sphere_seen_from(origins[0], centres[g], radii[g])
+        o0, o1, o2 = _in_group_frame(origins[0], rots[g], trans[g])
+        count = 0
         for i in range(n):
-            row = 0 if origins.shape[0] == 1 else i
-            if not _touches_sphere(origins[row], d[i], bound[i], centres[g], radii[g]):
+            if not shared:
+                v0, v1, v2, vv, r = _sphere_seen_from(origins[i], centres[g], radii[g])
+            if not _ray_meets_sphere(v0, v1, v2, vv, r, d[i], bound[i]):
                 continue
+            if not shared:
+                o0, o1, o2 = _in_group_frame(origins[i], rots[g], trans[g])
             enter, leave = 0.0, bound[i]
             for k in range(3):  # slab k of the box, in the group frame
-                o_k = ((origins[row, 0] - trans[g, 0]) * rots[g, 0, k]
-                       + (origins[row, 1] - trans[g, 1]) * rots[g, 1, k]
-                       + (origins[row, 2] - trans[g, 2]) * rots[g, 2, k])
+                o_k = o0 if k == 0 else (o1 if k == 1 else o2)
                 d_k = d[i, 0] * rots[g, 0, k] + d[i, 1] * rots[g, 1, k] + d[i, 2] * rots[g, 2, k]
                 lo, hi = box_lo[g, k] - 1e-9, box_hi[g, k] + 1e-9
                 if d_k == 0.0:
@@ -796,8 +838,53 @@ def _group_rays(origins, d, bound, centres, radii, rots, trans, box_lo, box_hi, 
                 enter = max(enter, min(t_lo, t_hi))
                 leave = min(leave, max(t_lo, t_hi))
             if enter <= leave * (1.0 + 1e-9) + 1e-9:
-                chosen[g * n + counts[g]] = i
-                counts[g] += 1
+                chosen[g * n + count] = i
+                count += 1
+        counts[g] = count
+
+
+def _in_group_frame(o, rot, trans):  # type: ignore[no-untyped-def]
+    """The point ``o`` (3,) NED in the frame of a group posed by ``rot`` (3, 3) and
+    ``trans`` (3,) (group frame → NED): the components of R^T (o − t)."""
+    a, b, c = o[0] - trans[0], o[1] - trans[1], o[2] - trans[2]
+    return (a * rot[0, 0] + b * rot[1, 0] + c * rot[2, 0],
+            a * rot[0, 1] + b * rot[1, 1] + c * rot[2, 1],
+            a * rot[0, 2] + b * rot[1, 2] + c * rot[2, 2])
+
+
+def _group_hits(f, t, sel, offset, bound, face, hit):  # type: ignore[no-untyped-def]
+    """A group's hits kept by :meth:`_BodyBVH.trace`, compiled (numba): for each of its
+    rays ``sel`` (indices into the body's rays) with a face ``f`` (≥ 0; -1 a miss), the
+    distance ``t`` into ``bound`` and the face numbered from ``offset`` into ``face``;
+    the indices into ``sel`` of those rays go to ``hit`` in increasing order; returns
+    their count."""
+    count = 0
+    for i in range(f.shape[0]):
+        if f[i] >= 0:
+            bound[sel[i]] = t[i]
+            face[sel[i]] = f[i] + offset
+            hit[count] = i
+            count += 1
+    return count
+
+
+def _nearer_hits(rows, face, t, nrm, face_map, face_label, face_reflectivity,
+                 face_material, body_index, distance, label, normal, reflectivity, body,
+                 material):  # type: ignore[no-untyped-def]
+    """:func:`_keep_nearer` compiled (numba): a body's hit on ray ``rows[i]`` (``face``
+    ≥ 0) that is nearer than ``distance`` holds is written into the hits' arrays."""
+    for i in range(face.shape[0]):
+        row = rows[i]
+        if face[i] < 0 or not t[i] < distance[row]:
+            continue
+        distance[row] = t[i] if t[i] >= 0.0 else 0.0  # np.maximum(t, 0.0)
+        body_face = face_map[face[i]]
+        label[row] = face_label[body_face]
+        reflectivity[row] = face_reflectivity[body_face]
+        material[row] = face_material[body_face]
+        for k in range(3):
+            normal[row, k] = nrm[i, k]
+        body[row] = body_index
 
 
 def _rays_near_box(mesh: _EmbreeMesh, o: NDArray[np.float64], d: NDArray[np.float64],
@@ -866,21 +953,17 @@ def _spheres_rays(origins, d, limit, centres, radii, rows, counts):  # type: ign
     """:func:`_rays_near_spheres` compiled (numba): sphere k's rays (``origins`` (N, 3),
     or (1, 3) shared) in increasing order at ``rows[k·N : k·N + counts[k]]``."""
     n = d.shape[0]
+    shared = origins.shape[0] == 1
     for k in range(centres.shape[0]):
         count = 0
-        for i in range(n):
-            if _touches_sphere(origins[0 if origins.shape[0] == 1 else i], d[i], limit[i],
-                               centres[k], radii[k]):
+        v0, v1, v2, vv, r = _sphere_seen_from(origins[0], centres[k], radii[k])
+        for i in range(n):  # (one shared origin: the sphere as seen from it, formed once)
+            if not shared:
+                v0, v1, v2, vv, r = _sphere_seen_from(origins[i], centres[k], radii[k])
+            if _ray_meets_sphere(v0, v1, v2, vv, r, d[i], limit[i]):
                 rows[k * n + count] = i
                 count += 1
         counts[k] = count
-
-
-def _touches_sphere(o, d, limit, centre, radius):  # type: ignore[no-untyped-def]
-    """Whether the segment [0, ``limit``] of the ray from ``o`` along ``d`` (3,) may touch
-    the sphere (``centre`` (3,), ``radius``): :class:`_RayCuller`'s test for one ray."""
-    v0, v1, v2, vv, r = _sphere_seen_from(o, centre, radius)
-    return _ray_meets_sphere(v0, v1, v2, vv, r, d, limit)
 
 
 def _sphere_seen_from(o, centre, radius):  # type: ignore[no-untyped-def]
@@ -906,7 +989,7 @@ def _ray_meets_sphere(v0, v1, v2, vv, r, d, limit):  # type: ignore[no-untyped-d
 
 
 #: The ray/bounding-sphere test's functions, compiled into the kernels that call them.
-_SPHERE_TEST = (_touches_sphere, _sphere_seen_from, _padded, _ray_meets_sphere)
+_SPHERE_TEST = (_sphere_seen_from, _padded, _ray_meets_sphere)
 
 
 @cache
@@ -921,7 +1004,17 @@ def _compiled_spheres_rays():  # type: ignore[no-untyped-def]
 
 @cache
 def _compiled_group_rays():  # type: ignore[no-untyped-def]
-    return jit_with(_group_rays, _SPHERE_TEST)
+    return jit_with(_group_rays, (*_SPHERE_TEST, _in_group_frame))
+
+
+@cache
+def _compiled_group_hits():  # type: ignore[no-untyped-def]
+    return jit(_group_hits)
+
+
+@cache
+def _compiled_nearer_hits():  # type: ignore[no-untyped-def]
+    return jit(_nearer_hits)
 
 
 @cache
@@ -1168,6 +1261,12 @@ def _keep_nearer(hits: RayHits, rows: NDArray[np.intp], bi: int, b: DynamicBody,
     """Body ``b`` (index ``bi``) hit by the rays ``rows`` of ``hits`` (its group-numbered
     ``face``, distance ``t``, NED normal ``nrm``; -1 a miss) where nearer than what
     ``hits`` holds (a tie keeps the static surface), written into ``hits``."""
+    compiled = _compiled_nearer_hits()
+    if compiled is not None:
+        compiled(rows, face, t, nrm, face_map, b.face_label, b.face_reflectivity,
+                 b.face_material, bi, hits.distance, hits.label, hits.normal,
+                 hits.reflectivity, hits.body, hits.material)
+        return
     hit = np.flatnonzero(face >= 0)
     hit = hit[t[hit] < hits.distance[rows[hit]]]
     sel = rows[hit]
