@@ -150,6 +150,39 @@ def test_alert_posted_once_per_contact_when_in_range():
     assert cm.step(3.0, own) == []  # nothing changed, nothing posted
 
 
+def test_lists_posted_once_per_arrival_alert_and_retirement(monkeypatch):
+    """CONTACTS_LIST/ALERTED/RETIRED are posted on the tick a contact arrives, is alerted
+    or is retired (each text once), and on no quiet tick - where the lists are not even
+    rebuilt."""
+    cfg = ContactManagerConfig.from_mapping(
+        {"alerts": [{"id": "trail", "var": "TRAIL_INFO", "alert_range": 10.0}],
+         "contact_max_age": 30})
+    cm = ContactManager(cfg, "videoray")
+    rebuilt: list[float] = []
+    post_lists = cm._post_lists
+
+    def counting_post_lists(posts):
+        rebuilt.append(now)
+        post_lists(posts)
+
+    monkeypatch.setattr(cm, "_post_lists", counting_post_lists)
+    own = OwnNav(0.0, 0.0, 0.0, 0.0)
+    far, near = "NAME=diver,X=30,Y=0,SPD=0,HDG=0,TIME={}", "NAME=diver,X=5,Y=0,SPD=0,HDG=0,TIME={}"
+    ticks = [(0.0, far), (1.0, far), (2.0, near), (3.0, near), (4.0, None), (40.0, None),
+             (41.0, None)]
+    lists = {}
+    for now, report in ticks:
+        posts = cm.step(now, own, [report.format(now)] if report else [])
+        lists[now] = [(v, x) for v, x in posts if v.startswith("CONTACTS_")]
+    assert lists[0.0] == [("CONTACTS_LIST", "diver"), ("CONTACTS_ALERTED", ""),
+                          ("CONTACTS_RETIRED", "")]  # arrival
+    assert lists[2.0] == [("CONTACTS_ALERTED", "(diver,trail)")]  # alert
+    assert lists[40.0] == [("CONTACTS_LIST", ""), ("CONTACTS_ALERTED", ""),
+                           ("CONTACTS_RETIRED", "diver")]  # retirement
+    assert all(lists[t] == [] for t in (1.0, 3.0, 4.0, 41.0))  # quiet ticks
+    assert rebuilt == [0.0, 2.0, 40.0]
+
+
 def test_dead_reckoned_positions_and_cpa_alert():
     cm = _cm(alert_range=5.0, cpa_range=40.0, cpa_time=60.0)
     own = OwnNav(0.0, 0.0, 0.0, 0.0)

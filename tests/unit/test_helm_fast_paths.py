@@ -181,6 +181,33 @@ def test_solve_reusing_a_lone_read_only_function_s_maximum_equals_reference():
         assert fast.indices == ref.indices and fast.contributions == ref.contributions
 
 
+def test_solve_keeps_at_most_64_plans_and_equals_reference():
+    """More span combinations than the solver keeps plans for (64 per domain): at most 64
+    are kept, and every decision, contribution and all-stop equals the reference's."""
+    from itertools import combinations, product
+
+    from uhrisim.autonomy.solver import _PLANS_KEPT
+
+    dom = Domain((DomainAxis("a", 0.0, 4.0, 5), DomainAxis("b", 0.0, 3.0, 4),
+                  DomainAxis("c", 0.0, 2.0, 3, optional=True)))
+    subsets = [c for k in (1, 2, 3) for c in combinations(dom.names, k)]  # 7 spans
+    combos = list(product(subsets, repeat=2)) + list(product(subsets[:4], repeat=3))  # 113
+    rng = np.random.default_rng(23)
+    seen = set()
+    for spans in combos:
+        objs = [WeightedObjective(f"f{j}", float(rng.choice([1.0, 50.0, 200.0])),
+                                  Objective.over(dom, axes, rng.integers(0, 4, dom.shape(axes))
+                                                 * float(rng.choice([1.0, 60.0]))))
+                for j, axes in enumerate(spans)]
+        fast, ref = solve(dom, objs), solve_reference(dom, objs)
+        seen.add(spans)
+        assert 0 < len(dom.solver_plans) <= _PLANS_KEPT == 64
+        assert fast.decision == ref.decision and fast.indices == ref.indices
+        assert fast.all_stop_reason == ref.all_stop_reason
+        assert fast.total == ref.total and fast.contributions == ref.contributions
+    assert len(seen) > _PLANS_KEPT
+
+
 def _signed_dist_reference(x: float, y: float, pts) -> float:
     n = len(pts)
     d = min(_dist_to_segment(x, y, pts[i], pts[(i + 1) % n]) for i in range(n))

@@ -317,6 +317,22 @@ def test_pier_scene_beams_reach_floor_and_surface() -> None:
     assert depths.min() > 7.0 and depths.max() < 10.0  # realistic 5-10 m of water
 
 
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_unchecked_set_pose_stores_copies_and_matches_checked(backend: str) -> None:
+    checked, unchecked = _separation_scene(), _separation_scene()
+    position, rotation = np.array([6.0, 3.0, 4.0]), rot_z(0.4)
+    checked.set_pose("ball", position, rotation, kick_phase=0.3)
+    unchecked.set_pose("ball", position, rotation, kick_phase=0.3, checked=False)
+    position[:] = (1.0, 1.0, 1.0)  # the caller's arrays change afterwards: the body stays
+    rotation[:] = 0.0
+    o, d = _fan()
+    a = checked.raycaster(backend).cast(o, d, 40.0)
+    b = unchecked.raycaster(backend).cast(o, d, 40.0)
+    assert (a.body == 0).sum() > 20
+    for field in ("distance", "label", "normal", "reflectivity", "body"):
+        np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
+
+
 def test_torus_scene_ring_and_hole() -> None:
     ps = torus_scene(water_depth=8.0, major_radius=1.5, minor_radius=0.3, distance=10.0)
     rc = ps.scene.raycaster()

@@ -148,6 +148,21 @@ def _identical(a, b):
             and np.array_equal(np.signbit(a), np.signbit(b)))
 
 
+def test_erf_bound_only_under_a_double_signature(monkeypatch):
+    """scipy's fused erf is bound by its capsule's C signature: the double variant says
+    so, and a fused index whose capsule is another signature (the complex one) or none
+    falls back to the numpy path."""
+    if sl.numba_module() is None:
+        pytest.skip("numba not installed")
+    from scipy.special import cython_special
+
+    capsules = cython_special.__pyx_capi__
+    assert sl._capsule_name(capsules[sl._ERF_FUSED]).startswith("double (double")
+    for other in ("__pyx_fuse_0erf", "no_such_erf"):
+        monkeypatch.setattr(sl, "_ERF_FUSED", other)
+        assert sl._compiled_ray_integrals.__wrapped__() is None
+
+
 def test_compiled_ray_integrals_are_the_numpy_path_bit_for_bit():
     """The compiled ray walk against the numpy path (the reference): random clouds on a
     sloped floor, rays from above, inside and below the layers, flat and vertical rays,

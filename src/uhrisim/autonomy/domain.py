@@ -17,12 +17,15 @@ from dataclasses import dataclass
 from functools import cached_property
 from itertools import combinations
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
+
+if TYPE_CHECKING:
+    from uhrisim.autonomy.solver import _Plan
 
 __all__ = ["Domain", "DomainAxis", "Objective"]
 
@@ -143,7 +146,7 @@ class Domain:
         return tuple(by[n].npts for n in names)
 
     @cached_property
-    def solver_plans(self) -> dict[tuple[tuple[str, ...], ...], Any]:
+    def solver_plans(self) -> dict[tuple[tuple[str, ...], ...], _Plan]:
         """The solver's plans for this domain, by the axes of the functions it fuses
         (:func:`uhrisim.autonomy.solver._plan` fills it)."""
         return {}

@@ -23,6 +23,7 @@ dropped. Behaviors hand in functions within 0..100, so this guards outside funct
 
 from __future__ import annotations
 
+from collections.abc import Container, Iterable
 from dataclasses import dataclass, field
 from functools import cache
 
@@ -269,15 +270,40 @@ def _plan(domain: Domain, spans: tuple[tuple[str, ...], ...]) -> _Plan:
             comp = comps[comp_of[axes[0]]]
             places.append((comp_of[axes[0]],
                            None if axes == comp else tuple(comp.index(a) for a in axes)))
-        missing = [a.name for a in domain.axes if not a.optional and a.name not in comp_of]
         plan = plans[spans] = _Plan(
             comps,
             tuple(tuple(k for k, axes in enumerate(spans) if axes[0] in comp) for comp in comps),
             tuple(domain.shape(comp) for comp in comps),
             tuple(tuple(domain.axis(a).values for a in comp) for comp in comps),
             tuple(places),
-            "MissingDecVars:" + ",".join(missing) if missing else None)
+            _missing_reason(domain, comp_of))
     return plan
+
+
+def _missing_reason(domain: Domain, covered: Container[str]) -> str | None:
+    """The all-stop for the non-optional axes not in ``covered`` ("MissingDecVars:<axes>",
+    in domain order); None when it holds every one."""
+    missing = [a.name for a in domain.axes if not a.optional and a.name not in covered]
+    return "MissingDecVars:" + ",".join(missing) if missing else None
+
+
+def _result(
+    objs: list[_Term],
+    places: Iterable[tuple[int, ...]],
+    decision: dict[str, float],
+    indices: dict[str, int],
+    missing: str | None,
+) -> SolveResult:
+    """The result of a solve: each function's ``priority * f`` at its decision indices
+    (``places``, one per function; summed by name) and their total; no decision, with
+    ``missing`` as the all-stop reason, when that is not None."""
+    contributions = {w.name: 0.0 for w in objs}
+    for w, at in zip(objs, places, strict=True):
+        contributions[w.name] += w.priority * w.at(at)
+    total = float(sum(contributions.values()))
+    if missing is not None:
+        return SolveResult(None, indices, total, contributions, all_stop_reason=missing)
+    return SolveResult(decision, indices, total, contributions)
 
 
 def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
@@ -301,32 +327,8 @@ def solve(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
         for a, i, v in zip(comp, best, values, strict=True):
             indices[a] = i
             decision[a] = float(v[i])
-    contributions = {w.name: 0.0 for w in objs}
-    for w, (k, places) in zip(objs, plan.term_places, strict=True):
-        at = best_of[k] if places is None else tuple([best_of[k][p] for p in places])
-        contributions[w.name] += w.priority * w.at(at)
-    total = float(sum(contributions.values()))
-    if plan.missing is not None:
-        return SolveResult(None, indices, total, contributions, all_stop_reason=plan.missing)
-    return SolveResult(decision, indices, total, contributions)
-
-
-def _audit(
-    domain: Domain,
-    objs: list[_Term],
-    decision: dict[str, float],
-    indices: dict[str, int],
-) -> SolveResult:
-    """The contributions at the decision and the all-stop (for :func:`solve_reference`)."""
-    missing = [a.name for a in domain.axes if not a.optional and a.name not in indices]
-    contributions = {w.name: 0.0 for w in objs}
-    for w in objs:
-        contributions[w.name] += w.priority * w.at(tuple(indices[a] for a in w.axes))
-    total = float(sum(contributions.values()))
-    if missing:
-        return SolveResult(None, indices, total, contributions,
-                           all_stop_reason="MissingDecVars:" + ",".join(missing))
-    return SolveResult(decision, indices, total, contributions)
+    return _result(objs, [best_of[k] if places is None else tuple([best_of[k][p] for p in places])
+                          for k, places in plan.term_places], decision, indices, plan.missing)
 
 
 def solve_reference(domain: Domain, objectives: list[WeightedObjective]) -> SolveResult:
@@ -351,4 +353,5 @@ def solve_reference(domain: Domain, objectives: list[WeightedObjective]) -> Solv
         for a, i in zip(comp, best, strict=True):
             indices[a] = int(i)
             decision[a] = float(domain.axis(a).values[i])
-    return _audit(domain, objs, decision, indices)
+    return _result(objs, [tuple(indices[a] for a in w.axes) for w in objs], decision, indices,
+                   _missing_reason(domain, indices))

@@ -98,10 +98,11 @@ def callable_compiled(function: Callable[..., Any]) -> None:
 
 
 def jit_with(function: Callable[..., Any], helpers: tuple[Callable[..., Any], ...],
-             on_disk: bool = True) -> Callable[..., Any] | None:
+             on_disk: bool = True, numpy_errors: bool = False) -> Callable[..., Any] | None:
     """:func:`jit` of ``function``, which calls the plain functions ``helpers`` (kernels
     written for :mod:`uhrisim.core.elementwise`): each is registered with numba, compiled
-    where ``function`` calls it and left as it is for Python callers. None without numba."""
+    where ``function`` calls it and left as it is for Python callers. None without numba.
+    ``on_disk`` and ``numpy_errors`` as for :func:`jit`."""
     numba = numba_module()
     if numba is None:
         return None
@@ -109,7 +110,7 @@ def jit_with(function: Callable[..., Any], helpers: tuple[Callable[..., Any], ..
     for helper in (_cos, _sin, _clip, _where, _sqrt, _copysign, _remainder, float_ops,
                    *helpers):
         callable_compiled(helper)
-    return jit(function, on_disk=on_disk)
+    return jit(function, numpy_errors=numpy_errors, on_disk=on_disk)
 
 
 def float_ops() -> Elementwise:

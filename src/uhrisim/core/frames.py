@@ -56,6 +56,12 @@ def row_dots(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float
     return (a * b) @ _ONES3
 
 
+def vector_length(v: NDArray[np.float64]) -> float:
+    """The length of a 1-D float vector (its units): ``np.linalg.norm``'s own arithmetic for
+    one, the square root of ``v . v``, without its checks (asked several times a step)."""
+    return math.sqrt(v.dot(v))
+
+
 def yaw_from_heading_deg(heading_deg: ArrayLike) -> NDArray[np.float64] | float:
     """NED yaw in radians [-pi, pi) from compass heading in degrees."""
     return wrap_pi(np.radians(heading_deg))

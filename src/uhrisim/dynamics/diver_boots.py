@@ -54,6 +54,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.core.checks import require_positive
 from uhrisim.core.errors import ConfigError
+from uhrisim.core.frames import vector_length
 from uhrisim.dynamics import free_body as fb
 from uhrisim.dynamics.diver_body import SIDES, DiverSkeleton, Side
 
@@ -212,15 +213,9 @@ def standing_hip_depth(state: BootsState, params: BootsParams, floor_depth: Floo
     for side, sole in sole_targets(state, params, floor_depth).items():
         hip_y = params.hip_lateral[side]
         hip = (state.position[0] + hip_y * across[0], state.position[1] + hip_y * across[1])
-        horizontal = _length(np.array([sole[0] - hip[0], sole[1] - hip[1]]))
+        horizontal = vector_length(np.array([sole[0] - hip[0], sole[1] - hip[1]]))
         depth = max(depth, sole[2] - ankle_h - math.sqrt(reach * reach - horizontal ** 2))
     return depth
-
-
-def _length(v: NDArray[np.float64]) -> float:
-    """The length of a vector (m): ``np.linalg.norm``'s own arithmetic, the square root of
-    ``v . v``, without its checks (asked several times a step)."""
-    return math.sqrt(v.dot(v))
 
 
 def floor_slope_ahead(state: BootsState, floor_depth: FloorDepth, probe: float = 0.2) -> float:
@@ -265,7 +260,7 @@ def leg_angles(state: BootsState, params: BootsParams, floor_depth: FloorDepth, 
         hip = np.array(sk.joints[sk.index(f"{side}_hip_flex")].pivot)
         ankle = to_body @ (sole - np.asarray(state.position)) - [0.0, 0.0, sk.body.ankle_height]
         v = to_pelvis @ ankle - hip
-        d = min(_length(v), thigh + shank)
+        d = min(vector_length(v), thigh + shank)
         knee = math.acos(max(-1.0, min(1.0, (d * d - thigh ** 2 - shank ** 2) /
                                        (2.0 * thigh * shank))))
         ux, uz = -shank * math.sin(knee), thigh + shank * math.cos(knee)

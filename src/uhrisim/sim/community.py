@@ -49,6 +49,16 @@ class Mailbox:
         return mail
 
 
+def _normalised(value: Value | bool | int) -> Value:
+    """A posted value as the store keeps it: a bool as MOOS's "true"/"false", an int as a
+    float, a str or float as given."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return float(value)
+    return value
+
+
 class Community:
     """Variable store of one agent. ``post`` reaches every mailbox and the post log."""
 
@@ -66,11 +76,8 @@ class Community:
         self._mailboxes.append(box)
         return box
 
-    def post(self, var: str, value: Value, t: float, source: str) -> None:
-        if isinstance(value, bool):
-            value = "true" if value else "false"
-        elif isinstance(value, int):
-            value = float(value)
+    def post(self, var: str, value: Value | bool | int, t: float, source: str) -> None:
+        value = _normalised(value)
         self._values[var] = value
         for box in self._mailboxes:
             box.deliver(var, value)
@@ -82,10 +89,7 @@ class Community:
         same values, deliveries and log: a tick's NAV_* and a helm's posts)."""
         values, boxes, log, name = self._values, self._mailboxes, self._log, self.name
         for var, value in posts:
-            if isinstance(value, bool):
-                value = "true" if value else "false"
-            elif isinstance(value, int):
-                value = float(value)
+            value = _normalised(value)
             values[var] = value
             for box in boxes:
                 box.deliver(var, value)

@@ -36,19 +36,13 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from uhrisim.core.frames import wrap_pi
+from uhrisim.core.frames import vector_length, wrap_pi
 from uhrisim.dynamics.diver_body import SIDES, DiverSkeleton, Side, pose_goal, solve_reach
 from uhrisim.dynamics.diver_boots import BootsParams, max_pelvis_tilt
 from uhrisim.teamwork import orders as od
 from uhrisim.teamwork.acts import HAND_TOLERANCE_M, ActRequest, Hand, site_kind
 from uhrisim.teamwork.workspace import Workspace
 from uhrisim.world.events import WorldEvent
-
-
-def _length(v: NDArray[np.float64]) -> float:
-    """The length of a vector (m): ``np.linalg.norm``'s own arithmetic, the square root of
-    ``v . v``, without its checks (asked several times a tick)."""
-    return math.sqrt(v.dot(v))
 
 
 @dataclass(frozen=True)
@@ -204,16 +198,16 @@ class OrderExecutor:
         here = view.position[:2]
         if self._stand is None:
             towards = point[:2] - here
-            if _length(towards) < 1e-6:
+            if vector_length(towards) < 1e-6:
                 towards = np.array([math.cos(view.heading), math.sin(view.heading)])
-            u = towards / _length(towards)
+            u = towards / vector_length(towards)
             sign = 1.0 if side == "right" else -1.0
             ahead = self._shoulder_ahead(view, side)
             self._stand = (point[:2] - (standoff + ahead) * u
                            - sign * p.lateral * np.array([-u[1], u[0]]), u)
         goal, u = self._stand
         to_goal = goal - here
-        distance = _length(to_goal)
+        distance = vector_length(to_goal)
         depth = None if view.walks else float(point[2])
         if distance > p.arrive_radius:
             bearing = math.atan2(to_goal[1], to_goal[0])
@@ -234,7 +228,7 @@ class OrderExecutor:
         ``point``."""
         hand = view.hand(side)
         cached = self._solved
-        if cached and cached[0] == side and _length(cached[1] - point) < 1e-3:
+        if cached and cached[0] == side and vector_length(cached[1] - point) < 1e-3:
             goal = cached[2]
         else:
             solution = solve_reach(view.skeleton, side, hand.to_body(point), view.q, bend=True,
@@ -245,7 +239,7 @@ class OrderExecutor:
             self._solved = (side, np.array(point, dtype=float), goal)
         if fingers_open:
             goal = view.skeleton.vector({f"{side}_fingers": 0.0}, goal)
-        there = _length(hand.grip_frame()[:3, 3] - point) < self.params.hand_settle
+        there = vector_length(hand.grip_frame()[:3, 3] - point) < self.params.hand_settle
         if fingers_open and not hand.is_open():
             there = False  # a short reach arrives before the fingers have opened
         return ("there" if there else "moving"), goal, ""
@@ -424,7 +418,7 @@ class OrderExecutor:
             ws.flanges[site].bolt_position(part) if kind == "flange"
             else ws.hatches[site].latch_position())
         spec = ws.tools[tool]
-        span = _length(np.subtract(spec.working_point, spec.grasp_point))
+        span = vector_length(np.subtract(spec.working_point, spec.grasp_point))
         facing = (self._stand[1] if self._stand is not None
                   else np.array([math.cos(view.heading), math.sin(view.heading)]))
         # the hand holds the tool short of the work point, the tool reaching across
@@ -490,7 +484,7 @@ class OrderExecutor:
         if receiver not in grips:
             return Directive(note=f"waiting for {receiver}")
         grip = np.asarray(grips[receiver], dtype=float)
-        if _length(ws.grasp_point(obj) - grip) <= HAND_TOLERANCE_M:
+        if vector_length(ws.grasp_point(obj) - grip) <= HAND_TOLERANCE_M:
             return Directive(act=ActRequest("hand_over", f"{self.diver}/{side}_hand", obj,
                                             receiver=receiver), note=f"hand {obj} to {receiver}")
         # offer it: walk up to the receiver, hold the object out towards its grip

@@ -178,39 +178,34 @@ class Scene:
                 f"no dynamic body named {name!r} (have {sorted(self._body_index)})",
                 where="Scene.set_pose",
             )
-        if not checked:
-            b = self._bodies[i]
-            b.position = np.array(position_ned, dtype=float)
-            b.rotation = np.array(rotation, dtype=float)
-            if kick_phase is not None and kick_phase != b.kick_phase:
-                b.kick_phase = float(kick_phase)
-                b.part_transforms = b.geometry.part_transforms(b.kick_phase)
-            return
-        p = np.array(position_ned, dtype=float).reshape(-1)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise ConfigError(
-                f"must be 3 finite numbers, got {position_ned!r}",
-                where=f"Scene.set_pose({name!r}).position_ned",
-            )
+        p = np.array(position_ned, dtype=float)
         r = np.array(rotation, dtype=float)
-        # Orthonormal (NaN fails the comparison) and proper (det = +1).
-        if r.shape != (3, 3) or not np.abs(r @ r.T - _EYE3).max() <= 1e-6 or np.linalg.det(r) < 0.0:
-            raise ConfigError(
-                "must be a proper 3x3 rotation matrix", where=f"Scene.set_pose({name!r}).rotation"
-            )
-        b = self._bodies[i]
-        b.position = p
-        b.rotation = r
-        if kick_phase is not None:
-            k = float(kick_phase)
-            if not np.isfinite(k):
+        k = None if kick_phase is None else float(kick_phase)
+        if checked:
+            p = p.reshape(-1)
+            if p.shape != (3,) or not np.all(np.isfinite(p)):
+                raise ConfigError(
+                    f"must be 3 finite numbers, got {position_ned!r}",
+                    where=f"Scene.set_pose({name!r}).position_ned",
+                )
+            # Orthonormal (NaN fails the comparison) and proper (det = +1).
+            if (r.shape != (3, 3) or not np.abs(r @ r.T - _EYE3).max() <= 1e-6
+                    or np.linalg.det(r) < 0.0):
+                raise ConfigError(
+                    "must be a proper 3x3 rotation matrix",
+                    where=f"Scene.set_pose({name!r}).rotation",
+                )
+            if k is not None and not np.isfinite(k):
                 raise ConfigError(
                     f"must be finite, got {kick_phase!r}",
                     where=f"Scene.set_pose({name!r}).kick_phase",
                 )
-            if k != b.kick_phase:
-                b.kick_phase = k
-                b.part_transforms = b.geometry.part_transforms(k)
+        b = self._bodies[i]
+        b.position = p
+        b.rotation = r
+        if k is not None and k != b.kick_phase:
+            b.kick_phase = k
+            b.part_transforms = b.geometry.part_transforms(k)
 
     def set_part_transforms(self, name: str, transforms: ArrayLike) -> None:
         """Re-pose an articulated body's parts directly: ``transforms`` (n_parts, 4, 4),

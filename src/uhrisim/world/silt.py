@@ -49,6 +49,7 @@ grains 2650 kg/m³.
 
 from __future__ import annotations
 
+import ctypes
 import importlib
 import math
 from collections.abc import Callable
@@ -61,7 +62,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.special import erf
 
 from uhrisim.core.checks import require_positive
-from uhrisim.core.compiled import callable_compiled, jit, numba_module
+from uhrisim.core.compiled import jit_with, numba_module
 from uhrisim.core.errors import ConfigError
 from uhrisim.dynamics.free_body import GRAVITY, WATER_DENSITY
 
@@ -133,9 +134,11 @@ class SiltCloud:
     _origin: list[tuple[float, float]] = field(default_factory=list)
     _mass: list[NDArray[np.float64]] = field(default_factory=list)  # (K,) per puff
     _released_kg: float = 0.0
-    #: the floor under the puffs' centres the last time (they move only with a current)
+    #: the floor under the puffs' centres the last time (they move only with a current):
+    #: a cache keyed by the centres' bytes, valid for the ``floor_depth`` given at
+    #: construction (not a parameter)
     _floor_under: tuple[bytes, NDArray[np.float64]] = field(
-        default=(b"", np.zeros(0)), repr=False, compare=False)
+        default=(b"", np.zeros(0)), init=False, repr=False, compare=False)
 
     def release(self, t: float, position_ned: ArrayLike, mass_kg: float | None = None) -> None:
         """A footfall at ``t`` (s) at ``position_ned`` (the floor under it is what counts):
@@ -464,6 +467,9 @@ def _window_integrals(n_rays, ray, puff, s_star, scale, width, s0, s1, peak, mas
 #: the symbol by which compiled kernels call scipy's ``erf`` (``scipy.special.erf`` runs
 #: the same C function)
 _ERF_SYMBOL = "uhrisim_scipy_special_erf"
+#: scipy's C ``erf`` among ``scipy.special.cython_special``'s fused variants (bound only
+#: where its capsule's signature says it takes and returns a double)
+_ERF_FUSED = "__pyx_fuse_1erf"
 
 
 @cache
@@ -473,13 +479,14 @@ def _compiled_ray_integrals() -> tuple[Any, Any] | None:
     numba = numba_module()
     if numba is None:
         return None
+    capsule = getattr(importlib.import_module("scipy.special.cython_special"), "__pyx_capi__",
+                      {}).get(_ERF_FUSED)
+    if capsule is None or not _capsule_name(capsule).startswith("double (double"):
+        return None  # no erf for doubles under that fused index in this scipy
     extending = importlib.import_module("numba.extending")
     binding = importlib.import_module("llvmlite.binding")  # numba's own dependency
-    try:
-        address = extending.get_cython_function_address("scipy.special.cython_special",
-                                                        "__pyx_fuse_1erf")
-    except ValueError:
-        return None
+    address = extending.get_cython_function_address("scipy.special.cython_special",
+                                                    _ERF_FUSED)
     binding.add_symbol(_ERF_SYMBOL, address)
     scipy_erf = numba.types.ExternalFunction(_ERF_SYMBOL,
                                              numba.types.float64(numba.types.float64))
@@ -488,9 +495,17 @@ def _compiled_ray_integrals() -> tuple[Any, Any] | None:
     def _erf_compiled(x):  # type: ignore[no-untyped-def]
         return lambda x: scipy_erf(x)
 
-    callable_compiled(_np_min)
-    callable_compiled(_np_max)
-    return (jit(_ray_windows, numpy_errors=True), jit(_window_integrals, numpy_errors=True))
+    helpers = (_np_min, _np_max)
+    return (jit_with(_ray_windows, helpers, numpy_errors=True),
+            jit_with(_window_integrals, helpers, numpy_errors=True))
+
+
+def _capsule_name(capsule: Any) -> str:
+    """A Cython C-API capsule's name: its C signature, e.g. ``"double (double, int
+    __pyx_skip_dispatch)"``."""
+    get_name = ctypes.PYFUNCTYPE(ctypes.c_char_p, ctypes.py_object)(
+        ("PyCapsule_GetName", ctypes.pythonapi))
+    return get_name(capsule).decode()
 
 
 @dataclass(frozen=True)
