@@ -7,6 +7,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+from dataclasses import replace
 from importlib import resources
 from pathlib import Path
 from types import SimpleNamespace
@@ -16,6 +17,7 @@ import pytest
 
 from uhrisim.core.errors import ConfigError
 from uhrisim.experiments.gesture_classifier import (
+    VIEW_RANGE_M,
     EpisodeRenderer,
     GestureEpisode,
     SilhouetteCache,
@@ -23,6 +25,7 @@ from uhrisim.experiments.gesture_classifier import (
     fit_network,
     held_out_episodes,
     stream_counts,
+    training_episodes,
 )
 from uhrisim.perception.gesture_reader import (
     FRAME_FEATURES,
@@ -265,3 +268,25 @@ def test_a_cached_render_is_renamed_when_its_gesture_changes(tmp_path):
     assert before.path(counting, 1.0) != after.path(counting, 1.0)
     assert before.path(other, 1.0) == after.path(other, 1.0)
     assert before.path(other, 1.0) != before.path(other, 1.0, stream=True)
+
+
+def test_worksite_views_leave_the_mid_water_episodes_and_their_cache_as_they_were(renderer):
+    """``--views`` adds worksite views after the mid-water episodes, drawn from their own
+    generator: the mid-water ones, and their cache files' names (a cache made before the
+    views existed stays valid), do not change; a view renders the same twice, the diver
+    found in every frame."""
+    plain = training_episodes(CLASSES, 2, 1)
+    with_views = training_episodes(CLASSES, 2, 1, views=1)
+    assert with_views[:len(plain)] == plain
+    views = with_views[len(plain):]
+    assert len(views) == len(CLASSES) and all(ep.view is not None for ep in views)
+    assert all(VIEW_RANGE_M[0] <= ep.range_m <= VIEW_RANGE_M[1] for ep in views)
+    store = SilhouetteCache(renderer, Path("cache"))
+    assert store.path(GestureEpisode("go_up", 3.0, 0.0, "I", True, 8), 1.0).name == \
+        "60143b49b616929a811d.npz"  # the name main's cache gave it before the views
+    kneeling = replace(views[0], view=replace(views[0].view, kneeling=True, tool="wrench",
+                                              site="valve"))
+    a, times_a = renderer.descriptors(kneeling)
+    b, times_b = renderer.descriptors(kneeling)
+    assert np.array_equal(a, b, equal_nan=True) and np.array_equal(times_a, times_b)
+    assert not np.isnan(a).any()

@@ -19,9 +19,19 @@ loop (every window that ends up to :data:`STREAM_LABEL_S` after the gesture is a
 of it, every one that ends while he is still moving a ``none`` sample:
 :func:`stream_samples`). Episodes of class ``none`` are the diver at rest.
 
+A **worksite view** (:class:`WorksiteView`, ``--views N`` of them per class, drawn with
+their own seed after the mid-water episodes, which stay as they were) shows him as the
+assisted salvage's ROV does: standing or kneeling on rippled sand or just above it
+(:data:`VIEW_GAP_M`), the camera :data:`VIEW_CAMERA_ABOVE_M` above his chest level at
+:data:`VIEW_RANGE_M`, tilted 10° down as the VideoRay's, the sand filling the lower part
+of the picture; some of the time a tool in his other hand (:data:`VIEW_TOOLS`) and a
+worksite-like object beside him (:data:`VIEW_SITES`).
+
     python -m uhrisim.experiments.gesture_classifier OUT.json [--episodes 20] [--seed 1]
-                                                              [--cache DIR]
+                                                              [--views 0] [--cache DIR]
+                                                              [--render-part K/N]
     python -m uhrisim.experiments.gesture_classifier --evaluate [--range 3] [--water I]
+                                                     [--worksite]
                                                      [--stream [--hop S] [--votes N]
                                                       [--min-confidence P]] [--cache DIR]
 
@@ -29,10 +39,13 @@ The first fits a classifier (the shipped ``perception/data/gesture_classifier.js
 says how it was fitted; the network's size and L2 penalty, :data:`HIDDEN` and :data:`L2`,
 were chosen on held-out episodes of seeds 101-104 at 3 m, never on the test's seeds);
 ``--cache`` keeps the rendered silhouettes, so that a change of the descriptors or of the
-classifier refits without rendering. The second prints the
+classifier refits without rendering; with ``--render-part K/N`` the command only renders
+every N-th episode from the K-th into the cache (N processes fill it side by side) and
+fits nothing. The second prints the
 accuracy and confusion matrix of the shipped classifier (or ``OUT.json``'s) on held-out
-episodes, or with ``--stream`` what the streaming reader (its rule as given) recognizes,
-misses and says falsely on them as streams (:func:`stream_counts`).
+episodes (with ``--worksite``: as worksite views), or with ``--stream`` what the
+streaming reader (its rule as given) recognizes, misses and says falsely on them as
+streams (:func:`stream_counts`).
 """
 
 from __future__ import annotations
@@ -68,10 +81,12 @@ from uhrisim.perception.gesture_reader import (
 from uhrisim.perception.gestures import Gesture, GestureSet, pose_at
 from uhrisim.sensors.camera import CameraConfig, UnderwaterCamera, jerlov
 from uhrisim.world import primitives as prim
-from uhrisim.world.diver_figure import diver_figure, figure_transforms
-from uhrisim.world.materials import ALUMINIUM, NEOPRENE, SAND
+from uhrisim.world.diver_figure import diver_figure, figure_transforms, posed_figure
+from uhrisim.world.materials import ALUMINIUM, NEOPRENE, SAND, SAND_RIPPLED, STEEL
 from uhrisim.world.raycast import RayCaster
 from uhrisim.world.scene import Scene
+from uhrisim.world.tools import make_tool
+from uhrisim.world.worksites import steel_load
 
 CAMERA_DEPTH_M = 8.0
 FLOOR_DEPTH_M = 12.0
@@ -97,6 +112,16 @@ TANKS = (ALUMINIUM.albedo_rgb, (0.70, 0.55, 0.05), (0.04, 0.04, 0.04))
 #: the network: hidden units, the L2 penalty on its weights (chosen on validation
 #: episodes: module docstring) and the optimiser's iterations
 HIDDEN, L2, MAX_ITERATIONS = 48, 0.001, 300
+#: worksite views (:class:`WorksiteView`): his soles (or knees) above the rippled sand
+#: (m), the camera above his chest level (m), its range (m) and tilt (° down), the tools
+#: he may hold and the objects that may stand beside him (their size, m: the assisted
+#: salvage's valve body and tool stand), each drawn half of the time
+VIEW_GAP_M, VIEW_CAMERA_ABOVE_M = (0.0, 0.3), (0.0, 0.6)
+VIEW_RANGE_M, VIEW_TILT_DEG = (2.0, 4.0), 10.0
+VIEW_TOOLS = ("wrench", "light", "hammer")
+VIEW_SITES = {"valve": (0.6, 0.5, 0.8), "stand": (0.5, 0.7, 0.8)}
+#: where the worksite scene keeps the tools and objects not in the episode (NED, m)
+PARKED_NED = (-1000.0, 0.0, FLOOR_DEPTH_M)
 
 
 def gesture_classes(gestures: GestureSet) -> list[str]:
@@ -111,9 +136,26 @@ def gesture_classes(gestures: GestureSet) -> list[str]:
 
 
 @dataclass(frozen=True)
+class WorksiteView:
+    """How a worksite view (module docstring) is set: ``kneeling`` or standing, his soles
+    (knees) ``gap_m`` above the sand, the camera ``camera_above_m`` above his chest level,
+    the ``tool`` kind in his other hand (None: empty-handed), the object beside him
+    (:data:`VIEW_SITES`; None: none) ``site_right_m`` to his right as the camera sees it
+    (negative: left) and ``site_behind_m`` farther from the camera than he is."""
+
+    kneeling: bool
+    gap_m: float
+    camera_above_m: float
+    tool: str | None
+    site: str | None
+    site_right_m: float
+    site_behind_m: float
+
+
+@dataclass(frozen=True)
 class GestureEpisode:
     """One rendered performance (module docstring); ``suit`` and ``tank`` are the
-    albedos of the diver's suit and cylinder."""
+    albedos of the diver's suit and cylinder; ``view``: a worksite view, None: mid-water."""
 
     klass: str
     range_m: float
@@ -123,6 +165,18 @@ class GestureEpisode:
     seed: int
     suit: tuple[float, float, float] = NEOPRENE.albedo_rgb
     tank: tuple[float, float, float] = ALUMINIUM.albedo_rgb
+    view: WorksiteView | None = None
+
+
+def draw_view(rng: np.random.Generator) -> WorksiteView:
+    """A worksite view drawn at random (:data:`VIEW_GAP_M` … :data:`VIEW_SITES`)."""
+    kneeling = bool(rng.random() < 0.3)
+    gap = float(rng.uniform(*VIEW_GAP_M))
+    above = float(rng.uniform(*VIEW_CAMERA_ABOVE_M))
+    tool = str(rng.choice(VIEW_TOOLS)) if rng.random() < 0.5 else None
+    site = str(rng.choice(list(VIEW_SITES))) if rng.random() < 0.5 else None
+    right = float(rng.choice([-1.0, 1.0]) * rng.uniform(0.7, 1.5))
+    return WorksiteView(kneeling, gap, above, tool, site, right, float(rng.uniform(0.0, 1.0)))
 
 
 class EpisodeRenderer:
@@ -133,33 +187,76 @@ class EpisodeRenderer:
         self.gestures = gestures or GestureSet.load()
         self.skeleton = DiverSkeleton()
         self._scenes: dict[tuple, tuple[Scene, RayCaster]] = {}
-        self._cameras: dict[tuple[str, bool], UnderwaterCamera] = {}
+        self._cameras: dict[tuple[str, bool, float], UnderwaterCamera] = {}
+        self.tool_grasps = {kind: make_tool(kind, kind).grasp_offset() for kind in VIEW_TOOLS}
         self.scene, self.caster = self._scene(NEOPRENE.albedo_rgb, ALUMINIUM.albedo_rgb)
 
-    def _scene(self, suit: tuple[float, float, float], tank: tuple[float, float, float]
-               ) -> tuple[Scene, RayCaster]:
-        key = (tuple(suit), tuple(tank))
+    def _scene(self, suit: tuple[float, float, float], tank: tuple[float, float, float],
+               worksite: bool = False) -> tuple[Scene, RayCaster]:
+        """The mid-water scene, or with ``worksite`` the worksite views' (rippled sand,
+        the :data:`VIEW_TOOLS` and :data:`VIEW_SITES` as bodies parked out of sight)."""
+        key = (tuple(suit), tuple(tank), worksite)
         if key not in self._scenes:
             scene = Scene()
             floor = prim.box((FLOOR_SIZE_M, FLOOR_SIZE_M, 1.0),
                              (0.0, 0.0, FLOOR_DEPTH_M + 0.5))
-            scene.add_static(floor, "seafloor", SAND)
+            scene.add_static(floor, "seafloor", SAND_RIPPLED if worksite else SAND)
             figure = diver_figure(self.skeleton, replace(ALUMINIUM, albedo_rgb=tank))
             scene.add_dynamic("diver", figure, "diver", replace(NEOPRENE, albedo_rgb=suit),
                               position_ned=(3.0, 0.0, CAMERA_DEPTH_M + HIP_BELOW_CAMERA_M))
+            if worksite:
+                for kind in VIEW_TOOLS:
+                    scene.add_dynamic(kind, make_tool(kind, kind).mesh(), kind, ALUMINIUM,
+                                      PARKED_NED)
+                for name, size in VIEW_SITES.items():
+                    parts = steel_load(name, 40.0, size).parts() if name == "valve" \
+                        else prim.box(size)
+                    scene.add_dynamic(name, parts, name, STEEL, PARKED_NED)
             self._scenes[key] = scene, scene.raycaster()
         return self._scenes[key]
 
-    def _camera(self, water: str, lamps: bool, noise: np.random.Generator) -> UnderwaterCamera:
-        key = (water, lamps)
+    def _camera(self, water: str, lamps: bool, noise: np.random.Generator,
+                tilt_deg: float = 0.0) -> UnderwaterCamera:
+        key = (water, lamps, tilt_deg)
         if key not in self._cameras:
             pool = np.random.default_rng([26, *water.encode(), int(lamps)])
             self._cameras[key] = UnderwaterCamera(
                 CameraConfig(width=IMAGE_WIDTH, height=IMAGE_HEIGHT, water=jerlov(water),
-                             lamps_on=lamps, tilt_deg=0.0), pool)
+                             lamps_on=lamps, tilt_deg=tilt_deg), pool)
         camera = self._cameras[key]
         camera.rng = noise
         return camera
+
+    def _place_worksite(self, scene: Scene, ep: GestureEpisode
+                        ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Sets ``ep``'s worksite view (:class:`WorksiteView`) in the worksite ``scene``:
+        its object placed on the sand, the rest parked; returns (his legs' angles, his
+        hip centre and the camera, NED m)."""
+        view = ep.view
+        assert view is not None
+        legs = self.skeleton.zeros()
+        if view.kneeling:
+            for side in ("left", "right"):
+                legs[self.skeleton.index(f"{side}_knee")] = math.radians(90.0)
+        lowest = float(posed_figure(self.skeleton, legs).bounds[1][2])  # body z is down
+        hip = np.array([ep.range_m, 0.0, FLOOR_DEPTH_M - lowest - view.gap_m])
+        eye = np.array([0.0, 0.0, hip[2] - HIP_BELOW_CAMERA_M - view.camera_above_m])
+        for name in (*VIEW_TOOLS, *VIEW_SITES):
+            scene.set_pose(name, PARKED_NED, np.eye(3))
+        if view.site is not None:
+            height = VIEW_SITES[view.site][2]
+            scene.set_pose(view.site, (ep.range_m + view.site_behind_m, view.site_right_m,
+                                       FLOOR_DEPTH_M - 0.5 * height), np.eye(3))
+        return legs, hip, eye
+
+    def _hold(self, scene: Scene, kind: str, q: NDArray[np.float64], side: str,
+              body: NDArray[np.float64]) -> None:
+        """Poses tool ``kind`` in his ``side`` hand (its grasp point at the grip, its
+        length across the fingers) for joint angles ``q`` and body pose ``body`` (4x4)."""
+        hand = body @ self.skeleton.hand_frame(q, side)  # type: ignore[arg-type]
+        rotation = hand[:3, :3] @ rot_z(math.pi / 2)
+        grasp = self.tool_grasps[kind]
+        scene.set_pose(kind, hand[:3, 3] - rotation @ grasp, rotation)
 
     def frames(self, ep: GestureEpisode, extra_s: float = 0.0, stream: bool = False
                ) -> Iterator[tuple[float, NDArray[np.uint8]]]:
@@ -179,22 +276,34 @@ class EpisodeRenderer:
         sway = [(self.skeleton.index(f"{s}_{k}"), float(motion.uniform(3.0, 6.0)),
                  float(motion.uniform(0, 2 * math.pi))) for s in ("left", "right")
                 for k in ARM_KINDS]
-        scene, caster = self._scene(ep.suit, ep.tank)
-        camera = self._camera(ep.water, ep.lamps, noise)
-        scene.set_pose("diver", (ep.range_m, 0.0, CAMERA_DEPTH_M + HIP_BELOW_CAMERA_M),
-                       rot_z(math.pi + math.radians(ep.heading_deg)))
+        view = ep.view
+        scene, caster = self._scene(ep.suit, ep.tank, view is not None)
+        camera = self._camera(ep.water, ep.lamps, noise,
+                              0.0 if view is None else VIEW_TILT_DEG)
+        if view is None:
+            legs = self.skeleton.zeros()
+            hip = np.array([ep.range_m, 0.0, CAMERA_DEPTH_M + HIP_BELOW_CAMERA_M])
+            eye = np.array([0.0, 0.0, CAMERA_DEPTH_M])
+        else:
+            legs, hip, eye = self._place_worksite(scene, ep)
+        body = np.eye(4)
+        body[:3, :3] = rot_z(math.pi + math.radians(ep.heading_deg))
+        body[:3, 3] = hip
+        scene.set_pose("diver", hip, body[:3, :3])
+        other = "right" if side == "left" else "left"
         lead_s = STREAM_LEAD_S if stream else 0.0
         n = round((WINDOW_S + extra_s + lead_s) * RATE_HZ)
         for t in end - WINDOW_S - lead_s + (np.arange(n) + 1) / RATE_HZ:
             making = name != NONE and not (stream and t > duration)
             joints = pose_at(frames, t) if making else dict(frames[0].joints)
-            q = self.skeleton.vector(joints)
+            q = self.skeleton.vector(joints, legs)
             for index, period, phase in sway:
                 q[index] += math.radians(SWAY_DEG) * math.sin(2 * math.pi * t / period + phase)
-            scene.set_part_transforms("diver", figure_transforms(self.skeleton,
-                                                                 self.skeleton.clip(q)))
-            frame = camera.capture(caster, np.array([0.0, 0.0, CAMERA_DEPTH_M]), np.eye(3),
-                                   float(t))
+            q = self.skeleton.clip(q)
+            scene.set_part_transforms("diver", figure_transforms(self.skeleton, q))
+            if view is not None and view.tool is not None:
+                self._hold(scene, view.tool, q, other, body)
+            frame = camera.capture(caster, eye, np.eye(3), float(t))
             yield float(t), frame.rgb
 
     def silhouettes(self, ep: GestureEpisode, extra_s: float = 0.0, stream: bool = False
@@ -228,7 +337,10 @@ class SilhouetteCache:
             return None
         name = ep.klass.partition(":")[0]
         motion = self.renderer.gestures.gestures["ok" if name == NONE else name]
-        key = repr((ep, extra_s, IMAGE_WIDTH, IMAGE_HEIGHT, RATE_HZ, WINDOW_S, motion))
+        # a mid-water episode keeps the key it had before worksite views existed
+        episode = repr(ep).removesuffix(", view=None)") + ")" if ep.view is None else repr(ep)
+        key = f"({episode}, " + repr((extra_s, IMAGE_WIDTH, IMAGE_HEIGHT, RATE_HZ, WINDOW_S,
+                                       motion))[1:]
         if stream:
             key += f" stream {STREAM_LEAD_S}"
         return self.folder / f"{hashlib.sha1(key.encode()).hexdigest()[:20]}.npz"
@@ -328,11 +440,14 @@ def stream_samples(d: NDArray[np.float64], times: NDArray[np.float64], klass: st
 TRAINING_WATERS = {"I": (1.0, (2.0, 4.5))}
 
 
-def training_episodes(classes: list[str], per_class: int, seed: int) -> list[GestureEpisode]:
+def training_episodes(classes: list[str], per_class: int, seed: int, views: int = 0
+                      ) -> list[GestureEpisode]:
     """Random settings (module docstring): :data:`TRAINING_WATERS`, headings ±35°, lamps
     on or off, suit and cylinder colours from :data:`SUITS` and :data:`TANKS`; drawn
     round by round over the classes, so that fewer episodes per class are the first
-    rounds of more."""
+    rounds of more; then ``views`` worksite views per class (:func:`draw_view`, clear
+    water at :data:`VIEW_RANGE_M`), drawn the same way from their own generator, so that
+    the mid-water episodes do not depend on them."""
     rng = np.random.default_rng(seed)
     waters = list(TRAINING_WATERS)
     shares = [TRAINING_WATERS[w][0] for w in waters]
@@ -345,6 +460,14 @@ def training_episodes(classes: list[str], per_class: int, seed: int) -> list[Ges
                                       bool(rng.random() < 0.5), int(rng.integers(1 << 30)),
                                       SUITS[rng.integers(len(SUITS))],
                                       TANKS[rng.integers(len(TANKS))]))
+    rng = np.random.default_rng([seed, 26])
+    for _ in range(views):
+        for c in classes:
+            out.append(GestureEpisode(c, float(rng.uniform(*VIEW_RANGE_M)),
+                                      float(rng.uniform(-35, 35)), "I",
+                                      bool(rng.random() < 0.5), int(rng.integers(1 << 30)),
+                                      SUITS[rng.integers(len(SUITS))],
+                                      TANKS[rng.integers(len(TANKS))], draw_view(rng)))
     return out
 
 
@@ -390,7 +513,19 @@ def fit_network(features: NDArray[np.float64], labels: NDArray[np.int64], n_clas
     return tuple(unpack(result.x))
 
 
-def training_samples(per_class: int, seed: int, cache: Path | None = None
+def render_part(per_class: int, seed: int, views: int, cache: Path, part: int, parts: int
+                ) -> None:
+    """Renders every ``parts``-th training episode from the ``part``-th into ``cache``
+    (both renderings), so that ``parts`` processes fill it side by side."""
+    renderer = EpisodeRenderer()
+    store = SilhouetteCache(renderer, cache)
+    episodes = training_episodes(gesture_classes(renderer.gestures), per_class, seed, views)
+    for ep in episodes[part::parts]:
+        store.descriptors(ep, END_AFTER_S[1])
+        store.descriptors(ep, STREAM_AFTER_S, stream=True)
+
+
+def training_samples(per_class: int, seed: int, cache: Path | None = None, views: int = 0
                      ) -> tuple[list[str], NDArray[np.float64], NDArray[np.int64]]:
     """(classes, window features, class indices) of the rendered training episodes, each
     rendered twice: the diver holding the gesture's last pose (:func:`window_samples`)
@@ -400,7 +535,7 @@ def training_samples(per_class: int, seed: int, cache: Path | None = None
     store = SilhouetteCache(renderer, cache)
     classes = gesture_classes(renderer.gestures)
     rows, labels = [], []
-    for ep in training_episodes(classes, per_class, seed):
+    for ep in training_episodes(classes, per_class, seed, views):
         held = window_samples(*store.descriptors(ep, END_AFTER_S[1]), ep.klass,
                               renderer.gestures)
         streamed = stream_samples(*store.descriptors(ep, STREAM_AFTER_S, stream=True),
@@ -427,9 +562,16 @@ def classifier_of(classes: list[str], x: NDArray[np.float64], y: NDArray[np.int6
                              RATE_HZ, provenance)
 
 
-def fit(per_class: int, seed: int, cache: Path | None = None) -> GestureClassifier:
-    """The classifier fitted on ``per_class`` rendered episodes per class."""
-    classes, x, y = training_samples(per_class, seed, cache)
+def fit(per_class: int, seed: int, cache: Path | None = None, views: int = 0
+        ) -> GestureClassifier:
+    """The classifier fitted on ``per_class`` rendered mid-water episodes and ``views``
+    worksite views per class."""
+    classes, x, y = training_samples(per_class, seed, cache, views)
+    worksite = (f"; {views} worksite views per class (rippled sand, camera "
+                f"{VIEW_CAMERA_ABOVE_M[0]:g}-{VIEW_CAMERA_ABOVE_M[1]:g} m above his chest "
+                f"at {VIEW_RANGE_M[0]:g}-{VIEW_RANGE_M[1]:g} m, tilted {VIEW_TILT_DEG:g} deg, "
+                f"standing or kneeling, a tool or an object beside him half of the time)"
+                if views else "")
     counts = ", ".join(f"{c} {np.count_nonzero(y == i)}" for i, c in enumerate(classes))
     return classifier_of(
         classes, x, y,
@@ -437,7 +579,8 @@ def fit(per_class: int, seed: int, cache: Path | None = None) -> GestureClassifi
                     f"episodes per class (seed {seed}; {IMAGE_WIDTH} x {IMAGE_HEIGHT} px at "
                     f"{RATE_HZ:g} Hz; Jerlov I at 2-4.5 m, "
                     f"headings +-35 deg, lamps on or off, {len(SUITS)} suit and "
-                    f"{len(TANKS)} cylinder colours; {HIDDEN} hidden units, L2 {L2:g}); "
+                    f"{len(TANKS)} cylinder colours{worksite}; {HIDDEN} hidden units, "
+                    f"L2 {L2:g}); "
                     f"samples: {counts}"))
 
 
@@ -477,11 +620,17 @@ def stream_counts(reader_of: Callable[[], GestureReader], episodes: list[Gesture
 
 
 def held_out_episodes(classes: list[str], range_m: float, water: str, lamps: bool,
-                      seeds: list[int]) -> list[GestureEpisode]:
-    """One episode per class and seed at one setting, headings drawn within ±35°."""
-    return [GestureEpisode(c, range_m, float(np.random.default_rng([s, i]).uniform(-35, 35)),
-                           water, lamps, 1_000_000 + 97 * s + i)
-            for s in seeds for i, c in enumerate(classes)]
+                      seeds: list[int], worksite: bool = False) -> list[GestureEpisode]:
+    """One episode per class and seed at one setting, headings drawn within ±35°; with
+    ``worksite`` a worksite view drawn for each (:func:`draw_view`)."""
+    out = []
+    for s in seeds:
+        for i, c in enumerate(classes):
+            rng = np.random.default_rng([s, i])
+            heading = float(rng.uniform(-35, 35))
+            out.append(GestureEpisode(c, range_m, heading, water, lamps, 1_000_000 + 97 * s + i,
+                                      view=draw_view(rng) if worksite else None))
+    return out
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -493,6 +642,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--range", type=float, default=3.0)
     parser.add_argument("--water", default="I")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--views", type=int, default=0,
+                        help="worksite views per class, after the mid-water episodes")
+    parser.add_argument("--worksite", action="store_true",
+                        help="with --evaluate: the held-out episodes as worksite views")
+    parser.add_argument("--render-part", help="K/N: only render every N-th episode from "
+                        "the K-th into --cache")
     parser.add_argument("--cache", type=Path, help="keep the rendered silhouettes here")
     parser.add_argument("--stream", action="store_true",
                         help="with --evaluate: each episode as a stream through the reader")
@@ -503,7 +658,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.evaluate:
         classifier = GestureClassifier.load(args.out)
         held = held_out_episodes(list(classifier.classes), args.range, args.water, True,
-                                 args.seeds)
+                                 args.seeds, args.worksite)
         if args.stream:
             store = SilhouetteCache(EpisodeRenderer(), args.cache)
             counts = stream_counts(lambda: GestureReader(
@@ -519,10 +674,16 @@ def main(argv: list[str] | None = None) -> None:
         for c, row in zip(classes, matrix, strict=True):
             print(f"{c:>14} " + " ".join(f"{v:2d}" for v in row))
         return
+    if args.render_part:
+        if args.cache is None:
+            parser.error("--render-part needs --cache")
+        part, parts = (int(v) for v in args.render_part.split("/"))
+        render_part(args.episodes, args.seed, args.views, args.cache, part, parts)
+        return
     if args.out is None:
         parser.error("OUT.json is needed to fit")
     start = time.perf_counter()
-    classifier = fit(args.episodes, args.seed, args.cache)
+    classifier = fit(args.episodes, args.seed, args.cache, args.views)
     args.out.write_text(json.dumps(classifier.to_dict(), indent=1) + "\n")
     print(classifier.provenance)
     print(f"fitted in {time.perf_counter() - start:.0f} s")
