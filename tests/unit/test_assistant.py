@@ -404,6 +404,8 @@ def test_jaws_are_where_the_gripper_is():
     (dict(clearance_m=0.05), "assistant.clearance_m: must exceed trigger_margin_m"),
     (dict(default_task="bring_tool"), "assistant.default_task: must be idle or a command"),
     (dict(fetch_attempts=0), "assistant.fetch_attempts: must be an integer >= 1"),
+    (dict(watch_range_m=1.2), "assistant.watch_range_m: must exceed the larger guard"),
+    (dict(watch_range_m=-3.0), "assistant.watch_range_m: must be a finite number > 0"),
 ])
 def test_bad_parameters_are_one_line_errors(kw, message):
     with pytest.raises(ConfigError, match=message):

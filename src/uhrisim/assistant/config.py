@@ -109,6 +109,11 @@ class AssistantConfig:
             raise ConfigError("must exceed clearance_m", "assistant.backoff_to_m")
         if self.near_speed > self.cruise_speed or self.creep_speed > self.near_speed:
             raise ConfigError("need creep_speed <= near_speed <= cruise_speed", "assistant")
+        reach = max(self.body_guard_m, self.head_guard_m) + self.backoff_to_m
+        if self.watch_range_m is not None and self.watch_range_m <= reach:
+            raise ConfigError(f"must exceed the larger guard + backoff_to_m ({reach:g} m), or "
+                              "watching would drive the ROV into its own back-off",
+                              "assistant.watch_range_m")
 
     @staticmethod
     def from_mapping(data: Mapping[str, object] | None, where: str = "assistant"

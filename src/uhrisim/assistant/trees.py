@@ -158,11 +158,15 @@ class Watch(Leaf):
     as a back-off), at ``WATCH_GAIN`` × the range's error, at most ``near_speed``; the
     camera stays on him all the while."""
 
+    def __init__(self, name: str, ctx: TreeContext, range_m: float) -> None:
+        super().__init__(name, ctx)
+        self.range_m = range_m
+
     def update(self) -> Status:
         diver, cfg = self.ctx.diver, self.ctx.config
-        if diver is None or cfg.watch_range_m is None:
+        if diver is None:
             return Status.FAILURE
-        error = math.hypot(*(diver.position_ned - self.ctx.rov)[:2]) - cfg.watch_range_m
+        error = math.hypot(*(diver.position_ned - self.ctx.rov)[:2]) - self.range_m
         speed = max(-cfg.near_speed, min(cfg.near_speed, WATCH_GAIN * error))
         drive_facing(self.ctx, diver.position_ned, speed,
                      float(diver.position_ned[2]) - CHEST_ABOVE_PELVIS_M)
@@ -376,7 +380,7 @@ def build_tree(ctx: TreeContext) -> tuple[py_trees.behaviour.Behaviour, Selector
         _task(ctx, "go_up", up),
         Selector("no task", memory=False, children=[
             say_again, HoldHere("idle", ctx) if cfg.watch_range_m is None
-            else Watch("idle", ctx)])])
+            else Watch("idle", ctx, cfg.watch_range_m)])])
     decide = Selector("decide", memory=False, children=[lost, given, too_close, closing,
                                                         tasks])
     root = Sequence("assistant", memory=False, children=[SpeedCeiling("speed ceiling", ctx),
