@@ -1,11 +1,12 @@
 """Same scenario + seed ⇒ the same image bits, wherever the heap puts the arrays.
 
 OpenCV's magnitude (Intel IPP's in the wheels) rounds the cells it peels off at a
-buffer's unaligned head and at its tail differently from its vector body, so the coherent
-image (and the speckle bank both models read) could differ by an ulp in a cell from run
-to run, with the heap's state (``polar.magnitude``). These tests place every array the
-image stages allocate, and the operands of the stages, at each 16-byte offset that
-malloc may give within a cache line, and demand the same bytes.
+buffer's head and tail (and beside zeros, or what lies past the buffer's ends) otherwise
+than its vector body, so the coherent image and the speckle bank both models read could
+differ by an ulp in a cell from run to run, with the heap's state (``polar.magnitude``).
+These tests place the stages' operands at every float offset within a cache line with
+zeros or ones around them, every array the stages allocate at each of malloc's offsets,
+and draw banks and pings with the heap shifted between them; they demand the same bytes.
 """
 
 from __future__ import annotations

@@ -173,8 +173,8 @@ def magnitude(re: NDArray[np.float32], im: NDArray[np.float32]) -> NDArray[np.fl
     cell a different bit wherever a buffer happened to start (the heap's state: run to
     run). Here the operands are copied into one fresh buffer between :data:`_MAGNITUDE_PAD`
     cells of 1.0 on each side: every cell is computed by the vector body, as the cells
-    of a long buffer's inside always were (the same bits there; two copies, ~2 % of the
-    coherent stages)."""
+    of a long buffer's inside always were (the same bits there). The two copies cost
+    ~50 µs for a P900-45 image at 30 m (~1 % of a coherent ping)."""
     n, pad = re.size, _MAGNITUDE_PAD
     buf = np.empty((2, n + 2 * pad), np.float32)
     buf[:, :pad] = buf[:, n + pad :] = 1.0
