@@ -158,12 +158,37 @@ def coherent_field(
         cv2.filter2D(out, cv2.CV_32F, range_amp.reshape(-1, 1), dst=out, borderType=_MIRROR)
 
 
+#: Cells of 1.0 laid on each side of :func:`magnitude`'s operands (more than one SIMD
+#: block of the 512-bit path).
+_MAGNITUDE_PAD = 32
+
+
+def magnitude(re: NDArray[np.float32], im: NDArray[np.float32]) -> NDArray[np.float32]:
+    """``|re + i·im|`` (``re``'s shape, float32), each cell a function of its own two
+    values alone, wherever the operands lie in memory.
+
+    OpenCV's magnitude (Intel IPP's in the wheels) is not: its vector body and the
+    elements it peels off at the buffer's unaligned head, at its tail and beside a zero
+    round differently (1 ulp in about a third of cells), so the same values gave a
+    cell a different bit wherever a buffer happened to start (the heap's state: run to
+    run). Here the operands are copied into one fresh buffer between :data:`_MAGNITUDE_PAD`
+    cells of 1.0 on each side: every cell is computed by the vector body, as the cells
+    of a long buffer's inside always were (the same bits there). The two copies cost
+    ~50 µs for a P900-45 image at 30 m (~1 % of a coherent ping)."""
+    n, pad = re.size, _MAGNITUDE_PAD
+    buf = np.empty((2, n + 2 * pad), np.float32)
+    buf[:, :pad] = buf[:, n + pad :] = 1.0
+    buf[0, pad : n + pad].reshape(re.shape)[...] = re
+    buf[1, pad : n + pad].reshape(im.shape)[...] = im
+    cv2.magnitude(buf[0], buf[1], magnitude=buf[0])
+    return buf[0, pad : n + pad].reshape(re.shape)
+
+
 def coherent_log_intensity(
     c_re: NDArray[np.float32], c_im: NDArray[np.float32], out: NDArray[np.float32]
 ) -> None:
-    """``out = ln|c|`` (half the log intensity), via OpenCV's magnitude and log."""
-    cv2.magnitude(c_re, c_im, magnitude=out)
-    cv2.log(out, out)
+    """``out = ln|c|`` (half the log intensity), via :func:`magnitude` and OpenCV's log."""
+    cv2.log(magnitude(c_re, c_im), out)
 
 
 def mean_intensity(

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.sensors.sonar.geometry import BLOCK_WIDTH_RATIO, BeamBlock
-from uhrisim.sensors.sonar.polar import filter_beams
+from uhrisim.sensors.sonar.polar import filter_beams, magnitude
 
 #: Extra cells of the flat scatterer bank beyond the image (possible z offsets).
 FLAT_EXTRA = 1 << 18
@@ -152,7 +152,7 @@ class SpeckleBank:
         big = (n_bins + ROW_EXTRA + 2 * (range_amp.size // 2), n_beams + extra + 2 * hb)
         layout = bank_blocks(blocks, extra)
         w_re, w_im = filtered_field(*complex_normals(rng, big), layout, range_amp)
-        ln_w2 = cv2.magnitude(w_re, w_im)
+        ln_w2 = magnitude(w_re, w_im)
         cv2.log(np.maximum(ln_w2, np.float32(1e-30)), ln_w2)
         return SpeckleBank(shape, z_re, z_im, ln_w2 * np.float32(2.0 * k_ln))
 
