@@ -388,8 +388,9 @@ class ImagingSonar:
                                     clipped=False)
 
     def _surface(self, position_ned: NDArray[np.float64],
-                 rotation_ned_from_sonar: NDArray[np.float64]) -> NDArray[np.float64]:
-        """This ping's surface reverberation per range row (re SL, (n_bins,)):
+                 rotation_ned_from_sonar: NDArray[np.float64]
+                 ) -> NDArray[np.float64] | None:
+        """This ping's surface reverberation per range row (re SL, (n_bins,); None: none):
         :func:`~uhrisim.sensors.sonar.geometry.surface_rows` at the sonar's depth and
         depression angle (rad, from its boresight's NED z)."""
         cfg, g = self.config, self.geometry
