@@ -86,32 +86,22 @@ def test_images_formed_by_two_threads_are_those_of_one():
     np.testing.assert_array_equal(runs[0], runs[1])
 
 
-@pytest.mark.parametrize("speckle", [True, False])
-def test_echo_free_images_are_polar_bytes_bit_for_bit(speckle):
-    """A ping with no hit: :func:`echo_free_bytes` gives ``polar_bytes``' image and leaves
-    the sonar's Generator where ``polar_bytes`` leaves it (at depths with and without
-    surface reverberation, the sonar level and tilted)."""
-    import dataclasses
-
-    from uhrisim.core.frames import rot_z
-    from uhrisim.envs.echo_free import echo_free_bytes, echo_free_supported
-    from uhrisim.sensors.sonar.cast import FanHits
+def test_pings_with_no_hit_take_the_echo_free_shortcut(monkeypatch):
+    """With the diver far out of every fan, the pings that see nothing (the sea floor
+    beyond the window) form their images by ``polar_bytes``' echo-free shortcut
+    (``ImagingSonar._echo_free_level``): the env's speed path, held."""
     from uhrisim.sensors.sonar.sonar import ImagingSonar
 
-    vec = TrailDiverSonarVectorEnv(num_envs=1)
-    vec.reset(seed=[7])
-    config = dataclasses.replace(vec.sonars[0].config, speckle=speckle)
-    sonars = [ImagingSonar(config, np.random.default_rng(11)) for _ in range(2)]
-    assert echo_free_supported(sonars[1])
-    no_hit = FanHits(np.empty(0, np.int64), *[np.empty(0)] * 3, np.empty(0, np.int32))
-    level = np.empty(sonars[0].polar_shape, np.float32)
-    for depth, pitch in [(1.5, 0.0), (4.0, 0.3), (12.0, -0.2), (-0.5, 0.0)]:
-        c, s = math.cos(pitch), math.sin(pitch)
-        rotation = rot_z(0.7) @ np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-        pose = sonars[0].sonar_pose(np.array([3.0, -2.0, depth]), rotation)
-        np.testing.assert_array_equal(echo_free_bytes(sonars[1], *pose, level),
-                                      sonars[0].polar_bytes(*pose, no_hit))
-    assert sonars[0].rng.integers(1 << 30) == sonars[1].rng.integers(1 << 30)
+    vec = TrailDiverSonarVectorEnv(num_envs=3)
+    vec.reset(seed=[7, 8, 9])
+    vec.diver[:, :3] = vec.rov[:, :3] + [0.0, 0.0, -500.0]  # far above, out of every fan
+    vec.rov[:, 2] = 2.0  # near the surface: the sea floor out of the window
+    calls = []
+    shortcut = ImagingSonar._echo_free_level
+    monkeypatch.setattr(ImagingSonar, "_echo_free_level",
+                        lambda self, *pose: calls.append(self) or shortcut(self, *pose))
+    vec._ping()
+    assert calls == vec.sonars
 
 
 @pytest.mark.parametrize("shape", [(375, 256, 96, 64), (50, 33, 7, 5), (37, 20, 9, 10),

@@ -386,3 +386,35 @@ def test_fan_images_and_hit_products_formed_late_equal_formed_at_once(mode: str)
     for formed_late, formed_at_once in zip(products(kept), images, strict=True):
         np.testing.assert_array_equal(formed_late, formed_at_once)
     assert (images[1] == PLATE).any() and (images[1] == 2).any()
+
+
+@pytest.mark.parametrize("speckle_model", [None, "product", "coherent"])
+@pytest.mark.parametrize("surface", [True, False])
+@pytest.mark.parametrize("multipath", [False, True])
+def test_echo_free_shortcut_is_the_full_path_bit_for_bit(speckle_model, surface,
+                                                         multipath) -> None:
+    """A physical ping with no hit: ``polar_bytes``' shortcut (``_echo_free_level``, no
+    raw image) gives the level ``_physical_image`` forms on no hit and ``form_image``'s
+    ``polar_u8``, and leaves the sonar's Generator where the full path leaves it (at
+    depths with and without surface reverberation, the sonar level and tilted)."""
+    from uhrisim.core.frames import rot_z
+    from uhrisim.sensors.sonar.cast import FanHits
+
+    speckle = {} if speckle_model is None else {"speckle_model": speckle_model}
+    cfg = small_cfg(speckle=speckle_model is not None, multipath=multipath, **speckle,
+                    **({} if surface else {"surface_scattering_db": None}))
+    assert (cfg.surface_scattering_db is not None) == surface
+    short, full, short_bytes, full_bytes = (ImagingSonar(cfg, np.random.default_rng(11))
+                                            for _ in range(4))
+    no_hit = FanHits(np.empty(0, np.int64), *[np.empty(0)] * 3, np.empty(0, np.int32))
+    for depth, pitch in [(1.5, 0.0), (4.0, 0.3), (12.0, -0.2), (-0.5, 0.0)]:
+        c, s = math.cos(pitch), math.sin(pitch)
+        rotation = rot_z(0.7) @ np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+        pose = short.sonar_pose(np.array([3.0, -2.0, depth]), rotation)
+        level = short._echo_free_level(*pose)
+        expected, _ = full._physical_image(*pose, no_hit, np.empty(0), clipped=False)
+        np.testing.assert_array_equal(level, expected)
+        np.testing.assert_array_equal(short_bytes.polar_bytes(*pose, no_hit),
+                                      full_bytes.form_image(0.0, *pose, *no_hit).polar_u8)
+    states = {s.rng.integers(1 << 30) for s in (short, full, short_bytes, full_bytes)}
+    assert len(states) == 1

@@ -23,8 +23,7 @@ unseen):
   :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.form_image` and their 8-bit image
   (its echoes, diffuse terms, speckle, TVG, display curve;
   :meth:`~uhrisim.sensors.sonar.sonar.ImagingSonar.polar_bytes`, the same code; a ping
-  with no hit in its window skips the echo stages,
-  :func:`~uhrisim.envs.echo_free.echo_free_bytes`, the same bytes), each
+  with no hit in its window skips the echo stages there, the same bytes), each
   averaged down as the single env does while it is still in cache (``cv2.INTER_AREA``:
   its own loop compiled, bit for bit, :func:`_area_down_loops`); with ``threads``, each
   thread forms and averages its own episodes' images.
@@ -54,7 +53,6 @@ from uhrisim.core.elementwise import ARRAYS
 from uhrisim.core.frames import rot_z, row_dots, wrap_pi
 from uhrisim.core.rng import component_rng
 from uhrisim.dynamics.diver import body_rates_kernel
-from uhrisim.envs.echo_free import echo_free_bytes, echo_free_supported
 from uhrisim.envs.task import body_frd
 from uhrisim.envs.trail_diver import EnvArgumentError
 from uhrisim.envs.vector import EpisodeStart, TrailDiverVectorEnv
@@ -129,8 +127,6 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         #: :func:`_exact_blocks` of the columns' table (0: none).
         self._column_block = (0 if self._area_tables is None
                               else _exact_blocks(self._area_tables[1]))
-        #: Whether the echo-free images skip the echo stages (:mod:`uhrisim.envs.echo_free`).
-        self._echo_free = echo_free_supported(sonar)
 
     def close_extras(self, **kwargs: Any) -> None:
         super().close_extras(**kwargs)
@@ -216,16 +212,12 @@ class TrailDiverSonarVectorEnv(TrailDiverVectorEnv):
         def form(share: range) -> None:
             """The images of episodes ``share`` (consecutive), averaged down into ``out``."""
             area_down = _area_down_compiled() if self._area_tables is not None else None
-            level = np.empty(sonars[0].polar_shape, np.float32)  # echo-free scratch
             for i in share:
                 rows = slice(first[i], first[i + 1])
                 # (each image to bytes, then averaged down, while it is in cache: the
                 # display mapping of the whole stack at once, tens of megabytes, is slower)
-                if first[i] == first[i + 1] and self._echo_free:  # no hit, no echo
-                    image = echo_free_bytes(sonars[i], *poses[i], level)
-                else:
-                    image = sonars[i].polar_bytes(*poses[i], FanHits(
-                        ray[rows], *(h[rows] for h in hits)))
+                image = sonars[i].polar_bytes(*poses[i], FanHits(
+                    ray[rows], *(h[rows] for h in hits)))
                 if area_down is not None:  # OpenCV's INTER_AREA loop, compiled
                     area_down(image[None], *self._area_tables, self._column_block,
                               out[i : i + 1])
@@ -367,8 +359,9 @@ def _exact_blocks(table: tuple[np.ndarray, np.ndarray]) -> int:
     w = float(weight[0, 0])
     exact = (w > 0.0 and math.frexp(w)[0] == 0.5 and 255 * k / w < 2.0 ** 24
              and bool(np.all(weight == weight[0, 0])))
-    return k if exact and np.array_equal(index, np.arange(index.size).reshape(index.shape)) \
-        else 0
+    if not exact or not np.array_equal(index, np.arange(index.size).reshape(index.shape)):
+        return 0
+    return k
 
 
 def _area_down_loops(images: np.ndarray, rows: tuple[np.ndarray, np.ndarray],

@@ -88,7 +88,7 @@ def filter_beams(
 
 def diffuse_rows(
     static_rows: NDArray[np.float64],
-    raw: NDArray[np.float32],
+    raw: NDArray[np.float32] | None,
     leak: float,
     surface_rows: NDArray[np.float64] | None = None,
     rows: Sequence[tuple[int, int]] | None = None,
@@ -97,11 +97,12 @@ def diffuse_rows(
     reverberation, post-TVG noise referred to the input), the surface reverberation of
     this ping (None: none) and the far side lobes: ``leak`` times the echo averaged over
     all beams of the row. ``rows``: row ranges [start, stop) outside which ``raw`` is zero
-    (None: any row may hold echo); only those are averaged."""
+    (None: any row may hold echo); only those are averaged. ``raw`` None: no echo (then
+    ``rows`` is empty)."""
     if rows is None:
         mean = cv2.reduce(raw, 1, cv2.REDUCE_AVG, dtype=cv2.CV_64F)[:, 0]
     else:
-        mean = np.zeros(raw.shape[0])
+        mean = np.zeros(static_rows.shape[0])
         for a, b in rows:
             mean[a:b] = cv2.reduce(raw[a:b], 1, cv2.REDUCE_AVG, dtype=cv2.CV_64F)[:, 0]
     d = static_rows + leak * mean

@@ -363,14 +363,40 @@ class ImagingSonar:
                     ) -> NDArray[np.uint8]:
         """``polar_u8`` of :meth:`form_image` for the same ``hits``, and nothing else (no
         hit points, cloud, labels or fan): the same code, so equal bit for bit, drawing
-        the same speckle."""
+        the same speckle. A physical ping with no hit skips the echo stages
+        (:meth:`_echo_free_level`)."""
         cfg = self.config
         if cfg.mode != "physical":
             return self.form_image(0.0, position_ned, rotation_ned_from_sonar, *hits).polar_u8
-        e = self.ray_intensity(hits.idx, hits.r, hits.cos_inc, hits.mu)
-        level, _ = self._physical_image(position_ned, rotation_ned_from_sonar, hits, e,
-                                        clipped=False)
+        if hits.idx.size == 0:
+            level = self._echo_free_level(position_ned, rotation_ned_from_sonar)
+        else:
+            e = self.ray_intensity(hits.idx, hits.r, hits.cos_inc, hits.mu)
+            level, _ = self._physical_image(position_ned, rotation_ned_from_sonar, hits, e,
+                                            clipped=False)
         return display_bytes(level, cfg.display_gamma, cfg.black_level, clipped=False)
+
+    def _echo_free_level(self, position_ned: NDArray[np.float64],
+                         rotation_ned_from_sonar: NDArray[np.float64]) -> NDArray[np.float32]:
+        """Physical mode's display level (not clipped) of a ping with no hit (its pose:
+        sonar origin NED m, rotation sonar → NED): :meth:`_physical_polar` of no echo
+        with this ping's surface reverberation, what :meth:`_physical_image` gives on no
+        hit (no echo, no surface ghost, every row echo-free), bit for bit and drawing the
+        same speckle, without its raw image."""
+        return self._physical_polar(None, [], self._surface(position_ned,
+                                                            rotation_ned_from_sonar),
+                                    clipped=False)
+
+    def _surface(self, position_ned: NDArray[np.float64],
+                 rotation_ned_from_sonar: NDArray[np.float64]
+                 ) -> NDArray[np.float64] | None:
+        """This ping's surface reverberation per range row (re SL, (n_bins,); None: none):
+        :func:`~uhrisim.sensors.sonar.geometry.surface_rows` at the sonar's depth and
+        depression angle (rad, from its boresight's NED z)."""
+        cfg, g = self.config, self.geometry
+        depression = math.asin(max(-1.0, min(1.0, float(rotation_ned_from_sonar[2, 0]))))
+        return surface_rows(cfg, g.bin_centres, float(position_ned[2]), depression,
+                            g.beam_spacing, float(g.beam_kernel.sum()))
 
     def _physical_image(self, position_ned: NDArray[np.float64],
                         rotation_ned_from_sonar: NDArray[np.float64], hits: FanHits,
@@ -382,7 +408,7 @@ class ImagingSonar:
         surface ghosts and ``volume`` echoes), then :meth:`_physical_polar` (``clipped``:
         its level clipped to 0…1)."""
         idx, r, cos_inc, _, labels = hits
-        cfg, g = self.config, self.geometry
+        cfg = self.config
         if cfg.multipath:
             ghosts = self._surface_ghosts(position_ned, rotation_ned_from_sonar, idx, r, e)
             g_idx, g_r, g_e, keep = ghosts
@@ -395,10 +421,7 @@ class ImagingSonar:
             raw, label_polar, rows = self._accumulate(
                 idx, r, cos_inc, e, labels if cfg.labels else None
             )
-        depression = math.asin(max(-1.0, min(1.0, float(rotation_ned_from_sonar[2, 0]))))
-        surface = surface_rows(cfg, g.bin_centres, float(position_ned[2]), depression,
-                               g.beam_spacing,
-                               float(g.beam_kernel.sum()))  # fmt: skip
+        surface = self._surface(position_ned, rotation_ned_from_sonar)
         if volume is not None and len(volume[2]):
             self._echoes.add_echoes(*volume)
             rows = None  # volume echo may lie in any row
@@ -453,7 +476,7 @@ class ImagingSonar:
 
     def _physical_polar(
         self,
-        raw: NDArray[np.float32],
+        raw: NDArray[np.float32] | None,
         rows: list[tuple[int, int]] | None = None,
         surface: NDArray[np.float64] | None = None,
         clipped: bool = True,
@@ -462,7 +485,8 @@ class ImagingSonar:
         through the beam and pulse patterns times the product speckle field, or the
         coherent sum (``speckle_model``), TVG, gain and log compression, clipped to 0…1
         unless not ``clipped`` (a new array). ``surface``: this ping's surface
-        reverberation per row (None: none).
+        reverberation per row (None: none). ``raw`` None: no echo (``rows`` must be
+        empty).
 
         ``rows``: row ranges outside which ``raw`` is zero at least a range-kernel
         half-width deep (None: all rows); only those are filtered. The others hold only
@@ -474,7 +498,7 @@ class ImagingSonar:
         free = (g.row_offset[:, :1] + k * np.log(np.maximum(d, 1e-300))[:, None]).astype(
             np.float32
         )  # display level of the diffuse terms alone, per row
-        img = np.empty(raw.shape, np.float32)
+        img = np.empty(self.polar_shape, np.float32)
         bank = self._bank
         coherent = bank is not None and bank.z_re is not None
         if bank is not None:
@@ -482,7 +506,7 @@ class ImagingSonar:
         if coherent:
             z_re, z_im = bank.z(int(self.rng.integers(0, bank.z_offsets)))
         done = 0  # rows [0, done) are formed
-        for a, b in [*([(0, raw.shape[0])] if rows is None else rows), (raw.shape[0], None)]:
+        for a, b in [*([(0, img.shape[0])] if rows is None else rows), (img.shape[0], None)]:
             # echo-free rows: the diffuse level (times the diffuse field); the column set,
             # then OpenCV's add, is ~1.7x faster than numpy adding the broadcast column
             img[done:a] = free[done:a]
