@@ -17,15 +17,12 @@ from dataclasses import dataclass
 from functools import cached_property
 from itertools import combinations
 from types import MappingProxyType
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
-
-if TYPE_CHECKING:
-    from uhrisim.autonomy.solver import _Plan
 
 __all__ = ["Domain", "DomainAxis", "Objective"]
 
@@ -146,9 +143,10 @@ class Domain:
         return tuple(by[n].npts for n in names)
 
     @cached_property
-    def solver_plans(self) -> dict[tuple[tuple[str, ...], ...], _Plan]:
-        """The solver's plans for this domain, by the axes of the functions it fuses
-        (:func:`uhrisim.autonomy.solver._plan` fills it)."""
+    def solver_plans(self) -> dict[tuple[tuple[str, ...], ...], Any]:
+        """The solver's plans for this domain (``solver._Plan`` records, typed loosely: the
+        domain does not import the solver, which imports it), by the axes of the functions
+        it fuses (:func:`uhrisim.autonomy.solver._plan` fills it)."""
         return {}
 
     @cached_property
