@@ -217,6 +217,7 @@ def _write_sweep(folder: Path, duration: float, values: list[float]) -> Path:
     path = folder / "sweep.yaml"
     path.write_text(
         f"scenario: {shipped_scenario()}\nduration: {duration}\nraycast_sensors: false\n"
+        "figures: false\n"
         "set: {recording.enabled: false}\nseeds: [1, 2]\n"
         f"grid: {{agents.videoray.controller.heading: {values}}}\n")
     return path
