@@ -324,7 +324,8 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
                        moos: bool = False, rtf: float | None = None,
                        view_port: int | None = None, lockstep: bool = False,
                        ros_args: tuple[str, ...] = (), require_helm: bool = False,
-                       used: str = "keep", foxglove_port: int | None = None) -> Any:
+                       used: str = "keep", foxglove_port: int | None = None,
+                       figures: bool = True) -> Any:
     from uhrisim.app.runner import prepare_out_dir, run_scenario
     from uhrisim.bridges.live import live_hooks
     from uhrisim.scenario.load import load_scenario
@@ -350,7 +351,7 @@ def _run_with_progress(scenario: Path, out: Path, duration: float | None, seed: 
                    quiet=quiet, simulated=True) as update:
         try:
             return run_scenario(source, out, duration=duration, seed=seed,
-                                raycast_sensors=raycast_sensors,
+                                raycast_sensors=raycast_sensors, figures=figures,
                                 extra_hooks=hooks, configure=None if view_port is None else attach,
                                 progress=update)
         finally:
@@ -454,6 +455,9 @@ def run(
         "--no-raycast-sensors",
         help="no sonars and no cameras (the sensors that cast rays into the scene)")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")] = False,
+    no_figures: Annotated[bool, typer.Option(
+        "--no-figures", help="no figures (trajectory.png, ...): the recording and "
+                             "metrics.json only, a second or two of matplotlib sooner")] = False,
     ros2: Annotated[bool, typer.Option("--ros2", help="bridge to ROS 2 (loopback only)")] = False,
     moos: Annotated[bool, typer.Option("--moos", help="bridge to MOOSDB(s) on 127.0.0.1")] = False,
     lockstep: Annotated[bool, typer.Option(
@@ -497,7 +501,8 @@ def run(
                                 view_port=port if view else None, lockstep=lockstep,
                                 ros_args=extra_ros_args, require_helm=require_helm,
                                 used="clear" if overwrite else "refuse",
-                                foxglove_port=foxglove_port if foxglove else None)
+                                foxglove_port=foxglove_port if foxglove else None,
+                                figures=not no_figures)
     _print_metrics(result)
 
 

@@ -210,13 +210,15 @@ def _nodes(cluster: Cluster) -> list[tuple[str, float, bool]]:
     return [tuple(n) for n in json.loads(done.stdout.strip().splitlines()[-1])]
 
 
-def _write_sweep(folder: Path, duration: float, values: list[float]) -> Path:
+def _write_sweep(folder: Path, duration: float, values: list[float], figures: bool) -> Path:
+    """The sweep file; ``figures`` (each run's, which no test reads) changes no result."""
     from uhrisim.scenario.shipped import shipped_scenario
 
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "sweep.yaml"
     path.write_text(
         f"scenario: {shipped_scenario()}\nduration: {duration}\nraycast_sensors: false\n"
+        f"figures: {str(figures).lower()}\n"
         "set: {recording.enabled: false}\nseeds: [1, 2]\n"
         f"grid: {{agents.videoray.controller.heading: {values}}}\n")
     return path
@@ -246,7 +248,7 @@ class Reference:
 def one_node(tmp_path_factory) -> Reference:
     """The sweep of 6 runs, run once by a single-node Ray (``--workers 1``)."""
     folder = tmp_path_factory.mktemp("one-node")
-    sweep = _write_sweep(folder, 10.0, [1.0, 2.0, 3.0])
+    sweep = _write_sweep(folder, 10.0, [1.0, 2.0, 3.0], figures=False)
     one = _uhrisim(_ray_env(), "sweep", str(sweep), "--out", str(folder / "one"),
                    "--workers", "1")
     assert one.returncode == 0, one.stderr[-3000:]
@@ -320,11 +322,13 @@ def _running(procs: list[psutil.Process], task: str) -> bool:
 def test_a_node_killed_mid_sweep_loses_no_run(one_node, cluster, tmp_path):
     """The second node is killed (its raylet, workers and agents, SIGKILL) while it works
     on a run (a worker of it titled ``ray::execute_run``), and Ray runs its task again on
-    the head: every run is in the table, equal to the one-node run's."""
+    the head: every run is in the table, equal to the one-node run's. The runs draw their
+    figures here: a run without them lasts ~0.05 s of CPU, too short a while to be seen."""
     with time_limit(900, "the node-kill test"):
         out = tmp_path / "killed"
+        sweep = _write_sweep(tmp_path, 10.0, [1.0, 2.0, 3.0], figures=True)
         driver = subprocess.Popen(
-            [sys.executable, "-m", "uhrisim", "sweep", str(one_node.sweep), "--out", str(out),
+            [sys.executable, "-m", "uhrisim", "sweep", str(sweep), "--out", str(out),
              "--address", cluster.gcs], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
             text=True, env=cluster.env)
         try:

@@ -46,7 +46,8 @@ def local_ray():
 def write_sweep(folder: Path, grid: dict, seeds=(1, 2), **extra) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     sweep = {"scenario": str(shipped_scenario()), "duration": 3.0, "raycast_sensors": False,
-             "set": {"recording.enabled": False}, "grid": grid, "seeds": list(seeds)} | extra
+             "figures": False, "set": {"recording.enabled": False}, "grid": grid,
+             "seeds": list(seeds)} | extra
     path = folder / "sweep.yaml"
     path.write_text(json.dumps(sweep))  # JSON is YAML
     return path
@@ -81,6 +82,7 @@ def test_a_2x2x2_sweep_gives_8_rows_with_their_parameters(local_ray, tmp_path):
         assert metrics["seed"] == row["seed"] and metrics["trail_range_m"] == row[RANGE]
         assert metrics["simulated_s"] == pytest.approx(3.0, abs=0.05)
         assert row["min_separation_m"] == metrics["min_separation_m"]
+        assert not list((out / RUNS_DIR / row["run"]).glob("*.png"))  # figures: false
     # the heading gain steers the ROV: the same seed and range, another gain, another path
     by_key = {(r[HEADING], r[RANGE], r["seed"]): r["min_separation_m"] for r in table}
     assert by_key[(0.5, 2.0, 1)] != by_key[(2.0, 2.0, 1)]
@@ -193,7 +195,7 @@ def test_the_command_joins_an_existing_ray(local_ray, tmp_path, how):
     gcs = local_ray.get_runtime_context().gcs_address
     assert gcs.startswith(f"{LOOPBACK}:")
     env = os.environ | ({"RAY_ADDRESS": gcs} if how == "auto" else {})
-    path = write_sweep(tmp_path, {RANGE: [2.0, 3.0]}, seeds=(1,))
+    path = write_sweep(tmp_path, {RANGE: [2.0, 3.0]}, seeds=(1,), figures=True)
     done = subprocess.run([sys.executable, "-m", "uhrisim", "sweep", str(path), "--out",
                            str(tmp_path / "out"), "--address", gcs if how != "auto" else how],
                           capture_output=True, text=True, timeout=300, env=env)
@@ -201,6 +203,8 @@ def test_the_command_joins_an_existing_ray(local_ray, tmp_path, how):
     assert "2 runs: 2 ok (0 already done), 0 failed" in done.stdout
     table = pa_parquet.read_table(tmp_path / "out" / "results.parquet").to_pylist()
     assert sorted(r[RANGE] for r in table) == [2.0, 3.0]
+    for row in table:  # figures: true (the default) draws each run's figures
+        assert (tmp_path / "out" / RUNS_DIR / row["run"] / "trajectory.png").stat().st_size
     assert local_ray.get(local_ray.remote(lambda: 42).remote()) == 42  # still running
 
 

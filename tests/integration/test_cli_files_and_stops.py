@@ -117,14 +117,16 @@ def test_a_second_run_into_a_used_folder_is_refused_unless_overwrite(tmp_path):
     assert first.returncode == 0, first.stderr
     (out / "recording.mcap.partial").write_bytes(b"left by an earlier killed run")
     before = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert "trajectory.png" in before  # figures are drawn by default
     line = one_error_line(uhrisim("run", str(SCENARIO), "-o", str(out), "-q", "--duration",
                                   "1", "--no-raycast-sensors"))
     assert "not empty" in line and "--overwrite" in line, line
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # nothing touched
     again = uhrisim("run", str(SCENARIO), "-o", str(out), "-q", "--duration", "2",
-                    "--no-raycast-sensors", "--overwrite")
+                    "--no-raycast-sensors", "--overwrite", "--no-figures")
     assert again.returncode == 0, again.stderr
     assert not (out / "recording.mcap.partial").exists()  # the earlier run's files went
+    assert not list(out.glob("*.png"))  # ... its figures too, and --no-figures drew none
     assert json.loads((out / "metrics.json").read_text())["simulated_s"] == pytest.approx(2.0)
     (out / "notes").mkdir()  # a folder of the user's, not a run's output folder
     line = one_error_line(uhrisim("run", str(SCENARIO), "-o", str(out), "-q", "--duration",

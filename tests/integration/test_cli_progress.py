@@ -24,7 +24,7 @@ def uhrisim(*args: str | Path) -> subprocess.CompletedProcess:
 
 def test_run_off_a_terminal_writes_progress_lines_and_view_says_it_is_indexing(tmp_path):
     done = uhrisim("run", SCENARIO, "--duration", "20", "--no-raycast-sensors",
-                   "--out", tmp_path / "run")
+                   "--no-figures", "--out", tmp_path / "run")
     assert done.returncode == 0, done.stderr
     lines = [line for line in done.stderr.splitlines() if line.startswith("track_and_trail:")]
     assert lines and all(LINE.match(line) for line in lines), lines
@@ -34,7 +34,7 @@ def test_run_off_a_terminal_writes_progress_lines_and_view_says_it_is_indexing(t
     assert simulated == sorted(simulated)
 
     quiet = uhrisim("run", SCENARIO, "--duration", "2", "--no-raycast-sensors", "--quiet",
-                    "--out", tmp_path / "quiet")
+                    "--no-figures", "--out", tmp_path / "quiet")
     assert quiet.returncode == 0 and "s simulated" not in quiet.stderr
 
     recording = tmp_path / "run" / "recording.mcap"

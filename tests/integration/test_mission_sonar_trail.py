@@ -26,12 +26,14 @@ CLUTTER = ROOT / "scenarios" / "track_and_trail_sonar_clutter.yaml"
 
 @pytest.fixture(scope="module")
 def sonar_run(tmp_path_factory):
-    return run_scenario(SONAR, tmp_path_factory.mktemp("sonar"), duration=120.0)
+    return run_scenario(SONAR, tmp_path_factory.mktemp("sonar"), duration=120.0,
+                        figures=False)  # (no test here reads a figure)
 
 
 @pytest.fixture(scope="module")
 def clutter_run(tmp_path_factory):
-    return run_scenario(CLUTTER, tmp_path_factory.mktemp("clutter"), duration=180.0)
+    return run_scenario(CLUTTER, tmp_path_factory.mktemp("clutter"), duration=180.0,
+                        figures=False)
 
 
 def test_sonar_only_trail_meets_the_bands(sonar_run):
@@ -93,8 +95,8 @@ def test_contacts_come_from_the_sonar_and_loss_triggers_reacquire():
 
 
 def test_same_seed_same_sonar_run(tmp_path):
-    first = run_scenario(SONAR, tmp_path / "a", duration=40.0)
-    again = run_scenario(SONAR, tmp_path / "b", duration=40.0)
+    first = run_scenario(SONAR, tmp_path / "a", duration=40.0, figures=False)
+    again = run_scenario(SONAR, tmp_path / "b", duration=40.0, figures=False)
     volatile = {"wall_s", "real_time_factor"}
     assert first.metrics["perception"]["held_pct"] > 0  # the sonar chain did run
     assert {k: v for k, v in again.metrics.items() if k not in volatile} == {

@@ -41,7 +41,7 @@ def test_moos_community_drives_the_rov_and_survives_a_db_restart(tmp_path: Path)
     # posting end ~28 s in) and the depth is within 0.3 m of them from ~19 s on (measured)
     sim = subprocess.Popen(
         [sys.executable, "-m", "uhrisim", "run", str(scenario), "--out", str(out), "--moos",
-         "--rtf", "2", "--duration", "40", "-q"],
+         "--rtf", "2", "--duration", "40", "-q", "--no-figures"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     try:
         wait_for_clients(port, {"uhrisim_videoray", "uhrisim_diver"})  # the run is up

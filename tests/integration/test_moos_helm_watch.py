@@ -105,7 +105,7 @@ def test_require_helm_ends_the_run_in_one_line_and_keeps_its_outputs(tmp_path):
         out = tmp_path / "run"
         done = subprocess.run(
             [sys.executable, "-m", "uhrisim", "run", str(scenario), "--out", str(out),
-             "--moos", "--require-helm", "--duration", "120", "-q"],
+             "--moos", "--require-helm", "--duration", "120", "-q", "--no-figures"],
             capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert done.returncode == 2, done.stderr
     errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]

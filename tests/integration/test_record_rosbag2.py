@@ -71,7 +71,7 @@ def test_run_folder_is_a_rosbag2_bag_with_the_live_topics(ros_env: int, tmp_path
     out = tmp_path / "run"
     bridge = Ros2BridgeHook(domain_id=ros_env, node_name=NODE)
     live = LiveTopics(bridge)
-    run_scenario(scenario, out, duration=3.0, extra_hooks=[live, bridge],
+    run_scenario(scenario, out, duration=3.0, figures=False, extra_hooks=[live, bridge],
                  configure=lambda sim: sim.record_event("note", "an event for /events"))
 
     meta = yaml.safe_load((out / "metadata.yaml").read_text())["rosbag2_bagfile_information"]

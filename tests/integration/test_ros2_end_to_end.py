@@ -38,7 +38,7 @@ def test_external_nodes_see_the_rov_and_drive_it_to_a_goal(ros_env: int, tmp_pat
     out = tmp_path / "run"
     sim = subprocess.Popen(
         [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "--out", str(out), "--ros2",
-         "--rtf", str(RTF), "--duration", str(SIM_SECONDS), "-q"],
+         "--rtf", str(RTF), "--duration", str(SIM_SECONDS), "-q", "--no-figures"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     listener = Child("ros2_listener.py", ["--agent", "videoray"], tmp_path)
     doomed = Child("ros2_listener.py", ["--agent", "videoray"], tmp_path)

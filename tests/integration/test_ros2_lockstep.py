@@ -39,7 +39,7 @@ def _lockstep_run(tmp_path: Path, name: str) -> tuple[OdometryTrack, dict]:
     try:
         sim = subprocess.run(
             [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "--out", str(out),
-             "--lockstep", "--rtf", "0", "--duration", str(SIM_SECONDS), "-q"],
+             "--lockstep", "--rtf", "0", "--duration", str(SIM_SECONDS), "-q", "--no-figures"],
             capture_output=True, text=True, cwd=ROOT, timeout=240)
     finally:
         controller.proc.kill()
@@ -100,7 +100,7 @@ def test_a_controller_dying_mid_run_lapses_lockstep_and_the_run_goes_on(
         "--depth", "3", "--max-speed", "0.8", "--reactive", "--timeout", "300"], tmp_path)
     sim = subprocess.Popen(
         [sys.executable, "-m", "uhrisim", "run", str(scenario), "--out", str(out),
-         "--rtf", "4", "--duration", "40", "-q"],
+         "--rtf", "4", "--duration", "40", "-q", "--no-figures"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     try:
         controller.expect("ARRIVED", timeout=60.0)  # ~15 simulated s in: SIGKILL it

@@ -134,8 +134,8 @@ def test_ros_syntax_after_ros_args_goes_to_ros(ros_env: int, tmp_path: Path) -> 
     assert len(lines) == 1 and "sensor_qos" in lines[0] and "fast" in lines[0], lines
     ok = subprocess.run(
         [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "--out", str(tmp_path / "ns"),
-         "--no-raycast-sensors", "-q", "--ros-args", "-r", "__ns:=/sim_a", "--",
-         "--duration", "1"], capture_output=True, text=True, timeout=300)
+         "--no-raycast-sensors", "-q", "--no-figures", "--ros-args", "-r", "__ns:=/sim_a",
+         "--", "--duration", "1"], capture_output=True, text=True, timeout=300)
     assert ok.returncode == 0, ok.stderr
     # the bag's topics are the live names: under the namespace, /clock and /tf included
     import yaml

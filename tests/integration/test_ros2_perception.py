@@ -27,7 +27,7 @@ def test_perception_markers_reach_a_ros2_node(ros_env: int, tmp_path: Path):
     out = tmp_path / "run"
     sim = subprocess.Popen(
         [sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "--out", str(out), "--ros2",
-         "--rtf", "3", "--duration", str(SIM_SECONDS), "-q"],
+         "--rtf", "3", "--duration", str(SIM_SECONDS), "-q", "--no-figures"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     listener = Child("ros2_marker_listener.py", ["--agent", "videoray"], tmp_path)
     try:

@@ -85,7 +85,7 @@ def test_replay_shows_the_recorded_tracks(tmp_path):
     from uhrisim.record.reader import read_odometry
     from uhrisim.viz.viewer.replay import ReplayPlayer, load_replay
 
-    run_scenario(SCENARIO, tmp_path, duration=30.0)
+    run_scenario(SCENARIO, tmp_path, duration=30.0, figures=False)  # the recording only
     data = load_replay(tmp_path / "recording.mcap")
     times, seen = data.perception["videoray"]
     assert len(times) == 30 * 15  # every ping

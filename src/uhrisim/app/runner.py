@@ -78,12 +78,14 @@ class RunResult:
 def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
                  duration: float | None = None, seed: int | None = None,
                  raycast_sensors: bool = True,
+                 figures: bool = True,
                  extra_hooks: Sequence[Hook] = (),
                  progress: Callable[[float], None] | None = None,
                  should_stop: Callable[[], bool] | None = None,
                  configure: Callable[[Simulation], None] | None = None) -> RunResult:
     """Build the simulation, run it, and write recording, metrics and figures
-    (``raycast_sensors`` False: no sonars and cameras, :class:`Simulation`)."""
+    (``raycast_sensors`` False: no sonars and cameras, :class:`Simulation`; ``figures``
+    False: no figures, the rest the same)."""
     from uhrisim.record.hook import McapRecordingHook
     from uhrisim.record.mcap_recorder import RecordingCutError
     from uhrisim.sim.simulation import Simulation
@@ -124,7 +126,7 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
                 # stopped by a signal: out at once (ros2 launch escalates after 5 s), the
                 # figures (seconds of matplotlib) are left out
                 _write_outputs(sim, out_dir, metrics, strip, files, False, extra_hooks,
-                               error, figures=not stopped)
+                               error, figures=figures and not stopped)
         except Exception as cleanup:  # on a full disk the figures cannot be: said below
             (log.info if disk_full else log.error)(
                 "after the run failed, its outputs could not all be written: %s", cleanup)
@@ -132,7 +134,8 @@ def run_scenario(source: ScenarioFile | str | Path, out_dir: Path, *,
             raise AssetError(f"{error}; {recording.cut_outcome}") from None
         raise
     sim.close(None)
-    summary = _write_outputs(sim, out_dir, metrics, strip, files, True, extra_hooks)
+    summary = _write_outputs(sim, out_dir, metrics, strip, files, True, extra_hooks,
+                             figures=figures)
     return RunResult(out_dir, summary, files)
 
 

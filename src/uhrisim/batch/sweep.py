@@ -14,6 +14,7 @@ A sweep file (YAML; paths beside it)::
     random: {count: 8, seed: 3, parameters: {contacts_noise: ...}}   # crossed too
     seeds: [1, 2, 3]                    # or {count: 10, start: 0}; default: the scenario's
     raycast_sensors: true               # run the sonars and cameras (images cost time)
+    figures: true                       # each run's figures (seconds of matplotlib a run)
 
 Each run is the base scenario with its values applied, validated, and identified by the
 SHA-256 of its resolved scenario (every default filled in) and the ray-cast sensors switch: its
@@ -22,7 +23,8 @@ folder is ``runs/<first 12 hex digits>``. A run whose folder holds a complete
 it stopped. A run that fails (a value the schema refuses, a build error, a numerical
 blow-up) is a row with ``status = failed`` and its one-line error; the others go on.
 Outputs: ``results.parquet`` and ``results.csv`` (one row per run: parameters, seed,
-status, error, every metric flattened as ``range_error_m.rms``), ``summary.png``.
+status, error, every metric flattened as ``range_error_m.rms``), ``summary.png``. The
+``figures`` switch changes no result, so it is not part of a run's identity.
 """
 
 from __future__ import annotations
@@ -77,6 +79,7 @@ class SweepFile(Strict):
     random: RandomSection | None = None
     seeds: tuple[Annotated[int, Field(ge=0)], ...] | SeedRange | None = None
     raycast_sensors: bool = True
+    figures: bool = True
     duration: PositiveFloat | None = None
 
     @field_validator("grid")
@@ -108,6 +111,7 @@ class PlannedRun:
     run_id: str
     scenario_path: str
     raycast_sensors: bool
+    figures: bool = True  # each run's figures (trajectory.png, ...) beside its metrics
     error: str | None = None  # the scenario refuses these values: failed without running
 
 
@@ -210,7 +214,7 @@ def _plan_run(index: int, point: dict[str, Any], seed: int, base: dict[str, Any]
         {"scenario": identity, "raycast_sensors": sweep.raycast_sensors},
         sort_keys=True, default=str).encode()).hexdigest()
     return PlannedRun(index, point, seed, data, digest[:12], str(base_path), sweep.raycast_sensors,
-                      error)
+                      sweep.figures, error)
 
 
 def completed_metrics(run_dir: Path) -> dict[str, Any] | None:
@@ -234,7 +238,8 @@ def execute_run(task: tuple[PlannedRun, str]) -> dict[str, Any]:
     try:
         scenario = validate_data(run.data, f"run {run.run_id}")
         source = ScenarioFile(scenario, Path(run.scenario_path))
-        metrics = run_scenario(source, run_dir, raycast_sensors=run.raycast_sensors).metrics or {}
+        metrics = run_scenario(source, run_dir, raycast_sensors=run.raycast_sensors,
+                               figures=run.figures).metrics or {}
         status, error = "ok", None
     except Exception as failure:
         metrics, status, error = {}, "failed", one_line(failure)
