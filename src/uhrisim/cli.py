@@ -34,6 +34,7 @@ from uhrisim.core.errors import (
     shortened,
 )
 from uhrisim.core.memory import keep_freed_memory
+from uhrisim.core.opencv_threads import one_opencv_thread
 from uhrisim.core.stops import (
     catch_stop_signals,
     handlers_kept,
@@ -120,6 +121,7 @@ def _say_repeats() -> None:
 def _process_settings() -> None:
     """Process-wide settings of the command (side effects at the edge)."""
     keep_freed_memory()  # no page-fault churn on every sonar ping (see core/memory.py)
+    one_opencv_thread()  # OpenCV's pool costs more CPU than it saves here (see its module)
     catch_stop_signals()
     _log_to_stderr()
     warnings.simplefilter("ignore", UhrisimWarning)  # each is logged, and shown once so
