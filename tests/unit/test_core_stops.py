@@ -114,3 +114,30 @@ def test_a_stop_inside_the_jit_compilers_callback_is_remembered_not_raised(caugh
     assert stops.pending_stop() == signal.SIGTERM
     with pytest.raises(StopRequested, match="stopped by SIGTERM"):
         stops.raise_pending_stop()
+
+
+class _StoppedWhileUnpickled:
+    """Unpickled, it is stopped by SIGTERM: the handler runs inside the unpickling."""
+
+    def __reduce__(self):
+        return (_stopped_now, ())
+
+
+def _stopped_now() -> str:
+    os.kill(os.getpid(), signal.SIGTERM)
+    signal.sigtimedwait([], 0)  # the handler runs here, inside numba's unpickling
+    return "built"
+
+
+def test_a_stop_inside_numbas_unpickling_is_remembered_not_raised(caught_stops):
+    """A SIGTERM that lands while numba unpickles a cached kernel's constants (a callback
+    from C, as one did while a run loaded a kernel) is raised at the next tick: raised
+    there, the run ended with a SystemError instead of the stop."""
+    import cloudpickle
+    from numba.core.serialize import _numba_unpickle
+
+    data = cloudpickle.dumps(_StoppedWhileUnpickled())
+    assert _numba_unpickle(id(data), data, b"stop-test") == "built"
+    assert stops.pending_stop() == signal.SIGTERM
+    with pytest.raises(StopRequested, match="stopped by SIGTERM"):
+        stops.raise_pending_stop()

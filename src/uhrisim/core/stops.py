@@ -7,9 +7,11 @@ A stop raises where it lands — :class:`KeyboardInterrupt` for Ctrl-C,
 their callbacks (a schema validator built during start-up can), so every stop is also
 remembered until it is handled: the simulation loop raises a remembered stop at its next
 tick (:func:`raise_pending_stop`) and the command line at its end
-(:func:`pending_stop`). A stop that lands while the JIT compiler (llvmlite) is on the
-stack is only remembered: raised inside its ctypes callbacks it leaves the object-cache
-buffer unset, and a run stopped so once died of a segmentation fault. Without
+(:func:`pending_stop`). A stop that lands while the JIT compiler (numba or llvmlite) is
+on the stack is only remembered: raised inside llvmlite's ctypes callbacks it leaves the
+object-cache buffer unset (a run stopped so once died of a segmentation fault), and
+raised inside numba's unpickling of a cached kernel's constants (a callback from C) it
+ends the run with a SystemError instead of the stop. Without
 :func:`catch_stop_signals` (a library user, the tests) nothing is remembered and nothing
 changes.
 """
@@ -35,14 +37,17 @@ def stop_exception(signum: int) -> BaseException:
     return KeyboardInterrupt() if signum == signal.SIGINT else StopRequested(signum)
 
 
+#: The JIT compiler's packages, whose Python code C calls back (module docstring).
+JIT_PACKAGES = ("llvmlite", "numba")
+
+
 def _inside_the_jit_compiler(frame: FrameType | None) -> bool:
-    """Whether llvmlite's code is on the stack below ``frame`` (its callbacks from C)."""
-    llvmlite = sys.modules.get("llvmlite")
-    if llvmlite is None or llvmlite.__file__ is None:
-        return False
-    package = os.path.dirname(llvmlite.__file__) + os.sep
-    while frame is not None:
-        if frame.f_code.co_filename.startswith(package):
+    """Whether numba's or llvmlite's code is on the stack below ``frame``."""
+    packages = tuple(os.path.dirname(module.__file__) + os.sep for name in JIT_PACKAGES
+                     if (module := sys.modules.get(name)) is not None
+                     and module.__file__ is not None)
+    while packages and frame is not None:
+        if frame.f_code.co_filename.startswith(packages):
             return True
         frame = frame.f_back
     return False
