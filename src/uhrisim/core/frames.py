@@ -56,6 +56,18 @@ def row_dots(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float
     return (a * b) @ _ONES3
 
 
+_IDENTITY3 = np.eye(3)
+_IDENTITY3.setflags(write=False)
+
+
+def orthonormality_error(r: NDArray[np.float64]) -> float:
+    """The largest entry of |R·Rᵀ − I| for a 3x3 ``r`` (0 for a rotation; NaN if ``r``
+    holds one, so that every "≤ tolerance" test fails)."""
+    gram = r @ r.T
+    np.subtract(gram, _IDENTITY3, out=gram)
+    return float(np.abs(gram).max())
+
+
 def vector_length(v: NDArray[np.float64]) -> float:
     """The length of a 1-D float vector (its units): ``np.linalg.norm``'s own arithmetic for
     one, the square root of ``v . v``, without its checks (asked several times a step)."""

@@ -22,6 +22,7 @@ import trimesh
 from numpy.typing import ArrayLike, NDArray
 
 from uhrisim.core.errors import ConfigError
+from uhrisim.core.frames import orthonormality_error
 from uhrisim.world.bodies import ArticulatedMesh
 from uhrisim.world.materials import Material
 from uhrisim.world.objects import DynamicBody, StaticObject
@@ -32,8 +33,6 @@ __all__ = ["Scene"]
 
 log = logging.getLogger(__name__)
 
-_EYE3 = np.eye(3)
-_EYE3.setflags(write=False)
 
 
 def _check_label(label: str, where: str) -> str:
@@ -189,7 +188,7 @@ class Scene:
                     where=f"Scene.set_pose({name!r}).position_ned",
                 )
             # Orthonormal (NaN fails the comparison) and proper (det = +1).
-            if (r.shape != (3, 3) or not np.abs(r @ r.T - _EYE3).max() <= 1e-6
+            if (r.shape != (3, 3) or not orthonormality_error(r) <= 1e-6
                     or np.linalg.det(r) < 0.0):
                 raise ConfigError(
                     "must be a proper 3x3 rotation matrix",

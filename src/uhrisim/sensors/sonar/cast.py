@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uhrisim.core.errors import ConfigError
-from uhrisim.core.frames import row_dots
+from uhrisim.core.frames import orthonormality_error, row_dots
 
 #: A ping is refused (ConfigError) when more than this fraction of rays hit closer than
 #: :data:`INSIDE_GEOMETRY_RANGE_M`: the sonar sits inside (or flush against) geometry.
@@ -24,7 +24,6 @@ INSIDE_GEOMETRY_RANGE_M = 0.02
 #: Largest departure of R·Rᵀ from the identity (each entry) for which a rotated unit fan
 #: passes a ray caster's unit-length check (its 2e-5 on |d|² − 1) unchecked.
 ROTATION_TOL = 2e-6
-_IDENTITY3 = np.eye(3)
 
 
 class RayCaster(Protocol):
@@ -101,9 +100,8 @@ def own_fan_is_valid(origin_ned: NDArray[np.float64],
     from ``origin_ned``, passes a ray caster's checks (finite origin, directions of unit
     length within 1e-5): the origin is finite and the rotation orthonormal within
     :data:`ROTATION_TOL` (then |R·d|² − 1 stays within 9·ROTATION_TOL)."""
-    gram = rotation_ned_from_sonar @ rotation_ned_from_sonar.T
-    np.subtract(gram, _IDENTITY3, out=gram)
-    return bool(np.isfinite(origin_ned).all() and np.abs(gram).max() <= ROTATION_TOL)
+    return bool(np.isfinite(origin_ned).all()
+                and orthonormality_error(rotation_ned_from_sonar) <= ROTATION_TOL)
 
 
 def fan_hits(
