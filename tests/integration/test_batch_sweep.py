@@ -11,6 +11,7 @@ Runs are 3 simulated seconds of the paper's mission without sonar or recording.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import json
 import os
@@ -159,7 +160,7 @@ def test_a_sigkilled_sweep_command_restarts_where_it_stopped(tmp_path):
         os.killpg(first.pid, signal.SIGKILL)
         first.wait()
     complete = {p.parent.name: p.stat().st_mtime_ns for p in (out / RUNS_DIR).glob(
-        "*/metrics.json") if json.loads(p.read_text() or "{}").get("completed")}
+        "*/metrics.json") if json.loads(p.read_text()).get("completed")}  # never a part
     assert 2 <= len(complete) < 8 and not (out / "results.csv").exists()
     again = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert again.returncode == 0, again.stderr
@@ -186,6 +187,34 @@ def test_a_task_that_raises_is_reported_and_the_others_finish(local_ray):
     assert "three is odd here" in str(errors[2])
     with pytest.raises(ValueError, match="three is odd here"):  # the task's own error
         run_tasks(halve, [3], 1, results.__setitem__)
+
+
+def test_an_interruption_returns_only_once_the_cancelled_tasks_have_ended(local_ray,
+                                                                         tmp_path):
+    """A callback that raises (as Ctrl-C would) while a task runs: ``run_tasks`` cancels it
+    and returns only when its worker has ended, so nothing of the sweep writes on."""
+    import psutil
+
+    from uhrisim.batch.cluster import run_tasks
+
+    def task(name: str) -> str:
+        (tmp_path / f"{name}.pid").write_text(str(os.getpid()))
+        if name == "quick":  # returns once the slow task runs, whose result never comes
+            while not (tmp_path / "slow.pid").exists():
+                time.sleep(0.01)
+            return name
+        time.sleep(600)
+        return name
+
+    def interrupt(index: int, result: str) -> None:
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_tasks(task, ["quick", "slow", "queued"], 2, interrupt)
+    slow = int((tmp_path / "slow.pid").read_text())
+    with contextlib.suppress(psutil.NoSuchProcess):
+        assert psutil.Process(slow).status() == psutil.STATUS_ZOMBIE
+    assert not (tmp_path / "queued.pid").exists()
 
 
 @pytest.mark.parametrize("how", ["host:port", "auto"])

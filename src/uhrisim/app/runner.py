@@ -27,6 +27,7 @@ from uhrisim.app.metrics import TrailMetrics
 from uhrisim.app.perception_metrics import PerceptionMetrics
 from uhrisim.app.team_metrics import TeamMetrics
 from uhrisim.core.errors import AssetError, StopRequested, shortened
+from uhrisim.core.files import write_text_whole
 from uhrisim.core.stops import stop_signals_deferred
 from uhrisim.scenario.load import ScenarioFile, load_scenario
 from uhrisim.sim.hooks import BaseHook, Hook, TickFrame, sensor_key
@@ -246,9 +247,10 @@ def _write_outputs(sim: Simulation, out_dir: Path, metrics: TrailMetrics | None,
     if error is not None:  # why the run ended early
         summary["stopped_by"] = ("interrupted (SIGINT)" if isinstance(error, KeyboardInterrupt)
                                  else str(error) or type(error).__name__)
-    path = out_dir / "metrics.json"  # first: on a full disk the figures may not fit
-    path.write_text(json.dumps(strict_json(summary), indent=2, allow_nan=False) + "\n")
-    files.append(path)
+    # first: on a full disk the figures may not fit; whole: a restarted sweep reads it
+    files.append(write_text_whole(out_dir / "metrics.json",
+                                  json.dumps(strict_json(summary), indent=2, allow_nan=False)
+                                  + "\n"))
     if not figures:
         return summary
     from uhrisim.viz import mission_figures as figs  # matplotlib: ~1 s to import

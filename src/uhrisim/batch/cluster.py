@@ -38,6 +38,9 @@ _TOKEN_NOTICE_LOGGER = "ray._private.authentication.authentication_token_setup"
 LOOPBACK = "127.0.0.1"
 #: Times Ray runs a task again whose worker or node died (Ray's own default, said here).
 TASK_RETRIES = 3
+#: Longest wait (s) for cancelled tasks to end after an interruption (their workers are
+#: killed; this bounds only a Ray that no longer answers).
+CANCEL_WAIT_S = 60.0
 #: Seconds a TCP connection to ``--address`` may take before it counts as unreachable.
 CONNECT_TIMEOUT_S = 5.0
 
@@ -155,7 +158,8 @@ def run_tasks(function: Callable[[Any], Any], items: Sequence[Any], in_flight: i
     elsewhere first, up to 3 times), goes to ``on_error(index, error)`` — the task's own
     exception — and the others go on; without ``on_error`` that exception is raised here.
     Interrupted (Ctrl-C, an exception from a callback), the tasks still running are
-    cancelled. Returns how many tasks finished on each Ray node (by node id)."""
+    cancelled, and waited for: none of them writes on after this returns. Returns how many
+    tasks finished on each Ray node (by node id)."""
     ray = _ray()
     remote = ray.remote(num_cpus=1, max_retries=TASK_RETRIES)(_on_node(function))
     nodes: Counter[str] = Counter()
@@ -187,6 +191,8 @@ def run_tasks(function: Callable[[Any], Any], items: Sequence[Any], in_flight: i
     finally:
         for ref in pending:
             ray.cancel(ref, force=True)
+        if pending:  # a cancel is asynchronous: the worker may still be writing its files
+            ray.wait(list(pending), num_returns=len(pending), timeout=CANCEL_WAIT_S)
     return nodes
 
 

@@ -1,7 +1,10 @@
-"""Reading the user's text files (scenarios, behavior and mission files) safely.
+"""Reading the user's text files (scenarios, behavior and mission files) safely, and
+writing the run's own files whole.
 
 Only a regular file is opened, and only when it is not larger than a bound: a FIFO would
 block the ``open`` for ever, ``/dev/zero`` never ends, a folder or a device is no text.
+A file another process may read while it is written (a run's ``metrics.json``, which a
+restarted sweep reads to skip finished runs) is written beside and renamed into place.
 """
 
 from __future__ import annotations
@@ -11,7 +14,8 @@ from pathlib import Path
 
 from uhrisim.core.errors import AssetError
 
-__all__ = ["MAX_TEXT_BYTES", "NotATextFileError", "read_text_file", "regular_file_text"]
+__all__ = ["MAX_TEXT_BYTES", "NotATextFileError", "read_text_file", "regular_file_text",
+           "write_text_whole"]
 
 #: Largest text file read (bytes): far above any scenario, behavior or mission file.
 MAX_TEXT_BYTES = 16 * 1024 * 1024
@@ -55,3 +59,19 @@ def read_text_file(path: str | Path, kind: str) -> str:
         raise AssetError(f"{p}: cannot read {kind} ({e.strerror})") from None
     except UnicodeDecodeError as e:
         raise AssetError(f"{p}: not a text file ({e.reason} at byte {e.start})") from None
+
+
+def write_text_whole(path: str | Path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` whole: into ``.NAME.part`` beside it, then
+    renamed over it, so that a reader, or a kill mid-write, finds the old file or the new
+    one and never a part. On an error (a full disk) the part is removed and the error
+    raised. Returns ``path``."""
+    target = Path(path)
+    part = target.with_name(f".{target.name}.part")
+    try:
+        part.write_text(text, encoding="utf-8")
+        part.replace(target)
+    except BaseException:
+        part.unlink(missing_ok=True)
+        raise
+    return target

@@ -28,6 +28,7 @@ import yaml
 from mcap.reader import make_reader
 
 from uhrisim.core.errors import UhrisimError
+from uhrisim.core.files import write_text_whole
 from uhrisim.record.typehash import rihs01
 
 __all__ = ["METADATA_NAME", "channel_metadata", "write_metadata"]
@@ -112,8 +113,5 @@ def write_metadata(mcap_path: Path | str) -> Path:
         "custom_data": None,
         "ros_distro": "kilted",
     }
-    out = mcap_path.parent / METADATA_NAME
-    tmp = out.with_suffix(".yaml.tmp")
-    tmp.write_text(_dump({"rosbag2_bagfile_information": info}))
-    tmp.replace(out)
-    return out
+    return write_text_whole(mcap_path.parent / METADATA_NAME,
+                            _dump({"rosbag2_bagfile_information": info}))
