@@ -426,8 +426,12 @@ def test_posts_faster_than_coalesce_arrive_complete_in_order_and_in_time(db, coa
         sub.register(key)
         assert wait_until(lambda: (pub.notify(key, -1.0) and False) or any(
             m.key == key for m in sub.drain()), 5.0, 0.05)
-        time.sleep(max(0.05, 2 * coalesce_s))
-        sub.drain()
+        # the handshake's posts may still be on their way (a busy machine: longer than any
+        # sleep guessed): a fence posted after them is read last of them, in posting order
+        pub.notify(key, -2.0)
+        assert wait_until(lambda: any(m.key == key and m.dval == -2.0 for m in sub.drain()),
+                          120.0, 0.001)
+        time.sleep(max(0.05, 2 * coalesce_s))  # the burst starts after a quiet spell
         got: list[MoosMessage] = []
         for i in range(200):
             pub.notify_many([(key, float(i)), (key + "_S", f"s{i}")], time=1000.0 + i)
