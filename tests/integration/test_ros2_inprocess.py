@@ -89,10 +89,10 @@ def probe(ros_env: int):
     p.close()
 
 
-def _wait_matched(bridge: Ros2Bridge, probe: Probe, topics: list[str]) -> None:
-    assert probe.spin_until(lambda: all(bridge.subscriber_count(t) > 0 for t in topics)), topics
-    # the graph shows the reader a little before the writer has matched it
-    probe.spin_until(lambda: False, timeout=0.3)
+def _wait_matched(bridge: Ros2Bridge, topics: list[str]) -> None:
+    """Until the bridge's writers have matched the probe's readers on ``topics`` (the
+    graph shows a reader earlier: a message written in between is lost to it)."""
+    assert bridge.wait_for_subscribers(topics, timeout_s=120.0), topics
 
 
 def test_scene_helm_clock_and_image_contents(bridge: Ros2Bridge, probe: Probe, agent: str):
@@ -103,7 +103,7 @@ def test_scene_helm_clock_and_image_contents(bridge: Ros2Bridge, probe: Probe, a
     probe.sub(String, f"/{agent}/helm/mode")
     probe.sub(Clock, "/clock", qos=qos_profile_sensor_data)
     probe.sub(Image, f"/{agent}/sonar/polar", qos=qos_profile_sensor_data)
-    _wait_matched(bridge, probe, ["/scene/markers", f"/{agent}/helm/mode", "/clock",
+    _wait_matched(bridge, ["/scene/markers", f"/{agent}/helm/mode", "/clock",
                                   f"/{agent}/sonar/polar"])
 
     pile = {"ns": "piles", "id": 3, "type": "cylinder", "position_ned": [10.0, -2.0, 5.0],
@@ -214,7 +214,7 @@ def test_only_subscribed_volatile_topics_are_written(ros_env: int, probe: Probe)
         with pytest.raises(ConfigError, match="finite"):
             b.write_odometry(name, 0.3, [np.nan, 0.0, 0.0], 0.0, [0.0, 0.0, 0.0], 0.0)
         probe.sub(Odometry, f"/{name}/odom")
-        _wait_matched(b, probe, [f"/{name}/odom"])
+        _wait_matched(b, [f"/{name}/odom"])
         assert b.odometry_due(name, 0.2)
         b.write_odometry(name, 0.2, [1.0, 2.0, 3.0], 0.5, [0.2, 0.0, 0.0], 0.0)
         ours = {k: v for k, v in b.stats()["published"].items() if name in k}
@@ -243,7 +243,6 @@ def test_commands_validation_and_sim_time_timeout(bridge: Ros2Bridge, probe: Pro
     thr = probe.node.create_publisher(Float64MultiArray, f"/{agent}/cmd/thrusters", 10)
     assert probe.spin_until(lambda: all(p.get_subscription_count() > 0
                                         for p in [*pubs.values(), thr]))
-    probe.spin_until(lambda: False, timeout=0.3)
 
     c0 = bridge.commands(agent, 5.0)  # nothing received yet: not external control
     assert not c0.received and not c0.stale and c0.desired_speed is None
@@ -299,7 +298,10 @@ def test_lockstep_round_is_answered_by_a_whole_command_group(ros_env: int,
         assert not b.wait_for_controller(name, 0.1)  # nobody reads the odometry yet
         probe.sub(Odometry, f"/{name}/odom")
         assert b.wait_for_controller(name, 10.0)
-        probe.spin_until(lambda: False, timeout=0.3)  # our readers matched by its writers
+        # every one of our writers has matched the bridge's reader (the controller's match
+        # is one topic's): reliable, so no command written from now on is lost
+        assert probe.spin_until(lambda: all(p.get_subscription_count() > 0
+                                            for p in [*desired.values(), thrusters]))
 
         assert not b.begin_round(name)  # nothing answered before
         desired["desired_heading"].publish(Float64(data=10.0))
