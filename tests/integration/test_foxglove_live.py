@@ -12,12 +12,11 @@ the client waits for what it needs, never for a wall-clock guess.
 from __future__ import annotations
 
 import json
+import re
 import signal
-import socket
 import struct
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -32,33 +31,28 @@ WANTED = ("/videoray/odom", "/tf", "/videoray/sonar/fan", "/clock")
 MESSAGE_DATA = 0x01  # the binary opcode of a message (foxglove.sdk.v1)
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _connect(url: str, run: subprocess.Popen) -> object:
-    deadline = time.monotonic() + 300.0  # the run's start on a busy machine
-    while True:
-        try:
-            return sync_client.connect(url, subprotocols=["foxglove.sdk.v1"],
-                                       max_size=None)
-        except OSError:
-            assert run.poll() is None and time.monotonic() < deadline, "no server"
-            time.sleep(0.2)
+def _server_url(run: subprocess.Popen, said: list[str]) -> str:
+    """The server's address, from the line the run says it in once the server listens
+    (port 0: the system picks a free port as the server binds; a port picked by the test
+    beforehand could be taken by another process in between). The lines read go to
+    ``said``."""
+    for line in run.stderr:  # until the line comes, or the run ends
+        said.append(line)
+        if match := re.search(r"ws://127\.0\.0\.1:\d+", line):
+            return match.group(0)
+    raise AssertionError("the run ended without serving: " + "".join(said)[-2000:])
 
 
 def test_a_websocket_client_subscribes_and_decodes(tmp_path: Path) -> None:
-    port = _free_port()
     run = subprocess.Popen([sys.executable, "-m", "uhrisim", "run", str(SCENARIO), "--out",
-                            str(tmp_path / "run"), "-q", "--foxglove", "--foxglove-port",
-                            str(port)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                           text=True)
+                            str(tmp_path / "run"), "-q", "--foxglove", "--foxglove-port", "0"],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     channels: dict[int, dict] = {}
     decoded: dict[str, list] = {topic: [] for topic in WANTED}
+    said: list[str] = []
     try:
-        with _connect(f"ws://127.0.0.1:{port}", run) as ws:
+        url = _server_url(run, said)
+        with sync_client.connect(url, subprotocols=["foxglove.sdk.v1"], max_size=None) as ws:
             subscribed: dict[int, str] = {}
             while any(len(v) < 3 for v in decoded.values()):
                 frame = ws.recv(timeout=300.0)
@@ -82,7 +76,8 @@ def test_a_websocket_client_subscribes_and_decodes(tmp_path: Path) -> None:
                 decoded[topic].append((log_time, ch["decode"](frame[13:])))
     finally:
         run.send_signal(signal.SIGINT)
-        _, stderr = run.communicate(timeout=120.0)
+        _, rest = run.communicate(timeout=120.0)
+        stderr = "".join(said) + rest
     assert run.returncode == 128 + signal.SIGINT, stderr
     assert "Foxglove: open ws://127.0.0.1:" in stderr
     by_topic = {c["topic"]: c for c in channels.values()}
