@@ -39,3 +39,20 @@ def test_the_projects_own_modules_are_never_skipped() -> None:
     assert not skipped, "import these (a missing module is a failure):\n" + "\n".join(skipped)
     # not vacuous: optional third-party stacks are still skipped where absent
     assert any("rclpy" in _skipped_modules(f) for f in TESTS.rglob("test_ros2_*.py"))
+
+
+def test_xdist_workers_draw_ros_domains_from_disjoint_shares(monkeypatch) -> None:
+    """Two ROS 2 modules running at once in two workers never share a domain (in one they
+    read each other's topics); together the workers use every id of 1-101."""
+    from tests.support.ros2_domains import worker_domain_ids
+
+    for workers in (2, 3):
+        monkeypatch.setenv("PYTEST_XDIST_WORKER_COUNT", str(workers))
+        shares = []
+        for worker in range(workers):
+            monkeypatch.setenv("PYTEST_XDIST_WORKER", f"gw{worker}")
+            shares.append(set(worker_domain_ids()))
+        assert sum(map(len, shares)) == 101 and set.union(*shares) == set(range(1, 102))
+    monkeypatch.delenv("PYTEST_XDIST_WORKER")
+    monkeypatch.delenv("PYTEST_XDIST_WORKER_COUNT")
+    assert worker_domain_ids() == range(1, 102)
