@@ -63,7 +63,7 @@ def test_camera_frames_reach_another_process(ros_env: int, tmp_path: Path) -> No
         sim.start()
         bridge = hook.bridge
         assert bridge is not None
-        child.expect("READY", timeout=40.0)
+        child.expect("READY")
         topics = [f"/videoray/camera/{k}" for k in ("image_raw", "camera_info", "depth",
                                                     "labels", "pose")] + ["/tf", "/tf_static"]
         assert bridge.wait_for_subscribers(topics, 20.0)  # the writers matched the readers

@@ -31,7 +31,7 @@ def test_perception_markers_reach_a_ros2_node(ros_env: int, tmp_path: Path):
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     listener = Child("ros2_marker_listener.py", ["--agent", "videoray"], tmp_path)
     try:
-        listener.expect("READY", timeout=60.0)
+        listener.expect("READY")
         # the run's end (a bound only: 91-124 s here with the load average at 15-19)
         _stdout, stderr = sim.communicate(timeout=600.0)
         listener.send("STOP")

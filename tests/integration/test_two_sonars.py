@@ -60,7 +60,7 @@ def test_both_sonars_and_the_camera_are_published_on_ros2(ros_env: int, tmp_path
                                                   "wide", "--cameras", "camera"], tmp_path)
     try:
         sim.start()
-        listener.expect("READY", timeout=30.0)
+        listener.expect("READY")
         assert hook.bridge is not None
         assert hook.bridge.wait_for_subscribers(
             ["/videoray/narrow/image", "/videoray/wide/image", "/videoray/camera/image_raw"],

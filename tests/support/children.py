@@ -18,6 +18,11 @@ SUPPORT = Path(__file__).resolve().parent
 #: tests/support/listener_loop.py): far beyond any lag measured under load (1 s with the
 #: load average at 22 on 2 cores); reached only when a best-effort message was lost.
 STOP_WAIT_S = 30.0
+#: The longest :meth:`Child.expect` waits by default: only against a child that hangs (a
+#: line that never comes from a child that ended ends the wait at once). A ``READY``
+#: comes once Python, rclpy and DDS discovery are up, seconds on a busy machine; the
+#: 20-60 s bounds it had were guesses of that.
+HUNG_CHILD_S = 300.0
 
 
 class Child:
@@ -43,7 +48,7 @@ class Child:
             self.lines.put(line.rstrip("\n"))
         self.lines.put(None)
 
-    def expect(self, prefix: str, timeout: float = 20.0) -> str:
+    def expect(self, prefix: str, timeout: float = HUNG_CHILD_S) -> str:
         end = time.monotonic() + timeout
         while True:
             try:
@@ -107,7 +112,7 @@ def run_paced_for(sim: Any, listener: Child, topics: list[str], until_s: float,
 
     try:
         sim.start()
-        listener.expect("READY", timeout=30.0)
+        listener.expect("READY")
         bridge = sim.hooks[0].bridge
         assert bridge.wait_for_subscribers(topics, 20.0), topics
         before = bridge.stats()["published"]
