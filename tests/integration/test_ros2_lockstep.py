@@ -22,6 +22,7 @@ import pytest
 pytest.importorskip("rclpy")
 
 from tests.support.children import Child
+from tests.support.ros2_domains import spare_domain_id
 from uhrisim.core.errors import BridgeError
 from uhrisim.record.reader import OdometryTrack, iter_messages, read_odometry
 
@@ -75,7 +76,7 @@ def test_lockstep_without_a_controller_says_what_is_missing(ros_env: int) -> Non
     from uhrisim.scenario.load import load_scenario
     from uhrisim.sim.simulation import Simulation
 
-    hook = Ros2BridgeHook(domain_id=ros_env % 101 + 1, lockstep=True,
+    hook = Ros2BridgeHook(domain_id=spare_domain_id(ros_env), lockstep=True,
                           lockstep_start_timeout_s=0.5, publish_scene=False)
     with (pytest.raises(BridgeError, match=r"no controller for 'videoray' within 0\.5 s"),
           Simulation(load_scenario(SCENARIO), hooks=[hook]) as sim):

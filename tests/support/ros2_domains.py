@@ -14,3 +14,10 @@ def worker_domain_ids() -> range:
     worker = int(os.environ.get("PYTEST_XDIST_WORKER", "gw0").removeprefix("gw"))
     workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     return range(1 + worker, 102, workers)
+
+
+def spare_domain_id(domain: int) -> int:
+    """Another id of this worker's share than ``domain`` (its module's, from ``ros_env``):
+    for a test that needs a domain where no reader of its module's other tests is."""
+    ids = worker_domain_ids()
+    return ids[(ids.index(domain) + 1) % len(ids)]

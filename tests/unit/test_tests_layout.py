@@ -44,7 +44,7 @@ def test_the_projects_own_modules_are_never_skipped() -> None:
 def test_xdist_workers_draw_ros_domains_from_disjoint_shares(monkeypatch) -> None:
     """Two ROS 2 modules running at once in two workers never share a domain (in one they
     read each other's topics); together the workers use every id of 1-101."""
-    from tests.support.ros2_domains import worker_domain_ids
+    from tests.support.ros2_domains import spare_domain_id, worker_domain_ids
 
     for workers in (2, 3):
         monkeypatch.setenv("PYTEST_XDIST_WORKER_COUNT", str(workers))
@@ -52,6 +52,9 @@ def test_xdist_workers_draw_ros_domains_from_disjoint_shares(monkeypatch) -> Non
         for worker in range(workers):
             monkeypatch.setenv("PYTEST_XDIST_WORKER", f"gw{worker}")
             shares.append(set(worker_domain_ids()))
+            # a module's spare domain (a test apart from its module's readers): its share
+            spares = {d: spare_domain_id(d) for d in shares[-1]}
+            assert set(spares.values()) == shares[-1] and all(d != e for d, e in spares.items())
         assert sum(map(len, shares)) == 101 and set.union(*shares) == set(range(1, 102))
     monkeypatch.delenv("PYTEST_XDIST_WORKER")
     monkeypatch.delenv("PYTEST_XDIST_WORKER_COUNT")
