@@ -66,7 +66,7 @@ def test_camera_frames_reach_another_process(ros_env: int, tmp_path: Path) -> No
         child.expect("READY")
         topics = [f"/videoray/camera/{k}" for k in ("image_raw", "camera_info", "depth",
                                                     "labels", "pose")] + ["/tf", "/tf_static"]
-        assert bridge.wait_for_subscribers(topics, 20.0)  # the writers matched the readers
+        assert bridge.wait_for_subscribers(topics, 120.0)  # the writers matched the readers
         for _ in range(round(1.0 / sim.dt)):  # 1 s: 10 camera frames, paced at real time
             tick = sim.step()
             if tick.images:

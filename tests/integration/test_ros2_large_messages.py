@@ -51,7 +51,7 @@ def test_best_effort_subscriber_gets_every_sonar_image(ros_env: int, tmp_path: P
         sim.start()
         assert os.environ["FASTDDS_DEFAULT_PROFILES_FILE"] == str(FASTDDS_PROFILE)
         listener.expect("READY", timeout=300.0)
-        assert hook.bridge.wait_for_subscribers(list(TOPICS), 20.0)
+        assert hook.bridge.wait_for_subscribers(list(TOPICS), 120.0)
         pacer = Pacer(real_time_factor=1.0)
         pacer.reset(sim.t)
         deadline = time.monotonic() + 600.0

@@ -90,7 +90,7 @@ def _make_bridge(domain: int, reliable_sensors: bool = False) -> tuple[Ros2Bridg
     return b, agent
 
 
-def _wait_for_subscribers(bridge: Ros2Bridge, topics: list[str], timeout: float = 20.0) -> None:
+def _wait_for_subscribers(bridge: Ros2Bridge, topics: list[str], timeout: float = 120.0) -> None:
     assert bridge.wait_for_subscribers(topics, timeout), f"no subscriber on {topics}"
 
 

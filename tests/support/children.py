@@ -114,7 +114,7 @@ def run_paced_for(sim: Any, listener: Child, topics: list[str], until_s: float,
         sim.start()
         listener.expect("READY")
         bridge = sim.hooks[0].bridge
-        assert bridge.wait_for_subscribers(topics, 20.0), topics
+        assert bridge.wait_for_subscribers(topics, 120.0), topics
         before = bridge.stats()["published"]
         pacer = Pacer(real_time_factor=real_time_factor)
         pacer.reset(sim.t)

@@ -39,7 +39,7 @@ def main() -> int:
         for k in ("desired_heading", "desired_speed", "desired_depth")
     }
     thr = node.create_publisher(Float64MultiArray, f"/{a}/cmd/thrusters", 10)
-    deadline = time.monotonic() + 20.0
+    deadline = time.monotonic() + 600.0  # only for one left behind (as listener_loop's)
     while not all(p.get_subscription_count() > 0 for p in [*pubs.values(), thr]):
         if time.monotonic() > deadline:
             print("TIMEOUT waiting for the bridge's subscriptions", flush=True)
