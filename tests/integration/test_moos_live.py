@@ -52,10 +52,12 @@ def wait_until(pred, timeout_s: float, period_s: float = 0.01) -> bool:
     return bool(pred())
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+def held_port() -> socket.socket:
+    """A loopback port nothing listens on, held bound (not listening: a connection is
+    refused) until the socket is closed, so no other process starts listening there."""
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    return s
 
 
 @pytest.fixture(scope="module")
@@ -190,7 +192,8 @@ def test_wildcard_registration_and_duplicate_name_poison(db):
 
 
 def test_strict_connect_to_nothing_raises_and_lax_connect_waits(db):
-    port = free_port()
+    holder = held_port()
+    port = holder.getsockname()[1]
     with pytest.raises(BridgeError, match=rf"127\.0\.0\.1:{port}.*refused"):
         MoosAgentBridge("rov", port=port, strict=True)
     # the first refusal is reported, not the timeout: an hour's timeout ends at once
@@ -204,11 +207,13 @@ def test_strict_connect_to_nothing_raises_and_lax_connect_waits(db):
         assert not bridge.connected
         assert bridge.publish_nav(0.0, 1.0, 2.0, 0.0, 0.0, 0.0) is False  # kept for later
         assert wait_until(lambda: "retrying" in bridge.status, HANG_S)
+        holder.close()  # (from here until the DB binds it, the port could still be taken)
         with spawn(port=port) as late_db:
             assert late_db.port == port
             assert bridge.client.wait_connected(HANG_S)
             assert bridge.connected
     finally:
+        holder.close()
         bridge.close()
 
 

@@ -133,13 +133,15 @@ def test_a_missing_base_scenario_is_one_line(tmp_path):
     ("http://x:1", "is not 'auto'"),
 ])
 def test_unreachable_or_malformed_addresses_are_one_line(tmp_path, address, part):
-    with socket.socket() as probe:  # a loopback port nothing listens on
+    # a loopback port nothing listens on: held bound (not listening) all along, so that no
+    # other process can start listening there in between (a connection is refused)
+    with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
-    address, part = address.format(port=port), part.format(port=port)
-    path = sweep_file(tmp_path, grid={"metrics.range": [2.0]})
-    result = cli.invoke(app, ["sweep", str(path), "--out", str(tmp_path / "o"),
-                              "--address", address])
+        address, part = address.format(port=port), part.format(port=port)
+        path = sweep_file(tmp_path, grid={"metrics.range": [2.0]})
+        result = cli.invoke(app, ["sweep", str(path), "--out", str(tmp_path / "o"),
+                                  "--address", address])
     one_line_error(result, "--address", part)
     assert not (tmp_path / "o").exists()
 
