@@ -8,9 +8,10 @@ horizon's curve), colour by colour, and the pixels that differ from it in any co
 more than ``4·σ`` of that colour (σ from the median absolute deviation) and at least 4
 levels are the silhouette (it does not depend on the suit's colour, only on its contrast
 with the water), σ the larger of the picture's and the row's own (a row of rippled sand
-spreads more than the water: its texture is not the diver); parts less than :data:`GROUP_PX` pixels apart form a group, and the
-groups of at least :data:`KEEP_SHARE` of the largest one's pixels are the diver (his body,
-limbs and shadow on the floor). No opening: at 160 columns an arm at 3 m is 1–2 px wide.
+spreads more than the water: its texture is not the diver); parts less than
+:data:`GROUP_PX` pixels apart form a group, and the groups of at least :data:`KEEP_SHARE`
+of the largest one's pixels are the diver (his body, limbs and shadow on the floor). No
+opening: at 160 columns an arm at 3 m is 1–2 px wide.
 The descriptor drops the groups that are thin and wide (:data:`MIN_GROUP_ROWS`,
 :data:`MIN_HEIGHT_SHARE`): the floor's edge when the camera turns, never a diver.
 
