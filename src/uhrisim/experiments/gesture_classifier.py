@@ -28,7 +28,7 @@ of the picture; some of the time a tool in his other hand (:data:`VIEW_TOOLS`) a
 worksite-like object beside him (:data:`VIEW_SITES`). A **work episode**
 (:class:`WorkScript`, ``--work N`` of them, class ``none``, drawn with their own seed after
 the worksite views) is such a view of the diver at his work instead of at rest: swimming
-in prone and rising, bent over the work, reaching down to it, rigging (both hands pulling
+in prone and rising, bent over the work, rigging (both hands pulling
 at a line), holding a tool (:data:`WORK_STATES`), turned up to ±90° from the camera.
 
     python -m uhrisim.experiments.gesture_classifier OUT.json [--episodes 20] [--seed 1]
@@ -129,13 +129,13 @@ VIEW_SITES = {"valve": (0.6, 0.5, 0.8), "stand": (0.5, 0.7, 0.8)}
 #: a work episode's states (:class:`WorkScript`): joint angles (°; ``{s}`` his working
 #: hand, which holds the tool if he has one, ``{o}`` the other; ``swim`` sets every joint,
 #: the others keep his legs standing or kneeling): prone, standing, holding the tool,
-#: bent over the work, reaching down to it, rigging (both hands pulling at a line)
+#: bent over the work, rigging (both hands pulling at a line); not reaching down to the
+#: work: one straight arm forward and down is "light here"
 WORK_STATES: dict[str, dict[str, float]] = {
     "swim": NAMED_POSES["swim"],
     "stand": NAMED_POSES["stand"],
     "hold": NAMED_POSES["hold"],
     "bent over": {**NAMED_POSES["work"], "waist": 50.0, "neck_flex": 20.0},
-    "reach down": {**NAMED_POSES["reach"], "waist": 45.0, "neck_flex": 25.0},
     "rig": {"{s}_shoulder_flex": 50.0, "{s}_elbow": 60.0, "{s}_fingers": 72.0,
             "{o}_shoulder_flex": 50.0, "{o}_elbow": 60.0, "{o}_fingers": 72.0,
             "waist": 30.0, "neck_flex": 20.0},
@@ -182,11 +182,13 @@ class WorkScript:
     """A work episode's moves (module docstring): he holds ``states[0]``
     (:data:`WORK_STATES`), moves to ``states[i + 1]`` from ``starts_s[i]`` (the frames'
     time, s) over :data:`WORK_MOVE_S` and holds it; a state's stroke
-    (:data:`WORK_STROKES`) has the period ``stroke_period_s``."""
+    (:data:`WORK_STROKES`) has the period ``stroke_period_s``; when he starts prone he
+    swims in head first at ``swim_speed_m_s`` (m/s) until his first move."""
 
     states: tuple[str, ...]
     starts_s: tuple[float, ...]
     stroke_period_s: float
+    swim_speed_m_s: float
 
 
 @dataclass(frozen=True)
@@ -208,16 +210,16 @@ class GestureEpisode:
 
 
 def draw_work(rng: np.random.Generator) -> WorkScript:
-    """A work episode's moves drawn at random: 3-5 states (a third of the time he
-    swims in first), each unlike the one before, the moves within
+    """A work episode's moves drawn at random: 3-5 states (half of the time he swims
+    in first, at 0.3-0.6 m/s), each unlike the one before, the moves within
     :data:`WORK_CHANGES_S`."""
     at_site = [name for name in WORK_STATES if name != "swim"]
-    states = ["swim" if rng.random() < 1 / 3 else str(rng.choice(at_site))]
+    states = ["swim" if rng.random() < 0.5 else str(rng.choice(at_site))]
     for _ in range(int(rng.integers(2, 5))):
         states.append(str(rng.choice([name for name in at_site if name != states[-1]])))
     starts = np.sort(rng.uniform(*WORK_CHANGES_S, len(states) - 1))
     return WorkScript(tuple(states), tuple(float(t) for t in starts),
-                      float(rng.uniform(1.5, 3.0)))
+                      float(rng.uniform(1.5, 3.0)), float(rng.uniform(0.3, 0.6)))
 
 
 def draw_view(rng: np.random.Generator) -> WorksiteView:
@@ -378,6 +380,10 @@ class EpisodeRenderer:
                 q[index] += math.radians(SWAY_DEG) * math.sin(2 * math.pi * t / period + phase)
             q = self.skeleton.clip(q)
             scene.set_part_transforms("diver", figure_transforms(self.skeleton, q))
+            if ep.work is not None and ep.work.states[0] == "swim":
+                behind = ep.work.swim_speed_m_s * max(ep.work.starts_s[0] - float(t), 0.0)
+                body[:3, 3] = hip - behind * body[:3, 0]  # swimming in head first (body x)
+                scene.set_pose("diver", body[:3, 3], body[:3, :3])
             if view is not None and view.tool is not None:
                 self._hold(scene, view.tool, q, other if ep.work is None else side, body)
             frame = camera.capture(caster, eye, np.eye(3), float(t))
