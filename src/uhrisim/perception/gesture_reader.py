@@ -7,11 +7,9 @@ every :data:`BACKGROUND_STEP` th pixel (wider than a diver's body, and it follow
 horizon's curve), colour by colour, and the pixels that differ from it in any colour by
 more than ``4·σ`` of that colour (σ from the median absolute deviation) and at least 4
 levels are the silhouette (it does not depend on the suit's colour, only on its contrast
-with the water), σ the larger of the picture's and the row's own (a row of rippled sand
-spreads more than the water: its texture is not the diver); parts less than
-:data:`GROUP_PX` pixels apart form a group, and the groups of at least :data:`KEEP_SHARE`
-of the largest one's pixels are the diver (his body, limbs and shadow on the floor). No
-opening: at 160 columns an arm at 3 m is 1–2 px wide.
+with the water); parts less than :data:`GROUP_PX` pixels apart form a group, and the
+groups of at least :data:`KEEP_SHARE` of the largest one's pixels are the diver (his body,
+limbs and shadow on the floor). No opening: at 160 columns an arm at 3 m is 1–2 px wide.
 The descriptor drops the groups that are thin and wide (:data:`MIN_GROUP_ROWS`,
 :data:`MIN_HEIGHT_SHARE`): the floor's edge when the camera turns, never a diver.
 
@@ -153,9 +151,6 @@ def silhouette(rgb: NDArray[np.uint8]) -> NDArray[np.bool_]:
     background = np.repeat(coarse, BACKGROUND_STEP, axis=1)[:, :image.shape[1]]
     residual = np.abs(image - background)
     sigma = np.maximum(1.4826 * np.median(residual, axis=(0, 1)), 1.0)
-    # rows of textured floor (sand ripples) spread more than the water: each row's own
-    # spread, where it is the larger (the diver fills well under half of a row)
-    sigma = np.maximum(sigma, 1.4826 * np.median(residual, axis=1, keepdims=True))
     mask = (residual > np.maximum(THRESHOLD_SIGMA * sigma, MIN_LEVELS)).any(axis=2)
     grown = cv2.dilate(mask.view(np.uint8), _CROSS, iterations=GROUP_PX)
     n, labels = cv2.connectedComponents(grown, connectivity=4, ltype=cv2.CV_32S)
