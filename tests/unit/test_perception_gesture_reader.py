@@ -303,6 +303,9 @@ def test_work_episodes_leave_the_earlier_episodes_and_their_cache_as_they_were(r
     assert with_work[:len(with_views)] == with_views
     work = with_work[len(with_views):]
     assert len(work) == 3 and all(ep.klass == NONE and ep.work is not None for ep in work)
+    held = held_out_work([1, 2], 2)
+    assert held == held_out_work([1, 2], 2) and len({ep.seed for ep in held}) == 4
+    assert all(ep.lamps and ep.work is not None for ep in held)
     store = SilhouetteCache(renderer, Path("cache"))
     assert store.path(with_views[2 * len(CLASSES)], 1.0).name == \
         "61a34f2994762b6abcb8.npz"  # the name main's cache gave this worksite view
