@@ -297,7 +297,7 @@ def test_work_episodes_leave_the_earlier_episodes_and_their_cache_as_they_were(r
     """``--work`` adds work episodes (class ``none``) after the worksite views, drawn from
     their own generator: the episodes before them and their cache files' names (a cache
     made before work episodes existed stays valid) do not change; a work episode renders
-    the same twice, the diver found in nearly every frame."""
+    the same twice."""
     with_views = training_episodes(CLASSES, 2, 1, views=1)
     with_work = training_episodes(CLASSES, 2, 1, views=1, work=3)
     assert with_work[:len(with_views)] == with_views
@@ -312,4 +312,3 @@ def test_work_episodes_leave_the_earlier_episodes_and_their_cache_as_they_were(r
     a, times_a = renderer.descriptors(work[0])
     b, times_b = renderer.descriptors(work[0])
     assert np.array_equal(a, b, equal_nan=True) and np.array_equal(times_a, times_b)
-    assert np.mean(~np.isnan(a[:, 0])) >= 0.9  # far off at the start of his swim in

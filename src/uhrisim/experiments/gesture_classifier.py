@@ -127,21 +127,28 @@ VIEW_RANGE_M, VIEW_TILT_DEG = (2.0, 4.0), 10.0
 VIEW_TOOLS = ("wrench", "light", "hammer")
 VIEW_SITES = {"valve": (0.6, 0.5, 0.8), "stand": (0.5, 0.7, 0.8)}
 #: a work episode's states (:class:`WorkScript`): joint angles (°; ``{s}`` his working
-#: hand, which holds the tool if he has one, ``{o}`` the other; ``swim`` sets every joint,
-#: the others keep his legs standing or kneeling): prone, standing, holding the tool,
-#: bent over the work, rigging (both hands pulling at a line); not reaching down to the
-#: work: one straight arm forward and down is "light here"
+#: hand, which holds the tool if he has one, ``{o}`` the other; :data:`WORK_PRONE` set
+#: every joint, the others keep his legs standing or kneeling): prone, standing, holding
+#: the tool, bent over the work, working prone (both hands down at the work), rigging
+#: (both hands pulling at a line); not reaching down to the work: one straight arm
+#: forward and down is "light here"
 WORK_STATES: dict[str, dict[str, float]] = {
     "swim": NAMED_POSES["swim"],
     "stand": NAMED_POSES["stand"],
     "hold": NAMED_POSES["hold"],
     "bent over": {**NAMED_POSES["work"], "waist": 50.0, "neck_flex": 20.0},
+    "prone work": {**{k: v for k, v in NAMED_POSES["swim"].items() if "{" not in k},
+                   "{s}_shoulder_flex": 100.0, "{s}_elbow": 50.0, "{s}_fingers": 72.0,
+                   "{o}_shoulder_flex": 100.0, "{o}_elbow": 40.0, "{o}_fingers": 72.0},
     "rig": {"{s}_shoulder_flex": 50.0, "{s}_elbow": 60.0, "{s}_fingers": 72.0,
             "{o}_shoulder_flex": 50.0, "{o}_elbow": 60.0, "{o}_fingers": 72.0,
             "waist": 30.0, "neck_flex": 20.0},
 }
 #: the joint that strokes (a wrench turned, a line pulled) in a work state, ± degrees
-WORK_STROKES = {"bent over": ("{s}_elbow", 25.0), "rig": ("{s}_elbow", 30.0)}
+WORK_STROKES = {"bent over": ("{s}_elbow", 25.0), "prone work": ("{s}_elbow", 25.0),
+                "rig": ("{s}_elbow", 30.0)}
+#: the work states that set every joint (prone: his legs stretched out, as in ``swim``)
+WORK_PRONE = frozenset({"swim", "prone work"})
 #: a work episode: his moves from one state to the next take this long (s); they start
 #: within this span of the frames' time (s; t = 0 about the window's end)
 WORK_MOVE_S, WORK_CHANGES_S = 1.2, (-18.0, 2.0)
@@ -325,7 +332,7 @@ class EpisodeRenderer:
                 joint, amplitude = WORK_STROKES[name]
                 angles[joint.format(s=side, o=other)] += math.radians(amplitude) * math.sin(
                     2 * math.pi * t / work.stroke_period_s)
-            return self.skeleton.vector(angles, None if name == "swim" else legs)
+            return self.skeleton.vector(angles, None if name in WORK_PRONE else legs)
 
         q = state(work.states[0])
         for name, start in zip(work.states[1:], work.starts_s, strict=True):
