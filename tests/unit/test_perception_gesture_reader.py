@@ -24,6 +24,7 @@ from uhrisim.experiments.gesture_classifier import (
     confusion,
     fit_network,
     held_out_episodes,
+    held_out_work,
     stream_counts,
     training_episodes,
 )
@@ -290,3 +291,24 @@ def test_worksite_views_leave_the_mid_water_episodes_and_their_cache_as_they_wer
     b, times_b = renderer.descriptors(kneeling)
     assert np.array_equal(a, b, equal_nan=True) and np.array_equal(times_a, times_b)
     assert not np.isnan(a).any()
+
+
+def test_work_episodes_leave_the_earlier_episodes_and_their_cache_as_they_were(renderer):
+    """``--work`` adds work episodes (class ``none``) after the worksite views, drawn from
+    their own generator: the episodes before them and their cache files' names (a cache
+    made before work episodes existed stays valid) do not change; a work episode renders
+    the same twice."""
+    with_views = training_episodes(CLASSES, 2, 1, views=1)
+    with_work = training_episodes(CLASSES, 2, 1, views=1, work=3)
+    assert with_work[:len(with_views)] == with_views
+    work = with_work[len(with_views):]
+    assert len(work) == 3 and all(ep.klass == NONE and ep.work is not None for ep in work)
+    held = held_out_work([1, 2], 2)
+    assert held == held_out_work([1, 2], 2) and len({ep.seed for ep in held}) == 4
+    assert all(ep.lamps and ep.work is not None for ep in held)
+    store = SilhouetteCache(renderer, Path("cache"))
+    assert store.path(with_views[2 * len(CLASSES)], 1.0).name == \
+        "61a34f2994762b6abcb8.npz"  # the name main's cache gave this worksite view
+    a, times_a = renderer.descriptors(work[0])
+    b, times_b = renderer.descriptors(work[0])
+    assert np.array_equal(a, b, equal_nan=True) and np.array_equal(times_a, times_b)

@@ -25,13 +25,18 @@ assisted salvage's ROV does: standing or kneeling on rippled sand or just above 
 (:data:`VIEW_GAP_M`), the camera :data:`VIEW_CAMERA_ABOVE_M` above his chest level at
 :data:`VIEW_RANGE_M`, tilted 10° down as the VideoRay's, the sand filling the lower part
 of the picture; some of the time a tool in his other hand (:data:`VIEW_TOOLS`) and a
-worksite-like object beside him (:data:`VIEW_SITES`).
+worksite-like object beside him (:data:`VIEW_SITES`). A **work episode**
+(:class:`WorkScript`, ``--work N`` of them, class ``none``, drawn with their own seed after
+the worksite views) is such a view of the diver at his work instead of at rest: swimming
+in prone and rising, bent over the work, rigging (both hands pulling
+at a line), holding a tool (:data:`WORK_STATES`), turned up to ±90° from the camera.
 
     python -m uhrisim.experiments.gesture_classifier OUT.json [--episodes 20] [--seed 1]
-                                                              [--views 0] [--cache DIR]
+                                                              [--views 0] [--work 0]
+                                                              [--cache DIR]
                                                               [--render-part K/N]
     python -m uhrisim.experiments.gesture_classifier --evaluate [--range 3] [--water I]
-                                                     [--worksite]
+                                                     [--worksite | --work]
                                                      [--stream [--hop S] [--votes N]
                                                       [--min-confidence P]] [--cache DIR]
 
@@ -43,7 +48,8 @@ classifier refits without rendering; with ``--render-part K/N`` the command only
 every N-th episode from the K-th into the cache (N processes fill it side by side) and
 fits nothing. The second prints the
 accuracy and confusion matrix of the shipped classifier (or ``OUT.json``'s) on held-out
-episodes (with ``--worksite``: as worksite views), or with ``--stream`` what the
+episodes (with ``--worksite``: as worksite views; with ``--work``: work episodes, whose
+every window is ``none``), or with ``--stream`` what the
 streaming reader (its rule as given) recognizes, misses and says falsely on them as
 streams (:func:`stream_counts`).
 """
@@ -65,7 +71,7 @@ from numpy.typing import NDArray
 from scipy import optimize
 
 from uhrisim.core.frames import rot_z
-from uhrisim.dynamics.diver_body import DiverSkeleton
+from uhrisim.dynamics.diver_body import NAMED_POSES, DiverSkeleton
 from uhrisim.perception.gesture_reader import (
     HOP_S,
     MIN_CONFIDENCE,
@@ -120,6 +126,32 @@ VIEW_GAP_M, VIEW_CAMERA_ABOVE_M = (0.0, 0.3), (0.0, 0.6)
 VIEW_RANGE_M, VIEW_TILT_DEG = (2.0, 4.0), 10.0
 VIEW_TOOLS = ("wrench", "light", "hammer")
 VIEW_SITES = {"valve": (0.6, 0.5, 0.8), "stand": (0.5, 0.7, 0.8)}
+#: a work episode's states (:class:`WorkScript`): joint angles (°; ``{s}`` his working
+#: hand, which holds the tool if he has one, ``{o}`` the other; :data:`WORK_PRONE` set
+#: every joint, the others keep his legs standing or kneeling): prone, standing, holding
+#: the tool, bent over the work, working prone (both hands down at the work), rigging
+#: (both hands pulling at a line); not reaching down to the work: one straight arm
+#: forward and down is "light here"
+WORK_STATES: dict[str, dict[str, float]] = {
+    "swim": NAMED_POSES["swim"],
+    "stand": NAMED_POSES["stand"],
+    "hold": NAMED_POSES["hold"],
+    "bent over": {**NAMED_POSES["work"], "waist": 50.0, "neck_flex": 20.0},
+    "prone work": {**{k: v for k, v in NAMED_POSES["swim"].items() if "{" not in k},
+                   "{s}_shoulder_flex": 100.0, "{s}_elbow": 50.0, "{s}_fingers": 72.0,
+                   "{o}_shoulder_flex": 100.0, "{o}_elbow": 40.0, "{o}_fingers": 72.0},
+    "rig": {"{s}_shoulder_flex": 50.0, "{s}_elbow": 60.0, "{s}_fingers": 72.0,
+            "{o}_shoulder_flex": 50.0, "{o}_elbow": 60.0, "{o}_fingers": 72.0,
+            "waist": 30.0, "neck_flex": 20.0},
+}
+#: the joint that strokes (a wrench turned, a line pulled) in a work state, ± degrees
+WORK_STROKES = {"bent over": ("{s}_elbow", 25.0), "prone work": ("{s}_elbow", 25.0),
+                "rig": ("{s}_elbow", 30.0)}
+#: the work states that set every joint (prone: his legs stretched out, as in ``swim``)
+WORK_PRONE = frozenset({"swim", "prone work"})
+#: a work episode: his moves from one state to the next take this long (s); they start
+#: within this span of the frames' time (s; t = 0 about the window's end)
+WORK_MOVE_S, WORK_CHANGES_S = 1.2, (-18.0, 2.0)
 #: where the worksite scene keeps the tools and objects not in the episode (NED, m)
 PARKED_NED = (-1000.0, 0.0, FLOOR_DEPTH_M)
 
@@ -153,9 +185,24 @@ class WorksiteView:
 
 
 @dataclass(frozen=True)
+class WorkScript:
+    """A work episode's moves (module docstring): he holds ``states[0]``
+    (:data:`WORK_STATES`), moves to ``states[i + 1]`` from ``starts_s[i]`` (the frames'
+    time, s) over :data:`WORK_MOVE_S` and holds it; a state's stroke
+    (:data:`WORK_STROKES`) has the period ``stroke_period_s``; when he starts prone he
+    swims in head first at ``swim_speed_m_s`` (m/s) until his first move."""
+
+    states: tuple[str, ...]
+    starts_s: tuple[float, ...]
+    stroke_period_s: float
+    swim_speed_m_s: float
+
+
+@dataclass(frozen=True)
 class GestureEpisode:
     """One rendered performance (module docstring); ``suit`` and ``tank`` are the
-    albedos of the diver's suit and cylinder; ``view``: a worksite view, None: mid-water."""
+    albedos of the diver's suit and cylinder; ``view``: a worksite view, None: mid-water;
+    ``work``: a work episode's moves (class ``none``), None: a gesture or at rest."""
 
     klass: str
     range_m: float
@@ -166,6 +213,20 @@ class GestureEpisode:
     suit: tuple[float, float, float] = NEOPRENE.albedo_rgb
     tank: tuple[float, float, float] = ALUMINIUM.albedo_rgb
     view: WorksiteView | None = None
+    work: WorkScript | None = None
+
+
+def draw_work(rng: np.random.Generator) -> WorkScript:
+    """A work episode's moves drawn at random: 3-5 states (half of the time he swims
+    in first, at 0.3-0.6 m/s), each unlike the one before, the moves within
+    :data:`WORK_CHANGES_S`."""
+    at_site = [name for name in WORK_STATES if name != "swim"]
+    states = ["swim" if rng.random() < 0.5 else str(rng.choice(at_site))]
+    for _ in range(int(rng.integers(2, 5))):
+        states.append(str(rng.choice([name for name in at_site if name != states[-1]])))
+    starts = np.sort(rng.uniform(*WORK_CHANGES_S, len(states) - 1))
+    return WorkScript(tuple(states), tuple(float(t) for t in starts),
+                      float(rng.uniform(1.5, 3.0)), float(rng.uniform(0.3, 0.6)))
 
 
 def draw_view(rng: np.random.Generator) -> WorksiteView:
@@ -258,6 +319,28 @@ class EpisodeRenderer:
         grasp = self.tool_grasps[kind]
         scene.set_pose(kind, hand[:3, 3] - rotation @ grasp, rotation)
 
+    def _work_pose(self, work: WorkScript, t: float, side: str, legs: NDArray[np.float64]
+                   ) -> NDArray[np.float64]:
+        """His joint angles (rad) at time ``t`` (s) of ``work``, ``side`` his working
+        hand, ``legs`` the angles his legs keep (``swim`` sets its own)."""
+        other = "right" if side == "left" else "left"
+
+        def state(name: str) -> NDArray[np.float64]:
+            angles = {k.format(s=side, o=other): math.radians(v)
+                      for k, v in WORK_STATES[name].items()}
+            if name in WORK_STROKES:
+                joint, amplitude = WORK_STROKES[name]
+                angles[joint.format(s=side, o=other)] += math.radians(amplitude) * math.sin(
+                    2 * math.pi * t / work.stroke_period_s)
+            return self.skeleton.vector(angles, None if name in WORK_PRONE else legs)
+
+        q = state(work.states[0])
+        for name, start in zip(work.states[1:], work.starts_s, strict=True):
+            share = min(max((t - start) / WORK_MOVE_S, 0.0), 1.0)
+            if share > 0.0:
+                q = q + share * (state(name) - q)
+        return q
+
     def frames(self, ep: GestureEpisode, extra_s: float = 0.0, stream: bool = False
                ) -> Iterator[tuple[float, NDArray[np.uint8]]]:
         """(t, picture) of the window ending after the gesture (t = 0 at its start) and
@@ -294,15 +377,22 @@ class EpisodeRenderer:
         lead_s = STREAM_LEAD_S if stream else 0.0
         n = round((WINDOW_S + extra_s + lead_s) * RATE_HZ)
         for t in end - WINDOW_S - lead_s + (np.arange(n) + 1) / RATE_HZ:
-            making = name != NONE and not (stream and t > duration)
-            joints = pose_at(frames, t) if making else dict(frames[0].joints)
-            q = self.skeleton.vector(joints, legs)
+            if ep.work is not None:
+                q = self._work_pose(ep.work, float(t), side, legs)
+            else:
+                making = name != NONE and not (stream and t > duration)
+                joints = pose_at(frames, t) if making else dict(frames[0].joints)
+                q = self.skeleton.vector(joints, legs)
             for index, period, phase in sway:
                 q[index] += math.radians(SWAY_DEG) * math.sin(2 * math.pi * t / period + phase)
             q = self.skeleton.clip(q)
             scene.set_part_transforms("diver", figure_transforms(self.skeleton, q))
+            if ep.work is not None and ep.work.states[0] == "swim":
+                behind = ep.work.swim_speed_m_s * max(ep.work.starts_s[0] - float(t), 0.0)
+                body[:3, 3] = hip - behind * body[:3, 0]  # swimming in head first (body x)
+                scene.set_pose("diver", body[:3, 3], body[:3, :3])
             if view is not None and view.tool is not None:
-                self._hold(scene, view.tool, q, other, body)
+                self._hold(scene, view.tool, q, other if ep.work is None else side, body)
             frame = camera.capture(caster, eye, np.eye(3), float(t))
             yield float(t), frame.rgb
 
@@ -337,8 +427,11 @@ class SilhouetteCache:
             return None
         name = ep.klass.partition(":")[0]
         motion = self.renderer.gestures.gestures["ok" if name == NONE else name]
-        # a mid-water episode keeps the key it had before worksite views existed
-        episode = repr(ep).removesuffix(", view=None)") + ")" if ep.view is None else repr(ep)
+        # an episode keeps the key it had before worksite views and work episodes existed
+        episode = repr(ep)
+        for field_name, value in (("work", ep.work), ("view", ep.view)):
+            if value is None:
+                episode = episode.removesuffix(f", {field_name}=None)") + ")"
         key = f"({episode}, " + repr((extra_s, IMAGE_WIDTH, IMAGE_HEIGHT, RATE_HZ, WINDOW_S,
                                        motion))[1:]
         if stream:
@@ -440,14 +533,15 @@ def stream_samples(d: NDArray[np.float64], times: NDArray[np.float64], klass: st
 TRAINING_WATERS = {"I": (1.0, (2.0, 4.5))}
 
 
-def training_episodes(classes: list[str], per_class: int, seed: int, views: int = 0
-                      ) -> list[GestureEpisode]:
+def training_episodes(classes: list[str], per_class: int, seed: int, views: int = 0,
+                      work: int = 0) -> list[GestureEpisode]:
     """Random settings (module docstring): :data:`TRAINING_WATERS`, headings ±35°, lamps
     on or off, suit and cylinder colours from :data:`SUITS` and :data:`TANKS`; drawn
     round by round over the classes, so that fewer episodes per class are the first
     rounds of more; then ``views`` worksite views per class (:func:`draw_view`, clear
     water at :data:`VIEW_RANGE_M`), drawn the same way from their own generator, so that
-    the mid-water episodes do not depend on them."""
+    the mid-water episodes do not depend on them; then ``work`` work episodes
+    (:func:`work_episode`), from a generator of their own."""
     rng = np.random.default_rng(seed)
     waters = list(TRAINING_WATERS)
     shares = [TRAINING_WATERS[w][0] for w in waters]
@@ -468,7 +562,25 @@ def training_episodes(classes: list[str], per_class: int, seed: int, views: int 
                                       bool(rng.random() < 0.5), int(rng.integers(1 << 30)),
                                       SUITS[rng.integers(len(SUITS))],
                                       TANKS[rng.integers(len(TANKS))], draw_view(rng)))
+    rng = np.random.default_rng([seed, 27])
+    out += [work_episode(rng) for _ in range(work)]
     return out
+
+
+def work_episode(rng: np.random.Generator, lamps: bool | None = None,
+                 seed: int | None = None) -> GestureEpisode:
+    """A work episode (module docstring) drawn at random: clear water at
+    :data:`VIEW_RANGE_M`, turned up to ±90° from the camera, lamps on or off, suit and
+    cylinder colours from :data:`SUITS` and :data:`TANKS` (``lamps`` and ``seed`` given:
+    those, the black suit and aluminium cylinder)."""
+    range_m, heading = float(rng.uniform(*VIEW_RANGE_M)), float(rng.uniform(-90, 90))
+    if seed is None:
+        lamps, seed = bool(rng.random() < 0.5), int(rng.integers(1 << 30))
+        suit, tank = SUITS[rng.integers(len(SUITS))], TANKS[rng.integers(len(TANKS))]
+    else:
+        suit, tank = NEOPRENE.albedo_rgb, ALUMINIUM.albedo_rgb
+    return GestureEpisode(NONE, range_m, heading, "I", bool(lamps), seed, suit, tank,
+                          draw_view(rng), draw_work(rng))
 
 
 def fit_network(features: NDArray[np.float64], labels: NDArray[np.int64], n_classes: int,
@@ -513,20 +625,21 @@ def fit_network(features: NDArray[np.float64], labels: NDArray[np.int64], n_clas
     return tuple(unpack(result.x))
 
 
-def render_part(per_class: int, seed: int, views: int, cache: Path, part: int, parts: int
-                ) -> None:
+def render_part(per_class: int, seed: int, views: int, work: int, cache: Path, part: int,
+                parts: int) -> None:
     """Renders every ``parts``-th training episode from the ``part``-th into ``cache``
     (both renderings), so that ``parts`` processes fill it side by side."""
     renderer = EpisodeRenderer()
     store = SilhouetteCache(renderer, cache)
-    episodes = training_episodes(gesture_classes(renderer.gestures), per_class, seed, views)
+    episodes = training_episodes(gesture_classes(renderer.gestures), per_class, seed, views,
+                                 work)
     for ep in episodes[part::parts]:
         store.descriptors(ep, END_AFTER_S[1])
         store.descriptors(ep, STREAM_AFTER_S, stream=True)
 
 
-def training_samples(per_class: int, seed: int, cache: Path | None = None, views: int = 0
-                     ) -> tuple[list[str], NDArray[np.float64], NDArray[np.int64]]:
+def training_samples(per_class: int, seed: int, cache: Path | None = None, views: int = 0,
+                     work: int = 0) -> tuple[list[str], NDArray[np.float64], NDArray[np.int64]]:
     """(classes, window features, class indices) of the rendered training episodes, each
     rendered twice: the diver holding the gesture's last pose (:func:`window_samples`)
     and as a stream (:func:`stream_samples`); their silhouettes kept in ``cache`` when
@@ -535,7 +648,7 @@ def training_samples(per_class: int, seed: int, cache: Path | None = None, views
     store = SilhouetteCache(renderer, cache)
     classes = gesture_classes(renderer.gestures)
     rows, labels = [], []
-    for ep in training_episodes(classes, per_class, seed, views):
+    for ep in training_episodes(classes, per_class, seed, views, work):
         held = window_samples(*store.descriptors(ep, END_AFTER_S[1]), ep.klass,
                               renderer.gestures)
         streamed = stream_samples(*store.descriptors(ep, STREAM_AFTER_S, stream=True),
@@ -562,16 +675,19 @@ def classifier_of(classes: list[str], x: NDArray[np.float64], y: NDArray[np.int6
                              RATE_HZ, provenance)
 
 
-def fit(per_class: int, seed: int, cache: Path | None = None, views: int = 0
+def fit(per_class: int, seed: int, cache: Path | None = None, views: int = 0, work: int = 0
         ) -> GestureClassifier:
     """The classifier fitted on ``per_class`` rendered mid-water episodes and ``views``
-    worksite views per class."""
-    classes, x, y = training_samples(per_class, seed, cache, views)
+    worksite views per class, and ``work`` work episodes."""
+    classes, x, y = training_samples(per_class, seed, cache, views, work)
     worksite = (f"; {views} worksite views per class (rippled sand, camera "
                 f"{VIEW_CAMERA_ABOVE_M[0]:g}-{VIEW_CAMERA_ABOVE_M[1]:g} m above his chest "
                 f"at {VIEW_RANGE_M[0]:g}-{VIEW_RANGE_M[1]:g} m, tilted {VIEW_TILT_DEG:g} deg, "
                 f"standing or kneeling, a tool or an object beside him half of the time)"
                 if views else "")
+    if work:
+        worksite += (f"; {work} work episodes, none (as those views, turned up to +-90 deg: "
+                     f"{', '.join(WORK_STATES)})")
     counts = ", ".join(f"{c} {np.count_nonzero(y == i)}" for i, c in enumerate(classes))
     return classifier_of(
         classes, x, y,
@@ -633,6 +749,13 @@ def held_out_episodes(classes: list[str], range_m: float, water: str, lamps: boo
     return out
 
 
+def held_out_work(seeds: list[int], per_seed: int) -> list[GestureEpisode]:
+    """``per_seed`` work episodes per seed (:func:`work_episode`), lamps on, the black
+    suit, seeds the fit never draws."""
+    return [work_episode(np.random.default_rng([s, 27, i]), True, 1_000_000 + 97 * s + 50 + i)
+            for s in seeds for i in range(per_seed)]
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path, nargs="?")
@@ -644,6 +767,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--views", type=int, default=0,
                         help="worksite views per class, after the mid-water episodes")
+    parser.add_argument("--work", type=int, default=0,
+                        help="work episodes (class none), after the worksite views; with "
+                        "--evaluate: that many held-out work episodes per seed instead")
     parser.add_argument("--worksite", action="store_true",
                         help="with --evaluate: the held-out episodes as worksite views")
     parser.add_argument("--render-part", help="K/N: only render every N-th episode from "
@@ -657,8 +783,8 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     if args.evaluate:
         classifier = GestureClassifier.load(args.out)
-        held = held_out_episodes(list(classifier.classes), args.range, args.water, True,
-                                 args.seeds, args.worksite)
+        held = held_out_work(args.seeds, args.work) if args.work else held_out_episodes(
+            list(classifier.classes), args.range, args.water, True, args.seeds, args.worksite)
         if args.stream:
             store = SilhouetteCache(EpisodeRenderer(), args.cache)
             counts = stream_counts(lambda: GestureReader(
@@ -678,12 +804,12 @@ def main(argv: list[str] | None = None) -> None:
         if args.cache is None:
             parser.error("--render-part needs --cache")
         part, parts = (int(v) for v in args.render_part.split("/"))
-        render_part(args.episodes, args.seed, args.views, args.cache, part, parts)
+        render_part(args.episodes, args.seed, args.views, args.work, args.cache, part, parts)
         return
     if args.out is None:
         parser.error("OUT.json is needed to fit")
     start = time.perf_counter()
-    classifier = fit(args.episodes, args.seed, args.cache, args.views)
+    classifier = fit(args.episodes, args.seed, args.cache, args.views, args.work)
     args.out.write_text(json.dumps(classifier.to_dict(), indent=1) + "\n")
     print(classifier.provenance)
     print(f"fitted in {time.perf_counter() - start:.0f} s")
