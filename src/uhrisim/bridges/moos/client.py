@@ -414,8 +414,9 @@ class MoosClient:
                 else:
                     log.debug("MOOS client %r: retry failed: %s", self.name, exc)
             finally:
-                with self._lock:
+                with self._lock:  # the state and its line change together
                     self._connected = False
+                    self._status = f"disconnected from {self.host}:{self.port}"
                     # unsent notifications: keep the latest per variable for the reconnect
                     for key, data in self._outbox:
                         if key is not None:
@@ -477,8 +478,10 @@ class MoosClient:
         self.community = first.community
         self.skew = first.dval
         sock.setblocking(False)
-        with self._lock:
+        with self._lock:  # the state and its line change together
             self._connected = True
+            self._status = (f"connected to {self.host}:{self.port} as {self.name!r} "
+                            f"(community {self.community!r})")
             self.n_connects += 1
             # registrations first, then the latest values posted while we were away
             pending: list[tuple[str | None, bytes]] = [
@@ -487,8 +490,6 @@ class MoosClient:
             self._latest_down.clear()
             self._outbox.extendleft(reversed(pending))
         self.last_error = None
-        self._status = (f"connected to {self.host}:{self.port} as {self.name!r} "
-                        f"(community {self.community!r})")
         self._connected_evt.set()
         self._attempted_evt.set()
         log.info("MOOS client %r: %s", self.name, self._status)
