@@ -23,6 +23,7 @@ from pathlib import Path
 import pytest
 
 from tests.support.moos_trace import trace_streams
+from tests.support.ports import held_port
 from uhrisim.autonomy.contacts import parse_node_report
 from uhrisim.bridges.moos.bridge import MoosAgentBridge
 from uhrisim.bridges.moos.client import MoosClient
@@ -50,14 +51,6 @@ def wait_until(pred, timeout_s: float, period_s: float = 0.01) -> bool:
             return True
         time.sleep(period_s)
     return bool(pred())
-
-
-def held_port() -> socket.socket:
-    """A loopback port nothing listens on, held bound (not listening: a connection is
-    refused) until the socket is closed, so no other process starts listening there."""
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    return s
 
 
 @pytest.fixture(scope="module")

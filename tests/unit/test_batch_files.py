@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import re
-import socket
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +14,7 @@ import yaml
 from typer.testing import CliRunner
 
 from tests.support.cli import one_line_error
+from tests.support.ports import held_port
 from uhrisim.batch.params import Draw, apply_path, check_path, split_path
 from uhrisim.batch.sweep import load_sweep
 from uhrisim.cli import app
@@ -135,8 +135,7 @@ def test_a_missing_base_scenario_is_one_line(tmp_path):
 def test_unreachable_or_malformed_addresses_are_one_line(tmp_path, address, part):
     # a loopback port nothing listens on: held bound (not listening) all along, so that no
     # other process can start listening there in between (a connection is refused)
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
+    with held_port() as probe:
         port = probe.getsockname()[1]
         address, part = address.format(port=port), part.format(port=port)
         path = sweep_file(tmp_path, grid={"metrics.range": [2.0]})

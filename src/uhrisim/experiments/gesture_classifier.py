@@ -130,8 +130,8 @@ VIEW_SITES = {"valve": (0.6, 0.5, 0.8), "stand": (0.5, 0.7, 0.8)}
 #: hand, which holds the tool if he has one, ``{o}`` the other; :data:`WORK_PRONE` set
 #: every joint, the others keep his legs standing or kneeling): prone, standing, holding
 #: the tool, bent over the work, working prone (both hands down at the work), rigging
-#: (both hands pulling at a line); not reaching down to the work: one straight arm
-#: forward and down is "light here"
+#: (both hands pulling at a line); not reaching down to the work with one straight arm
+#: (so made, it taught the network to ignore "light here", then pointed forward and down)
 WORK_STATES: dict[str, dict[str, float]] = {
     "swim": NAMED_POSES["swim"],
     "stand": NAMED_POSES["stand"],
