@@ -90,6 +90,9 @@ GROUP_PX = 2
 #: floor's edge: 1-3 px high, 20-60 wide; the diver: 30-70 rows at 2.5-4.5 m)
 MIN_GROUP_ROWS, MIN_HEIGHT_SHARE = 12, 0.5
 THRESHOLD_SIGMA, MIN_LEVELS = 4.0, 4.0
+#: the version of :func:`silhouette`'s rule, stored with cached silhouettes: 2 since the
+#: tenth session (each row's own spread); a cache of another version renders again
+SILHOUETTE_VERSION = 2
 BACKGROUND_PX, BACKGROUND_STEP = 40, 4
 KEEP_SHARE = 0.15
 MAX_COLUMNS = 160
