@@ -76,6 +76,7 @@ from uhrisim.perception.gesture_reader import (
     HOP_S,
     MIN_CONFIDENCE,
     NONE,
+    SILHOUETTE_VERSION,
     VOTES,
     GestureClassifier,
     GestureReader,
@@ -417,7 +418,9 @@ class SilhouetteCache:
     """Rendered episodes' silhouettes on disk (``DIR/<episode hash>.npz``, bits packed:
     ~2.4 kB a frame), so that a change of the descriptors or of the classifier refits
     without rendering again; the hash covers the episode, its gesture (a changed motion
-    renders again), the picture size, the frame rate and the window."""
+    renders again), the picture size, the frame rate and the window; a file holds the
+    :data:`SILHOUETTE_VERSION` it was made with (none: 1), and one of another version
+    renders again."""
 
     def __init__(self, renderer: EpisodeRenderer, folder: Path | None) -> None:
         self.renderer, self.folder = renderer, folder
@@ -443,18 +446,31 @@ class SilhouetteCache:
         """:meth:`EpisodeRenderer.descriptors`, the silhouettes read from the cache or
         rendered and stored."""
         path = self.path(ep, extra_s, stream)
-        if path is not None and path.exists():
-            with np.load(path) as stored:
-                width = int(stored["width"])
-                masks = np.unpackbits(stored["masks"], axis=-1)[..., :width].astype(bool)
-                times = stored["times"]
+        stored = _cached_silhouettes(path)
+        if stored is not None:
+            masks, times = stored
         else:
             masks, times = self.renderer.silhouettes(ep, extra_s, stream)
             if path is not None:
                 path.parent.mkdir(parents=True, exist_ok=True)
                 np.savez_compressed(path, masks=np.packbits(masks, axis=-1), times=times,
-                                    width=masks.shape[-1])
+                                    width=masks.shape[-1], silhouette=SILHOUETTE_VERSION)
         return np.array([silhouette_descriptor(m) for m in masks]), times
+
+
+def _cached_silhouettes(path: Path | None
+                        ) -> tuple[NDArray[np.bool_], NDArray[np.float64]] | None:
+    """(silhouettes, times) stored at ``path`` by :class:`SilhouetteCache`; None when
+    there is no such file or its silhouettes are of another :data:`SILHOUETTE_VERSION`."""
+    if path is None or not path.exists():
+        return None
+    with np.load(path) as stored:
+        version = int(stored["silhouette"]) if "silhouette" in stored.files else 1
+        if version != SILHOUETTE_VERSION:
+            return None
+        width = int(stored["width"])
+        return (np.unpackbits(stored["masks"], axis=-1)[..., :width].astype(bool),
+                stored["times"])
 
 
 def _none_end_s(gestures: GestureSet, klass: str) -> float:

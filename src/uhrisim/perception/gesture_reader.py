@@ -7,11 +7,13 @@ every :data:`BACKGROUND_STEP` th pixel (wider than a diver's body, and it follow
 horizon's curve), colour by colour, and the pixels that differ from it in any colour by
 more than ``4·σ`` of that colour (σ from the median absolute deviation) and at least 4
 levels are the silhouette (it does not depend on the suit's colour, only on its contrast
-with the water); parts less than :data:`GROUP_PX` pixels apart form a group, and the
-groups of at least :data:`KEEP_SHARE` of the largest one's pixels are the diver (his body,
-limbs and shadow on the floor). No opening: at 160 columns an arm at 3 m is 1–2 px wide.
-The descriptor drops the groups that are thin and wide (:data:`MIN_GROUP_ROWS`,
-:data:`MIN_HEIGHT_SHARE`): the floor's edge when the camera turns, never a diver.
+with the water), σ the larger of the picture's and the row's own (a row of rippled sand
+spreads more than the water: its texture is not the diver); parts less than
+:data:`GROUP_PX` pixels apart form a group, and the groups of at least :data:`KEEP_SHARE`
+of the largest one's pixels are the diver (his body, limbs and shadow on the floor). No
+opening: at 160 columns an arm at 3 m is 1–2 px wide. The descriptor drops the groups that
+are thin and wide (:data:`MIN_GROUP_ROWS`, :data:`MIN_HEIGHT_SHARE`): the floor's edge when
+the camera turns, never a diver.
 
 Its scale is its median row width (the torso's, about: arms and head are few rows); its
 pixels, measured down from its top (the head, or a raised hand) and sideways from its
@@ -88,6 +90,9 @@ GROUP_PX = 2
 #: floor's edge: 1-3 px high, 20-60 wide; the diver: 30-70 rows at 2.5-4.5 m)
 MIN_GROUP_ROWS, MIN_HEIGHT_SHARE = 12, 0.5
 THRESHOLD_SIGMA, MIN_LEVELS = 4.0, 4.0
+#: the version of :func:`silhouette`'s rule, stored with cached silhouettes: 2 since the
+#: tenth session (each row's own spread); a cache of another version renders again
+SILHOUETTE_VERSION = 2
 BACKGROUND_PX, BACKGROUND_STEP = 40, 4
 KEEP_SHARE = 0.15
 MAX_COLUMNS = 160
@@ -109,6 +114,15 @@ SIZE_SPREADS = 4.0
 NOVELTY_RMS = 6.0
 #: where the apparent size sits in a window's features: the last of each time bin's means
 _SIZES = np.arange(len(TIME_BINS_S) - 1) * FRAME_FEATURES + FRAME_FEATURES - 1
+#: a diver signals upright, facing the camera (he gets ready so: perception/signalling.py):
+#: a window whose diver fills less than UPRIGHT_FILL (scale² units) of the grid's rows
+#: 2-4 scale units below his top (his hips and legs), in the mean picture of either of
+#: its last UPRIGHT_BINS time bins (the last 2 s), is ``none`` — he swims or works prone,
+#: a wide and low silhouette. Every training window of a gesture fills at least 1.31
+#: (shipped fit, docs/hri.md); prone at his work in the assisted salvage: 0.0-0.3
+UPRIGHT_FILL, UPRIGHT_BINS = 0.6, 2
+_UPRIGHT_ROWS = [row * GRID_COLS + col for row in range(GRID_ROWS) for col in range(GRID_COLS)
+                 if GRID_Y[0] + row * (GRID_Y[1] - GRID_Y[0]) / GRID_ROWS >= 2.0]
 #: the streaming reader's decision rule (:class:`GestureReader`): every 0.5 s, the same
 #: class three times in a row with >= 0.7 each time (chosen on validation streams:
 #: docs/hri.md)
@@ -151,6 +165,9 @@ def silhouette(rgb: NDArray[np.uint8]) -> NDArray[np.bool_]:
     background = np.repeat(coarse, BACKGROUND_STEP, axis=1)[:, :image.shape[1]]
     residual = np.abs(image - background)
     sigma = np.maximum(1.4826 * np.median(residual, axis=(0, 1)), 1.0)
+    # rows of textured floor (sand ripples) spread more than the water: each row's own
+    # spread, where it is the larger (the diver fills well under half of a row)
+    sigma = np.maximum(sigma, 1.4826 * np.median(residual, axis=1, keepdims=True))
     mask = (residual > np.maximum(THRESHOLD_SIGMA * sigma, MIN_LEVELS)).any(axis=2)
     grown = cv2.dilate(mask.view(np.uint8), _CROSS, iterations=GROUP_PX)
     n, labels = cv2.connectedComponents(grown, connectivity=4, ltype=cv2.CV_32S)
@@ -245,6 +262,13 @@ def window_features(descriptors: NDArray[np.float64], rate_hz: float) -> NDArray
     return np.concatenate([*means, d.std(axis=0), motion])
 
 
+def upright_fill(features: NDArray[np.float64]) -> float:
+    """The least fill of the grid's rows 2-4 scale units below the diver's top over a
+    window's last :data:`UPRIGHT_BINS` time bins (scale² units; :data:`UPRIGHT_FILL`)."""
+    return min(float(features[b * FRAME_FEATURES + np.array(_UPRIGHT_ROWS)].sum())
+               for b in range(UPRIGHT_BINS))
+
+
 def class_command(name: str, gestures: GestureSet) -> Command | None:
     """The command a class says (None for ``none``): ``bring_tool:3`` → bring_tool light."""
     if name == NONE:
@@ -300,10 +324,10 @@ class GestureClassifier:
 
     def classify(self, features: NDArray[np.float64]) -> tuple[str, float]:
         """(class, probability) of a window's features; (``none``, 1) if the diver was
-        not seen enough (NaN features), is nearer or farther than the network was fitted
-        on (:data:`SIZE_SPREADS`) or looks like nothing it was fitted on
-        (:data:`NOVELTY_RMS`)."""
-        if np.any(np.isnan(features)) or np.any(
+        not seen enough (NaN features), is not upright (:data:`UPRIGHT_FILL`), is nearer
+        or farther than the network was fitted on (:data:`SIZE_SPREADS`) or looks like
+        nothing it was fitted on (:data:`NOVELTY_RMS`)."""
+        if np.any(np.isnan(features)) or upright_fill(features) < UPRIGHT_FILL or np.any(
                 np.abs(features[_SIZES] - self.center[_SIZES])
                 > SIZE_SPREADS * self.spread[_SIZES]) or math.sqrt(np.mean(
                     ((features - self.center) / self.spread) ** 2)) > NOVELTY_RMS:
@@ -366,11 +390,16 @@ class GestureReader:
     _quiet_until: float = field(default=-math.inf, init=False)
     _last: list[tuple[str, float]] = field(default_factory=list, init=False)
 
-    def feed(self, t: float, rgb: NDArray[np.uint8]) -> list[RecognizedSignal]:
-        """Take one camera picture at time ``t`` (s); the signals recognized now."""
+    def feed(self, t: float, rgb: NDArray[np.uint8], diver_in_view: bool = True
+             ) -> list[RecognizedSignal]:
+        """Take one camera picture at time ``t`` (s); the signals recognized now.
+        ``diver_in_view`` False (the ROV's own track puts him outside the picture): the
+        picture is taken as one without him, whatever its silhouette is (a lift bag
+        rising, a valve: not his gestures)."""
         if not self.takes(t):
             return []  # frames come faster than the classifier's rate: skip
-        return self.feed_descriptor(t, frame_descriptor(rgb))
+        return self.feed_descriptor(t, frame_descriptor(rgb) if diver_in_view
+                                    else np.full(FRAME_FEATURES, np.nan))
 
     def takes(self, t: float) -> bool:
         """Whether a picture at ``t`` (s) is one the classifier's frame rate takes."""

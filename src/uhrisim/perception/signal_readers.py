@@ -1,10 +1,11 @@
 """The ROV's readers of the diver's signals, one per channel, behind one call per sensor
 reading (docs/hri.md, "Wiring").
 
-* ``camera(frame, slate_near)``: the slate's markers (:class:`~uhrisim.perception.
-  markers.MarkerReader`, every frame; around where the slate is expected, given as
-  (NED point, margin m), and in the whole picture every few frames) and gestures
-  (:class:`~uhrisim.perception.gesture_reader.GestureReader`, at its own rate);
+* ``camera(frame, slate_near, diver_in_view)``: the slate's markers
+  (:class:`~uhrisim.perception.markers.MarkerReader`, every frame; around where the
+  slate is expected, given as (NED point, margin m), and in the whole picture every few
+  frames) and gestures (:class:`~uhrisim.perception.gesture_reader.GestureReader`, at its
+  own rate, in the pictures the ROV's track puts the diver in);
 * ``ping(ping, range_m, bearing_rad)``: the two-arm wave (:class:`~uhrisim.perception.
   sonar_wave.SonarWaveReader`) around the tracked diver.
 
@@ -42,16 +43,18 @@ class SignalReaders:
     _last: dict[str, tuple[str, float]] = field(default_factory=dict)
 
     def camera(self, frame: CameraFrame, slate_near: tuple[NDArray[np.float64], float |
-                                                           NDArray[np.float64]] | None = None
-               ) -> list[RecognizedSignal]:
+                                                           NDArray[np.float64]] | None = None,
+               diver_in_view: bool = True) -> list[RecognizedSignal]:
         """The signals read in one camera frame; ``slate_near``: where the slate is
-        expected (NED point, margin m), None if nowhere in particular."""
+        expected (NED point, margin m), None if nowhere in particular; ``diver_in_view``:
+        whether the ROV's track puts the diver in the picture (the gesture reader reads
+        only pictures of him: :meth:`GestureReader.feed`)."""
         found: list[RecognizedSignal] = []
         if self.markers is not None:
             found += marker_signals(self.markers.read(frame, *(slate_near or (None,))),
                                     frame.t, self.min_marker_confidence)
         if self.gestures is not None:
-            found += self.gestures.feed(frame.t, frame.rgb)
+            found += self.gestures.feed(frame.t, frame.rgb, diver_in_view)
         return self.once(found)
 
     def ping(self, ping: SonarPing, range_m: float | None, bearing_rad: float | None

@@ -328,8 +328,9 @@ class AssistanceStage:
                 continue
             track = self._track(v, 0.0)
             if frame is not None:
-                said = v.readers.camera(frame, self._slate_near(v, track))
-                if said and not self._diver_in_view(track, frame):
+                in_view = self._diver_in_view(track, frame)
+                said = v.readers.camera(frame, self._slate_near(v, track), in_view)
+                if said and not in_view:
                     for r in said:
                         self.record("assistant", f"{v.agent.name}: {r.command} ({r.channel}) "
                                     "ignored: the diver is not in the camera's view")
