@@ -37,7 +37,8 @@ units and a softmax over the standardised window features, one class per gesture
 diver at rest, or a gesture under way); the confidence is the class's probability. A
 window whose diver looks nearer or farther than any the network was fitted on (his
 apparent size beyond :data:`SIZE_SPREADS` training spreads) is ``none``: the ROV at arm's
-reach sees his trunk fill the picture, a view the training never showed.
+reach sees his trunk fill the picture, a view the training never showed; so is one whose
+diver is not upright at its end (:data:`UPRIGHT_FILL`: he swims or works prone).
 Parameters fitted on pictures the simulator renders and labels
 (``uhrisim.experiments.gesture_classifier``), shipped in
 ``perception/data/gesture_classifier.json`` with their provenance.
@@ -46,7 +47,8 @@ Parameters fitted on pictures the simulator renders and labels
 classifies the last window, and says a command when the same class wins ``votes`` times
 in a row, each time with at least ``min_confidence``, and the diver is in the newest
 picture (nothing is said while the camera looks away); then it stays quiet for a window
-(the same gesture is not said twice). ``uhrisim.experiments.gesture_classifier
+(the same gesture is not said twice). A picture in which the ROV's own track does not put
+the diver counts as one without him. ``uhrisim.experiments.gesture_classifier
 --evaluate --stream`` counts what a rule recognizes, misses and says falsely on held-out
 streams (docs/hri.md).
 """
@@ -121,8 +123,9 @@ _SIZES = np.arange(len(TIME_BINS_S) - 1) * FRAME_FEATURES + FRAME_FEATURES - 1
 #: a wide and low silhouette. Every training window of a gesture fills at least 1.31
 #: (shipped fit, docs/hri.md); prone at his work in the assisted salvage: 0.0-0.3
 UPRIGHT_FILL, UPRIGHT_BINS = 0.6, 2
-_UPRIGHT_ROWS = [row * GRID_COLS + col for row in range(GRID_ROWS) for col in range(GRID_COLS)
-                 if GRID_Y[0] + row * (GRID_Y[1] - GRID_Y[0]) / GRID_ROWS >= 2.0]
+_UPRIGHT_CELLS = np.array([row * GRID_COLS + col for row in range(GRID_ROWS)
+                           for col in range(GRID_COLS)
+                           if GRID_Y[0] + row * (GRID_Y[1] - GRID_Y[0]) / GRID_ROWS >= 2.0])
 #: the streaming reader's decision rule (:class:`GestureReader`): every 0.5 s, the same
 #: class three times in a row with >= 0.7 each time (chosen on validation streams:
 #: docs/hri.md)
@@ -265,7 +268,7 @@ def window_features(descriptors: NDArray[np.float64], rate_hz: float) -> NDArray
 def upright_fill(features: NDArray[np.float64]) -> float:
     """The least fill of the grid's rows 2-4 scale units below the diver's top over a
     window's last :data:`UPRIGHT_BINS` time bins (scale² units; :data:`UPRIGHT_FILL`)."""
-    return min(float(features[b * FRAME_FEATURES + np.array(_UPRIGHT_ROWS)].sum())
+    return min(float(features[b * FRAME_FEATURES + _UPRIGHT_CELLS].sum())
                for b in range(UPRIGHT_BINS))
 
 
