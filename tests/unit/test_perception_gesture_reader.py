@@ -200,22 +200,27 @@ def test_a_diver_who_is_not_upright_is_not_read():
 def test_the_assisted_salvage_reads_light_here_and_no_false_gesture(monkeypatch):
     """The reader's inputs in ``scenarios/salvage_team_assisted.yaml`` (recorded:
     tests/data/perception/README.md): in clear water (seeds 1-3) the shipped reader says
-    the diver's "light here" (made 20.9-25.9 s, after 2 s of getting ready) at 27.6 s,
-    before his slate's, and nothing else in the 276 s; in 9C water nothing. Without the
-    upright rule it says 2-3 false gestures a seed — on his swim-in at 17 s (which keeps
-    it quiet through "light here") and while he works prone at the flange."""
-    def said(streams):
+    the diver's "light here" (made 20.9-25.9 s, after 2 s of getting ready; he shows his
+    slate next, read at 26.0 s) at 27.6 s, and nothing else in the 276 s; in 9C water
+    nothing. Without the upright rule it says 2-3 false gestures a seed — on his swim-in
+    at 17 s (which keeps it quiet through "light here") and while he works prone at the
+    flange; reading the pictures the ROV's track puts him out of, it says `bring_tool
+    wrench` on seed 1 at the lift bag rising over the valve, him hidden behind it."""
+    def said(streams, in_view_only=True):
         out = {}
         for seed in ("I_1", "I_2", "I_3", "9C_1"):
             reader = GestureReader(SHIPPED)
-            out[seed] = [(round(t, 1), str(s.command)) for t, d in zip(
-                streams[f"{seed}_t"], streams[f"{seed}_d"], strict=True)
-                for s in reader.feed_descriptor(float(t), d)]
+            out[seed] = [(round(t, 1), str(s.command)) for t, d, seen in zip(
+                streams[f"{seed}_t"], streams[f"{seed}_d"], streams[f"{seed}_in_view"],
+                strict=True) for s in reader.feed_descriptor(
+                    float(t), d if seen or not in_view_only else np.full_like(d, np.nan))]
         return out
 
     with np.load(DATA / "assisted_salvage_streams.npz") as streams:
         assert said(streams) == {"I_1": [(27.6, "light_here")], "I_2": [(27.6, "light_here")],
                                  "I_3": [(27.6, "light_here")], "9C_1": []}
+        assert said(streams, in_view_only=False)["I_1"] == [(27.6, "light_here"),
+                                                            (221.1, "bring_tool wrench")]
         monkeypatch.setattr(gesture_reader, "UPRIGHT_FILL", 0.0)
         without = said(streams)
     for seed in ("I_1", "I_2", "I_3"):
@@ -243,7 +248,9 @@ def test_a_window_unlike_any_the_network_was_fitted_on_is_not_read():
 
 def test_the_turbid_salvage_views_that_said_false_gestures_read_none():
     """The four windows of the assisted salvage in 9C water that said false gestures with
-    the seventh session's fit (recorded: tests/data/perception/README.md) — the diver
+    the seventh session's fit (recorded with the first silhouette rule, before each row's
+    own spread: tests/data/perception/README.md; the 9C stream of
+    assisted_salvage_streams.npz is today's, and says nothing either) — the diver
     within 1-1.5 m side on, or his head and shoulders half lost in the murk — read
     ``none``. That fit placed them 8 to thousands of spreads from its mean (beyond
     NOVELTY_RMS); the shipped fit, which has seen worksite views and the diver at his
@@ -339,11 +346,21 @@ def test_a_cached_render_is_renamed_when_its_gesture_changes(tmp_path):
 
 def test_a_cached_render_of_another_silhouette_rule_renders_again(renderer, tmp_path):
     """A cache file holds the silhouette rule's version it was made with (a file without
-    one is of the first rule): one of another version is rendered again and replaced."""
+    one is of the first rule): one of this version is read back without rendering, one
+    of another version is rendered again and replaced."""
     store = SilhouetteCache(renderer, tmp_path)
     ep = GestureEpisode("go_up", 3.0, 0.0, "I", True, 8)
     first, times = store.descriptors(ep, END_AFTER_S[1])
     path = store.path(ep, END_AFTER_S[1])
+
+    class NoRenderer:
+        gestures = renderer.gestures  # the cache's key covers the gesture's motion
+
+        def silhouettes(self, *args):
+            raise AssertionError("rendered again")
+
+    read, read_times = SilhouetteCache(NoRenderer(), tmp_path).descriptors(ep, END_AFTER_S[1])
+    assert np.array_equal(read, first, equal_nan=True) and np.array_equal(read_times, times)
     with np.load(path) as stored:
         assert int(stored["silhouette"]) == SILHOUETTE_VERSION
         kept = {k: stored[k] for k in stored.files if k != "silhouette"}

@@ -71,7 +71,8 @@ from uhrisim.perception.signals import Command, RecognizedSignal, load_json
 
 GRID_ROWS, GRID_COLS = 6, 6
 #: grid extent in units of the silhouette's scale (its median row width, ~ the torso's):
-#: x from the median column in [-3, 3) (left negative), y down from the top in [0, 6)
+#: x from the median column in [-3, 3) (left negative), y down from the top in [-2, 4)
+#: (above the top: a raised hand)
 GRID_X, GRID_Y = (-3.0, 3.0), (-2.0, 4.0)
 #: half-width of the torso's column band (scale units): pixels beyond it are an arm's
 BAND = 0.75
@@ -118,14 +119,15 @@ NOVELTY_RMS = 6.0
 _SIZES = np.arange(len(TIME_BINS_S) - 1) * FRAME_FEATURES + FRAME_FEATURES - 1
 #: a diver signals upright, facing the camera (he gets ready so: perception/signalling.py):
 #: a window whose diver fills less than UPRIGHT_FILL (scale² units) of the grid's rows
-#: 2-4 scale units below his top (his hips and legs), in the mean picture of either of
-#: its last UPRIGHT_BINS time bins (the last 2 s), is ``none`` — he swims or works prone,
-#: a wide and low silhouette. Every training window of a gesture fills at least 1.31
-#: (shipped fit, docs/hri.md); prone at his work in the assisted salvage: 0.0-0.3
-UPRIGHT_FILL, UPRIGHT_BINS = 0.6, 2
-_UPRIGHT_CELLS = np.array([row * GRID_COLS + col for row in range(GRID_ROWS)
-                           for col in range(GRID_COLS)
-                           if GRID_Y[0] + row * (GRID_Y[1] - GRID_Y[0]) / GRID_ROWS >= 2.0])
+#: from UPRIGHT_BELOW scale units below his top down (his hips and legs), in the mean
+#: picture of either of its last UPRIGHT_BINS time bins (the last 2 s), is ``none`` — he
+#: swims or works prone, a wide and low silhouette. Every training window of a gesture
+#: fills at least 1.31 (shipped fit, docs/hri.md); prone at his work in the assisted
+#: salvage: 0.0-0.3
+UPRIGHT_FILL, UPRIGHT_BELOW, UPRIGHT_BINS = 0.6, 2.0, 2
+_UPRIGHT_CELLS = np.array([
+    row * GRID_COLS + col for row in range(GRID_ROWS) for col in range(GRID_COLS)
+    if GRID_Y[0] + row * (GRID_Y[1] - GRID_Y[0]) / GRID_ROWS >= UPRIGHT_BELOW])
 #: the streaming reader's decision rule (:class:`GestureReader`): every 0.5 s, the same
 #: class three times in a row with >= 0.7 each time (chosen on validation streams:
 #: docs/hri.md)
@@ -266,8 +268,9 @@ def window_features(descriptors: NDArray[np.float64], rate_hz: float) -> NDArray
 
 
 def upright_fill(features: NDArray[np.float64]) -> float:
-    """The least fill of the grid's rows 2-4 scale units below the diver's top over a
-    window's last :data:`UPRIGHT_BINS` time bins (scale² units; :data:`UPRIGHT_FILL`)."""
+    """The least fill of the grid's rows from :data:`UPRIGHT_BELOW` scale units below the
+    diver's top down, over a window's last :data:`UPRIGHT_BINS` time bins (scale² units;
+    :data:`UPRIGHT_FILL`); NaN for a window in which he was not seen enough."""
     return min(float(features[b * FRAME_FEATURES + _UPRIGHT_CELLS].sum())
                for b in range(UPRIGHT_BINS))
 

@@ -17,8 +17,9 @@ section's file:line. Each tick it does, in the loop's order:
 * **read** (after the sensors): every frame of the assisted ROV's camera and every ping
   of its sonar that the loop rendered this tick (keyed ``"<agent>/<sensor>"``) goes to
   its :class:`~uhrisim.perception.signal_readers.SignalReaders`; what they say waits
-  for the next assistant tick — what the camera says while the diver is out of its view
-  is logged and dropped (:meth:`AssistanceStage._diver_in_view`);
+  for the next assistant tick — while the diver is out of the camera's view
+  (:meth:`AssistanceStage._diver_in_view`) the gesture reader takes the picture as one
+  without him, and a marker read is logged and dropped;
 * **assist** (before the helms, at the ROV's helm rate): the assistant gets its inputs —
   the ROV's navigation from the plant, the diver's track (``truth``: his body centre,
   head and right hand from the articulated body; ``sonar``: the ROV's sonar contact,
